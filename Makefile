@@ -1,0 +1,78 @@
+# spraycoat build.  `make` builds build/spraycoat; see README.md for the other targets.
+# Sources are discovered by folder: add a .c file to core/, dem/ or coupling/ and it is built;
+# add tests/test_NAME.c and it becomes a test program; tests/test_NAME.sh is a shell test.
+
+BUILD    ?= build
+PREFIX   ?= /usr/local
+CC       ?= gcc
+OPT      ?= -O2 -march=x86-64-v2
+VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
+
+PKGS     := hdf5-serial inih
+CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null) -DSPRAYCOAT_VERSION='"$(VERSION)"'
+CFLAGS   += -std=c17 -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
+LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
+            -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
+LDFLAGS  += -fopenmp
+
+LIB_SRC  := $(wildcard core/*.c dem/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
+LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
+MAIN_OBJ := $(BUILD)/coupling/main.o
+TEST_SRC := $(wildcard tests/test_*.c)
+TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
+BIN      := $(BUILD)/spraycoat
+
+.PHONY: all test asan bench run validate install clean format deps
+all: $(BIN) $(TEST_BIN)
+
+deps:
+	@scripts/bootstrap
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/libspraycoat.a: $(LIB_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(BIN): $(MAIN_OBJ) $(BUILD)/libspraycoat.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+test: deps
+	$(MAKE) all
+	tests/run_tests.sh $(BUILD)
+
+# AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.
+asan: deps
+	$(MAKE) BUILD=build-asan OPT='-O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all' \
+	        LDFLAGS='-fopenmp -fsanitize=address,undefined' all
+	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
+
+bench: deps
+	$(MAKE) all OPT='-O3 -march=native'
+	scripts/bench.sh $(BUILD)
+
+run: deps
+	$(MAKE) $(BIN)
+	$(BIN) spray cases/demo.ini -o runs/demo
+
+validate: deps
+	$(MAKE) all
+	scripts/validate.sh $(BUILD)
+
+install: $(BIN)
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases
+	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/spraycoat
+	install -m 644 cases/*.ini $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
+
+format:
+	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch]
+
+clean:
+	rm -rf build build-asan
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -1,0 +1,1546 @@
+/* Case files: an INI file read with libinih and checked against a registry of keys (see core/config.h).
+ *
+ * A case holds one slot per registered key: for an ordinary section one slot per key of the registry, for a
+ * pattern section ("material.*") one set of slots per [material.NAME] present.  Slots stay sorted in registry
+ * order (instances of a pattern by name), so that printing, hashing and writing do not depend on the order,
+ * comments or spacing of the file.
+ *
+ * libinih reads the file through our own line reader, because
+ *   - this build of inih does not pass line numbers to the handler, so the reader counts them;
+ *   - inih's line buffer is INI_MAX_LINE bytes and a longer line would be split silently: the reader refuses it;
+ *   - an indented line would be taken as the continuation of the previous value: the reader drops the indent,
+ *     so such a line is either a key of its own or a syntax error;
+ *   - inih calls the handler only for keys, so a misspelt section without keys would pass unnoticed: the reader
+ *     checks section headers itself. */
+#ifndef _XOPEN_SOURCE
+#define _XOPEN_SOURCE 700 /* realpath(), also when built with _POSIX_C_SOURCE alone */
+#endif
+#include "core/config.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <ini.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/error.h"
+
+/* A range bound of this magnitude or more means "no bound" (registries write 1e300 or HUGE_VAL). */
+#define OPEN_BOUND 1e300
+/* Far above any real case file; a bigger file is most likely not a case file at all. */
+#define MAX_CASE_BYTES ((size_t)16 << 20)
+/* Longest line, without its newline, that inih reads in one piece: its buffer also holds "\n\0". */
+#define MAX_LINE_CHARS (INI_MAX_LINE - 2)
+/* Same size as the message buffer in core/error.c. */
+#define MESSAGE_SIZE 2048
+/* Key and section lists in messages. */
+#define LIST_SIZE 1024
+
+enum value_source { SOURCE_UNSET, SOURCE_DEFAULT, SOURCE_FILE, SOURCE_OVERRIDE };
+
+struct parsed_value {
+    double real;   /* CFG_REAL, and CFG_INT as a double */
+    long integer;  /* CFG_INT */
+    bool is_word;  /* CFG_REAL given as one of its words */
+};
+
+struct slot {
+    const struct cfg_key *spec;
+    int section_rank;  /* registry index of the first key of the section: orders the sections */
+    int key_rank;      /* registry index of the key */
+    char *section;     /* the actual section, e.g. "material.copper" */
+    char *text;        /* the value as written; NULL when unset */
+    enum value_source source;
+    int line;          /* line in the file, for SOURCE_FILE */
+    char *origin;      /* who set it, for SOURCE_OVERRIDE ("command line") */
+    struct parsed_value value;
+};
+
+/* The registry as one flat array, with each key's section rank. */
+struct registry_view {
+    const struct cfg_key **keys;
+    int *section_rank;
+    int count;
+};
+
+struct case_file {
+    char *path;
+    char *folder; /* folder of path including its trailing '/', "" for the current folder */
+    struct registry_view registry;
+    struct slot *slots;
+    size_t slot_count, slot_capacity;
+};
+
+/* ---- small utilities ---------------------------------------------------------------------------------- */
+
+static void config_bug(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void config_bug(const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    fputs("spraycoat: internal error (case keys): ", stderr);
+    vfprintf(stderr, fmt, args);
+    va_end(args);
+    fputc('\n', stderr);
+    abort();
+}
+
+/* Allocation failure cannot be reported through a case-file error; give up loudly. */
+static void *must_realloc(void *pointer, size_t size) __attribute__((returns_nonnull));
+static void *must_realloc(void *pointer, size_t size)
+{
+    void *grown = realloc(pointer, size ? size : 1);
+    if (!grown)
+        config_bug("out of memory (%zu bytes)", size);
+    return grown;
+}
+
+static char *must_strndup(const char *text, size_t length)
+{
+    char *copy = must_realloc(NULL, length + 1);
+    memcpy(copy, text, length);
+    copy[length] = '\0';
+    return copy;
+}
+
+static char *must_strdup(const char *text) { return must_strndup(text, strlen(text)); }
+
+static const char *or_empty(const char *text) { return text ? text : ""; }
+
+static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
+
+static char *trimmed_copy(const char *text)
+{
+    while (is_blank(*text))
+        text++;
+    size_t length = strlen(text);
+    while (length > 0 && is_blank(text[length - 1]))
+        length--;
+    return must_strndup(text, length);
+}
+
+/* Is `word` one of the '|'-separated words of `list`? */
+static bool word_in_list(const char *list, const char *word)
+{
+    size_t length = strlen(word);
+    for (const char *start = list; start;) {
+        const char *bar = strchr(start, '|');
+        size_t word_length = bar ? (size_t)(bar - start) : strlen(start);
+        if (word_length == length && strncmp(start, word, length) == 0)
+            return true;
+        start = bar ? bar + 1 : NULL;
+    }
+    return false;
+}
+
+/* Shortest text of a number that reads back to it (15 digits at most): 1e+13, 2147483647, 0.00016. */
+static void format_number(double value, char *out, size_t size)
+{
+    snprintf(out, size, "%g", value);
+    if (strtod(out, NULL) != value)
+        snprintf(out, size, "%.15g", value);
+}
+
+/* snprintf for messages, where cutting a very long path or value short is fine (and expected by design). */
+static void format_message(char *out, size_t size, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void format_message(char *out, size_t size, const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(out, size, fmt, args);
+    va_end(args);
+}
+
+/* Append to a fixed buffer; text past its end is dropped (messages only). */
+static void append_text(char *out, size_t size, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void append_text(char *out, size_t size, const char *fmt, ...)
+{
+    size_t used = strlen(out);
+    if (used + 1 >= size)
+        return;
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(out + used, size - used, fmt, args);
+    va_end(args);
+}
+
+/* A growing text, for the resolved case. */
+struct text_buffer {
+    char *data;
+    size_t length, capacity;
+};
+
+static void buffer_append(struct text_buffer *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void buffer_append(struct text_buffer *b, const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    int needed = vsnprintf(NULL, 0, fmt, args);
+    va_end(args);
+    if (needed < 0)
+        config_bug("cannot format text");
+    if (b->length + (size_t)needed + 1 > b->capacity) {
+        b->capacity = 2 * (b->length + (size_t)needed + 1) + 256;
+        b->data = must_realloc(b->data, b->capacity);
+    }
+    va_start(args, fmt);
+    vsnprintf(b->data + b->length, b->capacity - b->length, fmt, args);
+    va_end(args);
+    b->length += (size_t)needed;
+}
+
+/* Levenshtein distance of two short words; long words count as far apart (suggestions only). */
+static int edit_distance(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    if (la > 63 || lb > 63)
+        return INT_MAX;
+    int row[64];
+    for (size_t j = 0; j <= lb; j++)
+        row[j] = (int)j;
+    for (size_t i = 1; i <= la; i++) {
+        int diagonal = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= lb; j++) {
+            int above = row[j];
+            int best = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
+            if (above + 1 < best)
+                best = above + 1;
+            if (row[j - 1] + 1 < best)
+                best = row[j - 1] + 1;
+            row[j] = best;
+            diagonal = above;
+        }
+    }
+    return row[lb];
+}
+
+/* Close enough to be a typo of `candidate`? */
+static bool looks_like_typo(const char *given, const char *candidate)
+{
+    int distance = edit_distance(given, candidate);
+    return distance <= 2 && (size_t)distance < strlen(candidate);
+}
+
+/* ---- sections and the registry -------------------------------------------------------------------------- */
+
+/* "material.*" stands for any [material.NAME]. */
+static bool is_pattern(const char *section)
+{
+    size_t length = strlen(section);
+    return length >= 2 && strcmp(section + length - 2, ".*") == 0;
+}
+
+/* NAME of [material.NAME]: it names HDF5 groups and appears in messages, so keep it plain. */
+static bool valid_instance_name(const char *name)
+{
+    if (!*name)
+        return false;
+    for (; *name; name++)
+        if (!isalnum((unsigned char)*name) && *name != '_' && *name != '-')
+            return false;
+    return true;
+}
+
+static bool section_matches(const char *pattern, const char *name)
+{
+    if (!is_pattern(pattern))
+        return strcmp(pattern, name) == 0;
+    size_t prefix = strlen(pattern) - 1; /* "material." */
+    return strncmp(pattern, name, prefix) == 0 && valid_instance_name(name + prefix);
+}
+
+/* "material.*" is shown to users as "material.NAME". */
+static void section_display(const char *pattern, char *out, size_t size)
+{
+    if (is_pattern(pattern))
+        snprintf(out, size, "%.*sNAME", (int)(strlen(pattern) - 1), pattern);
+    else
+        snprintf(out, size, "%s", pattern);
+}
+
+static void check_choices(const struct cfg_key *spec)
+{
+    if (!spec->choices || !*spec->choices || strstr(spec->choices, "||") || spec->choices[0] == '|' ||
+        spec->choices[strlen(spec->choices) - 1] == '|')
+        config_bug("[%s] %s: choices \"%s\" must be words separated by '|'", spec->section, spec->key,
+                   or_empty(spec->choices));
+}
+
+static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
+                        size_t size);
+
+/* Registry mistakes are programming errors: catch them on every load, not when a user hits them. */
+static void check_key_spec(const struct cfg_key *spec)
+{
+    if (!spec->section || !*spec->section)
+        config_bug("key \"%s\" has no section", spec->key);
+    if (spec->type == CFG_CHOICE || (spec->type == CFG_REAL && spec->choices))
+        check_choices(spec);
+    if (spec->type == CFG_INT || spec->type == CFG_REAL) {
+        if (spec->min == 0 && spec->max == 0)
+            config_bug("[%s] %s: range 0 .. 0 (forgotten?); use -HUGE_VAL or HUGE_VAL for an open end",
+                       spec->section, spec->key);
+        if (!(spec->min <= spec->max))
+            config_bug("[%s] %s: min %g > max %g", spec->section, spec->key, spec->min, spec->max);
+    }
+    if (spec->default_value) {
+        struct parsed_value value;
+        char why[256];
+        if (!parse_value(spec, spec->default_value, &value, why, sizeof why))
+            config_bug("[%s] %s: default \"%s\" is invalid: %s", spec->section, spec->key, spec->default_value, why);
+    }
+}
+
+static void registry_open(struct registry_view *view, const struct cfg_key *const *registry)
+{
+    int count = 0;
+    for (int t = 0; registry && registry[t]; t++)
+        for (const struct cfg_key *spec = registry[t]; spec->key; spec++)
+            count++;
+    view->keys = must_realloc(NULL, (size_t)count * sizeof *view->keys);
+    view->section_rank = must_realloc(NULL, (size_t)count * sizeof *view->section_rank);
+    view->count = 0;
+    for (int t = 0; registry && registry[t]; t++)
+        for (const struct cfg_key *spec = registry[t]; spec->key; spec++)
+            view->keys[view->count++] = spec;
+    for (int i = 0; i < count; i++) {
+        check_key_spec(view->keys[i]);
+        int first = 0;
+        while (strcmp(view->keys[first]->section, view->keys[i]->section) != 0)
+            first++;
+        view->section_rank[i] = first;
+        for (int j = first; j < i; j++)
+            if (strcmp(view->keys[j]->section, view->keys[i]->section) == 0 &&
+                strcmp(view->keys[j]->key, view->keys[i]->key) == 0)
+                config_bug("[%s] %s is registered twice", view->keys[i]->section, view->keys[i]->key);
+    }
+}
+
+static void registry_close(struct registry_view *view)
+{
+    free(view->keys);
+    free(view->section_rank);
+}
+
+/* Rank of the registry section that `name` belongs to, -1 if none. */
+static int find_section_rank(const struct registry_view *view, const char *name)
+{
+    for (int i = 0; i < view->count; i++)
+        if (view->section_rank[i] == i && section_matches(view->keys[i]->section, name))
+            return i;
+    return -1;
+}
+
+/* Registry index of `key` in the section of rank `rank`, -1 if none. */
+static int find_key_index(const struct registry_view *view, int rank, const char *key)
+{
+    for (int i = rank; i < view->count; i++)
+        if (view->section_rank[i] == rank && strcmp(view->keys[i]->key, key) == 0)
+            return i;
+    return -1;
+}
+
+/* The registered key or NULL. */
+static const struct cfg_key *find_spec(const struct registry_view *view, const char *section, const char *key)
+{
+    int rank = find_section_rank(view, section);
+    int index = rank < 0 ? -1 : find_key_index(view, rank, key);
+    return index < 0 ? NULL : view->keys[index];
+}
+
+static void list_sections(const struct registry_view *view, char *out, size_t size)
+{
+    out[0] = '\0';
+    for (int i = 0; i < view->count; i++) {
+        if (view->section_rank[i] != i)
+            continue;
+        char shown[128];
+        section_display(view->keys[i]->section, shown, sizeof shown);
+        append_text(out, size, "%s%s", out[0] ? ", " : "", shown);
+    }
+    if (!out[0])
+        snprintf(out, size, "(none)");
+}
+
+static void list_keys(const struct registry_view *view, int rank, char *out, size_t size)
+{
+    out[0] = '\0';
+    for (int i = rank; i < view->count; i++)
+        if (view->section_rank[i] == rank)
+            append_text(out, size, "%s%s", out[0] ? ", " : "", view->keys[i]->key);
+}
+
+/* " (did you mean [spray]?)" for a section close to a registered one, else "". */
+static void suggest_section(const struct registry_view *view, const char *name, char *out, size_t size)
+{
+    out[0] = '\0';
+    for (int i = 0; i < view->count; i++) {
+        const char *section = view->keys[i]->section;
+        if (view->section_rank[i] == i && !is_pattern(section) && looks_like_typo(name, section)) {
+            snprintf(out, size, " (did you mean [%s]?)", section);
+            return;
+        }
+    }
+}
+
+static void suggest_key(const struct registry_view *view, int rank, const char *key, char *out, size_t size)
+{
+    out[0] = '\0';
+    for (int i = rank; i < view->count; i++) {
+        if (view->section_rank[i] == rank && looks_like_typo(key, view->keys[i]->key)) {
+            snprintf(out, size, " (did you mean \"%s\"?)", view->keys[i]->key);
+            return;
+        }
+    }
+}
+
+/* "[material.]": explain what NAME may be rather than calling the section unknown. */
+static bool is_bad_instance_name(const struct registry_view *view, const char *name, char *pattern_shown,
+                                 size_t size)
+{
+    for (int i = 0; i < view->count; i++) {
+        const char *section = view->keys[i]->section;
+        if (view->section_rank[i] == i && is_pattern(section) &&
+            strncmp(section, name, strlen(section) - 1) == 0) {
+            section_display(section, pattern_shown, size);
+            return true;
+        }
+    }
+    return false;
+}
+
+static void format_unknown_section(const struct registry_view *view, const char *where, const char *name,
+                                   char *out, size_t size)
+{
+    char sections[LIST_SIZE], suggestion[160], pattern[128];
+    list_sections(view, sections, sizeof sections);
+    if (is_bad_instance_name(view, name, pattern, sizeof pattern)) {
+        format_message(out, size,
+                       "%s: [%s]: NAME of [%s] must be letters, digits, '_' or '-'; allowed sections: %s", where,
+                       name, pattern, sections);
+        return;
+    }
+    suggest_section(view, name, suggestion, sizeof suggestion);
+    format_message(out, size, "%s: [%s]: unknown section%s; allowed sections: %s", where, name, suggestion, sections);
+}
+
+static void format_unknown_key(const struct registry_view *view, const char *where, const char *section, int rank,
+                               const char *key, const char *value, char *out, size_t size)
+{
+    char keys[LIST_SIZE], suggestion[160];
+    list_keys(view, rank, keys, sizeof keys);
+    suggest_key(view, rank, key, suggestion, sizeof suggestion);
+    format_message(out, size, "%s: [%s] %s = %s: unknown key%s; allowed keys in [%s]: %s", where, section, key,
+                   value, suggestion, section, keys);
+}
+
+/* ---- values: parsing and describing what is allowed ---------------------------------------------------- */
+
+static bool within_range(const struct cfg_key *spec, double value)
+{
+    bool low_ok = spec->min <= -OPEN_BOUND || (spec->min_exclusive ? value > spec->min : value >= spec->min);
+    bool high_ok = spec->max >= OPEN_BOUND || value <= spec->max;
+    return low_ok && high_ok;
+}
+
+/* "> 0 m", "0 .. 1 -", ">= 1", "any integer". */
+static void describe_range(const struct cfg_key *spec, char *out, size_t size)
+{
+    char low[64], high[64];
+    if (spec->type == CFG_INT) { /* integers in full: 1000000000, not 1e+09 */
+        snprintf(low, sizeof low, "%.0f", spec->min);
+        snprintf(high, sizeof high, "%.0f", spec->max);
+    } else {
+        format_number(spec->min, low, sizeof low);
+        format_number(spec->max, high, sizeof high);
+    }
+    bool has_low = spec->min > -OPEN_BOUND, has_high = spec->max < OPEN_BOUND;
+    const char *low_op = spec->min_exclusive ? ">" : ">=";
+    if (has_low && has_high && !spec->min_exclusive)
+        snprintf(out, size, "%s .. %s", low, high);
+    else if (has_low && has_high)
+        snprintf(out, size, "> %s and <= %s", low, high);
+    else if (has_low)
+        snprintf(out, size, "%s %s", low_op, low);
+    else if (has_high)
+        snprintf(out, size, "<= %s", high);
+    else
+        snprintf(out, size, "any %s", spec->type == CFG_INT ? "integer" : "finite number");
+    if (spec->unit && *spec->unit)
+        append_text(out, size, " %s", spec->unit);
+}
+
+static void describe_allowed(const struct cfg_key *spec, char *out, size_t size)
+{
+    out[0] = '\0';
+    switch (spec->type) {
+    case CFG_REAL:
+        if (spec->choices)
+            snprintf(out, size, "%s or ", spec->choices);
+        /* fall through */
+    case CFG_INT: {
+        char range[256];
+        describe_range(spec, range, sizeof range);
+        append_text(out, size, "%s", range);
+        return;
+    }
+    case CFG_CHOICE:
+        snprintf(out, size, "%s", spec->choices);
+        return;
+    case CFG_PATH:
+        snprintf(out, size, "a file path (relative to the case file's folder)");
+        return;
+    case CFG_STRING:
+        snprintf(out, size, "any non-empty text");
+        return;
+    }
+}
+
+static const char *type_name(const struct cfg_key *spec)
+{
+    switch (spec->type) {
+    case CFG_INT: return "int";
+    case CFG_REAL: return spec->choices ? "real or word" : "real";
+    case CFG_CHOICE: return "choice";
+    case CFG_PATH: return "path";
+    case CFG_STRING: return "text";
+    }
+    return "?";
+}
+
+/* "1 # note" is a common slip: inih takes only " ;" as the start of an inline comment. */
+static const char *comment_hint(const char *text)
+{
+    return strstr(text, " #") || strstr(text, "\t#") ? " (inline comments start with ';')" : "";
+}
+
+static bool parse_int(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
+                      size_t size)
+{
+    char *end;
+    errno = 0;
+    long value = strtol(text, &end, 10);
+    if (end == text || *end != '\0' || is_blank(text[0])) {
+        snprintf(why, size, "not an integer%s", comment_hint(text));
+        return false;
+    }
+    if (errno == ERANGE || !within_range(spec, (double)value)) {
+        snprintf(why, size, "out of range");
+        return false;
+    }
+    out->integer = value;
+    out->real = (double)value;
+    return true;
+}
+
+static bool parse_real(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
+                       size_t size)
+{
+    if (spec->choices && word_in_list(spec->choices, text)) {
+        out->is_word = true;
+        out->real = NAN;
+        return true;
+    }
+    char *end;
+    errno = 0;
+    double value = strtod(text, &end);
+    if (end == text || *end != '\0' || is_blank(text[0])) {
+        snprintf(why, size, "not a number%s%s", spec->choices ? " nor one of the words" : "", comment_hint(text));
+        return false;
+    }
+    /* Overflow gives HUGE_VAL and fails here; underflow to 0 or a subnormal is a rounding and is kept. */
+    if (!isfinite(value)) {
+        snprintf(why, size, "not a finite number");
+        return false;
+    }
+    if (!within_range(spec, value)) {
+        snprintf(why, size, "out of range");
+        return false;
+    }
+    out->real = value;
+    return true;
+}
+
+/* Check `text` against the key's type and range; on failure say what is wrong in `why`. */
+static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
+                        size_t size)
+{
+    *out = (struct parsed_value){0};
+    switch (spec->type) {
+    case CFG_INT:
+        return parse_int(spec, text, out, why, size);
+    case CFG_REAL:
+        return parse_real(spec, text, out, why, size);
+    case CFG_CHOICE:
+        if (word_in_list(spec->choices, text))
+            return true;
+        snprintf(why, size, "not one of the choices%s", comment_hint(text));
+        return false;
+    case CFG_PATH:
+    case CFG_STRING:
+        if (*text)
+            return true;
+        snprintf(why, size, "empty");
+        return false;
+    }
+    snprintf(why, size, "unknown type %d", (int)spec->type);
+    return false;
+}
+
+/* ---- slots -------------------------------------------------------------------------------------------- */
+
+static int compare_slots(const void *pa, const void *pb)
+{
+    const struct slot *a = pa, *b = pb;
+    if (a->section_rank != b->section_rank)
+        return a->section_rank < b->section_rank ? -1 : 1;
+    int by_name = strcmp(a->section, b->section);
+    if (by_name != 0)
+        return by_name;
+    return (a->key_rank > b->key_rank) - (a->key_rank < b->key_rank);
+}
+
+static void sort_slots(struct case_file *c)
+{
+    if (c->slot_count > 1)
+        qsort(c->slots, c->slot_count, sizeof *c->slots, compare_slots);
+}
+
+static void clear_value(struct slot *slot)
+{
+    free(slot->text);
+    free(slot->origin);
+    slot->text = NULL;
+    slot->origin = NULL;
+    slot->source = SOURCE_UNSET;
+    slot->line = 0;
+}
+
+/* Store an already checked value. */
+static void store_value(struct slot *slot, const char *text, const struct parsed_value *value,
+                        enum value_source source, int line, const char *origin)
+{
+    clear_value(slot);
+    slot->text = must_strdup(text);
+    slot->origin = origin ? must_strdup(origin) : NULL;
+    slot->source = source;
+    slot->line = line;
+    slot->value = *value;
+}
+
+static void apply_default(struct slot *slot)
+{
+    struct parsed_value value;
+    char why[256];
+    if (!slot->spec->default_value)
+        return;
+    if (!parse_value(slot->spec, slot->spec->default_value, &value, why, sizeof why))
+        config_bug("[%s] %s: default \"%s\" is invalid: %s", slot->spec->section, slot->spec->key,
+                   slot->spec->default_value, why);
+    store_value(slot, slot->spec->default_value, &value, SOURCE_DEFAULT, 0, NULL);
+}
+
+static void append_slot(struct case_file *c, int key_index, const char *section)
+{
+    if (c->slot_count == c->slot_capacity) {
+        c->slot_capacity = c->slot_capacity ? 2 * c->slot_capacity : 64;
+        c->slots = must_realloc(c->slots, c->slot_capacity * sizeof *c->slots);
+    }
+    struct slot *slot = &c->slots[c->slot_count++];
+    *slot = (struct slot){.spec = c->registry.keys[key_index],
+                          .section_rank = c->registry.section_rank[key_index],
+                          .key_rank = key_index,
+                          .section = must_strdup(section)};
+    apply_default(slot);
+}
+
+static struct slot *find_slot(const struct case_file *c, const char *section, const char *key)
+{
+    for (size_t i = 0; i < c->slot_count; i++)
+        if (strcmp(c->slots[i].section, section) == 0 && strcmp(c->slots[i].spec->key, key) == 0)
+            return &c->slots[i];
+    return NULL;
+}
+
+static bool has_instance(const struct case_file *c, const char *section)
+{
+    for (size_t i = 0; i < c->slot_count; i++)
+        if (strcmp(c->slots[i].section, section) == 0)
+            return true;
+    return false;
+}
+
+/* Slots for a [material.NAME] seen for the first time, holding the defaults.  Moves the slots. */
+static void ensure_instance(struct case_file *c, const char *section, int rank)
+{
+    if (has_instance(c, section))
+        return;
+    for (int i = rank; i < c->registry.count; i++)
+        if (c->registry.section_rank[i] == rank)
+            append_slot(c, i, section);
+    sort_slots(c);
+}
+
+/* ---- reading the file ------------------------------------------------------------------------------------ */
+
+struct parse_state {
+    struct case_file *c;
+    const char *next; /* next unread byte */
+    const char *end;
+    int line;         /* number of the line inih works on */
+    char *section;    /* current section as written; NULL before the first header */
+    int error_line;   /* line of the first error found here, 0 if none */
+    char message[MESSAGE_SIZE];
+};
+
+/* Record the first error; returns 0, the handler's "failed". */
+static int parse_fail(struct parse_state *st, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static int parse_fail(struct parse_state *st, const char *fmt, ...)
+{
+    if (st->error_line)
+        return 0;
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(st->message, sizeof st->message, fmt, args);
+    va_end(args);
+    st->error_line = st->line > 0 ? st->line : 1;
+    return 0;
+}
+
+/* The end of a section name as inih finds it: ']' or an inline comment (';' after a blank), or the end. */
+static const char *section_name_end(const char *s)
+{
+    bool after_blank = false;
+    for (; *s && *s != ']'; s++) {
+        if (INI_ALLOW_INLINE_COMMENTS && after_blank && strchr(INI_INLINE_COMMENT_PREFIXES, *s))
+            break;
+        after_blank = is_blank(*s);
+    }
+    return s;
+}
+
+/* Check a new section against the registry; false (error recorded) when it is unknown. */
+static bool enter_section(struct parse_state *st)
+{
+    char where[PATH_MAX + 32];
+    snprintf(where, sizeof where, "%s:%d", st->c->path, st->line);
+    int rank = find_section_rank(&st->c->registry, st->section);
+    if (rank < 0) {
+        format_unknown_section(&st->c->registry, where, st->section, st->message, sizeof st->message);
+        st->error_line = st->line;
+        return false;
+    }
+    if (is_pattern(st->c->registry.keys[rank]->section))
+        ensure_instance(st->c, st->section, rank);
+    return true;
+}
+
+/* A "[name]" line (its indent already dropped). */
+static bool enter_section_line(struct parse_state *st, const char *line)
+{
+    const char *close = section_name_end(line + 1);
+    if (*close != ']')
+        return true; /* inih reports the missing ']' as a syntax error */
+    const char *rest = close + 1;
+    while (is_blank(*rest))
+        rest++;
+    /* inih ignores text after ']', so "[spray] dt = 1" would lose dt without a word. */
+    if (*rest && *rest != ';' && *rest != '#')
+        return parse_fail(st, "%s:%d: syntax error: text after ']' of a section header: %s", st->c->path, st->line,
+                          rest);
+    free(st->section);
+    st->section = must_strndup(line + 1, (size_t)(close - line - 1));
+    return enter_section(st);
+}
+
+/* inih's reader: hands over one line per call, so that inih's line count is ours. */
+static char *next_line(char *buffer, int size, void *stream)
+{
+    struct parse_state *st = stream;
+    if (st->error_line || st->next >= st->end)
+        return NULL;
+    const char *start = st->next;
+    const char *newline = memchr(start, '\n', (size_t)(st->end - start));
+    const char *stop = newline ? newline : st->end;
+    st->next = newline ? newline + 1 : st->end;
+    st->line++;
+    while (start < stop && is_blank(*start))
+        start++;
+    while (stop > start && is_blank(stop[-1]))
+        stop--;
+    size_t length = (size_t)(stop - start);
+    if (size < 3 || length > (size_t)size - 2) {
+        parse_fail(st, "%s:%d: syntax error: line too long (%zu characters; at most %d)", st->c->path, st->line,
+                   length, size - 2);
+        return NULL;
+    }
+    memcpy(buffer, start, length);
+    buffer[length] = '\n';
+    buffer[length + 1] = '\0';
+    if (buffer[0] == '[' && !enter_section_line(st, buffer))
+        return NULL;
+    return buffer;
+}
+
+/* Check one value of [section] key; on failure write the standard message (located at `where`) into `message`. */
+static bool check_value(const struct cfg_key *spec, const char *section, const char *text, const char *where,
+                        struct parsed_value *value, char *message, size_t size)
+{
+    char why[256], allowed[512];
+    if (parse_value(spec, text, value, why, sizeof why))
+        return true;
+    describe_allowed(spec, allowed, sizeof allowed);
+    format_message(message, size, "%s: [%s] %s = %s: %s; allowed: %s", where, section, spec->key, text, why,
+                   allowed);
+    return false;
+}
+
+/* inih's handler: one "key = value" of the file. */
+static int on_key_value(void *user, const char *inih_section, const char *name, const char *value)
+{
+    (void)inih_section; /* the reader tracks the section: inih truncates long names */
+    struct parse_state *st = user;
+    struct case_file *c = st->c;
+    if (st->error_line)
+        return 0;
+    char where[PATH_MAX + 32], sections[LIST_SIZE];
+    snprintf(where, sizeof where, "%s:%d", c->path, st->line);
+    if (!value)
+        return parse_fail(st, "%s: syntax error: \"%s\" has no value", where, name);
+    if (!st->section) {
+        list_sections(&c->registry, sections, sizeof sections);
+        return parse_fail(st, "%s: %s = %s: key before any [section]; allowed sections: %s", where, name, value,
+                          sections);
+    }
+    struct slot *slot = find_slot(c, st->section, name);
+    if (!slot) {
+        int rank = find_section_rank(&c->registry, st->section);
+        format_unknown_key(&c->registry, where, st->section, rank, name, value, st->message, sizeof st->message);
+        st->error_line = st->line;
+        return 0;
+    }
+    if (slot->source == SOURCE_FILE)
+        return parse_fail(st, "%s: [%s] %s = %s: duplicate key; first given at line %d", where, st->section, name,
+                          value, slot->line);
+    struct parsed_value parsed;
+    if (!check_value(slot->spec, st->section, value, where, &parsed, st->message, sizeof st->message)) {
+        st->error_line = st->line;
+        return 0;
+    }
+    store_value(slot, value, &parsed, SOURCE_FILE, st->line, NULL);
+    return 1;
+}
+
+static int read_case_text(const char *path, char **text_out, size_t *length_out)
+{
+    FILE *file = fopen(path, "rb");
+    if (!file)
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot open case file %s: %s", path, strerror(errno));
+    size_t capacity = 4096, length = 0;
+    char *text = must_realloc(NULL, capacity + 1);
+    bool too_large = false;
+    while (!feof(file) && !ferror(file)) {
+        if (length == capacity) {
+            too_large = capacity >= MAX_CASE_BYTES;
+            if (too_large)
+                break;
+            capacity *= 2;
+            text = must_realloc(text, capacity + 1);
+        }
+        length += fread(text + length, 1, capacity - length, file);
+    }
+    int read_errno = ferror(file) ? errno : 0;
+    fclose(file);
+    text[length] = '\0';
+    *text_out = text;
+    *length_out = length;
+    if (read_errno)
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot read case file %s: %s", path, strerror(read_errno));
+    if (too_large)
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: larger than %zu MiB; not a case file", path,
+                            MAX_CASE_BYTES >> 20);
+    return SC_OK;
+}
+
+/* Length of the UTF-8 character at s, 0 if it is not one or is a control character other than tab and CR. */
+static size_t text_char_length(const unsigned char *s, size_t left)
+{
+    unsigned char b = s[0];
+    if (b < 0x80)
+        return (b >= 0x20 && b != 0x7f) || b == '\t' || b == '\r' || b == '\n' ? 1 : 0;
+    size_t n;
+    unsigned char low = 0x80, high = 0xbf; /* allowed second byte: excludes overlong forms and surrogates */
+    if (b >= 0xc2 && b <= 0xdf) {
+        n = 2;
+    } else if (b >= 0xe0 && b <= 0xef) {
+        n = 3;
+        low = b == 0xe0 ? 0xa0 : 0x80;
+        high = b == 0xed ? 0x9f : 0xbf;
+    } else if (b >= 0xf0 && b <= 0xf4) {
+        n = 4;
+        low = b == 0xf0 ? 0x90 : 0x80;
+        high = b == 0xf4 ? 0x8f : 0xbf;
+    } else {
+        return 0;
+    }
+    if (left < n || s[1] < low || s[1] > high)
+        return 0;
+    for (size_t k = 2; k < n; k++)
+        if (s[k] < 0x80 || s[k] > 0xbf)
+            return 0;
+    return n;
+}
+
+static void describe_bad_byte(unsigned char b, char *out, size_t size)
+{
+    if (b == 0)
+        snprintf(out, size, "NUL byte");
+    else if (b < 0x20 || b == 0x7f)
+        snprintf(out, size, "control character 0x%02x", b);
+    else
+        snprintf(out, size, "byte 0x%02x that is not UTF-8", b);
+}
+
+/* Refuse what cannot be in a text case file before inih sees it: a NUL would cut a line short unnoticed, and
+ * control characters or broken UTF-8 would end up in messages and in the copy of the case in every output. */
+static int check_text_bytes(const char *path, const char *text, size_t length)
+{
+    const unsigned char *bytes = (const unsigned char *)text;
+    int line = 1;
+    size_t line_start = 0;
+    for (size_t i = 0; i < length;) {
+        size_t n = text_char_length(bytes + i, length - i);
+        if (n == 0) {
+            char what[64];
+            describe_bad_byte(bytes[i], what, sizeof what);
+            return sc_error_set(SC_EINPUT, __FILE__, __LINE__,
+                                "%s:%d: syntax error: %s at column %zu; a case file must be UTF-8 text", path, line,
+                                what, i - line_start + 1);
+        }
+        if (bytes[i] == '\n') {
+            line++;
+            line_start = i + 1;
+        }
+        i += n;
+    }
+    return SC_OK;
+}
+
+/* inih found a line that is neither "key = value", "[section]" nor a comment. */
+static int report_syntax_error(const char *path, const char *text, size_t length, int line)
+{
+    const char *start = text, *end = text + length;
+    for (int n = 1; n < line && start < end; n++) {
+        const char *newline = memchr(start, '\n', (size_t)(end - start));
+        start = newline ? newline + 1 : end;
+    }
+    while (start < end && is_blank(*start))
+        start++;
+    size_t shown = 0;
+    while (start + shown < end && start[shown] != '\n' && start[shown] != '\r' && shown < 80)
+        shown++;
+    while (shown > 0 && start + shown < end && ((unsigned char)start[shown] & 0xc0) == 0x80)
+        shown--; /* do not cut a UTF-8 character in half */
+    const char *what = start < end && *start == '['
+                           ? "section header without ']'"
+                           : "expected \"key = value\", \"[section]\" or a comment";
+    return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: syntax error: %s, got \"%.*s\"", path, line, what,
+                        (int)shown, start);
+}
+
+static int parse_case_text(struct case_file *c, const char *text, size_t length)
+{
+    int status = check_text_bytes(c->path, text, length);
+    if (status != SC_OK)
+        return status;
+    /* inih skips a UTF-8 byte order mark too, but the reader must not see it as part of a "[" line. */
+    size_t bom = length >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
+    struct parse_state st = {.c = c, .next = text + bom, .end = text + length};
+    int result = ini_parse_stream(next_line, &st, on_key_value, &st);
+    free(st.section);
+    if (result < 0)
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "%s: inih failed (status %d, out of memory?)", c->path,
+                            result);
+    if (result > 0 && (st.error_line == 0 || result < st.error_line))
+        return report_syntax_error(c->path, text + bom, length - bom, result);
+    if (st.error_line)
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s", st.message);
+    return SC_OK;
+}
+
+/* ---- loading and freeing --------------------------------------------------------------------------------- */
+
+static struct case_file *case_create(const char *path, const struct cfg_key *const *registry)
+{
+    struct case_file *c = must_realloc(NULL, sizeof *c);
+    *c = (struct case_file){.path = must_strdup(path)};
+    const char *slash = strrchr(path, '/');
+    c->folder = slash ? must_strndup(path, (size_t)(slash - path) + 1) : must_strdup("");
+    registry_open(&c->registry, registry);
+    for (int i = 0; i < c->registry.count; i++)
+        if (!is_pattern(c->registry.keys[i]->section))
+            append_slot(c, i, c->registry.keys[i]->section);
+    sort_slots(c);
+    return c;
+}
+
+int case_load(const char *path, const struct cfg_key *const *registry, struct case_file **out)
+{
+    *out = NULL;
+    struct case_file *c = case_create(path, registry);
+    char *text = NULL;
+    size_t length = 0;
+    int status = read_case_text(path, &text, &length);
+    if (status == SC_OK)
+        status = parse_case_text(c, text, length);
+    free(text);
+    if (status != SC_OK) {
+        case_free(c);
+        return status;
+    }
+    *out = c;
+    return SC_OK;
+}
+
+void case_free(struct case_file *c)
+{
+    if (!c)
+        return;
+    for (size_t i = 0; i < c->slot_count; i++) {
+        clear_value(&c->slots[i]);
+        free(c->slots[i].section);
+    }
+    free(c->slots);
+    registry_close(&c->registry);
+    free(c->folder);
+    free(c->path);
+    free(c);
+}
+
+/* ---- overrides ------------------------------------------------------------------------------------------- */
+
+/* A value set from outside must survive case_write_resolved and a new load unchanged. */
+static bool fits_in_case_file(const char *key, const char *text, char *why, size_t size)
+{
+    size_t left = strlen(text);
+    for (const char *s = text; *s;) {
+        size_t n = text_char_length((const unsigned char *)s, left);
+        if (n == 0 || *s == '\n' || *s == '\r') {
+            snprintf(why, size, "contains a control character or invalid UTF-8");
+            return false;
+        }
+        if (INI_ALLOW_INLINE_COMMENTS && s > text && is_blank(s[-1]) && strchr(INI_INLINE_COMMENT_PREFIXES, *s)) {
+            snprintf(why, size, "contains \"%c\" after a blank, which a case file reads as a comment", *s);
+            return false;
+        }
+        s += n;
+        left -= n;
+    }
+    if (strlen(key) + strlen(text) + 3 > MAX_LINE_CHARS) {
+        snprintf(why, size, "longer than a case file line allows (%d characters)", MAX_LINE_CHARS);
+        return false;
+    }
+    return true;
+}
+
+static int override_value(struct case_file *c, const char *where, const char *section, const char *key,
+                          const char *text, char *message, size_t size)
+{
+    int rank = find_section_rank(&c->registry, section);
+    if (rank < 0) {
+        format_unknown_section(&c->registry, where, section, message, size);
+        return SC_EINPUT;
+    }
+    if (find_key_index(&c->registry, rank, key) < 0) {
+        format_unknown_key(&c->registry, where, section, rank, key, text, message, size);
+        return SC_EINPUT;
+    }
+    char why[256];
+    if (!fits_in_case_file(key, text, why, sizeof why)) {
+        format_message(message, size, "%s: [%s] %s = %s: %s", where, section, key, text, why);
+        return SC_EINPUT;
+    }
+    /* Check before creating a new [material.NAME], so that a refused value leaves no empty instance behind. */
+    struct parsed_value parsed;
+    if (!check_value(find_spec(&c->registry, section, key), section, text, where, &parsed, message, size))
+        return SC_EINPUT;
+    if (is_pattern(c->registry.keys[rank]->section))
+        ensure_instance(c, section, rank);
+    store_value(find_slot(c, section, key), text, &parsed, SOURCE_OVERRIDE, 0, where);
+    return SC_OK;
+}
+
+int case_set(struct case_file *c, const char *section, const char *key, const char *value, const char *origin)
+{
+    const char *where = origin && *origin ? origin : "command line";
+    char *text = trimmed_copy(value ? value : "");
+    char message[MESSAGE_SIZE];
+    int status = override_value(c, where, section, key, text, message, sizeof message);
+    free(text);
+    if (status != SC_OK)
+        return sc_error_set(status, __FILE__, __LINE__, "%s", message);
+    return SC_OK;
+}
+
+/* ---- accessors ---------------------------------------------------------------------------------------------- */
+
+/* The slot of a key; NULL when the key is registered but its [material.NAME] is not present.  An unregistered
+ * key is a programming error. */
+static const struct slot *lookup(const struct case_file *c, const char *section, const char *key, const char *caller)
+{
+    const struct slot *slot = find_slot(c, section, key);
+    if (!slot && !find_spec(&c->registry, section, key))
+        config_bug("%s: [%s] %s is not a registered key", caller, section, key);
+    return slot;
+}
+
+static const struct slot *lookup_value(const struct case_file *c, const char *section, const char *key,
+                                       const char *caller)
+{
+    const struct slot *slot = lookup(c, section, key, caller);
+    if (!slot || !slot->text)
+        config_bug("%s: [%s] %s has no value (check case_has first, or give it a default)", caller, section, key);
+    return slot;
+}
+
+const char *case_file_path(const struct case_file *c) { return c->path; }
+
+int case_has(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup(c, section, key, "case_has");
+    return slot && slot->text;
+}
+
+int case_is_given(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup(c, section, key, "case_is_given");
+    return slot && (slot->source == SOURCE_FILE || slot->source == SOURCE_OVERRIDE);
+}
+
+int case_line(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup(c, section, key, "case_line");
+    return slot && slot->source == SOURCE_FILE ? slot->line : 0;
+}
+
+double case_real(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup_value(c, section, key, "case_real");
+    if (slot->spec->type != CFG_REAL && slot->spec->type != CFG_INT)
+        config_bug("case_real: [%s] %s is of type %s", section, key, type_name(slot->spec));
+    if (slot->value.is_word)
+        config_bug("case_real: [%s] %s is the word \"%s\" (check case_is first)", section, key, slot->text);
+    return slot->value.real;
+}
+
+long case_int(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup_value(c, section, key, "case_int");
+    if (slot->spec->type != CFG_INT)
+        config_bug("case_int: [%s] %s is of type %s", section, key, type_name(slot->spec));
+    return slot->value.integer;
+}
+
+const char *case_text(const struct case_file *c, const char *section, const char *key)
+{
+    return lookup_value(c, section, key, "case_text")->text;
+}
+
+int case_is(const struct case_file *c, const char *section, const char *key, const char *word)
+{
+    const struct slot *slot = lookup(c, section, key, "case_is");
+    const struct cfg_key *spec = find_spec(&c->registry, section, key);
+    /* A misspelt word in the code would silently never match. */
+    if (!spec->choices || !word_in_list(spec->choices, word))
+        config_bug("case_is: \"%s\" is not one of the words of [%s] %s (%s)", word, section, key,
+                   spec->choices ? spec->choices : "it has none");
+    return slot && slot->text && strcmp(slot->text, word) == 0;
+}
+
+/* `text` as seen from the current folder: relative paths are relative to the case file's folder. */
+static char *resolve_path(const struct case_file *c, const char *text)
+{
+    if (text[0] == '/' || !c->folder[0])
+        return must_strdup(text);
+    char *joined = must_realloc(NULL, strlen(c->folder) + strlen(text) + 1);
+    strcpy(joined, c->folder);
+    strcat(joined, text);
+    return joined;
+}
+
+int case_path(const struct case_file *c, const char *section, const char *key, char *out, size_t size)
+{
+    const struct slot *slot = lookup_value(c, section, key, "case_path");
+    if (slot->spec->type != CFG_PATH)
+        config_bug("case_path: [%s] %s is of type %s", section, key, type_name(slot->spec));
+    char *resolved = resolve_path(c, slot->text);
+    size_t length = strlen(resolved);
+    int status = SC_OK;
+    if (length >= size)
+        status = case_invalid(c, section, key, "the path %s is longer than %zu bytes", resolved, size - 1);
+    else
+        memcpy(out, resolved, length + 1);
+    free(resolved);
+    return status;
+}
+
+/* The absolute form of a path value: written to resolved copies (which live in another folder) and hashed, so
+ * that a resolved copy names the same files and has the same hash as the case it was made from. */
+static char *absolute_path(const struct case_file *c, const char *text)
+{
+    char *resolved = resolve_path(c, text);
+    char *real = realpath(resolved, NULL);
+    if (real) {
+        free(resolved);
+        return real;
+    }
+    char cwd[PATH_MAX];
+    if (resolved[0] == '/' || !getcwd(cwd, sizeof cwd))
+        return resolved;
+    size_t size = strlen(cwd) + strlen(resolved) + 2;
+    char *joined = must_realloc(NULL, size);
+    snprintf(joined, size, "%s/%s", cwd, resolved);
+    free(resolved);
+    return joined;
+}
+
+/* ---- errors in the standard form ---------------------------------------------------------------------------- */
+
+int case_require(const struct case_file *c, const char *section, const char *key, const char *why)
+{
+    const struct cfg_key *spec = find_spec(&c->registry, section, key);
+    if (!spec)
+        config_bug("case_require: [%s] %s is not a registered key", section, key);
+    char allowed[512];
+    describe_allowed(spec, allowed, sizeof allowed);
+    bool has_why = why && *why;
+    return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s is required%s%s%s; %s; allowed: %s", c->path,
+                        section, key, has_why ? " (" : "", has_why ? why : "", has_why ? ")" : "", or_empty(spec->doc),
+                        allowed);
+}
+
+int case_invalid(const struct case_file *c, const char *section, const char *key, const char *fmt, ...)
+{
+    const struct slot *slot = lookup(c, section, key, "case_invalid");
+    char what[MESSAGE_SIZE];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(what, sizeof what, fmt, args);
+    va_end(args);
+    if (!slot || !slot->text)
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s (not set): %s", c->path, section, key, what);
+    switch (slot->source) {
+    case SOURCE_FILE:
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: [%s] %s = %s: %s", c->path, slot->line, section,
+                            key, slot->text, what);
+    case SOURCE_OVERRIDE:
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s = %s: %s", slot->origin, section, key,
+                            slot->text, what);
+    default:
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s = %s (default): %s", c->path, section, key,
+                            slot->text, what);
+    }
+}
+
+/* ---- printing, hashing, writing ------------------------------------------------------------------------------ */
+
+static void describe_source(const struct case_file *c, const struct slot *slot, char *out, size_t size)
+{
+    switch (slot->source) {
+    case SOURCE_FILE: snprintf(out, size, "%s:%d", c->path, slot->line); return;
+    case SOURCE_OVERRIDE: snprintf(out, size, "%s", slot->origin); return;
+    case SOURCE_DEFAULT: snprintf(out, size, "default"); return;
+    case SOURCE_UNSET: snprintf(out, size, "unset"); return;
+    }
+}
+
+/* Widen a column to fit `text`, but not beyond `limit` (a long path must not push every row right). */
+static void widen(int *width, const char *text, int limit)
+{
+    size_t length = strlen(text);
+    int wanted = length > (size_t)limit ? limit : (int)length;
+    if (wanted > *width)
+        *width = wanted;
+}
+
+/* The three left columns of a case_print row. */
+static void print_row_columns(const struct case_file *c, const struct slot *slot, char *name, char *value,
+                              char *source, size_t size)
+{
+    snprintf(name, size, "[%s] %s", slot->section, slot->spec->key);
+    snprintf(value, size, "%s", or_empty(slot->text));
+    if (slot->text && !slot->value.is_word && slot->spec->unit && *slot->spec->unit)
+        append_text(value, size, " %s", slot->spec->unit);
+    char where[PATH_MAX + 32];
+    describe_source(c, slot, where, sizeof where);
+    snprintf(source, size, "(%s)", where);
+}
+
+void case_print(const struct case_file *c, FILE *out)
+{
+    enum { COLUMN = PATH_MAX + 64 };
+    char name[COLUMN], value[COLUMN], source[COLUMN];
+    int name_width = 0, value_width = 0, source_width = 0;
+    for (size_t i = 0; i < c->slot_count; i++) {
+        print_row_columns(c, &c->slots[i], name, value, source, COLUMN);
+        widen(&name_width, name, 40);
+        widen(&value_width, value, 32);
+        widen(&source_width, source, 32);
+    }
+    for (size_t i = 0; i < c->slot_count; i++) {
+        const struct slot *slot = &c->slots[i];
+        if (i > 0 && strcmp(slot->section, c->slots[i - 1].section) != 0)
+            fputc('\n', out);
+        print_row_columns(c, slot, name, value, source, COLUMN);
+        fprintf(out, "%-*s = %-*s  %-*s  %s\n", name_width, name, value_width, value, source_width, source,
+                or_empty(slot->spec->doc));
+    }
+}
+
+/* The value as hashed: numbers in one spelling (1e-6 and 0.000001 are the same case), paths absolute. */
+static char *canonical_value(const struct case_file *c, const struct slot *slot)
+{
+    char number[64];
+    if (slot->spec->type == CFG_INT) {
+        snprintf(number, sizeof number, "%ld", slot->value.integer);
+        return must_strdup(number);
+    }
+    if (slot->spec->type == CFG_REAL && !slot->value.is_word) {
+        snprintf(number, sizeof number, "%.17g", slot->value.real);
+        return must_strdup(number);
+    }
+    if (slot->spec->type == CFG_PATH)
+        return absolute_path(c, slot->text);
+    return must_strdup(slot->text);
+}
+
+static uint64_t fnv1a(uint64_t hash, const char *text)
+{
+    for (const unsigned char *s = (const unsigned char *)text; *s; s++) {
+        hash ^= *s;
+        hash *= 0x100000001b3ULL;
+    }
+    return hash;
+}
+
+uint64_t case_hash(const struct case_file *c)
+{
+    uint64_t hash = 0xcbf29ce484222325ULL;
+    for (size_t i = 0; i < c->slot_count; i++) {
+        const struct slot *slot = &c->slots[i];
+        if (!slot->text)
+            continue;
+        char *value = canonical_value(c, slot);
+        hash = fnv1a(hash, slot->section);
+        hash = fnv1a(hash, ".");
+        hash = fnv1a(hash, slot->spec->key);
+        hash = fnv1a(hash, "=");
+        hash = fnv1a(hash, value);
+        hash = fnv1a(hash, "\n");
+        free(value);
+    }
+    return hash;
+}
+
+/* Slots [first, end) share one section; returns end. */
+static size_t section_group_end(const struct case_file *c, size_t first)
+{
+    size_t end = first + 1;
+    while (end < c->slot_count && strcmp(c->slots[end].section, c->slots[first].section) == 0)
+        end++;
+    return end;
+}
+
+static bool group_has_values(const struct case_file *c, size_t first, size_t end)
+{
+    for (size_t i = first; i < end; i++)
+        if (c->slots[i].text)
+            return true;
+    return false;
+}
+
+static void append_resolved_section(const struct case_file *c, size_t first, size_t end, struct text_buffer *b)
+{
+    buffer_append(b, "\n[%s]\n", c->slots[first].section);
+    for (size_t i = first; i < end; i++) {
+        const struct slot *slot = &c->slots[i];
+        if (!slot->text)
+            continue;
+        char *value = slot->spec->type == CFG_PATH ? absolute_path(c, slot->text) : must_strdup(slot->text);
+        size_t line_length = strlen(slot->spec->key) + 3 + strlen(value);
+        bool mark = slot->source == SOURCE_DEFAULT && line_length + 11 <= MAX_LINE_CHARS;
+        buffer_append(b, "%s = %s%s\n", slot->spec->key, value, mark ? "  ; default" : "");
+        free(value);
+    }
+}
+
+/* The case file's name in a comment line: no line breaks or other control characters. */
+static void append_comment_path(struct text_buffer *b, const char *path)
+{
+    buffer_append(b, "; read from: ");
+    for (const char *s = path; *s; s++)
+        buffer_append(b, "%c", (unsigned char)*s < 0x20 || *s == 0x7f ? '?' : *s);
+    buffer_append(b, "\n");
+}
+
+char *case_resolved_text(const struct case_file *c)
+{
+    struct text_buffer b = {0};
+    buffer_append(&b, "; spraycoat case, resolved: every key that has a value; \"; default\" marks defaults.\n");
+    append_comment_path(&b, c->path);
+    buffer_append(&b, "; case hash: %016llx\n", (unsigned long long)case_hash(c));
+    for (size_t first = 0; first < c->slot_count;) {
+        size_t end = section_group_end(c, first);
+        /* A [material.NAME] is written even without values: its presence is part of the case. */
+        if (group_has_values(c, first, end) || is_pattern(c->slots[first].spec->section))
+            append_resolved_section(c, first, end, &b);
+        first = end;
+    }
+    return b.data;
+}
+
+/* inih splits longer lines: refuse to write a file that would not read back the same. */
+static int check_line_lengths(const char *path, const char *text)
+{
+    for (const char *line = text; *line;) {
+        const char *newline = strchr(line, '\n');
+        size_t length = newline ? (size_t)(newline - line) : strlen(line);
+        if (length > MAX_LINE_CHARS)
+            return sc_error_set(SC_EINPUT, __FILE__, __LINE__,
+                                "cannot write %s: the line \"%.40s...\" is longer than a case file allows (%d "
+                                "characters)",
+                                path, line, MAX_LINE_CHARS);
+        line = newline ? newline + 1 : line + length;
+    }
+    return SC_OK;
+}
+
+static int io_error(const char *what, const char *path, int error_number)
+{
+    return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot %s %s: %s", what, path, strerror(error_number));
+}
+
+static int write_and_sync(const char *path, const char *data, size_t length)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return io_error("create", path, errno);
+    while (length > 0) {
+        ssize_t written = write(fd, data, length);
+        if (written < 0 && errno == EINTR)
+            continue;
+        if (written < 0) {
+            int saved = errno;
+            close(fd);
+            return io_error("write", path, saved);
+        }
+        data += written;
+        length -= (size_t)written;
+    }
+    if (fsync(fd) != 0) {
+        int saved = errno;
+        close(fd);
+        return io_error("sync", path, saved);
+    }
+    if (close(fd) != 0)
+        return io_error("close", path, errno);
+    return SC_OK;
+}
+
+/* Make the rename itself durable. */
+static int sync_folder_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    char *folder = slash ? must_strndup(path, slash == path ? 1 : (size_t)(slash - path)) : must_strdup(".");
+    int status = SC_OK;
+    int fd = open(folder, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) {
+        status = io_error("open folder", folder, errno);
+    } else {
+        /* Some file systems cannot sync a folder (EINVAL); the data itself is synced already. */
+        if (fsync(fd) != 0 && errno != EINVAL)
+            status = io_error("sync folder", folder, errno);
+        close(fd);
+    }
+    free(folder);
+    return status;
+}
+
+static int write_file_atomically(const char *path, const char *data, size_t length)
+{
+    size_t size = strlen(path) + 5;
+    char *temporary = must_realloc(NULL, size);
+    snprintf(temporary, size, "%s.tmp", path);
+    int status = write_and_sync(temporary, data, length);
+    if (status == SC_OK && rename(temporary, path) != 0)
+        status = io_error("rename to final name", temporary, errno);
+    if (status == SC_OK)
+        status = sync_folder_of(path);
+    else
+        unlink(temporary);
+    free(temporary);
+    return status;
+}
+
+int case_write_resolved(const struct case_file *c, const char *path)
+{
+    char *text = case_resolved_text(c);
+    int status = check_line_lengths(path, text);
+    if (status == SC_OK)
+        status = write_file_atomically(path, text, strlen(text));
+    free(text);
+    return status;
+}
+
+/* ---- documentation -------------------------------------------------------------------------------------------- */
+
+/* A Markdown table cell: '|' would end the cell. */
+static void print_cell(FILE *out, const char *text)
+{
+    fputs(" ", out);
+    for (const char *s = text; *s; s++) {
+        if (*s == '|')
+            fputc('\\', out);
+        fputc(*s, out);
+    }
+    fputs(" |", out);
+}
+
+static void print_markdown_table(const struct registry_view *view, int rank, FILE *out)
+{
+    char shown[128], allowed[512];
+    section_display(view->keys[rank]->section, shown, sizeof shown);
+    fprintf(out, "### [%s]\n\n| key | type | unit | default | allowed | meaning |\n", shown);
+    fprintf(out, "| --- | --- | --- | --- | --- | --- |\n");
+    for (int i = rank; i < view->count; i++) {
+        if (view->section_rank[i] != rank)
+            continue;
+        const struct cfg_key *spec = view->keys[i];
+        describe_allowed(spec, allowed, sizeof allowed);
+        fprintf(out, "| `%s` |", spec->key);
+        print_cell(out, type_name(spec));
+        print_cell(out, or_empty(spec->unit));
+        print_cell(out, spec->default_value ? spec->default_value : "(none)");
+        print_cell(out, allowed);
+        print_cell(out, or_empty(spec->doc));
+        fputc('\n', out);
+    }
+    fputc('\n', out);
+}
+
+void case_registry_markdown(const struct cfg_key *const *registry, FILE *out)
+{
+    struct registry_view view;
+    registry_open(&view, registry);
+    for (int i = 0; i < view.count; i++)
+        if (view.section_rank[i] == i)
+            print_markdown_table(&view, i, out);
+    registry_close(&view);
+}

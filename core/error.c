@@ -1,0 +1,34 @@
+#include "core/error.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+static _Thread_local char error_message[2048];
+static _Thread_local char error_traceback[2048];
+
+int sc_error_set(int status, const char *file, int line, const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(error_message, sizeof error_message, fmt, args);
+    va_end(args);
+    snprintf(error_traceback, sizeof error_traceback, "  at %s:%d", file, line);
+    return status;
+}
+
+void sc_error_trace(const char *file, int line)
+{
+    size_t used = strlen(error_traceback);
+    if (used + 1 < sizeof error_traceback)
+        snprintf(error_traceback + used, sizeof error_traceback - used, "\n  at %s:%d", file, line);
+}
+
+const char *sc_error_message(void) { return error_message; }
+const char *sc_error_traceback(void) { return error_traceback; }
+
+void sc_error_clear(void)
+{
+    error_message[0] = '\0';
+    error_traceback[0] = '\0';
+}

@@ -1,0 +1,79 @@
+/* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
+ *
+ * Every file is written as NAME.tmp, flushed, closed, fsynced, renamed to NAME and the directory fsynced,
+ * so a reader never sees a half-written file.  Datasets carry a "units" attribute.  With checksum = 1 a
+ * dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read. */
+#ifndef SPRAYCOAT_CORE_H5IO_H
+#define SPRAYCOAT_CORE_H5IO_H
+
+#include <hdf5.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define H5IO_PATH_MAX 4096
+
+struct h5_out {
+    hid_t file;
+    char path[H5IO_PATH_MAX];     /* final name */
+    char tmp_path[H5IO_PATH_MAX]; /* name while writing */
+};
+
+/* Silence HDF5's own error printing (errors are reported through core/error.h). Call once at start-up. */
+void h5_quiet(void);
+
+/* Create path.tmp (truncating).  SC_EIO with strerror-style message on failure. */
+int h5_create_atomic(const char *path, struct h5_out *out);
+/* Flush and close, fsync, rename to the final name, fsync the folder.  SC_EIO on failure (tmp removed). */
+int h5_commit(struct h5_out *out);
+/* Close and remove the temporary file (after an error). */
+void h5_abort(struct h5_out *out);
+/* Open for reading; SC_EIO naming the file when it is missing or not HDF5. */
+int h5_open_read(const char *path, hid_t *file);
+
+int h5_create_group(hid_t parent, const char *name, hid_t *group);
+
+/* Datasets.  dims has `rank` entries (rank 1 or 2); zero-length datasets are allowed. */
+int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
+                     const char *units, int checksum);
+int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data,
+                    const char *units, int checksum);
+int h5_write_bytes(hid_t loc, const char *name, size_t size, const void *data, int checksum);
+/* Read a whole dataset of `count` elements (error if its size differs). */
+int h5_read_doubles(hid_t loc, const char *name, double *data, size_t count);
+int h5_read_int64s(hid_t loc, const char *name, int64_t *data, size_t count);
+int h5_read_bytes(hid_t loc, const char *name, void *data, size_t size);
+/* Number of elements (product of dims) of a dataset; SC_EIO if absent. */
+int h5_dataset_size(hid_t loc, const char *name, size_t *count);
+int h5_exists(hid_t loc, const char *path);
+
+/* Attributes on a file, group or dataset. */
+int h5_attr_write_string(hid_t loc, const char *name, const char *value);
+int h5_attr_write_double(hid_t loc, const char *name, double value);
+int h5_attr_write_int64(hid_t loc, const char *name, int64_t value);
+int h5_attr_read_string(hid_t loc, const char *name, char *value, size_t size);
+int h5_attr_read_double(hid_t loc, const char *name, double *value);
+int h5_attr_read_int64(hid_t loc, const char *name, int64_t *value);
+
+/* Root attributes every spraycoat file carries: format, format_version, program_version, case_hash
+ * (hex text), stage, units = "SI", created (UTC ISO 8601; a timing attribute). */
+int h5_write_root_attributes(hid_t file, const char *format, int64_t format_version, const char *stage,
+                             uint64_t case_hash);
+
+/* Read every dataset in the file completely (Fletcher32 is verified on read).  SC_EIO if any fails. */
+int h5_verify_file(const char *path);
+
+/* Checkpoints: RUN_DIR/checkpoints/STAGE_NNNNNNNN.h5 (NNNNNNNN = step). */
+int checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out);
+/* Commit and delete all but the newest `keep` checkpoints of this stage (keep <= 0: keep all).  Checkpoints of
+ * later steps than this one are deleted as well: they belong to a history abandoned by resuming from an older
+ * (because the later ones were damaged), and must not be resumed into. */
+int checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep);
+/* Newest valid checkpoint of `stage` into path[size] ("" if there is none).  A checkpoint that fails
+ * h5_verify_file is skipped with a warning (the previous one is used).  One with another case hash or
+ * format version is refused: SC_EINPUT with a message naming it. */
+int checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+                           uint64_t case_hash, char *path, size_t size);
+/* Remove every checkpoint of `stage` (after the stage finished). */
+int checkpoint_remove_all(const char *run_dir, const char *stage);
+
+#endif

@@ -1,0 +1,192 @@
+/* The spraycoat command line (DESIGN.md "Command line").  Only this file prints errors and exits. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "coupling/info.h"
+#include "coupling/stages.h"
+#include "dem/dem.h"
+
+#ifndef SPRAYCOAT_VERSION
+#define SPRAYCOAT_VERSION "unknown"
+#endif
+
+static const char usage[] =
+    "usage:\n"
+    "  spraycoat check CASE.ini                 validate the case; print every resolved parameter\n"
+    "                                           with its unit and where it came from\n"
+    "  spraycoat spray CASE.ini [-o RUN_DIR]    run the spray stage (resumes from a checkpoint of the\n"
+    "                                           same case in RUN_DIR if there is one)\n"
+    "  spraycoat run CASE.ini [-o RUN_DIR]      run every available stage (today: spray)\n"
+    "  spraycoat resume RUN_DIR                 continue an interrupted run from its newest checkpoint\n"
+    "  spraycoat info RUN_DIR|FILE.h5           what a run or file holds: stage, step, time, metrics\n"
+    "  spraycoat keys                           the case-file keys as Markdown tables\n"
+    "  spraycoat --help | --version\n"
+    "options:\n"
+    "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
+    "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+    "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n"
+    "exit status: 0 done, 1 simulation failed, 2 bad command line or case file, 3 I/O error,\n"
+    "             130/143 interrupted by SIGINT/SIGTERM after writing a checkpoint\n";
+
+struct options {
+    const char *command;
+    const char *target; /* CASE.ini or RUN_DIR or FILE.h5 */
+    const char *run_dir;
+    const char *threads;
+};
+
+static int parse_arguments(int argc, char **argv, struct options *opt)
+{
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0) {
+            if (i + 1 >= argc)
+                SC_FAIL(SC_EINPUT, "option %s needs a value", arg);
+            if (arg[1] == 'o')
+                opt->run_dir = argv[++i];
+            else
+                opt->threads = argv[++i];
+        } else if (strcmp(arg, "-v") == 0 || strcmp(arg, "--verbose") == 0) {
+            log_set_level(LOG_DEBUG);
+        } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
+            log_set_level(LOG_WARN);
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            SC_FAIL(SC_EINPUT, "unknown option '%s' (see spraycoat --help)", arg);
+        } else if (!opt->command) {
+            opt->command = arg;
+        } else if (!opt->target) {
+            opt->target = arg;
+        } else {
+            SC_FAIL(SC_EINPUT, "unexpected argument '%s' (see spraycoat --help)", arg);
+        }
+    }
+    if (!opt->command)
+        SC_FAIL(SC_EINPUT, "no command given (see spraycoat --help)");
+    return SC_OK;
+}
+
+static int load_case(const char *path, const struct options *opt, struct case_file **c)
+{
+    if (!path)
+        SC_FAIL(SC_EINPUT, "%s needs a case file (see spraycoat --help)", opt->command);
+    SC_TRY(case_load(path, spraycoat_registry, c));
+    if (opt->threads)
+        SC_TRY(case_set(*c, "run", "threads", opt->threads, "command line --threads"));
+    return SC_OK;
+}
+
+static int command_check(const struct options *opt)
+{
+    struct case_file *c;
+    SC_TRY(load_case(opt->target, opt, &c));
+    struct dem_config cfg;
+    int status = dem_config_load(c, &cfg);
+    if (status == SC_OK) {
+        case_print(c, stdout);
+        printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
+        dem_config_free(&cfg);
+    }
+    case_free(c);
+    return status;
+}
+
+/* Default run directory: runs/<case file name without .ini>. */
+static void default_run_dir(const char *case_path, char *out, size_t size)
+{
+    const char *base = strrchr(case_path, '/');
+    base = base ? base + 1 : case_path;
+    size_t len = strlen(base);
+    if (len > 4 && strcmp(base + len - 4, ".ini") == 0)
+        len -= 4;
+    snprintf(out, size, "runs/%.*s", (int)len, base);
+}
+
+static int run_stages(struct case_file *c, const char *run_dir)
+{
+    SC_TRY(run_dir_prepare(run_dir, c));
+    stages_install_signal_handlers();
+    SC_TRY(spray_stage_run(c, run_dir));
+    log_info("results in %s (spray.h5); `spraycoat info %s` summarises them", run_dir, run_dir);
+    return SC_OK;
+}
+
+static int command_run(const struct options *opt)
+{
+    struct case_file *c;
+    SC_TRY(load_case(opt->target, opt, &c));
+    char run_dir[4096];
+    if (opt->run_dir)
+        snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
+    else
+        default_run_dir(opt->target, run_dir, sizeof run_dir);
+    int status = run_stages(c, run_dir);
+    case_free(c);
+    return status;
+}
+
+static int command_resume(const struct options *opt)
+{
+    if (!opt->target)
+        SC_FAIL(SC_EINPUT, "resume needs a run directory (see spraycoat --help)");
+    char case_path[4096];
+    snprintf(case_path, sizeof case_path, "%s/case.ini", opt->target);
+    if (access(case_path, R_OK) != 0)
+        SC_FAIL(SC_EIO, "%s is not a run directory: cannot read %s", opt->target, case_path);
+    struct case_file *c;
+    SC_TRY(load_case(case_path, opt, &c));
+    int status = run_stages(c, opt->target);
+    case_free(c);
+    return status;
+}
+
+static int dispatch(const struct options *opt)
+{
+    const char *command = opt->command;
+    if (strcmp(command, "check") == 0)
+        return command_check(opt);
+    if (strcmp(command, "spray") == 0 || strcmp(command, "run") == 0)
+        return command_run(opt);
+    if (strcmp(command, "resume") == 0)
+        return command_resume(opt);
+    if (strcmp(command, "info") == 0)
+        return info_print(opt->target, stdout);
+    if (strcmp(command, "keys") == 0) {
+        case_registry_markdown(spraycoat_registry, stdout);
+        return SC_OK;
+    }
+    if (strcmp(command, "couple") == 0 || strcmp(command, "impact") == 0 || strcmp(command, "render") == 0 ||
+        strcmp(command, "vcrit") == 0)
+        SC_FAIL(SC_EINPUT, "'%s': this stage is not part of this version of spraycoat yet (see spraycoat --help)",
+                command);
+    SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", command);
+}
+
+int main(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            fputs(usage, stdout);
+            return 0;
+        }
+        if (strcmp(argv[i], "--version") == 0) {
+            printf("spraycoat %s\n", SPRAYCOAT_VERSION);
+            return 0;
+        }
+    }
+    h5_quiet();
+    struct options opt = {0};
+    int status = parse_arguments(argc, argv, &opt);
+    if (status == SC_OK)
+        status = dispatch(&opt);
+    if (status != SC_OK) {
+        fprintf(stderr, "spraycoat: %s\n", sc_error_message());
+        if (log_get_level() >= LOG_DEBUG)
+            fprintf(stderr, "%s\n", sc_error_traceback());
+    }
+    return status;
+}

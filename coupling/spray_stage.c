@@ -1,0 +1,185 @@
+/* The spray stage driver: checkpoints, resume, signals, progress and RUN_DIR/spray.h5. */
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "core/run_keys.h"
+#include "coupling/stages.h"
+#include "dem/dem.h"
+
+#define STAGE "spray"
+
+struct spray_run {
+    const struct case_file *c;
+    const char *run_dir;
+    struct run_settings settings;
+    struct dem_config cfg;
+    struct dem_solver *solver;
+    uint64_t case_hash;
+    double last_checkpoint_time;
+    int64_t last_checkpoint_step;
+};
+
+static int output_matches_case(const char *path, uint64_t case_hash)
+{
+    if (access(path, R_OK) != 0)
+        return 0;
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK)
+        return 0;
+    char stored[64] = "", wanted[64];
+    snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash);
+    int ok = h5_attr_read_string(file, "case_hash", stored, sizeof stored) == SC_OK && strcmp(stored, wanted) == 0;
+    H5Fclose(file);
+    return ok;
+}
+
+static int write_checkpoint(struct spray_run *run)
+{
+    struct dem_counts counts = dem_get_counts(run->solver);
+    struct h5_out out;
+    SC_TRY(checkpoint_begin(run->run_dir, STAGE, counts.step, &out));
+    int status = h5_write_root_attributes(out.file, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash);
+    if (status == SC_OK)
+        status = dem_checkpoint_write(run->solver, out.file);
+    if (status != SC_OK) {
+        h5_abort(&out);
+        return status;
+    }
+    SC_TRY(checkpoint_commit(&out, run->run_dir, STAGE, run->settings.keep_checkpoints));
+    run->last_checkpoint_time = log_elapsed();
+    run->last_checkpoint_step = counts.step;
+    log_info("spray: checkpoint at step %lld (t = %.6g s)", (long long)counts.step, counts.t);
+    return SC_OK;
+}
+
+static int resume_if_possible(struct spray_run *run)
+{
+    char path[H5IO_PATH_MAX];
+    SC_TRY(checkpoint_find_newest(run->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, run->case_hash, path,
+                                  sizeof path));
+    if (path[0] == '\0')
+        return SC_OK;
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    int status = dem_checkpoint_read(run->solver, file);
+    H5Fclose(file);
+    if (status != SC_OK)
+        return status;
+    struct dem_counts counts = dem_get_counts(run->solver);
+    run->last_checkpoint_step = counts.step;
+    log_info("spray: resuming from %s (step %lld, t = %.6g s)", path, (long long)counts.step, counts.t);
+    return SC_OK;
+}
+
+static int checkpoint_due(const struct spray_run *run, int64_t step)
+{
+    const struct run_settings *settings = &run->settings;
+    if (settings->checkpoint_steps > 0 && step - run->last_checkpoint_step >= settings->checkpoint_steps)
+        return 1;
+    return settings->checkpoint_wall > 0 && log_elapsed() - run->last_checkpoint_time >= settings->checkpoint_wall;
+}
+
+static int time_loop(struct spray_run *run)
+{
+    int64_t total = dem_total_steps(run->solver);
+    struct progress bar;
+    progress_begin(&bar, STAGE, "steps", dem_get_counts(run->solver).step, total);
+    run->last_checkpoint_time = log_elapsed();
+    for (int64_t step = dem_get_counts(run->solver).step; step < total; step++) {
+        SC_TRY(dem_step(run->solver));
+        struct dem_counts counts = dem_get_counts(run->solver);
+        int interrupted = stages_interrupt_status();
+        if (interrupted || (checkpoint_due(run, counts.step) && counts.step < total))
+            SC_TRY(write_checkpoint(run));
+        if (interrupted) {
+            progress_end(&bar, counts.step);
+            SC_FAIL(interrupted, "spray: interrupted at step %lld; checkpoint written, continue with "
+                    "`spraycoat resume %s`", (long long)counts.step, run->run_dir);
+        }
+        char extra[160];
+        snprintf(extra, sizeof extra, "in flight %lld, deposited %lld, escaped %lld", (long long)counts.in_flight,
+                 (long long)counts.deposited, (long long)counts.escaped);
+        progress_update(&bar, counts.step, extra);
+    }
+    progress_end(&bar, total);
+    return SC_OK;
+}
+
+static int write_output(struct spray_run *run)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/spray.h5", run->run_dir);
+    struct h5_out out;
+    SC_TRY(h5_create_atomic(path, &out));
+    char *case_text = case_resolved_text(run->c);
+    int status = h5_write_root_attributes(out.file, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash);
+    if (status == SC_OK)
+        status = h5_attr_write_string(out.file, "case", case_text);
+    free(case_text);
+    if (status == SC_OK)
+        status = dem_write_output(run->solver, out.file);
+    if (status != SC_OK) {
+        h5_abort(&out);
+        return status;
+    }
+    SC_TRY(h5_commit(&out));
+    log_info("spray: wrote %s", path);
+    return SC_OK;
+}
+
+static void log_summary(const struct spray_run *run)
+{
+    struct dem_metrics m = dem_compute_metrics(run->solver);
+    struct dem_counts c = dem_get_counts(run->solver);
+    log_info("spray: t = %.6g s: injected %lld, deposited %lld (fraction %.4f), escaped %lld, in flight %lld",
+             m.t, (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.escaped,
+             (long long)m.in_flight);
+    log_info("spray: contacts: particle-particle %lld, target %lld, deposit %lld; fixed-point iterations "
+             "%.2f per solve (max %lld, unconverged %lld), sub-cycled particle-steps %lld",
+             (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.contacts_deposit,
+             c.fixed_point_solves ? (double)c.fixed_point_iterations / (double)c.fixed_point_solves : 0.0,
+             (long long)c.max_iterations, (long long)c.fixed_point_unconverged,
+             (long long)c.subcycled_particle_steps);
+    log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m",
+             m.volume_fraction, m.mean_spread, m.scatter, m.max_thickness);
+}
+
+static int run_stage(struct spray_run *run)
+{
+    SC_TRY(dem_create(&run->cfg, &run->solver));
+    log_info("spray: %lld steps of %.3g s to t_end = %.6g s on %d threads", (long long)dem_total_steps(run->solver),
+             run->cfg.dt, run->cfg.t_end, omp_get_max_threads());
+    SC_TRY(resume_if_possible(run));
+    SC_TRY(time_loop(run));
+    SC_TRY(dem_check_accounting(run->solver));
+    SC_TRY(write_output(run));
+    log_summary(run);
+    return SC_OK;
+}
+
+int spray_stage_run(const struct case_file *c, const char *run_dir)
+{
+    struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/spray.h5", run_dir);
+    if (output_matches_case(path, run.case_hash)) {
+        log_info("spray: %s is up to date with the case; nothing to do", path);
+        return SC_OK;
+    }
+    if (access(path, F_OK) == 0)
+        log_info("spray: %s was made from another case; running the stage again", path);
+    run_settings_load(c, &run.settings);
+    if (run.settings.threads > 0)
+        omp_set_num_threads(run.settings.threads);
+    SC_TRY(dem_config_load(c, &run.cfg));
+    int status = run_stage(&run);
+    dem_destroy(run.solver);
+    dem_config_free(&run.cfg);
+    return status;
+}

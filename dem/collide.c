@@ -1,0 +1,364 @@
+/* Contacts of one step: binning (Section 4.3), swept-sphere detection and impulse resolution
+ * (Sections 2.1-2.2, collide-and-stream of Section 4.4), deposition rules (Section 3 and DESIGN.md).
+ *
+ * The paper tests for overlap at the end of a step (Eq. 40); at its step sizes a particle moves more
+ * than its diameter per step, so contacts would be missed and particles would tunnel.  Here every pair
+ * whose spheres, moving with their start-of-step velocities, touch at some time s in [0, dt] is a contact.
+ * Contacts are resolved once, at the start of the step, as impulses, in order of (s, a, b): a total
+ * order, so results do not depend on the thread count.  Each contact is re-tested for approach with the
+ * velocities current when it is resolved. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dem/dem_impl.h"
+
+/* ---------------------------------------------------------------- binning (hash grid) */
+
+static inline uint32_t cell_hash(int64_t i, int64_t j, int64_t k, size_t bucket_count)
+{
+    uint64_t h = (uint64_t)i * 0x9E3779B97F4A7C15ull ^ (uint64_t)j * 0xC2B2AE3D27D4EB4Full ^
+                 (uint64_t)k * 0x165667B19E3779F9ull;
+    h ^= h >> 29;
+    return (uint32_t)(h & (bucket_count - 1));
+}
+
+static inline int64_t cell_index(double coordinate, double cell) { return (int64_t)floor(coordinate / cell); }
+
+static void bins_build(struct dem_bins *bins, const struct dem_particles *p, double cell)
+{
+    size_t buckets = 1024;
+    while (buckets < 2 * p->count)
+        buckets *= 2;
+    if (buckets != bins->bucket_count) {
+        bins->bucket_start = realloc(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
+        bins->bucket_count = buckets;
+    }
+    if (p->count > bins->capacity) {
+        bins->capacity = p->capacity;
+        bins->items = realloc(bins->items, bins->capacity * sizeof(uint32_t));
+        bins->bucket_of = realloc(bins->bucket_of, bins->capacity * sizeof(uint32_t));
+    }
+    bins->cell = cell;
+    memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
+    for (size_t i = 0; i < p->count; i++) {
+        const double *x = p->x + 3 * i;
+        uint32_t b = cell_hash(cell_index(x[0], cell), cell_index(x[1], cell), cell_index(x[2], cell), buckets);
+        bins->bucket_of[i] = b;
+        bins->bucket_start[b + 1]++;
+    }
+    for (size_t b = 0; b < buckets; b++)
+        bins->bucket_start[b + 1] += bins->bucket_start[b];
+    /* Counting sort; filling in index order keeps each bucket sorted by particle index. */
+    uint32_t *fill = malloc(buckets * sizeof(uint32_t));
+    memcpy(fill, bins->bucket_start, buckets * sizeof(uint32_t));
+    for (size_t i = 0; i < p->count; i++)
+        bins->items[fill[bins->bucket_of[i]]++] = (uint32_t)i;
+    free(fill);
+}
+
+void dem_bins_free(struct dem_bins *bins)
+{
+    free(bins->bucket_start);
+    free(bins->items);
+    free(bins->bucket_of);
+    memset(bins, 0, sizeof *bins);
+}
+
+/* ---------------------------------------------------------------- swept-sphere time of impact */
+
+/* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none.  Already touching
+ * and approaching gives 0. */
+static double time_of_impact(const double dx[3], const double dv[3], double reach, double dt)
+{
+    double b = dx[0] * dv[0] + dx[1] * dv[1] + dx[2] * dv[2];
+    if (b >= 0.0)
+        return -1.0; /* separating or at rest relative to each other */
+    double c = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] - reach * reach;
+    if (c <= 0.0)
+        return 0.0;
+    double a = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
+    double discriminant = b * b - a * c;
+    if (discriminant < 0.0)
+        return -1.0;
+    double s = c / (-b + sqrt(discriminant)); /* the smaller root, in the form without cancellation */
+    return s <= dt ? s : -1.0;
+}
+
+static void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind)
+{
+    if (list->count == list->capacity) {
+        list->capacity = list->capacity ? 2 * list->capacity : 64;
+        list->items = realloc(list->items, list->capacity * sizeof *list->items);
+    }
+    list->items[list->count++] = (struct dem_candidate){s, a, b, kind};
+}
+
+static void find_target_contact(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
+{
+    const double *x = s->p.x + 3 * i, *v = s->p.v + 3 * i;
+    double gap = s->cfg.standoff - 0.5 * s->p.d[i] - x[2];
+    if (v[2] <= 0.0)
+        return;
+    double t_hit = gap <= 0.0 ? 0.0 : gap / v[2];
+    if (t_hit <= s->cfg.dt)
+        candidates_push(out, t_hit, i, 0, CONTACT_TARGET);
+}
+
+static int bucket_seen(const uint32_t *seen, int count, uint32_t bucket)
+{
+    for (int k = 0; k < count; k++)
+        if (seen[k] == bucket)
+            return 1;
+    return 0;
+}
+
+/* Contacts of flying particle i with flying particles of higher index and with deposited particles. */
+static void find_pair_contacts(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
+{
+    const struct dem_particles *p = &s->p;
+    const struct dem_bins *bins = &s->bins;
+    const double *xi = p->x + 3 * i, *vi = p->v + 3 * i;
+    int64_t ci = cell_index(xi[0], bins->cell), cj = cell_index(xi[1], bins->cell), ck = cell_index(xi[2], bins->cell);
+    uint32_t seen[27];
+    int seen_count = 0;
+    for (int di = -1; di <= 1; di++)
+        for (int dj = -1; dj <= 1; dj++)
+            for (int dk = -1; dk <= 1; dk++) {
+                uint32_t bucket = cell_hash(ci + di, cj + dj, ck + dk, bins->bucket_count);
+                if (bucket_seen(seen, seen_count, bucket))
+                    continue; /* two neighbour cells sharing a bucket: scan it once */
+                seen[seen_count++] = bucket;
+                for (uint32_t k = bins->bucket_start[bucket]; k < bins->bucket_start[bucket + 1]; k++) {
+                    uint32_t j = bins->items[k];
+                    int j_flying = p->state[j] == DEM_FLYING;
+                    if (j == i || (j_flying && j < i))
+                        continue;
+                    const double *xj = p->x + 3 * j, *vj = p->v + 3 * j;
+                    double dx[3] = {xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]};
+                    double dv[3] = {vj[0] - vi[0], vj[1] - vi[1], vj[2] - vi[2]};
+                    double t_hit = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), s->cfg.dt);
+                    if (t_hit >= 0.0)
+                        candidates_push(out, t_hit, i, j, CONTACT_PAIR);
+                }
+            }
+}
+
+static int candidate_order(const void *pa, const void *pb)
+{
+    const struct dem_candidate *a = pa, *b = pb;
+    if (a->s != b->s)
+        return a->s < b->s ? -1 : 1;
+    if (a->kind != b->kind)
+        return a->kind < b->kind ? -1 : 1;
+    if (a->a != b->a)
+        return a->a < b->a ? -1 : 1;
+    return a->b < b->b ? -1 : (a->b > b->b);
+}
+
+/* Cell side: a pair that can touch during the step lies in neighbouring cells (Section 4.3, with the
+ * sweep distance of both particles added to the largest diameter). */
+static double bin_cell_size(const struct dem_particles *p, double dt)
+{
+    double d_largest = 0.0, speed_largest = 0.0;
+    for (size_t i = 0; i < p->count; i++) {
+        d_largest = fmax(d_largest, p->d[i]);
+        if (p->state[i] == DEM_FLYING) {
+            const double *v = p->v + 3 * i;
+            speed_largest = fmax(speed_largest, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        }
+    }
+    return d_largest + 2.0 * sqrt(speed_largest) * dt * 1.0000001 + 1e-12;
+}
+
+void dem_detect_contacts(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    bins_build(&s->bins, p, bin_cell_size(p, s->cfg.dt));
+    s->candidates.count = 0;
+#pragma omp parallel
+    {
+        struct dem_candidates local = {0};
+#pragma omp for schedule(static) nowait
+        for (size_t i = 0; i < p->count; i++) {
+            if (p->state[i] != DEM_FLYING)
+                continue;
+            find_target_contact(s, (uint32_t)i, &local);
+            find_pair_contacts(s, (uint32_t)i, &local);
+        }
+#pragma omp critical(dem_candidates_merge)
+        for (size_t k = 0; k < local.count; k++)
+            candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
+        free(local.items);
+    }
+    qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
+}
+
+/* ---------------------------------------------------------------- deposition rules */
+
+static double vcrit_from_table(const struct dem_config *cfg, double d)
+{
+    const double *dd = cfg->table_diameter, *vv = cfg->table_velocity;
+    size_t n = cfg->table_count;
+    if (d <= dd[0])
+        return vv[0];
+    if (d >= dd[n - 1])
+        return vv[n - 1];
+    size_t hi = 1;
+    while (dd[hi] < d)
+        hi++;
+    double f = (d - dd[hi - 1]) / (dd[hi] - dd[hi - 1]);
+    return vv[hi - 1] + f * (vv[hi] - vv[hi - 1]);
+}
+
+/* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact. */
+static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double r_eff,
+                  double gamma_partner, double yield)
+{
+    switch (cfg->rule) {
+    case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
+        return vn < contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy, gamma_partner, mass,
+                                                   r_eff, yield);
+    case DEM_DEPOSIT_CRITICAL_VELOCITY: /* cold spray: bonding at and above v_crit */
+        return vn >= cfg->critical_velocity;
+    case DEM_DEPOSIT_TABLE:
+        return vn >= vcrit_from_table(cfg, d);
+    case DEM_DEPOSIT_NONE:
+        break;
+    }
+    return 0;
+}
+
+/* ---------------------------------------------------------------- resolution */
+
+static struct sphere_state sphere_of(const struct dem_particles *p, uint32_t i, const struct dem_material *mat)
+{
+    struct sphere_state sphere = {.mass = p->m[i], .radius = 0.5 * p->d[i], .material = mat};
+    memcpy(sphere.v, p->v + 3 * i, sizeof sphere.v);
+    memcpy(sphere.w, p->w + 3 * i, sizeof sphere.w);
+    return sphere;
+}
+
+static void store_sphere(struct dem_particles *p, uint32_t i, const struct sphere_state *sphere)
+{
+    memcpy(p->v + 3 * i, sphere->v, sizeof sphere->v);
+    memcpy(p->w + 3 * i, sphere->w, sizeof sphere->w);
+}
+
+/* Centre of particle i at time `at` of the step along its start-of-step sweep. */
+static void swept_position(const struct dem_particles *p, uint32_t i, double at, double out[3])
+{
+    for (int k = 0; k < 3; k++)
+        out[k] = p->x[3 * i + k] + p->v_start[3 * i + k] * at;
+}
+
+static void record_impact(struct dem_solver *s, uint32_t i, double at, const double x[3],
+                          const struct sphere_state *before, int outcome, int64_t partner)
+{
+    struct dem_impact *row = dem_grow((void **)&s->impacts, &s->impact_count, &s->impact_capacity, sizeof *row);
+    const struct dem_particles *p = &s->p;
+    row->t = (double)s->step * s->cfg.dt + at;
+    row->particle_id = p->id[i];
+    memcpy(row->x, x, sizeof row->x);
+    memcpy(row->v_in, before->v, sizeof row->v_in);
+    memcpy(row->w_in, before->w, sizeof row->w_in);
+    memcpy(row->v_out, p->v + 3 * i, sizeof row->v_out);
+    memcpy(row->w_out, p->w + 3 * i, sizeof row->w_out);
+    row->d = p->d[i];
+    row->m = p->m[i];
+    row->outcome = outcome;
+    row->partner = partner;
+}
+
+static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
+{
+    struct dem_particles *p = &s->p;
+    memcpy(p->x + 3 * i, x, 3 * sizeof(double));
+    memset(p->v + 3 * i, 0, 3 * sizeof(double));
+    memset(p->w + 3 * i, 0, 3 * sizeof(double));
+    p->state[i] = DEM_DEPOSITED;
+    s->deposited++;
+}
+
+/* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
+static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner, double at)
+{
+    struct dem_particles *p = &s->p;
+    const struct dem_config *cfg = &s->cfg;
+    double x_hit[3], n[3], obstacle_radius = INFINITY;
+    const struct dem_material *obstacle = &cfg->target;
+    swept_position(p, i, at, x_hit);
+    if (partner < 0) {
+        n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
+    } else {
+        const double *xj = p->x + 3 * partner;
+        double dist = sqrt((xj[0] - x_hit[0]) * (xj[0] - x_hit[0]) + (xj[1] - x_hit[1]) * (xj[1] - x_hit[1]) +
+                           (xj[2] - x_hit[2]) * (xj[2] - x_hit[2]));
+        for (int k = 0; k < 3; k++)
+            n[k] = (xj[k] - x_hit[k]) / dist;
+        obstacle_radius = 0.5 * p->d[partner];
+        obstacle = &cfg->powder;
+    }
+    struct sphere_state sphere = sphere_of(p, i, &cfg->powder), before = sphere;
+    struct contact_outcome outcome;
+    if (!contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
+        return;
+    store_sphere(p, i, &sphere);
+    double r = 0.5 * p->d[i];
+    double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
+    double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
+    int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
+    if (stuck)
+        freeze(s, i, x_hit);
+    record_impact(s, i, at, x_hit, &before, stuck ? DEM_STUCK : DEM_REBOUND, partner < 0 ? -1 : p->id[partner]);
+    if (partner < 0)
+        s->stats.contacts_target++;
+    else
+        s->stats.contacts_deposit++;
+}
+
+static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b, double at)
+{
+    struct dem_particles *p = &s->p;
+    int a_flying = p->state[a] == DEM_FLYING, b_flying = p->state[b] == DEM_FLYING;
+    if (!a_flying && !b_flying)
+        return;
+    if (!b_flying) {
+        resolve_fixed(s, a, b, at);
+        return;
+    }
+    if (!a_flying) { /* a was deposited earlier in this step */
+        resolve_fixed(s, b, a, at);
+        return;
+    }
+    double xa[3], xb[3], n[3];
+    swept_position(p, a, at, xa);
+    swept_position(p, b, at, xb);
+    double dist = sqrt((xb[0] - xa[0]) * (xb[0] - xa[0]) + (xb[1] - xa[1]) * (xb[1] - xa[1]) +
+                       (xb[2] - xa[2]) * (xb[2] - xa[2]));
+    for (int k = 0; k < 3; k++)
+        n[k] = (xb[k] - xa[k]) / dist;
+    struct sphere_state sa = sphere_of(p, a, &s->cfg.powder), sb = sphere_of(p, b, &s->cfg.powder);
+    struct contact_outcome outcome;
+    if (!contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome))
+        return;
+    store_sphere(p, a, &sa);
+    store_sphere(p, b, &sb);
+    s->stats.contacts_pair++;
+}
+
+void dem_collide(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    memcpy(p->v_start, p->v, 3 * p->count * sizeof(double));
+    dem_detect_contacts(s);
+    for (size_t k = 0; k < s->candidates.count; k++) {
+        const struct dem_candidate *c = &s->candidates.items[k];
+        if (c->kind == CONTACT_TARGET) {
+            if (p->state[c->a] == DEM_FLYING)
+                resolve_fixed(s, c->a, -1, c->s);
+        } else {
+            resolve_pair(s, c->a, c->b, c->s);
+        }
+    }
+}

@@ -1,0 +1,138 @@
+/* dem: the spray solver of Mukherjee & Zohdi (2015), J. Comput. Phys. 290:298-317.
+ *
+ * Particles are injected at the nozzle disc (z = 0), carried by a one-way coupled gas jet towards the
+ * target plane z = standoff, collide with each other, the target and deposited particles through
+ * impulses (Section 2), stick or rebound by a deposition rule (Section 3), and are integrated with the
+ * phi-scheme and fixed-point iterations (Section 4.4).  All quantities SI.
+ *
+ * Each step: inject (every feed_every steps); bin; find every contact whose swept spheres touch inside
+ * the step (time of impact, so nothing tunnels); resolve the contacts as impulses in order of time of
+ * impact (collide-and-stream); integrate the smooth forces (drag) of free particles; apply boundaries
+ * (escape, hand-off plane); sample metrics. */
+#ifndef SPRAYCOAT_DEM_H
+#define SPRAYCOAT_DEM_H
+
+#include <hdf5.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/config.h"
+#include "dem/contact.h"
+#include "dem/gas.h"
+#include "dem/material.h"
+#include "dem/sizes.h"
+
+#define DEM_FORMAT "spraycoat-spray"
+#define DEM_FORMAT_VERSION 1
+
+enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
+enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
+enum dem_particle_state { DEM_FLYING = 0, DEM_DEPOSITED = 1 };
+enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1 };
+
+struct dem_config {
+    uint32_t seed;
+    int threads;                  /* 0: all cores */
+    /* [spray] */
+    double dt, t_end;
+    enum dem_injection injection;
+    char particles_path[4096];    /* with injection = file */
+    size_t file_particle_count;   /* rows of the particles file: x y z vx vy vz wx wy wz d */
+    double *file_particles;
+    long feed_count, feed_every, max_injected;
+    double nozzle_radius, release_speed_min, release_speed_max, release_cone; /* release_cone in rad */
+    double phi, fixed_point_tol;
+    long fixed_point_max_iter;
+    double domain_radius, handoff_height;
+    long metrics_every;
+    /* [powder], [target] */
+    struct size_distribution sizes;
+    struct dem_material powder, target;
+    double standoff, deposit_radius;
+    /* [contact], [jet] */
+    struct contact_law contact;
+    struct gas_field gas;
+    /* [deposition] */
+    enum dem_deposition_rule rule;
+    double alpha_adh, critical_velocity;
+    size_t table_count;           /* v_crit(d) table, diameters ascending */
+    double *table_diameter, *table_velocity;
+};
+
+/* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
+extern const struct cfg_key dem_case_keys[];
+
+/* Resolve and cross-check the spray configuration; reads the v_crit table and checks the particles file
+ * exists.  SC_EINPUT with a FILE:LINE: [section] key message on anything wrong. */
+int dem_config_load(const struct case_file *c, struct dem_config *cfg);
+void dem_config_free(struct dem_config *cfg);
+
+/* One row per contact of a particle with the target or a deposited particle (spray.h5:/impacts). */
+struct dem_impact {
+    double t;
+    int64_t particle_id;
+    double x[3], v_in[3], v_out[3], w_in[3], w_out[3];
+    double d, m;
+    int64_t outcome;  /* enum dem_outcome */
+    int64_t partner;  /* -1 the target, else the deposited particle's id */
+};
+
+/* One row per crossing of the hand-off plane z = standoff - handoff_height (spray.h5:/handoff). */
+struct dem_handoff {
+    double t;
+    int64_t particle_id;
+    double x[3], v[3], w[3];
+    double d;
+};
+
+/* Accounting and solver statistics. */
+struct dem_counts {
+    int64_t step;
+    double t;
+    int64_t injected, in_flight, deposited, escaped;
+    int64_t contacts_pair, contacts_target, contacts_deposit;
+    int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
+    int64_t subcycled_particle_steps;
+};
+
+struct dem_solver;
+
+int dem_create(const struct dem_config *cfg, struct dem_solver **out);
+void dem_destroy(struct dem_solver *s);
+
+/* Advance one step.  SC_ESIM with step, particle id and quantity if a particle's state is not finite. */
+int dem_step(struct dem_solver *s);
+/* Total number of steps to t_end. */
+int64_t dem_total_steps(const struct dem_solver *s);
+struct dem_counts dem_get_counts(const struct dem_solver *s);
+/* SC_ESIM if injected != in flight + deposited + escaped. */
+int dem_check_accounting(const struct dem_solver *s);
+
+const struct dem_impact *dem_impacts(const struct dem_solver *s, size_t *count);
+const struct dem_handoff *dem_handoffs(const struct dem_solver *s, size_t *count);
+
+/* Particle state (flying and deposited), in order of injection. */
+size_t dem_particle_count(const struct dem_solver *s);
+struct dem_particle_view {
+    int64_t id;
+    int state;       /* enum dem_particle_state */
+    double x[3], v[3], w[3], d, m;
+};
+struct dem_particle_view dem_particle(const struct dem_solver *s, size_t index);
+
+/* Deposit metrics of Section 5.2 at the current state. */
+struct dem_metrics {
+    double t;
+    int64_t injected, in_flight, deposited, escaped;
+    double deposit_fraction, volume_fraction, mean_spread, scatter, max_thickness, deposition_rate;
+};
+struct dem_metrics dem_compute_metrics(const struct dem_solver *s);
+
+/* Checkpoint: everything the next step needs, into an open group (STYLE.md: X_checkpoint_write). */
+int dem_checkpoint_write(const struct dem_solver *s, hid_t group);
+/* Restore into a solver created from the same configuration. */
+int dem_checkpoint_read(struct dem_solver *s, hid_t group);
+/* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats) into an open file. */
+int dem_write_output(const struct dem_solver *s, hid_t file);
+
+#endif

@@ -1,0 +1,90 @@
+/* Module-private (dem/): the solver's state, shared by the files of dem/. */
+#ifndef SPRAYCOAT_DEM_IMPL_H
+#define SPRAYCOAT_DEM_IMPL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "dem/dem.h"
+
+/* Particles in flight and deposited, structure of arrays, in order of injection (= order of id). */
+struct dem_particles {
+    size_t count, capacity;
+    double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
+    double *x_start;       /* position at the start of the step (hand-off crossings) */
+    double *v_start;       /* velocity at the start of the step (swept contact detection) */
+    double *d, *m;         /* diameter (m), mass (kg) */
+    int64_t *id;
+    uint8_t *state;        /* enum dem_particle_state */
+};
+
+/* Hash grid of cells of side `cell`: particles of cell (i, j, k) are in bucket hash(i, j, k). */
+struct dem_bins {
+    double cell;
+    size_t bucket_count;   /* power of two */
+    uint32_t *bucket_start;/* bucket_count + 1 */
+    uint32_t *items;       /* particle indices sorted by bucket */
+    uint32_t *bucket_of;   /* per particle */
+    size_t capacity;
+};
+
+enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
+
+/* A contact found by the swept-sphere test: particles a (< b when both fly) touch at time s in the step. */
+struct dem_candidate {
+    double s;
+    uint32_t a, b;        /* b unused for CONTACT_TARGET */
+    int kind;
+};
+
+struct dem_candidates {
+    struct dem_candidate *items;
+    size_t count, capacity;
+};
+
+struct dem_solver {
+    struct dem_config cfg;        /* copy; table and file arrays are owned by the caller's config */
+    double weibull_lambda;
+    int64_t step;
+    int64_t injected, escaped, deposited;
+    int64_t injection_deferred;   /* particles that found no free place in the nozzle disc */
+    struct dem_particles p;
+    struct dem_bins bins;
+    struct dem_candidates candidates;
+    struct dem_counts stats;      /* cumulative contact and iteration counts */
+    struct dem_impact *impacts;
+    size_t impact_count, impact_capacity;
+    struct dem_handoff *handoffs;
+    size_t handoff_count, handoff_capacity;
+    struct dem_metrics *metrics;
+    size_t metric_count, metric_capacity;
+};
+
+/* dem/particles.c */
+void particles_reserve(struct dem_particles *p, size_t capacity);
+size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
+                        const double w[3], double d, double density);
+void particles_free(struct dem_particles *p);
+/* Remove the particles with keep[i] == 0, preserving the order of the others. */
+void particles_compact(struct dem_particles *p, const uint8_t *keep);
+
+/* dem/inject.c */
+void dem_inject(struct dem_solver *s);
+
+void dem_bins_free(struct dem_bins *bins);
+
+/* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */
+void dem_detect_contacts(struct dem_solver *s);
+/* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time. */
+void dem_collide(struct dem_solver *s);
+
+/* dem/integrate.c: advance the free particles over one step with the phi-scheme. */
+int dem_integrate(struct dem_solver *s);
+
+/* dem/output.c */
+void dem_sample_metrics(struct dem_solver *s);
+
+/* Grow a record array by one and return the new slot. */
+void *dem_grow(void **items, size_t *count, size_t *capacity, size_t item_size);
+
+#endif

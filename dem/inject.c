@@ -1,0 +1,132 @@
+/* Injection at the nozzle, Mukherjee & Zohdi Section 4.1 (Eq. 35) and 4.2.
+ *
+ * Every feed_every steps, feed_count particles are placed in the nozzle disc (z = 0) by random sequential
+ * addition: a uniformly random position in the disc, retried until it overlaps neither the particles of
+ * this batch nor those still near the nozzle.  All draws come from the counter-based generator keyed by
+ * (seed, stream, particle id, attempt), so injection does not depend on threads or restarts. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "core/log.h"
+#include "core/rng.h"
+#include "dem/dem_impl.h"
+
+#define PLACEMENT_ATTEMPTS 1000
+
+static double sample_diameter(const struct dem_solver *s, int64_t id)
+{
+    double u[2];
+    rng_uniform2(s->cfg.seed, RNG_STREAM_SIZE, (uint64_t)id, 0, 0, u);
+    return sizes_sample(&s->cfg.sizes, u[0]);
+}
+
+/* Release velocity: speed uniform in [min, max], direction uniform in solid angle inside the cone. */
+static void sample_velocity(const struct dem_solver *s, int64_t id, double v[3])
+{
+    double u[4];
+    rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_VELOCITY, (uint64_t)id, 0, 0, u);
+    rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_VELOCITY, (uint64_t)id, 0, 1, u + 2);
+    const struct dem_config *cfg = &s->cfg;
+    double speed = cfg->release_speed_min + (cfg->release_speed_max - cfg->release_speed_min) * u[0];
+    double cos_polar = 1.0 - u[1] * (1.0 - cos(cfg->release_cone));
+    double sin_polar = sqrt(fmax(0.0, 1.0 - cos_polar * cos_polar));
+    double azimuth = 2.0 * M_PI * u[2];
+    v[0] = speed * sin_polar * cos(azimuth);
+    v[1] = speed * sin_polar * sin(azimuth);
+    v[2] = speed * cos_polar;
+}
+
+static int overlaps(const struct dem_particles *p, const size_t *near, size_t near_count, const double x[3],
+                    double d)
+{
+    for (size_t k = 0; k < near_count; k++) {
+        size_t j = near[k];
+        double dx = p->x[3 * j] - x[0], dy = p->x[3 * j + 1] - x[1], dz = p->x[3 * j + 2] - x[2];
+        double contact = 0.5 * (p->d[j] + d);
+        if (dx * dx + dy * dy + dz * dz < contact * contact)
+            return 1;
+    }
+    return 0;
+}
+
+/* A free position in the disc for particle `id`, or 0 if none was found. */
+static int place_in_disc(const struct dem_solver *s, int64_t id, double d, const size_t *near, size_t near_count,
+                         double x[3])
+{
+    double usable_radius = s->cfg.nozzle_radius - 0.5 * d;
+    for (uint32_t attempt = 0; attempt < PLACEMENT_ATTEMPTS; attempt++) {
+        double u[2];
+        rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_POSITION, (uint64_t)id, attempt, 0, u);
+        double r = usable_radius * sqrt(u[0]), angle = 2.0 * M_PI * u[1];
+        x[0] = r * cos(angle);
+        x[1] = r * sin(angle);
+        x[2] = 0.0;
+        if (!overlaps(&s->p, near, near_count, x, d))
+            return 1;
+    }
+    return 0;
+}
+
+/* Indices of the particles that could touch a new particle in the disc (their z below the largest diameter). */
+static size_t *particles_near_nozzle(const struct dem_solver *s, size_t extra, size_t *count)
+{
+    size_t *near = malloc((s->p.count + extra + 1) * sizeof *near);
+    double reach = 0.0;
+    for (size_t i = 0; i < s->p.count; i++)
+        reach = fmax(reach, s->p.d[i]);
+    reach = fmax(reach, s->cfg.sizes.d_max < INFINITY ? s->cfg.sizes.d_max : 10 * s->cfg.sizes.median_diameter);
+    *count = 0;
+    for (size_t i = 0; i < s->p.count; i++)
+        if (s->p.x[3 * i + 2] < reach)
+            near[(*count)++] = i;
+    return near;
+}
+
+static void inject_stream(struct dem_solver *s)
+{
+    const struct dem_config *cfg = &s->cfg;
+    int64_t batch = cfg->feed_count;
+    if (s->injected + batch > cfg->max_injected)
+        batch = cfg->max_injected - s->injected;
+    if (batch <= 0)
+        return;
+    size_t near_count;
+    size_t *near = particles_near_nozzle(s, (size_t)batch, &near_count);
+    const double spin[3] = {0, 0, 0};
+    for (int64_t k = 0; k < batch; k++) {
+        int64_t id = s->injected + s->injection_deferred;
+        double d = sample_diameter(s, id), x[3], v[3];
+        if (!place_in_disc(s, id, d, near, near_count, x)) {
+            if (s->injection_deferred++ == 0)
+                log_warn("spray: step %lld: no free place for particle %lld in the nozzle disc after %d attempts; "
+                         "it is skipped (feed_count too high for nozzle_radius?)",
+                         (long long)s->step, (long long)id, PLACEMENT_ATTEMPTS);
+            continue;
+        }
+        sample_velocity(s, id, v);
+        near[near_count++] = particles_append(&s->p, id, x, v, spin, d, cfg->powder.density);
+        s->injected++;
+    }
+    free(near);
+}
+
+static void inject_file(struct dem_solver *s)
+{
+    const struct dem_config *cfg = &s->cfg;
+    for (size_t i = 0; i < cfg->file_particle_count; i++) {
+        const double *row = cfg->file_particles + 10 * i;
+        particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
+        s->injected++;
+    }
+}
+
+void dem_inject(struct dem_solver *s)
+{
+    if (s->cfg.injection == DEM_INJECT_FILE) {
+        if (s->step == 0)
+            inject_file(s);
+        return;
+    }
+    if (s->step % s->cfg.feed_every == 0)
+        inject_stream(s);
+}

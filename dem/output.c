@@ -1,0 +1,290 @@
+/* Deposit metrics (Mukherjee & Zohdi Section 5.2), checkpoints and the spray.h5 datasets. */
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "dem/dem_impl.h"
+
+/* ---------------------------------------------------------------- metrics */
+
+/* Section 5.2.  x0 is the centre of the target (on the spray axis), s = +z the streamwise direction.
+ * The paper's "volume of the deposit-target" has no stated thickness: we take the disc of radius
+ * deposit_radius and thickness D_median, so the volume fraction is the deposited particle volume in that
+ * region per monolayer-thick disc (README, "Metrics"). */
+struct dem_metrics dem_compute_metrics(const struct dem_solver *s)
+{
+    const struct dem_particles *p = &s->p;
+    const struct dem_config *cfg = &s->cfg;
+    struct dem_metrics m = {.t = (double)s->step * cfg->dt, .injected = s->injected, .deposited = s->deposited,
+                            .escaped = s->escaped};
+    m.in_flight = s->injected - s->deposited - s->escaped;
+    m.deposit_fraction = s->injected ? (double)s->deposited / (double)s->injected : 0.0;
+    double region2 = cfg->deposit_radius * cfg->deposit_radius, volume = 0.0, spread_sum = 0.0;
+    double z_min = INFINITY, z_max = -INFINITY;
+    for (size_t i = 0; i < p->count; i++) {
+        if (p->state[i] != DEM_DEPOSITED)
+            continue;
+        const double *x = p->x + 3 * i;
+        double lateral2 = x[0] * x[0] + x[1] * x[1];
+        if (lateral2 <= region2)
+            volume += M_PI * p->d[i] * p->d[i] * p->d[i] / 6.0;
+        spread_sum += sqrt(lateral2 + (x[2] - cfg->standoff) * (x[2] - cfg->standoff));
+        z_min = fmin(z_min, x[2]);
+        z_max = fmax(z_max, x[2]);
+    }
+    m.volume_fraction = volume / (M_PI * region2 * cfg->sizes.median_diameter);
+    if (s->deposited > 0) {
+        m.mean_spread = spread_sum / (double)s->deposited;
+        double square_sum = 0.0;
+        for (size_t i = 0; i < p->count; i++) {
+            if (p->state[i] != DEM_DEPOSITED)
+                continue;
+            const double *x = p->x + 3 * i;
+            double spread = sqrt(x[0] * x[0] + x[1] * x[1] + (x[2] - cfg->standoff) * (x[2] - cfg->standoff));
+            square_sum += (spread - m.mean_spread) * (spread - m.mean_spread);
+        }
+        m.scatter = sqrt(square_sum / (double)s->deposited);
+        m.max_thickness = z_max - z_min;
+    }
+    return m;
+}
+
+void dem_sample_metrics(struct dem_solver *s)
+{
+    struct dem_metrics now = dem_compute_metrics(s);
+    if (s->metric_count > 0) {
+        const struct dem_metrics *last = &s->metrics[s->metric_count - 1];
+        if (now.t <= last->t)
+            return; /* already sampled at this time */
+        now.deposition_rate = (double)(now.deposited - last->deposited) / (now.t - last->t);
+    } else if (now.t > 0) {
+        now.deposition_rate = (double)now.deposited / now.t;
+    }
+    struct dem_metrics *row = dem_grow((void **)&s->metrics, &s->metric_count, &s->metric_capacity, sizeof *row);
+    *row = now;
+}
+
+/* ---------------------------------------------------------------- column writers */
+
+static int write_column(hid_t group, const char *name, const void *rows, size_t count, size_t stride,
+                        size_t offset, int width, const char *units, int is_int)
+{
+    hsize_t dims[2] = {count, (hsize_t)width};
+    int rank = width == 1 ? 1 : 2;
+    size_t n = count * (size_t)width;
+    void *column = malloc((n ? n : 1) * 8);
+    for (size_t i = 0; i < count; i++)
+        memcpy((char *)column + i * (size_t)width * 8, (const char *)rows + i * stride + offset, (size_t)width * 8);
+    int status = is_int ? h5_write_int64s(group, name, rank, dims, column, units, 0)
+                        : h5_write_doubles(group, name, rank, dims, column, units, 0);
+    free(column);
+    return status;
+}
+
+#define COLUMN(group, rows, count, type, field, width, units, is_int)                                       \
+    SC_TRY(write_column(group, #field, rows, count, sizeof(type), offsetof(type, field), width, units, is_int))
+
+static int write_impacts(hid_t file, const struct dem_solver *s)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "impacts", &g));
+    const struct dem_impact *r = s->impacts;
+    size_t n = s->impact_count;
+    COLUMN(g, r, n, struct dem_impact, t, 1, "s", 0);
+    COLUMN(g, r, n, struct dem_impact, particle_id, 1, "", 1);
+    COLUMN(g, r, n, struct dem_impact, x, 3, "m", 0);
+    COLUMN(g, r, n, struct dem_impact, v_in, 3, "m/s", 0);
+    COLUMN(g, r, n, struct dem_impact, v_out, 3, "m/s", 0);
+    COLUMN(g, r, n, struct dem_impact, w_in, 3, "rad/s", 0);
+    COLUMN(g, r, n, struct dem_impact, w_out, 3, "rad/s", 0);
+    COLUMN(g, r, n, struct dem_impact, d, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_impact, m, 1, "kg", 0);
+    COLUMN(g, r, n, struct dem_impact, outcome, 1, "0 rebound, 1 deposited", 1);
+    COLUMN(g, r, n, struct dem_impact, partner, 1, "-1 target, else particle id", 1);
+    H5Gclose(g);
+    return SC_OK;
+}
+
+static int write_handoffs(hid_t file, const struct dem_solver *s)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "handoff", &g));
+    const struct dem_handoff *r = s->handoffs;
+    size_t n = s->handoff_count;
+    COLUMN(g, r, n, struct dem_handoff, t, 1, "s", 0);
+    COLUMN(g, r, n, struct dem_handoff, particle_id, 1, "", 1);
+    COLUMN(g, r, n, struct dem_handoff, x, 3, "m", 0);
+    COLUMN(g, r, n, struct dem_handoff, v, 3, "m/s", 0);
+    COLUMN(g, r, n, struct dem_handoff, w, 3, "rad/s", 0);
+    COLUMN(g, r, n, struct dem_handoff, d, 1, "m", 0);
+    SC_TRY(h5_attr_write_double(g, "plane_z", s->cfg.standoff - s->cfg.handoff_height));
+    H5Gclose(g);
+    return SC_OK;
+}
+
+static int write_metrics(hid_t file, const struct dem_solver *s)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "metrics", &g));
+    const struct dem_metrics *r = s->metrics;
+    size_t n = s->metric_count;
+    COLUMN(g, r, n, struct dem_metrics, t, 1, "s", 0);
+    COLUMN(g, r, n, struct dem_metrics, injected, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, in_flight, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, deposited, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, escaped, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, deposit_fraction, 1, "-", 0);
+    COLUMN(g, r, n, struct dem_metrics, volume_fraction, 1, "-", 0);
+    COLUMN(g, r, n, struct dem_metrics, mean_spread, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_metrics, scatter, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_metrics, max_thickness, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_metrics, deposition_rate, 1, "1/s", 0);
+    H5Gclose(g);
+    return SC_OK;
+}
+
+static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
+{
+    const struct dem_particles *p = &s->p;
+    hid_t g;
+    SC_TRY(h5_create_group(file, "particles", &g));
+    hsize_t n1[1] = {p->count}, n3[2] = {p->count, 3};
+    int64_t *state = malloc((p->count ? p->count : 1) * sizeof *state);
+    for (size_t i = 0; i < p->count; i++)
+        state[i] = p->state[i];
+    int status = h5_write_int64s(g, "id", 1, n1, p->id, "", checksum);
+    if (status == SC_OK)
+        status = h5_write_int64s(g, "state", 1, n1, state, "0 flying, 1 deposited", checksum);
+    free(state);
+    SC_TRY(status);
+    SC_TRY(h5_write_doubles(g, "x", 2, n3, p->x, "m", checksum));
+    SC_TRY(h5_write_doubles(g, "v", 2, n3, p->v, "m/s", checksum));
+    SC_TRY(h5_write_doubles(g, "w", 2, n3, p->w, "rad/s", checksum));
+    SC_TRY(h5_write_doubles(g, "d", 1, n1, p->d, "m", checksum));
+    SC_TRY(h5_write_doubles(g, "m", 1, n1, p->m, "kg", checksum));
+    H5Gclose(g);
+    return SC_OK;
+}
+
+static int write_stats(hid_t file, const struct dem_solver *s)
+{
+    struct dem_counts c = dem_get_counts(s);
+    hid_t g;
+    SC_TRY(h5_create_group(file, "stats", &g));
+    SC_TRY(h5_attr_write_int64(g, "steps", c.step));
+    SC_TRY(h5_attr_write_double(g, "t", c.t));
+    SC_TRY(h5_attr_write_int64(g, "injected", c.injected));
+    SC_TRY(h5_attr_write_int64(g, "in_flight", c.in_flight));
+    SC_TRY(h5_attr_write_int64(g, "deposited", c.deposited));
+    SC_TRY(h5_attr_write_int64(g, "escaped", c.escaped));
+    SC_TRY(h5_attr_write_int64(g, "injection_deferred", s->injection_deferred));
+    SC_TRY(h5_attr_write_int64(g, "contacts_pair", c.contacts_pair));
+    SC_TRY(h5_attr_write_int64(g, "contacts_target", c.contacts_target));
+    SC_TRY(h5_attr_write_int64(g, "contacts_deposit", c.contacts_deposit));
+    SC_TRY(h5_attr_write_int64(g, "fixed_point_iterations", c.fixed_point_iterations));
+    SC_TRY(h5_attr_write_int64(g, "fixed_point_solves", c.fixed_point_solves));
+    SC_TRY(h5_attr_write_int64(g, "fixed_point_unconverged", c.fixed_point_unconverged));
+    SC_TRY(h5_attr_write_int64(g, "fixed_point_max_iterations", c.max_iterations));
+    SC_TRY(h5_attr_write_int64(g, "subcycled_particle_steps", c.subcycled_particle_steps));
+    H5Gclose(g);
+    return SC_OK;
+}
+
+int dem_write_output(const struct dem_solver *s, hid_t file)
+{
+    SC_TRY(write_particles(file, s, 0));
+    SC_TRY(write_impacts(file, s));
+    SC_TRY(write_handoffs(file, s));
+    SC_TRY(write_metrics(file, s));
+    SC_TRY(write_stats(file, s));
+    return SC_OK;
+}
+
+/* ---------------------------------------------------------------- checkpoints */
+
+/* Scalars of the solver state, in this order, in the dataset "counters". */
+enum { COUNTER_STEP, COUNTER_INJECTED, COUNTER_ESCAPED, COUNTER_DEPOSITED, COUNTER_DEFERRED, COUNTER_COUNT };
+
+int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
+{
+    int64_t counters[COUNTER_COUNT] = {s->step, s->injected, s->escaped, s->deposited, s->injection_deferred};
+    hsize_t dims[1] = {COUNTER_COUNT};
+    SC_TRY(h5_write_int64s(group, "counters", 1, dims, counters, "", 1));
+    SC_TRY(h5_write_bytes(group, "stats", sizeof s->stats, &s->stats, 1));
+    SC_TRY(write_particles(group, s, 1));
+    SC_TRY(h5_write_bytes(group, "impacts", s->impact_count * sizeof *s->impacts, s->impacts, 1));
+    SC_TRY(h5_write_bytes(group, "handoffs", s->handoff_count * sizeof *s->handoffs, s->handoffs, 1));
+    SC_TRY(h5_write_bytes(group, "metrics", s->metric_count * sizeof *s->metrics, s->metrics, 1));
+    return SC_OK;
+}
+
+static int read_records(hid_t group, const char *name, void **items, size_t *count, size_t *capacity,
+                        size_t item_size)
+{
+    size_t bytes;
+    SC_TRY(h5_dataset_size(group, name, &bytes));
+    if (bytes % item_size != 0)
+        SC_FAIL(SC_EIO, "checkpoint dataset %s has %zu bytes, not a multiple of %zu", name, bytes, item_size);
+    *count = bytes / item_size;
+    *capacity = *count ? *count : 1;
+    free(*items);
+    *items = malloc(*capacity * item_size);
+    if (bytes)
+        SC_TRY(h5_read_bytes(group, name, *items, bytes));
+    return SC_OK;
+}
+
+static int read_particles(hid_t group, struct dem_particles *p)
+{
+    hid_t g = H5Gopen2(group, "particles", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "checkpoint has no /particles group");
+    size_t n;
+    int status = h5_dataset_size(g, "id", &n);
+    if (status == SC_OK) {
+        particles_reserve(p, n ? n : 1);
+        p->count = n;
+        int64_t *state = malloc((n ? n : 1) * sizeof *state);
+        status = h5_read_int64s(g, "id", p->id, n);
+        if (status == SC_OK)
+            status = h5_read_int64s(g, "state", state, n);
+        for (size_t i = 0; status == SC_OK && i < n; i++)
+            p->state[i] = (uint8_t)state[i];
+        free(state);
+    }
+    if (status == SC_OK)
+        status = h5_read_doubles(g, "x", p->x, 3 * n);
+    if (status == SC_OK)
+        status = h5_read_doubles(g, "v", p->v, 3 * n);
+    if (status == SC_OK)
+        status = h5_read_doubles(g, "w", p->w, 3 * n);
+    if (status == SC_OK)
+        status = h5_read_doubles(g, "d", p->d, n);
+    if (status == SC_OK)
+        status = h5_read_doubles(g, "m", p->m, n);
+    H5Gclose(g);
+    return status;
+}
+
+int dem_checkpoint_read(struct dem_solver *s, hid_t group)
+{
+    int64_t counters[COUNTER_COUNT];
+    SC_TRY(h5_read_int64s(group, "counters", counters, COUNTER_COUNT));
+    s->step = counters[COUNTER_STEP];
+    s->injected = counters[COUNTER_INJECTED];
+    s->escaped = counters[COUNTER_ESCAPED];
+    s->deposited = counters[COUNTER_DEPOSITED];
+    s->injection_deferred = counters[COUNTER_DEFERRED];
+    SC_TRY(h5_read_bytes(group, "stats", &s->stats, sizeof s->stats));
+    SC_TRY(read_particles(group, &s->p));
+    SC_TRY(read_records(group, "impacts", (void **)&s->impacts, &s->impact_count, &s->impact_capacity,
+                        sizeof *s->impacts));
+    SC_TRY(read_records(group, "handoffs", (void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity,
+                        sizeof *s->handoffs));
+    SC_TRY(read_records(group, "metrics", (void **)&s->metrics, &s->metric_count, &s->metric_capacity,
+                        sizeof *s->metrics));
+    return dem_check_accounting(s);
+}

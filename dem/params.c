@@ -1,0 +1,416 @@
+/* The spray stage's case keys and their resolution into struct dem_config. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/run_keys.h"
+#include "dem/dem.h"
+
+#define INF_RANGE 1e300
+
+const struct cfg_key dem_case_keys[] = {
+    /* [spray] */
+    {"spray", "dt", CFG_REAL, "s", "2e-6", 0, 1e-2, 1, NULL, "time step"},
+    {"spray", "t_end", CFG_REAL, "s", "0.01", 0, 1e4, 1, NULL, "simulated time"},
+    {"spray", "injection", CFG_CHOICE, "", "stream", 0, 0, 0, "stream|file",
+     "stream: random injection at the nozzle (Eq. 35); file: particles read from `particles`"},
+    {"spray", "particles", CFG_PATH, "", NULL, 0, 0, 0, NULL,
+     "CSV with header x,y,z,vx,vy,vz,wx,wy,wz,d (SI), with injection = file"},
+    {"spray", "feed_count", CFG_INT, "-", "50", 1, 1e7, 0, NULL, "N_in: particles per injection (Eq. 35)"},
+    {"spray", "feed_every", CFG_INT, "steps", "100", 1, 2e9, 0, NULL, "T_in: steps between injections (Eq. 35)"},
+    {"spray", "max_injected", CFG_INT, "-", "50050", 1, 1e9, 0, NULL, "injection stops after this many particles"},
+    {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL, "radius of the injection disc at z = 0"},
+    {"spray", "release_speed_min", CFG_REAL, "m/s", "0", 0, 1e4, 0, NULL, "lowest release speed"},
+    {"spray", "release_speed_max", CFG_REAL, "m/s", "50", 0, 1e4, 0, NULL, "highest release speed"},
+    {"spray", "release_cone", CFG_REAL, "deg", "0", 0, 89.9, 0, NULL,
+     "half-angle of the cone of release directions around +z (uniform in solid angle)"},
+    {"spray", "phi", CFG_REAL, "-", "0.5", 0, 1, 0, NULL, "phi of the one-step scheme, Eqs. 42-43 (0.5: trapezoidal)"},
+    {"spray", "fixed_point_tol", CFG_REAL, "-", "1e-8", 0, 0.1, 1, NULL,
+     "relative tolerance of the fixed-point iterations, Eq. 53 (per particle)"},
+    {"spray", "fixed_point_max_iter", CFG_INT, "-", "50", 1, 100000, 0, NULL, "iteration limit per step"},
+    {"spray", "domain_radius", CFG_REAL, "m", "0.1", 0, 100, 1, NULL,
+     "escape boundary: particles farther than this from the axis are removed"},
+    {"spray", "handoff_height", CFG_REAL, "m", "0.01", 0, 100, 0, NULL,
+     "height above the target of the hand-off plane whose crossings are recorded"},
+    {"spray", "metrics_every", CFG_INT, "steps", "100", 1, 2e9, 0, NULL, "steps between metric samples"},
+    /* [powder] */
+    {"powder", "distribution", CFG_CHOICE, "", "weibull", 0, 0, 0, "weibull|mono", "size distribution, Eq. 36"},
+    {"powder", "median_diameter", CFG_REAL, "m", "160e-6", 0, 1, 1, NULL, "D_median, Eq. 37"},
+    {"powder", "shape", CFG_REAL, "-", "5", 0, 100, 1, NULL, "Weibull shape n, Eq. 36"},
+    {"powder", "d_min", CFG_REAL, "m", "0", 0, 1, 0, NULL, "smallest diameter (truncation; 0 = none)"},
+    {"powder", "d_max", CFG_REAL, "m", "0", 0, 1, 0, NULL, "largest diameter (truncation; 0 = none)"},
+    {"powder", "density", CFG_REAL, "kg/m3", "5680", 0, 1e5, 1, NULL, "particle density (Table 1)"},
+    {"powder", "shear_modulus", CFG_REAL, "Pa", "77e9", 0, 1e13, 1, NULL, "particle G (Table 1)"},
+    {"powder", "bulk_modulus", CFG_REAL, "Pa", "167e9", 0, 1e13, 1, NULL, "particle K (Table 1)"},
+    {"powder", "yield_stress", CFG_REAL, "Pa", "690e6", 0, 1e12, 1, NULL, "particle yield stress Y, Eqs. 17-19"},
+    {"powder", "surface_energy", CFG_REAL, "J/m2", "46e-3", 0, 100, 0, NULL, "particle surface energy (Table 1)"},
+    {"powder", "friction", CFG_REAL, "-", "0.5", 0, 10, 0, NULL, "particle Coulomb friction coefficient"},
+    /* [target] */
+    {"target", "standoff", CFG_REAL, "m", "0.3", 0, 100, 1, NULL, "distance nozzle exit to target plane"},
+    {"target", "shear_modulus", CFG_REAL, "Pa", "80e9", 0, 1e13, 1, NULL, "target G (Table 1)"},
+    {"target", "bulk_modulus", CFG_REAL, "Pa", "160e9", 0, 1e13, 1, NULL, "target K (Table 1)"},
+    {"target", "yield_stress", CFG_REAL, "Pa", "690e6", 0, 1e12, 1, NULL, "target yield stress (Table 1)"},
+    {"target", "surface_energy", CFG_REAL, "J/m2", "1.1", 0, 100, 0, NULL, "target surface energy (Table 1)"},
+    {"target", "friction", CFG_REAL, "-", "0.5", 0, 10, 0, NULL, "target Coulomb friction coefficient"},
+    {"target", "deposit_radius", CFG_REAL, "m", "0.005", 0, 100, 1, NULL,
+     "radius of the deposit region around the axis used for the volume fraction"},
+    /* [contact] */
+    {"contact", "restitution", CFG_REAL, "-", "johnson", 0, 1, 0, "johnson",
+     "johnson: velocity-dependent e of Eqs. 16-19; or a constant e in [0, 1]"},
+    {"contact", "friction_regularization", CFG_REAL, "m/s", "1e-4", 0, 1e3, 1, NULL,
+     "slip speed epsilon of the regularised Coulomb law, Eq. 11"},
+    /* [jet] */
+    {"jet", "model", CFG_CHOICE, "", "bickley", 0, 0, 0, "bickley|uniform|none",
+     "gas field: self-similar jet of Eqs. 26-27, uniform stream along +z, or no gas (no drag)"},
+    {"jet", "drag", CFG_CHOICE, "", "haider_levenspiel", 0, 0, 0, "haider_levenspiel|stokes",
+     "drag coefficient: Eq. 25, or Stokes 24/Re"},
+    {"jet", "C1", CFG_REAL, "m^(4/3)/s", "30", 0, 1e6, 0, NULL, "axial velocity scale, Eq. 26"},
+    {"jet", "C2", CFG_REAL, "m^(5/3)/s", NULL, -1e6, 1e6, 0, NULL,
+     "entrainment scale, Eq. 27 (default C1/(3 C3): divergence-free)"},
+    {"jet", "C3", CFG_REAL, "m^(-1/3)", "20", 0, 1e6, 1, NULL, "spreading constant, Eqs. 26-27"},
+    {"jet", "virtual_origin", CFG_REAL, "m", "0.1", 0, 100, 0, NULL,
+     "distance of the jet's virtual origin behind the nozzle exit (x = z + virtual_origin)"},
+    {"jet", "core_length", CFG_REAL, "m", "0.02", 0, 100, 0, NULL,
+     "potential core: no decay and no entrainment for z below this"},
+    {"jet", "gas_density", CFG_REAL, "kg/m3", "1.1", 0, 1e4, 1, NULL, "carrier gas density (Table 1)"},
+    {"jet", "gas_viscosity", CFG_REAL, "m2/s", "25e-6", 0, 1, 1, NULL, "kinematic viscosity (Table 1)"},
+    {"jet", "uniform_velocity", CFG_REAL, "m/s", "0", -1e4, 1e4, 0, NULL, "gas velocity along +z, model = uniform"},
+    /* [deposition] */
+    {"deposition", "rule", CFG_CHOICE, "", "adhesion", 0, 0, 0, "adhesion|critical_velocity|table|none",
+     "adhesion: stick below the Eq. 34 speed; critical_velocity/table: stick at or above v_crit (cold "
+     "spray); none: always rebound"},
+    {"deposition", "alpha_adh", CFG_REAL, "-", "5000", 0, 1e12, 1, NULL, "alpha_ADH factor of Eq. 34"},
+    {"deposition", "critical_velocity", CFG_REAL, "m/s", NULL, 0, 1e5, 1, NULL,
+     "normal impact speed at and above which a particle sticks, rule = critical_velocity"},
+    {"deposition", "table", CFG_PATH, "", NULL, 0, 0, 0, NULL,
+     "v_crit(d) table (CSV with columns diameter,v_crit, or HDF5 with datasets diameter, v_crit: the "
+     "output of `spraycoat vcrit`), rule = table"},
+    {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
+};
+
+static void load_material(const struct case_file *c, const char *section, struct dem_material *m)
+{
+    m->density = strcmp(section, "powder") == 0 ? case_real(c, section, "density") : 0.0;
+    m->shear_modulus = case_real(c, section, "shear_modulus");
+    m->bulk_modulus = case_real(c, section, "bulk_modulus");
+    m->yield_stress = case_real(c, section, "yield_stress");
+    m->surface_energy = case_real(c, section, "surface_energy");
+    m->friction = case_real(c, section, "friction");
+}
+
+static int load_spray(const struct case_file *c, struct dem_config *cfg)
+{
+    cfg->dt = case_real(c, "spray", "dt");
+    cfg->t_end = case_real(c, "spray", "t_end");
+    cfg->injection = case_is(c, "spray", "injection", "file") ? DEM_INJECT_FILE : DEM_INJECT_STREAM;
+    cfg->feed_count = case_int(c, "spray", "feed_count");
+    cfg->feed_every = case_int(c, "spray", "feed_every");
+    cfg->max_injected = case_int(c, "spray", "max_injected");
+    cfg->nozzle_radius = case_real(c, "spray", "nozzle_radius");
+    cfg->release_speed_min = case_real(c, "spray", "release_speed_min");
+    cfg->release_speed_max = case_real(c, "spray", "release_speed_max");
+    cfg->release_cone = case_real(c, "spray", "release_cone") * M_PI / 180.0;
+    cfg->phi = case_real(c, "spray", "phi");
+    cfg->fixed_point_tol = case_real(c, "spray", "fixed_point_tol");
+    cfg->fixed_point_max_iter = case_int(c, "spray", "fixed_point_max_iter");
+    cfg->domain_radius = case_real(c, "spray", "domain_radius");
+    cfg->handoff_height = case_real(c, "spray", "handoff_height");
+    cfg->metrics_every = case_int(c, "spray", "metrics_every");
+    if (cfg->release_speed_min > cfg->release_speed_max)
+        return case_invalid(c, "spray", "release_speed_min", "greater than release_speed_max = %g m/s",
+                            cfg->release_speed_max);
+    if (cfg->dt > cfg->t_end)
+        return case_invalid(c, "spray", "dt", "longer than t_end = %g s", cfg->t_end);
+    return SC_OK;
+}
+
+static int load_powder(const struct case_file *c, struct dem_config *cfg)
+{
+    struct size_distribution *sizes = &cfg->sizes;
+    sizes->monodisperse = case_is(c, "powder", "distribution", "mono");
+    sizes->median_diameter = case_real(c, "powder", "median_diameter");
+    sizes->shape = case_real(c, "powder", "shape");
+    sizes->d_min = case_real(c, "powder", "d_min");
+    double d_max = case_real(c, "powder", "d_max");
+    sizes->d_max = d_max > 0 ? d_max : INFINITY;
+    if (sizes->d_min >= sizes->d_max)
+        return case_invalid(c, "powder", "d_min", "not below d_max = %g m", d_max);
+    if (!sizes->monodisperse && sizes->d_max < INFINITY) {
+        double scale = weibull_scale(sizes->median_diameter, sizes->shape);
+        double mass = weibull_cdf(sizes->d_max, scale, sizes->shape) - weibull_cdf(sizes->d_min, scale, sizes->shape);
+        if (!(mass > 1e-12))
+            return case_invalid(c, "powder", "d_max",
+                                "the range [d_min, d_max] holds no part of the Weibull distribution "
+                                "(median %g m, shape %g)", sizes->median_diameter, sizes->shape);
+    }
+    load_material(c, "powder", &cfg->powder);
+    return SC_OK;
+}
+
+static int load_target(const struct case_file *c, struct dem_config *cfg)
+{
+    load_material(c, "target", &cfg->target);
+    cfg->standoff = case_real(c, "target", "standoff");
+    cfg->deposit_radius = case_real(c, "target", "deposit_radius");
+    if (cfg->handoff_height >= cfg->standoff)
+        return case_invalid(c, "spray", "handoff_height", "not below the standoff %g m", cfg->standoff);
+    return SC_OK;
+}
+
+static void load_contact_and_jet(const struct case_file *c, struct dem_config *cfg)
+{
+    struct contact_law *law = &cfg->contact;
+    law->friction_regularization = case_real(c, "contact", "friction_regularization");
+    if (case_is(c, "contact", "restitution", "johnson")) {
+        law->model = RESTITUTION_JOHNSON;
+        law->restitution = 1.0;
+    } else {
+        law->model = RESTITUTION_CONSTANT;
+        law->restitution = case_real(c, "contact", "restitution");
+    }
+    struct gas_field *gas = &cfg->gas;
+    gas->model = case_is(c, "jet", "model", "bickley") ? JET_BICKLEY
+                 : case_is(c, "jet", "model", "uniform") ? JET_UNIFORM : JET_NONE;
+    gas->drag = case_is(c, "jet", "drag", "stokes") ? DRAG_STOKES : DRAG_HAIDER_LEVENSPIEL;
+    gas->c1 = case_real(c, "jet", "C1");
+    gas->c3 = case_real(c, "jet", "C3");
+    /* DESIGN.md erratum of Eq. 27: C2 = C1/(3 C3) makes the planar jet divergence-free. */
+    gas->c2 = case_has(c, "jet", "C2") ? case_real(c, "jet", "C2") : gas->c1 / (3.0 * gas->c3);
+    gas->virtual_origin = case_real(c, "jet", "virtual_origin");
+    gas->core_length = case_real(c, "jet", "core_length");
+    gas->uniform_velocity = case_real(c, "jet", "uniform_velocity");
+    gas->density = case_real(c, "jet", "gas_density");
+    gas->kinematic_viscosity = case_real(c, "jet", "gas_viscosity");
+}
+
+/* Split a CSV line in place into at most max fields; returns the number of fields. */
+static int split_csv(char *line, char **fields, int max)
+{
+    int n = 0;
+    char *cursor = line;
+    line[strcspn(line, "\r\n")] = '\0';
+    while (n < max) {
+        fields[n++] = cursor;
+        char *comma = strchr(cursor, ',');
+        if (!comma)
+            break;
+        *comma = '\0';
+        cursor = comma + 1;
+    }
+    for (int i = 0; i < n; i++) {
+        while (*fields[i] == ' ' || *fields[i] == '\t')
+            fields[i]++;
+        char *end = fields[i] + strlen(fields[i]);
+        while (end > fields[i] && (end[-1] == ' ' || end[-1] == '\t'))
+            *--end = '\0';
+    }
+    return n;
+}
+
+static int parse_finite(const char *text, double *value)
+{
+    char *end;
+    errno = 0;
+    *value = strtod(text, &end);
+    return end != text && *end == '\0' && errno == 0 && isfinite(*value);
+}
+
+static int column_index(char **names, int count, const char *wanted)
+{
+    for (int i = 0; i < count; i++)
+        if (strcmp(names[i], wanted) == 0)
+            return i;
+    return -1;
+}
+
+/* Read the numeric columns `wanted` of a CSV file with a header line; '#' lines are comments. */
+static int read_csv_columns(const struct case_file *c, const char *section, const char *key, const char *path,
+                            const char *const *wanted, int wanted_count, double **rows_out, size_t *count_out)
+{
+    FILE *file = fopen(path, "r");
+    if (!file)
+        return case_invalid(c, section, key, "cannot open %s: %s", path, strerror(errno));
+    char line[4096];
+    char *fields[64];
+    int index[16];
+    int header_seen = 0, status = SC_OK;
+    size_t count = 0, capacity = 0, line_number = 0;
+    double *rows = NULL;
+    while (status == SC_OK && fgets(line, sizeof line, file)) {
+        line_number++;
+        if (line[0] == '#' || strspn(line, " \t\r\n") == strlen(line))
+            continue;
+        int nfields = split_csv(line, fields, 64);
+        if (!header_seen) {
+            for (int w = 0; w < wanted_count && status == SC_OK; w++) {
+                index[w] = column_index(fields, nfields, wanted[w]);
+                if (index[w] < 0)
+                    status = case_invalid(c, section, key, "%s: the header has no column '%s'", path, wanted[w]);
+            }
+            header_seen = 1;
+            continue;
+        }
+        if (count == capacity) {
+            capacity = capacity ? 2 * capacity : 256;
+            rows = realloc(rows, capacity * (size_t)wanted_count * sizeof *rows);
+        }
+        for (int w = 0; w < wanted_count && status == SC_OK; w++) {
+            if (index[w] >= nfields || !parse_finite(fields[index[w]], &rows[count * (size_t)wanted_count + (size_t)w]))
+                status = case_invalid(c, section, key, "%s:%zu: column '%s' is not a finite number", path,
+                                      line_number, wanted[w]);
+        }
+        count++;
+    }
+    fclose(file);
+    if (status == SC_OK && !header_seen)
+        status = case_invalid(c, section, key, "%s: empty file (a header line is required)", path);
+    if (status == SC_OK && count == 0)
+        status = case_invalid(c, section, key, "%s: no data rows", path);
+    if (status != SC_OK) {
+        free(rows);
+        return status;
+    }
+    *rows_out = rows;
+    *count_out = count;
+    return SC_OK;
+}
+
+static int load_particles_file(const struct case_file *c, struct dem_config *cfg)
+{
+    static const char *const columns[] = {"x", "y", "z", "vx", "vy", "vz", "wx", "wy", "wz", "d"};
+    if (!case_has(c, "spray", "particles"))
+        return case_require(c, "spray", "particles", "injection = file");
+    SC_TRY(case_path(c, "spray", "particles", cfg->particles_path, sizeof cfg->particles_path));
+    SC_TRY(read_csv_columns(c, "spray", "particles", cfg->particles_path, columns, 10, &cfg->file_particles,
+                            &cfg->file_particle_count));
+    for (size_t i = 0; i < cfg->file_particle_count; i++) {
+        const double *row = cfg->file_particles + 10 * i;
+        if (!(row[9] > 0))
+            return case_invalid(c, "spray", "particles", "%s: data row %zu: diameter d = %g m must be > 0",
+                                cfg->particles_path, i + 1, row[9]);
+        if (row[2] + row[9] / 2 > cfg->standoff)
+            return case_invalid(c, "spray", "particles", "%s: data row %zu: the particle lies beyond the target "
+                                "plane z = %g m", cfg->particles_path, i + 1, cfg->standoff);
+    }
+    return SC_OK;
+}
+
+static int read_table_h5(const struct case_file *c, const char *path, struct dem_config *cfg)
+{
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK)
+        return case_invalid(c, "deposition", "table", "%s", sc_error_message());
+    size_t n = 0, n2 = 0;
+    int status = h5_dataset_size(file, "diameter", &n);
+    if (status == SC_OK)
+        status = h5_dataset_size(file, "v_crit", &n2);
+    if (status == SC_OK && (n == 0 || n != n2))
+        status = SC_EINPUT;
+    if (status == SC_OK) {
+        cfg->table_diameter = malloc(n * sizeof(double));
+        cfg->table_velocity = malloc(n * sizeof(double));
+        cfg->table_count = n;
+        status = h5_read_doubles(file, "diameter", cfg->table_diameter, n);
+        if (status == SC_OK)
+            status = h5_read_doubles(file, "v_crit", cfg->table_velocity, n);
+    }
+    H5Fclose(file);
+    if (status != SC_OK)
+        return case_invalid(c, "deposition", "table",
+                            "%s: needs datasets /diameter and /v_crit of equal, non-zero length", path);
+    return SC_OK;
+}
+
+static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
+{
+    static const char *const columns[] = {"diameter", "v_crit"};
+    char path[4096];
+    if (!case_has(c, "deposition", "table"))
+        return case_require(c, "deposition", "table", "rule = table");
+    SC_TRY(case_path(c, "deposition", "table", path, sizeof path));
+    size_t len = strlen(path);
+    if (len > 3 && strcmp(path + len - 3, ".h5") == 0) {
+        SC_TRY(read_table_h5(c, path, cfg));
+    } else {
+        double *rows;
+        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, &rows, &cfg->table_count));
+        cfg->table_diameter = malloc(cfg->table_count * sizeof(double));
+        cfg->table_velocity = malloc(cfg->table_count * sizeof(double));
+        for (size_t i = 0; i < cfg->table_count; i++) {
+            cfg->table_diameter[i] = rows[2 * i];
+            cfg->table_velocity[i] = rows[2 * i + 1];
+        }
+        free(rows);
+    }
+    for (size_t i = 0; i < cfg->table_count; i++) {
+        if (!(cfg->table_diameter[i] > 0) || !(cfg->table_velocity[i] > 0) ||
+            (i > 0 && !(cfg->table_diameter[i] > cfg->table_diameter[i - 1])))
+            return case_invalid(c, "deposition", "table",
+                                "%s: row %zu: diameters must be positive and strictly increasing, v_crit > 0",
+                                path, i + 1);
+    }
+    return SC_OK;
+}
+
+static int load_deposition(const struct case_file *c, struct dem_config *cfg)
+{
+    cfg->alpha_adh = case_real(c, "deposition", "alpha_adh");
+    cfg->rule = case_is(c, "deposition", "rule", "adhesion")            ? DEM_DEPOSIT_ADHESION
+                : case_is(c, "deposition", "rule", "critical_velocity") ? DEM_DEPOSIT_CRITICAL_VELOCITY
+                : case_is(c, "deposition", "rule", "table")             ? DEM_DEPOSIT_TABLE
+                                                                        : DEM_DEPOSIT_NONE;
+    if (cfg->rule == DEM_DEPOSIT_CRITICAL_VELOCITY) {
+        if (!case_has(c, "deposition", "critical_velocity"))
+            return case_require(c, "deposition", "critical_velocity", "rule = critical_velocity");
+        cfg->critical_velocity = case_real(c, "deposition", "critical_velocity");
+    }
+    if (cfg->rule == DEM_DEPOSIT_TABLE)
+        SC_TRY(load_vcrit_table(c, cfg));
+    return SC_OK;
+}
+
+static int load_all(const struct case_file *c, struct dem_config *cfg)
+{
+    struct run_settings run;
+    run_settings_load(c, &run);
+    cfg->seed = run.seed;
+    cfg->threads = run.threads;
+    SC_TRY(load_spray(c, cfg));
+    SC_TRY(load_powder(c, cfg));
+    SC_TRY(load_target(c, cfg));
+    load_contact_and_jet(c, cfg);
+    if (cfg->injection == DEM_INJECT_STREAM) {
+        double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
+        if (d_smallest >= 2 * cfg->nozzle_radius)
+            return case_invalid(c, "spray", "nozzle_radius", "the nozzle disc is smaller than the particles");
+        if (cfg->domain_radius <= cfg->nozzle_radius)
+            return case_invalid(c, "spray", "domain_radius", "not larger than nozzle_radius = %g m",
+                                cfg->nozzle_radius);
+    } else {
+        SC_TRY(load_particles_file(c, cfg));
+    }
+    SC_TRY(load_deposition(c, cfg));
+    return SC_OK;
+}
+
+int dem_config_load(const struct case_file *c, struct dem_config *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    int status = load_all(c, cfg);
+    if (status != SC_OK)
+        dem_config_free(cfg);
+    return status;
+}
+
+void dem_config_free(struct dem_config *cfg)
+{
+    free(cfg->file_particles);
+    free(cfg->table_diameter);
+    free(cfg->table_velocity);
+    cfg->file_particles = cfg->table_diameter = cfg->table_velocity = NULL;
+    cfg->file_particle_count = cfg->table_count = 0;
+}

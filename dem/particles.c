@@ -1,0 +1,96 @@
+/* Storage of the particle arrays. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dem/dem_impl.h"
+
+static void *resize(void *data, size_t count, size_t size)
+{
+    void *grown = realloc(data, count * size);
+    if (!grown && count) {
+        abort(); /* out of memory: nothing sensible to do mid-step */
+    }
+    return grown;
+}
+
+void particles_reserve(struct dem_particles *p, size_t capacity)
+{
+    if (capacity <= p->capacity)
+        return;
+    p->x = resize(p->x, 3 * capacity, sizeof(double));
+    p->v = resize(p->v, 3 * capacity, sizeof(double));
+    p->w = resize(p->w, 3 * capacity, sizeof(double));
+    p->x_start = resize(p->x_start, 3 * capacity, sizeof(double));
+    p->v_start = resize(p->v_start, 3 * capacity, sizeof(double));
+    p->d = resize(p->d, capacity, sizeof(double));
+    p->m = resize(p->m, capacity, sizeof(double));
+    p->id = resize(p->id, capacity, sizeof(int64_t));
+    p->state = resize(p->state, capacity, sizeof(uint8_t));
+    p->capacity = capacity;
+}
+
+size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
+                        const double w[3], double d, double density)
+{
+    if (p->count == p->capacity)
+        particles_reserve(p, p->capacity ? 2 * p->capacity : 1024);
+    size_t i = p->count++;
+    memcpy(p->x + 3 * i, x, 3 * sizeof(double));
+    memcpy(p->v + 3 * i, v, 3 * sizeof(double));
+    memcpy(p->w + 3 * i, w, 3 * sizeof(double));
+    memcpy(p->x_start + 3 * i, x, 3 * sizeof(double));
+    memcpy(p->v_start + 3 * i, v, 3 * sizeof(double));
+    p->d[i] = d;
+    p->m[i] = density * M_PI * d * d * d / 6.0;
+    p->id[i] = id;
+    p->state[i] = DEM_FLYING;
+    return i;
+}
+
+void particles_compact(struct dem_particles *p, const uint8_t *keep)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < p->count; i++) {
+        if (!keep[i])
+            continue;
+        if (kept != i) {
+            memcpy(p->x + 3 * kept, p->x + 3 * i, 3 * sizeof(double));
+            memcpy(p->v + 3 * kept, p->v + 3 * i, 3 * sizeof(double));
+            memcpy(p->w + 3 * kept, p->w + 3 * i, 3 * sizeof(double));
+            memcpy(p->x_start + 3 * kept, p->x_start + 3 * i, 3 * sizeof(double));
+            memcpy(p->v_start + 3 * kept, p->v_start + 3 * i, 3 * sizeof(double));
+            p->d[kept] = p->d[i];
+            p->m[kept] = p->m[i];
+            p->id[kept] = p->id[i];
+            p->state[kept] = p->state[i];
+        }
+        kept++;
+    }
+    p->count = kept;
+}
+
+void particles_free(struct dem_particles *p)
+{
+    free(p->x);
+    free(p->v);
+    free(p->w);
+    free(p->x_start);
+    free(p->v_start);
+    free(p->d);
+    free(p->m);
+    free(p->id);
+    free(p->state);
+    memset(p, 0, sizeof *p);
+}
+
+void *dem_grow(void **items, size_t *count, size_t *capacity, size_t item_size)
+{
+    if (*count == *capacity) {
+        *capacity = *capacity ? 2 * *capacity : 256;
+        *items = resize(*items, *capacity, item_size);
+    }
+    char *slot = (char *)*items + (*count)++ * item_size;
+    memset(slot, 0, item_size);
+    return slot;
+}

@@ -1,0 +1,159 @@
+/* The spray solver's step (Algorithm 1 of Mukherjee & Zohdi, with swept contact detection) and the
+ * boundaries: target plane, hand-off plane, escape. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "dem/dem_impl.h"
+
+int dem_create(const struct dem_config *cfg, struct dem_solver **out)
+{
+    struct dem_solver *s = calloc(1, sizeof *s);
+    if (!s)
+        SC_FAIL(SC_ESIM, "spray: out of memory");
+    s->cfg = *cfg;
+    s->weibull_lambda = weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);
+    particles_reserve(&s->p, 1024);
+    *out = s;
+    return SC_OK;
+}
+
+void dem_destroy(struct dem_solver *s)
+{
+    if (!s)
+        return;
+    particles_free(&s->p);
+    dem_bins_free(&s->bins);
+    free(s->candidates.items);
+    free(s->impacts);
+    free(s->handoffs);
+    free(s->metrics);
+    free(s);
+}
+
+int64_t dem_total_steps(const struct dem_solver *s)
+{
+    /* the relative slack keeps t_end = k dt from rounding up to k + 1 steps */
+    return (int64_t)ceil(s->cfg.t_end / s->cfg.dt * (1.0 - 1e-12));
+}
+
+static void record_handoff(struct dem_solver *s, size_t i, double plane)
+{
+    struct dem_particles *p = &s->p;
+    const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i;
+    double fraction = (plane - x0[2]) / (x1[2] - x0[2]);
+    struct dem_handoff *row = dem_grow((void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity, sizeof *row);
+    row->t = ((double)s->step + fraction) * s->cfg.dt;
+    row->particle_id = p->id[i];
+    for (int c = 0; c < 3; c++) {
+        row->x[c] = x0[c] + fraction * (x1[c] - x0[c]);
+        row->v[c] = p->v[3 * i + c];
+        row->w[c] = p->w[3 * i + c];
+    }
+    row->d = p->d[i];
+}
+
+/* Hand-off crossings, the target plane as a hard limit, escape. */
+static void apply_boundaries(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    const struct dem_config *cfg = &s->cfg;
+    const double plane = cfg->standoff - cfg->handoff_height;
+    const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
+    uint8_t *keep = malloc(p->count ? p->count : 1);
+    size_t removed = 0;
+    for (size_t i = 0; i < p->count; i++) {
+        keep[i] = 1;
+        if (p->state[i] != DEM_FLYING)
+            continue;
+        double *x = p->x + 3 * i;
+        if (p->x_start[3 * i + 2] < plane && x[2] >= plane)
+            record_handoff(s, i, plane);
+        /* A particle that would end the step inside the target stops at it; its contact is resolved at
+         * the start of the next step (time of impact 0), so nothing passes through the target. */
+        double limit = cfg->standoff - 0.5 * p->d[i];
+        if (x[2] > limit)
+            x[2] = limit;
+        int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
+        int behind_nozzle = x[2] < 0.0 && p->v[3 * i + 2] < 0.0;
+        if (outside || behind_nozzle) {
+            keep[i] = 0;
+            removed++;
+        }
+    }
+    if (removed) {
+        particles_compact(p, keep);
+        s->escaped += (int64_t)removed;
+    }
+    free(keep);
+}
+
+int dem_check_accounting(const struct dem_solver *s)
+{
+    int64_t flying = 0, deposited = 0;
+    for (size_t i = 0; i < s->p.count; i++) {
+        if (s->p.state[i] == DEM_FLYING)
+            flying++;
+        else
+            deposited++;
+    }
+    if (deposited != s->deposited || s->injected != flying + deposited + s->escaped)
+        SC_FAIL(SC_ESIM,
+                "spray: step %lld: particle accounting broken: injected %lld != in flight %lld + deposited %lld "
+                "(counter %lld) + escaped %lld",
+                (long long)s->step, (long long)s->injected, (long long)flying, (long long)deposited,
+                (long long)s->deposited, (long long)s->escaped);
+    return SC_OK;
+}
+
+int dem_step(struct dem_solver *s)
+{
+    dem_inject(s);
+    dem_collide(s);
+    SC_TRY(dem_integrate(s));
+    apply_boundaries(s);
+    s->step++;
+#ifndef NDEBUG
+    SC_TRY(dem_check_accounting(s));
+#endif
+    if (s->step % s->cfg.metrics_every == 0 || s->step == dem_total_steps(s))
+        dem_sample_metrics(s);
+    return SC_OK;
+}
+
+struct dem_counts dem_get_counts(const struct dem_solver *s)
+{
+    struct dem_counts counts = s->stats;
+    counts.step = s->step;
+    counts.t = (double)s->step * s->cfg.dt;
+    counts.injected = s->injected;
+    counts.deposited = s->deposited;
+    counts.escaped = s->escaped;
+    counts.in_flight = s->injected - s->deposited - s->escaped;
+    return counts;
+}
+
+const struct dem_impact *dem_impacts(const struct dem_solver *s, size_t *count)
+{
+    *count = s->impact_count;
+    return s->impacts;
+}
+
+const struct dem_handoff *dem_handoffs(const struct dem_solver *s, size_t *count)
+{
+    *count = s->handoff_count;
+    return s->handoffs;
+}
+
+size_t dem_particle_count(const struct dem_solver *s) { return s->p.count; }
+
+struct dem_particle_view dem_particle(const struct dem_solver *s, size_t index)
+{
+    const struct dem_particles *p = &s->p;
+    struct dem_particle_view view = {.id = p->id[index], .state = p->state[index], .d = p->d[index], .m = p->m[index]};
+    memcpy(view.x, p->x + 3 * index, sizeof view.x);
+    memcpy(view.v, p->v + 3 * index, sizeof view.v);
+    memcpy(view.w, p->w + 3 * index, sizeof view.w);
+    return view;
+}

@@ -1,0 +1,262 @@
+/* Particle-level benchmarks through the public spray solver (Chung & Ooi 2011 style): normal and oblique
+ * impacts with the target, pair collisions, the Johnson restitution and the deposition threshold. */
+#include <math.h>
+
+#include "check.h"
+#include "dem/dem_impl.h"
+#include "spray_fixture.h"
+
+/* Vacuum, constant restitution, no deposition; the target 0.3 m away. */
+#define VACUUM_CASE(e, mu, eps)                                                                             \
+    "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"                    \
+    "[contact]\nrestitution = " e "\nfriction_regularization = " eps "\n[powder]\ndensity = 4000\nfriction = " mu \
+    "\n[target]\nfriction = " mu "\n"
+
+static const struct dem_impact *first_impact(struct fixture *f)
+{
+    size_t n;
+    const struct dem_impact *rows = dem_impacts(f->solver, &n);
+    return n ? rows : NULL;
+}
+
+/* Chung & Ooi test 3: the rebound speed ratio equals the prescribed e. */
+static void test_normal_wall_restitution(void)
+{
+    const char *values[] = {"0", "0.2", "0.5", "0.8", "1"};
+    for (int k = 0; k < 5; k++) {
+        char ini[1024];
+        snprintf(ini, sizeof ini, VACUUM_CASE("%s", "0.3", "1e-4"), values[k]);
+        struct fixture f;
+        if (fixture_open(&f, ini, "0,0,0.2974,0,0,3.9,0,0,0,0.005\n") != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        fixture_steps(&f, 2);
+        const struct dem_impact *hit = first_impact(&f);
+        CHECK(hit != NULL, "e = %s: no impact recorded", values[k]);
+        if (hit) {
+            CHECK_CLOSE(hit->v_out[2], -atof(values[k]) * 3.9, 1e-12, 1e-14, "rebound velocity");
+            CHECK(hit->partner == -1 && hit->outcome == DEM_REBOUND, "partner/outcome");
+            CHECK_CLOSE(hit->x[2], 0.3 - 0.0025, 1e-12, 0, "centre at contact");
+        }
+        fixture_close(&f);
+    }
+}
+
+/* Chung & Ooi test 4: Al2O3 sphere, |v| = 3.9 m/s at incidence 5..85 deg, mu = 0.092, e = 0.98, against
+ * the rigid-body solution: sliding throughout when v_t > 7/2 mu (1+e) v_n, else ending in rolling. */
+static void test_oblique_wall_rigid_body(void)
+{
+    const double mu = 0.092, e = 0.98, speed = 3.9, radius = 0.0025;
+    for (int degrees = 5; degrees <= 85; degrees += 5) {
+        double angle = degrees * M_PI / 180.0, vt = speed * sin(angle), vn = speed * cos(angle);
+        char ini[1024], rows[256];
+        snprintf(ini, sizeof ini, VACUUM_CASE("0.98", "0.092", "1e-12"));
+        snprintf(rows, sizeof rows, "0,0,0.2974,%.17g,0,%.17g,0,0,0,0.005\n", vt, vn);
+        struct fixture f;
+        if (fixture_open(&f, ini, rows) != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        fixture_steps(&f, 2);
+        const struct dem_impact *hit = first_impact(&f);
+        CHECK(hit != NULL, "%d deg: no impact", degrees);
+        if (!hit) {
+            fixture_close(&f);
+            continue;
+        }
+        int sliding = vt > 3.5 * mu * (1 + e) * vn;
+        double vt_after = sliding ? vt - mu * (1 + e) * vn : 5.0 / 7.0 * vt;
+        double spin_after = sliding ? -2.5 * mu * (1 + e) * vn / radius : -5.0 / 7.0 * vt / radius;
+        char what[64];
+        snprintf(what, sizeof what, "%d deg tangential velocity (%s)", degrees, sliding ? "sliding" : "rolling");
+        CHECK_CLOSE(hit->v_out[0], vt_after, 1e-9, 1e-12, what);
+        snprintf(what, sizeof what, "%d deg spin", degrees);
+        CHECK_CLOSE(hit->w_out[1], spin_after, 1e-9, 1e-9, what);
+        CHECK_CLOSE(hit->v_out[2], -e * vn, 1e-12, 1e-14, "normal rebound");
+        /* the contact-point slip never reverses */
+        double slip_after = hit->v_out[0] + hit->w_out[1] * radius;
+        CHECK(slip_after >= -1e-12 * speed, "%d deg: slip reversed (%g m/s)", degrees, slip_after);
+        if (degrees == 50)
+            CHECK_CLOSE(hit->v_out[0] / vt, 0.847, 0, 5e-4, "50 deg tangential CoR (notes/dem.md)");
+        if (degrees == 70)
+            CHECK_CLOSE(hit->w_out[1], -243.0, 0, 1.0, "70 deg spin (notes/dem.md)");
+        fixture_close(&f);
+    }
+}
+
+static double kinetic_energy(const struct dem_particle_view *p)
+{
+    double inertia = 0.1 * p->m * p->d * p->d; /* 2/5 m r^2 */
+    double v2 = p->v[0] * p->v[0] + p->v[1] * p->v[1] + p->v[2] * p->v[2];
+    double w2 = p->w[0] * p->w[0] + p->w[1] * p->w[1] + p->w[2] * p->w[2];
+    return 0.5 * p->m * v2 + 0.5 * inertia * w2;
+}
+
+/* Two spheres of different size, head-on plus an offset: momentum exactly conserved, energy loss
+ * (1 - e^2) of the normal relative kinetic energy for a central collision. */
+static void test_pair_momentum_and_energy(void)
+{
+    struct fixture f;
+    const char *rows = "0,0,0.1,0,0,20,0,0,0,0.0002\n"
+                       "0,0,0.10016,0,0,-10,0,0,0,0.0001\n";
+    if (fixture_open(&f, VACUUM_CASE("0.6", "0.3", "1e-4"), rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    struct dem_particle_view a0 = dem_particle(f.solver, 0), b0 = dem_particle(f.solver, 1);
+    double momentum0 = a0.m * a0.v[2] + b0.m * b0.v[2];
+    fixture_steps(&f, 1);
+    struct dem_particle_view a1 = dem_particle(f.solver, 0), b1 = dem_particle(f.solver, 1);
+    CHECK(dem_get_counts(f.solver).contacts_pair == 1, "one pair contact");
+    CHECK_CLOSE(a1.m * a1.v[2] + b1.m * b1.v[2], momentum0, 1e-14, 0, "momentum");
+    double reduced = a0.m * b0.m / (a0.m + b0.m), relative = 30.0;
+    double loss = kinetic_energy(&a0) + kinetic_energy(&b0) - kinetic_energy(&a1) - kinetic_energy(&b1);
+    CHECK_CLOSE(loss, (1 - 0.36) * 0.5 * reduced * relative * relative, 1e-12, 0, "energy loss 1 - e^2");
+    CHECK_CLOSE(b1.v[2] - a1.v[2], 0.6 * relative, 1e-12, 0, "relative rebound speed e v");
+    fixture_close(&f);
+}
+
+/* Oblique pair collision with spins, touching at the start of the step (time of impact 0): linear and
+ * angular momentum (about the origin, orbital plus spin) conserved. */
+static void test_pair_angular_momentum(void)
+{
+    struct fixture f;
+    const char *rows = "0,0,0.1,3,-1,20,100,-300,50,0.0002\n"
+                       "0.00005,0.00003,0.100148,-2,4,-10,-500,200,80,0.00012\n";
+    if (fixture_open(&f, VACUUM_CASE("0.7", "0.4", "1e-4"), rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    double before[6] = {0}, after[6] = {0};
+    for (int pass = 0; pass < 2; pass++) {
+        double *total = pass ? after : before;
+        for (int i = 0; i < 2; i++) {
+            struct dem_particle_view p = dem_particle(f.solver, (size_t)i);
+            double inertia = 0.1 * p.m * p.d * p.d;
+            double r[3] = {p.x[0], p.x[1], p.x[2]};
+            for (int c = 0; c < 3; c++)
+                total[c] += p.m * p.v[c];
+            total[3] += p.m * (r[1] * p.v[2] - r[2] * p.v[1]) + inertia * p.w[0];
+            total[4] += p.m * (r[2] * p.v[0] - r[0] * p.v[2]) + inertia * p.w[1];
+            total[5] += p.m * (r[0] * p.v[1] - r[1] * p.v[0]) + inertia * p.w[2];
+        }
+        if (!pass) {
+            /* resolve the contact without moving the particles, to compare at one instant */
+            dem_collide(f.solver);
+        }
+    }
+    CHECK(dem_get_counts(f.solver).contacts_pair == 1, "one pair contact");
+    for (int c = 0; c < 3; c++)
+        CHECK_CLOSE(after[c], before[c], 1e-13, 1e-22, "linear momentum");
+    for (int c = 3; c < 6; c++)
+        CHECK_CLOSE(after[c], before[c], 1e-9, 1e-22, "angular momentum");
+    fixture_close(&f);
+}
+
+/* Chung & Ooi test 7: identical spheres, head-on, opposite spins: no tangential centre velocity after. */
+static void test_pair_opposite_spins(void)
+{
+    struct fixture f;
+    const char *rows = "0,0,0.1,0,0,5,0,200,0,0.0002\n"
+                       "0,0,0.100205,0,0,-5,0,-200,0,0.0002\n";
+    if (fixture_open(&f, VACUUM_CASE("0.5", "0.4", "1e-4"), rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 1);
+    struct dem_particle_view a = dem_particle(f.solver, 0), b = dem_particle(f.solver, 1);
+    CHECK(dem_get_counts(f.solver).contacts_pair == 1, "one pair contact");
+    CHECK(fabs(a.v[0]) < 1e-12 && fabs(b.v[0]) < 1e-12, "tangential velocities %g %g", a.v[0], b.v[0]);
+    CHECK_CLOSE(a.w[1], -b.w[1], 1e-12, 1e-12, "spins stay opposite");
+    CHECK(fabs(a.w[1]) < 200.0, "friction slowed the spins (%g)", a.w[1]);
+    fixture_close(&f);
+}
+
+/* Johnson's restitution (Eqs. 16-19) through the solver: Table 1 materials, R = 10 um at 10 m/s
+ * (contact_johnson.csv: wall, 1e-5, 10 -> e = 0.6532139824). */
+static void test_johnson_wall_impact(void)
+{
+    struct fixture f;
+    const char *ini = "[spray]\ndt = 1e-7\nt_end = 1e-5\n[jet]\nmodel = none\n[deposition]\nrule = none\n";
+    if (fixture_open(&f, ini, "0,0,0.29999,0,0,10,0,0,0,2e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 2);
+    const struct dem_impact *hit = first_impact(&f);
+    CHECK(hit != NULL, "impact recorded");
+    if (hit)
+        CHECK_CLOSE(-hit->v_out[2] / hit->v_in[2], 0.6532139824, 1e-9, 0, "Johnson e");
+    fixture_close(&f);
+}
+
+/* Eq. 34: a particle just below the capture speed sticks, just above it rebounds
+ * (adhesion_threshold.csv: R = 40 um, alpha = 1000 -> 2.524128265 m/s). */
+static void test_adhesion_threshold(void)
+{
+    const double threshold = 2.524128265;
+    const double factors[2] = {0.99, 1.01};
+    for (int k = 0; k < 2; k++) {
+        char ini[512], rows[128];
+        snprintf(ini, sizeof ini, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = none\n[deposition]\n"
+                                  "rule = adhesion\nalpha_adh = 1000\n");
+        snprintf(rows, sizeof rows, "0,0,0.29995,0,0,%.12g,0,0,0,8e-5\n", factors[k] * threshold);
+        struct fixture f;
+        if (fixture_open(&f, ini, rows) != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        fixture_steps(&f, 20);
+        const struct dem_impact *hit = first_impact(&f);
+        CHECK(hit != NULL, "impact recorded");
+        if (hit) {
+            CHECK(hit->outcome == (k == 0 ? DEM_STUCK : DEM_REBOUND), "%.2f v*: outcome %lld", factors[k],
+                  (long long)hit->outcome);
+            if (k == 0)
+                CHECK(hit->v_out[2] == 0.0 && dem_particle(f.solver, 0).state == DEM_DEPOSITED, "frozen");
+        }
+        fixture_close(&f);
+    }
+}
+
+/* Deposit build-up: the second of two particles on the axis lands on the first, sticks to it and rests
+ * touching it. */
+static void test_deposit_on_deposit(void)
+{
+    struct fixture f;
+    const char *ini = "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\n"
+                      "rule = critical_velocity\ncritical_velocity = 1e-6\n";
+    const char *rows = "0,0,0.299,0,0,10,0,0,0,1e-4\n"
+                       "0.00003,0,0.298,0,0,10,0,0,0,1e-4\n";
+    if (fixture_open(&f, ini, rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 300);
+    size_t n;
+    const struct dem_impact *rows_out = dem_impacts(f.solver, &n);
+    CHECK(n == 2, "two impacts (%zu)", n);
+    if (n == 2) {
+        CHECK(rows_out[0].partner == -1 && rows_out[0].outcome == DEM_STUCK, "first on the target");
+        CHECK(rows_out[1].partner == 0 && rows_out[1].outcome == DEM_STUCK, "second on the first");
+        struct dem_particle_view a = dem_particle(f.solver, 0), b = dem_particle(f.solver, 1);
+        double gap = sqrt((a.x[0] - b.x[0]) * (a.x[0] - b.x[0]) + (a.x[2] - b.x[2]) * (a.x[2] - b.x[2]));
+        CHECK_CLOSE(gap, 1e-4, 1e-9, 0, "centres one diameter apart");
+    }
+    CHECK(dem_get_counts(f.solver).deposited == 2, "both deposited");
+    fixture_close(&f);
+}
+
+int main(void)
+{
+    RUN(test_normal_wall_restitution);
+    RUN(test_oblique_wall_rigid_body);
+    RUN(test_pair_momentum_and_energy);
+    RUN(test_pair_angular_momentum);
+    RUN(test_pair_opposite_spins);
+    RUN(test_johnson_wall_impact);
+    RUN(test_adhesion_threshold);
+    RUN(test_deposit_on_deposit);
+    return check_finish();
+}

@@ -1,0 +1,338 @@
+/* The spray solver as a whole: drag integration against analytical solutions, swept contact detection
+ * against brute force, convergence in dt, no tunnelling, accounting, determinism across threads,
+ * checkpoint round trip. */
+#include <math.h>
+#include <omp.h>
+
+#include "check.h"
+#include "core/h5io.h"
+#include "dem/dem_impl.h"
+#include "spray_fixture.h"
+
+static double column(const char *line, int index)
+{
+    for (int k = 0; k < index; k++) {
+        line = strchr(line, ',');
+        if (!line)
+            return NAN;
+        line++;
+    }
+    return atof(line);
+}
+
+/* stokes_relaxation.csv: a sphere released at rest in a uniform stream with Stokes drag,
+ * v = U (1 - exp(-t/tau)), tau = rho d^2 / (18 mu) = 8.333e-4 s.  The trapezoidal scheme at dt = tau/1000
+ * is second order: relative error ~ (dt/tau)^2. */
+static void test_stokes_relaxation(void)
+{
+    char path[512];
+    snprintf(path, sizeof path, "%s/stokes_relaxation.csv", check_verification_dir());
+    FILE *table = fopen(path, "r");
+    CHECK(table != NULL, "cannot open %s", path);
+    if (!table)
+        return;
+    const double tau = 2700.0 * 1e-10 / (18.0 * 1.8e-5), dt = tau / 1000.0;
+    char ini[1024];
+    snprintf(ini, sizeof ini,
+             "[spray]\ndt = %.17g\nt_end = 0.01\ndomain_radius = 1\n[target]\nstandoff = 2\n[powder]\ndensity = 2700\n"
+             "[jet]\nmodel = uniform\nuniform_velocity = 100\ndrag = stokes\ngas_density = 1.2\ngas_viscosity = 1.5e-5\n"
+             "[deposition]\nrule = none\n", dt);
+    struct fixture f;
+    if (fixture_open(&f, ini, "0,0,0.001,0,0,0,0,0,0,1e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        fclose(table);
+        return;
+    }
+    char line[256];
+    int rows = 0;
+    while (fgets(line, sizeof line, table)) {
+        if (line[0] == '#' || line[0] == 't')
+            continue;
+        double t = column(line, 0), v = column(line, 1), x = column(line, 2);
+        int64_t target_step = llround(t / dt);
+        fixture_steps(&f, target_step - dem_get_counts(f.solver).step);
+        struct dem_particle_view p = dem_particle(f.solver, 0);
+        CHECK_CLOSE(p.v[2], v, 1e-6, 1e-9, "Stokes velocity");
+        CHECK_CLOSE(p.x[2] - 0.001, x, 1e-6, 1e-12, "Stokes distance");
+        rows++;
+    }
+    fclose(table);
+    CHECK(rows == 5, "rows read: %d", rows);
+    fixture_close(&f);
+}
+
+/* A 1 um particle has tau = 8.3 us; at dt = 100 us (12 tau) the plain fixed-point iteration diverges.
+ * Sub-cycling keeps it stable and accurate: it reaches the gas velocity. */
+static void test_stiff_particle_is_stable(void)
+{
+    const double tau = 2700.0 * 1e-12 / (18.0 * 1.8e-5);
+    char ini[1024];
+    snprintf(ini, sizeof ini,
+             "[spray]\ndt = 1e-4\nt_end = 0.01\ndomain_radius = 1\n[target]\nstandoff = 2\n[powder]\ndensity = 2700\n"
+             "[jet]\nmodel = uniform\nuniform_velocity = 100\ndrag = stokes\ngas_density = 1.2\n"
+             "gas_viscosity = 1.5e-5\n[deposition]\nrule = none\n");
+    struct fixture f;
+    if (fixture_open(&f, ini, "0,0,0.001,0,0,0,0,0,0,1e-6\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 1);
+    struct dem_particle_view p = dem_particle(f.solver, 0);
+    CHECK_CLOSE(p.v[2], 100.0 * (1.0 - exp(-1e-4 / tau)), 1e-3, 0, "velocity after one step");
+    fixture_steps(&f, 9);
+    p = dem_particle(f.solver, 0);
+    CHECK_CLOSE(p.v[2], 100.0, 1e-9, 0, "relaxed to the gas velocity");
+    /* distance: U (t - tau (1 - exp(-t/tau))) */
+    double t = 1e-3;
+    CHECK_CLOSE(p.x[2] - 0.001, 100.0 * (t - tau * (1.0 - exp(-t / tau))), 1e-3, 0, "distance");
+    struct dem_counts c = dem_get_counts(f.solver);
+    CHECK(c.subcycled_particle_steps == 10, "every step sub-cycled (%lld)", (long long)c.subcycled_particle_steps);
+    CHECK(c.fixed_point_unconverged == 0, "all fixed-point solves converged (%lld not)",
+          (long long)c.fixed_point_unconverged);
+    fixture_close(&f);
+}
+
+/* Random particles in a 2 mm box, random velocities up to 60 m/s, written as a particles file. */
+static char *random_cloud(int count, double box, double speed, unsigned seed)
+{
+    char *rows = malloc((size_t)count * 200);
+    size_t used = 0;
+    srand(seed);
+    for (int i = 0; i < count; i++) {
+        double r[7];
+        for (int k = 0; k < 7; k++)
+            r[k] = (double)rand() / RAND_MAX;
+        double d = 50e-6 + 100e-6 * r[6];
+        used += (size_t)sprintf(rows + used, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,0,0,0,%.9g\n", box * (r[0] - 0.5),
+                                box * (r[1] - 0.5), 0.1 + box * r[2], speed * (2 * r[3] - 1),
+                                speed * (2 * r[4] - 1), speed * (2 * r[5] - 1), d);
+    }
+    return rows;
+}
+
+static int candidate_listed(const struct dem_candidates *list, uint32_t a, uint32_t b)
+{
+    for (size_t k = 0; k < list->count; k++)
+        if (list->items[k].kind == CONTACT_PAIR && list->items[k].a == a && list->items[k].b == b)
+            return 1;
+    return 0;
+}
+
+/* Every pair that brute-force O(N^2) sub-stepping (2000 sub-steps) sees touching while approaching
+ * within the step is found by the binned swept-sphere test, and every pair it reports really touches. */
+static void test_swept_detection_matches_brute_force(void)
+{
+    const double dt = 2e-6;
+    for (unsigned seed = 1; seed <= 3; seed++) {
+        char *rows = random_cloud(400, 0.002, 60.0, seed);
+        struct fixture f;
+        if (fixture_open(&f, "[spray]\ndt = 2e-6\nt_end = 1e-4\n[jet]\nmodel = none\n[deposition]\nrule = none\n",
+                         rows) != SC_OK) {
+            CHECK(0, "fixture");
+            free(rows);
+            return;
+        }
+        free(rows);
+        struct dem_solver *s = f.solver;
+        dem_inject(s);
+        /* drop pairs that overlap in the initial random placement: a solver never starts from them */
+        dem_detect_contacts(s);
+        const struct dem_particles *p = &s->p;
+        int missed = 0, brute_pairs = 0, spurious = 0;
+        for (uint32_t i = 0; i < p->count; i++)
+            for (uint32_t j = i + 1; j < p->count; j++) {
+                double reach = 0.5 * (p->d[i] + p->d[j]), dx[3], dv[3];
+                for (int c = 0; c < 3; c++) {
+                    dx[c] = p->x[3 * j + c] - p->x[3 * i + c];
+                    dv[c] = p->v[3 * j + c] - p->v[3 * i + c];
+                }
+                int touching = 0;
+                for (int k = 0; k <= 2000 && !touching; k++) {
+                    double t = dt * k / 2000.0, r2 = 0.0, approach = 0.0;
+                    for (int c = 0; c < 3; c++) {
+                        double sep = dx[c] + dv[c] * t;
+                        r2 += sep * sep;
+                        approach += sep * dv[c];
+                    }
+                    touching = r2 <= reach * reach && approach < 0.0;
+                }
+                brute_pairs += touching;
+                int listed = candidate_listed(&s->candidates, i, j);
+                if (touching && !listed)
+                    missed++;
+                if (listed) {
+                    /* closest approach within [0, dt] must reach contact distance */
+                    double a = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
+                    double b = dx[0] * dv[0] + dx[1] * dv[1] + dx[2] * dv[2];
+                    double t = fmin(dt, fmax(0.0, -b / a)), r2 = 0.0;
+                    for (int c = 0; c < 3; c++)
+                        r2 += (dx[c] + dv[c] * t) * (dx[c] + dv[c] * t);
+                    spurious += r2 > reach * reach * (1 + 1e-12);
+                }
+            }
+        CHECK(brute_pairs > 20, "seed %u: enough contacts to test (%d)", seed, brute_pairs);
+        CHECK(missed == 0, "seed %u: %d of %d brute-force contacts missed", seed, missed, brute_pairs);
+        CHECK(spurious == 0, "seed %u: %d reported contacts that never touch", seed, spurious);
+        fixture_close(&f);
+    }
+}
+
+/* Number of particle-particle collisions in a dense cloud over 200 us, as a function of dt. */
+static int64_t collisions_in_cloud(double dt)
+{
+    char *rows = random_cloud(1500, 0.003, 30.0, 42);
+    char ini[512];
+    snprintf(ini, sizeof ini, "[spray]\ndt = %.17g\nt_end = 2e-4\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
+                              "[contact]\nrestitution = 0.9\n", dt);
+    struct fixture f;
+    int64_t count = -1;
+    if (fixture_open(&f, ini, rows) == SC_OK) {
+        fixture_steps(&f, dem_total_steps(f.solver));
+        count = dem_get_counts(f.solver).contacts_pair;
+        fixture_close(&f);
+    }
+    free(rows);
+    return count;
+}
+
+/* Swept detection converges as dt shrinks from 5 us to 0.1 us: the collision count at the paper's
+ * step sizes is within a few per cent of the fine-step count (end-of-step overlap tests lose most of them). */
+static void test_collision_count_converges(void)
+{
+    const double steps[] = {5e-6, 2e-6, 1e-6, 5e-7, 2e-7, 1e-7};
+    int64_t counts[6];
+    for (int k = 0; k < 6; k++)
+        counts[k] = collisions_in_cloud(steps[k]);
+    double reference = (double)counts[5];
+    printf("  collisions vs dt:");
+    for (int k = 0; k < 6; k++)
+        printf(" %g s: %lld;", steps[k], (long long)counts[k]);
+    printf("\n");
+    CHECK(reference > 200, "enough collisions (%g)", reference);
+    for (int k = 0; k < 5; k++) {
+        double error = fabs((double)counts[k] - reference) / reference;
+        CHECK(error < 0.05, "dt = %g: %lld collisions, %.1f %% from the dt = 0.1 us count", steps[k],
+              (long long)counts[k], 100 * error);
+    }
+    double coarse_error = fabs((double)counts[0] - reference), fine_error = fabs((double)counts[4] - reference);
+    CHECK(fine_error <= coarse_error, "error does not shrink: %g at 5 us, %g at 0.2 us", coarse_error, fine_error);
+}
+
+/* Fast particles (500 m/s, 2.5 mm per step, 50x their diameter) never pass the target or each other. */
+static void test_nothing_tunnels(void)
+{
+    char rows[64 * 200] = "";
+    size_t used = 0;
+    for (int i = 0; i < 60; i++)
+        used += (size_t)sprintf(rows + used, "%.6g,%.6g,%.6g,0,0,500,0,0,0,5e-5\n", 1e-4 * (i % 8), 1e-4 * (i / 8),
+                                0.2 + 1e-3 * (i % 5));
+    struct fixture f;
+    if (fixture_open(&f, "[spray]\ndt = 5e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
+                         "[contact]\nrestitution = 0.5\n", rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    int beyond = 0;
+    for (int step = 0; step < 100; step++) {
+        fixture_steps(&f, 1);
+        for (size_t i = 0; i < dem_particle_count(f.solver); i++) {
+            struct dem_particle_view p = dem_particle(f.solver, i);
+            beyond += p.x[2] + 0.5 * p.d > 0.3 * (1 + 1e-12);
+        }
+    }
+    size_t impacts;
+    dem_impacts(f.solver, &impacts);
+    CHECK(beyond == 0, "%d particle-steps beyond the target", beyond);
+    CHECK(impacts >= 60, "every particle hit the target (%zu impacts)", impacts);
+    fixture_close(&f);
+}
+
+static int run_demo_like(int threads, struct fixture *f, int64_t steps)
+{
+    omp_set_num_threads(threads);
+    const char *ini = "[run]\nseed = 11\n[spray]\ndt = 1e-6\nt_end = 2e-3\nfeed_count = 40\nfeed_every = 5\n"
+                      "max_injected = 3000\nnozzle_radius = 0.003\nrelease_speed_min = 5\nrelease_speed_max = 60\n"
+                      "release_cone = 5\ndomain_radius = 0.02\nhandoff_height = 0.005\nmetrics_every = 50\n"
+                      "[powder]\nmedian_diameter = 40e-6\nshape = 3.5\nd_min = 10e-6\nd_max = 100e-6\n"
+                      "[target]\nstandoff = 0.03\n[jet]\nvirtual_origin = 0.05\ncore_length = 0.005\n"
+                      "[deposition]\nalpha_adh = 10000\n";
+    if (fixture_open(f, ini, NULL) != SC_OK)
+        return -1;
+    return fixture_steps(f, steps);
+}
+
+static int same_state(struct dem_solver *a, struct dem_solver *b)
+{
+    if (dem_particle_count(a) != dem_particle_count(b))
+        return 0;
+    for (size_t i = 0; i < dem_particle_count(a); i++) {
+        struct dem_particle_view pa = dem_particle(a, i), pb = dem_particle(b, i);
+        if (memcmp(&pa, &pb, sizeof pa) != 0)
+            return 0;
+    }
+    size_t na, nb;
+    const struct dem_impact *ia = dem_impacts(a, &na), *ib = dem_impacts(b, &nb);
+    return na == nb && (na == 0 || memcmp(ia, ib, na * sizeof *ia) == 0);
+}
+
+/* 1 and 2 threads give the same state bit for bit; the particle accounting holds throughout. */
+static void test_threads_bit_identical(void)
+{
+    struct fixture one, two;
+    int status1 = run_demo_like(1, &one, 2000), status2 = run_demo_like(2, &two, 2000);
+    CHECK(status1 == SC_OK && status2 == SC_OK, "runs");
+    if (status1 == SC_OK && status2 == SC_OK) {
+        struct dem_counts c = dem_get_counts(one.solver);
+        CHECK(c.injected == 3000, "all injected (%lld)", (long long)c.injected);
+        CHECK(c.contacts_pair > 0 && c.contacts_target > 0, "collisions happened (%lld pair, %lld target)",
+              (long long)c.contacts_pair, (long long)c.contacts_target);
+        CHECK(c.deposited > 0 && c.deposited < c.injected, "some deposit (%lld)", (long long)c.deposited);
+        CHECK(c.injected == c.in_flight + c.deposited + c.escaped, "accounting");
+        CHECK(dem_check_accounting(one.solver) == SC_OK, "accounting against the arrays");
+        CHECK(same_state(one.solver, two.solver), "1 and 2 threads differ");
+    }
+    fixture_close(&one);
+    fixture_close(&two);
+    omp_set_num_threads(2);
+}
+
+/* Checkpoint at step 700, restore into a new solver, continue: identical to the uninterrupted run. */
+static void test_checkpoint_round_trip(void)
+{
+    struct fixture whole, first, resumed;
+    CHECK(run_demo_like(2, &whole, 1500) == SC_OK, "uninterrupted run");
+    CHECK(run_demo_like(2, &first, 700) == SC_OK, "first part");
+    char path[256];
+    snprintf(path, sizeof path, "%s/checkpoint.h5", first.dir);
+    struct h5_out out;
+    CHECK(h5_create_atomic(path, &out) == SC_OK, "create");
+    CHECK(dem_checkpoint_write(first.solver, out.file) == SC_OK, "write");
+    CHECK(h5_commit(&out) == SC_OK, "commit");
+    CHECK(run_demo_like(2, &resumed, 0) == SC_OK, "fresh solver");
+    hid_t file;
+    CHECK(h5_open_read(path, &file) == SC_OK, "open");
+    CHECK(dem_checkpoint_read(resumed.solver, file) == SC_OK, "read: %s", sc_error_message());
+    H5Fclose(file);
+    CHECK(dem_get_counts(resumed.solver).step == 700, "resumed at step 700");
+    fixture_steps(&resumed, 800);
+    CHECK(same_state(whole.solver, resumed.solver), "resumed run differs from the uninterrupted one");
+    size_t nh1, nh2;
+    const struct dem_handoff *h1 = dem_handoffs(whole.solver, &nh1), *h2 = dem_handoffs(resumed.solver, &nh2);
+    CHECK(nh1 == nh2 && nh1 > 0 && memcmp(h1, h2, nh1 * sizeof *h1) == 0, "hand-off records differ");
+    fixture_close(&whole);
+    fixture_close(&first);
+    fixture_close(&resumed);
+}
+
+int main(void)
+{
+    h5_quiet();
+    RUN(test_stokes_relaxation);
+    RUN(test_stiff_particle_is_stable);
+    RUN(test_swept_detection_matches_brute_force);
+    RUN(test_collision_count_converges);
+    RUN(test_nothing_tunnels);
+    RUN(test_threads_bit_identical);
+    RUN(test_checkpoint_round_trip);
+    return check_finish();
+}
