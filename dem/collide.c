@@ -25,6 +25,14 @@ static inline uint32_t cell_hash(int64_t i, int64_t j, int64_t k, size_t bucket_
 
 static inline int64_t cell_index(double coordinate, double cell) { return (int64_t)floor(coordinate / cell); }
 
+/* 21 bits per axis: cells are at least a particle diameter, so +-2^20 cells cover any sane domain, and
+ * distinct cells that wrap onto the same key are only a (harmless) extra distance test. */
+static inline uint64_t cell_key(int64_t i, int64_t j, int64_t k)
+{
+    const uint64_t mask = (1u << 21) - 1;
+    return ((uint64_t)i & mask) | (((uint64_t)j & mask) << 21) | (((uint64_t)k & mask) << 42);
+}
+
 static void bins_build(struct dem_bins *bins, const struct dem_particles *p, double cell)
 {
     size_t buckets = 1024;
@@ -38,13 +46,16 @@ static void bins_build(struct dem_bins *bins, const struct dem_particles *p, dou
         bins->capacity = p->capacity;
         bins->items = realloc(bins->items, bins->capacity * sizeof(uint32_t));
         bins->bucket_of = realloc(bins->bucket_of, bins->capacity * sizeof(uint32_t));
+        bins->cell_key = realloc(bins->cell_key, bins->capacity * sizeof(uint64_t));
     }
     bins->cell = cell;
     memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
     for (size_t i = 0; i < p->count; i++) {
         const double *x = p->x + 3 * i;
-        uint32_t b = cell_hash(cell_index(x[0], cell), cell_index(x[1], cell), cell_index(x[2], cell), buckets);
+        int64_t ci = cell_index(x[0], cell), cj = cell_index(x[1], cell), ck = cell_index(x[2], cell);
+        uint32_t b = cell_hash(ci, cj, ck, buckets);
         bins->bucket_of[i] = b;
+        bins->cell_key[i] = cell_key(ci, cj, ck);
         bins->bucket_start[b + 1]++;
     }
     for (size_t b = 0; b < buckets; b++)
@@ -62,6 +73,7 @@ void dem_bins_free(struct dem_bins *bins)
     free(bins->bucket_start);
     free(bins->items);
     free(bins->bucket_of);
+    free(bins->cell_key);
     memset(bins, 0, sizeof *bins);
 }
 
@@ -105,34 +117,23 @@ static void find_target_contact(const struct dem_solver *s, uint32_t i, struct d
         candidates_push(out, t_hit, i, 0, CONTACT_TARGET);
 }
 
-static int bucket_seen(const uint32_t *seen, int count, uint32_t bucket)
-{
-    for (int k = 0; k < count; k++)
-        if (seen[k] == bucket)
-            return 1;
-    return 0;
-}
-
-/* Contacts of flying particle i with flying particles of higher index and with deposited particles. */
+/* Contacts of flying particle i with flying particles of higher index and with deposited particles.
+ * A bucket may hold several cells (hash collisions); only the particles of the visited cell count, so no
+ * pair is found twice. */
 static void find_pair_contacts(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
 {
     const struct dem_particles *p = &s->p;
     const struct dem_bins *bins = &s->bins;
     const double *xi = p->x + 3 * i, *vi = p->v + 3 * i;
     int64_t ci = cell_index(xi[0], bins->cell), cj = cell_index(xi[1], bins->cell), ck = cell_index(xi[2], bins->cell);
-    uint32_t seen[27];
-    int seen_count = 0;
     for (int di = -1; di <= 1; di++)
         for (int dj = -1; dj <= 1; dj++)
             for (int dk = -1; dk <= 1; dk++) {
                 uint32_t bucket = cell_hash(ci + di, cj + dj, ck + dk, bins->bucket_count);
-                if (bucket_seen(seen, seen_count, bucket))
-                    continue; /* two neighbour cells sharing a bucket: scan it once */
-                seen[seen_count++] = bucket;
+                uint64_t key = cell_key(ci + di, cj + dj, ck + dk);
                 for (uint32_t k = bins->bucket_start[bucket]; k < bins->bucket_start[bucket + 1]; k++) {
                     uint32_t j = bins->items[k];
-                    int j_flying = p->state[j] == DEM_FLYING;
-                    if (j == i || (j_flying && j < i))
+                    if (bins->cell_key[j] != key || j == i || (p->state[j] == DEM_FLYING && j < i))
                         continue;
                     const double *xj = p->x + 3 * j, *vj = p->v + 3 * j;
                     double dx[3] = {xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]};

@@ -25,6 +25,7 @@ struct dem_bins {
     uint32_t *bucket_start;/* bucket_count + 1 */
     uint32_t *items;       /* particle indices sorted by bucket */
     uint32_t *bucket_of;   /* per particle */
+    uint64_t *cell_key;    /* per particle: its cell (i, j, k) packed, to tell cells sharing a bucket apart */
     size_t capacity;
 };
 
@@ -70,6 +71,8 @@ void particles_compact(struct dem_particles *p, const uint8_t *keep);
 
 /* dem/inject.c */
 void dem_inject(struct dem_solver *s);
+/* The particles of `injection = file`, all at t = 0. */
+void dem_inject_file(struct dem_solver *s);
 
 void dem_bins_free(struct dem_bins *bins);
 

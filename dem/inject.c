@@ -110,7 +110,7 @@ static void inject_stream(struct dem_solver *s)
     free(near);
 }
 
-static void inject_file(struct dem_solver *s)
+void dem_inject_file(struct dem_solver *s)
 {
     const struct dem_config *cfg = &s->cfg;
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
@@ -122,11 +122,7 @@ static void inject_file(struct dem_solver *s)
 
 void dem_inject(struct dem_solver *s)
 {
-    if (s->cfg.injection == DEM_INJECT_FILE) {
-        if (s->step == 0)
-            inject_file(s);
-        return;
-    }
-    if (s->step % s->cfg.feed_every == 0)
+    /* particles from a file exist from t = 0 (dem_create); a stream feeds every feed_every steps */
+    if (s->cfg.injection == DEM_INJECT_STREAM && s->step % s->cfg.feed_every == 0)
         inject_stream(s);
 }

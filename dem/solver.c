@@ -15,6 +15,8 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
     s->cfg = *cfg;
     s->weibull_lambda = weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);
     particles_reserve(&s->p, 1024);
+    if (cfg->injection == DEM_INJECT_FILE)
+        dem_inject_file(s);
     *out = s;
     return SC_OK;
 }

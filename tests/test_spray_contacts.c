@@ -27,7 +27,7 @@ static void test_normal_wall_restitution(void)
         char ini[1024];
         snprintf(ini, sizeof ini, VACUUM_CASE("%s", "0.3", "1e-4"), values[k]);
         struct fixture f;
-        if (fixture_open(&f, ini, "0,0,0.2974,0,0,3.9,0,0,0,0.005\n") != SC_OK) {
+        if (fixture_open(&f, ini, "0,0,0.297499,0,0,3.9,0,0,0,0.005\n") != SC_OK) {
             CHECK(0, "fixture");
             return;
         }
@@ -52,13 +52,13 @@ static void test_oblique_wall_rigid_body(void)
         double angle = degrees * M_PI / 180.0, vt = speed * sin(angle), vn = speed * cos(angle);
         char ini[1024], rows[256];
         snprintf(ini, sizeof ini, VACUUM_CASE("0.98", "0.092", "1e-12"));
-        snprintf(rows, sizeof rows, "0,0,0.2974,%.17g,0,%.17g,0,0,0,0.005\n", vt, vn);
+        snprintf(rows, sizeof rows, "0,0,0.297499,%.17g,0,%.17g,0,0,0,0.005\n", vt, vn);
         struct fixture f;
         if (fixture_open(&f, ini, rows) != SC_OK) {
             CHECK(0, "fixture");
             return;
         }
-        fixture_steps(&f, 2);
+        fixture_steps(&f, 5);
         const struct dem_impact *hit = first_impact(&f);
         CHECK(hit != NULL, "%d deg: no impact", degrees);
         if (!hit) {
@@ -122,8 +122,11 @@ static void test_pair_momentum_and_energy(void)
 static void test_pair_angular_momentum(void)
 {
     struct fixture f;
-    const char *rows = "0,0,0.1,3,-1,20,100,-300,50,0.0002\n"
-                       "0.00005,0.00003,0.100148,-2,4,-10,-500,200,80,0.00012\n";
+    /* exactly touching: centre distance = sum of radii */
+    double dz = sqrt(0.00016 * 0.00016 - 0.00005 * 0.00005 - 0.00003 * 0.00003);
+    char rows[256];
+    snprintf(rows, sizeof rows, "0,0,0.1,3,-1,20,100,-300,50,0.0002\n"
+                                "0.00005,0.00003,%.17g,-2,4,-10,-500,200,80,0.00012\n", 0.1 + dz);
     if (fixture_open(&f, VACUUM_CASE("0.7", "0.4", "1e-4"), rows) != SC_OK) {
         CHECK(0, "fixture");
         return;
@@ -154,23 +157,36 @@ static void test_pair_angular_momentum(void)
     fixture_close(&f);
 }
 
-/* Chung & Ooi test 7: identical spheres, head-on, opposite spins: no tangential centre velocity after. */
-static void test_pair_opposite_spins(void)
+/* Chung & Ooi test 7: identical spheres, head-on, with spins.  Opposite spins (w_a = -w_b about the same
+ * axis) leave no slip at the contact: no friction, no tangential velocity, spins unchanged.  Spins of the
+ * same sense slip: friction gives equal and opposite sideways velocities and slows both spins equally. */
+static void test_pair_spins(void)
 {
-    struct fixture f;
-    const char *rows = "0,0,0.1,0,0,5,0,200,0,0.0002\n"
-                       "0,0,0.100205,0,0,-5,0,-200,0,0.0002\n";
-    if (fixture_open(&f, VACUUM_CASE("0.5", "0.4", "1e-4"), rows) != SC_OK) {
-        CHECK(0, "fixture");
-        return;
+    const char *cases[2][2] = {{"0,0,0.1,0,0,5,0,200,0,0.0002\n", "0,0,0.100205,0,0,-5,0,-200,0,0.0002\n"},
+                               {"0,0,0.1,0,0,5,0,200,0,0.0002\n", "0,0,0.100205,0,0,-5,0,200,0,0.0002\n"}};
+    for (int same_sense = 0; same_sense < 2; same_sense++) {
+        char rows[256];
+        snprintf(rows, sizeof rows, "%s%s", cases[same_sense][0], cases[same_sense][1]);
+        struct fixture f;
+        if (fixture_open(&f, VACUUM_CASE("0.5", "0.4", "1e-4"), rows) != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        fixture_steps(&f, 1);
+        struct dem_particle_view a = dem_particle(f.solver, 0), b = dem_particle(f.solver, 1);
+        CHECK(dem_get_counts(f.solver).contacts_pair == 1, "one pair contact");
+        if (!same_sense) {
+            CHECK(a.v[0] == 0.0 && b.v[0] == 0.0, "tangential velocities %g %g", a.v[0], b.v[0]);
+            CHECK(a.w[1] == 200.0 && b.w[1] == -200.0, "spins unchanged (%g, %g)", a.w[1], b.w[1]);
+        } else {
+            CHECK(fabs(a.v[0]) > 0 && a.v[0] == -b.v[0], "equal and opposite kicks %g %g", a.v[0], b.v[0]);
+            CHECK(a.w[1] == b.w[1] && a.w[1] < 200.0, "spins slowed equally (%g, %g)", a.w[1], b.w[1]);
+            /* slip 2 w R = 0.04 m/s is below the stick limit here, so the contact ends rolling: no slip left */
+            double slip = (b.v[0] - b.w[1] * 1e-4) - (a.v[0] + a.w[1] * 1e-4);
+            CHECK(fabs(slip) < 1e-12, "slip after %g", slip);
+        }
+        fixture_close(&f);
     }
-    fixture_steps(&f, 1);
-    struct dem_particle_view a = dem_particle(f.solver, 0), b = dem_particle(f.solver, 1);
-    CHECK(dem_get_counts(f.solver).contacts_pair == 1, "one pair contact");
-    CHECK(fabs(a.v[0]) < 1e-12 && fabs(b.v[0]) < 1e-12, "tangential velocities %g %g", a.v[0], b.v[0]);
-    CHECK_CLOSE(a.w[1], -b.w[1], 1e-12, 1e-12, "spins stay opposite");
-    CHECK(fabs(a.w[1]) < 200.0, "friction slowed the spins (%g)", a.w[1]);
-    fixture_close(&f);
 }
 
 /* Johnson's restitution (Eqs. 16-19) through the solver: Table 1 materials, R = 10 um at 10 m/s
@@ -254,7 +270,7 @@ int main(void)
     RUN(test_oblique_wall_rigid_body);
     RUN(test_pair_momentum_and_energy);
     RUN(test_pair_angular_momentum);
-    RUN(test_pair_opposite_spins);
+    RUN(test_pair_spins);
     RUN(test_johnson_wall_impact);
     RUN(test_adhesion_threshold);
     RUN(test_deposit_on_deposit);

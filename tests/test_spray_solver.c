@@ -53,7 +53,9 @@ static void test_stokes_relaxation(void)
         fixture_steps(&f, target_step - dem_get_counts(f.solver).step);
         struct dem_particle_view p = dem_particle(f.solver, 0);
         CHECK_CLOSE(p.v[2], v, 1e-6, 1e-9, "Stokes velocity");
-        CHECK_CLOSE(p.x[2] - 0.001, x, 1e-6, 1e-12, "Stokes distance");
+        /* the trapezoidal rule's truncation error in x is about (dt/t)^2/6 of x early on */
+        double x_rtol = t > 0 ? fmax(1e-6, 0.2 * (dt / t) * (dt / t)) : 0;
+        CHECK_CLOSE(p.x[2] - 0.001, x, x_rtol, 1e-15, "Stokes distance");
         rows++;
     }
     fclose(table);
