@@ -9,7 +9,7 @@ OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
 
 PKGS     := hdf5-serial inih
-CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null) -DSPRAYCOAT_VERSION='"$(VERSION)"'
+CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 CFLAGS   += -std=c17 -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
 LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
             -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
@@ -22,7 +22,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
-.PHONY: all test asan bench run validate install clean format deps
+.PHONY: all test asan bench run validate install clean format deps FORCE
 all: $(BIN) $(TEST_BIN)
 
 deps:
@@ -31,6 +31,14 @@ deps:
 $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+# Only core/version.c sees the version, and it is rebuilt when `git describe` changes.
+$(BUILD)/version.stamp: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
+$(BUILD)/core/version.o: $(BUILD)/version.stamp
+$(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"'
+FORCE:
 
 $(BUILD)/libspraycoat.a: $(LIB_OBJ)
 	@rm -f $@

@@ -4,6 +4,7 @@
  * reason: strerror(errno) where the operating system failed, else the innermost entry of HDF5's error stack
  * ("file signature not found", "data error detected by Fletcher32 checksum"). */
 #include "core/h5io.h"
+#include "core/version.h"
 
 #include "core/error.h"
 #include "core/log.h"
@@ -20,9 +21,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#ifndef SPRAYCOAT_VERSION
-#define SPRAYCOAT_VERSION "unknown"
-#endif
 
 /* A checksummed chunk holds at most this many bytes: large enough for fast I/O, small enough to fit HDF5's
  * default 1 MiB chunk cache, and one damaged byte costs a read of one chunk, not of the whole dataset. */
@@ -707,7 +705,7 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
     utc_now_iso8601(created);
     SC_TRY(h5_attr_write_string(file, "format", format));
     SC_TRY(h5_attr_write_int64(file, "format_version", format_version));
-    SC_TRY(h5_attr_write_string(file, "program_version", SPRAYCOAT_VERSION));
+    SC_TRY(h5_attr_write_string(file, "program_version", spraycoat_version()));
     SC_TRY(h5_attr_write_string(file, "case_hash", hash_text));
     SC_TRY(h5_attr_write_string(file, "stage", stage));
     SC_TRY(h5_attr_write_string(file, "units", "SI"));

@@ -1,4 +1,5 @@
 /* The spraycoat command line (DESIGN.md "Command line").  Only this file prints errors and exits. */
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,13 +8,11 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/version.h"
 #include "coupling/info.h"
 #include "coupling/stages.h"
 #include "dem/dem.h"
 
-#ifndef SPRAYCOAT_VERSION
-#define SPRAYCOAT_VERSION "unknown"
-#endif
 
 static const char usage[] =
     "usage:\n"
@@ -174,11 +173,13 @@ int main(int argc, char **argv)
             return 0;
         }
         if (strcmp(argv[i], "--version") == 0) {
-            printf("spraycoat %s\n", SPRAYCOAT_VERSION);
+            printf("spraycoat %s\n", spraycoat_version());
             return 0;
         }
     }
     h5_quiet();
+    /* a file-size limit must give EFBIG and exit status 3, not kill the process mid-write */
+    signal(SIGXFSZ, SIG_IGN);
     struct options opt = {0};
     int status = parse_arguments(argc, argv, &opt);
     if (status == SC_OK)

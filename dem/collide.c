@@ -118,19 +118,26 @@ static void find_target_contact(const struct dem_solver *s, uint32_t i, struct d
 }
 
 /* Contacts of flying particle i with flying particles of higher index and with deposited particles.
- * A bucket may hold several cells (hash collisions); only the particles of the visited cell count, so no
- * pair is found twice. */
+ * Only the cells that the box around i's sweep, widened by the largest radius and sweep of any other
+ * particle, overlaps are visited (8 to 27 of them).  A bucket may hold several cells (hash collisions);
+ * only the particles of the visited cell count, so no pair is found twice. */
 static void find_pair_contacts(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
 {
     const struct dem_particles *p = &s->p;
     const struct dem_bins *bins = &s->bins;
-    const double *xi = p->x + 3 * i, *vi = p->v + 3 * i;
-    int64_t ci = cell_index(xi[0], bins->cell), cj = cell_index(xi[1], bins->cell), ck = cell_index(xi[2], bins->cell);
-    for (int di = -1; di <= 1; di++)
-        for (int dj = -1; dj <= 1; dj++)
-            for (int dk = -1; dk <= 1; dk++) {
-                uint32_t bucket = cell_hash(ci + di, cj + dj, ck + dk, bins->bucket_count);
-                uint64_t key = cell_key(ci + di, cj + dj, ck + dk);
+    const double *xi = p->x + 3 * i, *vi = p->v + 3 * i, dt = s->cfg.dt;
+    double speed = sqrt(vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
+    double reach = 0.5 * p->d[i] + speed * dt + bins->reach_other;
+    int64_t lo[3], hi[3];
+    for (int c = 0; c < 3; c++) {
+        lo[c] = cell_index(xi[c] - reach, bins->cell);
+        hi[c] = cell_index(xi[c] + reach, bins->cell);
+    }
+    for (int64_t ci = lo[0]; ci <= hi[0]; ci++)
+        for (int64_t cj = lo[1]; cj <= hi[1]; cj++)
+            for (int64_t ck = lo[2]; ck <= hi[2]; ck++) {
+                uint32_t bucket = cell_hash(ci, cj, ck, bins->bucket_count);
+                uint64_t key = cell_key(ci, cj, ck);
                 for (uint32_t k = bins->bucket_start[bucket]; k < bins->bucket_start[bucket + 1]; k++) {
                     uint32_t j = bins->items[k];
                     if (bins->cell_key[j] != key || j == i || (p->state[j] == DEM_FLYING && j < i))
@@ -138,7 +145,7 @@ static void find_pair_contacts(const struct dem_solver *s, uint32_t i, struct de
                     const double *xj = p->x + 3 * j, *vj = p->v + 3 * j;
                     double dx[3] = {xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]};
                     double dv[3] = {vj[0] - vi[0], vj[1] - vi[1], vj[2] - vi[2]};
-                    double t_hit = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), s->cfg.dt);
+                    double t_hit = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt);
                     if (t_hit >= 0.0)
                         candidates_push(out, t_hit, i, j, CONTACT_PAIR);
                 }
@@ -157,30 +164,35 @@ static int candidate_order(const void *pa, const void *pb)
     return a->b < b->b ? -1 : (a->b > b->b);
 }
 
-/* Cell side: a pair that can touch during the step lies in neighbouring cells (Section 4.3, with the
- * sweep distance of both particles added to the largest diameter). */
-static double bin_cell_size(const struct dem_particles *p, double dt)
+/* Cell side: the largest diameter plus twice the largest sweep (Section 4.3, with the distance both
+ * particles move in the step added), so a pair that can touch lies in neighbouring cells. */
+static void bin_sizes(const struct dem_particles *p, double dt, double *cell, double *reach_other)
 {
-    double d_largest = 0.0, speed_largest = 0.0;
+    double d_largest = 0.0, speed2_largest = 0.0;
     for (size_t i = 0; i < p->count; i++) {
         d_largest = fmax(d_largest, p->d[i]);
         if (p->state[i] == DEM_FLYING) {
             const double *v = p->v + 3 * i;
-            speed_largest = fmax(speed_largest, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            speed2_largest = fmax(speed2_largest, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         }
     }
-    return d_largest + 2.0 * sqrt(speed_largest) * dt * 1.0000001 + 1e-12;
+    /* the small relative margin covers rounding in the sweep lengths */
+    double sweep = sqrt(speed2_largest) * dt * (1.0 + 1e-9);
+    *reach_other = 0.5 * d_largest * (1.0 + 1e-9) + sweep;
+    *cell = d_largest + 2.0 * sweep + 1e-12;
 }
 
 void dem_detect_contacts(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    bins_build(&s->bins, p, bin_cell_size(p, s->cfg.dt));
+    double cell;
+    bin_sizes(p, s->cfg.dt, &cell, &s->bins.reach_other);
+    bins_build(&s->bins, p, cell);
     s->candidates.count = 0;
 #pragma omp parallel
     {
         struct dem_candidates local = {0};
-#pragma omp for schedule(static) nowait
+#pragma omp for schedule(dynamic, 64) nowait
         for (size_t i = 0; i < p->count; i++) {
             if (p->state[i] != DEM_FLYING)
                 continue;

@@ -21,6 +21,7 @@ struct dem_particles {
 /* Hash grid of cells of side `cell`: particles of cell (i, j, k) are in bucket hash(i, j, k). */
 struct dem_bins {
     double cell;
+    double reach_other;    /* largest radius plus largest sweep (|v| dt) of any particle */
     size_t bucket_count;   /* power of two */
     uint32_t *bucket_start;/* bucket_count + 1 */
     uint32_t *items;       /* particle indices sorted by bucket */

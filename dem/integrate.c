@@ -122,7 +122,9 @@ int dem_integrate(struct dem_solver *s)
     const struct dem_config *cfg = &s->cfg;
     int64_t iterations = 0, solves = 0, unconverged = 0, max_iterations = s->stats.max_iterations, subcycled = 0;
     memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
-#pragma omp parallel for schedule(static) reduction(+ : iterations, solves, unconverged, subcycled) \
+    /* Dynamic schedule: deposited particles (skipped) gather at low indices.  Each particle's update is
+     * independent and the reductions are integer sums, so the result does not depend on the schedule. */
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : iterations, solves, unconverged, subcycled) \
     reduction(max : max_iterations)
     for (size_t i = 0; i < p->count; i++) {
         if (p->state[i] != DEM_FLYING)
