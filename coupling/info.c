@@ -14,7 +14,7 @@ static const char *const root_attributes[] = {"format", "format_version", "progr
 static const char *const spray_stats[] = {"steps", "t", "injected", "in_flight", "deposited", "escaped",
                                           "contacts_pair", "contacts_target", "contacts_deposit",
                                           "fixed_point_iterations", "fixed_point_solves",
-                                          "fixed_point_unconverged", "subcycled_particle_steps", NULL};
+                                          "fixed_point_unconverged", "subcycled_particle_steps", "particle_steps", NULL};
 static const char *const metric_names[] = {"deposit_fraction", "volume_fraction", "mean_spread", "scatter",
                                            "max_thickness", "deposition_rate", NULL};
 

@@ -1,4 +1,5 @@
 /* The spray stage driver: checkpoints, resume, signals, progress and RUN_DIR/spray.h5. */
+#include <errno.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -133,6 +134,44 @@ static int write_output(struct spray_run *run)
     return SC_OK;
 }
 
+/* RUN_DIR/spray.xdmf: the final particles of spray.h5 as a point cloud for ParaView/VisIt. */
+static int write_xdmf(const struct spray_run *run)
+{
+    char path[H5IO_PATH_MAX], tmp[H5IO_PATH_MAX + 8];
+    snprintf(path, sizeof path, "%s/spray.xdmf", run->run_dir);
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    size_t n = dem_particle_count(run->solver);
+    FILE *file = fopen(tmp, "w");
+    if (!file)
+        SC_FAIL(SC_EIO, "cannot write %s: %s", tmp, strerror(errno));
+    fprintf(file, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+                  "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
+                  "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\"/>\n"
+                  "   <Geometry GeometryType=\"XYZ\">\n"
+                  "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+                  "spray.h5:/particles/x</DataItem>\n   </Geometry>\n", n, n);
+    static const char *const vectors[] = {"v", "w"}, *const scalars[] = {"d", "m"};
+    for (int k = 0; k < 2; k++)
+        fprintf(file, "   <Attribute Name=\"%s\" AttributeType=\"Vector\" Center=\"Node\">\n"
+                      "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+                      "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n", vectors[k], n, vectors[k]);
+    for (int k = 0; k < 2; k++)
+        fprintf(file, "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                      "    <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+                      "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n", scalars[k], n, scalars[k]);
+    fprintf(file, "   <Attribute Name=\"state\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                  "    <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+                  "spray.h5:/particles/state</DataItem>\n   </Attribute>\n  </Grid>\n </Domain>\n</Xdmf>\n", n);
+    int failed = ferror(file) | fflush(file) | fsync(fileno(file));
+    failed |= fclose(file);
+    if (failed || rename(tmp, path) != 0) {
+        int saved = errno;
+        unlink(tmp);
+        SC_FAIL(SC_EIO, "cannot write %s: %s", path, strerror(saved));
+    }
+    return SC_OK;
+}
+
 static void log_summary(const struct spray_run *run)
 {
     struct dem_metrics m = dem_compute_metrics(run->solver);
@@ -159,6 +198,7 @@ static int run_stage(struct spray_run *run)
     SC_TRY(time_loop(run));
     SC_TRY(dem_check_accounting(run->solver));
     SC_TRY(write_output(run));
+    SC_TRY(write_xdmf(run));
     log_summary(run);
     return SC_OK;
 }

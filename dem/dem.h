@@ -93,6 +93,7 @@ struct dem_counts {
     int64_t contacts_pair, contacts_target, contacts_deposit;
     int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
     int64_t subcycled_particle_steps;
+    int64_t particle_steps;        /* flying particles advanced, summed over steps */
 };
 
 struct dem_solver;

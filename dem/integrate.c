@@ -121,15 +121,17 @@ int dem_integrate(struct dem_solver *s)
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
     int64_t iterations = 0, solves = 0, unconverged = 0, max_iterations = s->stats.max_iterations, subcycled = 0;
+    int64_t advanced = 0;
     memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
     /* Dynamic schedule: deposited particles (skipped) gather at low indices.  Each particle's update is
      * independent and the reductions are integer sums, so the result does not depend on the schedule. */
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : iterations, solves, unconverged, subcycled) \
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : iterations, solves, unconverged, subcycled, advanced) \
     reduction(max : max_iterations)
     for (size_t i = 0; i < p->count; i++) {
         if (p->state[i] != DEM_FLYING)
             continue;
         struct iteration_count count = {0};
+        advanced++;
         integrate_particle(cfg, p->d[i], p->m[i], p->x + 3 * i, p->v + 3 * i, &count);
         iterations += count.iterations;
         solves += count.solves;
@@ -142,6 +144,7 @@ int dem_integrate(struct dem_solver *s)
     s->stats.fixed_point_solves += solves;
     s->stats.fixed_point_unconverged += unconverged;
     s->stats.subcycled_particle_steps += subcycled;
+    s->stats.particle_steps += advanced;
     s->stats.max_iterations = max_iterations;
     size_t bad;
     const char *quantity;

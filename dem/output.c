@@ -189,6 +189,7 @@ static int write_stats(hid_t file, const struct dem_solver *s)
     SC_TRY(h5_attr_write_int64(g, "fixed_point_unconverged", c.fixed_point_unconverged));
     SC_TRY(h5_attr_write_int64(g, "fixed_point_max_iterations", c.max_iterations));
     SC_TRY(h5_attr_write_int64(g, "subcycled_particle_steps", c.subcycled_particle_steps));
+    SC_TRY(h5_attr_write_int64(g, "particle_steps", c.particle_steps));
     H5Gclose(g);
     return SC_OK;
 }

@@ -1,0 +1,73 @@
+#!/bin/sh
+# `make bench`: the spray stage's performance table (DESIGN.md "Performance conventions").
+#   free flight with drag: N particles on a sparse lattice in the jet, no contacts
+#   colliding: a dense cloud in vacuum, many particle-particle contacts per step
+#   Table 1: wall time of the paper's full 50,050-particle case (skip with BENCH_TABLE1=0)
+# Particle-steps are the flying particles advanced, summed over steps (spray.h5:/stats particle_steps).
+set -eu
+build=${1:-build}
+bin="$build/spraycoat"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+# N particles, deterministic: a lattice (free flight) or a random cloud (colliding).
+lattice() { # n spacing speed
+    awk -v n="$1" -v h="$2" -v u="$3" 'BEGIN { print "x,y,z,vx,vy,vz,wx,wy,wz,d"; side = int(exp(log(n) / 3)) + 1;
+        for (i = 0; i < n; i++) { a = i % side; b = int(i / side) % side; c = int(i / side / side);
+            printf "%.6e,%.6e,%.6e,0,0,%.4f,0,0,0,4e-05\n", (a - side / 2) * h, (b - side / 2) * h, 0.01 + c * h, u + (i % 7) } }'
+}
+cloud() { # n box speed
+    awk -v n="$1" -v box="$2" -v u="$3" 'BEGIN { print "x,y,z,vx,vy,vz,wx,wy,wz,d"; s = 12345;
+        for (i = 0; i < n; i++) { for (k = 0; k < 6; k++) { s = (s * 1103515245 + 12345) % 2147483648; r[k] = s / 2147483648 }
+            printf "%.6e,%.6e,%.6e,%.4f,%.4f,%.4f,0,0,0,4e-05\n", box * (r[0] - 0.5), box * (r[1] - 0.5), 0.1 + box * r[2],
+                u * (2 * r[3] - 1), u * (2 * r[4] - 1), u * (2 * r[5] - 1) } }'
+}
+
+run_case() { # name case threads -> prints a table row
+    rm -rf "$work/run"
+    start=$(date +%s.%N)
+    "$bin" spray "$2" -o "$work/run" -q --threads "$3"
+    end=$(date +%s.%N)
+    steps=$(h5dump -a /stats/particle_steps "$work/run/spray.h5" | sed -n 's/^ *(0): *//p')
+    contacts=$(h5dump -a /stats/contacts_pair "$work/run/spray.h5" | sed -n 's/^ *(0): *//p')
+    awk -v name="$1" -v t="$3" -v s="$start" -v e="$end" -v ps="$steps" -v c="$contacts" 'BEGIN {
+        w = e - s; printf "| %-28s | %7d | %12d | %9d | %8.2f | %10.2f | %10.2f |\n", name, t, ps, c, w, ps / w / 1e6, ps / w / 1e6 / t }'
+}
+
+lattice 20000 1e-3 50 > "$work/lattice.csv"
+cat > "$work/free.ini" <<INI
+[spray]
+dt = 1e-6
+t_end = 1e-3
+injection = file
+particles = lattice.csv
+domain_radius = 0.2
+[target]
+standoff = 0.3
+[deposition]
+rule = none
+INI
+cloud 20000 0.006 30 > "$work/cloud.csv"
+cat > "$work/colliding.ini" <<INI
+[spray]
+dt = 1e-6
+t_end = 5e-4
+injection = file
+particles = cloud.csv
+domain_radius = 0.2
+[jet]
+model = none
+[contact]
+restitution = 0.9
+[deposition]
+rule = none
+INI
+
+echo "spraycoat $("$bin" --version | cut -d' ' -f2) on $(lscpu | sed -n 's/^Model name: *//p') ($(nproc) cores)"
+echo "| case                         | threads | particle-steps | contacts | wall s | M p-steps/s | per thread |"
+echo "| ---------------------------- | ------- | -------------- | -------- | ------ | ----------- | ---------- |"
+for t in 1 2; do run_case "free flight + drag, 20k" "$work/free.ini" "$t"; done
+for t in 1 2; do run_case "colliding cloud, 20k, vacuum" "$work/colliding.ini" "$t"; done
+if [ "${BENCH_TABLE1:-1}" != 0 ]; then
+    run_case "Table 1 full (50,050)" cases/mz2015_table1.ini 2
+fi

@@ -1,0 +1,414 @@
+#!/bin/sh
+# The restart guarantee through the public command (DESIGN.md "Determinism and restart", "Run directory and
+# HDF5 files"): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
+# the same spray.h5 as a run that was never stopped; results do not depend on the thread count; a damaged
+# newest checkpoint falls back to the previous one with a warning; a checkpoint of another case is refused.
+#
+# Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).  Needs h5ls, h5diff and
+# h5dump (Debian hdf5-tools) and a sleep that takes fractions of a second (GNU coreutils).
+# Prints "PASS name" / "FAIL name (reason)"; other lines are a log shown when something fails.
+#
+# "Identical" means, for two RUN_DIR/spray.h5: the same list of datasets (h5ls -r), every dataset equal by
+# `h5diff -d 0` object by object *and* byte for byte (h5dump -b; h5diff compares values, so -0 == +0 to it),
+# the root attributes case_hash, format and format_version equal, every other attribute equal (units, the
+# /stats counters, ...) except the root attribute `created` (a time stamp), and the root attribute `case` (the
+# resolved case text) equal up to its "; read from:" line and "; default" marks (see resolved_case).
+# Debian's h5diff 1.10 cannot skip attributes, hence object by object rather than whole files.
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+DEMO=cases/demo.ini
+
+failures=0
+pass() { echo "PASS $1"; }
+fail() {
+    echo "FAIL $1 ($2)"
+    failures=$((failures + 1))
+}
+note() { echo "  $*"; }
+
+for tool in h5ls h5diff h5dump; do
+    if ! command -v "$tool" >/dev/null 2>&1; then
+        echo "FAIL restart ($tool not found: install hdf5-tools)"
+        exit 1
+    fi
+done
+if [ ! -x "$BIN" ] || [ ! -r "$DEMO" ]; then
+    echo "FAIL restart (no $BIN or $DEMO; run from the repository root after make)"
+    exit 1
+fi
+
+T=$(mktemp -d) || exit 1
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+
+# ---- the cases: demo.ini shortened to ~2 s, a checkpoint every 200 steps; a twin with another seed ---------------
+t_end=2e-3
+every=200
+if [ -n "${SPRAYCOAT_SANITIZED:-}" ]; then # ASan/UBSan runs are several times slower
+    t_end=1e-3
+    every=100
+fi
+CASE=$T/short.ini
+OTHER=$T/other_seed.ini
+sed -e "s/^t_end *=.*/t_end = $t_end/" -e "s/^checkpoint_steps *=.*/checkpoint_steps = $every/" "$DEMO" >"$CASE"
+sed -e 's/^seed *=.*/seed = 1234567/' "$CASE" >"$OTHER"
+if ! grep -q "^t_end = $t_end\$" "$CASE" || ! grep -q "^checkpoint_steps = $every\$" "$CASE" ||
+    ! grep -q '^seed = 1234567$' "$OTHER"; then
+    echo "FAIL restart ($DEMO no longer has the lines t_end, checkpoint_steps and seed this test rewrites)"
+    exit 1
+fi
+
+# ---- helpers --------------------------------------------------------------------------------------------------
+
+# Start the program in the background with its stdout and stderr in file $1; its pid in $bg.
+# A non-interactive sh starts background commands with SIGINT (and SIGQUIT) ignored (POSIX "Asynchronous
+# Lists"), and `trap - INT` cannot undo that in dash ("signals ignored on entry cannot be trapped or reset").
+# spraycoat installs its own SIGINT handler with sigaction, which replaces the inherited SIG_IGN, but to test
+# SIGINT as a terminal delivers it we also start it with SIGINT at its default where env(1) can do that
+# (GNU coreutils >= 8.31 `env --default-signal=INT`; env execs, so $! is still spraycoat's pid).
+if env --default-signal=INT true 2>/dev/null; then
+    ENV_INT="env --default-signal=INT"
+else
+    ENV_INT="env"
+fi
+start_bg() {
+    out=$1
+    shift
+    $ENV_INT "$BIN" "$@" >"$out" 2>&1 &
+    bg=$!
+}
+# Wait for the background program; its exit status in $status.
+wait_bg() {
+    wait "$bg" 2>/dev/null # without the redirection dash reports "Killed" on stderr
+    status=$?
+    bg=""
+}
+
+checkpoint_count() { ls "$1"/checkpoints/spray_*.h5 2>/dev/null | wc -l | tr -d ' '; }
+newest_checkpoint() { ls "$1"/checkpoints/spray_*.h5 2>/dev/null | LC_ALL=C sort | tail -n 1; }
+
+# Poll until RUN_DIR $1 holds at least $2 checkpoints (0 when the background program ended or 30 s passed).
+wait_for_checkpoints() {
+    i=0
+    while [ "$i" -lt 600 ]; do
+        [ "$(checkpoint_count "$1")" -ge "$2" ] && return 0
+        kill -0 "$bg" 2>/dev/null || return 1
+        sleep 0.05
+        i=$((i + 1))
+    done
+    return 1
+}
+
+datasets() { h5ls -r "$1" 2>/dev/null | awk '$2 == "Dataset" { print $1 }' | LC_ALL=C sort; }
+
+# All attributes of a file (h5dump -A: headers and attributes, no data) less its first line (the file name)
+# and the root attributes named in $2 (a regular expression of names).
+attributes() {
+    h5dump -A "$1" 2>&1 | sed 1d | awk -v skip="^   ATTRIBUTE \"($2)\" [{]\$" '
+        $0 ~ skip { skipping = 1 }
+        !skipping { print }
+        skipping && /^   [}]$/ { skipping = 0 }'
+}
+
+# One root attribute as h5dump -a writes it, less the first line (the file name).
+root_attribute() { h5dump -a "/$2" "$1" 2>&1 | sed 1d; }
+
+# The root attribute `case` (the resolved case text) less what legitimately differs after a resume: the
+# "; read from:" line (CASE.ini, or RUN_DIR/case.ini) and the "; default" marks (RUN_DIR/case.ini spells
+# defaults out, so on resume they read as set in the file).
+resolved_case() { root_attribute "$1" case | grep -v '; read from: ' | sed 's/ *; default$//'; }
+
+# same_results DIR_A DIR_B [threads]: 0 when DIR_A/spray.h5 and DIR_B/spray.h5 are identical (see the top of
+# this file), else 1 with the reason in $why.  With "threads", the case text and case hash are not compared
+# (they hold [run] threads, which differs on purpose).
+same_results() {
+    a=$1/spray.h5
+    b=$2/spray.h5
+    mode=${3:-}
+    why=""
+    for f in "$a" "$b"; do
+        if [ ! -f "$f" ]; then
+            why="$f does not exist"
+            return 1
+        fi
+    done
+    datasets "$a" >"$T/datasets_a"
+    datasets "$b" >"$T/datasets_b"
+    na=$(wc -l <"$T/datasets_a" | tr -d ' ')
+    nb=$(wc -l <"$T/datasets_b" | tr -d ' ')
+    if [ "$na" -ne "$nb" ]; then
+        why="$na datasets in $a but $nb in $b"
+        return 1
+    fi
+    if [ "$na" -eq 0 ]; then
+        why="h5ls finds no datasets in $a"
+        return 1
+    fi
+    if ! cmp -s "$T/datasets_a" "$T/datasets_b"; then
+        why="the dataset names differ: $(diff "$T/datasets_a" "$T/datasets_b" | grep '^[<>]' | head -n 4 | tr '\n' ' ')"
+        return 1
+    fi
+    while read -r d; do
+        if ! h5diff -d 0 "$a" "$b" "$d" "$d" >"$T/h5diff.out" 2>&1; then
+            why="dataset $d differs: $(head -n 6 "$T/h5diff.out" | tr '\n' ' ')"
+            return 1
+        fi
+    done <"$T/datasets_a"
+    # the values of all datasets, one after the other, as bytes
+    rm -f "$T/bytes_a" "$T/bytes_b"
+    selection=$(awk '{ printf " -d %s", $1 }' "$T/datasets_a")
+    # shellcheck disable=SC2086 # dataset names hold no blanks (h5ls -r shows them blank-separated anyway)
+    if ! h5dump $selection -b NATIVE -o "$T/bytes_a" "$a" >/dev/null 2>&1 ||
+        ! h5dump $selection -b NATIVE -o "$T/bytes_b" "$b" >/dev/null 2>&1; then
+        why="h5dump -b cannot write the values of the datasets"
+        return 1
+    fi
+    if ! cmp -s "$T/bytes_a" "$T/bytes_b"; then
+        why="the bytes of the datasets differ though h5diff -d 0 finds no difference (NaN or -0?)"
+        return 1
+    fi
+    for attr in case_hash format format_version; do
+        [ "$mode" = threads ] && [ "$attr" = case_hash ] && continue
+        root_attribute "$a" "$attr" >"$T/attr_a"
+        root_attribute "$b" "$attr" >"$T/attr_b"
+        if ! grep -q 'DATA' "$T/attr_a" || ! cmp -s "$T/attr_a" "$T/attr_b"; then
+            why="root attribute $attr differs: $(grep '(0):' "$T/attr_a" | tr -s ' ') vs $(grep '(0):' "$T/attr_b" | tr -s ' ')"
+            return 1
+        fi
+    done
+    skip='created|case'
+    [ "$mode" = threads ] && skip='created|case|case_hash'
+    attributes "$a" "$skip" >"$T/attr_a"
+    attributes "$b" "$skip" >"$T/attr_b"
+    if ! cmp -s "$T/attr_a" "$T/attr_b"; then
+        why="attributes differ: $(diff "$T/attr_a" "$T/attr_b" | grep '^[<>]' | head -n 6 | tr -s ' ' | tr '\n' ' ')"
+        return 1
+    fi
+    if [ "$mode" != threads ]; then
+        resolved_case "$a" >"$T/attr_a"
+        resolved_case "$b" >"$T/attr_b"
+        if ! grep -q 'DATA' "$T/attr_a" || ! cmp -s "$T/attr_a" "$T/attr_b"; then
+            why="root attribute case (the resolved case) differs: $(diff "$T/attr_a" "$T/attr_b" | grep '^[<>]' | head -n 4 | tr -s ' ' | tr '\n' ' ')"
+            return 1
+        fi
+    fi
+    return 0
+}
+
+# ---- 1. the reference: one uninterrupted run ------------------------------------------------------------------
+start=$(date +%s)
+if ! "$BIN" spray "$CASE" -o "$T/ref" >"$T/ref.log" 2>&1; then
+    echo "FAIL restart_reference (spraycoat spray exited with status $?)"
+    tail -n 5 "$T/ref.log"
+    exit 1
+fi
+if [ ! -f "$T/ref/spray.h5" ] || [ "$(datasets "$T/ref/spray.h5" | wc -l)" -eq 0 ]; then
+    echo "FAIL restart_reference (no datasets in $T/ref/spray.h5)"
+    exit 1
+fi
+note "reference run: $(($(date +%s) - start)) s, $(datasets "$T/ref/spray.h5" | wc -l | tr -d ' ') datasets"
+pass restart_reference
+
+# ---- 2. SIGKILL at several moments, resume each time ----------------------------------------------------------
+# Kill 1 comes right after the first checkpoint appears, so that at least one resume starts from a checkpoint
+# however fast the machine is; the others come at fixed delays after the start of `spray` or `resume` (the
+# first one before any checkpoint), so they land at different steps, sometimes inside a checkpoint write
+# (which leaves a spray_*.h5.tmp behind).  A kill that comes after the program has finished is logged.
+test=restart_kill_resume
+from_checkpoint=0
+problem=""
+kill_number=0
+for delay in 0.05 first-checkpoint 0.3 0.5 0.7 0.9; do
+    kill_number=$((kill_number + 1))
+    if [ "$kill_number" -eq 1 ]; then
+        start_bg "$T/killed.log.$kill_number" spray "$CASE" -o "$T/killed"
+    else
+        before=$(checkpoint_count "$T/killed")
+        tmp=$(ls "$T"/killed/checkpoints/*.tmp 2>/dev/null | wc -l | tr -d ' ')
+        start_bg "$T/killed.log.$kill_number" resume "$T/killed"
+    fi
+    if [ "$delay" = first-checkpoint ]; then
+        wait_for_checkpoints "$T/killed" 1
+        sleep 0.1
+    else
+        sleep "$delay"
+    fi
+    kill -9 "$bg" 2>/dev/null
+    pid=$bg
+    wait_bg
+    how="killed (status $status)"
+    [ "$status" -eq 137 ] || how="had already ended with status $status"
+    if [ "$kill_number" -gt 1 ]; then
+        resumed=$(sed -n 's/.*spray: \(resuming from [^ ]*\) (step \([0-9]*\).*/\1 at step \2/p' \
+            "$T/killed.log.$kill_number")
+        [ -n "$resumed" ] && from_checkpoint=$((from_checkpoint + 1))
+        note "kill $kill_number: resume with $before checkpoint(s) and $tmp .tmp file(s) present:" \
+            "${resumed:-started from step 0}; SIGKILL after ${delay} s: $how"
+    else
+        note "kill 1: spray, SIGKILL after ${delay} s: $how"
+    fi
+    if [ "$status" -ne 137 ] && [ "$status" -ne 0 ]; then
+        problem="run $kill_number ended with status $status: $(tail -n 1 "$T/killed.log.$kill_number")"
+        break
+    fi
+done
+if [ -z "$problem" ]; then
+    # Whatever the kills hit, also leave what a kill inside a write leaves: half-written .tmp files of a
+    # later checkpoint and of spray.h5.  The last resume must ignore them.
+    newest=$(newest_checkpoint "$T/killed")
+    if [ -n "$newest" ]; then
+        head -c 50000 "$newest" >"$T/killed/checkpoints/spray_99999999.h5.tmp"
+        head -c 50000 "$newest" >"$T/killed/spray.h5.tmp"
+    fi
+    before=$(checkpoint_count "$T/killed")
+    if "$BIN" resume "$T/killed" >"$T/killed.log.final" 2>&1; then
+        note "final resume with $before checkpoint(s):" \
+            "$(grep -o 'resuming from [^ ]*\|nothing to do' "$T/killed.log.final" || echo 'from step 0')"
+    else
+        problem="the final resume exited with status $?: $(tail -n 1 "$T/killed.log.final")"
+    fi
+fi
+if [ -n "$problem" ]; then
+    fail "$test" "$problem"
+elif [ "$from_checkpoint" -eq 0 ]; then
+    fail "$test" "no resume started from a checkpoint: the kills came too early or too late, change the delays"
+elif ! same_results "$T/ref" "$T/killed"; then
+    fail "$test" "after $kill_number kills and resumes ($from_checkpoint from a checkpoint): $why"
+else
+    pass "$test"
+fi
+
+# ---- 3. SIGTERM and SIGINT: checkpoint, exit 143/130, resume --------------------------------------------------
+# The signal comes shortly after the first checkpoint (about 0.3 s into a ~2 s run here), so the run is
+# certainly still going on a fast machine, and is left with that checkpoint and the one the signal writes.
+signal_run() { # NAME SIGNAL EXPECTED_STATUS RUN_DIR
+    test=$1
+    dir=$4
+    start_bg "$T/$test.log" spray "$CASE" -o "$dir"
+    if ! wait_for_checkpoints "$dir" 1; then
+        wait_bg
+        fail "$test" "no checkpoint appeared while the run went on (it ended with status $status)"
+        return 1
+    fi
+    sleep 0.2
+    kill -"$2" "$bg"
+    wait_bg
+    if [ "$status" -ne "$3" ]; then
+        fail "$test" "exit status $status after SIG$2, expected $3: $(tail -n 1 "$T/$test.log")"
+        return 1
+    fi
+    if [ "$(checkpoint_count "$dir")" -eq 0 ]; then
+        fail "$test" "no checkpoint in $dir/checkpoints after SIG$2"
+        return 1
+    fi
+    if ! grep -q 'resume' "$T/$test.log"; then
+        fail "$test" "the message after SIG$2 does not mention resume: $(tail -n 1 "$T/$test.log")"
+        return 1
+    fi
+    note "SIG$2: status $status, $(checkpoint_count "$dir") checkpoint(s), newest $(basename "$(newest_checkpoint "$dir")")"
+    return 0
+}
+resume_and_compare() { # NAME RUN_DIR
+    if ! "$BIN" resume "$2" >"$T/$1.resume.log" 2>&1; then
+        fail "$1" "resume exited with status $?: $(tail -n 1 "$T/$1.resume.log")"
+        return 1
+    fi
+    if ! grep -q 'resuming from' "$T/$1.resume.log"; then
+        fail "$1" "resume did not start from a checkpoint: $(head -n 3 "$T/$1.resume.log" | tr '\n' ' ')"
+        return 1
+    fi
+    if ! same_results "$T/ref" "$2"; then
+        fail "$1" "$why"
+        return 1
+    fi
+    return 0
+}
+if signal_run restart_sigterm TERM 143 "$T/term" && resume_and_compare restart_sigterm "$T/term"; then
+    pass restart_sigterm
+fi
+if signal_run restart_sigint INT 130 "$T/int" && resume_and_compare restart_sigint "$T/int"; then
+    pass restart_sigint
+fi
+
+# ---- 4. thread count: --threads 1 and --threads 2 give the same results ---------------------------------------
+test=restart_threads
+if ! "$BIN" spray "$CASE" -o "$T/threads1" --threads 1 >"$T/threads1.log" 2>&1; then
+    fail "$test" "--threads 1 exited with status $?: $(tail -n 1 "$T/threads1.log")"
+elif ! "$BIN" spray "$CASE" -o "$T/threads2" --threads 2 >"$T/threads2.log" 2>&1; then
+    fail "$test" "--threads 2 exited with status $?: $(tail -n 1 "$T/threads2.log")"
+elif ! same_results "$T/threads1" "$T/threads2" threads; then
+    fail "$test" "--threads 1 against --threads 2: $why"
+elif ! same_results "$T/threads1" "$T/ref" threads; then
+    fail "$test" "--threads 1 against the reference ([run] threads = 0): $why"
+else
+    pass "$test"
+fi
+
+# ---- 5. a damaged newest checkpoint: warning, fall back to the previous one, same results -----------------------
+test=restart_corrupt_checkpoint
+dir=$T/corrupt
+if signal_run "$test" TERM 143 "$dir"; then
+    count=$(checkpoint_count "$dir")
+    newest=$(newest_checkpoint "$dir")
+    previous=$(ls "$dir"/checkpoints/spray_*.h5 | LC_ALL=C sort | tail -n 2 | head -n 1)
+    size=$(wc -c <"$newest" | tr -d ' ')
+    cp "$newest" "$T/intact.h5"
+    # 4 KiB of text over the middle of the file: raw data of a dataset there fails its Fletcher32 checksum,
+    # metadata there fails to parse; either way the file is damaged.
+    yes 'damaged checkpoint ' | head -c 4096 | dd of="$newest" bs=1 seek=$((size / 2)) conv=notrunc 2>/dev/null
+    if [ "$count" -lt 2 ]; then
+        fail "$test" "only $count checkpoint(s) after SIGTERM; need 2"
+    elif cmp -s "$newest" "$T/intact.h5"; then
+        fail "$test" "dd did not change $newest"
+    elif ! "$BIN" resume "$dir" >"$T/$test.resume.log" 2>&1; then
+        fail "$test" "resume exited with status $?: $(tail -n 1 "$T/$test.resume.log")"
+    elif ! grep "$newest" "$T/$test.resume.log" | grep -qi 'damaged\|corrupt\|checksum'; then
+        fail "$test" "no warning naming the damaged $newest: $(head -n 3 "$T/$test.resume.log" | tr '\n' ' ')"
+    elif ! grep -q "resuming from $previous " "$T/$test.resume.log"; then
+        fail "$test" "did not fall back to $previous: $(grep -m 1 'resuming\|damaged' "$T/$test.resume.log")"
+    elif ! same_results "$T/ref" "$dir"; then
+        fail "$test" "$why"
+    else
+        note "damaged $(basename "$newest") ($size bytes, 4096 overwritten at $((size / 2))):" \
+            "$(grep -m 1 'damaged' "$T/$test.resume.log" | sed 's/^\[[^]]*\] //')"
+        pass "$test"
+    fi
+fi
+
+# ---- 6. a checkpoint of another case is refused ---------------------------------------------------------------
+test=restart_other_case
+mkdir -p "$T/other/checkpoints"
+cp "$T"/ref/checkpoints/spray_*.h5 "$T/other/checkpoints/"
+copied=$(checkpoint_count "$T/other")
+"$BIN" spray "$OTHER" -o "$T/other" >"$T/other.log" 2>&1
+status=$?
+if [ "$copied" -eq 0 ]; then
+    fail "$test" "the reference run left no checkpoint to copy"
+elif [ "$status" -ne 2 ]; then
+    fail "$test" "exit status $status with another case's checkpoints, expected 2: $(tail -n 1 "$T/other.log")"
+elif ! grep -qi 'another case' "$T/other.log"; then
+    fail "$test" "the message does not say the checkpoint belongs to another case: $(tail -n 1 "$T/other.log")"
+elif [ -f "$T/other/spray.h5" ]; then
+    fail "$test" "a spray.h5 was written although the run was refused"
+elif [ "$(checkpoint_count "$T/other")" -ne "$copied" ]; then
+    fail "$test" "the refused checkpoints were deleted ($copied before, $(checkpoint_count "$T/other") after)"
+else
+    note "$(tail -n 1 "$T/other.log")"
+    pass "$test"
+fi
+
+note "total $(($(date +%s) - start)) s"
+[ "$failures" -eq 0 ]
