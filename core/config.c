@@ -752,9 +752,11 @@ static bool enter_section_line(struct parse_state *st, const char *line)
     while (is_blank(*rest))
         rest++;
     /* inih ignores text after ']', so "[spray] dt = 1" would lose dt without a word. */
-    if (*rest && *rest != ';' && *rest != '#')
-        return parse_fail(st, "%s:%d: syntax error: text after ']' of a section header: %s", st->c->path, st->line,
-                          rest);
+    if (*rest && *rest != ';' && *rest != '#' && *rest != '\n' && *rest != '\r') {
+        int length = (int)strcspn(line, "\r\n");
+        return parse_fail(st, "%s:%d: syntax error: text after ']' of a section header: got \"%.*s\"; a section "
+                          "header stands alone on its line", st->c->path, st->line, length, line);
+    }
     free(st->section);
     st->section = must_strndup(line + 1, (size_t)(close - line - 1));
     return enter_section(st);

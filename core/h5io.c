@@ -54,8 +54,20 @@ static void h5io_close(hid_t id)
 
 static herr_t keep_innermost_error(unsigned n, const H5E_error2_t *error, void *reason)
 {
-    if (n == 0)
-        snprintf(reason, H5IO_REASON_MAX, "%s", error->desc);
+    if (n == 0) {
+        /* HDF5's low-level descriptions run over several lines (time, buffer address, ...): keep the
+         * first, and the system's reason when there is one */
+        const char *desc = error->desc;
+        const char *system_reason = strstr(desc, "error message = '");
+        int first_line = (int)strcspn(desc, "\n,");
+        if (system_reason) {
+            system_reason += strlen("error message = '");
+            snprintf(reason, H5IO_REASON_MAX, "%.*s: %.*s", first_line, desc, (int)strcspn(system_reason, "'"),
+                     system_reason);
+        } else {
+            snprintf(reason, H5IO_REASON_MAX, "%.*s", (int)strcspn(desc, "\n"), desc);
+        }
+    }
     return 0;
 }
 

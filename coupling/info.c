@@ -113,8 +113,10 @@ int info_print(const char *target, FILE *out)
         return info_file(target, out);
     char path[4096];
     snprintf(path, sizeof path, "%s/case.ini", target);
+    if (access(path, R_OK) != 0)
+        SC_FAIL(SC_EIO, "info: %s is not a run directory (no readable case.ini)", target);
     fprintf(out, "run directory %s\n", target);
-    fprintf(out, "case: %s\n", access(path, R_OK) == 0 ? path : "missing (not a run directory?)");
+    fprintf(out, "case: %s\n", path);
     snprintf(path, sizeof path, "%s/spray.h5", target);
     int spray_done = access(path, R_OK) == 0;
     fprintf(out, "stage spray: %s\n", spray_done ? "done" : "not done");

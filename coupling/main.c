@@ -74,8 +74,14 @@ static int load_case(const char *path, const struct options *opt, struct case_fi
     if (!path)
         SC_FAIL(SC_EINPUT, "%s needs a case file (see spraycoat --help)", opt->command);
     SC_TRY(case_load(path, spraycoat_registry, c));
-    if (opt->threads)
-        SC_TRY(case_set(*c, "run", "threads", opt->threads, "command line --threads"));
+    if (opt->threads) {
+        int status = case_set(*c, "run", "threads", opt->threads, "command line --threads");
+        if (status != SC_OK) {
+            case_free(*c);
+            *c = NULL;
+            return status;
+        }
+    }
     return SC_OK;
 }
 
@@ -107,6 +113,8 @@ static void default_run_dir(const char *case_path, char *out, size_t size)
 
 static int run_stages(struct case_file *c, const char *run_dir)
 {
+    /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
+    SC_TRY(spray_stage_validate(c));
     SC_TRY(run_dir_prepare(run_dir, c));
     stages_install_signal_handlers();
     SC_TRY(spray_stage_run(c, run_dir));
@@ -155,6 +163,8 @@ static int dispatch(const struct options *opt)
     if (strcmp(command, "info") == 0)
         return info_print(opt->target, stdout);
     if (strcmp(command, "keys") == 0) {
+        if (opt->target)
+            SC_FAIL(SC_EINPUT, "keys takes no argument (see spraycoat --help)");
         case_registry_markdown(spraycoat_registry, stdout);
         return SC_OK;
     }
@@ -177,6 +187,9 @@ int main(int argc, char **argv)
             return 0;
         }
     }
+    /* HDF5's exit-time cleanup can crash on a file whose close failed (full disk, file-size limit);
+     * every file spraycoat writes is closed or abandoned explicitly, so the cleanup is not needed */
+    H5dont_atexit();
     h5_quiet();
     /* a file-size limit must give EFBIG and exit status 3, not kill the process mid-write */
     signal(SIGXFSZ, SIG_IGN);

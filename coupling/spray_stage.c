@@ -203,6 +203,14 @@ static int run_stage(struct spray_run *run)
     return SC_OK;
 }
 
+int spray_stage_validate(const struct case_file *c)
+{
+    struct dem_config cfg;
+    SC_TRY(dem_config_load(c, &cfg));
+    dem_config_free(&cfg);
+    return SC_OK;
+}
+
 int spray_stage_run(const struct case_file *c, const char *run_dir)
 {
     struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};

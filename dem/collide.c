@@ -204,7 +204,8 @@ void dem_detect_contacts(struct dem_solver *s)
             candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
         free(local.items);
     }
-    qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
+    if (s->candidates.count > 1)
+        qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
 
 /* ---------------------------------------------------------------- deposition rules */

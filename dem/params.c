@@ -237,7 +237,7 @@ static int read_csv_columns(const struct case_file *c, const char *section, cons
     char line[4096];
     char *fields[64];
     int index[16];
-    int header_seen = 0, status = SC_OK;
+    int header_seen = 0, header_fields = 0, status = SC_OK;
     size_t count = 0, capacity = 0, line_number = 0;
     double *rows = NULL;
     while (status == SC_OK && fgets(line, sizeof line, file)) {
@@ -252,11 +252,17 @@ static int read_csv_columns(const struct case_file *c, const char *section, cons
                     status = case_invalid(c, section, key, "%s: the header has no column '%s'", path, wanted[w]);
             }
             header_seen = 1;
+            header_fields = nfields;
             continue;
         }
         if (count == capacity) {
             capacity = capacity ? 2 * capacity : 256;
             rows = realloc(rows, capacity * (size_t)wanted_count * sizeof *rows);
+        }
+        if (nfields < header_fields) {
+            status = case_invalid(c, section, key, "%s:%zu: %d columns, the header has %d", path, line_number,
+                                  nfields, header_fields);
+            break;
         }
         for (int w = 0; w < wanted_count && status == SC_OK; w++) {
             if (index[w] >= nfields || !parse_finite(fields[index[w]], &rows[count * (size_t)wanted_count + (size_t)w]))

@@ -1,4 +1,5 @@
 #!/bin/sh
+# shellcheck disable=SC2012 # ls lists files this test made, named without blanks
 # The restart guarantee through the public command (DESIGN.md "Determinism and restart", "Run directory and
 # HDF5 files"): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
 # the same spray.h5 as a run that was never stopped; results do not depend on the thread count; a damaged
@@ -11,8 +12,9 @@
 # "Identical" means, for two RUN_DIR/spray.h5: the same list of datasets (h5ls -r), every dataset equal by
 # `h5diff -d 0` object by object *and* byte for byte (h5dump -b; h5diff compares values, so -0 == +0 to it),
 # the root attributes case_hash, format and format_version equal, every other attribute equal (units, the
-# /stats counters, ...) except the root attribute `created` (a time stamp), and the root attribute `case` (the
-# resolved case text) equal up to its "; read from:" line and "; default" marks (see resolved_case).
+# /stats counters, ...) except the root attributes `created` (a time stamp) and `program_version` (git
+# describe of the build: another engineer may rebuild the program while this test runs), and the root attribute
+# `case` (the resolved case text) equal up to its "; read from:" line and "; default" marks (resolved_case).
 # Debian's h5diff 1.10 cannot skip attributes, hence object by object rather than whole files.
 set -u
 
@@ -189,8 +191,8 @@ same_results() {
             return 1
         fi
     done
-    skip='created|case'
-    [ "$mode" = threads ] && skip='created|case|case_hash'
+    skip='created|program_version|case'
+    [ "$mode" = threads ] && skip='created|program_version|case|case_hash'
     attributes "$a" "$skip" >"$T/attr_a"
     attributes "$b" "$skip" >"$T/attr_b"
     if ! cmp -s "$T/attr_a" "$T/attr_b"; then
@@ -209,7 +211,16 @@ same_results() {
 }
 
 # ---- 1. the reference: one uninterrupted run ------------------------------------------------------------------
+# milliseconds since the epoch (GNU date; elsewhere whole seconds)
+now_ms() {
+    ms=$(date +%s%N 2>/dev/null)
+    case $ms in
+    *N* | "") echo $(($(date +%s) * 1000)) ;;
+    *) echo $((ms / 1000000)) ;;
+    esac
+}
 start=$(date +%s)
+ref_start=$(now_ms)
 if ! "$BIN" spray "$CASE" -o "$T/ref" >"$T/ref.log" 2>&1; then
     echo "FAIL restart_reference (spraycoat spray exited with status $?)"
     tail -n 5 "$T/ref.log"
@@ -219,46 +230,95 @@ if [ ! -f "$T/ref/spray.h5" ] || [ "$(datasets "$T/ref/spray.h5" | wc -l)" -eq 0
     echo "FAIL restart_reference (no datasets in $T/ref/spray.h5)"
     exit 1
 fi
-note "reference run: $(($(date +%s) - start)) s, $(datasets "$T/ref/spray.h5" | wc -l | tr -d ' ') datasets"
+ref_ms=$(($(now_ms) - ref_start))
+[ "$ref_ms" -gt 0 ] || ref_ms=1000
+note "reference run: $ref_ms ms, $(datasets "$T/ref/spray.h5" | wc -l | tr -d ' ') datasets"
 pass restart_reference
 
 # ---- 2. SIGKILL at several moments, resume each time ----------------------------------------------------------
-# Kill 1 comes right after the first checkpoint appears, so that at least one resume starts from a checkpoint
-# however fast the machine is; the others come at fixed delays after the start of `spray` or `resume` (the
-# first one before any checkpoint), so they land at different steps, sometimes inside a checkpoint write
-# (which leaves a spray_*.h5.tmp behind).  A kill that comes after the program has finished is logged.
+# The kills come at fixed fractions of the reference run's wall time after the start of `spray` (the first,
+# before any checkpoint) or `resume` (the others), so that on a fast or a busy machine alike they land at
+# different steps, sometimes inside a checkpoint write (which leaves a spray_*.h5.tmp behind).  On an idle
+# 2-core machine the reference takes ~1.6 s, and the kills come after 0.03, 0.32, 0.48, 0.56 and 0.64 s.
+# Kill 2 comes 0.1 s after the resume has written a new checkpoint, so that at least one resume (kill 3's)
+# starts from a checkpoint whatever the timing.  A kill that comes after the program has finished is logged.
+# Before each resume this test also leaves what a kill inside a write leaves, half-written .tmp files of a
+# later checkpoint and of spray.h5 (unless a kill left real ones): every resume must ignore them.
 test=restart_kill_resume
 from_checkpoint=0
 problem=""
 kill_number=0
-for delay in 0.05 first-checkpoint 0.3 0.5 0.7 0.9; do
+delays=""
+for fraction in 0.02 new-checkpoint 0.20 0.30 0.35 0.40; do
+    if [ "$fraction" = new-checkpoint ]; then
+        delays="$delays $fraction"
+    else
+        delays="$delays $(awk -v ms="$ref_ms" -v f="$fraction" 'BEGIN { printf "%.3f", ms * f / 1000 }')"
+    fi
+done
+# Before a resume of $T/killed: log what it holds in $held, plant the half-written files.
+prepare_resume() {
+    # first take away what this function planted last time and the program left alone
+    rm -f "$T/killed/checkpoints/spray_99999999.h5.tmp"
+    if [ -f "$T/planted" ] && cmp -s "$T/planted" "$T/killed/spray.h5.tmp"; then
+        rm -f "$T/killed/spray.h5.tmp"
+    fi
+    before=$(checkpoint_count "$T/killed")
+    newest=$(newest_checkpoint "$T/killed")
+    tmp=$(ls "$T"/killed/checkpoints/*.tmp "$T"/killed/*.tmp 2>/dev/null | wc -l | tr -d ' ')
+    held="$before checkpoint(s), ${newest:+newest $(basename "$newest"), }$tmp .tmp file(s) left by the kill"
+    if [ -n "$newest" ]; then
+        head -c 50000 "$newest" >"$T/planted"
+        cp "$T/planted" "$T/killed/checkpoints/spray_99999999.h5.tmp"
+        [ -f "$T/killed/spray.h5.tmp" ] || cp "$T/planted" "$T/killed/spray.h5.tmp"
+    fi
+}
+# Poll until the newest checkpoint of RUN_DIR $1 is no longer $2 (1 when the program ended or 30 s passed).
+wait_for_new_checkpoint() {
+    i=0
+    while [ "$i" -lt 600 ]; do
+        [ "$(newest_checkpoint "$1")" != "$2" ] && return 0
+        kill -0 "$bg" 2>/dev/null || return 1
+        sleep 0.05
+        i=$((i + 1))
+    done
+    return 1
+}
+for delay in $delays; do
     kill_number=$((kill_number + 1))
     if [ "$kill_number" -eq 1 ]; then
         start_bg "$T/killed.log.$kill_number" spray "$CASE" -o "$T/killed"
     else
-        before=$(checkpoint_count "$T/killed")
-        tmp=$(ls "$T"/killed/checkpoints/*.tmp 2>/dev/null | wc -l | tr -d ' ')
+        prepare_resume
         start_bg "$T/killed.log.$kill_number" resume "$T/killed"
     fi
-    if [ "$delay" = first-checkpoint ]; then
-        wait_for_checkpoints "$T/killed" 1
+    when="${delay} s after the start"
+    if [ "$delay" = new-checkpoint ]; then
+        wait_for_new_checkpoint "$T/killed" "$newest"
         sleep 0.1
+        when="0.1 s after it wrote $(basename "$(newest_checkpoint "$T/killed")")"
     else
         sleep "$delay"
     fi
     kill -9 "$bg" 2>/dev/null
-    pid=$bg
     wait_bg
     how="killed (status $status)"
     [ "$status" -eq 137 ] || how="had already ended with status $status"
     if [ "$kill_number" -gt 1 ]; then
         resumed=$(sed -n 's/.*spray: \(resuming from [^ ]*\) (step \([0-9]*\).*/\1 at step \2/p' \
             "$T/killed.log.$kill_number")
-        [ -n "$resumed" ] && from_checkpoint=$((from_checkpoint + 1))
-        note "kill $kill_number: resume with $before checkpoint(s) and $tmp .tmp file(s) present:" \
-            "${resumed:-started from step 0}; SIGKILL after ${delay} s: $how"
+        if [ -n "$resumed" ]; then
+            from_checkpoint=$((from_checkpoint + 1))
+        elif grep -q 'nothing to do' "$T/killed.log.$kill_number"; then
+            resumed="spray.h5 is there: nothing to do"
+        elif grep -q 'steps of' "$T/killed.log.$kill_number"; then
+            resumed="started from step 0"
+        else
+            resumed="killed before it logged anything"
+        fi
+        note "kill $kill_number: resume with $held: $resumed; SIGKILL $when: $how"
     else
-        note "kill 1: spray, SIGKILL after ${delay} s: $how"
+        note "kill 1: spray, SIGKILL $when: $how"
     fi
     if [ "$status" -ne 137 ] && [ "$status" -ne 0 ]; then
         problem="run $kill_number ended with status $status: $(tail -n 1 "$T/killed.log.$kill_number")"
@@ -266,16 +326,9 @@ for delay in 0.05 first-checkpoint 0.3 0.5 0.7 0.9; do
     fi
 done
 if [ -z "$problem" ]; then
-    # Whatever the kills hit, also leave what a kill inside a write leaves: half-written .tmp files of a
-    # later checkpoint and of spray.h5.  The last resume must ignore them.
-    newest=$(newest_checkpoint "$T/killed")
-    if [ -n "$newest" ]; then
-        head -c 50000 "$newest" >"$T/killed/checkpoints/spray_99999999.h5.tmp"
-        head -c 50000 "$newest" >"$T/killed/spray.h5.tmp"
-    fi
-    before=$(checkpoint_count "$T/killed")
+    prepare_resume
     if "$BIN" resume "$T/killed" >"$T/killed.log.final" 2>&1; then
-        note "final resume with $before checkpoint(s):" \
+        note "final resume with $held:" \
             "$(grep -o 'resuming from [^ ]*\|nothing to do' "$T/killed.log.final" || echo 'from step 0')"
     else
         problem="the final resume exited with status $?: $(tail -n 1 "$T/killed.log.final")"
@@ -304,7 +357,7 @@ signal_run() { # NAME SIGNAL EXPECTED_STATUS RUN_DIR
         return 1
     fi
     sleep 0.2
-    kill -"$2" "$bg"
+    kill -s "$2" "$bg"
     wait_bg
     if [ "$status" -ne "$3" ]; then
         fail "$test" "exit status $status after SIG$2, expected $3: $(tail -n 1 "$T/$test.log")"
