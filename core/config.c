@@ -445,7 +445,7 @@ static void format_unknown_key(const struct registry_view *view, const char *whe
 
 static bool within_range(const struct cfg_key *spec, double value)
 {
-    bool low_ok = spec->min <= -OPEN_BOUND || (spec->min_exclusive ? value > spec->min : value >= spec->min);
+    bool low_ok = spec->min <= -OPEN_BOUND || ((spec->flags & CFG_MIN_EXCLUSIVE) ? value > spec->min : value >= spec->min);
     bool high_ok = spec->max >= OPEN_BOUND || value <= spec->max;
     return low_ok && high_ok;
 }
@@ -462,8 +462,8 @@ static void describe_range(const struct cfg_key *spec, char *out, size_t size)
         format_number(spec->max, high, sizeof high);
     }
     bool has_low = spec->min > -OPEN_BOUND, has_high = spec->max < OPEN_BOUND;
-    const char *low_op = spec->min_exclusive ? ">" : ">=";
-    if (has_low && has_high && !spec->min_exclusive)
+    const char *low_op = (spec->flags & CFG_MIN_EXCLUSIVE) ? ">" : ">=";
+    if (has_low && has_high && !(spec->flags & CFG_MIN_EXCLUSIVE))
         snprintf(out, size, "%s .. %s", low, high);
     else if (has_low && has_high)
         snprintf(out, size, "> %s and <= %s", low, high);
@@ -1337,7 +1337,7 @@ uint64_t case_hash(const struct case_file *c)
     uint64_t hash = 0xcbf29ce484222325ULL;
     for (size_t i = 0; i < c->slot_count; i++) {
         const struct slot *slot = &c->slots[i];
-        if (!slot->text)
+        if (!slot->text || (slot->spec->flags & CFG_NOT_HASHED))
             continue;
         char *value = canonical_value(c, slot);
         hash = fnv1a(hash, slot->section);
@@ -1368,16 +1368,17 @@ static bool group_has_values(const struct case_file *c, size_t first, size_t end
     return false;
 }
 
-static void append_resolved_section(const struct case_file *c, size_t first, size_t end, struct text_buffer *b)
+static void append_resolved_section(const struct case_file *c, size_t first, size_t end, bool canonical,
+                                    struct text_buffer *b)
 {
     buffer_append(b, "\n[%s]\n", c->slots[first].section);
     for (size_t i = first; i < end; i++) {
         const struct slot *slot = &c->slots[i];
-        if (!slot->text)
+        if (!slot->text || (canonical && (slot->spec->flags & CFG_NOT_HASHED)))
             continue;
         char *value = slot->spec->type == CFG_PATH ? absolute_path(c, slot->text) : must_strdup(slot->text);
         size_t line_length = strlen(slot->spec->key) + 3 + strlen(value);
-        bool mark = slot->source == SOURCE_DEFAULT && line_length + 11 <= MAX_LINE_CHARS;
+        bool mark = !canonical && slot->source == SOURCE_DEFAULT && line_length + 11 <= MAX_LINE_CHARS;
         buffer_append(b, "%s = %s%s\n", slot->spec->key, value, mark ? "  ; default" : "");
         free(value);
     }
@@ -1392,21 +1393,27 @@ static void append_comment_path(struct text_buffer *b, const char *path)
     buffer_append(b, "\n");
 }
 
-char *case_resolved_text(const struct case_file *c)
+static char *resolved_text(const struct case_file *c, bool canonical)
 {
     struct text_buffer b = {0};
-    buffer_append(&b, "; spraycoat case, resolved: every key that has a value; \"; default\" marks defaults.\n");
-    append_comment_path(&b, c->path);
+    if (canonical) {
+        buffer_append(&b, "; spraycoat case, resolved\n");
+    } else {
+        buffer_append(&b, "; spraycoat case, resolved: every key that has a value; \"; default\" marks defaults.\n");
+        append_comment_path(&b, c->path);
+    }
     buffer_append(&b, "; case hash: %016llx\n", (unsigned long long)case_hash(c));
     for (size_t first = 0; first < c->slot_count;) {
         size_t end = section_group_end(c, first);
         /* A [material.NAME] is written even without values: its presence is part of the case. */
         if (group_has_values(c, first, end) || is_pattern(c->slots[first].spec->section))
-            append_resolved_section(c, first, end, &b);
+            append_resolved_section(c, first, end, canonical, &b);
         first = end;
     }
     return b.data;
 }
+
+char *case_resolved_text(const struct case_file *c) { return resolved_text(c, true); }
 
 /* inih splits longer lines: refuse to write a file that would not read back the same. */
 static int check_line_lengths(const char *path, const char *text)
@@ -1493,7 +1500,7 @@ static int write_file_atomically(const char *path, const char *data, size_t leng
 
 int case_write_resolved(const struct case_file *c, const char *path)
 {
-    char *text = case_resolved_text(c);
+    char *text = resolved_text(c, false);
     int status = check_line_lengths(path, text);
     if (status == SC_OK)
         status = write_file_atomically(path, text, strlen(text));

@@ -25,6 +25,8 @@ enum cfg_type {
     CFG_STRING,  /* any non-empty text */
 };
 
+enum cfg_flags { CFG_MIN_EXCLUSIVE = 1, CFG_NOT_HASHED = 2 };
+
 struct cfg_key {
     const char *section;       /* "spray"; "material.*" matches any [material.NAME] */
     const char *key;
@@ -33,7 +35,8 @@ struct cfg_key {
     const char *default_value; /* as text; NULL: no default (the owning stage decides if it is required) */
     double min, max;           /* CFG_INT and CFG_REAL: allowed range; a bound of magnitude >= 1e300 (or HUGE_VAL)
                                   is open; min == max == 0 is refused as a forgotten range */
-    int min_exclusive;         /* 1: value must be > min rather than >= min */
+    int flags;                 /* CFG_MIN_EXCLUSIVE: value must be > min rather than >= min;
+                                  CFG_NOT_HASHED: does not change results (threads, checkpoints) */
     const char *choices;       /* CFG_CHOICE (and CFG_REAL alternatives): "a|b|c" */
     const char *doc;           /* one line for `spraycoat check` and the README */
 };
@@ -85,7 +88,8 @@ uint64_t case_hash(const struct case_file *c);
  * CFG_PATH values are written as absolute paths, so that the copy (in a run folder) names the same files;
  * loading the copy gives the same case_hash().  Errors: SC_EIO with strerror. */
 int case_write_resolved(const struct case_file *c, const char *path);
-/* The resolved case as INI text (caller frees); used to store it in HDF5 files. */
+/* The resolved case as INI text without provenance comments or CFG_NOT_HASHED keys (caller frees): what
+ * determines the results, stored in output files so that a resumed run writes the same text. */
 char *case_resolved_text(const struct case_file *c);
 
 /* Emit the registry as a Markdown table per section (for README generation and checks). */

@@ -3,12 +3,12 @@
 const struct cfg_key run_case_keys[] = {
     {"run", "seed", CFG_INT, "-", "1", 0, 2147483647, 0, NULL,
      "seed of the counter-based random generator (results depend only on it, not on threads)"},
-    {"run", "threads", CFG_INT, "-", "0", 0, 4096, 0, NULL, "OpenMP threads, 0 = all cores"},
-    {"run", "checkpoint_wall", CFG_REAL, "s", "600", 0, 1e9, 0, NULL,
+    {"run", "threads", CFG_INT, "-", "0", 0, 4096, CFG_NOT_HASHED, NULL, "OpenMP threads, 0 = all cores"},
+    {"run", "checkpoint_wall", CFG_REAL, "s", "600", 0, 1e9, CFG_NOT_HASHED, NULL,
      "wall-clock seconds between checkpoints, 0 = off"},
-    {"run", "checkpoint_steps", CFG_INT, "-", "0", 0, 2147483647, 0, NULL,
+    {"run", "checkpoint_steps", CFG_INT, "-", "0", 0, 2147483647, CFG_NOT_HASHED, NULL,
      "steps between checkpoints, 0 = off"},
-    {"run", "keep_checkpoints", CFG_INT, "-", "3", 1, 1000, 0, NULL, "newest checkpoints kept per stage"},
+    {"run", "keep_checkpoints", CFG_INT, "-", "3", 1, 1000, CFG_NOT_HASHED, NULL, "newest checkpoints kept per stage"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 

@@ -114,7 +114,7 @@ static void default_run_dir(const char *case_path, char *out, size_t size)
 static int run_stages(struct case_file *c, const char *run_dir)
 {
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
-    SC_TRY(spray_stage_validate(c));
+    SC_TRY(spray_stage_validate(c, run_dir));
     SC_TRY(run_dir_prepare(run_dir, c));
     stages_install_signal_handlers();
     SC_TRY(spray_stage_run(c, run_dir));

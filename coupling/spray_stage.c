@@ -203,12 +203,16 @@ static int run_stage(struct spray_run *run)
     return SC_OK;
 }
 
-int spray_stage_validate(const struct case_file *c)
+int spray_stage_validate(const struct case_file *c, const char *run_dir)
 {
     struct dem_config cfg;
     SC_TRY(dem_config_load(c, &cfg));
     dem_config_free(&cfg);
-    return SC_OK;
+    if (!run_dir)
+        return SC_OK;
+    /* refuse checkpoints of another case before anything in the run directory is written */
+    char path[H5IO_PATH_MAX];
+    return checkpoint_find_newest(run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, case_hash(c), path, sizeof path);
 }
 
 int spray_stage_run(const struct case_file *c, const char *run_dir)

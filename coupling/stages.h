@@ -10,8 +10,9 @@ extern const struct cfg_key *const spraycoat_registry[];
 /* Create the run directory (and parents) and write RUN_DIR/case.ini, the resolved case. SC_EIO on failure. */
 int run_dir_prepare(const char *run_dir, const struct case_file *c);
 
-/* Check the spray stage's configuration (cross-key checks, input files) without running anything. */
-int spray_stage_validate(const struct case_file *c);
+/* Check the spray stage's configuration (cross-key checks, input files) and, when run_dir is not NULL,
+ * that its checkpoints there (if any) belong to this case, without writing anything. */
+int spray_stage_validate(const struct case_file *c, const char *run_dir);
 
 /* The spray stage: resume from the newest valid checkpoint of this case if there is one, run to t_end
  * with checkpoints, write RUN_DIR/spray.h5.  Skips the work when spray.h5 exists for the same case.

@@ -37,7 +37,7 @@ WORK=${BENCH_DIR:-$BUILD/bench_lammps}
 MPI=${BENCH_MPI:-1}
 INPUT=$ROOT/tests/bench/in.spray_compare
 FRICTION=0.3
-SKIN=10e-6   # m: with 55 m/s and dt ~1.5 ns a particle needs ~60 steps to cross half of it
+SKIN=20e-6   # m: at 125 m/s (the fastest after collisions) and dt ~1.5 ns, ~50 steps to cross half of it
 
 say() { printf '%s\n' "bench_lammps: $*" >&2; }
 die() { say "$*"; exit 1; }
@@ -78,6 +78,7 @@ gcc -std=c17 -O2 -Wall -Wextra -o "$WORK/make_particles" "$ROOT/tests/bench/make
 . "$WORK/particles.env"
 
 DT_LMP=$(awk -v tc="$tc" 'BEGIN { printf "%.4g", tc / 20 }')
+BINSIZE=$(awk -v d="$d_max" -v s="$SKIN" 'BEGIN { printf "%.4g", d + s }')
 STEPS_LMP=$(awk -v t="$T_END" -v dt="$DT_LMP" 'BEGIN { s = t / dt; s = int((s + 9.999) / 10) * 10; print s }')
 say "$n particles, d = $d_min..$d_max m, v_max = $v_max m/s, solid fraction $solid_fraction of the cloud"
 say "Hertz contact time, smallest sphere at the largest relative speed: particle-particle $tc_pp s," \
@@ -110,7 +111,7 @@ EOF
 lmp_rebound() { # e_input -> measured e
     lmp -in "$INPUT" -log none -screen none -var data "$WORK/calib.data" -var dt "$DT_LMP" -var steps 400 \
         -var zwall "$z_wall" -var E "$young" -var nu "$poisson" -var e "$1" -var mu "$FRICTION" \
-        -var skin "$SKIN" -var dump "$WORK/calib.dump" || die "LAMMPS calibration run failed"
+        -var skin "$SKIN" -var binsize "$BINSIZE" -var dump "$WORK/calib.dump" || die "LAMMPS calibration run failed"
     awk 'END { printf "%.6f", -$8 / 50 }' "$WORK/calib.dump"
 }
 E0=$restitution
@@ -200,7 +201,7 @@ run_lammps() { # ranks
     say "LAMMPS, $1 MPI rank(s), $STEPS_LMP steps ..."
     set -- "$1" lmp -in "$INPUT" -log "$log" -screen none -var data "$WORK/particles.data" -var dt "$DT_LMP" \
         -var steps "$STEPS_LMP" -var zwall "$z_wall" -var E "$young" -var nu "$poisson" -var e "$E_LMP" \
-        -var mu "$FRICTION" -var skin "$SKIN" -var dump "$WORK/final.np$1.dump"
+        -var mu "$FRICTION" -var skin "$SKIN" -var binsize "$BINSIZE" -var dump "$WORK/final.np$1.dump"
     ranks=$1
     shift
     t0=$(now)
@@ -321,7 +322,15 @@ echo "particle-steps = N x steps; particle-steps/s and us/step use the stepping 
 echo "spraycoat, which prints no timing with -q, the whole command, so its rate includes reading the CSV and"
 echo "writing spray.h5); time to solution = wall time of the whole command to reach the simulated time."
 echo "LAMMPS dt = tc/20, tc = $tc s = Hertz contact time of two $d_min m spheres at 2 x $v_max m/s; the LAMMPS"
-echo "loop includes fix ave/atom every 10 steps to record which particles touch the target."
+echo "loop includes fix ave/atom every 10 steps to record which particles touch the target. Neighbour skin"
+echo "$SKIN m, bin size $BINSIZE m."
+for log in "$WORK"/log.lammps.np*; do
+    [ -f "$log" ] || continue
+    awk -v name="${log##*/}" '/% CPU use/ { cpu = $1 }
+        /^(Pair|Neigh|Comm|Output|Modify|Other) *\|/ { part = part sprintf(" %s %s%%,", $1, $NF) }
+        /^Neighbor list builds/ { builds = $NF }
+        END { sub(/,$/, "", part); printf "%s: loop time split%s; %s neighbour builds; %s CPU use\n", name, part, builds, cpu }' "$log"
+done
 echo
 echo "physics (same definitions for both codes; 'hit' = touched the target at least once; <vz> in = initial"
 echo "vz of the hit particles, <-vz> end = their final velocity away from the target; KE/KE0 over all particles):"
