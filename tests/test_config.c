@@ -22,6 +22,7 @@ static const struct cfg_key alpha_keys[] = {
     {"alpha", "restitution", CFG_REAL, "-", "johnson", 0, 1, 0, "johnson", "a word or a number"},
     {"alpha", "data", CFG_PATH, "", NULL, 0, 0, 0, NULL, "a data file"},
     {"alpha", "title", CFG_STRING, "", NULL, 0, 0, 0, NULL, "a title"},
+    {"alpha", "workers", CFG_INT, "-", "0", 0, 64, CFG_NOT_HASHED, NULL, "does not change results"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -462,7 +463,9 @@ static void test_write_resolved_round_trip(void)
     }
     case_free(again);
     char *text = case_resolved_text(c);
-    CHECK(text && strstr(text, "[alpha]\n") && strstr(text, "count = 5\n") && strstr(text, "; default"),
+    /* the text stored in output files is canonical: values only, no provenance marks */
+    CHECK(text && strstr(text, "[alpha]\n") && strstr(text, "count = 5\n") && !strstr(text, "; default") &&
+              !strstr(text, "read from"),
           "resolved text:\n%s", text ? text : "(null)");
     CHECK(text && strstr(text, "title = A run\n") && strstr(text, "[material.none]\n"), "resolved text contents");
     free(text);
@@ -556,6 +559,31 @@ static void remove_temp_folder(void)
         printf("  note: could not remove %s: %s\n", temp_folder, strerror(errno));
 }
 
+/* Keys flagged CFG_NOT_HASHED (threads, checkpoint policy) change neither the hash nor the canonical text. */
+static void test_not_hashed_keys(void)
+{
+    struct case_file *c = NULL;
+    char path[PATH_MAX];
+    snprintf(path, sizeof path, "%s/unhashed.ini", temp_folder);
+    mkdir(temp_folder, 0700);
+    FILE *file = fopen(path, "w");
+    fputs("[alpha]\ncount = 4\n", file);
+    fclose(file);
+    CHECK(case_load(path, registry, &c) == SC_OK, "load: %s", sc_error_message());
+    if (!c)
+        return;
+    uint64_t before = case_hash(c);
+    CHECK(case_set(c, "alpha", "workers", "8", "command line") == SC_OK, "set");
+    CHECK(case_hash(c) == before, "hash unchanged by a CFG_NOT_HASHED key");
+    char *text = case_resolved_text(c);
+    CHECK(text && !strstr(text, "workers"), "canonical text leaves it out");
+    free(text);
+    CHECK(case_set(c, "alpha", "count", "5", "command line") == SC_OK, "set");
+    CHECK(case_hash(c) != before, "a hashed key changes the hash");
+    case_free(c);
+    unlink(path);
+}
+
 int main(void)
 {
     const char *base = getenv("TMPDIR");
@@ -584,6 +612,7 @@ int main(void)
     RUN(test_require_and_invalid);
     RUN(test_hash);
     RUN(test_write_resolved_round_trip);
+    RUN(test_not_hashed_keys);
     RUN(test_relative_paths);
     RUN(test_print);
     RUN(test_markdown);
