@@ -1,4 +1,4 @@
-/* Contacts of one step: binning (Section 4.3), swept-sphere detection and impulse resolution
+/* Contacts of one step: swept-sphere detection (broad phase in dem/broadphase.c) and impulse resolution
  * (Sections 2.1-2.2, collide-and-stream of Section 4.4), deposition rules (Section 3 and DESIGN.md).
  *
  * The paper tests for overlap at the end of a step (Eq. 40); at its step sizes a particle moves more
@@ -13,99 +13,9 @@
 
 #include "dem/dem_impl.h"
 
-/* ---------------------------------------------------------------- binning (hash grid) */
+/* ---------------------------------------------------------------- contacts of the step */
 
-static inline uint32_t cell_hash(int64_t i, int64_t j, int64_t k, size_t bucket_count)
-{
-    uint64_t h = (uint64_t)i * 0x9E3779B97F4A7C15ull ^ (uint64_t)j * 0xC2B2AE3D27D4EB4Full ^
-                 (uint64_t)k * 0x165667B19E3779F9ull;
-    h ^= h >> 29;
-    return (uint32_t)(h & (bucket_count - 1));
-}
-
-static inline int64_t cell_index(double coordinate, double cell) { return (int64_t)floor(coordinate / cell); }
-
-/* 21 bits per axis: cells are at least a particle diameter, so +-2^20 cells cover any sane domain, and
- * distinct cells that wrap onto the same key are only a (harmless) extra distance test. */
-static inline uint64_t cell_key(int64_t i, int64_t j, int64_t k)
-{
-    const uint64_t mask = (1u << 21) - 1;
-    return ((uint64_t)i & mask) | (((uint64_t)j & mask) << 21) | (((uint64_t)k & mask) << 42);
-}
-
-static void bins_build(struct dem_bins *bins, const struct dem_particles *p, double cell)
-{
-    size_t buckets = 1024;
-    while (buckets < 2 * p->count)
-        buckets *= 2;
-    if (buckets != bins->bucket_count) {
-        bins->bucket_start = realloc(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
-        bins->bucket_count = buckets;
-    }
-    if (p->count > bins->capacity) {
-        bins->capacity = p->capacity;
-        bins->items = realloc(bins->items, bins->capacity * sizeof(uint32_t));
-        bins->bucket_of = realloc(bins->bucket_of, bins->capacity * sizeof(uint32_t));
-        bins->cell_key = realloc(bins->cell_key, bins->capacity * sizeof(uint64_t));
-    }
-    bins->cell = cell;
-    memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
-    for (size_t i = 0; i < p->count; i++) {
-        const double *x = p->x + 3 * i;
-        int64_t ci = cell_index(x[0], cell), cj = cell_index(x[1], cell), ck = cell_index(x[2], cell);
-        uint32_t b = cell_hash(ci, cj, ck, buckets);
-        bins->bucket_of[i] = b;
-        bins->cell_key[i] = cell_key(ci, cj, ck);
-        bins->bucket_start[b + 1]++;
-    }
-    for (size_t b = 0; b < buckets; b++)
-        bins->bucket_start[b + 1] += bins->bucket_start[b];
-    /* Counting sort; filling in index order keeps each bucket sorted by particle index. */
-    uint32_t *fill = malloc(buckets * sizeof(uint32_t));
-    memcpy(fill, bins->bucket_start, buckets * sizeof(uint32_t));
-    for (size_t i = 0; i < p->count; i++)
-        bins->items[fill[bins->bucket_of[i]]++] = (uint32_t)i;
-    free(fill);
-}
-
-void dem_bins_free(struct dem_bins *bins)
-{
-    free(bins->bucket_start);
-    free(bins->items);
-    free(bins->bucket_of);
-    free(bins->cell_key);
-    memset(bins, 0, sizeof *bins);
-}
-
-/* ---------------------------------------------------------------- swept-sphere time of impact */
-
-/* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none.  Already touching
- * and approaching gives 0. */
-static double time_of_impact(const double dx[3], const double dv[3], double reach, double dt)
-{
-    double b = dx[0] * dv[0] + dx[1] * dv[1] + dx[2] * dv[2];
-    if (b >= 0.0)
-        return -1.0; /* separating or at rest relative to each other */
-    double c = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] - reach * reach;
-    if (c <= 0.0)
-        return 0.0;
-    double a = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
-    double discriminant = b * b - a * c;
-    if (discriminant < 0.0)
-        return -1.0;
-    double s = c / (-b + sqrt(discriminant)); /* the smaller root, in the form without cancellation */
-    return s <= dt ? s : -1.0;
-}
-
-static void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind)
-{
-    if (list->count == list->capacity) {
-        list->capacity = list->capacity ? 2 * list->capacity : 64;
-        list->items = realloc(list->items, list->capacity * sizeof *list->items);
-    }
-    list->items[list->count++] = (struct dem_candidate){s, a, b, kind};
-}
-
+/* The target plane: reached within the step by a particle moving towards it. */
 static void find_target_contact(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
 {
     const double *x = s->p.x + 3 * i, *v = s->p.v + 3 * i;
@@ -117,41 +27,7 @@ static void find_target_contact(const struct dem_solver *s, uint32_t i, struct d
         candidates_push(out, t_hit, i, 0, CONTACT_TARGET);
 }
 
-/* Contacts of flying particle i with flying particles of higher index and with deposited particles.
- * Only the cells that the box around i's sweep, widened by the largest radius and sweep of any other
- * particle, overlaps are visited (8 to 27 of them).  A bucket may hold several cells (hash collisions);
- * only the particles of the visited cell count, so no pair is found twice. */
-static void find_pair_contacts(const struct dem_solver *s, uint32_t i, struct dem_candidates *out)
-{
-    const struct dem_particles *p = &s->p;
-    const struct dem_bins *bins = &s->bins;
-    const double *xi = p->x + 3 * i, *vi = p->v + 3 * i, dt = s->cfg.dt;
-    double speed = sqrt(vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
-    double reach = 0.5 * p->d[i] + speed * dt + bins->reach_other;
-    int64_t lo[3], hi[3];
-    for (int c = 0; c < 3; c++) {
-        lo[c] = cell_index(xi[c] - reach, bins->cell);
-        hi[c] = cell_index(xi[c] + reach, bins->cell);
-    }
-    for (int64_t ci = lo[0]; ci <= hi[0]; ci++)
-        for (int64_t cj = lo[1]; cj <= hi[1]; cj++)
-            for (int64_t ck = lo[2]; ck <= hi[2]; ck++) {
-                uint32_t bucket = cell_hash(ci, cj, ck, bins->bucket_count);
-                uint64_t key = cell_key(ci, cj, ck);
-                for (uint32_t k = bins->bucket_start[bucket]; k < bins->bucket_start[bucket + 1]; k++) {
-                    uint32_t j = bins->items[k];
-                    if (bins->cell_key[j] != key || j == i || (p->state[j] == DEM_FLYING && j < i))
-                        continue;
-                    const double *xj = p->x + 3 * j, *vj = p->v + 3 * j;
-                    double dx[3] = {xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]};
-                    double dv[3] = {vj[0] - vi[0], vj[1] - vi[1], vj[2] - vi[2]};
-                    double t_hit = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt);
-                    if (t_hit >= 0.0)
-                        candidates_push(out, t_hit, i, j, CONTACT_PAIR);
-                }
-            }
-}
-
+/* Resolution order: time of impact, then target contacts before pair contacts, then indices. */
 static int candidate_order(const void *pa, const void *pb)
 {
     const struct dem_candidate *a = pa, *b = pb;
@@ -164,49 +40,20 @@ static int candidate_order(const void *pa, const void *pb)
     return a->b < b->b ? -1 : (a->b > b->b);
 }
 
-/* Cell side: the largest diameter plus twice the largest sweep (Section 4.3, with the distance both
- * particles move in the step added), so a pair that can touch lies in neighbouring cells. */
-static void bin_sizes(const struct dem_particles *p, double dt, double *cell, double *reach_other)
-{
-    double d_largest = 0.0, speed2_largest = 0.0;
-    for (size_t i = 0; i < p->count; i++) {
-        d_largest = fmax(d_largest, p->d[i]);
-        if (p->state[i] == DEM_FLYING) {
-            const double *v = p->v + 3 * i;
-            speed2_largest = fmax(speed2_largest, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        }
-    }
-    /* the small relative margin covers rounding in the sweep lengths */
-    double sweep = sqrt(speed2_largest) * dt * (1.0 + 1e-9);
-    *reach_other = 0.5 * d_largest * (1.0 + 1e-9) + sweep;
-    *cell = d_largest + 2.0 * sweep + 1e-12;
-}
-
+/* Every contact of this step, sorted into the order of resolution. */
 void dem_detect_contacts(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    double cell;
-    bin_sizes(p, s->cfg.dt, &cell, &s->bins.reach_other);
-    bins_build(&s->bins, p, cell);
     s->candidates.count = 0;
-#pragma omp parallel
-    {
-        struct dem_candidates local = {0};
-#pragma omp for schedule(dynamic, 64) nowait
-        for (size_t i = 0; i < p->count; i++) {
-            if (p->state[i] != DEM_FLYING)
-                continue;
-            find_target_contact(s, (uint32_t)i, &local);
-            find_pair_contacts(s, (uint32_t)i, &local);
-        }
-#pragma omp critical(dem_candidates_merge)
-        for (size_t k = 0; k < local.count; k++)
-            candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
-        free(local.items);
-    }
+    broadphase_build(&s->bins, p, s->cfg.dt);
+    broadphase_pairs(&s->bins, p, s->cfg.dt, &s->candidates);
+    for (size_t i = 0; i < p->count; i++)
+        if (p->state[i] == DEM_FLYING)
+            find_target_contact(s, (uint32_t)i, &s->candidates);
     if (s->candidates.count > 1)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
+
 
 /* ---------------------------------------------------------------- deposition rules */
 

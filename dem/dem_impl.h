@@ -18,16 +18,26 @@ struct dem_particles {
     uint8_t *state;        /* enum dem_particle_state */
 };
 
-/* Hash grid of cells of side `cell`: particles of cell (i, j, k) are in bucket hash(i, j, k). */
+/* One entry per (particle, cell its swept box overlaps), in bucket order: a copy of what the pair test
+ * needs, so that scanning a bucket reads contiguous memory. */
+struct dem_bin_entry {
+    double x[3], v[3];
+    double radius;
+    int32_t cell[3];
+    uint32_t index;        /* particle index */
+    uint32_t flying;
+};
+
+/* Swept-box hash grid: cubic cells of side `cell`; each particle is entered in every cell that the box
+ * around its sphere's sweep over the step overlaps; cell (i, j, k) lives in bucket hash(i, j, k). */
 struct dem_bins {
     double cell;
-    double reach_other;    /* largest radius plus largest sweep (|v| dt) of any particle */
-    size_t bucket_count;   /* power of two */
-    uint32_t *bucket_start;/* bucket_count + 1 */
-    uint32_t *items;       /* particle indices sorted by bucket */
-    uint32_t *bucket_of;   /* per particle */
-    uint64_t *cell_key;    /* per particle: its cell (i, j, k) packed, to tell cells sharing a bucket apart */
-    size_t capacity;
+    size_t bucket_count;          /* power of two */
+    uint32_t *bucket_start;       /* bucket_count + 1 */
+    struct dem_bin_entry *entries;
+    size_t entry_count, entry_capacity;
+    uint32_t *entry_bucket;       /* scratch for the counting sort */
+    struct dem_bin_entry *scratch;
 };
 
 enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
@@ -75,7 +85,18 @@ void dem_inject(struct dem_solver *s);
 /* The particles of `injection = file`, all at t = 0. */
 void dem_inject_file(struct dem_solver *s);
 
+/* dem/broadphase.c: the swept-box grid and the pairs of particles whose swept spheres touch in the step. */
 void dem_bins_free(struct dem_bins *bins);
+void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
+/* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
+ * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one. */
+void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
+                      struct dem_candidates *out);
+/* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
+double time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
+/* Append one contact to a list. */
+void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind);
+
 
 /* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */
 void dem_detect_contacts(struct dem_solver *s);
