@@ -27,7 +27,15 @@ static inline uint32_t cell_hash(const int32_t cell[3], size_t bucket_count)
     return (uint32_t)(h & (bucket_count - 1));
 }
 
-static inline int32_t cell_index(double coordinate, double cell) { return (int32_t)floor(coordinate / cell); }
+/* Clamped so that a particle absurdly far away (about to escape) or a non-finite state (about to be
+ * reported) cannot overflow the integer conversion. */
+static inline int32_t cell_index(double coordinate, double cell)
+{
+    double index = floor(coordinate / cell);
+    if (!(index > -1073741824.0))
+        return index != index ? 0 : -1073741824;
+    return index < 1073741824.0 ? (int32_t)index : 1073741824;
+}
 
 /* Bounding box of particle i's sphere over the step: [lo, hi]. */
 static void swept_box(const struct dem_particles *p, size_t i, double dt, double lo[3], double hi[3])

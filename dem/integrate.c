@@ -49,7 +49,11 @@ static void phi_step(const struct dem_config *cfg, double d, double m, double h,
     int converged = 0;
     while (!converged && iteration < cfg->fixed_point_max_iter) {
         double force[3], v_next[3], x_next[3];
-        net_force(&cfg->gas, d, x_k, v_k, force);
+        /* the first iterate is the start state, whose force is already known */
+        if (iteration == 0)
+            memcpy(force, force_start, sizeof force);
+        else
+            net_force(&cfg->gas, d, x_k, v_k, force);
         for (int c = 0; c < 3; c++) {
             v_next[c] = residual_v[c] + h / m * phi * force[c]; /* Eqs. 47, 51 */
             x_next[c] = residual_x[c] + h * phi * v_next[c];    /* Eqs. 49, 52 */

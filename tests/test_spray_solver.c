@@ -326,6 +326,26 @@ static void test_checkpoint_round_trip(void)
     fixture_close(&resumed);
 }
 
+/* A state that is no longer finite stops the run with SC_ESIM and a message naming step, particle and
+ * quantity (the stage driver then leaves the last checkpoint in place and writes no output). */
+static void test_blow_up_is_reported(void)
+{
+    struct fixture f;
+    if (fixture_open(&f, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = uniform\nuniform_velocity = 100\n",
+                     "0,0,0.01,0,0,10,0,0,0,4e-5\n0,0.001,0.01,0,0,10,0,0,0,4e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    CHECK(fixture_steps(&f, 3) == SC_OK, "healthy steps");
+    f.solver->p.v[3 * 1 + 2] = NAN; /* particle id 1 */
+    int status = dem_step(f.solver);
+    CHECK(status == SC_ESIM, "status %d, expected SC_ESIM", status);
+    const char *message = sc_error_message();
+    CHECK(strstr(message, "step 3") && strstr(message, "particle 1") && strstr(message, "not finite"),
+          "message names step, particle and quantity: %s", message);
+    fixture_close(&f);
+}
+
 int main(void)
 {
     h5_quiet();
@@ -336,5 +356,6 @@ int main(void)
     RUN(test_nothing_tunnels);
     RUN(test_threads_bit_identical);
     RUN(test_checkpoint_round_trip);
+    RUN(test_blow_up_is_reported);
     return check_finish();
 }
