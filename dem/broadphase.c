@@ -74,56 +74,74 @@ static void ensure_capacity(struct dem_bins *bins, size_t entries)
 {
     if (entries <= bins->entry_capacity)
         return;
-    bins->entry_capacity = entries + entries / 2;
+    bins->entry_capacity = entries + entries / 2 + 1024;
     bins->entries = realloc(bins->entries, bins->entry_capacity * sizeof *bins->entries);
     bins->scratch = realloc(bins->scratch, bins->entry_capacity * sizeof *bins->scratch);
     bins->entry_bucket = realloc(bins->entry_bucket, bins->entry_capacity * sizeof *bins->entry_bucket);
 }
 
-/* Write the entries of every particle (in particle order) into bins->scratch; returns their number. */
-static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, double dt)
+static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
 {
-    size_t count = 0;
+    return (size_t)(hi[0] - lo[0] + 1) * (size_t)(hi[1] - lo[1] + 1) * (size_t)(hi[2] - lo[2] + 1);
+}
+
+/* Write the entries of every particle (in particle order) into bins->scratch and their buckets into
+ * bins->entry_bucket; returns their number.  Two parallel passes: count each particle's cells, then
+ * (after a prefix sum) write them at their offsets, so the order is the same for any thread count. */
+static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, double dt, size_t buckets)
+{
+    size_t *offset = malloc((p->count + 1) * sizeof *offset);
+    offset[0] = 0;
+#pragma omp parallel for schedule(static)
     for (size_t i = 0; i < p->count; i++) {
         int32_t lo[3], hi[3];
         cell_range(p, i, dt, bins->cell, lo, hi);
-        size_t cells = (size_t)(hi[0] - lo[0] + 1) * (size_t)(hi[1] - lo[1] + 1) * (size_t)(hi[2] - lo[2] + 1);
-        ensure_capacity(bins, count + cells);
+        offset[i + 1] = cells_in_range(lo, hi);
+    }
+    for (size_t i = 0; i < p->count; i++)
+        offset[i + 1] += offset[i];
+    size_t count = offset[p->count];
+    ensure_capacity(bins, count);
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < p->count; i++) {
+        int32_t lo[3], hi[3];
+        cell_range(p, i, dt, bins->cell, lo, hi);
+        size_t e = offset[i];
         for (int32_t a = lo[0]; a <= hi[0]; a++)
             for (int32_t b = lo[1]; b <= hi[1]; b++)
-                for (int32_t k = lo[2]; k <= hi[2]; k++) {
-                    struct dem_bin_entry *e = &bins->scratch[count++];
-                    memcpy(e->x, p->x + 3 * i, sizeof e->x);
-                    if (p->state[i] == DEM_FLYING)
-                        memcpy(e->v, p->v + 3 * i, sizeof e->v);
-                    else
-                        memset(e->v, 0, sizeof e->v);
-                    e->radius = 0.5 * p->d[i];
-                    e->cell[0] = a, e->cell[1] = b, e->cell[2] = k;
-                    e->index = (uint32_t)i;
-                    e->flying = p->state[i] == DEM_FLYING;
+                for (int32_t k = lo[2]; k <= hi[2]; k++, e++) {
+                    struct dem_bin_entry *entry = &bins->scratch[e];
+                    entry->cell[0] = a, entry->cell[1] = b, entry->cell[2] = k;
+                    entry->index = (uint32_t)i;
+                    bins->entry_bucket[e] = cell_hash(entry->cell, buckets);
                 }
     }
+    free(offset);
     return count;
+}
+
+/* A power of two at least twice the expected number of entries (about 8 per particle). */
+static size_t bucket_count_for(size_t particles)
+{
+    size_t buckets = 1024;
+    while (buckets < 16 * particles)
+        buckets *= 2;
+    return buckets;
 }
 
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
     bins->cell = grid_cell_size(p, dt);
-    size_t count = fill_entries(bins, p, dt);
-    bins->entry_count = count;
-    size_t buckets = 1024;
-    while (buckets < 2 * count)
-        buckets *= 2;
+    size_t buckets = bucket_count_for(p->count);
     if (buckets != bins->bucket_count) {
         bins->bucket_start = realloc(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
         bins->bucket_count = buckets;
     }
+    size_t count = fill_entries(bins, p, dt, buckets);
+    bins->entry_count = count;
     memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
-    for (size_t e = 0; e < count; e++) {
-        bins->entry_bucket[e] = cell_hash(bins->scratch[e].cell, buckets);
+    for (size_t e = 0; e < count; e++)
         bins->bucket_start[bins->entry_bucket[e] + 1]++;
-    }
     for (size_t b = 0; b < buckets; b++)
         bins->bucket_start[b + 1] += bins->bucket_start[b];
     /* counting sort: entries of a bucket stay in particle order */
@@ -168,49 +186,67 @@ void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t
     list->items[list->count++] = (struct dem_candidate){s, a, b, kind};
 }
 
-static int same_cell(const struct dem_bin_entry *a, const struct dem_bin_entry *b)
+static inline int same_cell(const struct dem_bin_entry *a, const struct dem_bin_entry *b)
 {
     return a->cell[0] == b->cell[0] && a->cell[1] == b->cell[1] && a->cell[2] == b->cell[2];
 }
 
+/* A particle as the pair test sees it: deposited particles do not move. */
+struct swept_sphere {
+    double x[3], v[3], radius;
+    uint32_t index;
+    int flying;
+};
+
+static struct swept_sphere swept_sphere_of(const struct dem_particles *p, uint32_t i)
+{
+    struct swept_sphere sphere = {.radius = 0.5 * p->d[i], .index = i, .flying = p->state[i] == DEM_FLYING};
+    for (int c = 0; c < 3; c++) {
+        sphere.x[c] = p->x[3 * i + c];
+        sphere.v[c] = sphere.flying ? p->v[3 * i + c] : 0.0;
+    }
+    return sphere;
+}
+
 /* The pair is tested only in the cell holding the lower corner of the intersection of the two swept
- * boxes; returns 0 if the boxes do not intersect or this is not that cell. */
-static int owns_pair(const struct dem_bin_entry *a, const struct dem_bin_entry *b, double dt, double cell)
+ * boxes; returns 0 if the boxes do not intersect or `cell_here` is not that cell. */
+static int owns_pair(const struct swept_sphere *a, const struct swept_sphere *b, const int32_t cell_here[3],
+                     double dt, double cell)
 {
     for (int c = 0; c < 3; c++) {
         double ra = a->radius * (1.0 + BOX_MARGIN), rb = b->radius * (1.0 + BOX_MARGIN);
         double a_end = a->x[c] + a->v[c] * dt, b_end = b->x[c] + b->v[c] * dt;
         double lo = fmax(fmin(a->x[c], a_end) - ra, fmin(b->x[c], b_end) - rb);
         double hi = fmin(fmax(a->x[c], a_end) + ra, fmax(b->x[c], b_end) + rb);
-        if (lo > hi || cell_index(lo, cell) != a->cell[c])
+        if (lo > hi || cell_index(lo, cell) != cell_here[c])
             return 0;
     }
     return 1;
 }
 
-static void test_pair(const struct dem_bin_entry *a, const struct dem_bin_entry *b, double dt, double cell,
-                      struct dem_candidates *out)
+/* Entries of a bucket are in particle order, so first < second; a deposited particle goes second. */
+static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t second, const int32_t cell_here[3],
+                      double dt, double cell, struct dem_candidates *out)
 {
-    if (!a->flying && !b->flying)
+    if (p->state[first] != DEM_FLYING && p->state[second] != DEM_FLYING)
         return;
-    if (!owns_pair(a, b, dt, cell))
+    struct swept_sphere a = swept_sphere_of(p, first), b = swept_sphere_of(p, second);
+    if (!owns_pair(&a, &b, cell_here, dt, cell))
         return;
-    double dx[3] = {b->x[0] - a->x[0], b->x[1] - a->x[1], b->x[2] - a->x[2]};
-    double dv[3] = {b->v[0] - a->v[0], b->v[1] - a->v[1], b->v[2] - a->v[2]};
-    double t_hit = time_of_impact(dx, dv, a->radius + b->radius, dt);
+    double dx[3] = {b.x[0] - a.x[0], b.x[1] - a.x[1], b.x[2] - a.x[2]};
+    double dv[3] = {b.v[0] - a.v[0], b.v[1] - a.v[1], b.v[2] - a.v[2]};
+    double t_hit = time_of_impact(dx, dv, a.radius + b.radius, dt);
     if (t_hit < 0.0)
         return;
-    /* entries are in particle order, so a->index < b->index; a deposited particle goes second */
-    if (a->flying)
-        candidates_push(out, t_hit, a->index, b->index, CONTACT_PAIR);
+    if (a.flying)
+        candidates_push(out, t_hit, first, second, CONTACT_PAIR);
     else
-        candidates_push(out, t_hit, b->index, a->index, CONTACT_PAIR);
+        candidates_push(out, t_hit, second, first, CONTACT_PAIR);
 }
 
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
                       struct dem_candidates *out)
 {
-    (void)p;
 #pragma omp parallel
     {
         struct dem_candidates local = {0};
@@ -218,10 +254,11 @@ void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p
         for (size_t bucket = 0; bucket < bins->bucket_count; bucket++) {
             uint32_t first = bins->bucket_start[bucket], end = bins->bucket_start[bucket + 1];
             for (uint32_t i = first; i + 1 < end; i++)
-                for (uint32_t j = i + 1; j < end; j++)
-                    if (same_cell(&bins->entries[i], &bins->entries[j]) &&
-                        bins->entries[i].index != bins->entries[j].index)
-                        test_pair(&bins->entries[i], &bins->entries[j], dt, bins->cell, &local);
+                for (uint32_t j = i + 1; j < end; j++) {
+                    const struct dem_bin_entry *a = &bins->entries[i], *b = &bins->entries[j];
+                    if (same_cell(a, b) && a->index != b->index)
+                        test_pair(p, a->index, b->index, a->cell, dt, bins->cell, &local);
+                }
         }
 #pragma omp critical(dem_broadphase_merge)
         for (size_t k = 0; k < local.count; k++)

@@ -18,14 +18,10 @@ struct dem_particles {
     uint8_t *state;        /* enum dem_particle_state */
 };
 
-/* One entry per (particle, cell its swept box overlaps), in bucket order: a copy of what the pair test
- * needs, so that scanning a bucket reads contiguous memory. */
+/* One entry per (particle, cell its swept box overlaps). */
 struct dem_bin_entry {
-    double x[3], v[3];
-    double radius;
     int32_t cell[3];
     uint32_t index;        /* particle index */
-    uint32_t flying;
 };
 
 /* Swept-box hash grid: cubic cells of side `cell`; each particle is entered in every cell that the box
