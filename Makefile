@@ -79,7 +79,7 @@ install: $(BIN)
 	install -m 644 cases/*.ini $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 
 format:
-	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch]
+	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch] tests/bench/*.c
 
 clean:
 	rm -rf build build-asan build-bench

@@ -16,6 +16,8 @@
 /* Cells per particle per axis stay bounded: a particle far faster than the rest widens the cells instead
  * of filling thousands of them. */
 #define MAX_CELLS_PER_SWEEP 8.0
+/* Cell side in largest diameters: 2 balances entries per particle (about 3) against pairs per cell. */
+#define CELL_DIAMETERS 2.0
 /* Boxes are widened by this fraction of the radius so that rounding cannot drop a grazing contact. */
 #define BOX_MARGIN 1e-9
 
@@ -57,7 +59,7 @@ static double grid_cell_size(const struct dem_particles *p, double dt)
             for (int c = 0; c < 3; c++)
                 sweep_largest = fmax(sweep_largest, fabs(p->v[3 * i + c]) * dt);
     }
-    return fmax(d_largest, sweep_largest / MAX_CELLS_PER_SWEEP) * (1.0 + 1e-12) + 1e-300;
+    return CELL_DIAMETERS * fmax(d_largest, sweep_largest / MAX_CELLS_PER_SWEEP) * (1.0 + 1e-12) + 1e-300;
 }
 
 static void cell_range(const struct dem_particles *p, size_t i, double dt, double cell, int32_t lo[3], int32_t hi[3])
@@ -120,11 +122,11 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
     return count;
 }
 
-/* A power of two at least twice the expected number of entries (about 8 per particle). */
+/* A power of two at least twice the expected number of entries (about 3 per particle). */
 static size_t bucket_count_for(size_t particles)
 {
     size_t buckets = 1024;
-    while (buckets < 16 * particles)
+    while (buckets < 8 * particles)
         buckets *= 2;
     return buckets;
 }

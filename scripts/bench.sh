@@ -16,9 +16,9 @@ lattice() { # n spacing speed
         for (i = 0; i < n; i++) { a = i % side; b = int(i / side) % side; c = int(i / side / side);
             printf "%.6e,%.6e,%.6e,0,0,%.4f,0,0,0,4e-05\n", (a - side / 2) * h, (b - side / 2) * h, 0.01 + c * h, u + (i % 7) } }'
 }
-cloud() { # n box speed
+cloud() { # n box speed  (Park-Miller LCG: exact in awk doubles)
     awk -v n="$1" -v box="$2" -v u="$3" 'BEGIN { print "x,y,z,vx,vy,vz,wx,wy,wz,d"; s = 12345;
-        for (i = 0; i < n; i++) { for (k = 0; k < 6; k++) { s = (s * 1103515245 + 12345) % 2147483648; r[k] = s / 2147483648 }
+        for (i = 0; i < n; i++) { for (k = 0; k < 6; k++) { s = (s * 16807) % 2147483647; r[k] = s / 2147483647 }
             printf "%.6e,%.6e,%.6e,%.4f,%.4f,%.4f,0,0,0,4e-05\n", box * (r[0] - 0.5), box * (r[1] - 0.5), 0.1 + box * r[2],
                 u * (2 * r[3] - 1), u * (2 * r[4] - 1), u * (2 * r[5] - 1) } }'
 }
