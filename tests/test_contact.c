@@ -5,68 +5,13 @@
 #include "dem/contact.h"
 #include "dem/material.h"
 #include "tests/check.h"
+#include "tests/verification_csv.h"
 
 #include <stdint.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
 
-/* ---- a small CSV reader: '#' lines are comments, the first other line is the header ---- */
-
-#define CSV_MAX_FIELDS 16
-#define CSV_LINE_MAX 1024
-
-struct csv_row {
-    int count;
-    char *field[CSV_MAX_FIELDS];
-};
-
-static void csv_split(char *line, struct csv_row *row)
-{
-    row->count = 0;
-    line[strcspn(line, "\r\n")] = '\0';
-    char *cursor = line;
-    while (row->count < CSV_MAX_FIELDS) {
-        row->field[row->count++] = cursor;
-        char *comma = strchr(cursor, ',');
-        if (!comma)
-            break;
-        *comma = '\0';
-        cursor = comma + 1;
-    }
-}
-
-/* Calls visit() for every data row of the table `name` in the verification folder; returns the number of
- * rows, or -1 if the file cannot be opened. */
-static int csv_for_each(const char *name, void (*visit)(const struct csv_row *row))
-{
-    char path[512];
-    snprintf(path, sizeof path, "%s/%s", check_verification_dir(), name);
-    FILE *file = fopen(path, "r");
-    if (!file)
-        return -1;
-    char line[CSV_LINE_MAX];
-    int header_seen = 0, rows = 0;
-    while (fgets(line, sizeof line, file)) {
-        if (line[0] == '#' || line[0] == '\n')
-            continue;
-        if (!header_seen) {
-            header_seen = 1;
-            continue;
-        }
-        struct csv_row row;
-        csv_split(line, &row);
-        visit(&row);
-        rows++;
-    }
-    fclose(file);
-    return rows;
-}
-
-static double csv_number(const struct csv_row *row, int column)
-{
-    return column < row->count ? strtod(row->field[column], NULL) : NAN;
-}
 
 /* ---- small vector and body helpers ---- */
 

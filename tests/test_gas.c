@@ -3,59 +3,12 @@
  * decay and the potential core, drag forces, response times, and terminal velocities. */
 #include "dem/gas.h"
 #include "tests/check.h"
+#include "tests/verification_csv.h"
 
 #include <string.h>
 
 #define PI 3.14159265358979323846
 
-/* ---- a small CSV reader: '#' lines are comments, the first other line is the header ---- */
-
-#define CSV_MAX_FIELDS 16
-#define CSV_LINE_MAX 1024
-
-struct csv_row {
-    int count;
-    double value[CSV_MAX_FIELDS];
-};
-
-static void csv_parse(char *line, struct csv_row *row)
-{
-    row->count = 0;
-    char *cursor = line;
-    while (row->count < CSV_MAX_FIELDS) {
-        row->value[row->count++] = strtod(cursor, NULL);
-        char *comma = strchr(cursor, ',');
-        if (!comma)
-            break;
-        cursor = comma + 1;
-    }
-}
-
-/* Calls visit() for every data row of the numeric table `name`; returns the row count, -1 if missing. */
-static int csv_for_each(const char *name, void (*visit)(const struct csv_row *row))
-{
-    char path[512];
-    snprintf(path, sizeof path, "%s/%s", check_verification_dir(), name);
-    FILE *file = fopen(path, "r");
-    if (!file)
-        return -1;
-    char line[CSV_LINE_MAX];
-    int header_seen = 0, rows = 0;
-    while (fgets(line, sizeof line, file)) {
-        if (line[0] == '#' || line[0] == '\n')
-            continue;
-        if (!header_seen) {
-            header_seen = 1;
-            continue;
-        }
-        struct csv_row row;
-        csv_parse(line, &row);
-        visit(&row);
-        rows++;
-    }
-    fclose(file);
-    return rows;
-}
 
 #define TABLE_RTOL 1e-8
 
@@ -63,7 +16,7 @@ static int csv_for_each(const char *name, void (*visit)(const struct csv_row *ro
 
 static void check_drag_row(const struct csv_row *row)
 {
-    CHECK_CLOSE(drag_coefficient_haider_levenspiel(row->value[0]), row->value[1], TABLE_RTOL, 0.0,
+    CHECK_CLOSE(drag_coefficient_haider_levenspiel(csv_number(row, 0)), csv_number(row, 1), TABLE_RTOL, 0.0,
                 "Haider-Levenspiel C_D (Eq. 25)");
 }
 
@@ -95,7 +48,7 @@ static struct gas_field table_jet(void)
 static void check_jet_row(const struct csv_row *row)
 {
     struct gas_field gas = table_jet();
-    double x = row->value[0], r = row->value[1], axial = row->value[2], radial = row->value[3];
+    double x = csv_number(row, 0), r = csv_number(row, 1), axial = csv_number(row, 2), radial = csv_number(row, 3);
     double atol = radial == 0.0 ? 1e-12 : 0.0;
     double on_x_axis[3] = {r, 0.0, x}, u[3];
     gas_velocity(&gas, on_x_axis, u);

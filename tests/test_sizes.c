@@ -4,57 +4,10 @@
 #include "core/rng.h"
 #include "dem/sizes.h"
 #include "tests/check.h"
+#include "tests/verification_csv.h"
 
 #include <string.h>
 
-/* ---- a small CSV reader: '#' lines are comments, the first other line is the header ---- */
-
-#define CSV_MAX_FIELDS 16
-#define CSV_LINE_MAX 1024
-
-struct csv_row {
-    int count;
-    double value[CSV_MAX_FIELDS];
-};
-
-static void csv_parse(char *line, struct csv_row *row)
-{
-    row->count = 0;
-    char *cursor = line;
-    while (row->count < CSV_MAX_FIELDS) {
-        row->value[row->count++] = strtod(cursor, NULL);
-        char *comma = strchr(cursor, ',');
-        if (!comma)
-            break;
-        cursor = comma + 1;
-    }
-}
-
-/* Calls visit() for every data row of the numeric table `name`; returns the row count, -1 if missing. */
-static int csv_for_each(const char *name, void (*visit)(const struct csv_row *row))
-{
-    char path[512];
-    snprintf(path, sizeof path, "%s/%s", check_verification_dir(), name);
-    FILE *file = fopen(path, "r");
-    if (!file)
-        return -1;
-    char line[CSV_LINE_MAX];
-    int header_seen = 0, rows = 0;
-    while (fgets(line, sizeof line, file)) {
-        if (line[0] == '#' || line[0] == '\n')
-            continue;
-        if (!header_seen) {
-            header_seen = 1;
-            continue;
-        }
-        struct csv_row row;
-        csv_parse(line, &row);
-        visit(&row);
-        rows++;
-    }
-    fclose(file);
-    return rows;
-}
 
 /* ---- sampling helpers ---- */
 
@@ -133,9 +86,9 @@ static double std_standard_error(double scale, double shape)
 
 static void check_weibull_row(const struct csv_row *row)
 {
-    double shape = row->value[0], median = row->value[1], mean = row->value[3], std = row->value[4];
+    double shape = csv_number(row, 0), median = csv_number(row, 1), mean = csv_number(row, 3), std = csv_number(row, 4);
     double scale = weibull_scale(median, shape);
-    CHECK_CLOSE(scale, row->value[2], 1e-9, 0.0, "Weibull scale (Eq. 37)");
+    CHECK_CLOSE(scale, csv_number(row, 2), 1e-9, 0.0, "Weibull scale (Eq. 37)");
     CHECK_CLOSE(weibull_cdf(median, scale, shape), 0.5, 1e-14, 0.0, "F(median) = 1/2");
 
     /* Every row maps the same uniforms (ids 0..N-1): the KS distance of exact inverse-transform samples

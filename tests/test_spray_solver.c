@@ -5,20 +5,10 @@
 #include <omp.h>
 
 #include "check.h"
+#include "tests/verification_csv.h"
 #include "core/h5io.h"
 #include "dem/dem_impl.h"
 #include "spray_fixture.h"
-
-static double column(const char *line, int index)
-{
-    for (int k = 0; k < index; k++) {
-        line = strchr(line, ',');
-        if (!line)
-            return NAN;
-        line++;
-    }
-    return atof(line);
-}
 
 /* stokes_relaxation.csv: a sphere released at rest in a uniform stream with Stokes drag,
  * v = U (1 - exp(-t/tau)), tau = rho d^2 / (18 mu) = 8.333e-4 s.  The trapezoidal scheme at dt = tau/1000
@@ -48,7 +38,9 @@ static void test_stokes_relaxation(void)
     while (fgets(line, sizeof line, table)) {
         if (line[0] == '#' || line[0] == 't')
             continue;
-        double t = column(line, 0), v = column(line, 1), x = column(line, 2);
+        struct csv_row row;
+        csv_split(line, &row);
+        double t = csv_number(&row, 0), v = csv_number(&row, 1), x = csv_number(&row, 2);
         int64_t target_step = llround(t / dt);
         fixture_steps(&f, target_step - dem_get_counts(f.solver).step);
         struct dem_particle_view p = dem_particle(f.solver, 0);
