@@ -10,8 +10,6 @@
 #include "core/run_keys.h"
 #include "dem/dem.h"
 
-#define INF_RANGE 1e300
-
 const struct cfg_key dem_case_keys[] = {
     /* [spray] */
     {"spray", "dt", CFG_REAL, "s", "2e-6", 0, 1e-2, 1, NULL, "time step"},

@@ -3,6 +3,7 @@
 #include <math.h>
 
 #include "check.h"
+#include "core/h5io.h"
 #include "dem/dem_impl.h"
 #include "spray_fixture.h"
 
@@ -264,6 +265,61 @@ static void test_deposit_on_deposit(void)
     fixture_close(&f);
 }
 
+/* rule = table: v_crit(d) interpolated linearly between the rows of a `spraycoat vcrit` table (CSV, or
+ * HDF5 with datasets diameter and v_crit).  A 30 um particle with v_crit(30 um) = 600 m/s between rows
+ * (20 um, 700 m/s) and (40 um, 500 m/s): 594 m/s rebounds, 606 m/s sticks. */
+static int write_vcrit_table(const char *path, int as_h5)
+{
+    if (as_h5) {
+        struct h5_out out;
+        const double diameter[2] = {20e-6, 40e-6}, vcrit[2] = {700.0, 500.0};
+        hsize_t dims[1] = {2};
+        if (h5_create_atomic(path, &out) != SC_OK)
+            return -1;
+        int status = h5_write_doubles(out.file, "diameter", 1, dims, diameter, "m", 0);
+        if (status == SC_OK)
+            status = h5_write_doubles(out.file, "v_crit", 1, dims, vcrit, "m/s", 0);
+        return status == SC_OK ? h5_commit(&out) : status;
+    }
+    FILE *csv = fopen(path, "w");
+    if (!csv)
+        return -1;
+    fputs("diameter,v_crit,pbcp,v_rest,runs\n2e-5,700,0.1,10,5\n4e-5,500,0.1,10,5\n", csv);
+    return fclose(csv);
+}
+
+static void run_table_case(const char *table_name, int as_h5)
+{
+    const double speeds[2] = {594.0, 606.0};
+    char folder[] = "/tmp/spraycoat-table-XXXXXX", path[256], command[300];
+    CHECK(mkdtemp(folder) != NULL, "mkdtemp");
+    snprintf(path, sizeof path, "%s/%s", folder, table_name);
+    CHECK(write_vcrit_table(path, as_h5) == 0, "write %s", path);
+    for (int k = 0; k < 2; k++) {
+        char ini[512], rows[128];
+        snprintf(ini, sizeof ini, "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n[deposition]\n"
+                                  "rule = table\ntable = %s\n", path);
+        snprintf(rows, sizeof rows, "0,0,0.299983,0,0,%.17g,0,0,0,3e-5\n", speeds[k]);
+        struct fixture f;
+        if (fixture_open(&f, ini, rows) != SC_OK) {
+            CHECK(0, "fixture");
+            break;
+        }
+        fixture_steps(&f, 5);
+        const struct dem_impact *hit = first_impact(&f);
+        CHECK(hit != NULL, "%s: impact at %g m/s", table_name, speeds[k]);
+        if (hit)
+            CHECK(hit->outcome == (k == 0 ? DEM_REBOUND : DEM_STUCK), "%s: %g m/s against v_crit 600 m/s: outcome %lld",
+                  table_name, speeds[k], (long long)hit->outcome);
+        fixture_close(&f);
+    }
+    snprintf(command, sizeof command, "rm -rf %s", folder);
+    CHECK(system(command) == 0, "cleanup");
+}
+
+static void test_vcrit_table_csv(void) { run_table_case("vcrit.csv", 0); }
+static void test_vcrit_table_h5(void) { run_table_case("vcrit.h5", 1); }
+
 int main(void)
 {
     RUN(test_normal_wall_restitution);
@@ -274,5 +330,7 @@ int main(void)
     RUN(test_johnson_wall_impact);
     RUN(test_adhesion_threshold);
     RUN(test_deposit_on_deposit);
+    RUN(test_vcrit_table_csv);
+    RUN(test_vcrit_table_h5);
     return check_finish();
 }
