@@ -211,7 +211,10 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b, double at
 void dem_collide(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
+    /* the start-of-step state: the sweep of every particle (contacts) and the hand-off crossings */
+    memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
     memcpy(p->v_start, p->v, 3 * p->count * sizeof(double));
+    memcpy(p->w_start, p->w, 3 * p->count * sizeof(double));
     dem_detect_contacts(s);
     for (size_t k = 0; k < s->candidates.count; k++) {
         const struct dem_candidate *c = &s->candidates.items[k];

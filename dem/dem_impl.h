@@ -11,8 +11,9 @@
 struct dem_particles {
     size_t count, capacity;
     double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
-    double *x_start;       /* position at the start of the step (hand-off crossings) */
+    double *x_start;       /* position at the start of the step (hand-off crossings, sweeps) */
     double *v_start;       /* velocity at the start of the step (swept contact detection) */
+    double *w_start;       /* spin at the start of the step (hand-off rows of particles that stuck) */
     double *d, *m;         /* diameter (m), mass (kg) */
     int64_t *id;
     uint8_t *state;        /* enum dem_particle_state */

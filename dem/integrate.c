@@ -126,7 +126,6 @@ int dem_integrate(struct dem_solver *s)
     const struct dem_config *cfg = &s->cfg;
     int64_t iterations = 0, solves = 0, unconverged = 0, max_iterations = s->stats.max_iterations, subcycled = 0;
     int64_t advanced = 0;
-    memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
     /* Dynamic schedule: deposited particles (skipped) gather at low indices.  Each particle's update is
      * independent and the reductions are integer sums, so the result does not depend on the schedule. */
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : iterations, solves, unconverged, subcycled, advanced) \

@@ -23,6 +23,7 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->w = resize(p->w, 3 * capacity, sizeof(double));
     p->x_start = resize(p->x_start, 3 * capacity, sizeof(double));
     p->v_start = resize(p->v_start, 3 * capacity, sizeof(double));
+    p->w_start = resize(p->w_start, 3 * capacity, sizeof(double));
     p->d = resize(p->d, capacity, sizeof(double));
     p->m = resize(p->m, capacity, sizeof(double));
     p->id = resize(p->id, capacity, sizeof(int64_t));
@@ -41,6 +42,7 @@ size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], 
     memcpy(p->w + 3 * i, w, 3 * sizeof(double));
     memcpy(p->x_start + 3 * i, x, 3 * sizeof(double));
     memcpy(p->v_start + 3 * i, v, 3 * sizeof(double));
+    memcpy(p->w_start + 3 * i, w, 3 * sizeof(double));
     p->d[i] = d;
     p->m[i] = density * M_PI * d * d * d / 6.0;
     p->id[i] = id;
@@ -60,6 +62,7 @@ void particles_compact(struct dem_particles *p, const uint8_t *keep)
             memcpy(p->w + 3 * kept, p->w + 3 * i, 3 * sizeof(double));
             memcpy(p->x_start + 3 * kept, p->x_start + 3 * i, 3 * sizeof(double));
             memcpy(p->v_start + 3 * kept, p->v_start + 3 * i, 3 * sizeof(double));
+            memcpy(p->w_start + 3 * kept, p->w_start + 3 * i, 3 * sizeof(double));
             p->d[kept] = p->d[i];
             p->m[kept] = p->m[i];
             p->id[kept] = p->id[i];
@@ -77,6 +80,7 @@ void particles_free(struct dem_particles *p)
     free(p->w);
     free(p->x_start);
     free(p->v_start);
+    free(p->w_start);
     free(p->d);
     free(p->m);
     free(p->id);

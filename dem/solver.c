@@ -40,18 +40,22 @@ int64_t dem_total_steps(const struct dem_solver *s)
     return (int64_t)ceil(s->cfg.t_end / s->cfg.dt * (1.0 - 1e-12));
 }
 
+/* The crossing of the hand-off plane by particle i during this step.  A free particle's path over the step
+ * is taken as the straight line from its start to its end position; a particle that stuck in this step
+ * moved with its start-of-step velocity until the impact, and carries that velocity and spin. */
 static void record_handoff(struct dem_solver *s, size_t i, double plane)
 {
     struct dem_particles *p = &s->p;
-    const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i;
-    double fraction = (plane - x0[2]) / (x1[2] - x0[2]);
+    const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i, *v0 = p->v_start + 3 * i;
+    int flying = p->state[i] == DEM_FLYING;
+    double elapsed = flying ? (plane - x0[2]) / (x1[2] - x0[2]) * s->cfg.dt : (plane - x0[2]) / v0[2];
     struct dem_handoff *row = dem_grow((void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity, sizeof *row);
-    row->t = ((double)s->step + fraction) * s->cfg.dt;
+    row->t = (double)s->step * s->cfg.dt + elapsed;
     row->particle_id = p->id[i];
     for (int c = 0; c < 3; c++) {
-        row->x[c] = x0[c] + fraction * (x1[c] - x0[c]);
-        row->v[c] = p->v[3 * i + c];
-        row->w[c] = p->w[3 * i + c];
+        row->x[c] = flying ? x0[c] + elapsed / s->cfg.dt * (x1[c] - x0[c]) : x0[c] + v0[c] * elapsed;
+        row->v[c] = flying ? p->v[3 * i + c] : v0[c];
+        row->w[c] = flying ? p->w[3 * i + c] : p->w_start[3 * i + c];
     }
     row->d = p->d[i];
 }
@@ -67,11 +71,12 @@ static void apply_boundaries(struct dem_solver *s)
     size_t removed = 0;
     for (size_t i = 0; i < p->count; i++) {
         keep[i] = 1;
-        if (p->state[i] != DEM_FLYING)
-            continue;
         double *x = p->x + 3 * i;
+        /* also particles that crossed and stuck in this step; earlier deposits have x_start = x */
         if (p->x_start[3 * i + 2] < plane && x[2] >= plane)
             record_handoff(s, i, plane);
+        if (p->state[i] != DEM_FLYING)
+            continue;
         /* A particle that would end the step inside the target stops at it; its contact is resolved at
          * the start of the next step (time of impact 0), so nothing passes through the target. */
         double limit = cfg->standoff - 0.5 * p->d[i];

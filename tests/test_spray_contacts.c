@@ -320,6 +320,30 @@ static void run_table_case(const char *table_name, int as_h5)
 static void test_vcrit_table_csv(void) { run_table_case("vcrit.csv", 0); }
 static void test_vcrit_table_h5(void) { run_table_case("vcrit.h5", 1); }
 
+/* The hand-off plane is crossed and the target reached in the same step: the crossing is still recorded,
+ * at the plane, with the velocity before the impact. */
+static void test_handoff_crossing_before_deposit(void)
+{
+    struct fixture f;
+    const char *ini = "[spray]\ndt = 1e-5\nt_end = 1e-4\nhandoff_height = 2e-5\n[jet]\nmodel = none\n"
+                      "[deposition]\nrule = critical_velocity\ncritical_velocity = 1e-6\n";
+    if (fixture_open(&f, ini, "0,0,0.29995,0,0,10,0,0,0,2e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 1);
+    size_t n;
+    const struct dem_handoff *row = dem_handoffs(f.solver, &n);
+    CHECK(dem_get_counts(f.solver).deposited == 1, "deposited in the first step");
+    CHECK(n == 1, "one hand-off crossing (%zu)", n);
+    if (n == 1) {
+        CHECK_CLOSE(row->x[2], 0.29998, 1e-12, 0, "crossing at the plane");
+        CHECK_CLOSE(row->t, 3e-6, 1e-6, 0, "crossing time");
+        CHECK_CLOSE(row->v[2], 10.0, 0, 0, "velocity before the impact");
+    }
+    fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_normal_wall_restitution);
@@ -332,5 +356,6 @@ int main(void)
     RUN(test_deposit_on_deposit);
     RUN(test_vcrit_table_csv);
     RUN(test_vcrit_table_h5);
+    RUN(test_handoff_crossing_before_deposit);
     return check_finish();
 }
