@@ -268,3 +268,27 @@ void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p
         free(local.items);
     }
 }
+
+int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
+                         void (*visit)(uint32_t index, void *context), void *context)
+{
+    int32_t first[3], last[3];
+    for (int c = 0; c < 3; c++) {
+        first[c] = cell_index(lo[c], bins->cell);
+        last[c] = cell_index(hi[c], bins->cell);
+    }
+    if (cells_in_range(first, last) > max_cells)
+        return -1;
+    int32_t here[3];
+    for (here[0] = first[0]; here[0] <= last[0]; here[0]++)
+        for (here[1] = first[1]; here[1] <= last[1]; here[1]++)
+            for (here[2] = first[2]; here[2] <= last[2]; here[2]++) {
+                uint32_t bucket = cell_hash(here, bins->bucket_count);
+                for (uint32_t e = bins->bucket_start[bucket]; e < bins->bucket_start[bucket + 1]; e++) {
+                    const struct dem_bin_entry *entry = &bins->entries[e];
+                    if (entry->cell[0] == here[0] && entry->cell[1] == here[1] && entry->cell[2] == here[2])
+                        visit(entry->index, context);
+                }
+            }
+    return 0;
+}

@@ -106,11 +106,48 @@ static void store_sphere(struct dem_particles *p, uint32_t i, const struct spher
     memcpy(p->w + 3 * i, sphere->w, sizeof sphere->w);
 }
 
-/* Centre of particle i at time `at` of the step along its start-of-step sweep. */
-static void swept_position(const struct dem_particles *p, uint32_t i, double at, double out[3])
+/* Centre of particle i at time `at` of the step, on its current path. */
+static void path_position(const struct dem_solver *s, uint32_t i, double at, double out[3])
 {
     for (int k = 0; k < 3; k++)
-        out[k] = p->x[3 * i + k] + p->v_start[3 * i + k] * at;
+        out[k] = s->path_x[3 * i + k] + s->p.v[3 * i + k] * (at - s->path_time[i]);
+}
+
+/* After a velocity change at time `at` with the particle at x: its path restarts there. */
+static void path_restart(struct dem_solver *s, uint32_t i, double at, const double x[3])
+{
+    s->path_time[i] = at;
+    memcpy(s->path_x + 3 * i, x, 3 * sizeof(double));
+    s->path_changed[i] = 1;
+}
+
+/* When particle i, on its current path, touches the target (partner < 0) or particle `partner` (on its
+ * current path) while approaching, within the step; -1 if it does not.  For particles whose velocities
+ * have not changed in this step this is exactly the time found by the broad phase; after an earlier
+ * contact it is found again from the new paths, so a particle that bounced cannot meet its old partners
+ * where its old path would have taken it. */
+static double contact_time(const struct dem_solver *s, uint32_t i, int64_t partner)
+{
+    const struct dem_particles *p = &s->p;
+    const double dt = s->cfg.dt;
+    if (partner < 0) {
+        double vz = p->v[3 * i + 2], start = s->path_time[i];
+        double gap = s->cfg.standoff - 0.5 * p->d[i] - s->path_x[3 * i + 2];
+        if (vz <= 0.0)
+            return -1.0;
+        double at = gap <= 0.0 ? start : start + gap / vz;
+        return at <= dt ? at : -1.0;
+    }
+    uint32_t j = (uint32_t)partner;
+    double start = fmax(s->path_time[i], s->path_time[j]), xi[3], xj[3], dx[3], dv[3];
+    path_position(s, i, start, xi);
+    path_position(s, j, start, xj);
+    for (int k = 0; k < 3; k++) {
+        dx[k] = xj[k] - xi[k];
+        dv[k] = p->v[3 * j + k] - p->v[3 * i + k];
+    }
+    double delay = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt - start);
+    return delay < 0.0 ? -1.0 : start + delay;
 }
 
 static void record_impact(struct dem_solver *s, uint32_t i, double at, const double x[3],
@@ -142,13 +179,16 @@ static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
 }
 
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
-static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner, double at)
+static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
+    double at = contact_time(s, i, partner);
+    if (at < 0.0)
+        return;
     double x_hit[3], n[3], obstacle_radius = INFINITY;
     const struct dem_material *obstacle = &cfg->target;
-    swept_position(p, i, at, x_hit);
+    path_position(s, i, at, x_hit);
     if (partner < 0) {
         n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
     } else {
@@ -165,6 +205,7 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner, dou
     if (!contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;
     store_sphere(p, i, &sphere);
+    path_restart(s, i, at, x_hit);
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
@@ -178,23 +219,26 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner, dou
         s->stats.contacts_deposit++;
 }
 
-static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b, double at)
+static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
 {
     struct dem_particles *p = &s->p;
     int a_flying = p->state[a] == DEM_FLYING, b_flying = p->state[b] == DEM_FLYING;
     if (!a_flying && !b_flying)
         return;
     if (!b_flying) {
-        resolve_fixed(s, a, b, at);
+        resolve_fixed(s, a, b);
         return;
     }
     if (!a_flying) { /* a was deposited earlier in this step */
-        resolve_fixed(s, b, a, at);
+        resolve_fixed(s, b, a);
         return;
     }
+    double at = contact_time(s, a, b);
+    if (at < 0.0)
+        return;
     double xa[3], xb[3], n[3];
-    swept_position(p, a, at, xa);
-    swept_position(p, b, at, xb);
+    path_position(s, a, at, xa);
+    path_position(s, b, at, xb);
     double dist = sqrt((xb[0] - xa[0]) * (xb[0] - xa[0]) + (xb[1] - xa[1]) * (xb[1] - xa[1]) +
                        (xb[2] - xa[2]) * (xb[2] - xa[2]));
     for (int k = 0; k < 3; k++)
@@ -205,7 +249,109 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b, double at
         return;
     store_sphere(p, a, &sa);
     store_sphere(p, b, &sb);
+    path_restart(s, a, at, xa);
+    path_restart(s, b, at, xb);
     s->stats.contacts_pair++;
+}
+
+/* ---------------------------------------------------------------- contacts of changed paths */
+
+/* A particle whose velocity changed in the step can meet particles its old path never came near.  After
+ * the contacts found at the start of the step, up to SECONDARY_PASSES passes look for contacts of the
+ * changed particles along their new paths (to the end of the step) and resolve them in order of time. */
+#define SECONDARY_PASSES 4
+#define SECONDARY_MAX_CELLS 4096
+
+struct secondary_query {
+    struct dem_solver *s;
+    uint32_t moving;
+    struct dem_candidates *out;
+};
+
+static void consider_partner(uint32_t j, void *context)
+{
+    struct secondary_query *query = context;
+    struct dem_solver *s = query->s;
+    uint32_t i = query->moving;
+    if (j == i || s->seen[j] == s->seen_stamp)
+        return;
+    s->seen[j] = s->seen_stamp;
+    int j_flying = s->p.state[j] == DEM_FLYING;
+    /* a pair of two changed flying particles is found from the lower index only */
+    if (j_flying && s->path_changed[j] && j < i)
+        return;
+    double at = contact_time(s, i, j);
+    if (at < 0.0)
+        return;
+    uint32_t a = j_flying && j < i ? j : i, b = a == i ? j : i;
+    candidates_push(query->out, at, a, b, CONTACT_PAIR);
+}
+
+/* The box of i's sphere along its current path from its path time to the end of the step. */
+static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], double hi[3])
+{
+    double end[3], radius = 0.5 * s->p.d[i] * (1.0 + 1e-9);
+    path_position(s, i, s->cfg.dt, end);
+    for (int c = 0; c < 3; c++) {
+        lo[c] = fmin(s->path_x[3 * i + c], end[c]) - radius;
+        hi[c] = fmax(s->path_x[3 * i + c], end[c]) + radius;
+    }
+}
+
+/* Contacts of the particles changed in the last pass; clears their flags. */
+static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
+                                    struct dem_candidates *out)
+{
+    for (size_t k = 0; k < moved_count; k++) {
+        uint32_t i = moved[k];
+        double at = contact_time(s, i, -1);
+        if (at >= 0.0)
+            candidates_push(out, at, i, 0, CONTACT_TARGET);
+        if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh */
+            memset(s->seen, 0, s->p.count * sizeof *s->seen);
+            s->seen_stamp = 1;
+        }
+        double lo[3], hi[3];
+        path_box(s, i, lo, hi);
+        struct secondary_query query = {s, i, out};
+        broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
+        /* changed particles have left the paths the grid holds: test them against each other directly */
+        for (size_t m = k + 1; m < moved_count; m++)
+            consider_partner(moved[m], &query);
+    }
+}
+
+static void resolve_secondary_contacts(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    uint32_t *moved = malloc((p->count ? p->count : 1) * sizeof *moved);
+    struct dem_candidates found = {0};
+    if (!moved)
+        abort(); /* out of memory mid-step */
+    for (int pass = 0; pass < SECONDARY_PASSES; pass++) {
+        size_t moved_count = 0;
+        for (size_t i = 0; i < p->count; i++)
+            if (s->path_changed[i] && p->state[i] == DEM_FLYING)
+                moved[moved_count++] = (uint32_t)i;
+        if (moved_count == 0)
+            break;
+        found.count = 0;
+        find_secondary_contacts(s, moved, moved_count, &found);
+        memset(s->path_changed, 0, p->count);
+        if (found.count > 1)
+            qsort(found.items, found.count, sizeof *found.items, candidate_order);
+        for (size_t k = 0; k < found.count; k++) {
+            const struct dem_candidate *c = &found.items[k];
+            if (c->kind == CONTACT_TARGET) {
+                if (p->state[c->a] == DEM_FLYING)
+                    resolve_fixed(s, c->a, -1);
+            } else {
+                resolve_pair(s, c->a, c->b);
+            }
+        }
+    }
+    free(found.items);
+    free(moved);
 }
 
 void dem_collide(struct dem_solver *s)
@@ -215,14 +361,31 @@ void dem_collide(struct dem_solver *s)
     memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
     memcpy(p->v_start, p->v, 3 * p->count * sizeof(double));
     memcpy(p->w_start, p->w, 3 * p->count * sizeof(double));
+    if (p->count > s->path_capacity) {
+        s->path_capacity = p->capacity;
+        s->path_time = realloc(s->path_time, s->path_capacity * sizeof(double));
+        s->path_x = realloc(s->path_x, 3 * s->path_capacity * sizeof(double));
+        s->path_changed = realloc(s->path_changed, s->path_capacity);
+        s->seen = realloc(s->seen, s->path_capacity * sizeof *s->seen);
+        if (!s->path_time || !s->path_x || !s->path_changed || !s->seen)
+            abort(); /* out of memory mid-step */
+    }
+    memset(s->path_time, 0, p->count * sizeof(double));
+    memset(s->path_changed, 0, p->count);
+    memset(s->seen, 0, p->count * sizeof *s->seen);
+    s->seen_stamp = 0;
+    memcpy(s->path_x, p->x, 3 * p->count * sizeof(double));
     dem_detect_contacts(s);
+    /* In the order found; each contact's time and geometry come from the paths current when it is
+     * resolved (contact_time), so a contact made void by an earlier one is dropped. */
     for (size_t k = 0; k < s->candidates.count; k++) {
         const struct dem_candidate *c = &s->candidates.items[k];
         if (c->kind == CONTACT_TARGET) {
             if (p->state[c->a] == DEM_FLYING)
-                resolve_fixed(s, c->a, -1, c->s);
+                resolve_fixed(s, c->a, -1);
         } else {
-            resolve_pair(s, c->a, c->b, c->s);
+            resolve_pair(s, c->a, c->b);
         }
     }
+    resolve_secondary_contacts(s);
 }

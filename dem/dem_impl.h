@@ -60,6 +60,13 @@ struct dem_solver {
     struct dem_particles p;
     struct dem_bins bins;
     struct dem_candidates candidates;
+    /* Paths within the step, for contacts resolved after an earlier velocity change: particle i is at
+     * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity. */
+    double *path_time, *path_x;
+    uint8_t *path_changed;        /* set when the path restarts; read by the next pass of contacts */
+    uint32_t *seen;               /* per particle: stamp of the last grid query that visited it */
+    uint32_t seen_stamp;
+    size_t path_capacity;
     struct dem_counts stats;      /* cumulative contact and iteration counts */
     struct dem_impact *impacts;
     size_t impact_count, impact_capacity;
@@ -91,6 +98,11 @@ void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p
                       struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
 double time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
+/* Call visit(index, context) for every entry of the cells that the box [lo, hi] overlaps (a particle
+ * may be visited once per shared cell).  Returns 0, or -1 without visiting if the box spans more than
+ * max_cells cells. */
+int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
+                         void (*visit)(uint32_t index, void *context), void *context);
 /* Append one contact to a list. */
 void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind);
 

@@ -28,6 +28,10 @@ void dem_destroy(struct dem_solver *s)
     particles_free(&s->p);
     dem_bins_free(&s->bins);
     free(s->candidates.items);
+    free(s->path_time);
+    free(s->path_x);
+    free(s->path_changed);
+    free(s->seen);
     free(s->impacts);
     free(s->handoffs);
     free(s->metrics);
@@ -40,21 +44,22 @@ int64_t dem_total_steps(const struct dem_solver *s)
     return (int64_t)ceil(s->cfg.t_end / s->cfg.dt * (1.0 - 1e-12));
 }
 
-/* The crossing of the hand-off plane by particle i during this step.  A free particle's path over the step
- * is taken as the straight line from its start to its end position; a particle that stuck in this step
- * moved with its start-of-step velocity until the impact, and carries that velocity and spin. */
+/* The crossing of the hand-off plane by particle i during this step, on the straight line from its start
+ * position to its end position: for a free particle over the whole step, for a particle that stuck in this
+ * step up to the time it stuck (then it carries its velocity and spin from the start of the step). */
 static void record_handoff(struct dem_solver *s, size_t i, double plane)
 {
     struct dem_particles *p = &s->p;
-    const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i, *v0 = p->v_start + 3 * i;
+    const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i;
     int flying = p->state[i] == DEM_FLYING;
-    double elapsed = flying ? (plane - x0[2]) / (x1[2] - x0[2]) * s->cfg.dt : (plane - x0[2]) / v0[2];
+    double fraction = (plane - x0[2]) / (x1[2] - x0[2]);
+    double duration = flying ? s->cfg.dt : s->path_time[i];
     struct dem_handoff *row = dem_grow((void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity, sizeof *row);
-    row->t = (double)s->step * s->cfg.dt + elapsed;
+    row->t = (double)s->step * s->cfg.dt + fraction * duration;
     row->particle_id = p->id[i];
     for (int c = 0; c < 3; c++) {
-        row->x[c] = flying ? x0[c] + elapsed / s->cfg.dt * (x1[c] - x0[c]) : x0[c] + v0[c] * elapsed;
-        row->v[c] = flying ? p->v[3 * i + c] : v0[c];
+        row->x[c] = x0[c] + fraction * (x1[c] - x0[c]);
+        row->v[c] = flying ? p->v[3 * i + c] : p->v_start[3 * i + c];
         row->w[c] = flying ? p->w[3 * i + c] : p->w_start[3 * i + c];
     }
     row->d = p->d[i];
