@@ -210,8 +210,18 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
     int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
-    if (stuck)
-        freeze(s, i, x_hit);
+    if (stuck) {
+        /* Rest exactly touching the obstacle: the sweep is straight while drag bends the real path, so a
+         * contact found at time 0 can start from an overlap of order a dt^2. */
+        double rest[3];
+        for (int k = 0; k < 3; k++)
+            rest[k] = partner < 0 ? x_hit[k] : p->x[3 * partner + k] - n[k] * (r + obstacle_radius);
+        if (partner < 0)
+            rest[2] = fmin(x_hit[2], cfg->standoff - r);
+        freeze(s, i, rest);
+        path_restart(s, i, at, rest);
+        memcpy(x_hit, rest, sizeof rest);
+    }
     record_impact(s, i, at, x_hit, &before, stuck ? DEM_STUCK : DEM_REBOUND, partner < 0 ? -1 : p->id[partner]);
     if (partner < 0)
         s->stats.contacts_target++;

@@ -296,7 +296,11 @@ static void test_threads_bit_identical(void)
                     continue;
                 double dx = a.x[0] - b.x[0], dy = a.x[1] - b.x[1], dz = a.x[2] - b.x[2];
                 double reach = 0.5 * (a.d + b.d) * (1.0 - 1e-9);
-                overlapping += dx * dx + dy * dy + dz * dz < reach * reach;
+                if (dx * dx + dy * dy + dz * dz < reach * reach) {
+                    overlapping++;
+                    printf("  overlap: particles %lld and %lld, %.3g of the contact distance\n", (long long)a.id,
+                           (long long)b.id, 1.0 - sqrt(dx * dx + dy * dy + dz * dz) / (0.5 * (a.d + b.d)));
+                }
             }
         }
         CHECK(overlapping == 0, "%d pairs of deposited particles overlap", overlapping);
