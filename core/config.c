@@ -1332,6 +1332,24 @@ static uint64_t fnv1a(uint64_t hash, const char *text)
     return hash;
 }
 
+/* FNV-1a over the bytes of a file; an unreadable file adds nothing (the stage reports it). */
+static uint64_t fnv1a_file(uint64_t hash, const char *path)
+{
+    FILE *file = fopen(path, "rb");
+    if (!file)
+        return hash;
+    unsigned char buffer[65536];
+    size_t got;
+    while ((got = fread(buffer, 1, sizeof buffer, file)) > 0) {
+        for (size_t k = 0; k < got; k++) {
+            hash ^= buffer[k];
+            hash *= 0x100000001b3ULL;
+        }
+    }
+    fclose(file);
+    return hash;
+}
+
 uint64_t case_hash(const struct case_file *c)
 {
     uint64_t hash = 0xcbf29ce484222325ULL;
@@ -1346,6 +1364,9 @@ uint64_t case_hash(const struct case_file *c)
         hash = fnv1a(hash, "=");
         hash = fnv1a(hash, value);
         hash = fnv1a(hash, "\n");
+        /* a data file that changes changes the results: its contents are part of the case */
+        if (slot->spec->type == CFG_PATH)
+            hash = fnv1a_file(hash, value);
         free(value);
     }
     return hash;

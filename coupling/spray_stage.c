@@ -197,8 +197,11 @@ static int run_stage(struct spray_run *run)
     SC_TRY(resume_if_possible(run));
     SC_TRY(time_loop(run));
     SC_TRY(dem_check_accounting(run->solver));
-    SC_TRY(write_output(run));
+    /* the index first: spray.h5 marks the stage done, so everything else must exist before it */
     SC_TRY(write_xdmf(run));
+    SC_TRY(write_output(run));
+    /* the stage is complete: its checkpoints would only stop a changed case from running here */
+    SC_TRY(checkpoint_remove_all(run->run_dir, STAGE));
     log_summary(run);
     return SC_OK;
 }

@@ -123,6 +123,8 @@ static int load_spray(const struct case_file *c, struct dem_config *cfg)
                             cfg->release_speed_max);
     if (cfg->dt > cfg->t_end)
         return case_invalid(c, "spray", "dt", "longer than t_end = %g s", cfg->t_end);
+    if (cfg->t_end / cfg->dt > 1e12)
+        return case_invalid(c, "spray", "dt", "t_end / dt = %g steps; allowed: at most 1e12", cfg->t_end / cfg->dt);
     return SC_OK;
 }
 
@@ -156,6 +158,12 @@ static int load_target(const struct case_file *c, struct dem_config *cfg)
     cfg->deposit_radius = case_real(c, "target", "deposit_radius");
     if (cfg->handoff_height >= cfg->standoff)
         return case_invalid(c, "spray", "handoff_height", "not below the standoff %g m", cfg->standoff);
+    /* a centre never comes closer to the target than its radius: a lower plane would record nothing */
+    const struct size_distribution *sizes = &cfg->sizes;
+    double d_largest = sizes->monodisperse ? sizes->median_diameter : sizes->d_max;
+    if (cfg->injection == DEM_INJECT_STREAM && d_largest < INFINITY && cfg->handoff_height <= 0.5 * d_largest)
+        return case_invalid(c, "spray", "handoff_height", "not above the largest particle radius %g m, so "
+                            "particle centres would never cross it", 0.5 * d_largest);
     return SC_OK;
 }
 
@@ -183,6 +191,15 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->uniform_velocity = case_real(c, "jet", "uniform_velocity");
     gas->density = case_real(c, "jet", "gas_density");
     gas->kinematic_viscosity = case_real(c, "jet", "gas_viscosity");
+}
+
+/* The self-similar jet is singular at its virtual origin: the core must end downstream of it. */
+static int check_jet(const struct case_file *c, const struct gas_field *gas)
+{
+    if (gas->model == JET_BICKLEY && !(gas->virtual_origin + gas->core_length > 0.0))
+        return case_invalid(c, "jet", "virtual_origin", "virtual_origin + core_length must be > 0 m (the jet of "
+                            "Eqs. 26-27 is singular at its virtual origin)");
+    return SC_OK;
 }
 
 /* Split a CSV line in place into at most max fields; returns the number of fields. */
@@ -387,6 +404,7 @@ static int load_all(const struct case_file *c, struct dem_config *cfg)
     SC_TRY(load_powder(c, cfg));
     SC_TRY(load_target(c, cfg));
     load_contact_and_jet(c, cfg);
+    SC_TRY(check_jet(c, &cfg->gas));
     if (cfg->injection == DEM_INJECT_STREAM) {
         double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
         if (d_smallest >= 2 * cfg->nozzle_radius)

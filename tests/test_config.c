@@ -584,6 +584,34 @@ static void test_not_hashed_keys(void)
     unlink(path);
 }
 
+/* The contents of a file a case names are part of the case: editing the file changes the hash. */
+static void test_hash_follows_file_contents(void)
+{
+    char path[PATH_MAX], data[PATH_MAX];
+    mkdir(temp_folder, 0700);
+    snprintf(data, sizeof data, "%s/table.csv", temp_folder);
+    snprintf(path, sizeof path, "%s/with_file.ini", temp_folder);
+    FILE *file = fopen(data, "w");
+    fputs("a,b\n1,2\n", file);
+    fclose(file);
+    file = fopen(path, "w");
+    fputs("[alpha]\ndata = table.csv\n", file);
+    fclose(file);
+    struct case_file *c = NULL;
+    CHECK(case_load(path, registry, &c) == SC_OK, "load: %s", sc_error_message());
+    uint64_t before = c ? case_hash(c) : 0;
+    case_free(c);
+    file = fopen(data, "w");
+    fputs("a,b\n1,3\n", file);
+    fclose(file);
+    c = NULL;
+    CHECK(case_load(path, registry, &c) == SC_OK, "reload: %s", sc_error_message());
+    CHECK(c && case_hash(c) != before, "the hash changes with the file's contents");
+    case_free(c);
+    unlink(path);
+    unlink(data);
+}
+
 int main(void)
 {
     const char *base = getenv("TMPDIR");
@@ -613,6 +641,7 @@ int main(void)
     RUN(test_hash);
     RUN(test_write_resolved_round_trip);
     RUN(test_not_hashed_keys);
+    RUN(test_hash_follows_file_contents);
     RUN(test_relative_paths);
     RUN(test_print);
     RUN(test_markdown);
