@@ -287,9 +287,8 @@ static void consider_partner(uint32_t j, void *context)
         return;
     s->seen[j] = s->seen_stamp;
     int j_flying = s->p.state[j] == DEM_FLYING;
-    /* a pair of two changed flying particles is found from the lower index only */
-    if (j_flying && s->path_changed[j] && j < i)
-        return;
+    if (j_flying && s->path_changed[j])
+        return; /* both changed: find_changed_pairs */
     double at = contact_time(s, i, j);
     if (at < 0.0)
         return;
@@ -308,7 +307,57 @@ static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], doubl
     }
 }
 
-/* Contacts of the particles changed in the last pass; clears their flags. */
+/* The x-extent of a changed particle's new path, for sweep and prune among changed particles. */
+struct path_extent {
+    double lo[3], hi[3];
+    uint32_t index;
+};
+
+static int extent_order(const void *pa, const void *pb)
+{
+    const struct path_extent *a = pa, *b = pb;
+    if (a->lo[0] != b->lo[0])
+        return a->lo[0] < b->lo[0] ? -1 : 1;
+    return a->index < b->index ? -1 : (a->index > b->index);
+}
+
+static int extents_overlap(const struct path_extent *a, const struct path_extent *b)
+{
+    for (int c = 0; c < 3; c++)
+        if (a->lo[c] > b->hi[c] || b->lo[c] > a->hi[c])
+            return 0;
+    return 1;
+}
+
+/* Changed particles have left the paths the grid holds: pairs of them are found by sorting their new path
+ * boxes along x (sweep and prune) instead. */
+static void find_changed_pairs(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
+                               struct dem_candidates *out)
+{
+    struct path_extent *extents = malloc((moved_count ? moved_count : 1) * sizeof *extents);
+    if (!extents)
+        abort(); /* out of memory mid-step */
+    for (size_t k = 0; k < moved_count; k++) {
+        extents[k].index = moved[k];
+        path_box(s, moved[k], extents[k].lo, extents[k].hi);
+    }
+    qsort(extents, moved_count, sizeof *extents, extent_order);
+    for (size_t k = 0; k < moved_count; k++) {
+        for (size_t m = k + 1; m < moved_count && extents[m].lo[0] <= extents[k].hi[0]; m++) {
+            if (!extents_overlap(&extents[k], &extents[m]))
+                continue;
+            uint32_t a = extents[k].index < extents[m].index ? extents[k].index : extents[m].index;
+            uint32_t b = a == extents[k].index ? extents[m].index : extents[k].index;
+            double at = contact_time(s, a, b);
+            if (at >= 0.0)
+                candidates_push(out, at, a, b, CONTACT_PAIR);
+        }
+    }
+    free(extents);
+}
+
+/* Contacts of the particles changed in the last pass: with the target, with unchanged particles (through
+ * the grid) and with each other. */
 static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
                                     struct dem_candidates *out)
 {
@@ -325,10 +374,8 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
         path_box(s, i, lo, hi);
         struct secondary_query query = {s, i, out};
         broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
-        /* changed particles have left the paths the grid holds: test them against each other directly */
-        for (size_t m = k + 1; m < moved_count; m++)
-            consider_partner(moved[m], &query);
     }
+    find_changed_pairs(s, moved, moved_count, out);
 }
 
 static void resolve_secondary_contacts(struct dem_solver *s)
