@@ -45,20 +45,20 @@
 enum value_source { SOURCE_UNSET, SOURCE_DEFAULT, SOURCE_FILE, SOURCE_OVERRIDE };
 
 struct parsed_value {
-    double real;   /* CFG_REAL, and CFG_INT as a double */
-    long integer;  /* CFG_INT */
-    bool is_word;  /* CFG_REAL given as one of its words */
+    double real;  /* CFG_REAL, and CFG_INT as a double */
+    long integer; /* CFG_INT */
+    bool is_word; /* CFG_REAL given as one of its words */
 };
 
 struct slot {
     const struct cfg_key *spec;
-    int section_rank;  /* registry index of the first key of the section: orders the sections */
-    int key_rank;      /* registry index of the key */
-    char *section;     /* the actual section, e.g. "material.copper" */
-    char *text;        /* the value as written; NULL when unset */
+    int section_rank; /* registry index of the first key of the section: orders the sections */
+    int key_rank;     /* registry index of the key */
+    char *section;    /* the actual section, e.g. "material.copper" */
+    char *text;       /* the value as written; NULL when unset */
     enum value_source source;
-    int line;          /* line in the file, for SOURCE_FILE */
-    char *origin;      /* who set it, for SOURCE_OVERRIDE ("command line") */
+    int line;     /* line in the file, for SOURCE_FILE */
+    char *origin; /* who set it, for SOURCE_OVERRIDE ("command line") */
     struct parsed_value value;
 };
 
@@ -109,11 +109,20 @@ static char *must_strndup(const char *text, size_t length)
     return copy;
 }
 
-static char *must_strdup(const char *text) { return must_strndup(text, strlen(text)); }
+static char *must_strdup(const char *text)
+{
+    return must_strndup(text, strlen(text));
+}
 
-static const char *or_empty(const char *text) { return text ? text : ""; }
+static const char *or_empty(const char *text)
+{
+    return text ? text : "";
+}
 
-static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
+static bool is_blank(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v';
+}
 
 static char *trimmed_copy(const char *text)
 {
@@ -273,8 +282,7 @@ static void check_choices(const struct cfg_key *spec)
                    or_empty(spec->choices));
 }
 
-static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
-                        size_t size);
+static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why, size_t size);
 
 /* Registry mistakes are programming errors: catch them on every load, not when a user hits them. */
 static void check_key_spec(const struct cfg_key *spec)
@@ -285,8 +293,8 @@ static void check_key_spec(const struct cfg_key *spec)
         check_choices(spec);
     if (spec->type == CFG_INT || spec->type == CFG_REAL) {
         if (spec->min == 0 && spec->max == 0)
-            config_bug("[%s] %s: range 0 .. 0 (forgotten?); use -HUGE_VAL or HUGE_VAL for an open end",
-                       spec->section, spec->key);
+            config_bug("[%s] %s: range 0 .. 0 (forgotten?); use -HUGE_VAL or HUGE_VAL for an open end", spec->section,
+                       spec->key);
         if (!(spec->min <= spec->max))
             config_bug("[%s] %s: min %g > max %g", spec->section, spec->key, spec->min, spec->max);
     }
@@ -402,13 +410,11 @@ static void suggest_key(const struct registry_view *view, int rank, const char *
 }
 
 /* "[material.]": explain what NAME may be rather than calling the section unknown. */
-static bool is_bad_instance_name(const struct registry_view *view, const char *name, char *pattern_shown,
-                                 size_t size)
+static bool is_bad_instance_name(const struct registry_view *view, const char *name, char *pattern_shown, size_t size)
 {
     for (int i = 0; i < view->count; i++) {
         const char *section = view->keys[i]->section;
-        if (view->section_rank[i] == i && is_pattern(section) &&
-            strncmp(section, name, strlen(section) - 1) == 0) {
+        if (view->section_rank[i] == i && is_pattern(section) && strncmp(section, name, strlen(section) - 1) == 0) {
             section_display(section, pattern_shown, size);
             return true;
         }
@@ -416,15 +422,14 @@ static bool is_bad_instance_name(const struct registry_view *view, const char *n
     return false;
 }
 
-static void format_unknown_section(const struct registry_view *view, const char *where, const char *name,
-                                   char *out, size_t size)
+static void format_unknown_section(const struct registry_view *view, const char *where, const char *name, char *out,
+                                   size_t size)
 {
     char sections[LIST_SIZE], suggestion[160], pattern[128];
     list_sections(view, sections, sizeof sections);
     if (is_bad_instance_name(view, name, pattern, sizeof pattern)) {
-        format_message(out, size,
-                       "%s: [%s]: NAME of [%s] must be letters, digits, '_' or '-'; allowed sections: %s", where,
-                       name, pattern, sections);
+        format_message(out, size, "%s: [%s]: NAME of [%s] must be letters, digits, '_' or '-'; allowed sections: %s",
+                       where, name, pattern, sections);
         return;
     }
     suggest_section(view, name, suggestion, sizeof suggestion);
@@ -437,15 +442,16 @@ static void format_unknown_key(const struct registry_view *view, const char *whe
     char keys[LIST_SIZE], suggestion[160];
     list_keys(view, rank, keys, sizeof keys);
     suggest_key(view, rank, key, suggestion, sizeof suggestion);
-    format_message(out, size, "%s: [%s] %s = %s: unknown key%s; allowed keys in [%s]: %s", where, section, key,
-                   value, suggestion, section, keys);
+    format_message(out, size, "%s: [%s] %s = %s: unknown key%s; allowed keys in [%s]: %s", where, section, key, value,
+                   suggestion, section, keys);
 }
 
 /* ---- values: parsing and describing what is allowed ---------------------------------------------------- */
 
 static bool within_range(const struct cfg_key *spec, double value)
 {
-    bool low_ok = spec->min <= -OPEN_BOUND || ((spec->flags & CFG_MIN_EXCLUSIVE) ? value > spec->min : value >= spec->min);
+    bool low_ok =
+        spec->min <= -OPEN_BOUND || ((spec->flags & CFG_MIN_EXCLUSIVE) ? value > spec->min : value >= spec->min);
     bool high_ok = spec->max >= OPEN_BOUND || value <= spec->max;
     return low_ok && high_ok;
 }
@@ -506,11 +512,16 @@ static void describe_allowed(const struct cfg_key *spec, char *out, size_t size)
 static const char *type_name(const struct cfg_key *spec)
 {
     switch (spec->type) {
-    case CFG_INT: return "int";
-    case CFG_REAL: return spec->choices ? "real or word" : "real";
-    case CFG_CHOICE: return "choice";
-    case CFG_PATH: return "path";
-    case CFG_STRING: return "text";
+    case CFG_INT:
+        return "int";
+    case CFG_REAL:
+        return spec->choices ? "real or word" : "real";
+    case CFG_CHOICE:
+        return "choice";
+    case CFG_PATH:
+        return "path";
+    case CFG_STRING:
+        return "text";
     }
     return "?";
 }
@@ -521,8 +532,7 @@ static const char *comment_hint(const char *text)
     return strstr(text, " #") || strstr(text, "\t#") ? " (inline comments start with ';')" : "";
 }
 
-static bool parse_int(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
-                      size_t size)
+static bool parse_int(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why, size_t size)
 {
     char *end;
     errno = 0;
@@ -540,8 +550,7 @@ static bool parse_int(const struct cfg_key *spec, const char *text, struct parse
     return true;
 }
 
-static bool parse_real(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
-                       size_t size)
+static bool parse_real(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why, size_t size)
 {
     if (spec->choices && word_in_list(spec->choices, text)) {
         out->is_word = true;
@@ -569,8 +578,7 @@ static bool parse_real(const struct cfg_key *spec, const char *text, struct pars
 }
 
 /* Check `text` against the key's type and range; on failure say what is wrong in `why`. */
-static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why,
-                        size_t size)
+static bool parse_value(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why, size_t size)
 {
     *out = (struct parsed_value){0};
     switch (spec->type) {
@@ -624,8 +632,8 @@ static void clear_value(struct slot *slot)
 }
 
 /* Store an already checked value. */
-static void store_value(struct slot *slot, const char *text, const struct parsed_value *value,
-                        enum value_source source, int line, const char *origin)
+static void store_value(struct slot *slot, const char *text, const struct parsed_value *value, enum value_source source,
+                        int line, const char *origin)
 {
     clear_value(slot);
     slot->text = must_strdup(text);
@@ -694,9 +702,9 @@ struct parse_state {
     struct case_file *c;
     const char *next; /* next unread byte */
     const char *end;
-    int line;         /* number of the line inih works on */
-    char *section;    /* current section as written; NULL before the first header */
-    int error_line;   /* line of the first error found here, 0 if none */
+    int line;       /* number of the line inih works on */
+    char *section;  /* current section as written; NULL before the first header */
+    int error_line; /* line of the first error found here, 0 if none */
     char message[MESSAGE_SIZE];
 };
 
@@ -754,8 +762,10 @@ static bool enter_section_line(struct parse_state *st, const char *line)
     /* inih ignores text after ']', so "[spray] dt = 1" would lose dt without a word. */
     if (*rest && *rest != ';' && *rest != '#' && *rest != '\n' && *rest != '\r') {
         int length = (int)strcspn(line, "\r\n");
-        return parse_fail(st, "%s:%d: syntax error: text after ']' of a section header: got \"%.*s\"; a section "
-                          "header stands alone on its line", st->c->path, st->line, length, line);
+        return parse_fail(st,
+                          "%s:%d: syntax error: text after ']' of a section header: got \"%.*s\"; a section "
+                          "header stands alone on its line",
+                          st->c->path, st->line, length, line);
     }
     free(st->section);
     st->section = must_strndup(line + 1, (size_t)(close - line - 1));
@@ -779,8 +789,8 @@ static char *next_line(char *buffer, int size, void *stream)
         stop--;
     size_t length = (size_t)(stop - start);
     if (size < 3 || length > (size_t)size - 2) {
-        parse_fail(st, "%s:%d: syntax error: line too long (%zu characters; at most %d)", st->c->path, st->line,
-                   length, size - 2);
+        parse_fail(st, "%s:%d: syntax error: line too long (%zu characters; at most %d)", st->c->path, st->line, length,
+                   size - 2);
         return NULL;
     }
     memcpy(buffer, start, length);
@@ -799,8 +809,7 @@ static bool check_value(const struct cfg_key *spec, const char *section, const c
     if (parse_value(spec, text, value, why, sizeof why))
         return true;
     describe_allowed(spec, allowed, sizeof allowed);
-    format_message(message, size, "%s: [%s] %s = %s: %s; allowed: %s", where, section, spec->key, text, why,
-                   allowed);
+    format_message(message, size, "%s: [%s] %s = %s: %s; allowed: %s", where, section, spec->key, text, why, allowed);
     return false;
 }
 
@@ -950,9 +959,8 @@ static int report_syntax_error(const char *path, const char *text, size_t length
         shown++;
     while (shown > 0 && start + shown < end && ((unsigned char)start[shown] & 0xc0) == 0x80)
         shown--; /* do not cut a UTF-8 character in half */
-    const char *what = start < end && *start == '['
-                           ? "section header without ']'"
-                           : "expected \"key = value\", \"[section]\" or a comment";
+    const char *what = start < end && *start == '[' ? "section header without ']'"
+                                                    : "expected \"key = value\", \"[section]\" or a comment";
     return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: syntax error: %s, got \"%.*s\"", path, line, what,
                         (int)shown, start);
 }
@@ -968,8 +976,7 @@ static int parse_case_text(struct case_file *c, const char *text, size_t length)
     int result = ini_parse_stream(next_line, &st, on_key_value, &st);
     free(st.section);
     if (result < 0)
-        return sc_error_set(SC_EIO, __FILE__, __LINE__, "%s: inih failed (status %d, out of memory?)", c->path,
-                            result);
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "%s: inih failed (status %d, out of memory?)", c->path, result);
     if (result > 0 && (st.error_line == 0 || result < st.error_line))
         return report_syntax_error(c->path, text + bom, length - bom, result);
     if (st.error_line)
@@ -1112,7 +1119,10 @@ static const struct slot *lookup_value(const struct case_file *c, const char *se
     return slot;
 }
 
-const char *case_file_path(const struct case_file *c) { return c->path; }
+const char *case_file_path(const struct case_file *c)
+{
+    return c->path;
+}
 
 int case_has(const struct case_file *c, const char *section, const char *key)
 {
@@ -1240,8 +1250,8 @@ int case_invalid(const struct case_file *c, const char *section, const char *key
         return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s (not set): %s", c->path, section, key, what);
     switch (slot->source) {
     case SOURCE_FILE:
-        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: [%s] %s = %s: %s", c->path, slot->line, section,
-                            key, slot->text, what);
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: [%s] %s = %s: %s", c->path, slot->line, section, key,
+                            slot->text, what);
     case SOURCE_OVERRIDE:
         return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: [%s] %s = %s: %s", slot->origin, section, key,
                             slot->text, what);
@@ -1256,10 +1266,18 @@ int case_invalid(const struct case_file *c, const char *section, const char *key
 static void describe_source(const struct case_file *c, const struct slot *slot, char *out, size_t size)
 {
     switch (slot->source) {
-    case SOURCE_FILE: snprintf(out, size, "%s:%d", c->path, slot->line); return;
-    case SOURCE_OVERRIDE: snprintf(out, size, "%s", slot->origin); return;
-    case SOURCE_DEFAULT: snprintf(out, size, "default"); return;
-    case SOURCE_UNSET: snprintf(out, size, "unset"); return;
+    case SOURCE_FILE:
+        snprintf(out, size, "%s:%d", c->path, slot->line);
+        return;
+    case SOURCE_OVERRIDE:
+        snprintf(out, size, "%s", slot->origin);
+        return;
+    case SOURCE_DEFAULT:
+        snprintf(out, size, "default");
+        return;
+    case SOURCE_UNSET:
+        snprintf(out, size, "unset");
+        return;
     }
 }
 
@@ -1273,8 +1291,8 @@ static void widen(int *width, const char *text, int limit)
 }
 
 /* The three left columns of a case_print row. */
-static void print_row_columns(const struct case_file *c, const struct slot *slot, char *name, char *value,
-                              char *source, size_t size)
+static void print_row_columns(const struct case_file *c, const struct slot *slot, char *name, char *value, char *source,
+                              size_t size)
 {
     snprintf(name, size, "[%s] %s", slot->section, slot->spec->key);
     snprintf(value, size, "%s", or_empty(slot->text));
@@ -1434,7 +1452,10 @@ static char *resolved_text(const struct case_file *c, bool canonical)
     return b.data;
 }
 
-char *case_resolved_text(const struct case_file *c) { return resolved_text(c, true); }
+char *case_resolved_text(const struct case_file *c)
+{
+    return resolved_text(c, true);
+}
 
 /* inih splits longer lines: refuse to write a file that would not read back the same. */
 static int check_line_lengths(const char *path, const char *text)

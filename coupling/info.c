@@ -9,14 +9,25 @@
 #include "core/error.h"
 #include "core/h5io.h"
 
-static const char *const root_attributes[] = {"format", "format_version", "program_version", "stage",
-                                              "case_hash", "created", NULL};
-static const char *const spray_stats[] = {"steps", "t", "injected", "in_flight", "deposited", "escaped",
-                                          "contacts_pair", "contacts_target", "contacts_deposit",
-                                          "fixed_point_iterations", "fixed_point_solves",
-                                          "fixed_point_unconverged", "subcycled_particle_steps", "particle_steps", NULL};
+static const char *const root_attributes[] = {
+    "format", "format_version", "program_version", "stage", "case_hash", "created", NULL};
+static const char *const spray_stats[] = {"steps",
+                                          "t",
+                                          "injected",
+                                          "in_flight",
+                                          "deposited",
+                                          "escaped",
+                                          "contacts_pair",
+                                          "contacts_target",
+                                          "contacts_deposit",
+                                          "fixed_point_iterations",
+                                          "fixed_point_solves",
+                                          "fixed_point_unconverged",
+                                          "subcycled_particle_steps",
+                                          "particle_steps",
+                                          NULL};
 static const char *const metric_names[] = {"deposit_fraction", "volume_fraction", "mean_spread", "scatter",
-                                           "max_thickness", "deposition_rate", NULL};
+                                           "max_thickness",    "deposition_rate", NULL};
 
 static void print_attribute(hid_t loc, const char *name, FILE *out)
 {
@@ -64,8 +75,8 @@ static int info_file(const char *path, FILE *out)
     if (h5_exists(file, "counters")) {
         int64_t counters[5];
         if (h5_read_int64s(file, "counters", counters, 5) == SC_OK)
-            fprintf(out, "checkpoint: step %lld, injected %lld, escaped %lld, deposited %lld\n",
-                    (long long)counters[0], (long long)counters[1], (long long)counters[2], (long long)counters[3]);
+            fprintf(out, "checkpoint: step %lld, injected %lld, escaped %lld, deposited %lld\n", (long long)counters[0],
+                    (long long)counters[1], (long long)counters[2], (long long)counters[3]);
     }
     print_last_metrics(file, out);
     H5Fclose(file);

@@ -23,7 +23,8 @@
 
 static inline uint32_t cell_hash(const int32_t cell[3], size_t bucket_count)
 {
-    uint64_t h = (uint64_t)(int64_t)cell[0] * 0x9E3779B97F4A7C15ull ^ (uint64_t)(int64_t)cell[1] * 0xC2B2AE3D27D4EB4Full ^
+    uint64_t h = (uint64_t)(int64_t)cell[0] * 0x9E3779B97F4A7C15ull ^
+                 (uint64_t)(int64_t)cell[1] * 0xC2B2AE3D27D4EB4Full ^
                  (uint64_t)(int64_t)cell[2] * 0x165667B19E3779F9ull;
     h ^= h >> 29;
     return (uint32_t)(h & (bucket_count - 1));
@@ -212,8 +213,8 @@ static struct swept_sphere swept_sphere_of(const struct dem_particles *p, uint32
 
 /* The pair is tested only in the cell holding the lower corner of the intersection of the two swept
  * boxes; returns 0 if the boxes do not intersect or `cell_here` is not that cell. */
-static int owns_pair(const struct swept_sphere *a, const struct swept_sphere *b, const int32_t cell_here[3],
-                     double dt, double cell)
+static int owns_pair(const struct swept_sphere *a, const struct swept_sphere *b, const int32_t cell_here[3], double dt,
+                     double cell)
 {
     for (int c = 0; c < 3; c++) {
         double ra = a->radius * (1.0 + BOX_MARGIN), rb = b->radius * (1.0 + BOX_MARGIN);
@@ -246,8 +247,7 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
         candidates_push(out, t_hit, second, first, CONTACT_PAIR);
 }
 
-void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
-                      struct dem_candidates *out)
+void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
 {
 #pragma omp parallel
     {

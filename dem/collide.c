@@ -54,7 +54,6 @@ void dem_detect_contacts(struct dem_solver *s)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
 
-
 /* ---------------------------------------------------------------- deposition rules */
 
 static double vcrit_from_table(const struct dem_config *cfg, double d)
@@ -73,8 +72,8 @@ static double vcrit_from_table(const struct dem_config *cfg, double d)
 }
 
 /* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact. */
-static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double r_eff,
-                  double gamma_partner, double yield)
+static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double r_eff, double gamma_partner,
+                  double yield)
 {
     switch (cfg->rule) {
     case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
@@ -178,6 +177,32 @@ static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
     s->deposited++;
 }
 
+/* Unit normal from the centre x of particle i to the obstacle: the target plane or deposited `partner`. */
+static void obstacle_normal(const struct dem_particles *p, int64_t partner, const double x[3], double n[3])
+{
+    if (partner < 0) {
+        n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
+        return;
+    }
+    const double *xj = p->x + 3 * partner;
+    double dist =
+        sqrt((xj[0] - x[0]) * (xj[0] - x[0]) + (xj[1] - x[1]) * (xj[1] - x[1]) + (xj[2] - x[2]) * (xj[2] - x[2]));
+    for (int k = 0; k < 3; k++)
+        n[k] = (xj[k] - x[k]) / dist;
+}
+
+/* Where a particle of radius r that stuck at x_hit rests: exactly touching the obstacle.  The sweep is
+ * straight while drag bends the real path, so a contact found at time 0 can start from an overlap of
+ * order a dt^2. */
+static void rest_position(const struct dem_solver *s, int64_t partner, const double x_hit[3], const double n[3],
+                          double r, double obstacle_radius, double rest[3])
+{
+    for (int k = 0; k < 3; k++)
+        rest[k] = partner < 0 ? x_hit[k] : s->p.x[3 * partner + k] - n[k] * (r + obstacle_radius);
+    if (partner < 0)
+        rest[2] = fmin(x_hit[2], s->cfg.standoff - r);
+}
+
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
 static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
 {
@@ -186,42 +211,27 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     double at = contact_time(s, i, partner);
     if (at < 0.0)
         return;
-    double x_hit[3], n[3], obstacle_radius = INFINITY;
-    const struct dem_material *obstacle = &cfg->target;
+    double x_hit[3], n[3];
     path_position(s, i, at, x_hit);
-    if (partner < 0) {
-        n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
-    } else {
-        const double *xj = p->x + 3 * partner;
-        double dist = sqrt((xj[0] - x_hit[0]) * (xj[0] - x_hit[0]) + (xj[1] - x_hit[1]) * (xj[1] - x_hit[1]) +
-                           (xj[2] - x_hit[2]) * (xj[2] - x_hit[2]));
-        for (int k = 0; k < 3; k++)
-            n[k] = (xj[k] - x_hit[k]) / dist;
-        obstacle_radius = 0.5 * p->d[partner];
-        obstacle = &cfg->powder;
-    }
+    obstacle_normal(p, partner, x_hit, n);
+    double obstacle_radius = partner < 0 ? INFINITY : 0.5 * p->d[partner];
+    const struct dem_material *obstacle = partner < 0 ? &cfg->target : &cfg->powder;
     struct sphere_state sphere = sphere_of(p, i, &cfg->powder), before = sphere;
     struct contact_outcome outcome;
     if (!contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;
     store_sphere(p, i, &sphere);
-    path_restart(s, i, at, x_hit);
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
     int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
     if (stuck) {
-        /* Rest exactly touching the obstacle: the sweep is straight while drag bends the real path, so a
-         * contact found at time 0 can start from an overlap of order a dt^2. */
         double rest[3];
-        for (int k = 0; k < 3; k++)
-            rest[k] = partner < 0 ? x_hit[k] : p->x[3 * partner + k] - n[k] * (r + obstacle_radius);
-        if (partner < 0)
-            rest[2] = fmin(x_hit[2], cfg->standoff - r);
-        freeze(s, i, rest);
-        path_restart(s, i, at, rest);
+        rest_position(s, partner, x_hit, n, r, obstacle_radius, rest);
         memcpy(x_hit, rest, sizeof rest);
+        freeze(s, i, x_hit);
     }
+    path_restart(s, i, at, x_hit);
     record_impact(s, i, at, x_hit, &before, stuck ? DEM_STUCK : DEM_REBOUND, partner < 0 ? -1 : p->id[partner]);
     if (partner < 0)
         s->stats.contacts_target++;
@@ -249,8 +259,8 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
     double xa[3], xb[3], n[3];
     path_position(s, a, at, xa);
     path_position(s, b, at, xb);
-    double dist = sqrt((xb[0] - xa[0]) * (xb[0] - xa[0]) + (xb[1] - xa[1]) * (xb[1] - xa[1]) +
-                       (xb[2] - xa[2]) * (xb[2] - xa[2]));
+    double dist =
+        sqrt((xb[0] - xa[0]) * (xb[0] - xa[0]) + (xb[1] - xa[1]) * (xb[1] - xa[1]) + (xb[2] - xa[2]) * (xb[2] - xa[2]));
     for (int k = 0; k < 3; k++)
         n[k] = (xb[k] - xa[k]) / dist;
     struct sphere_state sa = sphere_of(p, a, &s->cfg.powder), sb = sphere_of(p, b, &s->cfg.powder);
@@ -269,7 +279,7 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
 /* A particle whose velocity changed in the step can meet particles its old path never came near.  After
  * the contacts found at the start of the step, up to SECONDARY_PASSES passes look for contacts of the
  * changed particles along their new paths (to the end of the step) and resolve them in order of time. */
-#define SECONDARY_PASSES 4
+#define SECONDARY_PASSES    4
 #define SECONDARY_MAX_CELLS 4096
 
 struct secondary_query {

@@ -23,10 +23,12 @@ static void test_stokes_relaxation(void)
         return;
     const double tau = 2700.0 * 1e-10 / (18.0 * 1.8e-5), dt = tau / 1000.0;
     char ini[1024];
-    snprintf(ini, sizeof ini,
-             "[spray]\ndt = %.17g\nt_end = 0.01\ndomain_radius = 1\n[target]\nstandoff = 2\n[powder]\ndensity = 2700\n"
-             "[jet]\nmodel = uniform\nuniform_velocity = 100\ndrag = stokes\ngas_density = 1.2\ngas_viscosity = 1.5e-5\n"
-             "[deposition]\nrule = none\n", dt);
+    snprintf(
+        ini, sizeof ini,
+        "[spray]\ndt = %.17g\nt_end = 0.01\ndomain_radius = 1\n[target]\nstandoff = 2\n[powder]\ndensity = 2700\n"
+        "[jet]\nmodel = uniform\nuniform_velocity = 100\ndrag = stokes\ngas_density = 1.2\ngas_viscosity = 1.5e-5\n"
+        "[deposition]\nrule = none\n",
+        dt);
     struct fixture f;
     if (fixture_open(&f, ini, "0,0,0.001,0,0,0,0,0,0,1e-5\n") != SC_OK) {
         CHECK(0, "fixture");
@@ -98,8 +100,8 @@ static char *random_cloud(int count, double box, double speed, unsigned seed)
             r[k] = (double)rand() / RAND_MAX;
         double d = 50e-6 + 100e-6 * r[6];
         used += (size_t)sprintf(rows + used, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,0,0,0,%.9g\n", box * (r[0] - 0.5),
-                                box * (r[1] - 0.5), 0.1 + box * r[2], speed * (2 * r[3] - 1),
-                                speed * (2 * r[4] - 1), speed * (2 * r[5] - 1), d);
+                                box * (r[1] - 0.5), 0.1 + box * r[2], speed * (2 * r[3] - 1), speed * (2 * r[4] - 1),
+                                speed * (2 * r[5] - 1), d);
     }
     return rows;
 }
@@ -176,8 +178,10 @@ static int64_t collisions_in_cloud(double dt)
 {
     char *rows = random_cloud(1500, 0.003, 30.0, 42);
     char ini[512];
-    snprintf(ini, sizeof ini, "[spray]\ndt = %.17g\nt_end = 2e-4\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
-                              "[contact]\nrestitution = 0.9\n", dt);
+    snprintf(ini, sizeof ini,
+             "[spray]\ndt = %.17g\nt_end = 2e-4\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
+             "[contact]\nrestitution = 0.9\n",
+             dt);
     struct fixture f;
     int64_t count = -1;
     if (fixture_open(&f, ini, rows) == SC_OK) {
@@ -221,8 +225,10 @@ static void test_nothing_tunnels(void)
         used += (size_t)sprintf(rows + used, "%.6g,%.6g,%.6g,0,0,500,0,0,0,5e-5\n", 1e-4 * (i % 8), 1e-4 * (i / 8),
                                 0.2 + 1e-3 * (i % 5));
     struct fixture f;
-    if (fixture_open(&f, "[spray]\ndt = 5e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
-                         "[contact]\nrestitution = 0.5\n", rows) != SC_OK) {
+    if (fixture_open(&f,
+                     "[spray]\ndt = 5e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"
+                     "[contact]\nrestitution = 0.5\n",
+                     rows) != SC_OK) {
         CHECK(0, "fixture");
         return;
     }
