@@ -1,9 +1,12 @@
 /* The run directory, the registry of case keys, and signal handling shared by the stages. */
 #include <errno.h>
+#include <fcntl.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "core/run_keys.h"
@@ -58,10 +61,30 @@ static int make_directories(const char *path)
     return SC_OK;
 }
 
+/* One process per run directory: two runs writing the same checkpoints and outputs would clash.  The
+ * lock is an flock on the directory itself (no lock file to leave behind); the kernel drops it when the
+ * process ends, however it ends, so a killed run never leaves the directory locked. */
+static int lock_run_dir(const char *run_dir)
+{
+    int fd = open(run_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        SC_FAIL(SC_EIO, "cannot open run directory %s: %s", run_dir, strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        int saved = errno;
+        close(fd);
+        if (saved == EWOULDBLOCK)
+            SC_FAIL(SC_EIO, "run directory %s is in use by another spraycoat process; wait for it or use another "
+                    "directory", run_dir);
+        SC_FAIL(SC_EIO, "cannot lock run directory %s: %s", run_dir, strerror(saved));
+    }
+    return SC_OK; /* the descriptor stays open, and the lock held, until the process exits */
+}
+
 int run_dir_prepare(const char *run_dir, const struct case_file *c)
 {
     char path[4096];
     SC_TRY(make_directories(run_dir));
+    SC_TRY(lock_run_dir(run_dir));
     snprintf(path, sizeof path, "%s/case.ini", run_dir);
     SC_TRY(case_write_resolved(c, path));
     return SC_OK;

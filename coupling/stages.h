@@ -7,7 +7,8 @@
 /* The registry of every case key the program accepts (NULL-terminated list of tables). */
 extern const struct cfg_key *const spraycoat_registry[];
 
-/* Create the run directory (and parents) and write RUN_DIR/case.ini, the resolved case. SC_EIO on failure. */
+/* Create the run directory (and parents), lock it for this process (SC_EIO if another process holds it)
+ * and write RUN_DIR/case.ini, the resolved case.  SC_EIO on failure. */
 int run_dir_prepare(const char *run_dir, const struct case_file *c);
 
 /* Check the spray stage's configuration (cross-key checks, input files) and, when run_dir is not NULL,

@@ -167,6 +167,22 @@ else
     echo "FAIL io_file_size_limit_keeps_output: the short demo did not run: $(first_error_line "$tmp/err")"
 fi
 
+# (d) one process per run directory: a second run into a directory in use exits 3 and the first finishes.
+busy=$tmp/busy
+"$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_first.err" &
+first=$!
+for _ in 1 2 3 4 5 6 7 8 9 10; do [ -f "$busy/case.ini" ] && break; sleep 0.2; done
+"$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_second.err"
+second=$?
+wait "$first"
+first_status=$?
+if [ "$second" -eq 3 ] && grep -q 'in use' "$tmp/busy_second.err" && [ "$first_status" -eq 0 ] &&
+    [ -f "$busy/spray.h5" ]; then
+    echo "PASS io_run_dir_in_use"
+else
+    echo "FAIL io_run_dir_in_use: second run exit $second ($(first_error_line "$tmp/busy_second.err")), first run exit $first_status"
+fi
+
 # (c) info of a missing path, of a file that is not HDF5, of an empty and of a truncated HDF5 file.
 run1 io_info_missing_path 3 "$tmp/no_such_run" "$bin" info "$tmp/no_such_run"
 run1 io_info_missing_h5 3 "$tmp/no_such_file.h5" "$bin" info "$tmp/no_such_file.h5"
