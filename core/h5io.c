@@ -1061,6 +1061,10 @@ static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *
     for (size_t i = 0; i < list->count; i++) {
         char candidate[H5IO_PATH_MAX];
         SC_TRY(checkpoint_entry_path(run_dir, &list->items[i], candidate));
+        /* a checkpoint the system will not let us read is not damaged: falling back would later delete it */
+        if (access(candidate, R_OK) != 0)
+            SC_FAIL(SC_EIO, "cannot read checkpoint %s: %s (not falling back to an older one)", candidate,
+                    strerror(errno));
         int status = inspect_checkpoint(candidate, run_dir, want);
         if (status == SC_OK)
             return format_path(path, size, "%s", candidate);
