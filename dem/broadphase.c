@@ -78,9 +78,9 @@ static void ensure_capacity(struct dem_bins *bins, size_t entries)
     if (entries <= bins->entry_capacity)
         return;
     bins->entry_capacity = entries + entries / 2 + 1024;
-    bins->entries = realloc(bins->entries, bins->entry_capacity * sizeof *bins->entries);
-    bins->scratch = realloc(bins->scratch, bins->entry_capacity * sizeof *bins->scratch);
-    bins->entry_bucket = realloc(bins->entry_bucket, bins->entry_capacity * sizeof *bins->entry_bucket);
+    bins->entries = dem_realloc_or_die(bins->entries, bins->entry_capacity * sizeof *bins->entries);
+    bins->scratch = dem_realloc_or_die(bins->scratch, bins->entry_capacity * sizeof *bins->scratch);
+    bins->entry_bucket = dem_realloc_or_die(bins->entry_bucket, bins->entry_capacity * sizeof *bins->entry_bucket);
 }
 
 static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
@@ -93,7 +93,7 @@ static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
  * (after a prefix sum) write them at their offsets, so the order is the same for any thread count. */
 static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, double dt, size_t buckets)
 {
-    size_t *offset = malloc((p->count + 1) * sizeof *offset);
+    size_t *offset = dem_realloc_or_die(NULL, (p->count + 1) * sizeof *offset);
     offset[0] = 0;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < p->count; i++) {
@@ -137,7 +137,7 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
     bins->cell = grid_cell_size(p, dt);
     size_t buckets = bucket_count_for(p->count);
     if (buckets != bins->bucket_count) {
-        bins->bucket_start = realloc(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
+        bins->bucket_start = dem_realloc_or_die(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
         bins->bucket_count = buckets;
     }
     size_t count = fill_entries(bins, p, dt, buckets);
@@ -148,7 +148,7 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
     for (size_t b = 0; b < buckets; b++)
         bins->bucket_start[b + 1] += bins->bucket_start[b];
     /* counting sort: entries of a bucket stay in particle order */
-    uint32_t *fill = malloc(buckets * sizeof(uint32_t));
+    uint32_t *fill = dem_realloc_or_die(NULL, buckets * sizeof(uint32_t));
     memcpy(fill, bins->bucket_start, buckets * sizeof(uint32_t));
     for (size_t e = 0; e < count; e++)
         bins->entries[fill[bins->entry_bucket[e]]++] = bins->scratch[e];
@@ -184,7 +184,7 @@ void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t
 {
     if (list->count == list->capacity) {
         list->capacity = list->capacity ? 2 * list->capacity : 64;
-        list->items = realloc(list->items, list->capacity * sizeof *list->items);
+        list->items = dem_realloc_or_die(list->items, list->capacity * sizeof *list->items);
     }
     list->items[list->count++] = (struct dem_candidate){s, a, b, kind};
 }

@@ -344,9 +344,7 @@ static int extents_overlap(const struct path_extent *a, const struct path_extent
 static void find_changed_pairs(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
                                struct dem_candidates *out)
 {
-    struct path_extent *extents = malloc((moved_count ? moved_count : 1) * sizeof *extents);
-    if (!extents)
-        abort(); /* out of memory mid-step */
+    struct path_extent *extents = dem_realloc_or_die(NULL, (moved_count ? moved_count : 1) * sizeof *extents);
     for (size_t k = 0; k < moved_count; k++) {
         extents[k].index = moved[k];
         path_box(s, moved[k], extents[k].lo, extents[k].hi);
@@ -391,10 +389,8 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
 static void resolve_secondary_contacts(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    uint32_t *moved = malloc((p->count ? p->count : 1) * sizeof *moved);
+    uint32_t *moved = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *moved);
     struct dem_candidates found = {0};
-    if (!moved)
-        abort(); /* out of memory mid-step */
     for (int pass = 0; pass < SECONDARY_PASSES; pass++) {
         size_t moved_count = 0;
         for (size_t i = 0; i < p->count; i++)
@@ -430,12 +426,10 @@ void dem_collide(struct dem_solver *s)
     memcpy(p->w_start, p->w, 3 * p->count * sizeof(double));
     if (p->count > s->path_capacity) {
         s->path_capacity = p->capacity;
-        s->path_time = realloc(s->path_time, s->path_capacity * sizeof(double));
-        s->path_x = realloc(s->path_x, 3 * s->path_capacity * sizeof(double));
-        s->path_changed = realloc(s->path_changed, s->path_capacity);
-        s->seen = realloc(s->seen, s->path_capacity * sizeof *s->seen);
-        if (!s->path_time || !s->path_x || !s->path_changed || !s->seen)
-            abort(); /* out of memory mid-step */
+        s->path_time = dem_realloc_or_die(s->path_time, s->path_capacity * sizeof(double));
+        s->path_x = dem_realloc_or_die(s->path_x, 3 * s->path_capacity * sizeof(double));
+        s->path_changed = dem_realloc_or_die(s->path_changed, s->path_capacity);
+        s->seen = dem_realloc_or_die(s->seen, s->path_capacity * sizeof *s->seen);
     }
     memset(s->path_time, 0, p->count * sizeof(double));
     memset(s->path_changed, 0, p->count);

@@ -70,7 +70,7 @@ static int place_in_disc(const struct dem_solver *s, int64_t id, double d, const
 /* Indices of the particles that could touch a new particle in the disc (their z below the largest diameter). */
 static size_t *particles_near_nozzle(const struct dem_solver *s, size_t extra, size_t *count)
 {
-    size_t *near = malloc((s->p.count + extra + 1) * sizeof *near);
+    size_t *near = dem_realloc_or_die(NULL, (s->p.count + extra + 1) * sizeof *near);
     double reach = 0.0;
     for (size_t i = 0; i < s->p.count; i++)
         reach = fmax(reach, s->p.d[i]);

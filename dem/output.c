@@ -75,7 +75,7 @@ static int write_column(hid_t group, const char *name, const void *rows, size_t 
     hsize_t dims[2] = {count, (hsize_t)width};
     int rank = width == 1 ? 1 : 2;
     size_t n = count * (size_t)width;
-    void *column = malloc((n ? n : 1) * 8);
+    void *column = dem_realloc_or_die(NULL, (n ? n : 1) * 8);
     for (size_t i = 0; i < count; i++)
         memcpy((char *)column + i * (size_t)width * 8, (const char *)rows + i * stride + offset, (size_t)width * 8);
     int status = is_int ? h5_write_int64s(group, name, rank, dims, column, units, 0)
@@ -152,7 +152,7 @@ static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
     hid_t g;
     SC_TRY(h5_create_group(file, "particles", &g));
     hsize_t n1[1] = {p->count}, n3[2] = {p->count, 3};
-    int64_t *state = malloc((p->count ? p->count : 1) * sizeof *state);
+    int64_t *state = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *state);
     for (size_t i = 0; i < p->count; i++)
         state[i] = p->state[i];
     int status = h5_write_int64s(g, "id", 1, n1, p->id, "", checksum);
@@ -232,7 +232,7 @@ static int read_records(hid_t group, const char *name, void **items, size_t *cou
     *count = bytes / item_size;
     *capacity = *count ? *count : 1;
     free(*items);
-    *items = malloc(*capacity * item_size);
+    *items = dem_realloc_or_die(NULL, *capacity * item_size);
     if (bytes)
         SC_TRY(h5_read_bytes(group, name, *items, bytes));
     return SC_OK;
@@ -248,7 +248,7 @@ static int read_particles(hid_t group, struct dem_particles *p)
     if (status == SC_OK) {
         particles_reserve(p, n ? n : 1);
         p->count = n;
-        int64_t *state = malloc((n ? n : 1) * sizeof *state);
+        int64_t *state = dem_realloc_or_die(NULL, (n ? n : 1) * sizeof *state);
         status = h5_read_int64s(g, "id", p->id, n);
         if (status == SC_OK)
             status = h5_read_int64s(g, "state", state, n);

@@ -9,6 +9,7 @@
 #include "core/h5io.h"
 #include "core/run_keys.h"
 #include "dem/dem.h"
+#include "dem/dem_impl.h"
 
 const struct cfg_key dem_case_keys[] = {
     /* [spray] */
@@ -272,7 +273,7 @@ static int read_csv_columns(const struct case_file *c, const char *section, cons
         }
         if (count == capacity) {
             capacity = capacity ? 2 * capacity : 256;
-            rows = realloc(rows, capacity * (size_t)wanted_count * sizeof *rows);
+            rows = dem_realloc_or_die(rows, capacity * (size_t)wanted_count * sizeof *rows);
         }
         if (nfields < header_fields) {
             status = case_invalid(c, section, key, "%s:%zu: %d columns, the header has %d", path, line_number,
@@ -332,8 +333,8 @@ static int read_table_h5(const struct case_file *c, const char *path, struct dem
     if (status == SC_OK && (n == 0 || n != n2))
         status = SC_EINPUT;
     if (status == SC_OK) {
-        cfg->table_diameter = malloc(n * sizeof(double));
-        cfg->table_velocity = malloc(n * sizeof(double));
+        cfg->table_diameter = dem_realloc_or_die(NULL, n * sizeof(double));
+        cfg->table_velocity = dem_realloc_or_die(NULL, n * sizeof(double));
         cfg->table_count = n;
         status = h5_read_doubles(file, "diameter", cfg->table_diameter, n);
         if (status == SC_OK)
@@ -359,8 +360,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
     } else {
         double *rows;
         SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, &rows, &cfg->table_count));
-        cfg->table_diameter = malloc(cfg->table_count * sizeof(double));
-        cfg->table_velocity = malloc(cfg->table_count * sizeof(double));
+        cfg->table_diameter = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
+        cfg->table_velocity = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
         for (size_t i = 0; i < cfg->table_count; i++) {
             cfg->table_diameter[i] = rows[2 * i];
             cfg->table_velocity[i] = rows[2 * i + 1];

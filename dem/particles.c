@@ -1,18 +1,23 @@
 /* Storage of the particle arrays. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "dem/dem_impl.h"
 
-static void *resize(void *data, size_t count, size_t size)
+void *dem_realloc_or_die(void *data, size_t bytes)
 {
-    void *grown = realloc(data, count * size);
-    if (!grown && count) {
-        abort(); /* out of memory: nothing sensible to do mid-step */
+    void *grown = realloc(data, bytes ? bytes : 1);
+    if (!grown) {
+        /* out of memory mid-step: no state worth saving can be written without memory either */
+        fprintf(stderr, "spraycoat: out of memory (%zu bytes requested)\n", bytes);
+        abort();
     }
     return grown;
 }
+
+static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
 
 void particles_reserve(struct dem_particles *p, size_t capacity)
 {

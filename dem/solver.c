@@ -72,7 +72,7 @@ static void apply_boundaries(struct dem_solver *s)
     const struct dem_config *cfg = &s->cfg;
     const double plane = cfg->standoff - cfg->handoff_height;
     const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
-    uint8_t *keep = malloc(p->count ? p->count : 1);
+    uint8_t *keep = dem_realloc_or_die(NULL, p->count ? p->count : 1);
     size_t removed = 0;
     for (size_t i = 0; i < p->count; i++) {
         keep[i] = 1;
