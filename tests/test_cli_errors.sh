@@ -171,7 +171,8 @@ fi
 busy=$tmp/busy
 "$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_first.err" &
 first=$!
-for _ in 1 2 3 4 5 6 7 8 9 10; do [ -f "$busy/case.ini" ] && break; sleep 0.2; done
+i=0
+while [ ! -f "$busy/case.ini" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 "$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_second.err"
 second=$?
 wait "$first"
