@@ -31,14 +31,18 @@ static double norm3_difference(const double a[3], const double b[3])
     return sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-/* One phi-scheme step of length h from (x, v); the result replaces (x, v). */
-static void phi_step(const struct dem_config *cfg, double d, double m, double h, double x[3], double v[3],
-                     struct iteration_count *count)
+/* One phi-scheme step of length h from (x, v); the result replaces (x, v).  gas_start, if not NULL, is the
+ * gas velocity at x, already known to the caller. */
+static void phi_step(const struct dem_config *cfg, double d, double m, double h, const double *gas_start, double x[3],
+                     double v[3], struct iteration_count *count)
 {
     const double phi = cfg->phi;
     double force_start[3], residual_v[3], residual_x[3];
     double x0[3], v0[3], x_k[3], v_k[3];
-    net_force(&cfg->gas, d, x, v, force_start);
+    if (gas_start)
+        gas_drag_force(&cfg->gas, d, v, gas_start, force_start);
+    else
+        net_force(&cfg->gas, d, x, v, force_start);
     for (int c = 0; c < 3; c++) {
         residual_v[c] = v[c] + h / m * (1.0 - phi) * force_start[c]; /* Eq. 48 */
         residual_x[c] = x[c] + h * (1.0 - phi) * v[c];                 /* Eq. 50 */
@@ -77,11 +81,9 @@ static void phi_step(const struct dem_config *cfg, double d, double m, double h,
         count->max_iterations = iteration;
 }
 
-/* Sub-steps needed for particle of diameter d at velocity v and position x. */
-static int64_t substeps_for(const struct dem_config *cfg, double d, const double x[3], const double v[3])
+/* Sub-steps needed for a particle of diameter d at velocity v in gas moving at u. */
+static int64_t substeps_for(const struct dem_config *cfg, double d, const double u[3], const double v[3])
 {
-    double u[3];
-    gas_velocity(&cfg->gas, x, u);
     double slip = norm3_difference(u, v);
     double tau = gas_response_time(&cfg->gas, cfg->powder.density, d, slip);
     if (!(tau < 2.0 * cfg->dt))
@@ -98,10 +100,12 @@ static void integrate_particle(const struct dem_config *cfg, double d, double m,
             x[c] += cfg->dt * v[c];
         return;
     }
-    int64_t substeps = substeps_for(cfg, d, x, v);
+    double u[3];
+    gas_velocity(&cfg->gas, x, u); /* evaluated once: for the sub-step count and the first start force */
+    int64_t substeps = substeps_for(cfg, d, u, v);
     double h = cfg->dt / (double)substeps;
     for (int64_t k = 0; k < substeps; k++)
-        phi_step(cfg, d, m, h, x, v, count);
+        phi_step(cfg, d, m, h, k == 0 ? u : NULL, x, v, count);
     if (substeps > 1)
         count->subcycled++;
 }
