@@ -1,5 +1,5 @@
 # spraycoat build.  `make` builds build/spraycoat; see README.md for the other targets.
-# Sources are discovered by folder: add a .c file to core/, dem/ or coupling/ and it is built;
+# Sources are discovered by folder: add a .c file to core/, dem/, mpm/ or coupling/ and it is built;
 # add tests/test_NAME.c and it becomes a test program; tests/test_NAME.sh is a shell test.
 
 BUILD    ?= build
@@ -15,7 +15,7 @@ LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsu
             -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
 LDFLAGS  += -fopenmp
 
-LIB_SRC  := $(wildcard core/*.c dem/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
+LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
 MAIN_OBJ := $(BUILD)/coupling/main.o
 TEST_SRC := $(wildcard tests/test_*.c)

@@ -1,0 +1,101 @@
+/* mpm material models (module-private): Tang (2021) Sections 2.4.2, 3.5 and Appendix A.
+ *
+ *   ptw.c            Preston-Tonks-Wallace flow stress (Eqs. 2.4-2.8), MTS shear modulus G(T) (Eq. 2.6)
+ *   melt.c           Steinberg-Cochran-Guinan melt temperature (Eq. 2.9, DESIGN.md erratum on the exponent)
+ *   eos.c            Mie-Grueneisen pressure, linear in the energy (Eqs. 3.39-3.43; Zhang et al. Eq. 6.180)
+ *   stress_update.c  one material point's stress update (Appendix A): Jaumann rotation, elastic trial, radial
+ *                    return with the rate-dependent PTW yield solved consistently, EOS energy update,
+ *                    adiabatic heating (Eq. 3.44), melt, artificial bulk viscosity
+ *
+ * Conventions: SI units.  Symmetric tensors in the order xx, yy, zz, yz, xz, xy, tensor (not engineering)
+ * components for stresses and strains alike.  Stress is positive in tension; pressure positive in compression. */
+#ifndef SPRAYCOAT_MPM_MATERIAL_H
+#define SPRAYCOAT_MPM_MATERIAL_H
+
+enum mpm_strength { MPM_STRENGTH_PTW, MPM_STRENGTH_ELASTIC };
+
+struct mpm_material {
+    char name[64];
+    enum mpm_strength strength; /* PTW, or elastic (no yield: for verification) */
+    double density;             /* rho0, kg/m3 */
+    /* PTW, Tang Table 2.1 (dimensionless unless noted) */
+    double ptw_theta, ptw_p, ptw_s0, ptw_sinf, ptw_kappa, ptw_gamma;
+    double ptw_y0, ptw_yinf, ptw_y1, ptw_y2, ptw_beta;
+    double atomic_mass;         /* kg per atom */
+    double rate_floor;          /* 1/s: smallest plastic strain rate given to PTW (ln(gamma xi/rate) at rate 0) */
+    /* MTS shear modulus G(T) = G0 - D / (exp(T0/T) - 1), Eq. 2.6 */
+    double G0, D, T0;           /* Pa, Pa, K */
+    /* Mie-Grueneisen: bulk sound speed c0 (m/s), Hugoniot slope s, Grueneisen gamma0 */
+    double eos_c0, eos_s, eos_gamma0;
+    /* SCG melt: melt_T0 (K) at rho0, melt_a the first-order volume correction of gamma */
+    double melt_T0, melt_a;
+    double specific_heat;       /* J/(kg K) */
+    double taylor_quinney;      /* fraction of plastic work turned into heat */
+    double T_initial;           /* K */
+    double bulk_modulus;        /* Pa, for wave speeds (time step, absorbing boundaries): rho0 c0^2 by default */
+};
+
+/* ---- ptw.c ---- */
+/* MTS shear modulus at temperature T (Eq. 2.6), never below 0. */
+double mts_shear_modulus(const struct mpm_material *m, double T);
+/* xi_dot of Eq. 2.8 (1/s) at density rho and shear modulus G. */
+double ptw_xi_dot(const struct mpm_material *m, double rho, double G);
+/* PTW von Mises flow stress (Pa), Eqs. 2.4-2.7, at plastic strain eps_p, plastic strain rate rate (1/s, floored
+ * at m->rate_floor), temperature T, melt temperature Tm, density rho and shear modulus G.  0 at or above melt.
+ * When tau_s <= tau_y there is no hardening range and the flow stress is 2 G tau_s. */
+double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
+                       double G);
+
+/* ---- melt.c ---- */
+/* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
+double scg_melt_temperature(const struct mpm_material *m, double rho);
+
+/* ---- eos.c ---- */
+/* The linear-in-energy form p = A(mu) + B(mu) E, E the internal energy per initial volume (J/m3),
+ * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0. */
+void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B);
+double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume);
+
+/* ---- stress_update.c ---- */
+struct mpm_point_state {
+    double stress[6];      /* Cauchy stress without the bulk viscosity: s - p I */
+    double pressure;       /* EOS pressure p (Pa) */
+    double viscosity;      /* artificial bulk viscosity q (Pa); the force uses stress - q I */
+    double eps_p;          /* effective plastic strain */
+    double T;              /* temperature, K */
+    double energy;         /* internal energy of the point, J (Eq. 3.39: e, not per volume) */
+    double rho;            /* density at the start of the step, kg/m3 (updated to rho_new) */
+    double yield_stress;   /* current flow stress, Pa */
+    double melted;         /* 1 once T >= Tm at the last update, else 0 */
+};
+
+struct bulk_viscosity {
+    double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
+                                 (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
+    double length;            /* l, the cell size DCell (m) */
+};
+
+/* What the update did, for diagnostics and bonding. */
+struct mpm_update_result {
+    double eps_p_increment;   /* delta eps_p >= 0 */
+    double von_mises;         /* von Mises stress after the update (Pa) */
+    double plastic_work;      /* J dissipated plastically this step: V sigma_y delta eps_p */
+    double energy_increment;  /* J: e^{n+1} - e^n */
+};
+
+/* Update one material point over a step dt (Appendix A, Eqs. A1-A11).
+ *   strain_increment[6]: Delta eps = sym(grad v) dt (tensor components)
+ *   spin_increment[3]:   Omega dt = skew(grad v) dt, components W_yz, W_xz, W_xy (W_ij = (dv_i/dx_j - dv_j/dx_i)/2)
+ *   volume0, volume_old, volume_new: V0, V^n, V^{n+1} (m3); rho_new = rho0 V0 / volume_new
+ * Returns 0, or -1 when the state became non-finite (the caller reports step and point). */
+int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity *q, const double strain_increment[6],
+                      const double spin_increment[3], double dt, double volume0, double volume_old,
+                      double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
+
+/* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
+void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);
+
+/* Longitudinal elastic wave speed sqrt((K + 4 G / 3) / rho0) at T_initial (m/s). */
+double mpm_material_wave_speed(const struct mpm_material *m);
+
+#endif
