@@ -302,12 +302,14 @@ static hsize_t element_count(int rank, const hsize_t *dims)
 }
 
 /* Chunks of whole rows along dim 0, at most H5IO_CHUNK_BYTES (a row longer than that is split as well). */
-static void choose_chunk(const struct dataset_spec *spec, hsize_t chunk[2])
+static void choose_chunk(const struct dataset_spec *spec, hsize_t chunk[3])
 {
     hsize_t budget = H5IO_CHUNK_BYTES / spec->element_size;
-    if (spec->rank == 2) {
-        chunk[1] = spec->dims[1] < budget ? spec->dims[1] : budget;
-        budget /= chunk[1];
+    for (int d = spec->rank - 1; d >= 1; d--) {
+        chunk[d] = spec->dims[d] < budget ? spec->dims[d] : budget;
+        if (chunk[d] == 0)
+            chunk[d] = 1;
+        budget = budget / chunk[d] ? budget / chunk[d] : 1;
     }
     chunk[0] = spec->dims[0] < budget ? spec->dims[0] : budget;
     if (chunk[0] == 0)
@@ -321,7 +323,7 @@ static hid_t dataset_creation_plist(const struct dataset_spec *spec)
     hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
     if (dcpl < 0 || !spec->checksum || element_count(spec->rank, spec->dims) == 0)
         return dcpl;
-    hsize_t chunk[2];
+    hsize_t chunk[3];
     choose_chunk(spec, chunk);
     if (H5Pset_chunk(dcpl, spec->rank, chunk) < 0 || H5Pset_fletcher32(dcpl) < 0) {
         H5Pclose(dcpl);
@@ -360,8 +362,8 @@ static int write_dataset(hid_t loc, const struct dataset_spec *spec)
 {
     char what[H5IO_WHAT_MAX];
     describe_object(loc, spec->name, what);
-    if (spec->rank != 1 && spec->rank != 2)
-        SC_FAIL(SC_EIO, "cannot write dataset %s: rank %d (only 1 and 2 are supported)", what, spec->rank);
+    if (spec->rank < 1 || spec->rank > 3)
+        SC_FAIL(SC_EIO, "cannot write dataset %s: rank %d (only 1 to 3 are supported)", what, spec->rank);
     if (spec->data == NULL && element_count(spec->rank, spec->dims) > 0)
         SC_FAIL(SC_EIO, "cannot write dataset %s: no data given", what);
     hid_t space = H5Screate_simple(spec->rank, spec->dims, NULL);

@@ -32,7 +32,7 @@ int h5_open_read(const char *path, hid_t *file);
 
 int h5_create_group(hid_t parent, const char *name, hid_t *group);
 
-/* Datasets.  dims has `rank` entries (rank 1 or 2); zero-length datasets are allowed. */
+/* Datasets.  dims has `rank` entries (rank 1 to 3); zero-length datasets are allowed. */
 int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
                      const char *units, int checksum);
 int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data,

@@ -1,0 +1,213 @@
+/* Material points filling the bodies on a cubic lattice of spacing dp (thesis Section 3.4: DCell/dp), with
+ * the surface points of the bonding model and the boundary points of the absorbing boundaries marked at set-up. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "mpm/mpm_impl.h"
+
+/* Lattice position (i, j, k) of a body: spheres are centred on the lattice, cylinders and boxes hang from
+ * their top face so that the substrate's top layer of points lies dp/2 below z = 0. */
+static void lattice_position(const struct mpm_body *b, double dp, long i, long j, long k, double x[3])
+{
+    x[0] = b->center[0] + ((double)i + 0.5) * dp;
+    x[1] = b->center[1] + ((double)j + 0.5) * dp;
+    if (b->shape == MPM_SPHERE)
+        x[2] = b->center[2] + ((double)k + 0.5) * dp;
+    else
+        x[2] = b->center[2] + 0.5 * b->h - ((double)k + 0.5) * dp;
+}
+
+static int inside(const struct mpm_body *b, const double x[3], double tol)
+{
+    double dx = x[0] - b->center[0], dy = x[1] - b->center[1], dz = x[2] - b->center[2];
+    double r = 0.5 * b->d + tol;
+    switch (b->shape) {
+    case MPM_SPHERE:
+        return dx * dx + dy * dy + dz * dz <= r * r;
+    case MPM_CYLINDER:
+        return dx * dx + dy * dy <= r * r && fabs(dz) <= 0.5 * b->h + tol;
+    case MPM_BOX:
+        return fabs(dx) <= r && fabs(dy) <= r && fabs(dz) <= 0.5 * b->h + tol;
+    }
+    return 0;
+}
+
+/* Index range of the lattice that covers the body. */
+static void lattice_range(const struct mpm_body *b, double dp, long lo[3], long hi[3])
+{
+    long half = (long)ceil(0.5 * b->d / dp) + 1;
+    lo[0] = lo[1] = -half;
+    hi[0] = hi[1] = half;
+    if (b->shape == MPM_SPHERE) {
+        lo[2] = -half;
+        hi[2] = half;
+    } else {
+        lo[2] = 0;
+        hi[2] = (long)ceil(b->h / dp) + 1;
+    }
+}
+
+struct point_seed {
+    double x[3];
+    uint8_t flags;
+    double normal[3];
+};
+
+/* Surface and boundary marks from the six lattice neighbours (Section 4.1.1: surface points; Section 3.5.5:
+ * absorbing boundary on the substrate's bottom and sides, not its top). */
+static void classify(const struct mpm_body *b, double dp, double tol, struct point_seed *seed)
+{
+    static const int dirs[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    seed->flags = POINT_ACTIVE;
+    for (int n = 0; n < 6; n++) {
+        double y[3];
+        for (int k = 0; k < 3; k++)
+            y[k] = seed->x[k] + dirs[n][k] * dp;
+        if (inside(b, y, tol))
+            continue;
+        seed->flags |= POINT_SURFACE;
+        if (!b->substrate || n == 4)
+            continue;
+        if (n == 5) {
+            seed->flags |= POINT_BOTTOM;
+        } else {
+            seed->flags |= POINT_SIDE;
+            for (int k = 0; k < 3; k++)
+                seed->normal[k] += dirs[n][k];
+        }
+    }
+    if ((seed->flags & POINT_SIDE) && b->shape == MPM_CYLINDER) {
+        seed->normal[0] = seed->x[0] - b->center[0];
+        seed->normal[1] = seed->x[1] - b->center[1];
+        seed->normal[2] = 0.0;
+    }
+    double norm = sqrt(seed->normal[0] * seed->normal[0] + seed->normal[1] * seed->normal[1] +
+                       seed->normal[2] * seed->normal[2]);
+    for (int k = 0; k < 3 && norm > 0; k++)
+        seed->normal[k] /= norm;
+}
+
+static int seed_body(const struct mpm_body *b, double dp, struct point_seed **seeds, size_t *count,
+                     size_t *capacity)
+{
+    long lo[3], hi[3];
+    lattice_range(b, dp, lo, hi);
+    double tol = 1e-9 * dp;
+    for (long k = lo[2]; k <= hi[2]; k++)
+        for (long j = lo[1]; j <= hi[1]; j++)
+            for (long i = lo[0]; i <= hi[0]; i++) {
+                struct point_seed seed = {0};
+                lattice_position(b, dp, i, j, k, seed.x);
+                if (!inside(b, seed.x, tol))
+                    continue;
+                classify(b, dp, tol, &seed);
+                if (*count == *capacity) {
+                    size_t grown = *capacity ? 2 * *capacity : 4096;
+                    struct point_seed *more = realloc(*seeds, grown * sizeof *more);
+                    if (!more)
+                        SC_FAIL(SC_ESIM, "out of memory seeding material points");
+                    *seeds = more;
+                    *capacity = grown;
+                }
+                (*seeds)[(*count)++] = seed;
+            }
+    return SC_OK;
+}
+
+static int allocate(struct mpm_points *p, size_t n)
+{
+    memset(p, 0, sizeof *p);
+    p->count = n;
+    p->x = calloc(3 * n, sizeof *p->x);
+    p->v = calloc(3 * n, sizeof *p->v);
+    p->x_next = calloc(3 * n, sizeof *p->x_next);
+    p->mass = calloc(n, sizeof *p->mass);
+    p->volume0 = calloc(n, sizeof *p->volume0);
+    p->volume = calloc(n, sizeof *p->volume);
+    p->d_bond = calloc(n, sizeof *p->d_bond);
+    p->plastic_work = calloc(n, sizeof *p->plastic_work);
+    p->normal = calloc(3 * n, sizeof *p->normal);
+    p->state = calloc(n, sizeof *p->state);
+    p->body = calloc(n, sizeof *p->body);
+    p->flags = calloc(n, sizeof *p->flags);
+    if (!p->x || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond || !p->plastic_work || !p->normal ||
+        !p->state || !p->body || !p->flags)
+        SC_FAIL(SC_ESIM, "out of memory for %zu material points", n);
+    return SC_OK;
+}
+
+/* Bodies may touch but not overlap: a point of one inside another is a set-up error. */
+static int check_overlap(const struct mpm_config *cfg, int body, const struct point_seed *seeds, size_t count)
+{
+    for (int other = 0; other < body; other++)
+        for (size_t i = 0; i < count; i++)
+            if (inside(&cfg->bodies[other], seeds[i].x, -0.25 * cfg->spacing))
+                SC_FAIL(SC_EINPUT, "impact: body %d overlaps body %d (bodies may touch, not overlap)", body + 1,
+                        other + 1);
+    return SC_OK;
+}
+
+static void fill_points(const struct mpm_config *cfg, int body, const struct point_seed *seeds, size_t count,
+                        size_t offset, struct mpm_points *p)
+{
+    const struct mpm_body *b = &cfg->bodies[body];
+    const struct mpm_material *m = &cfg->materials[b->material];
+    double volume = cfg->spacing * cfg->spacing * cfg->spacing;
+    for (size_t i = 0; i < count; i++) {
+        size_t q = offset + i;
+        memcpy(p->x + 3 * q, seeds[i].x, sizeof seeds[i].x);
+        memcpy(p->v + 3 * q, b->velocity, sizeof b->velocity);
+        memcpy(p->normal + 3 * q, seeds[i].normal, sizeof seeds[i].normal);
+        p->mass[q] = m->density * volume;
+        p->volume0[q] = p->volume[q] = volume;
+        p->body[q] = body;
+        p->flags[q] = seeds[i].flags;
+        mpm_point_state_init(m, &p->state[q]);
+    }
+}
+
+int points_create(const struct mpm_config *cfg, struct mpm_points *points)
+{
+    struct point_seed **seeds = calloc((size_t)cfg->body_count, sizeof *seeds);
+    size_t *counts = calloc((size_t)cfg->body_count, sizeof *counts), total = 0;
+    int status = seeds && counts ? SC_OK : SC_ESIM;
+    for (int b = 0; status == SC_OK && b < cfg->body_count; b++) {
+        size_t capacity = 0;
+        status = seed_body(&cfg->bodies[b], cfg->spacing, &seeds[b], &counts[b], &capacity);
+        if (status == SC_OK && counts[b] == 0)
+            status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "impact: body %d holds no material point at spacing "
+                              "%g m", b + 1, cfg->spacing);
+        if (status == SC_OK)
+            status = check_overlap(cfg, b, seeds[b], counts[b]);
+        total += counts[b];
+    }
+    if (status == SC_OK)
+        status = allocate(points, total);
+    size_t offset = 0;
+    for (int b = 0; status == SC_OK && b < cfg->body_count; offset += counts[b], b++)
+        fill_points(cfg, b, seeds[b], counts[b], offset, points);
+    for (int b = 0; seeds && b < cfg->body_count; b++)
+        free(seeds[b]);
+    free(seeds);
+    free(counts);
+    return status;
+}
+
+void points_free(struct mpm_points *p)
+{
+    free(p->x);
+    free(p->v);
+    free(p->x_next);
+    free(p->mass);
+    free(p->volume0);
+    free(p->volume);
+    free(p->d_bond);
+    free(p->plastic_work);
+    free(p->normal);
+    free(p->state);
+    free(p->body);
+    free(p->flags);
+    memset(p, 0, sizeof *p);
+}

@@ -1,0 +1,162 @@
+/* Nodal update, multi-body contact and bonding forces (thesis Section 3.4 steps 3-6 and 8, Section 3.5.4,
+ * Section 4.1.1).  Every body has its own nodal fields (the multi-mesh); where two bodies have mass at a node
+ * and approach each other (Eq. 3.29), or are bonded there (nodal D_bond >= 1, Eqs. 4.6-4.7), equal and
+ * opposite nodal impulses bring them to a common velocity (sticking, Eq. 3.31), to a common normal velocity
+ * (frictionless), or limit the tangential part by Coulomb's law (friction). */
+#include <math.h>
+#include <string.h>
+
+#include "mpm/mpm_impl.h"
+
+static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+
+/* Nodal bonding parameter of one body, Eq. 4.6.  The equation weights the surface points' D_bond by N but
+ * divides by their count, which makes D_bond(I) about D_bond/8 for equal values; the text calls it the
+ * arithmetic average.  We take the partition-of-unity average sum(D N)/sum(N), which equals D for equal
+ * values (README, "Bonding"). */
+static double nodal_bond(const struct mpm_grid *g, size_t I)
+{
+    return g->bond_weight[I] > 0.0 ? g->bond_sum[I] / g->bond_weight[I] : 0.0;
+}
+
+/* Contact normal at a node between bodies a and b, pointing from a into b: the maximum-volume-gradient rule
+ * (Section 3.5.4) takes the body whose volume gradient is larger; a volume gradient points into its body. */
+int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
+{
+    const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
+    double la = norm3(ga), lb = norm3(gb);
+    if (la == 0.0 && lb == 0.0)
+        return -1;
+    for (int d = 0; d < 3; d++)
+        n[d] = la >= lb ? -ga[d] / la : gb[d] / lb;
+    return 0;
+}
+
+/* The impulse on body a at one node (body b receives its opposite).  Returns 0 no force, 1 contact, 2 bond. */
+static int pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *mom, double J[3])
+{
+    const struct mpm_grid *g = &s->grid;
+    double ma = g->mass[Ia], mb = g->mass[Ib], n[3];
+    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
+    if (contact_normal(g, Ia, Ib, n) != 0)
+        return 0;
+    double approach = 0.0;   /* Eq. 3.29 divided by ma mb */
+    for (int d = 0; d < 3; d++)
+        approach += (pa[d] / ma - pb[d] / mb) * n[d];
+    int bonded = s->cfg.bonding != MPM_BONDING_NONE && 0.5 * (nodal_bond(g, Ia) + nodal_bond(g, Ib)) >= 1.0;
+    if (!bonded && !(approach > 0.0))
+        return 0;
+    for (int d = 0; d < 3; d++)   /* Eq. 3.31 times dt: both bodies move with their common velocity */
+        J[d] = (ma * pb[d] - mb * pa[d]) / (ma + mb);
+    if (bonded || s->cfg.contact == MPM_CONTACT_STICK)
+        return bonded ? 2 : 1;
+    double Jn = J[0] * n[0] + J[1] * n[1] + J[2] * n[2];
+    double Jt[3], Jt_norm;
+    for (int d = 0; d < 3; d++)
+        Jt[d] = J[d] - Jn * n[d];
+    Jt_norm = norm3(Jt);
+    double scale = 0.0;   /* frictionless: the normal part only */
+    if (s->cfg.contact == MPM_CONTACT_FRICTION && Jt_norm > 0.0)
+        scale = fmin(1.0, s->cfg.friction * fabs(Jn) / Jt_norm);
+    for (int d = 0; d < 3; d++)
+        J[d] = Jn * n[d] + scale * Jt[d];
+    return 1;
+}
+
+/* Contact and bond impulses at node `node` on the momenta `mom`; flags the bodies in contact. */
+static int resolve_node(struct mpm_solver *s, size_t node, double *mom, int *bonded)
+{
+    struct mpm_grid *g = &s->grid;
+    int touched = 0;
+    *bonded = 0;
+    for (int a = 0; a < g->layers; a++) {
+        size_t Ia = (size_t)a * g->nodes + node;
+        if (!(g->mass[Ia] > g->mass_cutoff))
+            continue;
+        for (int b = a + 1; b < g->layers; b++) {
+            size_t Ib = (size_t)b * g->nodes + node;
+            double J[3];
+            int kind;
+            if (!(g->mass[Ib] > g->mass_cutoff) || (kind = pair_impulse(s, Ia, Ib, mom, J)) == 0)
+                continue;
+            for (int d = 0; d < 3; d++) {
+                mom[3 * Ia + d] += J[d];
+                mom[3 * Ib + d] -= J[d];
+            }
+            g->contact[Ia] = g->contact[Ib] = 1;
+            touched = 1;
+            *bonded |= kind == 2;
+        }
+    }
+    return touched;
+}
+
+/* A rigid frictionless wall at the substrate's top: no nodal velocity into it at or below it. */
+static void rigid_wall(const struct mpm_solver *s, size_t node, int k, double *mom)
+{
+    const struct mpm_grid *g = &s->grid;
+    double z = g->origin[2] + (double)k * g->h;
+    if (z > s->cfg.substrate_top + 1e-9 * g->h)
+        return;
+    for (int l = 0; l < g->layers; l++) {
+        size_t I = (size_t)l * g->nodes + node;
+        if (mom[3 * I + 2] < 0.0)
+            mom[3 * I + 2] = 0.0;
+    }
+}
+
+static int bodies_at(const struct mpm_grid *g, size_t node)
+{
+    int count = 0;
+    for (int l = 0; l < g->layers; l++)
+        count += g->mass[(size_t)l * g->nodes + node] > g->mass_cutoff;
+    return count;
+}
+
+void contact_nodal_update(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    double dt = s->dt;
+    int rigid = s->cfg.substrate == MPM_SUBSTRATE_RIGID;
+    long nodes = (long)g->nodes;
+    int64_t contacts = 0, bonds = 0;
+#pragma omp parallel for schedule(static) reduction(+ : contacts, bonds)
+    for (long node = 0; node < nodes; node++) {
+        for (int l = 0; l < g->layers; l++) {   /* Eq. 3.28 */
+            size_t I = (size_t)l * g->nodes + (size_t)node;
+            int heavy = g->mass[I] > g->mass_cutoff;
+            for (int d = 0; d < 3; d++)
+                g->momentum_new[3 * I + d] = heavy ? g->momentum[3 * I + d] + g->force[3 * I + d] * dt : 0.0;
+        }
+        if (rigid)
+            rigid_wall(s, (size_t)node, (int)(node / ((long)g->n[0] * g->n[1])), g->momentum_new);
+        int bonded;
+        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1 && resolve_node(s, (size_t)node, g->momentum_new, &bonded)) {
+            contacts++;
+            bonds += bonded;
+        }
+    }
+    s->contact_node_steps += contacts;
+    s->bonded_node_steps += bonds;
+}
+
+void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes)
+{
+    (void)count_nodes;
+    struct mpm_grid *g = &s->grid;
+    int rigid = s->cfg.substrate == MPM_SUBSTRATE_RIGID;
+    long nodes = (long)g->nodes;
+#pragma omp parallel for schedule(static)
+    for (long node = 0; node < nodes; node++) {
+        for (int l = 0; l < g->layers; l++) {
+            size_t I = (size_t)l * g->nodes + (size_t)node;
+            if (!(g->mass[I] > g->mass_cutoff))
+                mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
+        }
+        if (rigid)
+            rigid_wall(s, (size_t)node, (int)(node / ((long)g->n[0] * g->n[1])), mom);
+        int bonded;
+        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1)
+            resolve_node(s, (size_t)node, mom, &bonded);
+    }
+}

@@ -1,0 +1,121 @@
+/* Diagnostics of the impact runs (thesis Chapter 5): energies, plastic strain and its energy density
+ * (Eq. 4.15), PBCP (Eq. 5.1), the restitution velocity with the 60 m/s filter (Section 5.2.1) and the
+ * bonded/rebounded verdict.  Sums run over points in index order, so they do not depend on threads. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mpm/mpm_impl.h"
+
+struct body_sums {
+    double mass, volume0, ke, internal, plastic_work, eps_p_mass, momentum[3];
+    double slow_vz, d_bond_surface;
+    int64_t slow, surface, contacted, bonded;
+};
+
+static void add_point(const struct mpm_solver *s, size_t q, struct body_sums *b)
+{
+    const struct mpm_points *p = &s->points;
+    const double *v = p->v + 3 * q;
+    double m = p->mass[q], speed2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    b->mass += m;
+    b->volume0 += p->volume0[q];
+    b->ke += 0.5 * m * speed2;
+    b->internal += p->state[q].energy;
+    b->plastic_work += p->plastic_work[q];
+    b->eps_p_mass += m * p->state[q].eps_p;
+    for (int d = 0; d < 3; d++)
+        b->momentum[d] += m * v[d];
+    if (speed2 < s->cfg.vrest_filter * s->cfg.vrest_filter) {
+        b->slow_vz += v[2];
+        b->slow++;
+    }
+    if (p->flags[q] & POINT_SURFACE) {
+        b->surface++;
+        b->d_bond_surface += p->d_bond[q];
+    }
+    b->contacted += p->d_bond[q] > 0.0;
+    b->bonded += p->d_bond[q] >= 1.0;
+}
+
+static void finish_body(const struct body_sums *b, struct mpm_body_diagnostics *out)
+{
+    out->mass = b->mass;
+    out->kinetic_energy = b->ke;
+    out->internal_energy = b->internal;
+    out->plastic_work = b->plastic_work;
+    out->mean_eps_p = b->mass > 0 ? b->eps_p_mass / b->mass : 0.0;
+    out->plastic_energy_density = b->volume0 > 0 ? b->plastic_work / b->volume0 : 0.0;
+    for (int d = 0; d < 3; d++)
+        out->v_com[d] = b->mass > 0 ? b->momentum[d] / b->mass : 0.0;
+    out->pbcp = b->contacted > 0 ? (double)b->bonded / (double)b->contacted : 0.0;
+    out->v_rest = b->slow > 0 ? b->slow_vz / (double)b->slow : NAN;
+    out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
+    out->contacted_points = b->contacted;
+    out->bonded_points = b->bonded;
+}
+
+const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
+{
+    int nb = s->cfg.body_count;
+    struct body_sums *sums = calloc((size_t)nb, sizeof *sums);
+    if (!sums)
+        abort();
+    const struct mpm_points *p = &s->points;
+    for (size_t q = 0; q < p->count; q++)
+        if (p->flags[q] & POINT_ACTIVE)
+            add_point(s, q, &sums[p->body[q]]);
+    struct mpm_diagnostics *d = &s->diagnostics;
+    d->t = s->t;
+    d->body_count = nb;
+    d->body = s->body_diagnostics;
+    d->energy_absorbed = s->energy_absorbed;
+    d->energy_removed = s->energy_removed;
+    d->energy_initial = s->energy_initial;
+    d->energy_total = s->energy_absorbed + s->energy_removed;
+    for (int b = 0; b < nb; b++) {
+        finish_body(&sums[b], &d->body[b]);
+        d->energy_total += d->body[b].kinetic_energy + d->body[b].internal_energy;
+    }
+    free(sums);
+    return d;
+}
+
+void mpm_verdicts(struct mpm_solver *s, int *bonded)
+{
+    const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
+    for (int b = 0; b < d->body_count; b++) {
+        const struct mpm_body_diagnostics *body = &d->body[b];
+        bonded[b] = s->cfg.bodies[b].substrate ? -1
+                    : body->pbcp >= s->cfg.pbcp_threshold && body->v_rest <= s->cfg.vrest_threshold;
+    }
+}
+
+void series_record(struct mpm_solver *s)
+{
+    int nb = s->cfg.body_count;
+    size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
+    if (s->series_rows == s->series_capacity) {
+        size_t grown = s->series_capacity ? 2 * s->series_capacity : 256;
+        double *more = realloc(s->series, grown * width * sizeof *more);
+        if (!more)
+            abort();
+        s->series = more;
+        s->series_capacity = grown;
+    }
+    const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
+    double *row = s->series + s->series_rows++ * width;
+    row[0] = d->t;
+    row[1] = d->energy_total;
+    row[2] = d->energy_absorbed;
+    row[3] = d->energy_removed;
+    for (int b = 0; b < nb; b++) {
+        const struct mpm_body_diagnostics *x = &d->body[b];
+        double *r = row + SERIES_FIXED + (size_t)b * SERIES_PER_BODY;
+        double values[SERIES_PER_BODY] = {x->v_com[0], x->v_com[1], x->v_com[2], x->kinetic_energy,
+                                          x->internal_energy, x->plastic_work, x->mean_eps_p,
+                                          x->plastic_energy_density, x->pbcp, x->v_rest, x->mean_d_bond,
+                                          (double)x->contacted_points, (double)x->bonded_points};
+        memcpy(r, values, sizeof values);
+    }
+}

@@ -1,0 +1,313 @@
+/* The background grid: shape functions (trilinear, Eq. 3.20, or uGIMP) and the particle-to-grid transfers of
+ * thesis Section 3.4 steps 1-2 and 8, done block by block in 8 colours so that no two threads ever add to the
+ * same node and every node receives its contributions in the same order for any number of threads. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "mpm/mpm_impl.h"
+
+size_t grid_node(const struct mpm_grid *g, int i, int j, int k)
+{
+    return ((size_t)k * (size_t)g->n[1] + (size_t)j) * (size_t)g->n[0] + (size_t)i;
+}
+
+static void linear_weights(double xi, int *base, double w[3], double dw[3], double h)
+{
+    double cell = floor(xi);
+    double f = xi - cell;
+    *base = (int)cell;
+    w[0] = 1.0 - f;
+    w[1] = f;
+    dw[0] = -1.0 / h;
+    dw[1] = 1.0 / h;
+}
+
+/* uGIMP weight and derivative of a node at signed distance r = x_p - x_I (Bardenhagen & Kober 2004, with the
+ * particle's half-width l constant: "uniform" GIMP). */
+static void ugimp_weight(double r, double h, double l, double *w, double *dw)
+{
+    double a = fabs(r), sign = r < 0 ? -1.0 : 1.0;
+    if (a >= h + l) {
+        *w = *dw = 0.0;
+    } else if (a > h - l) {
+        *w = (h + l - a) * (h + l - a) / (4.0 * h * l);
+        *dw = -sign * (h + l - a) / (2.0 * h * l);
+    } else if (a >= l) {
+        *w = 1.0 - a / h;
+        *dw = -sign / h;
+    } else {
+        *w = 1.0 - (r * r + l * l) / (2.0 * h * l);
+        *dw = -r / (h * l);
+    }
+}
+
+int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
+                 struct stencil *st)
+{
+    st->width = kind == MPM_UGIMP ? 3 : 2;
+    for (int d = 0; d < 3; d++) {
+        double xi = (x[d] - g->origin[d]) / g->h;
+        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+            return -1;
+        if (kind == MPM_LINEAR) {
+            linear_weights(xi, &st->base[d], st->w[d], st->g[d], g->h);
+            continue;
+        }
+        st->base[d] = (int)floor(xi + 0.5) - 1;
+        for (int a = 0; a < 3; a++) {
+            double node = g->origin[d] + (double)(st->base[d] + a) * g->h;
+            ugimp_weight(x[d] - node, g->h, lp, &st->w[d][a], &st->g[d][a]);
+        }
+    }
+    return 0;
+}
+
+static int alloc_layers(struct mpm_grid *g)
+{
+    size_t n = g->nodes * (size_t)g->layers;
+    g->mass = calloc(n, sizeof *g->mass);
+    g->momentum = calloc(3 * n, sizeof *g->momentum);
+    g->momentum_new = calloc(3 * n, sizeof *g->momentum_new);
+    g->force = calloc(3 * n, sizeof *g->force);
+    g->gradient = calloc(3 * n, sizeof *g->gradient);
+    g->bond_sum = calloc(n, sizeof *g->bond_sum);
+    g->bond_weight = calloc(n, sizeof *g->bond_weight);
+    g->contact = calloc(n, sizeof *g->contact);
+    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->bond_sum ||
+        !g->bond_weight || !g->contact)
+        SC_FAIL(SC_ESIM, "out of memory for a grid of %zu nodes x %d bodies", g->nodes, g->layers);
+    return SC_OK;
+}
+
+static int alloc_blocks(struct mpm_grid *g, size_t points)
+{
+    for (int d = 0; d < 3; d++)
+        g->blocks[d] = (g->n[d] + BLOCK_CELLS - 1) / BLOCK_CELLS;
+    g->block_count = (size_t)g->blocks[0] * (size_t)g->blocks[1] * (size_t)g->blocks[2];
+    g->block_start = calloc(g->block_count + 1, sizeof *g->block_start);
+    g->block_points = calloc(points ? points : 1, sizeof *g->block_points);
+    g->point_block = calloc(points ? points : 1, sizeof *g->point_block);
+    for (int c = 0; c < 8; c++)
+        g->colour_blocks[c] = calloc(g->block_count, sizeof *g->colour_blocks[c]);
+    for (int c = 0; c < 8; c++)
+        if (!g->colour_blocks[c])
+            SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
+    if (!g->block_start || !g->block_points || !g->point_block)
+        SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
+    for (int k = 0; k < g->blocks[2]; k++)
+        for (int j = 0; j < g->blocks[1]; j++)
+            for (int i = 0; i < g->blocks[0]; i++) {
+                int colour = (i & 1) | (j & 1) << 1 | (k & 1) << 2;
+                size_t block = ((size_t)k * (size_t)g->blocks[1] + (size_t)j) * (size_t)g->blocks[0] + (size_t)i;
+                g->colour_blocks[colour][g->colour_count[colour]++] = block;
+            }
+    return SC_OK;
+}
+
+/* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
+ * DCell so that z = 0 (the substrate's top) is a node plane. */
+int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
+{
+    memset(g, 0, sizeof *g);
+    g->h = cfg->grid;
+    g->layers = cfg->body_count;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t q = 0; q < p->count; q++)
+        for (int d = 0; d < 3; d++) {
+            lo[d] = fmin(lo[d], p->x[3 * q + d]);
+            hi[d] = fmax(hi[d], p->x[3 * q + d]);
+        }
+    g->nodes = 1;
+    for (int d = 0; d < 3; d++) {
+        g->origin[d] = g->h * (floor((lo[d] - cfg->box_margin) / g->h) - 2.0);
+        g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
+        g->nodes *= (size_t)g->n[d];
+    }
+    if (g->nodes > (size_t)1 << 31)
+        SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
+                "box_margin", g->nodes, g->n[0], g->n[1], g->n[2]);
+    double lightest = INFINITY;
+    for (int m = 0; m < cfg->material_count; m++)
+        lightest = fmin(lightest, cfg->materials[m].density);
+    /* MPM3D-F90's cut-off: a node with less than 1e-5 of a full cell's mass carries no velocity */
+    g->mass_cutoff = 1e-5 * lightest * g->h * g->h * g->h;
+    SC_TRY(alloc_layers(g));
+    return alloc_blocks(g, p->count);
+}
+
+void grid_free(struct mpm_grid *g)
+{
+    free(g->mass);
+    free(g->momentum);
+    free(g->momentum_new);
+    free(g->force);
+    free(g->gradient);
+    free(g->bond_sum);
+    free(g->bond_weight);
+    free(g->contact);
+    free(g->block_start);
+    free(g->block_points);
+    free(g->point_block);
+    for (int c = 0; c < 8; c++)
+        free(g->colour_blocks[c]);
+    memset(g, 0, sizeof *g);
+}
+
+void grid_bin_points(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    const struct mpm_points *p = &s->points;
+    long n = (long)p->count;
+#pragma omp parallel for schedule(static)
+    for (long q = 0; q < n; q++) {
+        struct stencil st;
+        g->point_block[q] = -1;
+        if (!(p->flags[q] & POINT_ACTIVE) || grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st) != 0)
+            continue;
+        int b[3];
+        for (int d = 0; d < 3; d++)
+            b[d] = st.base[d] / BLOCK_CELLS;
+        g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
+                                  (size_t)b[0]);
+    }
+    memset(g->block_start, 0, (g->block_count + 1) * sizeof *g->block_start);
+    for (size_t q = 0; q < p->count; q++)
+        if (g->point_block[q] >= 0)
+            g->block_start[g->point_block[q] + 1]++;
+    for (size_t b = 0; b < g->block_count; b++)
+        g->block_start[b + 1] += g->block_start[b];
+    size_t *fill = g->block_start;  /* reused as the write cursor, restored below */
+    for (size_t q = 0; q < p->count; q++)
+        if (g->point_block[q] >= 0)
+            g->block_points[fill[g->point_block[q]]++] = q;
+    for (size_t b = g->block_count; b > 0; b--)
+        g->block_start[b] = g->block_start[b - 1];
+    g->block_start[0] = 0;
+}
+
+void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
+{
+    const struct mpm_points *p = &s->points;
+    const double *v = p->v + 3 * q;
+    const double *coef = s->body_dashpot + 2 * p->body[q];
+    f[0] = f[1] = f[2] = 0.0;
+    /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face, a = b = 1 */
+    if (p->flags[q] & POINT_BOTTOM) {
+        f[0] -= coef[1] * v[0];
+        f[1] -= coef[1] * v[1];
+        f[2] -= coef[0] * v[2];
+    }
+    if (p->flags[q] & POINT_SIDE) {
+        const double *n = p->normal + 3 * q;
+        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+        for (int d = 0; d < 3; d++)
+            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
+    }
+}
+
+/* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
+ * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
+static void scatter_all(struct mpm_solver *s, size_t q)
+{
+    struct mpm_grid *g = &s->grid;
+    const struct mpm_points *p = &s->points;
+    struct stencil st;
+    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    const struct mpm_point_state *ps = &p->state[q];
+    double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
+    const double *sig = ps->stress, *v = p->v + 3 * q;
+    double sxx = sig[0] - qv, syy = sig[1] - qv, szz = sig[2] - qv, syz = sig[3], sxz = sig[4], sxy = sig[5];
+    double fext[3] = {0, 0, 0};
+    if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
+        boundary_dashpot_force(s, q, fext);
+    int surface = (p->flags[q] & POINT_SURFACE) != 0;
+    double dbond = p->d_bond[q];
+    size_t layer = (size_t)p->body[q] * g->nodes;
+    for (int c = 0; c < st.width; c++)
+        for (int b = 0; b < st.width; b++)
+            for (int a = 0; a < st.width; a++) {
+                double wyz = st.w[1][b] * st.w[2][c];
+                double N = st.w[0][a] * wyz;
+                if (N == 0.0 && st.g[0][a] == 0.0)
+                    continue;
+                double dN[3] = {st.g[0][a] * wyz, st.w[0][a] * st.g[1][b] * st.w[2][c],
+                                st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                g->mass[I] += m * N;
+                g->momentum[3 * I] += m * v[0] * N;
+                g->momentum[3 * I + 1] += m * v[1] * N;
+                g->momentum[3 * I + 2] += m * v[2] * N;
+                g->force[3 * I] += -V * (sxx * dN[0] + sxy * dN[1] + sxz * dN[2]) + N * fext[0];
+                g->force[3 * I + 1] += -V * (sxy * dN[0] + syy * dN[1] + syz * dN[2]) + N * fext[1];
+                g->force[3 * I + 2] += -V * (sxz * dN[0] + syz * dN[1] + szz * dN[2]) + N * fext[2];
+                g->gradient[3 * I] += V * dN[0];
+                g->gradient[3 * I + 1] += V * dN[1];
+                g->gradient[3 * I + 2] += V * dN[2];
+                if (surface) {
+                    g->bond_sum[I] += dbond * N;
+                    g->bond_weight[I] += N;
+                }
+            }
+}
+
+/* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33. */
+static void scatter_momentum(struct mpm_solver *s, size_t q)
+{
+    struct mpm_grid *g = &s->grid;
+    const struct mpm_points *p = &s->points;
+    struct stencil st;
+    /* N^k: the stencil at the step's start positions, Eq. 3.33 */
+    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    double m = p->mass[q];
+    const double *v = p->v + 3 * q;
+    size_t layer = (size_t)p->body[q] * g->nodes;
+    for (int c = 0; c < st.width; c++)
+        for (int b = 0; b < st.width; b++)
+            for (int a = 0; a < st.width; a++) {
+                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                if (N == 0.0)
+                    continue;
+                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                g->momentum_new[3 * I] += m * v[0] * N;
+                g->momentum_new[3 * I + 1] += m * v[1] * N;
+                g->momentum_new[3 * I + 2] += m * v[2] * N;
+            }
+}
+
+static void for_each_point_by_colour(struct mpm_solver *s, void (*scatter)(struct mpm_solver *, size_t))
+{
+    struct mpm_grid *g = &s->grid;
+    for (int colour = 0; colour < 8; colour++) {
+        long count = (long)g->colour_count[colour];
+        const size_t *blocks = g->colour_blocks[colour];
+#pragma omp parallel for schedule(dynamic, 1)
+        for (long i = 0; i < count; i++) {
+            size_t block = blocks[i];
+            for (size_t k = g->block_start[block]; k < g->block_start[block + 1]; k++)
+                scatter(s, g->block_points[k]);
+        }
+    }
+}
+
+void grid_transfer_all(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    size_t n = g->nodes * (size_t)g->layers;
+    memset(g->mass, 0, n * sizeof *g->mass);
+    memset(g->momentum, 0, 3 * n * sizeof *g->momentum);
+    memset(g->force, 0, 3 * n * sizeof *g->force);
+    memset(g->gradient, 0, 3 * n * sizeof *g->gradient);
+    memset(g->bond_sum, 0, n * sizeof *g->bond_sum);
+    memset(g->bond_weight, 0, n * sizeof *g->bond_weight);
+    memset(g->contact, 0, n * sizeof *g->contact);
+    for_each_point_by_colour(s, scatter_all);
+}
+
+void grid_transfer_momentum(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    memset(g->momentum_new, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->momentum_new);
+    for_each_point_by_colour(s, scatter_momentum);
+}

@@ -1,0 +1,133 @@
+/* mpm: the impact solver of Tang (2021), "Predictive model of impact-induced bonding in cold spray using the
+ * Material Point Method" (MASc thesis, Waterloo): explicit MUSL MPM in 3-D with PTW strength, Mie-Grueneisen
+ * pressure, SCG melt, adiabatic heating, multi-body contact on a multi-mesh (Ma et al.), viscous absorbing
+ * boundaries and the energy- (or strain-) based bonding model of Chapter 4.  All quantities SI.
+ *
+ * Coordinates (DESIGN.md): the substrate's top surface is z = 0 and the substrate fills z < 0; bodies start
+ * above it.  The grid is uniform with cell size DCell = [impact] grid, aligned so that z = 0 is a node plane.
+ *
+ * One step (thesis Section 3.4, steps 1-12): dt = cfl DCell / (c + max|v|); particle-to-grid mass, momentum,
+ * internal and external force per body (fixed order: the same bits for any thread count); nodal update;
+ * contact and bonding forces at nodes where several bodies have mass; grid-to-particle velocity and position;
+ * MUSL re-projection of momentum; strain and spin increments; density; stress update; bond parameter;
+ * removal of points that left the grid box. */
+#ifndef SPRAYCOAT_MPM_H
+#define SPRAYCOAT_MPM_H
+
+#include <hdf5.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/config.h"
+#include "mpm/material.h"
+
+#define MPM_FORMAT "spraycoat-impact"
+#define MPM_FORMAT_VERSION 1
+
+enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
+enum mpm_substrate { MPM_SUBSTRATE_CYLINDER, MPM_SUBSTRATE_BOX, MPM_SUBSTRATE_RIGID };
+enum mpm_shape_function { MPM_LINEAR, MPM_UGIMP };
+enum mpm_contact_law { MPM_CONTACT_STICK, MPM_CONTACT_FRICTIONLESS, MPM_CONTACT_FRICTION };
+enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
+
+/* A body: its points fill the shape on a lattice of spacing dp.  center is the centre of the sphere, of the
+ * cylinder (axis along z) or of the box (d x d x h). */
+struct mpm_body {
+    enum mpm_shape shape;
+    double center[3], velocity[3];
+    double d, h;      /* diameter (or box side) and height (cylinder, box) */
+    int material;     /* index into mpm_config.materials */
+    int substrate;    /* 1 for the substrate body */
+};
+
+struct mpm_config {
+    int material_count;
+    struct mpm_material *materials;
+    int body_count;
+    struct mpm_body *bodies;       /* the substrate first when it is a deformable body */
+    enum mpm_substrate substrate;
+    double substrate_top;          /* z of the rigid wall or the substrate's top (0) */
+    double grid, spacing, cfl, t_end, box_margin;
+    enum mpm_shape_function shape_function;
+    enum mpm_contact_law contact;
+    double friction;
+    enum mpm_bonding bonding;
+    double Gc, Gc_rate, eps_c, eps_rate_c;
+    double pbcp_threshold, vrest_threshold, vrest_filter;
+    double snapshot_every, series_every;
+    struct bulk_viscosity viscosity;
+    int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
+    int threads;
+};
+
+/* The keys of [impact] and [material.NAME] (NULL-key terminated). */
+extern const struct cfg_key mpm_case_keys[];
+
+/* Resolve [impact] and the materials it names.  SC_EINPUT with FILE:LINE: [section] key messages. */
+int mpm_config_load(const struct case_file *c, struct mpm_config *cfg);
+void mpm_config_free(struct mpm_config *cfg);
+/* Replace the bodies by one sphere of `diameter` moving at `speed` (m/s) at `angle` (rad from the normal)
+ * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */
+int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle);
+
+struct mpm_solver;
+
+int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out);
+void mpm_destroy(struct mpm_solver *s);
+
+/* Advance one step.  SC_ESIM naming step, point, body and quantity when the state is not finite. */
+int mpm_step(struct mpm_solver *s);
+/* 1 once t >= t_end. */
+int mpm_finished(const struct mpm_solver *s);
+
+struct mpm_counts {
+    int64_t step;
+    double t, dt;
+    int64_t points, active_points, removed_points;
+    double removed_mass;
+    int64_t point_updates;      /* active points advanced, summed over steps */
+    int64_t contact_node_steps, bonded_node_steps;
+};
+struct mpm_counts mpm_get_counts(const struct mpm_solver *s);
+
+/* Per-body diagnostics at the current state (Tang Chapter 5).  Arrays have body_count entries. */
+struct mpm_body_diagnostics {
+    double mass, kinetic_energy, internal_energy, plastic_work;
+    double mean_eps_p, plastic_energy_density;   /* Eq. 4.15, J/m3, mass-weighted mean */
+    double v_com[3];
+    double pbcp;                  /* Eq. 5.1: points with D >= 1 over points with D > 0 (0 when none) */
+    double v_rest;                /* mean v_z of points slower than vrest_filter (m/s, + away from the substrate) */
+    double mean_d_bond;           /* over surface points */
+    int64_t contacted_points, bonded_points;
+};
+struct mpm_diagnostics {
+    double t;
+    int body_count;
+    struct mpm_body_diagnostics *body;   /* owned by the solver; valid until the next call */
+    double energy_total;          /* kinetic + internal + absorbed by boundaries + carried away by removed points */
+    double energy_absorbed, energy_removed, energy_initial;
+};
+const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
+
+/* Verdict per body (Tang Section 5.2.1): bonded when PBCP >= pbcp_threshold and v_rest <= vrest_threshold;
+ * -1 for the substrate.  out has body_count entries. */
+void mpm_verdicts(struct mpm_solver *s, int *bonded);
+
+int mpm_body_count(const struct mpm_solver *s);
+
+/* Output.  A snapshot (material points: x, v, eps_p, T, D_bond, body, ... with units) into an open group. */
+int mpm_write_snapshot(const struct mpm_solver *s, hid_t group);
+/* The time series recorded every series_every (and at the end) and the per-body summary into an open group:
+ * series/ and summary/ and stats/ as in DESIGN.md. */
+int mpm_write_results(struct mpm_solver *s, hid_t group);
+/* 1 when a snapshot is due at the current step (every snapshot_every, the first and the last step). */
+int mpm_snapshot_due(const struct mpm_solver *s);
+int64_t mpm_snapshot_index(const struct mpm_solver *s);   /* number of snapshots taken so far */
+void mpm_snapshot_taken(struct mpm_solver *s);
+
+/* Checkpoint: everything the next step needs, into an open group; read back into a solver made from the same
+ * configuration.  Shape-function caches and bins are rebuilt, never stored. */
+int mpm_checkpoint_write(const struct mpm_solver *s, hid_t group);
+int mpm_checkpoint_read(struct mpm_solver *s, hid_t group);
+
+#endif

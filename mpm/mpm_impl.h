@@ -1,0 +1,127 @@
+/* mpm internals shared by the files of the module (not part of the API). */
+#ifndef SPRAYCOAT_MPM_IMPL_H
+#define SPRAYCOAT_MPM_IMPL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "mpm/material.h"
+#include "mpm/mpm.h"
+
+enum point_flags {
+    POINT_ACTIVE = 1,    /* inside the grid box; removed points keep their slot with this bit cleared */
+    POINT_SURFACE = 2,   /* on its body's surface at set-up (a lattice neighbour lies outside the body) */
+    POINT_BOTTOM = 4,    /* substrate point on the bottom face: absorbing boundary */
+    POINT_SIDE = 8,      /* substrate point on a side face: absorbing boundary, outward normal in `normal` */
+    POINT_CONTACT = 16,  /* surface point touching another body this step (x_p in S of Section 4.1.1) */
+};
+
+/* Material points, structure of arrays. */
+struct mpm_points {
+    size_t count;
+    double *x, *v;                  /* 3 per point */
+    double *x_next;                 /* 3 per point: positions at the end of the step (swapped with x) */
+    double *mass, *volume0, *volume;
+    double *d_bond;                 /* bonding parameter D_bond (Eq. 4.16a / 4.5) */
+    double *plastic_work;           /* J, accumulated: Eq. 4.15 times the volume */
+    double *normal;                 /* 3 per point: outward normal of a side face (POINT_SIDE) */
+    struct mpm_point_state *state;
+    int32_t *body;
+    uint8_t *flags;
+};
+
+/* Shape-function stencil of one point: width nodes per direction from base. */
+struct stencil {
+    int base[3];
+    int width;
+    double w[3][3], g[3][3];        /* per-direction weights and their derivatives */
+};
+
+/* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
+ * blocks of cells used for the fixed-order particle-to-grid transfer. */
+struct mpm_grid {
+    double origin[3], h;
+    int n[3];
+    size_t nodes;
+    int layers;
+    double mass_cutoff;              /* nodes lighter than this carry no velocity */
+    double *mass, *momentum, *momentum_new, *force, *gradient;   /* per layer; vectors 3 per node */
+    double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
+    uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
+    /* blocks of BLOCK_CELLS^3 cells; points sorted by block every step */
+    int blocks[3];
+    size_t block_count;
+    size_t *block_start;             /* block_count + 1 */
+    size_t *block_points;            /* point indices, by block, ascending within a block */
+    size_t *colour_blocks[8];
+    size_t colour_count[8];
+    int *point_block;                /* block of each point this step (-1 inactive) */
+};
+
+#define BLOCK_CELLS 4
+
+struct series_row;
+
+struct mpm_solver {
+    struct mpm_config cfg;
+    struct mpm_points points;
+    struct mpm_grid grid;
+    double wave_speed_max;           /* largest longitudinal wave speed of the materials */
+    double lp;                       /* uGIMP half-width of a point's domain, dp/2 */
+    /* time */
+    int64_t step;
+    double t, dt;
+    double next_series, next_snapshot;
+    int64_t snapshot_count;
+    int snapshot_pending;
+    /* accounting */
+    int64_t removed_points, point_updates, contact_node_steps, bonded_node_steps;
+    double removed_mass, energy_absorbed, energy_removed, energy_initial;
+    /* bodies: initial speed and whether each is the substrate */
+    double *body_speed;
+    double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
+    /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
+    size_t series_rows, series_capacity;
+    double *series;
+    /* scratch for diagnostics */
+    struct mpm_diagnostics diagnostics;
+    struct mpm_body_diagnostics *body_diagnostics;
+};
+
+#define SERIES_FIXED 4      /* t, energy_total, energy_absorbed, energy_removed */
+#define SERIES_PER_BODY 13  /* v_com[3], ke, internal, plastic_work, mean_eps_p, ped, pbcp, v_rest, mean_d_bond,
+                               contacted, bonded */
+
+/* bodies.c */
+int points_create(const struct mpm_config *cfg, struct mpm_points *points);
+void points_free(struct mpm_points *points);
+
+/* grid.c */
+int grid_create(const struct mpm_config *cfg, const struct mpm_points *points, struct mpm_grid *grid);
+void grid_free(struct mpm_grid *grid);
+/* Stencil of a point at x; 0, or -1 when the stencil leaves the grid. */
+int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
+                 struct stencil *st);
+size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
+/* Sort the active points into blocks (fixed order for the transfers). */
+void grid_bin_points(struct mpm_solver *s);
+/* Particle-to-grid: mass, momentum, internal and external force, volume gradient, bond sums (step 1-2). */
+void grid_transfer_all(struct mpm_solver *s);
+/* MUSL re-projection: momentum only, into momentum_new (step 8). */
+void grid_transfer_momentum(struct mpm_solver *s);
+/* Absorbing-boundary (dashpot) force on a point, Eqs. 3.45-3.46. */
+void boundary_dashpot_force(const struct mpm_solver *s, size_t p, double force[3]);
+
+/* contact.c: nodal update, contact and bond forces, rigid wall (steps 3-6, 8). */
+void contact_nodal_update(struct mpm_solver *s);
+void contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_nodes);
+/* Contact normal between the bodies of layer entries Ia and Ib (same node), from a into b; -1 if undefined. */
+int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
+
+/* bonding.c */
+void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+
+/* diagnostics.c */
+void series_record(struct mpm_solver *s);
+
+#endif

@@ -1,0 +1,278 @@
+/* impact.h5 contents (snapshots, series, summary, stats) and the impact stage's checkpoints. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "mpm/mpm_impl.h"
+
+static size_t active_count(const struct mpm_points *p)
+{
+    size_t n = 0;
+    for (size_t q = 0; q < p->count; q++)
+        n += (p->flags[q] & POINT_ACTIVE) != 0;
+    return n;
+}
+
+static double von_mises(const double *s)
+{
+    double p = (s[0] + s[1] + s[2]) / 3.0;
+    double a = s[0] - p, b = s[1] - p, c = s[2] - p;
+    return sqrt(1.5 * (a * a + b * b + c * c + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5])));
+}
+
+/* Gather a field of the active points into out (width values each). */
+enum field { F_X, F_V, F_EPS_P, F_T, F_D_BOND, F_PRESSURE, F_VON_MISES, F_RHO, F_BODY, F_ID, F_SURFACE };
+
+static void gather(const struct mpm_points *p, enum field f, double *out)
+{
+    size_t k = 0;
+    for (size_t q = 0; q < p->count; q++) {
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        const struct mpm_point_state *s = &p->state[q];
+        switch (f) {
+        case F_X: memcpy(out + 3 * k, p->x + 3 * q, 3 * sizeof *out); break;
+        case F_V: memcpy(out + 3 * k, p->v + 3 * q, 3 * sizeof *out); break;
+        case F_EPS_P: out[k] = s->eps_p; break;
+        case F_T: out[k] = s->T; break;
+        case F_D_BOND: out[k] = p->d_bond[q]; break;
+        case F_PRESSURE: out[k] = s->pressure; break;
+        case F_VON_MISES: out[k] = von_mises(s->stress); break;
+        case F_RHO: out[k] = s->rho; break;
+        case F_BODY: out[k] = p->body[q]; break;
+        case F_ID: out[k] = (double)q; break;
+        case F_SURFACE: out[k] = (p->flags[q] & POINT_SURFACE) != 0; break;
+        }
+        k++;
+    }
+}
+
+int mpm_write_snapshot(const struct mpm_solver *s, hid_t group)
+{
+    static const struct { const char *name; enum field field; int width; const char *units; int integer; } fields[] = {
+        {"x", F_X, 3, "m", 0},           {"v", F_V, 3, "m/s", 0},          {"eps_p", F_EPS_P, 1, "-", 0},
+        {"T", F_T, 1, "K", 0},           {"D_bond", F_D_BOND, 1, "-", 0},  {"pressure", F_PRESSURE, 1, "Pa", 0},
+        {"von_mises", F_VON_MISES, 1, "Pa", 0}, {"rho", F_RHO, 1, "kg/m3", 0}, {"body", F_BODY, 1, "-", 1},
+        {"id", F_ID, 1, "-", 1},         {"surface", F_SURFACE, 1, "-", 1},
+    };
+    const struct mpm_points *p = &s->points;
+    size_t n = active_count(p);
+    double *buffer = malloc((3 * n + 1) * sizeof *buffer);
+    int64_t *integers = malloc((n + 1) * sizeof *integers);
+    int status = buffer && integers ? SC_OK : SC_ESIM;
+    for (size_t f = 0; status == SC_OK && f < sizeof fields / sizeof fields[0]; f++) {
+        hsize_t dims[2] = {n, 3};
+        gather(p, fields[f].field, buffer);
+        if (fields[f].integer) {
+            for (size_t k = 0; k < n; k++)
+                integers[k] = (int64_t)buffer[k];
+            status = h5_write_int64s(group, fields[f].name, 1, dims, integers, fields[f].units, 0);
+        } else {
+            status = h5_write_doubles(group, fields[f].name, fields[f].width == 3 ? 2 : 1, dims, buffer,
+                                      fields[f].units, 0);
+        }
+    }
+    if (status == SC_OK)
+        status = h5_attr_write_double(group, "t", s->t);
+    if (status == SC_OK)
+        status = h5_attr_write_int64(group, "step", s->step);
+    free(buffer);
+    free(integers);
+    return status == SC_ESIM ? sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory") : status;
+}
+
+/* Column `column` of every body out of the recorded series rows into out (rows x bodies). */
+static void series_column(const struct mpm_solver *s, int column, double *out)
+{
+    int nb = s->cfg.body_count;
+    size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
+    for (size_t r = 0; r < s->series_rows; r++)
+        for (int b = 0; b < nb; b++)
+            out[r * (size_t)nb + (size_t)b] = s->series[r * width + SERIES_FIXED + (size_t)b * SERIES_PER_BODY + column];
+}
+
+static int write_series(const struct mpm_solver *s, hid_t group)
+{
+    static const struct { const char *name; int column; const char *units; } per_body[] = {
+        {"ke", 3, "J"},           {"internal_energy", 4, "J"}, {"plastic_work", 5, "J"},
+        {"mean_eps_p", 6, "-"},   {"plastic_energy_density", 7, "J/m3"}, {"pbcp", 8, "-"},
+        {"v_rest", 9, "m/s"},     {"mean_d_bond", 10, "-"},    {"contacted_points", 11, "-"},
+        {"bonded_points", 12, "-"},
+    };
+    size_t nt = s->series_rows, nb = (size_t)s->cfg.body_count, width = SERIES_FIXED + nb * SERIES_PER_BODY;
+    double *buffer = malloc((3 * nt * nb + 1) * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL(SC_ESIM, "out of memory");
+    int status = SC_OK;
+    static const char *const fixed[] = {"t", "energy_total", "energy_absorbed", "energy_removed"};
+    static const char *const fixed_units[] = {"s", "J", "J", "J"};
+    for (int c = 0; status == SC_OK && c < SERIES_FIXED; c++) {
+        for (size_t r = 0; r < nt; r++)
+            buffer[r] = s->series[r * width + (size_t)c];
+        hsize_t dims[1] = {nt};
+        status = h5_write_doubles(group, fixed[c], 1, dims, buffer, fixed_units[c], 0);
+    }
+    for (size_t f = 0; status == SC_OK && f < sizeof per_body / sizeof per_body[0]; f++) {
+        series_column(s, per_body[f].column, buffer);
+        hsize_t dims[2] = {nt, nb};
+        status = h5_write_doubles(group, per_body[f].name, 2, dims, buffer, per_body[f].units, 0);
+    }
+    if (status == SC_OK) {
+        for (size_t r = 0; r < nt; r++)
+            for (size_t b = 0; b < nb; b++)
+                for (int d = 0; d < 3; d++)
+                    buffer[(r * nb + b) * 3 + (size_t)d] = s->series[r * width + SERIES_FIXED + b * SERIES_PER_BODY + (size_t)d];
+        hsize_t dims[3] = {nt, nb, 3};
+        status = h5_write_doubles(group, "v_com", 3, dims, buffer, "m/s", 0);
+    }
+    free(buffer);
+    return status;
+}
+
+static int write_summary(struct mpm_solver *s, hid_t group)
+{
+    int nb = s->cfg.body_count;
+    double *values = calloc((size_t)nb * 6, sizeof *values);
+    int64_t *bonded = calloc((size_t)nb, sizeof *bonded), *substrate = calloc((size_t)nb, sizeof *substrate);
+    int *verdict = calloc((size_t)nb, sizeof *verdict);
+    if (!values || !bonded || !substrate || !verdict) {
+        free(values), free(bonded), free(substrate), free(verdict);
+        SC_FAIL(SC_ESIM, "out of memory");
+    }
+    mpm_verdicts(s, verdict);
+    const struct mpm_diagnostics *d = &s->diagnostics;
+    double *diameter = values, *v_impact = values + nb, *pbcp = values + 2 * nb, *v_rest = values + 3 * nb,
+           *cor = values + 4 * nb;
+    for (int b = 0; b < nb; b++) {
+        diameter[b] = s->cfg.bodies[b].d;
+        v_impact[b] = s->body_speed[b];
+        pbcp[b] = d->body[b].pbcp;
+        v_rest[b] = d->body[b].v_rest;
+        cor[b] = v_impact[b] > 0 ? v_rest[b] / v_impact[b] : NAN;   /* restitution ratio */
+        bonded[b] = verdict[b];
+        substrate[b] = s->cfg.bodies[b].substrate;
+    }
+    hsize_t dims[1] = {(hsize_t)nb};
+    int status = h5_write_doubles(group, "diameter", 1, dims, diameter, "m", 0);
+    if (status == SC_OK) status = h5_write_doubles(group, "v_impact", 1, dims, v_impact, "m/s", 0);
+    if (status == SC_OK) status = h5_write_int64s(group, "bonded", 1, dims, bonded, "-", 0);
+    if (status == SC_OK) status = h5_write_doubles(group, "pbcp", 1, dims, pbcp, "-", 0);
+    if (status == SC_OK) status = h5_write_doubles(group, "v_rest", 1, dims, v_rest, "m/s", 0);
+    if (status == SC_OK) status = h5_write_doubles(group, "cor", 1, dims, cor, "-", 0);
+    if (status == SC_OK) status = h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0);
+    free(values), free(bonded), free(substrate), free(verdict);
+    return status;
+}
+
+static int write_stats(const struct mpm_solver *s, hid_t group)
+{
+    SC_TRY(h5_attr_write_int64(group, "steps", s->step));
+    SC_TRY(h5_attr_write_int64(group, "points", (int64_t)s->points.count));
+    SC_TRY(h5_attr_write_int64(group, "point_updates", s->point_updates));
+    SC_TRY(h5_attr_write_int64(group, "removed_points", s->removed_points));
+    SC_TRY(h5_attr_write_double(group, "removed_mass", s->removed_mass));
+    SC_TRY(h5_attr_write_int64(group, "contact_node_steps", s->contact_node_steps));
+    SC_TRY(h5_attr_write_int64(group, "bonded_node_steps", s->bonded_node_steps));
+    SC_TRY(h5_attr_write_double(group, "energy_initial", s->energy_initial));
+    SC_TRY(h5_attr_write_double(group, "t_end", s->t));
+    SC_TRY(h5_attr_write_int64(group, "grid_nodes", (int64_t)s->grid.nodes));
+    return SC_OK;
+}
+
+static int write_group(hid_t parent, const char *name, int (*writer)(struct mpm_solver *, hid_t), struct mpm_solver *s)
+{
+    hid_t group;
+    SC_TRY(h5_create_group(parent, name, &group));
+    int status = writer(s, group);
+    H5Gclose(group);
+    return status;
+}
+
+static int series_writer(struct mpm_solver *s, hid_t g) { return write_series(s, g); }
+static int stats_writer(struct mpm_solver *s, hid_t g) { return write_stats(s, g); }
+
+int mpm_write_results(struct mpm_solver *s, hid_t parent)
+{
+    SC_TRY(write_group(parent, "series", series_writer, s));
+    SC_TRY(write_group(parent, "summary", write_summary, s));
+    return write_group(parent, "stats", stats_writer, s);
+}
+
+/* ---- checkpoints ---- */
+
+#define CHECKPOINT_DOUBLES 12
+#define CHECKPOINT_INTEGERS 7
+
+int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
+{
+    const struct mpm_points *p = &s->points;
+    hsize_t n = p->count, n3[2] = {n, 3};
+    double scalars[CHECKPOINT_DOUBLES] = {s->t, s->dt, s->next_series, s->next_snapshot, s->removed_mass,
+                                          s->energy_absorbed, s->energy_removed, s->energy_initial, 0, 0, 0, 0};
+    int64_t integers[CHECKPOINT_INTEGERS] = {s->step, s->snapshot_count, s->snapshot_pending, s->removed_points,
+                                             s->point_updates, s->contact_node_steps, s->bonded_node_steps};
+    hsize_t ds[1] = {CHECKPOINT_DOUBLES}, is[1] = {CHECKPOINT_INTEGERS};
+    size_t width = SERIES_FIXED + (size_t)s->cfg.body_count * SERIES_PER_BODY;
+    hsize_t series_dims[2] = {s->series_rows, width};
+    SC_TRY(h5_write_doubles(g, "scalars", 1, ds, scalars, NULL, 1));
+    SC_TRY(h5_write_int64s(g, "integers", 1, is, integers, NULL, 1));
+    SC_TRY(h5_write_doubles(g, "series", 2, series_dims, s->series, NULL, 1));
+    SC_TRY(h5_write_doubles(g, "x", 2, n3, p->x, "m", 1));
+    SC_TRY(h5_write_doubles(g, "v", 2, n3, p->v, "m/s", 1));
+    SC_TRY(h5_write_doubles(g, "normal", 2, n3, p->normal, "-", 1));
+    SC_TRY(h5_write_doubles(g, "mass", 1, &n, p->mass, "kg", 1));
+    SC_TRY(h5_write_doubles(g, "volume0", 1, &n, p->volume0, "m3", 1));
+    SC_TRY(h5_write_doubles(g, "volume", 1, &n, p->volume, "m3", 1));
+    SC_TRY(h5_write_doubles(g, "d_bond", 1, &n, p->d_bond, "-", 1));
+    SC_TRY(h5_write_doubles(g, "plastic_work", 1, &n, p->plastic_work, "J", 1));
+    /* the point state as its struct bytes: MPM_FORMAT_VERSION changes when struct mpm_point_state does */
+    SC_TRY(h5_write_bytes(g, "state", n * sizeof *p->state, p->state, 1));
+    SC_TRY(h5_write_bytes(g, "body", n * sizeof *p->body, p->body, 1));
+    return h5_write_bytes(g, "flags", n * sizeof *p->flags, p->flags, 1);
+}
+
+int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
+{
+    struct mpm_points *p = &s->points;
+    size_t n = p->count, count;
+    SC_TRY(h5_dataset_size(g, "mass", &count));
+    if (count != n)
+        SC_FAIL(SC_EINPUT, "impact checkpoint holds %zu material points, this case makes %zu", count, n);
+    double scalars[CHECKPOINT_DOUBLES];
+    int64_t integers[CHECKPOINT_INTEGERS];
+    SC_TRY(h5_read_doubles(g, "scalars", scalars, CHECKPOINT_DOUBLES));
+    SC_TRY(h5_read_int64s(g, "integers", integers, CHECKPOINT_INTEGERS));
+    size_t width = SERIES_FIXED + (size_t)s->cfg.body_count * SERIES_PER_BODY;
+    SC_TRY(h5_dataset_size(g, "series", &count));
+    if (count % width != 0)
+        SC_FAIL(SC_EINPUT, "impact checkpoint: series of %zu values is not a whole number of rows", count);
+    double *series = malloc((count + 1) * sizeof *series);
+    if (!series)
+        SC_FAIL(SC_ESIM, "out of memory");
+    free(s->series);
+    s->series = series;
+    s->series_rows = s->series_capacity = count / width;
+    if (s->series_capacity == 0)
+        s->series_capacity = 0;
+    SC_TRY(h5_read_doubles(g, "series", s->series, count));
+    SC_TRY(h5_read_doubles(g, "x", p->x, 3 * n));
+    SC_TRY(h5_read_doubles(g, "v", p->v, 3 * n));
+    SC_TRY(h5_read_doubles(g, "normal", p->normal, 3 * n));
+    SC_TRY(h5_read_doubles(g, "mass", p->mass, n));
+    SC_TRY(h5_read_doubles(g, "volume0", p->volume0, n));
+    SC_TRY(h5_read_doubles(g, "volume", p->volume, n));
+    SC_TRY(h5_read_doubles(g, "d_bond", p->d_bond, n));
+    SC_TRY(h5_read_doubles(g, "plastic_work", p->plastic_work, n));
+    SC_TRY(h5_read_bytes(g, "state", p->state, n * sizeof *p->state));
+    SC_TRY(h5_read_bytes(g, "body", p->body, n * sizeof *p->body));
+    SC_TRY(h5_read_bytes(g, "flags", p->flags, n * sizeof *p->flags));
+    s->t = scalars[0], s->dt = scalars[1], s->next_series = scalars[2], s->next_snapshot = scalars[3];
+    s->removed_mass = scalars[4], s->energy_absorbed = scalars[5], s->energy_removed = scalars[6];
+    s->energy_initial = scalars[7];
+    s->step = integers[0], s->snapshot_count = integers[1], s->snapshot_pending = (int)integers[2];
+    s->removed_points = integers[3], s->point_updates = integers[4], s->contact_node_steps = integers[5];
+    s->bonded_node_steps = integers[6];
+    return SC_OK;
+}

@@ -1,0 +1,399 @@
+/* The impact stage's case keys ([impact], [material.NAME]) and their resolution into struct mpm_config. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "mpm/mpm.h"
+#include "mpm/mpm_impl.h"
+
+#define MAT "material.*"
+
+const struct cfg_key mpm_case_keys[] = {
+    /* [impact] */
+    {"impact", "material", CFG_STRING, "", "aluminium", 0, 0, 0, NULL,
+     "material NAME of the sprayed particle(s); needs a [material.NAME] section"},
+    {"impact", "substrate_material", CFG_STRING, "", "aluminium", 0, 0, 0, NULL,
+     "material NAME of the substrate; needs a [material.NAME] section"},
+    {"impact", "substrate", CFG_CHOICE, "", "cylinder", 0, 0, 0, "cylinder|box|rigid",
+     "substrate body (top face at z = 0): a cylinder, a square box, or a rigid frictionless wall"},
+    {"impact", "substrate_diameter", CFG_REAL, "m", "30e-6", 0, 1, 1, NULL,
+     "substrate cylinder diameter or box side (Tang Table 5.3)"},
+    {"impact", "substrate_height", CFG_REAL, "m", "10e-6", 0, 1, 1, NULL, "substrate thickness"},
+    {"impact", "grid", CFG_REAL, "m", "1.5e-6", 0, 1, 1, NULL, "DCell: edge of the cubic grid cells"},
+    {"impact", "spacing", CFG_REAL, "m", "0.5e-6", 0, 1, 1, NULL,
+     "dp: lattice spacing of the material points (at most DCell)"},
+    {"impact", "cfl", CFG_REAL, "-", "0.1", 0, 1, 1, NULL, "dt = cfl DCell / (c + max|v|) every step"},
+    {"impact", "t_end", CFG_REAL, "s", "60e-9", 0, 1e-3, 1, NULL, "simulated time after first contact"},
+    {"impact", "shape_functions", CFG_CHOICE, "", "linear", 0, 0, 0, "linear|ugimp",
+     "linear: trilinear (Eq. 3.20); ugimp: uniform GIMP (Bardenhagen & Kober 2004), less cell-crossing noise"},
+    {"impact", "bodies", CFG_PATH, "", NULL, 0, 0, 0, NULL,
+     "CSV with header shape,x,y,z,vx,vy,vz,d,h,material (shape sphere|cylinder|box; x,y,z the centre; d the "
+     "diameter or box side, h the height); replaces diameter/velocity/angle"},
+    {"impact", "diameter", CFG_REAL, "m", "14e-6", 0, 1, 1, NULL, "single particle: diameter"},
+    {"impact", "velocity", CFG_REAL, "m/s", "810", 0, 1e5, 0, NULL, "single particle: impact speed"},
+    {"impact", "angle", CFG_REAL, "deg", "0", 0, 89, 0, NULL,
+     "single particle: angle of the velocity from the substrate normal (oblique impact along +x)"},
+    {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
+     "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},
+    {"impact", "friction", CFG_REAL, "-", "0.2", 0, 10, 0, NULL, "Coulomb coefficient, contact = friction"},
+    {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
+     "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none"},
+    {"impact", "Gc", CFG_REAL, "J/m2", "1503.74", 0, 1e9, 1, NULL,
+     "critical surface adhesion energy G_c, Eq. 4.16b (calibrated default: README)"},
+    {"impact", "Gc_rate", CFG_REAL, "J/m2/s", "2.271e11", 0, 1e30, 1, NULL,
+     "critical adhesion energy rate dG_c/dt, Eq. 4.16b (calibrated default: README; not the printed value)"},
+    {"impact", "eps_c", CFG_REAL, "-", "1.4", 0, 1e3, 1, NULL, "critical bonding strain, Eq. 4.4"},
+    {"impact", "eps_rate_c", CFG_REAL, "1/s", "1.35e9", 0, 1e20, 1, NULL, "critical bonding strain rate, Eq. 4.4"},
+    {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
+     "bonded verdict needs PBCP (Eq. 5.1) at least this"},
+    {"impact", "vrest_threshold", CFG_REAL, "m/s", "0.6", 0, 1e4, 0, NULL,
+     "bonded verdict needs the restitution velocity at most this (Tang Section 5.2.1)"},
+    {"impact", "vrest_filter", CFG_REAL, "m/s", "60", 0, 1e5, 1, NULL,
+     "only points slower than this count in the restitution velocity (ejected material left out)"},
+    {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL, "simulated time between snapshots"},
+    {"impact", "series_every", CFG_REAL, "s", "0.5e-9", 0, 1, 1, NULL, "simulated time between series rows"},
+    {"impact", "box_margin", CFG_REAL, "m", "5e-6", 0, 1, 0, NULL,
+     "grid box = bounding box of the bodies + this on every side; points leaving it are removed"},
+    {"impact", "bulk_viscosity_linear", CFG_REAL, "-", "0.06", 0, 10, 0, NULL,
+     "linear coefficient c_l of the artificial bulk viscosity (0 = off)"},
+    {"impact", "bulk_viscosity_quadratic", CFG_REAL, "-", "1.5", 0, 100, 0, NULL,
+     "quadratic coefficient c_q of the artificial bulk viscosity (0 = off)"},
+    {"impact", "absorbing", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",
+     "viscous absorbing boundaries (Eqs. 3.45-3.46) on the substrate's bottom and sides"},
+    /* [material.NAME]: defaults are Tang's Al (Table 2.1; DESIGN.md erratum on the atomic mass) */
+    {MAT, "density", CFG_REAL, "kg/m3", "2700", 0, 1e5, 1, NULL, "rho0"},
+    {MAT, "strength", CFG_CHOICE, "", "ptw", 0, 0, 0, "ptw|elastic", "deviatoric model: PTW, or elastic (no yield)"},
+    {MAT, "ptw_theta", CFG_REAL, "-", "0.01156", 0, 10, 0, NULL, "PTW strain hardening rate theta"},
+    {MAT, "ptw_p", CFG_REAL, "-", "3", 0, 100, 0, NULL, "PTW strain hardening constant p (Tang's d)"},
+    {MAT, "ptw_s0", CFG_REAL, "-", "0.01489", 0, 10, 1, NULL, "PTW saturation stress at 0 K"},
+    {MAT, "ptw_sinf", CFG_REAL, "-", "0.002819", 0, 10, 1, NULL, "PTW saturation stress at melt"},
+    {MAT, "ptw_kappa", CFG_REAL, "-", "1.3", 0, 100, 0, NULL, "PTW temperature dependence kappa"},
+    {MAT, "ptw_gamma", CFG_REAL, "-", "2.04e-5", 0, 1, 1, NULL, "PTW strain rate dependence gamma"},
+    {MAT, "ptw_y0", CFG_REAL, "-", "0.0115", 0, 10, 1, NULL, "PTW yield stress at 0 K"},
+    {MAT, "ptw_yinf", CFG_REAL, "-", "0.002003", 0, 10, 1, NULL, "PTW yield stress at melt"},
+    {MAT, "ptw_y1", CFG_REAL, "-", "0.0168", 0, 10, 0, NULL, "PTW medium strain rate constant y1"},
+    {MAT, "ptw_y2", CFG_REAL, "-", "0.2339", 0, 10, 0, NULL, "PTW medium strain rate exponent y2"},
+    {MAT, "ptw_beta", CFG_REAL, "-", "0.2034", 0, 10, 0, NULL, "PTW high strain rate exponent beta (Tang's s1)"},
+    {MAT, "ptw_rate_floor", CFG_REAL, "1/s", "1", 0, 1e6, 1, NULL,
+     "smallest plastic strain rate given to PTW (its ln(gamma xi / rate) diverges at rate 0)"},
+    {MAT, "atomic_mass", CFG_REAL, "kg", "4.48039e-26", 0, 1e-20, 1, NULL, "mass of one atom M, Eq. 2.8"},
+    {MAT, "G0", CFG_REAL, "Pa", "28.8e9", 0, 1e13, 1, NULL, "MTS shear modulus at 0 K, Eq. 2.6"},
+    {MAT, "D", CFG_REAL, "Pa", "3.44e9", 0, 1e13, 0, NULL, "MTS constant D, Eq. 2.6"},
+    {MAT, "T0", CFG_REAL, "K", "215", 0, 1e5, 1, NULL, "MTS temperature constant T0, Eq. 2.6"},
+    {MAT, "eos_c0", CFG_REAL, "m/s", "5240", 0, 1e5, 1, NULL,
+     "Mie-Grueneisen bulk sound speed c0 (Steinberg 6061-T6)"},
+    {MAT, "eos_s", CFG_REAL, "-", "1.4", 0, 10, 0, NULL, "Mie-Grueneisen Hugoniot slope s (Steinberg 6061-T6)"},
+    {MAT, "eos_gamma0", CFG_REAL, "-", "1.97", 0, 10, 0, NULL, "Grueneisen gamma0 (Steinberg 6061-T6)"},
+    {MAT, "melt_T0", CFG_REAL, "K", "933", 0, 1e5, 1, NULL, "SCG melt temperature at rho0, Eq. 2.9 (pure Al)"},
+    {MAT, "melt_a", CFG_REAL, "-", "1.5", 0, 10, 0, NULL, "SCG volume correction a, Eq. 2.9 (Steinberg)"},
+    {MAT, "specific_heat", CFG_REAL, "J/(kg K)", "900", 0, 1e6, 1, NULL, "C_p of Eq. 3.44"},
+    {MAT, "taylor_quinney", CFG_REAL, "-", "0.9", 0, 1, 0, NULL, "fraction of plastic work turned into heat"},
+    {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL, "initial temperature"},
+    {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.5, CFG_MIN_EXCLUSIVE, NULL,
+     "Poisson ratio for the wave speeds (K = 2 G0(1 + nu)/(3(1 - 2 nu))); default K = rho0 c0^2"},
+    {MAT, "bulk_modulus", CFG_REAL, "Pa", NULL, 0, 1e13, 1, NULL,
+     "bulk modulus for the wave speeds (time step, absorbing boundaries); default rho0 c0^2"},
+    {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
+};
+
+static int load_material(const struct case_file *c, const char *key, const char *name, struct mpm_material *m)
+{
+    char section[96];
+    if (strlen(name) >= sizeof m->name)
+        return case_invalid(c, "impact", key, "material name longer than %zu characters", sizeof m->name - 1);
+    snprintf(section, sizeof section, "material.%s", name);
+    if (!case_has(c, section, "density"))
+        return case_invalid(c, "impact", key, "no [%s] section in the case (its keys default to Tang's Al; an "
+                            "empty section is enough)", section);
+    memset(m, 0, sizeof *m);
+    snprintf(m->name, sizeof m->name, "%s", name);
+    m->strength = case_is(c, section, "strength", "elastic") ? MPM_STRENGTH_ELASTIC : MPM_STRENGTH_PTW;
+    m->density = case_real(c, section, "density");
+    m->ptw_theta = case_real(c, section, "ptw_theta");
+    m->ptw_p = case_real(c, section, "ptw_p");
+    m->ptw_s0 = case_real(c, section, "ptw_s0");
+    m->ptw_sinf = case_real(c, section, "ptw_sinf");
+    m->ptw_kappa = case_real(c, section, "ptw_kappa");
+    m->ptw_gamma = case_real(c, section, "ptw_gamma");
+    m->ptw_y0 = case_real(c, section, "ptw_y0");
+    m->ptw_yinf = case_real(c, section, "ptw_yinf");
+    m->ptw_y1 = case_real(c, section, "ptw_y1");
+    m->ptw_y2 = case_real(c, section, "ptw_y2");
+    m->ptw_beta = case_real(c, section, "ptw_beta");
+    m->rate_floor = case_real(c, section, "ptw_rate_floor");
+    m->atomic_mass = case_real(c, section, "atomic_mass");
+    m->G0 = case_real(c, section, "G0");
+    m->D = case_real(c, section, "D");
+    m->T0 = case_real(c, section, "T0");
+    m->eos_c0 = case_real(c, section, "eos_c0");
+    m->eos_s = case_real(c, section, "eos_s");
+    m->eos_gamma0 = case_real(c, section, "eos_gamma0");
+    m->melt_T0 = case_real(c, section, "melt_T0");
+    m->melt_a = case_real(c, section, "melt_a");
+    m->specific_heat = case_real(c, section, "specific_heat");
+    m->taylor_quinney = case_real(c, section, "taylor_quinney");
+    m->T_initial = case_real(c, section, "T_initial");
+    if (case_has(c, section, "bulk_modulus") && case_has(c, section, "poisson"))
+        return case_invalid(c, section, "poisson", "give poisson or bulk_modulus, not both");
+    m->bulk_modulus = m->density * m->eos_c0 * m->eos_c0;
+    if (case_has(c, section, "bulk_modulus"))
+        m->bulk_modulus = case_real(c, section, "bulk_modulus");
+    if (case_has(c, section, "poisson")) {
+        double nu = case_real(c, section, "poisson");
+        m->bulk_modulus = 2.0 * mts_shear_modulus(m, m->T_initial) * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
+    }
+    if (!(mts_shear_modulus(m, m->T_initial) > 0.0))
+        return case_invalid(c, section, "D", "the shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial "
+                            "= %g K", m->T_initial);
+    if (m->ptw_sinf > m->ptw_s0)
+        return case_invalid(c, section, "ptw_sinf", "above ptw_s0 = %g", m->ptw_s0);
+    if (m->ptw_yinf > m->ptw_y0)
+        return case_invalid(c, section, "ptw_yinf", "above ptw_y0 = %g", m->ptw_y0);
+    return SC_OK;
+}
+
+/* Index of material `name` in cfg, loading it on first use. */
+static int material_index(const struct case_file *c, const char *key, const char *name, struct mpm_config *cfg,
+                          int *index)
+{
+    for (int i = 0; i < cfg->material_count; i++)
+        if (strcmp(cfg->materials[i].name, name) == 0) {
+            *index = i;
+            return SC_OK;
+        }
+    struct mpm_material *grown = realloc(cfg->materials, (size_t)(cfg->material_count + 1) * sizeof *grown);
+    if (!grown)
+        SC_FAIL(SC_ESIM, "out of memory");
+    cfg->materials = grown;
+    SC_TRY(load_material(c, key, name, &cfg->materials[cfg->material_count]));
+    *index = cfg->material_count++;
+    return SC_OK;
+}
+
+static int add_body(struct mpm_config *cfg, const struct mpm_body *body)
+{
+    struct mpm_body *grown = realloc(cfg->bodies, (size_t)(cfg->body_count + 1) * sizeof *grown);
+    if (!grown)
+        SC_FAIL(SC_ESIM, "out of memory");
+    cfg->bodies = grown;
+    cfg->bodies[cfg->body_count++] = *body;
+    return SC_OK;
+}
+
+static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
+{
+    cfg->substrate = case_is(c, "impact", "substrate", "rigid") ? MPM_SUBSTRATE_RIGID
+                     : case_is(c, "impact", "substrate", "box") ? MPM_SUBSTRATE_BOX : MPM_SUBSTRATE_CYLINDER;
+    cfg->substrate_top = 0.0;
+    if (cfg->substrate == MPM_SUBSTRATE_RIGID)
+        return SC_OK;
+    struct mpm_body body = {
+        .shape = cfg->substrate == MPM_SUBSTRATE_BOX ? MPM_BOX : MPM_CYLINDER,
+        .d = case_real(c, "impact", "substrate_diameter"),
+        .h = case_real(c, "impact", "substrate_height"),
+        .substrate = 1,
+    };
+    body.center[2] = -0.5 * body.h;
+    SC_TRY(material_index(c, "substrate_material", case_text(c, "impact", "substrate_material"), cfg, &body.material));
+    if (body.d < 2.0 * cfg->spacing || body.h < 2.0 * cfg->spacing)
+        return case_invalid(c, "impact", "substrate_height", "the substrate must be at least two point spacings "
+                            "(%g m) across", 2.0 * cfg->spacing);
+    return add_body(cfg, &body);
+}
+
+static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
+{
+    cfg->grid = case_real(c, "impact", "grid");
+    cfg->spacing = case_real(c, "impact", "spacing");
+    cfg->cfl = case_real(c, "impact", "cfl");
+    cfg->t_end = case_real(c, "impact", "t_end");
+    cfg->box_margin = case_real(c, "impact", "box_margin");
+    cfg->shape_function = case_is(c, "impact", "shape_functions", "ugimp") ? MPM_UGIMP : MPM_LINEAR;
+    cfg->contact = case_is(c, "impact", "contact", "stick")     ? MPM_CONTACT_STICK
+                   : case_is(c, "impact", "contact", "friction") ? MPM_CONTACT_FRICTION
+                                                                 : MPM_CONTACT_FRICTIONLESS;
+    cfg->friction = case_real(c, "impact", "friction");
+    cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN
+                   : case_is(c, "impact", "bonding", "none") ? MPM_BONDING_NONE : MPM_BONDING_ENERGY;
+    cfg->Gc = case_real(c, "impact", "Gc");
+    cfg->Gc_rate = case_real(c, "impact", "Gc_rate");
+    cfg->eps_c = case_real(c, "impact", "eps_c");
+    cfg->eps_rate_c = case_real(c, "impact", "eps_rate_c");
+    cfg->pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
+    cfg->vrest_threshold = case_real(c, "impact", "vrest_threshold");
+    cfg->vrest_filter = case_real(c, "impact", "vrest_filter");
+    cfg->snapshot_every = case_real(c, "impact", "snapshot_every");
+    cfg->series_every = case_real(c, "impact", "series_every");
+    cfg->viscosity.linear = case_real(c, "impact", "bulk_viscosity_linear");
+    cfg->viscosity.quadratic = case_real(c, "impact", "bulk_viscosity_quadratic");
+    cfg->viscosity.length = cfg->grid;
+    cfg->absorbing = case_is(c, "impact", "absorbing", "yes");
+    if (cfg->spacing > cfg->grid)
+        return case_invalid(c, "impact", "spacing", "larger than the grid cell %g m; allowed: at most DCell",
+                            cfg->grid);
+    if (cfg->grid / cfg->spacing > 16.0)
+        return case_invalid(c, "impact", "spacing", "more than 16 points per cell edge (DCell = %g m); allowed: "
+                            "spacing >= DCell/16", cfg->grid);
+    return SC_OK;
+}
+
+static int parse_shape(const char *text, enum mpm_shape *shape)
+{
+    if (strcmp(text, "sphere") == 0)
+        *shape = MPM_SPHERE;
+    else if (strcmp(text, "cylinder") == 0)
+        *shape = MPM_CYLINDER;
+    else if (strcmp(text, "box") == 0)
+        *shape = MPM_BOX;
+    else
+        return -1;
+    return 0;
+}
+
+static char *trim(char *text)
+{
+    while (*text == ' ' || *text == '\t')
+        text++;
+    size_t n = strlen(text);
+    while (n > 0 && (text[n - 1] == ' ' || text[n - 1] == '\t' || text[n - 1] == '\r' || text[n - 1] == '\n'))
+        text[--n] = '\0';
+    return text;
+}
+
+static int split_fields(char *line, char **fields, int max)
+{
+    int n = 0;
+    for (char *save = NULL, *token = strtok_r(line, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
+        if (n == max)
+            return max + 1;
+        fields[n++] = trim(token);
+    }
+    return n;
+}
+
+static int parse_body_row(const struct case_file *c, const char *path, long row, char **fields,
+                          struct mpm_config *cfg, struct mpm_body *body)
+{
+    static const char *const names[] = {"x", "y", "z", "vx", "vy", "vz", "d", "h"};
+    double values[8];
+    if (parse_shape(fields[0], &body->shape) != 0)
+        return case_invalid(c, "impact", "bodies", "%s: data row %ld: shape '%s'; allowed: sphere|cylinder|box", path,
+                            row, fields[0]);
+    for (int k = 0; k < 8; k++) {
+        char *end;
+        errno = 0;
+        values[k] = strtod(fields[k + 1], &end);
+        if (end == fields[k + 1] || *end != '\0' || errno == ERANGE || !isfinite(values[k]))
+            return case_invalid(c, "impact", "bodies", "%s: data row %ld: %s = '%s' is not a finite number", path,
+                                row, names[k], fields[k + 1]);
+    }
+    memcpy(body->center, values, sizeof body->center);
+    memcpy(body->velocity, values + 3, sizeof body->velocity);
+    body->d = values[6];
+    body->h = values[7];
+    if (!(body->d > 0) || (body->shape != MPM_SPHERE && !(body->h > 0)))
+        return case_invalid(c, "impact", "bodies", "%s: data row %ld: d and (cylinder, box) h must be > 0", path, row);
+    if (body->center[2] - (body->shape == MPM_SPHERE ? 0.5 * body->d : 0.5 * body->h) < cfg->substrate_top - 1e-12)
+        return case_invalid(c, "impact", "bodies", "%s: data row %ld: the body reaches below the substrate's top "
+                            "z = 0", path, row);
+    return material_index(c, "bodies", fields[9], cfg, &body->material);
+}
+
+static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
+{
+    char path[4096], line[1024];
+    SC_TRY(case_path(c, "impact", "bodies", path, sizeof path));
+    FILE *file = fopen(path, "r");
+    if (!file)
+        return case_invalid(c, "impact", "bodies", "cannot read %s: %s", path, strerror(errno));
+    static const char *const header[] = {"shape", "x", "y", "z", "vx", "vy", "vz", "d", "h", "material"};
+    char *fields[11];
+    int status = SC_OK;
+    long row = 0;
+    if (!fgets(line, sizeof line, file) || split_fields(line, fields, 10) != 10)
+        status = case_invalid(c, "impact", "bodies", "%s: the first line must be the header "
+                              "shape,x,y,z,vx,vy,vz,d,h,material", path);
+    for (int k = 0; status == SC_OK && k < 10; k++)
+        if (strcmp(fields[k], header[k]) != 0)
+            status = case_invalid(c, "impact", "bodies", "%s: header column %d is '%s', expected '%s'", path, k + 1,
+                                  fields[k], header[k]);
+    while (status == SC_OK && fgets(line, sizeof line, file)) {
+        if (trim(line)[0] == '\0')
+            continue;
+        row++;
+        if (split_fields(line, fields, 10) != 10) {
+            status = case_invalid(c, "impact", "bodies", "%s: data row %ld: expected 10 comma-separated fields",
+                                  path, row);
+            break;
+        }
+        struct mpm_body body = {0};
+        status = parse_body_row(c, path, row, fields, cfg, &body);
+        if (status == SC_OK)
+            status = add_body(cfg, &body);
+    }
+    fclose(file);
+    if (status == SC_OK && row == 0)
+        status = case_invalid(c, "impact", "bodies", "%s: no bodies (only a header)", path);
+    return status;
+}
+
+static int load_single_particle(const struct case_file *c, struct mpm_config *cfg)
+{
+    int material;
+    SC_TRY(material_index(c, "material", case_text(c, "impact", "material"), cfg, &material));
+    struct mpm_body body = {.shape = MPM_SPHERE, .material = material};
+    SC_TRY(add_body(cfg, &body));
+    return mpm_config_single_particle(cfg, case_real(c, "impact", "diameter"), case_real(c, "impact", "velocity"),
+                                      case_real(c, "impact", "angle") * M_PI / 180.0);
+}
+
+int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle)
+{
+    int keep = 0, material = -1;
+    for (int i = 0; i < cfg->body_count; i++) {
+        if (cfg->bodies[i].substrate)
+            cfg->bodies[keep++] = cfg->bodies[i];
+        else if (material < 0)
+            material = cfg->bodies[i].material;
+    }
+    if (material < 0)
+        SC_FAIL(SC_EINPUT, "no particle material to make a single particle from");
+    cfg->body_count = keep;
+    struct mpm_body body = {.shape = MPM_SPHERE, .d = diameter, .material = material};
+    /* touching the substrate's top: the thesis starts its runs at first contact (Section 5.2.1) */
+    body.center[2] = cfg->substrate_top + 0.5 * diameter;
+    body.velocity[0] = speed * sin(angle);
+    body.velocity[2] = -speed * cos(angle);
+    return add_body(cfg, &body);
+}
+
+int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->threads = (int)case_int(c, "run", "threads");
+    int status = load_numerics(c, cfg);
+    if (status == SC_OK)
+        status = load_substrate(c, cfg);
+    if (status == SC_OK)
+        status = case_has(c, "impact", "bodies") ? load_bodies_file(c, cfg) : load_single_particle(c, cfg);
+    if (status == SC_OK) {
+        /* every material the case names is checked, also one used by no body */
+        int unused;
+        status = material_index(c, "material", case_text(c, "impact", "material"), cfg, &unused);
+    }
+    if (status != SC_OK)
+        mpm_config_free(cfg);
+    return status;
+}
+
+void mpm_config_free(struct mpm_config *cfg)
+{
+    free(cfg->materials);
+    free(cfg->bodies);
+    cfg->materials = NULL;
+    cfg->bodies = NULL;
+    cfg->material_count = cfg->body_count = 0;
+}

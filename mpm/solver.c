@@ -1,0 +1,324 @@
+/* The MUSL step of thesis Section 3.4 (steps 1-12) with contact, bonding and absorbing boundaries. */
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "mpm/mpm_impl.h"
+
+static int copy_config(const struct mpm_config *from, struct mpm_config *to)
+{
+    *to = *from;
+    to->materials = malloc((size_t)from->material_count * sizeof *to->materials);
+    to->bodies = malloc((size_t)from->body_count * sizeof *to->bodies);
+    if (!to->materials || !to->bodies)
+        SC_FAIL(SC_ESIM, "out of memory");
+    memcpy(to->materials, from->materials, (size_t)from->material_count * sizeof *to->materials);
+    memcpy(to->bodies, from->bodies, (size_t)from->body_count * sizeof *to->bodies);
+    return SC_OK;
+}
+
+/* Dashpot coefficients of a boundary point (Eqs. 3.45-3.46 with a = b = 1): rho0 V A with the face area
+ * A = dp^2 of a lattice point. */
+static void body_constants(struct mpm_solver *s)
+{
+    const struct mpm_config *cfg = &s->cfg;
+    double area = cfg->spacing * cfg->spacing;
+    s->wave_speed_max = 0.0;
+    for (int b = 0; b < cfg->body_count; b++) {
+        const struct mpm_material *m = &cfg->materials[cfg->bodies[b].material];
+        double G = mts_shear_modulus(m, m->T_initial);
+        double vp = sqrt((m->bulk_modulus + 4.0 * G / 3.0) / m->density), vs = sqrt(G / m->density);
+        s->body_dashpot[2 * b] = cfg->absorbing ? m->density * vp * area : 0.0;
+        s->body_dashpot[2 * b + 1] = cfg->absorbing ? m->density * vs * area : 0.0;
+        s->wave_speed_max = fmax(s->wave_speed_max, mpm_material_wave_speed(m));
+        const double *v = cfg->bodies[b].velocity;
+        s->body_speed[b] = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    }
+}
+
+static double kinetic_energy_total(const struct mpm_points *p)
+{
+    double sum = 0.0;
+    for (size_t q = 0; q < p->count; q++)
+        if (p->flags[q] & POINT_ACTIVE) {
+            const double *v = p->v + 3 * q;
+            sum += 0.5 * p->mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        }
+    return sum;
+}
+
+int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
+{
+    struct mpm_solver *s = calloc(1, sizeof *s);
+    *out = s;
+    if (!s)
+        SC_FAIL(SC_ESIM, "out of memory");
+    SC_TRY(copy_config(cfg, &s->cfg));
+    s->lp = 0.5 * cfg->spacing;
+    s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
+    s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
+    s->body_diagnostics = calloc((size_t)cfg->body_count, sizeof *s->body_diagnostics);
+    if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics)
+        SC_FAIL(SC_ESIM, "out of memory");
+    body_constants(s);
+    SC_TRY(points_create(&s->cfg, &s->points));
+    SC_TRY(grid_create(&s->cfg, &s->points, &s->grid));
+    s->energy_initial = kinetic_energy_total(&s->points);
+    s->next_series = cfg->series_every;
+    s->next_snapshot = cfg->snapshot_every;
+    s->snapshot_pending = 1;
+    series_record(s);
+    return SC_OK;
+}
+
+void mpm_destroy(struct mpm_solver *s)
+{
+    if (!s)
+        return;
+    points_free(&s->points);
+    grid_free(&s->grid);
+    mpm_config_free(&s->cfg);
+    free(s->body_speed);
+    free(s->body_dashpot);
+    free(s->body_diagnostics);
+    free(s->series);
+    free(s);
+}
+
+int mpm_finished(const struct mpm_solver *s) { return s->t >= s->cfg.t_end * (1.0 - 1e-12); }
+int mpm_body_count(const struct mpm_solver *s) { return s->cfg.body_count; }
+
+struct mpm_counts mpm_get_counts(const struct mpm_solver *s)
+{
+    struct mpm_counts c = {.step = s->step, .t = s->t, .dt = s->dt, .points = (int64_t)s->points.count,
+                           .removed_points = s->removed_points, .removed_mass = s->removed_mass,
+                           .point_updates = s->point_updates, .contact_node_steps = s->contact_node_steps,
+                           .bonded_node_steps = s->bonded_node_steps};
+    c.active_points = c.points - c.removed_points;
+    return c;
+}
+
+/* dt = cfl DCell / (c + max|v|) (DESIGN.md), the last step cut to end exactly at t_end. */
+static void choose_time_step(struct mpm_solver *s)
+{
+    const struct mpm_points *p = &s->points;
+    long n = (long)p->count;
+    double vmax2 = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : vmax2)
+    for (long q = 0; q < n; q++) {
+        const double *v = p->v + 3 * q;
+        if (p->flags[q] & POINT_ACTIVE)
+            vmax2 = fmax(vmax2, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    }
+    s->dt = s->cfg.cfl * s->cfg.grid / (s->wave_speed_max + sqrt(vmax2));
+    if (s->t + s->dt > s->cfg.t_end)
+        s->dt = s->cfg.t_end - s->t;
+}
+
+/* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
+ * nodal velocity. */
+static void grid_to_points(struct mpm_solver *s)
+{
+    struct mpm_points *p = &s->points;
+    const struct mpm_grid *g = &s->grid;
+    long n = (long)p->count;
+    double dt = s->dt;
+#pragma omp parallel for schedule(static)
+    for (long q = 0; q < n; q++) {
+        double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
+        if (!(p->flags[q] & POINT_ACTIVE)) {
+            memcpy(xn, x, 3 * sizeof *x);
+            continue;
+        }
+        struct stencil st;
+        grid_stencil(g, s->cfg.shape_function, s->lp, x, &st);
+        size_t layer = (size_t)p->body[q] * g->nodes;
+        double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
+        for (int c = 0; c < st.width; c++)
+            for (int b = 0; b < st.width; b++)
+                for (int a = 0; a < st.width; a++) {
+                    double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                    size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                    if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
+                        continue;
+                    double w = N / g->mass[I];
+                    for (int d = 0; d < 3; d++) {
+                        dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
+                        vnew[d] += w * g->momentum_new[3 * I + d];
+                    }
+                }
+        for (int d = 0; d < 3; d++) {
+            v[d] += dv[d];
+            xn[d] = x[d] + dt * vnew[d];
+        }
+    }
+}
+
+/* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
+ * the point's own body is in contact at one of its nodes. */
+static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
+{
+    const struct mpm_grid *g = &s->grid;
+    const struct mpm_points *p = &s->points;
+    struct stencil st;
+    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    size_t layer = (size_t)p->body[q] * g->nodes;
+    int contact = 0;
+    memset(L, 0, 9 * sizeof L[0][0]);
+    for (int c = 0; c < st.width; c++)
+        for (int b = 0; b < st.width; b++)
+            for (int a = 0; a < st.width; a++) {
+                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                if (!(g->mass[I] > g->mass_cutoff))
+                    continue;
+                contact |= N > 0.0 && g->contact[I];
+                double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
+                                st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                for (int i = 0; i < 3; i++) {
+                    double vi = g->momentum_new[3 * I + i] / g->mass[I];
+                    for (int j = 0; j < 3; j++)
+                        L[i][j] += vi * dN[j];
+                }
+            }
+    return contact;
+}
+
+/* Steps 10-11: strain and spin increments (Eq. 3.35), density (Eq. 3.36), stress (Appendix A), bonding. */
+static int update_point(struct mpm_solver *s, size_t q)
+{
+    struct mpm_points *p = &s->points;
+    double L[3][3], dt = s->dt;
+    int contact = velocity_gradient(s, q, L);
+    double de[6] = {L[0][0] * dt, L[1][1] * dt, L[2][2] * dt, 0.5 * (L[1][2] + L[2][1]) * dt,
+                    0.5 * (L[0][2] + L[2][0]) * dt, 0.5 * (L[0][1] + L[1][0]) * dt};
+    double dw[3] = {0.5 * (L[1][2] - L[2][1]) * dt, 0.5 * (L[0][2] - L[2][0]) * dt, 0.5 * (L[0][1] - L[1][0]) * dt};
+    double volume_new = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
+    if (!(volume_new > 0.0))
+        return -1;
+    const struct mpm_material *m = &s->cfg.materials[s->cfg.bodies[p->body[q]].material];
+    struct mpm_update_result r;
+    if (mpm_stress_update(m, &s->cfg.viscosity, de, dw, dt, p->volume0[q], p->volume[q], volume_new, &p->state[q],
+                          &r) != 0)
+        return -1;
+    p->volume[q] = volume_new;
+    p->plastic_work[q] += r.plastic_work;
+    if (contact && (p->flags[q] & POINT_SURFACE))
+        p->flags[q] |= POINT_CONTACT;
+    else
+        p->flags[q] &= (uint8_t)~POINT_CONTACT;
+    bonding_update(s, q, r.eps_p_increment, r.von_mises);
+    return 0;
+}
+
+static int update_points(struct mpm_solver *s)
+{
+    struct mpm_points *p = &s->points;
+    long n = (long)p->count, bad = n;
+#pragma omp parallel for schedule(static) reduction(min : bad)
+    for (long q = 0; q < n; q++)
+        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q) != 0)
+            bad = q < bad ? q : bad;
+    if (bad < n)
+        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
+                "non-finite state or a non-positive volume (time step %.3g s)", (long long)s->step + 1, s->t, bad,
+                p->body[bad] + 1, s->dt);
+    return SC_OK;
+}
+
+/* Points whose stencil leaves the grid are removed and counted (DESIGN.md); their energy is booked. */
+static int remove_escaped(struct mpm_solver *s)
+{
+    struct mpm_points *p = &s->points;
+    long n = (long)p->count, bad = n;
+    int64_t leaving = 0;
+#pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad)
+    for (long q = 0; q < n; q++) {
+        struct stencil st;
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        const double *x = p->x + 3 * q, *v = p->v + 3 * q;
+        if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
+            bad = q < bad ? q : bad;
+        else if (grid_stencil(&s->grid, s->cfg.shape_function, s->lp, x, &st) != 0)
+            leaving++;
+    }
+    if (bad < n)
+        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
+                "not finite", (long long)s->step, s->t, bad, p->body[bad] + 1);
+    for (size_t q = 0; leaving > 0 && q < p->count; q++) {
+        struct stencil st;
+        if (!(p->flags[q] & POINT_ACTIVE) || grid_stencil(&s->grid, s->cfg.shape_function, s->lp, p->x + 3 * q,
+                                                          &st) == 0)
+            continue;
+        const double *v = p->v + 3 * q;
+        p->flags[q] &= (uint8_t)~POINT_ACTIVE;
+        s->removed_points++;
+        s->removed_mass += p->mass[q];
+        s->energy_removed += 0.5 * p->mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + p->state[q].energy;
+        leaving--;
+    }
+    return SC_OK;
+}
+
+/* Work of the absorbing boundaries over the step (booked so that the energy balance closes). */
+static void book_absorbed_energy(struct mpm_solver *s)
+{
+    const struct mpm_points *p = &s->points;
+    for (size_t q = 0; q < p->count; q++) {
+        if (!(p->flags[q] & POINT_ACTIVE) || !(p->flags[q] & (POINT_BOTTOM | POINT_SIDE)))
+            continue;
+        double f[3];
+        const double *v = p->v + 3 * q;
+        boundary_dashpot_force(s, q, f);
+        s->energy_absorbed -= (f[0] * v[0] + f[1] * v[1] + f[2] * v[2]) * s->dt;
+    }
+}
+
+static void advance_clocks(struct mpm_solver *s)
+{
+    const struct mpm_config *cfg = &s->cfg;
+    int last = mpm_finished(s);
+    if (s->t >= s->next_series * (1.0 - 1e-12) || last) {
+        series_record(s);
+        while (s->next_series <= s->t * (1.0 + 1e-12))
+            s->next_series += cfg->series_every;
+    }
+    if (s->t >= s->next_snapshot * (1.0 - 1e-12) || last) {
+        s->snapshot_pending = 1;
+        while (s->next_snapshot <= s->t * (1.0 + 1e-12))
+            s->next_snapshot += cfg->snapshot_every;
+    }
+}
+
+int mpm_step(struct mpm_solver *s)
+{
+    choose_time_step(s);
+    grid_bin_points(s);
+    book_absorbed_energy(s);
+    grid_transfer_all(s);
+    contact_nodal_update(s);
+    grid_to_points(s);
+    grid_transfer_momentum(s);
+    contact_correct_momentum(s, s->grid.momentum_new, 0);
+    SC_TRY(update_points(s));
+    double *swap = s->points.x;
+    s->points.x = s->points.x_next;
+    s->points.x_next = swap;
+    s->t += s->dt;
+    s->step++;
+    s->point_updates += (int64_t)s->points.count - s->removed_points;
+    SC_TRY(remove_escaped(s));
+    advance_clocks(s);
+    return SC_OK;
+}
+
+int mpm_snapshot_due(const struct mpm_solver *s) { return s->snapshot_pending; }
+int64_t mpm_snapshot_index(const struct mpm_solver *s) { return s->snapshot_count; }
+void mpm_snapshot_taken(struct mpm_solver *s)
+{
+    s->snapshot_pending = 0;
+    s->snapshot_count++;
+}
