@@ -20,7 +20,8 @@ static double nodal_bond(const struct mpm_grid *g, size_t I)
 }
 
 /* Contact normal at a node between bodies a and b, pointing from a into b: the maximum-volume-gradient rule
- * (Section 3.5.4) takes the body whose volume gradient is larger; a volume gradient points into its body. */
+ * (Section 3.5.4) takes the body whose volume gradient is larger.  sum_p V_p grad N_I(x_p) is minus the spatial
+ * gradient of the body's volume field at the node: it points out of its body. */
 int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
 {
     const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
@@ -28,7 +29,7 @@ int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
     if (la == 0.0 && lb == 0.0)
         return -1;
     for (int d = 0; d < 3; d++)
-        n[d] = la >= lb ? -ga[d] / la : gb[d] / lb;
+        n[d] = la >= lb ? ga[d] / la : -gb[d] / lb;
     return 0;
 }
 

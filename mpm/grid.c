@@ -131,8 +131,10 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
     double lightest = INFINITY;
     for (int m = 0; m < cfg->material_count; m++)
         lightest = fmin(lightest, cfg->materials[m].density);
-    /* MPM3D-F90's cut-off: a node with less than 1e-5 of a full cell's mass carries no velocity */
-    g->mass_cutoff = 1e-5 * lightest * g->h * g->h * g->h;
+    /* Nodes lighter than 1e-14 of a full cell carry no velocity (a point exactly on a node plane).  MPM3D-F90
+     * drops nodes below 1e-5 of a cell, but the force a dropped node holds is lost from the momentum balance
+     * (its weight gradient is not small), and N_Ip / m_I <= 1 / m_p bounds what a light node gives a point. */
+    g->mass_cutoff = 1e-14 * lightest * g->h * g->h * g->h;
     SC_TRY(alloc_layers(g));
     return alloc_blocks(g, p->count);
 }
