@@ -46,6 +46,10 @@ double ptw_xi_dot(const struct mpm_material *m, double rho, double G);
 double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
                        double G);
 
+/* The same with T^ = T/Tm (< 1) and xi_dot precomputed, for repeated evaluations at one point. */
+double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double T_hat, double xi_dot,
+                          double G);
+
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
 double scg_melt_temperature(const struct mpm_material *m, double rho);
@@ -67,6 +71,7 @@ struct mpm_point_state {
     double rho;            /* density at the start of the step, kg/m3 (updated to rho_new) */
     double yield_stress;   /* current flow stress, Pa */
     double melted;         /* 1 once T >= Tm at the last update, else 0 */
+    double plastic_increment; /* delta eps_p of the last update: the first guess of the next return */
 };
 
 struct bulk_viscosity {

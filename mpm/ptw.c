@@ -72,16 +72,19 @@ double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, 
 {
     if (!(G > 0.0) || !(Tm > 0.0) || !(T < Tm))
         return 0.0;
+    return ptw_flow_stress_at(m, eps_p, rate, T > 0.0 ? T / Tm : 0.0, ptw_xi_dot(m, rho, G), G);
+}
+
+double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double that, double xi, double G)
+{
     if (rate < m->rate_floor)
         rate = m->rate_floor;
     if (!(rate > 0.0))
         rate = DBL_MIN;
-    double that = T > 0.0 ? T / Tm : 0.0;
-    double xi = ptw_xi_dot(m, rho, G);
-    double ratio = rate / (m->ptw_gamma * xi);                  /* eps_dot / (gamma xi_dot) */
-    double e = erf(-m->ptw_kappa * that * log(ratio));          /* erf[kappa T^ ln(gamma xi_dot / eps_dot)] */
-    double shock_s = m->ptw_s0 * pow(ratio, m->ptw_beta);       /* s0 (eps_dot / gamma xi_dot)^beta */
-    double shock_y = fmin(m->ptw_y1 * pow(ratio, m->ptw_y2), shock_s);
+    double log_ratio = log(rate / (m->ptw_gamma * xi));         /* ln(eps_dot / (gamma xi_dot)) */
+    double e = erf(-m->ptw_kappa * that * log_ratio);           /* erf[kappa T^ ln(gamma xi_dot / eps_dot)] */
+    double shock_s = m->ptw_s0 * exp(m->ptw_beta * log_ratio);  /* s0 (eps_dot / gamma xi_dot)^beta */
+    double shock_y = fmin(m->ptw_y1 * exp(m->ptw_y2 * log_ratio), shock_s);
     double tau_s = fmax(m->ptw_s0 - (m->ptw_s0 - m->ptw_sinf) * e, shock_s); /* Tang Eq. 2.7a */
     double tau_y = fmax(m->ptw_y0 - (m->ptw_y0 - m->ptw_yinf) * e, shock_y); /* Tang Eq. 2.7b */
     if (tau_s <= tau_y)

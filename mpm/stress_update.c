@@ -20,7 +20,7 @@
 
 #define NEWTON_MAX_ITER 100
 #define NEWTON_FTOL     1e-10 /* |f| relative to sigma* */
-#define NEWTON_XTOL     1e-14 /* bracket width relative to its upper end */
+#define NEWTON_XTOL     1e-13 /* bracket width in ln d (relative width of d) */
 
 /* ---- tensor helpers (xx, yy, zz, yz, xz, xy) ---- */
 
@@ -71,14 +71,15 @@ static void deviator(const double t[6], double dev[6], double *mean)
 struct yield_problem {
     const struct mpm_material *m;
     double eps_p, dt, T, Tm, rho, G, trial;
-    double previous_yield;   /* flow stress of the last step: the first guess */
+    double previous_increment;   /* delta eps_p of the last step: the first guess */
+    double T_hat, xi_dot;        /* T/Tm and Eq. 2.8, fixed during the return */
 };
 
 /* sigma_y at the end of the step for the increment d; the plastic rate is d/dt, floored inside PTW. */
 static double yield_at(const struct yield_problem *y, double d)
 {
     double rate = y->dt > 0.0 ? d / y->dt : 0.0;
-    return ptw_flow_stress(y->m, y->eps_p + d, rate, y->T, y->Tm, y->rho, y->G);
+    return ptw_flow_stress_at(y->m, y->eps_p + d, rate, y->T_hat, y->xi_dot, y->G);
 }
 
 /* f(d) = sigma* - 3 G d - sigma_y(eps_p + d, d/dt): decreasing in d. */
@@ -87,39 +88,67 @@ static double consistency(const struct yield_problem *y, double d)
     return y->trial - 3.0 * y->G * d - yield_at(y, d);
 }
 
-/* Root of f on [0, hi] with f(0) > 0 >= f(hi): secant steps (one PTW evaluation each) safeguarded by bisection
- * and the Illinois modification.  The first guess takes last step's flow stress, which already holds the rate
- * of the ongoing plastic flow: in steady flow it is within a few per cent of the root. */
+/* Root of f on [d_lo, d_hi] with f(d_lo) > 0 >= f(d_hi), d_lo = rate_floor dt (the floored rate: f there is
+ * f0) and d_hi = sigma* / (3 G).  sigma_y grows like a power of the rate, flat at low rates and steep above
+ * them, so the search runs in u = ln d.  The last step's increment (the ongoing plastic rate) is the first
+ * guess; a Newton step with the shock-regime slope df/du = -(3 G d + beta sigma_y) and steps of growing
+ * length find a tight bracket, and regula falsi with the Illinois rule closes it. */
 static double plastic_increment(const struct yield_problem *y, double f0)
 {
-    double lo = 0.0, hi = y->trial / (3.0 * y->G), f_lo = f0, f_hi = -yield_at(y, hi);
-    double d = (y->trial - y->previous_yield) / (3.0 * y->G);
-    if (!(d > lo && d < hi))
-        d = (y->trial - yield_at(y, 0.0)) / (3.0 * y->G);
-    if (!(d > lo && d < hi))
-        d = 0.5 * (lo + hi);
+    double d_hi = y->trial / (3.0 * y->G), d_lo = fmin(y->m->rate_floor * y->dt, 1e-3 * d_hi);
+    double u_lo = log(d_lo), u_hi = log(d_hi), f_lo = f0, f_hi = NAN;
+    double guess = y->previous_increment;
+    double u = (guess > d_lo && guess < d_hi) ? log(guess) : 0.5 * (u_lo + u_hi);
+    double f = consistency(y, exp(u));
+    double d = exp(u), slope = 3.0 * y->G * d + y->m->ptw_beta * (y->trial - 3.0 * y->G * d - f);
+    double step = slope > 0.0 ? fmin(2.0, fabs(f) / slope) : 0.05;
+    for (;; step *= 2.0) {   /* walk towards the root until f changes sign */
+        if (fabs(f) <= NEWTON_FTOL * y->trial)
+            return exp(u);
+        if (f > 0.0)
+            u_lo = u, f_lo = f;
+        else
+            u_hi = u, f_hi = f;
+        double next = f > 0.0 ? u + step : u - step;
+        if (!(next > u_lo && next < u_hi))
+            break;
+        double f_next = consistency(y, exp(next));
+        int crossed = (f_next > 0.0) != (f > 0.0);
+        u = next, f = f_next;
+        if (crossed) {
+            if (fabs(f) <= NEWTON_FTOL * y->trial)
+                return exp(u);
+            if (f > 0.0)
+                u_lo = u, f_lo = f;
+            else
+                u_hi = u, f_hi = f;
+            break;
+        }
+    }
+    if (isnan(f_hi))   /* no evaluation below the root yet: the bracket's end itself */
+        f_hi = -yield_at(y, d_hi);
     int side = 0;
     for (int iter = 0; iter < NEWTON_MAX_ITER; iter++) {
-        double f = consistency(y, d);
+        if (u_hi - u_lo <= NEWTON_XTOL)
+            return exp(0.5 * (u_lo + u_hi));
+        double next = u_lo + (u_hi - u_lo) * f_lo / (f_lo - f_hi);
+        u = (next > u_lo && next < u_hi) ? next : 0.5 * (u_lo + u_hi);
+        f = consistency(y, exp(u));
         if (fabs(f) <= NEWTON_FTOL * y->trial)
-            return d;
+            return exp(u);
         if (f > 0.0) {
-            lo = d, f_lo = f;
+            u_lo = u, f_lo = f;
             if (side == 1)
                 f_hi *= 0.5;
             side = 1;
         } else {
-            hi = d, f_hi = f;
+            u_hi = u, f_hi = f;
             if (side == -1)
                 f_lo *= 0.5;
             side = -1;
         }
-        if (hi - lo <= NEWTON_XTOL * hi)
-            return d;
-        double next = lo + (hi - lo) * f_lo / (f_lo - f_hi);   /* regula falsi on the bracket */
-        d = (next > lo && next < hi) ? next : 0.5 * (lo + hi);
     }
-    return d;
+    return exp(u);
 }
 
 /* ---- energy, pressure, viscosity ---- */
@@ -164,7 +193,8 @@ static double deviatoric_update(const struct mpm_material *m, const struct mpm_p
                                 double rho_new, double s_new[6], double *yield)
 {
     double G = mts_shear_modulus(m, state->T);
-    struct yield_problem y = {m, state->eps_p, dt, state->T, Tm, rho_new, G, 0.0, state->yield_stress};
+    struct yield_problem y = {m, state->eps_p, dt, state->T, Tm, rho_new, G, 0.0, state->plastic_increment,
+                             state->T > 0.0 ? state->T / Tm : 0.0, ptw_xi_dot(m, rho_new, G)};
     for (int k = 0; k < 6; k++)
         s_new[k] = s_rot[k] + 2.0 * G * dev_strain[k]; /* Eq. A1.3 */
     y.trial = von_mises(s_new);                         /* Eq. A5 */
@@ -172,12 +202,19 @@ static double deviatoric_update(const struct mpm_material *m, const struct mpm_p
         *yield = 0.0;
         return 0.0;
     }
-    *yield = yield_at(&y, 0.0);
+    /* sigma_y >= 2 G y_inf at any rate and strain below melt (tau >= tau_y >= y_inf, Eq. 2.7b): a trial stress
+     * below that is elastic without evaluating PTW (most points of a substrate, most steps) */
+    if (G > 0.0 && y.trial <= 2.0 * G * m->ptw_yinf) {
+        *yield = state->yield_stress;
+        return 0.0;
+    }
     if (!(G > 0.0)) { /* no shear stiffness left (G clamped at 0): no deviatoric stress */
         for (int k = 0; k < 6; k++)
             s_new[k] = 0.0;
+        *yield = 0.0;
         return 0.0;
     }
+    *yield = yield_at(&y, 0.0);
     if (!(y.trial > *yield))
         return 0.0;
     double d = plastic_increment(&y, y.trial - *yield);
@@ -226,6 +263,7 @@ int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity 
     state->rho = rho_new;
     state->T += m->taylor_quinney * yield * d / (rho_new * m->specific_heat); /* Eq. 3.44 */
     state->eps_p += d;
+    state->plastic_increment = d;
     state->yield_stress = yield;
     state->melted = melted ? 1.0 : 0.0;
     result->eps_p_increment = d;
