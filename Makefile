@@ -76,7 +76,7 @@ validate: deps
 install: $(BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases
 	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/spraycoat
-	install -m 644 cases/*.ini $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
+	install -m 644 cases/*.ini cases/*.csv $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 
 format:
 	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch] tests/bench/*.c

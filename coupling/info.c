@@ -1,6 +1,7 @@
 #include "coupling/info.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -8,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "coupling/stages.h"
 
 static const char *const root_attributes[] = {
     "format", "format_version", "program_version", "stage", "case_hash", "created", NULL};
@@ -58,6 +60,110 @@ static void print_last_metrics(hid_t file, FILE *out)
     free(column);
 }
 
+static const char *const impact_stats[] = {"steps", "t_end", "points", "point_updates", "removed_points",
+                                           "removed_mass", "contact_node_steps", "bonded_node_steps",
+                                           "energy_initial", "grid_nodes", NULL};
+static const char *const impact_checkpoint[] = {"step", "t", "t_end", "snapshots", "active_points", NULL};
+
+/* A double or int64 dataset of n elements as doubles (NULL when absent or of another size). */
+static double *read_column(hid_t loc, const char *name, size_t n)
+{
+    size_t count;
+    if (h5_dataset_size(loc, name, &count) != SC_OK || count != n)
+        return NULL;
+    double *values = malloc((n + 1) * sizeof *values);
+    if (values && h5_read_doubles(loc, name, values, n) != SC_OK) {
+        /* integer datasets: read as int64 and convert */
+        int64_t *integers = malloc((n + 1) * sizeof *integers);
+        int ok = integers && h5_read_int64s(loc, name, integers, n) == SC_OK;
+        for (size_t i = 0; ok && i < n; i++)
+            values[i] = (double)integers[i];
+        free(integers);
+        if (!ok) {
+            free(values);
+            values = NULL;
+        }
+    }
+    return values;
+}
+
+/* impact.h5: counts, snapshots and the per-body summary. */
+static void print_impact_results(hid_t file, FILE *out)
+{
+    if (h5_exists(file, "stats")) {
+        hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
+        fprintf(out, "counts:\n");
+        for (int k = 0; impact_stats[k]; k++)
+            print_attribute(stats, impact_stats[k], out);
+        H5Gclose(stats);
+    }
+    if (h5_exists(file, "snapshots")) {
+        hid_t group = H5Gopen2(file, "snapshots", H5P_DEFAULT);
+        H5G_info_t group_info;
+        if (group >= 0 && H5Gget_info(group, &group_info) >= 0)
+            fprintf(out, "snapshots: %llu (/snapshots/000000 ...)\n", (unsigned long long)group_info.nlinks);
+        if (group >= 0)
+            H5Gclose(group);
+    }
+    size_t n;
+    if (h5_dataset_size(file, "summary/bonded", &n) != SC_OK || n == 0)
+        return;
+    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded", "summary/pbcp",
+                                        "summary/v_rest", "summary/cor", "summary/substrate"};
+    double *column[7];
+    for (int k = 0; k < 7; k++)
+        column[k] = read_column(file, names[k], n);
+    fprintf(out, "summary (per body):\n  %-5s %-10s %-12s %-12s %-10s %-9s %-12s %-8s\n", "body", "kind", "d (m)",
+            "v_impact", "verdict", "PBCP %", "v_rest (m/s)", "CoR");
+    for (size_t b = 0; b < n; b++) {
+        double value[7];
+        for (int k = 0; k < 7; k++)
+            value[k] = column[k] ? column[k][b] : NAN;
+        int substrate = value[6] == 1.0;
+        fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b + 1,
+                substrate ? "substrate" : "particle", value[0], value[1],
+                substrate ? "-" : value[2] == 1.0 ? "bonded" : "rebounded", 100.0 * value[3], value[4], value[5]);
+    }
+    for (int k = 0; k < 7; k++)
+        free(column[k]);
+}
+
+/* vcrit.h5: the table and the diameters without a bracket. */
+static void print_vcrit_results(hid_t file, FILE *out)
+{
+    size_t n = 0;
+    if (h5_dataset_size(file, "diameter", &n) == SC_OK) {
+        static const char *const names[] = {"diameter", "v_crit", "pbcp", "v_rest", "runs"};
+        double *column[5];
+        for (int k = 0; k < 5; k++)
+            column[k] = read_column(file, names[k], n);
+        fprintf(out, "critical velocity (%zu diameters bracketed):\n  %-12s %-10s %-9s %-12s %-5s\n", n, "d (m)",
+                "v_crit", "PBCP %", "v_rest (m/s)", "runs");
+        for (size_t i = 0; i < n; i++) {
+            double value[5];
+            for (int k = 0; k < 5; k++)
+                value[k] = column[k] ? column[k][i] : NAN;
+            fprintf(out, "  %-12.4g %-10.6g %-9.3g %-12.4g %-5.0f\n", value[0], value[1], 100 * value[2], value[3],
+                    value[4]);
+        }
+        for (int k = 0; k < 5; k++)
+            free(column[k]);
+    }
+    for (int i = 0; i < 1000; i++) {
+        char name[32], result[256];
+        snprintf(name, sizeof name, "search/%03d", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        double d = NAN;
+        if (group >= 0 && h5_attr_read_string(group, "result", result, sizeof result) == SC_OK &&
+            strcmp(result, "bracketed") != 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK)
+            fprintf(out, "  d = %.4g m: %s\n", d, result);
+        if (group >= 0)
+            H5Gclose(group);
+    }
+}
+
 static int info_file(const char *path, FILE *out)
 {
     hid_t file;
@@ -65,21 +171,35 @@ static int info_file(const char *path, FILE *out)
     fprintf(out, "%s:\n", path);
     for (int k = 0; root_attributes[k]; k++)
         print_attribute(file, root_attributes[k], out);
-    if (h5_exists(file, "stats")) {
-        hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
-        fprintf(out, "counts:\n");
-        for (int k = 0; spray_stats[k]; k++)
-            print_attribute(stats, spray_stats[k], out);
-        H5Gclose(stats);
+    char stage[64] = "";
+    h5_attr_read_string(file, "stage", stage, sizeof stage);
+    if (strcmp(stage, "impact") == 0 && h5_exists(file, "series")) {
+        print_impact_results(file, out);
+    } else if (strcmp(stage, "impact") == 0) {
+        fprintf(out, "impact checkpoint:\n");
+        for (int k = 0; impact_checkpoint[k]; k++)
+            print_attribute(file, impact_checkpoint[k], out);
+    } else if (strcmp(stage, "vcrit") == 0) {
+        print_vcrit_results(file, out);
+    } else {
+        if (h5_exists(file, "stats")) {
+            hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
+            fprintf(out, "counts:\n");
+            for (int k = 0; spray_stats[k]; k++)
+                print_attribute(stats, spray_stats[k], out);
+            H5Gclose(stats);
+        }
+        if (h5_exists(file, "counters")) {
+            int64_t counters[5];
+            if (h5_read_int64s(file, "counters", counters, 5) == SC_OK)
+                fprintf(out, "checkpoint: step %lld, injected %lld, escaped %lld, deposited %lld\n",
+                        (long long)counters[0], (long long)counters[1], (long long)counters[2],
+                        (long long)counters[3]);
+        }
+        print_last_metrics(file, out);
     }
-    if (h5_exists(file, "counters")) {
-        int64_t counters[5];
-        if (h5_read_int64s(file, "counters", counters, 5) == SC_OK)
-            fprintf(out, "checkpoint: step %lld, injected %lld, escaped %lld, deposited %lld\n", (long long)counters[0],
-                    (long long)counters[1], (long long)counters[2], (long long)counters[3]);
-    }
-    print_last_metrics(file, out);
     H5Fclose(file);
+    sc_error_clear();
     return SC_OK;
 }
 
@@ -88,33 +208,49 @@ static int compare_names(const void *a, const void *b)
     return strcmp(*(const char *const *)a, *(const char *const *)b);
 }
 
-/* The newest checkpoint file name of each stage, from the sorted listing. */
-static void info_checkpoints(const char *run_dir, FILE *out)
+/* The checkpoints of `stage` in RUN_DIR/checkpoints: their number and the newest one's path (newest[0] = '\0'
+ * when there is none). */
+static size_t stage_checkpoints(const char *run_dir, const char *stage, char *newest, size_t size)
 {
     char dir_path[4096];
     snprintf(dir_path, sizeof dir_path, "%s/checkpoints", run_dir);
+    newest[0] = '\0';
     DIR *dir = opendir(dir_path);
-    if (!dir) {
-        fprintf(out, "checkpoints: none\n");
-        return;
-    }
+    if (!dir)
+        return 0;
     char *names[4096];
-    size_t count = 0;
+    size_t count = 0, prefix = strlen(stage);
     struct dirent *entry;
     while ((entry = readdir(dir)) && count < 4096) {
         size_t len = strlen(entry->d_name);
-        if (len > 3 && strcmp(entry->d_name + len - 3, ".h5") == 0)
+        if (len > prefix + 4 && strncmp(entry->d_name, stage, prefix) == 0 && entry->d_name[prefix] == '_' &&
+            strcmp(entry->d_name + len - 3, ".h5") == 0)
             names[count++] = strdup(entry->d_name);
     }
     closedir(dir);
     qsort(names, count, sizeof *names, compare_names);
-    fprintf(out, "checkpoints: %zu%s%s\n", count, count ? ", newest " : "", count ? names[count - 1] : "");
+    if (count)
+        snprintf(newest, size, "%s/%s", dir_path, names[count - 1]);
     for (size_t i = 0; i < count; i++)
         free(names[i]);
+    return count;
+}
+
+static int count_lines(const char *path)
+{
+    FILE *file = fopen(path, "r");
+    if (!file)
+        return -1;
+    int lines = 0, c;
+    while ((c = fgetc(file)) != EOF)
+        lines += c == '\n';
+    fclose(file);
+    return lines;
 }
 
 int info_print(const char *target, FILE *out)
 {
+    static const char *const stage_names[] = {"spray", "impact", "vcrit"};
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
@@ -122,17 +258,43 @@ int info_print(const char *target, FILE *out)
         SC_FAIL(SC_EIO, "info: cannot read %s", target);
     if (!S_ISDIR(st.st_mode))
         return info_file(target, out);
-    char path[4096];
+    char path[4096], newest[4400], stages[256] = "spray";
     snprintf(path, sizeof path, "%s/case.ini", target);
     if (access(path, R_OK) != 0)
         SC_FAIL(SC_EIO, "info: %s is not a run directory (no readable case.ini)", target);
     fprintf(out, "run directory %s\n", target);
     fprintf(out, "case: %s\n", path);
-    snprintf(path, sizeof path, "%s/spray.h5", target);
-    int spray_done = access(path, R_OK) == 0;
-    fprintf(out, "stage spray: %s\n", spray_done ? "done" : "not done");
-    info_checkpoints(target, out);
-    if (spray_done)
-        SC_TRY(info_file(path, out));
-    return SC_OK;
+    SC_TRY(run_dir_read_stages(target, stages, sizeof stages));
+    fprintf(out, "stages asked for: %s\n", stages);
+    char *results[3] = {NULL, NULL, NULL};
+    for (int k = 0; k < 3; k++) {
+        const char *stage = stage_names[k];
+        snprintf(path, sizeof path, "%s/%s.h5", target, stage);
+        int done = access(path, R_OK) == 0;
+        size_t checkpoints = stage_checkpoints(target, stage, newest, sizeof newest);
+        int asked = strstr(stages, stage) != NULL;
+        if (!done && !checkpoints && !asked)
+            continue;
+        fprintf(out, "stage %s: %s", stage, done ? "done" : checkpoints ? "interrupted" : "not done");
+        if (checkpoints)
+            fprintf(out, "; %zu checkpoints, newest %s", checkpoints, newest);
+        fputc('\n', out);
+        if (done)
+            results[k] = strdup(path);
+        else if (checkpoints)
+            results[k] = strdup(newest);
+        if (k == 2 && !done) {
+            snprintf(path, sizeof path, "%s/vcrit_runs.csv", target);
+            int lines = count_lines(path);
+            if (lines >= 2)
+                fprintf(out, "  %d runs recorded in %s\n", lines - 2, path);
+        }
+    }
+    int status = SC_OK;
+    for (int k = 0; k < 3; k++) {
+        if (results[k] && status == SC_OK)
+            status = info_file(results[k], out);
+        free(results[k]);
+    }
+    return status;
 }

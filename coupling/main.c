@@ -20,8 +20,12 @@ static const char usage[] =
     "                                           with its unit and where it came from\n"
     "  spraycoat spray CASE.ini [-o RUN_DIR]    run the spray stage (resumes from a checkpoint of the\n"
     "                                           same case in RUN_DIR if there is one)\n"
+    "  spraycoat impact CASE.ini [-o RUN_DIR]   run the impact stage (MPM impacts of [impact]; resumes\n"
+    "                                           like spray)\n"
+    "  spraycoat vcrit CASE.ini [-o RUN_DIR]    critical velocity vs diameter from MPM impacts ([vcrit])\n"
     "  spraycoat run CASE.ini [-o RUN_DIR]      run every available stage (today: spray)\n"
-    "  spraycoat resume RUN_DIR                 continue an interrupted run from its newest checkpoint\n"
+    "  spraycoat resume RUN_DIR                 continue an interrupted run (the stages of the command\n"
+    "                                           that made RUN_DIR) from its newest checkpoint\n"
     "  spraycoat info RUN_DIR|FILE.h5           what a run or file holds: stage, step, time, metrics\n"
     "  spraycoat keys                           the case-file keys as Markdown tables\n"
     "  spraycoat --help | --version\n"
@@ -91,10 +95,17 @@ static int command_check(const struct options *opt)
     SC_TRY(load_case(opt->target, opt, &c));
     struct dem_config cfg;
     int status = dem_config_load(c, &cfg);
+    if (status == SC_OK)
+        dem_config_free(&cfg);
+    /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
+     * name the materials of an impact it never runs) */
+    if (status == SC_OK && (case_section_given(c, "impact") || case_section_given(c, "vcrit")))
+        status = impact_stage_validate(c, NULL);
+    if (status == SC_OK && case_section_given(c, "vcrit"))
+        status = vcrit_stage_validate(c, NULL);
     if (status == SC_OK) {
         case_print(c, stdout);
         printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
-        dem_config_free(&cfg);
     }
     case_free(c);
     return status;
@@ -111,18 +122,54 @@ static void default_run_dir(const char *case_path, char *out, size_t size)
     snprintf(out, size, "runs/%.*s", (int)len, base);
 }
 
-static int run_stages(struct case_file *c, const char *run_dir)
+/* The stages a command runs, as recorded in RUN_DIR/stages for `resume`. */
+struct stage {
+    const char *name;
+    int (*validate)(const struct case_file *c, const char *run_dir);
+    int (*run)(const struct case_file *c, const char *run_dir);
+    const char *output;
+};
+static const struct stage stages[] = {
+    {"spray", spray_stage_validate, spray_stage_run, "spray.h5"},
+    {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf"},
+    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5"},
+};
+
+static const struct stage *find_stage(const char *name, size_t length)
 {
+    for (size_t i = 0; i < sizeof stages / sizeof stages[0]; i++)
+        if (strlen(stages[i].name) == length && strncmp(stages[i].name, name, length) == 0)
+            return &stages[i];
+    return NULL;
+}
+
+/* list: comma-separated stage names.  Every stage is validated before the run directory is touched. */
+static int run_stages(struct case_file *c, const char *run_dir, const char *list)
+{
+    const struct stage *chosen[8];
+    int count = 0;
+    for (const char *p = list; *p;) {
+        size_t length = strcspn(p, ",");
+        const struct stage *stage = find_stage(p, length);
+        if (!stage || count == 8)
+            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, impact, vcrit)", (int)length, p, list);
+        chosen[count++] = stage;
+        p += length + (p[length] == ',');
+    }
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
-    SC_TRY(spray_stage_validate(c, run_dir));
+    for (int i = 0; i < count; i++)
+        SC_TRY(chosen[i]->validate(c, run_dir));
     SC_TRY(run_dir_prepare(run_dir, c));
+    SC_TRY(run_dir_write_stages(run_dir, list));
     stages_install_signal_handlers();
-    SC_TRY(spray_stage_run(c, run_dir));
-    log_info("results in %s (spray.h5); `spraycoat info %s` summarises them", run_dir, run_dir);
+    for (int i = 0; i < count; i++) {
+        SC_TRY(chosen[i]->run(c, run_dir));
+        log_info("results in %s (%s); `spraycoat info %s` summarises them", run_dir, chosen[i]->output, run_dir);
+    }
     return SC_OK;
 }
 
-static int command_run(const struct options *opt)
+static int command_run(const struct options *opt, const char *list)
 {
     struct case_file *c;
     SC_TRY(load_case(opt->target, opt, &c));
@@ -131,22 +178,26 @@ static int command_run(const struct options *opt)
         snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
     else
         default_run_dir(opt->target, run_dir, sizeof run_dir);
-    int status = run_stages(c, run_dir);
+    int status = run_stages(c, run_dir, list);
     case_free(c);
     return status;
 }
 
+/* Continue the stages of the command that made RUN_DIR (RUN_DIR/stages; "spray" when absent) with the case it
+ * recorded (RUN_DIR/case.ini).  Each stage skips what is done and resumes from its newest checkpoint. */
 static int command_resume(const struct options *opt)
 {
     if (!opt->target)
         SC_FAIL(SC_EINPUT, "resume needs a run directory (see spraycoat --help)");
-    char case_path[4096];
+    char case_path[4096], list[256];
     snprintf(case_path, sizeof case_path, "%s/case.ini", opt->target);
     if (access(case_path, R_OK) != 0)
         SC_FAIL(SC_EIO, "%s is not a run directory: cannot read %s", opt->target, case_path);
+    SC_TRY(run_dir_read_stages(opt->target, list, sizeof list));
     struct case_file *c;
     SC_TRY(load_case(case_path, opt, &c));
-    int status = run_stages(c, opt->target);
+    log_info("resuming %s: stages %s", opt->target, list);
+    int status = run_stages(c, opt->target, list);
     case_free(c);
     return status;
 }
@@ -156,8 +207,11 @@ static int dispatch(const struct options *opt)
     const char *command = opt->command;
     if (strcmp(command, "check") == 0)
         return command_check(opt);
+    /* `run` is the full pipeline; today its only stage is spray */
     if (strcmp(command, "spray") == 0 || strcmp(command, "run") == 0)
-        return command_run(opt);
+        return command_run(opt, "spray");
+    if (strcmp(command, "impact") == 0 || strcmp(command, "vcrit") == 0)
+        return command_run(opt, command);
     if (strcmp(command, "resume") == 0)
         return command_resume(opt);
     if (strcmp(command, "info") == 0)
@@ -168,8 +222,7 @@ static int dispatch(const struct options *opt)
         case_registry_markdown(spraycoat_registry, stdout);
         return SC_OK;
     }
-    if (strcmp(command, "couple") == 0 || strcmp(command, "impact") == 0 || strcmp(command, "render") == 0 ||
-        strcmp(command, "vcrit") == 0)
+    if (strcmp(command, "couple") == 0 || strcmp(command, "render") == 0)
         SC_FAIL(SC_EINPUT, "'%s': this stage is not part of this version of spraycoat yet (see spraycoat --help)",
                 command);
     SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", command);

@@ -9,11 +9,14 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/h5io.h"
 #include "core/run_keys.h"
 #include "coupling/stages.h"
 #include "dem/dem.h"
+#include "mpm/mpm.h"
 
-const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, NULL};
+const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, mpm_case_keys, vcrit_case_keys,
+                                                    NULL};
 
 static volatile sig_atomic_t received_signal;
 
@@ -88,4 +91,124 @@ int run_dir_prepare(const char *run_dir, const struct case_file *c)
     snprintf(path, sizeof path, "%s/case.ini", run_dir);
     SC_TRY(case_write_resolved(c, path));
     return SC_OK;
+}
+
+int run_dir_output_current(const char *path, uint64_t case_hash)
+{
+    if (access(path, R_OK) != 0)
+        return 0;
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK) {
+        sc_error_clear();
+        return 0;
+    }
+    char stored[64] = "", wanted[64];
+    snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash);
+    int ok = h5_attr_read_string(file, "case_hash", stored, sizeof stored) == SC_OK && strcmp(stored, wanted) == 0;
+    H5Fclose(file);
+    sc_error_clear();
+    return ok;
+}
+
+int text_create_atomic(const char *path, struct text_out *out)
+{
+    if (snprintf(out->path, sizeof out->path, "%s", path) >= (int)sizeof out->path)
+        SC_FAIL(SC_EIO, "path too long: %s", path);
+    snprintf(out->tmp_path, sizeof out->tmp_path, "%s.tmp", path);
+    out->file = fopen(out->tmp_path, "w");
+    if (!out->file)
+        SC_FAIL(SC_EIO, "cannot write %s: %s", out->tmp_path, strerror(errno));
+    return SC_OK;
+}
+
+void text_abort(struct text_out *out)
+{
+    if (out->file)
+        fclose(out->file);
+    out->file = NULL;
+    unlink(out->tmp_path);
+}
+
+/* The rename is durable only once the folder holding the name is synced. */
+static int fsync_folder_of(const char *path)
+{
+    char folder[4096];
+    snprintf(folder, sizeof folder, "%s", path);
+    char *slash = strrchr(folder, '/');
+    if (slash == folder)
+        slash[1] = '\0';
+    else if (slash)
+        *slash = '\0';
+    else
+        snprintf(folder, sizeof folder, ".");
+    int fd = open(folder, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        SC_FAIL(SC_EIO, "cannot open folder %s: %s", folder, strerror(errno));
+    int failed = fsync(fd) != 0 && errno != EINVAL;
+    int saved = errno;
+    close(fd);
+    if (failed)
+        SC_FAIL(SC_EIO, "cannot sync folder %s: %s", folder, strerror(saved));
+    return SC_OK;
+}
+
+int text_commit(struct text_out *out)
+{
+    errno = 0;
+    int failed = ferror(out->file) || fflush(out->file) != 0 || fsync(fileno(out->file)) != 0;
+    int saved = failed ? (errno ? errno : EIO) : 0;
+    if (fclose(out->file) != 0 && !failed) {
+        failed = 1;
+        saved = errno;
+    }
+    out->file = NULL;
+    if (!failed && rename(out->tmp_path, out->path) != 0) {
+        failed = 1;
+        saved = errno;
+    }
+    if (failed) {
+        unlink(out->tmp_path);
+        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, strerror(saved));
+    }
+    return fsync_folder_of(out->path);
+}
+
+int run_dir_write_stages(const char *run_dir, const char *stages)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/stages", run_dir);
+    struct text_out out;
+    SC_TRY(text_create_atomic(path, &out));
+    fprintf(out.file, "%s\n", stages);
+    return text_commit(&out);
+}
+
+int run_dir_read_stages(const char *run_dir, char *out, size_t size)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/stages", run_dir);
+    FILE *file = fopen(path, "r");
+    if (!file) {
+        if (errno != ENOENT)
+            SC_FAIL(SC_EIO, "cannot read %s: %s", path, strerror(errno));
+        snprintf(out, size, "spray");
+        return SC_OK;
+    }
+    char line[256] = "";
+    int ok = fgets(line, sizeof line, file) != NULL;
+    fclose(file);
+    line[strcspn(line, "\r\n")] = '\0';
+    if (!ok || line[0] == '\0')
+        SC_FAIL(SC_EIO, "%s is empty: it should name the stages of the run (e.g. impact)", path);
+    snprintf(out, size, "%s", line);
+    return SC_OK;
+}
+
+int case_section_given(const struct case_file *c, const char *section)
+{
+    for (int t = 0; spraycoat_registry[t]; t++)
+        for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
+            if (strcmp(k->section, section) == 0 && case_is_given(c, section, k->key))
+                return 1;
+    return 0;
 }

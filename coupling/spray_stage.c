@@ -26,20 +26,6 @@ struct spray_run {
     int64_t last_checkpoint_step;
 };
 
-static int output_matches_case(const char *path, uint64_t case_hash)
-{
-    if (access(path, R_OK) != 0)
-        return 0;
-    hid_t file;
-    if (h5_open_read(path, &file) != SC_OK)
-        return 0;
-    char stored[64] = "", wanted[64];
-    snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash);
-    int ok = h5_attr_read_string(file, "case_hash", stored, sizeof stored) == SC_OK && strcmp(stored, wanted) == 0;
-    H5Fclose(file);
-    return ok;
-}
-
 static int write_checkpoint(struct spray_run *run)
 {
     struct dem_counts counts = dem_get_counts(run->solver);
@@ -223,7 +209,7 @@ int spray_stage_run(const struct case_file *c, const char *run_dir)
     struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", run_dir);
-    if (output_matches_case(path, run.case_hash)) {
+    if (run_dir_output_current(path, run.case_hash)) {
         log_info("spray: %s is up to date with the case; nothing to do", path);
         return SC_OK;
     }

@@ -2,14 +2,44 @@
 #ifndef SPRAYCOAT_COUPLING_STAGES_H
 #define SPRAYCOAT_COUPLING_STAGES_H
 
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
 #include "core/config.h"
 
 /* The registry of every case key the program accepts (NULL-terminated list of tables). */
 extern const struct cfg_key *const spraycoat_registry[];
+/* The keys of [vcrit] (coupling/vcrit_stage.c). */
+extern const struct cfg_key vcrit_case_keys[];
 
 /* Create the run directory (and parents), lock it for this process (SC_EIO if another process holds it)
  * and write RUN_DIR/case.ini, the resolved case.  SC_EIO on failure. */
 int run_dir_prepare(const char *run_dir, const struct case_file *c);
+
+/* RUN_DIR/stages: the comma-separated stages the last command asked for ("spray", "impact", "vcrit"), so that
+ * `spraycoat resume RUN_DIR` continues the same work.  Written atomically. */
+int run_dir_write_stages(const char *run_dir, const char *stages);
+/* The stages recorded in RUN_DIR/stages into out[size]; "spray" when the file is absent (run directories of
+ * versions before the file existed held only spray runs).  SC_EIO when it exists but cannot be read. */
+int run_dir_read_stages(const char *run_dir, char *out, size_t size);
+
+/* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
+int case_section_given(const struct case_file *c, const char *section);
+
+/* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
+int run_dir_output_current(const char *path, uint64_t case_hash);
+
+/* A text file written atomically: NAME.tmp, flushed, fsynced, renamed to NAME, folder fsynced. */
+struct text_out {
+    FILE *file;
+    char path[4096];
+    char tmp_path[4104];
+};
+int text_create_atomic(const char *path, struct text_out *out);
+/* Close, sync and rename; SC_EIO with strerror on failure (the temporary file is removed). */
+int text_commit(struct text_out *out);
+void text_abort(struct text_out *out);
 
 /* Check the spray stage's configuration (cross-key checks, input files) and, when run_dir is not NULL,
  * that its checkpoints there (if any) belong to this case, without writing anything. */
@@ -19,6 +49,25 @@ int spray_stage_validate(const struct case_file *c, const char *run_dir);
  * with checkpoints, write RUN_DIR/spray.h5.  Skips the work when spray.h5 exists for the same case.
  * Returns SC_EINT/SC_ETERM after writing a checkpoint when interrupted by SIGINT/SIGTERM. */
 int spray_stage_run(const struct case_file *c, const char *run_dir);
+
+/* The impact stage's configuration ([impact], the materials it names, the bodies file) and, with run_dir, that
+ * its checkpoints there (if any) belong to this case.  Writes nothing. */
+int impact_stage_validate(const struct case_file *c, const char *run_dir);
+
+/* The impact stage (MPM, mpm/): resume from the newest valid checkpoint of this case if there is one, run to
+ * t_end with checkpoints and snapshots (RUN_DIR/impact_snapshots/), write RUN_DIR/impact.xdmf and then
+ * RUN_DIR/impact.h5.  Skips the work when impact.h5 exists for the same case.  SC_EINT/SC_ETERM after writing
+ * a checkpoint when interrupted. */
+int impact_stage_run(const struct case_file *c, const char *run_dir);
+
+
+/* The critical-velocity search ([vcrit]): its keys and the impact configuration of every diameter. */
+int vcrit_stage_validate(const struct case_file *c, const char *run_dir);
+
+/* Bisection of the impact speed per diameter with single-particle MPM runs; finished runs are recorded in
+ * RUN_DIR/vcrit_runs.csv and not repeated after an interruption.  Writes RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5;
+ * skips the work when vcrit.h5 exists for the same case.  SC_EINT/SC_ETERM when interrupted. */
+int vcrit_stage_run(const struct case_file *c, const char *run_dir);
 
 /* SIGINT/SIGTERM: set a flag the stages poll between steps. */
 void stages_install_signal_handlers(void);

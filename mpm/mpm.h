@@ -57,7 +57,6 @@ struct mpm_config {
     double snapshot_every, series_every;
     struct bulk_viscosity viscosity;
     int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
-    int threads;
 };
 
 /* The keys of [impact] and [material.NAME] (NULL-key terminated). */

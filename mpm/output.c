@@ -254,8 +254,6 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     free(s->series);
     s->series = series;
     s->series_rows = s->series_capacity = count / width;
-    if (s->series_capacity == 0)
-        s->series_capacity = 0;
     SC_TRY(h5_read_doubles(g, "series", s->series, count));
     SC_TRY(h5_read_doubles(g, "x", p->x, 3 * n));
     SC_TRY(h5_read_doubles(g, "v", p->v, 3 * n));

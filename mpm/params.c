@@ -92,7 +92,7 @@ const struct cfg_key mpm_case_keys[] = {
     {MAT, "specific_heat", CFG_REAL, "J/(kg K)", "900", 0, 1e6, 1, NULL, "C_p of Eq. 3.44"},
     {MAT, "taylor_quinney", CFG_REAL, "-", "0.9", 0, 1, 0, NULL, "fraction of plastic work turned into heat"},
     {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL, "initial temperature"},
-    {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.5, CFG_MIN_EXCLUSIVE, NULL,
+    {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.499, CFG_MIN_EXCLUSIVE, NULL,
      "Poisson ratio for the wave speeds (K = 2 G0(1 + nu)/(3(1 - 2 nu))); default K = rho0 c0^2"},
     {MAT, "bulk_modulus", CFG_REAL, "Pa", NULL, 0, 1e13, 1, NULL,
      "bulk modulus for the wave speeds (time step, absorbing boundaries); default rho0 c0^2"},
@@ -373,7 +373,6 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
-    cfg->threads = (int)case_int(c, "run", "threads");
     int status = load_numerics(c, cfg);
     if (status == SC_OK)
         status = load_substrate(c, cfg);

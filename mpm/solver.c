@@ -217,7 +217,8 @@ static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
     long n = (long)p->count, bad = n;
-#pragma omp parallel for schedule(static) reduction(min : bad)
+/* dynamic: the costly plastic points of a particle sit together in index order */
+#pragma omp parallel for schedule(dynamic, 512) reduction(min : bad)
     for (long q = 0; q < n; q++)
         if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q) != 0)
             bad = q < bad ? q : bad;

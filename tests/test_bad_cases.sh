@@ -1,7 +1,8 @@
 #!/bin/sh
 # Bad case files (tests/bad_cases/, listed in tests/bad_cases/EXPECT): `spraycoat check FILE` and
-# `spraycoat spray FILE -o RUN_DIR` must end with exit status 2 and a message that names the key, the file
-# (and the line, where the error is in a line); never a crash, and never a partial output in RUN_DIR.
+# `spraycoat COMMAND FILE -o RUN_DIR` (spray, or the impact or vcrit command the manifest names) must end with
+# exit status 2 and a message that names the key, the file (and the line, where the error is in a line); never
+# a crash, and never a partial output in RUN_DIR.
 # Also: an empty case file and a case without some sections are valid (every key has a default); a bad case
 # run into an existing run directory leaves it as it was; a few bad cases run under valgrind without memory
 # errors.  Prints "PASS name" / "FAIL name: why" (tests/run_tests.sh counts them).  Run from the repo root.
@@ -113,12 +114,20 @@ first_error_line() { # the message, shortened, for FAIL lines
     grep '^spraycoat: ' "$1" | head -n 1 | cut -c1-400
 }
 
-# ---- every manifest entry: check and spray ----------------------------------------------------------------
+# ---- every manifest entry: check and its stage command --------------------------------------------------
 
 count=0
-while IFS="$tab" read -r file text line rest; do
+while IFS="$tab" read -r file text line command rest; do
     case "$file" in '' | '#'*) continue ;; esac
     [ -n "${line:-}" ] || line=-
+    [ -n "${command:-}" ] || command=spray
+    case "$command" in
+    spray | impact | vcrit) ;;
+    *)
+        echo "FAIL bad_case_${file%.ini}: unknown command '$command' in $manifest"
+        continue
+        ;;
+    esac
     name=${file%.ini}
     count=$((count + 1))
     path=$(case_path "$file")
@@ -136,14 +145,14 @@ while IFS="$tab" read -r file text line rest; do
         why="$why; check: printed to stdout ($(head -c 120 "$tmp/out" | tr '\n' ' ')...)"
     fi
     [ -n "$w" ] && why="$why [stderr: $(first_error_line "$tmp/err")]"
-    # spraycoat spray FILE -o RUN_DIR
+    # spraycoat spray|impact|vcrit FILE -o RUN_DIR
     run=$tmp/run_$name
-    "$bin" spray "$path" -o "$run" >"$tmp/out" 2>"$tmp/err" </dev/null
+    "$bin" "$command" "$path" -o "$run" >"$tmp/out" 2>"$tmp/err" </dev/null
     status=$?
-    w=$(check_failure spray "$status" "$tmp/err" "$text" "$path" "$line")
-    [ -n "$w" ] && why="$why; spray:${w#;} [stderr: $(first_error_line "$tmp/err")]"
+    w=$(check_failure "$command" "$status" "$tmp/err" "$text" "$path" "$line")
+    [ -n "$w" ] && why="$why; $command:${w#;} [stderr: $(first_error_line "$tmp/err")]"
     left=$(partial_output "$run")
-    [ -n "$left" ] && why="$why; spray: partial output left in the run directory: $left"
+    [ -n "$left" ] && why="$why; $command: partial output left in the run directory: $left"
     rm -rf "$run"
     if [ -z "$why" ]; then
         echo "PASS bad_case_$name"
@@ -158,11 +167,11 @@ else
     echo "FAIL bad_cases_manifest_size: $manifest lists $count bad cases, expected at least 25"
 fi
 
-# Every committed .ini in tests/bad_cases/ is in the manifest (or is the valid base), so none is forgotten.
+# Every committed .ini in tests/bad_cases/ is in the manifest (or is a valid base), so none is forgotten.
 missing=""
 for f in "$cases"/*.ini; do
     b=$(basename "$f")
-    [ "$b" = valid_base.ini ] && continue
+    case "$b" in valid_*.ini) continue ;; esac
     grep -q "^$b$tab" "$manifest" || missing="$missing $b"
 done
 if [ -z "$missing" ]; then
@@ -173,11 +182,17 @@ fi
 
 # ---- what is not an error ---------------------------------------------------------------------------------
 
-# The base that every bad case varies is valid: each bad case fails for its one change.
+# The bases that the bad cases vary are valid: each bad case fails for its one change.
 if "$bin" check "$cases/valid_base.ini" >"$tmp/out" 2>"$tmp/err"; then
     echo "PASS bad_cases_base_is_valid"
 else
     echo "FAIL bad_cases_base_is_valid: check $cases/valid_base.ini: $(first_error_line "$tmp/err")"
+fi
+if "$bin" check "$cases/valid_impact_base.ini" >"$tmp/out" 2>"$tmp/err" &&
+    grep -q '^\[impact\] grid .*2e-6' "$tmp/out"; then
+    echo "PASS bad_cases_impact_base_is_valid"
+else
+    echo "FAIL bad_cases_impact_base_is_valid: check $cases/valid_impact_base.ini: $(first_error_line "$tmp/err")"
 fi
 
 # An empty case file is valid: every key has a default, and check prints them.

@@ -80,6 +80,9 @@ run1 cli_threads_out_of_range 2 "threads" "$bin" check "$base" --threads -1
 run1 cli_extra_argument 2 "extra_arg" "$bin" check "$base" extra_arg
 run1 cli_check_without_case 2 "case file" "$bin" check
 run1 cli_spray_without_case 2 "case file" "$bin" spray
+run1 cli_impact_without_case 2 "case file" "$bin" impact
+run1 cli_vcrit_without_case 2 "case file" "$bin" vcrit
+run1 cli_couple_not_yet 2 "not part of this version" "$bin" couple "$base" -o "$tmp/run_couple"
 run1 cli_info_without_target 2 "info" "$bin" info
 run1 cli_resume_without_dir 2 "run directory" "$bin" resume
 expect cli_empty_run_dir 2 "run directory" "$bin" spray "$base" -o ""

@@ -1,0 +1,556 @@
+/* `spraycoat vcrit`: the critical impact velocity v_crit(d) from single-particle MPM impacts (Tang Section
+ * 5.2.2), for the spray stage's `[deposition] rule = table`.
+ *
+ * Per diameter: one run at v_low (must rebound) and one at v_high (must bond), then bisection of the bracket
+ * until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known to bond.  Each run goes
+ * to [impact] t_end and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]).
+ * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
+ * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
+ * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5. */
+#include <errno.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "core/run_keys.h"
+#include "coupling/stages.h"
+#include "mpm/mpm.h"
+
+#define STAGE "vcrit"
+#define VCRIT_FORMAT "spraycoat-vcrit"
+#define VCRIT_FORMAT_VERSION 1
+#define MAX_DIAMETERS 256
+
+const struct cfg_key vcrit_case_keys[] = {
+    {"vcrit", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
+     "comma-separated particle diameters at which v_crit is searched (each > 0 and <= 1 m, all different)"},
+    {"vcrit", "v_low", CFG_REAL, "m/s", "500", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
+     "lower end of the search: a particle at this speed must rebound"},
+    {"vcrit", "v_high", CFG_REAL, "m/s", "1200", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
+     "upper end of the search: a particle at this speed must bond"},
+    {"vcrit", "tolerance", CFG_REAL, "m/s", "10", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
+     "bisection stops when the bracket [rebounds, bonds] is at most this wide"},
+    {"vcrit", "max_runs", CFG_INT, "-", "20", 2, 1000, 0, NULL,
+     "most MPM runs per diameter (the two ends included)"},
+    {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
+     "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
+     "about 2)"},
+    {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
+};
+
+struct vcrit_record {
+    double diameter, velocity;
+    int bonded;
+    double pbcp, v_rest;
+    int64_t steps;
+};
+
+struct vcrit_result {
+    double diameter, v_crit, pbcp, v_rest;
+    int runs;
+    struct vcrit_record *records; /* the runs of this diameter in the order of the search */
+    char note[200];               /* "" when bracketed and converged */
+};
+
+struct vcrit_search {
+    const struct case_file *c;
+    const char *run_dir;
+    uint64_t case_hash;
+    double diameters[MAX_DIAMETERS];
+    int count;
+    double v_low, v_high, tolerance, scale, angle;
+    int max_runs;
+    struct vcrit_record *done; /* every finished run (also those of an earlier, interrupted process) */
+    size_t done_count, done_capacity;
+    int64_t runs_this_process;
+};
+
+static int compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
+{
+    char text[4096];
+    if (snprintf(text, sizeof text, "%s", case_text(c, "vcrit", "diameters")) >= (int)sizeof text)
+        return case_invalid(c, "vcrit", "diameters", "too long");
+    v->count = 0;
+    char *save = NULL;
+    for (char *token = strtok_r(text, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
+        while (*token == ' ' || *token == '\t')
+            token++;
+        char *end;
+        errno = 0;
+        double d = strtod(token, &end);
+        while (*end == ' ' || *end == '\t')
+            end++;
+        if (end == token || *end != '\0' || errno == ERANGE || !isfinite(d) || !(d > 0) || d > 1)
+            return case_invalid(c, "vcrit", "diameters", "'%s' is not a diameter; allowed: comma-separated numbers "
+                                "in m, each > 0 and <= 1", token);
+        if (v->count == MAX_DIAMETERS)
+            return case_invalid(c, "vcrit", "diameters", "more than %d diameters", MAX_DIAMETERS);
+        v->diameters[v->count++] = d;
+    }
+    if (v->count == 0)
+        return case_invalid(c, "vcrit", "diameters", "no diameter given");
+    qsort(v->diameters, (size_t)v->count, sizeof v->diameters[0], compare_doubles);
+    for (int i = 1; i < v->count; i++)
+        if (v->diameters[i] == v->diameters[i - 1])
+            return case_invalid(c, "vcrit", "diameters", "%g m is given twice", v->diameters[i]);
+    return SC_OK;
+}
+
+/* The impact configuration of one run: [impact] with one sphere of diameter d at `speed`. */
+static int make_config(const struct vcrit_search *v, double d, double speed, struct mpm_config *cfg)
+{
+    SC_TRY(mpm_config_load(v->c, cfg));
+    if (v->scale > 0)
+        for (int b = 0; b < cfg->body_count; b++)
+            if (cfg->bodies[b].substrate)
+                cfg->bodies[b].d = v->scale * d;
+    int status = mpm_config_single_particle(cfg, d, speed, v->angle);
+    if (status != SC_OK)
+        mpm_config_free(cfg);
+    return status;
+}
+
+static int load_settings(const struct case_file *c, struct vcrit_search *v)
+{
+    SC_TRY(parse_diameters(c, v));
+    v->v_low = case_real(c, "vcrit", "v_low");
+    v->v_high = case_real(c, "vcrit", "v_high");
+    v->tolerance = case_real(c, "vcrit", "tolerance");
+    v->max_runs = (int)case_int(c, "vcrit", "max_runs");
+    v->scale = case_real(c, "vcrit", "substrate_scale");
+    v->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
+    if (!(v->v_low < v->v_high))
+        return case_invalid(c, "vcrit", "v_low", "not below v_high = %g m/s", v->v_high);
+    if (case_has(c, "impact", "bodies"))
+        return case_invalid(c, "impact", "bodies", "vcrit runs single particles ([impact] material, the diameters "
+                            "of [vcrit]); remove bodies from the case");
+    if (v->scale > 0 && case_is(c, "impact", "substrate", "rigid"))
+        return case_invalid(c, "vcrit", "substrate_scale", "scales a deformable substrate, but [impact] substrate = "
+                            "rigid; allowed: 0 with a rigid substrate");
+    /* every run's set-up must be possible before the first one starts */
+    for (int i = 0; i < v->count; i++) {
+        struct mpm_config cfg;
+        SC_TRY(make_config(v, v->diameters[i], v->v_high, &cfg));
+        double spacing = cfg.spacing, substrate_d = INFINITY;
+        for (int b = 0; b < cfg.body_count; b++)
+            if (cfg.bodies[b].substrate)
+                substrate_d = cfg.bodies[b].d;
+        mpm_config_free(&cfg);
+        if (v->diameters[i] < 2.0 * spacing)
+            return case_invalid(c, "vcrit", "diameters", "%g m is less than two point spacings ([impact] spacing = "
+                                "%g m)", v->diameters[i], spacing);
+        if (substrate_d < 2.0 * spacing || substrate_d > 1.0)
+            return case_invalid(c, "vcrit", "substrate_scale", "gives a substrate of %g m for d = %g m; allowed: "
+                                "two point spacings (%g m) to 1 m", substrate_d, v->diameters[i], 2.0 * spacing);
+    }
+    return SC_OK;
+}
+
+/* The shortest of %.15g, %.16g, %.17g that reads back as the same double (8e-06 rather than
+ * 7.9999999999999996e-06): exact, and readable. */
+static const char *exact(double value, char *out, size_t size)
+{
+    for (int digits = 15; digits <= 17; digits++) {
+        snprintf(out, size, "%.*g", digits, value);
+        if (strtod(out, NULL) == value || value != value)
+            break;
+    }
+    return out;
+}
+
+/* ---- the record of finished runs: RUN_DIR/vcrit_runs.csv ---------------------------------------------------- */
+
+static void records_path(const struct vcrit_search *v, char *out, size_t size)
+{
+    snprintf(out, size, "%s/vcrit_runs.csv", v->run_dir);
+}
+
+static int save_records(const struct vcrit_search *v)
+{
+    char path[4096];
+    records_path(v, path, sizeof path);
+    struct text_out out;
+    SC_TRY(text_create_atomic(path, &out));
+    fprintf(out.file, "# spraycoat vcrit runs of case %016llx\ndiameter,velocity,bonded,pbcp,v_rest,steps\n",
+            (unsigned long long)v->case_hash);
+    for (size_t i = 0; i < v->done_count; i++) {
+        const struct vcrit_record *r = &v->done[i];
+        char a[32], b[32], c[32], d[32];
+        fprintf(out.file, "%s,%s,%d,%s,%s,%lld\n", exact(r->diameter, a, sizeof a), exact(r->velocity, b, sizeof b),
+                r->bonded, exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), (long long)r->steps);
+    }
+    return text_commit(&out);
+}
+
+static int add_record(struct vcrit_search *v, const struct vcrit_record *r)
+{
+    if (v->done_count == v->done_capacity) {
+        size_t grown = v->done_capacity ? 2 * v->done_capacity : 64;
+        struct vcrit_record *more = realloc(v->done, grown * sizeof *more);
+        if (!more)
+            SC_FAIL(SC_ESIM, "out of memory");
+        v->done = more;
+        v->done_capacity = grown;
+    }
+    v->done[v->done_count++] = *r;
+    return SC_OK;
+}
+
+/* Runs recorded by an earlier process for this case; a file of another case (or damaged) is ignored. */
+static int load_records(struct vcrit_search *v)
+{
+    char path[4096], line[512], wanted[128];
+    records_path(v, path, sizeof path);
+    FILE *file = fopen(path, "r");
+    if (!file)
+        return SC_OK;
+    snprintf(wanted, sizeof wanted, "# spraycoat vcrit runs of case %016llx\n", (unsigned long long)v->case_hash);
+    int ok = fgets(line, sizeof line, file) && strcmp(line, wanted) == 0 && fgets(line, sizeof line, file);
+    if (!ok) {
+        fclose(file);
+        log_info("vcrit: %s belongs to another case; its runs are not used", path);
+        return SC_OK;
+    }
+    while (ok && fgets(line, sizeof line, file)) {
+        struct vcrit_record r;
+        long long steps;
+        char rest;
+        if (sscanf(line, "%lf,%lf,%d,%lf,%lf,%lld %c", &r.diameter, &r.velocity, &r.bonded, &r.pbcp, &r.v_rest,
+                   &steps, &rest) != 6) {
+            log_warn("vcrit: %s: unreadable line '%.60s'; the runs from there on will be done again", path, line);
+            break;
+        }
+        r.steps = steps;
+        int status = add_record(v, &r);
+        if (status != SC_OK) {
+            fclose(file);
+            return status;
+        }
+    }
+    fclose(file);
+    if (v->done_count > 0)
+        log_info("vcrit: %zu runs recorded in %s are reused", v->done_count, path);
+    return SC_OK;
+}
+
+static const struct vcrit_record *find_record(const struct vcrit_search *v, double d, double speed)
+{
+    for (size_t i = 0; i < v->done_count; i++)
+        if (v->done[i].diameter == d && v->done[i].velocity == speed)
+            return &v->done[i];
+    return NULL;
+}
+
+/* ---- one MPM run ---------------------------------------------------------------------------------------------- */
+
+static int64_t picoseconds(double t) { return (int64_t)llround(t * 1e12); }
+
+static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit_record *out)
+{
+    struct mpm_config cfg;
+    SC_TRY(make_config(v, d, speed, &cfg));
+    struct mpm_solver *s = NULL;
+    int status = mpm_create(&cfg, &s);
+    char label[96];
+    snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
+    struct progress bar;
+    if (status == SC_OK)
+        progress_begin(&bar, label, "ps", 0, picoseconds(cfg.t_end));
+    while (status == SC_OK && !mpm_finished(s)) {
+        status = mpm_step(s);
+        int interrupted = stages_interrupt_status();
+        if (status == SC_OK && interrupted) {
+            status = sc_error_set(interrupted, __FILE__, __LINE__, "vcrit: interrupted during the run at d = %g m, "
+                                  "%g m/s; the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with "
+                                  "`spraycoat resume %s`", d, speed, v->done_count, v->run_dir, v->run_dir);
+            break;
+        }
+        if (status == SC_OK)
+            progress_update(&bar, picoseconds(mpm_get_counts(s).t), NULL);
+    }
+    if (status == SC_OK) {
+        progress_end(&bar, picoseconds(mpm_get_counts(s).t));
+        int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
+        if (!bonded) {
+            status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+        } else {
+            mpm_verdicts(s, bonded);
+            const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
+            *out = (struct vcrit_record){.diameter = d, .velocity = speed, .bonded = bonded[nb - 1] == 1,
+                                         .pbcp = diag->body[nb - 1].pbcp, .v_rest = diag->body[nb - 1].v_rest,
+                                         .steps = mpm_get_counts(s).step};
+            free(bonded);
+        }
+    }
+    mpm_destroy(s);
+    mpm_config_free(&cfg);
+    return status;
+}
+
+/* The outcome at (d, speed): from the record, or a new run that is then recorded. */
+static int outcome(struct vcrit_search *v, struct vcrit_result *result, double speed)
+{
+    double d = result->diameter;
+    const struct vcrit_record *known = find_record(v, d, speed);
+    struct vcrit_record r;
+    if (known) {
+        r = *known;
+    } else {
+        double start = log_elapsed();
+        SC_TRY(simulate(v, d, speed, &r));
+        SC_TRY(add_record(v, &r));
+        SC_TRY(save_records(v));
+        v->runs_this_process++;
+        log_info("vcrit: d = %.4g um at %.6g m/s: %s (PBCP %.2f %%, v_rest %.3g m/s; %lld steps, %.1f s)", d * 1e6,
+                 speed, r.bonded ? "bonded" : "rebounded", 100 * r.pbcp, r.v_rest, (long long)r.steps,
+                 log_elapsed() - start);
+    }
+    result->records[result->runs++] = r;
+    return SC_OK;
+}
+
+static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
+{
+    result->v_crit = result->pbcp = result->v_rest = NAN;
+    result->records = calloc((size_t)v->max_runs, sizeof *result->records);
+    if (!result->records)
+        SC_FAIL(SC_ESIM, "out of memory");
+    SC_TRY(outcome(v, result, v->v_low));
+    if (result->records[0].bonded) {
+        snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
+        return SC_OK;
+    }
+    SC_TRY(outcome(v, result, v->v_high));
+    if (!result->records[1].bonded) {
+        snprintf(result->note, sizeof result->note, "not bracketed: rebounds still at v_high = %g m/s", v->v_high);
+        return SC_OK;
+    }
+    double low = v->v_low, high = v->v_high;
+    struct vcrit_record best = result->records[1];
+    while (high - low > v->tolerance && result->runs < v->max_runs) {
+        SC_TRY(outcome(v, result, 0.5 * (low + high)));
+        const struct vcrit_record *r = &result->records[result->runs - 1];
+        if (r->bonded) {
+            high = r->velocity;
+            best = *r;
+        } else {
+            low = r->velocity;
+        }
+    }
+    result->v_crit = high;
+    result->pbcp = best.pbcp;
+    result->v_rest = best.v_rest;
+    if (high - low > v->tolerance) {
+        snprintf(result->note, sizeof result->note, "max_runs reached: bonds at %g m/s, rebounds at %g m/s", high,
+                 low);
+        log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter,
+                 result->note, v->tolerance);
+    }
+    return SC_OK;
+}
+
+/* ---- outputs --------------------------------------------------------------------------------------------------- */
+
+static int bracketed(const struct vcrit_result *r) { return isfinite(r->v_crit); }
+
+/* vcrit.csv: the table of the spray stage's rule = table.  Diameters without a bracket are '#' comment lines
+ * (with NaN and the reason): the table reader skips them, so the file stays usable as it is. */
+static int write_csv(const struct vcrit_search *v, const struct vcrit_result *results)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/vcrit.csv", v->run_dir);
+    struct text_out out;
+    SC_TRY(text_create_atomic(path, &out));
+    fprintf(out.file, "diameter,v_crit,pbcp,v_rest,runs\n");
+    for (int i = 0; i < v->count; i++) {
+        const struct vcrit_result *r = &results[i];
+        char a[32], b[32], c[32], d[32];
+        fprintf(out.file, "%s%s,%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
+                exact(r->v_crit, b, sizeof b), exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), r->runs);
+        if (bracketed(r))
+            fputc('\n', out.file);
+        else
+            fprintf(out.file, "  %s\n", r->note);
+    }
+    return text_commit(&out);
+}
+
+static int write_runs_group(hid_t parent, int index, const struct vcrit_result *r)
+{
+    char name[32];
+    snprintf(name, sizeof name, "%03d", index);
+    hid_t group;
+    SC_TRY(h5_create_group(parent, name, &group));
+    size_t n = (size_t)r->runs;
+    double *values = calloc(3 * n + 1, sizeof *values);
+    int64_t *integers = calloc(2 * n + 1, sizeof *integers);
+    int status = values && integers ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    for (size_t k = 0; status == SC_OK && k < n; k++) {
+        values[k] = r->records[k].velocity;
+        values[n + k] = r->records[k].pbcp;
+        values[2 * n + k] = r->records[k].v_rest;
+        integers[k] = r->records[k].bonded;
+        integers[n + k] = r->records[k].steps;
+    }
+    hsize_t dims[1] = {n};
+    if (status == SC_OK)
+        status = h5_write_doubles(group, "velocity", 1, dims, values, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(group, "bonded", 1, dims, integers, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(group, "pbcp", 1, dims, values + n, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(group, "v_rest", 1, dims, values + 2 * n, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(group, "steps", 1, dims, integers + n, "-", 0);
+    if (status == SC_OK)
+        status = h5_attr_write_double(group, "diameter", r->diameter);
+    if (status == SC_OK)
+        status = h5_attr_write_double(group, "v_crit", r->v_crit);
+    if (status == SC_OK)
+        status = h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed");
+    free(values);
+    free(integers);
+    H5Gclose(group);
+    return status;
+}
+
+/* vcrit.h5: /diameter, /v_crit, /pbcp, /v_rest, /runs for the diameters with a v_crit (ascending: the table of
+ * rule = table), and /runs/NNN per requested diameter with every run. */
+static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_result *results, hid_t file)
+{
+    double *columns = calloc(4 * (size_t)v->count + 1, sizeof *columns);
+    int64_t *runs = calloc((size_t)v->count + 1, sizeof *runs);
+    if (!columns || !runs) {
+        free(columns);
+        free(runs);
+        SC_FAIL(SC_ESIM, "out of memory");
+    }
+    size_t n = 0, m = (size_t)v->count;
+    for (int i = 0; i < v->count; i++) {
+        if (!bracketed(&results[i]))
+            continue;
+        columns[n] = results[i].diameter;
+        columns[m + n] = results[i].v_crit;
+        columns[2 * m + n] = results[i].pbcp;
+        columns[3 * m + n] = results[i].v_rest;
+        runs[n] = results[i].runs;
+        n++;
+    }
+    hsize_t dims[1] = {n};
+    int status = h5_write_doubles(file, "diameter", 1, dims, columns, "m", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(file, "v_crit", 1, dims, columns + m, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(file, "pbcp", 1, dims, columns + 2 * m, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(file, "v_rest", 1, dims, columns + 3 * m, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(file, "runs", 1, dims, runs, "-", 0);
+    free(columns);
+    free(runs);
+    hid_t group;
+    if (status == SC_OK)
+        status = h5_create_group(file, "search", &group);
+    for (int i = 0; status == SC_OK && i < v->count; i++)
+        status = write_runs_group(group, i, &results[i]);
+    if (status == SC_OK)
+        H5Gclose(group);
+    return status;
+}
+
+static int write_h5(const struct vcrit_search *v, const struct vcrit_result *results)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/vcrit.h5", v->run_dir);
+    struct h5_out out;
+    SC_TRY(h5_create_atomic(path, &out));
+    char *case_text = case_resolved_text(v->c);
+    int status = h5_write_root_attributes(out.file, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash);
+    if (status == SC_OK)
+        status = h5_attr_write_string(out.file, "case", case_text);
+    free(case_text);
+    if (status == SC_OK)
+        status = write_h5_contents(v, results, out.file);
+    if (status != SC_OK) {
+        h5_abort(&out);
+        return status;
+    }
+    return h5_commit(&out);
+}
+
+static void log_table(const struct vcrit_search *v, const struct vcrit_result *results)
+{
+    log_info("vcrit: %-12s %-10s %-8s %-10s %-5s", "diameter/um", "v_crit", "PBCP/%", "v_rest", "runs");
+    for (int i = 0; i < v->count; i++) {
+        const struct vcrit_result *r = &results[i];
+        log_info("vcrit: %-12.4g %-10.6g %-8.3g %-10.3g %-5d %s", r->diameter * 1e6, r->v_crit, 100 * r->pbcp,
+                 r->v_rest, r->runs, r->note);
+    }
+}
+
+/* ---- the stage --------------------------------------------------------------------------------------------------- */
+
+static int run_search(struct vcrit_search *v, struct vcrit_result *results)
+{
+    SC_TRY(load_records(v));
+    double start = log_elapsed();
+    log_info("vcrit: %d diameters, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d threads", v->count,
+             v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads());
+    for (int i = 0; i < v->count; i++) {
+        results[i].diameter = v->diameters[i];
+        SC_TRY(search_diameter(v, &results[i]));
+    }
+    SC_TRY(write_csv(v, results));
+    SC_TRY(write_h5(v, results));
+    log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
+             v->run_dir, (long long)v->runs_this_process, log_elapsed() - start);
+    char path[4096];
+    records_path(v, path, sizeof path);
+    if (unlink(path) != 0 && errno != ENOENT)
+        SC_FAIL(SC_EIO, "cannot remove %s: %s", path, strerror(errno));
+    log_table(v, results);
+    return SC_OK;
+}
+
+int vcrit_stage_validate(const struct case_file *c, const char *run_dir)
+{
+    (void)run_dir; /* recorded runs of another case are ignored, never refused */
+    struct vcrit_search v = {.c = c};
+    return load_settings(c, &v);
+}
+
+int vcrit_stage_run(const struct case_file *c, const char *run_dir)
+{
+    struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
+    char path[4096];
+    snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
+    if (run_dir_output_current(path, v.case_hash)) {
+        log_info("vcrit: %s is up to date with the case; nothing to do", path);
+        return SC_OK;
+    }
+    SC_TRY(load_settings(c, &v));
+    struct run_settings settings;
+    run_settings_load(c, &settings);
+    if (settings.threads > 0)
+        omp_set_num_threads(settings.threads);
+    struct vcrit_result *results = calloc((size_t)v.count, sizeof *results);
+    int status = results ? run_search(&v, results) : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    for (int i = 0; results && i < v.count; i++)
+        free(results[i].records);
+    free(results);
+    free(v.done);
+    return status;
+}

@@ -1,0 +1,138 @@
+#!/bin/sh
+# `spraycoat vcrit` on a tiny case (an 8 um particle on a 2 um grid, 10 ns per run: about 2 s in all here):
+# vcrit.csv and vcrit.h5 exist; each v_crit lies in [v_low, v_high], or the diameter is a '#' line with NaN and
+# the reason; a spray case with `[deposition] rule = table` naming vcrit.csv or vcrit.h5 passes `spraycoat
+# check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
+# a search whose bracket fails reports 'not bracketed'.  Prints "PASS name" / "FAIL name (reason)".
+# Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+BASE=tests/bad_cases/valid_base.ini
+
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1 ($2)"; }
+
+if [ ! -x "$BIN" ] || [ ! -r "$BASE" ]; then
+    echo "FAIL vcrit (no $BIN or $BASE; run from the repository root after make)"
+    exit 1
+fi
+T=$(mktemp -d) || exit 1
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+
+V_LOW=200
+V_HIGH=1200
+write_case() { # write_case FILE V_HIGH
+    cat >"$1" <<EOF
+; tiny vcrit search for tests/test_vcrit.sh: far too coarse for physics, quick
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_diameter = 20e-6
+substrate_height = 6e-6
+t_end = 10e-9
+
+[material.aluminium]
+
+[vcrit]
+diameters = 10e-6,8e-6
+v_low = $V_LOW
+v_high = $2
+tolerance = 200
+EOF
+}
+CASE=$T/vcrit_tiny.ini
+write_case "$CASE" "$V_HIGH"
+
+# ---- 1. the search: outputs, v_crit inside the bracket or NaN with a reason --------------------------------------
+RUN=$T/ref
+if "$BIN" vcrit "$CASE" -o "$RUN" >"$T/ref.log" 2>&1; then
+    why=""
+    [ -s "$RUN/vcrit.csv" ] || why="$why no vcrit.csv;"
+    [ -s "$RUN/vcrit.h5" ] || why="$why no vcrit.h5;"
+    [ -e "$RUN/vcrit_runs.csv" ] && why="$why vcrit_runs.csv left behind;"
+    [ "$(head -n 1 "$RUN/vcrit.csv")" = "diameter,v_crit,pbcp,v_rest,runs" ] || why="$why header is not diameter,v_crit,pbcp,v_rest,runs;"
+    rows=$(sed 1d "$RUN/vcrit.csv" | wc -l | tr -d ' ')
+    [ "$rows" -eq 2 ] || why="$why $rows rows for 2 diameters;"
+    # data rows: v_crit within [v_low, v_high], diameters ascending; '#' rows: nan and 'not bracketed'
+    bad=$(sed 1d "$RUN/vcrit.csv" | awk -F, -v lo="$V_LOW" -v hi="$V_HIGH" '
+        /^#/ { if ($2 != "nan" || $0 !~ /not bracketed/) print "row without a reason: " $0; next }
+        { if (!($2 + 0 >= lo && $2 + 0 <= hi)) print "v_crit outside the bracket: " $0
+          if (NR > 1 && $1 + 0 <= last) print "diameters not ascending: " $0; last = $1 + 0 }')
+    [ -n "$bad" ] && why="$why $bad;"
+    if [ -z "$why" ]; then pass vcrit_outputs; else fail vcrit_outputs "$why"; fi
+    sed 's/^/  /' "$RUN/vcrit.csv"
+else
+    fail vcrit_outputs "spraycoat vcrit exited with status $?: $(tail -n 3 "$T/ref.log" | tr '\n' ' ')"
+    exit 1
+fi
+
+# ---- 2. the spray stage reads the table (CSV and HDF5) ----------------------------------------------------------
+if grep -q '^[0-9]' "$RUN/vcrit.csv"; then
+    for file in vcrit.csv vcrit.h5; do
+        sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $RUN/$file|" "$BASE" >"$T/spray.ini"
+        if ! grep -q '^rule = table$' "$T/spray.ini"; then
+            fail "vcrit_table_readable_${file#vcrit.}" "$BASE no longer has the lines rule = adhesion and alpha_adh"
+        elif "$BIN" check "$T/spray.ini" >"$T/check.log" 2>&1; then
+            pass "vcrit_table_readable_${file#vcrit.}"
+        else
+            fail "vcrit_table_readable_${file#vcrit.}" "$(grep '^spraycoat:' "$T/check.log" | head -n 1)"
+        fi
+    done
+else
+    fail vcrit_table_readable "no diameter was bracketed, so there is no table to read: $(tr '\n' ' ' <"$RUN/vcrit.csv")"
+fi
+
+# ---- 3. SIGTERM after some runs, then resume: recorded runs are reused, the same table ------------------------
+RUN2=$T/term
+"$BIN" vcrit "$CASE" -o "$RUN2" >"$T/term.log" 2>&1 &
+bg=$!
+i=0
+while [ "$i" -lt 1200 ] && kill -0 "$bg" 2>/dev/null; do
+    [ "$(grep -c '^[0-9]' "$RUN2/vcrit_runs.csv" 2>/dev/null)" -ge 2 ] 2>/dev/null && break
+    sleep 0.02
+    i=$((i + 1))
+done
+kill -TERM "$bg" 2>/dev/null
+wait "$bg" 2>/dev/null
+status=$?
+bg=""
+why=""
+if [ -f "$RUN2/vcrit.csv" ]; then
+    echo "  note: the search finished before SIGTERM arrived"
+else
+    [ "$status" -eq 143 ] || why="$why exit status $status, expected 143;"
+    recorded=$(grep -c '^[0-9]' "$RUN2/vcrit_runs.csv" 2>/dev/null)
+    "$BIN" resume "$RUN2" >"$T/resume.log" 2>&1 || why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
+    grep -q "${recorded:-x} runs recorded" "$T/resume.log" || why="$why resume did not reuse the $recorded recorded runs;"
+fi
+cmp -s "$RUN/vcrit.csv" "$RUN2/vcrit.csv" || why="$why vcrit.csv differs from the uninterrupted search's;"
+h5diff -d 0 "$RUN/vcrit.h5" "$RUN2/vcrit.h5" /search /search >/dev/null 2>&1 || why="$why vcrit.h5:/search differs;"
+if [ -z "$why" ]; then pass vcrit_sigterm_resume; else fail vcrit_sigterm_resume "$why"; fi
+
+# ---- 4. no bracket: v_high too low to bond -----------------------------------------------------------------------
+write_case "$T/nobracket.ini" 300
+if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
+    [ "$(grep -c '^# .*,nan,.*not bracketed: rebounds still at v_high' "$T/nob/vcrit.csv")" -eq 2 ] &&
+    "$BIN" info "$T/nob" 2>&1 | grep -q 'not bracketed'; then
+    pass vcrit_not_bracketed
+else
+    fail vcrit_not_bracketed "$(tr '\n' ' ' <"$T/nob/vcrit.csv" 2>/dev/null) $(tail -n 2 "$T/nob.log" | tr '\n' ' ')"
+fi
+exit 0
