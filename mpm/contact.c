@@ -106,6 +106,19 @@ static void rigid_wall(const struct mpm_solver *s, size_t node, int k, double *m
     }
 }
 
+/* Tang Section 4.3.3: the substrate's "bottom surface is bound vertically by the computational grid": no
+ * vertical nodal velocity at or below its bottom face.  Without it a thin substrate under a large particle is
+ * pushed away as a whole and its residual stress makes it creep on the dashpots. */
+static void fixed_bottom(const struct mpm_solver *s, size_t node, int k, double *mom)
+{
+    const struct mpm_grid *g = &s->grid;
+    double z = g->origin[2] + (double)k * g->h;
+    if (z > s->cfg.substrate_bottom + 1e-9 * g->h)
+        return;
+    for (int l = 0; l < g->layers; l++)
+        mom[3 * ((size_t)l * g->nodes + node) + 2] = 0.0;
+}
+
 static int bodies_at(const struct mpm_grid *g, size_t node)
 {
     int count = 0;
@@ -129,8 +142,11 @@ void contact_nodal_update(struct mpm_solver *s)
             for (int d = 0; d < 3; d++)
                 g->momentum_new[3 * I + d] = heavy ? g->momentum[3 * I + d] + g->force[3 * I + d] * dt : 0.0;
         }
+        int k = (int)(node / ((long)g->n[0] * g->n[1]));
         if (rigid)
-            rigid_wall(s, (size_t)node, (int)(node / ((long)g->n[0] * g->n[1])), g->momentum_new);
+            rigid_wall(s, (size_t)node, k, g->momentum_new);
+        else if (s->cfg.fixed_bottom)
+            fixed_bottom(s, (size_t)node, k, g->momentum_new);
         int bonded;
         if (g->layers > 1 && bodies_at(g, (size_t)node) > 1 && resolve_node(s, (size_t)node, g->momentum_new, &bonded)) {
             contacts++;
@@ -154,8 +170,11 @@ void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes
             if (!(g->mass[I] > g->mass_cutoff))
                 mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
         }
+        int k = (int)(node / ((long)g->n[0] * g->n[1]));
         if (rigid)
-            rigid_wall(s, (size_t)node, (int)(node / ((long)g->n[0] * g->n[1])), mom);
+            rigid_wall(s, (size_t)node, k, mom);
+        else if (s->cfg.fixed_bottom)
+            fixed_bottom(s, (size_t)node, k, mom);
         int bonded;
         if (g->layers > 1 && bodies_at(g, (size_t)node) > 1)
             resolve_node(s, (size_t)node, mom, &bonded);

@@ -57,6 +57,8 @@ struct mpm_config {
     double snapshot_every, series_every;
     struct bulk_viscosity viscosity;
     int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
+    int fixed_bottom;              /* nodes at and below the substrate's bottom face cannot move vertically */
+    double substrate_bottom;       /* z of that face */
 };
 
 /* The keys of [impact] and [material.NAME] (NULL-key terminated). */

@@ -71,3 +71,5 @@ for t in 1 2; do run_case "colliding cloud, 20k, vacuum" "$work/colliding.ini" "
 if [ "${BENCH_TABLE1:-1}" != 0 ]; then
     run_case "Table 1 full (50,050)" cases/mz2015_table1.ini 2
 fi
+echo
+"$(dirname "$0")/bench_impact.sh" "$build"

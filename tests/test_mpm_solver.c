@@ -193,10 +193,12 @@ static void test_points_leaving_the_box(void)
     impact_fixture_close(&f);
 }
 
-static int run_small_impact(int threads, struct impact_fixture *f)
+static int run_small_impact(int threads, const char *shape_functions, struct impact_fixture *f)
 {
-    const char *ini = "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
-                      "substrate_height = 6e-6\nvelocity = 850\nt_end = 8e-9\n[material.aluminium]\n";
+    char ini[512];
+    snprintf(ini, sizeof ini, "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
+             "substrate_height = 6e-6\nvelocity = 850\nt_end = 8e-9\nshape_functions = %s\n[material.aluminium]\n",
+             shape_functions);
     omp_set_num_threads(threads);
     int status = impact_fixture_open(f, ini, NULL);
     if (status == SC_OK)
@@ -204,11 +206,12 @@ static int run_small_impact(int threads, struct impact_fixture *f)
     return status;
 }
 
-/* 1 and 2 threads give the same bits (fixed-order particle-to-grid transfer). */
-static void test_threads_identical(void)
+/* 1 and 2 threads give the same bits (fixed-order particle-to-grid transfer), with both kinds of shape
+ * functions. */
+static void threads_identical(const char *shape_functions)
 {
     struct impact_fixture one, two;
-    int ok = run_small_impact(1, &one) == SC_OK && run_small_impact(2, &two) == SC_OK;
+    int ok = run_small_impact(1, shape_functions, &one) == SC_OK && run_small_impact(2, shape_functions, &two) == SC_OK;
     omp_set_num_threads(omp_get_num_procs());
     CHECK(ok, "runs");
     if (ok) {
@@ -220,10 +223,16 @@ static void test_threads_identical(void)
         CHECK(memcmp(a->state, b->state, n * sizeof *a->state) == 0, "stress states identical");
         CHECK(memcmp(a->d_bond, b->d_bond, n * sizeof *a->d_bond) == 0, "bond parameters identical");
         CHECK(mpm_get_counts(one.solver).contact_node_steps > 0, "the bodies were in contact");
+        const struct mpm_diagnostics *d = mpm_compute_diagnostics(one.solver);
+        CHECK(d->energy_total <= d->energy_initial * (1.0 + 1e-9), "%s: energy %g rose above its start %g",
+              shape_functions, d->energy_total, d->energy_initial);
     }
     impact_fixture_close(&one);
     impact_fixture_close(&two);
 }
+
+static void test_threads_identical(void) { threads_identical("linear"); }
+static void test_threads_identical_ugimp(void) { threads_identical("ugimp"); }
 
 /* A short coarse impact with the given [impact] bonding lines; D_bond of every point must never decrease. */
 static int bonding_run(const char *bonding, struct impact_fixture *f, int *monotone)
@@ -298,6 +307,7 @@ int main(void)
     RUN(test_contact_normals);
     RUN(test_points_leaving_the_box);
     RUN(test_threads_identical);
+    RUN(test_threads_identical_ugimp);
     RUN(test_bonding_models);
     return check_finish();
 }
