@@ -74,6 +74,47 @@ static void test_wave_speed(void)
     impact_fixture_close(&f);
 }
 
+/* A free-free elastic bar (Poisson ratio 0, so the bar speed is c_L) vibrating in its first axial mode,
+ * v(x, 0) = -v0 sin(pi x / L): the ends' velocity crosses zero at T/4 and 3T/4, T = 2 L / c. */
+static void test_bar_vibration_period(void)
+{
+    struct impact_fixture f;
+    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = nu0\ngrid = 1e-3\nspacing = 0.5e-3\n"
+                      "t_end = 80e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
+                      "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" NU0_MATERIAL;
+    const double L = 0.04, v0 = 0.5;
+    /* a 4 mm thick, 40 mm long cylinder along z, well above the rigid wall */
+    const double zc = 0.04;
+    if (impact_fixture_open(&f, ini, "cylinder,0,0,0.04,0,0,0,0.004,0.04,nu0\n") != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    struct mpm_points *p = &f.solver->points;
+    for (size_t q = 0; q < p->count; q++)
+        p->v[3 * q + 2] = -v0 * sin(M_PI * (p->x[3 * q + 2] - zc) / L);
+    double crossings[2] = {NAN, NAN}, previous = -v0, t_previous = 0.0;
+    int found = 0;
+    while (!mpm_finished(f.solver) && found < 2) {
+        if (mpm_step(f.solver) != SC_OK)
+            break;
+        double sum = 0.0, t = mpm_get_counts(f.solver).t;
+        long n = 0;
+        for (size_t q = 0; q < p->count; q++)
+            if (p->x[3 * q + 2] > zc + L / 2 - 2e-3) {   /* the top end moves with -v0 cos(omega t) */
+                sum += p->v[3 * q + 2];
+                n++;
+            }
+        double v = sum / (double)n;
+        if ((previous < 0.0) != (v < 0.0))
+            crossings[found++] = t_previous + (t - t_previous) * (0.0 - previous) / (v - previous);
+        previous = v;
+        t_previous = t;
+    }
+    double period = 2.0 * (crossings[1] - crossings[0]), expected = 2.0 * L / nu0_wave_speed();
+    CHECK_CLOSE(period, expected, 0.02, 0.0, "first axial period of the free bar (s)");
+    impact_fixture_close(&f);
+}
+
 static double total_momentum_x(const struct mpm_solver *s, double *scale)
 {
     const struct mpm_points *p = &s->points;
@@ -303,6 +344,7 @@ static void test_bonding_models(void)
 int main(void)
 {
     RUN(test_wave_speed);
+    RUN(test_bar_vibration_period);
     RUN(test_two_spheres);
     RUN(test_contact_normals);
     RUN(test_points_leaving_the_box);
