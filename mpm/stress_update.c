@@ -93,62 +93,80 @@ static double consistency(const struct yield_problem *y, double d)
  * them, so the search runs in u = ln d.  The last step's increment (the ongoing plastic rate) is the first
  * guess; a Newton step with the shock-regime slope df/du = -(3 G d + beta sigma_y) and steps of growing
  * length find a tight bracket, and regula falsi with the Illinois rule closes it. */
+/* A bracket [u_lo, u_hi] of the root in u = ln d with f(u_lo) > 0 >= f(u_hi); f_hi NAN until known. */
+struct bracket {
+    double u_lo, f_lo, u_hi, f_hi;
+};
+
+static void bracket_narrow(struct bracket *b, double u, double f)
+{
+    if (f > 0.0)
+        b->u_lo = u, b->f_lo = f;
+    else
+        b->u_hi = u, b->f_hi = f;
+}
+
+static int converged(const struct yield_problem *y, double f) { return fabs(f) <= NEWTON_FTOL * y->trial; }
+
+/* From the first guess u, steps of growing length towards the root until f changes sign: a tight bracket.
+ * Returns 1 when it met the root itself (then *u is it). */
+static int walk_to_bracket(const struct yield_problem *y, double *u, struct bracket *b)
+{
+    double f = consistency(y, exp(*u));
+    double d = exp(*u), slope = 3.0 * y->G * d + y->m->ptw_beta * (y->trial - 3.0 * y->G * d - f);
+    for (double step = slope > 0.0 ? fmin(2.0, fabs(f) / slope) : 0.05;; step *= 2.0) {
+        if (converged(y, f))
+            return 1;
+        bracket_narrow(b, *u, f);
+        double next = f > 0.0 ? *u + step : *u - step;
+        if (!(next > b->u_lo && next < b->u_hi))
+            return 0;
+        double f_next = consistency(y, exp(next));
+        int crossed = (f_next > 0.0) != (f > 0.0);
+        *u = next, f = f_next;
+        if (crossed) {
+            if (converged(y, f))
+                return 1;
+            bracket_narrow(b, *u, f);
+            return 0;
+        }
+    }
+}
+
+/* Regula falsi with the Illinois rule on the bracket. */
+static double close_bracket(const struct yield_problem *y, struct bracket *b)
+{
+    double u = b->u_lo;
+    int side = 0;
+    for (int iter = 0; iter < NEWTON_MAX_ITER; iter++) {
+        if (b->u_hi - b->u_lo <= NEWTON_XTOL)
+            return exp(0.5 * (b->u_lo + b->u_hi));
+        double next = b->u_lo + (b->u_hi - b->u_lo) * b->f_lo / (b->f_lo - b->f_hi);
+        u = (next > b->u_lo && next < b->u_hi) ? next : 0.5 * (b->u_lo + b->u_hi);
+        double f = consistency(y, exp(u));
+        if (converged(y, f))
+            return exp(u);
+        bracket_narrow(b, u, f);
+        if (f > 0.0 && side == 1)
+            b->f_hi *= 0.5;
+        if (f <= 0.0 && side == -1)
+            b->f_lo *= 0.5;
+        side = f > 0.0 ? 1 : -1;
+    }
+    return exp(u);
+}
+
 static double plastic_increment(const struct yield_problem *y, double f0)
 {
     double d_hi = y->trial / (3.0 * y->G), d_lo = fmin(y->m->rate_floor * y->dt, 1e-3 * d_hi);
-    double u_lo = log(d_lo), u_hi = log(d_hi), f_lo = f0, f_hi = NAN;
+    struct bracket b = {log(d_lo), f0, log(d_hi), NAN};
     double guess = y->previous_increment;
-    double u = (guess > d_lo && guess < d_hi) ? log(guess) : 0.5 * (u_lo + u_hi);
-    double f = consistency(y, exp(u));
-    double d = exp(u), slope = 3.0 * y->G * d + y->m->ptw_beta * (y->trial - 3.0 * y->G * d - f);
-    double step = slope > 0.0 ? fmin(2.0, fabs(f) / slope) : 0.05;
-    for (;; step *= 2.0) {   /* walk towards the root until f changes sign */
-        if (fabs(f) <= NEWTON_FTOL * y->trial)
-            return exp(u);
-        if (f > 0.0)
-            u_lo = u, f_lo = f;
-        else
-            u_hi = u, f_hi = f;
-        double next = f > 0.0 ? u + step : u - step;
-        if (!(next > u_lo && next < u_hi))
-            break;
-        double f_next = consistency(y, exp(next));
-        int crossed = (f_next > 0.0) != (f > 0.0);
-        u = next, f = f_next;
-        if (crossed) {
-            if (fabs(f) <= NEWTON_FTOL * y->trial)
-                return exp(u);
-            if (f > 0.0)
-                u_lo = u, f_lo = f;
-            else
-                u_hi = u, f_hi = f;
-            break;
-        }
-    }
-    if (isnan(f_hi))   /* no evaluation below the root yet: the bracket's end itself */
-        f_hi = -yield_at(y, d_hi);
-    int side = 0;
-    for (int iter = 0; iter < NEWTON_MAX_ITER; iter++) {
-        if (u_hi - u_lo <= NEWTON_XTOL)
-            return exp(0.5 * (u_lo + u_hi));
-        double next = u_lo + (u_hi - u_lo) * f_lo / (f_lo - f_hi);
-        u = (next > u_lo && next < u_hi) ? next : 0.5 * (u_lo + u_hi);
-        f = consistency(y, exp(u));
-        if (fabs(f) <= NEWTON_FTOL * y->trial)
-            return exp(u);
-        if (f > 0.0) {
-            u_lo = u, f_lo = f;
-            if (side == 1)
-                f_hi *= 0.5;
-            side = 1;
-        } else {
-            u_hi = u, f_hi = f;
-            if (side == -1)
-                f_lo *= 0.5;
-            side = -1;
-        }
-    }
-    return exp(u);
+    double u = (guess > d_lo && guess < d_hi) ? log(guess) : 0.5 * (b.u_lo + b.u_hi);
+    if (walk_to_bracket(y, &u, &b))
+        return exp(u);
+    if (isnan(b.f_hi))   /* no evaluation below the root yet: the bracket's end itself */
+        b.f_hi = -yield_at(y, d_hi);
+    return close_bracket(y, &b);
 }
 
 /* ---- energy, pressure, viscosity ---- */
