@@ -1,6 +1,7 @@
 /* The run directory, the registry of case keys, and signal handling shared by the stages. */
 #include <errno.h>
 #include <fcntl.h>
+#include <omp.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
@@ -10,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/log.h"
 #include "core/run_keys.h"
 #include "coupling/stages.h"
 #include "dem/dem.h"
@@ -211,4 +213,26 @@ int case_section_given(const struct case_file *c, const char *section)
             if (strcmp(k->section, section) == 0 && case_is_given(c, section, k->key))
                 return 1;
     return 0;
+}
+
+int stage_begin(const char *stage, const char *output, uint64_t case_hash, const struct case_file *c,
+                struct run_settings *settings)
+{
+    if (run_dir_output_current(output, case_hash)) {
+        log_info("%s: %s is up to date with the case; nothing to do", stage, output);
+        return 1;
+    }
+    if (access(output, F_OK) == 0)
+        log_info("%s: %s was made from another case; running the stage again", stage, output);
+    run_settings_load(c, settings);
+    if (settings->threads > 0)
+        omp_set_num_threads(settings->threads);
+    return 0;
+}
+
+int stage_checkpoint_due(const struct run_settings *settings, int64_t step, int64_t last_step, double last_time)
+{
+    if (settings->checkpoint_steps > 0 && step - last_step >= settings->checkpoint_steps)
+        return 1;
+    return settings->checkpoint_wall > 0 && log_elapsed() - last_time >= settings->checkpoint_wall;
 }

@@ -66,10 +66,7 @@ static int resume_if_possible(struct spray_run *run)
 
 static int checkpoint_due(const struct spray_run *run, int64_t step)
 {
-    const struct run_settings *settings = &run->settings;
-    if (settings->checkpoint_steps > 0 && step - run->last_checkpoint_step >= settings->checkpoint_steps)
-        return 1;
-    return settings->checkpoint_wall > 0 && log_elapsed() - run->last_checkpoint_time >= settings->checkpoint_wall;
+    return stage_checkpoint_due(&run->settings, step, run->last_checkpoint_step, run->last_checkpoint_time);
 }
 
 static int time_loop(struct spray_run *run)
@@ -209,15 +206,8 @@ int spray_stage_run(const struct case_file *c, const char *run_dir)
     struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", run_dir);
-    if (run_dir_output_current(path, run.case_hash)) {
-        log_info("spray: %s is up to date with the case; nothing to do", path);
+    if (stage_begin(STAGE, path, run.case_hash, c, &run.settings))
         return SC_OK;
-    }
-    if (access(path, F_OK) == 0)
-        log_info("spray: %s was made from another case; running the stage again", path);
-    run_settings_load(c, &run.settings);
-    if (run.settings.threads > 0)
-        omp_set_num_threads(run.settings.threads);
     SC_TRY(dem_config_load(c, &run.cfg));
     int status = run_stage(&run);
     dem_destroy(run.solver);

@@ -7,6 +7,7 @@
 #include <stdio.h>
 
 #include "core/config.h"
+#include "core/run_keys.h"
 
 /* The registry of every case key the program accepts (NULL-terminated list of tables). */
 extern const struct cfg_key *const spraycoat_registry[];
@@ -29,6 +30,15 @@ int case_section_given(const struct case_file *c, const char *section);
 
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
+
+/* The start every stage shares: 1 (and a log line) when `output` is current for the case, so the stage has
+ * nothing to do; otherwise say whether it is rerun over another case's output, load [run] into *settings and
+ * apply its thread count, and return 0. */
+int stage_begin(const char *stage, const char *output, uint64_t case_hash, const struct case_file *c,
+                struct run_settings *settings);
+/* 1 when a checkpoint is due by the [run] policy: checkpoint_steps steps or checkpoint_wall seconds (log_elapsed)
+ * since the last one. */
+int stage_checkpoint_due(const struct run_settings *settings, int64_t step, int64_t last_step, double last_time);
 
 /* A text file written atomically: NAME.tmp, flushed, fsynced, renamed to NAME, folder fsynced. */
 struct text_out {
