@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "case_fixture.h"
 #include "core/config.h"
 #include "core/error.h"
 #include "core/run_keys.h"
@@ -27,23 +28,10 @@ static int impact_fixture_open(struct impact_fixture *f, const char *ini, const 
 {
     static const struct cfg_key *const registry[] = {run_case_keys, mpm_case_keys, NULL};
     memset(f, 0, sizeof *f);
-    strcpy(f->dir, "/tmp/spraycoat-test-XXXXXX");
-    if (!mkdtemp(f->dir))
+    if (case_fixture_write(f->dir, ini, "bodies.csv", "shape,x,y,z,vx,vy,vz,d,h,material", rows,
+                           "\n[impact]\nbodies = bodies.csv\n") != 0)
         return -1;
-    char path[256];
-    if (rows) {
-        snprintf(path, sizeof path, "%s/bodies.csv", f->dir);
-        FILE *csv = fopen(path, "w");
-        fprintf(csv, "shape,x,y,z,vx,vy,vz,d,h,material\n%s", rows);
-        fclose(csv);
-    }
-    snprintf(path, sizeof path, "%s/case.ini", f->dir);
-    FILE *file = fopen(path, "w");
-    fputs(ini, file);
-    if (rows)
-        fputs("\n[impact]\nbodies = bodies.csv\n", file);
-    fclose(file);
-    int status = case_load(path, registry, &f->c);
+    int status = case_fixture_load(f->dir, registry, &f->c);
     if (status == SC_OK)
         status = mpm_config_load(f->c, &f->cfg);
     if (status == SC_OK)
@@ -56,13 +44,10 @@ static int impact_fixture_open(struct impact_fixture *f, const char *ini, const 
 static void impact_fixture_close(struct impact_fixture *f) __attribute__((unused));
 static void impact_fixture_close(struct impact_fixture *f)
 {
-    char command[128];
     mpm_destroy(f->solver);
     mpm_config_free(&f->cfg);
     case_free(f->c);
-    snprintf(command, sizeof command, "rm -rf %s", f->dir);
-    if (system(command) != 0)
-        printf("  fixture: could not remove %s\n", f->dir);
+    case_fixture_remove(f->dir);
     memset(f, 0, sizeof *f);
 }
 

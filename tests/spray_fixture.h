@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "case_fixture.h"
 #include "core/config.h"
 #include "core/error.h"
 #include "coupling/stages.h"
@@ -25,23 +26,10 @@ static int fixture_open(struct fixture *f, const char *ini, const char *rows) __
 static int fixture_open(struct fixture *f, const char *ini, const char *rows)
 {
     memset(f, 0, sizeof *f);
-    strcpy(f->dir, "/tmp/spraycoat-test-XXXXXX");
-    if (!mkdtemp(f->dir))
+    if (case_fixture_write(f->dir, ini, "particles.csv", "x,y,z,vx,vy,vz,wx,wy,wz,d", rows,
+                           "\n[spray]\ninjection = file\nparticles = particles.csv\n") != 0)
         return -1;
-    char path[256];
-    if (rows) {
-        snprintf(path, sizeof path, "%s/particles.csv", f->dir);
-        FILE *csv = fopen(path, "w");
-        fprintf(csv, "x,y,z,vx,vy,vz,wx,wy,wz,d\n%s", rows);
-        fclose(csv);
-    }
-    snprintf(path, sizeof path, "%s/case.ini", f->dir);
-    FILE *file = fopen(path, "w");
-    fputs(ini, file);
-    if (rows)
-        fputs("\n[spray]\ninjection = file\nparticles = particles.csv\n", file);
-    fclose(file);
-    int status = case_load(path, spraycoat_registry, &f->c);
+    int status = case_fixture_load(f->dir, spraycoat_registry, &f->c);
     if (status == SC_OK)
         status = dem_config_load(f->c, &f->cfg);
     if (status == SC_OK)
@@ -54,13 +42,10 @@ static int fixture_open(struct fixture *f, const char *ini, const char *rows)
 static void fixture_close(struct fixture *f) __attribute__((unused));
 static void fixture_close(struct fixture *f)
 {
-    char command[128];
     dem_destroy(f->solver);
     dem_config_free(&f->cfg);
     case_free(f->c);
-    snprintf(command, sizeof command, "rm -rf %s", f->dir);
-    if (system(command) != 0)
-        printf("  could not remove %s\n", f->dir);
+    case_fixture_remove(f->dir);
 }
 
 static int fixture_steps(struct fixture *f, int64_t steps) __attribute__((unused));
