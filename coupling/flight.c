@@ -1,0 +1,291 @@
+/* The flight through the gas layer in front of the target with CVODE (coupling/flight.h). */
+#include "coupling/flight.h"
+
+#include <cvode/cvode.h>
+#include <math.h>
+#include <nvector/nvector_serial.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include "core/error.h"
+
+enum { STATE = 6, MAX_STEPS = 200000 };
+
+struct flight_solver {
+    SUNContext context;
+    N_Vector state, abstol;
+    SUNMatrix jacobian;
+    SUNLinearSolver linear;
+    void *cvode;
+    int initialised;
+};
+
+/* What the right-hand side needs. */
+struct flight_particle {
+    const struct flight_layer *layer;
+    double diameter, mass;
+};
+
+void flight_gas_velocity(const struct flight_layer *layer, const double x[3], double u[3])
+{
+    double s = layer->wall_z - x[2], delta = layer->thickness, speed = layer->approach_velocity;
+    if (s >= delta) {
+        u[0] = u[1] = 0.0;
+        u[2] = speed;
+    } else if (s >= 0.0) {
+        u[0] = speed * x[0] / (2.0 * delta);
+        u[1] = speed * x[1] / (2.0 * delta);
+        u[2] = speed * s / delta;
+    } else {
+        u[0] = u[1] = u[2] = 0.0;   /* inside the wall: never reached, the flight stops at contact */
+    }
+}
+
+double flight_time_limit(const struct flight_layer *layer, double z0, double vz0)
+{
+    return 100.0 * fabs(layer->wall_z - z0) / fmax(vz0, 1.0);
+}
+
+/* y = (x, y, z, vx, vy, vz): dx/dt = v, m dv/dt = F_drag(v, u(x)). */
+static int flight_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
+{
+    (void)t;
+    const struct flight_particle *p = data;
+    const double *state = N_VGetArrayPointer(y);
+    double *rate = N_VGetArrayPointer(ydot);
+    double u[3], force[3];
+    flight_gas_velocity(p->layer, state, u);
+    gas_drag_force(&p->layer->gas, p->diameter, state + 3, u, force);
+    for (int k = 0; k < 3; k++) {
+        rate[k] = state[3 + k];
+        rate[3 + k] = force[k] / p->mass;
+    }
+    return 0;
+}
+
+/* Contact: the sphere's leading point reaches the wall, z + d/2 = wall_z. */
+static int flight_contact(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
+{
+    (void)t;
+    const struct flight_particle *p = data;
+    g[0] = p->layer->wall_z - 0.5 * p->diameter - N_VGetArrayPointer(y)[2];
+    return 0;
+}
+
+void flight_solver_destroy(struct flight_solver *solver)
+{
+    if (!solver)
+        return;
+    CVodeFree(&solver->cvode);
+    SUNLinSolFree(solver->linear);
+    SUNMatDestroy(solver->jacobian);
+    N_VDestroy(solver->abstol);
+    N_VDestroy(solver->state);
+    SUNContext_Free(&solver->context);
+    free(solver);
+}
+
+int flight_solver_create(struct flight_solver **out)
+{
+    struct flight_solver *solver = calloc(1, sizeof *solver);
+    if (!solver)
+        SC_FAIL(SC_ESIM, "flight: out of memory");
+    int ok = SUNContext_Create(NULL, &solver->context) == 0;
+    if (ok) {
+        solver->state = N_VNew_Serial(STATE, solver->context);
+        solver->abstol = N_VNew_Serial(STATE, solver->context);
+        solver->jacobian = SUNDenseMatrix(STATE, STATE, solver->context);
+        solver->cvode = CVodeCreate(CV_BDF, solver->context);
+        ok = solver->state && solver->abstol && solver->jacobian && solver->cvode;
+    }
+    if (ok) {
+        solver->linear = SUNLinSol_Dense(solver->state, solver->jacobian, solver->context);
+        ok = solver->linear != NULL;
+    }
+    if (!ok) {
+        flight_solver_destroy(solver);
+        SC_FAIL(SC_ESIM, "flight: cannot create the CVODE solver (out of memory?)");
+    }
+    *out = solver;
+    return SC_OK;
+}
+
+/* Contact, and the layer's edge s = delta where the gas velocity has a kink (u_x, u_y jump from zero): the
+ * integration stops there and starts afresh, so that no step straddles the discontinuity in the right-hand side
+ * (CVODE's error control assumes a smooth one). */
+static int flight_roots(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
+{
+    const struct flight_particle *p = data;
+    flight_contact(t, y, g, data);
+    g[1] = p->layer->wall_z - p->layer->thickness - N_VGetArrayPointer(y)[2];
+    return 0;
+}
+
+/* The root functions of a flight that is `edge_ahead` of the layer's edge or already inside the layer. */
+static int set_roots(struct flight_solver *solver, int edge_ahead)
+{
+    int flag = edge_ahead ? CVodeRootInit(solver->cvode, 2, flight_roots)
+                          : CVodeRootInit(solver->cvode, 1, flight_contact);
+    if (flag == CV_SUCCESS) {
+        int direction[2] = {-1, -1};   /* the gaps close */
+        flag = CVodeSetRootDirection(solver->cvode, direction);
+    }
+    return flag;
+}
+
+/* CVodeInit the first time, CVodeReInit after: every flight starts with a fresh history and fresh counters,
+ * so a flight's result does not depend on the flights before it (DESIGN.md, restart). */
+static int start_flight(struct flight_solver *solver, struct flight_particle *particle, double t0, double t_limit,
+                        int edge_ahead)
+{
+    int flag;
+    if (!solver->initialised) {
+        flag = CVodeInit(solver->cvode, flight_rhs, t0, solver->state);
+        if (flag == CV_SUCCESS)
+            flag = CVodeSetLinearSolver(solver->cvode, solver->linear, solver->jacobian);
+        if (flag == CV_SUCCESS)
+            flag = CVodeSetMaxNumSteps(solver->cvode, MAX_STEPS);
+        /* CVODE's own error printing goes to stderr; the status is reported through our error path */
+        if (flag == CV_SUCCESS)
+            flag = CVodeSetErrFile(solver->cvode, NULL);
+        solver->initialised = flag == CV_SUCCESS;
+    } else {
+        flag = CVodeReInit(solver->cvode, t0, solver->state);
+    }
+    if (flag == CV_SUCCESS)
+        flag = set_roots(solver, edge_ahead);
+    if (flag == CV_SUCCESS)
+        flag = CVodeSetUserData(solver->cvode, particle);
+    if (flag == CV_SUCCESS)
+        flag = CVodeSetStopTime(solver->cvode, t_limit);
+    if (flag != CV_SUCCESS)
+        SC_FAIL(SC_ESIM, "flight: CVODE set-up failed (flag %d: %s)", flag, CVodeGetReturnFlagName(flag));
+    return SC_OK;
+}
+
+static int record_sample(struct flight_result *r, size_t *capacity, double t, const double *state)
+{
+    if (r->samples == *capacity) {
+        size_t grown = *capacity ? 2 * *capacity : 64;
+        double *times = realloc(r->sample_t, grown * sizeof *times);
+        if (times)
+            r->sample_t = times;
+        double *positions = realloc(r->sample_x, 3 * grown * sizeof *positions);
+        if (positions)
+            r->sample_x = positions;
+        double *velocities = realloc(r->sample_v, 3 * grown * sizeof *velocities);
+        if (velocities)
+            r->sample_v = velocities;
+        if (!times || !positions || !velocities)
+            SC_FAIL(SC_ESIM, "flight: out of memory for the trajectory");
+        *capacity = grown;
+    }
+    r->sample_t[r->samples] = t;
+    memcpy(r->sample_x + 3 * r->samples, state, 3 * sizeof *state);
+    memcpy(r->sample_v + 3 * r->samples, state + 3, 3 * sizeof *state);
+    r->samples++;
+    return SC_OK;
+}
+
+/* Add the counters of the current CVODE integration (a flight has two when it crosses the layer's edge). */
+static void add_counters(void *cvode, struct flight_result *r)
+{
+    long steps = 0, rhs = 0, jac = 0, error_tests = 0, iterations = 0, failures = 0;
+    CVodeGetNumSteps(cvode, &steps);
+    CVodeGetNumRhsEvals(cvode, &rhs);
+    CVodeGetNumJacEvals(cvode, &jac);
+    CVodeGetNumErrTestFails(cvode, &error_tests);
+    CVodeGetNumNonlinSolvIters(cvode, &iterations);
+    CVodeGetNumNonlinSolvConvFails(cvode, &failures);
+    r->steps += steps;
+    r->rhs_evals += rhs;
+    r->jac_evals += jac;
+    r->error_test_failures += error_tests;
+    r->nonlinear_iterations += iterations;
+    r->nonlinear_failures += failures;
+}
+
+/* At the layer's edge: a fresh integration from the current state with the contact root alone. */
+static int restart_at_edge(struct flight_solver *solver, double t, struct flight_result *r)
+{
+    add_counters(solver->cvode, r);
+    int flag = CVodeReInit(solver->cvode, t, solver->state);
+    if (flag == CV_SUCCESS)
+        flag = set_roots(solver, 0);
+    if (flag != CV_SUCCESS)
+        SC_FAIL(SC_ESIM, "flight: CVODE restart at the layer's edge failed (flag %d: %s)", flag,
+                CVodeGetReturnFlagName(flag));
+    return SC_OK;
+}
+
+/* Step by step (CV_ONE_STEP, every internal step is a trajectory sample) to the contact root or the time limit. */
+static int integrate_steps(struct flight_solver *solver, double t_limit, int edge_ahead, struct flight_result *r)
+{
+    size_t capacity = 0;
+    double *state = N_VGetArrayPointer(solver->state);
+    double t = r->t;
+    SC_TRY(record_sample(r, &capacity, t, state));
+    for (;;) {
+        int flag = CVode(solver->cvode, t_limit, solver->state, &t, CV_ONE_STEP);
+        if (flag < 0)
+            SC_FAIL(SC_ESIM, "flight: CVODE failed at t = %.6g s, z = %.6g m (flag %d: %s)", t, state[2], flag,
+                    CVodeGetReturnFlagName(flag));
+        SC_TRY(record_sample(r, &capacity, t, state));
+        int found[2] = {0, 0};
+        if (flag == CV_ROOT_RETURN)
+            CVodeGetRootInfo(solver->cvode, found);
+        if (flag == CV_ROOT_RETURN && edge_ahead && found[1] && !found[0]) {
+            SC_TRY(restart_at_edge(solver, t, r));
+            edge_ahead = 0;
+            continue;
+        }
+        if (flag == CV_ROOT_RETURN || flag == CV_TSTOP_RETURN || t >= t_limit) {
+            r->reached = flag == CV_ROOT_RETURN;
+            break;
+        }
+    }
+    add_counters(solver->cvode, r);
+    r->t = t;
+    memcpy(r->x, state, sizeof r->x);
+    memcpy(r->v, state + 3, sizeof r->v);
+    return SC_OK;
+}
+
+int flight_integrate(struct flight_solver *solver, const struct flight_layer *layer, double diameter, double density,
+                     double t0, const double x0[3], const double v0[3], struct flight_result *result)
+{
+    memset(result, 0, sizeof *result);
+    struct flight_particle particle = {layer, diameter, density * M_PI * diameter * diameter * diameter / 6.0};
+    double *state = N_VGetArrayPointer(solver->state), *abstol = N_VGetArrayPointer(solver->abstol);
+    double length = fmax(fabs(layer->wall_z - x0[2]), diameter);
+    double speed = fmax(sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]), 1.0);
+    for (int k = 0; k < 3; k++) {
+        state[k] = x0[k];
+        state[3 + k] = v0[k];
+        abstol[k] = layer->atol * length;
+        abstol[3 + k] = layer->atol * speed;
+    }
+    double t_limit = t0 + flight_time_limit(layer, x0[2], v0[2]);
+    int edge_ahead = layer->thickness > 0.0 && layer->wall_z - x0[2] > layer->thickness;
+    SC_TRY(start_flight(solver, &particle, t0, t_limit, edge_ahead));
+    int flag = CVodeSVtolerances(solver->cvode, layer->rtol, solver->abstol);
+    if (flag != CV_SUCCESS)
+        SC_FAIL(SC_ESIM, "flight: CVODE tolerances refused (flag %d)", flag);
+    result->t = t0;
+    int status = integrate_steps(solver, t_limit, edge_ahead, result);
+    if (status != SC_OK)
+        flight_result_free(result);
+    return status;
+}
+
+void flight_result_free(struct flight_result *result)
+{
+    free(result->sample_t);
+    free(result->sample_x);
+    free(result->sample_v);
+    result->sample_t = result->sample_x = result->sample_v = NULL;
+    result->samples = 0;
+}
