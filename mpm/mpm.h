@@ -71,6 +71,11 @@ void mpm_config_free(struct mpm_config *cfg);
  * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */
 int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle);
 
+/* Replace the particles by `count` spheres of the particle material: diameters d[k], centres center[3k..3k+2]
+ * (z above the substrate's top) and velocities velocity[3k..3k+2] (the seeds of the couple stage). */
+int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diameter, const double *center,
+                           const double *velocity);
+
 struct mpm_solver;
 
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out);

@@ -374,6 +374,31 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
     return add_body(cfg, &body);
 }
 
+int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diameter, const double *center,
+                           const double *velocity)
+{
+    int keep = 0, material = -1;
+    for (int i = 0; i < cfg->body_count; i++) {
+        if (cfg->bodies[i].substrate)
+            cfg->bodies[keep++] = cfg->bodies[i];
+        else if (material < 0)
+            material = cfg->bodies[i].material;
+    }
+    if (material < 0)
+        SC_FAIL(SC_EINPUT, "no particle material for the spheres");
+    cfg->body_count = keep;
+    for (int k = 0; k < count; k++) {
+        struct mpm_body body = {.shape = MPM_SPHERE, .d = diameter[k], .material = material};
+        for (int j = 0; j < 3; j++) {
+            body.center[j] = center[3 * k + j];
+            body.velocity[j] = velocity[3 * k + j];
+        }
+        body.center[2] += cfg->substrate_top;
+        SC_TRY(add_body(cfg, &body));
+    }
+    return SC_OK;
+}
+
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
