@@ -8,14 +8,14 @@ CC       ?= gcc
 OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
 
-PKGS     := hdf5-serial inih
+PKGS     := hdf5-serial inih osmesa cairo
 CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 CFLAGS   += -std=c17 -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
 LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
             -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
 LDFLAGS  += -fopenmp
 
-LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
+LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
 MAIN_OBJ := $(BUILD)/coupling/main.o
 TEST_SRC := $(wildcard tests/test_*.c)

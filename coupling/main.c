@@ -23,6 +23,8 @@ static const char usage[] =
     "  spraycoat impact CASE.ini [-o RUN_DIR]   run the impact stage (MPM impacts of [impact]; resumes\n"
     "                                           like spray)\n"
     "  spraycoat vcrit CASE.ini [-o RUN_DIR]    critical velocity vs diameter from MPM impacts ([vcrit])\n"
+    "  spraycoat render CASE.ini [-o RUN_DIR]   figures (RUN_DIR/figures/) and RUN_DIR/report.html from the\n"
+    "                                           outputs RUN_DIR holds ([render])\n"
     "  spraycoat run CASE.ini [-o RUN_DIR]      run every available stage (today: spray)\n"
     "  spraycoat resume RUN_DIR                 continue an interrupted run (the stages of the command\n"
     "                                           that made RUN_DIR) from its newest checkpoint\n"
@@ -133,6 +135,7 @@ static const struct stage stages[] = {
     {"spray", spray_stage_validate, spray_stage_run, "spray.h5"},
     {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf"},
     {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5"},
+    {"render", render_stage_validate, render_stage_run, "figures/, report.html"},
 };
 
 static const struct stage *find_stage(const char *name, size_t length)
@@ -152,7 +155,8 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
         if (!stage || count == 8)
-            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, impact, vcrit)", (int)length, p, list);
+            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, impact, vcrit, render)", (int)length, p,
+                    list);
         chosen[count++] = stage;
         p += length + (p[length] == ',');
     }
@@ -210,7 +214,7 @@ static int dispatch(const struct options *opt)
     /* `run` is the full pipeline; today its only stage is spray */
     if (strcmp(command, "spray") == 0 || strcmp(command, "run") == 0)
         return command_run(opt, "spray");
-    if (strcmp(command, "impact") == 0 || strcmp(command, "vcrit") == 0)
+    if (strcmp(command, "impact") == 0 || strcmp(command, "vcrit") == 0 || strcmp(command, "render") == 0)
         return command_run(opt, command);
     if (strcmp(command, "resume") == 0)
         return command_resume(opt);
@@ -222,7 +226,7 @@ static int dispatch(const struct options *opt)
         case_registry_markdown(spraycoat_registry, stdout);
         return SC_OK;
     }
-    if (strcmp(command, "couple") == 0 || strcmp(command, "render") == 0)
+    if (strcmp(command, "couple") == 0)
         SC_FAIL(SC_EINPUT, "'%s': this stage is not part of this version of spraycoat yet (see spraycoat --help)",
                 command);
     SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", command);

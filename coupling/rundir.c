@@ -16,9 +16,10 @@
 #include "coupling/stages.h"
 #include "dem/dem.h"
 #include "mpm/mpm.h"
+#include "render/render.h"
 
 const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, mpm_case_keys, vcrit_case_keys,
-                                                    NULL};
+                                                    render_case_keys, NULL};
 
 static volatile sig_atomic_t received_signal;
 

@@ -84,4 +84,9 @@ void stages_install_signal_handlers(void);
 /* 0, or SC_EINT / SC_ETERM once a signal arrived. */
 int stages_interrupt_status(void);
 
+/* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into
+ * RUN_DIR/figures/ and RUN_DIR/report.html.  SC_EIO when RUN_DIR holds none of them or one is malformed. */
+int render_stage_validate(const struct case_file *c, const char *run_dir);
+int render_stage_run(const struct case_file *c, const char *run_dir);
+
 #endif

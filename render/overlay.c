@@ -1,0 +1,151 @@
+/* Cairo over the OSMesa buffer: colour bar, caption, text and tick helpers, PNG output. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "render/render_impl.h"
+
+void render_text(cairo_t *cr, double x, double y, double size, double anchor_x, double anchor_y, const char *text)
+{
+    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, size);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr, text, &e);
+    /* the box is placed by the font's size, not by the ink of these letters, so labels line up */
+    cairo_move_to(cr, x - anchor_x * e.x_advance, y + (1 - anchor_y) * 0.75 * size - anchor_y * 0.25 * size);
+    cairo_show_text(cr, text);
+}
+
+double render_text_width(cairo_t *cr, double size, const char *text)
+{
+    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, size);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr, text, &e);
+    return e.x_advance;
+}
+
+int render_nice_ticks(double lo, double hi, int max_ticks, double *ticks, double *step)
+{
+    if (!(hi > lo) || !isfinite(lo) || !isfinite(hi)) {
+        ticks[0] = lo;
+        *step = 1;
+        return 1;
+    }
+    double raw = (hi - lo) / (max_ticks > 2 ? max_ticks - 1 : 1);
+    double magnitude = pow(10, floor(log10(raw)));
+    static const double steps[] = {1, 2, 2.5, 5, 10};
+    double s = 10 * magnitude;
+    for (int i = 0; i < 5; i++)
+        if (steps[i] * magnitude >= raw) {
+            s = steps[i] * magnitude;
+            break;
+        }
+    int n = 0;
+    for (double t = ceil(lo / s - 1e-9) * s; t <= hi + 1e-9 * s && n < max_ticks + 1; t += s)
+        ticks[n++] = fabs(t) < 1e-12 * s ? 0 : t;
+    *step = s;
+    return n;
+}
+
+void render_format_tick(double value, double step, char *out, size_t size)
+{
+    if (value == 0 || !(step > 0)) {
+        snprintf(out, size, "0");
+        return;
+    }
+    /* one more digit for steps like 2.5 */
+    double mantissa = step / pow(10, floor(log10(step)));
+    int extra = fabs(mantissa - round(mantissa)) > 1e-6;
+    if (fabs(value) >= 1e-3 && fabs(value) < 1e6) {
+        int decimals = (int)fmax(0, -floor(log10(step)) + extra);
+        snprintf(out, size, "%.*f", decimals, value);
+        return;
+    }
+    int digits = (int)(floor(log10(fabs(value))) - floor(log10(step))) + 1 + extra;
+    snprintf(out, size, "%.*e", digits < 1 ? 0 : digits > 12 ? 11 : digits - 1, value);
+}
+
+void render_palette(int i, double rgb[3])
+{
+    static const unsigned colours[] = {0x0072B2, 0xD55E00, 0x009E73, 0xCC79A7, 0xE69F00, 0x56B4E9, 0x000000,
+                                       0xF0E442};
+    unsigned c = colours[((i % 8) + 8) % 8];
+    rgb[0] = ((c >> 16) & 255) / 255.0, rgb[1] = ((c >> 8) & 255) / 255.0, rgb[2] = (c & 255) / 255.0;
+}
+
+/* The bar itself: one horizontal line per pixel row, bottom = vmin. */
+static void draw_bar(cairo_t *cr, struct render_box bar)
+{
+    int rows = (int)ceil(bar.height);
+    for (int j = 0; j < rows; j++) {
+        double rgb[3];
+        render_viridis(1.0 - (j + 0.5) / rows, rgb);
+        cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
+        cairo_rectangle(cr, bar.x, bar.y + j * bar.height / rows, bar.width, bar.height / rows + 0.5);
+        cairo_fill(cr);
+    }
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    cairo_rectangle(cr, floor(bar.x) + 0.5, floor(bar.y) + 0.5, ceil(bar.width), ceil(bar.height));
+    cairo_stroke(cr);
+}
+
+static void draw_bar_ticks(cairo_t *cr, struct render_box bar, const struct render_scene *s, double font)
+{
+    double ticks[16], step;
+    int n = render_nice_ticks(s->vmin, s->vmax, 6, ticks, &step);
+    double range = s->vmax - s->vmin;
+    for (int i = 0; i < n && range > 0; i++) {
+        double y = bar.y + bar.height * (1 - (ticks[i] - s->vmin) / range);
+        char label[32];
+        render_format_tick(ticks[i], step, label, sizeof label);
+        cairo_move_to(cr, bar.x + bar.width, y);
+        cairo_line_to(cr, bar.x + bar.width + 5, y);
+        cairo_stroke(cr);
+        render_text(cr, bar.x + bar.width + 8, y, font, 0, 0.5, label);
+    }
+    /* the exact range, below the bar: the colour scale of a film can be compared frame by frame */
+    char range_text[96];
+    snprintf(range_text, sizeof range_text, "range %.4g to %.4g", s->vmin, s->vmax);
+    render_text(cr, bar.x + 0.5 * bar.width, bar.y + bar.height + 0.6 * font, 0.85 * font, 0.5, 0, range_text);
+}
+
+int render_overlay_scene(struct render_image *image, const struct render_scene *scene)
+{
+    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels,
+                                                                   CAIRO_FORMAT_ARGB32, image->width,
+                                                                   image->height, image->stride);
+    cairo_t *cr = cairo_create(surface);
+    double font = fmax(11, image->height / 45.0);
+    struct render_box bar = render_colorbar_box(scene);
+    draw_bar(cr, bar);
+    draw_bar_ticks(cr, bar, scene, font);
+    char title[160];
+    snprintf(title, sizeof title, "%s (%s)", scene->field_label ? scene->field_label : "",
+             scene->unit && scene->unit[0] ? scene->unit : "-");
+    render_text(cr, bar.x + bar.width, bar.y - 0.8 * font, font, 0.5, 1, title);
+    if (scene->caption)
+        render_text(cr, 0.02 * image->width, 0.5 * fmax(20, 0.08 * image->height), 1.2 * font, 0, 0.5,
+                    scene->caption);
+    cairo_surface_flush(surface);
+    int status = cairo_status(cr);
+    cairo_destroy(cr);
+    cairo_surface_destroy(surface);
+    if (status != CAIRO_STATUS_SUCCESS)
+        SC_FAIL(SC_EIO, "render: Cairo: %s", cairo_status_to_string((cairo_status_t)status));
+    return SC_OK;
+}
+
+int render_image_write_png(const struct render_image *image, const char *path)
+{
+    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels,
+                                                                   CAIRO_FORMAT_ARGB32, image->width,
+                                                                   image->height, image->stride);
+    cairo_status_t status = cairo_surface_write_to_png(surface, path);
+    cairo_surface_destroy(surface);
+    if (status != CAIRO_STATUS_SUCCESS)
+        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
+    return SC_OK;
+}

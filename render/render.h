@@ -1,0 +1,198 @@
+/* render: pictures of a run without a display (DESIGN.md "Layout").
+ *
+ * 3-D: material points and spray particles drawn as lit spheres of their own size by OSMesa (llvmpipe, no
+ * GPU, no display): each sphere is one instanced screen-aligned quad whose fragment shader discards the corners,
+ * shades the sphere with a headlight and writes the sphere's depth, so 1e6 spheres cost 1e6 quads.  The
+ * projection is orthographic and framed automatically from the bounding box; colours come from viridis; Cairo
+ * draws the colour bar and the labels over the OSMesa buffer (an OSMESA_BGRA buffer is a Cairo ARGB32 surface)
+ * and writes the PNG.  The same input gives the same bytes on the same machine.
+ *
+ * 2-D: Cairo plots (PNG and SVG) with axes, ticks, units and legends.
+ *
+ * The run: render_run_dir() draws whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into RUN_DIR/figures/
+ * and writes RUN_DIR/report.html.  All inputs are SI; figures show convenient multiples (um, ns, ms). */
+#ifndef SPRAYCOAT_RENDER_H
+#define SPRAYCOAT_RENDER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/config.h"
+
+/* ---- colour map -------------------------------------------------------------------------------------------- */
+
+/* viridis (van der Walt & Smith, matplotlib's 256-entry table, CC0): rgb in [0, 1] for t in [0, 1] (clamped), by
+ * linear interpolation between the table's entries. */
+#define RENDER_VIRIDIS_SIZE 256
+void render_viridis(double t, double rgb[3]);
+/* Entry i of the table (0 <= i < RENDER_VIRIDIS_SIZE). */
+void render_viridis_entry(int i, double rgb[3]);
+
+/* ---- images ------------------------------------------------------------------------------------------------ */
+
+/* Pixels 0xAARRGGBB (Cairo ARGB32, opaque), row 0 at the top, `stride` bytes per row. */
+struct render_image {
+    int width, height, stride;
+    uint32_t *pixels;
+};
+static inline uint32_t render_pixel(const struct render_image *im, int x, int y)
+{
+    return im->pixels[(size_t)y * (size_t)(im->stride / 4) + (size_t)x];
+}
+/* The background of 3-D scenes and plots. */
+#define RENDER_BACKGROUND 0xFFFFFFFFu
+
+/* ---- 3-D scenes of spheres --------------------------------------------------------------------------------- */
+
+enum render_view {
+    RENDER_VIEW_ISO,     /* from (+x, -y, +z), z up */
+    RENDER_VIEW_SECTION, /* the half y >= section_y seen from -y: the cut through the impact axis, z up */
+    RENDER_VIEW_TOP,     /* from +z looking down, x right, y up */
+    RENDER_VIEW_SIDE,    /* from -y, x right, z up (the spray plume) */
+    RENDER_VIEW_FACING,  /* from -z looking along +z (the deposit seen from the nozzle), x right, y down */
+};
+
+struct render_spheres {
+    size_t count;
+    const double *x;      /* centres, 3 per sphere (m) */
+    const double *radius; /* per sphere (m), or NULL for common_radius */
+    double common_radius; /* m */
+    const double *value;  /* the coloured field, one per sphere */
+};
+
+struct render_scene {
+    enum render_view view;
+    int width, height;       /* px */
+    double vmin, vmax;       /* colour range: vmin -> viridis(0), vmax -> viridis(1) */
+    const char *field_label; /* colour bar title, e.g. "effective plastic strain" */
+    const char *unit;        /* e.g. "K", "-" */
+    const char *caption;     /* top-left label, e.g. "t = 12.0 ns" (NULL: none) */
+    double section_y;        /* RENDER_VIEW_SECTION: the cut plane y = section_y (m) */
+    double min_pixel_radius; /* spheres are drawn at least this big (px), so that far views show something */
+};
+
+/* Orthographic camera: pixel (px, py) from the top-left corner of the image of a point x. */
+struct render_camera {
+    double right[3], up[3], toward[3]; /* unit vectors; toward points from the scene to the viewer */
+    double center[3];                  /* the point at (px0, py0) */
+    double pixels_per_metre, px0, py0;
+    double depth_half;                 /* half the depth range (m) */
+};
+
+/* The pixel box of the colour bar (x, y from the top-left) and of the region the scene is framed into. */
+struct render_box {
+    double x, y, width, height;
+};
+struct render_box render_colorbar_box(const struct render_scene *scene);
+struct render_box render_scene_box(const struct render_scene *scene);
+
+/* Frame the camera on the bounding box of the spheres the view shows (for SECTION those with y >= section_y). */
+int render_camera_frame(const struct render_spheres *s, const struct render_scene *scene, struct render_camera *cam);
+void render_camera_project(const struct render_camera *cam, const double x[3], double *px, double *py);
+/* 1 when the view shows sphere i (SECTION hides the half y < section_y). */
+int render_view_shows(const struct render_scene *scene, const double x[3]);
+
+/* An OSMesa context with its buffer, reused from frame to frame. */
+struct render_renderer;
+int render_renderer_create(int width, int height, struct render_renderer **out);
+void render_renderer_destroy(struct render_renderer *r);
+/* Draw the spheres, the colour bar and the caption.  *image points into the renderer's buffer and stays valid
+ * until the next draw.  cam (may be NULL) receives the camera used. */
+int render_spheres_draw(struct render_renderer *r, const struct render_spheres *s, const struct render_scene *scene,
+                        struct render_camera *cam, const struct render_image **image);
+int render_image_write_png(const struct render_image *image, const char *path);
+
+/* ---- 2-D plots --------------------------------------------------------------------------------------------- */
+
+struct render_histogram {
+    int bins;
+    double lo, hi;     /* edges: lo + i (hi - lo) / bins */
+    int64_t *counts;   /* bins entries, values in [lo, hi) (hi itself in the last bin) */
+    int64_t total;     /* values counted (sum of counts) */
+    int64_t outside;   /* values outside [lo, hi] or not finite */
+};
+/* Bin n values into `bins` bins over [lo, hi]; lo >= hi: the range of the finite values.  SC_ESIM when out of
+ * memory. */
+int render_histogram_fill(const double *values, size_t n, int bins, double lo, double hi, struct render_histogram *h);
+void render_histogram_free(struct render_histogram *h);
+
+enum render_series_kind { RENDER_LINE, RENDER_DASHED, RENDER_MARKERS, RENDER_OPEN_MARKERS, RENDER_BARS };
+struct render_series {
+    const char *label;            /* legend text (NULL: not in the legend) */
+    enum render_series_kind kind;
+    size_t count;
+    const double *x, *y;          /* RENDER_BARS: x = left edges, y = heights, each bar bar_width wide */
+    double bar_width;
+    int colour;                   /* index into the palette (colour-blind safe, Okabe & Ito) */
+};
+struct render_panel {
+    const char *title, *xlabel, *ylabel;
+    double xmin, xmax, ymin, ymax; /* NAN: from the data */
+    int y_from_zero;              /* the automatic y range includes 0 */
+    int series_count;
+    const struct render_series *series;
+};
+struct render_plot {
+    int width, height;            /* px (PNG) and pt (SVG) */
+    int panel_count;              /* 1 or 2 (side by side) */
+    struct render_panel panels[2];
+};
+/* Write DIR/NAME.png and DIR/NAME.svg.  SC_EIO on failure. */
+int render_plot_write(const struct render_plot *plot, const char *dir, const char *name);
+
+/* ---- the render stage -------------------------------------------------------------------------------------- */
+
+/* The keys of [render] (NULL-key terminated). */
+extern const struct cfg_key render_case_keys[];
+
+enum render_field { RENDER_EPS_P, RENDER_T, RENDER_D_BOND, RENDER_SPEED };
+
+struct render_config {
+    enum render_field field;
+    enum render_view view;        /* of the frame sequence */
+    int width, height, plot_width, plot_height;
+    long every;                   /* frames: every Nth snapshot (and the last); 0: none */
+    double range_min, range_max;  /* NAN: automatic (over the snapshots drawn) */
+    double point_radius;          /* NAN: half the [impact] spacing of the run */
+    int deposit_by_speed;         /* deposit colours: 0 diameter, 1 impact speed */
+    int bins;
+    double section_y;
+};
+/* Resolve [render]; SC_EINPUT with the standard message. */
+int render_config_load(const struct case_file *c, struct render_config *cfg);
+
+/* One row of the report's case summary. */
+struct render_case_row {
+    const char *section, *key, *value, *unit;
+};
+
+/* What render_run_dir drew: one entry per figure, with the data of the histograms, for checks. */
+struct render_figure {
+    char name[64];             /* file name without extension, in RUN_DIR/figures/ */
+    char title[160];
+    char group[32];            /* "spray", "impact", "vcrit", "frames" */
+    int is_plot;               /* 1: .png and .svg; 0: .png only (3-D render) */
+    struct render_histogram histogram; /* bins == 0 when not a histogram */
+};
+struct render_output {
+    int count, capacity;
+    struct render_figure *figures;
+    int frames;                /* frame-sequence PNGs written (not listed in figures) */
+};
+void render_output_free(struct render_output *out);
+/* The figure named `name`, or NULL. */
+const struct render_figure *render_output_find(const struct render_output *out, const char *name);
+
+struct render_request {
+    const char *run_dir;
+    const struct render_config *cfg;
+    const struct case_file *c;          /* for [powder] (the Weibull law) and the summary */
+    const struct render_case_row *rows; /* case summary for the report */
+    int row_count;
+    uint64_t case_hash;
+};
+/* Draw every figure the outputs in run_dir allow, then RUN_DIR/report.html.  SC_EIO when run_dir holds none of
+ * spray.h5, impact.h5, vcrit.h5, or when one is malformed (the message names it); SC_EINPUT for a bad request. */
+int render_run_dir(const struct render_request *req, struct render_output *out);
+
+#endif

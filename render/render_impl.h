@@ -1,0 +1,60 @@
+/* Module-private (render/): Cairo helpers shared by the overlay of 3-D pictures and the plots, the readers of
+ * the run's files, and the figure builders. */
+#ifndef SPRAYCOAT_RENDER_IMPL_H
+#define SPRAYCOAT_RENDER_IMPL_H
+
+#include <cairo.h>
+#include <hdf5.h>
+
+#include "render/render.h"
+
+/* The colour bar (with field name, unit and range) and the caption, drawn by Cairo over the image. */
+int render_overlay_scene(struct render_image *image, const struct render_scene *scene);
+
+/* Text: the font every picture uses (sans-serif) at `size` px; anchor_x and anchor_y in [0, 1] place the text's
+ * box relative to (x, y): 0 left/top, 0.5 centre, 1 right/bottom. */
+void render_text(cairo_t *cr, double x, double y, double size, double anchor_x, double anchor_y, const char *text);
+double render_text_width(cairo_t *cr, double size, const char *text);
+/* Tick values at "nice" steps (1, 2, 5 x 10^k) inside [lo, hi]: at most max_ticks, into ticks[]; returns the
+ * count and the step in *step. */
+int render_nice_ticks(double lo, double hi, int max_ticks, double *ticks, double *step);
+/* A tick label: %g with as many digits as the step needs. */
+void render_format_tick(double value, double step, char *out, size_t size);
+/* Palette colour i (Okabe & Ito). */
+void render_palette(int i, double rgb[3]);
+
+/* ---- reading the run's files ---- */
+
+/* A 1-D or 2-D double dataset read whole: values (count) and its first dimension (rows) and width (count/rows).
+ * SC_EIO naming file and dataset when absent or unreadable. */
+struct render_array {
+    double *values;
+    size_t count, rows, width;
+};
+int render_read_array(hid_t loc, const char *file, const char *name, struct render_array *out);
+void render_array_free(struct render_array *a);
+/* Open an HDF5 file of the run; SC_EIO "RUN_DIR/NAME is not a readable HDF5 file" when malformed. */
+int render_open(const char *path, hid_t *file);
+
+/* ---- building the output ---- */
+
+/* Append a figure entry (name, title, group); returns it, or NULL when out of memory. */
+struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group,
+                                        int is_plot, const char *title);
+/* The plot sizes of the request. */
+struct render_plot render_plot_start(const struct render_config *cfg, int panels);
+/* RUN_DIR/figures */
+void render_figures_dir(const char *run_dir, char *out, size_t size);
+
+int render_spray_figures(const struct render_request *req, struct render_renderer **renderer,
+                         struct render_output *out);
+int render_impact_figures(const struct render_request *req, struct render_renderer **renderer,
+                          struct render_output *out);
+int render_vcrit_figures(const struct render_request *req, struct render_output *out);
+/* Lazily create the renderer of the request's size. */
+int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
+
+/* The results table rows and the page. */
+int render_write_report(const struct render_request *req, const struct render_output *out);
+
+#endif

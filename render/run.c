@@ -1,0 +1,112 @@
+/* render_run_dir: every figure the run's outputs allow, then the report. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "render/render_impl.h"
+
+struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group,
+                                        int is_plot, const char *title)
+{
+    if (out->count == out->capacity) {
+        int capacity = out->capacity ? 2 * out->capacity : 16;
+        struct render_figure *grown = realloc(out->figures, (size_t)capacity * sizeof *grown);
+        if (!grown)
+            return NULL;
+        out->figures = grown;
+        out->capacity = capacity;
+    }
+    struct render_figure *fig = &out->figures[out->count++];
+    memset(fig, 0, sizeof *fig);
+    snprintf(fig->name, sizeof fig->name, "%s", name);
+    snprintf(fig->group, sizeof fig->group, "%s", group);
+    snprintf(fig->title, sizeof fig->title, "%s", title);
+    fig->is_plot = is_plot;
+    return fig;
+}
+
+void render_output_free(struct render_output *out)
+{
+    for (int i = 0; i < out->count; i++)
+        render_histogram_free(&out->figures[i].histogram);
+    free(out->figures);
+    memset(out, 0, sizeof *out);
+}
+
+const struct render_figure *render_output_find(const struct render_output *out, const char *name)
+{
+    for (int i = 0; i < out->count; i++)
+        if (strcmp(out->figures[i].name, name) == 0)
+            return &out->figures[i];
+    return NULL;
+}
+
+struct render_plot render_plot_start(const struct render_config *cfg, int panels)
+{
+    struct render_plot plot;
+    memset(&plot, 0, sizeof plot);
+    plot.width = cfg->plot_width;
+    plot.height = cfg->plot_height;
+    plot.panel_count = panels;
+    return plot;
+}
+
+void render_figures_dir(const char *run_dir, char *out, size_t size) { snprintf(out, size, "%s/figures", run_dir); }
+
+int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer)
+{
+    if (!*renderer)
+        SC_TRY(render_renderer_create(cfg->width, cfg->height, renderer));
+    return SC_OK;
+}
+
+static int make_folder(const char *path)
+{
+    if (mkdir(path, 0777) != 0 && errno != EEXIST)
+        SC_FAIL(SC_EIO, "render: cannot create folder %s: %s", path, strerror(errno));
+    return SC_OK;
+}
+
+static int exists(const char *run_dir, const char *name)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", run_dir, name);
+    return access(path, F_OK) == 0;
+}
+
+static int draw_all(const struct render_request *req, struct render_output *out)
+{
+    struct render_renderer *renderer = NULL;
+    int status = SC_OK;
+    if (exists(req->run_dir, "spray.h5"))
+        status = render_spray_figures(req, &renderer, out);
+    if (status == SC_OK && exists(req->run_dir, "impact.h5"))
+        status = render_impact_figures(req, &renderer, out);
+    if (status == SC_OK && exists(req->run_dir, "vcrit.h5"))
+        status = render_vcrit_figures(req, out);
+    render_renderer_destroy(renderer);
+    return status;
+}
+
+int render_run_dir(const struct render_request *req, struct render_output *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!exists(req->run_dir, "spray.h5") && !exists(req->run_dir, "impact.h5") && !exists(req->run_dir, "vcrit.h5"))
+        SC_FAIL(SC_EIO, "render: %s holds no output to draw (spray.h5, impact.h5 or vcrit.h5); run a stage first",
+                req->run_dir);
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    SC_TRY(make_folder(dir));
+    int status = draw_all(req, out);
+    if (status == SC_OK)
+        status = render_write_report(req, out);
+    if (status == SC_OK)
+        log_info("render: %d figures and %d frames in %s, report %s/report.html", out->count, out->frames, dir,
+                 req->run_dir);
+    return status;
+}

@@ -1,0 +1,340 @@
+/* Figures of the spray stage (RUN_DIR/spray.h5): powder sizes with the Weibull law (paper Fig. 4), impact speed
+ * and angle at the target, speed vs diameter, deposit metrics vs time (Figs. 7, 9), the deposit seen from the
+ * nozzle (Fig. 10) and the plume from the side (Figs. 5, 8). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "render/render_impl.h"
+
+struct spray_data {
+    char path[4200];
+    struct render_array d, x, v, state;                               /* /particles */
+    struct render_array hit_d, hit_v, hit_outcome, hit_partner, hit_id; /* /impacts */
+    struct render_array t, deposit_fraction, volume_fraction, spread, scatter, thickness; /* /metrics */
+    struct render_array id;
+};
+
+static void spray_data_free(struct spray_data *s)
+{
+    struct render_array *all[] = {&s->d, &s->x, &s->v, &s->state, &s->hit_d, &s->hit_v, &s->hit_outcome,
+                                  &s->hit_partner, &s->hit_id, &s->t, &s->deposit_fraction, &s->volume_fraction,
+                                  &s->spread, &s->scatter, &s->thickness, &s->id};
+    for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
+        render_array_free(all[i]);
+}
+
+static int spray_data_read(hid_t f, struct spray_data *s)
+{
+    const char *p = s->path;
+    SC_TRY(render_read_array(f, p, "particles/d", &s->d));
+    SC_TRY(render_read_array(f, p, "particles/x", &s->x));
+    SC_TRY(render_read_array(f, p, "particles/v", &s->v));
+    SC_TRY(render_read_array(f, p, "particles/state", &s->state));
+    SC_TRY(render_read_array(f, p, "particles/id", &s->id));
+    SC_TRY(render_read_array(f, p, "impacts/d", &s->hit_d));
+    SC_TRY(render_read_array(f, p, "impacts/v_in", &s->hit_v));
+    SC_TRY(render_read_array(f, p, "impacts/outcome", &s->hit_outcome));
+    SC_TRY(render_read_array(f, p, "impacts/partner", &s->hit_partner));
+    SC_TRY(render_read_array(f, p, "impacts/particle_id", &s->hit_id));
+    SC_TRY(render_read_array(f, p, "metrics/t", &s->t));
+    SC_TRY(render_read_array(f, p, "metrics/deposit_fraction", &s->deposit_fraction));
+    SC_TRY(render_read_array(f, p, "metrics/volume_fraction", &s->volume_fraction));
+    SC_TRY(render_read_array(f, p, "metrics/mean_spread", &s->spread));
+    SC_TRY(render_read_array(f, p, "metrics/scatter", &s->scatter));
+    SC_TRY(render_read_array(f, p, "metrics/max_thickness", &s->thickness));
+    size_t n = s->d.count;
+    if (s->x.count != 3 * n || s->v.count != 3 * n || s->state.count != n || s->id.count != n)
+        SC_FAIL(SC_EIO, "render: %s: /particles datasets of different lengths", p);
+    size_t m = s->hit_d.count;
+    if (s->hit_v.count != 3 * m || s->hit_outcome.count != m || s->hit_partner.count != m || s->hit_id.count != m)
+        SC_FAIL(SC_EIO, "render: %s: /impacts datasets of different lengths", p);
+    return SC_OK;
+}
+
+static double norm3(const double *v) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+/* Truncated Weibull density (Eqs. 36-37: lambda = D_median / ln(2)^(1/n)) per metre, 0 outside [d_min, d_max]. */
+static double weibull_density(double d, double median, double shape, double d_min, double d_max)
+{
+    double lambda = median / pow(log(2.0), 1.0 / shape);
+    double lo = d_min > 0 ? 1 - exp(-pow(d_min / lambda, shape)) : 0;
+    double hi = d_max > 0 ? 1 - exp(-pow(d_max / lambda, shape)) : 1;
+    if (d < d_min || (d_max > 0 && d > d_max) || !(hi > lo))
+        return 0;
+    double u = d / lambda;
+    return shape / lambda * pow(u, shape - 1) * exp(-pow(u, shape)) / (hi - lo);
+}
+
+/* Bars of a histogram whose values were scaled by `scale` (m -> um). */
+static struct render_series histogram_bars(const struct render_histogram *h, double *edges, double *heights,
+                                           const char *label)
+{
+    double width = (h->hi - h->lo) / h->bins;
+    for (int i = 0; i < h->bins; i++) {
+        edges[i] = h->lo + i * width;
+        heights[i] = (double)h->counts[i];
+    }
+    return (struct render_series){label, RENDER_BARS, (size_t)h->bins, edges, heights, width, 0};
+}
+
+static int write_histogram(const struct render_request *req, struct render_output *out, const char *name,
+                           const char *title, const char *xlabel, const double *values, size_t n,
+                           const struct render_series *extra)
+{
+    struct render_figure *fig = render_output_add(out, name, "spray", 1, title);
+    if (!fig)
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    SC_TRY(render_histogram_fill(values, n, req->cfg->bins, 0, 0, &fig->histogram));
+    double *buffer = malloc(2 * (size_t)req->cfg->bins * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    struct render_series series[2];
+    char label[64];
+    snprintf(label, sizeof label, "%lld values", (long long)fig->histogram.total);
+    series[0] = histogram_bars(&fig->histogram, buffer, buffer + req->cfg->bins, label);
+    if (extra)
+        series[1] = *extra;
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){title, xlabel, "count", NAN, NAN, NAN, NAN, 1, extra ? 2 : 1, series};
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    int status = render_plot_write(&plot, dir, name);
+    free(buffer);
+    return status;
+}
+
+/* Diameters of the particles of the final state (um), with the expected counts of the case's Weibull law. */
+static int diameter_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
+{
+    size_t n = s->d.count;
+    double *um = malloc((n + 1) * sizeof *um);
+    enum { CURVE = 200 };
+    double cx[CURVE], cy[CURVE];
+    if (!um)
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    for (size_t i = 0; i < n; i++)
+        um[i] = s->d.values[i] * 1e6;
+    struct render_series curve = {NULL, RENDER_LINE, 0, cx, cy, 0, 1};
+    int weibull = case_is(req->c, "powder", "distribution", "weibull");
+    struct render_histogram h;
+    int status = render_histogram_fill(um, n, req->cfg->bins, 0, 0, &h);
+    if (status == SC_OK && weibull) {
+        double median = case_real(req->c, "powder", "median_diameter"), shape = case_real(req->c, "powder", "shape");
+        double d_min = case_real(req->c, "powder", "d_min"), d_max = case_real(req->c, "powder", "d_max");
+        double width_m = (h.hi - h.lo) / h.bins * 1e-6;
+        for (int i = 0; i < CURVE; i++) {
+            double d = (h.lo + (h.hi - h.lo) * i / (CURVE - 1)) * 1e-6;
+            cx[i] = d * 1e6;
+            cy[i] = (double)h.total * width_m * weibull_density(d, median, shape, d_min, d_max);
+        }
+        curve.count = CURVE;
+        curve.label = "Weibull law of [powder] x count x bin width";
+    }
+    render_histogram_free(&h);
+    if (status == SC_OK)
+        status = write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)",
+                                 um, n, weibull ? &curve : NULL);
+    free(um);
+    return status;
+}
+
+/* Contacts with the target itself (partner -1): speed (m/s) and angle from the normal (deg). */
+static int impact_figures(const struct render_request *req, const struct spray_data *s, struct render_output *out)
+{
+    size_t m = s->hit_d.count, k = 0;
+    double *buffer = malloc((4 * m + 1) * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    double *speed = buffer, *angle = buffer + m, *d_dep = buffer + 2 * m, *d_reb = buffer + 3 * m;
+    for (size_t i = 0; i < m; i++) {
+        if (s->hit_partner.values[i] != -1)
+            continue;
+        const double *v = s->hit_v.values + 3 * i;
+        speed[k] = norm3(v);
+        angle[k] = speed[k] > 0 ? acos(fmin(1, fabs(v[2]) / speed[k])) * 180 / M_PI : 0;
+        k++;
+    }
+    int status = write_histogram(req, out, "spray_impact_speed", "Impact speed at the target",
+                                 "impact speed |v_in| (m/s)", speed, k, NULL);
+    if (status == SC_OK)
+        status = write_histogram(req, out, "spray_impact_angle", "Impact angle at the target",
+                                 "angle from the target normal (deg)", angle, k, NULL);
+    /* speed vs diameter, deposited and rebounded apart: [deposition] decides by these two numbers */
+    size_t nd = 0, nr = 0;
+    double *s_dep = malloc((2 * m + 1) * sizeof *s_dep), *s_reb = s_dep ? s_dep + m : NULL;
+    if (status == SC_OK && !s_dep)
+        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
+    for (size_t i = 0, j = 0; status == SC_OK && i < m; i++) {
+        if (s->hit_partner.values[i] != -1)
+            continue;
+        int deposited = s->hit_outcome.values[i] == 1;
+        (deposited ? d_dep : d_reb)[deposited ? nd : nr] = s->hit_d.values[i] * 1e6;
+        (deposited ? s_dep : s_reb)[deposited ? nd++ : nr++] = speed[j++];
+    }
+    if (status == SC_OK) {
+        struct render_series series[2] = {{"deposited", RENDER_MARKERS, nd, d_dep, s_dep, 0, 2},
+                                          {"rebounded", RENDER_OPEN_MARKERS, nr, d_reb, s_reb, 0, 1}};
+        struct render_plot plot = render_plot_start(req->cfg, 1);
+        plot.panels[0] = (struct render_panel){"Impact speed vs diameter at the target", "diameter d (µm)",
+                                               "impact speed |v_in| (m/s)", NAN, NAN, NAN, NAN, 1, 2, series};
+        char dir[4200];
+        render_figures_dir(req->run_dir, dir, sizeof dir);
+        status = render_output_add(out, "spray_speed_diameter", "spray", 1, plot.panels[0].title)
+                     ? render_plot_write(&plot, dir, "spray_speed_diameter")
+                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
+    }
+    free(s_dep);
+    free(buffer);
+    return status;
+}
+
+static int metrics_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
+{
+    size_t n = s->t.count;
+    double *buffer = malloc((4 * n + 1) * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    double *ms = buffer, *spread = buffer + n, *scatter = buffer + 2 * n, *thickness = buffer + 3 * n;
+    for (size_t i = 0; i < n; i++) {
+        ms[i] = s->t.values[i] * 1e3;
+        spread[i] = s->spread.values[i] * 1e3;
+        scatter[i] = s->scatter.values[i] * 1e3;
+        thickness[i] = s->thickness.values[i] * 1e3;
+    }
+    struct render_series fractions[2] = {{"deposit fraction", RENDER_LINE, n, ms, s->deposit_fraction.values, 0, 0},
+                                         {"volume fraction", RENDER_DASHED, n, ms, s->volume_fraction.values, 0, 1}};
+    struct render_series lengths[3] = {{"mean spread", RENDER_LINE, n, ms, spread, 0, 0},
+                                       {"scatter", RENDER_DASHED, n, ms, scatter, 0, 1},
+                                       {"max thickness", RENDER_LINE, n, ms, thickness, 0, 2}};
+    struct render_plot plot = render_plot_start(req->cfg, 2);
+    plot.width *= 2;
+    plot.panels[0] = (struct render_panel){"Deposit fractions", "time t (ms)", "fraction (-)", NAN, NAN, 0, NAN, 1, 2,
+                                           fractions};
+    plot.panels[1] = (struct render_panel){"Deposit extent", "time t (ms)", "length (mm)", NAN, NAN, NAN, NAN, 1, 3,
+                                           lengths};
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    int status = render_output_add(out, "spray_metrics", "spray", 1, "Deposit metrics vs time")
+                     ? render_plot_write(&plot, dir, "spray_metrics")
+                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
+    free(buffer);
+    return status;
+}
+
+/* Impact speed of each particle's deposition contact, by particle id (NAN when none). */
+static double *deposition_speeds(const struct spray_data *s)
+{
+    double max_id = 0;
+    for (size_t i = 0; i < s->id.count; i++)
+        max_id = fmax(max_id, s->id.values[i]);
+    for (size_t i = 0; i < s->hit_id.count; i++)
+        max_id = fmax(max_id, s->hit_id.values[i]);
+    size_t count = (size_t)max_id + 1;
+    double *speed = malloc(count * sizeof *speed);
+    if (!speed)
+        return NULL;
+    for (size_t i = 0; i < count; i++)
+        speed[i] = NAN;
+    for (size_t i = 0; i < s->hit_id.count; i++)
+        if (s->hit_outcome.values[i] == 1 && s->hit_id.values[i] >= 0)
+            speed[(size_t)s->hit_id.values[i]] = norm3(s->hit_v.values + 3 * i);
+    return speed;
+}
+
+static void value_range(const double *v, size_t n, double *lo, double *hi)
+{
+    *lo = INFINITY, *hi = -INFINITY;
+    for (size_t i = 0; i < n; i++)
+        if (isfinite(v[i]))
+            *lo = fmin(*lo, v[i]), *hi = fmax(*hi, v[i]);
+    if (!(*lo <= *hi))
+        *lo = 0, *hi = 1;
+}
+
+static int draw_scene(const struct render_request *req, struct render_renderer **renderer, struct render_output *out,
+                      const struct render_spheres *spheres, struct render_scene *scene, const char *name,
+                      const char *title)
+{
+    SC_TRY(render_renderer_get(req->cfg, renderer));
+    value_range(spheres->value, spheres->count, &scene->vmin, &scene->vmax);
+    const struct render_image *image;
+    SC_TRY(render_spheres_draw(*renderer, spheres, scene, NULL, &image));
+    char path[4300];
+    render_figures_dir(req->run_dir, path, sizeof path);
+    snprintf(path + strlen(path), sizeof path - strlen(path), "/%s.png", name);
+    SC_TRY(render_image_write_png(image, path));
+    if (!render_output_add(out, name, "spray", 0, title))
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    return SC_OK;
+}
+
+/* The deposit seen from the nozzle and the plume from the side, particles as spheres of their diameter. */
+static int particle_pictures(const struct render_request *req, struct render_renderer **renderer,
+                             const struct spray_data *s, struct render_output *out)
+{
+    size_t n = s->d.count, k = 0;
+    double *buffer = malloc((6 * n + 1) * sizeof *buffer), *speed_by_id = deposition_speeds(s);
+    if (!buffer || !speed_by_id) {
+        free(buffer), free(speed_by_id);
+        SC_FAIL(SC_ESIM, "render: out of memory");
+    }
+    double *x = buffer, *radius = buffer + 3 * n, *value = buffer + 4 * n, *speed = buffer + 5 * n;
+    for (size_t i = 0; i < n; i++) {
+        speed[i] = norm3(s->v.values + 3 * i);
+        if (s->state.values[i] != 1)
+            continue;
+        memcpy(x + 3 * k, s->x.values + 3 * i, 3 * sizeof *x);
+        radius[k] = 0.5 * s->d.values[i];
+        value[k++] = req->cfg->deposit_by_speed ? speed_by_id[(size_t)s->id.values[i]] : s->d.values[i] * 1e6;
+    }
+    struct render_spheres deposit = {k, x, radius, 0, value};
+    struct render_scene scene = {RENDER_VIEW_FACING, req->cfg->width, req->cfg->height, 0, 1,
+                                 req->cfg->deposit_by_speed ? "impact speed" : "diameter",
+                                 req->cfg->deposit_by_speed ? "m/s" : "µm", NULL, 0, 2.0};
+    char caption[96];
+    snprintf(caption, sizeof caption, "deposit seen from the nozzle: %zu particles", k);
+    scene.caption = caption;
+    int status = draw_scene(req, renderer, out, &deposit, &scene, "spray_deposit", "Deposit on the target");
+    /* the radius of the plume picture: every particle, half its diameter */
+    for (size_t i = 0; i < n; i++)
+        radius[i] = 0.5 * s->d.values[i];
+    struct render_spheres plume = {n, s->x.values, radius, 0, speed};
+    struct render_scene side = {RENDER_VIEW_SIDE, req->cfg->width, req->cfg->height, 0, 1, "speed", "m/s", NULL, 0,
+                                2.0};
+    snprintf(caption, sizeof caption, "final state from the side: %zu particles (nozzle at z = 0)", n);
+    side.caption = caption;
+    if (status == SC_OK)
+        status = draw_scene(req, renderer, out, &plume, &side, "spray_plume", "Particles of the final state");
+    free(buffer);
+    free(speed_by_id);
+    return status;
+}
+
+int render_spray_figures(const struct render_request *req, struct render_renderer **renderer,
+                         struct render_output *out)
+{
+    struct spray_data s;
+    memset(&s, 0, sizeof s);
+    snprintf(s.path, sizeof s.path, "%s/spray.h5", req->run_dir);
+    hid_t file;
+    SC_TRY(render_open(s.path, &file));
+    int status = spray_data_read(file, &s);
+    H5Fclose(file);
+    if (status == SC_OK)
+        status = diameter_figure(req, &s, out);
+    if (status == SC_OK)
+        status = impact_figures(req, &s, out);
+    if (status == SC_OK)
+        status = metrics_figure(req, &s, out);
+    if (status == SC_OK)
+        status = particle_pictures(req, renderer, &s, out);
+    spray_data_free(&s);
+    if (status == SC_OK)
+        log_info("render: spray figures from %s", s.path);
+    return status;
+}

@@ -1,0 +1,138 @@
+/* The critical-velocity figure (RUN_DIR/vcrit.h5): v_crit vs diameter, every run of the search, and the thesis's
+ * predictions for comparison. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "render/render_impl.h"
+
+/* Tang (2021), Table 5.4: predicted critical velocities of Al on Al (grid 1.5/0.5). */
+static const double tang_diameter_um[] = {14, 18, 22, 26, 30};
+static const double tang_vcrit[] = {824, 809, 791, 776, 761};
+
+struct search_runs {
+    size_t count, capacity;
+    double *d, *v;   /* um, m/s */
+    int *bonded;
+};
+
+static int add_run(struct search_runs *r, double d, double v, int bonded)
+{
+    if (r->count == r->capacity) {
+        size_t capacity = r->capacity ? 2 * r->capacity : 64;
+        double *d2 = realloc(r->d, capacity * sizeof *d2);
+        if (d2)
+            r->d = d2;
+        double *v2 = realloc(r->v, capacity * sizeof *v2);
+        if (v2)
+            r->v = v2;
+        int *b2 = realloc(r->bonded, capacity * sizeof *b2);
+        if (b2)
+            r->bonded = b2;
+        if (!d2 || !v2 || !b2)
+            SC_FAIL(SC_ESIM, "out of memory");
+        r->capacity = capacity;
+    }
+    r->d[r->count] = d, r->v[r->count] = v, r->bonded[r->count++] = bonded;
+    return SC_OK;
+}
+
+static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t *info, void *data)
+{
+    (void)info;
+    struct search_runs *runs = data;
+    hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
+    double d;
+    struct render_array v, bonded;
+    memset(&v, 0, sizeof v), memset(&bonded, 0, sizeof bonded);
+    int status = g < 0 ? SC_EIO : h5_attr_read_double(g, "diameter", &d);
+    if (status == SC_OK)
+        status = render_read_array(g, "vcrit.h5", "velocity", &v);
+    if (status == SC_OK)
+        status = render_read_array(g, "vcrit.h5", "bonded", &bonded);
+    for (size_t i = 0; status == SC_OK && i < v.count && i < bonded.count; i++)
+        status = add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1);
+    render_array_free(&v), render_array_free(&bonded);
+    if (g >= 0)
+        H5Gclose(g);
+    return status == SC_OK ? 0 : -1;
+}
+
+static int read_search(hid_t file, const char *path, struct search_runs *runs)
+{
+    if (!h5_exists(file, "search"))
+        return SC_OK;
+    hid_t g = H5Gopen2(file, "search", H5P_DEFAULT);
+    herr_t ok = g < 0 ? -1 : H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, NULL, read_search_group, runs);
+    if (g >= 0)
+        H5Gclose(g);
+    if (ok < 0)
+        SC_FAIL(SC_EIO, "render: %s: cannot read the runs in /search", path);
+    return SC_OK;
+}
+
+static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
+                      const struct search_runs *runs, struct render_output *out)
+{
+    size_t n = d->count, m = runs->count, nb = 0, nr = 0;
+    double *buffer = malloc((n + 4 * m + 1) * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL(SC_ESIM, "out of memory");
+    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m;
+    for (size_t i = 0; i < n; i++)
+        d_um[i] = d->values[i] * 1e6;
+    for (size_t i = 0; i < m; i++) {
+        if (runs->bonded[i])
+            bd[nb] = runs->d[i], bv[nb++] = runs->v[i];
+        else
+            rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
+    }
+    struct render_series series[] = {
+        {"v_crit (this run)", RENDER_LINE, n, d_um, v->values, 0, 0},
+        {NULL, RENDER_MARKERS, n, d_um, v->values, 0, 0},
+        {"Tang (2021) Table 5.4", RENDER_OPEN_MARKERS, 5, tang_diameter_um, tang_vcrit, 0, 1},
+        {"runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
+        {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
+    };
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter", "diameter d (µm)",
+                                           "critical velocity v_crit (m/s)", NAN, NAN, NAN, NAN, 0, 5, series};
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    int status = render_output_add(out, "vcrit", "vcrit", 1, plot.panels[0].title)
+                     ? render_plot_write(&plot, dir, "vcrit")
+                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    free(buffer);
+    return status;
+}
+
+int render_vcrit_figures(const struct render_request *req, struct render_output *out)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/vcrit.h5", req->run_dir);
+    hid_t file;
+    SC_TRY(render_open(path, &file));
+    struct render_array d, v;
+    struct search_runs runs = {0};
+    memset(&d, 0, sizeof d), memset(&v, 0, sizeof v);
+    int status = render_read_array(file, path, "diameter", &d);
+    if (status == SC_OK)
+        status = render_read_array(file, path, "v_crit", &v);
+    if (status == SC_OK && v.count != d.count)
+        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s: /diameter and /v_crit of different lengths",
+                              path);
+    if (status == SC_OK)
+        status = read_search(file, path, &runs);
+    H5Fclose(file);
+    if (status == SC_OK)
+        status = vcrit_plot(req, &d, &v, &runs, out);
+    render_array_free(&d), render_array_free(&v);
+    free(runs.d), free(runs.v), free(runs.bonded);
+    if (status == SC_OK)
+        log_info("render: vcrit figure from %s", path);
+    return status;
+}
