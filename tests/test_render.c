@@ -1,0 +1,223 @@
+/* render/: the viridis table, and synthetic scenes with known field gradients drawn by OSMesa: the colour at each
+ * sphere's projected centre is the colour map's colour for its value, the background is the background, the
+ * colour bar is where render_colorbar_box says and runs from viridis(0) at the bottom to viridis(1) at the top,
+ * the section view shows the cut face, and the same input gives the same pixels. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "core/error.h"
+#include "render/render.h"
+
+#define WIDTH 640
+#define HEIGHT 360
+
+static void channels(uint32_t pixel, int rgb[3])
+{
+    rgb[0] = (int)((pixel >> 16) & 255), rgb[1] = (int)((pixel >> 8) & 255), rgb[2] = (int)(pixel & 255);
+}
+
+/* The largest channel difference between a pixel and a colour in [0, 1]. */
+static int colour_error(uint32_t pixel, const double rgb[3])
+{
+    int c[3], worst = 0;
+    channels(pixel, c);
+    for (int k = 0; k < 3; k++) {
+        int d = abs(c[k] - (int)lround(255 * rgb[k]));
+        worst = d > worst ? d : worst;
+    }
+    return worst;
+}
+
+/* matplotlib's published entries 0, 128 and 255 */
+static void test_viridis_table(void)
+{
+    static const double expected[3][3] = {{0.267004, 0.004874, 0.329415}, {0.127568, 0.566949, 0.550556},
+                                          {0.993248, 0.906157, 0.143936}};
+    static const int index[3] = {0, 128, 255};
+    for (int i = 0; i < 3; i++) {
+        double rgb[3];
+        render_viridis_entry(index[i], rgb);
+        for (int k = 0; k < 3; k++)
+            CHECK_CLOSE(rgb[k], expected[i][k], 0, 1e-9, "viridis table entry");
+    }
+    double lo[3], hi[3], a[3], b[3], mid[3];
+    render_viridis(0, lo), render_viridis(1, hi), render_viridis(127.5 / 255, mid);
+    render_viridis_entry(127, a), render_viridis_entry(128, b);
+    for (int k = 0; k < 3; k++) {
+        CHECK_CLOSE(lo[k], expected[0][k], 0, 1e-12, "viridis(0) is entry 0");
+        CHECK_CLOSE(hi[k], expected[2][k], 0, 1e-12, "viridis(1) is entry 255");
+        CHECK_CLOSE(mid[k], 0.5 * (a[k] + b[k]), 0, 1e-12, "viridis between entries interpolates");
+    }
+}
+
+/* A flat 16 x 8 sheet of spheres in z = 0, value = x: a gradient across the picture. */
+struct sheet {
+    double x[3 * 128], value[128];
+    size_t count;
+};
+
+static void make_sheet(struct sheet *s)
+{
+    s->count = 0;
+    for (int j = 0; j < 8; j++)
+        for (int i = 0; i < 16; i++) {
+            double *x = s->x + 3 * s->count;
+            x[0] = i * 1e-6, x[1] = j * 1e-6, x[2] = 0;
+            s->value[s->count++] = 3.0 + 0.5 * i; /* 3 to 10.5 */
+        }
+}
+
+static struct render_scene top_scene(void)
+{
+    return (struct render_scene){RENDER_VIEW_TOP, WIDTH, HEIGHT, 3.0, 10.5, "effective plastic strain", "-",
+                                 "t = 1.00 ns", 0, 0.5};
+}
+
+static void test_gradient_colours(void)
+{
+    struct sheet s;
+    make_sheet(&s);
+    struct render_spheres spheres = {s.count, s.x, NULL, 0.5e-6, s.value};
+    struct render_scene scene = top_scene();
+    struct render_renderer *r;
+    if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
+        CHECK(0, "renderer: %s", sc_error_message());
+        return;
+    }
+    struct render_camera cam;
+    const struct render_image *image;
+    CHECK(render_spheres_draw(r, &spheres, &scene, &cam, &image) == SC_OK, "draw: %s", sc_error_message());
+    CHECK(image->width == WIDTH && image->height == HEIGHT, "image %d x %d", image->width, image->height);
+    CHECK(cam.pixels_per_metre * 0.5e-6 > 5, "spheres of %.2f px radius are not points",
+          cam.pixels_per_metre * 0.5e-6);
+    int worst = 0;
+    for (size_t i = 0; i < s.count; i++) {
+        double px, py, rgb[3];
+        render_camera_project(&cam, s.x + 3 * i, &px, &py);
+        render_viridis((s.value[i] - 3.0) / 7.5, rgb);
+        int e = colour_error(render_pixel(image, (int)px, (int)py), rgb);
+        worst = e > worst ? e : worst;
+    }
+    CHECK(worst <= 3, "sphere centres differ from viridis by up to %d levels of 255", worst);
+    /* x grows to the right in the top view: the left column is darker than the right one */
+    double left[3], right[3];
+    render_camera_project(&cam, s.x, &left[0], &left[1]);
+    render_camera_project(&cam, s.x + 3 * 15, &right[0], &right[1]);
+    CHECK(right[0] > left[0], "top view: +x to the right (%.1f, %.1f)", left[0], right[0]);
+    /* background: the corners of the scene box and a point between sheet and colour bar */
+    struct render_box box = render_scene_box(&scene);
+    CHECK(render_pixel(image, (int)box.x + 2, (int)(box.y + box.height) - 2) == RENDER_BACKGROUND,
+          "bottom-left of the scene is background");
+    double beyond[3] = {20e-6, 3.5e-6, 0}, bx, by;
+    render_camera_project(&cam, beyond, &bx, &by);
+    CHECK(render_pixel(image, (int)bx, (int)by) == RENDER_BACKGROUND, "right of the sheet is background");
+    /* the colour bar: viridis(f) at height f, background just left of it */
+    struct render_box bar = render_colorbar_box(&scene);
+    for (int k = 1; k < 10; k++) {
+        double f = k / 10.0, rgb[3];
+        render_viridis(f, rgb);
+        int x = (int)(bar.x + 0.5 * bar.width), y = (int)(bar.y + (1 - f) * bar.height);
+        CHECK(colour_error(render_pixel(image, x, y), rgb) <= 4, "colour bar at %.1f: pixel %06x", f,
+              render_pixel(image, x, y) & 0xffffff);
+    }
+    CHECK(render_pixel(image, (int)bar.x - 3, (int)(bar.y + 0.5 * bar.height)) == RENDER_BACKGROUND,
+          "left of the colour bar is background");
+    render_renderer_destroy(r);
+}
+
+/* A 12 x 6 x 12 block with value = y; the section keeps y >= 0 and looks along +y, so the cut face (y = 0) is what
+ * shows: every visible centre has the colour of the y = 0 layer, not of the hidden y < 0 half. */
+static void test_section_shows_cut_face(void)
+{
+    enum { NX = 12, NY = 6, NZ = 12, N = NX * NY * NZ };
+    double *x = malloc(3 * N * sizeof *x), *value = malloc(N * sizeof *value);
+    size_t n = 0;
+    for (int k = 0; k < NZ; k++)
+        for (int j = 0; j < NY; j++)
+            for (int i = 0; i < NX; i++, n++) {
+                x[3 * n] = (i - NX / 2) * 1e-6, x[3 * n + 1] = (j - NY / 2) * 1e-6, x[3 * n + 2] = -k * 1e-6;
+                value[n] = x[3 * n + 1] * 1e6; /* -3 .. 2 */
+            }
+    struct render_spheres spheres = {N, x, NULL, 0.5e-6, value};
+    struct render_scene scene = {RENDER_VIEW_SECTION, WIDTH, HEIGHT, -3, 2, "y", "um", NULL, 0, 0.5};
+    struct render_renderer *r;
+    if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
+        CHECK(0, "renderer: %s", sc_error_message());
+        free(x), free(value);
+        return;
+    }
+    struct render_camera cam;
+    const struct render_image *image;
+    CHECK(render_spheres_draw(r, &spheres, &scene, &cam, &image) == SC_OK, "draw: %s", sc_error_message());
+    double face[3];
+    render_viridis(3.0 / 5.0, face); /* y = 0 */
+    int worst = 0, checked = 0;
+    for (size_t q = 0; q < N; q++) {
+        if (x[3 * q + 1] != 0)
+            continue;
+        double px, py;
+        render_camera_project(&cam, x + 3 * q, &px, &py);
+        int e = colour_error(render_pixel(image, (int)px, (int)py), face);
+        worst = e > worst ? e : worst;
+        checked++;
+    }
+    CHECK(checked == NX * NZ, "%d cut-face spheres", checked);
+    CHECK(worst <= 3, "cut face differs from viridis(y = 0) by up to %d levels", worst);
+    /* the camera frames only the kept half: its centre has y >= 0 */
+    CHECK(cam.center[1] >= 0, "section frames y >= 0 (centre y %.3g)", cam.center[1]);
+    render_renderer_destroy(r);
+    free(x), free(value);
+}
+
+static void test_same_input_same_pixels(void)
+{
+    struct sheet s;
+    make_sheet(&s);
+    struct render_spheres spheres = {s.count, s.x, NULL, 0.5e-6, s.value};
+    struct render_scene scene = top_scene();
+    scene.view = RENDER_VIEW_ISO;
+    struct render_renderer *r;
+    if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
+        CHECK(0, "renderer: %s", sc_error_message());
+        return;
+    }
+    const struct render_image *image;
+    size_t bytes = (size_t)HEIGHT * WIDTH * 4;
+    uint32_t *first = malloc(bytes);
+    CHECK(render_spheres_draw(r, &spheres, &scene, NULL, &image) == SC_OK, "draw: %s", sc_error_message());
+    memcpy(first, image->pixels, bytes);
+    scene.view = RENDER_VIEW_TOP; /* something else in between */
+    CHECK(render_spheres_draw(r, &spheres, &scene, NULL, &image) == SC_OK, "draw: %s", sc_error_message());
+    scene.view = RENDER_VIEW_ISO;
+    CHECK(render_spheres_draw(r, &spheres, &scene, NULL, &image) == SC_OK, "draw: %s", sc_error_message());
+    CHECK(memcmp(first, image->pixels, bytes) == 0, "the same scene drawn twice differs");
+    free(first);
+    render_renderer_destroy(r);
+}
+
+static void test_histogram(void)
+{
+    double values[] = {0, 0.5, 1, 1.5, 2, 2.5, 3, 3.5, 4, NAN};
+    struct render_histogram h;
+    CHECK(render_histogram_fill(values, 10, 4, 0, 4, &h) == SC_OK, "fill");
+    CHECK(h.total == 9 && h.outside == 1, "total %lld, outside %lld", (long long)h.total, (long long)h.outside);
+    CHECK(h.counts[0] == 2 && h.counts[1] == 2 && h.counts[2] == 2 && h.counts[3] == 3, "counts %lld %lld %lld %lld",
+          (long long)h.counts[0], (long long)h.counts[1], (long long)h.counts[2], (long long)h.counts[3]);
+    render_histogram_free(&h);
+    CHECK(render_histogram_fill(values, 9, 3, 0, 0, &h) == SC_OK, "fill, automatic range");
+    CHECK(h.lo == 0 && h.hi == 4 && h.total == 9, "automatic range [%g, %g], total %lld", h.lo, h.hi,
+          (long long)h.total);
+    render_histogram_free(&h);
+}
+
+int main(void)
+{
+    RUN(test_viridis_table);
+    RUN(test_gradient_colours);
+    RUN(test_section_shows_cut_face);
+    RUN(test_same_input_same_pixels);
+    RUN(test_histogram);
+    return check_finish();
+}
