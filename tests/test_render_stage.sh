@@ -1,0 +1,130 @@
+#!/bin/sh
+# `spraycoat render` from the command line: a small spray run drawn twice gives the same PNG bytes; headless
+# Chromium opens report.html and every image in it loads; nothing to draw, a damaged spray.h5 and a bad [render]
+# range are errors with exit status 3, 3 and 2 and a message.  No display is needed (OSMesa, Cairo).
+# Prints "PASS name" / "FAIL name: why" (tests/run_tests.sh counts them).  Run from the repo root.
+set -u
+bin=${SPRAYCOAT_BIN:-build/spraycoat}
+tmp=$(mktemp -d) || { echo "FAIL render_stage_setup: mktemp -d failed"; exit 1; }
+trap 'rm -rf "$tmp"' EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+
+if [ ! -x "$bin" ]; then
+    echo "FAIL render_stage_setup: no executable $bin (SPRAYCOAT_BIN)"
+    exit 1
+fi
+
+cat >"$tmp/case.ini" <<'EOF'
+[run]
+seed = 5
+[spray]
+dt = 1e-6
+t_end = 2e-3
+feed_count = 20
+feed_every = 10
+max_injected = 200
+nozzle_radius = 0.005
+release_speed_min = 20
+release_speed_max = 60
+domain_radius = 0.03
+handoff_height = 0.005
+metrics_every = 100
+[powder]
+median_diameter = 40e-6
+shape = 3.5
+d_min = 10e-6
+d_max = 100e-6
+[target]
+standoff = 0.02
+deposit_radius = 0.005
+[jet]
+C1 = 30
+C3 = 20
+virtual_origin = 0.05
+core_length = 0.005
+[deposition]
+rule = adhesion
+alpha_adh = 10000
+[render]
+width = 400
+height = 240
+plot_width = 400
+plot_height = 260
+EOF
+
+# ---- nothing to draw: exit 3 with a message ----
+"$bin" render "$tmp/case.ini" -o "$tmp/empty" >/dev/null 2>"$tmp/err"
+status=$?
+if [ "$status" -eq 3 ] && grep -q "no output to draw" "$tmp/err"; then
+    echo "PASS render_nothing_to_draw"
+else
+    echo "FAIL render_nothing_to_draw: exit status $status, stderr: $(head -c 300 "$tmp/err")"
+fi
+
+# ---- a bad [render] range: exit 2 naming the key, before anything is drawn ----
+sed 's/^plot_height = 260$/plot_height = 260\nrange_min = 5\nrange_max = 1/' "$tmp/case.ini" >"$tmp/bad.ini"
+"$bin" render "$tmp/bad.ini" -o "$tmp/bad" >/dev/null 2>"$tmp/err"
+status=$?
+if [ "$status" -eq 2 ] && grep -qF "[render] range_max" "$tmp/err" && [ ! -e "$tmp/bad/figures" ]; then
+    echo "PASS render_bad_range"
+else
+    echo "FAIL render_bad_range: exit status $status, stderr: $(head -c 300 "$tmp/err")"
+fi
+
+# ---- a spray run, drawn twice: the same bytes ----
+if ! "$bin" spray "$tmp/case.ini" -o "$tmp/run" -q >"$tmp/out" 2>&1; then
+    echo "FAIL render_stage_spray: the spray run failed: $(tail -c 300 "$tmp/out")"
+    exit 1
+fi
+"$bin" render "$tmp/case.ini" -o "$tmp/run" -q >"$tmp/out" 2>&1
+status=$?
+mkdir "$tmp/first"
+cp "$tmp/run/figures/"*.png "$tmp/first/" 2>/dev/null
+"$bin" render "$tmp/case.ini" -o "$tmp/run" -q >>"$tmp/out" 2>&1
+status2=$?
+pngs=$(ls "$tmp/first" | wc -l)
+differ=""
+for f in "$tmp/first/"*.png; do
+    cmp -s "$f" "$tmp/run/figures/$(basename "$f")" || differ="$differ $(basename "$f")"
+done
+if [ "$status" -eq 0 ] && [ "$status2" -eq 0 ] && [ "$pngs" -ge 7 ] && [ -z "$differ" ]; then
+    echo "PASS render_same_bytes"
+else
+    echo "FAIL render_same_bytes: exit status $status/$status2, $pngs PNGs, differ:$differ; $(tail -c 300 "$tmp/out")"
+fi
+
+# ---- headless Chromium: report.html opens and every image loads ----
+# The page is copied with a script that records, once everything has loaded, how many images there are and how
+# many loaded (complete, with a natural width); --dump-dom prints the DOM after the virtual-time budget.
+chromium_bin=$(command -v chromium || command -v chromium-browser || true)
+if [ -z "$chromium_bin" ]; then
+    echo "FAIL render_report_in_chromium: chromium is not installed (scripts/bootstrap installs it)"
+else
+    sed 's|</body>|<script>window.addEventListener("load", function () { var all = document.images, ok = 0; for (var i = 0; i < all.length; i++) if (all[i].complete \&\& all[i].naturalWidth > 0) ok++; document.title = "images " + all.length + " loaded " + ok; });</script></body>|' \
+        "$tmp/run/report.html" >"$tmp/run/report_check.html"
+    timeout 60 "$chromium_bin" --headless --no-sandbox --disable-gpu --disable-dev-shm-usage \
+        --virtual-time-budget=5000 --dump-dom "file://$tmp/run/report_check.html" >"$tmp/dom" 2>"$tmp/chromium_err"
+    status=$?
+    counts=$(sed -n 's|.*<title>images \([0-9]*\) loaded \([0-9]*\)</title>.*|\1 \2|p' "$tmp/dom" | head -n 1)
+    total=${counts% *}
+    loaded=${counts#* }
+    expected=$(grep -o '<img ' "$tmp/run/report.html" | wc -l)
+    if [ "$status" -eq 0 ] && [ -n "$counts" ] && [ "$total" -eq "$expected" ] && [ "$loaded" -eq "$total" ] &&
+        [ "$total" -ge 7 ]; then
+        echo "PASS render_report_in_chromium"
+    else
+        echo "FAIL render_report_in_chromium: exit status $status, images/loaded '$counts', expected $expected;" \
+            "$(tail -c 300 "$tmp/chromium_err")"
+    fi
+fi
+
+# ---- a damaged spray.h5: exit 3 naming it ----
+head -c 2000 "$tmp/run/spray.h5" >"$tmp/run/spray.h5.part" && mv "$tmp/run/spray.h5.part" "$tmp/run/spray.h5"
+"$bin" render "$tmp/case.ini" -o "$tmp/run" >/dev/null 2>"$tmp/err"
+status=$?
+if [ "$status" -eq 3 ] && grep -q "spray.h5" "$tmp/err"; then
+    echo "PASS render_damaged_input"
+else
+    echo "FAIL render_damaged_input: exit status $status, stderr: $(head -c 300 "$tmp/err")"
+fi
