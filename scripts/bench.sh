@@ -73,3 +73,6 @@ if [ "${BENCH_TABLE1:-1}" != 0 ]; then
 fi
 echo
 "$(dirname "$0")/bench_impact.sh" "$build"
+
+echo
+"$(dirname "$0")/bench_render.sh" "$build"
