@@ -58,7 +58,8 @@ test: deps
 asan: deps
 	$(MAKE) BUILD=build-asan OPT='-O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all' \
 	        LDFLAGS='-fopenmp -fsanitize=address,undefined' all
-	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
+	ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan-mesa.supp UBSAN_OPTIONS=print_stacktrace=1 \
+	    SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
 
 # Optimised build in its own folder (make does not track flags), then the performance table.
 bench: deps

@@ -43,8 +43,8 @@ static void number_cell(FILE *f, double value)
 static const char style[] =
     "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
-    "th{background:#f2f2f2}figure{display:inline-block;margin:0.5em;vertical-align:top}"
-    "figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:90%}";
+    "th{background:#f2f2f2}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
+    "figure img{width:100%;border:1px solid #ddd}figcaption{font-size:90%}";
 
 /* One row per output file: its root attributes. */
 static void provenance(FILE *f, const struct render_request *req)
