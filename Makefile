@@ -68,7 +68,8 @@ bench: deps
 
 run: deps
 	$(MAKE) $(BIN)
-	$(BIN) spray cases/demo.ini -o runs/demo
+	$(BIN) run cases/demo.ini -o runs/demo
+	$(BIN) info runs/demo
 
 validate: deps
 	$(MAKE) all

@@ -1368,12 +1368,23 @@ static uint64_t fnv1a_file(uint64_t hash, const char *path)
     return hash;
 }
 
-uint64_t case_hash(const struct case_file *c)
+/* 1 when the slot's section is one of `sections` (NULL: every section). */
+static bool slot_in_sections(const struct slot *slot, const char *const *sections)
+{
+    if (!sections)
+        return true;
+    for (; *sections; sections++)
+        if (section_matches(*sections, slot->section))
+            return true;
+    return false;
+}
+
+uint64_t case_hash_sections(const struct case_file *c, const char *const *sections)
 {
     uint64_t hash = 0xcbf29ce484222325ULL;
     for (size_t i = 0; i < c->slot_count; i++) {
         const struct slot *slot = &c->slots[i];
-        if (!slot->text || (slot->spec->flags & CFG_NOT_HASHED))
+        if (!slot->text || (slot->spec->flags & CFG_NOT_HASHED) || !slot_in_sections(slot, sections))
             continue;
         char *value = canonical_value(c, slot);
         hash = fnv1a(hash, slot->section);
@@ -1389,6 +1400,8 @@ uint64_t case_hash(const struct case_file *c)
     }
     return hash;
 }
+
+uint64_t case_hash(const struct case_file *c) { return case_hash_sections(c, NULL); }
 
 /* Slots [first, end) share one section; returns end. */
 static size_t section_group_end(const struct case_file *c, size_t first)

@@ -84,6 +84,10 @@ void case_print(const struct case_file *c, FILE *out);
 /* 64-bit hash (FNV-1a) of the resolved values, independent of comments, order and formatting: lines
  * "section.key=value\n" in registry order, numbers in one spelling (%.17g, %ld), CFG_PATH values absolute. */
 uint64_t case_hash(const struct case_file *c);
+/* The same over the keys of the listed sections only (NULL-terminated; "material.*" matches every
+ * [material.NAME]; NULL means every section): what one stage's results depend on, so that changing a later
+ * stage's key does not rerun an earlier stage. */
+uint64_t case_hash_sections(const struct case_file *c, const char *const *sections);
 /* Write the resolved case (every key with a value) as INI to `path` (atomically: tmp, fsync, rename).
  * CFG_PATH values are written as absolute paths, so that the copy (in a run folder) names the same files;
  * loading the copy gives the same case_hash().  Errors: SC_EIO with strerror. */

@@ -20,15 +20,24 @@
 #include "core/h5io.h"
 #include "core/log.h"
 #include "core/run_keys.h"
+#include "coupling/couple.h"
 #include "coupling/stages.h"
 #include "mpm/mpm.h"
 
 #define STAGE "impact"
 #define SNAPSHOT_DIR "impact_snapshots"
+#define RUNS_DIR "impact_runs"
 
 struct impact_run {
     const struct case_file *c;
     const char *run_dir;
+    /* where this run's files go: one run (impact.h5 itself) or run r of several (impact_runs/run_NNNN.h5, copied
+     * into impact.h5 /run_NNNN when all are done) */
+    char label[32];                     /* checkpoint and log name: "impact" or "impact_rNNNN" */
+    char snapshot_dir[H5IO_PATH_MAX - 64];
+    char output[H5IO_PATH_MAX];
+    char xdmf[H5IO_PATH_MAX];
+    char snapshot_group[64];            /* the snapshots' group in the final impact.h5 */
     struct run_settings settings;
     struct mpm_config cfg;
     struct mpm_solver *solver;
@@ -42,14 +51,14 @@ struct impact_run {
 
 static void snapshot_path(const struct impact_run *run, int64_t index, char *out, size_t size)
 {
-    snprintf(out, size, "%s/" SNAPSHOT_DIR "/%06lld.h5", run->run_dir, (long long)index);
+    snprintf(out, size, "%s/%06lld.h5", run->snapshot_dir, (long long)index);
 }
 
 /* Remove the snapshot folder's files (and the folder itself when remove_folder). */
 static int clear_snapshots(const struct impact_run *run, int remove_folder)
 {
-    char folder[H5IO_PATH_MAX], path[H5IO_PATH_MAX + 300];
-    snprintf(folder, sizeof folder, "%s/" SNAPSHOT_DIR, run->run_dir);
+    char path[H5IO_PATH_MAX + 300];
+    const char *folder = run->snapshot_dir;
     DIR *dir = opendir(folder);
     if (!dir) {
         if (errno == ENOENT)
@@ -73,10 +82,8 @@ static int clear_snapshots(const struct impact_run *run, int remove_folder)
 
 static int make_snapshot_folder(const struct impact_run *run)
 {
-    char folder[H5IO_PATH_MAX];
-    snprintf(folder, sizeof folder, "%s/" SNAPSHOT_DIR, run->run_dir);
-    if (mkdir(folder, 0777) != 0 && errno != EEXIST)
-        SC_FAIL(SC_EIO, "cannot create folder %s: %s", folder, strerror(errno));
+    if (mkdir(run->snapshot_dir, 0777) != 0 && errno != EEXIST)
+        SC_FAIL(SC_EIO, "cannot create folder %s: %s", run->snapshot_dir, strerror(errno));
     return SC_OK;
 }
 
@@ -103,7 +110,7 @@ static int write_snapshot(struct impact_run *run)
     SC_TRY(h5_commit(&out));
     mpm_snapshot_taken(run->solver);
     struct mpm_counts counts = mpm_get_counts(run->solver);
-    log_debug("impact: snapshot %06lld at step %lld (t = %.6g s)", (long long)index, (long long)counts.step,
+    log_debug("%s: snapshot %06lld at step %lld (t = %.6g s)", run->label, (long long)index, (long long)counts.step,
               counts.t);
     return SC_OK;
 }
@@ -119,7 +126,7 @@ static int write_checkpoint(struct impact_run *run)
 {
     struct mpm_counts counts = mpm_get_counts(run->solver);
     struct h5_out out;
-    SC_TRY(checkpoint_begin(run->run_dir, STAGE, counts.step, &out));
+    SC_TRY(checkpoint_begin(run->run_dir, run->label, counts.step, &out));
     int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash);
     /* what `spraycoat info` shows of a checkpoint (the solver's own datasets are its business) */
     if (status == SC_OK)
@@ -138,10 +145,10 @@ static int write_checkpoint(struct impact_run *run)
         h5_abort(&out);
         return status;
     }
-    SC_TRY(checkpoint_commit(&out, run->run_dir, STAGE, run->settings.keep_checkpoints));
+    SC_TRY(checkpoint_commit(&out, run->run_dir, run->label, run->settings.keep_checkpoints));
     run->last_checkpoint_time = log_elapsed();
     run->last_checkpoint_step = counts.step;
-    log_info("impact: checkpoint at step %lld (t = %.6g s)", (long long)counts.step, counts.t);
+    log_info("%s: checkpoint at step %lld (t = %.6g s)", run->label, (long long)counts.step, counts.t);
     return SC_OK;
 }
 
@@ -150,7 +157,7 @@ static int resume_if_possible(struct impact_run *run, int *resumed)
 {
     char path[H5IO_PATH_MAX];
     *resumed = 0;
-    SC_TRY(checkpoint_find_newest(run->run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, run->case_hash, path,
+    SC_TRY(checkpoint_find_newest(run->run_dir, run->label, MPM_FORMAT, MPM_FORMAT_VERSION, run->case_hash, path,
                                   sizeof path));
     if (path[0] == '\0')
         return SC_OK;
@@ -163,8 +170,8 @@ static int resume_if_possible(struct impact_run *run, int *resumed)
     struct mpm_counts counts = mpm_get_counts(run->solver);
     run->last_checkpoint_step = counts.step;
     *resumed = 1;
-    log_info("impact: resuming from %s (step %lld, t = %.6g s, %lld snapshots taken)", path, (long long)counts.step,
-             counts.t, (long long)mpm_snapshot_index(run->solver));
+    log_info("%s: resuming from %s (step %lld, t = %.6g s, %lld snapshots taken)", run->label, path,
+             (long long)counts.step, counts.t, (long long)mpm_snapshot_index(run->solver));
     return SC_OK;
 }
 
@@ -181,7 +188,7 @@ static int time_loop(struct impact_run *run)
 {
     struct progress bar;
     struct mpm_counts counts = mpm_get_counts(run->solver);
-    progress_begin(&bar, STAGE, "ps", picoseconds(counts.t), picoseconds(run->cfg.t_end));
+    progress_begin(&bar, run->label, "ps", picoseconds(counts.t), picoseconds(run->cfg.t_end));
     run->last_checkpoint_time = log_elapsed();
     while (!mpm_finished(run->solver)) {
         SC_TRY(mpm_step(run->solver));
@@ -192,8 +199,8 @@ static int time_loop(struct impact_run *run)
             SC_TRY(write_checkpoint(run));
         if (interrupted) {
             progress_end(&bar, picoseconds(counts.t));
-            SC_FAIL(interrupted, "impact: interrupted at step %lld (t = %.6g s); checkpoint written, continue with "
-                    "`spraycoat resume %s`", (long long)counts.step, counts.t, run->run_dir);
+            SC_FAIL(interrupted, "%s: interrupted at step %lld (t = %.6g s); checkpoint written, continue with "
+                    "`spraycoat resume %s`", run->label, (long long)counts.step, counts.t, run->run_dir);
         }
         char extra[160];
         snprintf(extra, sizeof extra, "step %lld, dt %.3g s, %lld of %lld points active", (long long)counts.step,
@@ -210,8 +217,8 @@ static int open_snapshot(const struct impact_run *run, int64_t index, hid_t *fil
     char path[H5IO_PATH_MAX], stored[64] = "", wanted[64];
     snapshot_path(run, index, path, sizeof path);
     if (access(path, R_OK) != 0)
-        SC_FAIL(SC_EIO, "impact: snapshot %s is missing (removed while the run was interrupted?); remove %s/checkpoints/"
-                STAGE "_*.h5 to run the stage from the start", path, run->run_dir);
+        SC_FAIL(SC_EIO, "%s: snapshot %s is missing (removed while the run was interrupted?); remove %s/checkpoints/"
+                "%s_*.h5 to run it from the start", run->label, path, run->run_dir, run->label);
     SC_TRY(h5_open_read(path, file));
     snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)run->case_hash);
     if (h5_attr_read_string(*file, "case_hash", stored, sizeof stored) != SC_OK || strcmp(stored, wanted) != 0) {
@@ -249,11 +256,9 @@ static int write_xdmf(const struct impact_run *run)
 {
     static const char *const scalars[] = {"eps_p", "T", "D_bond", "pressure", "von_mises", "rho"};
     static const char *const integers[] = {"body", "id", "surface"};
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.xdmf", run->run_dir);
     int64_t count = mpm_snapshot_index(run->solver);
     struct text_out out;
-    SC_TRY(text_create_atomic(path, &out));
+    SC_TRY(text_create_atomic(run->xdmf, &out));
     FILE *f = out.file;
     fprintf(f, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
                "  <Grid Name=\"impact\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
@@ -265,8 +270,8 @@ static int write_xdmf(const struct impact_run *run)
             return status;
         }
         size_t n = info.points;
-        char where[64];
-        snprintf(where, sizeof where, "impact.h5:/snapshots/%06lld", (long long)i);
+        char where[128];
+        snprintf(where, sizeof where, "impact.h5:/%s/%06lld", run->snapshot_group, (long long)i);
         fprintf(f, "   <Grid Name=\"%06lld\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
                    "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\"/>\n"
                    "    <Geometry GeometryType=\"XYZ\">\n"
@@ -314,8 +319,7 @@ static int copy_snapshots(const struct impact_run *run, hid_t file)
 
 static int write_output(struct impact_run *run)
 {
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.h5", run->run_dir);
+    const char *path = run->output;
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
     char *case_text = case_resolved_text(run->c);
@@ -332,7 +336,7 @@ static int write_output(struct impact_run *run)
         return status;
     }
     SC_TRY(h5_commit(&out));
-    log_info("impact: wrote %s", path);
+    log_info("%s: wrote %s", run->label, path);
     return SC_OK;
 }
 
@@ -349,7 +353,8 @@ static void log_summary(struct impact_run *run)
         if (body->substrate)
             continue;
         const double *v = body->velocity;
-        log_info("impact: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", b + 1, body->d * 1e6,
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b + 1,
+                 body->d * 1e6,
                  sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), bonded[b] ? "bonded" : "rebounded",
                  100.0 * d->body[b].pbcp, d->body[b].v_rest);
     }
@@ -357,12 +362,12 @@ static void log_summary(struct impact_run *run)
     struct mpm_counts counts = mpm_get_counts(run->solver);
     double wall = log_elapsed() - run->start_time;
     int64_t updates = counts.point_updates - run->start_updates;
-    log_info("impact: t = %.6g s after %lld steps (%lld in this process, %.1f s wall, %.3g point updates/s on %d "
-             "threads); %lld of %lld points removed (left the grid box)", counts.t, (long long)counts.step,
+    log_info("%s: t = %.6g s after %lld steps (%lld in this process, %.1f s wall, %.3g point updates/s on %d "
+             "threads); %lld of %lld points removed (left the grid box)", run->label, counts.t, (long long)counts.step,
              (long long)(counts.step - run->start_step), wall, wall > 0 ? (double)updates / wall : 0.0,
              omp_get_max_threads(), (long long)counts.removed_points, (long long)counts.points);
-    log_info("impact: energy: initial %.6g J, now %.6g J (absorbed by the boundaries %.3g J, carried away %.3g J)",
-             d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
+    log_info("%s: energy: initial %.6g J, now %.6g J (absorbed by the boundaries %.3g J, carried away %.3g J)",
+             run->label, d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
 }
 
 /* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key. */
@@ -381,8 +386,8 @@ static int run_stage(struct impact_run *run)
 {
     SC_TRY(create_solver(run));
     struct mpm_counts counts = mpm_get_counts(run->solver);
-    log_info("impact: %lld material points in %d bodies, grid %.3g m, spacing %.3g m, to t_end = %.6g s on %d "
-             "threads", (long long)counts.points, mpm_body_count(run->solver), run->cfg.grid, run->cfg.spacing,
+    log_info("%s: %lld material points in %d bodies, grid %.3g m, spacing %.3g m, to t_end = %.6g s on %d "
+             "threads", run->label, (long long)counts.points, mpm_body_count(run->solver), run->cfg.grid, run->cfg.spacing,
              run->cfg.t_end, omp_get_max_threads());
     int resumed;
     SC_TRY(resume_if_possible(run, &resumed));
@@ -400,7 +405,7 @@ static int run_stage(struct impact_run *run)
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints and snapshot files are no longer needed */
-    SC_TRY(checkpoint_remove_all(run->run_dir, STAGE));
+    SC_TRY(checkpoint_remove_all(run->run_dir, run->label));
     SC_TRY(clear_snapshots(run, 1));
     log_summary(run);
     return SC_OK;
@@ -434,25 +439,266 @@ int impact_stage_validate(const struct case_file *c, const char *run_dir)
 {
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
-    int status = check_sphere_overlap(c, &cfg);
+    int status = impact_takes_seeds(c) ? SC_OK : check_sphere_overlap(c, &cfg);
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;
     /* refuse checkpoints of another case before anything in the run directory is written */
     char path[H5IO_PATH_MAX];
-    return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, case_hash(c), path, sizeof path);
+    return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, stage_hash(c, STAGE), path, sizeof path);
 }
 
-int impact_stage_run(const struct case_file *c, const char *run_dir)
+/* The file names of one run: the run of [impact] (index < 0) writes impact.h5 itself; run `index` of the couple
+ * stage's seeds writes impact_runs/run_NNNN.h5, and impact.h5 gathers them at the end. */
+static void name_run(struct impact_run *run, long index)
 {
-    struct impact_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
-    if (stage_begin(STAGE, path, run.case_hash, c, &run.settings))
-        return SC_OK;
+    const char *dir = run->run_dir;
+    if (index < 0) {
+        snprintf(run->label, sizeof run->label, STAGE);
+        snprintf(run->snapshot_dir, sizeof run->snapshot_dir, "%s/" SNAPSHOT_DIR, dir);
+        snprintf(run->output, sizeof run->output, "%s/impact.h5", dir);
+        snprintf(run->xdmf, sizeof run->xdmf, "%s/impact.xdmf", dir);
+        snprintf(run->snapshot_group, sizeof run->snapshot_group, "snapshots");
+        return;
+    }
+    snprintf(run->label, sizeof run->label, STAGE "_r%04ld", index);
+    snprintf(run->snapshot_dir, sizeof run->snapshot_dir, "%s/" RUNS_DIR "/snapshots_%04ld", dir, index);
+    snprintf(run->output, sizeof run->output, "%s/" RUNS_DIR "/run_%04ld.h5", dir, index);
+    snprintf(run->xdmf, sizeof run->xdmf, "%s/impact_run_%04ld.xdmf", dir, index);
+    snprintf(run->snapshot_group, sizeof run->snapshot_group, "run_%04ld/snapshots", index);
+}
+
+static int run_single(const struct case_file *c, const char *run_dir, uint64_t hash, const struct run_settings *settings)
+{
+    struct impact_run run = {.c = c, .run_dir = run_dir, .case_hash = hash, .settings = *settings};
+    name_run(&run, -1);
     SC_TRY(mpm_config_load(c, &run.cfg));
     int status = run_stage(&run);
     mpm_destroy(run.solver);
     mpm_config_free(&run.cfg);
     return status;
+}
+
+/* Run `index` of the seeds, unless its file is already there (an earlier, interrupted process finished it). */
+static int run_seeded(const struct case_file *c, const char *run_dir, uint64_t hash, const struct run_settings *settings,
+                      const struct couple_bodies *bodies, long index)
+{
+    struct impact_run run = {.c = c, .run_dir = run_dir, .case_hash = hash, .settings = *settings};
+    name_run(&run, index);
+    if (run_dir_output_current(run.output, hash)) {
+        log_info("%s: done already (%s)", run.label, run.output);
+        return SC_OK;
+    }
+    SC_TRY(mpm_config_load(c, &run.cfg));
+    size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
+    int status = mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
+                                        bodies->velocity + 3 * first);
+    if (status == SC_OK)
+        status = run_stage(&run);
+    mpm_destroy(run.solver);
+    mpm_config_free(&run.cfg);
+    return status;
+}
+
+/* ---- gathering the runs into impact.h5 --------------------------------------------------------------------- */
+
+struct run_totals {
+    int64_t bodies, bonded;
+    double pbcp, v_rest, cor;
+};
+
+/* One run's /summary rows of particles (the substrate left out) added to *total; the run's own means in out[4]. */
+static int add_run_summary(hid_t summary, struct run_totals *total, double out[4])
+{
+    size_t n;
+    SC_TRY(h5_dataset_size(summary, "bonded", &n));
+    int64_t *bonded = malloc((n ? n : 1) * sizeof *bonded), *substrate = malloc((n ? n : 1) * sizeof *substrate);
+    double *columns = malloc((n ? 3 * n : 3) * sizeof *columns);
+    int status = bonded && substrate && columns ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    if (status == SC_OK) status = h5_read_int64s(summary, "bonded", bonded, n);
+    if (status == SC_OK) status = h5_read_int64s(summary, "substrate", substrate, n);
+    if (status == SC_OK) status = h5_read_doubles(summary, "pbcp", columns, n);
+    if (status == SC_OK) status = h5_read_doubles(summary, "v_rest", columns + n, n);
+    if (status == SC_OK) status = h5_read_doubles(summary, "cor", columns + 2 * n, n);
+    struct run_totals run = {0};
+    for (size_t i = 0; status == SC_OK && i < n; i++) {
+        if (substrate[i])
+            continue;
+        run.bodies++;
+        run.bonded += bonded[i] == 1;
+        run.pbcp += columns[i];
+        run.v_rest += columns[n + i];
+        run.cor += columns[2 * n + i];
+    }
+    double bodies = run.bodies ? (double)run.bodies : 1.0;
+    out[0] = (double)run.bonded / bodies;
+    out[1] = run.pbcp / bodies;
+    out[2] = run.v_rest / bodies;
+    out[3] = run.cor / bodies;
+    total->bodies += run.bodies;
+    total->bonded += run.bonded;
+    total->pbcp += run.pbcp;
+    total->v_rest += run.v_rest;
+    total->cor += run.cor;
+    free(bonded);
+    free(substrate);
+    free(columns);
+    return status;
+}
+
+/* Copy run file `index` (its snapshots, series, summary, stats) into /run_NNNN of the output. */
+static int gather_run(hid_t out, const char *run_dir, long index, struct run_totals *total, double means[4])
+{
+    struct impact_run names = {.run_dir = run_dir};
+    name_run(&names, index);
+    hid_t source;
+    SC_TRY(h5_open_read(names.output, &source));
+    char group[32];
+    snprintf(group, sizeof group, "run_%04ld", index);
+    int status = H5Ocopy(source, "/", out, group, H5P_DEFAULT, H5P_DEFAULT) < 0
+                     ? sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: cannot copy %s into impact.h5 (disk full?)",
+                                    names.output)
+                     : SC_OK;
+    hid_t summary = status == SC_OK ? H5Gopen2(source, "summary", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (status == SC_OK && summary < 0)
+        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: %s has no /summary", names.output);
+    if (status == SC_OK)
+        status = add_run_summary(summary, total, means);
+    if (summary >= 0)
+        H5Gclose(summary);
+    H5Fclose(source);
+    return status;
+}
+
+/* /summary of the whole stage: per run (bonded fraction, mean PBCP, v_rest, CoR) and over all bodies. */
+static int write_overall_summary(hid_t out, long runs, const double *means, const struct run_totals *total)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(out, "summary", &g));
+    double *column = malloc((size_t)runs * sizeof *column);
+    int status = column ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    static const char *const names[4] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor"};
+    static const char *const units[4] = {"-", "-", "m/s", "-"};
+    hsize_t dims[1] = {(hsize_t)runs};
+    for (int k = 0; status == SC_OK && k < 4; k++) {
+        for (long r = 0; r < runs; r++)
+            column[r] = means[4 * r + k];
+        status = h5_write_doubles(g, names[k], 1, dims, column, units[k], 0);
+    }
+    double bodies = total->bodies ? (double)total->bodies : 1.0;
+    if (status == SC_OK) status = h5_attr_write_int64(g, "runs", runs);
+    if (status == SC_OK) status = h5_attr_write_int64(g, "bodies", total->bodies);
+    if (status == SC_OK) status = h5_attr_write_int64(g, "bonded", total->bonded);
+    if (status == SC_OK) status = h5_attr_write_double(g, "bonded_fraction", (double)total->bonded / bodies);
+    if (status == SC_OK) status = h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies);
+    if (status == SC_OK) status = h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies);
+    if (status == SC_OK) status = h5_attr_write_double(g, "mean_cor", total->cor / bodies);
+    free(column);
+    H5Gclose(g);
+    if (status == SC_OK)
+        log_info("impact: %lld of %lld bodies bonded (%.1f %%) over %ld runs; mean PBCP %.2f %%, mean v_rest %.3g m/s",
+                 (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies, runs,
+                 100.0 * total->pbcp / bodies, total->v_rest / bodies);
+    return status;
+}
+
+static int write_gathered(const struct case_file *c, const char *run_dir, uint64_t hash, long runs)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
+    struct h5_out out;
+    SC_TRY(h5_create_atomic(path, &out));
+    char *case_text = case_resolved_text(c);
+    double *means = malloc((size_t)runs * 4 * sizeof *means);
+    int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, hash);
+    if (status == SC_OK) status = h5_attr_write_string(out.file, "case", case_text);
+    if (status == SC_OK) status = h5_attr_write_int64(out.file, "runs", runs);
+    if (status == SC_OK && !means) status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    struct run_totals total = {0};
+    for (long r = 0; status == SC_OK && r < runs; r++)
+        status = gather_run(out.file, run_dir, r, &total, means + 4 * r);
+    if (status == SC_OK)
+        status = write_overall_summary(out.file, runs, means, &total);
+    free(means);
+    free(case_text);
+    if (status != SC_OK) {
+        h5_abort(&out);
+        return status;
+    }
+    SC_TRY(h5_commit(&out));
+    log_info("impact: wrote %s (%ld runs)", path, runs);
+    return SC_OK;
+}
+
+/* impact.xdmf of several runs: the first run's (every run has its impact_run_NNNN.xdmf). */
+static int write_first_run_xdmf(const char *run_dir)
+{
+    char from[H5IO_PATH_MAX], to[H5IO_PATH_MAX];
+    snprintf(from, sizeof from, "%s/impact_run_0000.xdmf", run_dir);
+    snprintf(to, sizeof to, "%s/impact.xdmf", run_dir);
+    FILE *in = fopen(from, "r");
+    if (!in)
+        SC_FAIL(SC_EIO, "cannot read %s: %s", from, strerror(errno));
+    struct text_out out;
+    int status = text_create_atomic(to, &out);
+    char buffer[8192];
+    size_t got;
+    while (status == SC_OK && (got = fread(buffer, 1, sizeof buffer, in)) > 0)
+        if (fwrite(buffer, 1, got, out.file) != got)
+            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot write %s: %s", to, strerror(errno));
+    fclose(in);
+    if (status == SC_OK)
+        return text_commit(&out);
+    text_abort(&out);
+    return status;
+}
+
+/* The run files are copied into impact.h5: remove them and their folder. */
+static int remove_run_files(const char *run_dir, long runs)
+{
+    for (long r = 0; r < runs; r++) {
+        struct impact_run names = {.run_dir = run_dir};
+        name_run(&names, r);
+        if (unlink(names.output) != 0 && errno != ENOENT)
+            SC_FAIL(SC_EIO, "cannot remove %s: %s", names.output, strerror(errno));
+    }
+    char folder[H5IO_PATH_MAX];
+    snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
+    if (rmdir(folder) != 0 && errno != ENOENT && errno != ENOTEMPTY)
+        SC_FAIL(SC_EIO, "cannot remove folder %s: %s", folder, strerror(errno));
+    return SC_OK;
+}
+
+static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64_t hash,
+                          const struct run_settings *settings)
+{
+    struct couple_bodies bodies;
+    SC_TRY(couple_read_bodies(run_dir, c, &bodies));
+    char folder[H5IO_PATH_MAX];
+    snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
+    int status = mkdir(folder, 0777) != 0 && errno != EEXIST
+                     ? sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot create folder %s: %s", folder, strerror(errno))
+                     : SC_OK;
+    long runs = (long)bodies.runs;
+    log_info("impact: %ld runs of the couple stage's seeds (%zu bodies)", runs, bodies.count);
+    for (long r = 0; status == SC_OK && r < runs; r++)
+        status = run_seeded(c, run_dir, hash, settings, &bodies, r);
+    couple_bodies_free(&bodies);
+    SC_TRY(status);
+    SC_TRY(write_first_run_xdmf(run_dir));
+    SC_TRY(write_gathered(c, run_dir, hash, runs));
+    return remove_run_files(run_dir, runs);
+}
+
+int impact_stage_run(const struct case_file *c, const char *run_dir)
+{
+    uint64_t hash = stage_hash(c, STAGE);
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
+    struct run_settings settings;
+    if (stage_begin(STAGE, path, hash, c, &settings))
+        return SC_OK;
+    if (impact_takes_seeds(c))
+        return run_all_seeded(c, run_dir, hash, &settings);
+    return run_single(c, run_dir, hash, &settings);
 }

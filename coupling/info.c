@@ -164,6 +164,64 @@ static void print_vcrit_results(hid_t file, FILE *out)
     }
 }
 
+/* impact.h5 of several runs (/run_NNNN): the overall verdicts and one line per run. */
+static void print_impact_runs(hid_t file, FILE *out)
+{
+    hid_t summary = H5Gopen2(file, "summary", H5P_DEFAULT);
+    if (summary < 0)
+        return;
+    static const char *const overall[] = {"runs", "bodies", "bonded", "bonded_fraction", "mean_pbcp", "mean_v_rest",
+                                          "mean_cor", NULL};
+    fprintf(out, "summary (all runs):\n");
+    for (int k = 0; overall[k]; k++)
+        print_attribute(summary, overall[k], out);
+    size_t runs = 0;
+    if (h5_dataset_size(summary, "run_bonded_fraction", &runs) == SC_OK && runs > 0) {
+        static const char *const names[] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor"};
+        double *column[4];
+        for (int k = 0; k < 4; k++)
+            column[k] = read_column(summary, names[k], runs);
+        fprintf(out, "  %-6s %-16s %-9s %-12s %-8s\n", "run", "bonded fraction", "PBCP %", "v_rest (m/s)", "CoR");
+        for (size_t r = 0; r < runs; r++) {
+            double value[4];
+            for (int k = 0; k < 4; k++)
+                value[k] = column[k] ? column[k][r] : NAN;
+            fprintf(out, "  %-6zu %-16.3g %-9.3g %-12.4g %-8.3g\n", r, value[0], 100.0 * value[1], value[2], value[3]);
+        }
+        for (int k = 0; k < 4; k++)
+            free(column[k]);
+    }
+    H5Gclose(summary);
+    fprintf(out, "  per-body results: /run_NNNN/summary in impact.h5\n");
+}
+
+/* couple.h5: the seeds (one line each) and the CVODE work of the flights. */
+static void print_couple_results(hid_t file, FILE *out)
+{
+    size_t n = 0, flights = 0;
+    if (h5_dataset_size(file, "seeds/d", &n) != SC_OK)
+        return;
+    h5_dataset_size(file, "flight/steps", &flights);
+    double *d = read_column(file, "seeds/d", n), *t = read_column(file, "seeds/t_wall", n);
+    double *v = read_column(file, "seeds/v", 3 * n), *vs = read_column(file, "seeds/v_spray", 3 * n);
+    double *x = read_column(file, "seeds/x", 3 * n), *run = read_column(file, "seeds/run", n);
+    double *steps = read_column(file, "flight/steps", flights);
+    double total_steps = 0.0;
+    for (size_t i = 0; steps && i < flights; i++)
+        total_steps += steps[i];
+    fprintf(out, "seeds: %zu (flights: %zu, %.0f CVODE steps)\n  %-5s %-12s %-12s %-12s %-24s\n", n, flights,
+            total_steps, "run", "d (m)", "v spray", "v wall", "centre (m, impact frame)");
+    for (size_t i = 0; d && t && v && vs && x && run && i < n && i < 50; i++) {
+        double speed = sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+        double spray = sqrt(vs[3 * i] * vs[3 * i] + vs[3 * i + 1] * vs[3 * i + 1] + vs[3 * i + 2] * vs[3 * i + 2]);
+        fprintf(out, "  %-5.0f %-12.4g %-12.5g %-12.5g (%.3g, %.3g, %.3g)\n", run[i], d[i], spray, speed, x[3 * i],
+                x[3 * i + 1], x[3 * i + 2]);
+    }
+    if (n > 50)
+        fprintf(out, "  ... (%zu more in /seeds)\n", n - 50);
+    free(d), free(t), free(v), free(vs), free(x), free(run), free(steps);
+}
+
 static int info_file(const char *path, FILE *out)
 {
     hid_t file;
@@ -175,6 +233,10 @@ static int info_file(const char *path, FILE *out)
     h5_attr_read_string(file, "stage", stage, sizeof stage);
     if (strcmp(stage, "impact") == 0 && h5_exists(file, "series")) {
         print_impact_results(file, out);
+    } else if (strcmp(stage, "impact") == 0 && h5_exists(file, "run_0000")) {
+        print_impact_runs(file, out);
+    } else if (strcmp(stage, "couple") == 0) {
+        print_couple_results(file, out);
     } else if (strcmp(stage, "impact") == 0) {
         fprintf(out, "impact checkpoint:\n");
         for (int k = 0; impact_checkpoint[k]; k++)
@@ -248,9 +310,34 @@ static int count_lines(const char *path)
     return lines;
 }
 
+/* The impact runs of an unfinished multi-run stage that are done (RUN_DIR/impact_runs/run_NNNN.h5). */
+static void print_runs_done(const char *run_dir, FILE *out)
+{
+    char path[4200];
+    int done = 0;
+    for (int r = 0; r < 100000; r++) {
+        snprintf(path, sizeof path, "%s/impact_runs/run_%04d.h5", run_dir, r);
+        if (access(path, R_OK) != 0)
+            break;
+        done++;
+    }
+    if (done)
+        fprintf(out, "  runs 0 ... %d done (RUN_DIR/impact_runs/)\n", done - 1);
+}
+
+static void print_render_state(const char *run_dir, const char *stages, FILE *out)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/report.html", run_dir);
+    int done = access(path, R_OK) == 0;
+    if (done || strstr(stages, "render"))
+        fprintf(out, "stage render: %s\n", done ? "done (report.html, figures/)" : "not done");
+}
+
 int info_print(const char *target, FILE *out)
 {
-    static const char *const stage_names[] = {"spray", "impact", "vcrit"};
+    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit"};
+    enum { STAGES = 4, VCRIT = 3, IMPACT = 2 };
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
@@ -266,8 +353,8 @@ int info_print(const char *target, FILE *out)
     fprintf(out, "case: %s\n", path);
     SC_TRY(run_dir_read_stages(target, stages, sizeof stages));
     fprintf(out, "stages asked for: %s\n", stages);
-    char *results[3] = {NULL, NULL, NULL};
-    for (int k = 0; k < 3; k++) {
+    char *results[STAGES] = {NULL};
+    for (int k = 0; k < STAGES; k++) {
         const char *stage = stage_names[k];
         snprintf(path, sizeof path, "%s/%s.h5", target, stage);
         int done = access(path, R_OK) == 0;
@@ -283,15 +370,18 @@ int info_print(const char *target, FILE *out)
             results[k] = strdup(path);
         else if (checkpoints)
             results[k] = strdup(newest);
-        if (k == 2 && !done) {
+        if (k == IMPACT && !done)
+            print_runs_done(target, out);
+        if (k == VCRIT && !done) {
             snprintf(path, sizeof path, "%s/vcrit_runs.csv", target);
             int lines = count_lines(path);
             if (lines >= 2)
                 fprintf(out, "  %d runs recorded in %s\n", lines - 2, path);
         }
     }
+    print_render_state(target, stages, out);
     int status = SC_OK;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < STAGES; k++) {
         if (results[k] && status == SC_OK)
             status = info_file(results[k], out);
         free(results[k]);

@@ -25,7 +25,11 @@ static const char usage[] =
     "  spraycoat vcrit CASE.ini [-o RUN_DIR]    critical velocity vs diameter from MPM impacts ([vcrit])\n"
     "  spraycoat render CASE.ini [-o RUN_DIR]   figures (RUN_DIR/figures/) and RUN_DIR/report.html from the\n"
     "                                           outputs RUN_DIR holds ([render])\n"
-    "  spraycoat run CASE.ini [-o RUN_DIR]      run every available stage (today: spray)\n"
+    "  spraycoat couple CASE.ini [-o RUN_DIR]   sample the spray's impacts, fly them through the gas layer\n"
+    "                                           in front of the target (CVODE) and seed the impact runs\n"
+    "  spraycoat run CASE.ini [-o RUN_DIR] [--stages LIST]\n"
+    "                                           the pipeline spray,couple,impact,render (couple and impact\n"
+    "                                           when the case has [couple] or [impact]); LIST picks stages\n"
     "  spraycoat resume RUN_DIR                 continue an interrupted run (the stages of the command\n"
     "                                           that made RUN_DIR) from its newest checkpoint\n"
     "  spraycoat info RUN_DIR|FILE.h5           what a run or file holds: stage, step, time, metrics\n"
@@ -34,28 +38,37 @@ static const char usage[] =
     "options:\n"
     "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
     "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+    "  --stages LIST   run: comma-separated stages to run (spray,couple,impact,render)\n"
     "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n"
     "exit status: 0 done, 1 simulation failed, 2 bad command line or case file, 3 I/O error,\n"
     "             130/143 interrupted by SIGINT/SIGTERM after writing a checkpoint\n";
+
+/* The stages of `spraycoat run`, in order. */
+#define PIPELINE "spray,couple,impact,render"
+/* RUN_DIR/stages of a `run`: "run:" and the stages, so that `resume` continues a pipeline as a pipeline */
+#define RUN_PREFIX "run:"
 
 struct options {
     const char *command;
     const char *target; /* CASE.ini or RUN_DIR or FILE.h5 */
     const char *run_dir;
     const char *threads;
+    const char *stages;
 };
 
 static int parse_arguments(int argc, char **argv, struct options *opt)
 {
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
-        if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0) {
+        if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0 || strcmp(arg, "--stages") == 0) {
             if (i + 1 >= argc)
                 SC_FAIL(SC_EINPUT, "option %s needs a value", arg);
             if (arg[1] == 'o')
                 opt->run_dir = argv[++i];
-            else
+            else if (strcmp(arg, "--threads") == 0)
                 opt->threads = argv[++i];
+            else
+                opt->stages = argv[++i];
         } else if (strcmp(arg, "-v") == 0 || strcmp(arg, "--verbose") == 0) {
             log_set_level(LOG_DEBUG);
         } else if (strcmp(arg, "-q") == 0 || strcmp(arg, "--quiet") == 0) {
@@ -133,6 +146,7 @@ struct stage {
 };
 static const struct stage stages[] = {
     {"spray", spray_stage_validate, spray_stage_run, "spray.h5"},
+    {"couple", couple_stage_validate, couple_stage_run, "couple.h5"},
     {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf"},
     {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5"},
     {"render", render_stage_validate, render_stage_run, "figures/, report.html"},
@@ -147,7 +161,9 @@ static const struct stage *find_stage(const char *name, size_t length)
 }
 
 /* list: comma-separated stage names.  Every stage is validated before the run directory is touched. */
-static int run_stages(struct case_file *c, const char *run_dir, const char *list)
+/* list: comma-separated stage names; pipeline: 1 for `run` (its impact stage takes the couple stage's seeds).
+ * Every stage is validated before the run directory is touched. */
+static int run_stages(struct case_file *c, const char *run_dir, const char *list, int pipeline)
 {
     const struct stage *chosen[8];
     int count = 0;
@@ -155,16 +171,19 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
         if (!stage || count == 8)
-            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, impact, vcrit, render)", (int)length, p,
+            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, render)", (int)length, p,
                     list);
         chosen[count++] = stage;
         p += length + (p[length] == ',');
     }
+    stages_set_pipeline(pipeline);
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
         SC_TRY(chosen[i]->validate(c, run_dir));
     SC_TRY(run_dir_prepare(run_dir, c));
-    SC_TRY(run_dir_write_stages(run_dir, list));
+    char record[300];
+    snprintf(record, sizeof record, "%s%s", pipeline ? RUN_PREFIX : "", list);
+    SC_TRY(run_dir_write_stages(run_dir, record));
     stages_install_signal_handlers();
     for (int i = 0; i < count; i++) {
         SC_TRY(chosen[i]->run(c, run_dir));
@@ -173,7 +192,7 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     return SC_OK;
 }
 
-static int command_run(const struct options *opt, const char *list)
+static int command_run(const struct options *opt, const char *list, int pipeline)
 {
     struct case_file *c;
     SC_TRY(load_case(opt->target, opt, &c));
@@ -182,9 +201,24 @@ static int command_run(const struct options *opt, const char *list)
         snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
     else
         default_run_dir(opt->target, run_dir, sizeof run_dir);
-    int status = run_stages(c, run_dir, list);
+    int status = run_stages(c, run_dir, list, pipeline);
     case_free(c);
     return status;
+}
+
+/* `run`: the pipeline.  Without --stages: spray, then couple and impact when the case describes them ([couple] or
+ * [impact] given; a spray-only case goes from the spray to the render), then render. */
+static int command_pipeline(const struct options *opt)
+{
+    if (opt->stages)
+        return command_run(opt, opt->stages, 1);
+    struct case_file *c;
+    SC_TRY(load_case(opt->target, opt, &c));
+    int whole = case_section_given(c, "couple") || case_section_given(c, "impact");
+    case_free(c);
+    if (!whole)
+        log_info("run: the case has no [couple] or [impact] section: no impact runs");
+    return command_run(opt, whole ? PIPELINE : "spray,render", 1);
 }
 
 /* Continue the stages of the command that made RUN_DIR (RUN_DIR/stages; "spray" when absent) with the case it
@@ -201,7 +235,8 @@ static int command_resume(const struct options *opt)
     struct case_file *c;
     SC_TRY(load_case(case_path, opt, &c));
     log_info("resuming %s: stages %s", opt->target, list);
-    int status = run_stages(c, opt->target, list);
+    int pipeline = strncmp(list, RUN_PREFIX, strlen(RUN_PREFIX)) == 0;
+    int status = run_stages(c, opt->target, list + (pipeline ? strlen(RUN_PREFIX) : 0), pipeline);
     case_free(c);
     return status;
 }
@@ -211,11 +246,13 @@ static int dispatch(const struct options *opt)
     const char *command = opt->command;
     if (strcmp(command, "check") == 0)
         return command_check(opt);
-    /* `run` is the full pipeline; today its only stage is spray */
-    if (strcmp(command, "spray") == 0 || strcmp(command, "run") == 0)
-        return command_run(opt, "spray");
-    if (strcmp(command, "impact") == 0 || strcmp(command, "vcrit") == 0 || strcmp(command, "render") == 0)
-        return command_run(opt, command);
+    if (strcmp(command, "run") == 0)
+        return command_pipeline(opt);
+    if (opt->stages)
+        SC_FAIL(SC_EINPUT, "--stages goes with the run command (see spraycoat --help)");
+    if (strcmp(command, "spray") == 0 || strcmp(command, "couple") == 0 || strcmp(command, "impact") == 0 ||
+        strcmp(command, "vcrit") == 0 || strcmp(command, "render") == 0)
+        return command_run(opt, command, 0);
     if (strcmp(command, "resume") == 0)
         return command_resume(opt);
     if (strcmp(command, "info") == 0)
@@ -226,9 +263,6 @@ static int dispatch(const struct options *opt)
         case_registry_markdown(spraycoat_registry, stdout);
         return SC_OK;
     }
-    if (strcmp(command, "couple") == 0)
-        SC_FAIL(SC_EINPUT, "'%s': this stage is not part of this version of spraycoat yet (see spraycoat --help)",
-                command);
     SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", command);
 }
 

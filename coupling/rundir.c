@@ -18,8 +18,8 @@
 #include "mpm/mpm.h"
 #include "render/render.h"
 
-const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, mpm_case_keys, vcrit_case_keys,
-                                                    render_case_keys, NULL};
+const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, couple_case_keys, mpm_case_keys,
+                                                    vcrit_case_keys, render_case_keys, NULL};
 
 static volatile sig_atomic_t received_signal;
 
@@ -236,4 +236,37 @@ int stage_checkpoint_due(const struct run_settings *settings, int64_t step, int6
     if (settings->checkpoint_steps > 0 && step - last_step >= settings->checkpoint_steps)
         return 1;
     return settings->checkpoint_wall > 0 && log_elapsed() - last_time >= settings->checkpoint_wall;
+}
+
+/* The sections each stage's results depend on: a stage's inputs are its own keys and everything upstream of it.
+ * The impact stage of a pipeline case (one with [couple]) takes its bodies from couple.h5. */
+static const char *const spray_sections[] = {"run", "spray", "powder", "target", "contact", "jet", "deposition", NULL};
+static const char *const couple_sections[] = {"run", "spray", "powder", "target", "contact", "jet", "deposition",
+                                              "couple", NULL};
+static const char *const pipeline_impact_sections[] = {"run", "spray", "powder", "target", "contact", "jet",
+                                                       "deposition", "couple", "impact", "material.*", NULL};
+static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
+static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
+
+static int pipeline;
+
+void stages_set_pipeline(int on) { pipeline = on; }
+
+int impact_takes_seeds(const struct case_file *c)
+{
+    (void)c;
+    return pipeline;
+}
+
+uint64_t stage_hash(const struct case_file *c, const char *stage)
+{
+    if (strcmp(stage, "spray") == 0)
+        return case_hash_sections(c, spray_sections);
+    if (strcmp(stage, "couple") == 0)
+        return case_hash_sections(c, couple_sections);
+    if (strcmp(stage, "impact") == 0)
+        return case_hash_sections(c, impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
+    if (strcmp(stage, "vcrit") == 0)
+        return case_hash_sections(c, vcrit_sections);
+    return case_hash(c);
 }

@@ -198,12 +198,12 @@ int spray_stage_validate(const struct case_file *c, const char *run_dir)
         return SC_OK;
     /* refuse checkpoints of another case before anything in the run directory is written */
     char path[H5IO_PATH_MAX];
-    return checkpoint_find_newest(run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, case_hash(c), path, sizeof path);
+    return checkpoint_find_newest(run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(c, STAGE), path, sizeof path);
 }
 
 int spray_stage_run(const struct case_file *c, const char *run_dir)
 {
-    struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
+    struct spray_run run = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(c, STAGE)};
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", run_dir);
     if (stage_begin(STAGE, path, run.case_hash, c, &run.settings))

@@ -28,6 +28,14 @@ int run_dir_read_stages(const char *run_dir, char *out, size_t size);
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
 int case_section_given(const struct case_file *c, const char *section);
 
+/* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
+ * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
+uint64_t stage_hash(const struct case_file *c, const char *stage);
+/* 1 when the impact stage takes its bodies from RUN_DIR/couple.h5 (the stages run by `spraycoat run`, the
+ * pipeline), 0 when from [impact] (one particle or a bodies file: `spraycoat impact`). */
+int impact_takes_seeds(const struct case_file *c);
+void stages_set_pipeline(int on);
+
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
 
@@ -78,6 +86,13 @@ int vcrit_stage_validate(const struct case_file *c, const char *run_dir);
  * RUN_DIR/vcrit_runs.csv and not repeated after an interruption.  Writes RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5;
  * skips the work when vcrit.h5 exists for the same case.  SC_EINT/SC_ETERM when interrupted. */
 int vcrit_stage_run(const struct case_file *c, const char *run_dir);
+
+/* The couple stage ([couple]): sample spray.h5's impacts, fly them through the gas layer in front of the target
+ * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when
+ * spray.h5 is missing or from another case. */
+int couple_stage_validate(const struct case_file *c, const char *run_dir);
+int couple_stage_run(const struct case_file *c, const char *run_dir);
+extern const struct cfg_key couple_case_keys[];
 
 /* SIGINT/SIGTERM: set a flag the stages poll between steps. */
 void stages_install_signal_handlers(void);

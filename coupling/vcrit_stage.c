@@ -534,7 +534,7 @@ int vcrit_stage_validate(const struct case_file *c, const char *run_dir)
 
 int vcrit_stage_run(const struct case_file *c, const char *run_dir)
 {
-    struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = case_hash(c)};
+    struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(c, STAGE)};
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
     if (run_dir_output_current(path, v.case_hash)) {

@@ -17,8 +17,8 @@ if [ ! -x "$bin" ]; then
     echo "FAIL cli_setup: no executable $bin (SPRAYCOAT_BIN)"
     exit 1
 fi
-if [ ! -r cases/demo.ini ] || [ ! -r "$base" ]; then
-    echo "FAIL cli_setup: cases/demo.ini or $base missing (run from the repository root)"
+if [ ! -r cases/mz2015_demo.ini ] || [ ! -r "$base" ]; then
+    echo "FAIL cli_setup: cases/mz2015_demo.ini or $base missing (run from the repository root)"
     exit 1
 fi
 
@@ -71,8 +71,8 @@ run1() { expect "$@"; report "$1"; } # a test with no further checks
 # ---- the command line: exit 2 with a message, --help and --version exit 0 ---------------------------------
 
 run1 cli_no_command 2 "no command" "$bin"
-run1 cli_unknown_command 2 "frobnicate" "$bin" frobnicate cases/demo.ini
-run1 cli_unknown_option 2 "--bogus" "$bin" check --bogus cases/demo.ini
+run1 cli_unknown_command 2 "frobnicate" "$bin" frobnicate cases/mz2015_demo.ini
+run1 cli_unknown_option 2 "--bogus" "$bin" check --bogus cases/mz2015_demo.ini
 run1 cli_o_without_value 2 "-o" "$bin" spray "$base" -o
 run1 cli_threads_without_value 2 "--threads" "$bin" check "$base" --threads
 run1 cli_threads_not_integer 2 "threads" "$bin" check "$base" --threads abc
@@ -82,7 +82,9 @@ run1 cli_check_without_case 2 "case file" "$bin" check
 run1 cli_spray_without_case 2 "case file" "$bin" spray
 run1 cli_impact_without_case 2 "case file" "$bin" impact
 run1 cli_vcrit_without_case 2 "case file" "$bin" vcrit
-run1 cli_couple_not_yet 2 "not part of this version" "$bin" couple "$base" -o "$tmp/run_couple"
+# a stage whose input is missing: exit 3 naming the missing file and the stage to run first
+run1 cli_couple_without_spray 3 "spray.h5 is missing" "$bin" couple "$base" -o "$tmp/run_couple"
+run1 cli_impact_of_run_without_couple 3 "couple.h5 is missing" "$bin" run cases/demo.ini --stages impact -o "$tmp/run_impact"
 run1 cli_info_without_target 2 "info" "$bin" info
 run1 cli_resume_without_dir 2 "run directory" "$bin" resume
 expect cli_empty_run_dir 2 "run directory" "$bin" spray "$base" -o ""
@@ -119,11 +121,11 @@ run1 io_resume_not_a_run_dir 3 "$tmp/empty_dir" "$bin" resume "$tmp/empty_dir"
 # (b) A file-size limit while writing (one thread: quick also on a busy machine).  ulimit -f counts 512-byte blocks in a POSIX shell: 50 blocks = 25 KiB,
 # enough for case.ini, far too little for spray.h5 or a checkpoint of the short demo.  The program must report
 # EFBIG as an I/O error (it ignores SIGXFSZ); being killed by SIGXFSZ (status 153) or crashing is a failure.
-sed 's/^t_end *=.*/t_end = 5e-4/' cases/demo.ini >"$tmp/short.ini"
+sed 's/^t_end *=.*/t_end = 5e-4/' cases/mz2015_demo.ini >"$tmp/short.ini"
 sed 's/^checkpoint_steps *=.*/checkpoint_steps = 100/' "$tmp/short.ini" >"$tmp/short_ckpt.ini"
 sed 's/^seed *=.*/seed = 8/' "$tmp/short.ini" >"$tmp/short_seed8.ini"
 grep -q '^t_end = 5e-4' "$tmp/short.ini" && grep -q '^checkpoint_steps = 100' "$tmp/short_ckpt.ini" &&
-    grep -q '^seed = 8' "$tmp/short_seed8.ini" || echo "FAIL io_setup: cannot make short copies of cases/demo.ini"
+    grep -q '^seed = 8' "$tmp/short_seed8.ini" || echo "FAIL io_setup: cannot make short copies of cases/mz2015_demo.ini"
 
 # shellcheck disable=SC2317 # called through expect "$@"
 limited() { # limited RUN_DIR CASE: spray CASE into RUN_DIR under ulimit -f 50
@@ -172,11 +174,11 @@ fi
 
 # (d) one process per run directory: a second run into a directory in use exits 3 and the first finishes.
 busy=$tmp/busy
-"$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_first.err" &
+"$bin" spray cases/mz2015_demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_first.err" &
 first=$!
 i=0
 while [ ! -f "$busy/case.ini" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
-"$bin" spray cases/demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_second.err"
+"$bin" spray cases/mz2015_demo.ini -o "$busy" --threads 1 >/dev/null 2>"$tmp/busy_second.err"
 second=$?
 wait "$first"
 first_status=$?
@@ -190,7 +192,7 @@ fi
 # (c) info of a missing path, of a file that is not HDF5, of an empty and of a truncated HDF5 file.
 run1 io_info_missing_path 3 "$tmp/no_such_run" "$bin" info "$tmp/no_such_run"
 run1 io_info_missing_h5 3 "$tmp/no_such_file.h5" "$bin" info "$tmp/no_such_file.h5"
-cp cases/demo.ini "$tmp/not_hdf5.h5"
+cp cases/mz2015_demo.ini "$tmp/not_hdf5.h5"
 run1 io_info_not_hdf5 3 "$tmp/not_hdf5.h5" "$bin" info "$tmp/not_hdf5.h5"
 : >"$tmp/empty.h5"
 run1 io_info_empty_file 3 "$tmp/empty.h5" "$bin" info "$tmp/empty.h5"

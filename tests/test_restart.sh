@@ -23,7 +23,7 @@ case $BIN in
 /*) ;;
 */*) BIN=$(pwd)/$BIN ;;
 esac
-DEMO=cases/demo.ini
+DEMO=cases/mz2015_demo.ini
 
 failures=0
 pass() { echo "PASS $1"; }

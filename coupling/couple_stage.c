@@ -1,0 +1,665 @@
+/* The couple stage: spray.h5 -> sampled impacts -> CVODE flights through the gas layer -> MPM seeds in
+ * RUN_DIR/couple.h5 (/seeds, /flight).  The stage has no checkpoints: it flies a few hundred particles at most,
+ * in well under a second each, and writes couple.h5 atomically at the end, so an interrupted stage is simply
+ * run again (with the same result: the flights and the sampling are deterministic). */
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "coupling/couple.h"
+#include "coupling/flight.h"
+#include "coupling/stages.h"
+#include "dem/dem.h"
+
+#define STAGE "couple"
+#define COUPLE_FORMAT "spraycoat-couple"
+#define COUPLE_FORMAT_VERSION 1
+
+/* malloc(0) may return NULL: every array gets at least one element. */
+static size_t at_least_one(size_t n) { return n ? n : 1; }
+
+/* The rows of spray.h5 the stage uses. */
+struct spray_rows {
+    size_t impact_count, handoff_count;
+    struct dem_impact *impacts;
+    struct dem_handoff *handoffs;
+};
+
+struct couple_work {
+    const struct case_file *c;
+    const char *run_dir;
+    uint64_t hash;
+    struct couple_config cfg;
+    struct flight_layer layer;
+    struct spray_rows spray;
+    struct couple_candidate *candidates;
+    size_t candidate_count;
+    size_t *handoff_of;               /* per candidate: its hand-off row, or SIZE_MAX */
+    struct flight_result *flights;    /* in the order flown */
+    size_t *flight_candidate;
+    size_t flight_count;
+    struct couple_seed *seeds;
+    size_t seed_count;
+};
+
+/* ---- spray.h5 ---------------------------------------------------------------------------------------------- */
+
+/* Read `name` (rows x width doubles) into the field at `offset` of `rows` records of `stride` bytes. */
+static int read_into_records(hid_t group, const char *name, size_t rows, size_t width, void *records, size_t stride,
+                             size_t offset)
+{
+    double *column = malloc(at_least_one(rows * width) * sizeof *column);
+    if (!column)
+        SC_FAIL(SC_ESIM, "couple: out of memory");
+    int status = h5_read_doubles(group, name, column, rows * width);
+    for (size_t i = 0; status == SC_OK && i < rows; i++)
+        memcpy((char *)records + i * stride + offset, column + i * width, width * sizeof *column);
+    free(column);
+    return status;
+}
+
+static int read_ids_into_records(hid_t group, const char *name, size_t rows, void *records, size_t stride,
+                                 size_t offset)
+{
+    int64_t *column = malloc(at_least_one(rows) * sizeof *column);
+    if (!column)
+        SC_FAIL(SC_ESIM, "couple: out of memory");
+    int status = h5_read_int64s(group, name, column, rows);
+    for (size_t i = 0; status == SC_OK && i < rows; i++)
+        memcpy((char *)records + i * stride + offset, column + i, sizeof *column);
+    free(column);
+    return status;
+}
+
+#define READ_FIELD(group, rows, array, type, field, width)                                                       \
+    read_into_records(group, #field, rows, width, array, sizeof(type), offsetof(type, field))
+#define READ_ID(group, rows, array, type, field)                                                                 \
+    read_ids_into_records(group, #field, rows, array, sizeof(type), offsetof(type, field))
+
+static int read_impacts(hid_t file, struct spray_rows *rows)
+{
+    hid_t g = H5Gopen2(file, "impacts", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "couple: spray.h5 has no /impacts group");
+    size_t n = 0;
+    int status = h5_dataset_size(g, "t", &n);
+    rows->impact_count = n;
+    rows->impacts = calloc(n ? n : 1, sizeof *rows->impacts);
+    if (!rows->impacts)
+        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory for %zu impacts", n);
+    struct dem_impact *r = rows->impacts;
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, t, 1);
+    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_impact, particle_id);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, x, 3);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, v_in, 3);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, d, 1);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, m, 1);
+    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_impact, partner);
+    H5Gclose(g);
+    return status;
+}
+
+static int read_handoffs(hid_t file, struct spray_rows *rows)
+{
+    hid_t g = H5Gopen2(file, "handoff", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "couple: spray.h5 has no /handoff group");
+    size_t n = 0;
+    int status = h5_dataset_size(g, "t", &n);
+    rows->handoff_count = n;
+    rows->handoffs = calloc(n ? n : 1, sizeof *rows->handoffs);
+    if (!rows->handoffs)
+        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory for %zu hand-offs", n);
+    struct dem_handoff *r = rows->handoffs;
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, t, 1);
+    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_handoff, particle_id);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, x, 3);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, v, 3);
+    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, d, 1);
+    H5Gclose(g);
+    return status;
+}
+
+/* spray.h5 must exist and come from this case's spray stage. */
+static int read_spray(struct couple_work *w)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/spray.h5", w->run_dir);
+    if (!run_dir_output_current(path, stage_hash(w->c, "spray")))
+        SC_FAIL(SC_EIO, "couple: the stage's input %s is missing or was made from another case; run the spray stage "
+                "first (`spraycoat spray` or `spraycoat run`)", path);
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    int status = read_impacts(file, &w->spray);
+    if (status == SC_OK)
+        status = read_handoffs(file, &w->spray);
+    H5Fclose(file);
+    if (status != SC_OK)
+        sc_error_trace(__FILE__, __LINE__);
+    return status;
+}
+
+/* ---- candidates -------------------------------------------------------------------------------------------- */
+
+static const struct dem_impact *sort_impacts;
+static int compare_impact_rows(const void *pa, const void *pb)
+{
+    size_t a = *(const size_t *)pa, b = *(const size_t *)pb;
+    const struct dem_impact *ia = &sort_impacts[a], *ib = &sort_impacts[b];
+    if (ia->particle_id != ib->particle_id)
+        return ia->particle_id < ib->particle_id ? -1 : 1;
+    if (ia->t != ib->t)
+        return ia->t < ib->t ? -1 : 1;
+    return (a > b) - (a < b);
+}
+
+/* The first contact of every particle, in order of particle id. */
+static int find_candidates(struct couple_work *w)
+{
+    size_t n = w->spray.impact_count;
+    size_t *order = malloc(at_least_one(n) * sizeof *order);
+    w->candidates = calloc(n ? n : 1, sizeof *w->candidates);
+    if (!order || !w->candidates) {
+        free(order);
+        SC_FAIL(SC_ESIM, "couple: out of memory");
+    }
+    for (size_t i = 0; i < n; i++)
+        order[i] = i;
+    sort_impacts = w->spray.impacts;
+    qsort(order, n, sizeof *order, compare_impact_rows);
+    for (size_t i = 0; i < n; i++) {
+        const struct dem_impact *row = &w->spray.impacts[order[i]];
+        if (i > 0 && row->particle_id == w->spray.impacts[order[i - 1]].particle_id)
+            continue;
+        struct couple_candidate *c = &w->candidates[w->candidate_count++];
+        c->impact_row = (int64_t)order[i];
+        c->particle_id = row->particle_id;
+        c->t = row->t;
+        memcpy(c->x, row->x, sizeof c->x);
+        memcpy(c->v, row->v_in, sizeof c->v);
+        c->d = row->d;
+        c->m = row->m;
+    }
+    free(order);
+    return SC_OK;
+}
+
+/* Each candidate's last crossing of the hand-off plane before its impact (linear scan per candidate over the
+ * hand-offs sorted by particle: both lists are in particle order). */
+static const struct dem_handoff *sort_handoffs;
+static int compare_handoff_rows(const void *pa, const void *pb)
+{
+    size_t a = *(const size_t *)pa, b = *(const size_t *)pb;
+    const struct dem_handoff *ha = &sort_handoffs[a], *hb = &sort_handoffs[b];
+    if (ha->particle_id != hb->particle_id)
+        return ha->particle_id < hb->particle_id ? -1 : 1;
+    if (ha->t != hb->t)
+        return ha->t < hb->t ? -1 : 1;
+    return (a > b) - (a < b);
+}
+
+static int match_handoffs(struct couple_work *w)
+{
+    size_t n = w->spray.handoff_count;
+    size_t *order = malloc(at_least_one(n) * sizeof *order);
+    w->handoff_of = malloc(at_least_one(w->candidate_count) * sizeof *w->handoff_of);
+    if (!order || !w->handoff_of) {
+        free(order);
+        SC_FAIL(SC_ESIM, "couple: out of memory");
+    }
+    for (size_t i = 0; i < n; i++)
+        order[i] = i;
+    sort_handoffs = w->spray.handoffs;
+    qsort(order, n, sizeof *order, compare_handoff_rows);
+    size_t h = 0;
+    for (size_t k = 0; k < w->candidate_count; k++) {
+        const struct couple_candidate *c = &w->candidates[k];
+        w->handoff_of[k] = SIZE_MAX;
+        while (h < n && w->spray.handoffs[order[h]].particle_id < c->particle_id)
+            h++;
+        for (size_t j = h; j < n && w->spray.handoffs[order[j]].particle_id == c->particle_id; j++)
+            if (w->spray.handoffs[order[j]].t <= c->t)
+                w->handoff_of[k] = order[j];
+    }
+    free(order);
+    return SC_OK;
+}
+
+/* ---- flights and seeds ------------------------------------------------------------------------------------- */
+
+static int setup_layer(struct couple_work *w, const struct dem_config *spray)
+{
+    struct flight_layer *layer = &w->layer;
+    layer->gas = spray->gas;
+    layer->wall_z = spray->standoff;
+    layer->thickness = w->cfg.layer_thickness;
+    layer->rtol = w->cfg.rtol;
+    layer->atol = w->cfg.atol;
+    layer->approach_velocity = w->cfg.stagnation_velocity;
+    if (isnan(layer->approach_velocity)) {
+        const double edge[3] = {0.0, 0.0, spray->standoff - w->cfg.layer_thickness};
+        double u[3];
+        gas_velocity(&spray->gas, edge, u);
+        layer->approach_velocity = fmax(u[2], 0.0);
+    }
+    log_info("couple: gas layer %.4g m thick, approached at %.4g m/s; hand-off plane %.4g m before the target",
+             layer->thickness, layer->approach_velocity, spray->handoff_height);
+    return SC_OK;
+}
+
+/* Fly candidate k from its hand-off crossing; returns its flight row in *row. */
+static int fly(struct couple_work *w, struct flight_solver *solver, size_t k, size_t *row)
+{
+    const struct dem_handoff *h = &w->spray.handoffs[w->handoff_of[k]];
+    const struct couple_candidate *c = &w->candidates[k];
+    double density = c->m / (M_PI * c->d * c->d * c->d / 6.0);
+    size_t i = w->flight_count;
+    SC_TRY(flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]));
+    w->flight_candidate[i] = k;
+    w->flight_count++;
+    *row = i;
+    return SC_OK;
+}
+
+/* Slot `slot` takes the next candidate of its stratum that has a hand-off, is not taken and reaches the wall. */
+static int fill_slot(struct couple_work *w, struct flight_solver *solver, const struct couple_strata *strata,
+                     size_t *cursor, char *taken, size_t slot)
+{
+    size_t s = strata->slot_stratum[slot];
+    while (cursor[s] < strata->offset[s + 1] - strata->offset[s]) {
+        size_t k = strata->members[strata->offset[s] + cursor[s]++];
+        if (taken[k] || w->handoff_of[k] == SIZE_MAX)
+            continue;
+        taken[k] = 1;
+        size_t row;
+        SC_TRY(fly(w, solver, k, &row));
+        const struct flight_result *f = &w->flights[row];
+        if (!f->reached)
+            continue;
+        struct couple_seed *seed = &w->seeds[slot];
+        seed->candidate = k;
+        seed->flight = row;
+        seed->t_wall = f->t;
+        memcpy(seed->x_wall, f->x, sizeof seed->x_wall);
+        memcpy(seed->v_wall, f->v, sizeof seed->v_wall);
+        seed->d = w->candidates[k].d;
+        seed->m = w->candidates[k].m;
+        seed->run = (int64_t)(slot / (size_t)w->cfg.bodies_per_run);
+        return SC_OK;
+    }
+    return case_invalid(w->c, "couple", "runs", "seed %zu: no further spray impact of its %s reaches the wall with a "
+                        "hand-off crossing (%zu flown so far); allowed: fewer runs or bodies_per_run, or a spray with "
+                        "more impacts", slot + 1, w->cfg.sample == COUPLE_STRATIFIED ? "stratum" : "sample",
+                        w->flight_count);
+}
+
+static int make_seeds(struct couple_work *w)
+{
+    struct couple_strata strata;
+    SC_TRY(couple_strata_build(w->c, &w->cfg, w->candidates, w->candidate_count, &strata));
+    size_t seeds = (size_t)(w->cfg.runs * w->cfg.bodies_per_run), n = w->candidate_count;
+    w->seed_count = seeds;
+    w->seeds = calloc(seeds, sizeof *w->seeds);
+    w->flights = calloc(n ? n : 1, sizeof *w->flights);
+    w->flight_candidate = calloc(n ? n : 1, sizeof *w->flight_candidate);
+    size_t *cursor = calloc(strata.count, sizeof *cursor);
+    char *taken = calloc(n ? n : 1, 1);
+    struct flight_solver *solver = NULL;
+    int status = w->seeds && w->flights && w->flight_candidate && cursor && taken
+                     ? flight_solver_create(&solver)
+                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    struct progress bar;
+    progress_begin(&bar, STAGE, "seeds", 0, (int64_t)seeds);
+    for (size_t slot = 0; status == SC_OK && slot < seeds; slot++) {
+        status = fill_slot(w, solver, &strata, cursor, taken, slot);
+        progress_update(&bar, (int64_t)slot + 1, "");
+    }
+    progress_end(&bar, (int64_t)seeds);
+    for (size_t r = 0; status == SC_OK && r < (size_t)w->cfg.runs; r++)
+        couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
+    flight_solver_destroy(solver);
+    free(cursor);
+    free(taken);
+    couple_strata_free(&strata);
+    return status;
+}
+
+/* ---- couple.h5 --------------------------------------------------------------------------------------------- */
+
+static int write_seed_columns(hid_t g, const struct couple_work *w)
+{
+    size_t n = w->seed_count;
+    int64_t *ints = malloc(at_least_one(n) * sizeof *ints);
+    double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
+    int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
+#define SEED_INT(name, expr)                                                                                     \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        ints[i] = (expr);                                                                                          \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
+#define SEED_REAL(name, expr, unit)                                                                              \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        reals[i] = (expr);                                                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
+#define SEED_VEC(name, array, unit)                                                                              \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
+    const struct couple_seed *s = w->seeds;
+    SEED_INT("run", s[i].run)
+    SEED_INT("body", s[i].body)
+    SEED_INT("impact_row", w->candidates[s[i].candidate].impact_row)
+    SEED_INT("particle_id", w->candidates[s[i].candidate].particle_id)
+    SEED_INT("flight", (int64_t)s[i].flight)
+    SEED_REAL("d", s[i].d, "m")
+    SEED_REAL("m", s[i].m, "kg")
+    SEED_REAL("t_wall", s[i].t_wall, "s")
+    SEED_VEC("x", s[i].center, "m")
+    SEED_VEC("v", s[i].velocity, "m/s")
+    SEED_VEC("x_wall", s[i].x_wall, "m")
+    SEED_VEC("v_wall", s[i].v_wall, "m/s")
+    SEED_VEC("v_spray", w->candidates[s[i].candidate].v, "m/s")
+#undef SEED_INT
+#undef SEED_REAL
+#undef SEED_VEC
+    free(ints);
+    free(reals);
+    return status;
+}
+
+static int write_seeds(hid_t file, const struct couple_work *w)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "seeds", &g));
+    static const char *const rules[] = {"random", "stratified", "window"};
+    int status = write_seed_columns(g, w);
+    if (status == SC_OK) status = h5_attr_write_string(g, "sample", rules[w->cfg.sample]);
+    if (status == SC_OK) status = h5_attr_write_int64(g, "runs", w->cfg.runs);
+    if (status == SC_OK) status = h5_attr_write_int64(g, "bodies_per_run", w->cfg.bodies_per_run);
+    if (status == SC_OK) status = h5_attr_write_double(g, "patch_size", w->cfg.patch_size);
+    if (status == SC_OK) status = h5_attr_write_int64(g, "candidates", (int64_t)w->candidate_count);
+    H5Gclose(g);
+    return status;
+}
+
+/* The trajectories, concatenated: flight i has samples offset[i] ... offset[i + 1] - 1. */
+static int write_trajectories(hid_t g, const struct couple_work *w)
+{
+    size_t nf = w->flight_count, total = 0;
+    for (size_t i = 0; i < nf; i++)
+        total += w->flights[i].samples;
+    int64_t *offset = malloc((nf + 1) * sizeof *offset);
+    double *t = malloc(at_least_one(total) * sizeof *t), *x = malloc(at_least_one(3 * total) * sizeof *x),
+           *v = malloc(at_least_one(3 * total) * sizeof *v);
+    int status = offset && t && x && v ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    size_t at = 0;
+    for (size_t i = 0; status == SC_OK && i < nf; i++) {
+        const struct flight_result *f = &w->flights[i];
+        offset[i] = (int64_t)at;
+        memcpy(t + at, f->sample_t, f->samples * sizeof *t);
+        memcpy(x + 3 * at, f->sample_x, 3 * f->samples * sizeof *x);
+        memcpy(v + 3 * at, f->sample_v, 3 * f->samples * sizeof *v);
+        at += f->samples;
+    }
+    if (status == SC_OK)
+        offset[nf] = (int64_t)at;
+    hsize_t off_dims[1] = {nf + 1}, t_dims[1] = {total}, x_dims[2] = {total, 3};
+    if (status == SC_OK) status = h5_write_int64s(g, "sample_offset", 1, off_dims, offset, "", 0);
+    if (status == SC_OK) status = h5_write_doubles(g, "sample_t", 1, t_dims, t, "s", 0);
+    if (status == SC_OK) status = h5_write_doubles(g, "sample_x", 2, x_dims, x, "m", 0);
+    if (status == SC_OK) status = h5_write_doubles(g, "sample_v", 2, x_dims, v, "m/s", 0);
+    free(offset);
+    free(t);
+    free(x);
+    free(v);
+    return status;
+}
+
+static int write_flight_columns(hid_t g, const struct couple_work *w)
+{
+    size_t n = w->flight_count;
+    int64_t *ints = malloc(at_least_one(n) * sizeof *ints);
+    double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
+    int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
+    const struct flight_result *f = w->flights;
+#define FLIGHT_INT(name, expr)                                                                                   \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        ints[i] = (int64_t)(expr);                                                                                 \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
+#define FLIGHT_REAL(name, expr, unit)                                                                            \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        reals[i] = (expr);                                                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
+#define FLIGHT_VEC(name, array, unit)                                                                            \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
+    const struct couple_candidate *c = w->candidates;
+    const size_t *k = w->flight_candidate;
+    FLIGHT_INT("impact_row", c[k[i]].impact_row)
+    FLIGHT_INT("particle_id", c[k[i]].particle_id)
+    FLIGHT_INT("handoff_row", w->handoff_of[k[i]])
+    FLIGHT_REAL("d", c[k[i]].d, "m")
+    FLIGHT_REAL("t0", f[i].samples ? f[i].sample_t[0] : NAN, "s")
+    FLIGHT_VEC("x0", f[i].sample_x, "m")
+    FLIGHT_VEC("v0", f[i].sample_v, "m/s")
+    FLIGHT_REAL("t_end", f[i].t, "s")
+    FLIGHT_VEC("x_end", f[i].x, "m")
+    FLIGHT_VEC("v_end", f[i].v, "m/s")
+    FLIGHT_INT("reached", f[i].reached)
+    FLIGHT_INT("steps", f[i].steps)
+    FLIGHT_INT("rhs_evals", f[i].rhs_evals)
+    FLIGHT_INT("jac_evals", f[i].jac_evals)
+    FLIGHT_INT("error_test_failures", f[i].error_test_failures)
+    FLIGHT_INT("nonlinear_iterations", f[i].nonlinear_iterations)
+    FLIGHT_INT("nonlinear_failures", f[i].nonlinear_failures)
+#undef FLIGHT_INT
+#undef FLIGHT_REAL
+#undef FLIGHT_VEC
+    free(ints);
+    free(reals);
+    return status;
+}
+
+static int write_flights(hid_t file, const struct couple_work *w)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "flight", &g));
+    int status = write_flight_columns(g, w);
+    if (status == SC_OK) status = write_trajectories(g, w);
+    if (status == SC_OK) status = h5_attr_write_double(g, "wall_z", w->layer.wall_z);
+    if (status == SC_OK) status = h5_attr_write_double(g, "layer_thickness", w->layer.thickness);
+    if (status == SC_OK) status = h5_attr_write_double(g, "gas_stagnation_velocity", w->layer.approach_velocity);
+    if (status == SC_OK) status = h5_attr_write_double(g, "rtol", w->layer.rtol);
+    if (status == SC_OK) status = h5_attr_write_double(g, "atol", w->layer.atol);
+    H5Gclose(g);
+    return status;
+}
+
+static int write_output(const struct couple_work *w)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/couple.h5", w->run_dir);
+    struct h5_out out;
+    SC_TRY(h5_create_atomic(path, &out));
+    char *case_text = case_resolved_text(w->c);
+    int status = h5_write_root_attributes(out.file, COUPLE_FORMAT, COUPLE_FORMAT_VERSION, STAGE, w->hash);
+    if (status == SC_OK)
+        status = h5_attr_write_string(out.file, "case", case_text);
+    free(case_text);
+    if (status == SC_OK)
+        status = write_seeds(out.file, w);
+    if (status == SC_OK)
+        status = write_flights(out.file, w);
+    if (status != SC_OK) {
+        h5_abort(&out);
+        return status;
+    }
+    SC_TRY(h5_commit(&out));
+    log_info("couple: wrote %s", path);
+    return SC_OK;
+}
+
+static void log_summary(const struct couple_work *w)
+{
+    double speed_spray = 0.0, speed_wall = 0.0, diameter = 0.0;
+    long steps = 0;
+    for (size_t i = 0; i < w->seed_count; i++) {
+        const struct couple_seed *s = &w->seeds[i];
+        const double *vs = w->candidates[s->candidate].v;
+        speed_spray += sqrt(vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
+        speed_wall += sqrt(s->v_wall[0] * s->v_wall[0] + s->v_wall[1] * s->v_wall[1] + s->v_wall[2] * s->v_wall[2]);
+        diameter += s->d;
+    }
+    for (size_t i = 0; i < w->flight_count; i++)
+        steps += w->flights[i].steps;
+    double n = (double)at_least_one(w->seed_count);
+    log_info("couple: %zu seeds in %ld runs from %zu candidate impacts (%zu flights, %ld CVODE steps); mean diameter "
+             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall after the gas layer", w->seed_count,
+             w->cfg.runs, w->candidate_count, w->flight_count, steps, 1e6 * diameter / n, speed_spray / n,
+             speed_wall / n);
+}
+
+static void couple_work_free(struct couple_work *w)
+{
+    for (size_t i = 0; i < w->flight_count; i++)
+        flight_result_free(&w->flights[i]);
+    free(w->flights);
+    free(w->flight_candidate);
+    free(w->seeds);
+    free(w->handoff_of);
+    free(w->candidates);
+    free(w->spray.impacts);
+    free(w->spray.handoffs);
+}
+
+/* ---- reading the seeds back (the impact stage) ------------------------------------------------------------- */
+
+void couple_bodies_free(struct couple_bodies *b)
+{
+    free(b->first);
+    free(b->d);
+    free(b->center);
+    free(b->velocity);
+    memset(b, 0, sizeof *b);
+}
+
+static int read_body_columns(hid_t g, struct couple_bodies *b, int64_t *run)
+{
+    size_t n = b->count;
+    b->d = malloc(at_least_one(n) * sizeof *b->d);
+    b->center = malloc(at_least_one(3 * n) * sizeof *b->center);
+    b->velocity = malloc(at_least_one(3 * n) * sizeof *b->velocity);
+    if (!b->d || !b->center || !b->velocity)
+        SC_FAIL(SC_ESIM, "couple: out of memory for %zu seeds", n);
+    SC_TRY(h5_read_int64s(g, "run", run, n));
+    SC_TRY(h5_read_doubles(g, "d", b->d, n));
+    SC_TRY(h5_read_doubles(g, "x", b->center, 3 * n));
+    SC_TRY(h5_read_doubles(g, "v", b->velocity, 3 * n));
+    return SC_OK;
+}
+
+/* Rows are grouped by run, in run order (as written). */
+static int index_runs(struct couple_bodies *b, const int64_t *run, const char *path)
+{
+    b->runs = b->count ? (size_t)run[b->count - 1] + 1 : 0;
+    b->first = calloc(b->runs + 1, sizeof *b->first);
+    if (!b->first)
+        SC_FAIL(SC_ESIM, "couple: out of memory");
+    for (size_t i = 0; i < b->count; i++) {
+        if (run[i] < 0 || (size_t)run[i] >= b->runs || (i > 0 && run[i] < run[i - 1]))
+            SC_FAIL(SC_EIO, "%s: /seeds/run is not grouped by run (row %zu)", path, i);
+        b->first[run[i] + 1] = i + 1;
+    }
+    for (size_t r = 1; r <= b->runs; r++)
+        if (b->first[r] < b->first[r - 1])
+            b->first[r] = b->first[r - 1];
+    return SC_OK;
+}
+
+int couple_read_bodies(const char *run_dir, const struct case_file *c, struct couple_bodies *b)
+{
+    memset(b, 0, sizeof *b);
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/couple.h5", run_dir);
+    if (!run_dir_output_current(path, stage_hash(c, STAGE)))
+        SC_FAIL(SC_EIO, "impact: the stage's input %s is missing or was made from another case; run the couple stage "
+                "first (`spraycoat couple` or `spraycoat run`)", path);
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    hid_t g = H5Gopen2(file, "seeds", H5P_DEFAULT);
+    int status = g < 0 ? sc_error_set(SC_EIO, __FILE__, __LINE__, "%s has no /seeds group", path)
+                       : h5_dataset_size(g, "d", &b->count);
+    int64_t *run = status == SC_OK ? malloc(at_least_one(b->count) * sizeof *run) : NULL;
+    if (status == SC_OK && !run)
+        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    if (status == SC_OK)
+        status = read_body_columns(g, b, run);
+    if (status == SC_OK)
+        status = index_runs(b, run, path);
+    free(run);
+    if (g >= 0)
+        H5Gclose(g);
+    H5Fclose(file);
+    if (status != SC_OK)
+        couple_bodies_free(b);
+    return status;
+}
+
+int couple_stage_validate(const struct case_file *c, const char *run_dir)
+{
+    (void)run_dir;
+    struct couple_config cfg;
+    SC_TRY(couple_config_load(c, &cfg));
+    struct dem_config spray;
+    SC_TRY(dem_config_load(c, &spray));
+    int status = SC_OK;
+    if (spray.handoff_height <= 0.0)
+        status = case_invalid(c, "spray", "handoff_height", "the couple stage starts its flights at the hand-off "
+                              "plane; allowed: handoff_height > 0");
+    dem_config_free(&spray);
+    return status;
+}
+
+static int couple(struct couple_work *w)
+{
+    struct dem_config spray;
+    SC_TRY(dem_config_load(w->c, &spray));
+    int status = setup_layer(w, &spray);
+    dem_config_free(&spray);
+    SC_TRY(status);
+    SC_TRY(read_spray(w));
+    SC_TRY(find_candidates(w));
+    SC_TRY(match_handoffs(w));
+    SC_TRY(make_seeds(w));
+    SC_TRY(write_output(w));
+    log_summary(w);
+    return SC_OK;
+}
+
+int couple_stage_run(const struct case_file *c, const char *run_dir)
+{
+    struct couple_work w = {.c = c, .run_dir = run_dir, .hash = stage_hash(c, STAGE)};
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/couple.h5", run_dir);
+    struct run_settings settings;
+    if (stage_begin(STAGE, path, w.hash, c, &settings))
+        return SC_OK;
+    SC_TRY(couple_config_load(c, &w.cfg));
+    int status = couple(&w);
+    couple_work_free(&w);
+    return status;
+}
