@@ -43,6 +43,16 @@ static void ugimp_weight(double r, double h, double l, double *w, double *dw)
     }
 }
 
+int grid_contains(const struct mpm_grid *g, const double x[3])
+{
+    for (int d = 0; d < 3; d++) {
+        double xi = (x[d] - g->origin[d]) / g->h;
+        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+            return 0;
+    }
+    return 1;
+}
+
 int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st)
 {
@@ -61,7 +71,27 @@ int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double 
             ugimp_weight(x[d] - node, g->h, lp, &st->w[d][a], &st->g[d][a]);
         }
     }
+    st->node = grid_node(g, st->base[0], st->base[1], st->base[2]);
     return 0;
+}
+
+/* The trilinear stencil rebuilt from the cache: the same weights as linear_weights (1 - f, f, -1/h, 1/h). */
+void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
+{
+    const struct mpm_grid *g = &s->grid;
+    if (s->cfg.shape_function != MPM_LINEAR) {
+        grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
+        return;
+    }
+    st->width = 2;
+    st->node = g->point_node[q];
+    for (int d = 0; d < 3; d++) {
+        double f = g->point_fraction[3 * q + d];
+        st->w[d][0] = 1.0 - f;
+        st->w[d][1] = f;
+        st->g[d][0] = -1.0 / g->h;
+        st->g[d][1] = 1.0 / g->h;
+    }
 }
 
 static int alloc_layers(struct mpm_grid *g)
@@ -89,12 +119,14 @@ static int alloc_blocks(struct mpm_grid *g, size_t points)
     g->block_start = calloc(g->block_count + 1, sizeof *g->block_start);
     g->block_points = calloc(points ? points : 1, sizeof *g->block_points);
     g->point_block = calloc(points ? points : 1, sizeof *g->point_block);
+    g->point_node = calloc(points ? points : 1, sizeof *g->point_node);
+    g->point_fraction = calloc(3 * (points ? points : 1), sizeof *g->point_fraction);
     for (int c = 0; c < 8; c++)
         g->colour_blocks[c] = calloc(g->block_count, sizeof *g->colour_blocks[c]);
     for (int c = 0; c < 8; c++)
         if (!g->colour_blocks[c])
             SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
-    if (!g->block_start || !g->block_points || !g->point_block)
+    if (!g->block_start || !g->block_points || !g->point_block || !g->point_node || !g->point_fraction)
         SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
     for (int k = 0; k < g->blocks[2]; k++)
         for (int j = 0; j < g->blocks[1]; j++)
@@ -152,6 +184,8 @@ void grid_free(struct mpm_grid *g)
     free(g->block_start);
     free(g->block_points);
     free(g->point_block);
+    free(g->point_node);
+    free(g->point_fraction);
     for (int c = 0; c < 8; c++)
         free(g->colour_blocks[c]);
     memset(g, 0, sizeof *g);
@@ -169,8 +203,11 @@ void grid_bin_points(struct mpm_solver *s)
         if (!(p->flags[q] & POINT_ACTIVE) || grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st) != 0)
             continue;
         int b[3];
-        for (int d = 0; d < 3; d++)
+        for (int d = 0; d < 3; d++) {
             b[d] = st.base[d] / BLOCK_CELLS;
+            g->point_fraction[3 * q + d] = st.w[d][1]; /* trilinear: f; unused for uGIMP */
+        }
+        g->point_node[q] = (uint32_t)st.node;
         g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
                                   (size_t)b[0]);
     }
@@ -216,7 +253,7 @@ static void scatter_all(struct mpm_solver *s, size_t q)
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     struct stencil st;
-    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    grid_point_stencil(s, q, &st);
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
     const double *sig = ps->stress, *v = p->v + 3 * q;
@@ -236,7 +273,7 @@ static void scatter_all(struct mpm_solver *s, size_t q)
                     continue;
                 double dN[3] = {st.g[0][a] * wyz, st.w[0][a] * st.g[1][b] * st.w[2][c],
                                 st.w[0][a] * st.w[1][b] * st.g[2][c]};
-                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                size_t I = layer + stencil_node(g, &st, a, b, c);
                 g->mass[I] += m * N;
                 g->momentum[3 * I] += m * v[0] * N;
                 g->momentum[3 * I + 1] += m * v[1] * N;
@@ -261,7 +298,7 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
     const struct mpm_points *p = &s->points;
     struct stencil st;
     /* N^k: the stencil at the step's start positions, Eq. 3.33 */
-    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    grid_point_stencil(s, q, &st);
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
@@ -271,7 +308,7 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 if (N == 0.0)
                     continue;
-                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                size_t I = layer + stencil_node(g, &st, a, b, c);
                 g->momentum_new[3 * I] += m * v[0] * N;
                 g->momentum_new[3 * I + 1] += m * v[1] * N;
                 g->momentum_new[3 * I + 2] += m * v[2] * N;

@@ -50,6 +50,16 @@ double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, 
 double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double T_hat, double xi_dot,
                           double G);
 
+/* The flow stress and its partial derivatives, for the Newton return of stress_update.c. */
+struct ptw_flow {
+    double stress;     /* sigma_y = 2 G tau, Pa (Eq. 2.4) */
+    double d_eps;      /* d sigma_y / d eps_p */
+    double d_log_rate; /* d sigma_y / d ln(rate) */
+};
+/* PTW at eps_p and log_ratio = ln(rate / (gamma xi_dot)) (the rate already floored), T^ = T/Tm (< 1). */
+void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
+                              struct ptw_flow *flow);
+
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
 double scg_melt_temperature(const struct mpm_material *m, double rho);
@@ -96,6 +106,24 @@ struct mpm_update_result {
 int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity *q, const double strain_increment[6],
                       const double spin_increment[3], double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
+
+/* Quantities of a material that are constant during a run, computed once per material (mpm_material_prepare)
+ * and passed to mpm_stress_update_prepared instead of being recomputed for every point. */
+struct mpm_material_constants {
+    double G_initial;      /* G(T_initial), Eq. 2.6 */
+    double wave_speed;     /* mpm_material_wave_speed, for the bulk viscosity */
+    double log_rate_floor; /* ln(rate_floor) */
+    double log_gamma_xi_factor; /* ln(gamma (4 pi / (3 M))^(1/3) / 2): ln(gamma xi_dot) less ln(G^3/rho)/6 */
+    double melt_eta_low;   /* rho/rho0 above which Tm(rho) >= melt_T_low */
+    double melt_T_low;     /* a lower bound of Tm above melt_eta_low (0: none, Eq. 2.9 not monotone) */
+};
+void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_constants *c);
+
+/* mpm_stress_update with the material's constants precomputed (the solver's point loop); results identical. */
+int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
+                               const struct bulk_viscosity *q, const double strain_increment[6],
+                               const double spin_increment[3], double dt, double volume0, double volume_old,
+                               double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
 
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);

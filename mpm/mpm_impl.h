@@ -34,6 +34,7 @@ struct mpm_points {
 struct stencil {
     int base[3];
     int width;
+    size_t node;                    /* grid_node of base: node (a, b, c) of the stencil is node + a + b n0 + c n0 n1 */
     double w[3][3], g[3][3];        /* per-direction weights and their derivatives */
 };
 
@@ -56,6 +57,9 @@ struct mpm_grid {
     size_t *colour_blocks[8];
     size_t colour_count[8];
     int *point_block;                /* block of each point this step (-1 inactive) */
+    /* trilinear stencils of this step, cached by grid_bin_points (the positions stay until the step's end) */
+    uint32_t *point_node;            /* base node of each active point (nodes < 2^31, grid_create) */
+    double *point_fraction;          /* 3 per point: x/h - base, the weights being 1 - f and f (Eq. 3.20) */
 };
 
 #define BLOCK_CELLS 4
@@ -67,6 +71,7 @@ struct mpm_solver {
     struct mpm_points points;
     struct mpm_grid grid;
     double wave_speed_max;           /* largest longitudinal wave speed of the materials */
+    struct mpm_material_constants *material_constants; /* one per material, for the stress update */
     double lp;                       /* uGIMP half-width of a point's domain, dp/2 */
     /* time */
     int64_t step;
@@ -80,6 +85,8 @@ struct mpm_solver {
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;
     double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
+    size_t *boundary_points;         /* the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
+    size_t boundary_count;
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;
@@ -103,6 +110,15 @@ void grid_free(struct mpm_grid *grid);
 int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st);
 size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
+/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid). */
+int grid_contains(const struct mpm_grid *grid, const double x[3]);
+/* The stencil of point q at its position of this step, after grid_bin_points (cached for trilinear). */
+void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st);
+/* Node a, b, c of a stencil. */
+static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
+{
+    return st->node + (size_t)a + (size_t)g->n[0] * ((size_t)b + (size_t)g->n[1] * (size_t)c);
+}
 /* Sort the active points into blocks (fixed order for the transfers). */
 void grid_bin_points(struct mpm_solver *s);
 /* Particle-to-grid: mass, momentum, internal and external force, volume gradient, bond sums (step 1-2). */

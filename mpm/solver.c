@@ -49,6 +49,24 @@ static double kinetic_energy_total(const struct mpm_points *p)
     return sum;
 }
 
+/* The absorbing-boundary points (their flags are set once, at set-up): the energy they absorb is booked every
+ * step without scanning all points. */
+static int list_boundary_points(struct mpm_solver *s)
+{
+    const struct mpm_points *p = &s->points;
+    s->boundary_count = 0;
+    for (size_t q = 0; q < p->count; q++)
+        s->boundary_count += (p->flags[q] & (POINT_BOTTOM | POINT_SIDE)) != 0;
+    s->boundary_points = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_points);
+    if (!s->boundary_points)
+        SC_FAIL(SC_ESIM, "out of memory");
+    size_t k = 0;
+    for (size_t q = 0; q < p->count; q++)
+        if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
+            s->boundary_points[k++] = q;
+    return SC_OK;
+}
+
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
 {
     struct mpm_solver *s = calloc(1, sizeof *s);
@@ -60,11 +78,15 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
     s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
     s->body_diagnostics = calloc((size_t)cfg->body_count, sizeof *s->body_diagnostics);
-    if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics)
+    s->material_constants = calloc((size_t)cfg->material_count, sizeof *s->material_constants);
+    if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics || !s->material_constants)
         SC_FAIL(SC_ESIM, "out of memory");
+    for (int m = 0; m < cfg->material_count; m++)
+        mpm_material_prepare(&s->cfg.materials[m], &s->material_constants[m]);
     body_constants(s);
     SC_TRY(points_create(&s->cfg, &s->points));
     SC_TRY(grid_create(&s->cfg, &s->points, &s->grid));
+    SC_TRY(list_boundary_points(s));
     s->energy_initial = kinetic_energy_total(&s->points);
     s->next_series = cfg->series_every;
     s->next_snapshot = cfg->snapshot_every;
@@ -83,6 +105,8 @@ void mpm_destroy(struct mpm_solver *s)
     free(s->body_speed);
     free(s->body_dashpot);
     free(s->body_diagnostics);
+    free(s->material_constants);
+    free(s->boundary_points);
     free(s->series);
     free(s);
 }
@@ -133,14 +157,14 @@ static void grid_to_points(struct mpm_solver *s)
             continue;
         }
         struct stencil st;
-        grid_stencil(g, s->cfg.shape_function, s->lp, x, &st);
+        grid_point_stencil(s, (size_t)q, &st);
         size_t layer = (size_t)p->body[q] * g->nodes;
         double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
         for (int c = 0; c < st.width; c++)
             for (int b = 0; b < st.width; b++)
                 for (int a = 0; a < st.width; a++) {
                     double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                    size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                    size_t I = layer + stencil_node(g, &st, a, b, c);
                     if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                         continue;
                     double w = N / g->mass[I];
@@ -163,14 +187,14 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     struct stencil st;
-    grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st);
+    grid_point_stencil(s, q, &st);
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
     memset(L, 0, 9 * sizeof L[0][0]);
     for (int c = 0; c < st.width; c++)
         for (int b = 0; b < st.width; b++)
             for (int a = 0; a < st.width; a++) {
-                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                size_t I = layer + stencil_node(g, &st, a, b, c);
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 if (!(g->mass[I] > g->mass_cutoff))
                     continue;
@@ -198,10 +222,10 @@ static int update_point(struct mpm_solver *s, size_t q)
     double volume_new = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
     if (!(volume_new > 0.0))
         return -1;
-    const struct mpm_material *m = &s->cfg.materials[s->cfg.bodies[p->body[q]].material];
+    int material = s->cfg.bodies[p->body[q]].material;
     struct mpm_update_result r;
-    if (mpm_stress_update(m, &s->cfg.viscosity, de, dw, dt, p->volume0[q], p->volume[q], volume_new, &p->state[q],
-                          &r) != 0)
+    if (mpm_stress_update_prepared(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity,
+                                   de, dw, dt, p->volume0[q], p->volume[q], volume_new, &p->state[q], &r) != 0)
         return -1;
     p->volume[q] = volume_new;
     p->plastic_work[q] += r.plastic_work;
@@ -237,22 +261,19 @@ static int remove_escaped(struct mpm_solver *s)
     int64_t leaving = 0;
 #pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad)
     for (long q = 0; q < n; q++) {
-        struct stencil st;
         if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         const double *x = p->x + 3 * q, *v = p->v + 3 * q;
         if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
             bad = q < bad ? q : bad;
-        else if (grid_stencil(&s->grid, s->cfg.shape_function, s->lp, x, &st) != 0)
+        else if (!grid_contains(&s->grid, x))
             leaving++;
     }
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
                 "not finite", (long long)s->step, s->t, bad, p->body[bad] + 1);
     for (size_t q = 0; leaving > 0 && q < p->count; q++) {
-        struct stencil st;
-        if (!(p->flags[q] & POINT_ACTIVE) || grid_stencil(&s->grid, s->cfg.shape_function, s->lp, p->x + 3 * q,
-                                                          &st) == 0)
+        if (!(p->flags[q] & POINT_ACTIVE) || grid_contains(&s->grid, p->x + 3 * q))
             continue;
         const double *v = p->v + 3 * q;
         p->flags[q] &= (uint8_t)~POINT_ACTIVE;
@@ -268,8 +289,9 @@ static int remove_escaped(struct mpm_solver *s)
 static void book_absorbed_energy(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
-    for (size_t q = 0; q < p->count; q++) {
-        if (!(p->flags[q] & POINT_ACTIVE) || !(p->flags[q] & (POINT_BOTTOM | POINT_SIDE)))
+    for (size_t k = 0; k < s->boundary_count; k++) {
+        size_t q = s->boundary_points[k];
+        if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         double f[3];
         const double *v = p->v + 3 * q;
