@@ -2,13 +2,23 @@
 # Sources are discovered by folder: add a .c file to core/, dem/, mpm/ or coupling/ and it is built;
 # add tests/test_NAME.c and it becomes a test program; tests/test_NAME.sh is a shell test.
 
+# `make MPI=1`: the OpenMPI build (mpicc, HDF5's OpenMPI flavour, SPRAYCOAT_MPI), in build-mpi/ by default.
+MPI      ?= 0
+ifeq ($(MPI),1)
+BUILD    ?= build-mpi
+CC       := mpicc
+HDF5_PKG := hdf5-openmpi
+CPPFLAGS += -DSPRAYCOAT_MPI
+else
 BUILD    ?= build
-PREFIX   ?= /usr/local
 CC       ?= gcc
+HDF5_PKG := hdf5-serial
+endif
+PREFIX   ?= /usr/local
 OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
 
-PKGS     := hdf5-serial inih osmesa cairo
+PKGS     := $(HDF5_PKG) inih osmesa cairo
 CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 CFLAGS   += -std=c17 -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
 LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
@@ -26,7 +36,7 @@ BIN      := $(BUILD)/spraycoat
 all: $(BIN) $(TEST_BIN)
 
 deps:
-	@scripts/bootstrap
+	@scripts/bootstrap --mpi
 
 $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -50,9 +60,11 @@ $(BIN): $(MAIN_OBJ) $(BUILD)/libspraycoat.a
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process).
 test: deps
 	$(MAKE) all
-	tests/run_tests.sh $(BUILD)
+	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
+	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.
 asan: deps
@@ -84,6 +96,6 @@ format:
 	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch] tests/bench/*.c
 
 clean:
-	rm -rf build build-asan build-bench
+	rm -rf build build-asan build-bench build-mpi
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -63,6 +63,14 @@ static const char *level_name(enum log_level level)
     }
 }
 
+/* " [rank N]" on the lines of MPI ranks other than 0; empty otherwise. */
+static char log_origin[32] = "";
+
+void log_set_origin(const char *origin)
+{
+    snprintf(log_origin, sizeof log_origin, "%s%s", origin && *origin ? " " : "", origin ? origin : "");
+}
+
 /* Write finished text to stderr, erasing a bar drawn there first. */
 static void write_stderr(const char *text, int leaves_bar)
 {
@@ -80,7 +88,7 @@ static void log_message(enum log_level level, const char *fmt, va_list args)
     if (level > current_level || level == LOG_QUIET)
         return;
     char line[LINE_SIZE];
-    int prefix = snprintf(line, sizeof line, "[%8.1f s] %s: ", log_elapsed(), level_name(level));
+    int prefix = snprintf(line, sizeof line, "[%8.1f s]%s %s: ", log_elapsed(), log_origin, level_name(level));
     vsnprintf(line + prefix, sizeof line - (size_t)prefix, fmt, args);
     size_t length = strlen(line);
     if (length + 1 >= sizeof line)

@@ -13,6 +13,8 @@ void log_set_level(enum log_level level);
 enum log_level log_get_level(void);
 /* Seconds since the program started (monotonic clock). */
 double log_elapsed(void);
+/* Who writes (e.g. "[rank 3]" under MPI), shown after the time of every line; NULL or "" for none. */
+void log_set_origin(const char *origin);
 void log_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));

@@ -2,6 +2,8 @@
 #include "coupling/couple.h"
 
 #include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -174,13 +176,29 @@ static int build_stratified(const struct couple_config *cfg, const struct couple
     return status;
 }
 
+/* An SC_EINPUT error about a [couple] key: in the case file's form when there is a case (the stage), plain when
+ * the strata are built without one (the tests). */
+static int couple_invalid(const struct case_file *c, const char *key, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static int couple_invalid(const struct case_file *c, const char *key, const char *fmt, ...)
+{
+    char message[1024];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(message, sizeof message, fmt, args);
+    va_end(args);
+    if (c)
+        return case_invalid(c, "couple", key, "%s", message);
+    return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "[couple] %s: %s", key, message);
+}
+
 int couple_strata_build(const struct case_file *c, const struct couple_config *cfg,
                         const struct couple_candidate *candidates, size_t n, struct couple_strata *strata)
 {
     memset(strata, 0, sizeof *strata);
     size_t seeds = (size_t)(cfg->runs * cfg->bodies_per_run);
     if (n < seeds)
-        return case_invalid(c, "couple", "runs", "%ld runs of %ld bodies need %zu spray impacts, and spray.h5 has %zu "
+        return couple_invalid(c, "runs", "%ld runs of %ld bodies need %zu spray impacts, and spray.h5 has %zu "
                             "particles that reached the target; allowed: runs * bodies_per_run <= %zu", cfg->runs,
                             cfg->bodies_per_run, seeds, n, n);
     if (cfg->sample == COUPLE_RANDOM)
@@ -192,7 +210,7 @@ int couple_strata_build(const struct case_file *c, const struct couple_config *c
     size_t members = strata->offset[strata->count];
     if (cfg->sample == COUPLE_WINDOW && members < seeds) {
         couple_strata_free(strata);
-        return case_invalid(c, "couple", "patch_size", "the window of %g m centred at (%g, %g) m holds %zu arrivals, "
+        return couple_invalid(c, "patch_size", "the window of %g m centred at (%g, %g) m holds %zu arrivals, "
                             "fewer than the %zu seeds of %ld runs of %ld bodies; allowed: a larger window, fewer "
                             "runs or bodies", cfg->patch_size, cfg->window_x, cfg->window_y, members, seeds,
                             cfg->runs, cfg->bodies_per_run);

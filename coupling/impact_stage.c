@@ -19,6 +19,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "core/run_keys.h"
 #include "coupling/couple.h"
 #include "coupling/stages.h"
@@ -653,7 +654,8 @@ static int write_first_run_xdmf(const char *run_dir)
     return status;
 }
 
-/* The run files are copied into impact.h5: remove them and their folder. */
+/* The run files are copied into impact.h5: remove them and their folder, and what an interruption between a
+ * run's file and its clean-up may have left (its snapshots, its checkpoints). */
 static int remove_run_files(const char *run_dir, long runs)
 {
     for (long r = 0; r < runs; r++) {
@@ -661,6 +663,8 @@ static int remove_run_files(const char *run_dir, long runs)
         name_run(&names, r);
         if (unlink(names.output) != 0 && errno != ENOENT)
             SC_FAIL(SC_EIO, "cannot remove %s: %s", names.output, strerror(errno));
+        SC_TRY(clear_snapshots(&names, 1));
+        SC_TRY(checkpoint_remove_all(run_dir, names.label));
     }
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
@@ -669,6 +673,8 @@ static int remove_run_files(const char *run_dir, long runs)
     return SC_OK;
 }
 
+static int gather(const struct case_file *c, const char *run_dir, uint64_t hash, long runs);
+
 static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64_t hash,
                           const struct run_settings *settings)
 {
@@ -676,15 +682,29 @@ static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64
     SC_TRY(couple_read_bodies(run_dir, c, &bodies));
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
-    int status = mkdir(folder, 0777) != 0 && errno != EEXIST
-                     ? sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot create folder %s: %s", folder, strerror(errno))
-                     : SC_OK;
+    int status = SC_OK;
+    if (parallel_rank() == 0 && mkdir(folder, 0777) != 0 && errno != EEXIST)
+        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot create folder %s: %s", folder, strerror(errno));
+    status = parallel_share_status(status);
     long runs = (long)bodies.runs;
-    log_info("impact: %ld runs of the couple stage's seeds (%zu bodies)", runs, bodies.count);
-    for (long r = 0; status == SC_OK && r < runs; r++)
-        status = run_seeded(c, run_dir, hash, settings, &bodies, r);
+    if (parallel_rank() == 0)
+        log_info("impact: %ld runs of the couple stage's seeds (%zu bodies) on %d process%s", runs, bodies.count,
+                 parallel_size(), parallel_size() > 1 ? "es" : "");
+    /* every rank takes the next run not yet taken (dynamic balance: runs differ in size) */
+    parallel_tasks_begin();
+    for (int64_t r; status == SC_OK && (r = parallel_task_next()) < runs;)
+        status = run_seeded(c, run_dir, hash, settings, &bodies, (long)r);
+    parallel_tasks_end();
     couple_bodies_free(&bodies);
-    SC_TRY(status);
+    /* rank 0 gathers once every rank is done; the others report its status */
+    status = parallel_max_status(status);
+    if (status == SC_OK && parallel_rank() == 0)
+        status = gather(c, run_dir, hash, runs);
+    return parallel_share_status(status);
+}
+
+static int gather(const struct case_file *c, const char *run_dir, uint64_t hash, long runs)
+{
     SC_TRY(write_first_run_xdmf(run_dir));
     SC_TRY(write_gathered(c, run_dir, hash, runs));
     return remove_run_files(run_dir, runs);
@@ -700,5 +720,6 @@ int impact_stage_run(const struct case_file *c, const char *run_dir)
         return SC_OK;
     if (impact_takes_seeds(c))
         return run_all_seeded(c, run_dir, hash, &settings);
-    return run_single(c, run_dir, hash, &settings);
+    /* one run: rank 0's (the others have nothing to share) */
+    return parallel_rank() == 0 ? run_single(c, run_dir, hash, &settings) : SC_OK;
 }

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "core/version.h"
 #include "coupling/info.h"
 #include "coupling/stages.h"
@@ -143,14 +144,39 @@ struct stage {
     int (*validate)(const struct case_file *c, const char *run_dir);
     int (*run)(const struct case_file *c, const char *run_dir);
     const char *output;
+    int distributed;   /* under MPI every rank runs it */
 };
 static const struct stage stages[] = {
-    {"spray", spray_stage_validate, spray_stage_run, "spray.h5"},
-    {"couple", couple_stage_validate, couple_stage_run, "couple.h5"},
-    {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf"},
-    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5"},
-    {"render", render_stage_validate, render_stage_run, "figures/, report.html"},
+    {"spray", spray_stage_validate, spray_stage_run, "spray.h5", 0},
+    {"couple", couple_stage_validate, couple_stage_run, "couple.h5", 0},
+    {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf", 1},
+    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5", 1},
+    {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0},
 };
+
+/* Rank 0 makes and locks the run directory and records the stages (RUN_DIR/stages) for `resume`. */
+static int prepare_run_dir(const struct case_file *c, const char *run_dir, const char *list, int pipeline)
+{
+    SC_TRY(run_dir_prepare(run_dir, c));
+    char record[300];
+    snprintf(record, sizeof record, "%s%s", pipeline ? RUN_PREFIX : "", list);
+    return run_dir_write_stages(run_dir, record);
+}
+
+/* Under MPI the impact and vcrit stages run on every rank (they share out their runs); the others on rank 0
+ * while the rest wait.  Every rank ends with the same status. */
+static int failed_on_this_rank; /* a failure of a rank's own task, which only that rank can report */
+
+static int run_stage_on_ranks(const struct stage *stage, const struct case_file *c, const char *run_dir)
+{
+    if (stage->distributed) {
+        int status = stage->run(c, run_dir);
+        failed_on_this_rank = status != SC_OK && status != SC_EINT && status != SC_ETERM;
+        return parallel_max_status(status);
+    }
+    int status = parallel_rank() == 0 ? stage->run(c, run_dir) : SC_OK;
+    return parallel_share_status(status);
+}
 
 static const struct stage *find_stage(const char *name, size_t length)
 {
@@ -160,7 +186,6 @@ static const struct stage *find_stage(const char *name, size_t length)
     return NULL;
 }
 
-/* list: comma-separated stage names.  Every stage is validated before the run directory is touched. */
 /* list: comma-separated stage names; pipeline: 1 for `run` (its impact stage takes the couple stage's seeds).
  * Every stage is validated before the run directory is touched. */
 static int run_stages(struct case_file *c, const char *run_dir, const char *list, int pipeline)
@@ -171,8 +196,8 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
         if (!stage || count == 8)
-            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, render)", (int)length, p,
-                    list);
+            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, render)",
+                    (int)length, p, list);
         chosen[count++] = stage;
         p += length + (p[length] == ',');
     }
@@ -180,14 +205,12 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
         SC_TRY(chosen[i]->validate(c, run_dir));
-    SC_TRY(run_dir_prepare(run_dir, c));
-    char record[300];
-    snprintf(record, sizeof record, "%s%s", pipeline ? RUN_PREFIX : "", list);
-    SC_TRY(run_dir_write_stages(run_dir, record));
+    SC_TRY(parallel_share_status(parallel_rank() == 0 ? prepare_run_dir(c, run_dir, list, pipeline) : SC_OK));
     stages_install_signal_handlers();
     for (int i = 0; i < count; i++) {
-        SC_TRY(chosen[i]->run(c, run_dir));
-        log_info("results in %s (%s); `spraycoat info %s` summarises them", run_dir, chosen[i]->output, run_dir);
+        SC_TRY(run_stage_on_ranks(chosen[i], c, run_dir));
+        if (parallel_rank() == 0)
+            log_info("results in %s (%s); `spraycoat info %s` summarises them", run_dir, chosen[i]->output, run_dir);
     }
     return SC_OK;
 }
@@ -284,14 +307,21 @@ int main(int argc, char **argv)
     h5_quiet();
     /* a file-size limit must give EFBIG and exit status 3, not kill the process mid-write */
     signal(SIGXFSZ, SIG_IGN);
+    parallel_init(&argc, &argv);
+    char origin[32] = "";
+    if (parallel_rank() > 0)
+        snprintf(origin, sizeof origin, "[rank %d]", parallel_rank());
+    log_set_origin(origin);
     struct options opt = {0};
     int status = parse_arguments(argc, argv, &opt);
     if (status == SC_OK)
         status = dispatch(&opt);
-    if (status != SC_OK) {
-        fprintf(stderr, "spraycoat: %s\n", sc_error_message());
+    /* the rank where it happened says what went wrong (rank 0 also for what every rank saw) */
+    if (status != SC_OK && sc_error_message()[0] && (parallel_rank() == 0 || failed_on_this_rank)) {
+        fprintf(stderr, "spraycoat%s: %s\n", origin, sc_error_message());
         if (log_get_level() >= LOG_DEBUG)
             fprintf(stderr, "%s\n", sc_error_traceback());
     }
+    parallel_finalize();
     return status;
 }

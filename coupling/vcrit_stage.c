@@ -6,7 +6,13 @@
  * to [impact] t_end and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]).
  * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
  * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
- * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5. */
+ * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
+ *
+ * Under MPI the diameters are shared out (a rank takes the next diameter not yet taken, core/parallel.h) and rank
+ * k > 0 records its runs in RUN_DIR/vcrit_runs_rankK.csv.  When all are done, rank 0 reads every record and
+ * replays each bisection from them (no run is repeated): the outputs are those of one process, whatever the
+ * number of ranks, also after a resume with another number of ranks. */
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <omp.h>
@@ -18,6 +24,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "core/run_keys.h"
 #include "coupling/stages.h"
 #include "mpm/mpm.h"
@@ -172,9 +179,22 @@ static const char *exact(double value, char *out, size_t size)
 
 /* ---- the record of finished runs: RUN_DIR/vcrit_runs.csv ---------------------------------------------------- */
 
+/* This rank's record file. */
 static void records_path(const struct vcrit_search *v, char *out, size_t size)
 {
-    snprintf(out, size, "%s/vcrit_runs.csv", v->run_dir);
+    if (parallel_rank() == 0)
+        snprintf(out, size, "%s/vcrit_runs.csv", v->run_dir);
+    else
+        snprintf(out, size, "%s/vcrit_runs_rank%d.csv", v->run_dir, parallel_rank());
+}
+
+/* 1 for the name of any rank's record file. */
+static int is_records_file(const char *name)
+{
+    if (strcmp(name, "vcrit_runs.csv") == 0)
+        return 1;
+    int rank, end = 0;
+    return sscanf(name, "vcrit_runs_rank%d.csv%n", &rank, &end) == 1 && name[end] == '\0';
 }
 
 static int save_records(const struct vcrit_search *v)
@@ -208,11 +228,10 @@ static int add_record(struct vcrit_search *v, const struct vcrit_record *r)
     return SC_OK;
 }
 
-/* Runs recorded by an earlier process for this case; a file of another case (or damaged) is ignored. */
-static int load_records(struct vcrit_search *v)
+/* Runs recorded in `path` for this case; a file of another case (or damaged) is ignored. */
+static int load_records_file(struct vcrit_search *v, const char *path)
 {
-    char path[4096], line[512], wanted[128];
-    records_path(v, path, sizeof path);
+    char line[512], wanted[128];
     FILE *file = fopen(path, "r");
     if (!file)
         return SC_OK;
@@ -240,9 +259,44 @@ static int load_records(struct vcrit_search *v)
         }
     }
     fclose(file);
-    if (v->done_count > 0)
-        log_info("vcrit: %zu runs recorded in %s are reused", v->done_count, path);
     return SC_OK;
+}
+
+/* The records of every rank's file (an earlier process, or the other ranks of this one). */
+static int load_records(struct vcrit_search *v)
+{
+    v->done_count = 0;
+    DIR *dir = opendir(v->run_dir);
+    if (!dir)
+        SC_FAIL(SC_EIO, "cannot read folder %s: %s", v->run_dir, strerror(errno));
+    int status = SC_OK;
+    struct dirent *entry;
+    while (status == SC_OK && (entry = readdir(dir))) {
+        if (!is_records_file(entry->d_name))
+            continue;
+        char path[4400];
+        snprintf(path, sizeof path, "%s/%s", v->run_dir, entry->d_name);
+        status = load_records_file(v, path);
+    }
+    closedir(dir);
+    return status;
+}
+
+static int remove_records(const struct vcrit_search *v)
+{
+    DIR *dir = opendir(v->run_dir);
+    if (!dir)
+        SC_FAIL(SC_EIO, "cannot read folder %s: %s", v->run_dir, strerror(errno));
+    int status = SC_OK;
+    struct dirent *entry;
+    while ((entry = readdir(dir))) {
+        char path[4400];
+        snprintf(path, sizeof path, "%s/%s", v->run_dir, entry->d_name);
+        if (is_records_file(entry->d_name) && unlink(path) != 0 && errno != ENOENT && status == SC_OK)
+            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot remove %s: %s", path, strerror(errno));
+    }
+    closedir(dir);
+    return status;
 }
 
 static const struct vcrit_record *find_record(const struct vcrit_search *v, double d, double speed)
@@ -503,26 +557,62 @@ static void log_table(const struct vcrit_search *v, const struct vcrit_result *r
 
 /* ---- the stage --------------------------------------------------------------------------------------------------- */
 
-static int run_search(struct vcrit_search *v, struct vcrit_result *results)
+static void free_records(struct vcrit_result *results, int count)
 {
+    for (int i = 0; i < count; i++) {
+        free(results[i].records);
+        results[i].records = NULL;
+        results[i].runs = 0;
+    }
+}
+
+/* Every rank takes the next diameter not yet taken and bisects it. */
+static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
+{
+    int status = load_records(v);
+    if (status == SC_OK && v->done_count > 0)
+        log_info("vcrit: %zu runs recorded in %s are reused", v->done_count, v->run_dir);
+    parallel_tasks_begin();
+    for (int64_t i; status == SC_OK && (i = parallel_task_next()) < v->count;) {
+        results[i].diameter = v->diameters[i];
+        status = search_diameter(v, &results[i]);
+    }
+    parallel_tasks_end();
+    free_records(results, v->count);
+    return status;
+}
+
+/* Rank 0, once every diameter is done: the bisections again from all ranks' records, then the outputs. */
+static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results, double start)
+{
+    int64_t runs = v->runs_this_process;
     SC_TRY(load_records(v));
-    double start = log_elapsed();
-    log_info("vcrit: %d diameters, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d threads", v->count,
-             v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads());
     for (int i = 0; i < v->count; i++) {
         results[i].diameter = v->diameters[i];
         SC_TRY(search_diameter(v, &results[i]));
     }
+    if (v->runs_this_process != runs)
+        SC_FAIL(SC_ESIM, "vcrit: a run of the search is missing from the records after all ranks finished");
     SC_TRY(write_csv(v, results));
     SC_TRY(write_h5(v, results));
     log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
              v->run_dir, (long long)v->runs_this_process, log_elapsed() - start);
-    char path[4096];
-    records_path(v, path, sizeof path);
-    if (unlink(path) != 0 && errno != ENOENT)
-        SC_FAIL(SC_EIO, "cannot remove %s: %s", path, strerror(errno));
+    SC_TRY(remove_records(v));
     log_table(v, results);
     return SC_OK;
+}
+
+static int run_search(struct vcrit_search *v, struct vcrit_result *results)
+{
+    double start = log_elapsed();
+    if (parallel_rank() == 0)
+        log_info("vcrit: %d diameters, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d threads x %d "
+                 "process%s", v->count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(),
+                 parallel_size(), parallel_size() > 1 ? "es" : "");
+    int status = parallel_max_status(search_shared(v, results));
+    if (status == SC_OK && parallel_rank() == 0)
+        status = replay_and_write(v, results, start);
+    return parallel_share_status(status);
 }
 
 int vcrit_stage_validate(const struct case_file *c, const char *run_dir)
@@ -548,8 +638,8 @@ int vcrit_stage_run(const struct case_file *c, const char *run_dir)
         omp_set_num_threads(settings.threads);
     struct vcrit_result *results = calloc((size_t)v.count, sizeof *results);
     int status = results ? run_search(&v, results) : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    for (int i = 0; results && i < v.count; i++)
-        free(results[i].records);
+    if (results)
+        free_records(results, v.count);
     free(results);
     free(v.done);
     return status;

@@ -1,0 +1,95 @@
+#!/bin/sh
+# Several processes (`make MPI=1`; `make test` builds build-mpi/ and sets SPRAYCOAT_MPI_BIN): `mpirun -np 2`
+# gives the same files as one process for
+#   the pipeline (spray and couple on rank 0, the four impact runs shared out),
+#   a pipeline stopped by SIGTERM during the impact runs and resumed under mpirun,
+#   a vcrit search (the two diameters shared out, the bisections replayed by rank 0).
+set -u
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+MPI_BIN=${SPRAYCOAT_MPI_BIN:-}
+CASE0=tests/fixtures/pipeline_small.ini
+if [ -z "$MPI_BIN" ] || [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
+    echo "mpi: no MPI build (SPRAYCOAT_MPI_BIN unset or mpirun missing; \`make test\` builds build-mpi/): not run"
+    exit 0
+fi
+T=$(mktemp -d)
+bg=""
+cleanup() {
+    [ -n "$bg" ] && kill -9 "$bg" 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+. tests/pipeline_lib.sh
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+MPIRUN="mpirun -np 2 --oversubscribe"
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1: $2"; }
+STAGES=spray,couple,impact
+
+# ---- 1. the pipeline: one process, then two ----------------------------------------------------------------
+"$BIN" run "$CASE0" --stages "$STAGES" -o "$T/one" >"$T/one.log" 2>&1
+one=$?
+$MPIRUN "$MPI_BIN" run "$CASE0" --stages "$STAGES" -o "$T/two" >"$T/two.log" 2>&1
+two=$?
+if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && grep -q '\[rank 1\] info: impact_r' "$T/two.log" &&
+    same_run_dir "$T/one" "$T/two" spray couple impact; then
+    pass mpi_pipeline_same_as_one_process
+else
+    fail mpi_pipeline_same_as_one_process "exit $one / $two; $why $(grep -c '\[rank 1\]' "$T/two.log") rank-1 lines"
+fi
+
+# ---- 2. SIGTERM to mpirun during the impact runs, then resume under mpirun -----------------------------------
+$MPIRUN "$MPI_BIN" run "$CASE0" --stages "$STAGES" -o "$T/term" >"$T/term.log" 2>&1 &
+bg=$!
+i=0
+while [ "$i" -lt 1200 ] && ! ls "$T"/term/checkpoints/impact_r*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
+    sleep 0.05
+    i=$((i + 1))
+done
+kill -TERM "$bg" 2>/dev/null
+wait "$bg" 2>/dev/null
+term=$?
+bg=""
+# mpirun forwards SIGTERM to the ranks (which write a checkpoint and exit 143) and exits non-zero itself
+stopped=0
+[ "$term" -ne 0 ] && [ ! -e "$T/term/impact.h5" ] && ls "$T"/term/checkpoints/impact_r*.h5 >/dev/null 2>&1 && stopped=1
+$MPIRUN "$MPI_BIN" resume "$T/term" >"$T/resume.log" 2>&1
+resumed=$?
+if [ "$stopped" -eq 1 ] && [ "$resumed" -eq 0 ] && same_run_dir "$T/one" "$T/term" spray couple impact; then
+    pass mpi_resume_same_as_one_process
+else
+    fail mpi_resume_same_as_one_process "mpirun exit $term, stopped mid-stage $stopped, resume exit $resumed; $why $(grep 'spraycoat' "$T/resume.log" | tail -n 1)"
+fi
+
+# ---- 3. vcrit with the diameters shared out ------------------------------------------------------------------
+cat >"$T/vcrit.ini" <<EOF
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_diameter = 20e-6
+substrate_height = 6e-6
+t_end = 10e-9
+
+[material.aluminium]
+
+[vcrit]
+diameters = 10e-6,8e-6
+v_low = 200
+v_high = 1200
+tolerance = 200
+EOF
+"$BIN" vcrit "$T/vcrit.ini" -o "$T/vcrit_one" >"$T/vcrit_one.log" 2>&1
+one=$?
+$MPIRUN "$MPI_BIN" vcrit "$T/vcrit.ini" -o "$T/vcrit_two" >"$T/vcrit_two.log" 2>&1
+two=$?
+if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/vcrit_one/vcrit.csv" "$T/vcrit_two/vcrit.csv" &&
+    same_h5 "$T/vcrit_one/vcrit.h5" "$T/vcrit_two/vcrit.h5" && grep -q '\[rank 1\] info: vcrit' "$T/vcrit_two.log" &&
+    [ -z "$(ls "$T"/vcrit_two/vcrit_runs*.csv 2>/dev/null)" ]; then
+    pass mpi_vcrit_same_as_one_process
+else
+    fail mpi_vcrit_same_as_one_process "exit $one / $two; $why $(diff "$T/vcrit_one/vcrit.csv" "$T/vcrit_two/vcrit.csv" | head -n 4 | tr '\n' ' ')"
+fi

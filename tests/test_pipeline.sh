@@ -1,0 +1,162 @@
+#!/bin/sh
+# The pipeline (`spraycoat run`: spray -> couple -> impact) on tests/fixtures/pipeline_small.ini:
+#   outputs and provenance (seeds name their spray impacts; four runs gathered in impact.h5);
+#   window sampling keeps the lateral offsets of the arrivals;
+#   per-stage up-to-date checks (a changed [impact] key reruns the impact stage only);
+#   the restart guarantee: the same run SIGKILLed at several moments (inside each stage, on checkpoints), resumed
+#   each time, ends with spray.h5, couple.h5 and impact.h5 identical to an uninterrupted run (h5diff);
+#   I/O errors: a file-size limit while the impact stage writes exits 3 and leaves the earlier stages' files intact.
+set -u
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+CASE0=tests/fixtures/pipeline_small.ini
+T=$(mktemp -d)
+bg=""
+cleanup() {
+    [ -n "$bg" ] && kill -9 "$bg" 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+. tests/pipeline_lib.sh
+
+if [ ! -x "$BIN" ] || [ ! -r "$CASE0" ]; then
+    echo "FAIL pipeline (no $BIN or $CASE0; run from the repository root after make)"
+    exit 1
+fi
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1: $2"; }
+STAGES=spray,couple,impact
+
+# ---- 1. one uninterrupted run -------------------------------------------------------------------------------
+REF=$T/ref
+if ! "$BIN" run "$CASE0" --stages "$STAGES" -o "$REF" >"$T/ref.log" 2>&1; then
+    fail pipeline_run "exit status $? ($(tail -n 3 "$T/ref.log" | tr '\n' ' '))"
+    exit 1
+fi
+why=""
+for f in spray.h5 couple.h5 impact.h5 impact.xdmf impact_run_0003.xdmf; do
+    [ -s "$REF/$f" ] || why="$why no $f;"
+done
+[ -e "$REF/impact_runs" ] && why="$why impact_runs/ left behind;"
+[ "$(values "$REF/couple.h5" /seeds/d | wc -l)" -eq 4 ] || why="$why not 4 seeds;"
+for r in 0000 0001 0002 0003; do
+    h5ls "$REF/impact.h5/run_$r/summary" >/dev/null 2>&1 || why="$why no /run_$r/summary;"
+done
+[ "$(h5dump -a /summary/runs "$REF/impact.h5" 2>/dev/null | grep -c '(0): 4$')" -eq 1 ] || why="$why /summary runs != 4;"
+if [ -z "$why" ]; then pass pipeline_outputs; else fail pipeline_outputs "$why"; fi
+
+# every seed names its spray impact: the particle id and the diameter there are the seed's
+why=""
+values "$REF/couple.h5" /seeds/impact_row >"$T/rows"
+values "$REF/couple.h5" /seeds/particle_id >"$T/ids"
+values "$REF/couple.h5" /seeds/d >"$T/d"
+values "$REF/spray.h5" /impacts/particle_id >"$T/impact_ids"
+values "$REF/spray.h5" /impacts/d >"$T/impact_d"
+n=0
+while read -r row; do
+    n=$((n + 1))
+    id=$(sed -n "${n}p" "$T/ids")
+    d=$(sed -n "${n}p" "$T/d")
+    [ "$(sed -n "$((row + 1))p" "$T/impact_ids")" = "$id" ] || why="$why seed $n: impact row $row is not particle $id;"
+    [ "$(sed -n "$((row + 1))p" "$T/impact_d")" = "$d" ] || why="$why seed $n: diameter differs from impact row $row;"
+done <"$T/rows"
+steps=$(values "$REF/couple.h5" /flight/steps | awk '$1 > 0 { n++ } END { print n + 0 }')
+[ "$steps" -ge 4 ] || why="$why CVODE step counts missing in /flight;"
+if [ -z "$why" ] && [ "$n" -eq 4 ]; then pass pipeline_seed_provenance; else fail pipeline_seed_provenance "$why"; fi
+
+# ---- 2. window sampling: the seeds' lateral offsets are their wall positions less the window's centre ----------
+sed -e 's/^sample = .*/sample = window/' -e 's/^runs = 4/runs = 1\npatch_size = 8e-3\nwindow_x = 1e-3\nwindow_y = -1e-3/' \
+    -e 's/^bodies_per_run = 1/bodies_per_run = 3\nmax_gap = 2e-6/' "$CASE0" >"$T/window.ini"
+if "$BIN" run "$T/window.ini" --stages spray,couple -o "$T/window" >"$T/window.log" 2>&1; then
+    values "$T/window/couple.h5" /seeds/x | awk 'NR % 3 != 0' >"$T/x"
+    values "$T/window/couple.h5" /seeds/x_wall |
+        awk 'NR % 3 == 1 { printf "%.17g\n", $1 - 1e-3 } NR % 3 == 2 { printf "%.17g\n", $1 + 1e-3 }' >"$T/xw"
+    values "$T/window/couple.h5" /seeds/t_wall >"$T/tw"
+    why=""
+    [ "$(wc -l <"$T/x")" -eq 6 ] || why="$why not 3 seeds;"
+    paste "$T/x" "$T/xw" | awk '{ d = $1 - $2; if (d < 0) d = -d; if (d > 1e-15) bad = 1 } END { exit bad }' ||
+        why="$why offsets are not the wall positions less the centre;"
+    sort -g -c "$T/tw" 2>/dev/null || why="$why bodies not in arrival order;"
+    if [ -z "$why" ]; then pass pipeline_window_offsets; else fail pipeline_window_offsets "$why"; fi
+else
+    fail pipeline_window_offsets "exit status $? ($(tail -n 2 "$T/window.log" | tr '\n' ' '))"
+fi
+
+# ---- 3. per-stage hashes: a changed [impact] key reruns the impact stage only ---------------------------------
+cp -r "$REF" "$T/rerun"
+sed 's/^t_end = 4e-9/t_end = 3e-9/' "$CASE0" >"$T/rerun.ini"
+if "$BIN" run "$T/rerun.ini" --stages "$STAGES" -o "$T/rerun" >"$T/rerun.log" 2>&1 &&
+    grep -q 'spray: .*spray.h5 is up to date' "$T/rerun.log" && grep -q 'couple: .*couple.h5 is up to date' "$T/rerun.log" &&
+    grep -q 'impact: .*made from another case; running the stage again' "$T/rerun.log" &&
+    same_h5 "$REF/spray.h5" "$T/rerun/spray.h5" && ! same_h5 "$REF/impact.h5" "$T/rerun/impact.h5"; then
+    pass pipeline_rerun_changed_stage_only
+else
+    fail pipeline_rerun_changed_stage_only "$(grep -E 'up to date|another case' "$T/rerun.log" | tr '\n' ' ')"
+fi
+
+# ---- 4. the restart guarantee -----------------------------------------------------------------------------------
+KILLED=$T/killed
+start_bg() {
+    "$BIN" "$@" >>"$T/killed.log" 2>&1 &
+    bg=$!
+}
+# wait_for PATTERN: poll (at most 60 s) until a file matching the shell pattern exists; 1 if the run ended first
+wait_for() {
+    i=0
+    while [ "$i" -lt 1200 ]; do
+        # shellcheck disable=SC2086
+        ls $1 >/dev/null 2>&1 && return 0
+        kill -0 "$bg" 2>/dev/null || return 1
+        sleep 0.05
+        i=$((i + 1))
+    done
+    return 1
+}
+kill_now() {
+    kill -9 "$bg" 2>/dev/null
+    wait "$bg" 2>/dev/null
+    bg=""
+}
+kills=0
+# the moments: a spray checkpoint; spray.h5 just written (couple or the first impact run); a checkpoint of
+# impact run 1; run 2's file written; then twice at a random moment (a checkpoint may be half-written)
+start_bg run "$CASE0" --stages "$STAGES" -o "$KILLED"
+for moment in "$KILLED/checkpoints/spray_*.h5" "$KILLED/spray.h5" "$KILLED/checkpoints/impact_r0001_*.h5" \
+    "$KILLED/impact_runs/run_0002.h5" random random; do
+    if [ "$moment" = random ]; then
+        sleep "0.$(awk 'BEGIN { srand(); printf "%d", 1 + rand() * 8 }')"
+    else
+        wait_for "$moment" || break
+    fi
+    kill_now
+    kills=$((kills + 1))
+    start_bg resume "$KILLED"
+done
+[ -n "$bg" ] && wait "$bg" 2>/dev/null
+status=$?
+bg=""
+if [ "$status" -eq 0 ] && [ "$kills" -ge 4 ] && same_run_dir "$REF" "$KILLED" spray couple impact; then
+    pass pipeline_restart_identical
+else
+    fail pipeline_restart_identical "$kills kills, last exit status $status; $why ($(grep -i 'error\|spraycoat:' "$T/killed.log" | tail -n 2 | tr '\n' ' '))"
+fi
+if [ -e "$KILLED/impact_runs" ] || [ "$(ls "$KILLED/checkpoints" 2>/dev/null | wc -l)" -ne 0 ]; then
+    fail pipeline_restart_cleanup "left behind: $(ls -d "$KILLED/impact_runs" "$KILLED"/checkpoints/* 2>/dev/null | tr '\n' ' ')"
+else
+    pass pipeline_restart_cleanup
+fi
+
+# ---- 5. a file-size limit while the impact stage writes: exit 3, spray.h5 and couple.h5 untouched -------------
+cp -r "$REF" "$T/full"
+rm -f "$T/full/impact.h5"
+cp "$T/full/spray.h5" "$T/spray.before"
+cp "$T/full/couple.h5" "$T/couple.before"
+(ulimit -f 64 && "$BIN" run "$CASE0" --stages "$STAGES" -o "$T/full" >"$T/full.log" 2>&1)
+status=$?
+if [ "$status" -eq 3 ] && grep -q 'spraycoat: .*\(File too large\|file size\|disk full\)' "$T/full.log" &&
+    cmp -s "$T/spray.before" "$T/full/spray.h5" && cmp -s "$T/couple.before" "$T/full/couple.h5" &&
+    [ ! -e "$T/full/impact.h5" ]; then
+    pass pipeline_file_size_limit
+else
+    fail pipeline_file_size_limit "exit status $status: $(grep 'spraycoat:' "$T/full.log" | tail -n 1)"
+fi
