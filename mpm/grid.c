@@ -75,25 +75,6 @@ int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double 
     return 0;
 }
 
-/* The trilinear stencil rebuilt from the cache: the same weights as linear_weights (1 - f, f, -1/h, 1/h). */
-void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
-{
-    const struct mpm_grid *g = &s->grid;
-    if (s->cfg.shape_function != MPM_LINEAR) {
-        grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
-        return;
-    }
-    st->width = 2;
-    st->node = g->point_node[q];
-    for (int d = 0; d < 3; d++) {
-        double f = g->point_fraction[3 * q + d];
-        st->w[d][0] = 1.0 - f;
-        st->w[d][1] = f;
-        st->g[d][0] = -1.0 / g->h;
-        st->g[d][1] = 1.0 / g->h;
-    }
-}
-
 static int alloc_layers(struct mpm_grid *g)
 {
     size_t n = g->nodes * (size_t)g->layers;
@@ -102,10 +83,11 @@ static int alloc_layers(struct mpm_grid *g)
     g->momentum_new = calloc(3 * n, sizeof *g->momentum_new);
     g->force = calloc(3 * n, sizeof *g->force);
     g->gradient = calloc(3 * n, sizeof *g->gradient);
+    g->velocity = calloc(3 * n, sizeof *g->velocity);
     g->bond_sum = calloc(n, sizeof *g->bond_sum);
     g->bond_weight = calloc(n, sizeof *g->bond_weight);
     g->contact = calloc(n, sizeof *g->contact);
-    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->bond_sum ||
+    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
         !g->bond_weight || !g->contact)
         SC_FAIL(SC_ESIM, "out of memory for a grid of %zu nodes x %d bodies", g->nodes, g->layers);
     return SC_OK;
@@ -178,6 +160,7 @@ void grid_free(struct mpm_grid *g)
     free(g->momentum_new);
     free(g->force);
     free(g->gradient);
+    free(g->velocity);
     free(g->bond_sum);
     free(g->bond_weight);
     free(g->contact);

@@ -47,6 +47,7 @@ struct mpm_grid {
     int layers;
     double mass_cutoff;              /* nodes lighter than this carry no velocity */
     double *mass, *momentum, *momentum_new, *force, *gradient;   /* per layer; vectors 3 per node */
+    double *velocity;                /* per layer, 3 per node: momentum_new / mass after the re-projection */
     double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
     /* blocks of BLOCK_CELLS^3 cells; points sorted by block every step */
@@ -112,8 +113,25 @@ int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, doub
 size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
 /* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid). */
 int grid_contains(const struct mpm_grid *grid, const double x[3]);
-/* The stencil of point q at its position of this step, after grid_bin_points (cached for trilinear). */
-void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st);
+/* The stencil of point q at its position of this step, after grid_bin_points: trilinear stencils are rebuilt
+ * from the cache, with the weights of grid_stencil (1 - f, f; gradients -1/h, 1/h). */
+static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
+{
+    const struct mpm_grid *g = &s->grid;
+    if (s->cfg.shape_function != MPM_LINEAR) {
+        grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
+        return;
+    }
+    st->width = 2;
+    st->node = g->point_node[q];
+    for (int d = 0; d < 3; d++) {
+        double f = g->point_fraction[3 * q + d];
+        st->w[d][0] = 1.0 - f;
+        st->w[d][1] = f;
+        st->g[d][0] = -1.0 / g->h;
+        st->g[d][1] = 1.0 / g->h;
+    }
+}
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {

@@ -180,6 +180,19 @@ static void grid_to_points(struct mpm_solver *s)
     }
 }
 
+/* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
+ * node in the velocity gradient. */
+static void nodal_velocities(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    long n = (long)(g->nodes * (size_t)g->layers);
+#pragma omp parallel for schedule(static)
+    for (long I = 0; I < n; I++)
+        if (g->mass[I] > g->mass_cutoff)
+            for (int d = 0; d < 3; d++)
+                g->velocity[3 * I + d] = g->momentum_new[3 * I + d] / g->mass[I];
+}
+
 /* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
  * the point's own body is in contact at one of its nodes. */
 static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
@@ -201,11 +214,9 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
                 contact |= N > 0.0 && g->contact[I];
                 double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
                                 st.w[0][a] * st.w[1][b] * st.g[2][c]};
-                for (int i = 0; i < 3; i++) {
-                    double vi = g->momentum_new[3 * I + i] / g->mass[I];
+                for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
-                        L[i][j] += vi * dN[j];
-                }
+                        L[i][j] += g->velocity[3 * I + i] * dN[j];
             }
     return contact;
 }
@@ -326,6 +337,7 @@ int mpm_step(struct mpm_solver *s)
     grid_to_points(s);
     grid_transfer_momentum(s);
     contact_correct_momentum(s, s->grid.momentum_new, 0);
+    nodal_velocities(s);
     SC_TRY(update_points(s));
     double *swap = s->points.x;
     s->points.x = s->points.x_next;
