@@ -81,7 +81,6 @@ bench: deps
 run: deps
 	$(MAKE) $(BIN)
 	$(BIN) run cases/demo.ini -o runs/demo
-	$(BIN) info runs/demo
 
 validate: deps
 	$(MAKE) all
@@ -91,6 +90,7 @@ install: $(BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases
 	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/spraycoat
 	install -m 644 cases/*.ini cases/*.csv $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
+	install -m 755 cases/*.sh $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 
 format:
 	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch] tests/bench/*.c

@@ -388,3 +388,50 @@ int info_print(const char *target, FILE *out)
     }
     return status;
 }
+
+/* The last value of a 1-D dataset (NAN when it cannot be read). */
+static double last_value(hid_t file, const char *name)
+{
+    size_t n = 0;
+    if (h5_dataset_size(file, name, &n) != SC_OK || n == 0)
+        return NAN;
+    double *column = read_column(file, name, n);
+    double value = column ? column[n - 1] : NAN;
+    free(column);
+    return value;
+}
+
+void info_headline(const char *run_dir, FILE *out)
+{
+    char path[4200];
+    hid_t file;
+    snprintf(path, sizeof path, "%s/spray.h5", run_dir);
+    if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
+        fprintf(out, "spray:  deposit fraction %.3f (%.0f of %.0f particles deposited), max deposit thickness %.3g m\n",
+                last_value(file, "metrics/deposit_fraction"), last_value(file, "metrics/deposited"),
+                last_value(file, "metrics/injected"), last_value(file, "metrics/max_thickness"));
+        H5Fclose(file);
+    }
+    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
+    hid_t summary;
+    if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
+        double fraction = NAN, pbcp = NAN, v_rest = NAN;
+        int64_t bodies = 0, runs = 0;
+        if (h5_exists(file, "summary") && (summary = H5Gopen2(file, "summary", H5P_DEFAULT)) >= 0) {
+            h5_attr_read_double(summary, "bonded_fraction", &fraction);
+            h5_attr_read_double(summary, "mean_pbcp", &pbcp);
+            h5_attr_read_double(summary, "mean_v_rest", &v_rest);
+            h5_attr_read_int64(summary, "bodies", &bodies);
+            h5_attr_read_int64(summary, "runs", &runs);
+            H5Gclose(summary);
+        }
+        if (runs > 0)
+            fprintf(out, "impact: %.0f %% of %lld bodies bonded over %lld MPM runs; mean PBCP %.1f %%, mean v_rest %.3g m/s\n",
+                    100.0 * fraction, (long long)bodies, (long long)runs, 100.0 * pbcp, v_rest);
+        H5Fclose(file);
+    }
+    snprintf(path, sizeof path, "%s/report.html", run_dir);
+    if (access(path, R_OK) == 0)
+        fprintf(out, "report: %s (figures in %s/figures)\n", path, run_dir);
+    sc_error_clear();
+}

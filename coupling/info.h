@@ -7,4 +7,7 @@
 /* target: a run directory or a .h5 file.  SC_EIO when it cannot be read. */
 int info_print(const char *target, FILE *out);
 
+/* A few lines on what a finished run says: deposit fraction, bonded fraction and PBCP, where the report is. */
+void info_headline(const char *run_dir, FILE *out);
+
 #endif

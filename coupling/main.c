@@ -201,7 +201,9 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         chosen[count++] = stage;
         p += length + (p[length] == ',');
     }
-    stages_set_pipeline(pipeline);
+    /* the impact stage takes the couple stage's seeds in a pipeline, and on its own when couple.h5 of this case is
+     * there (`spraycoat impact` as one stage of a run made by `spraycoat run`) */
+    stages_set_pipeline(pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir)));
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
         SC_TRY(chosen[i]->validate(c, run_dir));
@@ -241,7 +243,17 @@ static int command_pipeline(const struct options *opt)
     case_free(c);
     if (!whole)
         log_info("run: the case has no [couple] or [impact] section: no impact runs");
-    return command_run(opt, whole ? PIPELINE : "spray,render", 1);
+    int status = command_run(opt, whole ? PIPELINE : "spray,render", 1);
+    if (status == SC_OK && parallel_rank() == 0) {
+        char run_dir[4096];
+        if (opt->run_dir)
+            snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
+        else
+            default_run_dir(opt->target, run_dir, sizeof run_dir);
+        printf("results in %s:\n", run_dir);
+        info_headline(run_dir, stdout);
+    }
+    return status;
 }
 
 /* Continue the stages of the command that made RUN_DIR (RUN_DIR/stages; "spray" when absent) with the case it

@@ -252,6 +252,13 @@ static int pipeline;
 
 void stages_set_pipeline(int on) { pipeline = on; }
 
+int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/couple.h5", run_dir);
+    return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(c, "couple"));
+}
+
 int impact_takes_seeds(const struct case_file *c)
 {
     (void)c;

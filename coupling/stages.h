@@ -31,10 +31,13 @@ int case_section_given(const struct case_file *c, const char *section);
 /* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
  * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
 uint64_t stage_hash(const struct case_file *c, const char *stage);
-/* 1 when the impact stage takes its bodies from RUN_DIR/couple.h5 (the stages run by `spraycoat run`, the
- * pipeline), 0 when from [impact] (one particle or a bodies file: `spraycoat impact`). */
+/* 1 when the impact stage takes its bodies from RUN_DIR/couple.h5 (set by stages_set_pipeline: the stages of
+ * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the case), 0 when from [impact]
+ * (one particle or a bodies file). */
 int impact_takes_seeds(const struct case_file *c);
 void stages_set_pipeline(int on);
+/* 1 when RUN_DIR/couple.h5 exists and was made by this case's couple stage. */
+int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
