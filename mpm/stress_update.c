@@ -250,6 +250,20 @@ static int at_or_above_melt(const struct mpm_material *m, const struct mpm_mater
     return !(T < *Tm);
 }
 
+/* The first guess of the return for a point plastic in the last step (increment d0, flow stress sigma0): one
+ * Newton step in ln d on the model f = sigma* - 3 G d - sigma0 (d/d0)^beta, beta the rate exponent of the
+ * shock-regime flow stress (Eq. 2.7), limited to a factor e^2 either way.  It costs no PTW evaluation and
+ * saves about half a Newton step on the impact benchmark.  0 (no guess) for a point elastic in the last step. */
+static double first_guess(const struct mpm_material *m, const struct mpm_point_state *state, double G,
+                          double trial)
+{
+    double d0 = state->plastic_increment, sigma0 = state->yield_stress;
+    if (!(d0 > 0.0) || !(sigma0 > 0.0))
+        return d0;
+    double step = (trial - 3.0 * G * d0 - sigma0) / (3.0 * G * d0 + m->ptw_beta * sigma0);
+    return d0 * exp(fmax(-2.0, fmin(2.0, step)));
+}
+
 /* Radial return onto the PTW flow stress (Eqs. A5-A8): scales s_new from the trial to sigma_y, returns d. */
 static double ptw_return(const struct mpm_material *m, const struct mpm_material_constants *c,
                          const struct mpm_point_state *state, double G, double trial, double dt, double Tm,
@@ -261,7 +275,7 @@ static double ptw_return(const struct mpm_material *m, const struct mpm_material
     double log_gamma_xi = c->log_gamma_xi_factor + log(G * G * G / rho_new) / 6.0;
     struct yield_problem y = {m, state->eps_p, G, trial, state->T > 0.0 ? state->T / Tm : 0.0,
                               dt > 0.0 ? log_gamma_xi + log(dt) : INFINITY, c->log_rate_floor - log_gamma_xi};
-    double d = plastic_increment(&y, state->plastic_increment, dt, yield);
+    double d = plastic_increment(&y, first_guess(m, state, G, trial), dt, yield);
     if (d > 0.0)
         for (int k = 0; k < 6; k++)
             s_new[k] *= *yield / trial; /* Eq. A8 */
