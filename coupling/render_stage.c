@@ -2,8 +2,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/error.h"
+#include "core/h5io.h"
 #include "core/log.h"
 #include "coupling/stages.h"
 #include "render/render.h"
@@ -14,6 +16,8 @@ int render_stage_validate(const struct case_file *c, const char *run_dir)
     struct render_config cfg;
     return render_config_load(c, &cfg);
 }
+
+static int render_stage_draw(const struct case_file *c, const char *run_dir);
 
 /* The report's case summary: every key the case file or the command line gives (not the defaults). */
 static int case_rows(const struct case_file *c, struct render_case_row **rows, int *count)
@@ -36,7 +40,74 @@ static int case_rows(const struct case_file *c, struct render_case_row **rows, i
     return SC_OK;
 }
 
+/* What the figures depend on, as one line: the [render] values and the identity (case hash and creation time)
+ * of every input file present.  A pipeline run skips the stage when RUN_DIR/figures/render.stamp holds it and
+ * report.html exists; `spraycoat render` always draws. */
+static void render_fingerprint(const struct case_file *c, const char *run_dir, char *out, size_t size)
+{
+    static const char *const inputs[] = {"spray.h5", "impact.h5", "vcrit.h5"};
+    size_t used = 0;
+    for (int t = 0; spraycoat_registry[t]; t++)
+        for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
+            if (strcmp(k->section, "render") == 0 && case_has(c, "render", k->key) && used < size)
+                used += (size_t)snprintf(out + used, size - used, "%s=%s;", k->key, case_text(c, "render", k->key));
+    for (size_t i = 0; i < sizeof inputs / sizeof inputs[0] && used < size; i++) {
+        char path[4200], hash[64] = "-", created[64] = "-";
+        snprintf(path, sizeof path, "%s/%s", run_dir, inputs[i]);
+        hid_t file;
+        if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
+            h5_attr_read_string(file, "case_hash", hash, sizeof hash);
+            h5_attr_read_string(file, "created", created, sizeof created);
+            H5Fclose(file);
+        }
+        used += (size_t)snprintf(out + used, size - used, "%s:%s@%s;", inputs[i], hash, created);
+    }
+    sc_error_clear();
+}
+
+static void stamp_path(const char *run_dir, char *out, size_t size)
+{
+    snprintf(out, size, "%s/figures/render.stamp", run_dir);
+}
+
+static int figures_current(const char *run_dir, const char *fingerprint)
+{
+    char path[4200], line[4096] = "";
+    snprintf(path, sizeof path, "%s/report.html", run_dir);
+    if (access(path, R_OK) != 0)
+        return 0;
+    stamp_path(run_dir, path, sizeof path);
+    FILE *file = fopen(path, "r");
+    if (!file)
+        return 0;
+    int same = fgets(line, sizeof line, file) && strcmp(line, fingerprint) == 0;
+    fclose(file);
+    return same;
+}
+
+static int write_stamp(const char *run_dir, const char *fingerprint)
+{
+    char path[4200];
+    stamp_path(run_dir, path, sizeof path);
+    struct text_out out;
+    SC_TRY(text_create_atomic(path, &out));
+    fputs(fingerprint, out.file);
+    return text_commit(&out);
+}
+
 int render_stage_run(const struct case_file *c, const char *run_dir)
+{
+    char fingerprint[4096];
+    render_fingerprint(c, run_dir, fingerprint, sizeof fingerprint);
+    if (stages_in_pipeline() && figures_current(run_dir, fingerprint)) {
+        log_info("render: the figures and %s/report.html are up to date; nothing to do", run_dir);
+        return SC_OK;
+    }
+    SC_TRY(render_stage_draw(c, run_dir));
+    return write_stamp(run_dir, fingerprint);
+}
+
+static int render_stage_draw(const struct case_file *c, const char *run_dir)
 {
     struct render_config cfg;
     SC_TRY(render_config_load(c, &cfg));

@@ -252,6 +252,8 @@ static int pipeline;
 
 void stages_set_pipeline(int on) { pipeline = on; }
 
+int stages_in_pipeline(void) { return pipeline; }
+
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
 {
     char path[4096];

@@ -36,6 +36,8 @@ uint64_t stage_hash(const struct case_file *c, const char *stage);
  * (one particle or a bodies file). */
 int impact_takes_seeds(const struct case_file *c);
 void stages_set_pipeline(int on);
+/* 1 in a pipeline (`spraycoat run`): its render stage skips figures that are up to date. */
+int stages_in_pipeline(void);
 /* 1 when RUN_DIR/couple.h5 exists and was made by this case's couple stage. */
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
