@@ -436,6 +436,8 @@ static int check_sphere_overlap(const struct case_file *c, const struct mpm_conf
     return SC_OK;
 }
 
+static void name_run(struct impact_run *run, long index);
+
 int impact_stage_validate(const struct case_file *c, const char *run_dir)
 {
     struct mpm_config cfg;
@@ -444,9 +446,19 @@ int impact_stage_validate(const struct case_file *c, const char *run_dir)
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;
-    /* refuse checkpoints of another case before anything in the run directory is written */
+    /* refuse checkpoints of another case before anything in the run directory is written: the single run's, or
+     * those of the runs of the seeds (as many as [couple] asks for) */
     char path[H5IO_PATH_MAX];
-    return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, stage_hash(c, STAGE), path, sizeof path);
+    uint64_t hash = stage_hash(c, STAGE);
+    if (!impact_takes_seeds(c))
+        return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
+    long runs = case_int(c, "couple", "runs");
+    for (long r = 0; r < runs; r++) {
+        struct impact_run names = {.run_dir = run_dir};
+        name_run(&names, r);
+        SC_TRY(checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
+    }
+    return SC_OK;
 }
 
 /* The file names of one run: the run of [impact] (index < 0) writes impact.h5 itself; run `index` of the couple
