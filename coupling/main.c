@@ -198,9 +198,20 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         if (!stage || count == 8)
             SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, render)",
                     (int)length, p, list);
-        chosen[count++] = stage;
+        int repeated = 0;
+        for (int i = 0; i < count; i++)
+            repeated |= chosen[i] == stage;
+        if (!repeated)
+            chosen[count++] = stage;
         p += length + (p[length] == ',');
     }
+    /* stages run in pipeline order whatever the order of the list */
+    for (int i = 1; i < count; i++)
+        for (int j = i; j > 0 && chosen[j] < chosen[j - 1]; j--) {
+            const struct stage *swap = chosen[j];
+            chosen[j] = chosen[j - 1];
+            chosen[j - 1] = swap;
+        }
     /* the impact stage takes the couple stage's seeds in a pipeline, and on its own when couple.h5 of this case is
      * there (`spraycoat impact` as one stage of a run made by `spraycoat run`) */
     stages_set_pipeline(pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir)));
