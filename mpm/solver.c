@@ -296,21 +296,6 @@ static int remove_escaped(struct mpm_solver *s)
     return SC_OK;
 }
 
-/* Work of the absorbing boundaries over the step (booked so that the energy balance closes). */
-static void book_absorbed_energy(struct mpm_solver *s)
-{
-    const struct mpm_points *p = &s->points;
-    for (size_t k = 0; k < s->boundary_count; k++) {
-        size_t q = s->boundary_points[k];
-        if (!(p->flags[q] & POINT_ACTIVE))
-            continue;
-        double f[3];
-        const double *v = p->v + 3 * q;
-        boundary_dashpot_force(s, q, f);
-        s->energy_absorbed -= (f[0] * v[0] + f[1] * v[1] + f[2] * v[2]) * s->dt;
-    }
-}
-
 static void advance_clocks(struct mpm_solver *s)
 {
     const struct mpm_config *cfg = &s->cfg;
@@ -331,9 +316,9 @@ int mpm_step(struct mpm_solver *s)
 {
     choose_time_step(s);
     grid_bin_points(s);
-    book_absorbed_energy(s);
     grid_transfer_all(s);
     contact_nodal_update(s);
+    book_absorbed_energy(s);
     grid_to_points(s);
     grid_transfer_momentum(s);
     contact_correct_momentum(s, s->grid.momentum_new, 0);
