@@ -298,6 +298,20 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
             }
 }
 
+/* Points are visited in block order, not in memory order: fetch the state, velocity and stencil of the point
+ * PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was the largest stall of the transfer; about
+ * 5 % of the step, measured on the 1.5/0.5 impact). */
+#define PREFETCH_AHEAD 8
+
+static void prefetch_point(const struct mpm_solver *s, size_t q)
+{
+    const char *state = (const char *)&s->points.state[q];
+    __builtin_prefetch(state);
+    __builtin_prefetch(state + 64);
+    __builtin_prefetch(s->points.v + 3 * q);
+    __builtin_prefetch(s->grid.point_fraction + 3 * q);
+}
+
 static void for_each_point_by_colour(struct mpm_solver *s, void (*scatter)(struct mpm_solver *, size_t))
 {
     struct mpm_grid *g = &s->grid;
@@ -307,8 +321,12 @@ static void for_each_point_by_colour(struct mpm_solver *s, void (*scatter)(struc
 #pragma omp parallel for schedule(dynamic, 1)
         for (long i = 0; i < count; i++) {
             size_t block = blocks[i];
-            for (size_t k = g->block_start[block]; k < g->block_start[block + 1]; k++)
+            size_t end = g->block_start[block + 1];
+            for (size_t k = g->block_start[block]; k < end; k++) {
+                if (k + PREFETCH_AHEAD < end)
+                    prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
                 scatter(s, g->block_points[k]);
+            }
         }
     }
 }
