@@ -7,107 +7,322 @@
  * response time); a particle whose response time is shorter than twice the step is sub-cycled with k equal
  * sub-steps so that dt/k <= tau/2 (DESIGN.md: stiff particles must not go unstable). */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
 #include "dem/dem_impl.h"
+#include "dem/gas_eval.h"
 
 #define MAX_SUBSTEPS 100000
+/* Particles integrated together: their start forces and first fixed-point iterations run as loops over the
+ * block's lanes, which the compiler vectorises at -O3 (dem/gas_eval.h has no branches and no libm calls; no
+ * `omp simd` here: it turns the lanes' small local arrays into memory and the loops stay scalar). */
+#define BLOCK 32
+/* Vectorised passes continue while more than this many lanes of a block iterate; the few that need more
+ * iterations than the rest finish one by one (same arithmetic, same bits). */
+#define BLOCK_MIN_ACTIVE 4
 
 struct iteration_count {
     int64_t iterations, solves, unconverged, max_iterations, subcycled;
 };
 
-static void net_force(const struct gas_field *gas, double d, const double x[3], const double v[3], double f[3])
-{
-    double u[3];
-    gas_velocity(gas, x, u);
-    gas_drag_force(gas, d, v, u, f);
-}
-
-static double norm3_difference(const double a[3], const double b[3])
+FM_INLINE double norm3_difference(const double a[3], const double b[3])
 {
     double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return sqrt(dx * dx + dy * dy + dz * dz);
+    return fm_sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-/* One phi-scheme step of length h from (x, v); the result replaces (x, v).  gas_start, if not NULL, is the
- * gas velocity at x, already known to the caller. */
-static void phi_step(const struct dem_config *cfg, double d, double m, double h, const double *gas_start, double x[3],
-                     double v[3], struct iteration_count *count)
+/* The constants of one phi-scheme step of length h (Eqs. 47-52) and its start state. */
+struct phi_problem {
+    double d;                           /* diameter */
+    double h_over_m_phi, h_phi;         /* h/m phi and h phi: the implicit parts */
+    double x0[3], v0[3];                /* start of the step */
+    double residual_x[3], residual_v[3]; /* the explicit parts, Eqs. 48 and 50 */
+};
+
+FM_INLINE void phi_problem_set(struct phi_problem *problem, double phi, double d, double m, double h,
+                                   const double x[3], const double v[3], const double force_start[3])
 {
-    const double phi = cfg->phi;
-    double force_start[3], residual_v[3], residual_x[3];
-    double x0[3], v0[3], x_k[3], v_k[3];
-    if (gas_start)
-        gas_drag_force(&cfg->gas, d, v, gas_start, force_start);
-    else
-        net_force(&cfg->gas, d, x, v, force_start);
+    problem->d = d;
+    problem->h_over_m_phi = h / m * phi;
+    problem->h_phi = h * phi;
+    double h_over_m_explicit = h / m * (1.0 - phi), h_explicit = h * (1.0 - phi);
     for (int c = 0; c < 3; c++) {
-        residual_v[c] = v[c] + h / m * (1.0 - phi) * force_start[c]; /* Eq. 48 */
-        residual_x[c] = x[c] + h * (1.0 - phi) * v[c];                 /* Eq. 50 */
-        x0[c] = x_k[c] = x[c];
-        v0[c] = v_k[c] = v[c];
+        problem->x0[c] = x[c];
+        problem->v0[c] = v[c];
+        problem->residual_v[c] = v[c] + h_over_m_explicit * force_start[c]; /* Eq. 48 */
+        problem->residual_x[c] = x[c] + h_explicit * v[c];                 /* Eq. 50 */
     }
-    int64_t iteration = 0;
+}
+
+/* One fixed-point iterate (Eqs. 51-52) from (x_k, v_k) with the force there; returns whether it meets Eq. 53
+ * per particle (an exactly repeated iterate has converged whatever the denominator). */
+FM_INLINE int phi_iterate(const struct phi_problem *problem, double tol, const double force[3], double x_k[3],
+                              double v_k[3])
+{
+    double v_next[3], x_next[3];
+    for (int c = 0; c < 3; c++) {
+        v_next[c] = problem->residual_v[c] + problem->h_over_m_phi * force[c]; /* Eqs. 47, 51 */
+        x_next[c] = problem->residual_x[c] + problem->h_phi * v_next[c];       /* Eqs. 49, 52 */
+    }
+    double change = norm3_difference(v_next, v_k) + norm3_difference(x_next, x_k);
+    double progress = norm3_difference(v_next, problem->v0) + norm3_difference(x_next, problem->x0);
+    for (int c = 0; c < 3; c++) {
+        v_k[c] = v_next[c];
+        x_k[c] = x_next[c];
+    }
+    return (change <= tol * progress) | (change == 0.0); /* bitwise: no branch, so loops vectorise */
+}
+
+FM_INLINE void net_force(const struct gas_field *gas, double d, const double x[3], const double v[3],
+                             double f[3])
+{
+    double u[3];
+    gas_eval_velocity(gas, x, u);
+    gas_eval_drag(gas, d, v, u, f);
+}
+
+/* Iterate (x_k, v_k), whose count of iterates so far is *iteration, until Eq. 53 holds or the limit. */
+static int phi_iterate_to_convergence(const struct dem_config *cfg, const struct phi_problem *problem, double x_k[3],
+                                      double v_k[3], int64_t *iteration)
+{
     int converged = 0;
-    while (!converged && iteration < cfg->fixed_point_max_iter) {
-        double force[3], v_next[3], x_next[3];
-        /* the first iterate is the start state, whose force is already known */
-        if (iteration == 0)
-            memcpy(force, force_start, sizeof force);
-        else
-            net_force(&cfg->gas, d, x_k, v_k, force);
-        for (int c = 0; c < 3; c++) {
-            v_next[c] = residual_v[c] + h / m * phi * force[c]; /* Eqs. 47, 51 */
-            x_next[c] = residual_x[c] + h * phi * v_next[c];    /* Eqs. 49, 52 */
-        }
-        iteration++;
-        double change = norm3_difference(v_next, v_k) + norm3_difference(x_next, x_k);
-        double progress = norm3_difference(v_next, v0) + norm3_difference(x_next, x0);
-        /* Eq. 53 per particle; an exactly repeated iterate has converged whatever the denominator */
-        converged = change <= cfg->fixed_point_tol * progress || change == 0.0;
-        memcpy(v_k, v_next, sizeof v_k);
-        memcpy(x_k, x_next, sizeof x_k);
-        if (phi == 0.0)
-            converged = 1; /* explicit Euler: nothing to iterate */
+    while (!converged && *iteration < cfg->fixed_point_max_iter) {
+        double force[3];
+        net_force(&cfg->gas, problem->d, x_k, v_k, force);
+        converged = phi_iterate(problem, cfg->fixed_point_tol, force, x_k, v_k);
+        ++*iteration;
     }
-    memcpy(x, x_k, 3 * sizeof(double));
-    memcpy(v, v_k, 3 * sizeof(double));
-    count->iterations += iteration;
+    return converged;
+}
+
+static void count_solve(struct iteration_count *count, int64_t iterations, int converged)
+{
+    count->iterations += iterations;
     count->solves++;
     count->unconverged += !converged;
-    if (iteration > count->max_iterations)
-        count->max_iterations = iteration;
+    if (iterations > count->max_iterations)
+        count->max_iterations = iterations;
 }
 
-/* Sub-steps needed for a particle of diameter d at velocity v in gas moving at u. */
-static int64_t substeps_for(const struct dem_config *cfg, double d, const double u[3], const double v[3])
+/* One phi-scheme step of length h from (x, v); the result replaces (x, v).  The first iterate is the start
+ * state, whose force is known. */
+static void phi_step(const struct dem_config *cfg, double d, double m, double h, const double force_start[3],
+                     double x[3], double v[3], struct iteration_count *count)
 {
-    double slip = norm3_difference(u, v);
-    double tau = gas_response_time(&cfg->gas, cfg->powder.density, d, slip);
+    struct phi_problem problem;
+    phi_problem_set(&problem, cfg->phi, d, m, h, x, v, force_start);
+    int converged = phi_iterate(&problem, cfg->fixed_point_tol, force_start, x, v);
+    int64_t iteration = 1;
+    if (cfg->phi == 0.0)
+        converged = 1; /* explicit Euler: nothing to iterate */
+    if (!converged)
+        converged = phi_iterate_to_convergence(cfg, &problem, x, v, &iteration);
+    count_solve(count, iteration, converged);
+}
+
+/* Sub-steps for a particle of response time tau: dt/k <= tau/2. */
+static int64_t substeps_for(const struct dem_config *cfg, double tau)
+{
     if (!(tau < 2.0 * cfg->dt))
         return 1;
     double k = ceil(2.0 * cfg->dt / tau);
     return k > MAX_SUBSTEPS ? MAX_SUBSTEPS : (int64_t)k;
 }
 
-static void integrate_particle(const struct dem_config *cfg, double d, double m, double x[3], double v[3],
-                               struct iteration_count *count)
+/* A particle whose response time is below two steps, in k sub-steps; force_start and tau at its start. */
+static void integrate_subcycled(const struct dem_config *cfg, double d, double m, double tau,
+                                const double force_start[3], double x[3], double v[3], struct iteration_count *count)
 {
-    if (cfg->gas.model == JET_NONE) { /* no smooth forces: exact free flight */
-        for (int c = 0; c < 3; c++)
-            x[c] += cfg->dt * v[c];
-        return;
-    }
-    double u[3];
-    gas_velocity(&cfg->gas, x, u); /* evaluated once: for the sub-step count and the first start force */
-    int64_t substeps = substeps_for(cfg, d, u, v);
+    int64_t substeps = substeps_for(cfg, tau);
     double h = cfg->dt / (double)substeps;
-    for (int64_t k = 0; k < substeps; k++)
-        phi_step(cfg, d, m, h, k == 0 ? u : NULL, x, v, count);
-    if (substeps > 1)
-        count->subcycled++;
+    for (int64_t k = 0; k < substeps; k++) {
+        double force[3];
+        if (k == 0)
+            memcpy(force, force_start, sizeof force);
+        else
+            net_force(&cfg->gas, d, x, v, force);
+        phi_step(cfg, d, m, h, force, x, v, count);
+    }
+    count->subcycled++;
+}
+
+/* The particles of one block as structure of arrays: lane l is particle index[l]. */
+struct block {
+    size_t count;
+    uint32_t index[BLOCK];
+    double x[3][BLOCK], v[3][BLOCK], d[BLOCK], m[BLOCK];
+    double force_start[3][BLOCK], tau[BLOCK];
+    /* struct phi_problem of each lane, as arrays */
+    double x0[3][BLOCK], v0[3][BLOCK], residual_x[3][BLOCK], residual_v[3][BLOCK];
+    double h_over_m_phi[BLOCK], h_phi[BLOCK];
+    int64_t iterations[BLOCK];
+    uint8_t active[BLOCK], converged[BLOCK];
+};
+
+static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
+{
+    out[0] = soa[0][l];
+    out[1] = soa[1][l];
+    out[2] = soa[2][l];
+}
+
+static inline void lane_put(double soa[3][BLOCK], int l, const double in[3])
+{
+    soa[0][l] = in[0];
+    soa[1][l] = in[1];
+    soa[2][l] = in[2];
+}
+
+static inline struct phi_problem lane_problem(const struct block *b, int l)
+{
+    struct phi_problem problem = {.d = b->d[l], .h_over_m_phi = b->h_over_m_phi[l], .h_phi = b->h_phi[l]};
+    lane_get(b->x0, l, problem.x0);
+    lane_get(b->v0, l, problem.v0);
+    lane_get(b->residual_x, l, problem.residual_x);
+    lane_get(b->residual_v, l, problem.residual_v);
+    return problem;
+}
+
+static inline void lane_put_problem(struct block *b, int l, const struct phi_problem *problem)
+{
+    b->h_over_m_phi[l] = problem->h_over_m_phi;
+    b->h_phi[l] = problem->h_phi;
+    lane_put(b->x0, l, problem->x0);
+    lane_put(b->v0, l, problem->v0);
+    lane_put(b->residual_x, l, problem->residual_x);
+    lane_put(b->residual_v, l, problem->residual_v);
+}
+
+/* Gas, drag and response time at the start of the step for every lane (one Re^0.6459 serves both), then the
+ * first iterate of every lane that needs no sub-steps, from its start force. */
+static void block_start(const struct dem_config *cfg, struct block *restrict b)
+{
+    const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
+    const double density = cfg->powder.density, phi = cfg->phi, tol = cfg->fixed_point_tol, dt = cfg->dt;
+    const int more_allowed = 1 < cfg->fixed_point_max_iter;
+    for (int l = 0; l < BLOCK; l++) {
+        double x[3], v[3], u[3], relative[3], force[3];
+        lane_get(b->x, l, x);
+        lane_get(b->v, l, v);
+        gas_eval_velocity(&gas, x, u);
+        double slip = gas_eval_slip(v, u, relative);
+        double power = gas_eval_reynolds_power(gas_eval_reynolds(&gas, b->d[l], slip));
+        gas_eval_drag_from_slip(&gas, b->d[l], relative, slip, power, force);
+        lane_put(b->force_start, l, force);
+        b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], slip, power);
+        struct phi_problem problem;
+        phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
+        lane_put_problem(b, l, &problem);
+        int converged = phi_iterate(&problem, tol, force, x, v);
+        converged |= phi == 0.0; /* explicit Euler: nothing to iterate */
+        lane_put(b->x, l, x);
+        lane_put(b->v, l, v);
+        b->converged[l] = (uint8_t)converged;
+        b->iterations[l] = 1;
+        b->active[l] = (uint8_t)((b->tau[l] >= 2.0 * dt) & !converged & more_allowed);
+    }
+}
+
+/* One more iterate for every lane (the inactive ones are computed and dropped); returns the lanes still
+ * iterating. */
+static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
+{
+    const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
+    const double tol = cfg->fixed_point_tol;
+    const int64_t max_iter = cfg->fixed_point_max_iter;
+    int active_count = 0;
+    for (int l = 0; l < BLOCK; l++) {
+        double x[3], v[3], force[3];
+        lane_get(b->x, l, x);
+        lane_get(b->v, l, v);
+        net_force(&gas, b->d[l], x, v, force);
+        struct phi_problem problem = lane_problem(b, l);
+        int converged = phi_iterate(&problem, tol, force, x, v);
+        int active = b->active[l];
+        for (int c = 0; c < 3; c++) {
+            b->x[c][l] = fm_select(active, x[c], b->x[c][l]);
+            b->v[c][l] = fm_select(active, v[c], b->v[c][l]);
+        }
+        b->converged[l] = (uint8_t)((active & converged) | ((active == 0) & b->converged[l]));
+        b->iterations[l] += active;
+        int still = active & !converged & (b->iterations[l] < max_iter);
+        b->active[l] = (uint8_t)still;
+        active_count += still;
+    }
+    return active_count;
+}
+
+static void block_load(const struct dem_particles *p, struct block *b, const uint32_t *flying, size_t count)
+{
+    b->count = count;
+    for (size_t l = 0; l < BLOCK; l++) {
+        /* spare lanes repeat the last particle: computed, never stored */
+        uint32_t i = flying[l < count ? l : count - 1];
+        b->index[l] = i;
+        for (int c = 0; c < 3; c++) {
+            b->x[c][l] = p->x[3 * i + c];
+            b->v[c][l] = p->v[3 * i + c];
+        }
+        b->d[l] = p->d[i];
+        b->m[l] = p->m[i];
+    }
+}
+
+/* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
+ * lanes still iterating and the particles that need sub-steps. */
+static void integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b,
+                            struct iteration_count *count)
+{
+    block_start(cfg, b);
+    int active = 0;
+    for (int l = 0; l < (int)b->count; l++)
+        active += b->active[l];
+    while (active > BLOCK_MIN_ACTIVE)
+        active = block_iterate(cfg, b);
+    for (size_t l = 0; l < b->count; l++) {
+        double *x = p->x + 3 * b->index[l], *v = p->v + 3 * b->index[l];
+        if (!(b->tau[l] >= 2.0 * cfg->dt)) { /* from the start state again, in sub-steps */
+            double force[3];
+            lane_get(b->force_start, (int)l, force);
+            integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
+            continue;
+        }
+        double x_k[3], v_k[3];
+        lane_get(b->x, (int)l, x_k);
+        lane_get(b->v, (int)l, v_k);
+        int converged = b->converged[l];
+        if (b->active[l]) {
+            struct phi_problem problem = lane_problem(b, (int)l);
+            converged = phi_iterate_to_convergence(cfg, &problem, x_k, v_k, &b->iterations[l]);
+        }
+        count_solve(count, b->iterations[l], converged);
+        memcpy(x, x_k, sizeof x_k);
+        memcpy(v, v_k, sizeof v_k);
+    }
+}
+
+/* Indices of the flying particles, in order. */
+static uint32_t *flying_particles(const struct dem_particles *p, size_t *count)
+{
+    uint32_t *flying = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *flying);
+    size_t n = 0;
+    for (size_t i = 0; i < p->count; i++)
+        if (p->state[i] == DEM_FLYING)
+            flying[n++] = (uint32_t)i;
+    *count = n;
+    return flying;
+}
+
+/* No smooth forces: exact free flight. */
+static void integrate_free_flight(const struct dem_config *cfg, struct dem_particles *p, const uint32_t *flying,
+                                  size_t count)
+{
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < count; k++)
+        for (int c = 0; c < 3; c++)
+            p->x[3 * flying[k] + c] += cfg->dt * p->v[3 * flying[k] + c];
 }
 
 static int first_non_finite(const struct dem_particles *p, size_t *index, const char **quantity)
@@ -128,31 +343,44 @@ int dem_integrate(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
-    int64_t iterations = 0, solves = 0, unconverged = 0, max_iterations = s->stats.max_iterations, subcycled = 0;
-    int64_t advanced = 0;
-    /* Dynamic schedule: deposited particles (skipped) gather at low indices.  Each particle's update is
-     * independent and the reductions are integer sums, so the result does not depend on the schedule. */
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : iterations, solves, unconverged, subcycled, advanced) \
-    reduction(max : max_iterations)
-    for (size_t i = 0; i < p->count; i++) {
-        if (p->state[i] != DEM_FLYING)
-            continue;
-        struct iteration_count count = {0};
-        advanced++;
-        integrate_particle(cfg, p->d[i], p->m[i], p->x + 3 * i, p->v + 3 * i, &count);
-        iterations += count.iterations;
-        solves += count.solves;
-        unconverged += count.unconverged;
-        subcycled += count.subcycled;
-        if (count.max_iterations > max_iterations)
-            max_iterations = count.max_iterations;
+    size_t flying_count;
+    uint32_t *flying = flying_particles(p, &flying_count);
+    struct iteration_count total = {.max_iterations = s->stats.max_iterations};
+    if (cfg->gas.model == JET_NONE) {
+        integrate_free_flight(cfg, p, flying, flying_count);
+    } else {
+        size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
+        /* Each particle's update is independent and the reductions are integer sums, so the result does not
+         * depend on the schedule; the vector lanes give the bits of the scalar code. */
+#pragma omp parallel
+        {
+            struct iteration_count count = {0};
+            struct block *b = dem_realloc_or_die(NULL, sizeof *b);
+#pragma omp for schedule(dynamic, 4)
+            for (size_t k = 0; k < blocks; k++) {
+                size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
+                block_load(p, b, flying + first, n);
+                integrate_block(cfg, p, b, &count);
+            }
+            free(b);
+#pragma omp critical(dem_integrate_counts)
+            {
+                total.iterations += count.iterations;
+                total.solves += count.solves;
+                total.unconverged += count.unconverged;
+                total.subcycled += count.subcycled;
+                if (count.max_iterations > total.max_iterations)
+                    total.max_iterations = count.max_iterations;
+            }
+        }
     }
-    s->stats.fixed_point_iterations += iterations;
-    s->stats.fixed_point_solves += solves;
-    s->stats.fixed_point_unconverged += unconverged;
-    s->stats.subcycled_particle_steps += subcycled;
-    s->stats.particle_steps += advanced;
-    s->stats.max_iterations = max_iterations;
+    free(flying);
+    s->stats.fixed_point_iterations += total.iterations;
+    s->stats.fixed_point_solves += total.solves;
+    s->stats.fixed_point_unconverged += total.unconverged;
+    s->stats.subcycled_particle_steps += total.subcycled;
+    s->stats.particle_steps += (int64_t)flying_count;
+    s->stats.max_iterations = total.max_iterations;
     size_t bad;
     const char *quantity;
     if (first_non_finite(p, &bad, &quantity))

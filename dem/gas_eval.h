@@ -1,0 +1,162 @@
+/* Module-private (dem/): the jet velocity (Eqs. 26-27) and the drag force (Eqs. 24-25) of one particle as
+ * inline arithmetic: selects instead of branches on the particle, dem/fastmath.h instead of libm, so that the
+ * integrator's loops over particles vectorise and every lane gives the bits of the scalar code.
+ * dem/gas.c wraps them as gas_velocity and gas_drag_force; dem/integrate.c inlines them. */
+#ifndef SPRAYCOAT_DEM_GAS_EVAL_H
+#define SPRAYCOAT_DEM_GAS_EVAL_H
+
+#include <math.h>
+
+#include "dem/fastmath.h"
+#include "dem/gas.h"
+
+#define GAS_PI 3.14159265358979323846
+
+/* Haider & Levenspiel (1989) sphere constants, Eq. (25). */
+#define HL_STOKES_CORRECTION 0.1806
+#define HL_STOKES_EXPONENT 0.6459
+#define HL_NEWTON_COEFFICIENT 0.4251
+#define HL_NEWTON_REYNOLDS 6880.95
+
+/* sech^2(xi) and tanh(xi) from q = exp(-2|xi|) <= 1, which cannot overflow (cosh(xi) does for
+ * |xi| > ~710): sech^2 = 4q/(1+q)^2, tanh = sign(xi) (1-q)/(1+q). */
+FM_INLINE void gas_eval_sech2_tanh(double xi, double *sech2, double *tanh_xi)
+{
+    double q = fm_exp(-2.0 * fabs(xi));
+    double inverse_one_plus_q = 1.0 / (1.0 + q);
+    *sech2 = 4.0 * q * inverse_one_plus_q * inverse_one_plus_q;
+    *tanh_xi = copysign((1.0 - q) * inverse_one_plus_q, xi);
+}
+
+/* The self-similar jet in the spray frame.  Downstream of the potential core: Eq. (26)
+ * u = C1 / x^(1/3) sech^2(xi) and Eq. (27) with the erratum, v = C2 / x^(2/3) (2 xi sech^2 xi - tanh xi),
+ * xi = C3 r / x^(2/3), at x = z + virtual_origin.  Inside the core (z < core_length), and anywhere behind the
+ * virtual origin, the profile of z = core_length without entrainment (no radial part).  If even that station
+ * lies at or behind the virtual origin the profile is singular: still gas there (the parameter layer refuses
+ * such a jet).  Every branch is a select, so that loops over particles vectorise. */
+FM_INLINE void gas_eval_bickley(const struct gas_field *gas, const double pos[3], double u[3])
+{
+    /* every operation is done whatever the selects: a conditional floating-point operation could trap, so
+     * the compiler would keep the branches and not vectorise */
+    double r = fm_sqrt(pos[0] * pos[0] + pos[1] * pos[1]);
+    double x_here = pos[2] + gas->virtual_origin, x_core = gas->core_length + gas->virtual_origin;
+    int in_core = (pos[2] < gas->core_length) | !(x_here > 0.0);
+    double x = fm_select(in_core, x_core, x_here);
+    int defined = x > 0.0;
+    double cube_root = fm_cbrt(fm_select(defined, x, 1.0));
+    double x_two_thirds = cube_root * cube_root;
+    double xi = gas->c3 * r / x_two_thirds;
+    double sech2, tanh_xi;
+    gas_eval_sech2_tanh(xi, &sech2, &tanh_xi);
+    double axial = gas->c1 / cube_root * sech2;
+    double entrained = gas->c2 / x_two_thirds * (2.0 * xi * sech2 - tanh_xi);
+    double radial = fm_select(in_core, 0.0, entrained);
+    double safe_r = fm_select(r > 0.0, r, 1.0);
+    double radial_x = radial * pos[0] / safe_r, radial_y = radial * pos[1] / safe_r;
+    /* radial unit vector (x, y)/r; none on the axis */
+    int radial_direction = defined & (r > 0.0);
+    u[0] = fm_select(radial_direction, radial_x, 0.0);
+    u[1] = fm_select(radial_direction, radial_y, 0.0);
+    u[2] = fm_select(defined, axial, 0.0);
+}
+
+/* Gas velocity u[3] at pos[3] for JET_BICKLEY and JET_UNIFORM (JET_NONE: zero). */
+FM_INLINE void gas_eval_velocity(const struct gas_field *gas, const double pos[3], double u[3])
+{
+    double jet[3];
+    gas_eval_bickley(gas, pos, jet);
+    int bickley = gas->model == JET_BICKLEY, uniform = gas->model == JET_UNIFORM;
+    u[0] = fm_select(bickley, jet[0], 0.0);
+    u[1] = fm_select(bickley, jet[1], 0.0);
+    u[2] = fm_select(bickley, jet[2], fm_select(uniform, gas->uniform_velocity, 0.0));
+}
+
+/* Re^0.6459 of Eq. (25) at Reynolds number `reynolds`; shared by the drag and its slope. */
+FM_INLINE double gas_eval_reynolds_power(double reynolds)
+{
+    return fm_pow(reynolds, HL_STOKES_EXPONENT);
+}
+
+/* C_D * slip (m/s) for slip > 0, given Re and Re^0.6459: 24 nu / d in place of 24 / Re * slip, so that the
+ * Stokes part needs no division by the slip. */
+FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct gas_field *gas, double diameter, double slip,
+                                                          double reynolds, double reynolds_power)
+{
+    double stokes_part = 24.0 * gas->kinematic_viscosity / diameter;
+    double haider_levenspiel = stokes_part * (1.0 + HL_STOKES_CORRECTION * reynolds_power) +
+                               HL_NEWTON_COEFFICIENT * slip * reynolds / (reynolds + HL_NEWTON_REYNOLDS);
+    return fm_select(gas->drag == DRAG_STOKES, stokes_part, haider_levenspiel);
+}
+
+FM_INLINE double gas_eval_reynolds(const struct gas_field *gas, double diameter, double slip)
+{
+    return diameter * slip / gas->kinematic_viscosity;
+}
+
+/* Eq. (24): F = 1/2 rho_f (pi R^2) C_D(Re) |u - v| (u - v), Re = d |u - v| / nu_f, with the slip and Re^0.6459
+ * already known.  No slip: no drag (and no 0/0 in Re). */
+FM_INLINE void gas_eval_drag_from_slip(const struct gas_field *gas, double diameter, const double relative[3],
+                                           double slip, double reynolds_power, double f[3])
+{
+    double frontal_area = 0.25 * GAS_PI * diameter * diameter;
+    double reynolds = gas_eval_reynolds(gas, diameter, slip);
+    double factor = 0.5 * gas->density * frontal_area *
+                    gas_eval_drag_coefficient_times_slip(gas, diameter, slip, reynolds, reynolds_power);
+    factor = fm_select((slip > 0.0) & (gas->model != JET_NONE), factor, 0.0);
+    for (int k = 0; k < 3; k++)
+        f[k] = factor * relative[k];
+}
+
+FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double relative[3])
+{
+    for (int k = 0; k < 3; k++)
+        relative[k] = u[k] - v[k];
+    return fm_sqrt(relative[0] * relative[0] + relative[1] * relative[1] + relative[2] * relative[2]);
+}
+
+/* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] (Eq. 24). */
+FM_INLINE void gas_eval_drag(const struct gas_field *gas, double diameter, const double v[3], const double u[3],
+                                 double f[3])
+{
+    double relative[3];
+    double slip = gas_eval_slip(v, u, relative);
+    double power = gas_eval_reynolds_power(gas_eval_reynolds(gas, diameter, slip));
+    gas_eval_drag_from_slip(gas, diameter, relative, slip, power, f);
+}
+
+/* dF/ds of the drag magnitude F(s) = 1/2 rho_f A C_D(Re(s)) s^2, A = pi d^2/4, Re = d s / nu.
+ * Since dRe/ds = Re/s, dF/ds = (F/s) (2 + dlnC_D/dlnRe) = 1/2 rho_f A s (2 C_D + Re C_D').
+ * Haider-Levenspiel, C_D = 24/Re + 24 a Re^(b-1) + c Re/(Re + k):
+ *   2 C_D + Re C_D' = 24/Re + 24 a (1 + b) Re^(b-1) + c Re (2 Re + 3 k)/(Re + k)^2,
+ * and multiplying by s (= Re nu / d) removes the 1/Re: every term stays finite as s -> 0, where
+ * dF/ds -> 1/2 rho_f A 24 nu / d = 3 pi mu d, the Stokes value.  Stokes alone: dF/ds = 3 pi mu d.
+ * reynolds_power is Re^b at this slip (any value when slip is 0). */
+FM_INLINE double gas_eval_drag_slope(const struct gas_field *gas, double diameter, double slip,
+                                         double reynolds_power)
+{
+    double frontal_area = 0.25 * GAS_PI * diameter * diameter;
+    double stokes_part = 24.0 * gas->kinematic_viscosity / diameter; /* 24/Re * s */
+    double reynolds = gas_eval_reynolds(gas, diameter, slip);
+    double newton_denominator = reynolds + HL_NEWTON_REYNOLDS;
+    double haider_levenspiel =
+        stokes_part +
+        (stokes_part * HL_STOKES_CORRECTION * (1.0 + HL_STOKES_EXPONENT) * reynolds_power +
+         HL_NEWTON_COEFFICIENT * slip * reynolds * (2.0 * reynolds + 3.0 * HL_NEWTON_REYNOLDS) /
+             (newton_denominator * newton_denominator));
+    int haider_levenspiel_law = (gas->drag == DRAG_HAIDER_LEVENSPIEL) & (slip > 0.0);
+    double bracket_times_slip = fm_select(haider_levenspiel_law, haider_levenspiel, stokes_part);
+    return 0.5 * gas->density * frontal_area * bracket_times_slip;
+}
+
+/* m / |dF/dv| (s), INFINITY for JET_NONE or no gas density: see gas_response_time. */
+FM_INLINE double gas_eval_response_time(const struct gas_field *gas, double density, double diameter,
+                                            double slip, double reynolds_power)
+{
+    double slope = gas_eval_drag_slope(gas, diameter, slip, reynolds_power);
+    double mass = density * GAS_PI * diameter * diameter * diameter / 6.0;
+    int no_drag = (gas->model == JET_NONE) | !(slope > 0.0); /* bitwise: no branch, so loops vectorise */
+    double response_time = mass / slope;
+    return fm_select(no_drag, INFINITY, response_time);
+}
+
+#endif
