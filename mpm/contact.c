@@ -2,7 +2,17 @@
  * Section 4.1.1).  Every body has its own nodal fields (the multi-mesh); where two bodies have mass at a node
  * and approach each other (Eq. 3.29), or are bonded there (nodal D_bond >= 1, Eqs. 4.6-4.7), equal and
  * opposite nodal impulses bring them to a common velocity (sticking, Eq. 3.31), to a common normal velocity
- * (frictionless), or limit the tangential part by Coulomb's law (friction). */
+ * (frictionless), or limit the tangential part by Coulomb's law (friction).
+ *
+ * contact_scheme = thesis (the default, with which the bonding parameters were calibrated) decides and projects
+ * on the updated momenta, and decides and projects again on the MUSL re-projected momenta.  Every step it
+ * hands the points the perfectly inelastic collision of the two fields' start velocities, and the re-projection
+ * may decide otherwise than the update: energy is lost (README, "Contact and energy").
+ * contact_scheme = consistent takes one decision per node and step, the approach test on the updated momenta,
+ * and projects a pair in contact in the step's start momenta (the FLIP reference of the points' velocity
+ * change), in the updated momenta and in the re-projected momenta (the strain rate).  A contact node then
+ * moves the points as one common field would (single-field MPM), and the strain rate follows the motion the
+ * points made: energy is conserved. */
 #include <math.h>
 #include <string.h>
 
@@ -33,24 +43,40 @@ int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
     return 0;
 }
 
-/* The impulse on body a at one node (body b receives its opposite).  Returns 0 no force, 1 contact, 2 bond. */
-static int pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *mom, double J[3])
+/* How a pair of bodies interacts at a node this step. */
+enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED };
+
+static int pair_bonded(const struct mpm_solver *s, size_t Ia, size_t Ib)
 {
     const struct mpm_grid *g = &s->grid;
-    double ma = g->mass[Ia], mb = g->mass[Ib], n[3];
+    return s->cfg.bonding != MPM_BONDING_NONE && 0.5 * (nodal_bond(g, Ia) + nodal_bond(g, Ib)) >= 1.0;
+}
+
+/* The decision, on the updated momenta: bonded (Eq. 4.7), or approaching along the normal (Eq. 3.29). */
+static enum pair_state pair_decide(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *mom,
+                                   const double n[3])
+{
+    const struct mpm_grid *g = &s->grid;
+    if (pair_bonded(s, Ia, Ib))
+        return PAIR_BONDED;
     const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
-    if (contact_normal(g, Ia, Ib, n) != 0)
-        return 0;
     double approach = 0.0;   /* Eq. 3.29 divided by ma mb */
     for (int d = 0; d < 3; d++)
-        approach += (pa[d] / ma - pb[d] / mb) * n[d];
-    int bonded = s->cfg.bonding != MPM_BONDING_NONE && 0.5 * (nodal_bond(g, Ia) + nodal_bond(g, Ib)) >= 1.0;
-    if (!bonded && !(approach > 0.0))
-        return 0;
+        approach += (pa[d] / g->mass[Ia] - pb[d] / g->mass[Ib]) * n[d];
+    return approach > 0.0 ? PAIR_CONTACT : PAIR_FREE;
+}
+
+/* The impulse on body a (body b receives its opposite) that the contact rule gives for the momenta `mom`. */
+static void pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *mom, const double n[3],
+                         enum pair_state state, double J[3])
+{
+    const struct mpm_grid *g = &s->grid;
+    double ma = g->mass[Ia], mb = g->mass[Ib];
+    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
     for (int d = 0; d < 3; d++)   /* Eq. 3.31 times dt: both bodies move with their common velocity */
         J[d] = (ma * pb[d] - mb * pa[d]) / (ma + mb);
-    if (bonded || s->cfg.contact == MPM_CONTACT_STICK)
-        return bonded ? 2 : 1;
+    if (state == PAIR_BONDED || s->cfg.contact == MPM_CONTACT_STICK)
+        return;
     double Jn = J[0] * n[0] + J[1] * n[1] + J[2] * n[2];
     double Jt[3], Jt_norm;
     for (int d = 0; d < 3; d++)
@@ -61,11 +87,20 @@ static int pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const 
         scale = fmin(1.0, s->cfg.friction * fabs(Jn) / Jt_norm);
     for (int d = 0; d < 3; d++)
         J[d] = Jn * n[d] + scale * Jt[d];
-    return 1;
 }
 
-/* Contact and bond impulses at node `node` on the momenta `mom`; flags the bodies in contact. */
-static int resolve_node(struct mpm_solver *s, size_t node, double *mom, int *bonded)
+static void apply_impulse(double *mom, size_t Ia, size_t Ib, const double J[3])
+{
+    for (int d = 0; d < 3; d++) {
+        mom[3 * Ia + d] += J[d];
+        mom[3 * Ib + d] -= J[d];
+    }
+}
+
+/* Contact and bond impulses at node `node`: decided on the momenta `end` and applied to them and, unless NULL,
+ * to the start momenta `start`; the pair's bodies are flagged (g->contact) for the re-projection and the
+ * bonding model.  Returns whether any pair interacted; *bonded whether one was bonded. */
+static int resolve_node(struct mpm_solver *s, size_t node, double *start, double *end, int *bonded)
 {
     struct mpm_grid *g = &s->grid;
     int touched = 0;
@@ -76,20 +111,46 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *mom, int *bon
             continue;
         for (int b = a + 1; b < g->layers; b++) {
             size_t Ib = (size_t)b * g->nodes + node;
-            double J[3];
-            int kind;
-            if (!(g->mass[Ib] > g->mass_cutoff) || (kind = pair_impulse(s, Ia, Ib, mom, J)) == 0)
+            double n[3], J[3];
+            if (!(g->mass[Ib] > g->mass_cutoff) || contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            for (int d = 0; d < 3; d++) {
-                mom[3 * Ia + d] += J[d];
-                mom[3 * Ib + d] -= J[d];
+            enum pair_state state = pair_decide(s, Ia, Ib, end, n);
+            if (state == PAIR_FREE)
+                continue;
+            pair_impulse(s, Ia, Ib, end, n, state, J);
+            apply_impulse(end, Ia, Ib, J);
+            if (start) {
+                pair_impulse(s, Ia, Ib, start, n, state, J);
+                apply_impulse(start, Ia, Ib, J);
             }
             g->contact[Ia] = g->contact[Ib] = 1;
             touched = 1;
-            *bonded |= kind == 2;
+            *bonded |= state == PAIR_BONDED;
         }
     }
     return touched;
+}
+
+/* contact_scheme = consistent, the MUSL re-projected momenta: the pairs in contact in this step's nodal update
+ * (both bodies flagged) are projected again without a new approach test, so that the strain rate is that of
+ * the motion the points made.  (With three or more bodies at a node, a pair whose bodies both touched a third
+ * body there is projected too.) */
+static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
+{
+    const struct mpm_grid *g = &s->grid;
+    for (int a = 0; a < g->layers; a++) {
+        size_t Ia = (size_t)a * g->nodes + node;
+        if (!(g->mass[Ia] > g->mass_cutoff) || !g->contact[Ia])
+            continue;
+        for (int b = a + 1; b < g->layers; b++) {
+            size_t Ib = (size_t)b * g->nodes + node;
+            double n[3], J[3];
+            if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || contact_normal(g, Ia, Ib, n) != 0)
+                continue;
+            pair_impulse(s, Ia, Ib, mom, n, pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT, J);
+            apply_impulse(mom, Ia, Ib, J);
+        }
+    }
 }
 
 /* A rigid frictionless wall at the substrate's top: no nodal velocity into it at or below it. */
@@ -134,6 +195,7 @@ void contact_nodal_update(struct mpm_solver *s)
     int rigid = s->cfg.substrate == MPM_SUBSTRATE_RIGID;
     long nodes = (long)g->nodes;
     int64_t contacts = 0, bonds = 0;
+    double *start = s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT ? g->momentum : NULL;
 #pragma omp parallel for schedule(static) reduction(+ : contacts, bonds)
     for (long node = 0; node < nodes; node++) {
         for (int l = 0; l < g->layers; l++) {   /* Eq. 3.28 */
@@ -148,7 +210,8 @@ void contact_nodal_update(struct mpm_solver *s)
         else if (s->cfg.fixed_bottom)
             fixed_bottom(s, (size_t)node, k, g->momentum_new);
         int bonded;
-        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1 && resolve_node(s, (size_t)node, g->momentum_new, &bonded)) {
+        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1 &&
+            resolve_node(s, (size_t)node, start, g->momentum_new, &bonded)) {
             contacts++;
             bonds += bonded;
         }
@@ -176,7 +239,11 @@ void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes
         else if (s->cfg.fixed_bottom)
             fixed_bottom(s, (size_t)node, k, mom);
         int bonded;
-        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1)
-            resolve_node(s, (size_t)node, mom, &bonded);
+        if (g->layers < 2 || bodies_at(g, (size_t)node) < 2)
+            continue;
+        if (s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT)
+            reproject_node(s, (size_t)node, mom);
+        else
+            resolve_node(s, (size_t)node, NULL, mom, &bonded);
     }
 }

@@ -39,6 +39,10 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
      "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},
     {"impact", "friction", CFG_REAL, "-", "0.2", 0, 10, 0, NULL, "Coulomb coefficient, contact = friction"},
+    {"impact", "contact_scheme", CFG_CHOICE, "", "thesis", 0, 0, 0, "thesis|consistent",
+     "thesis: the contact of the updated and of the re-projected momenta decided apart (calibrated; dissipates "
+     "energy); consistent: one decision per node and step for the start, updated and re-projected momenta "
+     "(conserves energy; README, \"Contact and energy\")"},
     {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
      "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none"},
     {"impact", "Gc", CFG_REAL, "J/m2", "1500", 0, 1e9, 1, NULL,
@@ -219,6 +223,8 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->contact = case_is(c, "impact", "contact", "stick")     ? MPM_CONTACT_STICK
                    : case_is(c, "impact", "contact", "friction") ? MPM_CONTACT_FRICTION
                                                                  : MPM_CONTACT_FRICTIONLESS;
+    cfg->contact_scheme = case_is(c, "impact", "contact_scheme", "consistent") ? MPM_CONTACT_CONSISTENT
+                                                                                : MPM_CONTACT_THESIS;
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN
                    : case_is(c, "impact", "bonding", "none") ? MPM_BONDING_NONE : MPM_BONDING_ENERGY;
