@@ -6,7 +6,14 @@
  * Instead each particle is entered in every cell (side: the largest diameter) that the bounding box of its
  * swept sphere overlaps, and only particles sharing a cell are tested.  A pair is tested in exactly one
  * cell, the one holding the lower corner of the intersection of the two boxes.  Cells are hashed into
- * buckets (O(N) memory whatever the domain), rebuilt every step by a counting sort. */
+ * buckets (O(N) memory whatever the domain), filled by a counting sort.
+ *
+ * The grid is not rebuilt every step.  Each particle enters it with a reach box: its swept sphere over the
+ * next `horizon` steps at its current velocity, widened by a skin of SKIN_RADII radii.  The pairs whose reach
+ * boxes overlap are listed.  While every particle's swept box of the current step lies inside its reach box,
+ * every pair whose swept boxes overlap is in the list, so testing the listed pairs finds exactly the contacts
+ * a fresh grid would (the same box test and time of impact on the same numbers): in free flight the grid is
+ * rebuilt every few steps instead of every step.  The horizon adapts (next_horizon). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +27,12 @@
 #define CELL_DIAMETERS 2.0
 /* Boxes are widened by this fraction of the radius so that rounding cannot drop a grazing contact. */
 #define BOX_MARGIN 1e-9
+/* Reach boxes: 2 to 16 steps ahead (or plain swept boxes), and a skin of this many radii for the bending of
+ * paths; after PLAIN_BUILDS plain builds a horizon is tried again. */
+#define MIN_HORIZON 2.0
+#define MAX_HORIZON 16.0
+#define SKIN_RADII 0.5
+#define PLAIN_BUILDS 16
 
 static inline uint32_t cell_hash(const int32_t cell[3], size_t bucket_count)
 {
@@ -51,22 +64,42 @@ static void swept_box(const struct dem_particles *p, size_t i, double dt, double
     }
 }
 
-static double grid_cell_size(const struct dem_particles *p, double dt)
+/* The box that particle i's sphere can reach within `horizon` steps at its current velocity, widened by the
+ * skin; a deposited particle reaches its sphere only. */
+static void reach_box(const struct dem_particles *p, size_t i, double dt, double horizon, double lo[3], double hi[3])
 {
-    double d_largest = 0.0, sweep_largest = 0.0;
-    for (size_t i = 0; i < p->count; i++) {
-        d_largest = fmax(d_largest, p->d[i]);
-        if (p->state[i] == DEM_FLYING)
-            for (int c = 0; c < 3; c++)
-                sweep_largest = fmax(sweep_largest, fabs(p->v[3 * i + c]) * dt);
+    int flying = p->state[i] == DEM_FLYING;
+    /* horizon 0: the swept box of this step alone, as a grid rebuilt every step would hold it */
+    double skin = flying && horizon > 0.0 ? SKIN_RADII : 0.0;
+    double radius = 0.5 * p->d[i] * (1.0 + BOX_MARGIN + skin);
+    double span = horizon > 0.0 ? dt * horizon : dt;
+    for (int c = 0; c < 3; c++) {
+        double start = p->x[3 * i + c], end = start + (flying ? p->v[3 * i + c] * span : 0.0);
+        lo[c] = fmin(start, end) - radius;
+        hi[c] = fmax(start, end) + radius;
     }
-    return CELL_DIAMETERS * fmax(d_largest, sweep_largest / MAX_CELLS_PER_SWEEP) * (1.0 + 1e-12) + 1e-300;
 }
 
-static void cell_range(const struct dem_particles *p, size_t i, double dt, double cell, int32_t lo[3], int32_t hi[3])
+/* Cells of two largest diameters, or wider when the reach of the fastest particle spans more than
+ * MAX_CELLS_PER_SWEEP / 2 of them. */
+static double grid_cell_size(const struct dem_particles *p, double dt, double horizon)
 {
-    double box_lo[3], box_hi[3];
-    swept_box(p, i, dt, box_lo, box_hi);
+    double d_largest = 0.0, speed_largest = 0.0;
+    for (size_t i = 0; i < p->count; i++) {
+        d_largest = p->d[i] > d_largest ? p->d[i] : d_largest;
+        if (p->state[i] == DEM_FLYING)
+            for (int c = 0; c < 3; c++) {
+                double speed = fabs(p->v[3 * i + c]);
+                speed_largest = speed > speed_largest ? speed : speed_largest;
+            }
+    }
+    double sweep_largest = speed_largest * dt * (horizon > 0.0 ? horizon : 1.0);
+    double size = d_largest > sweep_largest / MAX_CELLS_PER_SWEEP ? d_largest : sweep_largest / MAX_CELLS_PER_SWEEP;
+    return CELL_DIAMETERS * size * (1.0 + 1e-12) + 1e-300;
+}
+
+static void box_cells(const double box_lo[3], const double box_hi[3], double cell, int32_t lo[3], int32_t hi[3])
+{
     for (int c = 0; c < 3; c++) {
         lo[c] = cell_index(box_lo[c], cell);
         hi[c] = cell_index(box_hi[c], cell);
@@ -91,14 +124,14 @@ static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
 /* Write the entries of every particle (in particle order) into bins->scratch and their buckets into
  * bins->entry_bucket; returns their number.  Two parallel passes: count each particle's cells, then
  * (after a prefix sum) write them at their offsets, so the order is the same for any thread count. */
-static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, double dt, size_t buckets)
+static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, size_t buckets)
 {
     size_t *offset = dem_realloc_or_die(NULL, (p->count + 1) * sizeof *offset);
     offset[0] = 0;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < p->count; i++) {
         int32_t lo[3], hi[3];
-        cell_range(p, i, dt, bins->cell, lo, hi);
+        box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
         offset[i + 1] = cells_in_range(lo, hi);
     }
     for (size_t i = 0; i < p->count; i++)
@@ -108,7 +141,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < p->count; i++) {
         int32_t lo[3], hi[3];
-        cell_range(p, i, dt, bins->cell, lo, hi);
+        box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
         size_t e = offset[i];
         for (int32_t a = lo[0]; a <= hi[0]; a++)
             for (int32_t b = lo[1]; b <= hi[1]; b++)
@@ -132,15 +165,14 @@ static size_t bucket_count_for(size_t particles)
     return buckets;
 }
 
-void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
+static void grid_fill(struct dem_bins *bins, const struct dem_particles *p)
 {
-    bins->cell = grid_cell_size(p, dt);
     size_t buckets = bucket_count_for(p->count);
     if (buckets != bins->bucket_count) {
         bins->bucket_start = dem_realloc_or_die(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
         bins->bucket_count = buckets;
     }
-    size_t count = fill_entries(bins, p, dt, buckets);
+    size_t count = fill_entries(bins, p, buckets);
     bins->entry_count = count;
     memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
     for (size_t e = 0; e < count; e++)
@@ -161,6 +193,10 @@ void dem_bins_free(struct dem_bins *bins)
     free(bins->entries);
     free(bins->scratch);
     free(bins->entry_bucket);
+    free(bins->reach);
+    free(bins->built_id);
+    free(bins->built_flying);
+    free(bins->pairs);
     memset(bins, 0, sizeof *bins);
 }
 
@@ -211,30 +247,30 @@ static struct swept_sphere swept_sphere_of(const struct dem_particles *p, uint32
     return sphere;
 }
 
-/* The pair is tested only in the cell holding the lower corner of the intersection of the two swept
- * boxes; returns 0 if the boxes do not intersect or `cell_here` is not that cell. */
-static int owns_pair(const struct swept_sphere *a, const struct swept_sphere *b, const int32_t cell_here[3], double dt,
-                     double cell)
+/* Do the boxes of the two spheres' sweeps over the step intersect?  (The boxes are those the grid used to
+ * hold, widened by BOX_MARGIN.) */
+static int swept_boxes_overlap(const struct swept_sphere *a, const struct swept_sphere *b, double dt)
 {
     for (int c = 0; c < 3; c++) {
         double ra = a->radius * (1.0 + BOX_MARGIN), rb = b->radius * (1.0 + BOX_MARGIN);
         double a_end = a->x[c] + a->v[c] * dt, b_end = b->x[c] + b->v[c] * dt;
         double lo = fmax(fmin(a->x[c], a_end) - ra, fmin(b->x[c], b_end) - rb);
         double hi = fmin(fmax(a->x[c], a_end) + ra, fmax(b->x[c], b_end) + rb);
-        if (lo > hi || cell_index(lo, cell) != cell_here[c])
+        if (lo > hi)
             return 0;
     }
     return 1;
 }
 
-/* Entries of a bucket are in particle order, so first < second; a deposited particle goes second. */
-static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t second, const int32_t cell_here[3],
-                      double dt, double cell, struct dem_candidates *out)
+/* A listed pair, first < second: a contact if the swept boxes intersect and the spheres touch while
+ * approaching within the step.  The flying particle goes first in the contact. */
+static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t second, double dt,
+                      struct dem_candidates *out)
 {
     if (p->state[first] != DEM_FLYING && p->state[second] != DEM_FLYING)
         return;
     struct swept_sphere a = swept_sphere_of(p, first), b = swept_sphere_of(p, second);
-    if (!owns_pair(&a, &b, cell_here, dt, cell))
+    if (!swept_boxes_overlap(&a, &b, dt))
         return;
     double dx[3] = {b.x[0] - a.x[0], b.x[1] - a.x[1], b.x[2] - a.x[2]};
     double dv[3] = {b.v[0] - a.v[0], b.v[1] - a.v[1], b.v[2] - a.v[2]};
@@ -252,21 +288,148 @@ void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p
 #pragma omp parallel
     {
         struct dem_candidates local = {0};
-#pragma omp for schedule(dynamic, 256) nowait
-        for (size_t bucket = 0; bucket < bins->bucket_count; bucket++) {
-            uint32_t first = bins->bucket_start[bucket], end = bins->bucket_start[bucket + 1];
-            for (uint32_t i = first; i + 1 < end; i++)
-                for (uint32_t j = i + 1; j < end; j++) {
-                    const struct dem_bin_entry *a = &bins->entries[i], *b = &bins->entries[j];
-                    if (same_cell(a, b) && a->index != b->index)
-                        test_pair(p, a->index, b->index, a->cell, dt, bins->cell, &local);
-                }
-        }
+#pragma omp for schedule(static) nowait
+        for (size_t k = 0; k < bins->pair_count; k++)
+            test_pair(p, bins->pairs[2 * k], bins->pairs[2 * k + 1], dt, &local);
 #pragma omp critical(dem_broadphase_merge)
         for (size_t k = 0; k < local.count; k++)
             candidates_push(out, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
         free(local.items);
     }
+}
+
+/* ---------------------------------------------------------------- the pair list */
+
+/* Do the reach boxes of i and j intersect with the lower corner of the intersection in cell_here?  (A pair
+ * is listed from that one cell only.) */
+static int owns_reach_pair(const double *reach_i, const double *reach_j, const int32_t cell_here[3], double cell)
+{
+    for (int c = 0; c < 3; c++) {
+        double lo = reach_i[c] > reach_j[c] ? reach_i[c] : reach_j[c];
+        double hi = reach_i[3 + c] < reach_j[3 + c] ? reach_i[3 + c] : reach_j[3 + c];
+        if (lo > hi || cell_index(lo, cell) != cell_here[c])
+            return 0;
+    }
+    return 1;
+}
+
+static void pair_push(struct dem_bins *list, uint32_t a, uint32_t b)
+{
+    if (list->pair_count == list->pair_capacity) {
+        list->pair_capacity = list->pair_capacity ? 2 * list->pair_capacity : 256;
+        list->pairs = dem_realloc_or_die(list->pairs, 2 * list->pair_capacity * sizeof *list->pairs);
+    }
+    list->pairs[2 * list->pair_count] = a;
+    list->pairs[2 * list->pair_count + 1] = b;
+    list->pair_count++;
+}
+
+/* Every pair, not both deposited, whose reach boxes intersect: entries of a bucket are in particle order,
+ * so a < b. */
+static void list_pairs(struct dem_bins *bins, const struct dem_particles *p)
+{
+    bins->pair_count = 0;
+#pragma omp parallel
+    {
+        struct dem_bins local = {0}; /* only its pair list is used */
+#pragma omp for schedule(dynamic, 256) nowait
+        for (size_t bucket = 0; bucket < bins->bucket_count; bucket++) {
+            uint32_t first = bins->bucket_start[bucket], end = bins->bucket_start[bucket + 1];
+            for (uint32_t e = first; e + 1 < end; e++)
+                for (uint32_t f = e + 1; f < end; f++) {
+                    const struct dem_bin_entry *a = &bins->entries[e], *b = &bins->entries[f];
+                    if (!same_cell(a, b) || a->index == b->index)
+                        continue;
+                    if (p->state[a->index] != DEM_FLYING && p->state[b->index] != DEM_FLYING)
+                        continue;
+                    if (owns_reach_pair(bins->reach + 6 * a->index, bins->reach + 6 * b->index, a->cell, bins->cell))
+                        pair_push(&local, a->index, b->index);
+                }
+        }
+#pragma omp critical(dem_broadphase_list_merge)
+        for (size_t k = 0; k < local.pair_count; k++)
+            pair_push(bins, local.pairs[2 * k], local.pairs[2 * k + 1]);
+        free(local.pairs);
+    }
+}
+
+/* ---------------------------------------------------------------- building and keeping */
+
+static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
+{
+    if (count <= bins->built_capacity)
+        return;
+    bins->built_capacity = count + count / 2 + 1024;
+    bins->reach = dem_realloc_or_die(bins->reach, 6 * bins->built_capacity * sizeof *bins->reach);
+    bins->built_id = dem_realloc_or_die(bins->built_id, bins->built_capacity * sizeof *bins->built_id);
+    bins->built_flying = dem_realloc_or_die(bins->built_flying, bins->built_capacity);
+}
+
+/* Do the grid and list of the last build still hold every contact of this step?  The same particles in the
+ * same order, none deposited then and flying now, each swept box of the step inside its reach box. */
+static int reach_still_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    if (!bins->reach || bins->built_count != p->count)
+        return 0;
+    int holds = 1;
+#pragma omp parallel for schedule(static) reduction(&& : holds)
+    for (size_t i = 0; i < p->count; i++) {
+        double lo[3], hi[3];
+        swept_box(p, i, dt, lo, hi);
+        const double *reach = bins->reach + 6 * i;
+        int inside = p->id[i] == bins->built_id[i] && (bins->built_flying[i] || p->state[i] != DEM_FLYING);
+        for (int c = 0; c < 3; c++)
+            inside = inside && lo[c] >= reach[c] && hi[c] <= reach[3 + c];
+        holds = holds && inside;
+    }
+    return holds;
+}
+
+static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    ensure_particle_capacity(bins, p->count);
+    bins->cell = grid_cell_size(p, dt, bins->horizon);
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < p->count; i++) {
+        reach_box(p, i, dt, bins->horizon, bins->reach + 6 * i, bins->reach + 6 * i + 3);
+        bins->built_id[i] = p->id[i];
+        bins->built_flying[i] = p->state[i] == DEM_FLYING;
+    }
+    bins->built_count = p->count;
+    grid_fill(bins, p);
+    list_pairs(bins, p);
+    bins->age = 0;
+    bins->builds++;
+}
+
+/* The horizon of the next build.  One that served at least half its horizon may reach twice as far; one
+ * that served only its own step (paths change every step: a dense, colliding cloud) falls back to plain
+ * swept boxes, rebuilt every step as before, and tries a horizon again after PLAIN_BUILDS of them. */
+static void next_horizon(struct dem_bins *bins)
+{
+    if (!bins->reach) {
+        bins->horizon = MIN_HORIZON;
+    } else if (bins->horizon == 0.0) {
+        if (++bins->plain_builds >= PLAIN_BUILDS)
+            bins->horizon = MIN_HORIZON;
+    } else if ((double)bins->age >= 0.5 * bins->horizon) {
+        bins->horizon = bins->horizon * 2.0 < MAX_HORIZON ? bins->horizon * 2.0 : MAX_HORIZON;
+    } else if (bins->age == 0) {
+        bins->horizon = 0.0;
+        bins->plain_builds = 0;
+    } else {
+        bins->horizon = bins->horizon * 0.5 > MIN_HORIZON ? bins->horizon * 0.5 : MIN_HORIZON;
+    }
+}
+
+void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    if (reach_still_holds(bins, p, dt)) {
+        bins->age++;
+        return;
+    }
+    next_horizon(bins);
+    rebuild(bins, p, dt);
 }
 
 int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,

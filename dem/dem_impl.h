@@ -25,8 +25,11 @@ struct dem_bin_entry {
     uint32_t index;        /* particle index */
 };
 
-/* Swept-box hash grid: cubic cells of side `cell`; each particle is entered in every cell that the box
- * around its sphere's sweep over the step overlaps; cell (i, j, k) lives in bucket hash(i, j, k). */
+/* Swept-box hash grid: cubic cells of side `cell`; each particle is entered in every cell that its reach box
+ * overlaps; cell (i, j, k) lives in bucket hash(i, j, k).  The reach box holds the particle's swept sphere
+ * over the next `horizon` steps at its velocity of the build, widened by a skin: the pairs whose reach
+ * boxes overlap are listed once, and the grid and the list serve the following steps for as long as every
+ * particle's swept box of the step stays inside its reach box (broadphase.c, like a Verlet list's skin). */
 struct dem_bins {
     double cell;
     size_t bucket_count;          /* power of two */
@@ -35,6 +38,17 @@ struct dem_bins {
     size_t entry_count, entry_capacity;
     uint32_t *entry_bucket;       /* scratch for the counting sort */
     struct dem_bin_entry *scratch;
+    /* the particles as built: reach boxes (lo x, y, z, hi x, y, z), ids and flying flags */
+    size_t built_count, built_capacity;
+    double *reach;
+    int64_t *built_id;
+    uint8_t *built_flying;
+    uint32_t *pairs;              /* 2 per listed pair: lower index, higher index */
+    size_t pair_count, pair_capacity;
+    double horizon;               /* steps covered by a reach box; 0: the step's swept box, no skin */
+    int64_t age;                  /* steps served since the build, not counting its own */
+    int64_t plain_builds;         /* builds with horizon 0 in a row */
+    int64_t builds;               /* for the statistics */
 };
 
 enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
@@ -93,6 +107,8 @@ void dem_inject_file(struct dem_solver *s);
 
 /* dem/broadphase.c: the swept-box grid and the pairs of particles whose swept spheres touch in the step. */
 void dem_bins_free(struct dem_bins *bins);
+/* Bring the grid and the pair list up to date for this step: rebuilt only if a particle left its reach box,
+ * or particles were added or removed, or one deposited at the build flies. */
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
 /* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
  * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one. */
