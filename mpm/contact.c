@@ -12,7 +12,7 @@
  * and projects a pair in contact in the step's start momenta (the FLIP reference of the points' velocity
  * change), in the updated momenta and in the re-projected momenta (the strain rate).  A contact node then
  * moves the points as one common field would (single-field MPM), and the strain rate follows the motion the
- * points made: energy is conserved. */
+ * points made: two elastic spheres keep their energy within 2 % (tests/test_mpm_solver.c). */
 #include <math.h>
 #include <string.h>
 
