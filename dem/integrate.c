@@ -27,10 +27,44 @@ struct iteration_count {
     int64_t iterations, solves, unconverged, max_iterations, subcycled;
 };
 
-FM_INLINE double norm3_difference(const double a[3], const double b[3])
+FM_INLINE double squared_difference(const double a[3], const double b[3])
 {
     double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return fm_sqrt(dx * dx + dy * dy + dz * dz);
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* The squared norms of Eq. 53: the change of v and x from the last iterate, and their progress from the start. */
+struct eq53_squares {
+    double change_v, change_x, progress_v, progress_x;
+};
+
+/* Eq. 53 per particle as written: |dv| + |dx| <= tol (|v - v0| + |x - x0|), or an exactly repeated iterate. */
+FM_INLINE int eq53_exact(const struct eq53_squares *q, double tol)
+{
+    double change = fm_sqrt(q->change_v) + fm_sqrt(q->change_x);
+    double progress = fm_sqrt(q->progress_v) + fm_sqrt(q->progress_x);
+    return (change <= tol * progress) | (change == 0.0); /* bitwise: no branch, so loops vectorise */
+}
+
+/* Eq. 53 from the squares alone, without the four square roots: since |a| + |b| lies between
+ * sqrt(a^2 + b^2) and sqrt(2 (a^2 + b^2)), the answer is certain unless the sums of squares are within a
+ * factor 2 of each other (with 1e-12 to spare for rounding, and only where no square under- or overflows).
+ * Returns 1 (holds), 0 (does not) or -1 (undecided: ask eq53_exact).  Where it answers, eq53_exact gives the
+ * same answer, so the iteration is unchanged. */
+FM_INLINE int eq53_shortcut(const struct eq53_squares *q, double tol)
+{
+    double change = q->change_v + q->change_x, progress = q->progress_v + q->progress_x;
+    double bound = tol * tol * progress;
+    int safe = (bound > 1e-250) & (progress < 1e300) & (change < 1e300);
+    int holds = safe & (2.0 * change <= bound * (1.0 - 1e-12));
+    int fails = safe & (change > 2.0 * bound * (1.0 + 1e-12));
+    return holds - ((holds | fails) == 0); /* 1, 0 or -1 without a branch, so loops vectorise */
+}
+
+FM_INLINE int eq53_holds(const struct eq53_squares *q, double tol)
+{
+    int decided = eq53_shortcut(q, tol);
+    return decided >= 0 ? decided : eq53_exact(q, tol);
 }
 
 /* The constants of one phi-scheme step of length h (Eqs. 47-52) and its start state. */
@@ -56,23 +90,22 @@ FM_INLINE void phi_problem_set(struct phi_problem *problem, double phi, double d
     }
 }
 
-/* One fixed-point iterate (Eqs. 51-52) from (x_k, v_k) with the force there; returns whether it meets Eq. 53
- * per particle (an exactly repeated iterate has converged whatever the denominator). */
-FM_INLINE int phi_iterate(const struct phi_problem *problem, double tol, const double force[3], double x_k[3],
-                              double v_k[3])
+/* One fixed-point iterate (Eqs. 51-52) from (x_k, v_k) with the force there; returns the squares of Eq. 53. */
+FM_INLINE struct eq53_squares phi_iterate(const struct phi_problem *problem, const double force[3], double x_k[3],
+                                          double v_k[3])
 {
     double v_next[3], x_next[3];
     for (int c = 0; c < 3; c++) {
         v_next[c] = problem->residual_v[c] + problem->h_over_m_phi * force[c]; /* Eqs. 47, 51 */
         x_next[c] = problem->residual_x[c] + problem->h_phi * v_next[c];       /* Eqs. 49, 52 */
     }
-    double change = norm3_difference(v_next, v_k) + norm3_difference(x_next, x_k);
-    double progress = norm3_difference(v_next, problem->v0) + norm3_difference(x_next, problem->x0);
+    struct eq53_squares q = {squared_difference(v_next, v_k), squared_difference(x_next, x_k),
+                             squared_difference(v_next, problem->v0), squared_difference(x_next, problem->x0)};
     for (int c = 0; c < 3; c++) {
         v_k[c] = v_next[c];
         x_k[c] = x_next[c];
     }
-    return (change <= tol * progress) | (change == 0.0); /* bitwise: no branch, so loops vectorise */
+    return q;
 }
 
 FM_INLINE void net_force(const struct gas_field *gas, double d, const double x[3], const double v[3],
@@ -91,7 +124,8 @@ static int phi_iterate_to_convergence(const struct dem_config *cfg, const struct
     while (!converged && *iteration < cfg->fixed_point_max_iter) {
         double force[3];
         net_force(&cfg->gas, problem->d, x_k, v_k, force);
-        converged = phi_iterate(problem, cfg->fixed_point_tol, force, x_k, v_k);
+        struct eq53_squares q = phi_iterate(problem, force, x_k, v_k);
+        converged = eq53_holds(&q, cfg->fixed_point_tol);
         ++*iteration;
     }
     return converged;
@@ -113,7 +147,8 @@ static void phi_step(const struct dem_config *cfg, double d, double m, double h,
 {
     struct phi_problem problem;
     phi_problem_set(&problem, cfg->phi, d, m, h, x, v, force_start);
-    int converged = phi_iterate(&problem, cfg->fixed_point_tol, force_start, x, v);
+    struct eq53_squares q = phi_iterate(&problem, force_start, x, v);
+    int converged = eq53_holds(&q, cfg->fixed_point_tol);
     int64_t iteration = 1;
     if (cfg->phi == 0.0)
         converged = 1; /* explicit Euler: nothing to iterate */
@@ -159,6 +194,9 @@ struct block {
     double h_over_m_phi[BLOCK], h_phi[BLOCK];
     int64_t iterations[BLOCK];
     uint8_t active[BLOCK], converged[BLOCK];
+    /* the squares of Eq. 53 of the last iterate, and whether they left it undecided */
+    double squares[4][BLOCK];
+    uint8_t undecided[BLOCK];
 };
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
@@ -195,6 +233,32 @@ static inline void lane_put_problem(struct block *b, int l, const struct phi_pro
     lane_put(b->residual_v, l, problem->residual_v);
 }
 
+static inline void lane_put_squares(struct block *b, int l, const struct eq53_squares *q)
+{
+    b->squares[0][l] = q->change_v;
+    b->squares[1][l] = q->change_x;
+    b->squares[2][l] = q->progress_v;
+    b->squares[3][l] = q->progress_x;
+}
+
+/* The lanes whose last iterate the squares left undecided get Eq. 53 with its square roots, one by one (it
+ * is rare); returns how many of them stop iterating. */
+static int block_settle(struct block *b, double tol)
+{
+    int stopped = 0;
+    for (int l = 0; l < BLOCK; l++) {
+        if (!b->undecided[l])
+            continue;
+        struct eq53_squares q = {b->squares[0][l], b->squares[1][l], b->squares[2][l], b->squares[3][l]};
+        if (eq53_exact(&q, tol)) {
+            b->converged[l] = 1;
+            stopped += b->active[l];
+            b->active[l] = 0;
+        }
+    }
+    return stopped;
+}
+
 /* Gas, drag and response time at the start of the step for every lane (one Re^0.6459 serves both), then the
  * first iterate of every lane that needs no sub-steps, from its start force. */
 static void block_start(const struct dem_config *cfg, struct block *restrict b)
@@ -215,14 +279,18 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         struct phi_problem problem;
         phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
         lane_put_problem(b, l, &problem);
-        int converged = phi_iterate(&problem, tol, force, x, v);
-        converged |= phi == 0.0; /* explicit Euler: nothing to iterate */
+        struct eq53_squares q = phi_iterate(&problem, force, x, v);
+        int decision = eq53_shortcut(&q, tol);
+        int converged = (decision == 1) | (phi == 0.0); /* phi = 0, explicit Euler: nothing to iterate */
+        lane_put_squares(b, l, &q);
+        b->undecided[l] = (uint8_t)((decision < 0) & (phi != 0.0));
         lane_put(b->x, l, x);
         lane_put(b->v, l, v);
         b->converged[l] = (uint8_t)converged;
         b->iterations[l] = 1;
         b->active[l] = (uint8_t)((b->tau[l] >= 2.0 * dt) & !converged & more_allowed);
     }
+    block_settle(b, tol);
 }
 
 /* One more iterate for every lane (the inactive ones are computed and dropped); returns the lanes still
@@ -239,8 +307,12 @@ static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
         lane_get(b->v, l, v);
         net_force(&gas, b->d[l], x, v, force);
         struct phi_problem problem = lane_problem(b, l);
-        int converged = phi_iterate(&problem, tol, force, x, v);
+        struct eq53_squares q = phi_iterate(&problem, force, x, v);
+        int decision = eq53_shortcut(&q, tol);
+        int converged = decision == 1;
         int active = b->active[l];
+        lane_put_squares(b, l, &q);
+        b->undecided[l] = (uint8_t)(active & (decision < 0));
         for (int c = 0; c < 3; c++) {
             b->x[c][l] = fm_select(active, x[c], b->x[c][l]);
             b->v[c][l] = fm_select(active, v[c], b->v[c][l]);
@@ -251,7 +323,7 @@ static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
         b->active[l] = (uint8_t)still;
         active_count += still;
     }
-    return active_count;
+    return active_count - block_settle(b, tol);
 }
 
 static void block_load(const struct dem_particles *p, struct block *b, const uint32_t *flying, size_t count)
