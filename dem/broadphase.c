@@ -128,7 +128,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
 {
     size_t *offset = dem_realloc_or_die(NULL, (p->count + 1) * sizeof *offset);
     offset[0] = 0;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         int32_t lo[3], hi[3];
         box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
@@ -138,7 +138,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
         offset[i + 1] += offset[i];
     size_t count = offset[p->count];
     ensure_capacity(bins, count);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         int32_t lo[3], hi[3];
         box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
@@ -285,7 +285,7 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
 
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
 {
-#pragma omp parallel
+#pragma omp parallel if (bins->pair_count >= DEM_PARALLEL_MIN)
     {
         struct dem_candidates local = {0};
 #pragma omp for schedule(static) nowait
@@ -329,7 +329,7 @@ static void pair_push(struct dem_bins *list, uint32_t a, uint32_t b)
 static void list_pairs(struct dem_bins *bins, const struct dem_particles *p)
 {
     bins->pair_count = 0;
-#pragma omp parallel
+#pragma omp parallel if (p->count >= DEM_PARALLEL_MIN)
     {
         struct dem_bins local = {0}; /* only its pair list is used */
 #pragma omp for schedule(dynamic, 256) nowait
@@ -372,7 +372,7 @@ static int reach_still_holds(const struct dem_bins *bins, const struct dem_parti
     if (!bins->reach || bins->built_count != p->count)
         return 0;
     int holds = 1;
-#pragma omp parallel for schedule(static) reduction(&& : holds)
+#pragma omp parallel for schedule(static) reduction(&& : holds) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         double lo[3], hi[3];
         swept_box(p, i, dt, lo, hi);
@@ -389,7 +389,7 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
 {
     ensure_particle_capacity(bins, p->count);
     bins->cell = grid_cell_size(p, dt, bins->horizon);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         reach_box(p, i, dt, bins->horizon, bins->reach + 6 * i, bins->reach + 6 * i + 3);
         bins->built_id[i] = p->id[i];

@@ -90,6 +90,12 @@ struct dem_solver {
     size_t metric_count, metric_capacity;
 };
 
+/* Loops over fewer particles (or pairs) than this run on one thread: opening a parallel region costs more
+ * than they do, and far more on a loaded machine, where the threads wait for each other at its end.  The
+ * drag integration, about a microsecond per particle, goes parallel from DEM_PARALLEL_MIN_INTEGRATE. */
+#define DEM_PARALLEL_MIN 2048
+#define DEM_PARALLEL_MIN_INTEGRATE 512
+
 /* dem/particles.c */
 /* realloc that reports and aborts when memory runs out (bytes 0 allocates 1) */
 void *dem_realloc_or_die(void *data, size_t bytes);

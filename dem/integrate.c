@@ -391,7 +391,7 @@ static uint32_t *flying_particles(const struct dem_particles *p, size_t *count)
 static void integrate_free_flight(const struct dem_config *cfg, struct dem_particles *p, const uint32_t *flying,
                                   size_t count)
 {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (count >= DEM_PARALLEL_MIN)
     for (size_t k = 0; k < count; k++)
         for (int c = 0; c < 3; c++)
             p->x[3 * flying[k] + c] += cfg->dt * p->v[3 * flying[k] + c];
@@ -424,7 +424,7 @@ int dem_integrate(struct dem_solver *s)
         size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
         /* Each particle's update is independent and the reductions are integer sums, so the result does not
          * depend on the schedule; the vector lanes give the bits of the scalar code. */
-#pragma omp parallel
+#pragma omp parallel if (flying_count >= DEM_PARALLEL_MIN_INTEGRATE)
         {
             struct iteration_count count = {0};
             struct block *b = dem_realloc_or_die(NULL, sizeof *b);
