@@ -11,7 +11,7 @@ bin="$build/spraycoat"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # the last body's value (the particle) of a /summary dataset
-value() { h5dump -y -w 0 -d "$2" "$1" | grep -A1 'DATA {' | tail -1 | tr ',' ' ' | awk '{ print $NF }'; }
+value() { h5dump -y -w 0 -d "$2" "$1" | grep -m1 -A1 'DATA {' | tail -1 | tr ',' ' ' | awk '{ print $NF }'; }
 echo "Gc,Gc_rate,diameter,velocity,bonded,pbcp,v_rest"
 for gc in $2; do
     for rate in $3; do
