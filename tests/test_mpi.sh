@@ -40,7 +40,10 @@ else
 fi
 
 # ---- 2. SIGTERM to mpirun during the impact runs, then resume under mpirun -----------------------------------
-$MPIRUN "$MPI_BIN" run "$CASE0" --stages "$STAGES" -o "$T/term" >"$T/term.log" 2>&1 &
+# impact runs of 16 ns (four times the fixture's), so that the signal comes while they run
+sed 's/^t_end = 4e-9/t_end = 16e-9/' "$CASE0" >"$T/long.ini"
+"$BIN" run "$T/long.ini" --stages "$STAGES" -o "$T/long_one" >"$T/long_one.log" 2>&1
+$MPIRUN "$MPI_BIN" run "$T/long.ini" --stages "$STAGES" -o "$T/term" >"$T/term.log" 2>&1 &
 bg=$!
 i=0
 while [ "$i" -lt 1200 ] && ! ls "$T"/term/checkpoints/impact_r*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
@@ -56,7 +59,7 @@ stopped=0
 [ "$term" -ne 0 ] && [ ! -e "$T/term/impact.h5" ] && ls "$T"/term/checkpoints/impact_r*.h5 >/dev/null 2>&1 && stopped=1
 $MPIRUN "$MPI_BIN" resume "$T/term" >"$T/resume.log" 2>&1
 resumed=$?
-if [ "$stopped" -eq 1 ] && [ "$resumed" -eq 0 ] && same_run_dir "$T/one" "$T/term" spray couple impact; then
+if [ "$stopped" -eq 1 ] && [ "$resumed" -eq 0 ] && same_run_dir "$T/long_one" "$T/term" spray couple impact; then
     pass mpi_resume_same_as_one_process
 else
     fail mpi_resume_same_as_one_process "mpirun exit $term, stopped mid-stage $stopped, resume exit $resumed; $why $(grep 'spraycoat' "$T/resume.log" | tail -n 1)"

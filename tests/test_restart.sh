@@ -273,6 +273,17 @@ prepare_resume() {
         [ -f "$T/killed/spray.h5.tmp" ] || cp "$T/planted" "$T/killed/spray.h5.tmp"
     fi
 }
+# Poll until file $1 exists (1 when the program ended first or 30 s passed).
+wait_for_file() {
+    i=0
+    while [ "$i" -lt 3000 ]; do
+        [ -e "$1" ] && return 0
+        kill -0 "$bg" 2>/dev/null || return 1
+        sleep 0.01
+        i=$((i + 1))
+    done
+    return 1
+}
 # Poll until the newest checkpoint of RUN_DIR $1 is no longer $2 (1 when the program ended or 30 s passed).
 wait_for_new_checkpoint() {
     i=0
@@ -298,6 +309,9 @@ for delay in $delays; do
         sleep 0.1
         when="0.1 s after it wrote $(basename "$(newest_checkpoint "$T/killed")")"
     else
+        # the first kill counts from the moment the run directory is prepared (RUN_DIR/stages written): a kill
+        # before it would leave nothing to resume, and a fast solver gets there in a few milliseconds
+        [ "$kill_number" -eq 1 ] && wait_for_file "$T/killed/stages"
         sleep "$delay"
     fi
     kill -9 "$bg" 2>/dev/null
