@@ -722,6 +722,17 @@ static int gather(const struct case_file *c, const char *run_dir, uint64_t hash,
     return remove_run_files(run_dir, runs);
 }
 
+/* impact.h5 is there, but a process killed while it cleaned up may have left run files, snapshots and
+ * checkpoints of the runs behind. */
+static int remove_leftovers(const struct case_file *c, const char *run_dir)
+{
+    if (impact_takes_seeds(c))
+        return remove_run_files(run_dir, case_int(c, "couple", "runs"));
+    struct impact_run names = {.run_dir = run_dir};
+    name_run(&names, -1);
+    return clear_snapshots(&names, 1);
+}
+
 int impact_stage_run(const struct case_file *c, const char *run_dir)
 {
     uint64_t hash = stage_hash(c, STAGE);
@@ -729,7 +740,7 @@ int impact_stage_run(const struct case_file *c, const char *run_dir)
     snprintf(path, sizeof path, "%s/impact.h5", run_dir);
     struct run_settings settings;
     if (stage_begin(STAGE, path, hash, c, &settings))
-        return SC_OK;
+        return parallel_rank() == 0 ? remove_leftovers(c, run_dir) : SC_OK;
     if (impact_takes_seeds(c))
         return run_all_seeded(c, run_dir, hash, &settings);
     /* one run: rank 0's (the others have nothing to share) */

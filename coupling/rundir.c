@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "core/run_keys.h"
 #include "coupling/stages.h"
 #include "dem/dem.h"
@@ -221,6 +222,14 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
 {
     if (run_dir_output_current(output, case_hash)) {
         log_info("%s: %s is up to date with the case; nothing to do", stage, output);
+        /* a process killed between writing the output and removing the stage's checkpoints left them behind */
+        char run_dir[4096];
+        snprintf(run_dir, sizeof run_dir, "%s", output);
+        char *slash = strrchr(run_dir, '/');
+        if (slash)
+            *slash = '\0';
+        if (parallel_rank() == 0 && checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
+            log_warn("%s: %s", stage, sc_error_message());
         return 1;
     }
     if (access(output, F_OK) == 0)
