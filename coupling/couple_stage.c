@@ -147,32 +147,54 @@ static int read_spray(struct couple_work *w)
 
 /* ---- candidates -------------------------------------------------------------------------------------------- */
 
-static const struct dem_impact *sort_impacts;
-static int compare_impact_rows(const void *pa, const void *pb)
+/* Row indices of n records (stride bytes apart; a particle id and a time at the given offsets) ordered by particle,
+ * then time, then row: a total order, so the result does not depend on qsort's algorithm.  NULL: out of memory. */
+static const char *sort_records;
+static size_t sort_stride, sort_id_offset, sort_t_offset;
+
+static int compare_by_particle_and_time(const void *pa, const void *pb)
 {
     size_t a = *(const size_t *)pa, b = *(const size_t *)pb;
-    const struct dem_impact *ia = &sort_impacts[a], *ib = &sort_impacts[b];
-    if (ia->particle_id != ib->particle_id)
-        return ia->particle_id < ib->particle_id ? -1 : 1;
-    if (ia->t != ib->t)
-        return ia->t < ib->t ? -1 : 1;
+    int64_t id_a, id_b;
+    double t_a, t_b;
+    memcpy(&id_a, sort_records + a * sort_stride + sort_id_offset, sizeof id_a);
+    memcpy(&id_b, sort_records + b * sort_stride + sort_id_offset, sizeof id_b);
+    memcpy(&t_a, sort_records + a * sort_stride + sort_t_offset, sizeof t_a);
+    memcpy(&t_b, sort_records + b * sort_stride + sort_t_offset, sizeof t_b);
+    if (id_a != id_b)
+        return id_a < id_b ? -1 : 1;
+    if (t_a != t_b)
+        return t_a < t_b ? -1 : 1;
     return (a > b) - (a < b);
+}
+
+static size_t *rows_by_particle_and_time(const void *records, size_t n, size_t stride, size_t id_offset,
+                                         size_t t_offset)
+{
+    size_t *order = malloc(at_least_one(n) * sizeof *order);
+    if (!order)
+        return NULL;
+    for (size_t i = 0; i < n; i++)
+        order[i] = i;
+    sort_records = records;
+    sort_stride = stride;
+    sort_id_offset = id_offset;
+    sort_t_offset = t_offset;
+    qsort(order, n, sizeof *order, compare_by_particle_and_time);
+    return order;
 }
 
 /* The first contact of every particle, in order of particle id. */
 static int find_candidates(struct couple_work *w)
 {
     size_t n = w->spray.impact_count;
-    size_t *order = malloc(at_least_one(n) * sizeof *order);
-    w->candidates = calloc(n ? n : 1, sizeof *w->candidates);
+    size_t *order = rows_by_particle_and_time(w->spray.impacts, n, sizeof *w->spray.impacts,
+                                              offsetof(struct dem_impact, particle_id), offsetof(struct dem_impact, t));
+    w->candidates = calloc(at_least_one(n), sizeof *w->candidates);
     if (!order || !w->candidates) {
         free(order);
         SC_FAIL(SC_ESIM, "couple: out of memory");
     }
-    for (size_t i = 0; i < n; i++)
-        order[i] = i;
-    sort_impacts = w->spray.impacts;
-    qsort(order, n, sizeof *order, compare_impact_rows);
     for (size_t i = 0; i < n; i++) {
         const struct dem_impact *row = &w->spray.impacts[order[i]];
         if (i > 0 && row->particle_id == w->spray.impacts[order[i - 1]].particle_id)
@@ -192,31 +214,16 @@ static int find_candidates(struct couple_work *w)
 
 /* Each candidate's last crossing of the hand-off plane before its impact (linear scan per candidate over the
  * hand-offs sorted by particle: both lists are in particle order). */
-static const struct dem_handoff *sort_handoffs;
-static int compare_handoff_rows(const void *pa, const void *pb)
-{
-    size_t a = *(const size_t *)pa, b = *(const size_t *)pb;
-    const struct dem_handoff *ha = &sort_handoffs[a], *hb = &sort_handoffs[b];
-    if (ha->particle_id != hb->particle_id)
-        return ha->particle_id < hb->particle_id ? -1 : 1;
-    if (ha->t != hb->t)
-        return ha->t < hb->t ? -1 : 1;
-    return (a > b) - (a < b);
-}
-
 static int match_handoffs(struct couple_work *w)
 {
     size_t n = w->spray.handoff_count;
-    size_t *order = malloc(at_least_one(n) * sizeof *order);
+    size_t *order = rows_by_particle_and_time(w->spray.handoffs, n, sizeof *w->spray.handoffs,
+                                              offsetof(struct dem_handoff, particle_id), offsetof(struct dem_handoff, t));
     w->handoff_of = malloc(at_least_one(w->candidate_count) * sizeof *w->handoff_of);
     if (!order || !w->handoff_of) {
         free(order);
         SC_FAIL(SC_ESIM, "couple: out of memory");
     }
-    for (size_t i = 0; i < n; i++)
-        order[i] = i;
-    sort_handoffs = w->spray.handoffs;
-    qsort(order, n, sizeof *order, compare_handoff_rows);
     size_t h = 0;
     for (size_t k = 0; k < w->candidate_count; k++) {
         const struct couple_candidate *c = &w->candidates[k];
@@ -332,6 +339,24 @@ static int make_seeds(struct couple_work *w)
 
 /* ---- couple.h5 --------------------------------------------------------------------------------------------- */
 
+/* One column of n rows into group g, each row's value from `expr` (or 3 values from `array`) with row index i;
+ * the caller holds `status`, scratch `ints` (n) and `reals` (3 n), and `dims1` / `dims3`. */
+#define COLUMN_INT(name, expr)                                                                                   \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        ints[i] = (int64_t)(expr);                                                                                 \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
+#define COLUMN_REAL(name, expr, unit)                                                                            \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        reals[i] = (expr);                                                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
+#define COLUMN_VEC(name, array, unit)                                                                            \
+    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
+    if (status == SC_OK)                                                                                           \
+        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
+
 static int write_seed_columns(hid_t g, const struct couple_work *w)
 {
     size_t n = w->seed_count;
@@ -339,38 +364,20 @@ static int write_seed_columns(hid_t g, const struct couple_work *w)
     double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
     int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
-#define SEED_INT(name, expr)                                                                                     \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        ints[i] = (expr);                                                                                          \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
-#define SEED_REAL(name, expr, unit)                                                                              \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        reals[i] = (expr);                                                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
-#define SEED_VEC(name, array, unit)                                                                              \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
     const struct couple_seed *s = w->seeds;
-    SEED_INT("run", s[i].run)
-    SEED_INT("body", s[i].body)
-    SEED_INT("impact_row", w->candidates[s[i].candidate].impact_row)
-    SEED_INT("particle_id", w->candidates[s[i].candidate].particle_id)
-    SEED_INT("flight", (int64_t)s[i].flight)
-    SEED_REAL("d", s[i].d, "m")
-    SEED_REAL("m", s[i].m, "kg")
-    SEED_REAL("t_wall", s[i].t_wall, "s")
-    SEED_VEC("x", s[i].center, "m")
-    SEED_VEC("v", s[i].velocity, "m/s")
-    SEED_VEC("x_wall", s[i].x_wall, "m")
-    SEED_VEC("v_wall", s[i].v_wall, "m/s")
-    SEED_VEC("v_spray", w->candidates[s[i].candidate].v, "m/s")
-#undef SEED_INT
-#undef SEED_REAL
-#undef SEED_VEC
+    COLUMN_INT("run", s[i].run)
+    COLUMN_INT("body", s[i].body)
+    COLUMN_INT("impact_row", w->candidates[s[i].candidate].impact_row)
+    COLUMN_INT("particle_id", w->candidates[s[i].candidate].particle_id)
+    COLUMN_INT("flight", (int64_t)s[i].flight)
+    COLUMN_REAL("d", s[i].d, "m")
+    COLUMN_REAL("m", s[i].m, "kg")
+    COLUMN_REAL("t_wall", s[i].t_wall, "s")
+    COLUMN_VEC("x", s[i].center, "m")
+    COLUMN_VEC("v", s[i].velocity, "m/s")
+    COLUMN_VEC("x_wall", s[i].x_wall, "m")
+    COLUMN_VEC("v_wall", s[i].v_wall, "m/s")
+    COLUMN_VEC("v_spray", w->candidates[s[i].candidate].v, "m/s")
     free(ints);
     free(reals);
     return status;
@@ -432,43 +439,25 @@ static int write_flight_columns(hid_t g, const struct couple_work *w)
     int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
     const struct flight_result *f = w->flights;
-#define FLIGHT_INT(name, expr)                                                                                   \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        ints[i] = (int64_t)(expr);                                                                                 \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
-#define FLIGHT_REAL(name, expr, unit)                                                                            \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        reals[i] = (expr);                                                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
-#define FLIGHT_VEC(name, array, unit)                                                                            \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
-        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
     const struct couple_candidate *c = w->candidates;
     const size_t *k = w->flight_candidate;
-    FLIGHT_INT("impact_row", c[k[i]].impact_row)
-    FLIGHT_INT("particle_id", c[k[i]].particle_id)
-    FLIGHT_INT("handoff_row", w->handoff_of[k[i]])
-    FLIGHT_REAL("d", c[k[i]].d, "m")
-    FLIGHT_REAL("t0", f[i].samples ? f[i].sample_t[0] : NAN, "s")
-    FLIGHT_VEC("x0", f[i].sample_x, "m")
-    FLIGHT_VEC("v0", f[i].sample_v, "m/s")
-    FLIGHT_REAL("t_end", f[i].t, "s")
-    FLIGHT_VEC("x_end", f[i].x, "m")
-    FLIGHT_VEC("v_end", f[i].v, "m/s")
-    FLIGHT_INT("reached", f[i].reached)
-    FLIGHT_INT("steps", f[i].steps)
-    FLIGHT_INT("rhs_evals", f[i].rhs_evals)
-    FLIGHT_INT("jac_evals", f[i].jac_evals)
-    FLIGHT_INT("error_test_failures", f[i].error_test_failures)
-    FLIGHT_INT("nonlinear_iterations", f[i].nonlinear_iterations)
-    FLIGHT_INT("nonlinear_failures", f[i].nonlinear_failures)
-#undef FLIGHT_INT
-#undef FLIGHT_REAL
-#undef FLIGHT_VEC
+    COLUMN_INT("impact_row", c[k[i]].impact_row)
+    COLUMN_INT("particle_id", c[k[i]].particle_id)
+    COLUMN_INT("handoff_row", w->handoff_of[k[i]])
+    COLUMN_REAL("d", c[k[i]].d, "m")
+    COLUMN_REAL("t0", f[i].samples ? f[i].sample_t[0] : NAN, "s")
+    COLUMN_VEC("x0", f[i].sample_x, "m")
+    COLUMN_VEC("v0", f[i].sample_v, "m/s")
+    COLUMN_REAL("t_end", f[i].t, "s")
+    COLUMN_VEC("x_end", f[i].x, "m")
+    COLUMN_VEC("v_end", f[i].v, "m/s")
+    COLUMN_INT("reached", f[i].reached)
+    COLUMN_INT("steps", f[i].steps)
+    COLUMN_INT("rhs_evals", f[i].rhs_evals)
+    COLUMN_INT("jac_evals", f[i].jac_evals)
+    COLUMN_INT("error_test_failures", f[i].error_test_failures)
+    COLUMN_INT("nonlinear_iterations", f[i].nonlinear_iterations)
+    COLUMN_INT("nonlinear_failures", f[i].nonlinear_failures)
     free(ints);
     free(reals);
     return status;

@@ -360,26 +360,6 @@ static int load_single_particle(const struct case_file *c, struct mpm_config *cf
                                       case_real(c, "impact", "angle") * M_PI / 180.0);
 }
 
-int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle)
-{
-    int keep = 0, material = -1;
-    for (int i = 0; i < cfg->body_count; i++) {
-        if (cfg->bodies[i].substrate)
-            cfg->bodies[keep++] = cfg->bodies[i];
-        else if (material < 0)
-            material = cfg->bodies[i].material;
-    }
-    if (material < 0)
-        SC_FAIL(SC_EINPUT, "no particle material to make a single particle from");
-    cfg->body_count = keep;
-    struct mpm_body body = {.shape = MPM_SPHERE, .d = diameter, .material = material};
-    /* touching the substrate's top: the thesis starts its runs at first contact (Section 5.2.1) */
-    body.center[2] = cfg->substrate_top + 0.5 * diameter;
-    body.velocity[0] = speed * sin(angle);
-    body.velocity[2] = -speed * cos(angle);
-    return add_body(cfg, &body);
-}
-
 int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diameter, const double *center,
                            const double *velocity)
 {
@@ -403,6 +383,14 @@ int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diam
         SC_TRY(add_body(cfg, &body));
     }
     return SC_OK;
+}
+
+int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle)
+{
+    /* touching the substrate's top: the thesis starts its runs at first contact (Section 5.2.1) */
+    const double center[3] = {0.0, 0.0, 0.5 * diameter};
+    const double velocity[3] = {speed * sin(angle), 0.0, -speed * cos(angle)};
+    return mpm_config_set_spheres(cfg, 1, &diameter, center, velocity);
 }
 
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
