@@ -153,16 +153,40 @@ static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
     }
 }
 
-/* A rigid frictionless wall at the substrate's top: no nodal velocity into it at or below it. */
-static void rigid_wall(const struct mpm_solver *s, size_t node, int k, double *mom)
+/* A rigid frictionless wall at the substrate's top, z = substrate_top.  A node at or below it whose updated
+ * momentum heads into the wall is held there this step: its normal (z) momentum is 0 in the updated momenta
+ * (the motion of the points), in the start momenta (the FLIP reference of the points' velocity change) and in
+ * the re-projected momenta (the strain rate), the same projection in all three, as contact_scheme = consistent
+ * does for a pair of bodies.  Clamping only the updated momenta, and the re-projected ones only where they head
+ * into the wall, let the strain rate at a held node follow a motion the points did not make: an elastic sphere
+ * dropped onto the wall from 2 um left it 23 % more energetic (at cfl 0.1; the gain grew with dt), against
+ * 0.1 % now (tests/test_mpm_solver.c). */
+static int below_wall(const struct mpm_solver *s, int k)
 {
     const struct mpm_grid *g = &s->grid;
-    double z = g->origin[2] + (double)k * g->h;
-    if (z > s->cfg.substrate_top + 1e-9 * g->h)
-        return;
+    return g->origin[2] + (double)k * g->h <= s->cfg.substrate_top + 1e-9 * g->h;
+}
+
+/* The nodal update's side of the wall: decide which layers of the node are held, and project. */
+static void rigid_wall_hold(struct mpm_solver *s, size_t node, int k)
+{
+    struct mpm_grid *g = &s->grid;
     for (int l = 0; l < g->layers; l++) {
         size_t I = (size_t)l * g->nodes + node;
-        if (mom[3 * I + 2] < 0.0)
+        int held = below_wall(s, k) && g->momentum_new[3 * I + 2] < 0.0;
+        g->wall_held[I] = (uint8_t)held;
+        if (held)
+            g->momentum_new[3 * I + 2] = g->momentum[3 * I + 2] = 0.0;
+    }
+}
+
+/* The re-projection's side: the nodes held in this step's update, and only those, are held again. */
+static void rigid_wall_reproject(const struct mpm_solver *s, size_t node, double *mom)
+{
+    const struct mpm_grid *g = &s->grid;
+    for (int l = 0; l < g->layers; l++) {
+        size_t I = (size_t)l * g->nodes + node;
+        if (g->wall_held[I])
             mom[3 * I + 2] = 0.0;
     }
 }
@@ -206,7 +230,7 @@ void contact_nodal_update(struct mpm_solver *s)
         }
         int k = (int)(node / ((long)g->n[0] * g->n[1]));
         if (rigid)
-            rigid_wall(s, (size_t)node, k, g->momentum_new);
+            rigid_wall_hold(s, (size_t)node, k);
         else if (s->cfg.fixed_bottom)
             fixed_bottom(s, (size_t)node, k, g->momentum_new);
         int bonded;
@@ -235,7 +259,7 @@ void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes
         }
         int k = (int)(node / ((long)g->n[0] * g->n[1]));
         if (rigid)
-            rigid_wall(s, (size_t)node, k, mom);
+            rigid_wall_reproject(s, (size_t)node, mom);
         else if (s->cfg.fixed_bottom)
             fixed_bottom(s, (size_t)node, k, mom);
         int bonded;

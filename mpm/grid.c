@@ -87,8 +87,9 @@ static int alloc_layers(struct mpm_grid *g)
     g->bond_sum = calloc(n, sizeof *g->bond_sum);
     g->bond_weight = calloc(n, sizeof *g->bond_weight);
     g->contact = calloc(n, sizeof *g->contact);
+    g->wall_held = calloc(n, sizeof *g->wall_held);
     if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
-        !g->bond_weight || !g->contact)
+        !g->bond_weight || !g->contact || !g->wall_held)
         SC_FAIL(SC_ESIM, "out of memory for a grid of %zu nodes x %d bodies", g->nodes, g->layers);
     return SC_OK;
 }
@@ -164,6 +165,7 @@ void grid_free(struct mpm_grid *g)
     free(g->bond_sum);
     free(g->bond_weight);
     free(g->contact);
+    free(g->wall_held);
     free(g->block_start);
     free(g->block_points);
     free(g->point_block);

@@ -50,6 +50,7 @@ struct mpm_grid {
     double *velocity;                /* per layer, 3 per node: momentum_new / mass after the re-projection */
     double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
+    uint8_t *wall_held;              /* per layer, substrate = rigid: 1 where the wall held the node this step */
     /* blocks of BLOCK_CELLS^3 cells; points sorted by block every step */
     int blocks[3];
     size_t block_count;
