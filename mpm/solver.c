@@ -203,7 +203,9 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
     grid_point_stencil(s, q, &st);
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
-    memset(L, 0, 9 * sizeof L[0][0]);
+    /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
+     * after each), in the same order as before */
+    double sum[3][3] = {{0.0}};
     for (int c = 0; c < st.width; c++)
         for (int b = 0; b < st.width; b++)
             for (int a = 0; a < st.width; a++) {
@@ -214,10 +216,12 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
                 contact |= N > 0.0 && g->contact[I];
                 double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
                                 st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                const double *vI = g->velocity + 3 * I;
                 for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
-                        L[i][j] += g->velocity[3 * I + i] * dN[j];
+                        sum[i][j] += vI[i] * dN[j];
             }
+    memcpy(L, sum, sizeof sum);
     return contact;
 }
 
