@@ -226,7 +226,7 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
 }
 
 /* Steps 10-11: strain and spin increments (Eq. 3.35), density (Eq. 3.36), stress (Appendix A), bonding. */
-static int update_point(struct mpm_solver *s, size_t q)
+static int update_point(struct mpm_solver *s, size_t q, double log_dt)
 {
     struct mpm_points *p = &s->points;
     double L[3][3], dt = s->dt;
@@ -240,7 +240,8 @@ static int update_point(struct mpm_solver *s, size_t q)
     int material = s->cfg.bodies[p->body[q]].material;
     struct mpm_update_result r;
     if (mpm_stress_update_prepared(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity,
-                                   de, dw, dt, p->volume0[q], p->volume[q], volume_new, &p->state[q], &r) != 0)
+                                   de, dw, dt, log_dt, p->volume0[q], p->volume[q], volume_new, &p->state[q],
+                                   &r) != 0)
         return -1;
     p->volume[q] = volume_new;
     p->plastic_work[q] += r.plastic_work;
@@ -256,10 +257,11 @@ static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
     long n = (long)p->count, bad = n;
+    double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
 /* dynamic: the costly plastic points of a particle sit together in index order */
 #pragma omp parallel for schedule(dynamic, 512) reduction(min : bad)
     for (long q = 0; q < n; q++)
-        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q) != 0)
+        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q, log_dt) != 0)
             bad = q < bad ? q : bad;
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
