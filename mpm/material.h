@@ -56,13 +56,9 @@ struct ptw_flow {
     double d_eps;      /* d sigma_y / d eps_p */
     double d_log_rate; /* d sigma_y / d ln(rate) */
 };
-/* PTW at eps_p and log_ratio = ln(rate / (gamma xi_dot)) (the rate already floored), T^ = T/Tm (< 1).
- * shock_free: ptw_shock_free_log_ratio(m), or -INFINITY; below it the shock terms of Eq. 2.7 are known not to
- * matter and are not evaluated (the result is the same). */
+/* PTW at eps_p and log_ratio = ln(rate / (gamma xi_dot)) (the rate already floored), T^ = T/Tm (< 1). */
 void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
-                              double shock_free, struct ptw_flow *flow);
-/* The ln(rate / (gamma xi_dot)) below which neither shock term of Eq. 2.7 can be the max (-inf: none). */
-double ptw_shock_free_log_ratio(const struct mpm_material *m);
+                              struct ptw_flow *flow);
 
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
@@ -120,7 +116,6 @@ struct mpm_material_constants {
     double log_gamma_xi_factor; /* ln(gamma (4 pi / (3 M))^(1/3) / 2): ln(gamma xi_dot) less ln(G^3/rho)/6 */
     double melt_eta_low;   /* rho/rho0 above which Tm(rho) >= melt_T_low */
     double melt_T_low;     /* a lower bound of Tm above melt_eta_low (0: none, Eq. 2.9 not monotone) */
-    double shock_free_log_ratio; /* ptw_shock_free_log_ratio */
 };
 void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_constants *c);
 

@@ -115,60 +115,28 @@ struct ptw_rate_terms {
     double tau_s, tau_y, d_tau_s, d_tau_y;
 };
 
-/* The erf terms of Eq. 2.7 at L: s0 - (s0 - s_inf) erf(x), y0 - (y0 - y_inf) erf(x), x = -kappa T^ L, and
- * -d erf(x)/dL.  Returns 0 when erf(x) is NaN. */
-struct erf_terms {
-    double s, y, minus_de_dL;
-};
-
-static int ptw_erf_terms(const struct mpm_material *m, double L, double T_hat, struct erf_terms *t)
-{
-    double x = -m->ptw_kappa * T_hat * L;
-    double e = erf(x);
-    t->minus_de_dL = m->ptw_kappa * T_hat * (2.0 / sqrt(PI)) * exp(-x * x);
-    t->s = m->ptw_s0 - (m->ptw_s0 - m->ptw_sinf) * e;
-    t->y = m->ptw_y0 - (m->ptw_y0 - m->ptw_yinf) * e;
-    return !isnan(e);
-}
-
 /* Eq. 2.7: tau_s = max(s0 - (s0 - s_inf) erf(x), s0 e^(beta L)), tau_y = max(y0 - (y0 - y_inf) erf(x),
  * min(y1 e^(y2 L), s0 e^(beta L))), x = kappa T^ ln(gamma xi_dot / eps_dot) = -kappa T^ L.  Where both shock
- * terms exceed the largest value the erf terms can take (erf >= -1), erf is not evaluated: the max is the same.
- * Below L = shock_free (ptw_shock_free_log_ratio) both shock terms lie under half the smallest value the erf
- * terms can take, so the max is the erf term and the two exponentials are not evaluated: the same result. */
-static void ptw_rate_terms(const struct mpm_material *m, double L, double T_hat, double shock_free,
-                           struct ptw_rate_terms *r)
+ * terms exceed the largest value the erf terms can take (erf >= -1), erf is not evaluated: the max is the same. */
+static void ptw_rate_terms(const struct mpm_material *m, double L, double T_hat, struct ptw_rate_terms *r)
 {
-    double s_range = m->ptw_s0 - m->ptw_sinf, y_range = m->ptw_y0 - m->ptw_yinf;
-    struct erf_terms t;
-    if (L < shock_free && ptw_erf_terms(m, L, T_hat, &t)) {
-        *r = (struct ptw_rate_terms){t.s, t.y, s_range * t.minus_de_dL, y_range * t.minus_de_dL};
-        return;
-    }
     double shock_s = m->ptw_s0 * exp(m->ptw_beta * L);
     double medium_y = m->ptw_y1 * exp(m->ptw_y2 * L);
     double shock_y = fmin(medium_y, shock_s), d_shock_y = medium_y < shock_s ? m->ptw_y2 * medium_y
                                                                               : m->ptw_beta * shock_s;
+    double s_range = m->ptw_s0 - m->ptw_sinf, y_range = m->ptw_y0 - m->ptw_yinf;
     if (shock_s >= m->ptw_s0 + fabs(s_range) && shock_y >= m->ptw_y0 + fabs(y_range)) {
         *r = (struct ptw_rate_terms){shock_s, shock_y, m->ptw_beta * shock_s, d_shock_y};
         return;
     }
-    ptw_erf_terms(m, L, T_hat, &t);
-    r->tau_s = fmax(t.s, shock_s);
-    r->d_tau_s = t.s >= shock_s ? s_range * t.minus_de_dL : m->ptw_beta * shock_s;
-    r->tau_y = fmax(t.y, shock_y);
-    r->d_tau_y = t.y >= shock_y ? y_range * t.minus_de_dL : d_shock_y;
-}
-
-/* The L below which s0 e^(beta L) (>= the other shock term of tau_y) is at most half the smallest value the erf
- * terms can take, min(s0 - |s0 - s_inf|, y0 - |y0 - y_inf|) (erf in [-1, 1]); the factor 1/2 leaves room for the
- * round-off of exp and of the erf terms.  -inf (never) when that bound is not positive or beta <= 0. */
-double ptw_shock_free_log_ratio(const struct mpm_material *m)
-{
-    double lowest = fmin(m->ptw_s0 - fabs(m->ptw_s0 - m->ptw_sinf), m->ptw_y0 - fabs(m->ptw_y0 - m->ptw_yinf));
-    if (!(m->ptw_beta > 0.0) || !(lowest > 0.0) || !(m->ptw_s0 > 0.0))
-        return -INFINITY;
-    return log(0.5 * lowest / m->ptw_s0) / m->ptw_beta;
+    double x = -m->ptw_kappa * T_hat * L;
+    double e = erf(x);
+    double minus_de_dL = m->ptw_kappa * T_hat * (2.0 / sqrt(PI)) * exp(-x * x); /* -d erf(x)/dL */
+    double s_erf = m->ptw_s0 - s_range * e, y_erf = m->ptw_y0 - y_range * e;
+    r->tau_s = fmax(s_erf, shock_s);
+    r->d_tau_s = s_erf >= shock_s ? s_range * minus_de_dL : m->ptw_beta * shock_s;
+    r->tau_y = fmax(y_erf, shock_y);
+    r->d_tau_y = y_erf >= shock_y ? y_range * minus_de_dL : d_shock_y;
 }
 
 /* PTW flow stress, Tang Eqs. 2.4-2.7.  The rate is floored at m->rate_floor (and kept > 0): ln(gamma xi/rate)
@@ -188,16 +156,16 @@ double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rat
     if (!(rate > 0.0))
         rate = DBL_MIN;
     struct ptw_flow flow;
-    ptw_flow_stress_log_rate(m, eps_p, log(rate / (m->ptw_gamma * xi)), that, G, -INFINITY, &flow);
+    ptw_flow_stress_log_rate(m, eps_p, log(rate / (m->ptw_gamma * xi)), that, G, &flow);
     return flow.stress;
 }
 
 void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
-                              double shock_free, struct ptw_flow *flow)
+                              struct ptw_flow *flow)
 {
     struct ptw_rate_terms r;
     struct hardening h;
-    ptw_rate_terms(m, log_ratio, T_hat, shock_free, &r);
+    ptw_rate_terms(m, log_ratio, T_hat, &r);
     ptw_tau(m, eps_p, r.tau_s, r.tau_y, &h);
     flow->stress = 2.0 * G * h.tau; /* Tang Eq. 2.4 */
     flow->d_eps = 2.0 * G * h.d_eps;

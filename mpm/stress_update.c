@@ -79,7 +79,6 @@ struct yield_problem {
     double eps_p, G, trial, T_hat;
     double log_rate_scale;   /* ln(gamma xi_dot dt): L = ln(eps_dot / (gamma xi_dot)) = ln d - log_rate_scale */
     double log_ratio_floor;  /* L at the rate floor */
-    double shock_free;       /* c->shock_free_log_ratio */
 };
 
 /* f and df/du at u = ln d, with d and the flow stress there. */
@@ -96,8 +95,7 @@ static void consistency_at(const struct yield_problem *y, double u, struct consi
     int floored = !(L > y->log_ratio_floor);
     struct ptw_flow flow;
     c->d = exp(u);
-    ptw_flow_stress_log_rate(y->m, y->eps_p + c->d, floored ? y->log_ratio_floor : L, y->T_hat, y->G,
-                             y->shock_free, &flow);
+    ptw_flow_stress_log_rate(y->m, y->eps_p + c->d, floored ? y->log_ratio_floor : L, y->T_hat, y->G, &flow);
     c->yield = flow.stress;
     c->f = y->trial - 3.0 * y->G * c->d - flow.stress;
     c->df_du = -c->d * (3.0 * y->G + flow.d_eps) - (floored ? 0.0 : flow.d_log_rate);
@@ -118,7 +116,7 @@ struct bracket {
 static int yield_check(const struct yield_problem *y, struct bracket *b, struct consistency *c)
 {
     struct ptw_flow flow;
-    ptw_flow_stress_log_rate(y->m, y->eps_p, y->log_ratio_floor, y->T_hat, y->G, y->shock_free, &flow);
+    ptw_flow_stress_log_rate(y->m, y->eps_p, y->log_ratio_floor, y->T_hat, y->G, &flow);
     *c = (struct consistency){0.0, y->trial - flow.stress, 0.0, flow.stress};
     b->plastic = y->trial > flow.stress;
     return b->plastic;
@@ -276,8 +274,7 @@ static double ptw_return(const struct mpm_material *m, const struct mpm_material
     /* ln(gamma xi_dot), Eq. 2.8: ln(gamma (4 pi / 3 M)^(1/3) / 2) + ln(G^3 / rho) / 6 */
     double log_gamma_xi = c->log_gamma_xi_factor + log(G * G * G / rho_new) / 6.0;
     struct yield_problem y = {m, state->eps_p, G, trial, state->T > 0.0 ? state->T / Tm : 0.0,
-                              dt > 0.0 ? log_gamma_xi + log_dt : INFINITY, c->log_rate_floor - log_gamma_xi,
-                              c->shock_free_log_ratio};
+                              dt > 0.0 ? log_gamma_xi + log_dt : INFINITY, c->log_rate_floor - log_gamma_xi};
     double d = plastic_increment(&y, first_guess(m, state, G, trial), dt, yield);
     if (d > 0.0)
         for (int k = 0; k < 6; k++)
@@ -386,7 +383,6 @@ void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_cons
     int monotone = m->melt_a >= 0.0 && m->eos_gamma0 - m->melt_a - 1.0 / 3.0 >= 0.0;
     c->melt_eta_low = MELT_ETA_LOW;
     c->melt_T_low = monotone ? scg_melt_temperature(m, MELT_ETA_LOW * m->density) : 0.0;
-    c->shock_free_log_ratio = ptw_shock_free_log_ratio(m);
 }
 
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state)
