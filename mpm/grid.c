@@ -232,12 +232,11 @@ void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
 
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
  * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
-static void scatter_all(struct mpm_solver *s, size_t q)
+STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    grid_point_stencil(s, q, &st);
+    const struct stencil st = *stencil;
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
     const double *sig = ps->stress, *v = p->v + 3 * q;
@@ -250,9 +249,9 @@ static void scatter_all(struct mpm_solver *s, size_t q)
     /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v */
     double mv[3] = {m * v[0], m * v[1], m * v[2]};
     size_t layer = (size_t)p->body[q] * g->nodes;
-    for (int c = 0; c < st.width; c++)
-        for (int b = 0; b < st.width; b++)
-            for (int a = 0; a < st.width; a++) {
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
                 double wyz = st.w[1][b] * st.w[2][c];
                 double N = st.w[0][a] * wyz;
                 if (N == 0.0 && st.g[0][a] == 0.0)
@@ -277,21 +276,31 @@ static void scatter_all(struct mpm_solver *s, size_t q)
             }
 }
 
-/* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33. */
-static void scatter_momentum(struct mpm_solver *s, size_t q)
+static void scatter_all(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_all_width(s, q, &st, 2);
+    else
+        scatter_all_width(s, q, &st, st.width);
+}
+
+/* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
+ * start positions. */
+STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil,
+                                           int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    /* N^k: the stencil at the step's start positions, Eq. 3.33 */
-    grid_point_stencil(s, q, &st);
+    const struct stencil st = *stencil;
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
     double mv[3] = {m * v[0], m * v[1], m * v[2]}; /* (m v_i) N as before */
     size_t layer = (size_t)p->body[q] * g->nodes;
-    for (int c = 0; c < st.width; c++)
-        for (int b = 0; b < st.width; b++)
-            for (int a = 0; a < st.width; a++) {
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 if (N == 0.0)
                     continue;
@@ -300,6 +309,16 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
                 g->momentum_new[3 * I + 1] += mv[1] * N;
                 g->momentum_new[3 * I + 2] += mv[2] * N;
             }
+}
+
+static void scatter_momentum(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_momentum_width(s, q, &st, 2);
+    else
+        scatter_momentum_width(s, q, &st, st.width);
 }
 
 /* Points are visited in block order, not in memory order: fetch the state, velocity and stencil of the point
