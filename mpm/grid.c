@@ -127,6 +127,7 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
+    g->inv_h = 1.0 / g->h;
     g->layers = cfg->body_count;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t q = 0; q < p->count; q++)
@@ -233,12 +234,11 @@ void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
 
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
  * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
-static void scatter_all(struct mpm_solver *s, size_t q)
+STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    grid_point_stencil(s, q, &st);
+    const struct stencil st = *stencil;
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
     const double *sig = ps->stress, *v = p->v + 3 * q;
@@ -248,10 +248,12 @@ static void scatter_all(struct mpm_solver *s, size_t q)
         boundary_dashpot_force(s, q, fext);
     int surface = (p->flags[q] & POINT_SURFACE) != 0;
     double dbond = p->d_bond[q];
+    /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v */
+    double mv[3] = {m * v[0], m * v[1], m * v[2]};
     size_t layer = (size_t)p->body[q] * g->nodes;
-    for (int c = 0; c < st.width; c++)
-        for (int b = 0; b < st.width; b++)
-            for (int a = 0; a < st.width; a++) {
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
                 double wyz = st.w[1][b] * st.w[2][c];
                 double N = st.w[0][a] * wyz;
                 if (N == 0.0 && st.g[0][a] == 0.0)
@@ -260,9 +262,9 @@ static void scatter_all(struct mpm_solver *s, size_t q)
                                 st.w[0][a] * st.w[1][b] * st.g[2][c]};
                 size_t I = layer + stencil_node(g, &st, a, b, c);
                 g->mass[I] += m * N;
-                g->momentum[3 * I] += m * v[0] * N;
-                g->momentum[3 * I + 1] += m * v[1] * N;
-                g->momentum[3 * I + 2] += m * v[2] * N;
+                g->momentum[3 * I] += mv[0] * N;
+                g->momentum[3 * I + 1] += mv[1] * N;
+                g->momentum[3 * I + 2] += mv[2] * N;
                 g->force[3 * I] += -V * (sxx * dN[0] + sxy * dN[1] + sxz * dN[2]) + N * fext[0];
                 g->force[3 * I + 1] += -V * (sxy * dN[0] + syy * dN[1] + syz * dN[2]) + N * fext[1];
                 g->force[3 * I + 2] += -V * (sxz * dN[0] + syz * dN[1] + szz * dN[2]) + N * fext[2];
@@ -276,28 +278,49 @@ static void scatter_all(struct mpm_solver *s, size_t q)
             }
 }
 
-/* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33. */
-static void scatter_momentum(struct mpm_solver *s, size_t q)
+static void scatter_all(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_all_width(s, q, &st, 2);
+    else
+        scatter_all_width(s, q, &st, st.width);
+}
+
+/* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
+ * start positions. */
+STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil,
+                                           int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    /* N^k: the stencil at the step's start positions, Eq. 3.33 */
-    grid_point_stencil(s, q, &st);
+    const struct stencil st = *stencil;
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
+    double mv[3] = {m * v[0], m * v[1], m * v[2]}; /* (m v_i) N as before */
     size_t layer = (size_t)p->body[q] * g->nodes;
-    for (int c = 0; c < st.width; c++)
-        for (int b = 0; b < st.width; b++)
-            for (int a = 0; a < st.width; a++) {
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 if (N == 0.0)
                     continue;
                 size_t I = layer + stencil_node(g, &st, a, b, c);
-                g->momentum_new[3 * I] += m * v[0] * N;
-                g->momentum_new[3 * I + 1] += m * v[1] * N;
-                g->momentum_new[3 * I + 2] += m * v[2] * N;
+                g->momentum_new[3 * I] += mv[0] * N;
+                g->momentum_new[3 * I + 1] += mv[1] * N;
+                g->momentum_new[3 * I + 2] += mv[2] * N;
             }
+}
+
+static void scatter_momentum(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_momentum_width(s, q, &st, 2);
+    else
+        scatter_momentum_width(s, q, &st, st.width);
 }
 
 /* Points are visited in block order, not in memory order: fetch the state, velocity and stencil of the point
@@ -314,22 +337,33 @@ static void prefetch_point(const struct mpm_solver *s, size_t q)
     __builtin_prefetch(s->grid.point_fraction + 3 * q);
 }
 
-static void for_each_point_by_colour(struct mpm_solver *s, void (*scatter)(struct mpm_solver *, size_t))
+enum transfer { TRANSFER_ALL, TRANSFER_MOMENTUM };
+
+/* The points of one block in order; the transfer is chosen by value, not through a function pointer, so that
+ * both scatters are direct calls the compiler can inline. */
+static void scatter_block(struct mpm_solver *s, size_t block, enum transfer transfer)
+{
+    const struct mpm_grid *g = &s->grid;
+    size_t end = g->block_start[block + 1];
+    for (size_t k = g->block_start[block]; k < end; k++) {
+        if (k + PREFETCH_AHEAD < end)
+            prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
+        if (transfer == TRANSFER_ALL)
+            scatter_all(s, g->block_points[k]);
+        else
+            scatter_momentum(s, g->block_points[k]);
+    }
+}
+
+static void for_each_point_by_colour(struct mpm_solver *s, enum transfer transfer)
 {
     struct mpm_grid *g = &s->grid;
     for (int colour = 0; colour < 8; colour++) {
         long count = (long)g->colour_count[colour];
         const size_t *blocks = g->colour_blocks[colour];
 #pragma omp parallel for schedule(dynamic, 1)
-        for (long i = 0; i < count; i++) {
-            size_t block = blocks[i];
-            size_t end = g->block_start[block + 1];
-            for (size_t k = g->block_start[block]; k < end; k++) {
-                if (k + PREFETCH_AHEAD < end)
-                    prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
-                scatter(s, g->block_points[k]);
-            }
-        }
+        for (long i = 0; i < count; i++)
+            scatter_block(s, blocks[i], transfer);
     }
 }
 
@@ -344,12 +378,12 @@ void grid_transfer_all(struct mpm_solver *s)
     memset(g->bond_sum, 0, n * sizeof *g->bond_sum);
     memset(g->bond_weight, 0, n * sizeof *g->bond_weight);
     memset(g->contact, 0, n * sizeof *g->contact);
-    for_each_point_by_colour(s, scatter_all);
+    for_each_point_by_colour(s, TRANSFER_ALL);
 }
 
 void grid_transfer_momentum(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     memset(g->momentum_new, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->momentum_new);
-    for_each_point_by_colour(s, scatter_momentum);
+    for_each_point_by_colour(s, TRANSFER_MOMENTUM);
 }

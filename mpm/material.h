@@ -119,11 +119,13 @@ struct mpm_material_constants {
 };
 void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_constants *c);
 
-/* mpm_stress_update with the material's constants precomputed (the solver's point loop); results identical. */
+/* mpm_stress_update with the material's constants precomputed and log_dt = ln(dt) computed once per step (the
+ * solver's point loop; used only when dt > 0); results identical. */
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
                                const struct bulk_viscosity *q, const double strain_increment[6],
-                               const double spin_increment[3], double dt, double volume0, double volume_old,
-                               double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
+                               const double spin_increment[3], double dt, double log_dt, double volume0,
+                               double volume_old, double volume_new, struct mpm_point_state *state,
+                               struct mpm_update_result *result);
 
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);

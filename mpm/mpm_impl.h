@@ -42,6 +42,7 @@ struct stencil {
  * blocks of cells used for the fixed-order particle-to-grid transfer. */
 struct mpm_grid {
     double origin[3], h;
+    double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
     int n[3];
     size_t nodes;
     int layers;
@@ -123,16 +124,24 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
         grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
         return;
     }
+    /* into locals first: the stores to st->w may alias g's doubles, so g->inv_h and the fractions would
+     * otherwise be loaded again after every store */
+    double inv_h = g->inv_h, f[3];
+    const double *fraction = g->point_fraction + 3 * q;
+    f[0] = fraction[0], f[1] = fraction[1], f[2] = fraction[2];
     st->width = 2;
     st->node = g->point_node[q];
     for (int d = 0; d < 3; d++) {
-        double f = g->point_fraction[3 * q + d];
-        st->w[d][0] = 1.0 - f;
-        st->w[d][1] = f;
-        st->g[d][0] = -1.0 / g->h;
-        st->g[d][1] = 1.0 / g->h;
+        st->w[d][0] = 1.0 - f[d];
+        st->w[d][1] = f[d];
+        st->g[d][0] = -inv_h; /* -(1/h) == -1/h exactly: rounding is symmetric in the sign */
+        st->g[d][1] = inv_h;
     }
 }
+/* A function over a stencil's nodes is written once with the width as a parameter and inlined into a caller
+ * that passes a literal 2 for trilinear stencils: the loops over 2 x 2 x 2 nodes are then unrolled and the node
+ * offsets folded, with the same arithmetic in the same order (the same bits). */
+#define STENCIL_INLINE static inline __attribute__((always_inline))
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {

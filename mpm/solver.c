@@ -141,42 +141,52 @@ static void choose_time_step(struct mpm_solver *s)
         s->dt = s->cfg.t_end - s->t;
 }
 
+/* Step 7, Eq. 3.32, for one point with its stencil. */
+STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
+{
+    struct mpm_points *p = &s->points;
+    const struct mpm_grid *g = &s->grid;
+    const struct stencil st = *stencil;
+    double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
+    size_t layer = (size_t)p->body[q] * g->nodes;
+    double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
+                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                size_t I = layer + stencil_node(g, &st, a, b, c);
+                if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
+                    continue;
+                double w = N / g->mass[I];
+                for (int d = 0; d < 3; d++) {
+                    dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
+                    vnew[d] += w * g->momentum_new[3 * I + d];
+                }
+            }
+    for (int d = 0; d < 3; d++) {
+        v[d] += dv[d];
+        xn[d] = x[d] + s->dt * vnew[d];
+    }
+}
+
 /* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
  * nodal velocity. */
 static void grid_to_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
-    const struct mpm_grid *g = &s->grid;
     long n = (long)p->count;
-    double dt = s->dt;
 #pragma omp parallel for schedule(static)
     for (long q = 0; q < n; q++) {
-        double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
         if (!(p->flags[q] & POINT_ACTIVE)) {
-            memcpy(xn, x, 3 * sizeof *x);
+            memcpy(p->x_next + 3 * q, p->x + 3 * q, 3 * sizeof *p->x);
             continue;
         }
         struct stencil st;
         grid_point_stencil(s, (size_t)q, &st);
-        size_t layer = (size_t)p->body[q] * g->nodes;
-        double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
-        for (int c = 0; c < st.width; c++)
-            for (int b = 0; b < st.width; b++)
-                for (int a = 0; a < st.width; a++) {
-                    double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                    size_t I = layer + stencil_node(g, &st, a, b, c);
-                    if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
-                        continue;
-                    double w = N / g->mass[I];
-                    for (int d = 0; d < 3; d++) {
-                        dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
-                        vnew[d] += w * g->momentum_new[3 * I + d];
-                    }
-                }
-        for (int d = 0; d < 3; d++) {
-            v[d] += dv[d];
-            xn[d] = x[d] + dt * vnew[d];
-        }
+        if (st.width == 2)
+            point_from_grid_width(s, (size_t)q, &st, 2);
+        else
+            point_from_grid_width(s, (size_t)q, &st, st.width);
     }
 }
 
@@ -195,18 +205,20 @@ static void nodal_velocities(struct mpm_solver *s)
 
 /* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
  * the point's own body is in contact at one of its nodes. */
-static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
+STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q, const struct stencil *stencil,
+                                           int width, double L[3][3])
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    grid_point_stencil(s, q, &st);
+    const struct stencil st = *stencil;
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
-    memset(L, 0, 9 * sizeof L[0][0]);
-    for (int c = 0; c < st.width; c++)
-        for (int b = 0; b < st.width; b++)
-            for (int a = 0; a < st.width; a++) {
+    /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
+     * after each), in the same order as before */
+    double sum[3][3] = {{0.0}};
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
                 size_t I = layer + stencil_node(g, &st, a, b, c);
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 if (!(g->mass[I] > g->mass_cutoff))
@@ -214,15 +226,24 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
                 contact |= N > 0.0 && g->contact[I];
                 double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
                                 st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                const double *vI = g->velocity + 3 * I;
                 for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
-                        L[i][j] += g->velocity[3 * I + i] * dN[j];
+                        sum[i][j] += vI[i] * dN[j];
             }
+    memcpy(L, sum, sizeof sum);
     return contact;
 }
 
+static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    return st.width == 2 ? velocity_gradient_width(s, q, &st, 2, L) : velocity_gradient_width(s, q, &st, st.width, L);
+}
+
 /* Steps 10-11: strain and spin increments (Eq. 3.35), density (Eq. 3.36), stress (Appendix A), bonding. */
-static int update_point(struct mpm_solver *s, size_t q)
+static int update_point(struct mpm_solver *s, size_t q, double log_dt)
 {
     struct mpm_points *p = &s->points;
     double L[3][3], dt = s->dt;
@@ -236,7 +257,8 @@ static int update_point(struct mpm_solver *s, size_t q)
     int material = s->cfg.bodies[p->body[q]].material;
     struct mpm_update_result r;
     if (mpm_stress_update_prepared(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity,
-                                   de, dw, dt, p->volume0[q], p->volume[q], volume_new, &p->state[q], &r) != 0)
+                                   de, dw, dt, log_dt, p->volume0[q], p->volume[q], volume_new, &p->state[q],
+                                   &r) != 0)
         return -1;
     p->volume[q] = volume_new;
     p->plastic_work[q] += r.plastic_work;
@@ -252,10 +274,11 @@ static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
     long n = (long)p->count, bad = n;
+    double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
 /* dynamic: the costly plastic points of a particle sit together in index order */
 #pragma omp parallel for schedule(dynamic, 512) reduction(min : bad)
     for (long q = 0; q < n; q++)
-        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q) != 0)
+        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q, log_dt) != 0)
             bad = q < bad ? q : bad;
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "

@@ -266,15 +266,15 @@ static double first_guess(const struct mpm_material *m, const struct mpm_point_s
 
 /* Radial return onto the PTW flow stress (Eqs. A5-A8): scales s_new from the trial to sigma_y, returns d. */
 static double ptw_return(const struct mpm_material *m, const struct mpm_material_constants *c,
-                         const struct mpm_point_state *state, double G, double trial, double dt, double Tm,
-                         double rho_new, double s_new[6], double *yield)
+                         const struct mpm_point_state *state, double G, double trial, double dt, double log_dt,
+                         double Tm, double rho_new, double s_new[6], double *yield)
 {
     if (isnan(Tm))
         Tm = scg_melt_temperature(m, rho_new);
     /* ln(gamma xi_dot), Eq. 2.8: ln(gamma (4 pi / 3 M)^(1/3) / 2) + ln(G^3 / rho) / 6 */
     double log_gamma_xi = c->log_gamma_xi_factor + log(G * G * G / rho_new) / 6.0;
     struct yield_problem y = {m, state->eps_p, G, trial, state->T > 0.0 ? state->T / Tm : 0.0,
-                              dt > 0.0 ? log_gamma_xi + log(dt) : INFINITY, c->log_rate_floor - log_gamma_xi};
+                              dt > 0.0 ? log_gamma_xi + log_dt : INFINITY, c->log_rate_floor - log_gamma_xi};
     double d = plastic_increment(&y, first_guess(m, state, G, trial), dt, yield);
     if (d > 0.0)
         for (int k = 0; k < 6; k++)
@@ -286,8 +286,8 @@ static double ptw_return(const struct mpm_material *m, const struct mpm_material
  * plastic increment and sets *yield and *melted. */
 static double deviatoric_update(const struct mpm_material *m, const struct mpm_material_constants *c,
                                 const struct mpm_point_state *state, const double s_rot[6],
-                                const double dev_strain[6], double dt, double rho_new, double s_new[6],
-                                double *yield, int *melted)
+                                const double dev_strain[6], double dt, double log_dt, double rho_new,
+                                double s_new[6], double *yield, int *melted)
 {
     double Tm;
     *yield = 0.0;
@@ -313,13 +313,14 @@ static double deviatoric_update(const struct mpm_material *m, const struct mpm_m
             s_new[k] = 0.0;
         return 0.0;
     }
-    return ptw_return(m, c, state, G, trial, dt, Tm, rho_new, s_new, yield);
+    return ptw_return(m, c, state, G, trial, dt, log_dt, Tm, rho_new, s_new, yield);
 }
 
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
                                const struct bulk_viscosity *q, const double strain_increment[6],
-                               const double spin_increment[3], double dt, double volume0, double volume_old,
-                               double volume_new, struct mpm_point_state *state, struct mpm_update_result *result)
+                               const double spin_increment[3], double dt, double log_dt, double volume0,
+                               double volume_old, double volume_new, struct mpm_point_state *state,
+                               struct mpm_update_result *result)
 {
     double rho_new = m->density * volume0 / volume_new;
     double sigma_rot[6], s_rot[6], dev_strain[6], s_new[6], mean_rot, volumetric;
@@ -329,7 +330,7 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
 
     double yield, d;
     int melted;
-    d = deviatoric_update(m, c, state, s_rot, dev_strain, dt, rho_new, s_new, &yield, &melted);
+    d = deviatoric_update(m, c, state, s_rot, dev_strain, dt, log_dt, rho_new, s_new, &yield, &melted);
 
     double volume_half = 0.5 * (volume_old + volume_new), dV = volume_new - volume_old;
     double s_half[6];
@@ -366,8 +367,8 @@ int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity 
 {
     struct mpm_material_constants c;
     mpm_material_prepare(m, &c);
-    return mpm_stress_update_prepared(m, &c, q, strain_increment, spin_increment, dt, volume0, volume_old,
-                                      volume_new, state, result);
+    return mpm_stress_update_prepared(m, &c, q, strain_increment, spin_increment, dt, dt > 0.0 ? log(dt) : 0.0,
+                                      volume0, volume_old, volume_new, state, result);
 }
 
 /* The melt bound: Tm(eta) = Tm0 exp(2a(1 - 1/eta)) eta^k grows with eta when a >= 0 and k >= 0 (Eq. 2.9). */
