@@ -128,15 +128,17 @@ static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
 }
 
 /* Write the entries of every particle (in particle order) into bins->scratch and their buckets into
- * bins->entry_bucket; returns their number.  Two parallel passes: count each particle's cells, then
- * (after a prefix sum) write them at their offsets, so the order is the same for any thread count. */
+ * bins->entry_bucket; returns their number.  Two parallel passes: find each particle's cells (kept, so that
+ * the second pass does not divide and round again), then (after a prefix sum) write them at their offsets,
+ * so the order is the same for any thread count. */
 static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, size_t buckets)
 {
     size_t *offset = dem_realloc_or_die(NULL, (p->count + 1) * sizeof *offset);
+    int32_t *cells = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * 6 * sizeof *cells);
     offset[0] = 0;
 #pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
-        int32_t lo[3], hi[3];
+        int32_t *lo = cells + 6 * i, *hi = lo + 3;
         box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
         offset[i + 1] = cells_in_range(lo, hi);
     }
@@ -146,8 +148,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
     ensure_capacity(bins, count);
 #pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
-        int32_t lo[3], hi[3];
-        box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
+        const int32_t *lo = cells + 6 * i, *hi = lo + 3;
         size_t e = offset[i];
         for (int32_t a = lo[0]; a <= hi[0]; a++)
             for (int32_t b = lo[1]; b <= hi[1]; b++)
@@ -158,6 +159,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
                     bins->entry_bucket[e] = cell_hash(entry->cell, buckets);
                 }
     }
+    free(cells);
     free(offset);
     return count;
 }
@@ -371,16 +373,14 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
     bins->built_flying = dem_realloc_or_die(bins->built_flying, bins->built_capacity);
 }
 
-/* Do the grid and list of the last build still hold every contact of this step?  The same particles in the
- * same order, none deposited then and flying now, each swept box of the step inside its reach box. */
-static int reach_still_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt)
+/* Particles [first, end): each one's swept box of the step inside its reach box, the same particle as at the
+ * build, and not deposited then and flying now.  Every test of every particle, with & instead of &&: no
+ * branches, so the loop vectorises. */
+static int reach_chunk_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
+                             size_t end)
 {
-    if (!bins->reach || bins->built_count != p->count)
-        return 0;
     int holds = 1;
-    /* every test of every particle, with & instead of &&: no branches, so the loop vectorises */
-#pragma omp parallel for schedule(static) reduction(& : holds) if (p->count >= DEM_PARALLEL_MIN)
-    for (size_t i = 0; i < p->count; i++) {
+    for (size_t i = first; i < end; i++) {
         double lo[3], hi[3];
         swept_box(p, i, dt, lo, hi);
         const double *reach = bins->reach + 6 * i;
@@ -390,6 +390,33 @@ static int reach_still_holds(const struct dem_bins *bins, const struct dem_parti
         holds &= inside;
     }
     return holds;
+}
+
+/* Do the grid and list of the last build still hold every contact of this step?  The same particles in the
+ * same order, none deposited then and flying now, each swept box of the step inside its reach box. */
+static int reach_still_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    if (!bins->reach || bins->built_count != p->count)
+        return 0;
+    /* In chunks, and none after a chunk that failed: where paths change (target rebounds) the answer is
+     * mostly no, and the chunks after a failing one need no test.  The answer does not depend on which
+     * chunks were tested. */
+    const size_t chunk = 1024, chunks = (p->count + chunk - 1) / chunk;
+    int failed = 0;
+#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
+    for (size_t k = 0; k < chunks; k++) {
+        int stop;
+#pragma omp atomic read
+        stop = failed;
+        if (stop)
+            continue;
+        size_t end = (k + 1) * chunk < p->count ? (k + 1) * chunk : p->count;
+        if (!reach_chunk_holds(bins, p, dt, k * chunk, end)) {
+#pragma omp atomic write
+            failed = 1;
+        }
+    }
+    return !failed;
 }
 
 static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double dt)
