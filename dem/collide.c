@@ -99,8 +99,23 @@ static struct sphere_state sphere_of(const struct dem_particles *p, uint32_t i, 
     return sphere;
 }
 
-static void store_sphere(struct dem_particles *p, uint32_t i, const struct sphere_state *sphere)
+/* Before the first change of particle i's velocity or spin in this step: keep them as they were at its start
+ * (the hand-off row of a particle that sticks in this step carries them).  Only the particles that collide
+ * are copied, not every particle every step. */
+static void keep_start_velocity(struct dem_solver *s, uint32_t i)
 {
+    struct dem_particles *p = &s->p;
+    if (s->start_kept[i])
+        return;
+    memcpy(p->v_start + 3 * i, p->v + 3 * i, 3 * sizeof(double));
+    memcpy(p->w_start + 3 * i, p->w + 3 * i, 3 * sizeof(double));
+    s->start_kept[i] = 1;
+}
+
+static void store_sphere(struct dem_solver *s, uint32_t i, const struct sphere_state *sphere)
+{
+    struct dem_particles *p = &s->p;
+    keep_start_velocity(s, i);
     memcpy(p->v + 3 * i, sphere->v, sizeof sphere->v);
     memcpy(p->w + 3 * i, sphere->w, sizeof sphere->w);
 }
@@ -170,6 +185,7 @@ static void record_impact(struct dem_solver *s, uint32_t i, double at, const dou
 static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
 {
     struct dem_particles *p = &s->p;
+    keep_start_velocity(s, i);
     memcpy(p->x + 3 * i, x, 3 * sizeof(double));
     memset(p->v + 3 * i, 0, 3 * sizeof(double));
     memset(p->w + 3 * i, 0, 3 * sizeof(double));
@@ -220,7 +236,7 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     struct contact_outcome outcome;
     if (!contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;
-    store_sphere(p, i, &sphere);
+    store_sphere(s, i, &sphere);
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
@@ -267,8 +283,8 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
     struct contact_outcome outcome;
     if (!contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome))
         return;
-    store_sphere(p, a, &sa);
-    store_sphere(p, b, &sb);
+    store_sphere(s, a, &sa);
+    store_sphere(s, b, &sb);
     path_restart(s, a, at, xa);
     path_restart(s, b, at, xb);
     s->stats.contacts_pair++;
@@ -420,17 +436,18 @@ static void resolve_secondary_contacts(struct dem_solver *s)
 void dem_collide(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    /* the start-of-step state: the sweep of every particle (contacts) and the hand-off crossings */
+    /* the start-of-step positions: the sweep of every particle (contacts) and the hand-off crossings; the
+     * start velocities and spins only of the particles that collide (keep_start_velocity) */
     memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
-    memcpy(p->v_start, p->v, 3 * p->count * sizeof(double));
-    memcpy(p->w_start, p->w, 3 * p->count * sizeof(double));
     if (p->count > s->path_capacity) {
         s->path_capacity = p->capacity;
         s->path_time = dem_realloc_or_die(s->path_time, s->path_capacity * sizeof(double));
         s->path_x = dem_realloc_or_die(s->path_x, 3 * s->path_capacity * sizeof(double));
         s->path_changed = dem_realloc_or_die(s->path_changed, s->path_capacity);
         s->seen = dem_realloc_or_die(s->seen, s->path_capacity * sizeof *s->seen);
+        s->start_kept = dem_realloc_or_die(s->start_kept, s->path_capacity);
     }
+    memset(s->start_kept, 0, p->count);
     memset(s->path_time, 0, p->count * sizeof(double));
     memset(s->path_changed, 0, p->count);
     memset(s->seen, 0, p->count * sizeof *s->seen);

@@ -12,8 +12,8 @@ struct dem_particles {
     size_t count, capacity;
     double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
     double *x_start;       /* position at the start of the step (hand-off crossings, sweeps) */
-    double *v_start;       /* velocity at the start of the step (swept contact detection) */
-    double *w_start;       /* spin at the start of the step (hand-off rows of particles that stuck) */
+    double *v_start;       /* velocity and spin at the start of the step, kept only for the particles that */
+    double *w_start;       /* collided in it (dem/collide.c): the hand-off rows of particles that stuck */
     double *d, *m;         /* diameter (m), mass (kg) */
     int64_t *id;
     uint8_t *state;        /* enum dem_particle_state */
@@ -78,6 +78,7 @@ struct dem_solver {
      * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity. */
     double *path_time, *path_x;
     uint8_t *path_changed;        /* set when the path restarts; read by the next pass of contacts */
+    uint8_t *start_kept;          /* set when v_start and w_start of the particle hold this step's start */
     uint32_t *seen;               /* per particle: stamp of the last grid query that visited it */
     uint32_t seen_stamp;
     size_t path_capacity;

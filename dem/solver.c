@@ -31,6 +31,7 @@ void dem_destroy(struct dem_solver *s)
     free(s->path_time);
     free(s->path_x);
     free(s->path_changed);
+    free(s->start_kept);
     free(s->seen);
     free(s->impacts);
     free(s->handoffs);
