@@ -171,9 +171,10 @@ static int below_wall(const struct mpm_solver *s, int k)
 static void rigid_wall_hold(struct mpm_solver *s, size_t node, int k)
 {
     struct mpm_grid *g = &s->grid;
+    int at_wall = below_wall(s, k);
     for (int l = 0; l < g->layers; l++) {
         size_t I = (size_t)l * g->nodes + node;
-        int held = below_wall(s, k) && g->momentum_new[3 * I + 2] < 0.0;
+        int held = at_wall && g->momentum_new[3 * I + 2] < 0.0;
         g->wall_held[I] = (uint8_t)held;
         if (held)
             g->momentum_new[3 * I + 2] = g->momentum[3 * I + 2] = 0.0;
