@@ -100,6 +100,9 @@ struct dem_solver;
 
 int dem_create(const struct dem_config *cfg, struct dem_solver **out);
 void dem_destroy(struct dem_solver *s);
+/* For tests: reuse 0 computes the drag at the start of every step again instead of taking the one the last
+ * step ended with (dem/integrate.c); the results must be the same bit for bit. */
+void dem_reuse_drag(struct dem_solver *s, int reuse);
 
 /* Advance one step.  SC_ESIM with step, particle id and quantity if a particle's state is not finite. */
 int dem_step(struct dem_solver *s);

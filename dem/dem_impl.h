@@ -17,6 +17,11 @@ struct dem_particles {
     double *d, *m;         /* diameter (m), mass (kg) */
     int64_t *id;
     uint8_t *state;        /* enum dem_particle_state */
+    /* The drag at the particle's state as the integrator left it (dem/integrate.c): the force (3 per
+     * particle, N), the slip (m/s) and Re^0.6459 there, valid while drag_kept is 1.  Whatever changes x or v
+     * outside the integrator clears drag_kept. */
+    double *drag, *drag_slip, *drag_reynolds_power;
+    uint8_t *drag_kept;
 };
 
 /* One entry per (particle, cell its swept box overlaps). */
@@ -74,6 +79,7 @@ struct dem_solver {
     struct dem_particles p;
     struct dem_bins bins;
     struct dem_candidates candidates;
+    int reuse_drag;               /* start a step from the kept drag (dem_particles: drag_kept); 1 but in tests */
     /* Paths within the step, for contacts resolved after an earlier velocity change: particle i is at
      * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity. */
     double *path_time, *path_x;

@@ -5,7 +5,17 @@
  * iteration of Eqs. (51)-(52) decouples into one small iteration per particle, converged to the relative
  * error of Eq. (53) for that particle.  The iteration contracts by about phi dt / tau (tau the drag
  * response time); a particle whose response time is shorter than twice the step is sub-cycled with k equal
- * sub-steps so that dt/k <= tau/2 (DESIGN.md: stiff particles must not go unstable). */
+ * sub-steps so that dt/k <= tau/2 (DESIGN.md: stiff particles must not go unstable).
+ *
+ * Which iterate ends the step: Eq. 53 compares iterate k+1 with iterate k.  When it holds, the step ends at
+ * iterate k, not k+1: k is within the tolerance of the fixed point by the same test (its residual, the step
+ * to k+1, is), and the force at k is known, since it made k+1.  That force is the start force of the next
+ * step (the particle starts there), so each particle-step costs one drag evaluation less than ending at
+ * k+1 would (DESIGN.md, "Spray time integration").  The forces are kept per particle (struct
+ * dem_particles: drag_kept) and used only while nothing else changed the particle's position or velocity
+ * (a contact, deposition, the target plane clear drag_kept), so that a kept force is exactly the force
+ * computed again: a checkpoint need not hold them, a resumed run gives the same bits, and a test compares runs
+ * with and without them (dem_solver_reuse_drag). */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
  * loop nest stays scalar, which with dem/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  No effect on the results: no floating-point option changes. */
@@ -115,27 +125,56 @@ FM_INLINE struct eq53_squares phi_iterate(const struct phi_problem *problem, con
     return q;
 }
 
-FM_INLINE void net_force(const struct gas_field *gas, double d, const double x[3], const double v[3],
-                             double f[3])
+/* The drag force f at (x, v), with the slip and Re^0.6459 there, from which the response time follows. */
+FM_INLINE void drag_and_slip(const struct gas_field *gas, double d, const double x[3], const double v[3], double f[3],
+                                 double *slip, double *reynolds_power)
 {
-    double u[3];
+    double u[3], relative[3];
     gas_eval_velocity(gas, x, u);
-    gas_eval_drag(gas, d, v, u, f);
+    *slip = gas_eval_slip(v, u, relative);
+    *reynolds_power = gas_eval_reynolds_power(gas_eval_reynolds(gas, d, *slip));
+    gas_eval_drag_from_slip(gas, d, relative, *slip, *reynolds_power, f);
 }
 
-/* Iterate (x_k, v_k), whose count of iterates so far is *iteration, until Eq. 53 holds or the limit. */
-static int phi_iterate_to_convergence(const struct dem_config *cfg, const struct phi_problem *problem, double x_k[3],
-                                      double v_k[3], int64_t *iteration)
+FM_INLINE void drag_and_response_time(const struct gas_field *gas, double density, double d, const double x[3],
+                                          const double v[3], double f[3], double *tau)
 {
-    int converged = 0;
-    while (!converged && *iteration < cfg->fixed_point_max_iter) {
-        double force[3];
-        net_force(&cfg->gas, problem->d, x_k, v_k, force);
-        struct eq53_squares q = phi_iterate(problem, force, x_k, v_k);
-        converged = eq53_holds(&q, cfg->fixed_point_tol);
+    double slip, power;
+    drag_and_slip(gas, d, x, v, f, &slip, &power);
+    *tau = gas_eval_response_time(gas, density, d, slip, power);
+}
+
+/* Where a step ended: whether the force there is known, and if so the force, slip and Re^0.6459. */
+struct step_end {
+    double force[3], slip, reynolds_power;
+    int force_known;
+};
+
+/* Iterate from (x_k, v_k), the newest iterate (its force not yet known), whose count of iterates so far is
+ * *iteration, until Eq. 53 holds or the limit.  Converged: (x_k, v_k) is left at the iterate that ends the
+ * step, whose force and response time go to *end.  Not converged: at the newest iterate, force unknown. */
+static int phi_iterate_to_convergence(const struct dem_config *cfg, const struct phi_problem *problem, double x_k[3],
+                                      double v_k[3], int64_t *iteration, struct step_end *end)
+{
+    end->force_known = 0;
+    while (*iteration < cfg->fixed_point_max_iter) {
+        double force[3], slip, power, x_next[3], v_next[3];
+        drag_and_slip(&cfg->gas, problem->d, x_k, v_k, force, &slip, &power);
+        memcpy(x_next, x_k, sizeof x_next);
+        memcpy(v_next, v_k, sizeof v_next);
+        struct eq53_squares q = phi_iterate(problem, force, x_next, v_next);
         ++*iteration;
+        if (eq53_holds(&q, cfg->fixed_point_tol)) {
+            memcpy(end->force, force, sizeof force);
+            end->slip = slip;
+            end->reynolds_power = power;
+            end->force_known = 1;
+            return 1;
+        }
+        memcpy(x_k, x_next, sizeof x_next);
+        memcpy(v_k, v_next, sizeof v_next);
     }
-    return converged;
+    return 0;
 }
 
 static void count_solve(struct iteration_count *count, int64_t iterations, int converged)
@@ -147,20 +186,20 @@ static void count_solve(struct iteration_count *count, int64_t iterations, int c
         count->max_iterations = iterations;
 }
 
-/* One phi-scheme step of length h from (x, v); the result replaces (x, v).  The first iterate is the start
- * state, whose force is known. */
+/* One phi-scheme step of length h from (x, v), whose force is force_start; the result replaces (x, v), and
+ * *end says whether the force there is known.  The first iterate comes from the start force; if Eq. 53
+ * holds for it already (it moved nothing, or phi = 0: explicit Euler), the step ends there. */
 static void phi_step(const struct dem_config *cfg, double d, double m, double h, const double force_start[3],
-                     double x[3], double v[3], struct iteration_count *count)
+                     double x[3], double v[3], struct iteration_count *count, struct step_end *end)
 {
     struct phi_problem problem;
     phi_problem_set(&problem, cfg->phi, d, m, h, x, v, force_start);
     struct eq53_squares q = phi_iterate(&problem, force_start, x, v);
-    int converged = eq53_holds(&q, cfg->fixed_point_tol);
+    int converged = eq53_holds(&q, cfg->fixed_point_tol) | (cfg->phi == 0.0);
     int64_t iteration = 1;
-    if (cfg->phi == 0.0)
-        converged = 1; /* explicit Euler: nothing to iterate */
+    end->force_known = 0;
     if (!converged)
-        converged = phi_iterate_to_convergence(cfg, &problem, x, v, &iteration);
+        converged = phi_iterate_to_convergence(cfg, &problem, x, v, &iteration, end);
     count_solve(count, iteration, converged);
 }
 
@@ -173,19 +212,22 @@ static int64_t substeps_for(const struct dem_config *cfg, double tau)
     return k > MAX_SUBSTEPS ? MAX_SUBSTEPS : (int64_t)k;
 }
 
-/* A particle whose response time is below two steps, in k sub-steps; force_start and tau at its start. */
+/* A particle whose response time is below two steps, in k sub-steps; force_start and tau at its start.  Each
+ * sub-step starts from the force where the last one ended, when known. */
 static void integrate_subcycled(const struct dem_config *cfg, double d, double m, double tau,
                                 const double force_start[3], double x[3], double v[3], struct iteration_count *count)
 {
     int64_t substeps = substeps_for(cfg, tau);
     double h = cfg->dt / (double)substeps;
+    struct step_end end = {.force_known = 1};
+    memcpy(end.force, force_start, sizeof end.force);
     for (int64_t k = 0; k < substeps; k++) {
-        double force[3];
-        if (k == 0)
-            memcpy(force, force_start, sizeof force);
+        double force[3], slip, power;
+        if (end.force_known)
+            memcpy(force, end.force, sizeof force);
         else
-            net_force(&cfg->gas, d, x, v, force);
-        phi_step(cfg, d, m, h, force, x, v, count);
+            drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
+        phi_step(cfg, d, m, h, force, x, v, count, &end);
     }
     count->subcycled++;
 }
@@ -199,6 +241,10 @@ struct block {
     /* struct phi_problem of each lane, as arrays */
     double x0[3][BLOCK], v0[3][BLOCK], residual_x[3][BLOCK], residual_v[3][BLOCK];
     double h_over_m_phi[BLOCK], h_phi[BLOCK];
+    /* the force, slip and Re^0.6459 at (x, v) in the last pass */
+    double force[3][BLOCK], slip[BLOCK], reynolds_power[BLOCK];
+    /* the force, slip and Re^0.6459 at the iterate where the lane stopped (force_known) */
+    double end_force[3][BLOCK], end_slip[BLOCK], end_reynolds_power[BLOCK];
     int64_t iterations[BLOCK];
     /* Byte flags on purpose: the narrowest type stored in a lane loop sets gcc's vectorisation factor, here
      * all 32 lanes at once, 8 independent 4-lane chains interleaved.  Each lane's body is one long chain of
@@ -206,10 +252,11 @@ struct block {
      * vectorises 4 lanes at a time, the chains hardly overlap, and free flight took 1.7x the time.  The spills
      * of the 32-lane loop cost less (2026-12-01: 16 lanes as fast; the force evaluation split into one loop
      * per long chain, 4 lanes each, 8 % fewer instructions but no faster). */
-    uint8_t active[BLOCK], converged[BLOCK];
+    uint8_t active[BLOCK], converged[BLOCK], force_known[BLOCK], stops[BLOCK];
     /* the squares of Eq. 53 of the last iterate, and whether they left it undecided */
     double squares[4][BLOCK];
     uint8_t undecided[BLOCK];
+    int start_kept; /* every lane's start force and response time came from struct dem_start_forces */
 };
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
@@ -272,23 +319,36 @@ static int block_settle(struct block *b, double tol)
     return stopped;
 }
 
-/* Gas, drag and response time at the start of the step for every lane (one Re^0.6459 serves both), then the
- * first iterate of every lane that needs no sub-steps, from its start force. */
-static void block_start(const struct dem_config *cfg, struct block *restrict b)
+/* Gas, drag and response time at the start of the step for every lane; the force, slip and Re^0.6459 may
+ * have been kept from the end of the last step. */
+static void block_start_forces(const struct dem_config *cfg, struct block *restrict b)
 {
     const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
-    const double density = cfg->powder.density, phi = cfg->phi, tol = cfg->fixed_point_tol, dt = cfg->dt;
+    const double density = cfg->powder.density;
+    if (!b->start_kept) {
+        for (int l = 0; l < BLOCK; l++) {
+            double x[3], v[3], force[3];
+            lane_get(b->x, l, x);
+            lane_get(b->v, l, v);
+            drag_and_slip(&gas, b->d[l], x, v, force, &b->slip[l], &b->reynolds_power[l]);
+            lane_put(b->force_start, l, force);
+        }
+    }
+    for (int l = 0; l < BLOCK; l++)
+        b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], b->slip[l], b->reynolds_power[l]);
+}
+
+/* The start forces, then the first iterate of every lane that needs no sub-steps, from its start force. */
+static void block_start(const struct dem_config *cfg, struct block *restrict b)
+{
+    block_start_forces(cfg, b);
+    const double phi = cfg->phi, tol = cfg->fixed_point_tol, dt = cfg->dt;
     const int more_allowed = 1 < cfg->fixed_point_max_iter;
     for (int l = 0; l < BLOCK; l++) {
-        double x[3], v[3], u[3], relative[3], force[3];
+        double x[3], v[3], force[3];
         lane_get(b->x, l, x);
         lane_get(b->v, l, v);
-        gas_eval_velocity(&gas, x, u);
-        double slip = gas_eval_slip(v, u, relative);
-        double power = gas_eval_reynolds_power(gas_eval_reynolds(&gas, b->d[l], slip));
-        gas_eval_drag_from_slip(&gas, b->d[l], relative, slip, power, force);
-        lane_put(b->force_start, l, force);
-        b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], slip, power);
+        lane_get(b->force_start, l, force);
         struct phi_problem problem;
         phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
         lane_put_problem(b, l, &problem);
@@ -300,48 +360,114 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         lane_put(b->x, l, x);
         lane_put(b->v, l, v);
         b->converged[l] = (uint8_t)converged;
+        b->force_known[l] = 0;
         b->iterations[l] = 1;
         b->active[l] = (uint8_t)((b->tau[l] >= 2.0 * dt) & !converged & more_allowed);
     }
     block_settle(b, tol);
 }
 
-/* One more iterate for every lane (the inactive ones are computed and dropped); returns the lanes still
- * iterating. */
-static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
+/* One more iterate for every lane still iterating (the inactive lanes are computed and dropped); returns how
+ * many still iterate.  A lane for which Eq. 53 holds stays at its iterate, whose force is now known; the
+ * others move on to the next iterate.  A lane that the squares leave undecided moves, or not, in
+ * block_settle_moves. */
+static int block_next_iterates(const struct dem_config *cfg, struct block *restrict b)
 {
     const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
     const double tol = cfg->fixed_point_tol;
     const int64_t max_iter = cfg->fixed_point_max_iter;
     int active_count = 0;
     for (int l = 0; l < BLOCK; l++) {
-        double x[3], v[3], force[3];
+        double x[3], v[3], force[3], slip, power;
         lane_get(b->x, l, x);
         lane_get(b->v, l, v);
-        net_force(&gas, b->d[l], x, v, force);
+        drag_and_slip(&gas, b->d[l], x, v, force, &slip, &power);
         struct phi_problem problem = lane_problem(b, l);
         struct eq53_squares q = phi_iterate(&problem, force, x, v);
         int decision = eq53_shortcut(&q, tol);
-        int converged = decision == 1;
         int active = b->active[l];
+        int stops = active & (decision == 1), moves = active & (decision == 0);
         lane_put_squares(b, l, &q);
         b->undecided[l] = (uint8_t)(active & (decision < 0));
         for (int c = 0; c < 3; c++) {
-            b->x[c][l] = fm_select(active, x[c], b->x[c][l]);
-            b->v[c][l] = fm_select(active, v[c], b->v[c][l]);
+            b->force[c][l] = force[c];
+            b->x[c][l] = fm_select(moves, x[c], b->x[c][l]);
+            b->v[c][l] = fm_select(moves, v[c], b->v[c][l]);
         }
-        b->converged[l] = (uint8_t)((active & converged) | ((active == 0) & b->converged[l]));
+        b->slip[l] = slip;
+        b->reynolds_power[l] = power;
+        b->stops[l] = (uint8_t)stops;
+        b->converged[l] = (uint8_t)(stops | ((active == 0) & b->converged[l]));
         b->iterations[l] += active;
-        int still = active & !converged & (b->iterations[l] < max_iter);
+        int still = active & !stops & (b->iterations[l] < max_iter);
         b->active[l] = (uint8_t)still;
         active_count += still;
     }
-    return active_count - block_settle(b, tol);
+    return active_count;
 }
 
-static void block_load(const struct dem_particles *p, struct block *b, const uint32_t *flying, size_t count)
+/* Lane l stopped at its iterate of this pass: keep the force there for the end of the step. */
+static inline void lane_keep_end(struct block *b, int l)
+{
+    b->force_known[l] = 1;
+    for (int c = 0; c < 3; c++)
+        b->end_force[c][l] = b->force[c][l];
+    b->end_slip[l] = b->slip[l];
+    b->end_reynolds_power[l] = b->reynolds_power[l];
+}
+
+/* After a pass: the lanes that stopped keep their force; the undecided ones get Eq. 53 with its square
+ * roots, and stop (and keep theirs) where it holds, else move on to the next iterate.  Returns how many
+ * undecided lanes stopped. */
+static int block_settle_moves(struct block *b, double tol)
+{
+    int stopped = 0;
+    for (int l = 0; l < BLOCK; l++) {
+        if (b->stops[l])
+            lane_keep_end(b, l);
+        if (!b->undecided[l])
+            continue;
+        struct eq53_squares q = {b->squares[0][l], b->squares[1][l], b->squares[2][l], b->squares[3][l]};
+        if (eq53_exact(&q, tol)) {
+            b->converged[l] = 1;
+            lane_keep_end(b, l);
+            stopped += b->active[l];
+            b->active[l] = 0;
+            continue;
+        }
+        /* the next iterate again, from the force at this one: the same operations, the same bits */
+        double x[3], v[3], force[3];
+        lane_get(b->x, l, x);
+        lane_get(b->v, l, v);
+        lane_get(b->force, l, force);
+        struct phi_problem problem = lane_problem(b, l);
+        phi_iterate(&problem, force, x, v);
+        lane_put(b->x, l, x);
+        lane_put(b->v, l, v);
+    }
+    return stopped;
+}
+
+static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
+{
+    int active = block_next_iterates(cfg, b);
+    return active - block_settle_moves(b, cfg->fixed_point_tol);
+}
+
+/* Are the three doubles at a and b the same bits? */
+static inline int same_bits3(const double *a, const double *b)
+{
+    uint64_t ua[3], ub[3];
+    memcpy(ua, a, sizeof ua);
+    memcpy(ub, b, sizeof ub);
+    return ((ua[0] ^ ub[0]) | (ua[1] ^ ub[1]) | (ua[2] ^ ub[2])) == 0;
+}
+
+static void block_load(const struct dem_particles *p, int reuse_drag, struct block *b, const uint32_t *flying,
+                       size_t count)
 {
     b->count = count;
+    b->start_kept = reuse_drag;
     for (size_t l = 0; l < BLOCK; l++) {
         /* spare lanes repeat the last particle: computed, never stored */
         uint32_t i = flying[l < count ? l : count - 1];
@@ -352,13 +478,31 @@ static void block_load(const struct dem_particles *p, struct block *b, const uin
         }
         b->d[l] = p->d[i];
         b->m[l] = p->m[i];
+        b->start_kept &= p->drag_kept[i];
     }
+    if (!b->start_kept)
+        return;
+    for (size_t l = 0; l < BLOCK; l++) {
+        uint32_t i = b->index[l];
+        for (int c = 0; c < 3; c++)
+            b->force_start[c][l] = p->drag[3 * i + c];
+        b->slip[l] = p->drag_slip[i];
+        b->reynolds_power[l] = p->drag_reynolds_power[i];
+    }
+}
+
+/* Keep (or forget) the force at the end of particle i's step for the start of the next. */
+static void keep_end_drag(struct dem_particles *p, uint32_t i, const struct step_end *end)
+{
+    p->drag_kept[i] = (uint8_t)end->force_known;
+    memcpy(p->drag + 3 * (size_t)i, end->force, 3 * sizeof(double));
+    p->drag_slip[i] = end->slip;
+    p->drag_reynolds_power[i] = end->reynolds_power;
 }
 
 /* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
  * lanes still iterating and the particles that need sub-steps. */
-static void integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b,
-                            struct iteration_count *count)
+static void integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b, struct iteration_count *count)
 {
     block_start(cfg, b);
     int active = 0;
@@ -367,11 +511,14 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
     while (active > BLOCK_MIN_ACTIVE)
         active = block_iterate(cfg, b);
     for (size_t l = 0; l < b->count; l++) {
-        double *x = p->x + 3 * b->index[l], *v = p->v + 3 * b->index[l];
+        uint32_t i = b->index[l];
+        double *x = p->x + 3 * i, *v = p->v + 3 * i;
+        struct step_end end = {.force_known = 0};
         if (!(b->tau[l] >= 2.0 * cfg->dt)) { /* from the start state again, in sub-steps */
             double force[3];
             lane_get(b->force_start, (int)l, force);
             integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
+            keep_end_drag(p, i, &end);
             continue;
         }
         double x_k[3], v_k[3];
@@ -380,11 +527,17 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
         int converged = b->converged[l];
         if (b->active[l]) {
             struct phi_problem problem = lane_problem(b, (int)l);
-            converged = phi_iterate_to_convergence(cfg, &problem, x_k, v_k, &b->iterations[l]);
+            converged = phi_iterate_to_convergence(cfg, &problem, x_k, v_k, &b->iterations[l], &end);
+        } else if (b->force_known[l]) {
+            end.force_known = 1;
+            lane_get(b->end_force, (int)l, end.force);
+            end.slip = b->end_slip[l];
+            end.reynolds_power = b->end_reynolds_power[l];
         }
         count_solve(count, b->iterations[l], converged);
         memcpy(x, x_k, sizeof x_k);
         memcpy(v, v_k, sizeof v_k);
+        keep_end_drag(p, i, &end);
     }
 }
 
@@ -444,6 +597,7 @@ int dem_integrate(struct dem_solver *s)
     if (cfg->gas.model == JET_NONE) {
         integrate_free_flight(cfg, p, flying, flying_count);
     } else {
+        const int reuse_drag = s->reuse_drag;
         size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
         /* Each particle's update is independent and the reductions are integer sums, so the result does not
          * depend on the schedule; the vector lanes give the bits of the scalar code. */
@@ -454,7 +608,7 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp for schedule(dynamic, 4)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-                block_load(p, b, flying + first, n);
+                block_load(p, reuse_drag, b, flying + first, n);
                 integrate_block(cfg, p, b, &count);
             }
             free(b);

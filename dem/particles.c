@@ -33,6 +33,11 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->m = resize(p->m, capacity, sizeof(double));
     p->id = resize(p->id, capacity, sizeof(int64_t));
     p->state = resize(p->state, capacity, sizeof(uint8_t));
+    p->drag = resize(p->drag, 3 * capacity, sizeof(double));
+    p->drag_slip = resize(p->drag_slip, capacity, sizeof(double));
+    p->drag_reynolds_power = resize(p->drag_reynolds_power, capacity, sizeof(double));
+    p->drag_kept = resize(p->drag_kept, capacity, sizeof(uint8_t));
+    memset(p->drag_kept + p->capacity, 0, capacity - p->capacity);
     p->capacity = capacity;
 }
 
@@ -52,6 +57,7 @@ size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], 
     p->m[i] = density * M_PI * d * d * d / 6.0;
     p->id[i] = id;
     p->state[i] = DEM_FLYING;
+    p->drag_kept[i] = 0;
     return i;
 }
 
@@ -72,6 +78,10 @@ void particles_compact(struct dem_particles *p, const uint8_t *keep)
             p->m[kept] = p->m[i];
             p->id[kept] = p->id[i];
             p->state[kept] = p->state[i];
+            memcpy(p->drag + 3 * kept, p->drag + 3 * i, 3 * sizeof(double));
+            p->drag_slip[kept] = p->drag_slip[i];
+            p->drag_reynolds_power[kept] = p->drag_reynolds_power[i];
+            p->drag_kept[kept] = p->drag_kept[i];
         }
         kept++;
     }
@@ -90,6 +100,10 @@ void particles_free(struct dem_particles *p)
     free(p->m);
     free(p->id);
     free(p->state);
+    free(p->drag);
+    free(p->drag_slip);
+    free(p->drag_reynolds_power);
+    free(p->drag_kept);
     memset(p, 0, sizeof *p);
 }
 

@@ -13,6 +13,7 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
     if (!s)
         SC_FAIL(SC_ESIM, "spray: out of memory");
     s->cfg = *cfg;
+    s->reuse_drag = 1;
     s->weibull_lambda = weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);
     particles_reserve(&s->p, 1024);
     if (cfg->injection == DEM_INJECT_FILE)
@@ -20,6 +21,8 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
     *out = s;
     return SC_OK;
 }
+
+void dem_reuse_drag(struct dem_solver *s, int reuse) { s->reuse_drag = reuse != 0; }
 
 void dem_destroy(struct dem_solver *s)
 {
@@ -86,8 +89,10 @@ static void apply_boundaries(struct dem_solver *s)
         /* A particle that would end the step inside the target stops at it; its contact is resolved at
          * the start of the next step (time of impact 0), so nothing passes through the target. */
         double limit = cfg->standoff - 0.5 * p->d[i];
-        if (x[2] > limit)
+        if (x[2] > limit) {
             x[2] = limit;
+            p->drag_kept[i] = 0;
+        }
         int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
         int behind_nozzle = x[2] < 0.0 && p->v[3 * i + 2] < 0.0;
         if (outside || behind_nozzle) {
