@@ -11,11 +11,11 @@
  * iterate k, not k+1: k is within the tolerance of the fixed point by the same test (its residual, the step
  * to k+1, is), and the force at k is known, since it made k+1.  That force is the start force of the next
  * step (the particle starts there), so each particle-step costs one drag evaluation less than ending at
- * k+1 would (DESIGN.md, "Spray time integration").  The forces are kept per particle (struct
+ * k+1 would (README, "Integration").  The forces are kept per particle (struct
  * dem_particles: drag_kept) and used only while nothing else changed the particle's position or velocity
  * (a contact, deposition, the target plane clear drag_kept), so that a kept force is exactly the force
  * computed again: a checkpoint need not hold them, a resumed run gives the same bits, and a test compares runs
- * with and without them (dem_solver_reuse_drag). */
+ * with and without them (dem_reuse_drag). */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
  * loop nest stays scalar, which with dem/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  No effect on the results: no floating-point option changes. */
@@ -152,7 +152,7 @@ struct step_end {
 
 /* Iterate from (x_k, v_k), the newest iterate (its force not yet known), whose count of iterates so far is
  * *iteration, until Eq. 53 holds or the limit.  Converged: (x_k, v_k) is left at the iterate that ends the
- * step, whose force and response time go to *end.  Not converged: at the newest iterate, force unknown. */
+ * step, whose force, slip and Re^0.6459 go to *end.  Not converged: at the newest iterate, force unknown. */
 static int phi_iterate_to_convergence(const struct dem_config *cfg, const struct phi_problem *problem, double x_k[3],
                                       double v_k[3], int64_t *iteration, struct step_end *end)
 {
@@ -256,7 +256,7 @@ struct block {
     /* the squares of Eq. 53 of the last iterate, and whether they left it undecided */
     double squares[4][BLOCK];
     uint8_t undecided[BLOCK];
-    int start_kept; /* every lane's start force and response time came from struct dem_start_forces */
+    int start_kept; /* every lane's start force, slip and Re^0.6459 were kept (dem_particles: drag_kept) */
 };
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
@@ -452,15 +452,6 @@ static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
 {
     int active = block_next_iterates(cfg, b);
     return active - block_settle_moves(b, cfg->fixed_point_tol);
-}
-
-/* Are the three doubles at a and b the same bits? */
-static inline int same_bits3(const double *a, const double *b)
-{
-    uint64_t ua[3], ub[3];
-    memcpy(ua, a, sizeof ua);
-    memcpy(ub, b, sizeof ub);
-    return ((ua[0] ^ ub[0]) | (ua[1] ^ ub[1]) | (ua[2] ^ ub[2])) == 0;
 }
 
 static void block_load(const struct dem_particles *p, int reuse_drag, struct block *b, const uint32_t *flying,
