@@ -77,17 +77,6 @@ static inline int32_t cell_index(double coordinate, double cell)
 static inline double lesser(double a, double b) { return (a < b) | (b != b) ? a : b; }
 static inline double greater(double a, double b) { return (a > b) | (b != b) ? a : b; }
 
-/* Bounding box of particle i's sphere over the step: [lo, hi]. */
-static void swept_box(const struct dem_particles *p, size_t i, double dt, double lo[3], double hi[3])
-{
-    double radius = 0.5 * p->d[i] * (1.0 + BOX_MARGIN);
-    for (int c = 0; c < 3; c++) {
-        double start = p->x[3 * i + c], end = start + (p->state[i] == DEM_FLYING ? p->v[3 * i + c] * dt : 0.0);
-        lo[c] = lesser(start, end) - radius;
-        hi[c] = greater(start, end) + radius;
-    }
-}
-
 /* The box that particle i's sphere can reach within `horizon` steps at its current velocity, widened by the
  * skin; a deposited particle reaches its sphere only. */
 static void reach_box(const struct dem_particles *p, size_t i, double dt, double horizon, double lo[3], double hi[3])
@@ -397,28 +386,34 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
     bins->failing = dem_realloc_or_die(bins->failing, bins->built_capacity * sizeof *bins->failing);
 }
 
-/* Particles [first, end): each one's swept box of the step inside its reach box, the same particle as at the
- * build, and not deposited then and flying now.  Every test of every particle, with & instead of &&: no
- * branches, so the loop vectorises. */
-static int reach_chunk_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
-                             size_t end)
+/* inside[i] for the particles [first, end): is its swept box of the step inside its reach box, is it the
+ * same particle as at the build, and not deposited then and flying now?  No branches (the sweep of a
+ * deposited particle, at rest, is v * 0; no lesser or greater). */
+static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
+                        size_t end, uint8_t *restrict inside)
 {
-    int holds = 1;
+    /* local restrict copies: the stores to inside[] cannot change them */
+    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict reach = bins->reach;
+    const int64_t *restrict id = p->id, *restrict built_id = bins->built_id;
+    const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
-        double lo[3], hi[3];
-        swept_box(p, i, dt, lo, hi);
-        const double *reach = bins->reach + 6 * i;
-        int inside = (p->id[i] == bins->built_id[i]) & (bins->built_flying[i] | (p->state[i] != DEM_FLYING));
-        for (int c = 0; c < 3; c++)
-            inside &= (lo[c] >= reach[c]) & (hi[c] <= reach[3 + c]);
-        holds &= inside;
+        int flying = state[i] == DEM_FLYING;
+        double radius = 0.5 * d[i] * (1.0 + BOX_MARGIN), span = flying ? dt : 0.0;
+        int holds = (id[i] == built_id[i]) & (built_flying[i] | !flying);
+        /* lesser(start, stop) - radius >= lo exactly when both ends pass (rounding is monotonic); a NaN
+         * fails here, a harmless extra repair */
+        for (int c = 0; c < 3; c++) {
+            double start = x[3 * i + c], stop = start + v[3 * i + c] * span;
+            double lo = reach[6 * i + c], hi = reach[6 * i + 3 + c];
+            holds &= (start - radius >= lo) & (stop - radius >= lo) & (start + radius <= hi) & (stop + radius <= hi);
+        }
+        inside[i] = (uint8_t)holds;
     }
-    return holds;
 }
 
 static size_t repair_limit(size_t count) { return REPAIR_MIN + count / REPAIR_SHARE; }
 
-/* Particle i failed the test of reach_chunk_holds, or was injected since: list it in bins->failing.  Returns
+/* Particle i failed the test of reach_flags, or was injected since: list it in bins->failing.  Returns
  * 0 if the repaired set would then exceed its limit. */
 static int note_failing(struct dem_bins *bins, size_t i, size_t *grown, size_t limit)
 {
@@ -430,33 +425,31 @@ static int note_failing(struct dem_bins *bins, size_t i, size_t *grown, size_t l
 }
 
 /* The particles whose grid entries and pairs no longer hold this step's contacts, in bins->failing in index
- * order: those that fail reach_chunk_holds and those injected since the build.  Returns 0 when they are too
- * many to repair.  The chunks are tested in parallel (vectorised), the particles of failing chunks one by
- * one. */
+ * order: those that fail reach_flags and those injected since the build.  Returns 0 when they are too many
+ * to repair. */
 static int collect_failing(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
+    uint8_t *inside = dem_realloc_or_die(NULL, bins->built_count ? bins->built_count : 1);
     const size_t chunk = 1024, chunks = (bins->built_count + chunk - 1) / chunk;
-    uint8_t *chunk_holds = dem_realloc_or_die(NULL, chunks ? chunks : 1);
 #pragma omp parallel for schedule(static) if (bins->built_count >= DEM_PARALLEL_MIN)
-    for (size_t k = 0; k < chunks; k++) {
-        size_t end = (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count;
-        chunk_holds[k] = (uint8_t)reach_chunk_holds(bins, p, dt, k * chunk, end);
-    }
+    for (size_t k = 0; k < chunks; k++)
+        reach_flags(bins, p, dt, k * chunk, (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count,
+                    inside);
     ensure_particle_capacity(bins, p->count);
     size_t limit = repair_limit(p->count), grown = 0;
     int fits = 1;
     bins->failing_count = 0;
-    for (size_t k = 0; k < chunks && fits; k++) {
-        size_t end = (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count;
-        for (size_t i = k * chunk; i < end && !chunk_holds[k] && fits; i++)
-            if (!reach_chunk_holds(bins, p, dt, i, i + 1))
-                fits = note_failing(bins, i, &grown, limit);
+    for (const uint8_t *next = inside, *end = inside + bins->built_count; fits && next < end; next++) {
+        next = memchr(next, 0, (size_t)(end - next));
+        if (!next)
+            break;
+        fits = note_failing(bins, (size_t)(next - inside), &grown, limit);
     }
     for (size_t i = bins->built_count; i < p->count && fits; i++) {
         bins->repaired[i] = AS_BUILT;
         fits = note_failing(bins, i, &grown, limit);
     }
-    free(chunk_holds);
+    free(inside);
     return fits;
 }
 
