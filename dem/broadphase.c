@@ -13,7 +13,16 @@
  * boxes overlap are listed.  While every particle's swept box of the current step lies inside its reach box,
  * every pair whose swept boxes overlap is in the list, so testing the listed pairs finds exactly the contacts
  * a fresh grid would (the same box test and time of impact on the same numbers): in free flight the grid is
- * rebuilt every few steps instead of every step.  The horizon adapts (next_horizon). */
+ * rebuilt every few steps instead of every step.  The horizon adapts (next_horizon).
+ *
+ * Between builds the grid and the list are repaired rather than rebuilt when only a few particles change:
+ * a particle whose swept box left its reach box (a rebound, a deposit) or that was injected gets a new reach
+ * box and joins the repaired set; its old pairs are dropped, and its new ones are found from the grid cells
+ * of its new box (partners still as built, by the same lower-corner rule, so each pair once) and by testing
+ * the other repaired particles directly (their grid entries are stale and skipped).  Removed particles are
+ * compacted out of the grid and the list (broadphase_compact).  Past REPAIR_MIN + count / REPAIR_SHARE
+ * repaired particles the grid is rebuilt.  The list then still holds every pair whose swept boxes overlap,
+ * once: the contacts found are those of a fresh build. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,6 +42,15 @@
 #define MAX_HORIZON 16.0
 #define SKIN_RADII 0.5
 #define PLAIN_BUILDS 16
+/* Repairs: a rebuild once more than REPAIR_MIN + count / REPAIR_SHARE particles are repaired, or when a new
+ * reach box spans more than REPAIR_MAX_CELLS cells (cells sized for slower particles). */
+#define REPAIR_MIN 64
+#define REPAIR_SHARE 32
+#define REPAIR_MAX_CELLS 512
+/* The index of a grid entry whose particle was removed since the build. */
+#define REMOVED_ENTRY UINT32_MAX
+/* Values of bins->repaired: in the grid as built, repaired in an earlier step, repaired in this one. */
+enum { AS_BUILT = 0, REPAIRED = 1, RENEWED = 2 };
 
 static inline uint32_t cell_hash(const int32_t cell[3], size_t bucket_count)
 {
@@ -58,17 +76,6 @@ static inline int32_t cell_index(double coordinate, double cell)
  * second operand when the two are equal, and the other operand when one is a NaN. */
 static inline double lesser(double a, double b) { return (a < b) | (b != b) ? a : b; }
 static inline double greater(double a, double b) { return (a > b) | (b != b) ? a : b; }
-
-/* Bounding box of particle i's sphere over the step: [lo, hi]. */
-static void swept_box(const struct dem_particles *p, size_t i, double dt, double lo[3], double hi[3])
-{
-    double radius = 0.5 * p->d[i] * (1.0 + BOX_MARGIN);
-    for (int c = 0; c < 3; c++) {
-        double start = p->x[3 * i + c], end = start + (p->state[i] == DEM_FLYING ? p->v[3 * i + c] * dt : 0.0);
-        lo[c] = lesser(start, end) - radius;
-        hi[c] = greater(start, end) + radius;
-    }
-}
 
 /* The box that particle i's sphere can reach within `horizon` steps at its current velocity, widened by the
  * skin; a deposited particle reaches its sphere only. */
@@ -204,6 +211,9 @@ void dem_bins_free(struct dem_bins *bins)
     free(bins->reach);
     free(bins->built_id);
     free(bins->built_flying);
+    free(bins->repaired);
+    free(bins->repaired_list);
+    free(bins->failing);
     free(bins->pairs);
     memset(bins, 0, sizeof *bins);
 }
@@ -371,52 +381,76 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
     bins->reach = dem_realloc_or_die(bins->reach, 6 * bins->built_capacity * sizeof *bins->reach);
     bins->built_id = dem_realloc_or_die(bins->built_id, bins->built_capacity * sizeof *bins->built_id);
     bins->built_flying = dem_realloc_or_die(bins->built_flying, bins->built_capacity);
+    bins->repaired = dem_realloc_or_die(bins->repaired, bins->built_capacity);
+    bins->repaired_list = dem_realloc_or_die(bins->repaired_list, bins->built_capacity * sizeof *bins->repaired_list);
+    bins->failing = dem_realloc_or_die(bins->failing, bins->built_capacity * sizeof *bins->failing);
 }
 
-/* Particles [first, end): each one's swept box of the step inside its reach box, the same particle as at the
- * build, and not deposited then and flying now.  Every test of every particle, with & instead of &&: no
- * branches, so the loop vectorises. */
-static int reach_chunk_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
-                             size_t end)
+/* inside[i] for the particles [first, end): is its swept box of the step inside its reach box, is it the
+ * same particle as at the build, and not deposited then and flying now?  No branches (the sweep of a
+ * deposited particle, at rest, is v * 0; no lesser or greater). */
+static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
+                        size_t end, uint8_t *restrict inside)
 {
-    int holds = 1;
+    /* local restrict copies: the stores to inside[] cannot change them */
+    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict reach = bins->reach;
+    const int64_t *restrict id = p->id, *restrict built_id = bins->built_id;
+    const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
-        double lo[3], hi[3];
-        swept_box(p, i, dt, lo, hi);
-        const double *reach = bins->reach + 6 * i;
-        int inside = (p->id[i] == bins->built_id[i]) & (bins->built_flying[i] | (p->state[i] != DEM_FLYING));
-        for (int c = 0; c < 3; c++)
-            inside &= (lo[c] >= reach[c]) & (hi[c] <= reach[3 + c]);
-        holds &= inside;
+        int flying = state[i] == DEM_FLYING;
+        double radius = 0.5 * d[i] * (1.0 + BOX_MARGIN), span = flying ? dt : 0.0;
+        int holds = (id[i] == built_id[i]) & (built_flying[i] | !flying);
+        /* lesser(start, stop) - radius >= lo exactly when both ends pass (rounding is monotonic); a NaN
+         * fails here, a harmless extra repair */
+        for (int c = 0; c < 3; c++) {
+            double start = x[3 * i + c], stop = start + v[3 * i + c] * span;
+            double lo = reach[6 * i + c], hi = reach[6 * i + 3 + c];
+            holds &= (start - radius >= lo) & (stop - radius >= lo) & (start + radius <= hi) & (stop + radius <= hi);
+        }
+        inside[i] = (uint8_t)holds;
     }
-    return holds;
 }
 
-/* Do the grid and list of the last build still hold every contact of this step?  The same particles in the
- * same order, none deposited then and flying now, each swept box of the step inside its reach box. */
-static int reach_still_holds(const struct dem_bins *bins, const struct dem_particles *p, double dt)
+static size_t repair_limit(size_t count) { return REPAIR_MIN + count / REPAIR_SHARE; }
+
+/* Particle i failed the test of reach_flags, or was injected since: list it in bins->failing.  Returns
+ * 0 if the repaired set would then exceed its limit. */
+static int note_failing(struct dem_bins *bins, size_t i, size_t *grown, size_t limit)
 {
-    if (!bins->reach || bins->built_count != p->count)
+    *grown += bins->repaired[i] == AS_BUILT;
+    if (bins->repaired_count + *grown > limit)
         return 0;
-    /* In chunks, and none after a chunk that failed: where paths change (target rebounds) the answer is
-     * mostly no, and the chunks after a failing one need no test.  The answer does not depend on which
-     * chunks were tested. */
-    const size_t chunk = 1024, chunks = (p->count + chunk - 1) / chunk;
-    int failed = 0;
-#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
-    for (size_t k = 0; k < chunks; k++) {
-        int stop;
-#pragma omp atomic read
-        stop = failed;
-        if (stop)
-            continue;
-        size_t end = (k + 1) * chunk < p->count ? (k + 1) * chunk : p->count;
-        if (!reach_chunk_holds(bins, p, dt, k * chunk, end)) {
-#pragma omp atomic write
-            failed = 1;
-        }
+    bins->failing[bins->failing_count++] = (uint32_t)i;
+    return 1;
+}
+
+/* The particles whose grid entries and pairs no longer hold this step's contacts, in bins->failing in index
+ * order: those that fail reach_flags and those injected since the build.  Returns 0 when they are too many
+ * to repair. */
+static int collect_failing(struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    uint8_t *inside = dem_realloc_or_die(NULL, bins->built_count ? bins->built_count : 1);
+    const size_t chunk = 1024, chunks = (bins->built_count + chunk - 1) / chunk;
+#pragma omp parallel for schedule(static) if (bins->built_count >= DEM_PARALLEL_MIN)
+    for (size_t k = 0; k < chunks; k++)
+        reach_flags(bins, p, dt, k * chunk, (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count,
+                    inside);
+    ensure_particle_capacity(bins, p->count);
+    size_t limit = repair_limit(p->count), grown = 0;
+    int fits = 1;
+    bins->failing_count = 0;
+    for (const uint8_t *next = inside, *end = inside + bins->built_count; fits && next < end; next++) {
+        next = memchr(next, 0, (size_t)(end - next));
+        if (!next)
+            break;
+        fits = note_failing(bins, (size_t)(next - inside), &grown, limit);
     }
-    return !failed;
+    for (size_t i = bins->built_count; i < p->count && fits; i++) {
+        bins->repaired[i] = AS_BUILT;
+        fits = note_failing(bins, i, &grown, limit);
+    }
+    free(inside);
+    return fits;
 }
 
 static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double dt)
@@ -430,6 +464,8 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
         bins->built_flying[i] = p->state[i] == DEM_FLYING;
     }
     bins->built_count = p->count;
+    memset(bins->repaired, AS_BUILT, p->count);
+    bins->repaired_count = 0;
     grid_fill(bins, p);
     list_pairs(bins, p);
     bins->age = 0;
@@ -456,14 +492,170 @@ static void next_horizon(struct dem_bins *bins)
     }
 }
 
+/* ---------------------------------------------------------------- repairs */
+
+static int both_deposited(const struct dem_particles *p, uint32_t a, uint32_t b)
+{
+    return p->state[a] != DEM_FLYING && p->state[b] != DEM_FLYING;
+}
+
+static void pair_push_ordered(struct dem_bins *bins, uint32_t a, uint32_t b)
+{
+    if (a < b)
+        pair_push(bins, a, b);
+    else
+        pair_push(bins, b, a);
+}
+
+/* The test of owns_reach_pair without the cell. */
+static int reach_boxes_overlap(const double *reach_i, const double *reach_j)
+{
+    for (int c = 0; c < 3; c++) {
+        double lo = reach_i[c] > reach_j[c] ? reach_i[c] : reach_j[c];
+        double hi = reach_i[3 + c] < reach_j[3 + c] ? reach_i[3 + c] : reach_j[3 + c];
+        if (lo > hi)
+            return 0;
+    }
+    return 1;
+}
+
+static void drop_renewed_pairs(struct dem_bins *bins)
+{
+    size_t kept = 0;
+    for (size_t k = 0; k < bins->pair_count; k++) {
+        uint32_t a = bins->pairs[2 * k], b = bins->pairs[2 * k + 1];
+        if (bins->repaired[a] == RENEWED || bins->repaired[b] == RENEWED)
+            continue;
+        bins->pairs[2 * kept] = a;
+        bins->pairs[2 * kept + 1] = b;
+        kept++;
+    }
+    bins->pair_count = kept;
+}
+
+/* The pairs of renewed particle i with the particles still in the grid as built: from the cells of i's new
+ * reach box, each pair from the cell that holds the lower corner of the boxes' intersection (both boxes
+ * overlap that cell, and the partner has one entry there), as list_pairs does. */
+static void list_grid_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
+{
+    const double *reach_i = bins->reach + 6 * i;
+    int32_t first[3], last[3], here[3];
+    box_cells(reach_i, reach_i + 3, bins->cell, first, last);
+    for (here[0] = first[0]; here[0] <= last[0]; here[0]++)
+        for (here[1] = first[1]; here[1] <= last[1]; here[1]++)
+            for (here[2] = first[2]; here[2] <= last[2]; here[2]++) {
+                uint32_t bucket = cell_hash(here, bins->bucket_count);
+                for (uint32_t e = bins->bucket_start[bucket]; e < bins->bucket_start[bucket + 1]; e++) {
+                    const struct dem_bin_entry *entry = &bins->entries[e];
+                    uint32_t j = entry->index;
+                    if (j == REMOVED_ENTRY || bins->repaired[j] != AS_BUILT || both_deposited(p, i, j))
+                        continue;
+                    if (entry->cell[0] != here[0] || entry->cell[1] != here[1] || entry->cell[2] != here[2])
+                        continue;
+                    if (owns_reach_pair(reach_i, bins->reach + 6 * j, here, bins->cell))
+                        pair_push_ordered(bins, i, j);
+                }
+            }
+}
+
+/* The pairs of renewed particle i with the other repaired particles, tested directly; a pair of two renewed
+ * particles from the lower one. */
+static void list_repaired_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
+{
+    for (size_t k = 0; k < bins->repaired_count; k++) {
+        uint32_t j = bins->repaired_list[k];
+        if (j == i || (bins->repaired[j] == RENEWED && j < i) || both_deposited(p, i, j))
+            continue;
+        if (reach_boxes_overlap(bins->reach + 6 * i, bins->reach + 6 * j))
+            pair_push_ordered(bins, i, j);
+    }
+}
+
+/* New reach boxes for the failing particles and their pairs anew.  Returns 0 (the grid must be rebuilt) if
+ * a new box spans too many cells. */
+static int repair(struct dem_bins *bins, const struct dem_particles *p, double dt)
+{
+    for (size_t k = 0; k < bins->failing_count; k++) {
+        uint32_t i = bins->failing[k];
+        double *reach = bins->reach + 6 * i;
+        reach_box(p, i, dt, bins->horizon, reach, reach + 3);
+        int32_t first[3], last[3];
+        box_cells(reach, reach + 3, bins->cell, first, last);
+        if (cells_in_range(first, last) > REPAIR_MAX_CELLS)
+            return 0;
+        bins->built_id[i] = p->id[i];
+        bins->built_flying[i] = p->state[i] == DEM_FLYING;
+        if (bins->repaired[i] == AS_BUILT)
+            bins->repaired_list[bins->repaired_count++] = i;
+        bins->repaired[i] = RENEWED;
+    }
+    bins->built_count = p->count;
+    drop_renewed_pairs(bins);
+    for (size_t k = 0; k < bins->failing_count; k++) {
+        list_grid_pairs_of(bins, p, bins->failing[k]);
+        list_repaired_pairs_of(bins, p, bins->failing[k]);
+    }
+    for (size_t k = 0; k < bins->failing_count; k++)
+        bins->repaired[bins->failing[k]] = REPAIRED;
+    bins->repairs++;
+    return 1;
+}
+
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
-    if (reach_still_holds(bins, p, dt)) {
+    /* built_count above the count: removals that broadphase_compact could not follow */
+    if (bins->reach && p->count >= bins->built_count && collect_failing(bins, p, dt) &&
+        (bins->failing_count == 0 || repair(bins, p, dt))) {
         bins->age++;
         return;
     }
     next_horizon(bins);
     rebuild(bins, p, dt);
+}
+
+void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count)
+{
+    if (!bins->reach)
+        return;
+    if (bins->built_count != old_count) {
+        bins->built_count = SIZE_MAX; /* not the particles it was built for: rebuild */
+        return;
+    }
+    uint32_t *moved_to = dem_realloc_or_die(NULL, (old_count ? old_count : 1) * sizeof *moved_to);
+    size_t kept = 0;
+    for (size_t i = 0; i < old_count; i++) {
+        moved_to[i] = keep[i] ? (uint32_t)kept : REMOVED_ENTRY;
+        if (!keep[i])
+            continue;
+        if (kept != i) {
+            memcpy(bins->reach + 6 * kept, bins->reach + 6 * i, 6 * sizeof *bins->reach);
+            bins->built_id[kept] = bins->built_id[i];
+            bins->built_flying[kept] = bins->built_flying[i];
+            bins->repaired[kept] = bins->repaired[i];
+        }
+        kept++;
+    }
+    for (size_t e = 0; e < bins->entry_count; e++)
+        if (bins->entries[e].index != REMOVED_ENTRY)
+            bins->entries[e].index = moved_to[bins->entries[e].index];
+    /* the order of indices is kept, so pairs stay lower index first */
+    size_t pairs = 0;
+    for (size_t k = 0; k < bins->pair_count; k++) {
+        uint32_t a = moved_to[bins->pairs[2 * k]], b = moved_to[bins->pairs[2 * k + 1]];
+        if (a == REMOVED_ENTRY || b == REMOVED_ENTRY)
+            continue;
+        bins->pairs[2 * pairs] = a;
+        bins->pairs[2 * pairs + 1] = b;
+        pairs++;
+    }
+    bins->pair_count = pairs;
+    size_t repaired = 0;
+    for (size_t k = 0; k < bins->repaired_count; k++)
+        if (moved_to[bins->repaired_list[k]] != REMOVED_ENTRY)
+            bins->repaired_list[repaired++] = moved_to[bins->repaired_list[k]];
+    bins->repaired_count = repaired;
+    bins->built_count = kept;
+    free(moved_to);
 }
 
 int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
@@ -483,9 +675,15 @@ int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const 
                 uint32_t bucket = cell_hash(here, bins->bucket_count);
                 for (uint32_t e = bins->bucket_start[bucket]; e < bins->bucket_start[bucket + 1]; e++) {
                     const struct dem_bin_entry *entry = &bins->entries[e];
+                    if (entry->index == REMOVED_ENTRY || bins->repaired[entry->index] != AS_BUILT)
+                        continue; /* removed, or stale: repaired particles follow */
                     if (entry->cell[0] == here[0] && entry->cell[1] == here[1] && entry->cell[2] == here[2])
                         visit(entry->index, context);
                 }
             }
+    double box[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+    for (size_t k = 0; k < bins->repaired_count; k++)
+        if (reach_boxes_overlap(bins->reach + 6 * bins->repaired_list[k], box))
+            visit(bins->repaired_list[k], context);
     return 0;
 }

@@ -48,12 +48,18 @@ struct dem_bins {
     double *reach;
     int64_t *built_id;
     uint8_t *built_flying;
+    /* Repairs between builds (broadphase.c): a particle whose reach box was renewed after the build (it left
+     * the old one, or was injected) is in repaired_list; its grid entries are stale and skipped.  `failing`
+     * is scratch: the particles renewed in this step. */
+    uint8_t *repaired;            /* per particle: 0 in the grid as built, else repaired */
+    uint32_t *repaired_list, *failing;
+    size_t repaired_count, failing_count;
     uint32_t *pairs;              /* 2 per listed pair: lower index, higher index */
     size_t pair_count, pair_capacity;
     double horizon;               /* steps covered by a reach box; 0: the step's swept box, no skin */
     int64_t age;                  /* steps served since the build, not counting its own */
     int64_t plain_builds;         /* builds with horizon 0 in a row */
-    int64_t builds;               /* for the statistics */
+    int64_t builds, repairs;      /* for the statistics */
 };
 
 enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
@@ -120,18 +126,21 @@ void dem_inject_file(struct dem_solver *s);
 
 /* dem/broadphase.c: the swept-box grid and the pairs of particles whose swept spheres touch in the step. */
 void dem_bins_free(struct dem_bins *bins);
-/* Bring the grid and the pair list up to date for this step: rebuilt only if a particle left its reach box,
- * or particles were added or removed, or one deposited at the build flies. */
+/* Bring the grid and the pair list up to date for this step: the particles that left their reach box, were
+ * injected, or flew off a deposit since the build are repaired in place; rebuilt when they are too many. */
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
+/* After particles_compact(p, keep) removed the particles with keep[i] == 0 of the old_count: the grid and
+ * the pair list follow, so that the next build need not start afresh. */
+void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count);
 /* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
  * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one. */
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
                       struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
 double time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
-/* Call visit(index, context) for every entry of the cells that the box [lo, hi] overlaps (a particle
- * may be visited once per shared cell).  Returns 0, or -1 without visiting if the box spans more than
- * max_cells cells. */
+/* Call visit(index, context) for every entry of the cells that the box [lo, hi] overlaps, and every
+ * repaired particle whose reach box overlaps it (a particle may be visited more than once).  Returns 0, or
+ * -1 without visiting if the box spans more than max_cells cells. */
 int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
                          void (*visit)(uint32_t index, void *context), void *context);
 /* Append one contact to a list. */

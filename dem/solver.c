@@ -101,7 +101,9 @@ static void apply_boundaries(struct dem_solver *s)
         }
     }
     if (removed) {
+        size_t old_count = p->count;
         particles_compact(p, keep);
+        broadphase_compact(&s->bins, keep, old_count);
         s->escaped += (int64_t)removed;
     }
     free(keep);
