@@ -116,7 +116,8 @@ void particles_reserve(struct dem_particles *p, size_t capacity);
 size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
                         const double w[3], double d, double density);
 void particles_free(struct dem_particles *p);
-/* Remove the particles with keep[i] == 0, preserving the order of the others. */
+/* Remove the particles with keep[i] == 0, preserving the order of the others (x_start, v_start, w_start
+ * excepted: they are scratch of the step and invalid after it). */
 void particles_compact(struct dem_particles *p, const uint8_t *keep);
 
 /* dem/inject.c */
