@@ -533,29 +533,52 @@ static void drop_renewed_pairs(struct dem_bins *bins)
     bins->pair_count = kept;
 }
 
-/* The pairs of renewed particle i with the particles still in the grid as built: from the cells of i's new
- * reach box, each pair from the cell that holds the lower corner of the boxes' intersection (both boxes
- * overlap that cell, and the partner has one entry there), as list_pairs does. */
-static void list_grid_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
+/* Call visit(entry, here, context) for every entry, of a particle still as built, that lies in cell `here` of
+ * the cells first..last (removed particles and the stale entries of repaired ones are skipped). */
+static void visit_built_entries(const struct dem_bins *bins, const int32_t first[3], const int32_t last[3],
+                                void (*visit)(const struct dem_bin_entry *entry, const int32_t here[3], void *context),
+                                void *context)
 {
-    const double *reach_i = bins->reach + 6 * i;
-    int32_t first[3], last[3], here[3];
-    box_cells(reach_i, reach_i + 3, bins->cell, first, last);
+    int32_t here[3];
     for (here[0] = first[0]; here[0] <= last[0]; here[0]++)
         for (here[1] = first[1]; here[1] <= last[1]; here[1]++)
             for (here[2] = first[2]; here[2] <= last[2]; here[2]++) {
                 uint32_t bucket = cell_hash(here, bins->bucket_count);
                 for (uint32_t e = bins->bucket_start[bucket]; e < bins->bucket_start[bucket + 1]; e++) {
                     const struct dem_bin_entry *entry = &bins->entries[e];
-                    uint32_t j = entry->index;
-                    if (j == REMOVED_ENTRY || bins->repaired[j] != AS_BUILT || both_deposited(p, i, j))
+                    if (entry->index == REMOVED_ENTRY || bins->repaired[entry->index] != AS_BUILT)
                         continue;
-                    if (entry->cell[0] != here[0] || entry->cell[1] != here[1] || entry->cell[2] != here[2])
-                        continue;
-                    if (owns_reach_pair(reach_i, bins->reach + 6 * j, here, bins->cell))
-                        pair_push_ordered(bins, i, j);
+                    if (entry->cell[0] == here[0] && entry->cell[1] == here[1] && entry->cell[2] == here[2])
+                        visit(entry, here, context);
                 }
             }
+}
+
+struct grid_pairs_query {
+    struct dem_bins *bins;
+    const struct dem_particles *p;
+    uint32_t i;
+};
+
+static void add_grid_pair(const struct dem_bin_entry *entry, const int32_t here[3], void *context)
+{
+    struct grid_pairs_query *q = context;
+    uint32_t j = entry->index;
+    if (!both_deposited(q->p, q->i, j) &&
+        owns_reach_pair(q->bins->reach + 6 * q->i, q->bins->reach + 6 * j, here, q->bins->cell))
+        pair_push_ordered(q->bins, q->i, j);
+}
+
+/* The pairs of renewed particle i with the particles still in the grid as built: from the cells of i's new
+ * reach box, each pair from the cell that holds the lower corner of the boxes' intersection (both boxes
+ * overlap that cell, and the partner has one entry there), as list_pairs does. */
+static void list_grid_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
+{
+    const double *reach_i = bins->reach + 6 * i;
+    int32_t first[3], last[3];
+    box_cells(reach_i, reach_i + 3, bins->cell, first, last);
+    struct grid_pairs_query query = {bins, p, i};
+    visit_built_entries(bins, first, last, add_grid_pair, &query);
 }
 
 /* The pairs of renewed particle i with the other repaired particles, tested directly; a pair of two renewed
@@ -658,6 +681,19 @@ void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_c
     free(moved_to);
 }
 
+/* broadphase_visit_box's visitor, called with the index of each entry */
+struct index_visit {
+    void (*visit)(uint32_t index, void *context);
+    void *context;
+};
+
+static void visit_index(const struct dem_bin_entry *entry, const int32_t here[3], void *context)
+{
+    (void)here;
+    const struct index_visit *forward = context;
+    forward->visit(entry->index, forward->context);
+}
+
 int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
                          void (*visit)(uint32_t index, void *context), void *context)
 {
@@ -668,19 +704,9 @@ int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const 
     }
     if (cells_in_range(first, last) > max_cells)
         return -1;
-    int32_t here[3];
-    for (here[0] = first[0]; here[0] <= last[0]; here[0]++)
-        for (here[1] = first[1]; here[1] <= last[1]; here[1]++)
-            for (here[2] = first[2]; here[2] <= last[2]; here[2]++) {
-                uint32_t bucket = cell_hash(here, bins->bucket_count);
-                for (uint32_t e = bins->bucket_start[bucket]; e < bins->bucket_start[bucket + 1]; e++) {
-                    const struct dem_bin_entry *entry = &bins->entries[e];
-                    if (entry->index == REMOVED_ENTRY || bins->repaired[entry->index] != AS_BUILT)
-                        continue; /* removed, or stale: repaired particles follow */
-                    if (entry->cell[0] == here[0] && entry->cell[1] == here[1] && entry->cell[2] == here[2])
-                        visit(entry->index, context);
-                }
-            }
+    struct index_visit forward = {visit, context};
+    visit_built_entries(bins, first, last, visit_index, &forward);
+    /* the repaired particles, whose grid entries are stale */
     double box[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
     for (size_t k = 0; k < bins->repaired_count; k++)
         if (reach_boxes_overlap(bins->reach + 6 * bins->repaired_list[k], box))
