@@ -125,7 +125,8 @@ FM_INLINE struct eq53_squares phi_iterate(const struct phi_problem *problem, con
     return q;
 }
 
-/* The drag force f at (x, v), with the slip and Re^0.6459 there, from which the response time follows. */
+/* The drag force f at (x, v), with the slip and Re^0.6459 there, from which the response time follows
+ * (gas_eval_response_time). */
 FM_INLINE void drag_and_slip(const struct gas_field *gas, double d, const double x[3], const double v[3], double f[3],
                                  double *slip, double *reynolds_power)
 {
@@ -134,14 +135,6 @@ FM_INLINE void drag_and_slip(const struct gas_field *gas, double d, const double
     *slip = gas_eval_slip(v, u, relative);
     *reynolds_power = gas_eval_reynolds_power(gas_eval_reynolds(gas, d, *slip));
     gas_eval_drag_from_slip(gas, d, relative, *slip, *reynolds_power, f);
-}
-
-FM_INLINE void drag_and_response_time(const struct gas_field *gas, double density, double d, const double x[3],
-                                          const double v[3], double f[3], double *tau)
-{
-    double slip, power;
-    drag_and_slip(gas, d, x, v, f, &slip, &power);
-    *tau = gas_eval_response_time(gas, density, d, slip, power);
 }
 
 /* Where a step ended: whether the force there is known, and if so the force, slip and Re^0.6459. */
