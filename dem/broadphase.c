@@ -387,8 +387,10 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
 }
 
 /* inside[i] for the particles [first, end): is its swept box of the step inside its reach box, is it the
- * same particle as at the build, and not deposited then and flying now?  No branches (the sweep of a
- * deposited particle, at rest, is v * 0; no lesser or greater). */
+ * same particle as at the build, and not deposited then and flying now?  A particle deposited at the build
+ * (or its repair) is still where its box was made for it (deposits never move), so it passes without the
+ * test, exactly as the test would pass it; late in a spray most particles are such deposits, in long runs of
+ * indices.  No other branches (the sweep of a deposited particle, at rest, is v * 0; no lesser or greater). */
 static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
                         size_t end, uint8_t *restrict inside)
 {
@@ -397,6 +399,10 @@ static void reach_flags(const struct dem_bins *bins, const struct dem_particles 
     const int64_t *restrict id = p->id, *restrict built_id = bins->built_id;
     const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
+        if (!built_flying[i] && id[i] == built_id[i]) {
+            inside[i] = 1;
+            continue;
+        }
         int flying = state[i] == DEM_FLYING;
         double radius = 0.5 * d[i] * (1.0 + BOX_MARGIN), span = flying ? dt : 0.0;
         int holds = (id[i] == built_id[i]) & (built_flying[i] | !flying);

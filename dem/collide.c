@@ -47,9 +47,8 @@ void dem_detect_contacts(struct dem_solver *s)
     s->candidates.count = 0;
     broadphase_build(&s->bins, p, s->cfg.dt);
     broadphase_pairs(&s->bins, p, s->cfg.dt, &s->candidates);
-    for (size_t i = 0; i < p->count; i++)
-        if (p->state[i] == DEM_FLYING)
-            find_target_contact(s, (uint32_t)i, &s->candidates);
+    for (size_t k = 0; k < s->moving_count; k++)
+        find_target_contact(s, s->moving[k], &s->candidates);
     if (s->candidates.count > 1)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
@@ -99,14 +98,16 @@ static struct sphere_state sphere_of(const struct dem_particles *p, uint32_t i, 
     return sphere;
 }
 
-/* Before the first change of particle i's velocity or spin in this step: keep them as they were at its start
- * (the hand-off row of a particle that sticks in this step carries them).  Only the particles that collide
- * are copied, not every particle every step. */
+/* Before the first change of particle i's velocity or spin in this step: keep them and its position as they
+ * were at its start (the hand-off row of a particle that sticks in this step carries them).  Only the
+ * particles that collide are copied, not every particle every step (dem_integrate keeps the start positions
+ * of the others). */
 static void keep_start_velocity(struct dem_solver *s, uint32_t i)
 {
     struct dem_particles *p = &s->p;
     if (s->start_kept[i])
         return;
+    memcpy(p->x_start + 3 * i, p->x + 3 * i, 3 * sizeof(double));
     memcpy(p->v_start + 3 * i, p->v + 3 * i, 3 * sizeof(double));
     memcpy(p->w_start + 3 * i, p->w + 3 * i, 3 * sizeof(double));
     s->start_kept[i] = 1;
@@ -121,14 +122,31 @@ static void store_sphere(struct dem_solver *s, uint32_t i, const struct sphere_s
     memcpy(p->w + 3 * i, sphere->w, sizeof sphere->w);
 }
 
+/* Where particle i's current path starts, and when.  Until its velocity changes in this step (start_kept),
+ * a particle is on the path it started the step on: from x at time 0 (contacts move no particle but the one
+ * that sticks, and that one starts a new path), so only the particles that collide need path_x and path_time,
+ * and a deposit of an earlier step is at x. */
+static const double *path_origin(const struct dem_solver *s, uint32_t i)
+{
+    return s->start_kept[i] ? s->path_x + 3 * i : s->p.x + 3 * i;
+}
+
+static double path_start_time(const struct dem_solver *s, uint32_t i)
+{
+    return s->start_kept[i] ? s->path_time[i] : 0.0;
+}
+
 /* Centre of particle i at time `at` of the step, on its current path. */
 static void path_position(const struct dem_solver *s, uint32_t i, double at, double out[3])
 {
+    const double *origin = path_origin(s, i);
+    double since = at - path_start_time(s, i);
     for (int k = 0; k < 3; k++)
-        out[k] = s->path_x[3 * i + k] + s->p.v[3 * i + k] * (at - s->path_time[i]);
+        out[k] = origin[k] + s->p.v[3 * i + k] * since;
 }
 
-/* After a velocity change at time `at` with the particle at x: its path restarts there. */
+/* After a velocity change at time `at` (keep_start_velocity came first) with the particle at x: its path
+ * restarts there. */
 static void path_restart(struct dem_solver *s, uint32_t i, double at, const double x[3])
 {
     s->path_time[i] = at;
@@ -146,15 +164,15 @@ static double contact_time(const struct dem_solver *s, uint32_t i, int64_t partn
     const struct dem_particles *p = &s->p;
     const double dt = s->cfg.dt;
     if (partner < 0) {
-        double vz = p->v[3 * i + 2], start = s->path_time[i];
-        double gap = s->cfg.standoff - 0.5 * p->d[i] - s->path_x[3 * i + 2];
+        double vz = p->v[3 * i + 2], start = path_start_time(s, i);
+        double gap = s->cfg.standoff - 0.5 * p->d[i] - path_origin(s, i)[2];
         if (vz <= 0.0)
             return -1.0;
         double at = gap <= 0.0 ? start : start + gap / vz;
         return at <= dt ? at : -1.0;
     }
     uint32_t j = (uint32_t)partner;
-    double start = fmax(s->path_time[i], s->path_time[j]), xi[3], xj[3], dx[3], dv[3];
+    double start = fmax(path_start_time(s, i), path_start_time(s, j)), xi[3], xj[3], dx[3], dv[3];
     path_position(s, i, start, xi);
     path_position(s, j, start, xj);
     for (int k = 0; k < 3; k++) {
@@ -328,10 +346,11 @@ static void consider_partner(uint32_t j, void *context)
 static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], double hi[3])
 {
     double end[3], radius = 0.5 * s->p.d[i] * (1.0 + 1e-9);
+    const double *origin = path_origin(s, i);
     path_position(s, i, s->cfg.dt, end);
     for (int c = 0; c < 3; c++) {
-        lo[c] = fmin(s->path_x[3 * i + c], end[c]) - radius;
-        hi[c] = fmax(s->path_x[3 * i + c], end[c]) + radius;
+        lo[c] = fmin(origin[c], end[c]) - radius;
+        hi[c] = fmax(origin[c], end[c]) + radius;
     }
 }
 
@@ -407,18 +426,22 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
 static void resolve_secondary_contacts(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    uint32_t *moved = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *moved);
+    uint32_t *moved = dem_realloc_or_die(NULL, (s->moving_count ? s->moving_count : 1) * sizeof *moved);
     struct dem_candidates found = {0};
     for (int pass = 0; pass < SECONDARY_PASSES; pass++) {
+        /* only a particle flying at the step's start can have changed its path */
         size_t moved_count = 0;
-        for (size_t i = 0; i < p->count; i++)
+        for (size_t k = 0; k < s->moving_count; k++) {
+            uint32_t i = s->moving[k];
             if (s->path_changed[i] && p->state[i] == DEM_FLYING)
-                moved[moved_count++] = (uint32_t)i;
+                moved[moved_count++] = i;
+        }
         if (moved_count == 0)
             break;
         found.count = 0;
         find_secondary_contacts(s, moved, moved_count, &found);
-        memset(s->path_changed, 0, p->count);
+        for (size_t k = 0; k < s->moving_count; k++)
+            s->path_changed[s->moving[k]] = 0;
         if (found.count > 1)
             qsort(found.items, found.count, sizeof *found.items, candidate_order);
         for (size_t k = 0; k < found.count; k++) {
@@ -435,26 +458,52 @@ static void resolve_secondary_contacts(struct dem_solver *s)
     free(moved);
 }
 
+/* s->moving: the flying particles, in index order. */
+static void list_moving(struct dem_solver *s)
+{
+    const struct dem_particles *p = &s->p;
+    if (p->count > s->moving_capacity) {
+        s->moving_capacity = p->capacity;
+        s->moving = dem_realloc_or_die(s->moving, s->moving_capacity * sizeof *s->moving);
+    }
+    size_t n = 0;
+    for (size_t i = 0; i < p->count; i++) {
+        s->moving[n] = (uint32_t)i;
+        n += p->state[i] == DEM_FLYING; /* no branch: deposits and flyers interleave */
+    }
+    s->moving_count = n;
+}
+
+/* The per-particle scratch of the contacts, grown with the particles.  Its flags are 0 between steps
+ * (dem_contacts_end_step clears those of the step's moving particles), new slots too. */
+static void ensure_path_capacity(struct dem_solver *s)
+{
+    const struct dem_particles *p = &s->p;
+    if (p->count <= s->path_capacity)
+        return;
+    size_t old = s->path_capacity, capacity = p->capacity;
+    s->path_time = dem_realloc_or_die(s->path_time, capacity * sizeof(double));
+    s->path_x = dem_realloc_or_die(s->path_x, 3 * capacity * sizeof(double));
+    s->path_changed = dem_realloc_or_die(s->path_changed, capacity);
+    s->seen = dem_realloc_or_die(s->seen, capacity * sizeof *s->seen);
+    s->start_kept = dem_realloc_or_die(s->start_kept, capacity);
+    memset(s->path_changed + old, 0, capacity - old);
+    memset(s->seen + old, 0, (capacity - old) * sizeof *s->seen);
+    memset(s->start_kept + old, 0, capacity - old);
+    s->path_capacity = capacity;
+}
+
+void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
+{
+    s->start_kept[i] = 0;
+    s->path_changed[i] = 0;
+}
+
 void dem_collide(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    /* the start-of-step positions: the sweep of every particle (contacts) and the hand-off crossings; the
-     * start velocities and spins only of the particles that collide (keep_start_velocity) */
-    memcpy(p->x_start, p->x, 3 * p->count * sizeof(double));
-    if (p->count > s->path_capacity) {
-        s->path_capacity = p->capacity;
-        s->path_time = dem_realloc_or_die(s->path_time, s->path_capacity * sizeof(double));
-        s->path_x = dem_realloc_or_die(s->path_x, 3 * s->path_capacity * sizeof(double));
-        s->path_changed = dem_realloc_or_die(s->path_changed, s->path_capacity);
-        s->seen = dem_realloc_or_die(s->seen, s->path_capacity * sizeof *s->seen);
-        s->start_kept = dem_realloc_or_die(s->start_kept, s->path_capacity);
-    }
-    memset(s->start_kept, 0, p->count);
-    memset(s->path_time, 0, p->count * sizeof(double));
-    memset(s->path_changed, 0, p->count);
-    memset(s->seen, 0, p->count * sizeof *s->seen);
-    s->seen_stamp = 0;
-    memcpy(s->path_x, p->x, 3 * p->count * sizeof(double));
+    list_moving(s);
+    ensure_path_capacity(s);
     dem_detect_contacts(s);
     /* In the order found; each contact's time and geometry come from the paths current when it is
      * resolved (contact_time), so a contact made void by an earlier one is dropped. */

@@ -11,7 +11,8 @@
 struct dem_particles {
     size_t count, capacity;
     double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
-    double *x_start;       /* position at the start of the step (hand-off crossings, sweeps) */
+    double *x_start;       /* position at the start of the step, of the particles that flew at its start
+                            * (hand-off crossings; dem/integrate.c, dem/collide.c keep_start_velocity) */
     double *v_start;       /* velocity and spin at the start of the step, kept only for the particles that */
     double *w_start;       /* collided in it (dem/collide.c): the hand-off rows of particles that stuck */
     double *d, *m;         /* diameter (m), mass (kg) */
@@ -86,12 +87,19 @@ struct dem_solver {
     struct dem_bins bins;
     struct dem_candidates candidates;
     int reuse_drag;               /* start a step from the kept drag (dem_particles: drag_kept); 1 but in tests */
+    /* The particles flying at the start of the step, in index order (dem_collide lists them; the
+     * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
+    uint32_t *moving;
+    size_t moving_count, moving_capacity;
     /* Paths within the step, for contacts resolved after an earlier velocity change: particle i is at
-     * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity. */
+     * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity; valid only
+     * where start_kept[i] is set (a particle whose velocity has not changed is on its start path: x at 0). */
     double *path_time, *path_x;
     uint8_t *path_changed;        /* set when the path restarts; read by the next pass of contacts */
-    uint8_t *start_kept;          /* set when v_start and w_start of the particle hold this step's start */
-    uint32_t *seen;               /* per particle: stamp of the last grid query that visited it */
+    uint8_t *start_kept;          /* set when x_start, v_start and w_start of the particle hold this step's
+                                   * start (it collided) and its path restarted */
+    uint32_t *seen;               /* per particle: stamp of the last grid query that visited it (only equality
+                                   * with the current stamp counts; stamps grow from step to step) */
     uint32_t seen_stamp;
     size_t path_capacity;
     struct dem_counts stats;      /* cumulative contact and iteration counts */
@@ -150,8 +158,12 @@ void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t
 
 /* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */
 void dem_detect_contacts(struct dem_solver *s);
-/* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time. */
+/* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time; lists the
+ * step's moving particles (s->moving) first. */
 void dem_collide(struct dem_solver *s);
+/* dem/collide.c: the step is over for moving particle i (its hand-off row is written): its contact flags are
+ * cleared, so that they are 0 for every particle between steps. */
+void dem_contacts_end_step(struct dem_solver *s, uint32_t i);
 
 /* dem/integrate.c: advance the free particles over one step with the phi-scheme. */
 int dem_integrate(struct dem_solver *s);

@@ -525,16 +525,26 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
     }
 }
 
-/* Indices of the flying particles, in order. */
-static uint32_t *flying_particles(const struct dem_particles *p, size_t *count)
+/* Indices of the flying particles, in order: the moving ones of the step less those that deposited. */
+static uint32_t *flying_particles(const struct dem_solver *s, size_t *count)
 {
-    uint32_t *flying = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *flying);
+    uint32_t *flying = dem_realloc_or_die(NULL, (s->moving_count ? s->moving_count : 1) * sizeof *flying);
     size_t n = 0;
-    for (size_t i = 0; i < p->count; i++)
-        if (p->state[i] == DEM_FLYING)
-            flying[n++] = (uint32_t)i;
+    for (size_t k = 0; k < s->moving_count; k++) {
+        flying[n] = s->moving[k];
+        n += s->p.state[s->moving[k]] == DEM_FLYING;
+    }
     *count = n;
     return flying;
+}
+
+/* The hand-off crossings need the start positions of the particles that fly through the step; those that
+ * collided in it kept theirs already (dem/collide.c), the same position, since a contact moves only the
+ * particle that sticks. */
+static void keep_start_positions(struct dem_particles *p, const uint32_t *flying, size_t count)
+{
+    for (size_t k = 0; k < count; k++)
+        memcpy(p->x_start + 3 * flying[k], p->x + 3 * flying[k], 3 * sizeof(double));
 }
 
 /* No smooth forces: exact free flight. */
@@ -542,32 +552,48 @@ static void integrate_free_flight(const struct dem_config *cfg, struct dem_parti
                                   size_t count)
 {
 #pragma omp parallel for schedule(static) if (count >= DEM_PARALLEL_MIN)
-    for (size_t k = 0; k < count; k++)
+    for (size_t k = 0; k < count; k++) {
+        keep_start_positions(p, flying + k, 1);
         for (int c = 0; c < 3; c++)
             p->x[3 * flying[k] + c] += cfg->dt * p->v[3 * flying[k] + c];
+    }
 }
 
-static int first_non_finite(const struct dem_particles *p, size_t *index, const char **quantity)
+static int value_non_finite(const struct dem_particles *p, uint32_t i, const char **quantity)
 {
-    for (size_t i = 0; i < p->count; i++) {
-        for (int c = 0; c < 3; c++) {
-            if (!isfinite(p->x[3 * i + c]) || !isfinite(p->v[3 * i + c]) || !isfinite(p->w[3 * i + c])) {
-                *index = i;
-                *quantity = !isfinite(p->x[3 * i + c]) ? "position" : !isfinite(p->v[3 * i + c]) ? "velocity" : "spin";
-                return 1;
-            }
+    for (int c = 0; c < 3; c++) {
+        if (!isfinite(p->x[3 * i + c]) || !isfinite(p->v[3 * i + c]) || !isfinite(p->w[3 * i + c])) {
+            *quantity = !isfinite(p->x[3 * i + c]) ? "position" : !isfinite(p->v[3 * i + c]) ? "velocity" : "spin";
+            return 1;
         }
     }
     return 0;
 }
 
-/* Is any coordinate of x, v or w not finite?  x - x is 0 for a finite x and NaN otherwise: one pass without
- * branches, which vectorises, where first_non_finite tests each value and would cost 2 % of a step. */
-static int any_non_finite(const struct dem_particles *p)
+/* The first of the step's moving particles (the only ones whose state changed in it: every deposit was
+ * checked in the step it deposited) with a coordinate of x, v or w not finite. */
+static int first_non_finite(const struct dem_solver *s, size_t *index, const char **quantity)
 {
+    for (size_t k = 0; k < s->moving_count; k++) {
+        if (value_non_finite(&s->p, s->moving[k], quantity)) {
+            *index = s->moving[k];
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Is any coordinate of x, v or w of a moving particle not finite?  x - x is 0 for a finite x and NaN
+ * otherwise: no branches, where first_non_finite tests each value. */
+static int any_non_finite(const struct dem_solver *s)
+{
+    const double *x = s->p.x, *v = s->p.v, *w = s->p.w;
     int bad = 0;
-    for (size_t k = 0; k < 3 * p->count; k++)
-        bad |= !(p->x[k] - p->x[k] == 0.0) | !(p->v[k] - p->v[k] == 0.0) | !(p->w[k] - p->w[k] == 0.0);
+    for (size_t k = 0; k < s->moving_count; k++)
+        for (int c = 0; c < 3; c++) {
+            size_t at = 3 * (size_t)s->moving[k] + (size_t)c;
+            bad |= !(x[at] - x[at] == 0.0) | !(v[at] - v[at] == 0.0) | !(w[at] - w[at] == 0.0);
+        }
     return bad;
 }
 
@@ -576,7 +602,7 @@ int dem_integrate(struct dem_solver *s)
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
     size_t flying_count;
-    uint32_t *flying = flying_particles(p, &flying_count);
+    uint32_t *flying = flying_particles(s, &flying_count);
     struct iteration_count total = {.max_iterations = s->stats.max_iterations};
     if (cfg->gas.model == JET_NONE) {
         integrate_free_flight(cfg, p, flying, flying_count);
@@ -592,6 +618,7 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp for schedule(dynamic, 4)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
+                keep_start_positions(p, flying + first, n);
                 block_load(p, reuse_drag, b, flying + first, n);
                 integrate_block(cfg, p, b, &count);
             }
@@ -616,7 +643,7 @@ int dem_integrate(struct dem_solver *s)
     s->stats.max_iterations = total.max_iterations;
     size_t bad;
     const char *quantity;
-    if (any_non_finite(p) && first_non_finite(p, &bad, &quantity))
+    if (any_non_finite(s) && first_non_finite(s, &bad, &quantity))
         SC_FAIL(SC_ESIM, "spray: step %lld (t = %.9g s): particle %lld: %s is not finite (NaN or Inf)",
                 (long long)s->step, (double)s->step * cfg->dt, (long long)p->id[bad], quantity);
     return SC_OK;

@@ -31,6 +31,7 @@ void dem_destroy(struct dem_solver *s)
     particles_free(&s->p);
     dem_bins_free(&s->bins);
     free(s->candidates.items);
+    free(s->moving);
     free(s->path_time);
     free(s->path_x);
     free(s->path_changed);
@@ -69,21 +70,23 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
     row->d = p->d[i];
 }
 
-/* Hand-off crossings, the target plane as a hard limit, escape. */
+/* Hand-off crossings, the target plane as a hard limit, escape: of the particles that flew at the start of
+ * the step (a deposit of an earlier step stays where it is, and had x_start = x). */
 static void apply_boundaries(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
     const double plane = cfg->standoff - cfg->handoff_height;
     const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
-    uint8_t *keep = dem_realloc_or_die(NULL, p->count ? p->count : 1);
+    uint8_t *keep = NULL;
     size_t removed = 0;
-    for (size_t i = 0; i < p->count; i++) {
-        keep[i] = 1;
+    for (size_t k = 0; k < s->moving_count; k++) {
+        uint32_t i = s->moving[k];
         double *x = p->x + 3 * i;
-        /* also particles that crossed and stuck in this step; earlier deposits have x_start = x */
+        /* also particles that crossed and stuck in this step */
         if (p->x_start[3 * i + 2] < plane && x[2] >= plane)
             record_handoff(s, i, plane);
+        dem_contacts_end_step(s, i);
         if (p->state[i] != DEM_FLYING)
             continue;
         /* A particle that would end the step inside the target stops at it; its contact is resolved at
@@ -96,6 +99,10 @@ static void apply_boundaries(struct dem_solver *s)
         int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
         int behind_nozzle = x[2] < 0.0 && p->v[3 * i + 2] < 0.0;
         if (outside || behind_nozzle) {
+            if (!keep) {
+                keep = dem_realloc_or_die(NULL, p->count);
+                memset(keep, 1, p->count);
+            }
             keep[i] = 0;
             removed++;
         }
