@@ -525,16 +525,24 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
     }
 }
 
-/* Indices of the flying particles, in order: the moving ones of the step less those that deposited. */
-static uint32_t *flying_particles(const struct dem_solver *s, size_t *count)
+/* The moving particles of the step split, in order: those still flying (flying[0, *count)) and those that
+ * deposited in it (landed[0, *landed_count)). */
+static uint32_t *flying_particles(const struct dem_solver *s, size_t *count, uint32_t **landed, size_t *landed_count)
 {
-    uint32_t *flying = dem_realloc_or_die(NULL, (s->moving_count ? s->moving_count : 1) * sizeof *flying);
-    size_t n = 0;
+    size_t slots = s->moving_count ? s->moving_count : 1;
+    uint32_t *flying = dem_realloc_or_die(NULL, slots * sizeof *flying);
+    *landed = dem_realloc_or_die(NULL, slots * sizeof **landed);
+    size_t n = 0, m = 0;
     for (size_t k = 0; k < s->moving_count; k++) {
-        flying[n] = s->moving[k];
-        n += s->p.state[s->moving[k]] == DEM_FLYING;
+        uint32_t i = s->moving[k];
+        int flies = s->p.state[i] == DEM_FLYING;
+        flying[n] = i;
+        (*landed)[m] = i;
+        n += flies;
+        m += !flies;
     }
     *count = n;
+    *landed_count = m;
     return flying;
 }
 
@@ -583,15 +591,16 @@ static int first_non_finite(const struct dem_solver *s, size_t *index, const cha
     return 0;
 }
 
-/* Is any coordinate of x, v or w of a moving particle not finite?  x - x is 0 for a finite x and NaN
- * otherwise: no branches, where first_non_finite tests each value. */
-static int any_non_finite(const struct dem_solver *s)
+/* Is any coordinate of x, v or w of the listed particles not finite?  x - x is 0 for a finite x and NaN
+ * otherwise: no branches, where first_non_finite tests each value.  Run on each block as it is integrated,
+ * while its particles are in cache. */
+static int any_non_finite(const struct dem_particles *p, const uint32_t *list, size_t count)
 {
-    const double *x = s->p.x, *v = s->p.v, *w = s->p.w;
+    const double *x = p->x, *v = p->v, *w = p->w;
     int bad = 0;
-    for (size_t k = 0; k < s->moving_count; k++)
+    for (size_t k = 0; k < count; k++)
         for (int c = 0; c < 3; c++) {
-            size_t at = 3 * (size_t)s->moving[k] + (size_t)c;
+            size_t at = 3 * (size_t)list[k] + (size_t)c;
             bad |= !(x[at] - x[at] == 0.0) | !(v[at] - v[at] == 0.0) | !(w[at] - w[at] == 0.0);
         }
     return bad;
@@ -601,11 +610,14 @@ int dem_integrate(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
-    size_t flying_count;
-    uint32_t *flying = flying_particles(s, &flying_count);
+    size_t flying_count, landed_count;
+    uint32_t *landed, *flying = flying_particles(s, &flying_count, &landed, &landed_count);
     struct iteration_count total = {.max_iterations = s->stats.max_iterations};
+    int bad = any_non_finite(p, landed, landed_count);
+    free(landed);
     if (cfg->gas.model == JET_NONE) {
         integrate_free_flight(cfg, p, flying, flying_count);
+        bad |= any_non_finite(p, flying, flying_count);
     } else {
         const int reuse_drag = s->reuse_drag;
         size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
@@ -614,6 +626,7 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp parallel if (flying_count >= DEM_PARALLEL_MIN_INTEGRATE)
         {
             struct iteration_count count = {0};
+            int bad_here = 0;
             struct block *b = dem_realloc_or_die(NULL, sizeof *b);
 #pragma omp for schedule(dynamic, 4)
             for (size_t k = 0; k < blocks; k++) {
@@ -621,10 +634,12 @@ int dem_integrate(struct dem_solver *s)
                 keep_start_positions(p, flying + first, n);
                 block_load(p, reuse_drag, b, flying + first, n);
                 integrate_block(cfg, p, b, &count);
+                bad_here |= any_non_finite(p, flying + first, n);
             }
             free(b);
 #pragma omp critical(dem_integrate_counts)
             {
+                bad |= bad_here;
                 total.iterations += count.iterations;
                 total.solves += count.solves;
                 total.unconverged += count.unconverged;
@@ -641,10 +656,10 @@ int dem_integrate(struct dem_solver *s)
     s->stats.subcycled_particle_steps += total.subcycled;
     s->stats.particle_steps += (int64_t)flying_count;
     s->stats.max_iterations = total.max_iterations;
-    size_t bad;
+    size_t first_bad;
     const char *quantity;
-    if (any_non_finite(s) && first_non_finite(s, &bad, &quantity))
+    if (bad && first_non_finite(s, &first_bad, &quantity))
         SC_FAIL(SC_ESIM, "spray: step %lld (t = %.9g s): particle %lld: %s is not finite (NaN or Inf)",
-                (long long)s->step, (double)s->step * cfg->dt, (long long)p->id[bad], quantity);
+                (long long)s->step, (double)s->step * cfg->dt, (long long)p->id[first_bad], quantity);
     return SC_OK;
 }
