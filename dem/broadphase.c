@@ -134,11 +134,32 @@ static size_t cells_in_range(const int32_t lo[3], const int32_t hi[3])
     return (size_t)(hi[0] - lo[0] + 1) * (size_t)(hi[1] - lo[1] + 1) * (size_t)(hi[2] - lo[2] + 1);
 }
 
+/* A power of two at least twice the number of entries: short chains, and the counting sort's passes over
+ * the buckets cost no more than those over the entries.  (Sized from the particles, at 8 per particle, the
+ * buckets outnumbered the entries 9 to 1 late in the Table 1 case, where half the particles are deposits
+ * with one entry each, and clearing and summing them was most of a rebuild.)  Which buckets the cells share
+ * changes no result: a pair is listed from one cell, whatever its bucket, and the contacts are sorted. */
+static size_t bucket_count_for(size_t entries)
+{
+    size_t buckets = 1024;
+    while (buckets < 2 * entries)
+        buckets *= 2;
+    return buckets;
+}
+
+static void set_bucket_count(struct dem_bins *bins, size_t buckets)
+{
+    if (buckets == bins->bucket_count)
+        return;
+    bins->bucket_start = dem_realloc_or_die(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
+    bins->bucket_count = buckets;
+}
+
 /* Write the entries of every particle (in particle order) into bins->scratch and their buckets into
- * bins->entry_bucket; returns their number.  Two parallel passes: find each particle's cells (kept, so that
- * the second pass does not divide and round again), then (after a prefix sum) write them at their offsets,
- * so the order is the same for any thread count. */
-static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p, size_t buckets)
+ * bins->entry_bucket, the bucket count chosen for them; returns their number.  Two parallel passes: find
+ * each particle's cells (kept, so that the second pass does not divide and round again), then (after a
+ * prefix sum) write them at their offsets, so the order is the same for any thread count. */
+static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p)
 {
     size_t *offset = dem_realloc_or_die(NULL, (p->count + 1) * sizeof *offset);
     int32_t *cells = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * 6 * sizeof *cells);
@@ -153,6 +174,8 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
         offset[i + 1] += offset[i];
     size_t count = offset[p->count];
     ensure_capacity(bins, count);
+    set_bucket_count(bins, bucket_count_for(count));
+    const size_t buckets = bins->bucket_count;
 #pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         const int32_t *lo = cells + 6 * i, *hi = lo + 3;
@@ -171,23 +194,10 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p,
     return count;
 }
 
-/* A power of two at least twice the expected number of entries (about 3 per particle). */
-static size_t bucket_count_for(size_t particles)
-{
-    size_t buckets = 1024;
-    while (buckets < 8 * particles)
-        buckets *= 2;
-    return buckets;
-}
-
 static void grid_fill(struct dem_bins *bins, const struct dem_particles *p)
 {
-    size_t buckets = bucket_count_for(p->count);
-    if (buckets != bins->bucket_count) {
-        bins->bucket_start = dem_realloc_or_die(bins->bucket_start, (buckets + 1) * sizeof(uint32_t));
-        bins->bucket_count = buckets;
-    }
-    size_t count = fill_entries(bins, p, buckets);
+    size_t count = fill_entries(bins, p);
+    size_t buckets = bins->bucket_count;
     bins->entry_count = count;
     memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
     for (size_t e = 0; e < count; e++)
