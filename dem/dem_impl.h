@@ -91,6 +91,10 @@ struct dem_solver {
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;
     size_t moving_count, moving_capacity;
+    /* The moving particles that the step's boundaries concern (dem_at_boundary), in index order: found by
+     * dem_integrate as each particle finishes the step, handled by the step's end (dem/solver.c). */
+    uint32_t *at_boundary;
+    size_t at_boundary_count, at_boundary_capacity;
     /* Paths within the step, for contacts resolved after an earlier velocity change: particle i is at
      * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity; valid only
      * where start_kept[i] is set (a particle whose velocity has not changed is on its start path: x at 0). */
@@ -161,12 +165,17 @@ void dem_detect_contacts(struct dem_solver *s);
 /* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time; lists the
  * step's moving particles (s->moving) first. */
 void dem_collide(struct dem_solver *s);
-/* dem/collide.c: the step is over for moving particle i (its hand-off row is written): its contact flags are
- * cleared, so that they are 0 for every particle between steps. */
+/* dem/collide.c: the contacts of the step are over for moving particle i: its contact flags are cleared, so
+ * that they are 0 for every particle between steps. */
 void dem_contacts_end_step(struct dem_solver *s, uint32_t i);
 
-/* dem/integrate.c: advance the free particles over one step with the phi-scheme. */
+/* dem/integrate.c: advance the free particles over one step with the phi-scheme; end the contacts of the
+ * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */
 int dem_integrate(struct dem_solver *s);
+
+/* dem/solver.c: does the end of this step concern moving particle i (a hand-off crossing, the target plane,
+ * an escape)?  Reads only i's state: dem_integrate asks it in parallel. */
+int dem_at_boundary(const struct dem_solver *s, uint32_t i);
 
 /* dem/output.c */
 void dem_sample_metrics(struct dem_solver *s);

@@ -606,6 +606,42 @@ static int any_non_finite(const struct dem_particles *p, const uint32_t *list, s
     return bad;
 }
 
+/* The end of the step for the listed particles, which have finished it: their contacts are over, and those
+ * at a boundary go to hits[0, return value), in order. */
+static size_t finish_particles(struct dem_solver *s, const uint32_t *list, size_t count, uint32_t *hits)
+{
+    size_t n = 0;
+    for (size_t k = 0; k < count; k++) {
+        dem_contacts_end_step(s, list[k]);
+        hits[n] = list[k];
+        n += dem_at_boundary(s, list[k]) != 0;
+    }
+    return n;
+}
+
+/* s->at_boundary: the merge, in index order, of the landed particles at a boundary and the flying ones,
+ * found block by block (block k's in hits[k * BLOCK, k * BLOCK + hit_count[k])). */
+static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_t landed_count, const uint32_t *hits,
+                             const uint8_t *hit_count, size_t blocks)
+{
+    size_t most = landed_count + blocks * BLOCK;
+    if (most > s->at_boundary_capacity) {
+        s->at_boundary_capacity = most + most / 2 + 64;
+        s->at_boundary = dem_realloc_or_die(s->at_boundary, s->at_boundary_capacity * sizeof *s->at_boundary);
+    }
+    size_t n = 0, next_landed = 0;
+    for (size_t k = 0; k < blocks; k++)
+        for (size_t h = 0; h < hit_count[k]; h++) {
+            uint32_t i = hits[k * BLOCK + h];
+            while (next_landed < landed_count && landed[next_landed] < i)
+                s->at_boundary[n++] = landed[next_landed++];
+            s->at_boundary[n++] = i;
+        }
+    while (next_landed < landed_count)
+        s->at_boundary[n++] = landed[next_landed++];
+    s->at_boundary_count = n;
+}
+
 int dem_integrate(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
@@ -614,13 +650,19 @@ int dem_integrate(struct dem_solver *s)
     uint32_t *landed, *flying = flying_particles(s, &flying_count, &landed, &landed_count);
     struct iteration_count total = {.max_iterations = s->stats.max_iterations};
     int bad = any_non_finite(p, landed, landed_count);
-    free(landed);
+    size_t landed_hits = finish_particles(s, landed, landed_count, landed);
+    size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
+    uint32_t *hits = dem_realloc_or_die(NULL, (blocks ? blocks : 1) * BLOCK * sizeof *hits);
+    uint8_t *hit_count = dem_realloc_or_die(NULL, blocks ? blocks : 1);
     if (cfg->gas.model == JET_NONE) {
         integrate_free_flight(cfg, p, flying, flying_count);
         bad |= any_non_finite(p, flying, flying_count);
+        for (size_t k = 0; k < blocks; k++) {
+            size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
+            hit_count[k] = (uint8_t)finish_particles(s, flying + first, n, hits + first);
+        }
     } else {
         const int reuse_drag = s->reuse_drag;
-        size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
         /* Each particle's update is independent and the reductions are integer sums, so the result does not
          * depend on the schedule; the vector lanes give the bits of the scalar code. */
 #pragma omp parallel if (flying_count >= DEM_PARALLEL_MIN_INTEGRATE)
@@ -635,6 +677,7 @@ int dem_integrate(struct dem_solver *s)
                 block_load(p, reuse_drag, b, flying + first, n);
                 integrate_block(cfg, p, b, &count);
                 bad_here |= any_non_finite(p, flying + first, n);
+                hit_count[k] = (uint8_t)finish_particles(s, flying + first, n, hits + first);
             }
             free(b);
 #pragma omp critical(dem_integrate_counts)
@@ -649,6 +692,10 @@ int dem_integrate(struct dem_solver *s)
             }
         }
     }
+    list_at_boundary(s, landed, landed_hits, hits, hit_count, blocks);
+    free(hits);
+    free(hit_count);
+    free(landed);
     free(flying);
     s->stats.fixed_point_iterations += total.iterations;
     s->stats.fixed_point_solves += total.solves;

@@ -32,6 +32,7 @@ void dem_destroy(struct dem_solver *s)
     dem_bins_free(&s->bins);
     free(s->candidates.items);
     free(s->moving);
+    free(s->at_boundary);
     free(s->path_time);
     free(s->path_x);
     free(s->path_changed);
@@ -70,35 +71,59 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
     row->d = p->d[i];
 }
 
-/* Hand-off crossings, the target plane as a hard limit, escape: of the particles that flew at the start of
- * the step (a deposit of an earlier step stays where it is, and had x_start = x). */
+static double handoff_plane(const struct dem_config *cfg) { return cfg->standoff - cfg->handoff_height; }
+
+/* Did particle i cross the hand-off plane in this step (also a particle that crossed and stuck in it)? */
+static int crossed_handoff(const struct dem_solver *s, uint32_t i)
+{
+    const double plane = handoff_plane(&s->cfg);
+    return s->p.x_start[3 * i + 2] < plane && s->p.x[3 * i + 2] >= plane;
+}
+
+/* Would flying particle i end the step inside the target? */
+static int beyond_target(const struct dem_solver *s, uint32_t i)
+{
+    return s->p.x[3 * i + 2] > s->cfg.standoff - 0.5 * s->p.d[i];
+}
+
+/* Has flying particle i left the domain (radially, or behind the nozzle going back)?  The same before and
+ * after the target-plane clamp, which moves no particle behind the nozzle. */
+static int escapes(const struct dem_solver *s, uint32_t i)
+{
+    const double *x = s->p.x + 3 * i;
+    const double escape_radius2 = s->cfg.domain_radius * s->cfg.domain_radius;
+    int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
+    int behind_nozzle = x[2] < 0.0 && s->p.v[3 * i + 2] < 0.0;
+    return outside || behind_nozzle;
+}
+
+int dem_at_boundary(const struct dem_solver *s, uint32_t i)
+{
+    if (crossed_handoff(s, i))
+        return 1;
+    return s->p.state[i] == DEM_FLYING && (beyond_target(s, i) || escapes(s, i));
+}
+
+/* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate
+ * found at a boundary (s->at_boundary, in index order; every other particle is inside and stays). */
 static void apply_boundaries(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    const struct dem_config *cfg = &s->cfg;
-    const double plane = cfg->standoff - cfg->handoff_height;
-    const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
     uint8_t *keep = NULL;
     size_t removed = 0;
-    for (size_t k = 0; k < s->moving_count; k++) {
-        uint32_t i = s->moving[k];
-        double *x = p->x + 3 * i;
-        /* also particles that crossed and stuck in this step */
-        if (p->x_start[3 * i + 2] < plane && x[2] >= plane)
-            record_handoff(s, i, plane);
-        dem_contacts_end_step(s, i);
+    for (size_t k = 0; k < s->at_boundary_count; k++) {
+        uint32_t i = s->at_boundary[k];
+        if (crossed_handoff(s, i))
+            record_handoff(s, i, handoff_plane(&s->cfg));
         if (p->state[i] != DEM_FLYING)
             continue;
         /* A particle that would end the step inside the target stops at it; its contact is resolved at
          * the start of the next step (time of impact 0), so nothing passes through the target. */
-        double limit = cfg->standoff - 0.5 * p->d[i];
-        if (x[2] > limit) {
-            x[2] = limit;
+        if (beyond_target(s, i)) {
+            p->x[3 * i + 2] = s->cfg.standoff - 0.5 * p->d[i];
             p->drag_kept[i] = 0;
         }
-        int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
-        int behind_nozzle = x[2] < 0.0 && p->v[3 * i + 2] < 0.0;
-        if (outside || behind_nozzle) {
+        if (escapes(s, i)) {
             if (!keep) {
                 keep = dem_realloc_or_die(NULL, p->count);
                 memset(keep, 1, p->count);
