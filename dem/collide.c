@@ -27,7 +27,24 @@ static void find_target_contact(const struct dem_solver *s, uint32_t i, struct d
         candidates_push(out, t_hit, i, 0, CONTACT_TARGET);
 }
 
-/* Resolution order: time of impact, then target contacts before pair contacts, then indices. */
+/* The target contacts of the step's moving particles, appended to `out` in any order (they are sorted). */
+static void find_target_contacts(const struct dem_solver *s, struct dem_candidates *out)
+{
+#pragma omp parallel if (s->moving_count >= DEM_PARALLEL_MIN)
+    {
+        struct dem_candidates local = {0};
+#pragma omp for schedule(static) nowait
+        for (size_t k = 0; k < s->moving_count; k++)
+            find_target_contact(s, s->moving[k], &local);
+#pragma omp critical(dem_target_contacts_merge)
+        for (size_t k = 0; k < local.count; k++)
+            candidates_push(out, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
+        free(local.items);
+    }
+}
+
+/* Resolution order: time of impact, then target contacts before pair contacts, then indices: a total order,
+ * so the order in which the contacts were found does not matter. */
 static int candidate_order(const void *pa, const void *pb)
 {
     const struct dem_candidate *a = pa, *b = pb;
@@ -47,8 +64,7 @@ void dem_detect_contacts(struct dem_solver *s)
     s->candidates.count = 0;
     broadphase_build(&s->bins, p, s->cfg.dt);
     broadphase_pairs(&s->bins, p, s->cfg.dt, &s->candidates);
-    for (size_t k = 0; k < s->moving_count; k++)
-        find_target_contact(s, s->moving[k], &s->candidates);
+    find_target_contacts(s, &s->candidates);
     if (s->candidates.count > 1)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
