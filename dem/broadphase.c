@@ -674,6 +674,7 @@ void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_c
         }
         kept++;
     }
+#pragma omp parallel for schedule(static) if (bins->entry_count >= DEM_PARALLEL_MIN)
     for (size_t e = 0; e < bins->entry_count; e++)
         if (bins->entries[e].index != REMOVED_ENTRY)
             bins->entries[e].index = moved_to[bins->entries[e].index];
