@@ -427,8 +427,9 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
         double at = contact_time(s, i, -1);
         if (at >= 0.0)
             candidates_push(out, at, i, 0, CONTACT_TARGET);
-        if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh */
-            memset(s->seen, 0, s->p.count * sizeof *s->seen);
+        if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh, also in the free slots (stamps are
+                                     * kept from step to step; a new particle there keeps its slot's) */
+            memset(s->seen, 0, s->path_capacity * sizeof *s->seen);
             s->seen_stamp = 1;
         }
         double lo[3], hi[3];
