@@ -173,9 +173,41 @@ void dem_contacts_end_step(struct dem_solver *s, uint32_t i);
  * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */
 int dem_integrate(struct dem_solver *s);
 
-/* dem/solver.c: does the end of this step concern moving particle i (a hand-off crossing, the target plane,
- * an escape)?  Reads only i's state: dem_integrate asks it in parallel. */
-int dem_at_boundary(const struct dem_solver *s, uint32_t i);
+/* The boundaries of the step's end (dem/solver.c), as tests of one particle after its integration; inline,
+ * since dem_integrate asks them of every particle, in parallel. */
+static inline double dem_handoff_plane(const struct dem_config *cfg) { return cfg->standoff - cfg->handoff_height; }
+
+/* Did particle i cross the hand-off plane in this step (also a particle that crossed and stuck in it)? */
+static inline int dem_crossed_handoff(const struct dem_solver *s, uint32_t i)
+{
+    const double plane = dem_handoff_plane(&s->cfg);
+    return s->p.x_start[3 * i + 2] < plane && s->p.x[3 * i + 2] >= plane;
+}
+
+/* Would flying particle i end the step inside the target? */
+static inline int dem_beyond_target(const struct dem_solver *s, uint32_t i)
+{
+    return s->p.x[3 * i + 2] > s->cfg.standoff - 0.5 * s->p.d[i];
+}
+
+/* Has flying particle i left the domain (radially, or behind the nozzle going back)?  The same before and
+ * after the target-plane clamp, which moves no particle behind the nozzle. */
+static inline int dem_escapes(const struct dem_solver *s, uint32_t i)
+{
+    const double *x = s->p.x + 3 * i;
+    const double escape_radius2 = s->cfg.domain_radius * s->cfg.domain_radius;
+    int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
+    int behind_nozzle = x[2] < 0.0 && s->p.v[3 * i + 2] < 0.0;
+    return outside || behind_nozzle;
+}
+
+/* Does the end of this step concern moving particle i (a hand-off crossing, the target plane, an escape)? */
+static inline int dem_at_boundary(const struct dem_solver *s, uint32_t i)
+{
+    if (dem_crossed_handoff(s, i))
+        return 1;
+    return s->p.state[i] == DEM_FLYING && (dem_beyond_target(s, i) || dem_escapes(s, i));
+}
 
 /* dem/output.c */
 void dem_sample_metrics(struct dem_solver *s);

@@ -71,39 +71,6 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
     row->d = p->d[i];
 }
 
-static double handoff_plane(const struct dem_config *cfg) { return cfg->standoff - cfg->handoff_height; }
-
-/* Did particle i cross the hand-off plane in this step (also a particle that crossed and stuck in it)? */
-static int crossed_handoff(const struct dem_solver *s, uint32_t i)
-{
-    const double plane = handoff_plane(&s->cfg);
-    return s->p.x_start[3 * i + 2] < plane && s->p.x[3 * i + 2] >= plane;
-}
-
-/* Would flying particle i end the step inside the target? */
-static int beyond_target(const struct dem_solver *s, uint32_t i)
-{
-    return s->p.x[3 * i + 2] > s->cfg.standoff - 0.5 * s->p.d[i];
-}
-
-/* Has flying particle i left the domain (radially, or behind the nozzle going back)?  The same before and
- * after the target-plane clamp, which moves no particle behind the nozzle. */
-static int escapes(const struct dem_solver *s, uint32_t i)
-{
-    const double *x = s->p.x + 3 * i;
-    const double escape_radius2 = s->cfg.domain_radius * s->cfg.domain_radius;
-    int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
-    int behind_nozzle = x[2] < 0.0 && s->p.v[3 * i + 2] < 0.0;
-    return outside || behind_nozzle;
-}
-
-int dem_at_boundary(const struct dem_solver *s, uint32_t i)
-{
-    if (crossed_handoff(s, i))
-        return 1;
-    return s->p.state[i] == DEM_FLYING && (beyond_target(s, i) || escapes(s, i));
-}
-
 /* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate
  * found at a boundary (s->at_boundary, in index order; every other particle is inside and stays). */
 static void apply_boundaries(struct dem_solver *s)
@@ -113,17 +80,17 @@ static void apply_boundaries(struct dem_solver *s)
     size_t removed = 0;
     for (size_t k = 0; k < s->at_boundary_count; k++) {
         uint32_t i = s->at_boundary[k];
-        if (crossed_handoff(s, i))
-            record_handoff(s, i, handoff_plane(&s->cfg));
+        if (dem_crossed_handoff(s, i))
+            record_handoff(s, i, dem_handoff_plane(&s->cfg));
         if (p->state[i] != DEM_FLYING)
             continue;
         /* A particle that would end the step inside the target stops at it; its contact is resolved at
          * the start of the next step (time of impact 0), so nothing passes through the target. */
-        if (beyond_target(s, i)) {
+        if (dem_beyond_target(s, i)) {
             p->x[3 * i + 2] = s->cfg.standoff - 0.5 * p->d[i];
             p->drag_kept[i] = 0;
         }
-        if (escapes(s, i)) {
+        if (dem_escapes(s, i)) {
             if (!keep) {
                 keep = dem_realloc_or_die(NULL, p->count);
                 memset(keep, 1, p->count);
