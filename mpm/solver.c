@@ -146,7 +146,8 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
 {
     struct mpm_points *p = &s->points;
     const struct mpm_grid *g = &s->grid;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
     double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
@@ -210,7 +211,8 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
     /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
