@@ -7,7 +7,7 @@
 
 #include <math.h>
 
-#include "dem/fastmath.h"
+#include "core/fastmath.h"
 #include "dem/gas.h"
 
 #define GAS_PI 3.14159265358979323846

@@ -238,7 +238,8 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
     const double *sig = ps->stress, *v = p->v + 3 * q;
@@ -295,7 +296,8 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
     double mv[3] = {m * v[0], m * v[1], m * v[2]}; /* (m v_i) N as before */

@@ -127,6 +127,43 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
                                double volume_old, double volume_new, struct mpm_point_state *state,
                                struct mpm_update_result *result);
 
+/* The update of one point in three phases, so that the solver can run the plastic returns of a block of points
+ * together in vector lanes (mpm_stress_update_prepared is the three on one point; a point's result does not
+ * depend on which points share its block):
+ *   mpm_stress_begin   rotation, elastic trial and yield bounds (Eqs. A1-A5); 1 when the point needs the return
+ *   mpm_stress_returns the returns of up to MPM_RETURN_LANES points of one material (Eqs. A6-A8) in lock-step
+ *   mpm_stress_finish  radial scaling, EOS energy update, viscosity, heating (Eqs. A8-A11, 3.38-3.44). */
+#define MPM_RETURN_LANES 64
+
+/* The plastic return of one point: the consistency problem f(d) = 0 of stress_update.c and its Newton state. */
+struct mpm_return {
+    double eps_p, G, trial, T_hat;
+    double log_rate_scale;  /* ln(gamma xi_dot dt): L = ln(eps_dot / (gamma xi_dot)) = ln d - log_rate_scale */
+    double log_ratio_floor; /* L at the rate floor */
+    double u, u_lo, u_hi;   /* the iterate u = ln d and the bracket of the root */
+    double d, f, df_du, yield; /* at the last evaluation; d and yield are the result once done */
+    int plastic, phase, iter, last;
+};
+
+/* What passes from mpm_stress_begin to mpm_stress_finish. */
+struct mpm_stress_work {
+    double strain[6], s_rot[6], s_new[6]; /* strain increment, rotated and new deviatoric stress */
+    double volumetric, rho_new;          /* trace/3 of the strain increment, density at the end of the step */
+    double yield, d;                     /* flow stress and plastic increment of a point without return */
+    int melted, returning;
+    struct mpm_return ret;
+};
+
+int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                     const double strain_increment[6], const double spin_increment[3], double dt, double log_dt,
+                     double volume0, double volume_new, const struct mpm_point_state *state,
+                     struct mpm_stress_work *w);
+void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n);
+int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
+                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                      double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
+                      struct mpm_update_result *result);
+
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);
 

@@ -146,7 +146,8 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
 {
     struct mpm_points *p = &s->points;
     const struct mpm_grid *g = &s->grid;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
     double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
@@ -210,7 +211,8 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    const struct stencil st = *stencil;
+    struct stencil st;
+    stencil_copy(stencil, &st, width);
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
     /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
@@ -242,27 +244,65 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
     return st.width == 2 ? velocity_gradient_width(s, q, &st, 2, L) : velocity_gradient_width(s, q, &st, st.width, L);
 }
 
-/* Steps 10-11: strain and spin increments (Eq. 3.35), density (Eq. 3.36), stress (Appendix A), bonding. */
-static int update_point(struct mpm_solver *s, size_t q, double log_dt)
+/* Points updated together (steps 10-11): their plastic returns run in vector lanes (mpm_stress_returns). */
+#define POINT_BLOCK MPM_RETURN_LANES
+
+/* A block of points between the phases of its update. */
+struct point_block {
+    struct mpm_stress_work work[POINT_BLOCK];
+    double volume_new[POINT_BLOCK];
+    int material[POINT_BLOCK], contact[POINT_BLOCK], updating[POINT_BLOCK];
+};
+
+/* Steps 10-11 up to the return for point q (slot k of the block): strain and spin increments (Eq. 3.35), the new
+ * volume (Eq. 3.36), the stress update's first phase.  Returns -1 for a non-positive volume. */
+static int begin_point(const struct mpm_solver *s, size_t q, double log_dt, struct point_block *b, int k)
 {
-    struct mpm_points *p = &s->points;
+    const struct mpm_points *p = &s->points;
     double L[3][3], dt = s->dt;
-    int contact = velocity_gradient(s, q, L);
+    b->contact[k] = velocity_gradient(s, q, L);
     double de[6] = {L[0][0] * dt, L[1][1] * dt, L[2][2] * dt, 0.5 * (L[1][2] + L[2][1]) * dt,
                     0.5 * (L[0][2] + L[2][0]) * dt, 0.5 * (L[0][1] + L[1][0]) * dt};
     double dw[3] = {0.5 * (L[1][2] - L[2][1]) * dt, 0.5 * (L[0][2] - L[2][0]) * dt, 0.5 * (L[0][1] - L[1][0]) * dt};
-    double volume_new = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
-    if (!(volume_new > 0.0))
+    b->volume_new[k] = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
+    if (!(b->volume_new[k] > 0.0))
         return -1;
-    int material = s->cfg.bodies[p->body[q]].material;
+    int material = b->material[k] = s->cfg.bodies[p->body[q]].material;
+    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, dt, log_dt,
+                     p->volume0[q], b->volume_new[k], &p->state[q], &b->work[k]);
+    return 0;
+}
+
+/* The plastic returns of the block, one material at a time (each lane's result is its own: the grouping does not
+ * change it). */
+static void block_returns(const struct mpm_solver *s, struct point_block *b, int count)
+{
+    int solved[POINT_BLOCK] = {0};
+    for (int first = 0; first < count; first++) {
+        if (solved[first] || !b->updating[first] || !b->work[first].returning)
+            continue;
+        struct mpm_return *lanes[POINT_BLOCK];
+        int n = 0, material = b->material[first];
+        for (int k = first; k < count; k++)
+            if (!solved[k] && b->updating[k] && b->work[k].returning && b->material[k] == material)
+                lanes[n++] = &b->work[k].ret, solved[k] = 1;
+        mpm_stress_returns(&s->cfg.materials[material], lanes, n);
+    }
+}
+
+/* Step 11 after the return for point q: the stress update's last phase, volume, plastic work, contact flag,
+ * bonding.  Returns -1 when the state became non-finite. */
+static int finish_point(struct mpm_solver *s, size_t q, struct point_block *b, int k)
+{
+    struct mpm_points *p = &s->points;
+    int material = b->material[k];
     struct mpm_update_result r;
-    if (mpm_stress_update_prepared(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity,
-                                   de, dw, dt, log_dt, p->volume0[q], p->volume[q], volume_new, &p->state[q],
-                                   &r) != 0)
+    if (mpm_stress_finish(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity, s->dt,
+                          p->volume0[q], p->volume[q], b->volume_new[k], &b->work[k], &p->state[q], &r) != 0)
         return -1;
-    p->volume[q] = volume_new;
+    p->volume[q] = b->volume_new[k];
     p->plastic_work[q] += r.plastic_work;
-    if (contact && (p->flags[q] & POINT_SURFACE))
+    if (b->contact[k] && (p->flags[q] & POINT_SURFACE))
         p->flags[q] |= POINT_CONTACT;
     else
         p->flags[q] &= (uint8_t)~POINT_CONTACT;
@@ -270,16 +310,39 @@ static int update_point(struct mpm_solver *s, size_t q, double log_dt)
     return 0;
 }
 
+/* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases; returns the first point that failed, or -1. */
+static long update_block(struct mpm_solver *s, long q0, int count, double log_dt)
+{
+    struct point_block b;
+    long bad = -1;
+    for (int k = 0; k < count; k++) {
+        size_t q = (size_t)(q0 + k);
+        b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;
+        if (b.updating[k] && begin_point(s, q, log_dt, &b, k) != 0) {
+            b.updating[k] = 0;
+            bad = bad < 0 ? q0 + k : bad;
+        }
+    }
+    block_returns(s, &b, count);
+    for (int k = 0; k < count; k++)
+        if (b.updating[k] && finish_point(s, (size_t)(q0 + k), &b, k) != 0)
+            bad = bad < 0 || q0 + k < bad ? q0 + k : bad;
+    return bad;
+}
+
 static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
-    long n = (long)p->count, bad = n;
+    long n = (long)p->count, bad = n, blocks = (n + POINT_BLOCK - 1) / POINT_BLOCK;
     double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
 /* dynamic: the costly plastic points of a particle sit together in index order */
-#pragma omp parallel for schedule(dynamic, 512) reduction(min : bad)
-    for (long q = 0; q < n; q++)
-        if ((p->flags[q] & POINT_ACTIVE) && update_point(s, (size_t)q, log_dt) != 0)
-            bad = q < bad ? q : bad;
+#pragma omp parallel for schedule(dynamic, 8) reduction(min : bad)
+    for (long blk = 0; blk < blocks; blk++) {
+        long q0 = blk * POINT_BLOCK;
+        long failed = update_block(s, q0, (int)(n - q0 < POINT_BLOCK ? n - q0 : POINT_BLOCK), log_dt);
+        if (failed >= 0)
+            bad = failed < bad ? failed : bad;
+    }
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
                 "non-finite state or a non-positive volume (time step %.3g s)", (long long)s->step + 1, s->t, bad,

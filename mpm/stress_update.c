@@ -14,11 +14,23 @@
  * - Melting (T >= Tm(rho_new)) removes the deviatoric stress for either strength model; MPM_STRENGTH_ELASTIC
  *   never yields and reports yield_stress 0.
  * - The artificial bulk viscosity q is kept apart from the Cauchy stress (state->viscosity) and its work enters
- *   the internal energy after the EOS solve. */
+ *   the internal energy after the EOS solve.
+ * The update runs in three phases (mpm_stress_begin, mpm_stress_returns, mpm_stress_finish) so that the solver
+ * can return a block of points together: each round of mpm_stress_returns evaluates f for every return still
+ * iterating, packed into vector lanes (PTW from mpm/ptw_lane.h), and then advances each return's Newton state
+ * on its own; a lane's arithmetic is that of the point alone. */
+/* The loops over a block's lanes vectorise only at -O3: the default -O2 build asks for -O3 here.  No effect on
+ * the results: no floating-point option changes. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("O3")
+#endif
+
 #include "mpm/material.h"
+#include "mpm/ptw_lane.h"
 
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
 
 /* Convergence of the return (Tang Eqs. A6-A8, consistency at the end of the step): |f| <= NEWTON_FTOL sigma* at
  * an evaluated iterate, or a Newton step (or bracket) shorter than NEWTON_XTOL in ln d.  The same tolerances as
@@ -74,80 +86,156 @@ static void deviator(const double t[6], double dev[6], double *mean)
 
 /* ---- the consistent plastic strain increment ---- */
 
-struct yield_problem {
-    const struct mpm_material *m;
-    double eps_p, G, trial, T_hat;
-    double log_rate_scale;   /* ln(gamma xi_dot dt): L = ln(eps_dot / (gamma xi_dot)) = ln d - log_rate_scale */
-    double log_ratio_floor;  /* L at the rate floor */
-};
-
-/* f and df/du at u = ln d, with d and the flow stress there. */
-struct consistency {
-    double d, f, df_du, yield;
-};
-
 /* The consistency condition f(d) = sigma* - 3 G d - sigma_y(eps_p + d, max(d/dt, rate_floor)) (Tang Eqs. A6-A8
  * with the flow stress at the end of the step), decreasing in d, and its derivative in u = ln d:
- *   df/du = -d (3 G + d sigma_y/d eps_p) - d sigma_y/d ln(rate)   (the last term 0 where the rate is floored). */
-static void consistency_at(const struct yield_problem *y, double u, struct consistency *c)
+ *   df/du = -d (3 G + d sigma_y/d eps_p) - d sigma_y/d ln(rate)   (the last term 0 where the rate is floored).
+ * At u = -inf (d = 0, the rate floored) this is the yield check: f = sigma* - sigma_y(eps_p, rate_floor). */
+FM_INLINE void consistency_lane(const struct mpm_material *m, int p_small, double u, double eps_p, double G,
+                                double trial, double T_hat, double log_rate_scale, double log_ratio_floor,
+                                double *d, double *f, double *df_du, double *yield)
 {
-    double L = u - y->log_rate_scale;
-    int floored = !(L > y->log_ratio_floor);
-    struct ptw_flow flow;
-    c->d = exp(u);
-    ptw_flow_stress_log_rate(y->m, y->eps_p + c->d, floored ? y->log_ratio_floor : L, y->T_hat, y->G, &flow);
-    c->yield = flow.stress;
-    c->f = y->trial - 3.0 * y->G * c->d - flow.stress;
-    c->df_du = -c->d * (3.0 * y->G + flow.d_eps) - (floored ? 0.0 : flow.d_log_rate);
+    double L = u - log_rate_scale;
+    int floored = !(L > log_ratio_floor);
+    double d_here = fm_exp(u);
+    struct ptw_flow flow = ptw_lane_flow(m, p_small, eps_p + d_here, fm_select(floored, log_ratio_floor, L), T_hat, G);
+    *d = d_here;
+    *yield = flow.stress;
+    *f = trial - 3.0 * G * d_here - flow.stress;
+    *df_du = -d_here * (3.0 * G + flow.d_eps) - fm_select(floored, 0.0, flow.d_log_rate);
 }
 
-static int converged(const struct yield_problem *y, double f) { return fabs(f) <= NEWTON_FTOL * y->trial; }
-
-/* A bracket [u_lo, u_hi] of the root in u = ln d: f(u_hi) <= 0, and f(u_lo) > 0 once `plastic` is set (the
- * point is proven plastic: f > 0 somewhere, or the yield check passed). */
-struct bracket {
-    double u_lo, u_hi;
-    int plastic;
+/* The lanes of one evaluation round of a block's returns, structure of arrays. */
+struct return_lanes {
+    double u[MPM_RETURN_LANES], eps_p[MPM_RETURN_LANES], G[MPM_RETURN_LANES], trial[MPM_RETURN_LANES];
+    double T_hat[MPM_RETURN_LANES], log_rate_scale[MPM_RETURN_LANES], log_ratio_floor[MPM_RETURN_LANES];
+    double d[MPM_RETURN_LANES], f[MPM_RETURN_LANES], df_du[MPM_RETURN_LANES], yield[MPM_RETURN_LANES];
+    uint16_t check[MPM_RETURN_LANES]; /* 1: the yield check (u = -inf) */
 };
 
-/* The yield check, Tang Eq. A6's condition sigma* > sigma_y with the smallest flow stress the point can have:
- * sigma_y(eps_p, rate_floor) (PTW grows with strain and rate).  *c becomes the elastic result (d = 0, f and
- * sigma_y there); returns 1 and sets b->plastic when the point yields. */
-static int yield_check(const struct yield_problem *y, struct bracket *b, struct consistency *c)
+/* f, df/du, d and sigma_y of lanes 0..n-1 (n a multiple of 16).  The loops have no branches and no calls, and
+ * vectorise at -O3 (the #pragma at the top); the material is copied so that the stores cannot alias it. */
+static void consistency_lanes(const struct mpm_material *material, int n, struct return_lanes *restrict l)
 {
-    struct ptw_flow flow;
-    ptw_flow_stress_log_rate(y->m, y->eps_p, y->log_ratio_floor, y->T_hat, y->G, &flow);
-    *c = (struct consistency){0.0, y->trial - flow.stress, 0.0, flow.stress};
-    b->plastic = y->trial > flow.stress;
-    return b->plastic;
+    const struct mpm_material m = *material;
+    if (m.ptw_p < PTW_P_SMALL) {
+        for (int i = 0; i < n; i++)
+            consistency_lane(&m, 1, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i], l->T_hat[i], l->log_rate_scale[i],
+                             l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i], &l->yield[i]);
+    } else {
+        for (int i = 0; i < n; i++)
+            consistency_lane(&m, 0, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i], l->T_hat[i], l->log_rate_scale[i],
+                             l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i], &l->yield[i]);
+    }
 }
 
-/* Safeguarded Newton in u = ln d from u, whose f and df/du are in *c.  A Newton step that leaves the bracket
- * becomes a bisection, after the yield check if it left through u_lo before the point was proven plastic (an
- * elastic point's f has no root above u_lo: then *c is the elastic result).  Stops when |f| <= NEWTON_FTOL
- * sigma* or when the last step (or the bracket) was shorter than NEWTON_XTOL in u, after evaluating the last
- * iterate: *c then holds the returned d and sigma_y there.  sigma_y is flat in the rate at low rates and a power
- * of it above (the shock regime); f is concave in u over most of the range, and from last step's increment
- * Newton converges in 2-3 steps. */
-static void newton_return(const struct yield_problem *y, struct bracket *b, double u, struct consistency *c)
+/* Where a return stands between two evaluations (what the next evaluation is for). */
+enum return_phase {
+    RETURN_YIELD_CHECK, /* the yield check before Newton starts (no usable first guess) */
+    RETURN_START,       /* f at Newton's first iterate */
+    RETURN_STEP,        /* f at the iterate of a Newton step or bisection */
+    RETURN_RECHECK,     /* the yield check of a step that left the bracket through u_lo before the point was proven
+                           plastic (an elastic point's f has no root above u_lo) */
+    RETURN_DONE
+};
+
+static int converged(const struct mpm_return *r) { return fabs(r->f) <= NEWTON_FTOL * r->trial; }
+
+static int return_done(struct mpm_return *r)
 {
-    for (int iter = 0; iter < NEWTON_MAX_ITER && !converged(y, c->f); iter++) {
-        if (c->f > 0.0)
-            b->u_lo = u, b->plastic = 1;
-        else
-            b->u_hi = u;
-        double next = u - c->f / c->df_du;
-        int last = fabs(next - u) <= NEWTON_XTOL;
-        if (!(next > b->u_lo && next < b->u_hi)) {
-            if (!b->plastic && !(next > b->u_lo) && !yield_check(y, b, c))
-                return;
-            next = 0.5 * (b->u_lo + b->u_hi);
-            last = b->u_hi - b->u_lo <= NEWTON_XTOL;
+    r->phase = RETURN_DONE;
+    return 0;
+}
+
+/* The head of a Newton iteration in u = ln d from the iterate u, whose f and df/du are in *r: stops when |f| <=
+ * NEWTON_FTOL sigma* or after NEWTON_MAX_ITER steps; a step that leaves the bracket [u_lo, u_hi] becomes a
+ * bisection (after the yield check if it left through u_lo before the point was proven plastic).  The bracket:
+ * f(u_hi) <= 0, and f(u_lo) > 0 once `plastic` is set.  Returns 1 when the next iterate is to be evaluated. */
+static int newton_step(struct mpm_return *r)
+{
+    if (r->iter >= NEWTON_MAX_ITER || converged(r))
+        return return_done(r);
+    if (r->f > 0.0)
+        r->u_lo = r->u, r->plastic = 1;
+    else
+        r->u_hi = r->u;
+    double next = r->u - r->f / r->df_du;
+    r->last = fabs(next - r->u) <= NEWTON_XTOL;
+    if (!(next > r->u_lo && next < r->u_hi)) {
+        if (!r->plastic && !(next > r->u_lo)) {
+            r->phase = RETURN_RECHECK;
+            return 1;
         }
-        u = next;
-        consistency_at(y, u, c);
-        if (last)
-            return;
+        next = 0.5 * (r->u_lo + r->u_hi);
+        r->last = r->u_hi - r->u_lo <= NEWTON_XTOL;
+    }
+    r->u = next;
+    r->phase = RETURN_STEP;
+    return 1;
+}
+
+/* Takes one evaluation (d, f, df/du and sigma_y at the point the phase asked for) and decides the next.  A
+ * yield check that fails ends the return elastic (d = 0, sigma_y(eps_p, rate_floor)); one that passes proves the
+ * point plastic.  An iterate whose step (or bracket) was shorter than NEWTON_XTOL in u ends it once evaluated.
+ * Returns 1 while the return needs another evaluation. */
+static int return_advance(struct mpm_return *r, double d, double f, double df_du, double yield)
+{
+    r->d = d, r->f = f, r->df_du = df_du, r->yield = yield;
+    switch (r->phase) {
+    case RETURN_YIELD_CHECK:
+        if (!(r->trial > yield))
+            return return_done(r);
+        r->plastic = 1;
+        /* the rate-independent increment (sigma* - sigma_y(eps_p, floor)) / (3 G), where f <= 0 */
+        double guess = log((r->trial - yield) / (3.0 * r->G));
+        r->u = guess > r->u_lo && guess < r->u_hi ? guess : 0.5 * (r->u_lo + r->u_hi);
+        r->phase = RETURN_START;
+        return 1;
+    case RETURN_RECHECK:
+        if (!(r->trial > yield))
+            return return_done(r);
+        r->plastic = 1;
+        r->u = 0.5 * (r->u_lo + r->u_hi);
+        r->last = r->u_hi - r->u_lo <= NEWTON_XTOL;
+        r->phase = RETURN_STEP;
+        return 1;
+    case RETURN_STEP:
+        if (r->last)
+            return return_done(r);
+        r->iter++;
+        return newton_step(r);
+    default: /* RETURN_START */
+        return newton_step(r);
+    }
+}
+
+static int is_yield_check(const struct mpm_return *r)
+{
+    return r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK;
+}
+
+void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
+{
+    struct return_lanes lanes;
+    int active[MPM_RETURN_LANES], n_active = 0;
+    for (int k = 0; k < n; k++)
+        if (returns[k]->phase != RETURN_DONE)
+            active[n_active++] = k;
+    while (n_active > 0) {
+        /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one */
+        int n_lanes = (n_active + 15) & ~15;
+        for (int i = 0; i < n_lanes; i++) {
+            const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
+            lanes.u[i] = r->u;
+            lanes.check[i] = (uint16_t)is_yield_check(r);
+            lanes.eps_p[i] = r->eps_p, lanes.G[i] = r->G, lanes.trial[i] = r->trial, lanes.T_hat[i] = r->T_hat;
+            lanes.log_rate_scale[i] = r->log_rate_scale, lanes.log_ratio_floor[i] = r->log_ratio_floor;
+        }
+        consistency_lanes(m, n_lanes, &lanes);
+        int still = 0;
+        for (int i = 0; i < n_active; i++)
+            if (return_advance(returns[active[i]], lanes.d[i], lanes.f[i], lanes.df_du[i], lanes.yield[i]))
+                active[still++] = active[i];
+        n_active = still;
     }
 }
 
@@ -167,32 +255,26 @@ static double log_below(double x)
     return (double)(e - 1) * M_LN2;
 }
 
-/* The plastic increment d of a point whose trial stress exceeds 2 G y_inf, or 0 when it stays elastic; *yield is
- * sigma_y at the end of the step.  d lies in [d_lo, d_hi], d_lo = rate_floor dt (kept below d_hi), d_hi =
- * sigma* / (3 G) where f <= -sigma_y <= 0.  A point plastic in the last step starts from its last increment (the
- * ongoing plastic rate; f > 0 anywhere proves the point plastic, f(0) >= f(d), so the yield check is needed only
- * if Newton heads below d_lo).  Otherwise the yield check comes first, and Newton starts from the
- * rate-independent increment (sigma* - sigma_y(eps_p, floor)) / (3 G), where f <= 0. */
-static double plastic_increment(const struct yield_problem *y, double previous, double dt, double *yield)
+/* The start of the return of a point whose trial stress exceeds 2 G y_inf.  d lies in [d_lo, d_hi], d_lo =
+ * rate_floor dt (kept below d_hi), d_hi = sigma* / (3 G) where f <= -sigma_y <= 0.  A point plastic in the last
+ * step starts Newton from `previous` (the ongoing plastic rate; f > 0 anywhere proves the point plastic, f(0) >=
+ * f(d), so the yield check is needed only if Newton heads below d_lo).  Otherwise the yield check comes first,
+ * and Newton starts from the rate-independent increment.  sigma_y is flat in the rate at low rates and a power
+ * of it above (the shock regime); f is concave in u over most of the range, and from last step's increment
+ * Newton converges in 2-3 steps. */
+static void return_start(struct mpm_return *r, const struct mpm_material *m, double previous, double dt)
 {
-    double d_hi = y->trial / (3.0 * y->G), d_lo = fmax(fmin(y->m->rate_floor * dt, 1e-3 * d_hi), DBL_MIN);
-    struct bracket b = {log_below(d_lo), log_above(d_hi), 0};
-    struct consistency c;
-    double u;
+    double d_hi = r->trial / (3.0 * r->G), d_lo = fmax(fmin(m->rate_floor * dt, 1e-3 * d_hi), DBL_MIN);
+    r->u_lo = log_below(d_lo), r->u_hi = log_above(d_hi);
+    r->plastic = 0, r->iter = 0, r->last = 0;
+    r->d = 0.0, r->f = 0.0, r->df_du = 0.0, r->yield = 0.0;
     if (previous > d_lo && previous < d_hi) {
-        u = log(previous);
+        r->u = log(previous);
+        r->phase = RETURN_START;
     } else {
-        if (!yield_check(y, &b, &c)) {
-            *yield = c.yield;
-            return 0.0;
-        }
-        double guess = log((y->trial - c.yield) / (3.0 * y->G));
-        u = guess > b.u_lo && guess < b.u_hi ? guess : 0.5 * (b.u_lo + b.u_hi);
+        r->u = 0.0;
+        r->phase = RETURN_YIELD_CHECK;
     }
-    consistency_at(y, u, &c);
-    newton_return(y, &b, u, &c);
-    *yield = c.yield;
-    return c.d;
 }
 
 /* ---- energy, pressure, viscosity ---- */
@@ -264,83 +346,92 @@ static double first_guess(const struct mpm_material *m, const struct mpm_point_s
     return d0 * exp(fmax(-2.0, fmin(2.0, step)));
 }
 
-/* Radial return onto the PTW flow stress (Eqs. A5-A8): scales s_new from the trial to sigma_y, returns d. */
-static double ptw_return(const struct mpm_material *m, const struct mpm_material_constants *c,
-                         const struct mpm_point_state *state, double G, double trial, double dt, double log_dt,
-                         double Tm, double rho_new, double s_new[6], double *yield)
+/* The radial return onto the PTW flow stress (Eqs. A5-A8) set up: the consistency problem of the point. */
+static void ptw_return_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                             const struct mpm_point_state *state, double G, double trial, double dt, double log_dt,
+                             double Tm, double rho_new, struct mpm_return *r)
 {
     if (isnan(Tm))
         Tm = scg_melt_temperature(m, rho_new);
     /* ln(gamma xi_dot), Eq. 2.8: ln(gamma (4 pi / 3 M)^(1/3) / 2) + ln(G^3 / rho) / 6 */
     double log_gamma_xi = c->log_gamma_xi_factor + log(G * G * G / rho_new) / 6.0;
-    struct yield_problem y = {m, state->eps_p, G, trial, state->T > 0.0 ? state->T / Tm : 0.0,
-                              dt > 0.0 ? log_gamma_xi + log_dt : INFINITY, c->log_rate_floor - log_gamma_xi};
-    double d = plastic_increment(&y, first_guess(m, state, G, trial), dt, yield);
-    if (d > 0.0)
-        for (int k = 0; k < 6; k++)
-            s_new[k] *= *yield / trial; /* Eq. A8 */
-    return d;
+    r->eps_p = state->eps_p, r->G = G, r->trial = trial, r->T_hat = state->T > 0.0 ? state->T / Tm : 0.0;
+    r->log_rate_scale = dt > 0.0 ? log_gamma_xi + log_dt : INFINITY; /* L = ln d - ln(gamma xi_dot dt) */
+    r->log_ratio_floor = c->log_rate_floor - log_gamma_xi;           /* L at the rate floor */
+    return_start(r, m, first_guess(m, state, G, trial), dt);
 }
 
-/* Deviatoric part of the step (Eqs. A1-A8): new deviatoric stress s_new from the rotated s_rot; returns the
- * plastic increment and sets *yield and *melted. */
-static double deviatoric_update(const struct mpm_material *m, const struct mpm_material_constants *c,
-                                const struct mpm_point_state *state, const double s_rot[6],
-                                const double dev_strain[6], double dt, double log_dt, double rho_new,
-                                double s_new[6], double *yield, int *melted)
+/* Deviatoric part of the step (Eqs. A1-A8) up to the return: w->s_new is the elastic trial (Eq. A1.3), or 0 when
+ * melted or without shear stiffness; returns 1 when the point needs the plastic return (w->ret set up). */
+static int deviatoric_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                            const struct mpm_point_state *state, const double dev_strain[6], double dt,
+                            double log_dt, struct mpm_stress_work *w)
 {
     double Tm;
-    *yield = 0.0;
-    if ((*melted = at_or_above_melt(m, c, state->T, rho_new, &Tm)) != 0) {
+    w->yield = 0.0;
+    w->d = 0.0;
+    if ((w->melted = at_or_above_melt(m, c, state->T, w->rho_new, &Tm)) != 0) {
         for (int k = 0; k < 6; k++)
-            s_new[k] = 0.0;
-        return 0.0;
+            w->s_new[k] = 0.0;
+        return 0;
     }
     double G = shear_modulus(m, c, state->T);
     for (int k = 0; k < 6; k++)
-        s_new[k] = s_rot[k] + 2.0 * G * dev_strain[k]; /* Eq. A1.3 */
-    double trial = von_mises(s_new);                    /* Eq. A5 */
+        w->s_new[k] = w->s_rot[k] + 2.0 * G * dev_strain[k]; /* Eq. A1.3 */
+    double trial = von_mises(w->s_new);                       /* Eq. A5 */
     if (m->strength == MPM_STRENGTH_ELASTIC)
-        return 0.0;
+        return 0;
     /* sigma_y >= 2 G y_inf at any rate and strain below melt (tau >= tau_y >= y_inf, Eq. 2.7b): a trial stress
      * below that is elastic without evaluating PTW (most points of a substrate, most steps) */
     if (G > 0.0 && trial <= 2.0 * G * m->ptw_yinf) {
-        *yield = state->yield_stress;
-        return 0.0;
+        w->yield = state->yield_stress;
+        return 0;
     }
     if (!(G > 0.0)) { /* no shear stiffness left (G clamped at 0): no deviatoric stress */
         for (int k = 0; k < 6; k++)
-            s_new[k] = 0.0;
-        return 0.0;
+            w->s_new[k] = 0.0;
+        return 0;
     }
-    return ptw_return(m, c, state, G, trial, dt, log_dt, Tm, rho_new, s_new, yield);
+    ptw_return_begin(m, c, state, G, trial, dt, log_dt, Tm, w->rho_new, &w->ret);
+    return 1;
 }
 
-int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
-                               const struct bulk_viscosity *q, const double strain_increment[6],
-                               const double spin_increment[3], double dt, double log_dt, double volume0,
-                               double volume_old, double volume_new, struct mpm_point_state *state,
-                               struct mpm_update_result *result)
+int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                     const double strain_increment[6], const double spin_increment[3], double dt, double log_dt,
+                     double volume0, double volume_new, const struct mpm_point_state *state,
+                     struct mpm_stress_work *w)
 {
-    double rho_new = m->density * volume0 / volume_new;
-    double sigma_rot[6], s_rot[6], dev_strain[6], s_new[6], mean_rot, volumetric;
+    double sigma_rot[6], dev_strain[6], mean_rot;
+    w->rho_new = m->density * volume0 / volume_new;
     jaumann_rotate(state->stress, spin_increment, sigma_rot); /* Eq. A2 */
-    deviator(sigma_rot, s_rot, &mean_rot);                    /* Eq. A3 */
-    deviator(strain_increment, dev_strain, &volumetric);      /* Eq. A4 */
+    deviator(sigma_rot, w->s_rot, &mean_rot);                 /* Eq. A3 */
+    deviator(strain_increment, dev_strain, &w->volumetric);   /* Eq. A4 */
+    for (int k = 0; k < 6; k++)
+        w->strain[k] = strain_increment[k];
+    w->returning = deviatoric_begin(m, c, state, dev_strain, dt, log_dt, w);
+    return w->returning;
+}
 
-    double yield, d;
-    int melted;
-    d = deviatoric_update(m, c, state, s_rot, dev_strain, dt, log_dt, rho_new, s_new, &yield, &melted);
+int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
+                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                      double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
+                      struct mpm_update_result *result)
+{
+    double rho_new = w->rho_new, *s_new = w->s_new;
+    double yield = w->returning ? w->ret.yield : w->yield, d = w->returning ? w->ret.d : w->d;
+    if (w->returning && d > 0.0)
+        for (int k = 0; k < 6; k++)
+            s_new[k] *= yield / w->ret.trial; /* Eq. A8 */
 
     double volume_half = 0.5 * (volume_old + volume_new), dV = volume_new - volume_old;
     double s_half[6];
     for (int k = 0; k < 6; k++)
-        s_half[k] = 0.5 * (s_rot[k] + s_new[k]);
+        s_half[k] = 0.5 * (w->s_rot[k] + s_new[k]);
     double plastic_work = volume_half * yield * d;
     double energy_old = state->energy;
-    double p = eos_energy_update(m, rho_new, volume_half * contract(s_half, strain_increment), state->pressure,
-                                 volume0, dV, &state->energy);
-    double volumetric_rate = dt > 0.0 ? 3.0 * volumetric / dt : 0.0;
+    double p = eos_energy_update(m, rho_new, volume_half * contract(s_half, w->strain), state->pressure, volume0,
+                                 dV, &state->energy);
+    double volumetric_rate = dt > 0.0 ? 3.0 * w->volumetric / dt : 0.0;
     double visc = bulk_viscosity_pressure(c, q, rho_new, volumetric_rate);
     state->energy -= visc * dV; /* work of q */
 
@@ -353,12 +444,26 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
     state->eps_p += d;
     state->plastic_increment = d;
     state->yield_stress = yield;
-    state->melted = melted ? 1.0 : 0.0;
+    state->melted = w->melted ? 1.0 : 0.0;
     result->eps_p_increment = d;
     result->von_mises = von_mises(s_new);
     result->plastic_work = plastic_work;
     result->energy_increment = state->energy - energy_old;
     return all_finite(state) && isfinite(result->von_mises) && isfinite(plastic_work) ? 0 : -1;
+}
+
+int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
+                               const struct bulk_viscosity *q, const double strain_increment[6],
+                               const double spin_increment[3], double dt, double log_dt, double volume0,
+                               double volume_old, double volume_new, struct mpm_point_state *state,
+                               struct mpm_update_result *result)
+{
+    struct mpm_stress_work w;
+    if (mpm_stress_begin(m, c, strain_increment, spin_increment, dt, log_dt, volume0, volume_new, state, &w)) {
+        struct mpm_return *r = &w.ret;
+        mpm_stress_returns(m, &r, 1);
+    }
+    return mpm_stress_finish(m, c, q, dt, volume0, volume_old, volume_new, &w, state, result);
 }
 
 int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity *q, const double strain_increment[6],

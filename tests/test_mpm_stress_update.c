@@ -2,6 +2,8 @@
  * the rate-dependent radial return with the PTW flow stress, elastic loading and unloading slopes, plastic
  * work and the EOS energy balance, adiabatic heating, objectivity under pure spin, melting, the isentrope of
  * the elastic EOS path against an independent integration, and the artificial bulk viscosity. */
+#include <string.h>
+
 #include "mpm/material.h"
 #include "tests/check.h"
 
@@ -366,6 +368,66 @@ static void test_bulk_viscosity(void)
 
 /* ---- initial state ---- */
 
+/* ---- (11) a block of returns in vector lanes gives each point the bits of its update alone ---- */
+
+#define LANE_POINTS 40
+
+/* Point k of the block: a spread of strains, rates, temperatures and histories (elastic, plastic from rest,
+ * plastic with last step's increment as the first guess, hot). */
+static void lane_point(const struct mpm_material *m, int k, double de[6], double *dt, struct mpm_point_state *state)
+{
+    mpm_point_state_init(m, state);
+    state->eps_p = 0.02 * (k % 7);
+    state->T = m->T_initial + 40.0 * (k % 5);
+    state->plastic_increment = k % 3 == 0 ? 0.0 : 1e-4 * (1 + k % 4);
+    state->yield_stress = k % 3 == 0 ? state->yield_stress : 2.0e8 + 1.0e7 * (k % 6);
+    *dt = 1e-11 * (1 + k % 3);
+    isochoric(k % 8 == 0 ? 1e-5 : 2e-3 * (1 + k % 5), 1e-4 * (k % 4), de);
+}
+
+/* The three phases over the block, in the given order of the points, against each point alone. */
+static void check_block_order(const struct mpm_material *m, const struct mpm_material_constants *c, int reversed)
+{
+    struct mpm_point_state alone[LANE_POINTS], block[LANE_POINTS];
+    struct mpm_stress_work work[LANE_POINTS];
+    struct mpm_return *returns[LANE_POINTS];
+    double de[LANE_POINTS][6], dt[LANE_POINTS];
+    int n = 0, plastic = 0;
+    for (int k = 0; k < LANE_POINTS; k++) {
+        struct mpm_update_result r;
+        lane_point(m, k, de[k], &dt[k], &alone[k]);
+        block[k] = alone[k];
+        mpm_stress_update_prepared(m, c, NULL, de[k], no_spin, dt[k], log(dt[k]), V0, V0, V0, &alone[k], &r);
+    }
+    for (int j = 0; j < LANE_POINTS; j++) {
+        int k = reversed ? LANE_POINTS - 1 - j : j;
+        if (mpm_stress_begin(m, c, de[k], no_spin, dt[k], log(dt[k]), V0, V0, &block[k], &work[k]))
+            returns[n++] = &work[k].ret;
+    }
+    mpm_stress_returns(m, returns, n);
+    int differ = 0;
+    for (int k = 0; k < LANE_POINTS; k++) {
+        struct mpm_update_result r;
+        mpm_stress_finish(m, c, NULL, dt[k], V0, V0, V0, &work[k], &block[k], &r);
+        differ += memcmp(&alone[k], &block[k], sizeof alone[k]) != 0;
+        plastic += r.eps_p_increment > 0.0;
+    }
+    printf("  %d returns, %d plastic of %d points\n", n, plastic, LANE_POINTS);
+    CHECK(n >= LANE_POINTS / 2 && plastic >= LANE_POINTS / 3, "%d returns, %d plastic of %d", n, plastic,
+          LANE_POINTS);
+    CHECK(differ == 0, "%d of %d points differ from their update alone (order %s)", differ, LANE_POINTS,
+          reversed ? "reversed" : "forward");
+}
+
+static void test_block_of_returns(void)
+{
+    struct mpm_material m = aluminium(0.9);
+    struct mpm_material_constants c;
+    mpm_material_prepare(&m, &c);
+    check_block_order(&m, &c, 0);
+    check_block_order(&m, &c, 1);
+}
+
 static void test_initial_state(void)
 {
     struct mpm_material m = aluminium(0.9);
@@ -389,5 +451,6 @@ int main(void)
     RUN(test_melting);
     RUN(test_compression_energy);
     RUN(test_bulk_viscosity);
+    RUN(test_block_of_returns);
     return check_finish();
 }
