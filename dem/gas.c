@@ -8,7 +8,7 @@
 #include "dem/gas_eval.h"
 
 /* Eq. (25): C_D = 24/Re (1 + 0.1806 Re^0.6459) + 0.4251 / (1 + 6880.95/Re), with libm's pow (the reference
- * value of the tables; the integrator's force uses dem/fastmath.h, within a few ulp of it). */
+ * value of the tables; the integrator's force uses core/fastmath.h, within a few ulp of it). */
 double drag_coefficient_haider_levenspiel(double reynolds)
 {
     return 24.0 / reynolds * (1.0 + HL_STOKES_CORRECTION * pow(reynolds, HL_STOKES_EXPONENT)) +

@@ -1,5 +1,5 @@
 /* Module-private (dem/): the jet velocity (Eqs. 26-27) and the drag force (Eqs. 24-25) of one particle as
- * inline arithmetic: selects instead of branches on the particle, dem/fastmath.h instead of libm, so that the
+ * inline arithmetic: selects instead of branches on the particle, core/fastmath.h instead of libm, so that the
  * integrator's loops over particles vectorise and every lane gives the bits of the scalar code.
  * dem/gas.c wraps them as gas_velocity and gas_drag_force; dem/integrate.c inlines them. */
 #ifndef SPRAYCOAT_DEM_GAS_EVAL_H

@@ -17,7 +17,7 @@
  * computed again: a checkpoint need not hold them, a resumed run gives the same bits, and a test compares runs
  * with and without them (dem_reuse_drag). */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
- * loop nest stays scalar, which with dem/fastmath.h is slower than libm): the default -O2 build asks for -O3
+ * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  No effect on the results: no floating-point option changes. */
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("O3")
