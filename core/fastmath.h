@@ -49,18 +49,21 @@ FM_INLINE double fm_select(int condition, double a, double b)
     return fm_from_bits((fm_to_bits(a) & mask) | (fm_to_bits(b) & ~mask));
 }
 
-/* e^x.  Below -708 the result is 0 (no subnormals: the jet's e^(-2|xi|) far from the axis must give sech^2 = 0
- * exactly); above 709 it is e^709.  NaN stays NaN. */
-FM_INLINE double fm_exp(double x)
+/* The argument reduction shared by fm_exp and fm_expm1 (core/fastmath_special.h): x clamped to [-708, 709]
+ * (NaN stays NaN), x = n ln2 + r with |r| <= ln2 / 2; `shifted` holds n in its low bits. */
+FM_INLINE double fm_exp_reduce(double x, double *shifted)
 {
-    int underflow = x < -708.0;
-    x = fm_select(underflow, -708.0, x);
+    x = fm_select(x < -708.0, -708.0, x);
     x = fm_select(x > 709.0, 709.0, x);
-    /* x = n ln2 + r, |r| <= ln2 / 2 */
-    double shifted = x * FM_LOG2_E + FM_ROUNDING_SHIFTER;
-    double n = shifted - FM_ROUNDING_SHIFTER;
-    double r = (x - n * FM_LN2_HI) - n * FM_LN2_LO;
-    /* Taylor series of e^r to r^13: the remainder r^14/14! < 5e-18 for |r| <= 0.347 */
+    *shifted = x * FM_LOG2_E + FM_ROUNDING_SHIFTER;
+    double n = *shifted - FM_ROUNDING_SHIFTER;
+    return (x - n * FM_LN2_HI) - n * FM_LN2_LO;
+}
+
+/* e^r - 1 for the reduced r: r (1 + r/2 + ... + r^12/13!), the Taylor series of e^r to r^13 (the remainder
+ * r^14/14! < 5e-18 for |r| <= 0.347). */
+FM_INLINE double fm_exp_series_minus_one(double r)
+{
     double p = 1.0 / 6227020800.0;
     p = p * r + 1.0 / 479001600.0;
     p = p * r + 1.0 / 39916800.0;
@@ -74,11 +77,23 @@ FM_INLINE double fm_exp(double x)
     p = p * r + 1.0 / 6.0;
     p = p * r + 0.5;
     p = p * r + 1.0;
-    p = p * r + 1.0;
-    /* 2^n from the integer in the shifter's low bits: biased exponent n + 1023 in [1, 2046] */
+    return p * r;
+}
+
+/* 2^n from the shifter of fm_exp_reduce: biased exponent n + 1023 in [1, 2046]. */
+FM_INLINE double fm_exp_power_of_two(double shifted)
+{
     uint64_t biased = fm_to_bits(shifted) - fm_to_bits(FM_ROUNDING_SHIFTER) + 1023u;
-    double result = p * fm_from_bits(biased << 52);
-    return fm_select(underflow, 0.0, result);
+    return fm_from_bits(biased << 52);
+}
+
+/* e^x.  Below -708 the result is 0 (no subnormals: the jet's e^(-2|xi|) far from the axis must give sech^2 = 0
+ * exactly); above 709 it is e^709.  NaN stays NaN. */
+FM_INLINE double fm_exp(double x)
+{
+    double shifted, r = fm_exp_reduce(x, &shifted);
+    double result = (fm_exp_series_minus_one(r) + 1.0) * fm_exp_power_of_two(shifted);
+    return fm_select(x < -708.0, 0.0, result);
 }
 
 /* ln x for normal positive x (subnormals are read as if normal; callers keep x >= 1e-300).  +Inf and NaN are

@@ -18,30 +18,10 @@
  * a factor 2.  Below -708 the result is -1, above 709 it is e^709 - 1; NaN stays NaN. */
 FM_INLINE double fm_expm1(double x)
 {
-    int underflow = x < -708.0;
-    x = fm_select(underflow, -708.0, x);
-    x = fm_select(x > 709.0, 709.0, x);
-    double shifted = x * FM_LOG2_E + FM_ROUNDING_SHIFTER;
-    double n = shifted - FM_ROUNDING_SHIFTER;
-    double r = (x - n * FM_LN2_HI) - n * FM_LN2_LO;
-    double p = 1.0 / 6227020800.0;
-    p = p * r + 1.0 / 479001600.0;
-    p = p * r + 1.0 / 39916800.0;
-    p = p * r + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    double em_r = p * r;
-    uint64_t biased = fm_to_bits(shifted) - fm_to_bits(FM_ROUNDING_SHIFTER) + 1023u;
-    double two_n = fm_from_bits(biased << 52);
-    double result = two_n * em_r + (two_n - 1.0);
-    return fm_select(underflow, -1.0, result);
+    double shifted, r = fm_exp_reduce(x, &shifted);
+    double two_n = fm_exp_power_of_two(shifted);
+    double result = two_n * fm_exp_series_minus_one(r) + (two_n - 1.0);
+    return fm_select(x < -708.0, -1.0, result);
 }
 
 /* The loops over coefficients unrolled: a loop left inside the caller's loop over lanes keeps that from being
