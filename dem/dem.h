@@ -23,7 +23,7 @@
 #include "dem/sizes.h"
 
 #define DEM_FORMAT "spraycoat-spray"
-#define DEM_FORMAT_VERSION 1
+#define DEM_FORMAT_VERSION 2 /* 2: checkpoints hold the kept drag and its history (/drag) */
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };

@@ -23,6 +23,11 @@ struct dem_particles {
      * outside the integrator clears drag_kept. */
     double *drag, *drag_slip, *drag_reynolds_power;
     uint8_t *drag_kept;
+    /* The forces at the ends of the two steps before, 6 per particle (newest first), of which the first
+     * drag_history_count (0-2) are known, read only while drag_kept is 1: they extrapolate the force at the end
+     * of the next step, the first fixed-point iterate's guess (dem/integrate.c).  Checkpointed with drag. */
+    double *drag_history;
+    uint8_t *drag_history_count;
 };
 
 /* One entry per (particle, cell its swept box overlaps). */

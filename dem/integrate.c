@@ -14,8 +14,17 @@
  * k+1 would (README, "Integration").  The forces are kept per particle (struct
  * dem_particles: drag_kept) and used only while nothing else changed the particle's position or velocity
  * (a contact, deposition, the target plane clear drag_kept), so that a kept force is exactly the force
- * computed again: a checkpoint need not hold them, a resumed run gives the same bits, and a test compares runs
- * with and without them (dem_reuse_drag). */
+ * computed again, and a test compares runs with and without them (dem_reuse_drag).
+ *
+ * The first iterate's guess: the iteration may start anywhere (Eqs. 51-52 converge to the same fixed point
+ * within Eq. 53's tolerance); it starts where the force at the end of the step is extrapolated from the forces
+ * at the ends of the last steps: quadratically from three (3 F_n - 3 F_n-1 + F_n-2), linearly from two
+ * (2 F_n - F_n-1), else the start force F_n itself (explicit Euler, where the paper's iteration starts).  In smooth flight
+ * the force changes by ~1e-3 of itself per step, so the quadratic guess is within ~1e-9 of the end force and Eq.
+ * 53 holds at the first test: one drag evaluation per particle-step where the explicit guess needs two or three
+ * (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like the kept
+ * force), a chain broken by anything that clears drag_kept, and a checkpoint holds them, so a resumed run
+ * gives the same bits. */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
  * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  No effect on the results: no floating-point option changes. */
@@ -250,6 +259,10 @@ struct block {
     double squares[4][BLOCK];
     uint8_t undecided[BLOCK];
     int start_kept; /* every lane's start force, slip and Re^0.6459 were kept (dem_particles: drag_kept) */
+    /* the forces at the ends of the two steps before (newest first) and how many step-end forces in a row are
+     * known, the start force included (0-3): what the first iterate's guess is extrapolated from */
+    double previous_force[2][3][BLOCK];
+    uint8_t chain[BLOCK];
 };
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
@@ -331,21 +344,36 @@ static void block_start_forces(const struct dem_config *cfg, struct block *restr
         b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], b->slip[l], b->reynolds_power[l]);
 }
 
-/* The start forces, then the first iterate of every lane that needs no sub-steps, from its start force. */
+/* The force at the end of lane l's step extrapolated from its start force and the forces at the ends of the
+ * steps before (a polynomial in time through the last `chain` step-end forces, at most quadratic). */
+FM_INLINE void end_force_guess(const struct block *b, int l, const double force_start[3], double guess[3])
+{
+    int chain = b->chain[l];
+    for (int c = 0; c < 3; c++) {
+        double newest = force_start[c], older = b->previous_force[0][c][l], oldest = b->previous_force[1][c][l];
+        double linear = newest + (newest - older);
+        double quadratic = oldest + 3.0 * (newest - older);
+        guess[c] = fm_select(chain >= 3, quadratic, fm_select(chain == 2, linear, newest));
+    }
+}
+
+/* The start forces, then the first iterate of every lane that needs no sub-steps, from the guess of its end
+ * force. */
 static void block_start(const struct dem_config *cfg, struct block *restrict b)
 {
     block_start_forces(cfg, b);
     const double phi = cfg->phi, tol = cfg->fixed_point_tol, dt = cfg->dt;
     const int more_allowed = 1 < cfg->fixed_point_max_iter;
     for (int l = 0; l < BLOCK; l++) {
-        double x[3], v[3], force[3];
+        double x[3], v[3], force[3], guess[3];
         lane_get(b->x, l, x);
         lane_get(b->v, l, v);
         lane_get(b->force_start, l, force);
+        end_force_guess(b, l, force, guess);
         struct phi_problem problem;
         phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
         lane_put_problem(b, l, &problem);
-        struct eq53_squares q = phi_iterate(&problem, force, x, v);
+        struct eq53_squares q = phi_iterate(&problem, guess, x, v);
         int decision = eq53_shortcut(&q, tol);
         int converged = (decision == 1) | (phi == 0.0); /* phi = 0, explicit Euler: nothing to iterate */
         lane_put_squares(b, l, &q);
@@ -463,6 +491,10 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
         b->d[l] = p->d[i];
         b->m[l] = p->m[i];
         b->start_kept &= p->drag_kept[i];
+        b->chain[l] = (uint8_t)(p->drag_kept[i] ? 1 + p->drag_history_count[i] : 0);
+        for (int k = 0; k < 2; k++)
+            for (int c = 0; c < 3; c++)
+                b->previous_force[k][c][l] = b->chain[l] > k + 1 ? p->drag_history[6 * i + 3 * k + c] : 0.0;
     }
     if (!b->start_kept)
         return;
@@ -475,9 +507,17 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
     }
 }
 
-/* Keep (or forget) the force at the end of particle i's step for the start of the next. */
-static void keep_end_drag(struct dem_particles *p, uint32_t i, const struct step_end *end)
+/* Keep (or forget) the force at the end of particle i's step for the start of the next; `chain` step-end
+ * forces in a row were known at its start (struct block): the start force goes into the history. */
+static void keep_end_drag(struct dem_particles *p, uint32_t i, const struct step_end *end, int chain)
 {
+    int history = end->force_known && chain > 0 ? (chain < 2 ? chain : 2) : 0;
+    if (history > 0) {
+        double *older = p->drag_history + 6 * (size_t)i;
+        memcpy(older + 3, older, 3 * sizeof(double));
+        memcpy(older, p->drag + 3 * (size_t)i, 3 * sizeof(double));
+    }
+    p->drag_history_count[i] = (uint8_t)history;
     p->drag_kept[i] = (uint8_t)end->force_known;
     memcpy(p->drag + 3 * (size_t)i, end->force, 3 * sizeof(double));
     p->drag_slip[i] = end->slip;
@@ -502,7 +542,7 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
             double force[3];
             lane_get(b->force_start, (int)l, force);
             integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
-            keep_end_drag(p, i, &end);
+            keep_end_drag(p, i, &end, 0);
             continue;
         }
         double x_k[3], v_k[3];
@@ -521,7 +561,7 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
         count_solve(count, b->iterations[l], converged);
         memcpy(x, x_k, sizeof x_k);
         memcpy(v, v_k, sizeof v_k);
-        keep_end_drag(p, i, &end);
+        keep_end_drag(p, i, &end, b->chain[l]);
     }
 }
 

@@ -38,6 +38,10 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->drag_reynolds_power = resize(p->drag_reynolds_power, capacity, sizeof(double));
     p->drag_kept = resize(p->drag_kept, capacity, sizeof(uint8_t));
     memset(p->drag_kept + p->capacity, 0, capacity - p->capacity);
+    p->drag_history = resize(p->drag_history, 6 * capacity, sizeof(double));
+    memset(p->drag_history + 6 * p->capacity, 0, 6 * (capacity - p->capacity) * sizeof(double));
+    p->drag_history_count = resize(p->drag_history_count, capacity, sizeof(uint8_t));
+    memset(p->drag_history_count + p->capacity, 0, capacity - p->capacity);
     p->capacity = capacity;
 }
 
@@ -58,6 +62,7 @@ size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], 
     p->id[i] = id;
     p->state[i] = DEM_FLYING;
     p->drag_kept[i] = 0;
+    p->drag_history_count[i] = 0;
     return i;
 }
 
@@ -82,6 +87,8 @@ void particles_compact(struct dem_particles *p, const uint8_t *keep)
             p->drag_slip[kept] = p->drag_slip[i];
             p->drag_reynolds_power[kept] = p->drag_reynolds_power[i];
             p->drag_kept[kept] = p->drag_kept[i];
+            memcpy(p->drag_history + 6 * kept, p->drag_history + 6 * i, 6 * sizeof(double));
+            p->drag_history_count[kept] = p->drag_history_count[i];
         }
         kept++;
     }
@@ -104,6 +111,8 @@ void particles_free(struct dem_particles *p)
     free(p->drag_slip);
     free(p->drag_reynolds_power);
     free(p->drag_kept);
+    free(p->drag_history);
+    free(p->drag_history_count);
     memset(p, 0, sizeof *p);
 }
 
