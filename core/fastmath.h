@@ -1,13 +1,14 @@
-/* Module-private (dem/): e^x, ln x, x^(1/3) and x^y in plain double arithmetic (no libm calls, no branches).
+/* e^x, ln x, sqrt x, x^y and x^(-1/3) in plain double arithmetic (no libm calls, no branches).
  *
- * Why: the drag integration (dem/integrate.c) evaluates a power (Haider-Levenspiel, Eq. 25), a cube root
- * and an exponential (the jet, Eqs. 26-27) three times per particle and step, and libm's scalar calls cost
+ * Why: the drag integration (dem/integrate.c) evaluates a power (Haider-Levenspiel, Eq. 25), an inverse cube
+ * root and an exponential (the jet, Eqs. 26-27) for every particle and step, and libm's scalar calls cost
  * most of its time.  Written as selects and IEEE operations these functions vectorise across particles, and
  * a vector lane gives the same bits as the scalar code (C17 mode: no contraction into FMA), so results do
  * not depend on how particles are split between threads or vector lanes.
  *
  * Accuracy (measured against libm over the ranges used, tests/test_gas.c checks the jet and drag to 1e-14 and
- * 1e-13): exp and log within 1-2 ulp, cbrt and pow within a few ulp (the error of ln x scaled by y). */
+ * 1e-13; tests/test_fastmath.c measures): exp and log within 1-2 ulp, x^(-1/3) within 1 ulp, pow within a few
+ * ulp (the error of ln x scaled by y). */
 #ifndef SPRAYCOAT_DEM_FASTMATH_H
 #define SPRAYCOAT_DEM_FASTMATH_H
 
@@ -153,10 +154,29 @@ FM_INLINE double fm_pow(double x, double y)
     return fm_exp(y * fm_log(fm_select(x > 1e-300, x, 1e-300)));
 }
 
-/* x^(1/3) for x > 0 (x below 1e-300 is taken as 1e-300). */
-FM_INLINE double fm_cbrt(double x)
+/* x^(-1/3) for x > 0 (x below 1e-300 is taken as 1e-300; finite x only) within 2 ulp, without exp, log or a
+ * division: x = 2^(3q + k) m, m in [1, 2), k in {0, 1, 2}, so x^(-1/3) = 2^-q y^(-1/3) with y = 2^k m in
+ * [1, 8).  A quadratic in m times 2^(-k/3) guesses y^(-1/3) within 2.1e-3 (Chebyshev interpolation of
+ * m^(-1/3) on [1, 2]), and three Newton steps for r^-3 = y, r <- r + r (1 - y r^3)/3, whose relative error
+ * goes e -> 2 e^2, reach rounding (2.1e-3 -> 8.8e-6 -> 1.5e-10 -> 5e-20).  The jet (dem/gas_eval.h) needs
+ * x^(-1/3) and x^(-2/3); fm_cbrt's exp(log(x)/3) cost twice as much and a division for each. */
+FM_INLINE double fm_inverse_cbrt(double x)
 {
-    return fm_exp(fm_log(fm_select(x > 1e-300, x, 1e-300)) / 3.0);
+    x = fm_select(x > 1e-300, x, 1e-300);
+    uint64_t bits = fm_to_bits(x);
+    double mantissa = fm_from_bits((bits & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
+    double exponent = fm_from_bits((bits >> 52) | 0x4330000000000000ull) - (4503599627370496.0 + 1023.0);
+    /* q = floor(exponent / 3) as the integer nearest exponent / 3 - 0.4 (the shifter rounds; floor() would keep
+     * gcc from vectorising the loops that call this) */
+    double q = (exponent * (1.0 / 3.0) - 0.4 + FM_ROUNDING_SHIFTER) - FM_ROUNDING_SHIFTER, k = exponent - 3.0 * q;
+    double y = mantissa * fm_select(k == 0.0, 1.0, fm_select(k == 1.0, 2.0, 4.0));
+    double guess = 1.3835059191296828 + mantissa * (-0.47684205620727066 + mantissa * 0.09126116885223201);
+    double r = guess * fm_select(k == 0.0, 1.0, fm_select(k == 1.0, 0.79370052598409973738, 0.62996052494743658238));
+    for (int step = 0; step < 3; step++) {
+        double residual = 1.0 - y * r * r * r;
+        r = r + r * residual * (1.0 / 3.0);
+    }
+    return r * fm_exp_power_of_two(FM_ROUNDING_SHIFTER - q);
 }
 
 #endif

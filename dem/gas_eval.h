@@ -43,13 +43,13 @@ FM_INLINE void gas_eval_bickley(const struct gas_field *gas, const double pos[3]
     int in_core = (pos[2] < gas->core_length) | !(x_here > 0.0);
     double x = fm_select(in_core, x_core, x_here);
     int defined = x > 0.0;
-    double cube_root = fm_cbrt(fm_select(defined, x, 1.0));
-    double x_two_thirds = cube_root * cube_root;
-    double xi = gas->c3 * r / x_two_thirds;
+    double inverse_cube_root = fm_inverse_cbrt(fm_select(defined, x, 1.0));
+    double inverse_two_thirds = inverse_cube_root * inverse_cube_root;
+    double xi = gas->c3 * r * inverse_two_thirds;
     double sech2, tanh_xi;
     gas_eval_sech2_tanh(xi, &sech2, &tanh_xi);
-    double axial = gas->c1 / cube_root * sech2;
-    double entrained = gas->c2 / x_two_thirds * (2.0 * xi * sech2 - tanh_xi);
+    double axial = gas->c1 * inverse_cube_root * sech2;
+    double entrained = gas->c2 * inverse_two_thirds * (2.0 * xi * sech2 - tanh_xi);
     double radial = fm_select(in_core, 0.0, entrained);
     double safe_r = fm_select(r > 0.0, r, 1.0);
     double radial_x = radial * pos[0] / safe_r, radial_y = radial * pos[1] / safe_r;

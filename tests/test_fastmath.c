@@ -85,24 +85,42 @@ static void test_exp_log(void)
     check_range("fm_log", fm_log_call, log, 0.5, 2.0, 2.0);
 }
 
+static double inverse_cbrt_reference(double x) { return (double)powl((long double)x, -1.0L / 3.0L); }
+static double fm_inverse_cbrt_call(double x) { return fm_inverse_cbrt(x); }
+
+/* x^(-1/3) as the jet uses it (x = z + virtual_origin: about 1e-3 to 10 m), over every exponent residue mod 3,
+ * and far out. */
+static void test_inverse_cbrt(void)
+{
+    check_range("fm_inverse_cbrt", fm_inverse_cbrt_call, inverse_cbrt_reference, 1e-3, 10.0, 2.0);
+    check_range("fm_inverse_cbrt", fm_inverse_cbrt_call, inverse_cbrt_reference, 0.9, 8.1, 2.0);
+    check_range("fm_inverse_cbrt", fm_inverse_cbrt_call, inverse_cbrt_reference, 1e-300, 1e300, 2.0);
+    check_range("fm_inverse_cbrt", fm_inverse_cbrt_call, inverse_cbrt_reference, 1e-200, 1e-190, 2.0);
+    CHECK(fm_inverse_cbrt(8.0) == 0.5 && fm_inverse_cbrt(0.125) == 2.0 && fm_inverse_cbrt(1.0) == 1.0,
+          "exact cubes: %.17g %.17g %.17g", fm_inverse_cbrt(8.0), fm_inverse_cbrt(0.125), fm_inverse_cbrt(1.0));
+}
+
 static double __attribute__((noinline)) erf_scalar(double x) { return fm_erf_call(x); }
 static double __attribute__((noinline)) expm1_scalar(double x) { return fm_expm1(x); }
+static double __attribute__((noinline)) inverse_cbrt_scalar(double x) { return fm_inverse_cbrt(x); }
 
 /* A loop the compiler vectorises (-O3 here) gives the bits of the scalar calls in every lane. */
 static void test_lanes_match_scalar(void)
 {
     enum { N = 1024 };
-    static double x[N], erf_lanes[N], expm1_lanes[N];
+    static double x[N], erf_lanes[N], expm1_lanes[N], inverse_cbrt_lanes[N];
     for (int k = 0; k < N; k++)
         x[k] = -9.0 + 18.0 * k / (N - 1) + 1e-3 * sin(k);
     for (int k = 0; k < N; k++) {
         erf_lanes[k] = fm_erf_from_gauss(x[k], fm_exp(-x[k] * x[k]));
         expm1_lanes[k] = fm_expm1(4.0 * x[k]);
+        inverse_cbrt_lanes[k] = fm_inverse_cbrt(exp(x[k]));
     }
     int differ = 0;
     for (int k = 0; k < N; k++)
         differ += memcmp(&erf_lanes[k], &(double){erf_scalar(x[k])}, sizeof(double)) != 0 ||
-                  memcmp(&expm1_lanes[k], &(double){expm1_scalar(4.0 * x[k])}, sizeof(double)) != 0;
+                  memcmp(&expm1_lanes[k], &(double){expm1_scalar(4.0 * x[k])}, sizeof(double)) != 0 ||
+                  memcmp(&inverse_cbrt_lanes[k], &(double){inverse_cbrt_scalar(exp(x[k]))}, sizeof(double)) != 0;
     CHECK(differ == 0, "%d of %d lanes differ from the scalar bits", differ, N);
 }
 
@@ -111,6 +129,7 @@ int main(void)
     RUN(test_expm1);
     RUN(test_erf);
     RUN(test_exp_log);
+    RUN(test_inverse_cbrt);
     RUN(test_lanes_match_scalar);
     return check_finish();
 }
