@@ -204,9 +204,12 @@ void grid_bin_points(struct mpm_solver *s)
     for (size_t b = 0; b < g->block_count; b++)
         g->block_start[b + 1] += g->block_start[b];
     size_t *fill = g->block_start;  /* reused as the write cursor, restored below */
-    for (size_t q = 0; q < p->count; q++)
+    /* by id, whatever the storage order: a node sums its points' contributions in the same order always */
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i];
         if (g->point_block[q] >= 0)
             g->block_points[fill[g->point_block[q]]++] = q;
+    }
     for (size_t b = g->block_count; b > 0; b--)
         g->block_start[b] = g->block_start[b - 1];
     g->block_start[0] = 0;
@@ -325,9 +328,9 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
         scatter_momentum_width(s, q, &st, st.width);
 }
 
-/* Points are visited in block order, not in memory order: fetch the state, velocity and stencil of the point
- * PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was the largest stall of the transfer; about
- * 5 % of the step, measured on the 1.5/0.5 impact). */
+/* Points are visited in block order, and stored in that order only as of the last points_reorder: fetch the
+ * state, velocity and stencil of the point PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was
+ * the largest stall of the transfer; about 5 % of the step, measured on the 1.5/0.5 impact). */
 #define PREFETCH_AHEAD 8
 
 static void prefetch_point(const struct mpm_solver *s, size_t q)
