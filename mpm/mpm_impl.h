@@ -152,19 +152,10 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
  * that passes a literal 2 for trilinear stencils: the loops over 2 x 2 x 2 nodes are then unrolled and the node
  * offsets folded, with the same arithmetic in the same order (the same bits). */
 #define STENCIL_INLINE static inline __attribute__((always_inline))
-/* The part of a stencil that a transfer of the given width reads (node, weights and gradients), copied into a
- * local: the transfers read the copy because their stores to the grid could alias *from, and copying only this
- * part, not the whole struct, keeps gcc from calling memcpy for it (about 5 % of the impact step). */
-STENCIL_INLINE void stencil_copy(const struct stencil *from, struct stencil *to, int width)
-{
-    to->node = from->node;
-    to->width = from->width;
-    for (int d = 0; d < 3; d++)
-        for (int a = 0; a < width; a++) {
-            to->w[d][a] = from->w[d][a];
-            to->g[d][a] = from->g[d][a];
-        }
-}
+/* The transfers read the stencil in place, from the caller's local struct: its address does not escape, so the
+ * stores to the grid cannot alias it.  A copy into a second local (done before, so that such stores could not
+ * alias it) was compiled as vector loads of doubles just stored one by one, which stalled on store forwarding:
+ * about a quarter of the particle-to-grid transfer's samples. */
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {

@@ -148,16 +148,15 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
 {
     struct mpm_points *p = &s->points;
     const struct mpm_grid *g = &s->grid;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
     double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                size_t I = layer + stencil_node(g, &st, a, b, c);
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
+                size_t I = layer + stencil_node(g, st, a, b, c);
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
@@ -213,8 +212,7 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
     /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
@@ -223,13 +221,13 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                size_t I = layer + stencil_node(g, &st, a, b, c);
-                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                size_t I = layer + stencil_node(g, st, a, b, c);
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 if (!(g->mass[I] > g->mass_cutoff))
                     continue;
                 contact |= N > 0.0 && g->contact[I];
-                double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
-                                st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                double dN[3] = {st->g[0][a] * st->w[1][b] * st->w[2][c], st->w[0][a] * st->g[1][b] * st->w[2][c],
+                                st->w[0][a] * st->w[1][b] * st->g[2][c]};
                 const double *vI = g->velocity + 3 * I;
                 for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
