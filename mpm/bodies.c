@@ -132,7 +132,11 @@ static int allocate(struct mpm_points *p, size_t n)
     p->state = calloc(n, sizeof *p->state);
     p->body = calloc(n, sizeof *p->body);
     p->flags = calloc(n, sizeof *p->flags);
-    if (!p->x || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond || !p->plastic_work || !p->normal ||
+    p->id = calloc(n, sizeof *p->id);
+    p->slot = calloc(n, sizeof *p->slot);
+    if (n >= UINT32_MAX)
+        SC_FAIL(SC_EINPUT, "impact: %zu material points; at most %u are supported", n, UINT32_MAX - 1);
+    if (!p->id || !p->slot || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond || !p->plastic_work || !p->normal ||
         !p->state || !p->body || !p->flags)
         SC_FAIL(SC_ESIM, "out of memory for %zu material points", n);
     return SC_OK;
@@ -185,6 +189,8 @@ int points_create(const struct mpm_config *cfg, struct mpm_points *points)
     }
     if (status == SC_OK)
         status = allocate(points, total);
+    if (status == SC_OK)
+        points_order_reset(points);
     size_t offset = 0;
     for (int b = 0; status == SC_OK && b < cfg->body_count; offset += counts[b], b++)
         fill_points(cfg, b, seeds[b], counts[b], offset, points);
@@ -209,5 +215,7 @@ void points_free(struct mpm_points *p)
     free(p->state);
     free(p->body);
     free(p->flags);
+    free(p->id);
+    free(p->slot);
     memset(p, 0, sizeof *p);
 }

@@ -1,6 +1,7 @@
 /* Diagnostics of the impact runs (thesis Chapter 5): energies, plastic strain and its energy density
  * (Eq. 4.15), PBCP (Eq. 5.1), the restitution velocity with the 60 m/s filter (Section 5.2.1) and the
- * bonded/rebounded verdict.  Sums run over points in index order, so they do not depend on threads. */
+ * bonded/rebounded verdict.  Sums run over points in id order, so they do not depend on threads or on the
+ * storage order. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -62,9 +63,11 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     if (!sums)
         abort();
     const struct mpm_points *p = &s->points;
-    for (size_t q = 0; q < p->count; q++)
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i]; /* by id (point_order.c) */
         if (p->flags[q] & POINT_ACTIVE)
             add_point(s, q, &sums[p->body[q]]);
+    }
     struct mpm_diagnostics *d = &s->diagnostics;
     d->t = s->t;
     d->body_count = nb;
@@ -121,7 +124,7 @@ void book_absorbed_energy(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
     for (size_t k = 0; k < s->boundary_count; k++) {
-        size_t q = s->boundary_points[k];
+        size_t q = p->slot[s->boundary_points[k]];
         if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         double f[3], v[3];

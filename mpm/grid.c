@@ -204,9 +204,12 @@ void grid_bin_points(struct mpm_solver *s)
     for (size_t b = 0; b < g->block_count; b++)
         g->block_start[b + 1] += g->block_start[b];
     size_t *fill = g->block_start;  /* reused as the write cursor, restored below */
-    for (size_t q = 0; q < p->count; q++)
+    /* by id, whatever the storage order: a node sums its points' contributions in the same order always */
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i];
         if (g->point_block[q] >= 0)
             g->block_points[fill[g->point_block[q]]++] = q;
+    }
     for (size_t b = g->block_count; b > 0; b--)
         g->block_start[b] = g->block_start[b - 1];
     g->block_start[0] = 0;
@@ -238,8 +241,7 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
     const double *sig = ps->stress, *v = p->v + 3 * q;
@@ -255,13 +257,13 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                double wyz = st.w[1][b] * st.w[2][c];
-                double N = st.w[0][a] * wyz;
-                if (N == 0.0 && st.g[0][a] == 0.0)
+                double wyz = st->w[1][b] * st->w[2][c];
+                double N = st->w[0][a] * wyz;
+                if (N == 0.0 && st->g[0][a] == 0.0)
                     continue;
-                double dN[3] = {st.g[0][a] * wyz, st.w[0][a] * st.g[1][b] * st.w[2][c],
-                                st.w[0][a] * st.w[1][b] * st.g[2][c]};
-                size_t I = layer + stencil_node(g, &st, a, b, c);
+                double dN[3] = {st->g[0][a] * wyz, st->w[0][a] * st->g[1][b] * st->w[2][c],
+                                st->w[0][a] * st->w[1][b] * st->g[2][c]};
+                size_t I = layer + stencil_node(g, st, a, b, c);
                 g->mass[I] += m * N;
                 g->momentum[3 * I] += mv[0] * N;
                 g->momentum[3 * I + 1] += mv[1] * N;
@@ -296,8 +298,7 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
     double mv[3] = {m * v[0], m * v[1], m * v[2]}; /* (m v_i) N as before */
@@ -305,10 +306,10 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 if (N == 0.0)
                     continue;
-                size_t I = layer + stencil_node(g, &st, a, b, c);
+                size_t I = layer + stencil_node(g, st, a, b, c);
                 g->momentum_new[3 * I] += mv[0] * N;
                 g->momentum_new[3 * I + 1] += mv[1] * N;
                 g->momentum_new[3 * I + 2] += mv[2] * N;
@@ -325,9 +326,9 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
         scatter_momentum_width(s, q, &st, st.width);
 }
 
-/* Points are visited in block order, not in memory order: fetch the state, velocity and stencil of the point
- * PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was the largest stall of the transfer; about
- * 5 % of the step, measured on the 1.5/0.5 impact). */
+/* Points are visited in block order, and stored in that order only as of the last points_reorder: fetch the
+ * state, velocity and stencil of the point PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was
+ * the largest stall of the transfer; about 5 % of the step, measured on the 1.5/0.5 impact). */
 #define PREFETCH_AHEAD 8
 
 static void prefetch_point(const struct mpm_solver *s, size_t q)

@@ -16,9 +16,12 @@ enum point_flags {
     POINT_CONTACT = 16,  /* surface point touching another body this step (x_p in S of Section 4.1.1) */
 };
 
-/* Material points, structure of arrays. */
+/* Material points, structure of arrays.  The arrays are stored in a spatial order (point_order.c) that changes
+ * during a run; id[q] is the point's place in the set-up order (its identity: outputs, checkpoints and every
+ * sum over points use that order) and slot[i] where point i is stored. */
 struct mpm_points {
     size_t count;
+    uint32_t *id, *slot;
     double *x, *v;                  /* 3 per point */
     double *x_next;                 /* 3 per point: positions at the end of the step (swapped with x) */
     double *mass, *volume0, *volume;
@@ -88,7 +91,7 @@ struct mpm_solver {
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;
     double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
-    size_t *boundary_points;         /* the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
+    size_t *boundary_points;         /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
@@ -105,6 +108,13 @@ struct mpm_solver {
 /* bodies.c */
 int points_create(const struct mpm_config *cfg, struct mpm_points *points);
 void points_free(struct mpm_points *points);
+
+/* point_order.c */
+/* Store the points in the order the particle-to-grid transfer visits them (after grid_bin_points; the caller
+ * bins again).  Results do not depend on the storage order. */
+int points_reorder(struct mpm_solver *s);
+/* Storage in set-up order (id = slot = index), e.g. after reading a checkpoint. */
+void points_order_reset(struct mpm_points *p);
 
 /* grid.c */
 int grid_create(const struct mpm_config *cfg, const struct mpm_points *points, struct mpm_grid *grid);
@@ -142,19 +152,10 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
  * that passes a literal 2 for trilinear stencils: the loops over 2 x 2 x 2 nodes are then unrolled and the node
  * offsets folded, with the same arithmetic in the same order (the same bits). */
 #define STENCIL_INLINE static inline __attribute__((always_inline))
-/* The part of a stencil that a transfer of the given width reads (node, weights and gradients), copied into a
- * local: the transfers read the copy because their stores to the grid could alias *from, and copying only this
- * part, not the whole struct, keeps gcc from calling memcpy for it (about 5 % of the impact step). */
-STENCIL_INLINE void stencil_copy(const struct stencil *from, struct stencil *to, int width)
-{
-    to->node = from->node;
-    to->width = from->width;
-    for (int d = 0; d < 3; d++)
-        for (int a = 0; a < width; a++) {
-            to->w[d][a] = from->w[d][a];
-            to->g[d][a] = from->g[d][a];
-        }
-}
+/* The transfers read the stencil in place, from the caller's local struct: its address does not escape, so the
+ * stores to the grid cannot alias it.  A copy into a second local (done before, so that such stores could not
+ * alias it) was compiled as vector loads of doubles just stored one by one, which stalled on store forwarding:
+ * about a quarter of the particle-to-grid transfer's samples. */
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {

@@ -28,7 +28,8 @@ enum field { F_X, F_V, F_EPS_P, F_T, F_D_BOND, F_PRESSURE, F_VON_MISES, F_RHO, F
 static void gather(const struct mpm_points *p, enum field f, double *out)
 {
     size_t k = 0;
-    for (size_t q = 0; q < p->count; q++) {
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i]; /* in id order, whatever the storage order */
         if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         const struct mpm_point_state *s = &p->state[q];
@@ -42,7 +43,7 @@ static void gather(const struct mpm_points *p, enum field f, double *out)
         case F_VON_MISES: out[k] = von_mises(s->stress); break;
         case F_RHO: out[k] = s->rho; break;
         case F_BODY: out[k] = p->body[q]; break;
-        case F_ID: out[k] = (double)q; break;
+        case F_ID: out[k] = (double)i; break;
         case F_SURFACE: out[k] = (p->flags[q] & POINT_SURFACE) != 0; break;
         }
         k++;
@@ -205,10 +206,42 @@ int mpm_write_results(struct mpm_solver *s, hid_t parent)
 #define CHECKPOINT_DOUBLES 12
 #define CHECKPOINT_INTEGERS 7
 
+/* A copy of a per-point array (size bytes a point) in id order: checkpoints hold the points in set-up order,
+ * as before the storage order changed during a run (point_order.c), so the file layout is unchanged. */
+static void *in_id_order(const struct mpm_points *p, const void *data, size_t size)
+{
+    char *out = malloc(p->count * size + 1);
+    if (out)
+        for (size_t i = 0; i < p->count; i++)
+            memcpy(out + i * size, (const char *)data + p->slot[i] * size, size);
+    return out;
+}
+
+static int write_point_doubles(hid_t g, const char *name, const struct mpm_points *p, const double *data,
+                               int width, const char *units)
+{
+    hsize_t dims[2] = {p->count, (hsize_t)width};
+    double *ordered = in_id_order(p, data, (size_t)width * sizeof *data);
+    if (!ordered)
+        SC_FAIL(SC_ESIM, "out of memory writing the checkpoint's %s", name);
+    int status = h5_write_doubles(g, name, width > 1 ? 2 : 1, dims, ordered, units, 1);
+    free(ordered);
+    return status;
+}
+
+static int write_point_bytes(hid_t g, const char *name, const struct mpm_points *p, const void *data, size_t size)
+{
+    void *ordered = in_id_order(p, data, size);
+    if (!ordered)
+        SC_FAIL(SC_ESIM, "out of memory writing the checkpoint's %s", name);
+    int status = h5_write_bytes(g, name, p->count * size, ordered, 1);
+    free(ordered);
+    return status;
+}
+
 int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
 {
     const struct mpm_points *p = &s->points;
-    hsize_t n = p->count, n3[2] = {n, 3};
     double scalars[CHECKPOINT_DOUBLES] = {s->t, s->dt, s->next_series, s->next_snapshot, s->removed_mass,
                                           s->energy_absorbed, s->energy_removed, s->energy_initial, 0, 0, 0, 0};
     int64_t integers[CHECKPOINT_INTEGERS] = {s->step, s->snapshot_count, s->snapshot_pending, s->removed_points,
@@ -219,18 +252,18 @@ int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
     SC_TRY(h5_write_doubles(g, "scalars", 1, ds, scalars, NULL, 1));
     SC_TRY(h5_write_int64s(g, "integers", 1, is, integers, NULL, 1));
     SC_TRY(h5_write_doubles(g, "series", 2, series_dims, s->series, NULL, 1));
-    SC_TRY(h5_write_doubles(g, "x", 2, n3, p->x, "m", 1));
-    SC_TRY(h5_write_doubles(g, "v", 2, n3, p->v, "m/s", 1));
-    SC_TRY(h5_write_doubles(g, "normal", 2, n3, p->normal, "-", 1));
-    SC_TRY(h5_write_doubles(g, "mass", 1, &n, p->mass, "kg", 1));
-    SC_TRY(h5_write_doubles(g, "volume0", 1, &n, p->volume0, "m3", 1));
-    SC_TRY(h5_write_doubles(g, "volume", 1, &n, p->volume, "m3", 1));
-    SC_TRY(h5_write_doubles(g, "d_bond", 1, &n, p->d_bond, "-", 1));
-    SC_TRY(h5_write_doubles(g, "plastic_work", 1, &n, p->plastic_work, "J", 1));
+    SC_TRY(write_point_doubles(g, "x", p, p->x, 3, "m"));
+    SC_TRY(write_point_doubles(g, "v", p, p->v, 3, "m/s"));
+    SC_TRY(write_point_doubles(g, "normal", p, p->normal, 3, "-"));
+    SC_TRY(write_point_doubles(g, "mass", p, p->mass, 1, "kg"));
+    SC_TRY(write_point_doubles(g, "volume0", p, p->volume0, 1, "m3"));
+    SC_TRY(write_point_doubles(g, "volume", p, p->volume, 1, "m3"));
+    SC_TRY(write_point_doubles(g, "d_bond", p, p->d_bond, 1, "-"));
+    SC_TRY(write_point_doubles(g, "plastic_work", p, p->plastic_work, 1, "J"));
     /* the point state as its struct bytes: MPM_FORMAT_VERSION changes when struct mpm_point_state does */
-    SC_TRY(h5_write_bytes(g, "state", n * sizeof *p->state, p->state, 1));
-    SC_TRY(h5_write_bytes(g, "body", n * sizeof *p->body, p->body, 1));
-    return h5_write_bytes(g, "flags", n * sizeof *p->flags, p->flags, 1);
+    SC_TRY(write_point_bytes(g, "state", p, p->state, sizeof *p->state));
+    SC_TRY(write_point_bytes(g, "body", p, p->body, sizeof *p->body));
+    return write_point_bytes(g, "flags", p, p->flags, sizeof *p->flags);
 }
 
 int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
@@ -266,6 +299,7 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     SC_TRY(h5_read_bytes(g, "state", p->state, n * sizeof *p->state));
     SC_TRY(h5_read_bytes(g, "body", p->body, n * sizeof *p->body));
     SC_TRY(h5_read_bytes(g, "flags", p->flags, n * sizeof *p->flags));
+    points_order_reset(p); /* the file holds the points in id order */
     s->t = scalars[0], s->dt = scalars[1], s->next_series = scalars[2], s->next_snapshot = scalars[3];
     s->removed_mass = scalars[4], s->energy_absorbed = scalars[5], s->energy_removed = scalars[6];
     s->energy_initial = scalars[7];

@@ -41,16 +41,18 @@ static void body_constants(struct mpm_solver *s)
 static double kinetic_energy_total(const struct mpm_points *p)
 {
     double sum = 0.0;
-    for (size_t q = 0; q < p->count; q++)
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i]; /* summed by id (point_order.c) */
         if (p->flags[q] & POINT_ACTIVE) {
             const double *v = p->v + 3 * q;
             sum += 0.5 * p->mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         }
+    }
     return sum;
 }
 
 /* The absorbing-boundary points (their flags are set once, at set-up): the energy they absorb is booked every
- * step without scanning all points. */
+ * step without scanning all points.  Called before any reordering: the list holds ids. */
 static int list_boundary_points(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
@@ -146,16 +148,15 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
 {
     struct mpm_points *p = &s->points;
     const struct mpm_grid *g = &s->grid;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
     double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                size_t I = layer + stencil_node(g, &st, a, b, c);
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
+                size_t I = layer + stencil_node(g, st, a, b, c);
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
@@ -211,8 +212,7 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    struct stencil st;
-    stencil_copy(stencil, &st, width);
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
     int contact = 0;
     /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
@@ -221,13 +221,13 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
-                size_t I = layer + stencil_node(g, &st, a, b, c);
-                double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                size_t I = layer + stencil_node(g, st, a, b, c);
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 if (!(g->mass[I] > g->mass_cutoff))
                     continue;
                 contact |= N > 0.0 && g->contact[I];
-                double dN[3] = {st.g[0][a] * st.w[1][b] * st.w[2][c], st.w[0][a] * st.g[1][b] * st.w[2][c],
-                                st.w[0][a] * st.w[1][b] * st.g[2][c]};
+                double dN[3] = {st->g[0][a] * st->w[1][b] * st->w[2][c], st->w[0][a] * st->g[1][b] * st->w[2][c],
+                                st->w[0][a] * st->w[1][b] * st->g[2][c]};
                 const double *vI = g->velocity + 3 * I;
                 for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
@@ -310,7 +310,15 @@ static int finish_point(struct mpm_solver *s, size_t q, struct point_block *b, i
     return 0;
 }
 
-/* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases; returns the first point that failed, or -1. */
+/* The smaller of a failed point's id and *bad (the one reported: the same for any storage order). */
+static void note_failure(const struct mpm_points *p, size_t q, long *bad)
+{
+    long id = (long)p->id[q];
+    *bad = *bad < 0 || id < *bad ? id : *bad;
+}
+
+/* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases; returns the smallest id of a point that
+ * failed, or -1. */
 static long update_block(struct mpm_solver *s, long q0, int count, double log_dt)
 {
     struct point_block b;
@@ -320,13 +328,13 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
         b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;
         if (b.updating[k] && begin_point(s, q, log_dt, &b, k) != 0) {
             b.updating[k] = 0;
-            bad = bad < 0 ? q0 + k : bad;
+            note_failure(&s->points, q, &bad);
         }
     }
     block_returns(s, &b, count);
     for (int k = 0; k < count; k++)
         if (b.updating[k] && finish_point(s, (size_t)(q0 + k), &b, k) != 0)
-            bad = bad < 0 || q0 + k < bad ? q0 + k : bad;
+            note_failure(&s->points, (size_t)(q0 + k), &bad);
     return bad;
 }
 
@@ -346,7 +354,7 @@ static int update_points(struct mpm_solver *s)
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
                 "non-finite state or a non-positive volume (time step %.3g s)", (long long)s->step + 1, s->t, bad,
-                p->body[bad] + 1, s->dt);
+                p->body[p->slot[bad]] + 1, s->dt);
     return SC_OK;
 }
 
@@ -362,14 +370,15 @@ static int remove_escaped(struct mpm_solver *s)
             continue;
         const double *x = p->x + 3 * q, *v = p->v + 3 * q;
         if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
-            bad = q < bad ? q : bad;
+            bad = (long)p->id[q] < bad ? (long)p->id[q] : bad;
         else if (!grid_contains(&s->grid, x))
             leaving++;
     }
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
-                "not finite", (long long)s->step, s->t, bad, p->body[bad] + 1);
-    for (size_t q = 0; leaving > 0 && q < p->count; q++) {
+                "not finite", (long long)s->step, s->t, bad, p->body[p->slot[bad]] + 1);
+    for (size_t i = 0; leaving > 0 && i < p->count; i++) {
+        size_t q = p->slot[i]; /* by id: energy_removed sums in the same order for any storage order */
         if (!(p->flags[q] & POINT_ACTIVE) || grid_contains(&s->grid, p->x + 3 * q))
             continue;
         const double *v = p->v + 3 * q;
@@ -398,10 +407,18 @@ static void advance_clocks(struct mpm_solver *s)
     }
 }
 
+/* Steps between two reorderings of the point storage (point_order.c).  The points of a block drift into other
+ * blocks slowly (a block is 4 cells), and a reordering costs about one transfer. */
+#define REORDER_EVERY 16
+
 int mpm_step(struct mpm_solver *s)
 {
     choose_time_step(s);
     grid_bin_points(s);
+    if (s->step % REORDER_EVERY == 0) {
+        SC_TRY(points_reorder(s));
+        grid_bin_points(s);
+    }
     grid_transfer_all(s);
     contact_nodal_update(s);
     book_absorbed_energy(s);

@@ -344,9 +344,9 @@ static int bonding_run(const char *bonding, struct impact_fixture *f, int *monot
             free(previous);
             return -1;
         }
-        for (size_t q = 0; q < p->count; q++) {
-            *monotone &= p->d_bond[q] >= previous[q];
-            previous[q] = p->d_bond[q];
+        for (size_t q = 0; q < p->count; q++) { /* by id: the solver reorders its storage */
+            *monotone &= p->d_bond[q] >= previous[p->id[q]];
+            previous[p->id[q]] = p->d_bond[q];
         }
     }
     free(previous);
