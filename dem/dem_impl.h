@@ -7,6 +7,16 @@
 
 #include "dem/dem.h"
 
+/* The drag at a particle's state as the integrator left it (dem/integrate.c): the force (N), the slip (m/s) and
+ * Re^0.6459 there, valid while `kept` is 1 (whatever changes x or v outside the integrator clears it); and the
+ * forces at the ends of the two steps before (newest first), of which the first `history_count` (0-2) are
+ * known: they extrapolate the force at the end of the next step, the first fixed-point iterate's guess.  One
+ * record per particle, so that a step reads and writes one place; checkpointed. */
+struct dem_drag_state {
+    double force[3], previous[2][3], slip, reynolds_power;
+    uint8_t kept, history_count;
+};
+
 /* Particles in flight and deposited, structure of arrays, in order of injection (= order of id). */
 struct dem_particles {
     size_t count, capacity;
@@ -18,16 +28,7 @@ struct dem_particles {
     double *d, *m;         /* diameter (m), mass (kg) */
     int64_t *id;
     uint8_t *state;        /* enum dem_particle_state */
-    /* The drag at the particle's state as the integrator left it (dem/integrate.c): the force (3 per
-     * particle, N), the slip (m/s) and Re^0.6459 there, valid while drag_kept is 1.  Whatever changes x or v
-     * outside the integrator clears drag_kept. */
-    double *drag, *drag_slip, *drag_reynolds_power;
-    uint8_t *drag_kept;
-    /* The forces at the ends of the two steps before, 6 per particle (newest first), of which the first
-     * drag_history_count (0-2) are known, read only while drag_kept is 1: they extrapolate the force at the end
-     * of the next step, the first fixed-point iterate's guess (dem/integrate.c).  Checkpointed with drag. */
-    double *drag_history;
-    uint8_t *drag_history_count;
+    struct dem_drag_state *drag;
 };
 
 /* One entry per (particle, cell its swept box overlaps). */
@@ -91,7 +92,7 @@ struct dem_solver {
     struct dem_particles p;
     struct dem_bins bins;
     struct dem_candidates candidates;
-    int reuse_drag;               /* start a step from the kept drag (dem_particles: drag_kept); 1 but in tests */
+    int reuse_drag;               /* start a step from the kept drag (struct dem_drag_state); 1 but in tests */
     /* The particles flying at the start of the step, in index order (dem_collide lists them; the
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;

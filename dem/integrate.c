@@ -12,8 +12,8 @@
  * to k+1, is), and the force at k is known, since it made k+1.  That force is the start force of the next
  * step (the particle starts there), so each particle-step costs one drag evaluation less than ending at
  * k+1 would (README, "Integration").  The forces are kept per particle (struct
- * dem_particles: drag_kept) and used only while nothing else changed the particle's position or velocity
- * (a contact, deposition, the target plane clear drag_kept), so that a kept force is exactly the force
+ * dem_particles: drag) and used only while nothing else changed the particle's position or velocity
+ * (a contact, deposition, the target plane clear the kept flag), so that a kept force is exactly the force
  * computed again, and a test compares runs with and without them (dem_reuse_drag).
  *
  * The first iterate's guess: the iteration may start anywhere (Eqs. 51-52 converge to the same fixed point
@@ -23,7 +23,7 @@
  * the force changes by ~1e-3 of itself per step, so the quadratic guess is within ~1e-9 of the end force and Eq.
  * 53 holds at the first test: one drag evaluation per particle-step where the explicit guess needs two or three
  * (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like the kept
- * force), a chain broken by anything that clears drag_kept, and a checkpoint holds them, so a resumed run
+ * force), a chain broken by anything that clears the kept flag, and a checkpoint holds them, so a resumed run
  * gives the same bits. */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
  * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
@@ -258,7 +258,7 @@ struct block {
     /* the squares of Eq. 53 of the last iterate, and whether they left it undecided */
     double squares[4][BLOCK];
     uint8_t undecided[BLOCK];
-    int start_kept; /* every lane's start force, slip and Re^0.6459 were kept (dem_particles: drag_kept) */
+    int start_kept; /* every lane's start force, slip and Re^0.6459 were kept (dem_particles: drag) */
     /* the forces at the ends of the two steps before (newest first) and how many step-end forces in a row are
      * known, the start force included (0-3): what the first iterate's guess is extrapolated from */
     double previous_force[2][3][BLOCK];
@@ -490,38 +490,39 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
         }
         b->d[l] = p->d[i];
         b->m[l] = p->m[i];
-        b->start_kept &= p->drag_kept[i];
-        b->chain[l] = (uint8_t)(p->drag_kept[i] ? 1 + p->drag_history_count[i] : 0);
+        const struct dem_drag_state *drag = &p->drag[i];
+        b->start_kept &= drag->kept;
+        b->chain[l] = (uint8_t)(drag->kept ? 1 + drag->history_count : 0);
         for (int k = 0; k < 2; k++)
             for (int c = 0; c < 3; c++)
-                b->previous_force[k][c][l] = b->chain[l] > k + 1 ? p->drag_history[6 * i + 3 * k + c] : 0.0;
+                b->previous_force[k][c][l] = drag->previous[k][c]; /* zero or a force of the past: finite */
     }
     if (!b->start_kept)
         return;
     for (size_t l = 0; l < BLOCK; l++) {
-        uint32_t i = b->index[l];
+        const struct dem_drag_state *drag = &p->drag[b->index[l]];
         for (int c = 0; c < 3; c++)
-            b->force_start[c][l] = p->drag[3 * i + c];
-        b->slip[l] = p->drag_slip[i];
-        b->reynolds_power[l] = p->drag_reynolds_power[i];
+            b->force_start[c][l] = drag->force[c];
+        b->slip[l] = drag->slip;
+        b->reynolds_power[l] = drag->reynolds_power;
     }
 }
 
-/* Keep (or forget) the force at the end of particle i's step for the start of the next; `chain` step-end
- * forces in a row were known at its start (struct block): the start force goes into the history. */
-static void keep_end_drag(struct dem_particles *p, uint32_t i, const struct step_end *end, int chain)
+/* Keep (or forget) the force at the end of lane l's step for the start of the next; the lane's start force
+ * and the older one it knew (struct block: chain) become the history.  Written from the block alone. */
+static void keep_end_drag(struct dem_particles *p, const struct block *b, int l, const struct step_end *end)
 {
-    int history = end->force_known && chain > 0 ? (chain < 2 ? chain : 2) : 0;
-    if (history > 0) {
-        double *older = p->drag_history + 6 * (size_t)i;
-        memcpy(older + 3, older, 3 * sizeof(double));
-        memcpy(older, p->drag + 3 * (size_t)i, 3 * sizeof(double));
+    int chain = b->chain[l];
+    struct dem_drag_state *drag = &p->drag[b->index[l]];
+    drag->history_count = (uint8_t)(end->force_known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
+    drag->kept = (uint8_t)end->force_known;
+    for (int c = 0; c < 3; c++) {
+        drag->previous[1][c] = b->previous_force[0][c][l];
+        drag->previous[0][c] = b->force_start[c][l];
+        drag->force[c] = end->force[c];
     }
-    p->drag_history_count[i] = (uint8_t)history;
-    p->drag_kept[i] = (uint8_t)end->force_known;
-    memcpy(p->drag + 3 * (size_t)i, end->force, 3 * sizeof(double));
-    p->drag_slip[i] = end->slip;
-    p->drag_reynolds_power[i] = end->reynolds_power;
+    drag->slip = end->slip;
+    drag->reynolds_power = end->reynolds_power;
 }
 
 /* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
@@ -542,7 +543,7 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
             double force[3];
             lane_get(b->force_start, (int)l, force);
             integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
-            keep_end_drag(p, i, &end, 0);
+            keep_end_drag(p, b, (int)l, &end);
             continue;
         }
         double x_k[3], v_k[3];
@@ -561,7 +562,7 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
         count_solve(count, b->iterations[l], converged);
         memcpy(x, x_k, sizeof x_k);
         memcpy(v, v_k, sizeof v_k);
-        keep_end_drag(p, i, &end, b->chain[l]);
+        keep_end_drag(p, b, (int)l, &end);
     }
 }
 

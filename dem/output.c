@@ -209,60 +209,16 @@ int dem_write_output(const struct dem_solver *s, hid_t file)
 /* Scalars of the solver state, in this order, in the dataset "counters". */
 enum { COUNTER_STEP, COUNTER_INJECTED, COUNTER_ESCAPED, COUNTER_DEPOSITED, COUNTER_DEFERRED, COUNTER_COUNT };
 
-/* The drag kept at each particle's state and the step-end forces before it (dem_particles: drag, drag_history):
- * the next step's first iterate is guessed from them, so a resumed run needs them to give the same bits. */
-static int write_drag_state(hid_t group, const struct dem_particles *p)
-{
-    hid_t g;
-    SC_TRY(h5_create_group(group, "drag", &g));
-    size_t n = p->count;
-    hsize_t n1[1] = {n}, n3[2] = {n, 3}, n6[2] = {n, 6};
-    int64_t *flags = dem_realloc_or_die(NULL, 2 * (n ? n : 1) * sizeof *flags);
-    for (size_t i = 0; i < n; i++) {
-        flags[i] = p->drag_kept[i];
-        flags[n + i] = p->drag_history_count[i];
-    }
-    int status = h5_write_int64s(g, "kept", 1, n1, flags, "", 1);
-    if (status == SC_OK)
-        status = h5_write_int64s(g, "history_count", 1, n1, flags + n, "", 1);
-    if (status == SC_OK)
-        status = h5_write_doubles(g, "force", 2, n3, p->drag, "N", 1);
-    if (status == SC_OK)
-        status = h5_write_doubles(g, "slip", 1, n1, p->drag_slip, "m/s", 1);
-    if (status == SC_OK)
-        status = h5_write_doubles(g, "reynolds_power", 1, n1, p->drag_reynolds_power, "", 1);
-    if (status == SC_OK)
-        status = h5_write_doubles(g, "history", 2, n6, p->drag_history, "N", 1);
-    free(flags);
-    H5Gclose(g);
-    return status;
-}
-
+/* The drag kept at each particle's state and the step-end forces before it (struct dem_drag_state): the next
+ * step's first iterate is guessed from them, so a resumed run needs them to give the same bits. */
 static int read_drag_state(hid_t group, struct dem_particles *p)
 {
-    hid_t g = H5Gopen2(group, "drag", H5P_DEFAULT);
-    if (g < 0)
-        SC_FAIL(SC_EIO, "checkpoint has no /drag group");
-    size_t n = p->count;
-    int64_t *flags = dem_realloc_or_die(NULL, 2 * (n ? n : 1) * sizeof *flags);
-    int status = h5_read_int64s(g, "kept", flags, n);
-    if (status == SC_OK)
-        status = h5_read_int64s(g, "history_count", flags + n, n);
-    for (size_t i = 0; status == SC_OK && i < n; i++) {
-        p->drag_kept[i] = (uint8_t)(flags[i] != 0);
-        p->drag_history_count[i] = (uint8_t)(flags[n + i] < 0 ? 0 : flags[n + i] > 2 ? 2 : flags[n + i]);
-    }
-    free(flags);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "force", p->drag, 3 * n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "slip", p->drag_slip, n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "reynolds_power", p->drag_reynolds_power, n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "history", p->drag_history, 6 * n);
-    H5Gclose(g);
-    return status;
+    size_t bytes;
+    SC_TRY(h5_dataset_size(group, "drag", &bytes));
+    if (bytes != p->count * sizeof *p->drag)
+        SC_FAIL(SC_EIO, "checkpoint dataset drag has %zu bytes, not %zu (one record per particle)", bytes,
+                p->count * sizeof *p->drag);
+    return bytes ? h5_read_bytes(group, "drag", p->drag, bytes) : SC_OK;
 }
 
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
@@ -272,7 +228,7 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
     SC_TRY(h5_write_int64s(group, "counters", 1, dims, counters, "", 1));
     SC_TRY(h5_write_bytes(group, "stats", sizeof s->stats, &s->stats, 1));
     SC_TRY(write_particles(group, s, 1));
-    SC_TRY(write_drag_state(group, &s->p));
+    SC_TRY(h5_write_bytes(group, "drag", s->p.count * sizeof *s->p.drag, s->p.drag, 1));
     SC_TRY(h5_write_bytes(group, "impacts", s->impact_count * sizeof *s->impacts, s->impacts, 1));
     SC_TRY(h5_write_bytes(group, "handoffs", s->handoff_count * sizeof *s->handoffs, s->handoffs, 1));
     SC_TRY(h5_write_bytes(group, "metrics", s->metric_count * sizeof *s->metrics, s->metrics, 1));

@@ -33,15 +33,8 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->m = resize(p->m, capacity, sizeof(double));
     p->id = resize(p->id, capacity, sizeof(int64_t));
     p->state = resize(p->state, capacity, sizeof(uint8_t));
-    p->drag = resize(p->drag, 3 * capacity, sizeof(double));
-    p->drag_slip = resize(p->drag_slip, capacity, sizeof(double));
-    p->drag_reynolds_power = resize(p->drag_reynolds_power, capacity, sizeof(double));
-    p->drag_kept = resize(p->drag_kept, capacity, sizeof(uint8_t));
-    memset(p->drag_kept + p->capacity, 0, capacity - p->capacity);
-    p->drag_history = resize(p->drag_history, 6 * capacity, sizeof(double));
-    memset(p->drag_history + 6 * p->capacity, 0, 6 * (capacity - p->capacity) * sizeof(double));
-    p->drag_history_count = resize(p->drag_history_count, capacity, sizeof(uint8_t));
-    memset(p->drag_history_count + p->capacity, 0, capacity - p->capacity);
+    p->drag = resize(p->drag, capacity, sizeof *p->drag);
+    memset(p->drag + p->capacity, 0, (capacity - p->capacity) * sizeof *p->drag);
     p->capacity = capacity;
 }
 
@@ -61,8 +54,8 @@ size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], 
     p->m[i] = density * M_PI * d * d * d / 6.0;
     p->id[i] = id;
     p->state[i] = DEM_FLYING;
-    p->drag_kept[i] = 0;
-    p->drag_history_count[i] = 0;
+    p->drag[i].kept = 0;
+    p->drag[i].history_count = 0;
     return i;
 }
 
@@ -83,12 +76,7 @@ void particles_compact(struct dem_particles *p, const uint8_t *keep)
             p->m[kept] = p->m[i];
             p->id[kept] = p->id[i];
             p->state[kept] = p->state[i];
-            memcpy(p->drag + 3 * kept, p->drag + 3 * i, 3 * sizeof(double));
-            p->drag_slip[kept] = p->drag_slip[i];
-            p->drag_reynolds_power[kept] = p->drag_reynolds_power[i];
-            p->drag_kept[kept] = p->drag_kept[i];
-            memcpy(p->drag_history + 6 * kept, p->drag_history + 6 * i, 6 * sizeof(double));
-            p->drag_history_count[kept] = p->drag_history_count[i];
+            p->drag[kept] = p->drag[i];
         }
         kept++;
     }
@@ -108,11 +96,6 @@ void particles_free(struct dem_particles *p)
     free(p->id);
     free(p->state);
     free(p->drag);
-    free(p->drag_slip);
-    free(p->drag_reynolds_power);
-    free(p->drag_kept);
-    free(p->drag_history);
-    free(p->drag_history_count);
     memset(p, 0, sizeof *p);
 }
 
