@@ -167,7 +167,7 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p)
 #pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         int32_t *lo = cells + 6 * i, *hi = lo + 3;
-        box_cells(bins->reach + 6 * i, bins->reach + 6 * i + 3, bins->cell, lo, hi);
+        box_cells(bins->reach_lo + 3 * i, bins->reach_hi + 3 * i, bins->cell, lo, hi);
         offset[i + 1] = cells_in_range(lo, hi);
     }
     for (size_t i = 0; i < p->count; i++)
@@ -218,7 +218,8 @@ void dem_bins_free(struct dem_bins *bins)
     free(bins->entries);
     free(bins->scratch);
     free(bins->entry_bucket);
-    free(bins->reach);
+    free(bins->reach_lo);
+    free(bins->reach_hi);
     free(bins->built_id);
     free(bins->built_flying);
     free(bins->repaired);
@@ -330,11 +331,14 @@ void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p
 
 /* Do the reach boxes of i and j intersect with the lower corner of the intersection in cell_here?  (A pair
  * is listed from that one cell only.) */
-static int owns_reach_pair(const double *reach_i, const double *reach_j, const int32_t cell_here[3], double cell)
+static int owns_reach_pair(const struct dem_bins *bins, uint32_t i, uint32_t j, const int32_t cell_here[3])
 {
+    const double *lo_i = bins->reach_lo + 3 * i, *hi_i = bins->reach_hi + 3 * i;
+    const double *lo_j = bins->reach_lo + 3 * j, *hi_j = bins->reach_hi + 3 * j;
+    const double cell = bins->cell;
     for (int c = 0; c < 3; c++) {
-        double lo = reach_i[c] > reach_j[c] ? reach_i[c] : reach_j[c];
-        double hi = reach_i[3 + c] < reach_j[3 + c] ? reach_i[3 + c] : reach_j[3 + c];
+        double lo = lo_i[c] > lo_j[c] ? lo_i[c] : lo_j[c];
+        double hi = hi_i[c] < hi_j[c] ? hi_i[c] : hi_j[c];
         if (lo > hi || cell_index(lo, cell) != cell_here[c])
             return 0;
     }
@@ -370,7 +374,7 @@ static void list_pairs(struct dem_bins *bins, const struct dem_particles *p)
                         continue;
                     if (p->state[a->index] != DEM_FLYING && p->state[b->index] != DEM_FLYING)
                         continue;
-                    if (owns_reach_pair(bins->reach + 6 * a->index, bins->reach + 6 * b->index, a->cell, bins->cell))
+                    if (owns_reach_pair(bins, a->index, b->index, a->cell))
                         pair_push(&local, a->index, b->index);
                 }
         }
@@ -388,7 +392,8 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
     if (count <= bins->built_capacity)
         return;
     bins->built_capacity = count + count / 2 + 1024;
-    bins->reach = dem_realloc_or_die(bins->reach, 6 * bins->built_capacity * sizeof *bins->reach);
+    bins->reach_lo = dem_realloc_or_die(bins->reach_lo, 3 * bins->built_capacity * sizeof *bins->reach_lo);
+    bins->reach_hi = dem_realloc_or_die(bins->reach_hi, 3 * bins->built_capacity * sizeof *bins->reach_hi);
     bins->built_id = dem_realloc_or_die(bins->built_id, bins->built_capacity * sizeof *bins->built_id);
     bins->built_flying = dem_realloc_or_die(bins->built_flying, bins->built_capacity);
     bins->repaired = dem_realloc_or_die(bins->repaired, bins->built_capacity);
@@ -398,32 +403,29 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
 
 /* inside[i] for the particles [first, end): is its swept box of the step inside its reach box, is it the
  * same particle as at the build, and not deposited then and flying now?  A particle deposited at the build
- * (or its repair) is still where its box was made for it (deposits never move), so it passes without the
- * test, exactly as the test would pass it; late in a spray most particles are such deposits, in long runs of
- * indices.  No other branches (the sweep of a deposited particle, at rest, is v * 0; no lesser or greater). */
+ * (or its repair) is still where its box was made for it (deposits never move), so it passes whatever the
+ * test says.  No branches, so that gcc vectorises the loop (the sweep of a deposited particle, at rest, is
+ * v * 0; no lesser or greater). */
 static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
                         size_t end, uint8_t *restrict inside)
 {
     /* local restrict copies: the stores to inside[] cannot change them */
-    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict reach = bins->reach;
+    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d;
+    const double *restrict reach_lo = bins->reach_lo, *restrict reach_hi = bins->reach_hi;
     const int64_t *restrict id = p->id, *restrict built_id = bins->built_id;
     const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
-        if (!built_flying[i] && id[i] == built_id[i]) {
-            inside[i] = 1;
-            continue;
-        }
-        int flying = state[i] == DEM_FLYING;
+        int same = id[i] == built_id[i], flying = state[i] == DEM_FLYING;
         double radius = 0.5 * d[i] * (1.0 + BOX_MARGIN), span = flying ? dt : 0.0;
-        int holds = (id[i] == built_id[i]) & (built_flying[i] | !flying);
+        int holds = same & (built_flying[i] | !flying);
         /* lesser(start, stop) - radius >= lo exactly when both ends pass (rounding is monotonic); a NaN
          * fails here, a harmless extra repair */
         for (int c = 0; c < 3; c++) {
             double start = x[3 * i + c], stop = start + v[3 * i + c] * span;
-            double lo = reach[6 * i + c], hi = reach[6 * i + 3 + c];
+            double lo = reach_lo[3 * i + c], hi = reach_hi[3 * i + c];
             holds &= (start - radius >= lo) & (stop - radius >= lo) & (start + radius <= hi) & (stop + radius <= hi);
         }
-        inside[i] = (uint8_t)holds;
+        inside[i] = (uint8_t)(holds | (same & !built_flying[i]));
     }
 }
 
@@ -475,7 +477,7 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
     bins->cell = grid_cell_size(p, dt, bins->horizon);
 #pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
-        reach_box(p, i, dt, bins->horizon, bins->reach + 6 * i, bins->reach + 6 * i + 3);
+        reach_box(p, i, dt, bins->horizon, bins->reach_lo + 3 * i, bins->reach_hi + 3 * i);
         bins->built_id[i] = p->id[i];
         bins->built_flying[i] = p->state[i] == DEM_FLYING;
     }
@@ -493,7 +495,7 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
  * swept boxes, rebuilt every step as before, and tries a horizon again after PLAIN_BUILDS of them. */
 static void next_horizon(struct dem_bins *bins)
 {
-    if (!bins->reach) {
+    if (!bins->reach_lo) {
         bins->horizon = MIN_HORIZON;
     } else if (bins->horizon == 0.0) {
         if (++bins->plain_builds >= PLAIN_BUILDS)
@@ -524,11 +526,11 @@ static void pair_push_ordered(struct dem_bins *bins, uint32_t a, uint32_t b)
 }
 
 /* The test of owns_reach_pair without the cell. */
-static int reach_boxes_overlap(const double *reach_i, const double *reach_j)
+static int reach_boxes_overlap(const double lo_i[3], const double hi_i[3], const double lo_j[3], const double hi_j[3])
 {
     for (int c = 0; c < 3; c++) {
-        double lo = reach_i[c] > reach_j[c] ? reach_i[c] : reach_j[c];
-        double hi = reach_i[3 + c] < reach_j[3 + c] ? reach_i[3 + c] : reach_j[3 + c];
+        double lo = lo_i[c] > lo_j[c] ? lo_i[c] : lo_j[c];
+        double hi = hi_i[c] < hi_j[c] ? hi_i[c] : hi_j[c];
         if (lo > hi)
             return 0;
     }
@@ -580,8 +582,7 @@ static void add_grid_pair(const struct dem_bin_entry *entry, const int32_t here[
 {
     struct grid_pairs_query *q = context;
     uint32_t j = entry->index;
-    if (!both_deposited(q->p, q->i, j) &&
-        owns_reach_pair(q->bins->reach + 6 * q->i, q->bins->reach + 6 * j, here, q->bins->cell))
+    if (!both_deposited(q->p, q->i, j) && owns_reach_pair(q->bins, q->i, j, here))
         pair_push_ordered(q->bins, q->i, j);
 }
 
@@ -590,9 +591,8 @@ static void add_grid_pair(const struct dem_bin_entry *entry, const int32_t here[
  * overlap that cell, and the partner has one entry there), as list_pairs does. */
 static void list_grid_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
 {
-    const double *reach_i = bins->reach + 6 * i;
     int32_t first[3], last[3];
-    box_cells(reach_i, reach_i + 3, bins->cell, first, last);
+    box_cells(bins->reach_lo + 3 * i, bins->reach_hi + 3 * i, bins->cell, first, last);
     struct grid_pairs_query query = {bins, p, i};
     visit_built_entries(bins, first, last, add_grid_pair, &query);
 }
@@ -601,11 +601,12 @@ static void list_grid_pairs_of(struct dem_bins *bins, const struct dem_particles
  * particles from the lower one. */
 static void list_repaired_pairs_of(struct dem_bins *bins, const struct dem_particles *p, uint32_t i)
 {
+    const double *lo_i = bins->reach_lo + 3 * i, *hi_i = bins->reach_hi + 3 * i;
     for (size_t k = 0; k < bins->repaired_count; k++) {
         uint32_t j = bins->repaired_list[k];
         if (j == i || (bins->repaired[j] == RENEWED && j < i) || both_deposited(p, i, j))
             continue;
-        if (reach_boxes_overlap(bins->reach + 6 * i, bins->reach + 6 * j))
+        if (reach_boxes_overlap(lo_i, hi_i, bins->reach_lo + 3 * j, bins->reach_hi + 3 * j))
             pair_push_ordered(bins, i, j);
     }
 }
@@ -616,10 +617,10 @@ static int repair(struct dem_bins *bins, const struct dem_particles *p, double d
 {
     for (size_t k = 0; k < bins->failing_count; k++) {
         uint32_t i = bins->failing[k];
-        double *reach = bins->reach + 6 * i;
-        reach_box(p, i, dt, bins->horizon, reach, reach + 3);
+        double *lo = bins->reach_lo + 3 * i, *hi = bins->reach_hi + 3 * i;
+        reach_box(p, i, dt, bins->horizon, lo, hi);
         int32_t first[3], last[3];
-        box_cells(reach, reach + 3, bins->cell, first, last);
+        box_cells(lo, hi, bins->cell, first, last);
         if (cells_in_range(first, last) > REPAIR_MAX_CELLS)
             return 0;
         bins->built_id[i] = p->id[i];
@@ -643,7 +644,7 @@ static int repair(struct dem_bins *bins, const struct dem_particles *p, double d
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
     /* built_count above the count: removals that broadphase_compact could not follow */
-    if (bins->reach && p->count >= bins->built_count && collect_failing(bins, p, dt) &&
+    if (bins->reach_lo && p->count >= bins->built_count && collect_failing(bins, p, dt) &&
         (bins->failing_count == 0 || repair(bins, p, dt))) {
         bins->age++;
         return;
@@ -654,7 +655,7 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
 
 void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count)
 {
-    if (!bins->reach)
+    if (!bins->reach_lo)
         return;
     if (bins->built_count != old_count) {
         bins->built_count = SIZE_MAX; /* not the particles it was built for: rebuild */
@@ -667,7 +668,8 @@ void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_c
         if (!keep[i])
             continue;
         if (kept != i) {
-            memcpy(bins->reach + 6 * kept, bins->reach + 6 * i, 6 * sizeof *bins->reach);
+            memcpy(bins->reach_lo + 3 * kept, bins->reach_lo + 3 * i, 3 * sizeof *bins->reach_lo);
+            memcpy(bins->reach_hi + 3 * kept, bins->reach_hi + 3 * i, 3 * sizeof *bins->reach_hi);
             bins->built_id[kept] = bins->built_id[i];
             bins->built_flying[kept] = bins->built_flying[i];
             bins->repaired[kept] = bins->repaired[i];
@@ -724,9 +726,10 @@ int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const 
     struct index_visit forward = {visit, context};
     visit_built_entries(bins, first, last, visit_index, &forward);
     /* the repaired particles, whose grid entries are stale */
-    double box[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
-    for (size_t k = 0; k < bins->repaired_count; k++)
-        if (reach_boxes_overlap(bins->reach + 6 * bins->repaired_list[k], box))
-            visit(bins->repaired_list[k], context);
+    for (size_t k = 0; k < bins->repaired_count; k++) {
+        uint32_t i = bins->repaired_list[k];
+        if (reach_boxes_overlap(bins->reach_lo + 3 * i, bins->reach_hi + 3 * i, lo, hi))
+            visit(i, context);
+    }
     return 0;
 }

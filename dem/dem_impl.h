@@ -50,9 +50,10 @@ struct dem_bins {
     size_t entry_count, entry_capacity;
     uint32_t *entry_bucket;       /* scratch for the counting sort */
     struct dem_bin_entry *scratch;
-    /* the particles as built: reach boxes (lo x, y, z, hi x, y, z), ids and flying flags */
+    /* the particles as built: reach boxes (corners lo and hi, x, y, z each), ids and flying flags.  Two arrays
+     * of corners rather than one of boxes: gcc 12 vectorises reach_flags over stride-3 groups, not stride 6. */
     size_t built_count, built_capacity;
-    double *reach;
+    double *reach_lo, *reach_hi;
     int64_t *built_id;
     uint8_t *built_flying;
     /* Repairs between builds (broadphase.c): a particle whose reach box was renewed after the build (it left
