@@ -19,12 +19,12 @@
  * The first iterate's guess: the iteration may start anywhere (Eqs. 51-52 converge to the same fixed point
  * within Eq. 53's tolerance); it starts where the force at the end of the step is extrapolated from the forces
  * at the ends of the last steps: quadratically from three (3 F_n - 3 F_n-1 + F_n-2), linearly from two
- * (2 F_n - F_n-1), else the start force F_n itself (explicit Euler, where the paper's iteration starts).  In smooth flight
- * the force changes by ~1e-3 of itself per step, so the quadratic guess is within ~1e-9 of the end force and Eq.
- * 53 holds at the first test: one drag evaluation per particle-step where the explicit guess needs two or three
- * (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like the kept
- * force), a chain broken by anything that clears the kept flag, and a checkpoint holds them, so a resumed run
- * gives the same bits. */
+ * (2 F_n - F_n-1), else the start force F_n itself (explicit Euler, where the paper's iteration starts).  In
+ * smooth flight the force changes by ~1e-3 of itself per step, so the quadratic guess is within ~1e-9 of the end
+ * force and Eq. 53 holds at the first test: one drag evaluation per particle-step where the explicit guess needs
+ * two or three (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like
+ * the kept force), a chain broken by anything that clears the kept flag, and a checkpoint holds them, so a
+ * resumed run gives the same bits. */
 /* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
  * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  No effect on the results: no floating-point option changes. */

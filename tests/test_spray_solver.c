@@ -387,8 +387,9 @@ static void test_guessed_first_iterate(void)
             for (int k = 0; k < 3; k++)
                 change_v += (b.v[k] - start_v[a.id][k]) * (b.v[k] - start_v[a.id][k]);
             double allowed = 1e-8 * 2.0 * (sqrt(change_v) + 2000 * 1e-6 * 100.0);
-            CHECK(sqrt(dv) + sqrt(dx) <= allowed, "particle %lld: |dv| %.3g + |dx| %.3g from the converged scheme, "
-                  "allowed %.3g", (long long)a.id, sqrt(dv), sqrt(dx), allowed);
+            CHECK(sqrt(dv) + sqrt(dx) <= allowed,
+                  "particle %lld: |dv| %.3g + |dx| %.3g from the converged scheme, allowed %.3g", (long long)a.id,
+                  sqrt(dv), sqrt(dx), allowed);
             printf("  particle %lld: |dv| %.3g m/s, |dx| %.3g m from tol 1e-14 (allowed %.3g)\n", (long long)a.id,
                    sqrt(dv), sqrt(dx), allowed);
         }
