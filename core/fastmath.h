@@ -97,14 +97,21 @@ FM_INLINE double fm_exp(double x)
     return fm_select(x < -708.0, 0.0, result);
 }
 
+/* x = 2^exponent m for normal positive x: returns m in [1, 2) and the exponent as a double, both from the bits
+ * (exact, and vectorises); shared by fm_log and fm_inverse_cbrt. */
+FM_INLINE double fm_split(double x, double *exponent)
+{
+    uint64_t bits = fm_to_bits(x);
+    *exponent = fm_from_bits((bits >> 52) | 0x4330000000000000ull) - (4503599627370496.0 + 1023.0);
+    return fm_from_bits((bits & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
+}
+
 /* ln x for normal positive x (subnormals are read as if normal; callers keep x >= 1e-300).  +Inf and NaN are
  * returned as they are. */
 FM_INLINE double fm_log(double x)
 {
-    uint64_t bits = fm_to_bits(x);
-    /* x = 2^e m, m in [sqrt(1/2), sqrt(2)); e as a double from its bits (exact, and vectorises) */
-    double mantissa = fm_from_bits((bits & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
-    double exponent = fm_from_bits((bits >> 52) | 0x4330000000000000ull) - (4503599627370496.0 + 1023.0);
+    /* x = 2^e m, m in [sqrt(1/2), sqrt(2)) */
+    double exponent, mantissa = fm_split(x, &exponent);
     int above = mantissa > FM_SQRT2;
     double half_mantissa = 0.5 * mantissa, next_exponent = exponent + 1.0;
     mantissa = fm_select(above, half_mantissa, mantissa);
@@ -162,10 +169,7 @@ FM_INLINE double fm_pow(double x, double y)
  * x^(-1/3) and x^(-2/3); fm_cbrt's exp(log(x)/3) cost twice as much and a division for each. */
 FM_INLINE double fm_inverse_cbrt(double x)
 {
-    x = fm_select(x > 1e-300, x, 1e-300);
-    uint64_t bits = fm_to_bits(x);
-    double mantissa = fm_from_bits((bits & 0x000fffffffffffffull) | 0x3ff0000000000000ull);
-    double exponent = fm_from_bits((bits >> 52) | 0x4330000000000000ull) - (4503599627370496.0 + 1023.0);
+    double exponent, mantissa = fm_split(fm_select(x > 1e-300, x, 1e-300), &exponent);
     /* q = floor(exponent / 3) as the integer nearest exponent / 3 - 0.4 (the shifter rounds; floor() would keep
      * gcc from vectorising the loops that call this) */
     double q = (exponent * (1.0 / 3.0) - 0.4 + FM_ROUNDING_SHIFTER) - FM_ROUNDING_SHIFTER, k = exponent - 3.0 * q;
