@@ -510,12 +510,6 @@ static void ensure_path_capacity(struct dem_solver *s)
     s->path_capacity = capacity;
 }
 
-void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
-{
-    s->start_kept[i] = 0;
-    s->path_changed[i] = 0;
-}
-
 void dem_collide(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;

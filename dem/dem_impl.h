@@ -172,9 +172,13 @@ void dem_detect_contacts(struct dem_solver *s);
 /* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time; lists the
  * step's moving particles (s->moving) first. */
 void dem_collide(struct dem_solver *s);
-/* dem/collide.c: the contacts of the step are over for moving particle i: its contact flags are cleared, so
- * that they are 0 for every particle between steps. */
-void dem_contacts_end_step(struct dem_solver *s, uint32_t i);
+/* The contacts of the step are over for moving particle i: its contact flags (dem/collide.c) are cleared, so
+ * that they are 0 for every particle between steps.  Inline: the integration asks it of every particle. */
+static inline void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
+{
+    s->start_kept[i] = 0;
+    s->path_changed[i] = 0;
+}
 
 /* dem/integrate.c: advance the free particles over one step with the phi-scheme; end the contacts of the
  * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */

@@ -427,7 +427,7 @@ static int block_next_iterates(const struct dem_config *cfg, struct block *restr
     return active_count;
 }
 
-/* Lane l stopped at its iterate of this pass: keep the force there for the end of the step. */
+/* Lane l stopped at its iterate: keep the force there for the end of the step. */
 static inline void lane_keep_end(struct block *b, int l)
 {
     b->force_known[l] = 1;
@@ -437,15 +437,27 @@ static inline void lane_keep_end(struct block *b, int l)
     b->end_reynolds_power[l] = b->reynolds_power[l];
 }
 
+/* The lanes that stopped in this pass keep the force at their iterate, all lanes at once. */
+static void block_keep_stopped(struct block *restrict b)
+{
+    for (int l = 0; l < BLOCK; l++) {
+        int stops = b->stops[l];
+        b->force_known[l] |= (uint8_t)stops;
+        for (int c = 0; c < 3; c++)
+            b->end_force[c][l] = fm_select(stops, b->force[c][l], b->end_force[c][l]);
+        b->end_slip[l] = fm_select(stops, b->slip[l], b->end_slip[l]);
+        b->end_reynolds_power[l] = fm_select(stops, b->reynolds_power[l], b->end_reynolds_power[l]);
+    }
+}
+
 /* After a pass: the lanes that stopped keep their force; the undecided ones get Eq. 53 with its square
  * roots, and stop (and keep theirs) where it holds, else move on to the next iterate.  Returns how many
  * undecided lanes stopped. */
 static int block_settle_moves(struct block *b, double tol)
 {
+    block_keep_stopped(b);
     int stopped = 0;
     for (int l = 0; l < BLOCK; l++) {
-        if (b->stops[l])
-            lane_keep_end(b, l);
         if (!b->undecided[l])
             continue;
         struct eq53_squares q = {b->squares[0][l], b->squares[1][l], b->squares[2][l], b->squares[3][l]};
@@ -475,59 +487,192 @@ static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
     return active - block_settle_moves(b, cfg->fixed_point_tol);
 }
 
+/* Lane l's particle: block index i0 + l when the block's particles are consecutive (the usual case: the
+ * flying particles in index order), else index[l].  Inlined with a constant `consecutive`, the loops below
+ * read and write the particle arrays with a known stride and vectorise; through index[] they gather. */
+FM_INLINE size_t lane_particle(const struct block *b, size_t i0, int consecutive, size_t l)
+{
+    return consecutive ? i0 + l : b->index[l];
+}
+
+/* The block's particles from the arrays: position, velocity, diameter, mass and the kept drag.  Three loops:
+ * gcc vectorises loops of doubles, not one that mixes them with the byte flags. */
+FM_INLINE void block_gather(const struct dem_particles *p, struct block *restrict b, int consecutive)
+{
+    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict m = p->m;
+    const struct dem_drag_state *restrict drag = p->drag;
+    const size_t i0 = b->index[0];
+    for (size_t l = 0; l < BLOCK; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        for (int c = 0; c < 3; c++) {
+            b->x[c][l] = x[3 * i + c];
+            b->v[c][l] = v[3 * i + c];
+        }
+        b->d[l] = d[i];
+        b->m[l] = m[i];
+    }
+    for (size_t l = 0; l < BLOCK; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        for (int c = 0; c < 3; c++) {
+            b->previous_force[0][c][l] = drag[i].previous[0][c]; /* zero or a force of the past: finite */
+            b->previous_force[1][c][l] = drag[i].previous[1][c];
+            b->force_start[c][l] = drag[i].force[c]; /* used only if every lane kept its force */
+        }
+        b->slip[l] = drag[i].slip;
+        b->reynolds_power[l] = drag[i].reynolds_power;
+    }
+    int start_kept = b->start_kept;
+    for (size_t l = 0; l < BLOCK; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        int kept = drag[i].kept;
+        start_kept &= kept;
+        b->chain[l] = (uint8_t)(kept ? 1 + drag[i].history_count : 0);
+    }
+    b->start_kept = start_kept;
+}
+
 static void block_load(const struct dem_particles *p, int reuse_drag, struct block *b, const uint32_t *flying,
                        size_t count)
 {
     b->count = count;
     b->start_kept = reuse_drag;
-    for (size_t l = 0; l < BLOCK; l++) {
-        /* spare lanes repeat the last particle: computed, never stored */
-        uint32_t i = flying[l < count ? l : count - 1];
-        b->index[l] = i;
-        for (int c = 0; c < 3; c++) {
-            b->x[c][l] = p->x[3 * i + c];
-            b->v[c][l] = p->v[3 * i + c];
+    for (size_t l = 0; l < BLOCK; l++)
+        b->index[l] = flying[l < count ? l : count - 1]; /* spare lanes repeat the last particle: never stored */
+    if (count == BLOCK && flying[BLOCK - 1] - flying[0] == BLOCK - 1) /* the list is increasing */
+        block_gather(p, b, 1);
+    else
+        block_gather(p, b, 0);
+}
+
+/* The lanes that the vectorised passes left unfinished, one by one, from the block's state: those still
+ * iterating, and those that need sub-steps (from the start of the step again).  Their results go back to
+ * the block, so that every lane is stored alike. */
+static void block_finish_lanes(const struct dem_config *cfg, struct block *b, struct iteration_count *count)
+{
+    for (int l = 0; l < (int)b->count; l++) {
+        int subcycled = !(b->tau[l] >= 2.0 * cfg->dt);
+        if (!subcycled && !b->active[l])
+            continue;
+        struct step_end end = {.force_known = 0};
+        double x[3], v[3];
+        if (subcycled) {
+            double force[3];
+            lane_get(b->x0, l, x);
+            lane_get(b->v0, l, v);
+            lane_get(b->force_start, l, force);
+            integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
+        } else {
+            struct phi_problem problem = lane_problem(b, l);
+            lane_get(b->x, l, x);
+            lane_get(b->v, l, v);
+            b->converged[l] = (uint8_t)phi_iterate_to_convergence(cfg, &problem, x, v, &b->iterations[l], &end);
         }
-        b->d[l] = p->d[i];
-        b->m[l] = p->m[i];
-        const struct dem_drag_state *drag = &p->drag[i];
-        b->start_kept &= drag->kept;
-        b->chain[l] = (uint8_t)(drag->kept ? 1 + drag->history_count : 0);
-        for (int k = 0; k < 2; k++)
-            for (int c = 0; c < 3; c++)
-                b->previous_force[k][c][l] = drag->previous[k][c]; /* zero or a force of the past: finite */
-    }
-    if (!b->start_kept)
-        return;
-    for (size_t l = 0; l < BLOCK; l++) {
-        const struct dem_drag_state *drag = &p->drag[b->index[l]];
-        for (int c = 0; c < 3; c++)
-            b->force_start[c][l] = drag->force[c];
-        b->slip[l] = drag->slip;
-        b->reynolds_power[l] = drag->reynolds_power;
+        lane_put(b->x, l, x);
+        lane_put(b->v, l, v);
+        b->force_known[l] = (uint8_t)end.force_known;
+        lane_put(b->end_force, l, end.force);
+        b->end_slip[l] = end.slip;
+        b->end_reynolds_power[l] = end.reynolds_power;
     }
 }
 
-/* Keep (or forget) the force at the end of lane l's step for the start of the next; the lane's start force
- * and the older one it knew (struct block: chain) become the history.  Written from the block alone. */
-static void keep_end_drag(struct dem_particles *p, const struct block *b, int l, const struct step_end *end)
+/* The iteration counts of the block's lanes that did not need sub-steps (those count their own solves), as
+ * sums over the lanes. */
+static void block_count(const struct dem_config *cfg, const struct block *restrict b, struct iteration_count *count)
 {
-    int chain = b->chain[l];
-    struct dem_drag_state *drag = &p->drag[b->index[l]];
-    drag->history_count = (uint8_t)(end->force_known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
-    drag->kept = (uint8_t)end->force_known;
-    for (int c = 0; c < 3; c++) {
-        drag->previous[1][c] = b->previous_force[0][c][l];
-        drag->previous[0][c] = b->force_start[c][l];
-        drag->force[c] = end->force[c];
+    int64_t iterations = 0, solves = 0, unconverged = 0, most = count->max_iterations;
+    for (size_t l = 0; l < b->count; l++) {
+        int64_t counted = b->tau[l] >= 2.0 * cfg->dt;
+        iterations += counted * b->iterations[l];
+        solves += counted;
+        unconverged += counted & (b->converged[l] == 0);
+        int64_t here = counted * b->iterations[l];
+        most = here > most ? here : most;
     }
-    drag->slip = end->slip;
-    drag->reynolds_power = end->reynolds_power;
+    count->iterations += iterations;
+    count->solves += solves;
+    count->unconverged += unconverged;
+    count->max_iterations = most;
+}
+
+/* The block's particles back to the arrays: start position (hand-off crossings), end position and velocity,
+ * and the drag (struct dem_drag_state): the force at the end of the step where known, and the lane's start
+ * force and the older one it knew become the history (zero forces where not kept, as a checkpoint stores
+ * them).  Returns whether a position, velocity or spin of the block is not finite (x - x is 0 for a finite
+ * x and NaN otherwise). */
+FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restrict b, int consecutive)
+{
+    double *restrict x = p->x, *restrict v = p->v, *restrict x_start = p->x_start;
+    const double *restrict w = p->w;
+    struct dem_drag_state *restrict drag = p->drag;
+    const size_t i0 = b->index[0];
+    int bad = 0;
+    for (size_t l = 0; l < b->count; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        for (int c = 0; c < 3; c++) {
+            x_start[3 * i + c] = b->x0[c][l];
+            x[3 * i + c] = b->x[c][l];
+            v[3 * i + c] = b->v[c][l];
+            bad |= !(b->x[c][l] - b->x[c][l] == 0.0) | !(b->v[c][l] - b->v[c][l] == 0.0) |
+                   !(w[3 * i + c] - w[3 * i + c] == 0.0);
+        }
+    }
+    for (size_t l = 0; l < b->count; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        int known = b->force_known[l];
+        for (int c = 0; c < 3; c++) {
+            drag[i].previous[1][c] = b->previous_force[0][c][l];
+            drag[i].previous[0][c] = b->force_start[c][l];
+            drag[i].force[c] = fm_select(known, b->end_force[c][l], 0.0);
+        }
+        drag[i].slip = fm_select(known, b->end_slip[l], 0.0);
+        drag[i].reynolds_power = fm_select(known, b->end_reynolds_power[l], 0.0);
+    }
+    for (size_t l = 0; l < b->count; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        int known = b->force_known[l], chain = b->chain[l];
+        drag[i].history_count = (uint8_t)(known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
+        drag[i].kept = (uint8_t)known;
+    }
+    return bad;
+}
+
+static int block_store(struct dem_particles *p, const struct block *b)
+{
+    if (b->count == BLOCK && b->index[BLOCK - 1] - b->index[0] == BLOCK - 1)
+        return block_scatter(p, b, 1);
+    return block_scatter(p, b, 0);
+}
+
+/* The end of the step for the block's particles, which fly: their contacts are over, and those at a boundary
+ * go to hits[0, return value), in order.  dem_at_boundary's tests on the block's copies of the same values
+ * (x0 is x_start), as bit operations on all lanes at once. */
+static size_t block_finish(struct dem_solver *s, const struct block *restrict b, uint32_t *hits)
+{
+    const struct dem_config *cfg = &s->cfg;
+    const double plane = dem_handoff_plane(cfg), standoff = cfg->standoff;
+    const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
+    uint8_t at_boundary[BLOCK];
+    for (int l = 0; l < BLOCK; l++) {
+        double x = b->x[0][l], y = b->x[1][l], z = b->x[2][l];
+        int crossed_handoff = (b->x0[2][l] < plane) & (z >= plane);
+        int beyond_target = z > standoff - 0.5 * b->d[l];
+        int escapes = (x * x + y * y > escape_radius2) | ((z < 0.0) & (b->v[2][l] < 0.0));
+        at_boundary[l] = (uint8_t)(crossed_handoff | beyond_target | escapes);
+    }
+    size_t n = 0;
+    for (size_t l = 0; l < b->count; l++) {
+        dem_contacts_end_step(s, b->index[l]);
+        hits[n] = b->index[l];
+        n += at_boundary[l];
+    }
+    return n;
 }
 
 /* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
- * lanes still iterating and the particles that need sub-steps. */
-static void integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b, struct iteration_count *count)
+ * lanes still iterating and the particles that need sub-steps; returns whether a value is not finite. */
+static int integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b,
+                           struct iteration_count *count)
 {
     block_start(cfg, b);
     int active = 0;
@@ -535,35 +680,9 @@ static void integrate_block(const struct dem_config *cfg, struct dem_particles *
         active += b->active[l];
     while (active > BLOCK_MIN_ACTIVE)
         active = block_iterate(cfg, b);
-    for (size_t l = 0; l < b->count; l++) {
-        uint32_t i = b->index[l];
-        double *x = p->x + 3 * i, *v = p->v + 3 * i;
-        struct step_end end = {.force_known = 0};
-        if (!(b->tau[l] >= 2.0 * cfg->dt)) { /* from the start state again, in sub-steps */
-            double force[3];
-            lane_get(b->force_start, (int)l, force);
-            integrate_subcycled(cfg, b->d[l], b->m[l], b->tau[l], force, x, v, count);
-            keep_end_drag(p, b, (int)l, &end);
-            continue;
-        }
-        double x_k[3], v_k[3];
-        lane_get(b->x, (int)l, x_k);
-        lane_get(b->v, (int)l, v_k);
-        int converged = b->converged[l];
-        if (b->active[l]) {
-            struct phi_problem problem = lane_problem(b, (int)l);
-            converged = phi_iterate_to_convergence(cfg, &problem, x_k, v_k, &b->iterations[l], &end);
-        } else if (b->force_known[l]) {
-            end.force_known = 1;
-            lane_get(b->end_force, (int)l, end.force);
-            end.slip = b->end_slip[l];
-            end.reynolds_power = b->end_reynolds_power[l];
-        }
-        count_solve(count, b->iterations[l], converged);
-        memcpy(x, x_k, sizeof x_k);
-        memcpy(v, v_k, sizeof v_k);
-        keep_end_drag(p, b, (int)l, &end);
-    }
+    block_finish_lanes(cfg, b, count);
+    block_count(cfg, b, count);
+    return block_store(p, b);
 }
 
 /* The moving particles of the step split, in order: those still flying (flying[0, *count)) and those that
@@ -714,11 +833,9 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp for schedule(dynamic, 4)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-                keep_start_positions(p, flying + first, n);
                 block_load(p, reuse_drag, b, flying + first, n);
-                integrate_block(cfg, p, b, &count);
-                bad_here |= any_non_finite(p, flying + first, n);
-                hit_count[k] = (uint8_t)finish_particles(s, flying + first, n, hits + first);
+                bad_here |= integrate_block(cfg, p, b, &count);
+                hit_count[k] = (uint8_t)block_finish(s, b, hits + first);
             }
             free(b);
 #pragma omp critical(dem_integrate_counts)
