@@ -21,8 +21,9 @@ struct dem_drag_state {
 struct dem_particles {
     size_t count, capacity;
     double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
-    double *x_start;       /* position at the start of the step, of the particles that flew at its start
-                            * (hand-off crossings; dem/integrate.c, dem/collide.c keep_start_velocity) */
+    double *x_start;       /* position at the start of the step, of the particles that collided in it
+                            * (dem/collide.c keep_start_velocity) or flew to a boundary (dem/integrate.c):
+                            * read only for those, for the hand-off crossings */
     double *v_start;       /* velocity and spin at the start of the step, kept only for the particles that */
     double *w_start;       /* collided in it (dem/collide.c): the hand-off rows of particles that stuck */
     double *d, *m;         /* diameter (m), mass (kg) */

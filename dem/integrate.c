@@ -595,26 +595,22 @@ static void block_count(const struct dem_config *cfg, const struct block *restri
     count->max_iterations = most;
 }
 
-/* The block's particles back to the arrays: start position (hand-off crossings), end position and velocity,
- * and the drag (struct dem_drag_state): the force at the end of the step where known, and the lane's start
- * force and the older one it knew become the history (zero forces where not kept, as a checkpoint stores
- * them).  Returns whether a position, velocity or spin of the block is not finite (x - x is 0 for a finite
- * x and NaN otherwise). */
+/* The block's particles back to the arrays: end position and velocity, and the drag (struct dem_drag_state):
+ * the force at the end of the step where known, and the lane's start force and the older one it knew become
+ * the history (zero forces where not kept, as a checkpoint stores them).  Returns whether a position or
+ * velocity of the block is not finite (x - x is 0 for a finite x and NaN otherwise). */
 FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restrict b, int consecutive)
 {
-    double *restrict x = p->x, *restrict v = p->v, *restrict x_start = p->x_start;
-    const double *restrict w = p->w;
+    double *restrict x = p->x, *restrict v = p->v;
     struct dem_drag_state *restrict drag = p->drag;
     const size_t i0 = b->index[0];
     int bad = 0;
     for (size_t l = 0; l < b->count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         for (int c = 0; c < 3; c++) {
-            x_start[3 * i + c] = b->x0[c][l];
             x[3 * i + c] = b->x[c][l];
             v[3 * i + c] = b->v[c][l];
-            bad |= !(b->x[c][l] - b->x[c][l] == 0.0) | !(b->v[c][l] - b->v[c][l] == 0.0) |
-                   !(w[3 * i + c] - w[3 * i + c] == 0.0);
+            bad |= !(b->x[c][l] - b->x[c][l] == 0.0) | !(b->v[c][l] - b->v[c][l] == 0.0);
         }
     }
     for (size_t l = 0; l < b->count; l++) {
@@ -645,9 +641,11 @@ static int block_store(struct dem_particles *p, const struct block *b)
 }
 
 /* The end of the step for the block's particles, which fly: their contacts are over, and those at a boundary
- * go to hits[0, return value), in order.  dem_at_boundary's tests on the block's copies of the same values
- * (x0 is x_start), as bit operations on all lanes at once. */
-static size_t block_finish(struct dem_solver *s, const struct block *restrict b, uint32_t *hits)
+ * go to hits[0, return value), in order, with their start positions (x_start: the step's end reads them only
+ * there, for hand-off crossings).  dem_at_boundary's tests on the block's copies of the same values (x0 is
+ * the start position), as bit operations on all lanes at once.  The spin changes only in contacts, so only
+ * the particles that had one in this step (start_kept) can have a spin that is not finite: *bad is set then. */
+static size_t block_finish(struct dem_solver *s, const struct block *restrict b, uint32_t *hits, int *bad)
 {
     const struct dem_config *cfg = &s->cfg;
     const double plane = dem_handoff_plane(cfg), standoff = cfg->standoff;
@@ -661,10 +659,17 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
         at_boundary[l] = (uint8_t)(crossed_handoff | beyond_target | escapes);
     }
     size_t n = 0;
-    for (size_t l = 0; l < b->count; l++) {
-        dem_contacts_end_step(s, b->index[l]);
-        hits[n] = b->index[l];
-        n += at_boundary[l];
+    for (int l = 0; l < (int)b->count; l++) {
+        uint32_t i = b->index[l];
+        if (s->start_kept[i]) {
+            const double *w = s->p.w + 3 * i;
+            *bad |= !(w[0] - w[0] == 0.0) | !(w[1] - w[1] == 0.0) | !(w[2] - w[2] == 0.0);
+        }
+        dem_contacts_end_step(s, i);
+        if (at_boundary[l]) {
+            lane_get(b->x0, l, s->p.x_start + 3 * i);
+            hits[n++] = i;
+        }
     }
     return n;
 }
@@ -835,7 +840,7 @@ int dem_integrate(struct dem_solver *s)
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
                 block_load(p, reuse_drag, b, flying + first, n);
                 bad_here |= integrate_block(cfg, p, b, &count);
-                hit_count[k] = (uint8_t)block_finish(s, b, hits + first);
+                hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
             }
             free(b);
 #pragma omp critical(dem_integrate_counts)
