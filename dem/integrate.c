@@ -309,9 +309,20 @@ static inline void lane_put_squares(struct block *b, int l, const struct eq53_sq
 
 /* The lanes whose last iterate the squares left undecided get Eq. 53 with its square roots, one by one (it
  * is rare); returns how many of them stop iterating. */
+/* Is any of a block's byte flags set?  One vector test where a loop over the lanes would branch on each. */
+static inline int any_lane(const uint8_t flags[BLOCK])
+{
+    uint8_t any = 0;
+    for (int l = 0; l < BLOCK; l++)
+        any |= flags[l];
+    return any != 0;
+}
+
 static int block_settle(struct block *b, double tol)
 {
     int stopped = 0;
+    if (!any_lane(b->undecided))
+        return 0;
     for (int l = 0; l < BLOCK; l++) {
         if (!b->undecided[l])
             continue;
@@ -457,6 +468,8 @@ static int block_settle_moves(struct block *b, double tol)
 {
     block_keep_stopped(b);
     int stopped = 0;
+    if (!any_lane(b->undecided))
+        return 0;
     for (int l = 0; l < BLOCK; l++) {
         if (!b->undecided[l])
             continue;
@@ -549,6 +562,11 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
  * the block, so that every lane is stored alike. */
 static void block_finish_lanes(const struct dem_config *cfg, struct block *b, struct iteration_count *count)
 {
+    uint8_t unfinished[BLOCK];
+    for (int l = 0; l < BLOCK; l++)
+        unfinished[l] = (uint8_t)(((b->tau[l] >= 2.0 * cfg->dt) == 0) | b->active[l]);
+    if (!any_lane(unfinished))
+        return;
     for (int l = 0; l < (int)b->count; l++) {
         int subcycled = !(b->tau[l] >= 2.0 * cfg->dt);
         if (!subcycled && !b->active[l])
