@@ -500,6 +500,12 @@ static int block_iterate(const struct dem_config *cfg, struct block *restrict b)
     return active - block_settle_moves(b, cfg->fixed_point_tol);
 }
 
+/* Are the block's particles consecutive, i0 to i0 + BLOCK - 1?  (Lists of particles are increasing.) */
+static inline int block_consecutive(const struct block *b)
+{
+    return b->count == BLOCK && b->index[BLOCK - 1] - b->index[0] == BLOCK - 1;
+}
+
 /* Lane l's particle: block index i0 + l when the block's particles are consecutive (the usual case: the
  * flying particles in index order), else index[l].  Inlined with a constant `consecutive`, the loops below
  * read and write the particle arrays with a known stride and vectorise; through index[] they gather. */
@@ -551,7 +557,7 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
     b->start_kept = reuse_drag;
     for (size_t l = 0; l < BLOCK; l++)
         b->index[l] = flying[l < count ? l : count - 1]; /* spare lanes repeat the last particle: never stored */
-    if (count == BLOCK && flying[BLOCK - 1] - flying[0] == BLOCK - 1) /* the list is increasing */
+    if (block_consecutive(b))
         block_gather(p, b, 1);
     else
         block_gather(p, b, 0);
@@ -653,16 +659,30 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
 
 static int block_store(struct dem_particles *p, const struct block *b)
 {
-    if (b->count == BLOCK && b->index[BLOCK - 1] - b->index[0] == BLOCK - 1)
+    if (block_consecutive(b))
         return block_scatter(p, b, 1);
     return block_scatter(p, b, 0);
+}
+
+/* Is a spin of the block not finite?  Only contacts change the spin, so only the particles that had one in
+ * this step (start_kept) are tested (x - x is 0 for a finite x and NaN otherwise). */
+static int block_spin_non_finite(const struct dem_solver *s, const struct block *b)
+{
+    int bad = 0;
+    for (size_t l = 0; l < b->count; l++) {
+        uint32_t i = b->index[l];
+        if (!s->start_kept[i])
+            continue;
+        const double *w = s->p.w + 3 * i;
+        bad |= !(w[0] - w[0] == 0.0) | !(w[1] - w[1] == 0.0) | !(w[2] - w[2] == 0.0);
+    }
+    return bad;
 }
 
 /* The end of the step for the block's particles, which fly: their contacts are over, and those at a boundary
  * go to hits[0, return value), in order, with their start positions (x_start: the step's end reads them only
  * there, for hand-off crossings).  dem_at_boundary's tests on the block's copies of the same values (x0 is
- * the start position), as bit operations on all lanes at once.  The spin changes only in contacts, so only
- * the particles that had one in this step (start_kept) can have a spin that is not finite: *bad is set then. */
+ * the start position), as bit operations on all lanes at once; *bad is set if a spin is not finite. */
 static size_t block_finish(struct dem_solver *s, const struct block *restrict b, uint32_t *hits, int *bad)
 {
     const struct dem_config *cfg = &s->cfg;
@@ -676,17 +696,23 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
         int escapes = (x * x + y * y > escape_radius2) | ((z < 0.0) & (b->v[2][l] < 0.0));
         at_boundary[l] = (uint8_t)(crossed_handoff | beyond_target | escapes);
     }
+    int consecutive = block_consecutive(b);
+    if (!consecutive || any_lane(s->start_kept + b->index[0]))
+        *bad |= block_spin_non_finite(s, b);
+    if (consecutive) { /* dem_contacts_end_step of all lanes */
+        memset(s->start_kept + b->index[0], 0, BLOCK);
+        memset(s->path_changed + b->index[0], 0, BLOCK);
+    } else {
+        for (size_t l = 0; l < b->count; l++)
+            dem_contacts_end_step(s, b->index[l]);
+    }
     size_t n = 0;
+    if (!any_lane(at_boundary))
+        return 0;
     for (int l = 0; l < (int)b->count; l++) {
-        uint32_t i = b->index[l];
-        if (s->start_kept[i]) {
-            const double *w = s->p.w + 3 * i;
-            *bad |= !(w[0] - w[0] == 0.0) | !(w[1] - w[1] == 0.0) | !(w[2] - w[2] == 0.0);
-        }
-        dem_contacts_end_step(s, i);
         if (at_boundary[l]) {
-            lane_get(b->x0, l, s->p.x_start + 3 * i);
-            hits[n++] = i;
+            lane_get(b->x0, l, s->p.x_start + 3 * b->index[l]);
+            hits[n++] = b->index[l];
         }
     }
     return n;
