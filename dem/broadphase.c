@@ -653,50 +653,101 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
     rebuild(bins, p, dt);
 }
 
-void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count)
+/* moved_to[i]: where particle i of the old_count went after the removals (increasing indices), down by the
+ * removals before it, or REMOVED_ENTRY.  Run by run, so that the loops vectorise. */
+static void fill_moved_to(uint32_t *moved_to, size_t old_count, const uint32_t *removed, size_t removed_count)
 {
-    if (!bins->reach_lo)
+    for (size_t i = 0; i < removed[0]; i++)
+        moved_to[i] = (uint32_t)i;
+    for (size_t k = 0; k < removed_count; k++) {
+        size_t first = (size_t)removed[k] + 1, end = k + 1 < removed_count ? removed[k + 1] : old_count;
+        moved_to[removed[k]] = REMOVED_ENTRY;
+        for (size_t i = first; i < end; i++)
+            moved_to[i] = (uint32_t)(i - k - 1);
+    }
+}
+
+/* The pairs without the removed particles, renumbered; the order of indices is kept, so pairs stay lower
+ * index first. */
+static void compact_pairs(struct dem_bins *bins, const uint32_t *moved_to)
+{
+    size_t pairs = 0;
+    for (size_t k = 0; k < bins->pair_count; k++) {
+        uint32_t a = moved_to[bins->pairs[2 * k]], b = moved_to[bins->pairs[2 * k + 1]];
+        bins->pairs[2 * pairs] = a;
+        bins->pairs[2 * pairs + 1] = b;
+        pairs += a != REMOVED_ENTRY && b != REMOVED_ENTRY;
+    }
+    bins->pair_count = pairs;
+}
+
+static void compact_repaired_list(struct dem_bins *bins, const uint32_t *moved_to)
+{
+    size_t repaired = 0;
+    for (size_t k = 0; k < bins->repaired_count; k++) {
+        uint32_t i = moved_to[bins->repaired_list[k]];
+        bins->repaired_list[repaired] = i;
+        repaired += i != REMOVED_ENTRY;
+    }
+    bins->repaired_count = repaired;
+}
+
+/* Grid entries [first, end) renumbered; those of removed particles are marked and skipped from then on. */
+static void renumber_entries(struct dem_bins *bins, size_t first, size_t end, const uint32_t *moved_to)
+{
+    for (size_t e = first; e < end; e++)
+        if (bins->entries[e].index != REMOVED_ENTRY)
+            bins->entries[e].index = moved_to[bins->entries[e].index];
+}
+
+/* The independent parts of broadphase_compact, largest first: the pair list, the per-particle arrays, the
+ * repaired list, then the grid entries in slices of ENTRY_SLICES. */
+#define COMPACT_JOBS 5
+#define ENTRY_SLICES 8
+static void compact_job(struct dem_bins *bins, int job, const uint32_t *moved_to, const uint32_t *removed,
+                        size_t removed_count, size_t old_count)
+{
+    switch (job) {
+    case 0:
+        compact_pairs(bins, moved_to);
+        return;
+    case 1:
+        dem_remove_rows(bins->reach_lo, 3 * sizeof *bins->reach_lo, old_count, removed, removed_count);
+        return;
+    case 2:
+        dem_remove_rows(bins->reach_hi, 3 * sizeof *bins->reach_hi, old_count, removed, removed_count);
+        return;
+    case 3:
+        dem_remove_rows(bins->built_id, sizeof *bins->built_id, old_count, removed, removed_count);
+        return;
+    case 4:
+        dem_remove_rows(bins->built_flying, 1, old_count, removed, removed_count);
+        dem_remove_rows(bins->repaired, 1, old_count, removed, removed_count);
+        compact_repaired_list(bins, moved_to);
+        return;
+    default: {
+        size_t slice = (size_t)(job - COMPACT_JOBS), per = (bins->entry_count + ENTRY_SLICES - 1) / ENTRY_SLICES;
+        size_t first = slice * per < bins->entry_count ? slice * per : bins->entry_count;
+        size_t end = first + per < bins->entry_count ? first + per : bins->entry_count;
+        renumber_entries(bins, first, end, moved_to);
+    }
+    }
+}
+
+void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count)
+{
+    if (!bins->reach_lo || removed_count == 0)
         return;
     if (bins->built_count != old_count) {
         bins->built_count = SIZE_MAX; /* not the particles it was built for: rebuild */
         return;
     }
-    uint32_t *moved_to = dem_realloc_or_die(NULL, (old_count ? old_count : 1) * sizeof *moved_to);
-    size_t kept = 0;
-    for (size_t i = 0; i < old_count; i++) {
-        moved_to[i] = keep[i] ? (uint32_t)kept : REMOVED_ENTRY;
-        if (!keep[i])
-            continue;
-        if (kept != i) {
-            memcpy(bins->reach_lo + 3 * kept, bins->reach_lo + 3 * i, 3 * sizeof *bins->reach_lo);
-            memcpy(bins->reach_hi + 3 * kept, bins->reach_hi + 3 * i, 3 * sizeof *bins->reach_hi);
-            bins->built_id[kept] = bins->built_id[i];
-            bins->built_flying[kept] = bins->built_flying[i];
-            bins->repaired[kept] = bins->repaired[i];
-        }
-        kept++;
-    }
-#pragma omp parallel for schedule(static) if (bins->entry_count >= DEM_PARALLEL_MIN)
-    for (size_t e = 0; e < bins->entry_count; e++)
-        if (bins->entries[e].index != REMOVED_ENTRY)
-            bins->entries[e].index = moved_to[bins->entries[e].index];
-    /* the order of indices is kept, so pairs stay lower index first */
-    size_t pairs = 0;
-    for (size_t k = 0; k < bins->pair_count; k++) {
-        uint32_t a = moved_to[bins->pairs[2 * k]], b = moved_to[bins->pairs[2 * k + 1]];
-        if (a == REMOVED_ENTRY || b == REMOVED_ENTRY)
-            continue;
-        bins->pairs[2 * pairs] = a;
-        bins->pairs[2 * pairs + 1] = b;
-        pairs++;
-    }
-    bins->pair_count = pairs;
-    size_t repaired = 0;
-    for (size_t k = 0; k < bins->repaired_count; k++)
-        if (moved_to[bins->repaired_list[k]] != REMOVED_ENTRY)
-            bins->repaired_list[repaired++] = moved_to[bins->repaired_list[k]];
-    bins->repaired_count = repaired;
-    bins->built_count = kept;
+    uint32_t *moved_to = dem_realloc_or_die(NULL, old_count * sizeof *moved_to);
+    fill_moved_to(moved_to, old_count, removed, removed_count);
+#pragma omp parallel for schedule(dynamic, 1) if (old_count >= DEM_PARALLEL_MIN)
+    for (int job = 0; job < COMPACT_JOBS + ENTRY_SLICES; job++)
+        compact_job(bins, job, moved_to, removed, removed_count, old_count);
+    bins->built_count = old_count - removed_count;
     free(moved_to);
 }
 
