@@ -387,17 +387,9 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
 
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
 {
-#pragma omp parallel if (bins->pair_count >= DEM_PARALLEL_MIN)
-    {
-        struct dem_candidates local = {0};
 #pragma omp for schedule(static) nowait
-        for (size_t k = 0; k < bins->pair_count; k++)
-            test_pair(p, bins->pairs[2 * k], bins->pairs[2 * k + 1], dt, &local);
-#pragma omp critical(dem_broadphase_merge)
-        for (size_t k = 0; k < local.count; k++)
-            candidates_push(out, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
-        free(local.items);
-    }
+    for (size_t k = 0; k < bins->pair_count; k++)
+        test_pair(p, bins->pairs[2 * k], bins->pairs[2 * k + 1], dt, out);
 }
 
 /* ---------------------------------------------------------------- the pair list */

@@ -155,7 +155,9 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
  * the pair list follow, so that the next build need not start afresh. */
 void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count);
 /* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
- * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one. */
+ * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one.  Inside a
+ * parallel region every thread calls it, each with its own `out`, and each tests a share of the pairs (an
+ * orphaned `omp for` without a barrier at its end); outside one, it tests them all. */
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
                       struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
