@@ -24,6 +24,7 @@
  * repaired particles the grid is rebuilt.  The list then still holds every pair whose swept boxes overlap,
  * once: the contacts found are those of a fresh build. */
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -257,7 +258,7 @@ static void sort_entries(struct dem_bins *bins, size_t count)
     uint32_t(*counts)[SORT_GROUPS] = dem_realloc_or_die(NULL, SORT_SLICES * sizeof *counts);
     uint32_t *fill = dem_realloc_or_die(NULL, bins->bucket_count * sizeof *fill);
     uint32_t group_start[SORT_GROUPS + 1];
-#pragma omp parallel if (count >= DEM_PARALLEL_MIN)
+#pragma omp parallel
     {
 #pragma omp for schedule(static)
         for (size_t k = 0; k < SORT_SLICES; k++)
@@ -279,10 +280,30 @@ static void sort_entries(struct dem_bins *bins, size_t count)
     free(counts);
 }
 
+/* sort_entries on one thread: one stable counting sort over all buckets, fewer passes than the two of
+ * sort_entries (about half the work, early in a spray), the same order. */
+static void sort_entries_serial(struct dem_bins *bins, size_t count)
+{
+    const size_t buckets = bins->bucket_count;
+    memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
+    for (size_t e = 0; e < count; e++)
+        bins->bucket_start[bins->entry_bucket[e] + 1]++;
+    for (size_t b = 0; b < buckets; b++)
+        bins->bucket_start[b + 1] += bins->bucket_start[b];
+    uint32_t *fill = dem_realloc_or_die(NULL, buckets * sizeof(uint32_t));
+    memcpy(fill, bins->bucket_start, buckets * sizeof(uint32_t));
+    for (size_t e = 0; e < count; e++)
+        bins->entries[fill[bins->entry_bucket[e]]++] = bins->scratch[e];
+    free(fill);
+}
+
 static void grid_fill(struct dem_bins *bins, const struct dem_particles *p)
 {
     bins->entry_count = fill_entries(bins, p);
-    sort_entries(bins, bins->entry_count);
+    if (bins->entry_count >= DEM_PARALLEL_MIN && omp_get_max_threads() > 1)
+        sort_entries(bins, bins->entry_count);
+    else
+        sort_entries_serial(bins, bins->entry_count);
 }
 
 void dem_bins_free(struct dem_bins *bins)
