@@ -517,20 +517,25 @@ static void list_moving(struct dem_solver *s)
         s->moving_capacity = p->capacity;
         s->moving = dem_realloc_or_die(s->moving, s->moving_capacity * sizeof *s->moving);
     }
-    size_t start[MOVING_SLICES + 1] = {0}, count = p->count;
+    size_t flyers[MOVING_SLICES], count = p->count;
+    /* one barrier: after it each slice sums the counts before it itself (16 numbers), no serial step between */
 #pragma omp parallel if (count >= DEM_PARALLEL_MIN)
     {
 #pragma omp for schedule(static)
         for (size_t k = 0; k < MOVING_SLICES; k++)
-            start[k + 1] = count_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES);
-#pragma omp single
-        for (size_t k = 0; k < MOVING_SLICES; k++)
-            start[k + 1] += start[k];
-#pragma omp for schedule(static)
-        for (size_t k = 0; k < MOVING_SLICES; k++)
-            list_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES, s->moving + start[k]);
+            flyers[k] = count_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES);
+#pragma omp for schedule(static) nowait
+        for (size_t k = 0; k < MOVING_SLICES; k++) {
+            size_t at = 0;
+            for (size_t j = 0; j < k; j++)
+                at += flyers[j];
+            list_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES, s->moving + at);
+        }
     }
-    s->moving_count = start[MOVING_SLICES];
+    size_t total = 0;
+    for (size_t k = 0; k < MOVING_SLICES; k++)
+        total += flyers[k];
+    s->moving_count = total;
 }
 
 /* The per-particle scratch of the contacts, grown with the particles.  Its flags are 0 between steps
