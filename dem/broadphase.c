@@ -24,6 +24,7 @@
  * repaired particles the grid is rebuilt.  The list then still holds every pair whose swept boxes overlap,
  * once: the contacts found are those of a fresh build. */
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -94,18 +95,10 @@ static void reach_box(const struct dem_particles *p, size_t i, double dt, double
 }
 
 /* Cells of two largest diameters, or wider when the reach of the fastest particle spans more than
- * MAX_CELLS_PER_SWEEP / 2 of them. */
-static double grid_cell_size(const struct dem_particles *p, double dt, double horizon)
+ * MAX_CELLS_PER_SWEEP / 2 of them: from the largest diameter and the largest speed along an axis of a flying
+ * particle (rebuild finds them). */
+static double grid_cell_size(double d_largest, double speed_largest, double dt, double horizon)
 {
-    double d_largest = 0.0, speed_largest = 0.0;
-    for (size_t i = 0; i < p->count; i++) {
-        d_largest = p->d[i] > d_largest ? p->d[i] : d_largest;
-        if (p->state[i] == DEM_FLYING)
-            for (int c = 0; c < 3; c++) {
-                double speed = fabs(p->v[3 * i + c]);
-                speed_largest = speed > speed_largest ? speed : speed_largest;
-            }
-    }
     double sweep_largest = speed_largest * dt * (horizon > 0.0 ? horizon : 1.0);
     double size = d_largest > sweep_largest / MAX_CELLS_PER_SWEEP ? d_largest : sweep_largest / MAX_CELLS_PER_SWEEP;
     return CELL_DIAMETERS * size * (1.0 + 1e-12) + 1e-300;
@@ -194,22 +187,123 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p)
     return count;
 }
 
-static void grid_fill(struct dem_bins *bins, const struct dem_particles *p)
+/* The counting sort of the entries by bucket (stable: a bucket's entries stay in particle order) in two stable
+ * passes that run in parallel: by group of consecutive buckets (SORT_GROUPS groups; slices of the entries
+ * counted and scattered side by side, each slice's entries of a group after those of the slices before),
+ * then each group by bucket on its own.  Stable twice is the order of one stable sort, whatever the
+ * threads: the same grid as a serial sort, and the groups' counts fit in the first-level cache where the
+ * serial sort's random increments over all buckets missed. */
+#define SORT_GROUPS 256
+#define SORT_SLICES 16
+
+static size_t slice_bound(size_t count, size_t k) { return count * k / SORT_SLICES; }
+
+/* Entries [first, end) of bins->scratch: how many fall in each group. */
+static void count_groups(const struct dem_bins *bins, size_t first, size_t end, int group_shift, uint32_t *counts)
 {
-    size_t count = fill_entries(bins, p);
-    size_t buckets = bins->bucket_count;
-    bins->entry_count = count;
+    memset(counts, 0, SORT_GROUPS * sizeof *counts);
+    for (size_t e = first; e < end; e++)
+        counts[bins->entry_bucket[e] >> group_shift]++;
+}
+
+/* The counts of (slice, group) become where each slice's entries of a group start: group by group, slices in
+ * order.  group_start[g]: where group g starts. */
+static void group_offsets(uint32_t (*counts)[SORT_GROUPS], uint32_t *group_start)
+{
+    uint32_t sum = 0;
+    for (size_t g = 0; g < SORT_GROUPS; g++) {
+        group_start[g] = sum;
+        for (size_t k = 0; k < SORT_SLICES; k++) {
+            uint32_t n = counts[k][g];
+            counts[k][g] = sum;
+            sum += n;
+        }
+    }
+    group_start[SORT_GROUPS] = sum;
+}
+
+static void scatter_groups(struct dem_bins *bins, size_t first, size_t end, int group_shift, uint32_t *cursor)
+{
+    for (size_t e = first; e < end; e++)
+        bins->entries[cursor[bins->entry_bucket[e] >> group_shift]++] = bins->scratch[e];
+}
+
+/* Group g's entries, in bins->entries, to the same places of bins->scratch in bucket order; the starts of the
+ * group's buckets.  The bucket comes from the cell again (cheaper than carrying it along). */
+static void sort_group(struct dem_bins *bins, size_t g, size_t per_group, const uint32_t *group_start, uint32_t *fill)
+{
+    const size_t buckets = bins->bucket_count, b0 = g * per_group;
+    uint32_t *start = bins->bucket_start + b0, *cursor = fill + b0;
+    memset(cursor, 0, per_group * sizeof *cursor);
+    for (uint32_t e = group_start[g]; e < group_start[g + 1]; e++)
+        cursor[cell_hash(bins->entries[e].cell, buckets) - b0]++;
+    uint32_t sum = group_start[g];
+    for (size_t b = 0; b < per_group; b++) {
+        start[b] = sum;
+        sum += cursor[b];
+        cursor[b] = start[b];
+    }
+    for (uint32_t e = group_start[g]; e < group_start[g + 1]; e++)
+        bins->scratch[cursor[cell_hash(bins->entries[e].cell, buckets) - b0]++] = bins->entries[e];
+}
+
+/* The entries of bins->scratch (buckets in bins->entry_bucket) sorted into bins->entries (the two arrays
+ * trade places), bins->bucket_start set. */
+static void sort_entries(struct dem_bins *bins, size_t count)
+{
+    const size_t per_group = bins->bucket_count / SORT_GROUPS; /* at least 4: 1024 buckets or more */
+    int group_shift = 0; /* per_group is a power of two: a shift, not a division, finds an entry's group */
+    while (((size_t)1 << group_shift) < per_group)
+        group_shift++;
+    uint32_t(*counts)[SORT_GROUPS] = dem_realloc_or_die(NULL, SORT_SLICES * sizeof *counts);
+    uint32_t *fill = dem_realloc_or_die(NULL, bins->bucket_count * sizeof *fill);
+    uint32_t group_start[SORT_GROUPS + 1];
+#pragma omp parallel
+    {
+#pragma omp for schedule(static)
+        for (size_t k = 0; k < SORT_SLICES; k++)
+            count_groups(bins, slice_bound(count, k), slice_bound(count, k + 1), group_shift, counts[k]);
+#pragma omp single
+        group_offsets(counts, group_start);
+#pragma omp for schedule(static)
+        for (size_t k = 0; k < SORT_SLICES; k++)
+            scatter_groups(bins, slice_bound(count, k), slice_bound(count, k + 1), group_shift, counts[k]);
+#pragma omp for schedule(dynamic, 16)
+        for (size_t g = 0; g < SORT_GROUPS; g++)
+            sort_group(bins, g, per_group, group_start, fill);
+    }
+    struct dem_bin_entry *sorted = bins->scratch;
+    bins->scratch = bins->entries;
+    bins->entries = sorted;
+    bins->bucket_start[bins->bucket_count] = (uint32_t)count;
+    free(fill);
+    free(counts);
+}
+
+/* sort_entries on one thread: one stable counting sort over all buckets, fewer passes than the two of
+ * sort_entries (about half the work, early in a spray), the same order. */
+static void sort_entries_serial(struct dem_bins *bins, size_t count)
+{
+    const size_t buckets = bins->bucket_count;
     memset(bins->bucket_start, 0, (buckets + 1) * sizeof(uint32_t));
     for (size_t e = 0; e < count; e++)
         bins->bucket_start[bins->entry_bucket[e] + 1]++;
     for (size_t b = 0; b < buckets; b++)
         bins->bucket_start[b + 1] += bins->bucket_start[b];
-    /* counting sort: entries of a bucket stay in particle order */
     uint32_t *fill = dem_realloc_or_die(NULL, buckets * sizeof(uint32_t));
     memcpy(fill, bins->bucket_start, buckets * sizeof(uint32_t));
     for (size_t e = 0; e < count; e++)
         bins->entries[fill[bins->entry_bucket[e]]++] = bins->scratch[e];
     free(fill);
+}
+
+static void grid_fill(struct dem_bins *bins, const struct dem_particles *p)
+{
+    bins->entry_count = fill_entries(bins, p);
+    if (bins->entry_count >= DEM_PARALLEL_MIN && omp_get_max_threads() > 1)
+        sort_entries(bins, bins->entry_count);
+    else
+        sort_entries_serial(bins, bins->entry_count);
 }
 
 void dem_bins_free(struct dem_bins *bins)
@@ -314,17 +408,9 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
 
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
 {
-#pragma omp parallel if (bins->pair_count >= DEM_PARALLEL_MIN)
-    {
-        struct dem_candidates local = {0};
 #pragma omp for schedule(static) nowait
-        for (size_t k = 0; k < bins->pair_count; k++)
-            test_pair(p, bins->pairs[2 * k], bins->pairs[2 * k + 1], dt, &local);
-#pragma omp critical(dem_broadphase_merge)
-        for (size_t k = 0; k < local.count; k++)
-            candidates_push(out, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
-        free(local.items);
-    }
+    for (size_t k = 0; k < bins->pair_count; k++)
+        test_pair(p, bins->pairs[2 * k], bins->pairs[2 * k + 1], dt, out);
 }
 
 /* ---------------------------------------------------------------- the pair list */
@@ -429,6 +515,24 @@ static void reach_flags(const struct dem_bins *bins, const struct dem_particles 
     }
 }
 
+/* reach_flags in runs of RUN_DEPOSITS particles: where none of a run flew at the build (late in a spray most
+ * particles are deposits, and the oldest are all deposits), reach_flags answers `same` for each (a deposit
+ * of the build passes), which the ids alone give, without the 100-odd bytes per particle of the box test. */
+#define RUN_DEPOSITS 64
+static void reach_flags_of_runs(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
+                                size_t end, uint8_t *restrict inside)
+{
+    for (size_t run = first; run < end; run += RUN_DEPOSITS) {
+        size_t run_end = run + RUN_DEPOSITS < end ? run + RUN_DEPOSITS : end;
+        if (memchr(bins->built_flying + run, 1, run_end - run)) {
+            reach_flags(bins, p, dt, run, run_end, inside);
+            continue;
+        }
+        for (size_t i = run; i < run_end; i++)
+            inside[i] = p->id[i] == bins->built_id[i];
+    }
+}
+
 static size_t repair_limit(size_t count) { return REPAIR_MIN + count / REPAIR_SHARE; }
 
 /* Particle i failed the test of reach_flags, or was injected since: list it in bins->failing.  Returns
@@ -451,8 +555,8 @@ static int collect_failing(struct dem_bins *bins, const struct dem_particles *p,
     const size_t chunk = 1024, chunks = (bins->built_count + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (bins->built_count >= DEM_PARALLEL_MIN)
     for (size_t k = 0; k < chunks; k++)
-        reach_flags(bins, p, dt, k * chunk, (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count,
-                    inside);
+        reach_flags_of_runs(bins, p, dt, k * chunk,
+                            (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count, inside);
     ensure_particle_capacity(bins, p->count);
     size_t limit = repair_limit(p->count), grown = 0;
     int fits = 1;
@@ -474,13 +578,21 @@ static int collect_failing(struct dem_bins *bins, const struct dem_particles *p,
 static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
     ensure_particle_capacity(bins, p->count);
-    bins->cell = grid_cell_size(p, dt, bins->horizon);
-#pragma omp parallel for schedule(static) if (p->count >= DEM_PARALLEL_MIN)
+    /* The extremes for the cell size in the same pass: a maximum is exact, the same for any split of the
+     * particles (a NaN never wins a comparison, here as in OpenMP's combination of the threads' maxima). */
+    double d_largest = 0.0, speed_largest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : d_largest, speed_largest) if (p->count >= DEM_PARALLEL_MIN)
     for (size_t i = 0; i < p->count; i++) {
         reach_box(p, i, dt, bins->horizon, bins->reach_lo + 3 * i, bins->reach_hi + 3 * i);
         bins->built_id[i] = p->id[i];
         bins->built_flying[i] = p->state[i] == DEM_FLYING;
+        d_largest = p->d[i] > d_largest ? p->d[i] : d_largest;
+        for (int c = 0; c < 3 && bins->built_flying[i]; c++) {
+            double speed = fabs(p->v[3 * i + c]);
+            speed_largest = speed > speed_largest ? speed : speed_largest;
+        }
     }
+    bins->cell = grid_cell_size(d_largest, speed_largest, dt, bins->horizon);
     bins->built_count = p->count;
     memset(bins->repaired, AS_BUILT, p->count);
     bins->repaired_count = 0;
@@ -653,50 +765,101 @@ void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, doub
     rebuild(bins, p, dt);
 }
 
-void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count)
+/* moved_to[i]: where particle i of the old_count went after the removals (increasing indices), down by the
+ * removals before it, or REMOVED_ENTRY.  Run by run, so that the loops vectorise. */
+static void fill_moved_to(uint32_t *moved_to, size_t old_count, const uint32_t *removed, size_t removed_count)
 {
-    if (!bins->reach_lo)
+    for (size_t i = 0; i < removed[0]; i++)
+        moved_to[i] = (uint32_t)i;
+    for (size_t k = 0; k < removed_count; k++) {
+        size_t first = (size_t)removed[k] + 1, end = k + 1 < removed_count ? removed[k + 1] : old_count;
+        moved_to[removed[k]] = REMOVED_ENTRY;
+        for (size_t i = first; i < end; i++)
+            moved_to[i] = (uint32_t)(i - k - 1);
+    }
+}
+
+/* The pairs without the removed particles, renumbered; the order of indices is kept, so pairs stay lower
+ * index first. */
+static void compact_pairs(struct dem_bins *bins, const uint32_t *moved_to)
+{
+    size_t pairs = 0;
+    for (size_t k = 0; k < bins->pair_count; k++) {
+        uint32_t a = moved_to[bins->pairs[2 * k]], b = moved_to[bins->pairs[2 * k + 1]];
+        bins->pairs[2 * pairs] = a;
+        bins->pairs[2 * pairs + 1] = b;
+        pairs += a != REMOVED_ENTRY && b != REMOVED_ENTRY;
+    }
+    bins->pair_count = pairs;
+}
+
+static void compact_repaired_list(struct dem_bins *bins, const uint32_t *moved_to)
+{
+    size_t repaired = 0;
+    for (size_t k = 0; k < bins->repaired_count; k++) {
+        uint32_t i = moved_to[bins->repaired_list[k]];
+        bins->repaired_list[repaired] = i;
+        repaired += i != REMOVED_ENTRY;
+    }
+    bins->repaired_count = repaired;
+}
+
+/* Grid entries [first, end) renumbered; those of removed particles are marked and skipped from then on. */
+static void renumber_entries(struct dem_bins *bins, size_t first, size_t end, const uint32_t *moved_to)
+{
+    for (size_t e = first; e < end; e++)
+        if (bins->entries[e].index != REMOVED_ENTRY)
+            bins->entries[e].index = moved_to[bins->entries[e].index];
+}
+
+/* The independent parts of broadphase_compact, largest first: the pair list, the per-particle arrays, the
+ * repaired list, then the grid entries in slices of ENTRY_SLICES. */
+#define COMPACT_JOBS 5
+#define ENTRY_SLICES 8
+static void compact_job(struct dem_bins *bins, int job, const uint32_t *moved_to, const uint32_t *removed,
+                        size_t removed_count, size_t old_count)
+{
+    switch (job) {
+    case 0:
+        compact_pairs(bins, moved_to);
+        return;
+    case 1:
+        dem_remove_rows(bins->reach_lo, 3 * sizeof *bins->reach_lo, old_count, removed, removed_count);
+        return;
+    case 2:
+        dem_remove_rows(bins->reach_hi, 3 * sizeof *bins->reach_hi, old_count, removed, removed_count);
+        return;
+    case 3:
+        dem_remove_rows(bins->built_id, sizeof *bins->built_id, old_count, removed, removed_count);
+        return;
+    case 4:
+        dem_remove_rows(bins->built_flying, 1, old_count, removed, removed_count);
+        dem_remove_rows(bins->repaired, 1, old_count, removed, removed_count);
+        compact_repaired_list(bins, moved_to);
+        return;
+    default: {
+        size_t slice = (size_t)(job - COMPACT_JOBS), per = (bins->entry_count + ENTRY_SLICES - 1) / ENTRY_SLICES;
+        size_t first = slice * per < bins->entry_count ? slice * per : bins->entry_count;
+        size_t end = first + per < bins->entry_count ? first + per : bins->entry_count;
+        renumber_entries(bins, first, end, moved_to);
+    }
+    }
+}
+
+void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count)
+{
+    if (!bins->reach_lo || removed_count == 0)
         return;
     if (bins->built_count != old_count) {
         bins->built_count = SIZE_MAX; /* not the particles it was built for: rebuild */
         return;
     }
-    uint32_t *moved_to = dem_realloc_or_die(NULL, (old_count ? old_count : 1) * sizeof *moved_to);
-    size_t kept = 0;
-    for (size_t i = 0; i < old_count; i++) {
-        moved_to[i] = keep[i] ? (uint32_t)kept : REMOVED_ENTRY;
-        if (!keep[i])
-            continue;
-        if (kept != i) {
-            memcpy(bins->reach_lo + 3 * kept, bins->reach_lo + 3 * i, 3 * sizeof *bins->reach_lo);
-            memcpy(bins->reach_hi + 3 * kept, bins->reach_hi + 3 * i, 3 * sizeof *bins->reach_hi);
-            bins->built_id[kept] = bins->built_id[i];
-            bins->built_flying[kept] = bins->built_flying[i];
-            bins->repaired[kept] = bins->repaired[i];
-        }
-        kept++;
-    }
-#pragma omp parallel for schedule(static) if (bins->entry_count >= DEM_PARALLEL_MIN)
-    for (size_t e = 0; e < bins->entry_count; e++)
-        if (bins->entries[e].index != REMOVED_ENTRY)
-            bins->entries[e].index = moved_to[bins->entries[e].index];
-    /* the order of indices is kept, so pairs stay lower index first */
-    size_t pairs = 0;
-    for (size_t k = 0; k < bins->pair_count; k++) {
-        uint32_t a = moved_to[bins->pairs[2 * k]], b = moved_to[bins->pairs[2 * k + 1]];
-        if (a == REMOVED_ENTRY || b == REMOVED_ENTRY)
-            continue;
-        bins->pairs[2 * pairs] = a;
-        bins->pairs[2 * pairs + 1] = b;
-        pairs++;
-    }
-    bins->pair_count = pairs;
-    size_t repaired = 0;
-    for (size_t k = 0; k < bins->repaired_count; k++)
-        if (moved_to[bins->repaired_list[k]] != REMOVED_ENTRY)
-            bins->repaired_list[repaired++] = moved_to[bins->repaired_list[k]];
-    bins->repaired_count = repaired;
-    bins->built_count = kept;
+    uint32_t *moved_to = dem_realloc_or_die(NULL, old_count * sizeof *moved_to);
+    fill_moved_to(moved_to, old_count, removed, removed_count);
+#pragma omp parallel for schedule(dynamic, 1) if (old_count >= DEM_PARALLEL_MIN)
+    for (int job = 0; job < COMPACT_JOBS + ENTRY_SLICES; job++)
+        compact_job(bins, job, moved_to, removed, removed_count, old_count);
+    bins->built_count = old_count - removed_count;
     free(moved_to);
 }
 

@@ -27,18 +27,27 @@ static void find_target_contact(const struct dem_solver *s, uint32_t i, struct d
         candidates_push(out, t_hit, i, 0, CONTACT_TARGET);
 }
 
-/* The target contacts of the step's moving particles, appended to `out` in any order (they are sorted). */
+/* The target contacts of the step's moving particles, appended to `out` in any order (they are sorted); a
+ * thread's share of them inside a parallel region, as broadphase_pairs. */
 static void find_target_contacts(const struct dem_solver *s, struct dem_candidates *out)
 {
-#pragma omp parallel if (s->moving_count >= DEM_PARALLEL_MIN)
+#pragma omp for schedule(static) nowait
+    for (size_t k = 0; k < s->moving_count; k++)
+        find_target_contact(s, s->moving[k], out);
+}
+
+/* The pair and target contacts of the step into s->candidates, in any order (they are sorted): one parallel
+ * region for both, each thread's finds merged at its end. */
+static void find_contacts(struct dem_solver *s)
+{
+#pragma omp parallel if (s->bins.pair_count + s->moving_count >= DEM_PARALLEL_MIN)
     {
         struct dem_candidates local = {0};
-#pragma omp for schedule(static) nowait
-        for (size_t k = 0; k < s->moving_count; k++)
-            find_target_contact(s, s->moving[k], &local);
-#pragma omp critical(dem_target_contacts_merge)
+        broadphase_pairs(&s->bins, &s->p, s->cfg.dt, &local);
+        find_target_contacts(s, &local);
+#pragma omp critical(dem_contacts_merge)
         for (size_t k = 0; k < local.count; k++)
-            candidates_push(out, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
+            candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
         free(local.items);
     }
 }
@@ -63,8 +72,7 @@ void dem_detect_contacts(struct dem_solver *s)
     struct dem_particles *p = &s->p;
     s->candidates.count = 0;
     broadphase_build(&s->bins, p, s->cfg.dt);
-    broadphase_pairs(&s->bins, p, s->cfg.dt, &s->candidates);
-    find_target_contacts(s, &s->candidates);
+    find_contacts(s);
     if (s->candidates.count > 1)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);
 }
@@ -475,6 +483,32 @@ static void resolve_secondary_contacts(struct dem_solver *s)
     free(moved);
 }
 
+/* Slices of the particles for list_moving: each slice's flyers are counted, then written after those of the
+ * slices before, so the list is the same for any thread count. */
+#define MOVING_SLICES 16
+
+static size_t count_flying(const uint8_t *state, size_t first, size_t end)
+{
+    size_t n = 0;
+    for (size_t i = first; i < end; i++)
+        n += state[i] == DEM_FLYING;
+    return n;
+}
+
+/* The flyers of [first, end) to out[].  Up to the last flyer only: the loop without a branch (deposits and
+ * flyers interleave) writes each index at the next free slot, a deposit's to be overwritten, and past the
+ * last flyer that slot would be the next slice's. */
+static void list_flying(const uint8_t *state, size_t first, size_t end, uint32_t *out)
+{
+    while (end > first && state[end - 1] != DEM_FLYING)
+        end--;
+    size_t n = 0;
+    for (size_t i = first; i < end; i++) {
+        out[n] = (uint32_t)i;
+        n += state[i] == DEM_FLYING;
+    }
+}
+
 /* s->moving: the flying particles, in index order. */
 static void list_moving(struct dem_solver *s)
 {
@@ -483,12 +517,25 @@ static void list_moving(struct dem_solver *s)
         s->moving_capacity = p->capacity;
         s->moving = dem_realloc_or_die(s->moving, s->moving_capacity * sizeof *s->moving);
     }
-    size_t n = 0;
-    for (size_t i = 0; i < p->count; i++) {
-        s->moving[n] = (uint32_t)i;
-        n += p->state[i] == DEM_FLYING; /* no branch: deposits and flyers interleave */
+    size_t flyers[MOVING_SLICES], count = p->count;
+    /* one barrier: after it each slice sums the counts before it itself (16 numbers), no serial step between */
+#pragma omp parallel if (count >= DEM_PARALLEL_MIN)
+    {
+#pragma omp for schedule(static)
+        for (size_t k = 0; k < MOVING_SLICES; k++)
+            flyers[k] = count_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES);
+#pragma omp for schedule(static) nowait
+        for (size_t k = 0; k < MOVING_SLICES; k++) {
+            size_t at = 0;
+            for (size_t j = 0; j < k; j++)
+                at += flyers[j];
+            list_flying(p->state, count * k / MOVING_SLICES, count * (k + 1) / MOVING_SLICES, s->moving + at);
+        }
     }
-    s->moving_count = n;
+    size_t total = 0;
+    for (size_t k = 0; k < MOVING_SLICES; k++)
+        total += flyers[k];
+    s->moving_count = total;
 }
 
 /* The per-particle scratch of the contacts, grown with the particles.  Its flags are 0 between steps

@@ -136,9 +136,11 @@ void particles_reserve(struct dem_particles *p, size_t capacity);
 size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
                         const double w[3], double d, double density);
 void particles_free(struct dem_particles *p);
-/* Remove the particles with keep[i] == 0, preserving the order of the others (x_start, v_start, w_start
- * excepted: they are scratch of the step and invalid after it). */
-void particles_compact(struct dem_particles *p, const uint8_t *keep);
+/* Remove the particles removed[0, removed_count) (increasing indices), preserving the order of the others
+ * (x_start, v_start, w_start excepted: they are scratch of the step and invalid after it). */
+void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count);
+/* The same for any array of `count` rows of `size` bytes. */
+void dem_remove_rows(void *rows, size_t size, size_t count, const uint32_t *removed, size_t removed_count);
 
 /* dem/inject.c */
 void dem_inject(struct dem_solver *s);
@@ -150,11 +152,13 @@ void dem_bins_free(struct dem_bins *bins);
 /* Bring the grid and the pair list up to date for this step: the particles that left their reach box, were
  * injected, or flew off a deposit since the build are repaired in place; rebuilt when they are too many. */
 void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
-/* After particles_compact(p, keep) removed the particles with keep[i] == 0 of the old_count: the grid and
+/* After particles_compact(p, removed, removed_count) removed those of the old_count particles: the grid and
  * the pair list follow, so that the next build need not start afresh. */
-void broadphase_compact(struct dem_bins *bins, const uint8_t *keep, size_t old_count);
+void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count);
 /* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
- * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one. */
+ * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one.  Inside a
+ * parallel region every thread calls it, each with its own `out`, and each tests a share of the pairs (an
+ * orphaned `omp for` without a barrier at its end); outside one, it tests them all. */
 void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
                       struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */

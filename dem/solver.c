@@ -72,12 +72,13 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
 }
 
 /* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate
- * found at a boundary (s->at_boundary, in index order; every other particle is inside and stays). */
+ * found at a boundary (s->at_boundary, in index order; every other particle is inside and stays).  The
+ * escaped ones are listed in index order and removed together. */
 static void apply_boundaries(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
-    uint8_t *keep = NULL;
-    size_t removed = 0;
+    uint32_t *removed = NULL;
+    size_t removed_count = 0;
     for (size_t k = 0; k < s->at_boundary_count; k++) {
         uint32_t i = s->at_boundary[k];
         if (dem_crossed_handoff(s, i))
@@ -91,21 +92,18 @@ static void apply_boundaries(struct dem_solver *s)
             p->drag[i].kept = 0;
         }
         if (dem_escapes(s, i)) {
-            if (!keep) {
-                keep = dem_realloc_or_die(NULL, p->count);
-                memset(keep, 1, p->count);
-            }
-            keep[i] = 0;
-            removed++;
+            if (!removed)
+                removed = dem_realloc_or_die(NULL, (s->at_boundary_count - k) * sizeof *removed);
+            removed[removed_count++] = i;
         }
     }
-    if (removed) {
+    if (removed_count) {
         size_t old_count = p->count;
-        particles_compact(p, keep);
-        broadphase_compact(&s->bins, keep, old_count);
-        s->escaped += (int64_t)removed;
+        particles_compact(p, removed, removed_count);
+        broadphase_compact(&s->bins, removed, removed_count, old_count);
+        s->escaped += (int64_t)removed_count;
     }
-    free(keep);
+    free(removed);
 }
 
 int dem_check_accounting(const struct dem_solver *s)

@@ -155,18 +155,17 @@ static void advance(struct dem_particles *p, struct dem_bins *kept)
         else if (u < 0.004)
             p->state[i] = DEM_DEPOSITED, memset(p->v + 3 * i, 0, 3 * sizeof(double));
     }
-    uint8_t *keep = malloc(p->count ? p->count : 1);
-    size_t removed = 0;
-    for (size_t i = 0; i < p->count; i++) {
-        keep[i] = uniform() >= 0.002;
-        removed += !keep[i];
-    }
-    if (removed) {
+    uint32_t *removed = malloc((p->count ? p->count : 1) * sizeof *removed);
+    size_t removed_count = 0;
+    for (size_t i = 0; i < p->count; i++)
+        if (uniform() < 0.002)
+            removed[removed_count++] = (uint32_t)i;
+    if (removed_count) {
         size_t old_count = p->count;
-        particles_compact(p, keep);
-        broadphase_compact(kept, keep, old_count);
+        particles_compact(p, removed, removed_count);
+        broadphase_compact(kept, removed, removed_count, old_count);
     }
-    free(keep);
+    free(removed);
     if (uniform() < 0.2)
         for (int k = 0; k < 5; k++)
             add_random_particle(p);
