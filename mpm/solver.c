@@ -250,7 +250,7 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
 /* A block of points between the phases of its update. */
 struct point_block {
     struct mpm_stress_work work[POINT_BLOCK];
-    double volume_new[POINT_BLOCK];
+    double volume_new[POINT_BLOCK], T[POINT_BLOCK], G[POINT_BLOCK];
     int material[POINT_BLOCK], contact[POINT_BLOCK], updating[POINT_BLOCK];
 };
 
@@ -267,10 +267,29 @@ static int begin_point(const struct mpm_solver *s, size_t q, double log_dt, stru
     b->volume_new[k] = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
     if (!(b->volume_new[k] > 0.0))
         return -1;
-    int material = b->material[k] = s->cfg.bodies[p->body[q]].material;
-    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, dt, log_dt,
+    int material = b->material[k];
+    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, b->G[k], dt, log_dt,
                      p->volume0[q], b->volume_new[k], &p->state[q], &b->work[k]);
     return 0;
+}
+
+/* The materials and shear moduli G(T) of the block's points: in lanes for the first point's material, again one
+ * by one for points of another (the same function: the same bits). */
+static void block_shear_moduli(const struct mpm_solver *s, long q0, struct point_block *b, int count)
+{
+    const struct mpm_points *p = &s->points;
+    if (count <= 0)
+        return;
+    int first = s->cfg.bodies[p->body[q0]].material;
+    for (int k = 0; k < count; k++) {
+        b->material[k] = s->cfg.bodies[p->body[q0 + k]].material;
+        b->T[k] = p->state[q0 + k].T;
+    }
+    mpm_shear_moduli(&s->cfg.materials[first], &s->material_constants[first], count, b->T, b->G);
+    for (int k = 1; k < count; k++)
+        if (b->material[k] != first)
+            mpm_shear_moduli(&s->cfg.materials[b->material[k]], &s->material_constants[b->material[k]], 1,
+                             &b->T[k], &b->G[k]);
 }
 
 /* The plastic returns of the block, one material at a time (each lane's result is its own: the grouping does not
@@ -323,6 +342,7 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
 {
     struct point_block b;
     long bad = -1;
+    block_shear_moduli(s, q0, &b, count);
     for (int k = 0; k < count; k++) {
         size_t q = (size_t)(q0 + k);
         b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;
