@@ -176,9 +176,9 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
             for (int a = 0; a < width; a++) {
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
-                if (!(g->mass[I] > g->mass_cutoff))
-                    continue;
-                contact |= N > 0.0 && g->contact[I];
+                /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
+                 * unchanged by adding +-0, so no branch is needed for the same bits */
+                contact |= (N > 0.0) & (g->mass[I] > g->mass_cutoff) & (g->contact[I] != 0);
                 double dN[3] = {st->g[0][a] * st->w[1][b] * st->w[2][c], st->w[0][a] * st->g[1][b] * st->w[2][c],
                                 st->w[0][a] * st->w[1][b] * st->g[2][c]};
                 const double *vI = g->velocity + 3 * I;
