@@ -313,39 +313,10 @@ static void scatter_all(struct mpm_solver *s, size_t q)
         scatter_all_width(s, q, &st, st.width);
 }
 
-/* Step 7, Eq. 3.32, for one point with its stencil: the point velocity takes the nodal velocity change (FLIP)
- * and the position (into x_next) the new nodal velocity. */
-STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
-{
-    struct mpm_points *p = &s->points;
-    const struct mpm_grid *g = &s->grid;
-    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
-    double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
-    size_t layer = (size_t)p->body[q] * g->nodes;
-    double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
-    for (int c = 0; c < width; c++)
-        for (int b = 0; b < width; b++)
-            for (int a = 0; a < width; a++) {
-                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
-                size_t I = layer + stencil_node(g, st, a, b, c);
-                if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
-                    continue;
-                double w = N / g->mass[I];
-                for (int d = 0; d < 3; d++) {
-                    dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
-                    vnew[d] += w * g->momentum_new[3 * I + d];
-                }
-            }
-    for (int d = 0; d < 3; d++) {
-        v[d] += dv[d];
-        xn[d] = x[d] + s->dt * vnew[d];
-    }
-}
-
 /* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
- * start positions, added into `into` (grid_transfer_momentum). */
+ * start positions. */
 STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil,
-                                           int width, double *into)
+                                           int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
@@ -361,26 +332,20 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
                 if (N == 0.0)
                     continue;
                 size_t I = layer + stencil_node(g, st, a, b, c);
-                into[3 * I] += mv[0] * N;
-                into[3 * I + 1] += mv[1] * N;
-                into[3 * I + 2] += mv[2] * N;
+                g->momentum_new[3 * I] += mv[0] * N;
+                g->momentum_new[3 * I + 1] += mv[1] * N;
+                g->momentum_new[3 * I + 2] += mv[2] * N;
             }
 }
 
-/* Steps 7 and 8 of one point, with one stencil: the point takes the updated nodal momenta, then gives its new
- * momentum to `into`.  The point reads only momentum_new and momentum, which no point of the pass writes, so the
- * results are those of the two steps done one after the other over all points. */
-static void update_and_scatter_momentum(struct mpm_solver *s, size_t q, double *into)
+static void scatter_momentum(struct mpm_solver *s, size_t q)
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    if (st.width == 2) {
-        point_from_grid_width(s, q, &st, 2);
-        scatter_momentum_width(s, q, &st, 2, into);
-    } else {
-        point_from_grid_width(s, q, &st, st.width);
-        scatter_momentum_width(s, q, &st, st.width, into);
-    }
+    if (st.width == 2)
+        scatter_momentum_width(s, q, &st, 2);
+    else
+        scatter_momentum_width(s, q, &st, st.width);
 }
 
 /* Points are visited in block order, and stored in that order only as of the last points_reorder: fetch the
@@ -411,7 +376,7 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
         if (transfer == TRANSFER_ALL)
             scatter_all(s, g->block_points[k]);
         else
-            update_and_scatter_momentum(s, g->block_points[k], s->grid.velocity);
+            scatter_momentum(s, g->block_points[k]);
     }
 }
 
@@ -441,21 +406,9 @@ void grid_transfer_all(struct mpm_solver *s)
     for_each_point_by_colour(s, TRANSFER_ALL);
 }
 
-/* Steps 7-8 in one pass over the points, block by block: the re-projected momenta go into the nodal velocity
- * array (free until nodal_velocities fills it), which then trades places with momentum_new.  Points in no
- * block (removed) keep their position. */
 void grid_transfer_momentum(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    struct mpm_points *p = &s->points;
-    memset(g->velocity, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->velocity);
+    memset(g->momentum_new, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->momentum_new);
     for_each_point_by_colour(s, TRANSFER_MOMENTUM);
-    long n = (long)p->count;
-#pragma omp parallel for schedule(static)
-    for (long q = 0; q < n; q++)
-        if (g->point_block[q] < 0)
-            memcpy(p->x_next + 3 * q, p->x + 3 * q, 3 * sizeof *p->x);
-    double *reprojected = g->velocity;
-    g->velocity = g->momentum_new;
-    g->momentum_new = reprojected;
 }

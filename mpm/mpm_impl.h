@@ -165,8 +165,7 @@ static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil
 void grid_bin_points(struct mpm_solver *s);
 /* Particle-to-grid: mass, momentum, internal and external force, volume gradient, bond sums (step 1-2). */
 void grid_transfer_all(struct mpm_solver *s);
-/* Steps 7-8: the points take the nodal velocities (Eq. 3.32; positions into x_next), and their momenta are
- * re-projected (MUSL, Eq. 3.33) into momentum_new; the nodal velocity array is left undefined. */
+/* MUSL re-projection: momentum only, into momentum_new (step 8). */
 void grid_transfer_momentum(struct mpm_solver *s);
 /* Absorbing-boundary (dashpot) force on a point, Eqs. 3.45-3.46. */
 void boundary_dashpot_force(const struct mpm_solver *s, size_t p, double force[3]);

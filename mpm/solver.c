@@ -143,9 +143,58 @@ static void choose_time_step(struct mpm_solver *s)
         s->dt = s->cfg.t_end - s->t;
 }
 
+/* Step 7, Eq. 3.32, for one point with its stencil. */
+STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
+{
+    struct mpm_points *p = &s->points;
+    const struct mpm_grid *g = &s->grid;
+    const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
+    double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
+    size_t layer = (size_t)p->body[q] * g->nodes;
+    double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
+    for (int c = 0; c < width; c++)
+        for (int b = 0; b < width; b++)
+            for (int a = 0; a < width; a++) {
+                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
+                size_t I = layer + stencil_node(g, st, a, b, c);
+                if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
+                    continue;
+                double w = N / g->mass[I];
+                for (int d = 0; d < 3; d++) {
+                    dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
+                    vnew[d] += w * g->momentum_new[3 * I + d];
+                }
+            }
+    for (int d = 0; d < 3; d++) {
+        v[d] += dv[d];
+        xn[d] = x[d] + s->dt * vnew[d];
+    }
+}
+
+/* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
+ * nodal velocity. */
+static void grid_to_points(struct mpm_solver *s)
+{
+    struct mpm_points *p = &s->points;
+    long n = (long)p->count;
+#pragma omp parallel for schedule(static)
+    for (long q = 0; q < n; q++) {
+        if (!(p->flags[q] & POINT_ACTIVE)) {
+            memcpy(p->x_next + 3 * q, p->x + 3 * q, 3 * sizeof *p->x);
+            continue;
+        }
+        struct stencil st;
+        grid_point_stencil(s, (size_t)q, &st);
+        if (st.width == 2)
+            point_from_grid_width(s, (size_t)q, &st, 2);
+        else
+            point_from_grid_width(s, (size_t)q, &st, st.width);
+    }
+}
+
 /* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
- * node in the velocity gradient.  Nodes too light to carry a velocity get 0 (their momenta are 0 after
- * contact_correct_momentum; grid_transfer_momentum uses this array as scratch). */
+ * node in the velocity gradient.  Nodes too light to carry a velocity get 0 (velocity_gradient_width adds their
+ * 0 * dN instead of testing the mass). */
 static void nodal_velocities(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
@@ -395,6 +444,7 @@ int mpm_step(struct mpm_solver *s)
     grid_transfer_all(s);
     contact_nodal_update(s);
     book_absorbed_energy(s);
+    grid_to_points(s);
     grid_transfer_momentum(s);
     contact_correct_momentum(s, s->grid.momentum_new, 0);
     nodal_velocities(s);
