@@ -177,21 +177,43 @@ void grid_free(struct mpm_grid *g)
     memset(g, 0, sizeof *g);
 }
 
+/* The base cell and the fractions of a trilinear stencil at x, as grid_stencil computes them (Eq. 3.20) without
+ * the weights: 0, or -1 when the stencil leaves the grid.  Inlined into the binning loop, which calls it for
+ * every point and step. */
+static inline int linear_cell(const struct mpm_grid *g, const double x[3], struct stencil *st, double f[3])
+{
+    for (int d = 0; d < 3; d++) {
+        double xi = (x[d] - g->origin[d]) / g->h;
+        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+            return -1;
+        double cell = floor(xi);
+        f[d] = xi - cell;
+        st->base[d] = (int)cell;
+    }
+    st->node = grid_node(g, st->base[0], st->base[1], st->base[2]);
+    return 0;
+}
+
 void grid_bin_points(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     long n = (long)p->count;
+    int linear = s->cfg.shape_function == MPM_LINEAR;
 #pragma omp parallel for schedule(static)
     for (long q = 0; q < n; q++) {
         struct stencil st;
+        double f[3] = {0.0, 0.0, 0.0}; /* trilinear: the fractions; unused for uGIMP */
         g->point_block[q] = -1;
-        if (!(p->flags[q] & POINT_ACTIVE) || grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st) != 0)
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        if ((linear ? linear_cell(g, p->x + 3 * q, &st, f)
+                    : grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st)) != 0)
             continue;
         int b[3];
         for (int d = 0; d < 3; d++) {
             b[d] = st.base[d] / BLOCK_CELLS;
-            g->point_fraction[3 * q + d] = st.w[d][1]; /* trilinear: f; unused for uGIMP */
+            g->point_fraction[3 * q + d] = f[d];
         }
         g->point_node[q] = (uint32_t)st.node;
         g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +

@@ -131,7 +131,8 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
  * together in vector lanes (mpm_stress_update_prepared is the three on one point; a point's result does not
  * depend on which points share its block):
  *   mpm_stress_begin   rotation, elastic trial and yield bounds (Eqs. A1-A5); 1 when the point needs the return
- *   mpm_stress_returns the returns of up to MPM_RETURN_LANES points of one material (Eqs. A6-A8) in lock-step
+ *   mpm_stress_returns the returns of up to MPM_RETURN_LANES points of one material (Eqs. A6-A8) in lock-step,
+ *                      their set-up (Eq. 2.8, the bracket, the first iterate) in lanes as well
  *   mpm_stress_finish  radial scaling, EOS energy update, viscosity, heating (Eqs. A8-A11, 3.38-3.44). */
 #define MPM_RETURN_LANES 64
 
@@ -143,6 +144,10 @@ struct mpm_return {
     double u, u_lo, u_hi;   /* the iterate u = ln d and the bracket of the root */
     double d, f, df_du, yield; /* at the last evaluation; d and yield are the result once done */
     int plastic, phase, iter, last;
+    /* what the set-up (the first pass of mpm_stress_returns, in lanes) starts from: the material's constants,
+     * rho_new, T, Tm (NAN: not computed yet), the last step's increment and flow stress, dt and ln dt */
+    const struct mpm_material_constants *constants;
+    double rho, T, Tm, previous, previous_yield, dt, log_dt;
 };
 
 /* What passes from mpm_stress_begin to mpm_stress_finish. */
@@ -154,9 +159,12 @@ struct mpm_stress_work {
     struct mpm_return ret;
 };
 
+/* G(T) (Eq. 2.6) of n points of material m at temperatures T, for mpm_stress_begin. */
+void mpm_shear_moduli(const struct mpm_material *m, const struct mpm_material_constants *c, int n, const double *T,
+                      double *G);
 int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                     const double strain_increment[6], const double spin_increment[3], double dt, double log_dt,
-                     double volume0, double volume_new, const struct mpm_point_state *state,
+                     const double strain_increment[6], const double spin_increment[3], double G, double dt,
+                     double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
                      struct mpm_stress_work *w);
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n);
 int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,

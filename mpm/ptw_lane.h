@@ -85,6 +85,27 @@ FM_INLINE struct ptw_hardening ptw_lane_tau(const struct mpm_material *m, int p_
     return h;
 }
 
+/* MTS shear modulus, Tang Eq. 2.6, G0 - D / (exp(T0/T) - 1) clamped at 0, G0 at T <= 0: mts_shear_modulus of
+ * ptw.c with fm_expm1 for libm's expm1 (within 2 ulp of it), for the per-point path of stress_update.c. */
+FM_INLINE double mts_lane_shear_modulus(const struct mpm_material *m, double T)
+{
+    int positive = T > 0.0;
+    double G = m->G0 - m->D / fm_expm1(m->T0 / fm_select(positive, T, 1.0));
+    return fm_select(positive, fm_select(G > 0.0, G, 0.0), m->G0);
+}
+
+/* SCG melt temperature, Tang Eq. 2.9 with the DESIGN.md erratum (scg_melt_temperature of melt.c), as one
+ * exponential: Tm0 exp(2a (1 - 1/eta) + 2 (Gamma0 - a - 1/3) ln eta), eta = rho/rho0; 0 for rho <= 0. */
+FM_INLINE double scg_lane_melt_temperature(const struct mpm_material *m, double rho)
+{
+    int positive = rho > 0.0;
+    double eta = fm_select(positive, rho, m->density) / m->density;
+    double exponent = 2.0 * (m->eos_gamma0 - m->melt_a - 1.0 / 3.0);
+    double log_eta = fm_log(fm_select(eta > 1e-300, eta, 1e-300));
+    double Tm = m->melt_T0 * fm_exp(2.0 * m->melt_a * (1.0 - 1.0 / eta) + exponent * log_eta);
+    return fm_select(positive, Tm, 0.0);
+}
+
 /* tau_s and tau_y of Tang Eq. 2.7 at L = ln(eps_dot / (gamma xi_dot)), and their derivatives in L. */
 struct ptw_rate_terms {
     double tau_s, tau_y, d_tau_s, d_tau_y;

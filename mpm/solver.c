@@ -193,16 +193,18 @@ static void grid_to_points(struct mpm_solver *s)
 }
 
 /* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
- * node in the velocity gradient. */
+ * node in the velocity gradient.  Nodes too light to carry a velocity get 0 (velocity_gradient_width adds their
+ * 0 * dN instead of testing the mass). */
 static void nodal_velocities(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     long n = (long)(g->nodes * (size_t)g->layers);
 #pragma omp parallel for schedule(static)
-    for (long I = 0; I < n; I++)
-        if (g->mass[I] > g->mass_cutoff)
-            for (int d = 0; d < 3; d++)
-                g->velocity[3 * I + d] = g->momentum_new[3 * I + d] / g->mass[I];
+    for (long I = 0; I < n; I++) {
+        int heavy = g->mass[I] > g->mass_cutoff;
+        for (int d = 0; d < 3; d++)
+            g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
+    }
 }
 
 /* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
@@ -223,9 +225,9 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
             for (int a = 0; a < width; a++) {
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
-                if (!(g->mass[I] > g->mass_cutoff))
-                    continue;
-                contact |= N > 0.0 && g->contact[I];
+                /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
+                 * unchanged by adding +-0, so no branch is needed for the same bits */
+                contact |= (N > 0.0) & (g->mass[I] > g->mass_cutoff) & (g->contact[I] != 0);
                 double dN[3] = {st->g[0][a] * st->w[1][b] * st->w[2][c], st->w[0][a] * st->g[1][b] * st->w[2][c],
                                 st->w[0][a] * st->w[1][b] * st->g[2][c]};
                 const double *vI = g->velocity + 3 * I;
@@ -250,7 +252,7 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
 /* A block of points between the phases of its update. */
 struct point_block {
     struct mpm_stress_work work[POINT_BLOCK];
-    double volume_new[POINT_BLOCK];
+    double volume_new[POINT_BLOCK], T[POINT_BLOCK], G[POINT_BLOCK];
     int material[POINT_BLOCK], contact[POINT_BLOCK], updating[POINT_BLOCK];
 };
 
@@ -267,10 +269,29 @@ static int begin_point(const struct mpm_solver *s, size_t q, double log_dt, stru
     b->volume_new[k] = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
     if (!(b->volume_new[k] > 0.0))
         return -1;
-    int material = b->material[k] = s->cfg.bodies[p->body[q]].material;
-    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, dt, log_dt,
+    int material = b->material[k];
+    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, b->G[k], dt, log_dt,
                      p->volume0[q], b->volume_new[k], &p->state[q], &b->work[k]);
     return 0;
+}
+
+/* The materials and shear moduli G(T) of the block's points: in lanes for the first point's material, again one
+ * by one for points of another (the same function: the same bits). */
+static void block_shear_moduli(const struct mpm_solver *s, long q0, struct point_block *b, int count)
+{
+    const struct mpm_points *p = &s->points;
+    if (count <= 0)
+        return;
+    int first = s->cfg.bodies[p->body[q0]].material;
+    for (int k = 0; k < count; k++) {
+        b->material[k] = s->cfg.bodies[p->body[q0 + k]].material;
+        b->T[k] = p->state[q0 + k].T;
+    }
+    mpm_shear_moduli(&s->cfg.materials[first], &s->material_constants[first], count, b->T, b->G);
+    for (int k = 1; k < count; k++)
+        if (b->material[k] != first)
+            mpm_shear_moduli(&s->cfg.materials[b->material[k]], &s->material_constants[b->material[k]], 1,
+                             &b->T[k], &b->G[k]);
 }
 
 /* The plastic returns of the block, one material at a time (each lane's result is its own: the grouping does not
@@ -323,6 +344,7 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
 {
     struct point_block b;
     long bad = -1;
+    block_shear_moduli(s, q0, &b, count);
     for (int k = 0; k < count; k++) {
         size_t q = (size_t)(q0 + k);
         b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;

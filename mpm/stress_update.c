@@ -134,6 +134,7 @@ static void consistency_lanes(const struct mpm_material *material, int n, struct
 
 /* Where a return stands between two evaluations (what the next evaluation is for). */
 enum return_phase {
+    RETURN_SETUP,       /* set up by ptw_return_begin, not yet by setup_lanes */
     RETURN_YIELD_CHECK, /* the yield check before Newton starts (no usable first guess) */
     RETURN_START,       /* f at Newton's first iterate */
     RETURN_STEP,        /* f at the iterate of a Newton step or bisection */
@@ -217,15 +218,107 @@ static int is_yield_check(const struct mpm_return *r)
     return r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK;
 }
 
+/* The lanes of the returns' set-up, structure of arrays: inputs, then results. */
+struct setup_lanes {
+    double G[MPM_RETURN_LANES], trial[MPM_RETURN_LANES], rho[MPM_RETURN_LANES], T[MPM_RETURN_LANES];
+    double Tm[MPM_RETURN_LANES], previous[MPM_RETURN_LANES], previous_yield[MPM_RETURN_LANES];
+    double dt[MPM_RETURN_LANES], log_dt[MPM_RETURN_LANES];
+    double T_hat[MPM_RETURN_LANES], log_rate_scale[MPM_RETURN_LANES], log_ratio_floor[MPM_RETURN_LANES];
+    double u[MPM_RETURN_LANES], u_lo[MPM_RETURN_LANES], u_hi[MPM_RETURN_LANES];
+    uint16_t start[MPM_RETURN_LANES]; /* 1: Newton starts at u (a first guess), 0: the yield check first */
+};
+
+/* ln x rounded to a multiple of ln 2 from the binary exponent of x > 0 (x = 2^e m, 1 <= m < 2): e ln 2 <= ln x <
+ * (e + 1) ln 2.  The bracket's ends need only lie on the right side of the root. */
+FM_INLINE double log_below(double x)
+{
+    double exponent;
+    fm_split(x, &exponent);
+    return exponent * M_LN2;
+}
+
+FM_INLINE double log_above(double x)
+{
+    double exponent;
+    fm_split(x, &exponent);
+    return (exponent + 1.0) * M_LN2;
+}
+
+/* The start of the return of a point whose trial stress exceeds 2 G y_inf (Tang Eq. 2.8 and the bracket).  d lies
+ * in [d_lo, d_hi], d_lo = rate_floor dt (kept below d_hi), d_hi = sigma* / (3 G) where f <= -sigma_y <= 0.  A
+ * point plastic in the last step (increment d0, flow stress sigma0) starts Newton from one Newton step in ln d on
+ * the model f = sigma* - 3 G d - sigma0 (d/d0)^beta, beta the rate exponent of the shock-regime flow stress
+ * (Eq. 2.7), limited to a factor e^2 either way: it costs no PTW evaluation and saves about half a Newton step on
+ * the impact benchmark (f > 0 anywhere proves the point plastic, f(0) >= f(d), so the yield check is needed only
+ * if Newton heads below d_lo).  Otherwise the yield check comes first, and Newton starts from the
+ * rate-independent increment.  sigma_y is flat in the rate at low rates and a power of it above (the shock
+ * regime); f is concave in u over most of the range, and from that guess Newton converges in 2-3 steps.  Written
+ * for lanes (core/fastmath*.h, selects): the libm calls of this set-up cost a tenth of the step. */
+FM_INLINE void setup_lane(const struct mpm_material *m, const struct mpm_material_constants *c, int i,
+                          struct setup_lanes *restrict l)
+{
+    double G = l->G[i], trial = l->trial[i], dt = l->dt[i], T = l->T[i];
+    /* ln(gamma xi_dot), Eq. 2.8: ln(gamma (4 pi / 3 M)^(1/3) / 2) + ln(G^3 / rho) / 6 */
+    double log_gamma_xi = c->log_gamma_xi_factor + fm_log(G * G * G / l->rho[i]) / 6.0;
+    double Tm = l->Tm[i];
+    Tm = fm_select(Tm != Tm, scg_lane_melt_temperature(m, l->rho[i]), Tm); /* NAN: not computed yet */
+    l->T_hat[i] = fm_select(T > 0.0, T / Tm, 0.0);
+    l->log_rate_scale[i] = fm_select(dt > 0.0, log_gamma_xi + l->log_dt[i], INFINITY); /* L = ln d - this */
+    l->log_ratio_floor[i] = c->log_rate_floor - log_gamma_xi;                        /* L at the rate floor */
+    double d_hi = trial / (3.0 * G), floor_dt = m->rate_floor * dt, hi_part = 1e-3 * d_hi;
+    double d_lo = fm_select(floor_dt < hi_part, floor_dt, hi_part);
+    d_lo = fm_select(d_lo > DBL_MIN, d_lo, DBL_MIN);
+    l->u_lo[i] = log_below(d_lo), l->u_hi[i] = log_above(d_hi);
+    double d0 = l->previous[i], sigma0 = l->previous_yield[i];
+    double step = (trial - 3.0 * G * d0 - sigma0) / (3.0 * G * d0 + m->ptw_beta * sigma0);
+    step = fm_select(step < 2.0, step, 2.0);
+    step = fm_select(step > -2.0, step, -2.0);
+    double guessed = d0 * fm_exp(step);
+    double previous = fm_select((d0 > 0.0) & (sigma0 > 0.0), guessed, d0); /* &, not &&: no branch */
+    int start = (previous > d_lo) & (previous < d_hi);
+    l->start[i] = (uint16_t)start;
+    l->u[i] = fm_select(start, fm_log(fm_select(start, previous, 1.0)), 0.0);
+}
+
+/* The set-up of returns 0..n-1 (all RETURN_SETUP, one material): packed into lanes, set up together, unpacked. */
+static void setup_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
+{
+    struct setup_lanes l;
+    const struct mpm_material m = *material;
+    const struct mpm_material_constants c = *returns[0]->constants;
+    for (int i = 0; i < n; i++) {
+        const struct mpm_return *r = returns[i];
+        l.G[i] = r->G, l.trial[i] = r->trial, l.rho[i] = r->rho, l.T[i] = r->T, l.Tm[i] = r->Tm;
+        l.previous[i] = r->previous, l.previous_yield[i] = r->previous_yield, l.dt[i] = r->dt;
+        l.log_dt[i] = r->log_dt;
+    }
+    for (int i = 0; i < n; i++)
+        setup_lane(&m, &c, i, &l);
+    for (int i = 0; i < n; i++) {
+        struct mpm_return *r = returns[i];
+        r->T_hat = l.T_hat[i], r->log_rate_scale = l.log_rate_scale[i], r->log_ratio_floor = l.log_ratio_floor[i];
+        r->u = l.u[i], r->u_lo = l.u_lo[i], r->u_hi = l.u_hi[i];
+        r->phase = l.start[i] ? RETURN_START : RETURN_YIELD_CHECK;
+    }
+}
+
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
 {
     struct return_lanes lanes;
     int active[MPM_RETURN_LANES], n_active = 0;
+    struct mpm_return *setup[MPM_RETURN_LANES];
+    for (int k = 0; k < n; k++)
+        if (returns[k]->phase == RETURN_SETUP)
+            setup[n_active++] = returns[k];
+    if (n_active > 0)
+        setup_returns(m, setup, n_active);
+    n_active = 0;
     for (int k = 0; k < n; k++)
         if (returns[k]->phase != RETURN_DONE)
             active[n_active++] = k;
     while (n_active > 0) {
-        /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one */
+        /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one (padding to
+         * 8 instead made consistency_lanes half again as costly on AVX-512: perf, 4 ns impact) */
         int n_lanes = (n_active + 15) & ~15;
         for (int i = 0; i < n_lanes; i++) {
             const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
@@ -240,44 +333,6 @@ void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *
             if (return_advance(returns[active[i]], lanes.d[i], lanes.f[i], lanes.df_du[i], lanes.yield[i]))
                 active[still++] = active[i];
         n_active = still;
-    }
-}
-
-/* Bounds of ln x for x > 0 within ln 2 from its binary exponent (x = m 2^e, 1/2 <= m < 1): the bracket's ends
- * need only be on the right side of the root, and two logarithms per plastic point are saved. */
-static double log_above(double x)
-{
-    int e;
-    frexp(x, &e);
-    return (double)e * M_LN2;
-}
-
-static double log_below(double x)
-{
-    int e;
-    frexp(x, &e);
-    return (double)(e - 1) * M_LN2;
-}
-
-/* The start of the return of a point whose trial stress exceeds 2 G y_inf.  d lies in [d_lo, d_hi], d_lo =
- * rate_floor dt (kept below d_hi), d_hi = sigma* / (3 G) where f <= -sigma_y <= 0.  A point plastic in the last
- * step starts Newton from `previous` (the ongoing plastic rate; f > 0 anywhere proves the point plastic, f(0) >=
- * f(d), so the yield check is needed only if Newton heads below d_lo).  Otherwise the yield check comes first,
- * and Newton starts from the rate-independent increment.  sigma_y is flat in the rate at low rates and a power
- * of it above (the shock regime); f is concave in u over most of the range, and from last step's increment
- * Newton converges in 2-3 steps. */
-static void return_start(struct mpm_return *r, const struct mpm_material *m, double previous, double dt)
-{
-    double d_hi = r->trial / (3.0 * r->G), d_lo = fmax(fmin(m->rate_floor * dt, 1e-3 * d_hi), DBL_MIN);
-    r->u_lo = log_below(d_lo), r->u_hi = log_above(d_hi);
-    r->plastic = 0, r->iter = 0, r->last = 0;
-    r->d = 0.0, r->f = 0.0, r->df_du = 0.0, r->yield = 0.0;
-    if (previous > d_lo && previous < d_hi) {
-        r->u = log(previous);
-        r->phase = RETURN_START;
-    } else {
-        r->u = 0.0;
-        r->phase = RETURN_YIELD_CHECK;
     }
 }
 
@@ -316,15 +371,20 @@ static int all_finite(const struct mpm_point_state *s)
 
 /* ---- the update ---- */
 
-/* G(T) of Eq. 2.6; a point never heated (T exactly T_initial: no plastic work yet) takes the precomputed value. */
-static double shear_modulus(const struct mpm_material *m, const struct mpm_material_constants *c, double T)
+/* G(T) of Eq. 2.6 for n points, in lanes (libm's expm1 for each heated point cost 3 % of the step); a point never
+ * heated (T exactly T_initial: no plastic work yet) takes the precomputed value. */
+void mpm_shear_moduli(const struct mpm_material *material, const struct mpm_material_constants *c, int n,
+                      const double *restrict T, double *restrict G)
 {
-    return T == m->T_initial ? c->G_initial : mts_shear_modulus(m, T);
+    const struct mpm_material m = *material; /* copied: the stores to G cannot alias it */
+    double G_initial = c->G_initial;
+    for (int i = 0; i < n; i++)
+        G[i] = fm_select(T[i] == m.T_initial, G_initial, mts_lane_shear_modulus(&m, T[i]));
 }
 
 /* Whether T >= Tm(rho_new) (Eq. 2.9); *Tm is the melt temperature when it was computed, else NAN.  Tm grows with
  * the density where c->melt_T_low > 0 (mpm_material_prepare), so a point at least that dense and colder than
- * Tm(melt_eta_low) is below melt without the exp and pow of Eq. 2.9. */
+ * Tm(melt_eta_low) is below melt without evaluating Eq. 2.9. */
 static int at_or_above_melt(const struct mpm_material *m, const struct mpm_material_constants *c, double T,
                             double rho_new, double *Tm)
 {
@@ -336,39 +396,24 @@ static int at_or_above_melt(const struct mpm_material *m, const struct mpm_mater
     return !(T < *Tm);
 }
 
-/* The first guess of the return for a point plastic in the last step (increment d0, flow stress sigma0): one
- * Newton step in ln d on the model f = sigma* - 3 G d - sigma0 (d/d0)^beta, beta the rate exponent of the
- * shock-regime flow stress (Eq. 2.7), limited to a factor e^2 either way.  It costs no PTW evaluation and
- * saves about half a Newton step on the impact benchmark.  0 (no guess) for a point elastic in the last step. */
-static double first_guess(const struct mpm_material *m, const struct mpm_point_state *state, double G,
-                          double trial)
+/* The radial return onto the PTW flow stress (Eqs. A5-A8) set up: the consistency problem of the point, its
+ * start left to the first pass of mpm_stress_returns (setup_lane). */
+static void ptw_return_begin(const struct mpm_material_constants *c, const struct mpm_point_state *state, double G,
+                             double trial, double dt, double log_dt, double Tm, double rho_new, struct mpm_return *r)
 {
-    double d0 = state->plastic_increment, sigma0 = state->yield_stress;
-    if (!(d0 > 0.0) || !(sigma0 > 0.0))
-        return d0;
-    double step = (trial - 3.0 * G * d0 - sigma0) / (3.0 * G * d0 + m->ptw_beta * sigma0);
-    return d0 * exp(fmax(-2.0, fmin(2.0, step)));
-}
-
-/* The radial return onto the PTW flow stress (Eqs. A5-A8) set up: the consistency problem of the point. */
-static void ptw_return_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                             const struct mpm_point_state *state, double G, double trial, double dt, double log_dt,
-                             double Tm, double rho_new, struct mpm_return *r)
-{
-    if (isnan(Tm))
-        Tm = scg_melt_temperature(m, rho_new);
-    /* ln(gamma xi_dot), Eq. 2.8: ln(gamma (4 pi / 3 M)^(1/3) / 2) + ln(G^3 / rho) / 6 */
-    double log_gamma_xi = c->log_gamma_xi_factor + log(G * G * G / rho_new) / 6.0;
-    r->eps_p = state->eps_p, r->G = G, r->trial = trial, r->T_hat = state->T > 0.0 ? state->T / Tm : 0.0;
-    r->log_rate_scale = dt > 0.0 ? log_gamma_xi + log_dt : INFINITY; /* L = ln d - ln(gamma xi_dot dt) */
-    r->log_ratio_floor = c->log_rate_floor - log_gamma_xi;           /* L at the rate floor */
-    return_start(r, m, first_guess(m, state, G, trial), dt);
+    r->eps_p = state->eps_p, r->G = G, r->trial = trial;
+    r->constants = c, r->rho = rho_new, r->T = state->T, r->Tm = Tm;
+    r->previous = state->plastic_increment, r->previous_yield = state->yield_stress;
+    r->dt = dt, r->log_dt = log_dt;
+    r->plastic = 0, r->iter = 0, r->last = 0;
+    r->d = 0.0, r->f = 0.0, r->df_du = 0.0, r->yield = 0.0;
+    r->phase = RETURN_SETUP;
 }
 
 /* Deviatoric part of the step (Eqs. A1-A8) up to the return: w->s_new is the elastic trial (Eq. A1.3), or 0 when
  * melted or without shear stiffness; returns 1 when the point needs the plastic return (w->ret set up). */
 static int deviatoric_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                            const struct mpm_point_state *state, const double dev_strain[6], double dt,
+                            const struct mpm_point_state *state, const double dev_strain[6], double G, double dt,
                             double log_dt, struct mpm_stress_work *w)
 {
     double Tm;
@@ -379,7 +424,6 @@ static int deviatoric_begin(const struct mpm_material *m, const struct mpm_mater
             w->s_new[k] = 0.0;
         return 0;
     }
-    double G = shear_modulus(m, c, state->T);
     for (int k = 0; k < 6; k++)
         w->s_new[k] = w->s_rot[k] + 2.0 * G * dev_strain[k]; /* Eq. A1.3 */
     double trial = von_mises(w->s_new);                       /* Eq. A5 */
@@ -396,13 +440,13 @@ static int deviatoric_begin(const struct mpm_material *m, const struct mpm_mater
             w->s_new[k] = 0.0;
         return 0;
     }
-    ptw_return_begin(m, c, state, G, trial, dt, log_dt, Tm, w->rho_new, &w->ret);
+    ptw_return_begin(c, state, G, trial, dt, log_dt, Tm, w->rho_new, &w->ret);
     return 1;
 }
 
 int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                     const double strain_increment[6], const double spin_increment[3], double dt, double log_dt,
-                     double volume0, double volume_new, const struct mpm_point_state *state,
+                     const double strain_increment[6], const double spin_increment[3], double G, double dt,
+                     double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
                      struct mpm_stress_work *w)
 {
     double sigma_rot[6], dev_strain[6], mean_rot;
@@ -412,7 +456,7 @@ int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_con
     deviator(strain_increment, dev_strain, &w->volumetric);   /* Eq. A4 */
     for (int k = 0; k < 6; k++)
         w->strain[k] = strain_increment[k];
-    w->returning = deviatoric_begin(m, c, state, dev_strain, dt, log_dt, w);
+    w->returning = deviatoric_begin(m, c, state, dev_strain, G, dt, log_dt, w);
     return w->returning;
 }
 
@@ -463,7 +507,9 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
                                struct mpm_update_result *result)
 {
     struct mpm_stress_work w;
-    if (mpm_stress_begin(m, c, strain_increment, spin_increment, dt, log_dt, volume0, volume_new, state, &w)) {
+    double G;
+    mpm_shear_moduli(m, c, 1, &state->T, &G);
+    if (mpm_stress_begin(m, c, strain_increment, spin_increment, G, dt, log_dt, volume0, volume_new, state, &w)) {
         struct mpm_return *r = &w.ret;
         mpm_stress_returns(m, &r, 1);
     }
@@ -491,7 +537,7 @@ void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_cons
     c->log_gamma_xi_factor = log(m->ptw_gamma * 0.5 * cbrt(4.0 * M_PI / (3.0 * m->atomic_mass)));
     int monotone = m->melt_a >= 0.0 && m->eos_gamma0 - m->melt_a - 1.0 / 3.0 >= 0.0;
     c->melt_eta_low = MELT_ETA_LOW;
-    c->melt_T_low = monotone ? scg_melt_temperature(m, MELT_ETA_LOW * m->density) : 0.0;
+    c->melt_T_low = monotone ? scg_lane_melt_temperature(m, MELT_ETA_LOW * m->density) : 0.0;
 }
 
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state)

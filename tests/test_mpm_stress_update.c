@@ -401,7 +401,9 @@ static void check_block_order(const struct mpm_material *m, const struct mpm_mat
     }
     for (int j = 0; j < LANE_POINTS; j++) {
         int k = reversed ? LANE_POINTS - 1 - j : j;
-        if (mpm_stress_begin(m, c, de[k], no_spin, dt[k], log(dt[k]), V0, V0, &block[k], &work[k]))
+        double G;
+        mpm_shear_moduli(m, c, 1, &block[k].T, &G);
+        if (mpm_stress_begin(m, c, de[k], no_spin, G, dt[k], log(dt[k]), V0, V0, &block[k], &work[k]))
             returns[n++] = &work[k].ret;
     }
     mpm_stress_returns(m, returns, n);
