@@ -879,7 +879,10 @@ int dem_integrate(struct dem_solver *s)
             struct iteration_count count = {0};
             int bad_here = 0;
             struct block *b = dem_realloc_or_die(NULL, sizeof *b);
-#pragma omp for schedule(dynamic, 4)
+/* static: each thread keeps its share of the particles from step to step, and their lines stay in its
+ * core's caches (dynamic chunks moved them between the cores every step: Table 1 on 2 threads took 22 %
+ * more CPU time, BENCHMARKS.md 2026-12-02 (second session)) */
+#pragma omp for schedule(static)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
                 block_load(p, reuse_drag, b, flying + first, n);
