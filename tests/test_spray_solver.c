@@ -445,6 +445,30 @@ static void test_blow_up_is_reported(void)
     fixture_close(&f);
 }
 
+/* Only contacts change a spin, so the step tests the spins of the particles that had a contact in it
+ * (start_kept, which a contact sets, dem/collide.c): a spin made NaN there is reported like a position. */
+static void test_spin_blow_up_is_reported(void)
+{
+    struct fixture f;
+    if (fixture_open(&f, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = uniform\nuniform_velocity = 100\n",
+                     "0,0,0.01,0,0,10,0,0,0,4e-5\n0,0.001,0.01,0,0,10,0,0,0,4e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    CHECK(fixture_steps(&f, 3) == SC_OK, "healthy steps");
+    f.solver->p.w[3 * 1 + 0] = NAN; /* particle id 1, as a contact of this step would leave it */
+    memcpy(f.solver->p.x_start + 3, f.solver->p.x + 3, 3 * sizeof(double));
+    memcpy(f.solver->p.v_start + 3, f.solver->p.v + 3, 3 * sizeof(double));
+    memcpy(f.solver->p.w_start + 3, f.solver->p.w + 3, 3 * sizeof(double));
+    f.solver->start_kept[1] = 1;
+    int status = dem_step(f.solver);
+    CHECK(status == SC_ESIM, "status %d, expected SC_ESIM", status);
+    const char *message = sc_error_message();
+    CHECK(strstr(message, "step 3") && strstr(message, "particle 1") && strstr(message, "spin is not finite"),
+          "message names step, particle and quantity: %s", message);
+    fixture_close(&f);
+}
+
 int main(void)
 {
     h5_quiet();
@@ -458,5 +482,6 @@ int main(void)
     RUN(test_guessed_first_iterate);
     RUN(test_checkpoint_round_trip);
     RUN(test_blow_up_is_reported);
+    RUN(test_spin_blow_up_is_reported);
     return check_finish();
 }
