@@ -425,23 +425,37 @@ static void test_checkpoint_round_trip(void)
     fixture_close(&resumed);
 }
 
+/* Two particles in a uniform jet after 3 healthy steps: the set-up of the blow-up tests. */
+static int open_healthy_pair(struct fixture *f)
+{
+    if (fixture_open(f, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = uniform\nuniform_velocity = 100\n",
+                     "0,0,0.01,0,0,10,0,0,0,4e-5\n0,0.001,0.01,0,0,10,0,0,0,4e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return 0;
+    }
+    CHECK(fixture_steps(f, 3) == SC_OK, "healthy steps");
+    return 1;
+}
+
+/* The next step stops with SC_ESIM and a message naming step 3, particle 1 and `what`. */
+static void check_blow_up_reported(struct fixture *f, const char *what)
+{
+    int status = dem_step(f->solver);
+    CHECK(status == SC_ESIM, "status %d, expected SC_ESIM", status);
+    const char *message = sc_error_message();
+    CHECK(strstr(message, "step 3") && strstr(message, "particle 1") && strstr(message, what),
+          "message names step, particle and quantity: %s", message);
+}
+
 /* A state that is no longer finite stops the run with SC_ESIM and a message naming step, particle and
  * quantity (the stage driver then leaves the last checkpoint in place and writes no output). */
 static void test_blow_up_is_reported(void)
 {
     struct fixture f;
-    if (fixture_open(&f, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = uniform\nuniform_velocity = 100\n",
-                     "0,0,0.01,0,0,10,0,0,0,4e-5\n0,0.001,0.01,0,0,10,0,0,0,4e-5\n") != SC_OK) {
-        CHECK(0, "fixture");
+    if (!open_healthy_pair(&f))
         return;
-    }
-    CHECK(fixture_steps(&f, 3) == SC_OK, "healthy steps");
     f.solver->p.v[3 * 1 + 2] = NAN; /* particle id 1 */
-    int status = dem_step(f.solver);
-    CHECK(status == SC_ESIM, "status %d, expected SC_ESIM", status);
-    const char *message = sc_error_message();
-    CHECK(strstr(message, "step 3") && strstr(message, "particle 1") && strstr(message, "not finite"),
-          "message names step, particle and quantity: %s", message);
+    check_blow_up_reported(&f, "not finite");
     fixture_close(&f);
 }
 
@@ -450,22 +464,14 @@ static void test_blow_up_is_reported(void)
 static void test_spin_blow_up_is_reported(void)
 {
     struct fixture f;
-    if (fixture_open(&f, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = uniform\nuniform_velocity = 100\n",
-                     "0,0,0.01,0,0,10,0,0,0,4e-5\n0,0.001,0.01,0,0,10,0,0,0,4e-5\n") != SC_OK) {
-        CHECK(0, "fixture");
+    if (!open_healthy_pair(&f))
         return;
-    }
-    CHECK(fixture_steps(&f, 3) == SC_OK, "healthy steps");
     f.solver->p.w[3 * 1 + 0] = NAN; /* particle id 1, as a contact of this step would leave it */
     memcpy(f.solver->p.x_start + 3, f.solver->p.x + 3, 3 * sizeof(double));
     memcpy(f.solver->p.v_start + 3, f.solver->p.v + 3, 3 * sizeof(double));
     memcpy(f.solver->p.w_start + 3, f.solver->p.w + 3, 3 * sizeof(double));
     f.solver->start_kept[1] = 1;
-    int status = dem_step(f.solver);
-    CHECK(status == SC_ESIM, "status %d, expected SC_ESIM", status);
-    const char *message = sc_error_message();
-    CHECK(strstr(message, "step 3") && strstr(message, "particle 1") && strstr(message, "spin is not finite"),
-          "message names step, particle and quantity: %s", message);
+    check_blow_up_reported(&f, "spin is not finite");
     fixture_close(&f);
 }
 
