@@ -442,27 +442,46 @@ static void pair_push(struct dem_bins *list, uint32_t a, uint32_t b)
     list->pair_count++;
 }
 
-/* Every pair, not both deposited, whose reach boxes intersect: entries of a bucket are in particle order,
- * so a < b. */
+/* The pairs, not both deposited, whose reach boxes intersect with the lower corner of the intersection in a
+ * cell of this bucket: entries of a bucket are in particle order, so a < b. */
+static void list_bucket_pairs(const struct dem_bins *bins, const struct dem_particles *p, size_t bucket,
+                              struct dem_bins *out)
+{
+    uint32_t first = bins->bucket_start[bucket], end = bins->bucket_start[bucket + 1];
+    for (uint32_t e = first; e + 1 < end; e++)
+        for (uint32_t f = e + 1; f < end; f++) {
+            const struct dem_bin_entry *a = &bins->entries[e], *b = &bins->entries[f];
+            if (!same_cell(a, b) || a->index == b->index)
+                continue;
+            if (p->state[a->index] != DEM_FLYING && p->state[b->index] != DEM_FLYING)
+                continue;
+            if (owns_reach_pair(bins, a->index, b->index, a->cell))
+                pair_push(out, a->index, b->index);
+        }
+}
+
+/* Every pair, not both deposited, whose reach boxes intersect.  Only buckets of two entries or more can hold a
+ * pair, and most buckets hold fewer (there are twice as many as entries): they are found PAIR_BUCKETS at a
+ * time by a loop without branches, which vectorises, where a loop over every bucket cost ~10 instructions
+ * per bucket. */
+#define PAIR_BUCKETS 1024
 static void list_pairs(struct dem_bins *bins, const struct dem_particles *p)
 {
     bins->pair_count = 0;
+    const size_t chunks = (bins->bucket_count + PAIR_BUCKETS - 1) / PAIR_BUCKETS;
 #pragma omp parallel if (p->count >= DEM_PARALLEL_MIN)
     {
         struct dem_bins local = {0}; /* only its pair list is used */
-#pragma omp for schedule(dynamic, 256) nowait
-        for (size_t bucket = 0; bucket < bins->bucket_count; bucket++) {
-            uint32_t first = bins->bucket_start[bucket], end = bins->bucket_start[bucket + 1];
-            for (uint32_t e = first; e + 1 < end; e++)
-                for (uint32_t f = e + 1; f < end; f++) {
-                    const struct dem_bin_entry *a = &bins->entries[e], *b = &bins->entries[f];
-                    if (!same_cell(a, b) || a->index == b->index)
-                        continue;
-                    if (p->state[a->index] != DEM_FLYING && p->state[b->index] != DEM_FLYING)
-                        continue;
-                    if (owns_reach_pair(bins, a->index, b->index, a->cell))
-                        pair_push(&local, a->index, b->index);
-                }
+#pragma omp for schedule(dynamic, 1) nowait
+        for (size_t chunk = 0; chunk < chunks; chunk++) {
+            const size_t first = chunk * PAIR_BUCKETS;
+            const size_t n = bins->bucket_count - first < PAIR_BUCKETS ? bins->bucket_count - first : PAIR_BUCKETS;
+            const uint32_t *start = bins->bucket_start + first;
+            uint8_t crowded[PAIR_BUCKETS];
+            for (size_t k = 0; k < n; k++)
+                crowded[k] = (uint8_t)(start[k + 1] - start[k] >= 2);
+            for (const uint8_t *at = memchr(crowded, 1, n); at; at = memchr(at + 1, 1, n - (size_t)(at + 1 - crowded)))
+                list_bucket_pairs(bins, p, first + (size_t)(at - crowded), &local);
         }
 #pragma omp critical(dem_broadphase_list_merge)
         for (size_t k = 0; k < local.pair_count; k++)
