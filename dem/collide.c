@@ -547,6 +547,7 @@ static void list_moving(struct dem_solver *s)
     for (size_t k = 0; k < MOVING_SLICES; k++)
         total += flyers[k];
     s->moving_count = total;
+    s->deposited_at_listing = s->deposited;
 }
 
 /* The per-particle scratch of the contacts, grown with the particles.  Its flags are 0 between steps

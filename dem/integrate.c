@@ -555,8 +555,11 @@ static void block_load(const struct dem_particles *p, int reuse_drag, struct blo
 {
     b->count = count;
     b->start_kept = reuse_drag;
-    for (size_t l = 0; l < BLOCK; l++)
-        b->index[l] = flying[l < count ? l : count - 1]; /* spare lanes repeat the last particle: never stored */
+    if (count == BLOCK)
+        memcpy(b->index, flying, sizeof b->index);
+    else
+        for (size_t l = 0; l < BLOCK; l++)
+            b->index[l] = flying[l < count ? l : count - 1]; /* spare lanes repeat the last particle: never stored */
     if (block_consecutive(b))
         block_gather(p, b, 1);
     else
@@ -735,9 +738,18 @@ static int integrate_block(const struct dem_config *cfg, struct dem_particles *p
 }
 
 /* The moving particles of the step split, in order: those still flying (flying[0, *count)) and those that
- * deposited in it (landed[0, *landed_count)). */
-static uint32_t *flying_particles(const struct dem_solver *s, size_t *count, uint32_t **landed, size_t *landed_count)
+ * deposited in it (landed[0, *landed_count)).  When none deposited (every deposit is counted in
+ * s->deposited), the flying are the moving: no copy, *owned is 0. */
+static const uint32_t *flying_particles(const struct dem_solver *s, size_t *count, uint32_t **landed,
+                                        size_t *landed_count, int *owned)
 {
+    *owned = s->deposited != s->deposited_at_listing;
+    if (!*owned) {
+        *count = s->moving_count;
+        *landed = NULL;
+        *landed_count = 0;
+        return s->moving;
+    }
     size_t slots = s->moving_count ? s->moving_count : 1;
     uint32_t *flying = dem_realloc_or_die(NULL, slots * sizeof *flying);
     *landed = dem_realloc_or_die(NULL, slots * sizeof **landed);
@@ -856,7 +868,9 @@ int dem_integrate(struct dem_solver *s)
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
     size_t flying_count, landed_count;
-    uint32_t *landed, *flying = flying_particles(s, &flying_count, &landed, &landed_count);
+    uint32_t *landed;
+    int owned;
+    const uint32_t *flying = flying_particles(s, &flying_count, &landed, &landed_count, &owned);
     struct iteration_count total = {.max_iterations = s->stats.max_iterations};
     int bad = any_non_finite(p, landed, landed_count);
     size_t landed_hits = finish_particles(s, landed, landed_count, landed);
@@ -905,8 +919,10 @@ int dem_integrate(struct dem_solver *s)
     list_at_boundary(s, landed, landed_hits, hits, hit_count, blocks);
     free(hits);
     free(hit_count);
-    free(landed);
-    free(flying);
+    if (owned) {
+        free(landed);
+        free((void *)flying);
+    }
     s->stats.fixed_point_iterations += total.iterations;
     s->stats.fixed_point_solves += total.solves;
     s->stats.fixed_point_unconverged += total.unconverged;
