@@ -35,8 +35,6 @@
 #define MAX_CELLS_PER_SWEEP 8.0
 /* Cell side in largest diameters: 2 balances entries per particle (about 3) against pairs per cell. */
 #define CELL_DIAMETERS 2.0
-/* Boxes are widened by this fraction of the radius so that rounding cannot drop a grazing contact. */
-#define BOX_MARGIN 1e-9
 /* Reach boxes: 2 to 16 steps ahead (or plain swept boxes), and a skin of this many radii for the bending of
  * paths; after PLAIN_BUILDS plain builds a horizon is tried again. */
 #define MIN_HORIZON 2.0
@@ -85,7 +83,7 @@ static void reach_box(const struct dem_particles *p, size_t i, double dt, double
     int flying = p->state[i] == DEM_FLYING;
     /* horizon 0: the swept box of this step alone, as a grid rebuilt every step would hold it */
     double skin = flying && horizon > 0.0 ? SKIN_RADII : 0.0;
-    double radius = 0.5 * p->d[i] * (1.0 + BOX_MARGIN + skin);
+    double radius = 0.5 * p->d[i] * (1.0 + DEM_BOX_MARGIN + skin);
     double span = horizon > 0.0 ? dt * horizon : dt;
     for (int c = 0; c < 3; c++) {
         double start = p->x[3 * i + c], end = start + (flying ? p->v[3 * i + c] * span : 0.0);
@@ -316,6 +314,7 @@ void dem_bins_free(struct dem_bins *bins)
     free(bins->reach_hi);
     free(bins->built_id);
     free(bins->built_flying);
+    free(bins->reach_verified);
     free(bins->repaired);
     free(bins->repaired_list);
     free(bins->failing);
@@ -371,11 +370,11 @@ static struct swept_sphere swept_sphere_of(const struct dem_particles *p, uint32
 }
 
 /* Do the boxes of the two spheres' sweeps over the step intersect?  (The boxes are those the grid used to
- * hold, widened by BOX_MARGIN.) */
+ * hold, widened by DEM_BOX_MARGIN.) */
 static int swept_boxes_overlap(const struct swept_sphere *a, const struct swept_sphere *b, double dt)
 {
     for (int c = 0; c < 3; c++) {
-        double ra = a->radius * (1.0 + BOX_MARGIN), rb = b->radius * (1.0 + BOX_MARGIN);
+        double ra = a->radius * (1.0 + DEM_BOX_MARGIN), rb = b->radius * (1.0 + DEM_BOX_MARGIN);
         double a_end = a->x[c] + a->v[c] * dt, b_end = b->x[c] + b->v[c] * dt;
         double lo = greater(lesser(a->x[c], a_end) - ra, lesser(b->x[c], b_end) - rb);
         double hi = lesser(greater(a->x[c], a_end) + ra, greater(b->x[c], b_end) + rb);
@@ -496,11 +495,14 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
 {
     if (count <= bins->built_capacity)
         return;
+    size_t old_capacity = bins->built_capacity;
     bins->built_capacity = count + count / 2 + 1024;
     bins->reach_lo = dem_realloc_or_die(bins->reach_lo, 3 * bins->built_capacity * sizeof *bins->reach_lo);
     bins->reach_hi = dem_realloc_or_die(bins->reach_hi, 3 * bins->built_capacity * sizeof *bins->reach_hi);
     bins->built_id = dem_realloc_or_die(bins->built_id, bins->built_capacity * sizeof *bins->built_id);
     bins->built_flying = dem_realloc_or_die(bins->built_flying, bins->built_capacity);
+    bins->reach_verified = dem_realloc_or_die(bins->reach_verified, bins->built_capacity);
+    memset(bins->reach_verified + old_capacity, 0, bins->built_capacity - old_capacity);
     bins->repaired = dem_realloc_or_die(bins->repaired, bins->built_capacity);
     bins->repaired_list = dem_realloc_or_die(bins->repaired_list, bins->built_capacity * sizeof *bins->repaired_list);
     bins->failing = dem_realloc_or_die(bins->failing, bins->built_capacity * sizeof *bins->failing);
@@ -521,34 +523,42 @@ static void reach_flags(const struct dem_bins *bins, const struct dem_particles 
     const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
         int same = id[i] == built_id[i], flying = state[i] == DEM_FLYING;
-        double radius = 0.5 * d[i] * (1.0 + BOX_MARGIN), span = flying ? dt : 0.0;
+        double radius = 0.5 * d[i] * (1.0 + DEM_BOX_MARGIN), span = flying ? dt : 0.0;
         int holds = same & (built_flying[i] | !flying);
-        /* lesser(start, stop) - radius >= lo exactly when both ends pass (rounding is monotonic); a NaN
-         * fails here, a harmless extra repair */
-        for (int c = 0; c < 3; c++) {
-            double start = x[3 * i + c], stop = start + v[3 * i + c] * span;
-            double lo = reach_lo[3 * i + c], hi = reach_hi[3 * i + c];
-            holds &= (start - radius >= lo) & (stop - radius >= lo) & (start + radius <= hi) & (stop + radius <= hi);
-        }
+        for (int c = 0; c < 3; c++) /* a NaN fails here, a harmless extra repair */
+            holds &= dem_sweep_inside(x[3 * i + c], v[3 * i + c], span, radius, reach_lo[3 * i + c], reach_hi[3 * i + c]);
         inside[i] = (uint8_t)(holds | (same & !built_flying[i]));
     }
 }
 
-/* reach_flags in runs of RUN_DEPOSITS particles: where none of a run flew at the build (late in a spray most
+/* Did the integration verify every particle of [first, end) (bins->reach_verified)?  A loop that vectorises. */
+static int run_verified(const uint8_t *verified, size_t first, size_t end)
+{
+    uint8_t all = 1;
+    for (size_t i = first; i < end; i++)
+        all &= verified[i];
+    return all;
+}
+
+/* reach_flags in runs of RUN_DEPOSITS particles.  Where none of a run flew at the build (late in a spray most
  * particles are deposits, and the oldest are all deposits), reach_flags answers `same` for each (a deposit
- * of the build passes), which the ids alone give, without the 100-odd bytes per particle of the box test. */
+ * of the build passes), which the ids alone give, without the 100-odd bytes per particle of the box test.
+ * Where the integration verified every particle of the run (bins->reach_verified: each flew at the build and
+ * flies on, and its swept box of this step lies in its reach box, tested on the same numbers), the answer is
+ * `same` too.  The verifications are used once: cleared here. */
 #define RUN_DEPOSITS 64
 static void reach_flags_of_runs(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
-                                size_t end, uint8_t *restrict inside)
+                                size_t end, uint8_t *restrict verified, uint8_t *restrict inside)
 {
     for (size_t run = first; run < end; run += RUN_DEPOSITS) {
         size_t run_end = run + RUN_DEPOSITS < end ? run + RUN_DEPOSITS : end;
-        if (memchr(bins->built_flying + run, 1, run_end - run)) {
+        if (!run_verified(verified, run, run_end) && memchr(bins->built_flying + run, 1, run_end - run)) {
             reach_flags(bins, p, dt, run, run_end, inside);
-            continue;
+        } else {
+            for (size_t i = run; i < run_end; i++)
+                inside[i] = p->id[i] == bins->built_id[i];
         }
-        for (size_t i = run; i < run_end; i++)
-            inside[i] = p->id[i] == bins->built_id[i];
+        memset(verified + run, 0, run_end - run);
     }
 }
 
@@ -575,7 +585,8 @@ static int collect_failing(struct dem_bins *bins, const struct dem_particles *p,
 #pragma omp parallel for schedule(static) if (bins->built_count >= DEM_PARALLEL_MIN)
     for (size_t k = 0; k < chunks; k++)
         reach_flags_of_runs(bins, p, dt, k * chunk,
-                            (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count, inside);
+                            (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count,
+                            bins->reach_verified, inside);
     ensure_particle_capacity(bins, p->count);
     size_t limit = repair_limit(p->count), grown = 0;
     int fits = 1;
@@ -614,6 +625,7 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
     bins->cell = grid_cell_size(d_largest, speed_largest, dt, bins->horizon);
     bins->built_count = p->count;
     memset(bins->repaired, AS_BUILT, p->count);
+    memset(bins->reach_verified, 0, p->count); /* made for the boxes replaced */
     bins->repaired_count = 0;
     grid_fill(bins, p);
     list_pairs(bins, p);
@@ -853,6 +865,7 @@ static void compact_job(struct dem_bins *bins, int job, const uint32_t *moved_to
         return;
     case 4:
         dem_remove_rows(bins->built_flying, 1, old_count, removed, removed_count);
+        dem_remove_rows(bins->reach_verified, 1, old_count, removed, removed_count);
         dem_remove_rows(bins->repaired, 1, old_count, removed, removed_count);
         compact_repaired_list(bins, moved_to);
         return;

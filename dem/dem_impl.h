@@ -57,6 +57,10 @@ struct dem_bins {
     double *reach_lo, *reach_hi;
     int64_t *built_id;
     uint8_t *built_flying;
+    /* Set by the integration (dem_reach_verified) for a particle whose swept box of the next step, from where
+     * the step left it, lies in its reach box; read and cleared by the next step's test, which then skips the
+     * box test for it (broadphase.c, collect_failing).  0 for every other particle. */
+    uint8_t *reach_verified;
     /* Repairs between builds (broadphase.c): a particle whose reach box was renewed after the build (it left
      * the old one, or was injected) is in repaired_list; its grid entries are stale and skipped.  `failing`
      * is scratch: the particles renewed in this step. */
@@ -70,6 +74,20 @@ struct dem_bins {
     int64_t plain_builds;         /* builds with horizon 0 in a row */
     int64_t builds, repairs;      /* for the statistics */
 };
+
+/* Boxes are widened by this fraction of the radius so that rounding cannot drop a grazing contact. */
+#define DEM_BOX_MARGIN 1e-9
+
+/* Does the sweep of one coordinate, from start over span at velocity v, of a sphere of this radius (widened by
+ * DEM_BOX_MARGIN) stay within [lo, hi]?  The lower end minus the radius is >= lo exactly when both ends minus
+ * the radius are (rounding is monotonic), the same for the upper; a NaN fails (stop is NaN when start is, and
+ * `a < b ? a : b` gives b when b is NaN).  No branch, so that loops over particles vectorise (min and max). */
+static inline int dem_sweep_inside(double start, double v, double span, double radius, double lo, double hi)
+{
+    double stop = start + v * span;
+    double lower = start < stop ? start : stop, upper = start > stop ? start : stop;
+    return (lower - radius >= lo) & (upper + radius <= hi);
+}
 
 enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
 

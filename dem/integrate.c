@@ -682,6 +682,28 @@ static int block_spin_non_finite(const struct dem_solver *s, const struct block 
     return bad;
 }
 
+/* The integration's share of the next step's broad phase (struct dem_bins: reach_verified): whether each
+ * particle's swept box of the next step, from where this step leaves it, lies in its reach box, as
+ * broadphase.c's reach_flags would find at the next step on the same numbers (a particle at a boundary may
+ * still be moved or removed: not verified). */
+FM_INLINE void block_verify_reach(const struct dem_solver *s, const struct block *restrict b,
+                                  const uint8_t at_boundary[BLOCK], int consecutive)
+{
+    const double *restrict lo = s->bins.reach_lo, *restrict hi = s->bins.reach_hi;
+    const uint8_t *restrict built_flying = s->bins.built_flying;
+    uint8_t *restrict verified = s->bins.reach_verified;
+    const double dt = s->cfg.dt;
+    const size_t i0 = b->index[0], count = consecutive ? BLOCK : b->count;
+    for (size_t l = 0; l < count; l++) {
+        size_t i = lane_particle(b, i0, consecutive, l);
+        double radius = 0.5 * b->d[l] * (1.0 + DEM_BOX_MARGIN);
+        int holds = built_flying[i] & !at_boundary[l];
+        for (int c = 0; c < 3; c++)
+            holds &= dem_sweep_inside(b->x[c][l], b->v[c][l], dt, radius, lo[3 * i + c], hi[3 * i + c]);
+        verified[i] = (uint8_t)holds;
+    }
+}
+
 /* The end of the step for the block's particles, which fly: their contacts are over, and those at a boundary
  * go to hits[0, return value), in order, with their start positions (x_start: the step's end reads them only
  * there, for hand-off crossings).  dem_at_boundary's tests on the block's copies of the same values (x0 is
@@ -700,6 +722,10 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
         at_boundary[l] = (uint8_t)(crossed_handoff | beyond_target | escapes);
     }
     int consecutive = block_consecutive(b);
+    if (s->bins.reach_verified && consecutive)
+        block_verify_reach(s, b, at_boundary, 1);
+    else if (s->bins.reach_verified)
+        block_verify_reach(s, b, at_boundary, 0);
     if (!consecutive || any_lane(s->start_kept + b->index[0]))
         *bad |= block_spin_non_finite(s, b);
     if (consecutive) { /* dem_contacts_end_step of all lanes */

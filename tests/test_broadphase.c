@@ -26,6 +26,7 @@ static double uniform(void)
 }
 
 static int64_t next_id;
+static double deposit_share = 0.3; /* of the particles added */
 
 static void add_random_particle(struct dem_particles *p)
 {
@@ -35,7 +36,7 @@ static void add_random_particle(struct dem_particles *p)
         v[c] = 10.0 * (uniform() - 0.5);
     }
     size_t i = particles_append(p, next_id++, x, v, w, 2e-5 + 4e-5 * uniform(), DENSITY);
-    if (uniform() < 0.3) {
+    if (uniform() < deposit_share) {
         p->state[i] = DEM_DEPOSITED;
         memset(p->v + 3 * i, 0, 3 * sizeof(double));
     }
@@ -136,6 +137,28 @@ static void check_visits(const struct dem_bins *kept, const struct dem_particles
     free(visited);
 }
 
+/* What the integration does at the end of a step (dem/integrate.c, block_verify_reach): mark the particles,
+ * flying at the build and now, whose swept box of the next step lies in their reach box.  The broad phase
+ * uses the marks only for runs of particles marked alike, all of them; returns how many particles were
+ * marked in such runs (of 64, as broadphase.c's RUN_DEPOSITS). */
+static size_t verify_reach_like_the_integration(const struct dem_particles *p, struct dem_bins *kept)
+{
+    if (!kept->reach_verified || kept->built_count > p->count)
+        return 0;
+    size_t in_full_runs = 0, run_marked = 0;
+    for (size_t i = 0; i < kept->built_count; i++) {
+        double radius = 0.5 * p->d[i] * (1.0 + DEM_BOX_MARGIN);
+        int holds = kept->built_flying[i] & (p->state[i] == DEM_FLYING);
+        for (int c = 0; c < 3; c++)
+            holds &= dem_sweep_inside(p->x[3 * i + c], p->v[3 * i + c], DT, radius, kept->reach_lo[3 * i + c],
+                                      kept->reach_hi[3 * i + c]);
+        kept->reach_verified[i] = (uint8_t)holds;
+        run_marked = i % 64 == 0 ? (size_t)holds : run_marked + (size_t)holds;
+        in_full_runs += i % 64 == 63 && run_marked == 64 ? 64 : 0;
+    }
+    return in_full_runs;
+}
+
 /* One step of straight flight with bounces off the cube's walls, then random rebounds, deposits, removals
  * and injections. */
 static void advance(struct dem_particles *p, struct dem_bins *kept)
@@ -171,31 +194,44 @@ static void advance(struct dem_particles *p, struct dem_bins *kept)
             add_random_particle(p);
 }
 
-static void test_repairs_match_fresh_builds(void)
+/* 300 steps of a kept grid against fresh ones; `verify`: the integration's marks are set between steps (all
+ * particles flying, so that whole runs of them are marked). */
+static void run_kept_grid(int verify)
 {
     struct dem_particles p = {0};
     struct dem_bins kept = {0};
+    deposit_share = verify ? 0.0 : 0.3;
     for (int k = 0; k < 2000; k++)
         add_random_particle(&p);
     int64_t contacts = 0;
+    size_t marked = 0;
     for (int64_t step = 0; step < 300 && check_test_failures == 0; step++) {
         broadphase_build(&kept, &p, DT);
         contacts += same_contacts_as_fresh(&kept, &p, step);
         check_pair_list(&kept, &p, step);
         check_visits(&kept, &p, step);
         advance(&p, &kept);
+        if (verify)
+            marked += verify_reach_like_the_integration(&p, &kept);
     }
-    printf("  %lld contacts, %lld builds, %lld repairs in 300 steps\n", (long long)contacts, (long long)kept.builds,
-           (long long)kept.repairs);
+    printf("  %lld contacts, %lld builds, %lld repairs in 300 steps, %zu particle-steps marked in full runs\n",
+           (long long)contacts, (long long)kept.builds, (long long)kept.repairs, marked);
     CHECK(contacts > 1000, "too few contacts to test anything: %lld", (long long)contacts);
     CHECK(kept.repairs > 50 && kept.builds > 1, "repairs %lld and builds %lld: both should occur",
           (long long)kept.repairs, (long long)kept.builds);
+    CHECK(!verify || marked > 10000, "only %zu particle-steps marked in full runs: the marks are hardly used", marked);
     dem_bins_free(&kept);
     particles_free(&p);
 }
 
+static void test_repairs_match_fresh_builds(void) { run_kept_grid(0); }
+
+/* The integration's marks (struct dem_bins: reach_verified) stand in for the box test: the same contacts. */
+static void test_verified_reach_matches_fresh_builds(void) { run_kept_grid(1); }
+
 int main(void)
 {
     RUN(test_repairs_match_fresh_builds);
+    RUN(test_verified_reach_matches_fresh_builds);
     return check_finish();
 }
