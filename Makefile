@@ -18,10 +18,12 @@ PREFIX   ?= /usr/local
 OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
 
-PKGS     := $(HDF5_PKG) inih osmesa cairo
-CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+# OSMesa's headers only: render/gl.c loads the library when it first renders (dlopen), so that llvmpipe is not
+# loaded into every process
+PKGS     := $(HDF5_PKG) inih cairo
+CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) osmesa 2>/dev/null)
 CFLAGS   += -std=c17 -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
-LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lsundials_cvode -lsundials_nvecserial \
+LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -ldl -lsundials_cvode -lsundials_nvecserial \
             -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
 LDFLAGS  += -fopenmp
 

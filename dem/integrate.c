@@ -697,10 +697,10 @@ FM_INLINE void block_verify_reach(const struct dem_solver *s, const struct block
     for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         double radius = 0.5 * b->d[l] * (1.0 + DEM_BOX_MARGIN);
-        int holds = built_flying[i] & !at_boundary[l];
+        int64_t holds = 1;
         for (int c = 0; c < 3; c++)
-            holds &= dem_sweep_inside(b->x[c][l], b->v[c][l], dt, radius, lo[3 * i + c], hi[3 * i + c]);
-        verified[i] = (uint8_t)holds;
+            holds &= (int64_t)dem_sweep_inside(b->x[c][l], b->v[c][l], dt, radius, lo[3 * i + c], hi[3 * i + c]);
+        verified[i] = (uint8_t)(holds & built_flying[i] & !at_boundary[l]);
     }
 }
 

@@ -5,10 +5,11 @@
  * disc, shades with a headlight (ambient 0.35 + diffuse 0.65 n.z, so the centre of each sphere has exactly the
  * colour map's colour) and writes the depth of the sphere's surface, so that intersecting spheres cut each
  * other correctly. */
-#define GL_GLEXT_PROTOTYPES 1
+#define GL_GLEXT_PROTOTYPES 1 /* declarations only: the functions are called through `gl`, below */
 #include <GL/osmesa.h>
 #include <GL/gl.h>
 #include <GL/glext.h>
+#include <dlfcn.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,6 +17,49 @@
 #include "core/error.h"
 #include "render/render.h"
 #include "render/render_impl.h"
+
+/* OSMesa is loaded when the first renderer is made, not linked: linking it loads llvmpipe (LLVM, Z3 and more)
+ * into every spraycoat process, and their relocations cost ~0.04 s of CPU and ~0.15 s of wall time before main
+ * in every command, though only rendering needs them (BENCHMARKS.md, 2026-12-02 third session).  libOSMesa
+ * exports the GL entry points it implements; each is looked up once, with the type of its declaration. */
+#define OSMESA_LIBRARY "libOSMesa.so.8"
+#define GL_FUNCTIONS(X)                                                                                            \
+    X(OSMesaCreateContextAttribs) X(OSMesaMakeCurrent) X(OSMesaPixelStore) X(OSMesaDestroyContext)                 \
+    X(glCreateShader) X(glShaderSource) X(glCompileShader) X(glGetShaderiv) X(glGetShaderInfoLog)                  \
+    X(glDeleteShader) X(glCreateProgram) X(glAttachShader) X(glLinkProgram) X(glGetProgramiv)                      \
+    X(glGetUniformLocation) X(glDeleteProgram) X(glUseProgram) X(glUniform1f) X(glUniform2f)                       \
+    X(glGenVertexArrays) X(glBindVertexArray) X(glDeleteVertexArrays) X(glGenBuffers) X(glBindBuffer)              \
+    X(glBufferData) X(glDeleteBuffers) X(glVertexAttribPointer) X(glVertexAttribDivisor)                          \
+    X(glEnableVertexAttribArray) X(glDrawArraysInstanced) X(glViewport) X(glClearColor) X(glClearDepth)           \
+    X(glClear) X(glEnable) X(glDepthFunc) X(glFinish) X(glGetError)
+#define GL_DECLARE(name) __typeof__(name) *name;
+static struct {
+    GL_FUNCTIONS(GL_DECLARE)
+} gl;
+
+/* Load OSMesa and look up every function of GL_FUNCTIONS, once per process. */
+static int gl_load(void)
+{
+    static void *library;
+    if (library)
+        return SC_OK;
+    void *handle = dlopen(OSMESA_LIBRARY, RTLD_NOW | RTLD_LOCAL);
+    if (!handle)
+        SC_FAIL(SC_EIO, "render: cannot load %s (%s); install Mesa's OSMesa (Debian: libosmesa6)", OSMESA_LIBRARY,
+                dlerror());
+    const char *missing = NULL;
+#define GL_LOOK_UP(name)                                                                                           \
+    gl.name = (__typeof__(name) *)dlsym(handle, #name);                                                            \
+    missing = !gl.name && !missing ? #name : missing;
+    GL_FUNCTIONS(GL_LOOK_UP)
+#undef GL_LOOK_UP
+    if (missing) {
+        dlclose(handle);
+        SC_FAIL(SC_EIO, "render: %s has no %s", OSMESA_LIBRARY, missing);
+    }
+    library = handle;
+    return SC_OK;
+}
 
 struct render_renderer {
     OSMesaContext context;
@@ -63,15 +107,15 @@ static const char fragment_source[] =
 
 static int compile_shader(GLenum type, const char *source, GLuint *out)
 {
-    GLuint shader = glCreateShader(type);
-    glShaderSource(shader, 1, &source, NULL);
-    glCompileShader(shader);
+    GLuint shader = gl.glCreateShader(type);
+    gl.glShaderSource(shader, 1, &source, NULL);
+    gl.glCompileShader(shader);
     GLint ok = 0;
-    glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    gl.glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
     if (!ok) {
         char log[1024] = "";
-        glGetShaderInfoLog(shader, sizeof log, NULL, log);
-        glDeleteShader(shader);
+        gl.glGetShaderInfoLog(shader, sizeof log, NULL, log);
+        gl.glDeleteShader(shader);
         SC_FAIL(SC_EIO, "render: OSMesa cannot compile a shader: %s", log);
     }
     *out = shader;
@@ -84,21 +128,21 @@ static int build_program(struct render_renderer *r)
     SC_TRY(compile_shader(GL_VERTEX_SHADER, vertex_source, &vs));
     int status = compile_shader(GL_FRAGMENT_SHADER, fragment_source, &fs);
     if (status != SC_OK) {
-        glDeleteShader(vs);
+        gl.glDeleteShader(vs);
         return status;
     }
-    r->program = glCreateProgram();
-    glAttachShader(r->program, vs);
-    glAttachShader(r->program, fs);
-    glLinkProgram(r->program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
+    r->program = gl.glCreateProgram();
+    gl.glAttachShader(r->program, vs);
+    gl.glAttachShader(r->program, fs);
+    gl.glLinkProgram(r->program);
+    gl.glDeleteShader(vs);
+    gl.glDeleteShader(fs);
     GLint ok = 0;
-    glGetProgramiv(r->program, GL_LINK_STATUS, &ok);
+    gl.glGetProgramiv(r->program, GL_LINK_STATUS, &ok);
     if (!ok)
         SC_FAIL(SC_EIO, "render: OSMesa cannot link the sphere shader");
-    r->viewport_location = glGetUniformLocation(r->program, "viewport");
-    r->depth_location = glGetUniformLocation(r->program, "depth_per_pixel");
+    r->viewport_location = gl.glGetUniformLocation(r->program, "viewport");
+    r->depth_location = gl.glGetUniformLocation(r->program, "depth_per_pixel");
     return SC_OK;
 }
 
@@ -106,29 +150,30 @@ static int build_program(struct render_renderer *r)
 static void build_vertex_arrays(struct render_renderer *r)
 {
     static const float corners[] = {-1, -1, 1, -1, -1, 1, 1, 1};
-    glGenVertexArrays(1, &r->vao);
-    glBindVertexArray(r->vao);
-    glGenBuffers(1, &r->corner_buffer);
-    glBindBuffer(GL_ARRAY_BUFFER, r->corner_buffer);
-    glBufferData(GL_ARRAY_BUFFER, sizeof corners, corners, GL_STATIC_DRAW);
-    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, NULL);
-    glEnableVertexAttribArray(0);
-    glGenBuffers(1, &r->sphere_buffer);
-    glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
-    glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 0, NULL);
-    glVertexAttribDivisor(1, 1);
-    glEnableVertexAttribArray(1);
-    glGenBuffers(1, &r->colour_buffer);
-    glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
-    glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, NULL);
-    glVertexAttribDivisor(2, 1);
-    glEnableVertexAttribArray(2);
+    gl.glGenVertexArrays(1, &r->vao);
+    gl.glBindVertexArray(r->vao);
+    gl.glGenBuffers(1, &r->corner_buffer);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, r->corner_buffer);
+    gl.glBufferData(GL_ARRAY_BUFFER, sizeof corners, corners, GL_STATIC_DRAW);
+    gl.glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, NULL);
+    gl.glEnableVertexAttribArray(0);
+    gl.glGenBuffers(1, &r->sphere_buffer);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
+    gl.glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 0, NULL);
+    gl.glVertexAttribDivisor(1, 1);
+    gl.glEnableVertexAttribArray(1);
+    gl.glGenBuffers(1, &r->colour_buffer);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
+    gl.glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, NULL);
+    gl.glVertexAttribDivisor(2, 1);
+    gl.glEnableVertexAttribArray(2);
 }
 
 int render_renderer_create(int width, int height, struct render_renderer **out)
 {
     if (width < 16 || height < 16 || width > 16384 || height > 16384)
         SC_FAIL(SC_EINPUT, "render: image size %d x %d px; allowed: 16 to 16384 px each way", width, height);
+    SC_TRY(gl_load());
     struct render_renderer *r = calloc(1, sizeof *r);
     unsigned char *buffer = malloc((size_t)width * (size_t)height * 4);
     if (!r || !buffer) {
@@ -140,12 +185,12 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
     static const int attributes[] = {OSMESA_FORMAT, OSMESA_BGRA, OSMESA_DEPTH_BITS, 24, OSMESA_STENCIL_BITS, 0,
                                      OSMESA_PROFILE, OSMESA_CORE_PROFILE, OSMESA_CONTEXT_MAJOR_VERSION, 3,
                                      OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
-    r->context = OSMesaCreateContextAttribs(attributes, NULL);
-    if (!r->context || !OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, width, height)) {
+    r->context = gl.OSMesaCreateContextAttribs(attributes, NULL);
+    if (!r->context || !gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, width, height)) {
         render_renderer_destroy(r);
         SC_FAIL(SC_EIO, "render: cannot create an OSMesa GL 3.3 core context (is Mesa's libOSMesa installed?)");
     }
-    OSMesaPixelStore(OSMESA_Y_UP, 0); /* row 0 of the buffer is the top row, as Cairo and PNG want it */
+    gl.OSMesaPixelStore(OSMESA_Y_UP, 0); /* row 0 of the buffer is the top row, as Cairo and PNG want it */
     int status = build_program(r);
     if (status != SC_OK) {
         render_renderer_destroy(r);
@@ -162,15 +207,15 @@ void render_renderer_destroy(struct render_renderer *r)
     if (!r)
         return;
     if (r->context) {
-        OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height);
+        gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height);
         if (r->program) {
-            glDeleteBuffers(1, &r->corner_buffer);
-            glDeleteBuffers(1, &r->sphere_buffer);
-            glDeleteBuffers(1, &r->colour_buffer);
-            glDeleteVertexArrays(1, &r->vao);
-            glDeleteProgram(r->program);
+            gl.glDeleteBuffers(1, &r->corner_buffer);
+            gl.glDeleteBuffers(1, &r->sphere_buffer);
+            gl.glDeleteBuffers(1, &r->colour_buffer);
+            gl.glDeleteVertexArrays(1, &r->vao);
+            gl.glDeleteProgram(r->program);
         }
-        OSMesaDestroyContext(r->context);
+        gl.OSMesaDestroyContext(r->context);
     }
     free(r->buffer);
     free(r);
@@ -213,31 +258,31 @@ static size_t project_spheres(const struct render_spheres *s, const struct rende
 static void draw_instances(struct render_renderer *r, const float *spheres, const unsigned char *colours, size_t n,
                            const struct render_camera *cam)
 {
-    glViewport(0, 0, r->width, r->height);
-    glClearColor(1, 1, 1, 1);
-    glClearDepth(1);
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
-    glUseProgram(r->program);
-    glUniform2f(r->viewport_location, (float)r->width, (float)r->height);
-    glUniform1f(r->depth_location, (float)(1.0 / (cam->pixels_per_metre * cam->depth_half)));
-    glBindVertexArray(r->vao);
-    glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(n * 4 * sizeof *spheres), spheres, GL_STREAM_DRAW);
-    glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(n * 4), colours, GL_STREAM_DRAW);
+    gl.glViewport(0, 0, r->width, r->height);
+    gl.glClearColor(1, 1, 1, 1);
+    gl.glClearDepth(1);
+    gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    gl.glEnable(GL_DEPTH_TEST);
+    gl.glDepthFunc(GL_LESS);
+    gl.glUseProgram(r->program);
+    gl.glUniform2f(r->viewport_location, (float)r->width, (float)r->height);
+    gl.glUniform1f(r->depth_location, (float)(1.0 / (cam->pixels_per_metre * cam->depth_half)));
+    gl.glBindVertexArray(r->vao);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
+    gl.glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(n * 4 * sizeof *spheres), spheres, GL_STREAM_DRAW);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
+    gl.glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(n * 4), colours, GL_STREAM_DRAW);
     /* in slices, so that one call never holds more vertices than llvmpipe's 32-bit counters like */
     const size_t slice = 1u << 20;
     for (size_t first = 0; first < n; first += slice) {
         size_t count = n - first < slice ? n - first : slice;
-        glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
-        glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 0, (const void *)(first * 4 * sizeof *spheres));
-        glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
-        glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)(first * 4));
-        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)count);
+        gl.glBindBuffer(GL_ARRAY_BUFFER, r->sphere_buffer);
+        gl.glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, 0, (const void *)(first * 4 * sizeof *spheres));
+        gl.glBindBuffer(GL_ARRAY_BUFFER, r->colour_buffer);
+        gl.glVertexAttribPointer(2, 4, GL_UNSIGNED_BYTE, GL_TRUE, 0, (const void *)(first * 4));
+        gl.glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)count);
     }
-    glFinish();
+    gl.glFinish();
 }
 
 int render_spheres_draw(struct render_renderer *r, const struct render_spheres *s, const struct render_scene *scene,
@@ -256,7 +301,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
         SC_FAIL(SC_ESIM, "render: out of memory for %zu spheres", s->count);
     }
     size_t n = project_spheres(s, scene, &cam, spheres, colours);
-    if (!OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height)) {
+    if (!gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height)) {
         free(spheres);
         free(colours);
         SC_FAIL(SC_EIO, "render: cannot make the OSMesa context current");
@@ -264,7 +309,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
     draw_instances(r, spheres, colours, n, &cam);
     free(spheres);
     free(colours);
-    GLenum error = glGetError();
+    GLenum error = gl.glGetError();
     if (error != GL_NO_ERROR)
         SC_FAIL(SC_EIO, "render: OpenGL error 0x%x while drawing %zu spheres", (unsigned)error, n);
     SC_TRY(render_overlay_scene(&r->image, scene));
