@@ -31,8 +31,10 @@
 #include "dem/dem_impl.h"
 
 /* Cells per particle per axis stay bounded: a particle far faster than the rest widens the cells instead
- * of filling thousands of them. */
-#define MAX_CELLS_PER_SWEEP 8.0
+ * of filling thousands of them.  4 (a reach box along the fastest sweep spans about 3 cells) rather than 8:
+ * half the entries, in free flight 20 instructions fewer per particle-step, Table 1 on 1 thread no slower
+ * (BENCHMARKS.md, 2026-12-02 third session). */
+#define MAX_CELLS_PER_SWEEP 4.0
 /* Cell side in largest diameters: 2 balances entries per particle (about 3) against pairs per cell. */
 #define CELL_DIAMETERS 2.0
 /* Reach boxes: 2 to 16 steps ahead (or plain swept boxes), and a skin of this many radii for the bending of

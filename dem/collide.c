@@ -520,10 +520,14 @@ static void list_flying(const uint8_t *state, size_t first, size_t end, uint32_t
     }
 }
 
-/* s->moving: the flying particles, in index order. */
+/* s->moving: the flying particles, in index order.  The list of the last step still holds when no particle
+ * was injected, deposited or removed since (the particles and their states are as then). */
 static void list_moving(struct dem_solver *s)
 {
     const struct dem_particles *p = &s->p;
+    if (s->moving && p->count == s->listed_count && s->deposited == s->deposited_at_listing &&
+        s->escaped == s->escaped_at_listing)
+        return;
     if (p->count > s->moving_capacity) {
         s->moving_capacity = p->capacity;
         s->moving = dem_realloc_or_die(s->moving, s->moving_capacity * sizeof *s->moving);
@@ -547,7 +551,9 @@ static void list_moving(struct dem_solver *s)
     for (size_t k = 0; k < MOVING_SLICES; k++)
         total += flyers[k];
     s->moving_count = total;
+    s->listed_count = count;
     s->deposited_at_listing = s->deposited;
+    s->escaped_at_listing = s->escaped;
 }
 
 /* The per-particle scratch of the contacts, grown with the particles.  Its flags are 0 between steps

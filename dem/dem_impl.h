@@ -117,7 +117,10 @@ struct dem_solver {
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;
     size_t moving_count, moving_capacity;
-    int64_t deposited_at_listing; /* s->deposited when moving was listed: equal at the integration, none landed */
+    /* the particle count and the deposits and escapes counted when moving was listed: the same deposits at the
+     * integration, none landed in the step's contacts; all the same at the next step, the same list */
+    size_t listed_count;
+    int64_t deposited_at_listing, escaped_at_listing;
     /* The moving particles that the step's boundaries concern (dem_at_boundary), in index order: found by
      * dem_integrate as each particle finishes the step, handled by the step's end (dem/solver.c). */
     uint32_t *at_boundary;
