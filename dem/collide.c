@@ -152,7 +152,7 @@ static void store_sphere(struct dem_solver *s, uint32_t i, const struct sphere_s
 {
     struct dem_particles *p = &s->p;
     keep_start_velocity(s, i);
-    p->drag[i].kept = 0;
+    p->drag.kept[i] = 0;
     memcpy(p->v + 3 * i, sphere->v, sizeof sphere->v);
     memcpy(p->w + 3 * i, sphere->w, sizeof sphere->w);
 }
@@ -240,7 +240,7 @@ static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
 {
     struct dem_particles *p = &s->p;
     keep_start_velocity(s, i);
-    p->drag[i].kept = 0;
+    p->drag.kept[i] = 0;
     memcpy(p->x + 3 * i, x, 3 * sizeof(double));
     memset(p->v + 3 * i, 0, 3 * sizeof(double));
     memset(p->w + 3 * i, 0, 3 * sizeof(double));

@@ -10,9 +10,17 @@
 /* The drag at a particle's state as the integrator left it (dem/integrate.c): the force (N), the slip (m/s) and
  * Re^0.6459 there, valid while `kept` is 1 (whatever changes x or v outside the integrator clears it); and the
  * forces at the ends of the two steps before (newest first), of which the first `history_count` (0-2) are
- * known: they extrapolate the force at the end of the next step, the first fixed-point iterate's guess.  One
- * record per particle, so that a step reads and writes one place; checkpointed. */
-struct dem_drag_state {
+ * known: they extrapolate the force at the end of the next step, the first fixed-point iterate's guess.
+ * Structure of arrays, like the particles' (a block of consecutive particles reads each as a vector; one
+ * record per particle was a strided gather of 96 bytes); checkpointed as one struct dem_drag_record each. */
+struct dem_drag {
+    double *force, *previous[2];  /* 3 per particle */
+    double *slip, *reynolds_power;
+    uint8_t *kept, *history_count;
+};
+
+/* A particle's drag (struct dem_drag) as the checkpoint's dataset "drag" holds it, one record per particle. */
+struct dem_drag_record {
     double force[3], previous[2][3], slip, reynolds_power;
     uint8_t kept, history_count;
 };
@@ -29,7 +37,7 @@ struct dem_particles {
     double *d, *m;         /* diameter (m), mass (kg) */
     int64_t *id;
     uint8_t *state;        /* enum dem_particle_state */
-    struct dem_drag_state *drag;
+    struct dem_drag drag;
 };
 
 /* One entry per (particle, cell its swept box overlaps). */
@@ -112,7 +120,7 @@ struct dem_solver {
     struct dem_particles p;
     struct dem_bins bins;
     struct dem_candidates candidates;
-    int reuse_drag;               /* start a step from the kept drag (struct dem_drag_state); 1 but in tests */
+    int reuse_drag;               /* start a step from the kept drag (struct dem_drag); 1 but in tests */
     /* The particles flying at the start of the step, in index order (dem_collide lists them; the
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;

@@ -519,7 +519,10 @@ FM_INLINE size_t lane_particle(const struct block *b, size_t i0, int consecutive
 FM_INLINE void block_gather(const struct dem_particles *p, struct block *restrict b, int consecutive)
 {
     const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict m = p->m;
-    const struct dem_drag_state *restrict drag = p->drag;
+    const double *restrict force = p->drag.force, *restrict newer = p->drag.previous[0];
+    const double *restrict older = p->drag.previous[1];
+    const double *restrict slip = p->drag.slip, *restrict reynolds_power = p->drag.reynolds_power;
+    const uint8_t *restrict kept_drag = p->drag.kept, *restrict history_count = p->drag.history_count;
     const size_t i0 = b->index[0];
     for (size_t l = 0; l < BLOCK; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
@@ -533,19 +536,19 @@ FM_INLINE void block_gather(const struct dem_particles *p, struct block *restric
     for (size_t l = 0; l < BLOCK; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         for (int c = 0; c < 3; c++) {
-            b->previous_force[0][c][l] = drag[i].previous[0][c]; /* zero or a force of the past: finite */
-            b->previous_force[1][c][l] = drag[i].previous[1][c];
-            b->force_start[c][l] = drag[i].force[c]; /* used only if every lane kept its force */
+            b->previous_force[0][c][l] = newer[3 * i + c]; /* zero or a force of the past: finite */
+            b->previous_force[1][c][l] = older[3 * i + c];
+            b->force_start[c][l] = force[3 * i + c]; /* used only if every lane kept its force */
         }
-        b->slip[l] = drag[i].slip;
-        b->reynolds_power[l] = drag[i].reynolds_power;
+        b->slip[l] = slip[i];
+        b->reynolds_power[l] = reynolds_power[i];
     }
     int start_kept = b->start_kept;
     for (size_t l = 0; l < BLOCK; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
-        int kept = drag[i].kept;
+        int kept = kept_drag[i];
         start_kept &= kept;
-        b->chain[l] = (uint8_t)(kept ? 1 + drag[i].history_count : 0);
+        b->chain[l] = (uint8_t)(kept ? 1 + history_count[i] : 0);
     }
     b->start_kept = start_kept;
 }
@@ -622,14 +625,16 @@ static void block_count(const struct dem_config *cfg, const struct block *restri
     count->max_iterations = most;
 }
 
-/* The block's particles back to the arrays: end position and velocity, and the drag (struct dem_drag_state):
+/* The block's particles back to the arrays: end position and velocity, and the drag (struct dem_drag):
  * the force at the end of the step where known, and the lane's start force and the older one it knew become
  * the history (zero forces where not kept, as a checkpoint stores them).  Returns whether a position or
  * velocity of the block is not finite (x - x is 0 for a finite x and NaN otherwise). */
 FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restrict b, int consecutive)
 {
     double *restrict x = p->x, *restrict v = p->v;
-    struct dem_drag_state *restrict drag = p->drag;
+    double *restrict force = p->drag.force, *restrict newer = p->drag.previous[0], *restrict older = p->drag.previous[1];
+    double *restrict slip = p->drag.slip, *restrict reynolds_power = p->drag.reynolds_power;
+    uint8_t *restrict kept = p->drag.kept, *restrict history_count = p->drag.history_count;
     const size_t i0 = b->index[0];
     int bad = 0;
     for (size_t l = 0; l < b->count; l++) {
@@ -644,18 +649,18 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
         size_t i = lane_particle(b, i0, consecutive, l);
         int known = b->force_known[l];
         for (int c = 0; c < 3; c++) {
-            drag[i].previous[1][c] = b->previous_force[0][c][l];
-            drag[i].previous[0][c] = b->force_start[c][l];
-            drag[i].force[c] = fm_select(known, b->end_force[c][l], 0.0);
+            older[3 * i + c] = b->previous_force[0][c][l];
+            newer[3 * i + c] = b->force_start[c][l];
+            force[3 * i + c] = fm_select(known, b->end_force[c][l], 0.0);
         }
-        drag[i].slip = fm_select(known, b->end_slip[l], 0.0);
-        drag[i].reynolds_power = fm_select(known, b->end_reynolds_power[l], 0.0);
+        slip[i] = fm_select(known, b->end_slip[l], 0.0);
+        reynolds_power[i] = fm_select(known, b->end_reynolds_power[l], 0.0);
     }
     for (size_t l = 0; l < b->count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         int known = b->force_known[l], chain = b->chain[l];
-        drag[i].history_count = (uint8_t)(known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
-        drag[i].kept = (uint8_t)known;
+        history_count[i] = (uint8_t)(known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
+        kept[i] = (uint8_t)known;
     }
     return bad;
 }

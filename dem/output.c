@@ -209,16 +209,61 @@ int dem_write_output(const struct dem_solver *s, hid_t file)
 /* Scalars of the solver state, in this order, in the dataset "counters". */
 enum { COUNTER_STEP, COUNTER_INJECTED, COUNTER_ESCAPED, COUNTER_DEPOSITED, COUNTER_DEFERRED, COUNTER_COUNT };
 
-/* The drag kept at each particle's state and the step-end forces before it (struct dem_drag_state): the next
- * step's first iterate is guessed from them, so a resumed run needs them to give the same bits. */
+/* The drag kept at each particle's state and the step-end forces before it (struct dem_drag): the next step's
+ * first iterate is guessed from them, so a resumed run needs them to give the same bits.  One struct
+ * dem_drag_record per particle (its padding zero). */
+static void drag_to_record(const struct dem_drag *drag, size_t i, struct dem_drag_record *record)
+{
+    memset(record, 0, sizeof *record);
+    for (int c = 0; c < 3; c++) {
+        record->force[c] = drag->force[3 * i + (size_t)c];
+        record->previous[0][c] = drag->previous[0][3 * i + (size_t)c];
+        record->previous[1][c] = drag->previous[1][3 * i + (size_t)c];
+    }
+    record->slip = drag->slip[i];
+    record->reynolds_power = drag->reynolds_power[i];
+    record->kept = drag->kept[i];
+    record->history_count = drag->history_count[i];
+}
+
+static void drag_from_record(const struct dem_drag_record *record, struct dem_drag *drag, size_t i)
+{
+    for (int c = 0; c < 3; c++) {
+        drag->force[3 * i + (size_t)c] = record->force[c];
+        drag->previous[0][3 * i + (size_t)c] = record->previous[0][c];
+        drag->previous[1][3 * i + (size_t)c] = record->previous[1][c];
+    }
+    drag->slip[i] = record->slip;
+    drag->reynolds_power[i] = record->reynolds_power;
+    drag->kept[i] = record->kept;
+    drag->history_count[i] = record->history_count;
+}
+
+static int write_drag_state(hid_t group, const struct dem_particles *p)
+{
+    struct dem_drag_record *records = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *records);
+    for (size_t i = 0; i < p->count; i++)
+        drag_to_record(&p->drag, i, &records[i]);
+    int status = h5_write_bytes(group, "drag", p->count * sizeof *records, records, 1);
+    free(records);
+    return status;
+}
+
 static int read_drag_state(hid_t group, struct dem_particles *p)
 {
     size_t bytes;
     SC_TRY(h5_dataset_size(group, "drag", &bytes));
-    if (bytes != p->count * sizeof *p->drag)
+    if (bytes != p->count * sizeof(struct dem_drag_record))
         SC_FAIL(SC_EIO, "checkpoint dataset drag has %zu bytes, not %zu (one record per particle)", bytes,
-                p->count * sizeof *p->drag);
-    return bytes ? h5_read_bytes(group, "drag", p->drag, bytes) : SC_OK;
+                p->count * sizeof(struct dem_drag_record));
+    if (!bytes)
+        return SC_OK;
+    struct dem_drag_record *records = dem_realloc_or_die(NULL, bytes);
+    int status = h5_read_bytes(group, "drag", records, bytes);
+    for (size_t i = 0; status == SC_OK && i < p->count; i++)
+        drag_from_record(&records[i], &p->drag, i);
+    free(records);
+    return status;
 }
 
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
@@ -228,7 +273,7 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
     SC_TRY(h5_write_int64s(group, "counters", 1, dims, counters, "", 1));
     SC_TRY(h5_write_bytes(group, "stats", sizeof s->stats, &s->stats, 1));
     SC_TRY(write_particles(group, s, 1));
-    SC_TRY(h5_write_bytes(group, "drag", s->p.count * sizeof *s->p.drag, s->p.drag, 1));
+    SC_TRY(write_drag_state(group, &s->p));
     SC_TRY(h5_write_bytes(group, "impacts", s->impact_count * sizeof *s->impacts, s->impacts, 1));
     SC_TRY(h5_write_bytes(group, "handoffs", s->handoff_count * sizeof *s->handoffs, s->handoffs, 1));
     SC_TRY(h5_write_bytes(group, "metrics", s->metric_count * sizeof *s->metrics, s->metrics, 1));

@@ -19,6 +19,20 @@ void *dem_realloc_or_die(void *data, size_t bytes)
 
 static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
 
+/* The drag of slots [first, end): nothing kept, zero forces. */
+static void particles_clear_drag(struct dem_particles *p, size_t first, size_t end)
+{
+    struct dem_drag *drag = &p->drag;
+    size_t n = end - first;
+    memset(drag->force + 3 * first, 0, 3 * n * sizeof(double));
+    memset(drag->previous[0] + 3 * first, 0, 3 * n * sizeof(double));
+    memset(drag->previous[1] + 3 * first, 0, 3 * n * sizeof(double));
+    memset(drag->slip + first, 0, n * sizeof(double));
+    memset(drag->reynolds_power + first, 0, n * sizeof(double));
+    memset(drag->kept + first, 0, n);
+    memset(drag->history_count + first, 0, n);
+}
+
 void particles_reserve(struct dem_particles *p, size_t capacity)
 {
     if (capacity <= p->capacity)
@@ -33,8 +47,15 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->m = resize(p->m, capacity, sizeof(double));
     p->id = resize(p->id, capacity, sizeof(int64_t));
     p->state = resize(p->state, capacity, sizeof(uint8_t));
-    p->drag = resize(p->drag, capacity, sizeof *p->drag);
-    memset(p->drag + p->capacity, 0, (capacity - p->capacity) * sizeof *p->drag);
+    struct dem_drag *drag = &p->drag;
+    drag->force = resize(drag->force, 3 * capacity, sizeof(double));
+    drag->previous[0] = resize(drag->previous[0], 3 * capacity, sizeof(double));
+    drag->previous[1] = resize(drag->previous[1], 3 * capacity, sizeof(double));
+    drag->slip = resize(drag->slip, capacity, sizeof(double));
+    drag->reynolds_power = resize(drag->reynolds_power, capacity, sizeof(double));
+    drag->kept = resize(drag->kept, capacity, sizeof(uint8_t));
+    drag->history_count = resize(drag->history_count, capacity, sizeof(uint8_t));
+    particles_clear_drag(p, p->capacity, capacity);
     p->capacity = capacity;
 }
 
@@ -54,8 +75,8 @@ size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], 
     p->m[i] = density * M_PI * d * d * d / 6.0;
     p->id[i] = id;
     p->state[i] = DEM_FLYING;
-    p->drag[i].kept = 0;
-    p->drag[i].history_count = 0;
+    p->drag.kept[i] = 0;
+    p->drag.history_count[i] = 0;
     return i;
 }
 
@@ -80,13 +101,26 @@ struct row_array {
 /* x_start, v_start and w_start are not moved: they hold the start of the current step only, are read before
  * the removals at the step's end (hand-off rows) and written again in the next step before they are read
  * (dem/collide.c), so moving them was a third of the copying.  The arrays are independent: one thread each,
- * largest first, so that two threads share the bytes about evenly (96 for drag, 24 each for x, v, w...). */
+ * largest first, so that two threads share the bytes about evenly (24 each for x, v, w and the drag's three
+ * forces...). */
 void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
 {
+    const struct dem_drag *drag = &p->drag;
     const struct row_array arrays[] = {
-        {p->drag, sizeof *p->drag}, {p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)},
-        {p->w, 3 * sizeof(double)}, {p->d, sizeof(double)},     {p->m, sizeof(double)},
-        {p->id, sizeof(int64_t)},   {p->state, sizeof(uint8_t)},
+        {p->x, 3 * sizeof(double)},
+        {p->v, 3 * sizeof(double)},
+        {p->w, 3 * sizeof(double)},
+        {drag->force, 3 * sizeof(double)},
+        {drag->previous[0], 3 * sizeof(double)},
+        {drag->previous[1], 3 * sizeof(double)},
+        {p->d, sizeof(double)},
+        {p->m, sizeof(double)},
+        {p->id, sizeof(int64_t)},
+        {drag->slip, sizeof(double)},
+        {drag->reynolds_power, sizeof(double)},
+        {p->state, sizeof(uint8_t)},
+        {drag->kept, sizeof(uint8_t)},
+        {drag->history_count, sizeof(uint8_t)},
     };
     const int array_count = (int)(sizeof arrays / sizeof arrays[0]);
 #pragma omp parallel for schedule(dynamic, 1) if (p->count >= DEM_PARALLEL_MIN)
@@ -107,7 +141,13 @@ void particles_free(struct dem_particles *p)
     free(p->m);
     free(p->id);
     free(p->state);
-    free(p->drag);
+    free(p->drag.force);
+    free(p->drag.previous[0]);
+    free(p->drag.previous[1]);
+    free(p->drag.slip);
+    free(p->drag.reynolds_power);
+    free(p->drag.kept);
+    free(p->drag.history_count);
     memset(p, 0, sizeof *p);
 }
 

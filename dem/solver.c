@@ -89,7 +89,7 @@ static void apply_boundaries(struct dem_solver *s)
          * the start of the next step (time of impact 0), so nothing passes through the target. */
         if (dem_beyond_target(s, i)) {
             p->x[3 * i + 2] = s->cfg.standoff - 0.5 * p->d[i];
-            p->drag[i].kept = 0;
+            p->drag.kept[i] = 0;
         }
         if (dem_escapes(s, i)) {
             if (!removed)
