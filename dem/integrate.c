@@ -546,9 +546,9 @@ FM_INLINE void block_gather(const struct dem_particles *p, struct block *restric
     int start_kept = b->start_kept;
     for (size_t l = 0; l < BLOCK; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
-        int kept = kept_drag[i];
+        uint8_t kept = kept_drag[i]; /* 0 or 1 */
         start_kept &= kept;
-        b->chain[l] = (uint8_t)(kept ? 1 + history_count[i] : 0);
+        b->chain[l] = (uint8_t)((1 + history_count[i]) & -kept); /* kept ? 1 + history : 0, in bytes */
     }
     b->start_kept = start_kept;
 }
@@ -635,9 +635,9 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
     double *restrict force = p->drag.force, *restrict newer = p->drag.previous[0], *restrict older = p->drag.previous[1];
     double *restrict slip = p->drag.slip, *restrict reynolds_power = p->drag.reynolds_power;
     uint8_t *restrict kept = p->drag.kept, *restrict history_count = p->drag.history_count;
-    const size_t i0 = b->index[0];
+    const size_t i0 = b->index[0], count = consecutive ? BLOCK : b->count;
     int bad = 0;
-    for (size_t l = 0; l < b->count; l++) {
+    for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         for (int c = 0; c < 3; c++) {
             x[3 * i + c] = b->x[c][l];
@@ -645,7 +645,7 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
             bad |= !(b->x[c][l] - b->x[c][l] == 0.0) | !(b->v[c][l] - b->v[c][l] == 0.0);
         }
     }
-    for (size_t l = 0; l < b->count; l++) {
+    for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         int known = b->force_known[l];
         for (int c = 0; c < 3; c++) {
@@ -656,7 +656,7 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
         slip[i] = fm_select(known, b->end_slip[l], 0.0);
         reynolds_power[i] = fm_select(known, b->end_reynolds_power[l], 0.0);
     }
-    for (size_t l = 0; l < b->count; l++) {
+    for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         int known = b->force_known[l], chain = b->chain[l];
         history_count[i] = (uint8_t)(known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
