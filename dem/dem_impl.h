@@ -11,10 +11,11 @@
  * Re^0.6459 there, valid while `kept` is 1 (whatever changes x or v outside the integrator clears it); and the
  * forces at the ends of the two steps before (newest first), of which the first `history_count` (0-2) are
  * known: they extrapolate the force at the end of the next step, the first fixed-point iterate's guess.
- * Structure of arrays, like the particles' (a block of consecutive particles reads each as a vector; one
- * record per particle was a strided gather of 96 bytes); checkpointed as one struct dem_drag_record each. */
+ * Structure of arrays, one per component (a block of consecutive particles reads and writes each as vectors;
+ * one record per particle was a strided gather of 96 bytes, and x[3 i + c] a strided one of 24); checkpointed
+ * as one struct dem_drag_record each. */
 struct dem_drag {
-    double *force, *previous[2];  /* 3 per particle */
+    double *force[3], *previous[2][3]; /* by component: force[c][i] */
     double *slip, *reynolds_power;
     uint8_t *kept, *history_count;
 };

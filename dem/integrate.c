@@ -519,8 +519,7 @@ FM_INLINE size_t lane_particle(const struct block *b, size_t i0, int consecutive
 FM_INLINE void block_gather(const struct dem_particles *p, struct block *restrict b, int consecutive)
 {
     const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict m = p->m;
-    const double *restrict force = p->drag.force, *restrict newer = p->drag.previous[0];
-    const double *restrict older = p->drag.previous[1];
+    const struct dem_drag *drag = &p->drag;
     const double *restrict slip = p->drag.slip, *restrict reynolds_power = p->drag.reynolds_power;
     const uint8_t *restrict kept_drag = p->drag.kept, *restrict history_count = p->drag.history_count;
     const size_t i0 = b->index[0];
@@ -535,13 +534,18 @@ FM_INLINE void block_gather(const struct dem_particles *p, struct block *restric
     }
     for (size_t l = 0; l < BLOCK; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
-        for (int c = 0; c < 3; c++) {
-            b->previous_force[0][c][l] = newer[3 * i + c]; /* zero or a force of the past: finite */
-            b->previous_force[1][c][l] = older[3 * i + c];
-            b->force_start[c][l] = force[3 * i + c]; /* used only if every lane kept its force */
-        }
         b->slip[l] = slip[i];
         b->reynolds_power[l] = reynolds_power[i];
+    }
+    for (int c = 0; c < 3; c++) { /* one component at a time: no aliasing between the arrays to fear */
+        const double *restrict newer = drag->previous[0][c], *restrict older = drag->previous[1][c];
+        const double *restrict force = drag->force[c];
+        for (size_t l = 0; l < BLOCK; l++) {
+            size_t i = lane_particle(b, i0, consecutive, l);
+            b->previous_force[0][c][l] = newer[i]; /* zero or a force of the past: finite */
+            b->previous_force[1][c][l] = older[i];
+            b->force_start[c][l] = force[i]; /* used only if every lane kept its force */
+        }
     }
     int start_kept = b->start_kept;
     for (size_t l = 0; l < BLOCK; l++) {
@@ -632,7 +636,7 @@ static void block_count(const struct dem_config *cfg, const struct block *restri
 FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restrict b, int consecutive)
 {
     double *restrict x = p->x, *restrict v = p->v;
-    double *restrict force = p->drag.force, *restrict newer = p->drag.previous[0], *restrict older = p->drag.previous[1];
+    const struct dem_drag *drag = &p->drag;
     double *restrict slip = p->drag.slip, *restrict reynolds_power = p->drag.reynolds_power;
     uint8_t *restrict kept = p->drag.kept, *restrict history_count = p->drag.history_count;
     const size_t i0 = b->index[0], count = consecutive ? BLOCK : b->count;
@@ -648,13 +652,18 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
     for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
         int known = b->force_known[l];
-        for (int c = 0; c < 3; c++) {
-            older[3 * i + c] = b->previous_force[0][c][l];
-            newer[3 * i + c] = b->force_start[c][l];
-            force[3 * i + c] = fm_select(known, b->end_force[c][l], 0.0);
-        }
         slip[i] = fm_select(known, b->end_slip[l], 0.0);
         reynolds_power[i] = fm_select(known, b->end_reynolds_power[l], 0.0);
+    }
+    for (int c = 0; c < 3; c++) {
+        double *restrict newer = drag->previous[0][c], *restrict older = drag->previous[1][c];
+        double *restrict force = drag->force[c];
+        for (size_t l = 0; l < count; l++) {
+            size_t i = lane_particle(b, i0, consecutive, l);
+            older[i] = b->previous_force[0][c][l];
+            newer[i] = b->force_start[c][l];
+            force[i] = fm_select(b->force_known[l], b->end_force[c][l], 0.0);
+        }
     }
     for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);

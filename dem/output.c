@@ -216,9 +216,9 @@ static void drag_to_record(const struct dem_drag *drag, size_t i, struct dem_dra
 {
     memset(record, 0, sizeof *record);
     for (int c = 0; c < 3; c++) {
-        record->force[c] = drag->force[3 * i + (size_t)c];
-        record->previous[0][c] = drag->previous[0][3 * i + (size_t)c];
-        record->previous[1][c] = drag->previous[1][3 * i + (size_t)c];
+        record->force[c] = drag->force[c][i];
+        record->previous[0][c] = drag->previous[0][c][i];
+        record->previous[1][c] = drag->previous[1][c][i];
     }
     record->slip = drag->slip[i];
     record->reynolds_power = drag->reynolds_power[i];
@@ -229,9 +229,9 @@ static void drag_to_record(const struct dem_drag *drag, size_t i, struct dem_dra
 static void drag_from_record(const struct dem_drag_record *record, struct dem_drag *drag, size_t i)
 {
     for (int c = 0; c < 3; c++) {
-        drag->force[3 * i + (size_t)c] = record->force[c];
-        drag->previous[0][3 * i + (size_t)c] = record->previous[0][c];
-        drag->previous[1][3 * i + (size_t)c] = record->previous[1][c];
+        drag->force[c][i] = record->force[c];
+        drag->previous[0][c][i] = record->previous[0][c];
+        drag->previous[1][c][i] = record->previous[1][c];
     }
     drag->slip[i] = record->slip;
     drag->reynolds_power[i] = record->reynolds_power;

@@ -19,18 +19,32 @@ void *dem_realloc_or_die(void *data, size_t bytes)
 
 static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
 
-/* The drag of slots [first, end): nothing kept, zero forces. */
-static void particles_clear_drag(struct dem_particles *p, size_t first, size_t end)
+/* The drag's arrays of doubles, each with one value per particle (struct dem_drag). */
+#define DRAG_DOUBLE_ARRAYS 11
+static void drag_double_arrays(struct dem_drag *drag, double **arrays[DRAG_DOUBLE_ARRAYS])
 {
-    struct dem_drag *drag = &p->drag;
-    size_t n = end - first;
-    memset(drag->force + 3 * first, 0, 3 * n * sizeof(double));
-    memset(drag->previous[0] + 3 * first, 0, 3 * n * sizeof(double));
-    memset(drag->previous[1] + 3 * first, 0, 3 * n * sizeof(double));
-    memset(drag->slip + first, 0, n * sizeof(double));
-    memset(drag->reynolds_power + first, 0, n * sizeof(double));
-    memset(drag->kept + first, 0, n);
-    memset(drag->history_count + first, 0, n);
+    for (int c = 0; c < 3; c++) {
+        arrays[c] = &drag->force[c];
+        arrays[3 + c] = &drag->previous[0][c];
+        arrays[6 + c] = &drag->previous[1][c];
+    }
+    arrays[9] = &drag->slip;
+    arrays[10] = &drag->reynolds_power;
+}
+
+/* The drag's arrays grown to `capacity` particles, the new slots cleared: nothing kept, zero forces. */
+static void drag_reserve(struct dem_drag *drag, size_t old_capacity, size_t capacity)
+{
+    double **arrays[DRAG_DOUBLE_ARRAYS];
+    drag_double_arrays(drag, arrays);
+    for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++) {
+        *arrays[a] = resize(*arrays[a], capacity, sizeof(double));
+        memset(*arrays[a] + old_capacity, 0, (capacity - old_capacity) * sizeof(double));
+    }
+    drag->kept = resize(drag->kept, capacity, sizeof(uint8_t));
+    drag->history_count = resize(drag->history_count, capacity, sizeof(uint8_t));
+    memset(drag->kept + old_capacity, 0, capacity - old_capacity);
+    memset(drag->history_count + old_capacity, 0, capacity - old_capacity);
 }
 
 void particles_reserve(struct dem_particles *p, size_t capacity)
@@ -47,15 +61,7 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->m = resize(p->m, capacity, sizeof(double));
     p->id = resize(p->id, capacity, sizeof(int64_t));
     p->state = resize(p->state, capacity, sizeof(uint8_t));
-    struct dem_drag *drag = &p->drag;
-    drag->force = resize(drag->force, 3 * capacity, sizeof(double));
-    drag->previous[0] = resize(drag->previous[0], 3 * capacity, sizeof(double));
-    drag->previous[1] = resize(drag->previous[1], 3 * capacity, sizeof(double));
-    drag->slip = resize(drag->slip, capacity, sizeof(double));
-    drag->reynolds_power = resize(drag->reynolds_power, capacity, sizeof(double));
-    drag->kept = resize(drag->kept, capacity, sizeof(uint8_t));
-    drag->history_count = resize(drag->history_count, capacity, sizeof(uint8_t));
-    particles_clear_drag(p, p->capacity, capacity);
+    drag_reserve(&p->drag, p->capacity, capacity);
     p->capacity = capacity;
 }
 
@@ -101,30 +107,22 @@ struct row_array {
 /* x_start, v_start and w_start are not moved: they hold the start of the current step only, are read before
  * the removals at the step's end (hand-off rows) and written again in the next step before they are read
  * (dem/collide.c), so moving them was a third of the copying.  The arrays are independent: one thread each,
- * largest first, so that two threads share the bytes about evenly (24 each for x, v, w and the drag's three
- * forces...). */
+ * largest first, so that two threads share the bytes about evenly (24 each for x, v, w, 8 for each of the
+ * drag's 11 arrays of doubles, d, m and id...). */
 void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
 {
-    const struct dem_drag *drag = &p->drag;
-    const struct row_array arrays[] = {
-        {p->x, 3 * sizeof(double)},
-        {p->v, 3 * sizeof(double)},
-        {p->w, 3 * sizeof(double)},
-        {drag->force, 3 * sizeof(double)},
-        {drag->previous[0], 3 * sizeof(double)},
-        {drag->previous[1], 3 * sizeof(double)},
-        {p->d, sizeof(double)},
-        {p->m, sizeof(double)},
-        {p->id, sizeof(int64_t)},
-        {drag->slip, sizeof(double)},
-        {drag->reynolds_power, sizeof(double)},
-        {p->state, sizeof(uint8_t)},
-        {drag->kept, sizeof(uint8_t)},
-        {drag->history_count, sizeof(uint8_t)},
-    };
-    const int array_count = (int)(sizeof arrays / sizeof arrays[0]);
+    enum { ARRAYS = 3 + DRAG_DOUBLE_ARRAYS + 6 };
+    struct row_array arrays[ARRAYS] = {{p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)},
+                                       {p->w, 3 * sizeof(double)}};
+    double **drag_arrays[DRAG_DOUBLE_ARRAYS];
+    drag_double_arrays(&p->drag, drag_arrays);
+    for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++)
+        arrays[3 + a] = (struct row_array){*drag_arrays[a], sizeof(double)};
+    const struct row_array rest[6] = {{p->d, sizeof(double)}, {p->m, sizeof(double)}, {p->id, sizeof(int64_t)},
+                                      {p->state, 1},          {p->drag.kept, 1},      {p->drag.history_count, 1}};
+    memcpy(arrays + 3 + DRAG_DOUBLE_ARRAYS, rest, sizeof rest);
 #pragma omp parallel for schedule(dynamic, 1) if (p->count >= DEM_PARALLEL_MIN)
-    for (int a = 0; a < array_count; a++)
+    for (int a = 0; a < ARRAYS; a++)
         dem_remove_rows(arrays[a].rows, arrays[a].size, p->count, removed, removed_count);
     p->count -= removed_count;
 }
@@ -141,11 +139,10 @@ void particles_free(struct dem_particles *p)
     free(p->m);
     free(p->id);
     free(p->state);
-    free(p->drag.force);
-    free(p->drag.previous[0]);
-    free(p->drag.previous[1]);
-    free(p->drag.slip);
-    free(p->drag.reynolds_power);
+    double **drag_arrays[DRAG_DOUBLE_ARRAYS];
+    drag_double_arrays(&p->drag, drag_arrays);
+    for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++)
+        free(*drag_arrays[a]);
     free(p->drag.kept);
     free(p->drag.history_count);
     memset(p, 0, sizeof *p);
