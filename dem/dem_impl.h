@@ -9,16 +9,21 @@
 
 /* The drag at a particle's state as the integrator left it (dem/integrate.c): the force (N), the slip (m/s) and
  * Re^0.6459 there, valid while `kept` is 1 (whatever changes x or v outside the integrator clears it); and the
- * forces at the ends of the two steps before (newest first), of which the first `history_count` (0-2) are
- * known: they extrapolate the force at the end of the next step, the first fixed-point iterate's guess.
- * Structure of arrays, one per component (a block of consecutive particles reads and writes each as vectors;
- * one record per particle was a strided gather of 96 bytes, and x[3 i + c] a strided one of 24); checkpointed
- * as one struct dem_drag_record each. */
+ * forces at the ends of the two steps before, of which the newest `history_count` (0-2) are known: they
+ * extrapolate the force at the end of the next step, the first fixed-point iterate's guess.  The three forces
+ * are a ring: at step n the force at the particle's state is in slot n mod 3 and the older ones in the slots
+ * before (dem_drag_slot), so that a step writes only the new one, in the slot of the oldest.  Structure of
+ * arrays, one per slot and component (a block of consecutive particles reads and writes each as vectors; one
+ * record per particle was a strided gather of 96 bytes); checkpointed as one struct dem_drag_record each, in
+ * the order newest first. */
 struct dem_drag {
-    double *force[3], *previous[2][3]; /* by component: force[c][i] */
+    double *forces[3][3]; /* forces[slot][c][i] */
     double *slip, *reynolds_power;
     uint8_t *kept, *history_count;
 };
+
+/* The ring slot at step `step` of the force `age` steps older than the one at the particle's state (age 0). */
+static inline int dem_drag_slot(int64_t step, int age) { return (int)((step + 3 - age) % 3); }
 
 /* A particle's drag (struct dem_drag) as the checkpoint's dataset "drag" holds it, one record per particle. */
 struct dem_drag_record {

@@ -261,6 +261,7 @@ struct block {
     double squares[4][BLOCK];
     uint8_t undecided[BLOCK];
     int start_kept; /* every lane's start force, slip and Re^0.6459 were kept (dem_particles: drag) */
+    int64_t step;   /* the step: which ring slots of the kept forces are which (dem_drag_slot) */
     /* the forces at the ends of the two steps before (newest first) and how many step-end forces in a row are
      * known, the start force included (0-3): what the first iterate's guess is extrapolated from */
     double previous_force[2][3][BLOCK];
@@ -540,8 +541,9 @@ FM_INLINE void block_gather(const struct dem_particles *p, struct block *restric
         b->reynolds_power[l] = reynolds_power[i];
     }
     for (int c = 0; c < 3; c++) { /* one component at a time: no aliasing between the arrays to fear */
-        const double *restrict newer = drag->previous[0][c], *restrict older = drag->previous[1][c];
-        const double *restrict force = drag->force[c];
+        const double *restrict force = drag->forces[dem_drag_slot(b->step, 0)][c];
+        const double *restrict newer = drag->forces[dem_drag_slot(b->step, 1)][c];
+        const double *restrict older = drag->forces[dem_drag_slot(b->step, 2)][c];
         for (size_t l = 0; l < BLOCK; l++) {
             size_t i = lane_particle(b, i0, consecutive, l);
             b->previous_force[0][c][l] = newer[i]; /* zero or a force of the past: finite */
@@ -559,10 +561,11 @@ FM_INLINE void block_gather(const struct dem_particles *p, struct block *restric
     b->start_kept = start_kept;
 }
 
-static void block_load(const struct dem_particles *p, int reuse_drag, struct block *b, const uint32_t *flying,
-                       size_t count)
+static void block_load(const struct dem_particles *p, int reuse_drag, int64_t step, struct block *b,
+                       const uint32_t *flying, size_t count)
 {
     b->count = count;
+    b->step = step;
     b->start_kept = reuse_drag;
     if (count == BLOCK)
         memcpy(b->index, flying, sizeof b->index);
@@ -631,10 +634,11 @@ static void block_count(const struct dem_config *cfg, const struct block *restri
     count->max_iterations = most;
 }
 
-/* The block's particles back to the arrays: end position and velocity, and the drag (struct dem_drag):
- * the force at the end of the step where known, and the lane's start force and the older one it knew become
- * the history (zero forces where not kept, as a checkpoint stores them).  Returns whether a position or
- * velocity of the block is not finite (x - x is 0 for a finite x and NaN otherwise). */
+/* The block's particles back to the arrays: end position and velocity, and the drag (struct dem_drag): the
+ * force at the end of the step where known (zero where not, as a checkpoint stores it) goes to the ring slot
+ * of the oldest force, so that the start force and the one before become the history; a start force computed
+ * afresh goes to its slot (a kept one is there).  Returns whether a position or velocity of the block is not
+ * finite (x - x is 0 for a finite x and NaN otherwise). */
 FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restrict b, int consecutive)
 {
     double *restrict x = p->x, *restrict v = p->v;
@@ -658,14 +662,14 @@ FM_INLINE int block_scatter(struct dem_particles *p, const struct block *restric
         reynolds_power[i] = fm_select(known, b->end_reynolds_power[l], 0.0);
     }
     for (int c = 0; c < 3; c++) {
-        double *restrict newer = drag->previous[0][c], *restrict older = drag->previous[1][c];
-        double *restrict force = drag->force[c];
-        for (size_t l = 0; l < count; l++) {
-            size_t i = lane_particle(b, i0, consecutive, l);
-            older[i] = b->previous_force[0][c][l];
-            newer[i] = b->force_start[c][l];
-            force[i] = fm_select(b->force_known[l], b->end_force[c][l], 0.0);
-        }
+        double *restrict end = drag->forces[dem_drag_slot(b->step + 1, 0)][c]; /* the oldest's slot */
+        for (size_t l = 0; l < count; l++)
+            end[lane_particle(b, i0, consecutive, l)] = fm_select(b->force_known[l], b->end_force[c][l], 0.0);
+    }
+    for (int c = 0; c < 3 && !b->start_kept; c++) { /* start forces computed afresh */
+        double *restrict start = drag->forces[dem_drag_slot(b->step, 0)][c];
+        for (size_t l = 0; l < count; l++)
+            start[lane_particle(b, i0, consecutive, l)] = b->force_start[c][l];
     }
     for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
@@ -941,7 +945,7 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp for schedule(static)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-                block_load(p, reuse_drag, b, flying + first, n);
+                block_load(p, reuse_drag, s->step, b, flying + first, n);
                 bad_here |= integrate_block(cfg, p, b, &count);
                 hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
             }

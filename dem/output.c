@@ -212,13 +212,13 @@ enum { COUNTER_STEP, COUNTER_INJECTED, COUNTER_ESCAPED, COUNTER_DEPOSITED, COUNT
 /* The drag kept at each particle's state and the step-end forces before it (struct dem_drag): the next step's
  * first iterate is guessed from them, so a resumed run needs them to give the same bits.  One struct
  * dem_drag_record per particle (its padding zero). */
-static void drag_to_record(const struct dem_drag *drag, size_t i, struct dem_drag_record *record)
+static void drag_to_record(const struct dem_drag *drag, int64_t step, size_t i, struct dem_drag_record *record)
 {
     memset(record, 0, sizeof *record);
     for (int c = 0; c < 3; c++) {
-        record->force[c] = drag->force[c][i];
-        record->previous[0][c] = drag->previous[0][c][i];
-        record->previous[1][c] = drag->previous[1][c][i];
+        record->force[c] = drag->forces[dem_drag_slot(step, 0)][c][i];
+        record->previous[0][c] = drag->forces[dem_drag_slot(step, 1)][c][i];
+        record->previous[1][c] = drag->forces[dem_drag_slot(step, 2)][c][i];
     }
     record->slip = drag->slip[i];
     record->reynolds_power = drag->reynolds_power[i];
@@ -226,12 +226,12 @@ static void drag_to_record(const struct dem_drag *drag, size_t i, struct dem_dra
     record->history_count = drag->history_count[i];
 }
 
-static void drag_from_record(const struct dem_drag_record *record, struct dem_drag *drag, size_t i)
+static void drag_from_record(const struct dem_drag_record *record, int64_t step, struct dem_drag *drag, size_t i)
 {
     for (int c = 0; c < 3; c++) {
-        drag->force[c][i] = record->force[c];
-        drag->previous[0][c][i] = record->previous[0][c];
-        drag->previous[1][c][i] = record->previous[1][c];
+        drag->forces[dem_drag_slot(step, 0)][c][i] = record->force[c];
+        drag->forces[dem_drag_slot(step, 1)][c][i] = record->previous[0][c];
+        drag->forces[dem_drag_slot(step, 2)][c][i] = record->previous[1][c];
     }
     drag->slip[i] = record->slip;
     drag->reynolds_power[i] = record->reynolds_power;
@@ -239,17 +239,17 @@ static void drag_from_record(const struct dem_drag_record *record, struct dem_dr
     drag->history_count[i] = record->history_count;
 }
 
-static int write_drag_state(hid_t group, const struct dem_particles *p)
+static int write_drag_state(hid_t group, const struct dem_particles *p, int64_t step)
 {
     struct dem_drag_record *records = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *records);
     for (size_t i = 0; i < p->count; i++)
-        drag_to_record(&p->drag, i, &records[i]);
+        drag_to_record(&p->drag, step, i, &records[i]);
     int status = h5_write_bytes(group, "drag", p->count * sizeof *records, records, 1);
     free(records);
     return status;
 }
 
-static int read_drag_state(hid_t group, struct dem_particles *p)
+static int read_drag_state(hid_t group, struct dem_particles *p, int64_t step)
 {
     size_t bytes;
     SC_TRY(h5_dataset_size(group, "drag", &bytes));
@@ -261,7 +261,7 @@ static int read_drag_state(hid_t group, struct dem_particles *p)
     struct dem_drag_record *records = dem_realloc_or_die(NULL, bytes);
     int status = h5_read_bytes(group, "drag", records, bytes);
     for (size_t i = 0; status == SC_OK && i < p->count; i++)
-        drag_from_record(&records[i], &p->drag, i);
+        drag_from_record(&records[i], step, &p->drag, i);
     free(records);
     return status;
 }
@@ -273,7 +273,7 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
     SC_TRY(h5_write_int64s(group, "counters", 1, dims, counters, "", 1));
     SC_TRY(h5_write_bytes(group, "stats", sizeof s->stats, &s->stats, 1));
     SC_TRY(write_particles(group, s, 1));
-    SC_TRY(write_drag_state(group, &s->p));
+    SC_TRY(write_drag_state(group, &s->p, s->step));
     SC_TRY(h5_write_bytes(group, "impacts", s->impact_count * sizeof *s->impacts, s->impacts, 1));
     SC_TRY(h5_write_bytes(group, "handoffs", s->handoff_count * sizeof *s->handoffs, s->handoffs, 1));
     SC_TRY(h5_write_bytes(group, "metrics", s->metric_count * sizeof *s->metrics, s->metrics, 1));
@@ -339,7 +339,7 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
     s->injection_deferred = counters[COUNTER_DEFERRED];
     SC_TRY(h5_read_bytes(group, "stats", &s->stats, sizeof s->stats));
     SC_TRY(read_particles(group, &s->p));
-    SC_TRY(read_drag_state(group, &s->p));
+    SC_TRY(read_drag_state(group, &s->p, s->step));
     SC_TRY(read_records(group, "impacts", (void **)&s->impacts, &s->impact_count, &s->impact_capacity,
                         sizeof *s->impacts));
     SC_TRY(read_records(group, "handoffs", (void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity,

@@ -23,11 +23,9 @@ static void *resize(void *data, size_t count, size_t size) { return dem_realloc_
 #define DRAG_DOUBLE_ARRAYS 11
 static void drag_double_arrays(struct dem_drag *drag, double **arrays[DRAG_DOUBLE_ARRAYS])
 {
-    for (int c = 0; c < 3; c++) {
-        arrays[c] = &drag->force[c];
-        arrays[3 + c] = &drag->previous[0][c];
-        arrays[6 + c] = &drag->previous[1][c];
-    }
+    for (int slot = 0; slot < 3; slot++)
+        for (int c = 0; c < 3; c++)
+            arrays[3 * slot + c] = &drag->forces[slot][c];
     arrays[9] = &drag->slip;
     arrays[10] = &drag->reynolds_power;
 }
