@@ -79,11 +79,12 @@ static int alloc_layers(struct mpm_grid *g)
 {
     size_t n = g->nodes * (size_t)g->layers;
     g->mass = calloc(n, sizeof *g->mass);
-    g->momentum = calloc(3 * n, sizeof *g->momentum);
-    g->momentum_new = calloc(3 * n, sizeof *g->momentum_new);
+    /* one double to spare after the vector fields read with node_vector (mpm_impl.h) */
+    g->momentum = calloc(3 * n + 1, sizeof *g->momentum);
+    g->momentum_new = calloc(3 * n + 1, sizeof *g->momentum_new);
     g->force = calloc(3 * n, sizeof *g->force);
     g->gradient = calloc(3 * n, sizeof *g->gradient);
-    g->velocity = calloc(3 * n, sizeof *g->velocity);
+    g->velocity = calloc(3 * n + 1, sizeof *g->velocity);
     g->bond_sum = calloc(n, sizeof *g->bond_sum);
     g->bond_weight = calloc(n, sizeof *g->bond_weight);
     g->contact = calloc(n, sizeof *g->contact);

@@ -4,6 +4,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "mpm/material.h"
 #include "mpm/mpm.h"
@@ -160,6 +161,19 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {
     return st->node + (size_t)a + (size_t)g->n[0] * ((size_t)b + (size_t)g->n[1] * (size_t)c);
+}
+/* A 3-vector and a pad lane in one 4-lane register (the GNU C vector extension, which gcc and clang compile to
+ * AVX): the per-node loops of grid-to-points and the velocity gradient then add a node's x, y and z with one
+ * instruction each.  Every lane does the scalar loop's operations in the same order (C17 mode: no contraction
+ * into FMA), so the bits are those of the scalar code; the pad lane is never used. */
+typedef double vec3pad __attribute__((vector_size(4 * sizeof(double))));
+/* Node I of a field with 3 doubles per node, read with the first double of node I + 1 as the pad lane (the
+ * fields are allocated with one double to spare, alloc_layers). */
+static inline vec3pad node_vector(const double *field, size_t I)
+{
+    vec3pad v;
+    memcpy(&v, field + 3 * I, sizeof v);
+    return v;
 }
 /* Sort the active points into blocks (fixed order for the transfers). */
 void grid_bin_points(struct mpm_solver *s);
