@@ -370,8 +370,8 @@ static int update_points(struct mpm_solver *s)
     struct mpm_points *p = &s->points;
     long n = (long)p->count, bad = n, blocks = (n + POINT_BLOCK - 1) / POINT_BLOCK;
     double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
-/* dynamic: the costly plastic points of a particle sit together in index order */
-#pragma omp parallel for schedule(dynamic, 8) reduction(min : bad)
+/* dynamic: the costly plastic points of a particle sit together in index order (chunks of 512 points) */
+#pragma omp parallel for schedule(dynamic, 2) reduction(min : bad)
     for (long blk = 0; blk < blocks; blk++) {
         long q0 = blk * POINT_BLOCK;
         long failed = update_block(s, q0, (int)(n - q0 < POINT_BLOCK ? n - q0 : POINT_BLOCK), log_dt);
