@@ -142,6 +142,8 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
         g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
         g->nodes *= (size_t)g->n[d];
     }
+    g->row = (size_t)g->n[0];
+    g->plane = g->row * (size_t)g->n[1];
     if (g->nodes > (size_t)1 << 31)
         SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
                 "box_margin", g->nodes, g->n[0], g->n[1], g->n[2]);

@@ -48,6 +48,7 @@ struct mpm_grid {
     double origin[3], h;
     double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
     int n[3];
+    size_t row, plane;               /* n[0] and n[0] n[1]: the index steps in y and z (stencil_node) */
     size_t nodes;
     int layers;
     double mass_cutoff;              /* nodes lighter than this carry no velocity */
@@ -160,7 +161,7 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {
-    return st->node + (size_t)a + (size_t)g->n[0] * ((size_t)b + (size_t)g->n[1] * (size_t)c);
+    return st->node + (size_t)a + g->row * (size_t)b + g->plane * (size_t)c;
 }
 /* A 3-vector and a pad lane in one 4-lane register (the GNU C vector extension, which gcc and clang compile to
  * AVX): the per-node loops of grid-to-points and the velocity gradient then add a node's x, y and z with one

@@ -210,27 +210,23 @@ static void nodal_velocities(struct mpm_solver *s)
     }
 }
 
-/* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
- * the point's own body is in contact at one of its nodes. */
-STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q, const struct stencil *stencil,
-                                           int width, double L[3][3])
+/* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35). */
+STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q, const struct stencil *stencil,
+                                            int width, double L[3][3])
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
-    int contact = 0;
     /* the rows of L summed in registers, j = 0, 1, 2 in the lanes (mpm_impl.h), in the same order as before */
     vec3pad row[3] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
                 size_t I = layer + stencil_node(g, st, a, b, c);
-                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
-                 * unchanged by adding +-0, so no branch is needed for the same bits */
-                contact |= (N > 0.0) & (g->contact[I] != 0); /* a heavy contact node (nodal_velocities) */
-                /* dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before */
+                 * unchanged by adding +-0, so no branch is needed for the same bits.
+                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before */
                 vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], 0.0};
                 vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], 0.0};
                 vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], 0.0};
@@ -241,14 +237,34 @@ STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q,
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             L[i][j] = row[i][j];
+}
+
+/* Whether the point's own body is in contact at one of its nodes: a heavy contact node (nodal_velocities) with
+ * N > 0. */
+static int stencil_in_contact(const struct mpm_solver *s, size_t q, const struct stencil *st)
+{
+    const struct mpm_grid *g = &s->grid;
+    size_t layer = (size_t)s->points.body[q] * g->nodes;
+    int contact = 0;
+    for (int c = 0; c < st->width; c++)
+        for (int b = 0; b < st->width; b++)
+            for (int a = 0; a < st->width; a++)
+                contact |= (st->w[0][a] * st->w[1][b] * st->w[2][c] > 0.0) &
+                           (g->contact[layer + stencil_node(g, st, a, b, c)] != 0);
     return contact;
 }
 
+/* L of point q, and whether it is a surface point in contact (finish_point flags only surface points, so the
+ * stencil's contact flags are read only for those). */
 static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    return st.width == 2 ? velocity_gradient_width(s, q, &st, 2, L) : velocity_gradient_width(s, q, &st, st.width, L);
+    if (st.width == 2)
+        velocity_gradient_width(s, q, &st, 2, L);
+    else
+        velocity_gradient_width(s, q, &st, st.width, L);
+    return (s->points.flags[q] & POINT_SURFACE) && stencil_in_contact(s, q, &st);
 }
 
 /* Points updated together (steps 10-11): their plastic returns run in vector lanes (mpm_stress_returns). */
@@ -328,7 +344,7 @@ static int finish_point(struct mpm_solver *s, size_t q, struct point_block *b, i
         return -1;
     p->volume[q] = b->volume_new[k];
     p->plastic_work[q] += r.plastic_work;
-    if (b->contact[k] && (p->flags[q] & POINT_SURFACE))
+    if (b->contact[k]) /* a surface point touching another body (velocity_gradient) */
         p->flags[q] |= POINT_CONTACT;
     else
         p->flags[q] &= (uint8_t)~POINT_CONTACT;
