@@ -43,16 +43,6 @@ static void ugimp_weight(double r, double h, double l, double *w, double *dw)
     }
 }
 
-int grid_contains(const struct mpm_grid *g, const double x[3])
-{
-    for (int d = 0; d < 3; d++) {
-        double xi = (x[d] - g->origin[d]) / g->h;
-        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
-            return 0;
-    }
-    return 1;
-}
-
 int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st)
 {

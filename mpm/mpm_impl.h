@@ -125,8 +125,17 @@ void grid_free(struct mpm_grid *grid);
 int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st);
 size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
-/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid). */
-int grid_contains(const struct mpm_grid *grid, const double x[3]);
+/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid); inline: remove_escaped asks
+ * for every point and step. */
+static inline int grid_contains(const struct mpm_grid *g, const double x[3])
+{
+    for (int d = 0; d < 3; d++) {
+        double xi = (x[d] - g->origin[d]) / g->h;
+        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+            return 0;
+    }
+    return 1;
+}
 /* The stencil of point q at its position of this step, after grid_bin_points: trilinear stencils are rebuilt
  * from the cache, with the weights of grid_stencil (1 - f, f; gradients -1/h, 1/h). */
 static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
