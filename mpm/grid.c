@@ -284,9 +284,11 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
                 vec3pad dN = {dN0, dN1, dN2, dN2};
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 g->mass[I] += m * N;
-                node_add(g->momentum, I, mv * N);
-                node_add(g->force, I, -V * ((col0 * dN0 + col1 * dN1) + col2 * dN2) + N * fextv);
-                node_add(g->gradient, I, V * dN);
+                vec3pad momentum = mv * N, gradient = V * dN;
+                vec3pad force = -V * ((col0 * dN0 + col1 * dN1) + col2 * dN2) + N * fextv;
+                node_add(g->momentum, I, &momentum);
+                node_add(g->force, I, &force);
+                node_add(g->gradient, I, &gradient);
                 if (surface) {
                     g->bond_sum[I] += dbond * N;
                     g->bond_weight[I] += N;
@@ -322,7 +324,8 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 if (N == 0.0)
                     continue;
-                node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, mv * N);
+                vec3pad momentum = mv * N;
+                node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, &momentum);
             }
 }
 

@@ -178,21 +178,17 @@ static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil
  * into FMA), so the bits are those of the scalar code; the pad lane is never used (set to a copy of lane 2 where
  * a 0 would need an extra instruction: gcc's vmovq for it is one valgrind 3.19 cannot run). */
 typedef double vec3pad __attribute__((vector_size(4 * sizeof(double))));
-/* Node I of a field with 3 doubles per node, read with the first double of node I + 1 as the pad lane (the
- * fields are allocated with one double to spare, alloc_layers). */
-static inline vec3pad node_vector(const double *field, size_t I)
-{
-    vec3pad v;
-    memcpy(&v, field + 3 * I, sizeof v);
-    return v;
-}
-/* Adds the first three lanes of a to node I of a field with 3 doubles per node (the pad lane is not stored). */
-static inline void node_add(double *field, size_t I, vec3pad a)
+/* Node I of a field with 3 doubles per node into *v, with the first double of node I + 1 as the pad lane (the
+ * fields are allocated with one double to spare, alloc_layers).  The helpers take vectors by pointer: a vector
+ * passed by value has another ABI with AVX than without (gcc's -Wpsabi, an error in the x86-64-v2 build). */
+static inline void node_vector(vec3pad *v, const double *field, size_t I) { memcpy(v, field + 3 * I, sizeof *v); }
+/* Adds the first three lanes of *a to node I of a field with 3 doubles per node (the pad lane is not stored). */
+static inline void node_add(double *field, size_t I, const vec3pad *a)
 {
     double *f = field + 3 * I;
-    f[0] += a[0];
-    f[1] += a[1];
-    f[2] += a[2];
+    f[0] += (*a)[0];
+    f[1] += (*a)[1];
+    f[2] += (*a)[2];
 }
 /* Sort the active points into blocks (fixed order for the transfers). */
 void grid_bin_points(struct mpm_solver *s);

@@ -162,8 +162,10 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
-                vec3pad momentum_new = node_vector(g->momentum_new, I);
-                dv += w * (momentum_new - node_vector(g->momentum, I));
+                vec3pad momentum_new, momentum;
+                node_vector(&momentum_new, g->momentum_new, I);
+                node_vector(&momentum, g->momentum, I);
+                dv += w * (momentum_new - momentum);
                 vnew += w * momentum_new;
             }
     for (int d = 0; d < 3; d++) {
@@ -230,7 +232,8 @@ STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q
                 vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], 0.0};
                 vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], 0.0};
                 vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], 0.0};
-                vec3pad dN = x * y * z, vI = node_vector(g->velocity, I);
+                vec3pad dN = x * y * z, vI;
+                node_vector(&vI, g->velocity, I);
                 for (int i = 0; i < 3; i++)
                     row[i] += vI[i] * dN;
             }
