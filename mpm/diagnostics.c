@@ -100,13 +100,13 @@ static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
     const struct mpm_grid *g = &s->grid;
     struct stencil st;
     v[0] = v[1] = v[2] = 0.0;
-    grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, &st);
+    grid_point_stencil(s, q, &st); /* this step's binning: the weights of grid_stencil without its divisions */
     size_t layer = (size_t)s->points.body[q] * g->nodes;
     for (int c = 0; c < st.width; c++)
         for (int b = 0; b < st.width; b++)
             for (int a = 0; a < st.width; a++) {
                 double N = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                size_t I = layer + grid_node(g, st.base[0] + a, st.base[1] + b, st.base[2] + c);
+                size_t I = layer + stencil_node(g, &st, a, b, c);
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 for (int d = 0; d < 3; d++)

@@ -43,16 +43,6 @@ static void ugimp_weight(double r, double h, double l, double *w, double *dw)
     }
 }
 
-int grid_contains(const struct mpm_grid *g, const double x[3])
-{
-    for (int d = 0; d < 3; d++) {
-        double xi = (x[d] - g->origin[d]) / g->h;
-        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
-            return 0;
-    }
-    return 1;
-}
-
 int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st)
 {
@@ -79,11 +69,12 @@ static int alloc_layers(struct mpm_grid *g)
 {
     size_t n = g->nodes * (size_t)g->layers;
     g->mass = calloc(n, sizeof *g->mass);
-    g->momentum = calloc(3 * n, sizeof *g->momentum);
-    g->momentum_new = calloc(3 * n, sizeof *g->momentum_new);
+    /* one double to spare after the vector fields read with node_vector (mpm_impl.h) */
+    g->momentum = calloc(3 * n + 1, sizeof *g->momentum);
+    g->momentum_new = calloc(3 * n + 1, sizeof *g->momentum_new);
     g->force = calloc(3 * n, sizeof *g->force);
     g->gradient = calloc(3 * n, sizeof *g->gradient);
-    g->velocity = calloc(3 * n, sizeof *g->velocity);
+    g->velocity = calloc(3 * n + 1, sizeof *g->velocity);
     g->bond_sum = calloc(n, sizeof *g->bond_sum);
     g->bond_weight = calloc(n, sizeof *g->bond_weight);
     g->contact = calloc(n, sizeof *g->contact);
@@ -141,6 +132,8 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
         g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
         g->nodes *= (size_t)g->n[d];
     }
+    g->row = (size_t)g->n[0];
+    g->plane = g->row * (size_t)g->n[1];
     if (g->nodes > (size_t)1 << 31)
         SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
                 "box_margin", g->nodes, g->n[0], g->n[1], g->n[2]);
@@ -273,8 +266,11 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
         boundary_dashpot_force(s, q, fext);
     int surface = (p->flags[q] & POINT_SURFACE) != 0;
     double dbond = p->d_bond[q];
-    /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v */
-    double mv[3] = {m * v[0], m * v[1], m * v[2]};
+    /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v.
+     * Vectors x, y, z in lanes (mpm_impl.h) with each lane's operations those of the scalar code: the force's
+     * row i is -V (col0_i dN_0 + col1_i dN_1 + col2_i dN_2) + N fext_i, summed left to right. */
+    vec3pad mv = {m * v[0], m * v[1], m * v[2], 0.0}, fextv = {fext[0], fext[1], fext[2], fext[2]};
+    vec3pad col0 = {sxx, sxy, sxz, sxz}, col1 = {sxy, syy, syz, syz}, col2 = {sxz, syz, szz, szz};
     size_t layer = (size_t)p->body[q] * g->nodes;
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
@@ -283,19 +279,16 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
                 double N = st->w[0][a] * wyz;
                 if (N == 0.0 && st->g[0][a] == 0.0)
                     continue;
-                double dN[3] = {st->g[0][a] * wyz, st->w[0][a] * st->g[1][b] * st->w[2][c],
-                                st->w[0][a] * st->w[1][b] * st->g[2][c]};
+                double dN0 = st->g[0][a] * wyz, dN1 = st->w[0][a] * st->g[1][b] * st->w[2][c];
+                double dN2 = st->w[0][a] * st->w[1][b] * st->g[2][c];
+                vec3pad dN = {dN0, dN1, dN2, dN2};
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 g->mass[I] += m * N;
-                g->momentum[3 * I] += mv[0] * N;
-                g->momentum[3 * I + 1] += mv[1] * N;
-                g->momentum[3 * I + 2] += mv[2] * N;
-                g->force[3 * I] += -V * (sxx * dN[0] + sxy * dN[1] + sxz * dN[2]) + N * fext[0];
-                g->force[3 * I + 1] += -V * (sxy * dN[0] + syy * dN[1] + syz * dN[2]) + N * fext[1];
-                g->force[3 * I + 2] += -V * (sxz * dN[0] + syz * dN[1] + szz * dN[2]) + N * fext[2];
-                g->gradient[3 * I] += V * dN[0];
-                g->gradient[3 * I + 1] += V * dN[1];
-                g->gradient[3 * I + 2] += V * dN[2];
+                vec3pad momentum = mv * N, gradient = V * dN;
+                vec3pad force = -V * ((col0 * dN0 + col1 * dN1) + col2 * dN2) + N * fextv;
+                node_add(g->momentum, I, &momentum);
+                node_add(g->force, I, &force);
+                node_add(g->gradient, I, &gradient);
                 if (surface) {
                     g->bond_sum[I] += dbond * N;
                     g->bond_weight[I] += N;
@@ -323,7 +316,7 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
     const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     double m = p->mass[q];
     const double *v = p->v + 3 * q;
-    double mv[3] = {m * v[0], m * v[1], m * v[2]}; /* (m v_i) N as before */
+    vec3pad mv = {m * v[0], m * v[1], m * v[2], 0.0}; /* (m v_i) N as before, in lanes (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
@@ -331,10 +324,8 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 if (N == 0.0)
                     continue;
-                size_t I = layer + stencil_node(g, st, a, b, c);
-                g->momentum_new[3 * I] += mv[0] * N;
-                g->momentum_new[3 * I + 1] += mv[1] * N;
-                g->momentum_new[3 * I + 2] += mv[2] * N;
+                vec3pad momentum = mv * N;
+                node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, &momentum);
             }
 }
 

@@ -4,6 +4,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "mpm/material.h"
 #include "mpm/mpm.h"
@@ -47,6 +48,7 @@ struct mpm_grid {
     double origin[3], h;
     double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
     int n[3];
+    size_t row, plane;               /* n[0] and n[0] n[1]: the index steps in y and z (stencil_node) */
     size_t nodes;
     int layers;
     double mass_cutoff;              /* nodes lighter than this carry no velocity */
@@ -123,8 +125,17 @@ void grid_free(struct mpm_grid *grid);
 int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st);
 size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
-/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid). */
-int grid_contains(const struct mpm_grid *grid, const double x[3]);
+/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid); inline: remove_escaped asks
+ * for every point and step. */
+static inline int grid_contains(const struct mpm_grid *g, const double x[3])
+{
+    for (int d = 0; d < 3; d++) {
+        double xi = (x[d] - g->origin[d]) / g->h;
+        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+            return 0;
+    }
+    return 1;
+}
 /* The stencil of point q at its position of this step, after grid_bin_points: trilinear stencils are rebuilt
  * from the cache, with the weights of grid_stencil (1 - f, f; gradients -1/h, 1/h). */
 static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
@@ -159,7 +170,25 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
 /* Node a, b, c of a stencil. */
 static inline size_t stencil_node(const struct mpm_grid *g, const struct stencil *st, int a, int b, int c)
 {
-    return st->node + (size_t)a + (size_t)g->n[0] * ((size_t)b + (size_t)g->n[1] * (size_t)c);
+    return st->node + (size_t)a + g->row * (size_t)b + g->plane * (size_t)c;
+}
+/* A 3-vector and a pad lane in one 4-lane register (the GNU C vector extension, which gcc and clang compile to
+ * AVX): the per-node loops of grid-to-points and the velocity gradient then add a node's x, y and z with one
+ * instruction each.  Every lane does the scalar loop's operations in the same order (C17 mode: no contraction
+ * into FMA), so the bits are those of the scalar code; the pad lane is never used (set to a copy of lane 2 where
+ * a 0 would need an extra instruction: gcc's vmovq for it is one valgrind 3.19 cannot run). */
+typedef double vec3pad __attribute__((vector_size(4 * sizeof(double))));
+/* Node I of a field with 3 doubles per node into *v, with the first double of node I + 1 as the pad lane (the
+ * fields are allocated with one double to spare, alloc_layers).  The helpers take vectors by pointer: a vector
+ * passed by value has another ABI with AVX than without (gcc's -Wpsabi, an error in the x86-64-v2 build). */
+static inline void node_vector(vec3pad *v, const double *field, size_t I) { memcpy(v, field + 3 * I, sizeof *v); }
+/* Adds the first three lanes of *a to node I of a field with 3 doubles per node (the pad lane is not stored). */
+static inline void node_add(double *field, size_t I, const vec3pad *a)
+{
+    double *f = field + 3 * I;
+    f[0] += (*a)[0];
+    f[1] += (*a)[1];
+    f[2] += (*a)[2];
 }
 /* Sort the active points into blocks (fixed order for the transfers). */
 void grid_bin_points(struct mpm_solver *s);

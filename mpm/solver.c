@@ -135,8 +135,10 @@ static void choose_time_step(struct mpm_solver *s)
 #pragma omp parallel for schedule(static) reduction(max : vmax2)
     for (long q = 0; q < n; q++) {
         const double *v = p->v + 3 * q;
-        if (p->flags[q] & POINT_ACTIVE)
-            vmax2 = fmax(vmax2, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        if (p->flags[q] & POINT_ACTIVE) {
+            double v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            vmax2 = v2 > vmax2 ? v2 : vmax2; /* fmax without a libm call: a NaN is skipped alike */
+        }
     }
     s->dt = s->cfg.cfl * s->cfg.grid / (s->wave_speed_max + sqrt(vmax2));
     if (s->t + s->dt > s->cfg.t_end)
@@ -151,7 +153,7 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
     const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     double *x = p->x + 3 * q, *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
     size_t layer = (size_t)p->body[q] * g->nodes;
-    double dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
+    vec3pad dv = {0, 0, 0, 0}, vnew = {0, 0, 0, 0}; /* x, y, z in lanes (mpm_impl.h): the same bits */
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
@@ -160,10 +162,11 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
-                for (int d = 0; d < 3; d++) {
-                    dv[d] += w * (g->momentum_new[3 * I + d] - g->momentum[3 * I + d]);
-                    vnew[d] += w * g->momentum_new[3 * I + d];
-                }
+                vec3pad momentum_new, momentum;
+                node_vector(&momentum_new, g->momentum_new, I);
+                node_vector(&momentum, g->momentum, I);
+                dv += w * (momentum_new - momentum);
+                vnew += w * momentum_new;
             }
     for (int d = 0; d < 3; d++) {
         v[d] += dv[d];
@@ -194,7 +197,8 @@ static void grid_to_points(struct mpm_solver *s)
 
 /* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
  * node in the velocity gradient.  Nodes too light to carry a velocity get 0 (velocity_gradient_width adds their
- * 0 * dN instead of testing the mass). */
+ * 0 * dN instead of testing the mass), and lose their contact flag: from here to the step's end the flag marks
+ * the contact nodes the velocity gradient counts, without a second test of the mass there. */
 static void nodal_velocities(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
@@ -204,46 +208,66 @@ static void nodal_velocities(struct mpm_solver *s)
         int heavy = g->mass[I] > g->mass_cutoff;
         for (int d = 0; d < 3; d++)
             g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
+        g->contact[I] &= (uint8_t)heavy;
     }
 }
 
-/* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35), and whether
- * the point's own body is in contact at one of its nodes. */
-STENCIL_INLINE int velocity_gradient_width(const struct mpm_solver *s, size_t q, const struct stencil *stencil,
-                                           int width, double L[3][3])
+/* Velocity gradient L_ij = sum_I v_iI dN_I/dx_j from the re-projected nodal velocities (Eq. 3.35). */
+STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q, const struct stencil *stencil,
+                                            int width, double L[3][3])
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
-    int contact = 0;
-    /* summed in a local (the stores to L could alias the nodal velocities, which would then be loaded again
-     * after each), in the same order as before */
-    double sum[3][3] = {{0.0}};
+    /* the rows of L summed in registers, j = 0, 1, 2 in the lanes (mpm_impl.h), in the same order as before */
+    vec3pad row[3] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
                 size_t I = layer + stencil_node(g, st, a, b, c);
-                double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
-                 * unchanged by adding +-0, so no branch is needed for the same bits */
-                contact |= (N > 0.0) & (g->mass[I] > g->mass_cutoff) & (g->contact[I] != 0);
-                double dN[3] = {st->g[0][a] * st->w[1][b] * st->w[2][c], st->w[0][a] * st->g[1][b] * st->w[2][c],
-                                st->w[0][a] * st->w[1][b] * st->g[2][c]};
-                const double *vI = g->velocity + 3 * I;
+                 * unchanged by adding +-0, so no branch is needed for the same bits.
+                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before */
+                vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], 0.0};
+                vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], 0.0};
+                vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], 0.0};
+                vec3pad dN = x * y * z, vI;
+                node_vector(&vI, g->velocity, I);
                 for (int i = 0; i < 3; i++)
-                    for (int j = 0; j < 3; j++)
-                        sum[i][j] += vI[i] * dN[j];
+                    row[i] += vI[i] * dN;
             }
-    memcpy(L, sum, sizeof sum);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            L[i][j] = row[i][j];
+}
+
+/* Whether the point's own body is in contact at one of its nodes: a heavy contact node (nodal_velocities) with
+ * N > 0. */
+static int stencil_in_contact(const struct mpm_solver *s, size_t q, const struct stencil *st)
+{
+    const struct mpm_grid *g = &s->grid;
+    size_t layer = (size_t)s->points.body[q] * g->nodes;
+    int contact = 0;
+    for (int c = 0; c < st->width; c++)
+        for (int b = 0; b < st->width; b++)
+            for (int a = 0; a < st->width; a++)
+                contact |= (st->w[0][a] * st->w[1][b] * st->w[2][c] > 0.0) &
+                           (g->contact[layer + stencil_node(g, st, a, b, c)] != 0);
     return contact;
 }
 
+/* L of point q, and whether it is a surface point in contact (finish_point flags only surface points, so the
+ * stencil's contact flags are read only for those). */
 static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3])
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    return st.width == 2 ? velocity_gradient_width(s, q, &st, 2, L) : velocity_gradient_width(s, q, &st, st.width, L);
+    if (st.width == 2)
+        velocity_gradient_width(s, q, &st, 2, L);
+    else
+        velocity_gradient_width(s, q, &st, st.width, L);
+    return (s->points.flags[q] & POINT_SURFACE) && stencil_in_contact(s, q, &st);
 }
 
 /* Points updated together (steps 10-11): their plastic returns run in vector lanes (mpm_stress_returns). */
@@ -323,7 +347,7 @@ static int finish_point(struct mpm_solver *s, size_t q, struct point_block *b, i
         return -1;
     p->volume[q] = b->volume_new[k];
     p->plastic_work[q] += r.plastic_work;
-    if (b->contact[k] && (p->flags[q] & POINT_SURFACE))
+    if (b->contact[k]) /* a surface point touching another body (velocity_gradient) */
         p->flags[q] |= POINT_CONTACT;
     else
         p->flags[q] &= (uint8_t)~POINT_CONTACT;
@@ -365,8 +389,8 @@ static int update_points(struct mpm_solver *s)
     struct mpm_points *p = &s->points;
     long n = (long)p->count, bad = n, blocks = (n + POINT_BLOCK - 1) / POINT_BLOCK;
     double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
-/* dynamic: the costly plastic points of a particle sit together in index order */
-#pragma omp parallel for schedule(dynamic, 8) reduction(min : bad)
+/* dynamic: the costly plastic points of a particle sit together in index order (chunks of 512 points) */
+#pragma omp parallel for schedule(dynamic, 2) reduction(min : bad)
     for (long blk = 0; blk < blocks; blk++) {
         long q0 = blk * POINT_BLOCK;
         long failed = update_block(s, q0, (int)(n - q0 < POINT_BLOCK ? n - q0 : POINT_BLOCK), log_dt);

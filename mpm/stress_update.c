@@ -80,14 +80,6 @@ static void jaumann_rotate(const double sigma[6], const double spin[3], double r
     rotated[5] = sigma[5] + ws01 + ws10;
 }
 
-/* Tang Eq. A3: deviatoric part, trace/3 returned in *mean. */
-static void deviator(const double t[6], double dev[6], double *mean)
-{
-    *mean = (t[0] + t[1] + t[2]) / 3.0;
-    for (int k = 0; k < 6; k++)
-        dev[k] = t[k] - (k < 3 ? *mean : 0.0);
-}
-
 /* ---- the consistent plastic strain increment ---- */
 
 /* The consistency condition f(d) = sigma* - 3 G d - sigma_y(eps_p + d, max(d/dt, rate_floor)) (Tang Eqs. A6-A8
@@ -410,11 +402,16 @@ static void ptw_return_begin(const struct mpm_material_constants *c, const struc
     r->phase = RETURN_SETUP;
 }
 
-/* Deviatoric part of the step (Eqs. A1-A8) up to the return: w->s_new is the elastic trial (Eq. A1.3), or 0 when
- * melted or without shear stiffness; returns 1 when the point needs the plastic return (w->ret set up). */
+/* A factor below 1 by far more than the rounding of x < f b b: x < f b b proves sqrt(x) < b, so sqrt(x) <= b,
+ * exactly as the square root would decide (sqrt is correctly rounded and monotone, b a double). */
+#define BELOW_SQUARE 0.999999
+
+/* Deviatoric part of the step (Eqs. A1-A8) up to the return: w->s_new holds the elastic trial (Eq. A1.3) and is
+ * set to 0 when melted or without shear stiffness; returns 1 when the point needs the plastic return (w->ret set
+ * up). */
 static int deviatoric_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                            const struct mpm_point_state *state, const double dev_strain[6], double G, double dt,
-                            double log_dt, struct mpm_stress_work *w)
+                            const struct mpm_point_state *state, double G, double dt, double log_dt,
+                            struct mpm_stress_work *w)
 {
     double Tm;
     w->yield = 0.0;
@@ -424,14 +421,19 @@ static int deviatoric_begin(const struct mpm_material *m, const struct mpm_mater
             w->s_new[k] = 0.0;
         return 0;
     }
-    for (int k = 0; k < 6; k++)
-        w->s_new[k] = w->s_rot[k] + 2.0 * G * dev_strain[k]; /* Eq. A1.3 */
-    double trial = von_mises(w->s_new);                       /* Eq. A5 */
+    double trial_squared = 1.5 * contract(w->s_new, w->s_new); /* Eq. A5: von_mises(s_new) is its root */
     if (m->strength == MPM_STRENGTH_ELASTIC)
         return 0;
     /* sigma_y >= 2 G y_inf at any rate and strain below melt (tau >= tau_y >= y_inf, Eq. 2.7b): a trial stress
-     * below that is elastic without evaluating PTW (most points of a substrate, most steps) */
-    if (G > 0.0 && trial <= 2.0 * G * m->ptw_yinf) {
+     * below that is elastic without evaluating PTW (most points of a substrate, most steps); most of those are
+     * told by the square, without the square root's latency */
+    double bound = 2.0 * G * m->ptw_yinf;
+    if (G > 0.0 && trial_squared < BELOW_SQUARE * bound * bound) {
+        w->yield = state->yield_stress;
+        return 0;
+    }
+    double trial = sqrt(trial_squared);
+    if (G > 0.0 && trial <= bound) {
         w->yield = state->yield_stress;
         return 0;
     }
@@ -444,19 +446,39 @@ static int deviatoric_begin(const struct mpm_material *m, const struct mpm_mater
     return 1;
 }
 
+/* Tang Eqs. A3, A4 and A1.3 into w: s_rot the deviator of the rotated stress, the strain increment and its
+ * trace/3, and the elastic trial s_new = s_rot + 2 G dev(strain).  Written out in scalars: as loops over the six
+ * components (deviator), gcc vectorised them with the deviators in stack arrays, stored in halves or one by one
+ * and loaded whole, which stalled on store forwarding (a fifth of mpm_stress_begin's samples).  The same
+ * operations: an off-diagonal deviator component t - 0.0 is t. */
+static void elastic_trial(const double sigma_rot[6], const double e[6], double G, struct mpm_stress_work *w)
+{
+    double mean = (sigma_rot[0] + sigma_rot[1] + sigma_rot[2]) / 3.0;
+    double volumetric = (e[0] + e[1] + e[2]) / 3.0, two_G = 2.0 * G;
+    double s0 = sigma_rot[0] - mean, s1 = sigma_rot[1] - mean, s2 = sigma_rot[2] - mean;
+    double s3 = sigma_rot[3], s4 = sigma_rot[4], s5 = sigma_rot[5];
+    w->volumetric = volumetric;
+    w->s_rot[0] = s0, w->s_rot[1] = s1, w->s_rot[2] = s2, w->s_rot[3] = s3, w->s_rot[4] = s4, w->s_rot[5] = s5;
+    w->s_new[0] = s0 + two_G * (e[0] - volumetric);
+    w->s_new[1] = s1 + two_G * (e[1] - volumetric);
+    w->s_new[2] = s2 + two_G * (e[2] - volumetric);
+    w->s_new[3] = s3 + two_G * e[3];
+    w->s_new[4] = s4 + two_G * e[4];
+    w->s_new[5] = s5 + two_G * e[5];
+    w->strain[0] = e[0], w->strain[1] = e[1], w->strain[2] = e[2];
+    w->strain[3] = e[3], w->strain[4] = e[4], w->strain[5] = e[5];
+}
+
 int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
                      const double strain_increment[6], const double spin_increment[3], double G, double dt,
                      double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
                      struct mpm_stress_work *w)
 {
-    double sigma_rot[6], dev_strain[6], mean_rot;
+    double sigma_rot[6];
     w->rho_new = m->density * volume0 / volume_new;
     jaumann_rotate(state->stress, spin_increment, sigma_rot); /* Eq. A2 */
-    deviator(sigma_rot, w->s_rot, &mean_rot);                 /* Eq. A3 */
-    deviator(strain_increment, dev_strain, &w->volumetric);   /* Eq. A4 */
-    for (int k = 0; k < 6; k++)
-        w->strain[k] = strain_increment[k];
-    w->returning = deviatoric_begin(m, c, state, dev_strain, G, dt, log_dt, w);
+    elastic_trial(sigma_rot, strain_increment, G, w);        /* Eqs. A3, A4, A1.3 */
+    w->returning = deviatoric_begin(m, c, state, G, dt, log_dt, w);
     return w->returning;
 }
 
