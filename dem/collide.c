@@ -159,6 +159,7 @@ static void keep_start_velocity(struct dem_solver *s, uint32_t i)
     memcpy(p->v_start + 3 * i, p->v + 3 * i, 3 * sizeof(double));
     memcpy(p->w_start + 3 * i, p->w + 3 * i, 3 * sizeof(double));
     s->start_kept[i] = 1;
+    s->contact_flags_set = 1;
 }
 
 static void store_sphere(struct dem_solver *s, uint32_t i, const struct sphere_state *sphere)
@@ -200,6 +201,7 @@ static void path_restart(struct dem_solver *s, uint32_t i, double at, const doub
     s->path_time[i] = at;
     memcpy(s->path_x + 3 * i, x, 3 * sizeof(double));
     s->path_changed[i] = 1;
+    s->contact_flags_set = 1;
 }
 
 /* When particle i, on its current path, touches the target (partner < 0) or particle `partner` (on its
@@ -605,5 +607,6 @@ void dem_collide(struct dem_solver *s)
             resolve_pair(s, c->a, c->b);
         }
     }
-    resolve_secondary_contacts(s);
+    if (s->contact_flags_set) /* else no path changed */
+        resolve_secondary_contacts(s);
 }

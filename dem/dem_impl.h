@@ -146,6 +146,8 @@ struct dem_solver {
     uint8_t *path_changed;        /* set when the path restarts; read by the next pass of contacts */
     uint8_t *start_kept;          /* set when x_start, v_start and w_start of the particle hold this step's
                                    * start (it collided) and its path restarted */
+    int contact_flags_set;        /* a start_kept or path_changed was set in this step (else all are 0: the
+                                   * step's end need not visit them) */
     uint32_t *seen;               /* per particle: stamp of the last grid query that visited it (only equality
                                    * with the current stamp counts; stamps grow from step to step) */
     uint32_t seen_stamp;

@@ -702,6 +702,21 @@ static int block_spin_non_finite(const struct dem_solver *s, const struct block 
     return bad;
 }
 
+/* The contacts of the step are over for the block's particles (dem_contacts_end_step); *bad is set if the spin
+ * of one that had a contact is not finite. */
+static void block_end_contacts(struct dem_solver *s, const struct block *b, int consecutive, int *bad)
+{
+    if (!consecutive || any_lane(s->start_kept + b->index[0]))
+        *bad |= block_spin_non_finite(s, b);
+    if (consecutive) {
+        memset(s->start_kept + b->index[0], 0, BLOCK);
+        memset(s->path_changed + b->index[0], 0, BLOCK);
+    } else {
+        for (size_t l = 0; l < b->count; l++)
+            dem_contacts_end_step(s, b->index[l]);
+    }
+}
+
 /* The integration's share of the next step's broad phase (struct dem_bins: reach_verified): whether each
  * particle's swept box of the next step, from where this step leaves it, lies in its reach box, as
  * broadphase.c's reach_flags would find at the next step on the same numbers (a particle at a boundary may
@@ -746,15 +761,8 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
         block_verify_reach(s, b, at_boundary, 1);
     else if (s->bins.reach_verified)
         block_verify_reach(s, b, at_boundary, 0);
-    if (!consecutive || any_lane(s->start_kept + b->index[0]))
-        *bad |= block_spin_non_finite(s, b);
-    if (consecutive) { /* dem_contacts_end_step of all lanes */
-        memset(s->start_kept + b->index[0], 0, BLOCK);
-        memset(s->path_changed + b->index[0], 0, BLOCK);
-    } else {
-        for (size_t l = 0; l < b->count; l++)
-            dem_contacts_end_step(s, b->index[l]);
-    }
+    if (s->contact_flags_set) /* else every flag is 0 (as between steps): nothing to test or clear */
+        block_end_contacts(s, b, consecutive, bad);
     size_t n = 0;
     if (!any_lane(at_boundary))
         return 0;
@@ -962,6 +970,7 @@ int dem_integrate(struct dem_solver *s)
             }
         }
     }
+    s->contact_flags_set = 0; /* every moving particle's were cleared */
     list_at_boundary(s, landed, landed_hits, hits, hit_count, blocks);
     free(hits);
     free(hit_count);

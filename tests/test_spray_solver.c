@@ -471,6 +471,7 @@ static void test_spin_blow_up_is_reported(void)
     memcpy(f.solver->p.v_start + 3, f.solver->p.v + 3, 3 * sizeof(double));
     memcpy(f.solver->p.w_start + 3, f.solver->p.w + 3, 3 * sizeof(double));
     f.solver->start_kept[1] = 1;
+    f.solver->contact_flags_set = 1;
     check_blow_up_reported(&f, "spin is not finite");
     fixture_close(&f);
 }
