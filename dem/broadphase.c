@@ -547,20 +547,24 @@ static int run_verified(const uint8_t *verified, size_t first, size_t end)
  * of the build passes), which the ids alone give, without the 100-odd bytes per particle of the box test.
  * Where the integration verified every particle of the run (bins->reach_verified: each flew at the build and
  * flies on, and its swept box of this step lies in its reach box, tested on the same numbers), the answer is
- * `same` too.  The verifications are used once: cleared here. */
+ * 1: `same` holds for every particle below built_count (removals move the built arrays with the particles,
+ * or make the next build a rebuild, which clears the verifications).  They are used once: cleared here. */
 #define RUN_DEPOSITS 64
 static void reach_flags_of_runs(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
                                 size_t end, uint8_t *restrict verified, uint8_t *restrict inside)
 {
     for (size_t run = first; run < end; run += RUN_DEPOSITS) {
         size_t run_end = run + RUN_DEPOSITS < end ? run + RUN_DEPOSITS : end;
-        if (!run_verified(verified, run, run_end) && memchr(bins->built_flying + run, 1, run_end - run)) {
+        if (run_verified(verified, run, run_end)) {
+            memset(inside + run, 1, run_end - run);
+            memset(verified + run, 0, run_end - run);
+        } else if (memchr(bins->built_flying + run, 1, run_end - run)) {
             reach_flags(bins, p, dt, run, run_end, inside);
+            memset(verified + run, 0, run_end - run);
         } else {
             for (size_t i = run; i < run_end; i++)
                 inside[i] = p->id[i] == bins->built_id[i];
         }
-        memset(verified + run, 0, run_end - run);
     }
 }
 
