@@ -594,6 +594,8 @@ static int collect_failing(struct dem_bins *bins, const struct dem_particles *p,
                             (k + 1) * chunk < bins->built_count ? (k + 1) * chunk : bins->built_count,
                             bins->reach_verified, inside);
     ensure_particle_capacity(bins, p->count);
+    /* the integration's marks of the particles injected since: none (their slots may hold removed ones') */
+    memset(bins->reach_verified + bins->built_count, 0, p->count - bins->built_count);
     size_t limit = repair_limit(p->count), grown = 0;
     int fits = 1;
     bins->failing_count = 0;

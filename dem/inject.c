@@ -113,6 +113,7 @@ static void inject_stream(struct dem_solver *s)
 void dem_inject_file(struct dem_solver *s)
 {
     const struct dem_config *cfg = &s->cfg;
+    particles_reserve(&s->p, s->p.count + cfg->file_particle_count); /* at once, not by doubling */
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
         const double *row = cfg->file_particles + 10 * i;
         particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
