@@ -533,38 +533,49 @@ static void reach_flags(const struct dem_bins *bins, const struct dem_particles 
     }
 }
 
-/* Did the integration verify every particle of [first, end) (bins->reach_verified)?  A loop that vectorises. */
-static int run_verified(const uint8_t *verified, size_t first, size_t end)
+/* Are all n flags (0 or 1) set?  A loop that vectorises. */
+static int all_set(const uint8_t *flags, size_t n)
 {
     uint8_t all = 1;
-    for (size_t i = first; i < end; i++)
-        all &= verified[i];
+    for (size_t k = 0; k < n; k++)
+        all &= flags[k];
     return all;
 }
 
-/* reach_flags in runs of RUN_DEPOSITS particles.  Where none of a run flew at the build (late in a spray most
- * particles are deposits, and the oldest are all deposits), reach_flags answers `same` for each (a deposit
- * of the build passes), which the ids alone give, without the 100-odd bytes per particle of the box test.
- * Where the integration verified every particle of the run (bins->reach_verified: each flew at the build and
- * flies on, and its swept box of this step lies in its reach box, tested on the same numbers), the answer is
- * 1: `same` holds for every particle below built_count (removals move the built arrays with the particles,
- * or make the next build a rebuild, which clears the verifications).  They are used once: cleared here. */
+/* Is every particle of [first, end) verified by the integration or a deposit of the build?  A loop that
+ * vectorises. */
+static int run_needs_no_box_test(const struct dem_bins *bins, size_t first, size_t end)
+{
+    uint8_t all = 1;
+    for (size_t i = first; i < end; i++)
+        all &= bins->reach_verified[i] | !bins->built_flying[i];
+    return all;
+}
+
+/* reach_flags in runs of RUN_DEPOSITS particles, where it can be answered without the box test:
+ * - a particle that the integration verified (bins->reach_verified: it flew at the build and flies on, and its
+ *   swept box of this step lies in its reach box, tested on the same numbers) passes: `same` holds for every
+ *   particle below built_count (removals move the built arrays with the particles, or make the next build a
+ *   rebuild, which clears the verifications), so a run of them all is answered without reading the ids;
+ * - a deposit of the build passes if it is the same particle (deposits never move): reach_flags answers `same`
+ *   for it, which the ids alone give, without the 100-odd bytes per particle of the box test.  Late in a spray
+ *   most particles are deposits, and the oldest runs are all deposits.
+ * The verifications are used once: cleared here. */
 #define RUN_DEPOSITS 64
 static void reach_flags_of_runs(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
                                 size_t end, uint8_t *restrict verified, uint8_t *restrict inside)
 {
     for (size_t run = first; run < end; run += RUN_DEPOSITS) {
         size_t run_end = run + RUN_DEPOSITS < end ? run + RUN_DEPOSITS : end;
-        if (run_verified(verified, run, run_end)) {
+        if (all_set(verified + run, run_end - run)) {
             memset(inside + run, 1, run_end - run);
-            memset(verified + run, 0, run_end - run);
-        } else if (memchr(bins->built_flying + run, 1, run_end - run)) {
-            reach_flags(bins, p, dt, run, run_end, inside);
-            memset(verified + run, 0, run_end - run);
-        } else {
+        } else if (run_needs_no_box_test(bins, run, run_end)) {
             for (size_t i = run; i < run_end; i++)
                 inside[i] = p->id[i] == bins->built_id[i];
+        } else {
+            reach_flags(bins, p, dt, run, run_end, inside);
         }
+        memset(verified + run, 0, run_end - run);
     }
 }
 
