@@ -175,6 +175,28 @@ int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_co
                       double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
                       struct mpm_update_result *result);
 
+/* The first and last phases for the points of a block, without a call per point (a call's prologue and epilogue
+ * were ~40 instructions): point k < n, skipped unless updating[k], is of material materials[material[k]] (its
+ * constants constants[material[k]]), with strain[k], spin[k], G[k], volume0[k], volume_old[k] (finish only),
+ * volume_new[k], state[k] and work[k] as the arguments of mpm_stress_begin and mpm_stress_finish; finish writes
+ * result[k], and failed[k] = 1 where mpm_stress_finish would return -1. */
+struct mpm_stress_block {
+    int n;
+    const int *material, *updating;
+    const struct mpm_material *materials;
+    const struct mpm_material_constants *constants;
+    const struct bulk_viscosity *viscosity;
+    double dt, log_dt;
+    const double (*strain)[6], (*spin)[3];
+    const double *G, *volume0, *volume_old, *volume_new;
+    struct mpm_point_state *state;
+    struct mpm_stress_work *work;
+    struct mpm_update_result *result;
+    int *failed;
+};
+void mpm_stress_begin_block(const struct mpm_stress_block *b);
+void mpm_stress_finish_block(const struct mpm_stress_block *b);
+
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);
 
