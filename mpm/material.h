@@ -66,8 +66,22 @@ double scg_melt_temperature(const struct mpm_material *m, double rho);
 
 /* ---- eos.c ---- */
 /* The linear-in-energy form p = A(mu) + B(mu) E, E the internal energy per initial volume (J/m3),
- * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0. */
-void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B);
+ * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0.  A and B (the
+ * coefficients of mpm/eos.c) inline: the stress update evaluates them for every point and step. */
+static inline void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B)
+{
+    double mu = rho / m->density - 1.0;
+    double c1 = m->density * m->eos_c0 * m->eos_c0;
+    *B = m->eos_gamma0;
+    if (!(mu > 0.0)) {
+        *A = c1 * mu;
+        return;
+    }
+    double c2 = c1 * (2.0 * m->eos_s - 1.0);
+    double c3 = c1 * (m->eos_s - 1.0) * (3.0 * m->eos_s - 1.0);
+    double hugoniot = mu * (c1 + mu * (c2 + mu * c3));
+    *A = hugoniot * (1.0 - m->eos_gamma0 * mu / (2.0 * (1.0 + mu)));
+}
 double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume);
 
 /* ---- stress_update.c ---- */
