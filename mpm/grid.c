@@ -277,7 +277,9 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
             for (int a = 0; a < width; a++) {
                 double wyz = st->w[1][b] * st->w[2][c];
                 double N = st->w[0][a] * wyz;
-                if (N == 0.0 && st->g[0][a] == 0.0)
+                /* a node with N = 0 and dN_0 = 0 adds nothing (uGIMP); a trilinear stencil (width 2, the
+                 * literal of the inlined copy) has g = +-1/h, never 0, so the test is left out there */
+                if (width != 2 && N == 0.0 && st->g[0][a] == 0.0)
                     continue;
                 double dN0 = st->g[0][a] * wyz, dN1 = st->w[0][a] * st->g[1][b] * st->w[2][c];
                 double dN2 = st->w[0][a] * st->w[1][b] * st->g[2][c];
