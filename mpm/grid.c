@@ -324,7 +324,10 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
-                if (N == 0.0)
+                /* uGIMP skips its many N = 0 nodes; a trilinear stencil (width 2) has them only for a point on a
+                 * node plane, where adding (m v) 0 = +-0 leaves the sum's bits as they are (a sum that starts at
+                 * +0 is never -0) for a finite m v: no test, a straight loop */
+                if (width != 2 && N == 0.0)
                     continue;
                 vec3pad momentum = mv * N;
                 node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, &momentum);
