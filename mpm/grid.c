@@ -230,26 +230,6 @@ void grid_bin_points(struct mpm_solver *s)
     g->block_start[0] = 0;
 }
 
-void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
-{
-    const struct mpm_points *p = &s->points;
-    const double *v = p->v + 3 * q;
-    const double *coef = s->body_dashpot + 2 * p->body[q];
-    f[0] = f[1] = f[2] = 0.0;
-    /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face, a = b = 1 */
-    if (p->flags[q] & POINT_BOTTOM) {
-        f[0] -= coef[1] * v[0];
-        f[1] -= coef[1] * v[1];
-        f[2] -= coef[0] * v[2];
-    }
-    if (p->flags[q] & POINT_SIDE) {
-        const double *n = p->normal + 3 * q;
-        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        for (int d = 0; d < 3; d++)
-            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
-    }
-}
-
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
  * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
 STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)

@@ -331,8 +331,8 @@ void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *
 /* ---- energy, pressure, viscosity ---- */
 
 /* Tang Eqs. 3.41-3.43 / A9-A11: returns p^{n+1}, updates *energy from e^n to e^{n+1}. */
-static double eos_energy_update(const struct mpm_material *m, double rho_new, double deviatoric_work,
-                                double pressure_old, double volume0, double dV, double *energy)
+FM_INLINE double eos_energy_update(const struct mpm_material *m, double rho_new, double deviatoric_work,
+                                   double pressure_old, double volume0, double dV, double *energy)
 {
     double e_trial = *energy + deviatoric_work - 0.5 * dV * pressure_old; /* Eq. 3.41 */
     double A, B;
