@@ -159,7 +159,10 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
             for (int a = 0; a < width; a++) {
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 size_t I = layer + stencil_node(g, st, a, b, c);
-                if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
+                /* a light node has no velocity.  A heavy node with N = 0 adds 0 times its finite momenta, +-0,
+                 * which leaves the sums' bits (they start at +0, so are never -0): trilinear stencils (width 2)
+                 * have such nodes only for a point on a node plane, and are not tested for them */
+                if ((width != 2 && N == 0.0) || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
                 vec3pad momentum_new, momentum;
