@@ -225,8 +225,14 @@ void contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_
 /* Contact normal between the bodies of layer entries Ia and Ib (same node), from a into b; -1 if undefined. */
 int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
 
-/* bonding.c */
-void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+/* bonding.c: D_bond of point p grows (bonding_update) where it is a surface point in contact and a model is on;
+ * the test inline, since it is all that most points need at every step. */
+void bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
+{
+    if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
+        bonding_grow(s, p, eps_p_increment, von_mises);
+}
 
 /* diagnostics.c */
 void series_record(struct mpm_solver *s);
