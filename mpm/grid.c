@@ -205,7 +205,7 @@ void grid_bin_points(struct mpm_solver *s)
             continue;
         int b[3];
         for (int d = 0; d < 3; d++) {
-            b[d] = st.base[d] / BLOCK_CELLS;
+            b[d] = (int)((unsigned)st.base[d] / BLOCK_CELLS); /* base >= 0 (xi > 1): unsigned, a shift */
             g->point_fraction[3 * q + d] = f[d];
         }
         g->point_node[q] = (uint32_t)st.node;
