@@ -205,9 +205,19 @@ static int return_advance(struct mpm_return *r, double d, double f, double df_du
     }
 }
 
-static int is_yield_check(const struct mpm_return *r)
+/* The returns active[0 .. n_active - 1] packed into lanes 0 .. n_lanes - 1, padded with copies of the last one.
+ * Not vectorised: gcc's vector loop read the returns' fields with gathers, slow on AMD Zen (with their masks, two
+ * fifths of mpm_stress_returns' samples in the -march=native build); scalar copies are plain loads. */
+__attribute__((optimize("no-tree-vectorize"))) static void
+pack_lanes(struct mpm_return *const *returns, const int *active, int n_active, int n_lanes, struct return_lanes *lanes)
 {
-    return r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK;
+    for (int i = 0; i < n_lanes; i++) {
+        const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
+        lanes->u[i] = r->u;
+        lanes->check[i] = (uint16_t)(r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK);
+        lanes->eps_p[i] = r->eps_p, lanes->G[i] = r->G, lanes->trial[i] = r->trial, lanes->T_hat[i] = r->T_hat;
+        lanes->log_rate_scale[i] = r->log_rate_scale, lanes->log_ratio_floor[i] = r->log_ratio_floor;
+    }
 }
 
 /* The lanes of the returns' set-up, structure of arrays: inputs, then results. */
@@ -312,13 +322,7 @@ void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *
         /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one (padding to
          * 8 instead made consistency_lanes half again as costly on AVX-512: perf, 4 ns impact) */
         int n_lanes = (n_active + 15) & ~15;
-        for (int i = 0; i < n_lanes; i++) {
-            const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
-            lanes.u[i] = r->u;
-            lanes.check[i] = (uint16_t)is_yield_check(r);
-            lanes.eps_p[i] = r->eps_p, lanes.G[i] = r->G, lanes.trial[i] = r->trial, lanes.T_hat[i] = r->T_hat;
-            lanes.log_rate_scale[i] = r->log_rate_scale, lanes.log_ratio_floor[i] = r->log_ratio_floor;
-        }
+        pack_lanes(returns, active, n_active, n_lanes, &lanes);
         consistency_lanes(m, n_lanes, &lanes);
         int still = 0;
         for (int i = 0; i < n_active; i++)
