@@ -283,25 +283,39 @@ FM_INLINE void setup_lane(const struct mpm_material *m, const struct mpm_materia
 }
 
 /* The set-up of returns 0..n-1 (all RETURN_SETUP, one material): packed into lanes, set up together, unpacked. */
+/* The returns' inputs into the set-up lanes, and the lanes' results back.  Not vectorised, as pack_lanes: gcc's
+ * vector loops were AVX-512 gathers and scatters. */
+__attribute__((optimize("no-tree-vectorize"))) static void setup_load(struct mpm_return *const *returns, int n,
+                                                                      struct setup_lanes *l)
+{
+    for (int i = 0; i < n; i++) {
+        const struct mpm_return *r = returns[i];
+        l->G[i] = r->G, l->trial[i] = r->trial, l->rho[i] = r->rho, l->T[i] = r->T, l->Tm[i] = r->Tm;
+        l->previous[i] = r->previous, l->previous_yield[i] = r->previous_yield, l->dt[i] = r->dt;
+        l->log_dt[i] = r->log_dt;
+    }
+}
+
+__attribute__((optimize("no-tree-vectorize"))) static void setup_store(const struct setup_lanes *l, int n,
+                                                                       struct mpm_return *const *returns)
+{
+    for (int i = 0; i < n; i++) {
+        struct mpm_return *r = returns[i];
+        r->T_hat = l->T_hat[i], r->log_rate_scale = l->log_rate_scale[i], r->log_ratio_floor = l->log_ratio_floor[i];
+        r->u = l->u[i], r->u_lo = l->u_lo[i], r->u_hi = l->u_hi[i];
+        r->phase = l->start[i] ? RETURN_START : RETURN_YIELD_CHECK;
+    }
+}
+
 static void setup_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
 {
     struct setup_lanes l;
     const struct mpm_material m = *material;
     const struct mpm_material_constants c = *returns[0]->constants;
-    for (int i = 0; i < n; i++) {
-        const struct mpm_return *r = returns[i];
-        l.G[i] = r->G, l.trial[i] = r->trial, l.rho[i] = r->rho, l.T[i] = r->T, l.Tm[i] = r->Tm;
-        l.previous[i] = r->previous, l.previous_yield[i] = r->previous_yield, l.dt[i] = r->dt;
-        l.log_dt[i] = r->log_dt;
-    }
+    setup_load(returns, n, &l);
     for (int i = 0; i < n; i++)
         setup_lane(&m, &c, i, &l);
-    for (int i = 0; i < n; i++) {
-        struct mpm_return *r = returns[i];
-        r->T_hat = l.T_hat[i], r->log_rate_scale = l.log_rate_scale[i], r->log_ratio_floor = l.log_ratio_floor[i];
-        r->u = l.u[i], r->u_lo = l.u_lo[i], r->u_hi = l.u_hi[i];
-        r->phase = l.start[i] ? RETURN_START : RETURN_YIELD_CHECK;
-    }
+    setup_store(&l, n, returns);
 }
 
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
