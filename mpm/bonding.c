@@ -30,11 +30,10 @@ static double strain_increment(const struct mpm_config *cfg, double eps_p_increm
     return eps_bond > 0.0 ? eps_p_increment / eps_bond : 0.0;
 }
 
-void bonding_update(struct mpm_solver *s, size_t q, double eps_p_increment, double von_mises)
+/* A surface point in contact with a bonding model on (bonding_update in mpm_impl.h). */
+void bonding_grow(struct mpm_solver *s, size_t q, double eps_p_increment, double von_mises)
 {
     const struct mpm_config *cfg = &s->cfg;
-    if (cfg->bonding == MPM_BONDING_NONE || !(s->points.flags[q] & POINT_CONTACT))
-        return;
     double increment = cfg->bonding == MPM_BONDING_ENERGY ? energy_increment(cfg, eps_p_increment, von_mises, s->dt)
                                                           : strain_increment(cfg, eps_p_increment, s->dt);
     s->points.d_bond[q] += increment;

@@ -5,23 +5,9 @@
  *   tension     (mu <= 0): A = C1 mu,                                                    B = Gamma0
  * Decision: MPM3D-F90 sets B = 0 in tension.  We keep B = Gamma0 there so that p is continuous at mu = 0 when
  * E != 0 (a point heated by plastic work and then unloaded would otherwise see its pressure jump by
- * Gamma0 E).  dA/dmu = C1 on both sides, so dp/dmu is continuous as well. */
+ * Gamma0 E).  dA/dmu = C1 on both sides, so dp/dmu is continuous as well.  eos_coefficients is in material.h
+ * (inline: the stress update calls it for every point and step). */
 #include "mpm/material.h"
-
-void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B)
-{
-    double mu = rho / m->density - 1.0;
-    double c1 = m->density * m->eos_c0 * m->eos_c0;
-    *B = m->eos_gamma0;
-    if (!(mu > 0.0)) {
-        *A = c1 * mu;
-        return;
-    }
-    double c2 = c1 * (2.0 * m->eos_s - 1.0);
-    double c3 = c1 * (m->eos_s - 1.0) * (3.0 * m->eos_s - 1.0);
-    double hugoniot = mu * (c1 + mu * (c2 + mu * c3));
-    *A = hugoniot * (1.0 - m->eos_gamma0 * mu / (2.0 * (1.0 + mu)));
-}
 
 /* Tang Eq. 3.42: p = A + B E. */
 double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume)

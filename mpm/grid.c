@@ -205,7 +205,7 @@ void grid_bin_points(struct mpm_solver *s)
             continue;
         int b[3];
         for (int d = 0; d < 3; d++) {
-            b[d] = st.base[d] / BLOCK_CELLS;
+            b[d] = (int)((unsigned)st.base[d] / BLOCK_CELLS); /* base >= 0 (xi > 1): unsigned, a shift */
             g->point_fraction[3 * q + d] = f[d];
         }
         g->point_node[q] = (uint32_t)st.node;
@@ -228,26 +228,6 @@ void grid_bin_points(struct mpm_solver *s)
     for (size_t b = g->block_count; b > 0; b--)
         g->block_start[b] = g->block_start[b - 1];
     g->block_start[0] = 0;
-}
-
-void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
-{
-    const struct mpm_points *p = &s->points;
-    const double *v = p->v + 3 * q;
-    const double *coef = s->body_dashpot + 2 * p->body[q];
-    f[0] = f[1] = f[2] = 0.0;
-    /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face, a = b = 1 */
-    if (p->flags[q] & POINT_BOTTOM) {
-        f[0] -= coef[1] * v[0];
-        f[1] -= coef[1] * v[1];
-        f[2] -= coef[0] * v[2];
-    }
-    if (p->flags[q] & POINT_SIDE) {
-        const double *n = p->normal + 3 * q;
-        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        for (int d = 0; d < 3; d++)
-            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
-    }
 }
 
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
@@ -277,7 +257,9 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
             for (int a = 0; a < width; a++) {
                 double wyz = st->w[1][b] * st->w[2][c];
                 double N = st->w[0][a] * wyz;
-                if (N == 0.0 && st->g[0][a] == 0.0)
+                /* a node with N = 0 and dN_0 = 0 adds nothing (uGIMP); a trilinear stencil (width 2, the
+                 * literal of the inlined copy) has g = +-1/h, never 0, so the test is left out there */
+                if (width != 2 && N == 0.0 && st->g[0][a] == 0.0)
                     continue;
                 double dN0 = st->g[0][a] * wyz, dN1 = st->w[0][a] * st->g[1][b] * st->w[2][c];
                 double dN2 = st->w[0][a] * st->w[1][b] * st->g[2][c];
@@ -322,7 +304,10 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
-                if (N == 0.0)
+                /* uGIMP skips its many N = 0 nodes; a trilinear stencil (width 2) has them only for a point on a
+                 * node plane, where adding (m v) 0 = +-0 leaves the sum's bits as they are (a sum that starts at
+                 * +0 is never -0) for a finite m v: no test, a straight loop */
+                if (width != 2 && N == 0.0)
                     continue;
                 vec3pad momentum = mv * N;
                 node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, &momentum);

@@ -66,8 +66,22 @@ double scg_melt_temperature(const struct mpm_material *m, double rho);
 
 /* ---- eos.c ---- */
 /* The linear-in-energy form p = A(mu) + B(mu) E, E the internal energy per initial volume (J/m3),
- * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0. */
-void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B);
+ * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0.  A and B (the
+ * coefficients of mpm/eos.c) inline: the stress update evaluates them for every point and step. */
+static inline void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B)
+{
+    double mu = rho / m->density - 1.0;
+    double c1 = m->density * m->eos_c0 * m->eos_c0;
+    *B = m->eos_gamma0;
+    if (!(mu > 0.0)) {
+        *A = c1 * mu;
+        return;
+    }
+    double c2 = c1 * (2.0 * m->eos_s - 1.0);
+    double c3 = c1 * (m->eos_s - 1.0) * (3.0 * m->eos_s - 1.0);
+    double hugoniot = mu * (c1 + mu * (c2 + mu * c3));
+    *A = hugoniot * (1.0 - m->eos_gamma0 * mu / (2.0 * (1.0 + mu)));
+}
 double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume);
 
 /* ---- stress_update.c ---- */
@@ -174,6 +188,28 @@ int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_co
                       const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
                       struct mpm_update_result *result);
+
+/* The first and last phases for the points of a block, without a call per point (a call's prologue and epilogue
+ * were ~40 instructions): point k < n, skipped unless updating[k], is of material materials[material[k]] (its
+ * constants constants[material[k]]), with strain[k], spin[k], G[k], volume0[k], volume_old[k] (finish only),
+ * volume_new[k], state[k] and work[k] as the arguments of mpm_stress_begin and mpm_stress_finish; finish writes
+ * result[k], and failed[k] = 1 where mpm_stress_finish would return -1. */
+struct mpm_stress_block {
+    int n;
+    const int *material, *updating;
+    const struct mpm_material *materials;
+    const struct mpm_material_constants *constants;
+    const struct bulk_viscosity *viscosity;
+    double dt, log_dt;
+    const double (*strain)[6], (*spin)[3];
+    const double *G, *volume0, *volume_old, *volume_new;
+    struct mpm_point_state *state;
+    struct mpm_stress_work *work;
+    struct mpm_update_result *result;
+    int *failed;
+};
+void mpm_stress_begin_block(const struct mpm_stress_block *b);
+void mpm_stress_finish_block(const struct mpm_stress_block *b);
 
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);

@@ -196,8 +196,28 @@ void grid_bin_points(struct mpm_solver *s);
 void grid_transfer_all(struct mpm_solver *s);
 /* MUSL re-projection: momentum only, into momentum_new (step 8). */
 void grid_transfer_momentum(struct mpm_solver *s);
-/* Absorbing-boundary (dashpot) force on a point, Eqs. 3.45-3.46. */
-void boundary_dashpot_force(const struct mpm_solver *s, size_t p, double force[3]);
+/* Absorbing-boundary (dashpot) force on a point, Eqs. 3.45-3.46.  Inline: the particle-to-grid transfer and the
+ * absorbed-energy booking ask for it at every boundary point and step, and out of line the force went through
+ * memory. */
+static inline void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
+{
+    const struct mpm_points *p = &s->points;
+    const double *v = p->v + 3 * q;
+    const double *coef = s->body_dashpot + 2 * p->body[q];
+    f[0] = f[1] = f[2] = 0.0;
+    /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face, a = b = 1 */
+    if (p->flags[q] & POINT_BOTTOM) {
+        f[0] -= coef[1] * v[0];
+        f[1] -= coef[1] * v[1];
+        f[2] -= coef[0] * v[2];
+    }
+    if (p->flags[q] & POINT_SIDE) {
+        const double *n = p->normal + 3 * q;
+        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+        for (int d = 0; d < 3; d++)
+            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
+    }
+}
 
 /* contact.c: nodal update, contact and bond forces, rigid wall (steps 3-6, 8). */
 void contact_nodal_update(struct mpm_solver *s);
@@ -205,8 +225,14 @@ void contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_
 /* Contact normal between the bodies of layer entries Ia and Ib (same node), from a into b; -1 if undefined. */
 int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
 
-/* bonding.c */
-void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+/* bonding.c: D_bond of point p grows (bonding_update) where it is a surface point in contact and a model is on;
+ * the test inline, since it is all that most points need at every step. */
+void bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
+{
+    if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
+        bonding_grow(s, p, eps_p_increment, von_mises);
+}
 
 /* diagnostics.c */
 void series_record(struct mpm_solver *s);

@@ -159,7 +159,10 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
             for (int a = 0; a < width; a++) {
                 double N = st->w[0][a] * st->w[1][b] * st->w[2][c];
                 size_t I = layer + stencil_node(g, st, a, b, c);
-                if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
+                /* a light node has no velocity.  A heavy node with N = 0 adds 0 times its finite momenta, +-0,
+                 * which leaves the sums' bits (they start at +0, so are never -0): trilinear stencils (width 2)
+                 * have such nodes only for a point on a node plane, and are not tested for them */
+                if ((width != 2 && N == 0.0) || !(g->mass[I] > g->mass_cutoff))
                     continue;
                 double w = N / g->mass[I];
                 vec3pad momentum_new, momentum;
@@ -276,27 +279,38 @@ static int velocity_gradient(const struct mpm_solver *s, size_t q, double L[3][3
 /* A block of points between the phases of its update. */
 struct point_block {
     struct mpm_stress_work work[POINT_BLOCK];
+    struct mpm_update_result result[POINT_BLOCK];
+    double strain[POINT_BLOCK][6], spin[POINT_BLOCK][3];
     double volume_new[POINT_BLOCK], T[POINT_BLOCK], G[POINT_BLOCK];
-    int material[POINT_BLOCK], contact[POINT_BLOCK], updating[POINT_BLOCK];
+    int material[POINT_BLOCK], contact[POINT_BLOCK], updating[POINT_BLOCK], failed[POINT_BLOCK];
 };
 
-/* Steps 10-11 up to the return for point q (slot k of the block): strain and spin increments (Eq. 3.35), the new
- * volume (Eq. 3.36), the stress update's first phase.  Returns -1 for a non-positive volume. */
-static int begin_point(const struct mpm_solver *s, size_t q, double log_dt, struct point_block *b, int k)
+/* Steps 10-11 up to the stress update for point q (slot k of the block): strain and spin increments (Eq. 3.35)
+ * and the new volume (Eq. 3.36).  Returns -1 for a non-positive volume. */
+static int point_increments(const struct mpm_solver *s, size_t q, struct point_block *b, int k)
+{
+    double L[3][3], dt = s->dt, *de = b->strain[k], *dw = b->spin[k];
+    b->contact[k] = velocity_gradient(s, q, L);
+    de[0] = L[0][0] * dt, de[1] = L[1][1] * dt, de[2] = L[2][2] * dt;
+    de[3] = 0.5 * (L[1][2] + L[2][1]) * dt, de[4] = 0.5 * (L[0][2] + L[2][0]) * dt;
+    de[5] = 0.5 * (L[0][1] + L[1][0]) * dt;
+    dw[0] = 0.5 * (L[1][2] - L[2][1]) * dt, dw[1] = 0.5 * (L[0][2] - L[2][0]) * dt;
+    dw[2] = 0.5 * (L[0][1] - L[1][0]) * dt;
+    b->volume_new[k] = s->points.volume[q] * (1.0 + de[0] + de[1] + de[2]);
+    return b->volume_new[k] > 0.0 ? 0 : -1;
+}
+
+/* The stress update's view of the block of points q0 .. q0 + count - 1 (mpm_stress_begin_block). */
+static struct mpm_stress_block stress_block(const struct mpm_solver *s, long q0, int count, double log_dt,
+                                            struct point_block *b)
 {
     const struct mpm_points *p = &s->points;
-    double L[3][3], dt = s->dt;
-    b->contact[k] = velocity_gradient(s, q, L);
-    double de[6] = {L[0][0] * dt, L[1][1] * dt, L[2][2] * dt, 0.5 * (L[1][2] + L[2][1]) * dt,
-                    0.5 * (L[0][2] + L[2][0]) * dt, 0.5 * (L[0][1] + L[1][0]) * dt};
-    double dw[3] = {0.5 * (L[1][2] - L[2][1]) * dt, 0.5 * (L[0][2] - L[2][0]) * dt, 0.5 * (L[0][1] - L[1][0]) * dt};
-    b->volume_new[k] = p->volume[q] * (1.0 + de[0] + de[1] + de[2]);
-    if (!(b->volume_new[k] > 0.0))
-        return -1;
-    int material = b->material[k];
-    mpm_stress_begin(&s->cfg.materials[material], &s->material_constants[material], de, dw, b->G[k], dt, log_dt,
-                     p->volume0[q], b->volume_new[k], &p->state[q], &b->work[k]);
-    return 0;
+    return (struct mpm_stress_block){
+        .n = count, .material = b->material, .updating = b->updating, .materials = s->cfg.materials,
+        .constants = s->material_constants, .viscosity = &s->cfg.viscosity, .dt = s->dt, .log_dt = log_dt,
+        .strain = b->strain, .spin = b->spin, .G = b->G, .volume0 = p->volume0 + q0, .volume_old = p->volume + q0,
+        .volume_new = b->volume_new, .state = p->state + q0, .work = b->work, .result = b->result,
+        .failed = b->failed};
 }
 
 /* The materials and shear moduli G(T) of the block's points: in lanes for the first point's material, again one
@@ -335,24 +349,19 @@ static void block_returns(const struct mpm_solver *s, struct point_block *b, int
     }
 }
 
-/* Step 11 after the return for point q: the stress update's last phase, volume, plastic work, contact flag,
- * bonding.  Returns -1 when the state became non-finite. */
-static int finish_point(struct mpm_solver *s, size_t q, struct point_block *b, int k)
+/* Step 11 after the stress update of point q (mpm_stress_finish_block): volume, plastic work, contact flag,
+ * bonding. */
+static void finish_point(struct mpm_solver *s, size_t q, const struct point_block *b, int k)
 {
     struct mpm_points *p = &s->points;
-    int material = b->material[k];
-    struct mpm_update_result r;
-    if (mpm_stress_finish(&s->cfg.materials[material], &s->material_constants[material], &s->cfg.viscosity, s->dt,
-                          p->volume0[q], p->volume[q], b->volume_new[k], &b->work[k], &p->state[q], &r) != 0)
-        return -1;
+    const struct mpm_update_result *r = &b->result[k];
     p->volume[q] = b->volume_new[k];
-    p->plastic_work[q] += r.plastic_work;
+    p->plastic_work[q] += r->plastic_work;
     if (b->contact[k]) /* a surface point touching another body (velocity_gradient) */
         p->flags[q] |= POINT_CONTACT;
     else
         p->flags[q] &= (uint8_t)~POINT_CONTACT;
-    bonding_update(s, q, r.eps_p_increment, r.von_mises);
-    return 0;
+    bonding_update(s, q, r->eps_p_increment, r->von_mises);
 }
 
 /* The smaller of a failed point's id and *bad (the one reported: the same for any storage order). */
@@ -367,20 +376,28 @@ static void note_failure(const struct mpm_points *p, size_t q, long *bad)
 static long update_block(struct mpm_solver *s, long q0, int count, double log_dt)
 {
     struct point_block b;
+    struct mpm_stress_block stress = stress_block(s, q0, count, log_dt, &b);
     long bad = -1;
     block_shear_moduli(s, q0, &b, count);
     for (int k = 0; k < count; k++) {
         size_t q = (size_t)(q0 + k);
         b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;
-        if (b.updating[k] && begin_point(s, q, log_dt, &b, k) != 0) {
+        if (b.updating[k] && point_increments(s, q, &b, k) != 0) {
             b.updating[k] = 0;
             note_failure(&s->points, q, &bad);
         }
     }
+    mpm_stress_begin_block(&stress);
     block_returns(s, &b, count);
-    for (int k = 0; k < count; k++)
-        if (b.updating[k] && finish_point(s, (size_t)(q0 + k), &b, k) != 0)
+    mpm_stress_finish_block(&stress);
+    for (int k = 0; k < count; k++) {
+        if (!b.updating[k])
+            continue;
+        if (b.failed[k]) /* the state became non-finite */
             note_failure(&s->points, (size_t)(q0 + k), &bad);
+        else
+            finish_point(s, (size_t)(q0 + k), &b, k);
+    }
     return bad;
 }
 

@@ -61,7 +61,7 @@ static inline double row_col(double a0, double a1, double a2, double b0, double 
  * (Omega sigma)_ij is summed over k = 0, 1, 2 with Omega's zero diagonal multiplied as well, so that the bits are
  * those of the matrix product; written out in scalars, since the product through 3 x 3 arrays on the stack
  * stalled on store forwarding (about a third of mpm_stress_begin's samples). */
-static void jaumann_rotate(const double sigma[6], const double spin[3], double rotated[6])
+FM_INLINE void jaumann_rotate(const double sigma[6], const double spin[3], double rotated[6])
 {
     double s00 = sigma[0], s11 = sigma[1], s22 = sigma[2], s12 = sigma[3], s02 = sigma[4], s01 = sigma[5];
     double w12 = spin[0], w02 = spin[1], w01 = spin[2], w21 = -spin[0], w20 = -spin[1], w10 = -spin[2];
@@ -205,9 +205,19 @@ static int return_advance(struct mpm_return *r, double d, double f, double df_du
     }
 }
 
-static int is_yield_check(const struct mpm_return *r)
+/* The returns active[0 .. n_active - 1] packed into lanes 0 .. n_lanes - 1, padded with copies of the last one.
+ * Not vectorised: gcc's vector loop read the returns' fields with gathers, slow on AMD Zen (with their masks, two
+ * fifths of mpm_stress_returns' samples in the -march=native build); scalar copies are plain loads. */
+__attribute__((optimize("no-tree-vectorize"))) static void
+pack_lanes(struct mpm_return *const *returns, const int *active, int n_active, int n_lanes, struct return_lanes *lanes)
 {
-    return r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK;
+    for (int i = 0; i < n_lanes; i++) {
+        const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
+        lanes->u[i] = r->u;
+        lanes->check[i] = (uint16_t)(r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK);
+        lanes->eps_p[i] = r->eps_p, lanes->G[i] = r->G, lanes->trial[i] = r->trial, lanes->T_hat[i] = r->T_hat;
+        lanes->log_rate_scale[i] = r->log_rate_scale, lanes->log_ratio_floor[i] = r->log_ratio_floor;
+    }
 }
 
 /* The lanes of the returns' set-up, structure of arrays: inputs, then results. */
@@ -273,25 +283,39 @@ FM_INLINE void setup_lane(const struct mpm_material *m, const struct mpm_materia
 }
 
 /* The set-up of returns 0..n-1 (all RETURN_SETUP, one material): packed into lanes, set up together, unpacked. */
+/* The returns' inputs into the set-up lanes, and the lanes' results back.  Not vectorised, as pack_lanes: gcc's
+ * vector loops were AVX-512 gathers and scatters. */
+__attribute__((optimize("no-tree-vectorize"))) static void setup_load(struct mpm_return *const *returns, int n,
+                                                                      struct setup_lanes *l)
+{
+    for (int i = 0; i < n; i++) {
+        const struct mpm_return *r = returns[i];
+        l->G[i] = r->G, l->trial[i] = r->trial, l->rho[i] = r->rho, l->T[i] = r->T, l->Tm[i] = r->Tm;
+        l->previous[i] = r->previous, l->previous_yield[i] = r->previous_yield, l->dt[i] = r->dt;
+        l->log_dt[i] = r->log_dt;
+    }
+}
+
+__attribute__((optimize("no-tree-vectorize"))) static void setup_store(const struct setup_lanes *l, int n,
+                                                                       struct mpm_return *const *returns)
+{
+    for (int i = 0; i < n; i++) {
+        struct mpm_return *r = returns[i];
+        r->T_hat = l->T_hat[i], r->log_rate_scale = l->log_rate_scale[i], r->log_ratio_floor = l->log_ratio_floor[i];
+        r->u = l->u[i], r->u_lo = l->u_lo[i], r->u_hi = l->u_hi[i];
+        r->phase = l->start[i] ? RETURN_START : RETURN_YIELD_CHECK;
+    }
+}
+
 static void setup_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
 {
     struct setup_lanes l;
     const struct mpm_material m = *material;
     const struct mpm_material_constants c = *returns[0]->constants;
-    for (int i = 0; i < n; i++) {
-        const struct mpm_return *r = returns[i];
-        l.G[i] = r->G, l.trial[i] = r->trial, l.rho[i] = r->rho, l.T[i] = r->T, l.Tm[i] = r->Tm;
-        l.previous[i] = r->previous, l.previous_yield[i] = r->previous_yield, l.dt[i] = r->dt;
-        l.log_dt[i] = r->log_dt;
-    }
+    setup_load(returns, n, &l);
     for (int i = 0; i < n; i++)
         setup_lane(&m, &c, i, &l);
-    for (int i = 0; i < n; i++) {
-        struct mpm_return *r = returns[i];
-        r->T_hat = l.T_hat[i], r->log_rate_scale = l.log_rate_scale[i], r->log_ratio_floor = l.log_ratio_floor[i];
-        r->u = l.u[i], r->u_lo = l.u_lo[i], r->u_hi = l.u_hi[i];
-        r->phase = l.start[i] ? RETURN_START : RETURN_YIELD_CHECK;
-    }
+    setup_store(&l, n, returns);
 }
 
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
@@ -312,13 +336,7 @@ void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *
         /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one (padding to
          * 8 instead made consistency_lanes half again as costly on AVX-512: perf, 4 ns impact) */
         int n_lanes = (n_active + 15) & ~15;
-        for (int i = 0; i < n_lanes; i++) {
-            const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
-            lanes.u[i] = r->u;
-            lanes.check[i] = (uint16_t)is_yield_check(r);
-            lanes.eps_p[i] = r->eps_p, lanes.G[i] = r->G, lanes.trial[i] = r->trial, lanes.T_hat[i] = r->T_hat;
-            lanes.log_rate_scale[i] = r->log_rate_scale, lanes.log_ratio_floor[i] = r->log_ratio_floor;
-        }
+        pack_lanes(returns, active, n_active, n_lanes, &lanes);
         consistency_lanes(m, n_lanes, &lanes);
         int still = 0;
         for (int i = 0; i < n_active; i++)
@@ -331,8 +349,8 @@ void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *
 /* ---- energy, pressure, viscosity ---- */
 
 /* Tang Eqs. 3.41-3.43 / A9-A11: returns p^{n+1}, updates *energy from e^n to e^{n+1}. */
-static double eos_energy_update(const struct mpm_material *m, double rho_new, double deviatoric_work,
-                                double pressure_old, double volume0, double dV, double *energy)
+FM_INLINE double eos_energy_update(const struct mpm_material *m, double rho_new, double deviatoric_work,
+                                   double pressure_old, double volume0, double dV, double *energy)
 {
     double e_trial = *energy + deviatoric_work - 0.5 * dV * pressure_old; /* Eq. 3.41 */
     double A, B;
@@ -409,9 +427,9 @@ static void ptw_return_begin(const struct mpm_material_constants *c, const struc
 /* Deviatoric part of the step (Eqs. A1-A8) up to the return: w->s_new holds the elastic trial (Eq. A1.3) and is
  * set to 0 when melted or without shear stiffness; returns 1 when the point needs the plastic return (w->ret set
  * up). */
-static int deviatoric_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                            const struct mpm_point_state *state, double G, double dt, double log_dt,
-                            struct mpm_stress_work *w)
+FM_INLINE int deviatoric_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                               const struct mpm_point_state *state, double G, double dt, double log_dt,
+                               struct mpm_stress_work *w)
 {
     double Tm;
     w->yield = 0.0;
@@ -451,7 +469,7 @@ static int deviatoric_begin(const struct mpm_material *m, const struct mpm_mater
  * components (deviator), gcc vectorised them with the deviators in stack arrays, stored in halves or one by one
  * and loaded whole, which stalled on store forwarding (a fifth of mpm_stress_begin's samples).  The same
  * operations: an off-diagonal deviator component t - 0.0 is t. */
-static void elastic_trial(const double sigma_rot[6], const double e[6], double G, struct mpm_stress_work *w)
+FM_INLINE void elastic_trial(const double sigma_rot[6], const double e[6], double G, struct mpm_stress_work *w)
 {
     double mean = (sigma_rot[0] + sigma_rot[1] + sigma_rot[2]) / 3.0;
     double volumetric = (e[0] + e[1] + e[2]) / 3.0, two_G = 2.0 * G;
@@ -469,10 +487,11 @@ static void elastic_trial(const double sigma_rot[6], const double e[6], double G
     w->strain[3] = e[3], w->strain[4] = e[4], w->strain[5] = e[5];
 }
 
-int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
-                     const double strain_increment[6], const double spin_increment[3], double G, double dt,
-                     double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
-                     struct mpm_stress_work *w)
+/* mpm_stress_begin, inlined into it and into the block's loop (mpm_stress_begin_block). */
+FM_INLINE int stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                           const double strain_increment[6], const double spin_increment[3], double G, double dt,
+                           double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
+                           struct mpm_stress_work *w)
 {
     double sigma_rot[6];
     w->rho_new = m->density * volume0 / volume_new;
@@ -482,10 +501,11 @@ int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_con
     return w->returning;
 }
 
-int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
-                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
-                      double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
-                      struct mpm_update_result *result)
+/* mpm_stress_finish, inlined into it and into the block's loop (mpm_stress_finish_block). */
+FM_INLINE int stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
+                            const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                            double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
+                            struct mpm_update_result *result)
 {
     double rho_new = w->rho_new, *s_new = w->s_new;
     double yield = w->returning ? w->ret.yield : w->yield, d = w->returning ? w->ret.d : w->d;
@@ -520,6 +540,45 @@ int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_co
     result->plastic_work = plastic_work;
     result->energy_increment = state->energy - energy_old;
     return all_finite(state) && isfinite(result->von_mises) && isfinite(plastic_work) ? 0 : -1;
+}
+
+int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_constants *c,
+                     const double strain_increment[6], const double spin_increment[3], double G, double dt,
+                     double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
+                     struct mpm_stress_work *w)
+{
+    return stress_begin(m, c, strain_increment, spin_increment, G, dt, log_dt, volume0, volume_new, state, w);
+}
+
+int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
+                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                      double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
+                      struct mpm_update_result *result)
+{
+    return stress_finish(m, c, q, dt, volume0, volume_old, volume_new, w, state, result);
+}
+
+/* The block's points one after another in one loop: the same operations as mpm_stress_begin point by point.  The
+ * block is copied into a local, whose fields the stores through its pointers cannot alias: they stay in
+ * registers instead of being loaded again for every point. */
+void mpm_stress_begin_block(const struct mpm_stress_block *block)
+{
+    const struct mpm_stress_block b = *block;
+    for (int k = 0; k < b.n; k++)
+        if (b.updating[k])
+            stress_begin(&b.materials[b.material[k]], &b.constants[b.material[k]], b.strain[k], b.spin[k], b.G[k],
+                         b.dt, b.log_dt, b.volume0[k], b.volume_new[k], &b.state[k], &b.work[k]);
+}
+
+/* The same for mpm_stress_finish; failed[k] is 1 where it returned -1. */
+void mpm_stress_finish_block(const struct mpm_stress_block *block)
+{
+    const struct mpm_stress_block b = *block;
+    for (int k = 0; k < b.n; k++)
+        if (b.updating[k])
+            b.failed[k] = stress_finish(&b.materials[b.material[k]], &b.constants[b.material[k]], b.viscosity, b.dt,
+                                        b.volume0[k], b.volume_old[k], b.volume_new[k], &b.work[k], &b.state[k],
+                                        &b.result[k]) != 0;
 }
 
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
