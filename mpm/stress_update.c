@@ -633,6 +633,7 @@ void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *
     state->rho = m->density;
     double Tm = scg_melt_temperature(m, m->density);
     state->melted = m->T_initial < Tm ? 0.0 : 1.0;
+    state->plastic_increment = 0.0; /* no return yet: no first guess from one */
     state->yield_stress = m->strength == MPM_STRENGTH_PTW
                               ? ptw_flow_stress(m, 0.0, m->rate_floor, m->T_initial, Tm, m->density,
                                                 mts_shear_modulus(m, m->T_initial))

@@ -1,6 +1,8 @@
 /* The mpm material models (mpm/ptw.c, mpm/melt.c, mpm/eos.c): the PTW flow stress, MTS shear modulus and
  * xi_dot against ptw_aluminium.csv, the SCG melt law against scg_melt_aluminium.csv, and the linear-in-energy
  * Mie-Grueneisen EOS against hand values and its continuity at mu = 0. */
+#include <string.h>
+
 #include "mpm/material.h"
 #include "tests/check.h"
 #include "tests/verification_csv.h"
@@ -161,6 +163,23 @@ static void test_mts_shear_modulus(void)
     CHECK(mts_shear_modulus(&m, 500.0) < mts_shear_modulus(&m, 298.0), "G falls with T");
 }
 
+/* A point's state at rest: every field set (a body's points all copy one such state, so a field left unset
+ * would be the stack's garbage in all of them; the plastic increment is the next return's first guess). */
+static void test_point_state_at_rest(void)
+{
+    struct mpm_material m = aluminium();
+    struct mpm_point_state state;
+    memset(&state, 0xff, sizeof state); /* NaN in every double */
+    mpm_point_state_init(&m, &state);
+    for (int k = 0; k < 6; k++)
+        CHECK(state.stress[k] == 0.0, "stress[%d] = 0", k);
+    CHECK(state.pressure == 0.0 && state.viscosity == 0.0 && state.eps_p == 0.0 && state.energy == 0.0,
+          "pressure, viscosity, plastic strain and energy 0");
+    CHECK(state.T == m.T_initial && state.rho == m.density && state.melted == 0.0, "T, rho at rest, not melted");
+    CHECK(state.yield_stress > 0.0, "a PTW flow stress");
+    CHECK(state.plastic_increment == 0.0, "no plastic increment yet: %g", state.plastic_increment);
+}
+
 int main(void)
 {
     RUN(test_ptw_table);
@@ -170,5 +189,6 @@ int main(void)
     RUN(test_eos_continuity);
     RUN(test_eos_hand_value);
     RUN(test_mts_shear_modulus);
+    RUN(test_point_state_at_rest);
     return check_finish();
 }
