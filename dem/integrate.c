@@ -517,8 +517,9 @@ FM_INLINE size_t lane_particle(const struct block *b, size_t i0, int consecutive
     return consecutive ? i0 + l : b->index[l];
 }
 
-/* The block's particles from the arrays: position, velocity, diameter, mass and the kept drag.  Three loops:
- * gcc vectorises loops of doubles, not one that mixes them with the byte flags. */
+/* The block's particles from the arrays: position, velocity, diameter, mass and the kept drag (its forces from
+ * the ring slots of this step, dem_drag_slot).  Separate loops for the doubles, for each component of the
+ * forces and for the byte flags: gcc vectorises loops of doubles, not one that mixes them with bytes. */
 FM_INLINE void block_gather(const struct dem_particles *p, struct block *restrict b, int consecutive)
 {
     const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict m = p->m;
