@@ -71,9 +71,9 @@ struct dem_bins {
     double *reach_lo, *reach_hi;
     int64_t *built_id;
     uint8_t *built_flying;
-    /* Set by the integration (dem/integrate.c, block_verify_reach) for a particle whose swept box of the next step, from where
-     * the step left it, lies in its reach box; read and cleared by the next step's test, which then skips the
-     * box test for it (broadphase.c, collect_failing).  0 for every other particle. */
+    /* Set by the integration (dem/integrate.c, block_verify_reach) for a particle whose swept box of the next
+     * step, from where the step left it, lies in its reach box; read and cleared by the next step's test, which
+     * then skips the box test for it (broadphase.c, collect_failing).  0 for every other particle. */
     uint8_t *reach_verified;
     /* Repairs between builds (broadphase.c): a particle whose reach box was renewed after the build (it left
      * the old one, or was injected) is in repaired_list; its grid entries are stale and skipped.  `failing`
