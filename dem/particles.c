@@ -19,6 +19,59 @@ void *dem_realloc_or_die(void *data, size_t bytes)
 
 static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
 
+/* Where each particle array starts within a page, in cache lines.  Large blocks come from mmap and start at
+ * the same offset of a page, so element i of every array of doubles maps to the same set of the L1 cache:
+ * a block of the integration (dem/integrate.c) reads 4 lines from each of 13 such arrays (d, m, the drag's
+ * 11), more lines per set than the cache has ways, and the lines evicted each other before they were used.
+ * Each array gets its own offset: the arrays of doubles 4 lines apart (one block's 32 elements), those of 3
+ * doubles 12 apart, the bytes 1 apart. */
+enum { PAGE_BYTES = 4096, LINE_BYTES = 64 };
+enum particle_array {
+    ARRAY_X, ARRAY_V, ARRAY_W, ARRAY_X_START, ARRAY_V_START, ARRAY_W_START,
+    ARRAY_D, ARRAY_M, ARRAY_ID, ARRAY_DRAG, /* 11 of them */
+    ARRAY_STATE = ARRAY_DRAG + 11, ARRAY_KEPT, ARRAY_HISTORY_COUNT
+};
+
+static size_t stagger_lines(enum particle_array array)
+{
+    if (array < ARRAY_D)
+        return 12 * (size_t)array;
+    if (array < ARRAY_STATE)
+        return 4 * (size_t)(array - ARRAY_D);
+    return 60 + (size_t)(array - ARRAY_STATE);
+}
+
+/* A block of `bytes` whose start lies stagger_lines(array) lines into a page; the block malloc gave is kept
+ * in the word before it (array_free). */
+static void *array_alloc(size_t bytes, enum particle_array array)
+{
+    size_t offset = (stagger_lines(array) % (PAGE_BYTES / LINE_BYTES)) * LINE_BYTES;
+    char *block = dem_realloc_or_die(NULL, bytes + PAGE_BYTES + sizeof(void *));
+    uintptr_t first = (uintptr_t)(block + sizeof(void *));
+    uintptr_t start = first + ((offset - first % PAGE_BYTES) + PAGE_BYTES) % PAGE_BYTES;
+    memcpy((char *)start - sizeof(void *), &block, sizeof block);
+    return (void *)start;
+}
+
+static void array_free(void *data)
+{
+    if (!data)
+        return;
+    void *block;
+    memcpy(&block, (char *)data - sizeof block, sizeof block);
+    free(block);
+}
+
+/* An array of count_before rows of `size` bytes grown to count rows (contents kept, the new rows undefined). */
+static void *array_grow(void *data, size_t count_before, size_t count, size_t size, enum particle_array array)
+{
+    void *grown = array_alloc(count * size, array);
+    if (data)
+        memcpy(grown, data, count_before * size);
+    array_free(data);
+    return grown;
+}
+
 /* The drag's arrays of doubles, each with one value per particle (struct dem_drag). */
 #define DRAG_DOUBLE_ARRAYS 11
 static void drag_double_arrays(struct dem_drag *drag, double **arrays[DRAG_DOUBLE_ARRAYS])
@@ -36,11 +89,11 @@ static void drag_reserve(struct dem_drag *drag, size_t old_capacity, size_t capa
     double **arrays[DRAG_DOUBLE_ARRAYS];
     drag_double_arrays(drag, arrays);
     for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++) {
-        *arrays[a] = resize(*arrays[a], capacity, sizeof(double));
+        *arrays[a] = array_grow(*arrays[a], old_capacity, capacity, sizeof(double), ARRAY_DRAG + a);
         memset(*arrays[a] + old_capacity, 0, (capacity - old_capacity) * sizeof(double));
     }
-    drag->kept = resize(drag->kept, capacity, sizeof(uint8_t));
-    drag->history_count = resize(drag->history_count, capacity, sizeof(uint8_t));
+    drag->kept = array_grow(drag->kept, old_capacity, capacity, 1, ARRAY_KEPT);
+    drag->history_count = array_grow(drag->history_count, old_capacity, capacity, 1, ARRAY_HISTORY_COUNT);
     memset(drag->kept + old_capacity, 0, capacity - old_capacity);
     memset(drag->history_count + old_capacity, 0, capacity - old_capacity);
 }
@@ -49,17 +102,18 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
 {
     if (capacity <= p->capacity)
         return;
-    p->x = resize(p->x, 3 * capacity, sizeof(double));
-    p->v = resize(p->v, 3 * capacity, sizeof(double));
-    p->w = resize(p->w, 3 * capacity, sizeof(double));
-    p->x_start = resize(p->x_start, 3 * capacity, sizeof(double));
-    p->v_start = resize(p->v_start, 3 * capacity, sizeof(double));
-    p->w_start = resize(p->w_start, 3 * capacity, sizeof(double));
-    p->d = resize(p->d, capacity, sizeof(double));
-    p->m = resize(p->m, capacity, sizeof(double));
-    p->id = resize(p->id, capacity, sizeof(int64_t));
-    p->state = resize(p->state, capacity, sizeof(uint8_t));
-    drag_reserve(&p->drag, p->capacity, capacity);
+    size_t before = p->capacity;
+    p->x = array_grow(p->x, 3 * before, 3 * capacity, sizeof(double), ARRAY_X);
+    p->v = array_grow(p->v, 3 * before, 3 * capacity, sizeof(double), ARRAY_V);
+    p->w = array_grow(p->w, 3 * before, 3 * capacity, sizeof(double), ARRAY_W);
+    p->x_start = array_grow(p->x_start, 3 * before, 3 * capacity, sizeof(double), ARRAY_X_START);
+    p->v_start = array_grow(p->v_start, 3 * before, 3 * capacity, sizeof(double), ARRAY_V_START);
+    p->w_start = array_grow(p->w_start, 3 * before, 3 * capacity, sizeof(double), ARRAY_W_START);
+    p->d = array_grow(p->d, before, capacity, sizeof(double), ARRAY_D);
+    p->m = array_grow(p->m, before, capacity, sizeof(double), ARRAY_M);
+    p->id = array_grow(p->id, before, capacity, sizeof(int64_t), ARRAY_ID);
+    p->state = array_grow(p->state, before, capacity, sizeof(uint8_t), ARRAY_STATE);
+    drag_reserve(&p->drag, before, capacity);
     p->capacity = capacity;
 }
 
@@ -127,22 +181,14 @@ void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t 
 
 void particles_free(struct dem_particles *p)
 {
-    free(p->x);
-    free(p->v);
-    free(p->w);
-    free(p->x_start);
-    free(p->v_start);
-    free(p->w_start);
-    free(p->d);
-    free(p->m);
-    free(p->id);
-    free(p->state);
+    void *arrays[] = {p->x, p->v, p->w, p->x_start, p->v_start, p->w_start, p->d, p->m, p->id, p->state,
+                      p->drag.kept, p->drag.history_count};
+    for (size_t a = 0; a < sizeof arrays / sizeof *arrays; a++)
+        array_free(arrays[a]);
     double **drag_arrays[DRAG_DOUBLE_ARRAYS];
     drag_double_arrays(&p->drag, drag_arrays);
     for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++)
-        free(*drag_arrays[a]);
-    free(p->drag.kept);
-    free(p->drag.history_count);
+        array_free(*drag_arrays[a]);
     memset(p, 0, sizeof *p);
 }
 
