@@ -35,6 +35,7 @@
 #endif
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -240,7 +241,9 @@ static void integrate_subcycled(const struct dem_config *cfg, double d, double m
 struct block {
     size_t count;
     uint32_t index[BLOCK];
-    double x[3][BLOCK], v[3][BLOCK], d[BLOCK], m[BLOCK];
+    /* whole cache lines: a 64-byte vector access to a block's array never spans two (aligned_alloc below) */
+    _Alignas(64) double x[3][BLOCK];
+    double v[3][BLOCK], d[BLOCK], m[BLOCK];
     double force_start[3][BLOCK], tau[BLOCK];
     /* struct phi_problem of each lane, as arrays */
     double x0[3][BLOCK], v0[3][BLOCK], residual_x[3][BLOCK], residual_v[3][BLOCK];
@@ -267,6 +270,17 @@ struct block {
     double previous_force[2][3][BLOCK];
     uint8_t chain[BLOCK];
 };
+
+/* A block on a cache-line boundary (its size is a multiple of 64: struct block). */
+static struct block *block_alloc(void)
+{
+    struct block *b = aligned_alloc(_Alignof(struct block), sizeof *b);
+    if (!b) {
+        fprintf(stderr, "spraycoat: out of memory (%zu bytes requested)\n", sizeof *b);
+        abort();
+    }
+    return b;
+}
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
 {
@@ -310,8 +324,6 @@ static inline void lane_put_squares(struct block *b, int l, const struct eq53_sq
     b->squares[3][l] = q->progress_x;
 }
 
-/* The lanes whose last iterate the squares left undecided get Eq. 53 with its square roots, one by one (it
- * is rare); returns how many of them stop iterating. */
 /* Is any of a block's byte flags set?  One vector test where a loop over the lanes would branch on each. */
 static inline int any_lane(const uint8_t flags[BLOCK])
 {
@@ -319,24 +331,6 @@ static inline int any_lane(const uint8_t flags[BLOCK])
     for (int l = 0; l < BLOCK; l++)
         any |= flags[l];
     return any != 0;
-}
-
-static int block_settle(struct block *b, double tol)
-{
-    int stopped = 0;
-    if (!any_lane(b->undecided))
-        return 0;
-    for (int l = 0; l < BLOCK; l++) {
-        if (!b->undecided[l])
-            continue;
-        struct eq53_squares q = {b->squares[0][l], b->squares[1][l], b->squares[2][l], b->squares[3][l]};
-        if (eq53_exact(&q, tol)) {
-            b->converged[l] = 1;
-            stopped += b->active[l];
-            b->active[l] = 0;
-        }
-    }
-    return stopped;
 }
 
 /* Gas, drag and response time at the start of the step for every lane; the force, slip and Re^0.6459 may
@@ -371,12 +365,30 @@ FM_INLINE void end_force_guess(const struct block *b, int l, const double force_
     }
 }
 
+/* The first iterate (x, v are the start of the step, and become the iterate): does Eq. 53 hold for it?  Its
+ * change from the last iterate, the start, is its progress from the start, so with tol <= 0.1 (the case
+ * key's range) change <= tol progress holds only for a change of 0 (it moved nothing) or of Inf (Inf <= tol
+ * Inf); eq53_holds gives the same answers from the same squares.  Two squares, not four, and no square
+ * roots. */
+FM_INLINE int first_iterate_stops(const struct phi_problem *problem, const double force[3], double x[3], double v[3])
+{
+    double v_start[3] = {v[0], v[1], v[2]}, x_start[3] = {x[0], x[1], x[2]};
+    for (int c = 0; c < 3; c++) {
+        v[c] = problem->residual_v[c] + problem->h_over_m_phi * force[c]; /* Eqs. 47, 51 */
+        x[c] = problem->residual_x[c] + problem->h_phi * v[c];            /* Eqs. 49, 52 */
+    }
+    /* the change |dv| + |dx| is 0 when both squares are, and Inf when one is Inf and the other not NaN */
+    double square_v = squared_difference(v, v_start), square_x = squared_difference(x, x_start);
+    return (square_v + square_x == 0.0) | ((square_v == INFINITY) & (square_x == square_x)) |
+           ((square_x == INFINITY) & (square_v == square_v));
+}
+
 /* The start forces, then the first iterate of every lane that needs no sub-steps, from the guess of its end
  * force. */
 static void block_start(const struct dem_config *cfg, struct block *restrict b)
 {
     block_start_forces(cfg, b);
-    const double phi = cfg->phi, tol = cfg->fixed_point_tol, dt = cfg->dt;
+    const double phi = cfg->phi, dt = cfg->dt;
     const int more_allowed = 1 < cfg->fixed_point_max_iter;
     for (int l = 0; l < BLOCK; l++) {
         double x[3], v[3], force[3], guess[3];
@@ -387,11 +399,7 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         struct phi_problem problem;
         phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
         lane_put_problem(b, l, &problem);
-        struct eq53_squares q = phi_iterate(&problem, guess, x, v);
-        int decision = eq53_shortcut(&q, tol);
-        int converged = (decision == 1) | (phi == 0.0); /* phi = 0, explicit Euler: nothing to iterate */
-        lane_put_squares(b, l, &q);
-        b->undecided[l] = (uint8_t)((decision < 0) & (phi != 0.0));
+        int converged = first_iterate_stops(&problem, guess, x, v) | (phi == 0.0); /* phi = 0: explicit Euler */
         lane_put(b->x, l, x);
         lane_put(b->v, l, v);
         b->converged[l] = (uint8_t)converged;
@@ -399,7 +407,6 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         b->iterations[l] = 1;
         b->active[l] = (uint8_t)((b->tau[l] >= 2.0 * dt) & !converged & more_allowed);
     }
-    block_settle(b, tol);
 }
 
 /* One more iterate for every lane still iterating (the inactive lanes are computed and dropped); returns how
@@ -776,6 +783,51 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
     return n;
 }
 
+/* The lines of one block's particle data, bytes apart from `start`, ahead of their use.  A block reads some 19
+ * arrays of its particles (x, v, d, m, the kept drag's slip, Re power and nine force components, flags, the
+ * reach boxes) and writes 12: more streams than the hardware prefetcher follows, so the first touches of
+ * block_gather and block_verify_reach waited for memory (16 % of a free-flight run's samples).  The block
+ * before takes ~6,000 cycles, time enough for these loads. */
+static inline void prefetch_lines(const void *start, size_t bytes)
+{
+    const char *first = start;
+    for (size_t at = 0; at < bytes; at += 64)
+        __builtin_prefetch(first + at);
+    __builtin_prefetch(first + bytes - 1);
+}
+
+/* Prefetch the data of the block of particles i0 to i0 + BLOCK - 1 (a consecutive block; others are left to the
+ * hardware). */
+static void block_prefetch(const struct dem_solver *s, size_t i0, int64_t step)
+{
+    const struct dem_particles *p = &s->p;
+    prefetch_lines(p->x + 3 * i0, 3 * BLOCK * sizeof *p->x);
+    prefetch_lines(p->v + 3 * i0, 3 * BLOCK * sizeof *p->v);
+    prefetch_lines(p->d + i0, BLOCK * sizeof *p->d);
+    prefetch_lines(p->m + i0, BLOCK * sizeof *p->m);
+    prefetch_lines(p->drag.slip + i0, BLOCK * sizeof *p->drag.slip);
+    prefetch_lines(p->drag.reynolds_power + i0, BLOCK * sizeof *p->drag.reynolds_power);
+    for (int age = 0; age < 3; age++)
+        for (int c = 0; c < 3; c++)
+            prefetch_lines(p->drag.forces[dem_drag_slot(step, age)][c] + i0, BLOCK * sizeof(double));
+    prefetch_lines(p->drag.kept + i0, BLOCK);
+    prefetch_lines(p->drag.history_count + i0, BLOCK);
+    if (s->bins.reach_verified) {
+        prefetch_lines(s->bins.reach_lo + 3 * i0, 3 * BLOCK * sizeof *s->bins.reach_lo);
+        prefetch_lines(s->bins.reach_hi + 3 * i0, 3 * BLOCK * sizeof *s->bins.reach_hi);
+        prefetch_lines(s->bins.built_flying + i0, BLOCK);
+        prefetch_lines(s->bins.reach_verified + i0, BLOCK);
+    }
+}
+
+/* Prefetch block k's data when its particles are consecutive (the usual case). */
+static void prefetch_block_of(const struct dem_solver *s, const uint32_t *flying, size_t flying_count, size_t k)
+{
+    size_t first = k * BLOCK;
+    if (first + BLOCK <= flying_count && flying[first + BLOCK - 1] - flying[first] == BLOCK - 1)
+        block_prefetch(s, flying[first], s->step);
+}
+
 /* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
  * lanes still iterating and the particles that need sub-steps; returns whether a value is not finite. */
 static int integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b,
@@ -947,13 +999,15 @@ int dem_integrate(struct dem_solver *s)
         {
             struct iteration_count count = {0};
             int bad_here = 0;
-            struct block *b = dem_realloc_or_die(NULL, sizeof *b);
+            struct block *b = block_alloc();
 /* static: each thread keeps its share of the particles from step to step, and their lines stay in its
  * core's caches (dynamic chunks moved them between the cores every step: Table 1 on 2 threads took 22 %
  * more CPU time, BENCHMARKS.md 2026-12-02 (second session)) */
 #pragma omp for schedule(static)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
+                if (k + 1 < blocks)
+                    prefetch_block_of(s, flying, flying_count, k + 1);
                 block_load(p, reuse_drag, s->step, b, flying + first, n);
                 bad_here |= integrate_block(cfg, p, b, &count);
                 hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
