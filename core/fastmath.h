@@ -1,4 +1,5 @@
-/* e^x, ln x, sqrt x, x^y and x^(-1/3) in plain double arithmetic (no libm calls, no branches).
+/* e^x, ln x, x^y and x^(-1/3) in plain double arithmetic (no libm calls, no branches).  (Square roots are
+ * sqrt: with -fno-math-errno, as dem/integrate.c is built, the correctly rounded instruction vectorises.)
  *
  * Why: the drag integration (dem/integrate.c) evaluates a power (Haider-Levenspiel, Eq. 25), an inverse cube
  * root and an exponential (the jet, Eqs. 26-27) for every particle and step, and libm's scalar calls cost
@@ -133,26 +134,6 @@ FM_INLINE double fm_log(double x)
     double log_mantissa = 2.0 * s + 2.0 * s * (z * series);
     double result = exponent * FM_LN2_HI + (log_mantissa + exponent * FM_LN2_LO);
     return fm_select(x <= DBL_MAX, result, x);
-}
-
-/* sqrt(x) for x >= 0 within 2 ulp (libm's sqrt would vectorise only without errno, which the build keeps):
- * Newton's iteration for 1/sqrt(x), r <- r (3/2 - x r^2 / 2), which needs no division, from the bit-level
- * first guess (3.4 % error; four iterations reach rounding), then sqrt(x) = x r.  Arguments below 2^-900 are
- * scaled by 2^900 first; +Inf and NaN are returned as they are. */
-FM_INLINE double fm_sqrt(double x)
-{
-    /* every operation is done whatever the select: a conditional floating-point operation could trap, so
-     * the compiler would keep the branch and not vectorise */
-    int tiny = x < 0x1p-900;
-    double scaled_up = x * 0x1p900;
-    double scaled = fm_select(tiny, scaled_up, x);
-    double r = fm_from_bits(0x5fe6eb50c7b537a9ull - (fm_to_bits(scaled) >> 1));
-    double half_x = 0.5 * scaled;
-    for (int k = 0; k < 4; k++)
-        r = r * (1.5 - half_x * r * r);
-    double root = scaled * r, root_down = root * 0x1p-450;
-    root = fm_select(tiny, root_down, root);
-    return fm_select(x <= DBL_MAX, root, x);
 }
 
 /* x^y for x > 0 (x below 1e-300 is taken as 1e-300). */

@@ -1,6 +1,7 @@
 /* Module-private (dem/): the jet velocity (Eqs. 26-27) and the drag force (Eqs. 24-25) of one particle as
- * inline arithmetic: selects instead of branches on the particle, core/fastmath.h instead of libm, so that the
- * integrator's loops over particles vectorise and every lane gives the bits of the scalar code.
+ * inline arithmetic: selects instead of branches on the particle, core/fastmath.h instead of libm (sqrt is
+ * correctly rounded, the same in a vector lane), so that the integrator's loops over particles vectorise and
+ * every lane gives the bits of the scalar code.
  * dem/gas.c wraps them as gas_velocity and gas_drag_force; dem/integrate.c inlines them. */
 #ifndef SPRAYCOAT_DEM_GAS_EVAL_H
 #define SPRAYCOAT_DEM_GAS_EVAL_H
@@ -38,7 +39,7 @@ FM_INLINE void gas_eval_bickley(const struct gas_field *gas, const double pos[3]
 {
     /* every operation is done whatever the selects: a conditional floating-point operation could trap, so
      * the compiler would keep the branches and not vectorise */
-    double r = fm_sqrt(pos[0] * pos[0] + pos[1] * pos[1]);
+    double r = sqrt(pos[0] * pos[0] + pos[1] * pos[1]);
     double x_here = pos[2] + gas->virtual_origin, x_core = gas->core_length + gas->virtual_origin;
     int in_core = (pos[2] < gas->core_length) | !(x_here > 0.0);
     double x = fm_select(in_core, x_core, x_here);
@@ -111,7 +112,7 @@ FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double rela
 {
     for (int k = 0; k < 3; k++)
         relative[k] = u[k] - v[k];
-    return fm_sqrt(relative[0] * relative[0] + relative[1] * relative[1] + relative[2] * relative[2]);
+    return sqrt(relative[0] * relative[0] + relative[1] * relative[1] + relative[2] * relative[2]);
 }
 
 /* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] (Eq. 24). */

@@ -29,7 +29,8 @@
  * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
  * here.  And no library calls for loops that copy: a consecutive block's copies of d, m and the kept drag
  * became calls of memcpy for 256 bytes each, 4.5 % of a free-flight run in the -march=native build, where
- * inline vector moves cost a few instructions.  No effect on the results: no floating-point option changes. */
+ * inline vector moves cost a few instructions.  No effect on the results: no floating-point option changes.
+ * (The Makefile builds this file with -fno-math-errno, so that sqrt vectorises.) */
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("O3", "no-tree-loop-distribute-patterns")
 #endif
@@ -70,8 +71,8 @@ struct eq53_squares {
 /* Eq. 53 per particle as written: |dv| + |dx| <= tol (|v - v0| + |x - x0|), or an exactly repeated iterate. */
 FM_INLINE int eq53_exact(const struct eq53_squares *q, double tol)
 {
-    double change = fm_sqrt(q->change_v) + fm_sqrt(q->change_x);
-    double progress = fm_sqrt(q->progress_v) + fm_sqrt(q->progress_x);
+    double change = sqrt(q->change_v) + sqrt(q->change_x);
+    double progress = sqrt(q->progress_v) + sqrt(q->progress_x);
     return (change <= tol * progress) | (change == 0.0); /* bitwise: no branch, so loops vectorise */
 }
 
