@@ -336,9 +336,8 @@ static inline int any_lane(const uint8_t flags[BLOCK])
 
 /* Gas, drag and response time at the start of the step for every lane; the force, slip and Re^0.6459 may
  * have been kept from the end of the last step. */
-static void block_start_forces(const struct dem_config *cfg, struct block *restrict b)
+FM_INLINE void start_forces_with(const struct dem_config *cfg, struct block *restrict b, const struct gas_field gas)
 {
-    const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
     const double density = cfg->powder.density;
     if (!b->start_kept) {
         for (int l = 0; l < BLOCK; l++) {
@@ -351,6 +350,28 @@ static void block_start_forces(const struct dem_config *cfg, struct block *restr
     }
     for (int l = 0; l < BLOCK; l++)
         b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], b->slip[l], b->reynolds_power[l]);
+}
+
+/* The usual gas, the jet with Haider-Levenspiel drag, is given to the loops below as constants: the selects on
+ * the model and the law (dem/gas_eval.h) then fold away, where for any gas they are done in every lane. */
+static int gas_is_usual(const struct gas_field *gas)
+{
+    return gas->model == JET_BICKLEY && gas->drag == DRAG_HAIDER_LEVENSPIEL;
+}
+
+static struct gas_field gas_usual(struct gas_field gas)
+{
+    gas.model = JET_BICKLEY;
+    gas.drag = DRAG_HAIDER_LEVENSPIEL;
+    return gas;
+}
+
+static void block_start_forces(const struct dem_config *cfg, struct block *restrict b)
+{
+    if (gas_is_usual(&cfg->gas))
+        start_forces_with(cfg, b, gas_usual(cfg->gas));
+    else
+        start_forces_with(cfg, b, cfg->gas);
 }
 
 /* The force at the end of lane l's step extrapolated from its start force and the forces at the ends of the
@@ -414,9 +435,8 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
  * many still iterate.  A lane for which Eq. 53 holds stays at its iterate, whose force is now known; the
  * others move on to the next iterate.  A lane that the squares leave undecided moves, or not, in
  * block_settle_moves. */
-static int block_next_iterates(const struct dem_config *cfg, struct block *restrict b)
+FM_INLINE int next_iterates_with(const struct dem_config *cfg, struct block *restrict b, const struct gas_field gas)
 {
-    const struct gas_field gas = cfg->gas; /* a local copy: no aliasing with b */
     const double tol = cfg->fixed_point_tol;
     const int64_t max_iter = cfg->fixed_point_max_iter;
     int active_count = 0;
@@ -447,6 +467,13 @@ static int block_next_iterates(const struct dem_config *cfg, struct block *restr
         active_count += still;
     }
     return active_count;
+}
+
+static int block_next_iterates(const struct dem_config *cfg, struct block *restrict b)
+{
+    if (gas_is_usual(&cfg->gas))
+        return next_iterates_with(cfg, b, gas_usual(cfg->gas));
+    return next_iterates_with(cfg, b, cfg->gas);
 }
 
 /* Lane l stopped at its iterate: keep the force there for the end of the step. */
