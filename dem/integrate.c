@@ -376,9 +376,10 @@ static void block_start_forces(const struct dem_config *cfg, struct block *restr
 
 /* The force at the end of lane l's step extrapolated from its start force and the forces at the ends of the
  * steps before (a polynomial in time through the last `chain` step-end forces, at most quadratic). */
-FM_INLINE void end_force_guess(const struct block *b, int l, const double force_start[3], double guess[3])
+FM_INLINE void end_force_guess(const struct block *b, int l, int all_quadratic, const double force_start[3],
+                                double guess[3])
 {
-    int chain = b->chain[l];
+    int chain = all_quadratic ? 3 : b->chain[l];
     for (int c = 0; c < 3; c++) {
         double newest = force_start[c], older = b->previous_force[0][c][l], oldest = b->previous_force[1][c][l];
         double linear = newest + (newest - older);
@@ -405,11 +406,10 @@ FM_INLINE int first_iterate_stops(const struct phi_problem *problem, const doubl
            ((square_x == INFINITY) & (square_v == square_v));
 }
 
-/* The start forces, then the first iterate of every lane that needs no sub-steps, from the guess of its end
- * force. */
-static void block_start(const struct dem_config *cfg, struct block *restrict b)
+/* The first iterate of every lane that needs no sub-steps, from the guess of its end force (all_quadratic: every
+ * lane's guess is the quadratic one). */
+FM_INLINE void start_with(const struct dem_config *cfg, struct block *restrict b, int all_quadratic)
 {
-    block_start_forces(cfg, b);
     const double phi = cfg->phi, dt = cfg->dt;
     const int more_allowed = 1 < cfg->fixed_point_max_iter;
     for (int l = 0; l < BLOCK; l++) {
@@ -417,7 +417,7 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         lane_get(b->x, l, x);
         lane_get(b->v, l, v);
         lane_get(b->force_start, l, force);
-        end_force_guess(b, l, force, guess);
+        end_force_guess(b, l, all_quadratic, force, guess);
         struct phi_problem problem;
         phi_problem_set(&problem, phi, b->d[l], b->m[l], dt, x, v, force);
         lane_put_problem(b, l, &problem);
@@ -429,6 +429,20 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
         b->iterations[l] = 1;
         b->active[l] = (uint8_t)((b->tau[l] >= 2.0 * dt) & !converged & more_allowed);
     }
+}
+
+/* The start forces, then the first iterates.  In steady flight every lane has three step-end forces to
+ * extrapolate from, and the guess's selects fold away. */
+static void block_start(const struct dem_config *cfg, struct block *restrict b)
+{
+    block_start_forces(cfg, b);
+    uint8_t all_quadratic = 1;
+    for (int l = 0; l < BLOCK; l++)
+        all_quadratic &= (uint8_t)(b->chain[l] >= 3);
+    if (all_quadratic)
+        start_with(cfg, b, 1);
+    else
+        start_with(cfg, b, 0);
 }
 
 /* One more iterate for every lane still iterating (the inactive lanes are computed and dropped); returns how
