@@ -825,51 +825,6 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
     return n;
 }
 
-/* The lines of one block's particle data, bytes apart from `start`, ahead of their use.  A block reads some 19
- * arrays of its particles (x, v, d, m, the kept drag's slip, Re power and nine force components, flags, the
- * reach boxes) and writes 12: more streams than the hardware prefetcher follows, so the first touches of
- * block_gather and block_verify_reach waited for memory (16 % of a free-flight run's samples).  The block
- * before takes ~6,000 cycles, time enough for these loads. */
-static inline void prefetch_lines(const void *start, size_t bytes)
-{
-    const char *first = start;
-    for (size_t at = 0; at < bytes; at += 64)
-        __builtin_prefetch(first + at);
-    __builtin_prefetch(first + bytes - 1);
-}
-
-/* Prefetch the data of the block of particles i0 to i0 + BLOCK - 1 (a consecutive block; others are left to the
- * hardware). */
-static void block_prefetch(const struct dem_solver *s, size_t i0, int64_t step)
-{
-    const struct dem_particles *p = &s->p;
-    prefetch_lines(p->x + 3 * i0, 3 * BLOCK * sizeof *p->x);
-    prefetch_lines(p->v + 3 * i0, 3 * BLOCK * sizeof *p->v);
-    prefetch_lines(p->d + i0, BLOCK * sizeof *p->d);
-    prefetch_lines(p->m + i0, BLOCK * sizeof *p->m);
-    prefetch_lines(p->drag.slip + i0, BLOCK * sizeof *p->drag.slip);
-    prefetch_lines(p->drag.reynolds_power + i0, BLOCK * sizeof *p->drag.reynolds_power);
-    for (int age = 0; age < 3; age++)
-        for (int c = 0; c < 3; c++)
-            prefetch_lines(p->drag.forces[dem_drag_slot(step, age)][c] + i0, BLOCK * sizeof(double));
-    prefetch_lines(p->drag.kept + i0, BLOCK);
-    prefetch_lines(p->drag.history_count + i0, BLOCK);
-    if (s->bins.reach_verified) {
-        prefetch_lines(s->bins.reach_lo + 3 * i0, 3 * BLOCK * sizeof *s->bins.reach_lo);
-        prefetch_lines(s->bins.reach_hi + 3 * i0, 3 * BLOCK * sizeof *s->bins.reach_hi);
-        prefetch_lines(s->bins.built_flying + i0, BLOCK);
-        prefetch_lines(s->bins.reach_verified + i0, BLOCK);
-    }
-}
-
-/* Prefetch block k's data when its particles are consecutive (the usual case). */
-static void prefetch_block_of(const struct dem_solver *s, const uint32_t *flying, size_t flying_count, size_t k)
-{
-    size_t first = k * BLOCK;
-    if (first + BLOCK <= flying_count && flying[first + BLOCK - 1] - flying[first] == BLOCK - 1)
-        block_prefetch(s, flying[first], s->step);
-}
-
 /* Advance the block's particles over the step: vectorised start forces and iterations, then one by one the
  * lanes still iterating and the particles that need sub-steps; returns whether a value is not finite. */
 static int integrate_block(const struct dem_config *cfg, struct dem_particles *p, struct block *b,
@@ -1048,8 +1003,6 @@ int dem_integrate(struct dem_solver *s)
 #pragma omp for schedule(static)
             for (size_t k = 0; k < blocks; k++) {
                 size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-                if (k + 1 < blocks)
-                    prefetch_block_of(s, flying, flying_count, k + 1);
                 block_load(p, reuse_drag, s->step, b, flying + first, n);
                 bad_here |= integrate_block(cfg, p, b, &count);
                 hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
