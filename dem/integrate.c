@@ -389,9 +389,9 @@ FM_INLINE void end_force_guess(const struct block *b, int l, int all_quadratic, 
 }
 
 /* The first iterate (x, v are the start of the step, and become the iterate): does Eq. 53 hold for it?  Its
- * change from the last iterate, the start, is its progress from the start, so with tol <= 0.1 (the case
- * key's range) change <= tol progress holds only for a change of 0 (it moved nothing) or of Inf (Inf <= tol
- * Inf); eq53_holds gives the same answers from the same squares.  Two squares, not four, and no square
+ * change from the last iterate, the start, is its progress from the start, so for tol < 1 (the case key
+ * allows at most 0.1) change <= tol progress holds only for a change of 0 (it moved nothing) or of Inf
+ * (Inf <= tol Inf); eq53_holds gives the same answers from the same squares.  Two squares, not four, and no square
  * roots. */
 FM_INLINE int first_iterate_stops(const struct phi_problem *problem, const double force[3], double x[3], double v[3])
 {

@@ -28,6 +28,7 @@ const struct cfg_key dem_case_keys[] = {
     {"spray", "release_cone", CFG_REAL, "deg", "0", 0, 89.9, 0, NULL,
      "half-angle of the cone of release directions around +z (uniform in solid angle)"},
     {"spray", "phi", CFG_REAL, "-", "0.5", 0, 1, 0, NULL, "phi of the one-step scheme, Eqs. 42-43 (0.5: trapezoidal)"},
+    /* at most 0.1: dem/integrate.c's first_iterate_stops needs tol < 1 */
     {"spray", "fixed_point_tol", CFG_REAL, "-", "1e-8", 0, 0.1, 1, NULL,
      "relative tolerance of the fixed-point iterations, Eq. 53 (per particle)"},
     {"spray", "fixed_point_max_iter", CFG_INT, "-", "50", 1, 100000, 0, NULL, "iteration limit per step"},

@@ -16,7 +16,7 @@ failed=0
 
 validate_table1() {
     run=${VALIDATE_DIR:-runs/validate_table1}
-    echo "validate: the Table 1 case into $run (about 6-7 minutes on 2 idle cores)"
+    echo "validate: the Table 1 case into $run (about a minute on 2 idle cores)"
     "$bin" spray cases/mz2015_table1.ini -o "$run"
     "$bin" info "$run"
     injected=$(h5dump -a /stats/injected "$run/spray.h5" | sed -n 's/^ *(0): *//p')
