@@ -24,10 +24,13 @@ struct spray_run {
     uint64_t case_hash;
     double last_checkpoint_time;
     int64_t last_checkpoint_step;
+    double loop_seconds, checkpoint_seconds; /* wall: the time loop, and its checkpoints */
+    int64_t loop_particle_steps;
 };
 
 static int write_checkpoint(struct spray_run *run)
 {
+    double start = omp_get_wtime();
     struct dem_counts counts = dem_get_counts(run->solver);
     struct h5_out out;
     SC_TRY(checkpoint_begin(run->run_dir, STAGE, counts.step, &out));
@@ -42,6 +45,7 @@ static int write_checkpoint(struct spray_run *run)
     run->last_checkpoint_time = log_elapsed();
     run->last_checkpoint_step = counts.step;
     log_info("spray: checkpoint at step %lld (t = %.6g s)", (long long)counts.step, counts.t);
+    run->checkpoint_seconds += omp_get_wtime() - start;
     return SC_OK;
 }
 
@@ -72,6 +76,8 @@ static int checkpoint_due(const struct spray_run *run, int64_t step)
 static int time_loop(struct spray_run *run)
 {
     int64_t total = dem_total_steps(run->solver);
+    double start = omp_get_wtime();
+    int64_t particle_steps_before = dem_get_counts(run->solver).particle_steps;
     struct progress bar;
     progress_begin(&bar, STAGE, "steps", dem_get_counts(run->solver).step, total);
     run->last_checkpoint_time = log_elapsed();
@@ -92,6 +98,8 @@ static int time_loop(struct spray_run *run)
         progress_update(&bar, counts.step, extra);
     }
     progress_end(&bar, total);
+    run->loop_seconds = omp_get_wtime() - start;
+    run->loop_particle_steps = dem_get_counts(run->solver).particle_steps - particle_steps_before;
     return SC_OK;
 }
 
@@ -155,6 +163,23 @@ static int write_xdmf(const struct spray_run *run)
     return SC_OK;
 }
 
+/* Where the time loop's wall time went, by phase of the step (dem_get_timing), and its rate. */
+static void log_timing(const struct spray_run *run)
+{
+    struct dem_timing t = dem_get_timing(run->solver);
+    double loop = run->loop_seconds > 0.0 ? run->loop_seconds : 1e-300;
+    double other = loop - (t.injection + t.broad_phase + t.contacts + t.integration + t.boundaries + t.metrics +
+                           run->checkpoint_seconds);
+    int threads = omp_get_max_threads();
+    log_info("spray: time loop %.3f s wall on %d thread%s, %.3g M particle-steps/s: integration %.1f %%, broad "
+             "phase %.1f %%, contacts %.1f %%, injection %.1f %%, boundaries %.1f %%, metrics %.1f %%, "
+             "checkpoints %.1f %%, other %.1f %%",
+             run->loop_seconds, threads, threads == 1 ? "" : "s", (double)run->loop_particle_steps / loop / 1e6,
+             100.0 * t.integration / loop, 100.0 * t.broad_phase / loop, 100.0 * t.contacts / loop,
+             100.0 * t.injection / loop, 100.0 * t.boundaries / loop, 100.0 * t.metrics / loop,
+             100.0 * run->checkpoint_seconds / loop, 100.0 * other / loop);
+}
+
 static void log_summary(const struct spray_run *run)
 {
     struct dem_metrics m = dem_compute_metrics(run->solver);
@@ -170,6 +195,7 @@ static void log_summary(const struct spray_run *run)
              (long long)c.subcycled_particle_steps);
     log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m",
              m.volume_fraction, m.mean_spread, m.scatter, m.max_thickness);
+    log_timing(run);
 }
 
 static int run_stage(struct spray_run *run)

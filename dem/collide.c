@@ -8,6 +8,7 @@
  * order, so results do not depend on the thread count.  Each contact is re-tested for approach with the
  * velocities current when it is resolved. */
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -95,7 +96,9 @@ void dem_detect_contacts(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
     s->candidates.count = 0;
+    double start = omp_get_wtime();
     broadphase_build(&s->bins, p, s->cfg.dt);
+    s->timing.broad_phase += omp_get_wtime() - start;
     find_contacts(s);
     if (s->candidates.count > 1)
         qsort(s->candidates.items, s->candidates.count, sizeof *s->candidates.items, candidate_order);

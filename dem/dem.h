@@ -109,6 +109,12 @@ int dem_step(struct dem_solver *s);
 /* Total number of steps to t_end. */
 int64_t dem_total_steps(const struct dem_solver *s);
 struct dem_counts dem_get_counts(const struct dem_solver *s);
+/* Wall seconds spent in each phase of dem_step since the solver was created (a resumed run counts from its
+ * resume), for the stage's closing log line: where the time goes, as LAMMPS's breakdown shows it. */
+struct dem_timing {
+    double injection, broad_phase, contacts, integration, boundaries, metrics;
+};
+struct dem_timing dem_get_timing(const struct dem_solver *s);
 /* SC_ESIM if injected != in flight + deposited + escaped. */
 int dem_check_accounting(const struct dem_solver *s);
 

@@ -127,6 +127,7 @@ struct dem_solver {
     struct dem_bins bins;
     struct dem_candidates candidates;
     int reuse_drag;               /* start a step from the kept drag (struct dem_drag); 1 but in tests */
+    struct dem_timing timing;     /* contacts: all of dem_collide, the broad phase included (dem_get_timing) */
     /* The particles flying at the start of the step, in index order (dem_collide lists them; the
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;

@@ -1,6 +1,7 @@
 /* The spray solver's step (Algorithm 1 of Mukherjee & Zohdi, with swept contact detection) and the
  * boundaries: target plane, hand-off plane, escape. */
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -124,19 +125,41 @@ int dem_check_accounting(const struct dem_solver *s)
     return SC_OK;
 }
 
+/* Adds the wall time since *mark to *phase and moves the mark on. */
+static void time_phase(double *phase, double *mark)
+{
+    double now = omp_get_wtime();
+    *phase += now - *mark;
+    *mark = now;
+}
+
 int dem_step(struct dem_solver *s)
 {
+    struct dem_timing *timing = &s->timing;
+    double mark = omp_get_wtime();
     dem_inject(s);
+    time_phase(&timing->injection, &mark);
     dem_collide(s);
+    time_phase(&timing->contacts, &mark);
     SC_TRY(dem_integrate(s));
+    time_phase(&timing->integration, &mark);
     apply_boundaries(s);
     s->step++;
 #ifndef NDEBUG
     SC_TRY(dem_check_accounting(s));
 #endif
+    time_phase(&timing->boundaries, &mark);
     if (s->step % s->cfg.metrics_every == 0 || s->step == dem_total_steps(s))
         dem_sample_metrics(s);
+    time_phase(&timing->metrics, &mark);
     return SC_OK;
+}
+
+struct dem_timing dem_get_timing(const struct dem_solver *s)
+{
+    struct dem_timing timing = s->timing;
+    timing.contacts -= timing.broad_phase; /* the rest of dem_collide: swept tests, sorting, resolution */
+    return timing;
 }
 
 struct dem_counts dem_get_counts(const struct dem_solver *s)

@@ -45,6 +45,15 @@ done
 [ "$(h5dump -a /summary/runs "$REF/impact.h5" 2>/dev/null | grep -c '(0): 4$')" -eq 1 ] || why="$why /summary runs != 4;"
 if [ -z "$why" ]; then pass pipeline_outputs; else fail pipeline_outputs "$why"; fi
 
+# the spray stage's closing breakdown of its time loop: the phases partition it (none negative, sum 100 %)
+why=$(grep "spray: time loop" "$T/ref.log" | awk -F': ' '{ n = split($NF, parts, ", "); sum = 0;
+    for (k = 1; k <= n; k++) { m = split(parts[k], f, " "); p = f[m - 1] + 0; sum += p;
+        if (p < -0.05) printf "%s is negative; ", parts[k] }
+    if (n != 8) printf "%d phases, not 8; ", n;
+    if (sum < 99.5 || sum > 100.5) printf "the phases sum to %.1f %%; ", sum; found = 1 }
+    END { if (!found) print "no closing line \"spray: time loop\"" }')
+if [ -z "$why" ]; then pass spray_time_breakdown; else fail spray_time_breakdown "$why"; fi
+
 # every seed names its spray impact: the particle id and the diameter there are the seed's
 why=""
 values "$REF/couple.h5" /seeds/impact_row >"$T/rows"
