@@ -1,6 +1,7 @@
 /* The background grid: shape functions (trilinear, Eq. 3.20, or uGIMP) and the particle-to-grid transfers of
  * thesis Section 3.4 steps 1-2 and 8, done block by block in 8 colours so that no two threads ever add to the
  * same node and every node receives its contributions in the same order for any number of threads. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +145,10 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
      * drops nodes below 1e-5 of a cell, but the force a dropped node holds is lost from the momentum balance
      * (its weight gradient is not small), and N_Ip / m_I <= 1 / m_p bounds what a light node gives a point. */
     g->mass_cutoff = 1e-14 * lightest * g->h * g->h * g->h;
+    for (int d = 0; d < 3; d++) {
+        g->box.lo[d] = g->held.lo[d] = 0;
+        g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
+    }
     SC_TRY(alloc_layers(g));
     return alloc_blocks(g, p->count);
 }
@@ -193,7 +198,11 @@ void grid_bin_points(struct mpm_solver *s)
     const struct mpm_points *p = &s->points;
     long n = (long)p->count;
     int linear = s->cfg.shape_function == MPM_LINEAR;
-#pragma omp parallel for schedule(static)
+    /* the box of the stencils' nodes: the extremes of their base nodes (scalars: an array reduction was kept in
+     * memory), widened by the stencil's width (2 nodes trilinear, 3 uGIMP) */
+    int lo0 = INT_MAX, lo1 = INT_MAX, lo2 = INT_MAX, hi0 = INT_MIN, hi1 = INT_MIN, hi2 = INT_MIN;
+    int last = linear ? 1 : 2;
+#pragma omp parallel for schedule(static) reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
     for (long q = 0; q < n; q++) {
         struct stencil st;
         double f[3] = {0.0, 0.0, 0.0}; /* trilinear: the fractions; unused for uGIMP */
@@ -208,10 +217,14 @@ void grid_bin_points(struct mpm_solver *s)
             b[d] = (int)((unsigned)st.base[d] / BLOCK_CELLS); /* base >= 0 (xi > 1): unsigned, a shift */
             g->point_fraction[3 * q + d] = f[d];
         }
+        lo0 = st.base[0] < lo0 ? st.base[0] : lo0, hi0 = st.base[0] > hi0 ? st.base[0] : hi0;
+        lo1 = st.base[1] < lo1 ? st.base[1] : lo1, hi1 = st.base[1] > hi1 ? st.base[1] : hi1;
+        lo2 = st.base[2] < lo2 ? st.base[2] : lo2, hi2 = st.base[2] > hi2 ? st.base[2] : hi2;
         g->point_node[q] = (uint32_t)st.node;
         g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
                                   (size_t)b[0]);
     }
+    g->box = (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}};
     memset(g->block_start, 0, (g->block_count + 1) * sizeof *g->block_start);
     for (size_t q = 0; q < p->count; q++)
         if (g->point_block[q] >= 0)
@@ -368,23 +381,41 @@ static void for_each_point_by_colour(struct mpm_solver *s, enum transfer transfe
     }
 }
 
+/* A nodal field (node_bytes per node and layer) set to 0 on the nodes of a box, in every layer. */
+static void clear_box(const struct mpm_grid *g, const struct node_box *box, void *field, size_t node_bytes)
+{
+    size_t rows = box_rows(box), length = box_row_length(box);
+    for (int l = 0; l < g->layers; l++)
+        for (size_t r = 0; r < rows; r++) {
+            int k;
+            size_t I = (size_t)l * g->nodes + box_row_start(g, box, r, &k);
+            memset((char *)field + I * node_bytes, 0, length * node_bytes);
+        }
+}
+
 void grid_transfer_all(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    size_t n = g->nodes * (size_t)g->layers;
-    memset(g->mass, 0, n * sizeof *g->mass);
-    memset(g->momentum, 0, 3 * n * sizeof *g->momentum);
-    memset(g->force, 0, 3 * n * sizeof *g->force);
-    memset(g->gradient, 0, 3 * n * sizeof *g->gradient);
-    memset(g->bond_sum, 0, n * sizeof *g->bond_sum);
-    memset(g->bond_weight, 0, n * sizeof *g->bond_weight);
-    memset(g->contact, 0, n * sizeof *g->contact);
+    /* the fields are 0 outside the last step's box: clearing that box clears the grid, and this step's nodal
+     * loops write only inside its own box */
+    const struct node_box *held = &g->held;
+    clear_box(g, held, g->mass, sizeof *g->mass);
+    clear_box(g, held, g->momentum, 3 * sizeof *g->momentum);
+    clear_box(g, held, g->momentum_new, 3 * sizeof *g->momentum_new);
+    clear_box(g, held, g->force, 3 * sizeof *g->force);
+    clear_box(g, held, g->gradient, 3 * sizeof *g->gradient);
+    clear_box(g, held, g->velocity, 3 * sizeof *g->velocity);
+    clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
+    clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
+    clear_box(g, held, g->contact, sizeof *g->contact);
+    clear_box(g, held, g->wall_held, sizeof *g->wall_held);
+    g->held = g->box;
     for_each_point_by_colour(s, TRANSFER_ALL);
 }
 
 void grid_transfer_momentum(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    memset(g->momentum_new, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->momentum_new);
+    clear_box(g, &g->box, g->momentum_new, 3 * sizeof *g->momentum_new);
     for_each_point_by_colour(s, TRANSFER_MOMENTUM);
 }

@@ -205,13 +205,19 @@ static void grid_to_points(struct mpm_solver *s)
 static void nodal_velocities(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    long n = (long)(g->nodes * (size_t)g->layers);
+    /* over the nodes of this step's stencils (g->box), each row in every layer: the fields are 0 elsewhere */
+    long rows = (long)box_rows(&g->box), layer_rows = rows * g->layers;
+    size_t length = box_row_length(&g->box);
 #pragma omp parallel for schedule(static)
-    for (long I = 0; I < n; I++) {
-        int heavy = g->mass[I] > g->mass_cutoff;
-        for (int d = 0; d < 3; d++)
-            g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
-        g->contact[I] &= (uint8_t)heavy;
+    for (long r = 0; r < layer_rows; r++) {
+        int k;
+        size_t first = (size_t)(r / rows) * g->nodes + box_row_start(g, &g->box, (size_t)(r % rows), &k);
+        for (size_t I = first; I < first + length; I++) {
+            int heavy = g->mass[I] > g->mass_cutoff;
+            for (int d = 0; d < 3; d++)
+                g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
+            g->contact[I] &= (uint8_t)heavy;
+        }
     }
 }
 
