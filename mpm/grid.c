@@ -291,12 +291,14 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
             }
 }
 
-/* uGIMP (trilinear stencils take scatter_all_runs). */
 static void scatter_all(struct mpm_solver *s, size_t q)
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    scatter_all_width(s, q, &st, st.width);
+    if (st.width == 2)
+        scatter_all_width(s, q, &st, 2);
+    else
+        scatter_all_width(s, q, &st, st.width);
 }
 
 /* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
@@ -355,7 +357,15 @@ static void prefetch_point(const struct mpm_solver *s, size_t q)
  * held in vector lanes, node a + 2b + 4c of the stencil in lane a + 2b + 4c: the sums are read once before the
  * run and written once after it, instead of once per point, and the 8 nodes of a point take one vector
  * operation where they took eight.  Each lane does scatter_all_width's operations for its node in the same
- * order, on the sum it would have read from memory (C17 mode: no contraction into FMA): the same bits. */
+ * order, on the sum it would have read from memory (C17 mode: no contraction into FMA): the same bits.
+ * Only with AVX-512: the 12 sums of 8 lanes then stay in its 32 vector registers, and the lane shuffles are
+ * single instructions.  With AVX2 (x86-64-v3) they spilled and the shuffles went through memory: the 4 ns
+ * impact took 8 s instead of 4; those builds transfer point by point (scatter_all). */
+#if defined(__AVX512F__)
+#define TRILINEAR_RUNS 1
+#else
+#define TRILINEAR_RUNS 0
+#endif
 typedef double lanes8 __attribute__((vector_size(8 * sizeof(double))));
 
 /* The sums of the fields particle-to-grid adds to, lane n for node n of the stencil. */
@@ -363,49 +373,84 @@ struct stencil_sums {
     lanes8 mass, momentum[3], force[3], gradient[3], bond_sum, bond_weight;
 };
 
-/* Component `component` of a field with `stride` doubles per node, for the 8 nodes (by pointer: a vector passed
- * by value has another ABI with AVX than without, mpm_impl.h). */
-static inline void lanes_load(lanes8 *v, const double *field, size_t stride, const size_t node[8], size_t component)
+/* Lane shuffles of two 8-lane vectors, indices 8-15 picking from the second (gcc's and clang's builtins). */
+#if defined(__clang__)
+#define LANES_SHUFFLE(a, b, ...) __builtin_shufflevector(a, b, __VA_ARGS__)
+#else
+typedef long long lanes8_index __attribute__((vector_size(8 * sizeof(long long))));
+#define LANES_SHUFFLE(a, b, ...) __builtin_shuffle(a, b, (lanes8_index){__VA_ARGS__})
+#endif
+
+/* The 8 nodes are 4 pairs of x neighbours, pair p = b + 2c at node pair[p] (lanes 2p and 2p + 1): a pair's
+ * doubles are contiguous in every field.  Vectors go by pointer (a vector passed by value has another ABI with
+ * AVX than without, mpm_impl.h). */
+
+/* A field with one double per node. */
+static inline void lanes_load(lanes8 *v, const double *f, const size_t pair[4])
 {
-    const double *f = field + component;
-    *v = (lanes8){f[stride * node[0]], f[stride * node[1]], f[stride * node[2]], f[stride * node[3]],
-                  f[stride * node[4]], f[stride * node[5]], f[stride * node[6]], f[stride * node[7]]};
+    *v = (lanes8){f[pair[0]], f[pair[0] + 1], f[pair[1]], f[pair[1] + 1],
+                  f[pair[2]], f[pair[2] + 1], f[pair[3]], f[pair[3] + 1]};
 }
 
-static inline void lanes_store(double *field, size_t stride, const size_t node[8], size_t component, const lanes8 *v)
+static inline void lanes_store(double *f, const size_t pair[4], const lanes8 *v)
 {
-    for (int n = 0; n < 8; n++)
-        field[stride * node[n] + component] = (*v)[n];
+    for (int p = 0; p < 4; p++)
+        f[pair[p]] = (*v)[2 * p], f[pair[p] + 1] = (*v)[2 * p + 1];
+}
+
+/* A field with 3 doubles per node into its x, y and z lanes: each pair read as 8 doubles (its 6 and the x and y
+ * of the next node, which exists: a stencil ends at least one node before the grid's last) and transposed. */
+static inline void lanes_load3(lanes8 xyz[3], const double *f, const size_t pair[4])
+{
+    lanes8 q[4];
+    for (int p = 0; p < 4; p++)
+        memcpy(&q[p], f + 3 * pair[p], sizeof q[p]);
+    lanes8 xy01 = LANES_SHUFFLE(q[0], q[1], 0, 3, 8, 11, 1, 4, 9, 12);
+    lanes8 xy23 = LANES_SHUFFLE(q[2], q[3], 0, 3, 8, 11, 1, 4, 9, 12);
+    lanes8 z01 = LANES_SHUFFLE(q[0], q[1], 2, 5, 10, 13, 2, 5, 10, 13);
+    lanes8 z23 = LANES_SHUFFLE(q[2], q[3], 2, 5, 10, 13, 2, 5, 10, 13);
+    xyz[0] = LANES_SHUFFLE(xy01, xy23, 0, 1, 2, 3, 8, 9, 10, 11);
+    xyz[1] = LANES_SHUFFLE(xy01, xy23, 4, 5, 6, 7, 12, 13, 14, 15);
+    xyz[2] = LANES_SHUFFLE(z01, z23, 0, 1, 2, 3, 8, 9, 10, 11);
+}
+
+/* The x, y and z lanes back into the field, 6 doubles a pair. */
+static inline void lanes_store3(double *f, const size_t pair[4], const lanes8 xyz[3])
+{
+    lanes8 xy01 = LANES_SHUFFLE(xyz[0], xyz[1], 0, 8, 1, 9, 2, 10, 3, 11);
+    lanes8 xy23 = LANES_SHUFFLE(xyz[0], xyz[1], 4, 12, 5, 13, 6, 14, 7, 15);
+    lanes8 q[4] = {LANES_SHUFFLE(xy01, xyz[2], 0, 1, 8, 2, 3, 9, 9, 9),
+                   LANES_SHUFFLE(xy01, xyz[2], 4, 5, 10, 6, 7, 11, 11, 11),
+                   LANES_SHUFFLE(xy23, xyz[2], 0, 1, 12, 2, 3, 13, 13, 13),
+                   LANES_SHUFFLE(xy23, xyz[2], 4, 5, 14, 6, 7, 15, 15, 15)}; /* lanes 6 and 7 not stored */
+    for (int p = 0; p < 4; p++)
+        memcpy(f + 3 * pair[p], &q[p], 6 * sizeof(double));
 }
 
 /* The nodal sums of the run's stencil; the bond sums only where a point of the run is a surface point. */
-static inline void sums_load(const struct mpm_grid *g, const size_t node[8], int bonds, struct stencil_sums *sum)
+static inline void sums_load(const struct mpm_grid *g, const size_t pair[4], int bonds, struct stencil_sums *sum)
 {
-    lanes_load(&sum->mass, g->mass, 1, node, 0);
-    for (size_t i = 0; i < 3; i++) {
-        lanes_load(&sum->momentum[i], g->momentum, 3, node, i);
-        lanes_load(&sum->force[i], g->force, 3, node, i);
-        lanes_load(&sum->gradient[i], g->gradient, 3, node, i);
-    }
+    lanes_load(&sum->mass, g->mass, pair);
+    lanes_load3(sum->momentum, g->momentum, pair);
+    lanes_load3(sum->force, g->force, pair);
+    lanes_load3(sum->gradient, g->gradient, pair);
     lanes8 zero = {0};
     sum->bond_sum = sum->bond_weight = zero;
     if (bonds) {
-        lanes_load(&sum->bond_sum, g->bond_sum, 1, node, 0);
-        lanes_load(&sum->bond_weight, g->bond_weight, 1, node, 0);
+        lanes_load(&sum->bond_sum, g->bond_sum, pair);
+        lanes_load(&sum->bond_weight, g->bond_weight, pair);
     }
 }
 
-static inline void sums_store(struct mpm_grid *g, const size_t node[8], int bonds, const struct stencil_sums *sum)
+static inline void sums_store(struct mpm_grid *g, const size_t pair[4], int bonds, const struct stencil_sums *sum)
 {
-    lanes_store(g->mass, 1, node, 0, &sum->mass);
-    for (size_t i = 0; i < 3; i++) {
-        lanes_store(g->momentum, 3, node, i, &sum->momentum[i]);
-        lanes_store(g->force, 3, node, i, &sum->force[i]);
-        lanes_store(g->gradient, 3, node, i, &sum->gradient[i]);
-    }
+    lanes_store(g->mass, pair, &sum->mass);
+    lanes_store3(g->momentum, pair, sum->momentum);
+    lanes_store3(g->force, pair, sum->force);
+    lanes_store3(g->gradient, pair, sum->gradient);
     if (bonds) {
-        lanes_store(g->bond_sum, 1, node, 0, &sum->bond_sum);
-        lanes_store(g->bond_weight, 1, node, 0, &sum->bond_weight);
+        lanes_store(g->bond_sum, pair, &sum->bond_sum);
+        lanes_store(g->bond_weight, pair, &sum->bond_weight);
     }
 }
 
@@ -460,17 +505,15 @@ static void scatter_all_runs(struct mpm_solver *s, size_t k, size_t end)
         int bonds = (s->points.flags[points[k]] & POINT_SURFACE) != 0;
         for (; run_end < end && run_key(s, points[run_end]) == key; run_end++)
             bonds |= (s->points.flags[points[run_end]] & POINT_SURFACE) != 0;
-        size_t node[8];
-        for (int n = 0; n < 8; n++)
-            node[n] = key + (size_t)(n & 1) + g->row * (size_t)(n >> 1 & 1) + g->plane * (size_t)(n >> 2);
+        size_t pair[4] = {key, key + g->row, key + g->plane, key + g->row + g->plane};
         struct stencil_sums sum;
-        sums_load(g, node, bonds, &sum);
+        sums_load(g, pair, bonds, &sum);
         for (; k < run_end; k++) {
             if (k + PREFETCH_AHEAD < end)
                 prefetch_point(s, points[k + PREFETCH_AHEAD]);
             run_point_add(s, points[k], &sum);
         }
-        sums_store(g, node, bonds, &sum);
+        sums_store(g, pair, bonds, &sum);
     }
 }
 
@@ -482,7 +525,7 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
 {
     const struct mpm_grid *g = &s->grid;
     size_t end = g->block_start[block + 1];
-    if (transfer == TRANSFER_ALL && s->cfg.shape_function == MPM_LINEAR) {
+    if (TRILINEAR_RUNS && transfer == TRANSFER_ALL && s->cfg.shape_function == MPM_LINEAR) {
         scatter_all_runs(s, g->block_start[block], end);
         return;
     }
