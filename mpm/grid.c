@@ -517,6 +517,41 @@ static void scatter_all_runs(struct mpm_solver *s, size_t k, size_t end)
     }
 }
 
+/* Step 8 for point q in a run: scatter_momentum_width's (m v_i) N per lane, N = w_0 w_1 w_2 in its order. */
+static inline void run_point_momentum(const struct mpm_solver *s, size_t q, lanes8 sum[3])
+{
+    const struct mpm_points *p = &s->points;
+    const double *v = p->v + 3 * q, *f = s->grid.point_fraction + 3 * q;
+    double m = p->mass[q], u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
+    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
+    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+    lanes8 N = w0 * w1 * w2;
+    for (int i = 0; i < 3; i++)
+        sum[i] += m * v[i] * N;
+}
+
+/* The MUSL re-projection of the points block_points[k .. end) of one block, trilinear, run by run (the runs of
+ * scatter_all_runs: the stencils have not moved). */
+static void scatter_momentum_runs(struct mpm_solver *s, size_t k, size_t end)
+{
+    struct mpm_grid *g = &s->grid;
+    const size_t *points = g->block_points;
+    while (k < end) {
+        size_t key = run_key(s, points[k]), run_end = k + 1;
+        while (run_end < end && run_key(s, points[run_end]) == key)
+            run_end++;
+        size_t pair[4] = {key, key + g->row, key + g->plane, key + g->row + g->plane};
+        lanes8 sum[3];
+        lanes_load3(sum, g->momentum_new, pair);
+        for (; k < run_end; k++) {
+            if (k + PREFETCH_AHEAD < end)
+                prefetch_point(s, points[k + PREFETCH_AHEAD]);
+            run_point_momentum(s, points[k], sum);
+        }
+        lanes_store3(g->momentum_new, pair, sum);
+    }
+}
+
 enum transfer { TRANSFER_ALL, TRANSFER_MOMENTUM };
 
 /* The points of one block in order; the transfer is chosen by value, not through a function pointer, so that
@@ -525,8 +560,11 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
 {
     const struct mpm_grid *g = &s->grid;
     size_t end = g->block_start[block + 1];
-    if (TRILINEAR_RUNS && transfer == TRANSFER_ALL && s->cfg.shape_function == MPM_LINEAR) {
-        scatter_all_runs(s, g->block_start[block], end);
+    if (TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR) {
+        if (transfer == TRANSFER_ALL)
+            scatter_all_runs(s, g->block_start[block], end);
+        else
+            scatter_momentum_runs(s, g->block_start[block], end);
         return;
     }
     for (size_t k = g->block_start[block]; k < end; k++) {
