@@ -297,13 +297,17 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
 {
     double L[3][3], dt = s->dt, *de = b->strain[k], *dw = b->spin[k];
     b->contact[k] = velocity_gradient(s, q, L);
-    de[0] = L[0][0] * dt, de[1] = L[1][1] * dt, de[2] = L[2][2] * dt;
+    /* the trace from locals: gcc stores de[0..3] as one vector, and reading them back one by one stalled on
+     * store forwarding (a seventh of update_block's samples) */
+    double exx = L[0][0] * dt, eyy = L[1][1] * dt, ezz = L[2][2] * dt;
+    de[0] = exx, de[1] = eyy, de[2] = ezz;
     de[3] = 0.5 * (L[1][2] + L[2][1]) * dt, de[4] = 0.5 * (L[0][2] + L[2][0]) * dt;
     de[5] = 0.5 * (L[0][1] + L[1][0]) * dt;
     dw[0] = 0.5 * (L[1][2] - L[2][1]) * dt, dw[1] = 0.5 * (L[0][2] - L[2][0]) * dt;
     dw[2] = 0.5 * (L[0][1] - L[1][0]) * dt;
-    b->volume_new[k] = s->points.volume[q] * (1.0 + de[0] + de[1] + de[2]);
-    return b->volume_new[k] > 0.0 ? 0 : -1;
+    double volume_new = s->points.volume[q] * (1.0 + exx + eyy + ezz);
+    b->volume_new[k] = volume_new;
+    return volume_new > 0.0 ? 0 : -1;
 }
 
 /* The stress update's view of the block of points q0 .. q0 + count - 1 (mpm_stress_begin_block). */
