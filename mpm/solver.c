@@ -237,10 +237,11 @@ STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
                  * unchanged by adding +-0, so no branch is needed for the same bits.
-                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before */
-                vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], 0.0};
-                vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], 0.0};
-                vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], 0.0};
+                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before; the pad
+                 * lanes copy lane 2 (a 0 there made gcc emit a vmovq valgrind cannot run, mpm_impl.h) */
+                vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], st->w[0][a]};
+                vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], st->w[1][b]};
+                vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], st->g[2][c]};
                 vec3pad dN = x * y * z, vI;
                 node_vector(&vI, g->velocity, I);
                 for (int i = 0; i < 3; i++)
