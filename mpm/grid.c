@@ -224,7 +224,8 @@ void grid_bin_points(struct mpm_solver *s)
         g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
                                   (size_t)b[0]);
     }
-    g->box = (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}};
+    g->box = lo0 <= hi0 ? (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}}
+                        : (struct node_box){.lo = {0, 0, 0}, .hi = {-1, -1, -1}}; /* no active point: empty */
     memset(g->block_start, 0, (g->block_count + 1) * sizeof *g->block_start);
     for (size_t q = 0; q < p->count; q++)
         if (g->point_block[q] >= 0)

@@ -205,7 +205,10 @@ static inline size_t box_rows(const struct node_box *b)
 {
     return b->lo[0] > b->hi[0] ? 0 : (size_t)(b->hi[1] - b->lo[1] + 1) * (size_t)(b->hi[2] - b->lo[2] + 1);
 }
-static inline size_t box_row_length(const struct node_box *b) { return (size_t)(b->hi[0] - b->lo[0] + 1); }
+static inline size_t box_row_length(const struct node_box *b)
+{
+    return b->lo[0] > b->hi[0] ? 0 : (size_t)(b->hi[0] - b->lo[0] + 1);
+}
 static inline size_t box_row_start(const struct mpm_grid *g, const struct node_box *b, size_t r, int *k)
 {
     size_t rows_y = (size_t)(b->hi[1] - b->lo[1] + 1);
