@@ -213,62 +213,82 @@ static int bodies_at(const struct mpm_grid *g, size_t node)
     return count;
 }
 
-void contact_nodal_update(struct mpm_solver *s)
+/* Steps 3-6 at one node (in z plane k): Eq. 3.28, the wall or the fixed bottom, contact and bonds (resolve_node);
+ * returns whether a pair interacted, *bonded whether one was bonded. */
+static int nodal_update(struct mpm_solver *s, size_t node, int k, double *start, int *bonded)
 {
     struct mpm_grid *g = &s->grid;
     double dt = s->dt;
-    int rigid = s->cfg.substrate == MPM_SUBSTRATE_RIGID;
-    long nodes = (long)g->nodes;
+    for (int l = 0; l < g->layers; l++) { /* Eq. 3.28 */
+        size_t I = (size_t)l * g->nodes + node;
+        int heavy = g->mass[I] > g->mass_cutoff;
+        for (int d = 0; d < 3; d++)
+            g->momentum_new[3 * I + d] = heavy ? g->momentum[3 * I + d] + g->force[3 * I + d] * dt : 0.0;
+    }
+    if (s->cfg.substrate == MPM_SUBSTRATE_RIGID)
+        rigid_wall_hold(s, node, k);
+    else if (s->cfg.fixed_bottom)
+        fixed_bottom(s, node, k, g->momentum_new);
+    *bonded = 0;
+    return g->layers > 1 && bodies_at(g, node) > 1 && resolve_node(s, node, start, g->momentum_new, bonded);
+}
+
+/* Over the nodes of this step's stencils (g->box): outside them every field is 0, and stays 0. */
+void contact_nodal_update(struct mpm_solver *s)
+{
+    struct mpm_grid *g = &s->grid;
+    long rows = (long)box_rows(&g->box);
+    size_t length = box_row_length(&g->box);
     int64_t contacts = 0, bonds = 0;
     double *start = s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT ? g->momentum : NULL;
 #pragma omp parallel for schedule(static) reduction(+ : contacts, bonds)
-    for (long node = 0; node < nodes; node++) {
-        for (int l = 0; l < g->layers; l++) {   /* Eq. 3.28 */
-            size_t I = (size_t)l * g->nodes + (size_t)node;
-            int heavy = g->mass[I] > g->mass_cutoff;
-            for (int d = 0; d < 3; d++)
-                g->momentum_new[3 * I + d] = heavy ? g->momentum[3 * I + d] + g->force[3 * I + d] * dt : 0.0;
-        }
-        int k = (int)(node / ((long)g->n[0] * g->n[1]));
-        if (rigid)
-            rigid_wall_hold(s, (size_t)node, k);
-        else if (s->cfg.fixed_bottom)
-            fixed_bottom(s, (size_t)node, k, g->momentum_new);
-        int bonded;
-        if (g->layers > 1 && bodies_at(g, (size_t)node) > 1 &&
-            resolve_node(s, (size_t)node, start, g->momentum_new, &bonded)) {
-            contacts++;
-            bonds += bonded;
-        }
+    for (long r = 0; r < rows; r++) {
+        int k, bonded;
+        size_t first = box_row_start(g, &g->box, (size_t)r, &k);
+        for (size_t node = first; node < first + length; node++)
+            if (nodal_update(s, node, k, start, &bonded)) {
+                contacts++;
+                bonds += bonded;
+            }
     }
     s->contact_node_steps += contacts;
     s->bonded_node_steps += bonds;
 }
 
+/* The re-projected momenta at one node (in z plane k). */
+static void correct_node(struct mpm_solver *s, size_t node, int k, double *mom)
+{
+    struct mpm_grid *g = &s->grid;
+    for (int l = 0; l < g->layers; l++) {
+        size_t I = (size_t)l * g->nodes + node;
+        if (!(g->mass[I] > g->mass_cutoff))
+            mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
+    }
+    if (s->cfg.substrate == MPM_SUBSTRATE_RIGID)
+        rigid_wall_reproject(s, node, mom);
+    else if (s->cfg.fixed_bottom)
+        fixed_bottom(s, node, k, mom);
+    int bonded;
+    if (g->layers < 2 || bodies_at(g, node) < 2)
+        return;
+    if (s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT)
+        reproject_node(s, node, mom);
+    else
+        resolve_node(s, node, NULL, mom, &bonded);
+}
+
+/* Over the nodes of this step's stencils, as contact_nodal_update. */
 void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes)
 {
     (void)count_nodes;
     struct mpm_grid *g = &s->grid;
-    int rigid = s->cfg.substrate == MPM_SUBSTRATE_RIGID;
-    long nodes = (long)g->nodes;
+    long rows = (long)box_rows(&g->box);
+    size_t length = box_row_length(&g->box);
 #pragma omp parallel for schedule(static)
-    for (long node = 0; node < nodes; node++) {
-        for (int l = 0; l < g->layers; l++) {
-            size_t I = (size_t)l * g->nodes + (size_t)node;
-            if (!(g->mass[I] > g->mass_cutoff))
-                mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
-        }
-        int k = (int)(node / ((long)g->n[0] * g->n[1]));
-        if (rigid)
-            rigid_wall_reproject(s, (size_t)node, mom);
-        else if (s->cfg.fixed_bottom)
-            fixed_bottom(s, (size_t)node, k, mom);
-        int bonded;
-        if (g->layers < 2 || bodies_at(g, (size_t)node) < 2)
-            continue;
-        if (s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT)
-            reproject_node(s, (size_t)node, mom);
-        else
-            resolve_node(s, (size_t)node, NULL, mom, &bonded);
+    for (long r = 0; r < rows; r++) {
+        int k;
+        size_t first = box_row_start(g, &g->box, (size_t)r, &k);
+        for (size_t node = first; node < first + length; node++)
+            correct_node(s, node, k, mom);
     }
 }

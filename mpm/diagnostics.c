@@ -99,9 +99,10 @@ static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
 {
     const struct mpm_grid *g = &s->grid;
     struct stencil st;
-    v[0] = v[1] = v[2] = 0.0;
     grid_point_stencil(s, q, &st); /* this step's binning: the weights of grid_stencil without its divisions */
     size_t layer = (size_t)s->points.body[q] * g->nodes;
+    /* x, y, z in lanes (mpm_impl.h): one division per node instead of three, each lane the scalar (N p_d) / m_I */
+    vec3pad sum = {0, 0, 0, 0};
     for (int c = 0; c < st.width; c++)
         for (int b = 0; b < st.width; b++)
             for (int a = 0; a < st.width; a++) {
@@ -109,9 +110,11 @@ static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
                 size_t I = layer + stencil_node(g, &st, a, b, c);
                 if (N == 0.0 || !(g->mass[I] > g->mass_cutoff))
                     continue;
-                for (int d = 0; d < 3; d++)
-                    v[d] += N * g->momentum[3 * I + d] / g->mass[I];
+                vec3pad momentum, mass = {g->mass[I], g->mass[I], g->mass[I], g->mass[I]};
+                node_vector(&momentum, g->momentum, I);
+                sum += N * momentum / mass;
             }
+    v[0] = sum[0], v[1] = sum[1], v[2] = sum[2];
 }
 
 /* Work of the absorbing boundaries (Eqs. 3.45-3.46) over the step, booked so that the energy balance closes.

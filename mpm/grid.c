@@ -1,6 +1,7 @@
 /* The background grid: shape functions (trilinear, Eq. 3.20, or uGIMP) and the particle-to-grid transfers of
  * thesis Section 3.4 steps 1-2 and 8, done block by block in 8 colours so that no two threads ever add to the
  * same node and every node receives its contributions in the same order for any number of threads. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +145,10 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
      * drops nodes below 1e-5 of a cell, but the force a dropped node holds is lost from the momentum balance
      * (its weight gradient is not small), and N_Ip / m_I <= 1 / m_p bounds what a light node gives a point. */
     g->mass_cutoff = 1e-14 * lightest * g->h * g->h * g->h;
+    for (int d = 0; d < 3; d++) {
+        g->box.lo[d] = g->held.lo[d] = 0;
+        g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
+    }
     SC_TRY(alloc_layers(g));
     return alloc_blocks(g, p->count);
 }
@@ -193,7 +198,11 @@ void grid_bin_points(struct mpm_solver *s)
     const struct mpm_points *p = &s->points;
     long n = (long)p->count;
     int linear = s->cfg.shape_function == MPM_LINEAR;
-#pragma omp parallel for schedule(static)
+    /* the box of the stencils' nodes: the extremes of their base nodes (scalars: an array reduction was kept in
+     * memory), widened by the stencil's width (2 nodes trilinear, 3 uGIMP) */
+    int lo0 = INT_MAX, lo1 = INT_MAX, lo2 = INT_MAX, hi0 = INT_MIN, hi1 = INT_MIN, hi2 = INT_MIN;
+    int last = linear ? 1 : 2;
+#pragma omp parallel for schedule(static) reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
     for (long q = 0; q < n; q++) {
         struct stencil st;
         double f[3] = {0.0, 0.0, 0.0}; /* trilinear: the fractions; unused for uGIMP */
@@ -208,10 +217,15 @@ void grid_bin_points(struct mpm_solver *s)
             b[d] = (int)((unsigned)st.base[d] / BLOCK_CELLS); /* base >= 0 (xi > 1): unsigned, a shift */
             g->point_fraction[3 * q + d] = f[d];
         }
+        lo0 = st.base[0] < lo0 ? st.base[0] : lo0, hi0 = st.base[0] > hi0 ? st.base[0] : hi0;
+        lo1 = st.base[1] < lo1 ? st.base[1] : lo1, hi1 = st.base[1] > hi1 ? st.base[1] : hi1;
+        lo2 = st.base[2] < lo2 ? st.base[2] : lo2, hi2 = st.base[2] > hi2 ? st.base[2] : hi2;
         g->point_node[q] = (uint32_t)st.node;
         g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
                                   (size_t)b[0]);
     }
+    g->box = lo0 <= hi0 ? (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}}
+                        : (struct node_box){.lo = {0, 0, 0}, .hi = {-1, -1, -1}}; /* no active point: empty */
     memset(g->block_start, 0, (g->block_count + 1) * sizeof *g->block_start);
     for (size_t q = 0; q < p->count; q++)
         if (g->point_block[q] >= 0)
@@ -338,6 +352,207 @@ static void prefetch_point(const struct mpm_solver *s, size_t q)
     __builtin_prefetch(s->grid.point_fraction + 3 * q);
 }
 
+/* ---- Steps 1-2 for trilinear stencils, in runs of points ----
+ * Consecutive points of a block that lie in the same cell (a lattice row of the body crossing it: about
+ * DCell / dp points, 3 on the benchmark) add to the same 8 nodes.  A run of them adds into the 8 nodes' sums
+ * held in vector lanes, node a + 2b + 4c of the stencil in lane a + 2b + 4c: the sums are read once before the
+ * run and written once after it, instead of once per point, and the 8 nodes of a point take one vector
+ * operation where they took eight.  Each lane does scatter_all_width's operations for its node in the same
+ * order, on the sum it would have read from memory (C17 mode: no contraction into FMA): the same bits.
+ * Only with AVX-512: the 12 sums of 8 lanes then stay in its 32 vector registers, and the lane shuffles are
+ * single instructions.  With AVX2 (x86-64-v3) they spilled and the shuffles went through memory: the 4 ns
+ * impact took 8 s instead of 4; those builds transfer point by point (scatter_all). */
+#if defined(__AVX512F__)
+#define TRILINEAR_RUNS 1
+#else
+#define TRILINEAR_RUNS 0
+#endif
+typedef double lanes8 __attribute__((vector_size(8 * sizeof(double))));
+
+/* The sums of the fields particle-to-grid adds to, lane n for node n of the stencil. */
+struct stencil_sums {
+    lanes8 mass, momentum[3], force[3], gradient[3], bond_sum, bond_weight;
+};
+
+/* Lane shuffles of two 8-lane vectors, indices 8-15 picking from the second (gcc's and clang's builtins). */
+#if defined(__clang__)
+#define LANES_SHUFFLE(a, b, ...) __builtin_shufflevector(a, b, __VA_ARGS__)
+#else
+typedef long long lanes8_index __attribute__((vector_size(8 * sizeof(long long))));
+#define LANES_SHUFFLE(a, b, ...) __builtin_shuffle(a, b, (lanes8_index){__VA_ARGS__})
+#endif
+
+/* The 8 nodes are 4 pairs of x neighbours, pair p = b + 2c at node pair[p] (lanes 2p and 2p + 1): a pair's
+ * doubles are contiguous in every field.  Vectors go by pointer (a vector passed by value has another ABI with
+ * AVX than without, mpm_impl.h). */
+
+/* A field with one double per node. */
+static inline void lanes_load(lanes8 *v, const double *f, const size_t pair[4])
+{
+    *v = (lanes8){f[pair[0]], f[pair[0] + 1], f[pair[1]], f[pair[1] + 1],
+                  f[pair[2]], f[pair[2] + 1], f[pair[3]], f[pair[3] + 1]};
+}
+
+static inline void lanes_store(double *f, const size_t pair[4], const lanes8 *v)
+{
+    for (int p = 0; p < 4; p++)
+        f[pair[p]] = (*v)[2 * p], f[pair[p] + 1] = (*v)[2 * p + 1];
+}
+
+/* A field with 3 doubles per node into its x, y and z lanes: each pair read as 8 doubles (its 6 and the x and y
+ * of the next node, which exists: a stencil ends at least one node before the grid's last) and transposed. */
+static inline void lanes_load3(lanes8 xyz[3], const double *f, const size_t pair[4])
+{
+    lanes8 q[4];
+    for (int p = 0; p < 4; p++)
+        memcpy(&q[p], f + 3 * pair[p], sizeof q[p]);
+    lanes8 xy01 = LANES_SHUFFLE(q[0], q[1], 0, 3, 8, 11, 1, 4, 9, 12);
+    lanes8 xy23 = LANES_SHUFFLE(q[2], q[3], 0, 3, 8, 11, 1, 4, 9, 12);
+    lanes8 z01 = LANES_SHUFFLE(q[0], q[1], 2, 5, 10, 13, 2, 5, 10, 13);
+    lanes8 z23 = LANES_SHUFFLE(q[2], q[3], 2, 5, 10, 13, 2, 5, 10, 13);
+    xyz[0] = LANES_SHUFFLE(xy01, xy23, 0, 1, 2, 3, 8, 9, 10, 11);
+    xyz[1] = LANES_SHUFFLE(xy01, xy23, 4, 5, 6, 7, 12, 13, 14, 15);
+    xyz[2] = LANES_SHUFFLE(z01, z23, 0, 1, 2, 3, 8, 9, 10, 11);
+}
+
+/* The x, y and z lanes back into the field, 6 doubles a pair. */
+static inline void lanes_store3(double *f, const size_t pair[4], const lanes8 xyz[3])
+{
+    lanes8 xy01 = LANES_SHUFFLE(xyz[0], xyz[1], 0, 8, 1, 9, 2, 10, 3, 11);
+    lanes8 xy23 = LANES_SHUFFLE(xyz[0], xyz[1], 4, 12, 5, 13, 6, 14, 7, 15);
+    lanes8 q[4] = {LANES_SHUFFLE(xy01, xyz[2], 0, 1, 8, 2, 3, 9, 9, 9),
+                   LANES_SHUFFLE(xy01, xyz[2], 4, 5, 10, 6, 7, 11, 11, 11),
+                   LANES_SHUFFLE(xy23, xyz[2], 0, 1, 12, 2, 3, 13, 13, 13),
+                   LANES_SHUFFLE(xy23, xyz[2], 4, 5, 14, 6, 7, 15, 15, 15)}; /* lanes 6 and 7 not stored */
+    for (int p = 0; p < 4; p++)
+        memcpy(f + 3 * pair[p], &q[p], 6 * sizeof(double));
+}
+
+/* The nodal sums of the run's stencil; the bond sums only where a point of the run is a surface point. */
+static inline void sums_load(const struct mpm_grid *g, const size_t pair[4], int bonds, struct stencil_sums *sum)
+{
+    lanes_load(&sum->mass, g->mass, pair);
+    lanes_load3(sum->momentum, g->momentum, pair);
+    lanes_load3(sum->force, g->force, pair);
+    lanes_load3(sum->gradient, g->gradient, pair);
+    lanes8 zero = {0};
+    sum->bond_sum = sum->bond_weight = zero;
+    if (bonds) {
+        lanes_load(&sum->bond_sum, g->bond_sum, pair);
+        lanes_load(&sum->bond_weight, g->bond_weight, pair);
+    }
+}
+
+static inline void sums_store(struct mpm_grid *g, const size_t pair[4], int bonds, const struct stencil_sums *sum)
+{
+    lanes_store(g->mass, pair, &sum->mass);
+    lanes_store3(g->momentum, pair, sum->momentum);
+    lanes_store3(g->force, pair, sum->force);
+    lanes_store3(g->gradient, pair, sum->gradient);
+    if (bonds) {
+        lanes_store(g->bond_sum, pair, &sum->bond_sum);
+        lanes_store(g->bond_weight, pair, &sum->bond_weight);
+    }
+}
+
+/* Point q's terms of Eqs. 3.23-3.26, the volume gradient and the bond sums, added to the 8 lanes: per lane the
+ * operations of scatter_all_width (width 2), with the weights of grid_point_stencil (1 - f and f, -1/h and 1/h). */
+static inline void run_point_add(const struct mpm_solver *s, size_t q, struct stencil_sums *sum)
+{
+    const struct mpm_grid *g = &s->grid;
+    const struct mpm_points *p = &s->points;
+    const struct mpm_point_state *ps = &p->state[q];
+    double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
+    const double *sig = ps->stress, *v = p->v + 3 * q, *f = g->point_fraction + 3 * q;
+    double sxx = sig[0] - qv, syy = sig[1] - qv, szz = sig[2] - qv, syz = sig[3], sxz = sig[4], sxy = sig[5];
+    double fext[3] = {0, 0, 0};
+    if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
+        boundary_dashpot_force(s, q, fext);
+    double h = g->inv_h, u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
+    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
+    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+    lanes8 g0 = {-h, h, -h, h, -h, h, -h, h}, g1 = {-h, -h, h, h, -h, -h, h, h};
+    lanes8 g2 = {-h, -h, -h, -h, h, h, h, h};
+    lanes8 wyz = w1 * w2, N = w0 * wyz, dN0 = g0 * wyz, dN1 = w0 * g1 * w2, dN2 = w0 * w1 * g2;
+    sum->mass += m * N;
+    for (int i = 0; i < 3; i++)
+        sum->momentum[i] += m * v[i] * N;
+    sum->gradient[0] += V * dN0;
+    sum->gradient[1] += V * dN1;
+    sum->gradient[2] += V * dN2;
+    /* row i: -V (col0_i dN_0 + col1_i dN_1 + col2_i dN_2) + N fext_i, the columns of scatter_all_width */
+    sum->force[0] += -V * ((sxx * dN0 + sxy * dN1) + sxz * dN2) + N * fext[0];
+    sum->force[1] += -V * ((sxy * dN0 + syy * dN1) + syz * dN2) + N * fext[1];
+    sum->force[2] += -V * ((sxz * dN0 + syz * dN1) + szz * dN2) + N * fext[2];
+    if (p->flags[q] & POINT_SURFACE) {
+        sum->bond_sum += p->d_bond[q] * N;
+        sum->bond_weight += N;
+    }
+}
+
+/* The node of the stencil base of point q in its body's layer: points with the same one form a run. */
+static inline size_t run_key(const struct mpm_solver *s, size_t q)
+{
+    return (size_t)s->points.body[q] * s->grid.nodes + s->grid.point_node[q];
+}
+
+/* Particle-to-grid of the points block_points[k .. end) of one block, trilinear, run by run. */
+static void scatter_all_runs(struct mpm_solver *s, size_t k, size_t end)
+{
+    struct mpm_grid *g = &s->grid;
+    const size_t *points = g->block_points;
+    while (k < end) {
+        size_t key = run_key(s, points[k]), run_end = k + 1;
+        int bonds = (s->points.flags[points[k]] & POINT_SURFACE) != 0;
+        for (; run_end < end && run_key(s, points[run_end]) == key; run_end++)
+            bonds |= (s->points.flags[points[run_end]] & POINT_SURFACE) != 0;
+        size_t pair[4] = {key, key + g->row, key + g->plane, key + g->row + g->plane};
+        struct stencil_sums sum;
+        sums_load(g, pair, bonds, &sum);
+        for (; k < run_end; k++) {
+            if (k + PREFETCH_AHEAD < end)
+                prefetch_point(s, points[k + PREFETCH_AHEAD]);
+            run_point_add(s, points[k], &sum);
+        }
+        sums_store(g, pair, bonds, &sum);
+    }
+}
+
+/* Step 8 for point q in a run: scatter_momentum_width's (m v_i) N per lane, N = w_0 w_1 w_2 in its order. */
+static inline void run_point_momentum(const struct mpm_solver *s, size_t q, lanes8 sum[3])
+{
+    const struct mpm_points *p = &s->points;
+    const double *v = p->v + 3 * q, *f = s->grid.point_fraction + 3 * q;
+    double m = p->mass[q], u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
+    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
+    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+    lanes8 N = w0 * w1 * w2;
+    for (int i = 0; i < 3; i++)
+        sum[i] += m * v[i] * N;
+}
+
+/* The MUSL re-projection of the points block_points[k .. end) of one block, trilinear, run by run (the runs of
+ * scatter_all_runs: the stencils have not moved). */
+static void scatter_momentum_runs(struct mpm_solver *s, size_t k, size_t end)
+{
+    struct mpm_grid *g = &s->grid;
+    const size_t *points = g->block_points;
+    while (k < end) {
+        size_t key = run_key(s, points[k]), run_end = k + 1;
+        while (run_end < end && run_key(s, points[run_end]) == key)
+            run_end++;
+        size_t pair[4] = {key, key + g->row, key + g->plane, key + g->row + g->plane};
+        lanes8 sum[3];
+        lanes_load3(sum, g->momentum_new, pair);
+        for (; k < run_end; k++) {
+            if (k + PREFETCH_AHEAD < end)
+                prefetch_point(s, points[k + PREFETCH_AHEAD]);
+            run_point_momentum(s, points[k], sum);
+        }
+        lanes_store3(g->momentum_new, pair, sum);
+    }
+}
+
 enum transfer { TRANSFER_ALL, TRANSFER_MOMENTUM };
 
 /* The points of one block in order; the transfer is chosen by value, not through a function pointer, so that
@@ -346,6 +561,13 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
 {
     const struct mpm_grid *g = &s->grid;
     size_t end = g->block_start[block + 1];
+    if (TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR) {
+        if (transfer == TRANSFER_ALL)
+            scatter_all_runs(s, g->block_start[block], end);
+        else
+            scatter_momentum_runs(s, g->block_start[block], end);
+        return;
+    }
     for (size_t k = g->block_start[block]; k < end; k++) {
         if (k + PREFETCH_AHEAD < end)
             prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
@@ -368,23 +590,41 @@ static void for_each_point_by_colour(struct mpm_solver *s, enum transfer transfe
     }
 }
 
+/* A nodal field (node_bytes per node and layer) set to 0 on the nodes of a box, in every layer. */
+static void clear_box(const struct mpm_grid *g, const struct node_box *box, void *field, size_t node_bytes)
+{
+    size_t rows = box_rows(box), length = box_row_length(box);
+    for (int l = 0; l < g->layers; l++)
+        for (size_t r = 0; r < rows; r++) {
+            int k;
+            size_t I = (size_t)l * g->nodes + box_row_start(g, box, r, &k);
+            memset((char *)field + I * node_bytes, 0, length * node_bytes);
+        }
+}
+
 void grid_transfer_all(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    size_t n = g->nodes * (size_t)g->layers;
-    memset(g->mass, 0, n * sizeof *g->mass);
-    memset(g->momentum, 0, 3 * n * sizeof *g->momentum);
-    memset(g->force, 0, 3 * n * sizeof *g->force);
-    memset(g->gradient, 0, 3 * n * sizeof *g->gradient);
-    memset(g->bond_sum, 0, n * sizeof *g->bond_sum);
-    memset(g->bond_weight, 0, n * sizeof *g->bond_weight);
-    memset(g->contact, 0, n * sizeof *g->contact);
+    /* the fields are 0 outside the last step's box: clearing that box clears the grid, and this step's nodal
+     * loops write only inside its own box */
+    const struct node_box *held = &g->held;
+    clear_box(g, held, g->mass, sizeof *g->mass);
+    clear_box(g, held, g->momentum, 3 * sizeof *g->momentum);
+    clear_box(g, held, g->momentum_new, 3 * sizeof *g->momentum_new);
+    clear_box(g, held, g->force, 3 * sizeof *g->force);
+    clear_box(g, held, g->gradient, 3 * sizeof *g->gradient);
+    clear_box(g, held, g->velocity, 3 * sizeof *g->velocity);
+    clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
+    clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
+    clear_box(g, held, g->contact, sizeof *g->contact);
+    clear_box(g, held, g->wall_held, sizeof *g->wall_held);
+    g->held = g->box;
     for_each_point_by_colour(s, TRANSFER_ALL);
 }
 
 void grid_transfer_momentum(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    memset(g->momentum_new, 0, 3 * g->nodes * (size_t)g->layers * sizeof *g->momentum_new);
+    clear_box(g, &g->box, g->momentum_new, 3 * sizeof *g->momentum_new);
     for_each_point_by_colour(s, TRANSFER_MOMENTUM);
 }

@@ -42,6 +42,11 @@ struct stencil {
     double w[3][3], g[3][3];        /* per-direction weights and their derivatives */
 };
 
+/* A box of grid nodes, lo[d] .. hi[d] inclusive (empty when lo[0] > hi[0]), walked in rows along x. */
+struct node_box {
+    int lo[3], hi[3];
+};
+
 /* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
  * blocks of cells used for the fixed-order particle-to-grid transfer. */
 struct mpm_grid {
@@ -57,6 +62,10 @@ struct mpm_grid {
     double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
     uint8_t *wall_held;              /* per layer, substrate = rigid: 1 where the wall held the node this step */
+    /* The nodes of this step's stencils lie in `box` (all layers; grid_bin_points): the nodal loops run over it
+     * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
+     * of the fields' last step, the only nodes that grid_transfer_all has to clear (the whole grid at first). */
+    struct node_box box, held;
     /* blocks of BLOCK_CELLS^3 cells; points sorted by block every step */
     int blocks[3];
     size_t block_count;
@@ -190,7 +199,24 @@ static inline void node_add(double *field, size_t I, const vec3pad *a)
     f[1] += (*a)[1];
     f[2] += (*a)[2];
 }
-/* Sort the active points into blocks (fixed order for the transfers). */
+/* The rows of a box: row r (0 <= r < box_rows) runs from node box_row_start(r) over box_row_length nodes along
+ * x, at the z index *k. */
+static inline size_t box_rows(const struct node_box *b)
+{
+    return b->lo[0] > b->hi[0] ? 0 : (size_t)(b->hi[1] - b->lo[1] + 1) * (size_t)(b->hi[2] - b->lo[2] + 1);
+}
+static inline size_t box_row_length(const struct node_box *b)
+{
+    return b->lo[0] > b->hi[0] ? 0 : (size_t)(b->hi[0] - b->lo[0] + 1);
+}
+static inline size_t box_row_start(const struct mpm_grid *g, const struct node_box *b, size_t r, int *k)
+{
+    size_t rows_y = (size_t)(b->hi[1] - b->lo[1] + 1);
+    size_t j = (size_t)b->lo[1] + r % rows_y;
+    *k = b->lo[2] + (int)(r / rows_y);
+    return (size_t)b->lo[0] + g->row * j + g->plane * (size_t)*k;
+}
+/* Sort the active points into blocks (fixed order for the transfers) and find the box of their stencils. */
 void grid_bin_points(struct mpm_solver *s);
 /* Particle-to-grid: mass, momentum, internal and external force, volume gradient, bond sums (step 1-2). */
 void grid_transfer_all(struct mpm_solver *s);

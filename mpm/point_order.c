@@ -16,58 +16,55 @@ void points_order_reset(struct mpm_points *p)
         p->id[q] = p->slot[q] = (uint32_t)q;
 }
 
-/* Everything stored for one point (x_next is scratch within a step and is not kept). */
-struct point_record {
-    double x[3], v[3], normal[3];
-    double mass, volume0, volume, d_bond, plastic_work;
-    struct mpm_point_state state;
-    int32_t body;
-    uint8_t flags;
-    uint32_t id;
-};
+/* The permutation is applied array by array: slot k of an array gathers the element now in slot from[k] into a
+ * scratch array, which is then copied back.  The reads go through the old order in runs (a block's points are
+ * neighbours in the set-up lattice), the writes in order, and no read waits for another.  Following the cycles
+ * of the permutation instead moved whole points, one cache miss per array and point, each waiting for the one
+ * before: twice the time on the 1e6-point impact, whose first reordering moves every point (6 % of its samples
+ * over 31 steps, 3 % now); the same on the small one. */
+#define NO_GATHERS __attribute__((optimize("no-tree-vectorize"))) /* gcc would gather with vgatherqpd: slow on Zen */
 
-static void record_load(const struct mpm_points *p, size_t q, struct point_record *r)
+/* Bytes [offset, offset + part) of each of the n elements of `size` bytes at base: element k's become those of
+ * element from[k] (scratch: part bytes per element).  Always inlined with literal sizes: the copies are moves. */
+static inline __attribute__((always_inline)) NO_GATHERS void
+permute_bytes(void *base, size_t size, size_t offset, size_t part, const uint32_t *from, size_t n, char *scratch)
 {
-    memcpy(r->x, p->x + 3 * q, sizeof r->x);
-    memcpy(r->v, p->v + 3 * q, sizeof r->v);
-    memcpy(r->normal, p->normal + 3 * q, sizeof r->normal);
-    r->mass = p->mass[q], r->volume0 = p->volume0[q], r->volume = p->volume[q];
-    r->d_bond = p->d_bond[q], r->plastic_work = p->plastic_work[q];
-    r->state = p->state[q];
-    r->body = p->body[q], r->flags = p->flags[q], r->id = p->id[q];
-}
-
-static void record_store(struct mpm_points *p, size_t q, const struct point_record *r)
-{
-    memcpy(p->x + 3 * q, r->x, sizeof r->x);
-    memcpy(p->v + 3 * q, r->v, sizeof r->v);
-    memcpy(p->normal + 3 * q, r->normal, sizeof r->normal);
-    p->mass[q] = r->mass, p->volume0[q] = r->volume0, p->volume[q] = r->volume;
-    p->d_bond[q] = r->d_bond, p->plastic_work[q] = r->plastic_work;
-    p->state[q] = r->state;
-    p->body[q] = r->body, p->flags[q] = r->flags, p->id[q] = r->id;
-}
-
-/* Slot k takes the point now in slot from[k], for every k: done in place, one cycle of the permutation at a
- * time, so that no second copy of the point arrays is needed (moved marks the slots already filled). */
-static void permute(struct mpm_points *p, const uint32_t *from, uint8_t *moved)
-{
-    memset(moved, 0, p->count);
-    for (size_t start = 0; start < p->count; start++) {
-        if (moved[start] || from[start] == start)
-            continue;
-        struct point_record first, next;
-        record_load(p, start, &first);
-        size_t k = start;
-        while (from[k] != start) {
-            record_load(p, from[k], &next);
-            record_store(p, k, &next);
-            moved[k] = 1;
-            k = from[k];
-        }
-        record_store(p, k, &first);
-        moved[k] = 1;
+    char *b = base;
+    for (size_t k = 0; k < n; k++)
+        memcpy(scratch + k * part, b + (size_t)from[k] * size + offset, part);
+    if (part == size) {
+        memcpy(b, scratch, n * size);
+        return;
     }
+    for (size_t k = 0; k < n; k++)
+        memcpy(b + k * size + offset, scratch + k * part, part);
+}
+
+/* The parts of a point state moved at a time: three doubles, the scratch's size per point. */
+#define STATE_PART (3 * sizeof(double))
+_Static_assert(sizeof(struct mpm_point_state) % STATE_PART == 0, "a point state is a whole number of parts");
+
+/* Slot k takes the point now in slot from[k], for every k: everything stored for a point (x_next is scratch
+ * within a step and is not kept: it is the scratch here, 3 doubles per point). */
+static NO_GATHERS void permute(struct mpm_points *p, const uint32_t *from)
+{
+    size_t n = p->count;
+    char *scratch = (char *)p->x_next;
+    if (n == 0)
+        return;
+    permute_bytes(p->x, 3 * sizeof *p->x, 0, 3 * sizeof *p->x, from, n, scratch);
+    permute_bytes(p->v, 3 * sizeof *p->v, 0, 3 * sizeof *p->v, from, n, scratch);
+    permute_bytes(p->normal, 3 * sizeof *p->normal, 0, 3 * sizeof *p->normal, from, n, scratch);
+    permute_bytes(p->mass, sizeof *p->mass, 0, sizeof *p->mass, from, n, scratch);
+    permute_bytes(p->volume0, sizeof *p->volume0, 0, sizeof *p->volume0, from, n, scratch);
+    permute_bytes(p->volume, sizeof *p->volume, 0, sizeof *p->volume, from, n, scratch);
+    permute_bytes(p->d_bond, sizeof *p->d_bond, 0, sizeof *p->d_bond, from, n, scratch);
+    permute_bytes(p->plastic_work, sizeof *p->plastic_work, 0, sizeof *p->plastic_work, from, n, scratch);
+    for (size_t offset = 0; offset < sizeof *p->state; offset += STATE_PART)
+        permute_bytes(p->state, sizeof *p->state, offset, STATE_PART, from, n, scratch);
+    permute_bytes(p->body, sizeof *p->body, 0, sizeof *p->body, from, n, scratch);
+    permute_bytes(p->flags, sizeof *p->flags, 0, sizeof *p->flags, from, n, scratch);
+    permute_bytes(p->id, sizeof *p->id, 0, sizeof *p->id, from, n, scratch);
 }
 
 /* The transfer's order: the colours in turn, their blocks in turn, the points of a block as binned; then the
@@ -92,17 +89,12 @@ int points_reorder(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
     uint32_t *from = malloc((p->count ? p->count : 1) * sizeof *from);
-    uint8_t *moved = malloc(p->count ? p->count : 1);
-    if (!from || !moved) {
-        free(from);
-        free(moved);
+    if (!from)
         SC_FAIL(SC_ESIM, "out of memory reordering %zu material points", p->count);
-    }
     transfer_order(s, from);
-    permute(p, from, moved);
+    permute(p, from);
     for (size_t q = 0; q < p->count; q++)
         p->slot[p->id[q]] = (uint32_t)q;
     free(from);
-    free(moved);
     return SC_OK;
 }

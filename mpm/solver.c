@@ -205,13 +205,19 @@ static void grid_to_points(struct mpm_solver *s)
 static void nodal_velocities(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
-    long n = (long)(g->nodes * (size_t)g->layers);
+    /* over the nodes of this step's stencils (g->box), each row in every layer: the fields are 0 elsewhere */
+    long rows = (long)box_rows(&g->box), layer_rows = rows * g->layers;
+    size_t length = box_row_length(&g->box);
 #pragma omp parallel for schedule(static)
-    for (long I = 0; I < n; I++) {
-        int heavy = g->mass[I] > g->mass_cutoff;
-        for (int d = 0; d < 3; d++)
-            g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
-        g->contact[I] &= (uint8_t)heavy;
+    for (long r = 0; r < layer_rows; r++) {
+        int k;
+        size_t first = (size_t)(r / rows) * g->nodes + box_row_start(g, &g->box, (size_t)(r % rows), &k);
+        for (size_t I = first; I < first + length; I++) {
+            int heavy = g->mass[I] > g->mass_cutoff;
+            for (int d = 0; d < 3; d++)
+                g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
+            g->contact[I] &= (uint8_t)heavy;
+        }
     }
 }
 
@@ -231,10 +237,11 @@ STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 /* a light node adds 0 * dN (its velocity is 0, nodal_velocities): a sum that starts at +0 is
                  * unchanged by adding +-0, so no branch is needed for the same bits.
-                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before */
-                vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], 0.0};
-                vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], 0.0};
-                vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], 0.0};
+                 * dN_j = (g0 w1 w2, w0 g1 w2, w0 w1 g2), each product taken left to right as before; the pad
+                 * lanes copy lane 2 (a 0 there made gcc emit a vmovq valgrind cannot run, mpm_impl.h) */
+                vec3pad x = {st->g[0][a], st->w[0][a], st->w[0][a], st->w[0][a]};
+                vec3pad y = {st->w[1][b], st->g[1][b], st->w[1][b], st->w[1][b]};
+                vec3pad z = {st->w[2][c], st->w[2][c], st->g[2][c], st->g[2][c]};
                 vec3pad dN = x * y * z, vI;
                 node_vector(&vI, g->velocity, I);
                 for (int i = 0; i < 3; i++)
@@ -291,13 +298,17 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
 {
     double L[3][3], dt = s->dt, *de = b->strain[k], *dw = b->spin[k];
     b->contact[k] = velocity_gradient(s, q, L);
-    de[0] = L[0][0] * dt, de[1] = L[1][1] * dt, de[2] = L[2][2] * dt;
+    /* the trace from locals: gcc stores de[0..3] as one vector, and reading them back one by one stalled on
+     * store forwarding (a seventh of update_block's samples) */
+    double exx = L[0][0] * dt, eyy = L[1][1] * dt, ezz = L[2][2] * dt;
+    de[0] = exx, de[1] = eyy, de[2] = ezz;
     de[3] = 0.5 * (L[1][2] + L[2][1]) * dt, de[4] = 0.5 * (L[0][2] + L[2][0]) * dt;
     de[5] = 0.5 * (L[0][1] + L[1][0]) * dt;
     dw[0] = 0.5 * (L[1][2] - L[2][1]) * dt, dw[1] = 0.5 * (L[0][2] - L[2][0]) * dt;
     dw[2] = 0.5 * (L[0][1] - L[1][0]) * dt;
-    b->volume_new[k] = s->points.volume[q] * (1.0 + de[0] + de[1] + de[2]);
-    return b->volume_new[k] > 0.0 ? 0 : -1;
+    double volume_new = s->points.volume[q] * (1.0 + exx + eyy + ezz);
+    b->volume_new[k] = volume_new;
+    return volume_new > 0.0 ? 0 : -1;
 }
 
 /* The stress update's view of the block of points q0 .. q0 + count - 1 (mpm_stress_begin_block). */
@@ -371,6 +382,13 @@ static void note_failure(const struct mpm_points *p, size_t q, long *bad)
     *bad = *bad < 0 || id < *bad ? id : *bad;
 }
 
+/* Both cache lines a 120-byte point state can span. */
+static inline void prefetch_state(const struct mpm_point_state *state)
+{
+    __builtin_prefetch(state);
+    __builtin_prefetch((const char *)state + 64);
+}
+
 /* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases; returns the smallest id of a point that
  * failed, or -1. */
 static long update_block(struct mpm_solver *s, long q0, int count, double log_dt)
@@ -379,8 +397,14 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
     struct mpm_stress_block stress = stress_block(s, q0, count, log_dt, &b);
     long bad = -1;
     block_shear_moduli(s, q0, &b, count);
+    /* the next block's states, fetched while this block's velocity gradients are summed: block_shear_moduli is
+     * the first to read them in the step, and stalled on every state (a sixth of update_block's samples) */
+    const struct mpm_point_state *next = s->points.state + q0 + count;
+    long next_count = (long)s->points.count - (q0 + count);
     for (int k = 0; k < count; k++) {
         size_t q = (size_t)(q0 + k);
+        if (k < next_count)
+            prefetch_state(next + k);
         b.updating[k] = (s->points.flags[q] & POINT_ACTIVE) != 0;
         if (b.updating[k] && point_increments(s, q, &b, k) != 0) {
             b.updating[k] = 0;
