@@ -361,13 +361,8 @@ static void prefetch_point(const struct mpm_solver *s, size_t q)
  * order, on the sum it would have read from memory (C17 mode: no contraction into FMA): the same bits.
  * Only with AVX-512: the 12 sums of 8 lanes then stay in its 32 vector registers, and the lane shuffles are
  * single instructions.  With AVX2 (x86-64-v3) they spilled and the shuffles went through memory: the 4 ns
- * impact took 8 s instead of 4; those builds transfer point by point (scatter_all). */
-#if defined(__AVX512F__)
-#define TRILINEAR_RUNS 1
-#else
-#define TRILINEAR_RUNS 0
-#endif
-typedef double lanes8 __attribute__((vector_size(8 * sizeof(double))));
+ * impact took 8 s instead of 4; those builds transfer point by point (scatter_all).  TRILINEAR_RUNS, lanes8,
+ * lanes_load and run_key: mpm_impl.h. */
 
 /* The sums of the fields particle-to-grid adds to, lane n for node n of the stencil. */
 struct stencil_sums {
@@ -385,13 +380,6 @@ typedef long long lanes8_index __attribute__((vector_size(8 * sizeof(long long))
 /* The 8 nodes are 4 pairs of x neighbours, pair p = b + 2c at node pair[p] (lanes 2p and 2p + 1): a pair's
  * doubles are contiguous in every field.  Vectors go by pointer (a vector passed by value has another ABI with
  * AVX than without, mpm_impl.h). */
-
-/* A field with one double per node. */
-static inline void lanes_load(lanes8 *v, const double *f, const size_t pair[4])
-{
-    *v = (lanes8){f[pair[0]], f[pair[0] + 1], f[pair[1]], f[pair[1] + 1],
-                  f[pair[2]], f[pair[2] + 1], f[pair[3]], f[pair[3] + 1]};
-}
 
 static inline void lanes_store(double *f, const size_t pair[4], const lanes8 *v)
 {
@@ -488,12 +476,6 @@ static inline void run_point_add(const struct mpm_solver *s, size_t q, struct st
         sum->bond_sum += p->d_bond[q] * N;
         sum->bond_weight += N;
     }
-}
-
-/* The node of the stencil base of point q in its body's layer: points with the same one form a run. */
-static inline size_t run_key(const struct mpm_solver *s, size_t q)
-{
-    return (size_t)s->points.body[q] * s->grid.nodes + s->grid.point_node[q];
 }
 
 /* Particle-to-grid of the points block_points[k .. end) of one block, trilinear, run by run. */

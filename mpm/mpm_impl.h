@@ -168,6 +168,28 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
         st->g[d][1] = inv_h;
     }
 }
+/* Trilinear stencils in runs (grid.c, solver.c): consecutive points with the same stencil base node in the same
+ * body share their 8 nodes, whose fields are then read into vector lanes once per run, node a + 2b + 4c of the
+ * stencil in lane a + 2b + 4c.  Only with AVX-512 (grid.c says why); other builds go point by point. */
+#if defined(__AVX512F__)
+#define TRILINEAR_RUNS 1
+#else
+#define TRILINEAR_RUNS 0
+#endif
+typedef double lanes8 __attribute__((vector_size(8 * sizeof(double))));
+/* The node of the stencil base of point q in its body's layer, after grid_bin_points: points with the same one
+ * form a run. */
+static inline size_t run_key(const struct mpm_solver *s, size_t q)
+{
+    return (size_t)s->points.body[q] * s->grid.nodes + s->grid.point_node[q];
+}
+/* The 8 nodes are 4 pairs of x neighbours, pair p = b + 2c at node pair[p] (lanes 2p and 2p + 1): a pair's
+ * doubles are contiguous in every field.  A field with one double per node into the lanes. */
+static inline void lanes_load(lanes8 *v, const double *f, const size_t pair[4])
+{
+    *v = (lanes8){f[pair[0]], f[pair[0] + 1], f[pair[1]], f[pair[1] + 1],
+                  f[pair[2]], f[pair[2] + 1], f[pair[3]], f[pair[3] + 1]};
+}
 /* A function over a stencil's nodes is written once with the width as a parameter and inlined into a caller
  * that passes a literal 2 for trilinear stencils: the loops over 2 x 2 x 2 nodes are then unrolled and the node
  * offsets folded, with the same arithmetic in the same order (the same bits). */

@@ -177,24 +177,98 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
     }
 }
 
+/* The 8 nodes of a run of trilinear stencils (mpm_impl.h) as grid-to-points reads them: the masses in lanes,
+ * and per heavy node (bit n of `heavy`) its momenta p_new - p and p_new, x, y, z in lanes as
+ * point_from_grid_width has them. */
+struct run_nodes {
+    lanes8 mass;
+    vec3pad change[8], momentum_new[8];
+    unsigned heavy;
+};
+
+static inline void run_nodes_load(const struct mpm_grid *g, size_t key, struct run_nodes *r)
+{
+    size_t pair[4] = {key, key + g->row, key + g->plane, key + g->row + g->plane};
+    lanes_load(&r->mass, g->mass, pair);
+    r->heavy = 0;
+    for (int n = 0; n < 8; n++) {
+        size_t I = pair[n >> 1] + (size_t)(n & 1);
+        vec3pad momentum;
+        node_vector(&r->momentum_new[n], g->momentum_new, I);
+        node_vector(&momentum, g->momentum, I);
+        r->change[n] = r->momentum_new[n] - momentum;
+        r->heavy |= (unsigned)(g->mass[I] > g->mass_cutoff) << n;
+    }
+}
+
+/* Step 7 for point q of a run: point_from_grid_width (width 2) with the same operations in the same order per
+ * node, the weights N = w_0 w_1 w_2 and N / m_I of the 8 nodes taken in lanes. */
+static inline void run_point_from_grid(struct mpm_solver *s, size_t q, const struct run_nodes *r)
+{
+    struct mpm_points *p = &s->points;
+    const double *f = s->grid.point_fraction + 3 * q, *x = p->x + 3 * q;
+    double *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
+    double u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
+    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
+    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+    lanes8 w = w0 * w1 * w2 / r->mass; /* light nodes' lanes (perhaps 0 / 0) are not used */
+    vec3pad dv = {0, 0, 0, 0}, vnew = {0, 0, 0, 0};
+    for (int n = 0; n < 8; n++)
+        if (r->heavy >> n & 1) {
+            dv += w[n] * r->change[n];
+            vnew += w[n] * r->momentum_new[n];
+        }
+    for (int d = 0; d < 3; d++) {
+        v[d] += dv[d];
+        xn[d] = x[d] + s->dt * vnew[d];
+    }
+}
+
+/* Step 7 for the points q .. end - 1; trilinear stencils in runs of consecutive active points with the same key
+ * (AVX-512 builds), others point by point. */
+static void grid_to_points_range(struct mpm_solver *s, size_t q, size_t end)
+{
+    struct mpm_points *p = &s->points;
+    int runs = TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR;
+    while (q < end) {
+        if (!(p->flags[q] & POINT_ACTIVE)) {
+            memcpy(p->x_next + 3 * q, p->x + 3 * q, 3 * sizeof *p->x);
+            q++;
+            continue;
+        }
+        if (runs) {
+            size_t key = run_key(s, q), run_end = q + 1;
+            while (run_end < end && (p->flags[run_end] & POINT_ACTIVE) && run_key(s, run_end) == key)
+                run_end++;
+            struct run_nodes r;
+            run_nodes_load(&s->grid, key, &r);
+            for (; q < run_end; q++)
+                run_point_from_grid(s, q, &r);
+            continue;
+        }
+        struct stencil st;
+        grid_point_stencil(s, q, &st);
+        if (st.width == 2)
+            point_from_grid_width(s, q, &st, 2);
+        else
+            point_from_grid_width(s, q, &st, st.width);
+        q++;
+    }
+}
+
+/* Points per chunk of grid_to_points' parallel loop: a run ends at a chunk's end. */
+#define GRID_TO_POINTS_CHUNK 256
+
 /* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
  * nodal velocity. */
 static void grid_to_points(struct mpm_solver *s)
 {
-    struct mpm_points *p = &s->points;
-    long n = (long)p->count;
+    size_t n = s->points.count;
+    long chunks = (long)((n + GRID_TO_POINTS_CHUNK - 1) / GRID_TO_POINTS_CHUNK);
 #pragma omp parallel for schedule(static)
-    for (long q = 0; q < n; q++) {
-        if (!(p->flags[q] & POINT_ACTIVE)) {
-            memcpy(p->x_next + 3 * q, p->x + 3 * q, 3 * sizeof *p->x);
-            continue;
-        }
-        struct stencil st;
-        grid_point_stencil(s, (size_t)q, &st);
-        if (st.width == 2)
-            point_from_grid_width(s, (size_t)q, &st, 2);
-        else
-            point_from_grid_width(s, (size_t)q, &st, st.width);
+    for (long c = 0; c < chunks; c++) {
+        size_t q = (size_t)c * GRID_TO_POINTS_CHUNK;
+        grid_to_points_range(s, q, n - q < GRID_TO_POINTS_CHUNK ? n : q + GRID_TO_POINTS_CHUNK);
     }
 }
 
