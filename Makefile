@@ -67,11 +67,15 @@ $(BIN): $(MAIN_OBJ) $(BUILD)/libspraycoat.a
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-# The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process).
+# The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process) and, on a CPU
+# with AVX-512, the bench build, whose AVX-512-only code paths the portable build never takes
+# (tests/test_native_build.sh compares the two).
 test: deps
 	$(MAKE) all
 	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
-	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
+	if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then \
+	    $(MAKE) BUILD=build-bench OPT='-O3 -march=native' build-bench/spraycoat; fi
+	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat SPRAYCOAT_NATIVE_BIN=build-bench/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.
 asan: deps
