@@ -451,14 +451,15 @@ static inline void run_point_add(const struct mpm_solver *s, size_t q, struct st
     const struct mpm_points *p = &s->points;
     const struct mpm_point_state *ps = &p->state[q];
     double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
-    const double *sig = ps->stress, *v = p->v + 3 * q, *f = g->point_fraction + 3 * q;
+    const double *sig = ps->stress, *v = p->v + 3 * q;
     double sxx = sig[0] - qv, syy = sig[1] - qv, szz = sig[2] - qv, syz = sig[3], sxz = sig[4], sxy = sig[5];
     double fext[3] = {0, 0, 0};
     if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
         boundary_dashpot_force(s, q, fext);
-    double h = g->inv_h, u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
-    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
-    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+    double h = g->inv_h;
+    lanes8 w[3];
+    run_weights(g, q, w);
+    lanes8 w0 = w[0], w1 = w[1], w2 = w[2];
     lanes8 g0 = {-h, h, -h, h, -h, h, -h, h}, g1 = {-h, -h, h, h, -h, -h, h, h};
     lanes8 g2 = {-h, -h, -h, -h, h, h, h, h};
     lanes8 wyz = w1 * w2, N = w0 * wyz, dN0 = g0 * wyz, dN1 = w0 * g1 * w2, dN2 = w0 * w1 * g2;
@@ -504,11 +505,11 @@ static void scatter_all_runs(struct mpm_solver *s, size_t k, size_t end)
 static inline void run_point_momentum(const struct mpm_solver *s, size_t q, lanes8 sum[3])
 {
     const struct mpm_points *p = &s->points;
-    const double *v = p->v + 3 * q, *f = s->grid.point_fraction + 3 * q;
-    double m = p->mass[q], u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
-    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
-    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
-    lanes8 N = w0 * w1 * w2;
+    const double *v = p->v + 3 * q;
+    double m = p->mass[q];
+    lanes8 w[3];
+    run_weights(&s->grid, q, w);
+    lanes8 N = w[0] * w[1] * w[2];
     for (int i = 0; i < 3; i++)
         sum[i] += m * v[i] * N;
 }

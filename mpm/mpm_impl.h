@@ -183,6 +183,16 @@ static inline size_t run_key(const struct mpm_solver *s, size_t q)
 {
     return (size_t)s->points.body[q] * s->grid.nodes + s->grid.point_node[q];
 }
+/* Point q's trilinear weights along x, y and z in the lanes of its stencil's nodes: lane a + 2b + 4c holds
+ * w_0[a], w_1[b] and w_2[c] (1 - f and f, grid_point_stencil's).  Vectors by pointer (see vec3pad below). */
+static inline void run_weights(const struct mpm_grid *g, size_t q, lanes8 w[3])
+{
+    const double *f = g->point_fraction + 3 * q;
+    double u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
+    w[0] = (lanes8){u0, f[0], u0, f[0], u0, f[0], u0, f[0]};
+    w[1] = (lanes8){u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
+    w[2] = (lanes8){u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
+}
 /* The 8 nodes are 4 pairs of x neighbours, pair p = b + 2c at node pair[p] (lanes 2p and 2p + 1): a pair's
  * doubles are contiguous in every field.  A field with one double per node into the lanes. */
 static inline void lanes_load(lanes8 *v, const double *f, const size_t pair[4])

@@ -206,12 +206,11 @@ static inline void run_nodes_load(const struct mpm_grid *g, size_t key, struct r
 static inline void run_point_from_grid(struct mpm_solver *s, size_t q, const struct run_nodes *r)
 {
     struct mpm_points *p = &s->points;
-    const double *f = s->grid.point_fraction + 3 * q, *x = p->x + 3 * q;
+    const double *x = p->x + 3 * q;
     double *xn = p->x_next + 3 * q, *v = p->v + 3 * q;
-    double u0 = 1.0 - f[0], u1 = 1.0 - f[1], u2 = 1.0 - f[2];
-    lanes8 w0 = {u0, f[0], u0, f[0], u0, f[0], u0, f[0]}, w1 = {u1, u1, f[1], f[1], u1, u1, f[1], f[1]};
-    lanes8 w2 = {u2, u2, u2, u2, f[2], f[2], f[2], f[2]};
-    lanes8 w = w0 * w1 * w2 / r->mass; /* light nodes' lanes (perhaps 0 / 0) are not used */
+    lanes8 weights[3];
+    run_weights(&s->grid, q, weights);
+    lanes8 w = weights[0] * weights[1] * weights[2] / r->mass; /* light nodes' lanes (perhaps 0 / 0) are not used */
     vec3pad dv = {0, 0, 0, 0}, vnew = {0, 0, 0, 0};
     for (int n = 0; n < 8; n++)
         if (r->heavy >> n & 1) {
