@@ -171,6 +171,8 @@ struct dem_solver {
 /* dem/particles.c */
 /* realloc that reports and aborts when memory runs out (bytes 0 allocates 1) */
 void *dem_realloc_or_die(void *data, size_t bytes);
+/* bytes a multiple of alignment (C17 aligned_alloc); aborts when out of memory, as dem_realloc_or_die. */
+void *dem_aligned_alloc_or_die(size_t alignment, size_t bytes);
 void particles_reserve(struct dem_particles *p, size_t capacity);
 size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
                         const double w[3], double d, double density);

@@ -36,7 +36,6 @@
 #endif
 
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -242,7 +241,7 @@ static void integrate_subcycled(const struct dem_config *cfg, double d, double m
 struct block {
     size_t count;
     uint32_t index[BLOCK];
-    /* whole cache lines: a 64-byte vector access to a block's array never spans two (aligned_alloc below) */
+    /* whole cache lines: a 64-byte vector access to a block's array never spans two (allocated aligned) */
     _Alignas(64) double x[3][BLOCK];
     double v[3][BLOCK], d[BLOCK], m[BLOCK];
     double force_start[3][BLOCK], tau[BLOCK];
@@ -271,17 +270,6 @@ struct block {
     double previous_force[2][3][BLOCK];
     uint8_t chain[BLOCK];
 };
-
-/* A block on a cache-line boundary (its size is a multiple of 64: struct block). */
-static struct block *block_alloc(void)
-{
-    struct block *b = aligned_alloc(_Alignof(struct block), sizeof *b);
-    if (!b) {
-        fprintf(stderr, "spraycoat: out of memory (%zu bytes requested)\n", sizeof *b);
-        abort();
-    }
-    return b;
-}
 
 static inline void lane_get(const double soa[3][BLOCK], int l, double out[3])
 {
@@ -996,7 +984,7 @@ int dem_integrate(struct dem_solver *s)
         {
             struct iteration_count count = {0};
             int bad_here = 0;
-            struct block *b = block_alloc();
+            struct block *b = dem_aligned_alloc_or_die(_Alignof(struct block), sizeof *b);
 /* static: each thread keeps its share of the particles from step to step, and their lines stay in its
  * core's caches (dynamic chunks moved them between the cores every step: Table 1 on 2 threads took 22 %
  * more CPU time, BENCHMARKS.md 2026-12-02 (second session)) */

@@ -6,15 +6,21 @@
 
 #include "dem/dem_impl.h"
 
-void *dem_realloc_or_die(void *data, size_t bytes)
+/* Out of memory mid-step: no state worth saving can be written without memory either. */
+static void *or_die(void *allocated, size_t bytes)
 {
-    void *grown = realloc(data, bytes ? bytes : 1);
-    if (!grown) {
-        /* out of memory mid-step: no state worth saving can be written without memory either */
+    if (!allocated) {
         fprintf(stderr, "spraycoat: out of memory (%zu bytes requested)\n", bytes);
         abort();
     }
-    return grown;
+    return allocated;
+}
+
+void *dem_realloc_or_die(void *data, size_t bytes) { return or_die(realloc(data, bytes ? bytes : 1), bytes); }
+
+void *dem_aligned_alloc_or_die(size_t alignment, size_t bytes)
+{
+    return or_die(aligned_alloc(alignment, bytes), bytes);
 }
 
 static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
