@@ -244,6 +244,19 @@ void grid_bin_points(struct mpm_solver *s)
     g->block_start[0] = 0;
 }
 
+/* Point q's stress less its bulk viscosity (xx, yy, zz, yz, xz, xy) and its external force (the absorbing
+ * boundary's dashpot, Eqs. 3.45-3.46): what particle-to-grid spreads over its nodes with Eqs. 3.25-3.26. */
+static inline void point_force_terms(const struct mpm_solver *s, size_t q, double sig[6], double fext[3])
+{
+    const struct mpm_point_state *ps = &s->points.state[q];
+    double qv = ps->viscosity;
+    for (int k = 0; k < 6; k++)
+        sig[k] = k < 3 ? ps->stress[k] - qv : ps->stress[k];
+    fext[0] = fext[1] = fext[2] = 0.0;
+    if (s->points.flags[q] & (POINT_BOTTOM | POINT_SIDE))
+        boundary_dashpot_force(s, q, fext);
+}
+
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
  * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
 STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
@@ -251,13 +264,10 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     const struct stencil *st = stencil; /* the caller's local, read in place (mpm_impl.h) */
-    const struct mpm_point_state *ps = &p->state[q];
-    double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
-    const double *sig = ps->stress, *v = p->v + 3 * q;
-    double sxx = sig[0] - qv, syy = sig[1] - qv, szz = sig[2] - qv, syz = sig[3], sxz = sig[4], sxy = sig[5];
-    double fext[3] = {0, 0, 0};
-    if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
-        boundary_dashpot_force(s, q, fext);
+    double V = p->volume[q], m = p->mass[q], sig[6], fext[3];
+    const double *v = p->v + 3 * q;
+    point_force_terms(s, q, sig, fext);
+    double sxx = sig[0], syy = sig[1], szz = sig[2], syz = sig[3], sxz = sig[4], sxy = sig[5];
     int surface = (p->flags[q] & POINT_SURFACE) != 0;
     double dbond = p->d_bond[q];
     /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v.
@@ -449,13 +459,10 @@ static inline void run_point_add(const struct mpm_solver *s, size_t q, struct st
 {
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
-    const struct mpm_point_state *ps = &p->state[q];
-    double V = p->volume[q], m = p->mass[q], qv = ps->viscosity;
-    const double *sig = ps->stress, *v = p->v + 3 * q;
-    double sxx = sig[0] - qv, syy = sig[1] - qv, szz = sig[2] - qv, syz = sig[3], sxz = sig[4], sxy = sig[5];
-    double fext[3] = {0, 0, 0};
-    if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
-        boundary_dashpot_force(s, q, fext);
+    double V = p->volume[q], m = p->mass[q], sig[6], fext[3];
+    const double *v = p->v + 3 * q;
+    point_force_terms(s, q, sig, fext);
+    double sxx = sig[0], syy = sig[1], szz = sig[2], syz = sig[3], sxz = sig[4], sxy = sig[5];
     double h = g->inv_h;
     lanes8 w[3];
     run_weights(g, q, w);
