@@ -455,16 +455,17 @@ static void note_failure(const struct mpm_points *p, size_t q, long *bad)
     *bad = *bad < 0 || id < *bad ? id : *bad;
 }
 
-/* Both cache lines a 120-byte point state can span. */
+/* Both cache lines a 120-byte point state can span, for writing: with 2 threads the other thread's transfers
+ * may hold a shared copy, and a plain prefetch left stress_finish's stores waiting for its invalidation. */
 static inline void prefetch_state(const struct mpm_point_state *state)
 {
-    __builtin_prefetch(state);
-    __builtin_prefetch((const char *)state + 64);
+    __builtin_prefetch(state, 1);
+    __builtin_prefetch((const char *)state + 64, 1);
 }
 
-/* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases; returns the smallest id of a point that
- * failed, or -1. */
-static long update_block(struct mpm_solver *s, long q0, int count, double log_dt)
+/* Steps 10-11 for the points q0 .. q0 + count - 1 in three phases, prefetching the states of the next
+ * next_count points; returns the smallest id of a point that failed, or -1. */
+static long update_block(struct mpm_solver *s, long q0, int count, long next_count, double log_dt)
 {
     struct point_block b;
     struct mpm_stress_block stress = stress_block(s, q0, count, log_dt, &b);
@@ -473,7 +474,6 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
     /* the next block's states, fetched while this block's velocity gradients are summed: block_shear_moduli is
      * the first to read them in the step, and stalled on every state (a sixth of update_block's samples) */
     const struct mpm_point_state *next = s->points.state + q0 + count;
-    long next_count = (long)s->points.count - (q0 + count);
     for (int k = 0; k < count; k++) {
         size_t q = (size_t)(q0 + k);
         if (k < next_count)
@@ -498,16 +498,32 @@ static long update_block(struct mpm_solver *s, long q0, int count, double log_dt
     return bad;
 }
 
+/* Steps 10-11 for the blocks of a chunk of UPDATE_CHUNK blocks from point q0 on (n points in all).  With several
+ * threads a block prefetches the next block's states only within the chunk: the next chunk may be another
+ * thread's, being updated at that moment, and a prefetch for writing would take its lines away from it. */
+#define UPDATE_CHUNK 2
+static long update_chunk(struct mpm_solver *s, long q0, long n, int threads, double log_dt)
+{
+    long bad = -1, end = q0 + UPDATE_CHUNK * POINT_BLOCK < n ? q0 + UPDATE_CHUNK * POINT_BLOCK : n;
+    long prefetch_end = threads > 1 ? end : n;
+    for (long q = q0; q < end; q += POINT_BLOCK) {
+        int count = (int)(end - q < POINT_BLOCK ? end - q : POINT_BLOCK);
+        long failed = update_block(s, q, count, prefetch_end - (q + count), log_dt);
+        if (failed >= 0)
+            bad = bad < 0 || failed < bad ? failed : bad;
+    }
+    return bad;
+}
+
 static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
-    long n = (long)p->count, bad = n, blocks = (n + POINT_BLOCK - 1) / POINT_BLOCK;
+    long n = (long)p->count, bad = n, chunks = (n + UPDATE_CHUNK * POINT_BLOCK - 1) / (UPDATE_CHUNK * POINT_BLOCK);
     double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
-/* dynamic: the costly plastic points of a particle sit together in index order (chunks of 512 points) */
-#pragma omp parallel for schedule(dynamic, 2) reduction(min : bad)
-    for (long blk = 0; blk < blocks; blk++) {
-        long q0 = blk * POINT_BLOCK;
-        long failed = update_block(s, q0, (int)(n - q0 < POINT_BLOCK ? n - q0 : POINT_BLOCK), log_dt);
+/* dynamic: the costly plastic points of a particle sit together in index order */
+#pragma omp parallel for schedule(dynamic, 1) reduction(min : bad)
+    for (long chunk = 0; chunk < chunks; chunk++) {
+        long failed = update_chunk(s, chunk * UPDATE_CHUNK * POINT_BLOCK, n, omp_get_num_threads(), log_dt);
         if (failed >= 0)
             bad = failed < bad ? failed : bad;
     }
