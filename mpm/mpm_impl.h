@@ -71,6 +71,8 @@ struct mpm_grid {
     size_t block_count;
     size_t *block_start;             /* block_count + 1 */
     size_t *block_points;            /* point indices, by block, ascending within a block */
+    size_t *block_cursor;            /* sort_threads x block_count: grid_bin_points' counts and write cursors */
+    int sort_threads;                /* threads grid_bin_points sorts with (OpenMP's maximum at grid_create) */
     size_t *colour_blocks[8];
     size_t colour_count[8];
     int *point_block;                /* block of each point this step (-1 inactive) */
@@ -104,6 +106,7 @@ struct mpm_solver {
     double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
     size_t *boundary_points;         /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
+    double *boundary_work;           /* per boundary point: the dashpot's work of the step (book_absorbed_energy) */
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;

@@ -25,17 +25,16 @@ void points_order_reset(struct mpm_points *p)
 #define NO_GATHERS __attribute__((optimize("no-tree-vectorize"))) /* gcc would gather with vgatherqpd: slow on Zen */
 
 /* Bytes [offset, offset + part) of each of the n elements of `size` bytes at base: element k's become those of
- * element from[k] (scratch: part bytes per element).  Always inlined with literal sizes: the copies are moves. */
+ * element from[k] (scratch: part bytes per element).  Always inlined with literal sizes: the copies are moves.
+ * Called by every thread of a parallel region, which share the elements (the loops' ends are barriers). */
 static inline __attribute__((always_inline)) NO_GATHERS void
 permute_bytes(void *base, size_t size, size_t offset, size_t part, const uint32_t *from, size_t n, char *scratch)
 {
     char *b = base;
+#pragma omp for schedule(static)
     for (size_t k = 0; k < n; k++)
         memcpy(scratch + k * part, b + (size_t)from[k] * size + offset, part);
-    if (part == size) {
-        memcpy(b, scratch, n * size);
-        return;
-    }
+#pragma omp for schedule(static)
     for (size_t k = 0; k < n; k++)
         memcpy(b + k * size + offset, scratch + k * part, part);
 }
@@ -52,19 +51,22 @@ static NO_GATHERS void permute(struct mpm_points *p, const uint32_t *from)
     char *scratch = (char *)p->x_next;
     if (n == 0)
         return;
-    permute_bytes(p->x, 3 * sizeof *p->x, 0, 3 * sizeof *p->x, from, n, scratch);
-    permute_bytes(p->v, 3 * sizeof *p->v, 0, 3 * sizeof *p->v, from, n, scratch);
-    permute_bytes(p->normal, 3 * sizeof *p->normal, 0, 3 * sizeof *p->normal, from, n, scratch);
-    permute_bytes(p->mass, sizeof *p->mass, 0, sizeof *p->mass, from, n, scratch);
-    permute_bytes(p->volume0, sizeof *p->volume0, 0, sizeof *p->volume0, from, n, scratch);
-    permute_bytes(p->volume, sizeof *p->volume, 0, sizeof *p->volume, from, n, scratch);
-    permute_bytes(p->d_bond, sizeof *p->d_bond, 0, sizeof *p->d_bond, from, n, scratch);
-    permute_bytes(p->plastic_work, sizeof *p->plastic_work, 0, sizeof *p->plastic_work, from, n, scratch);
-    for (size_t offset = 0; offset < sizeof *p->state; offset += STATE_PART)
-        permute_bytes(p->state, sizeof *p->state, offset, STATE_PART, from, n, scratch);
-    permute_bytes(p->body, sizeof *p->body, 0, sizeof *p->body, from, n, scratch);
-    permute_bytes(p->flags, sizeof *p->flags, 0, sizeof *p->flags, from, n, scratch);
-    permute_bytes(p->id, sizeof *p->id, 0, sizeof *p->id, from, n, scratch);
+#pragma omp parallel
+    {
+        permute_bytes(p->x, 3 * sizeof *p->x, 0, 3 * sizeof *p->x, from, n, scratch);
+        permute_bytes(p->v, 3 * sizeof *p->v, 0, 3 * sizeof *p->v, from, n, scratch);
+        permute_bytes(p->normal, 3 * sizeof *p->normal, 0, 3 * sizeof *p->normal, from, n, scratch);
+        permute_bytes(p->mass, sizeof *p->mass, 0, sizeof *p->mass, from, n, scratch);
+        permute_bytes(p->volume0, sizeof *p->volume0, 0, sizeof *p->volume0, from, n, scratch);
+        permute_bytes(p->volume, sizeof *p->volume, 0, sizeof *p->volume, from, n, scratch);
+        permute_bytes(p->d_bond, sizeof *p->d_bond, 0, sizeof *p->d_bond, from, n, scratch);
+        permute_bytes(p->plastic_work, sizeof *p->plastic_work, 0, sizeof *p->plastic_work, from, n, scratch);
+        for (size_t offset = 0; offset < sizeof *p->state; offset += STATE_PART)
+            permute_bytes(p->state, sizeof *p->state, offset, STATE_PART, from, n, scratch);
+        permute_bytes(p->body, sizeof *p->body, 0, sizeof *p->body, from, n, scratch);
+        permute_bytes(p->flags, sizeof *p->flags, 0, sizeof *p->flags, from, n, scratch);
+        permute_bytes(p->id, sizeof *p->id, 0, sizeof *p->id, from, n, scratch);
+    }
 }
 
 /* The transfer's order: the colours in turn, their blocks in turn, the points of a block as binned; then the
@@ -93,6 +95,7 @@ int points_reorder(struct mpm_solver *s)
         SC_FAIL(SC_ESIM, "out of memory reordering %zu material points", p->count);
     transfer_order(s, from);
     permute(p, from);
+#pragma omp parallel for schedule(static)
     for (size_t q = 0; q < p->count; q++)
         p->slot[p->id[q]] = (uint32_t)q;
     free(from);

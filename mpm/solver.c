@@ -60,7 +60,8 @@ static int list_boundary_points(struct mpm_solver *s)
     for (size_t q = 0; q < p->count; q++)
         s->boundary_count += (p->flags[q] & (POINT_BOTTOM | POINT_SIDE)) != 0;
     s->boundary_points = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_points);
-    if (!s->boundary_points)
+    s->boundary_work = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_work);
+    if (!s->boundary_points || !s->boundary_work)
         SC_FAIL(SC_ESIM, "out of memory");
     size_t k = 0;
     for (size_t q = 0; q < p->count; q++)
@@ -109,6 +110,7 @@ void mpm_destroy(struct mpm_solver *s)
     free(s->body_diagnostics);
     free(s->material_constants);
     free(s->boundary_points);
+    free(s->boundary_work);
     free(s->series);
     free(s);
 }
