@@ -1030,11 +1030,46 @@ static int read_checkpoint_identity(hid_t file, char format[256], int64_t *forma
     return SC_OK;
 }
 
+/* The last checkpoint file this process verified whole.  A resume looks for the newest checkpoint twice (the
+ * stage's validation, before anything in the run directory is written, then the resume itself), and the second
+ * look read every dataset of a file it had just verified again: the same file (device, inode, size and
+ * modification time unchanged) is not verified twice.  Its identity is still read each time. */
+static struct {
+    int known;
+    dev_t device;
+    ino_t inode;
+    off_t size;
+    struct timespec modified;
+} verified_file;
+
+static int is_verified_file(const struct stat *st)
+{
+    return verified_file.known && st->st_dev == verified_file.device && st->st_ino == verified_file.inode &&
+           st->st_size == verified_file.size && st->st_mtim.tv_sec == verified_file.modified.tv_sec &&
+           st->st_mtim.tv_nsec == verified_file.modified.tv_nsec;
+}
+
+static int verify_checkpoint_file(const char *path)
+{
+    struct stat st;
+    int have_stat = stat(path, &st) == 0;
+    if (have_stat && is_verified_file(&st))
+        return SC_OK;
+    verified_file.known = 0;
+    SC_TRY(h5_verify_file(path));
+    if (have_stat) {
+        verified_file.device = st.st_dev, verified_file.inode = st.st_ino, verified_file.size = st.st_size;
+        verified_file.modified = st.st_mtim;
+        verified_file.known = 1;
+    }
+    return SC_OK;
+}
+
 /* SC_OK if the checkpoint is readable and ours; SC_EIO if damaged (or lacking root attributes), SC_EINPUT if
  * it belongs to another case or format. */
 static int inspect_checkpoint(const char *path, const char *run_dir, const struct checkpoint_identity *want)
 {
-    SC_TRY(h5_verify_file(path));
+    SC_TRY(verify_checkpoint_file(path));
     hid_t file = H5I_INVALID_HID;
     SC_TRY(h5_open_read(path, &file));
     char format[256], hash[64], want_hash[17];
