@@ -158,10 +158,9 @@ struct mpm_return {
     double eps_p, G, trial, T_hat;
     double log_rate_scale;  /* ln(gamma xi_dot dt): L = ln(eps_dot / (gamma xi_dot)) = ln d - log_rate_scale */
     double log_ratio_floor; /* L at the rate floor */
-    double u, u_lo, u_hi;   /* the iterate u = ln d and the bracket of the root */
-    double d, f, df_du, yield; /* at the last evaluation; d and yield are the result once done */
-    double f_prev;             /* f at the Newton iterate before u, NAN after a bisection or none */
-    int plastic, phase, iter, last;
+    double u, u_lo, u_hi;   /* the first iterate u = ln d and the bracket of the root, from the set-up */
+    double d, yield;        /* the result, once done */
+    int phase;              /* set up, then done (stress_update.c: enum return_phase) */
     /* what the set-up (the first pass of mpm_stress_returns, in lanes) starts from: the material's constants,
      * rho_new, T, Tm (NAN: not computed yet), the last step's increment and flow stress, dt and ln dt */
     const struct mpm_material_constants *constants;

@@ -469,7 +469,7 @@ static inline void prefetch_state(const struct mpm_point_state *state)
  * next_count points; returns the smallest id of a point that failed, or -1. */
 static long update_block(struct mpm_solver *s, long q0, int count, long next_count, double log_dt)
 {
-    struct point_block b;
+    struct point_block b __attribute__((aligned(64)));
     struct mpm_stress_block stress = stress_block(s, q0, count, log_dt, &b);
     long bad = -1;
     block_shear_moduli(s, q0, &b, count);

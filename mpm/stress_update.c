@@ -17,8 +17,8 @@
  *   the internal energy after the EOS solve.
  * The update runs in three phases (mpm_stress_begin, mpm_stress_returns, mpm_stress_finish) so that the solver
  * can return a block of points together: each round of mpm_stress_returns evaluates f for every return still
- * iterating, packed into vector lanes (PTW from mpm/ptw_lane.h), and then advances each return's Newton state
- * on its own; a lane's arithmetic is that of the point alone. */
+ * iterating, packed into vector lanes (PTW from mpm/ptw_lane.h), and then advances their Newton iterations in
+ * lanes too; a lane's arithmetic is that of the point alone. */
 /* The loops over a block's lanes vectorise only at -O3: the default -O2 build asks for -O3 here.  No effect on
  * the results: no floating-point option changes. */
 #if defined(__GNUC__) && !defined(__clang__)
@@ -137,145 +137,179 @@ enum return_phase {
     RETURN_STEP,        /* f at the iterate of a Newton step or bisection */
     RETURN_RECHECK,     /* the yield check of a step that left the bracket through u_lo before the point was proven
                            plastic (an elastic point's f has no root above u_lo) */
-    RETURN_FINISH,      /* done at u without evaluating f there (newton_finish): d and sigma_y still to be set */
     RETURN_DONE
 };
 
-static int converged(const struct mpm_return *r) { return fabs(r->f) <= NEWTON_FTOL * r->trial; }
+/* The returns being solved, in lanes (structure of arrays): the evaluation's lanes, the Newton iteration's state
+ * (the bracket [u_lo, u_hi] with f(u_hi) <= 0, and f(u_lo) > 0 once `plastic` is set; f_prev, the residual of the
+ * Newton iterate before u or NAN; `last`: u came from a step or bracket shorter than NEWTON_XTOL), which return
+ * of the call each lane is, and what the last advance decided (`outcome`, with the result of an ended return). */
+enum lane_outcome { LANE_GOES_ON, LANE_ENDED };
 
-static int return_done(struct mpm_return *r)
+struct newton_lanes {
+    struct return_lanes eval;
+    double u_lo[MPM_RETURN_LANES], u_hi[MPM_RETURN_LANES], f_prev[MPM_RETURN_LANES];
+    int64_t phase[MPM_RETURN_LANES], plastic[MPM_RETURN_LANES], iter[MPM_RETURN_LANES], last[MPM_RETURN_LANES];
+    int64_t outcome[MPM_RETURN_LANES];
+    double result_d[MPM_RETURN_LANES], result_yield[MPM_RETURN_LANES];
+    int index[MPM_RETURN_LANES];
+};
+
+/* Lane i after its evaluation (d, f, df/du and sigma_y at the point its phase asked for), for the phases START,
+ * STEP and RECHECK; branch-free, so that the loop over the lanes vectorises, each lane doing the scalar iteration's
+ * arithmetic.
+ * - RECHECK: a yield check that fails ends the return elastic (d = 0, sigma_y(eps_p, rate_floor)); one that passes
+ *   proves the point plastic, and the iteration bisects.
+ * - STEP: an iterate whose step (or bracket) was shorter than NEWTON_XTOL in u ends it, once evaluated; otherwise
+ *   a Newton step follows, as from START.
+ * - Newton in u = ln d stops when |f| <= NEWTON_FTOL sigma* or after NEWTON_MAX_ITER steps; a step that leaves
+ *   the bracket becomes a bisection, after the yield check (RECHECK) if it left through u_lo before the point was
+ *   proven plastic.
+ * - A Newton step predicted to converge ends the return without evaluating f at the new iterate (NEWTON_NEAR,
+ *   NEWTON_PREDICTED).  On the impact benchmark f fell from about 1e-4 sigma* at the first guess to 1e-8 - 1e-9
+ *   after one step and to round-off after the second: the third evaluation, three tenths of the returns' PTW
+ *   evaluations, only confirmed what Newton's contraction had already shown.  With f_k and f_{k-1} the residuals
+ *   of two Newton iterates in a row, quadratic convergence (e_{k+1} = C e_k^2) predicts |f_{k+1}| ~ |f_k| (f_k /
+ *   f_{k-1})^2; where that is below NEWTON_PREDICTED sigma*, a hundredth of the tolerance, and |f_k| <= NEWTON_NEAR
+ *   sigma*, the return ends at next with d = e^next and the flow stress of the consistency condition f = 0 (Eq.
+ *   A8), sigma* - 3 G d, which differs from sigma_y(d) by f(next), of the order of round-off there (at most
+ *   1.2e-11 sigma* over the 28.8 million such ends of the benchmark, checked by evaluating them).  A bisection or
+ *   a recheck resets the history (f_prev NAN): a bracketing step says nothing about the contraction. */
+/* a where the flag c (0 or 1) is 1, else b, without a branch (as fm_select for doubles).  The flags of
+ * advance_lane are 0 or 1 in 64-bit integers, negated as 1 - c: with _Bool operations in it gcc 12 did not
+ * vectorise the loop. */
+FM_INLINE int64_t select_int(int64_t c, int64_t a, int64_t b) { return (a & -c) | (b & (c - 1)); }
+
+FM_INLINE int64_t flag(int condition) { return (int64_t)condition; }
+
+FM_INLINE void advance_lane(struct newton_lanes *restrict l, int i)
 {
-    r->phase = RETURN_DONE;
-    return 0;
+    const struct return_lanes *e = &l->eval;
+    double u = e->u[i], f = e->f[i], trial = e->trial[i], u_lo = l->u_lo[i], u_hi = l->u_hi[i];
+    int64_t phase = l->phase[i], iter = l->iter[i], last = l->last[i];
+    int64_t recheck = flag(phase == RETURN_RECHECK), checking = flag(phase == RETURN_YIELD_CHECK);
+    int64_t held = recheck | checking; /* the bracket, the count and the history stay */
+    int64_t step = flag(phase == RETURN_STEP), ends_stepping = step & last;
+    /* the Newton step from u (START, or STEP without `last`) */
+    int64_t iter_next = iter + step;
+    int64_t converged = flag(iter_next >= NEWTON_MAX_ITER) | flag(fabs(f) <= NEWTON_FTOL * trial);
+    int64_t above = flag(f > 0.0), plastic = l->plastic[i] | above;
+    double lo = fm_select((int)above, u, u_lo), hi = fm_select((int)above, u_hi, u);
+    double next = u - f / e->df_du[i];
+    int64_t inside = flag(next > lo) & flag(next < hi);
+    int64_t to_recheck = (1 - inside) & (1 - plastic) & flag(!(next > lo));
+    double f_prev = l->f_prev[i]; /* |f| (f / f_prev)^2 <= P sigma* without a division; false for NAN */
+    int64_t predicted = inside & flag(fabs(f) <= NEWTON_NEAR * trial) &
+                        flag(fabs(f) * f * f <= NEWTON_PREDICTED * trial * f_prev * f_prev);
+    double mid = 0.5 * (lo + hi), d_next = fm_exp(next);
+    /* the outcome, and the state of a lane that goes on */
+    int64_t recheck_fails = recheck & flag(!(trial > e->yield[i]));
+    int64_t ended = select_int(recheck, recheck_fails, ends_stepping | converged);
+    int64_t unevaluated = (1 - recheck) & (1 - ended) & predicted;
+    l->outcome[i] = select_int(ended | unevaluated, LANE_ENDED, LANE_GOES_ON);
+    l->result_d[i] = fm_select((int)unevaluated, d_next, e->d[i]);
+    l->result_yield[i] = fm_select((int)unevaluated, trial - 3.0 * e->G[i] * d_next, e->yield[i]); /* Eq. A8 */
+    double recheck_mid = 0.5 * (u_lo + u_hi);
+    l->u_lo[i] = fm_select((int)held, u_lo, lo);
+    l->u_hi[i] = fm_select((int)held, u_hi, hi);
+    l->plastic[i] = recheck | plastic;
+    l->iter[i] = select_int(held, iter, iter_next);
+    l->f_prev[i] = fm_select((int)held, f_prev, fm_select((int)inside, f, NAN));
+    l->eval.u[i] =
+        fm_select((int)recheck, recheck_mid, fm_select((int)to_recheck, u, fm_select((int)inside, next, mid)));
+    l->last[i] = select_int(held, select_int(recheck, flag(u_hi - u_lo <= NEWTON_XTOL), last),
+                            select_int(inside | to_recheck, flag(fabs(next - u) <= NEWTON_XTOL),
+                                       flag(hi - lo <= NEWTON_XTOL)));
+    int64_t goes_to_recheck = (1 - recheck) & to_recheck;
+    l->phase[i] = select_int(checking, phase, /* yield_checks decides */
+                             select_int(goes_to_recheck, RETURN_RECHECK, RETURN_STEP));
+    l->eval.check[i] = (uint16_t)goes_to_recheck;
 }
 
-/* Whether the Newton step to `next` ends the return without evaluating f there, and if so ends it.  On the impact
- * benchmark f fell from about 1e-4 sigma* at the first guess to 1e-8 - 1e-9 after one step and to round-off
- * after the second: the third evaluation, three tenths of the returns' PTW evaluations, only confirmed what
- * Newton's contraction had already shown.  With f_k and f_{k-1} the residuals of two Newton iterates in a row,
- * quadratic convergence (e_{k+1} = C e_k^2) predicts |f_{k+1}| ~ |f_k| (f_k / f_{k-1})^2; where that is below
- * NEWTON_PREDICTED sigma*, a hundredth of the tolerance, and |f_k| <= NEWTON_NEAR sigma*, the return ends at next
- * with d = e^next and the flow stress of the consistency condition f = 0 (Eq. A8), sigma* - 3 G d: it differs from
- * sigma_y(d) by f(next), of the order of round-off there.  A bisection or a recheck resets the history (f_prev
- * NAN): a bracketing step says nothing about the contraction.  d and sigma_y are set for the block's finished
- * returns together (finish_returns: e^u in lanes). */
-static int newton_finish(struct mpm_return *r, double next)
-{
-    double f = r->f, f_prev = r->f_prev; /* |f| (f / f_prev)^2 <= P sigma* without a division; false for NAN */
-    if (!(fabs(f) <= NEWTON_NEAR * r->trial && fabs(f) * f * f <= NEWTON_PREDICTED * r->trial * f_prev * f_prev))
-        return 0;
-    r->u = next;
-    r->phase = RETURN_FINISH;
-    return 1;
-}
-
-/* The head of a Newton iteration in u = ln d from the iterate u, whose f and df/du are in *r: stops when |f| <=
- * NEWTON_FTOL sigma* or after NEWTON_MAX_ITER steps; a step that leaves the bracket [u_lo, u_hi] becomes a
- * bisection (after the yield check if it left through u_lo before the point was proven plastic).  The bracket:
- * f(u_hi) <= 0, and f(u_lo) > 0 once `plastic` is set.  Returns 1 when the next iterate is to be evaluated
- * or the return ended unevaluated (RETURN_FINISH). */
-static int newton_step(struct mpm_return *r)
-{
-    if (r->iter >= NEWTON_MAX_ITER || converged(r))
-        return return_done(r);
-    if (r->f > 0.0)
-        r->u_lo = r->u, r->plastic = 1;
-    else
-        r->u_hi = r->u;
-    double next = r->u - r->f / r->df_du;
-    r->last = fabs(next - r->u) <= NEWTON_XTOL;
-    if (!(next > r->u_lo && next < r->u_hi)) {
-        r->f_prev = NAN;
-        if (!r->plastic && !(next > r->u_lo)) {
-            r->phase = RETURN_RECHECK;
-            return 1;
-        }
-        next = 0.5 * (r->u_lo + r->u_hi);
-        r->last = r->u_hi - r->u_lo <= NEWTON_XTOL;
-    } else {
-        if (newton_finish(r, next))
-            return 1; /* RETURN_FINISH: mpm_stress_returns lists it for finish_returns */
-        r->f_prev = r->f;
-    }
-    r->u = next;
-    r->phase = RETURN_STEP;
-    return 1;
-}
-
-/* Takes one evaluation (d, f, df/du and sigma_y at the point the phase asked for) and decides the next.  A
- * yield check that fails ends the return elastic (d = 0, sigma_y(eps_p, rate_floor)); one that passes proves the
- * point plastic.  An iterate whose step (or bracket) was shorter than NEWTON_XTOL in u ends it once evaluated.
- * Returns 1 while the return needs another evaluation or has ended unevaluated (RETURN_FINISH). */
-static int return_advance(struct mpm_return *r, double d, double f, double df_du, double yield)
-{
-    r->d = d, r->f = f, r->df_du = df_du, r->yield = yield;
-    switch (r->phase) {
-    case RETURN_YIELD_CHECK:
-        if (!(r->trial > yield))
-            return return_done(r);
-        r->plastic = 1;
-        /* the rate-independent increment (sigma* - sigma_y(eps_p, floor)) / (3 G), where f <= 0 */
-        double guess = log((r->trial - yield) / (3.0 * r->G));
-        r->u = guess > r->u_lo && guess < r->u_hi ? guess : 0.5 * (r->u_lo + r->u_hi);
-        r->phase = RETURN_START;
-        return 1;
-    case RETURN_RECHECK:
-        if (!(r->trial > yield))
-            return return_done(r);
-        r->plastic = 1;
-        r->u = 0.5 * (r->u_lo + r->u_hi);
-        r->last = r->u_hi - r->u_lo <= NEWTON_XTOL;
-        r->phase = RETURN_STEP;
-        return 1;
-    case RETURN_STEP:
-        if (r->last)
-            return return_done(r);
-        r->iter++;
-        return newton_step(r);
-    default: /* RETURN_START */
-        return newton_step(r);
-    }
-}
-
-/* The returns active[0 .. n_active - 1] packed into lanes 0 .. n_lanes - 1, padded with copies of the last one.
- * Not vectorised: gcc's vector loop read the returns' fields with gathers, slow on AMD Zen (with their masks, two
- * fifths of mpm_stress_returns' samples in the -march=native build); scalar copies are plain loads. */
-__attribute__((optimize("no-tree-vectorize"))) static void
-pack_lanes(struct mpm_return *const *returns, const int *active, int n_active, int n_lanes, struct return_lanes *lanes)
-{
-    for (int i = 0; i < n_lanes; i++) {
-        const struct mpm_return *r = returns[active[i < n_active ? i : n_active - 1]];
-        lanes->u[i] = r->u;
-        lanes->check[i] = (uint16_t)(r->phase == RETURN_YIELD_CHECK || r->phase == RETURN_RECHECK);
-        lanes->eps_p[i] = r->eps_p, lanes->G[i] = r->G, lanes->trial[i] = r->trial, lanes->T_hat[i] = r->T_hat;
-        lanes->log_rate_scale[i] = r->log_rate_scale, lanes->log_ratio_floor[i] = r->log_ratio_floor;
-    }
-}
-
-/* d = e^u and sigma_y = sigma* - 3 G d (f = 0) of the returns that newton_finish ended, returns[finished[0 ..
- * n - 1]]; the exponentials in lanes, padded to a multiple of 16 as in mpm_stress_returns so that every lane takes
- * the vector loop (whose bits may differ from a scalar epilogue's), the loads and stores one by one (as
- * pack_lanes). */
-static void exp_lanes(int n, double *restrict u)
+static void advance_lanes(struct newton_lanes *restrict l, int n)
 {
     for (int i = 0; i < n; i++)
-        u[i] = fm_exp(u[i]);
+        advance_lane(l, i);
 }
 
-__attribute__((optimize("no-tree-vectorize"))) static void finish_returns(struct mpm_return *const *returns,
-                                                                          const int *finished, int n)
+/* The yield check before Newton (YIELD_CHECK, a point without a first guess; rare), one lane at a time, after
+ * advance_lanes (which took the lane for another phase): one that fails ends the return elastic; one that passes
+ * starts Newton at the rate-independent increment (sigma* - sigma_y(eps_p, floor)) / (3 G), where f <= 0. */
+static void yield_checks(struct newton_lanes *l, int n)
 {
-    double d[MPM_RETURN_LANES];
-    int n_lanes = (n + 15) & ~15;
-    for (int i = 0; i < n_lanes; i++)
-        d[i] = i < n ? returns[finished[i]]->u : 0.0;
-    exp_lanes(n_lanes, d);
+    struct return_lanes *e = &l->eval;
     for (int i = 0; i < n; i++) {
-        struct mpm_return *r = returns[finished[i]];
-        r->d = d[i];
-        r->yield = r->trial - 3.0 * r->G * d[i]; /* Eq. A8 at f = 0 */
-        r->phase = RETURN_DONE;
+        if (l->phase[i] != RETURN_YIELD_CHECK)
+            continue;
+        l->result_d[i] = e->d[i], l->result_yield[i] = e->yield[i];
+        if (!(e->trial[i] > e->yield[i])) {
+            l->outcome[i] = LANE_ENDED;
+            continue;
+        }
+        double guess = log((e->trial[i] - e->yield[i]) / (3.0 * e->G[i]));
+        e->u[i] = guess > l->u_lo[i] && guess < l->u_hi[i] ? guess : 0.5 * (l->u_lo[i] + l->u_hi[i]);
+        e->check[i] = 0;
+        l->plastic[i] = 1, l->phase[i] = RETURN_START, l->outcome[i] = LANE_GOES_ON;
     }
+}
+
+/* Lane `to` takes lane `from`'s return: its inputs and its iteration's state. */
+static void lane_move(struct newton_lanes *l, int to, int from)
+{
+    struct return_lanes *e = &l->eval;
+    e->u[to] = e->u[from], e->check[to] = e->check[from], e->eps_p[to] = e->eps_p[from], e->G[to] = e->G[from];
+    e->trial[to] = e->trial[from], e->T_hat[to] = e->T_hat[from];
+    e->log_rate_scale[to] = e->log_rate_scale[from], e->log_ratio_floor[to] = e->log_ratio_floor[from];
+    l->u_lo[to] = l->u_lo[from], l->u_hi[to] = l->u_hi[from], l->f_prev[to] = l->f_prev[from];
+    l->phase[to] = l->phase[from], l->plastic[to] = l->plastic[from], l->iter[to] = l->iter[from];
+    l->last[to] = l->last[from], l->index[to] = l->index[from];
+}
+
+/* The returns that ended get their results (d, sigma_y); the lanes that go on close up in order, padded with copies
+ * of the last to a multiple of 16 lanes (padding to 8 instead made consistency_lanes half again as costly on
+ * AVX-512: perf, 4 ns impact).  Returns the lanes that go on.  Scalar copies: gcc's vector loops over such
+ * index lists were AVX-512 gathers and scatters, slow on AMD Zen. */
+__attribute__((optimize("no-tree-vectorize"))) static int
+close_up_lanes(struct newton_lanes *l, int n, struct mpm_return *const *returns)
+{
+    int kept = 0;
+    for (int i = 0; i < n; i++) {
+        if (l->outcome[i] == LANE_ENDED) {
+            struct mpm_return *r = returns[l->index[i]];
+            r->d = l->result_d[i], r->yield = l->result_yield[i];
+            r->phase = RETURN_DONE;
+            continue;
+        }
+        if (kept != i)
+            lane_move(l, kept, i);
+        kept++;
+    }
+    for (int i = kept; i < ((kept + 15) & ~15); i++)
+        lane_move(l, i, kept - 1);
+    return kept;
+}
+
+/* The returns not done, as set up, into lanes 0, 1, ... (padded as close_up_lanes pads); returns their number. */
+__attribute__((optimize("no-tree-vectorize"))) static int
+load_lanes(struct mpm_return *const *returns, int n, struct newton_lanes *l)
+{
+    struct return_lanes *e = &l->eval;
+    int count = 0;
+    for (int k = 0; k < n; k++) {
+        const struct mpm_return *r = returns[k];
+        if (r->phase == RETURN_DONE)
+            continue;
+        e->u[count] = r->u, e->check[count] = (uint16_t)(r->phase == RETURN_YIELD_CHECK);
+        e->eps_p[count] = r->eps_p, e->G[count] = r->G, e->trial[count] = r->trial, e->T_hat[count] = r->T_hat;
+        e->log_rate_scale[count] = r->log_rate_scale, e->log_ratio_floor[count] = r->log_ratio_floor;
+        l->u_lo[count] = r->u_lo, l->u_hi[count] = r->u_hi, l->f_prev[count] = NAN;
+        l->phase[count] = r->phase, l->plastic[count] = 0, l->iter[count] = 0, l->last[count] = 0;
+        l->index[count] = k;
+        count++;
+    }
+    for (int i = count; i < ((count + 15) & ~15); i++)
+        lane_move(l, i, count - 1);
+    return count;
 }
 
 /* The lanes of the returns' set-up, structure of arrays: inputs, then results. */
@@ -367,7 +401,7 @@ __attribute__((optimize("no-tree-vectorize"))) static void setup_store(const str
 
 static void setup_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
 {
-    struct setup_lanes l;
+    struct setup_lanes l __attribute__((aligned(64)));
     const struct mpm_material m = *material;
     const struct mpm_material_constants c = *returns[0]->constants;
     setup_load(returns, n, &l);
@@ -378,37 +412,21 @@ static void setup_returns(const struct mpm_material *material, struct mpm_return
 
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
 {
-    struct return_lanes lanes;
-    int active[MPM_RETURN_LANES], n_active = 0, finished[MPM_RETURN_LANES], n_finished = 0;
+    struct newton_lanes lanes __attribute__((aligned(64)));
     struct mpm_return *setup[MPM_RETURN_LANES];
+    int n_setup = 0;
     for (int k = 0; k < n; k++)
         if (returns[k]->phase == RETURN_SETUP)
-            setup[n_active++] = returns[k];
-    if (n_active > 0)
-        setup_returns(m, setup, n_active);
-    n_active = 0;
-    for (int k = 0; k < n; k++)
-        if (returns[k]->phase != RETURN_DONE)
-            active[n_active++] = k;
+            setup[n_setup++] = returns[k];
+    if (n_setup > 0)
+        setup_returns(m, setup, n_setup);
+    int n_active = load_lanes(returns, n, &lanes);
     while (n_active > 0) {
-        /* the active returns packed into lanes, padded to a multiple of 16 with copies of the last one (padding to
-         * 8 instead made consistency_lanes half again as costly on AVX-512: perf, 4 ns impact) */
-        int n_lanes = (n_active + 15) & ~15;
-        pack_lanes(returns, active, n_active, n_lanes, &lanes);
-        consistency_lanes(m, n_lanes, &lanes);
-        int still = 0;
-        for (int i = 0; i < n_active; i++) {
-            struct mpm_return *r = returns[active[i]];
-            if (!return_advance(r, lanes.d[i], lanes.f[i], lanes.df_du[i], lanes.yield[i]))
-                continue;
-            if (r->phase == RETURN_FINISH)
-                finished[n_finished++] = active[i];
-            else
-                active[still++] = active[i];
-        }
-        n_active = still;
+        consistency_lanes(m, (n_active + 15) & ~15, &lanes.eval);
+        advance_lanes(&lanes, n_active);
+        yield_checks(&lanes, n_active);
+        n_active = close_up_lanes(&lanes, n_active, returns);
     }
-    finish_returns(returns, finished, n_finished);
 }
 
 /* ---- energy, pressure, viscosity ---- */
@@ -480,8 +498,7 @@ static void ptw_return_begin(const struct mpm_material_constants *c, const struc
     r->constants = c, r->rho = rho_new, r->T = state->T, r->Tm = Tm;
     r->previous = state->plastic_increment, r->previous_yield = state->yield_stress;
     r->dt = dt, r->log_dt = log_dt;
-    r->plastic = 0, r->iter = 0, r->last = 0;
-    r->d = 0.0, r->f = 0.0, r->df_du = 0.0, r->yield = 0.0, r->f_prev = NAN;
+    r->d = 0.0, r->yield = 0.0;
     r->phase = RETURN_SETUP;
 }
 
