@@ -153,18 +153,15 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
  * samples; 512 did no better).  A block's update holds about 160 kB on the stack. */
 #define MPM_RETURN_LANES 256
 
-/* The plastic return of one point: the consistency problem f(d) = 0 of stress_update.c and its Newton state. */
+/* The plastic return of one point: the consistency problem f(d) = 0 of stress_update.c, set up by
+ * mpm_stress_begin, and its result, from mpm_stress_returns (whose Newton iteration lives in lanes). */
 struct mpm_return {
-    double eps_p, G, trial, T_hat;
-    double log_rate_scale;  /* ln(gamma xi_dot dt): L = ln(eps_dot / (gamma xi_dot)) = ln d - log_rate_scale */
-    double log_ratio_floor; /* L at the rate floor */
-    double u, u_lo, u_hi;   /* the first iterate u = ln d and the bracket of the root, from the set-up */
-    double d, yield;        /* the result, once done */
-    int phase;              /* set up, then done (stress_update.c: enum return_phase) */
+    double eps_p, G, trial;
     /* what the set-up (the first pass of mpm_stress_returns, in lanes) starts from: the material's constants,
      * rho_new, T, Tm (NAN: not computed yet), the last step's increment and flow stress, dt and ln dt */
     const struct mpm_material_constants *constants;
     double rho, T, Tm, previous, previous_yield, dt, log_dt;
+    double d, yield; /* the result */
 };
 
 /* What passes from mpm_stress_begin to mpm_stress_finish. */
@@ -183,6 +180,7 @@ int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_con
                      const double strain_increment[6], const double spin_increment[3], double G, double dt,
                      double log_dt, double volume0, double volume_new, const struct mpm_point_state *state,
                      struct mpm_stress_work *w);
+/* returns[0 .. n - 1], all of material m and fresh from mpm_stress_begin, solved: d and yield set. */
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n);
 int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
                       const struct bulk_viscosity *q, double dt, double volume0, double volume_old,

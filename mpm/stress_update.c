@@ -131,13 +131,11 @@ static void consistency_lanes(const struct mpm_material *material, int n, struct
 
 /* Where a return stands between two evaluations (what the next evaluation is for). */
 enum return_phase {
-    RETURN_SETUP,       /* set up by ptw_return_begin, not yet by setup_lanes */
     RETURN_YIELD_CHECK, /* the yield check before Newton starts (no usable first guess) */
     RETURN_START,       /* f at Newton's first iterate */
     RETURN_STEP,        /* f at the iterate of a Newton step or bisection */
-    RETURN_RECHECK,     /* the yield check of a step that left the bracket through u_lo before the point was proven
+    RETURN_RECHECK      /* the yield check of a step that left the bracket through u_lo before the point was proven
                            plastic (an elastic point's f has no root above u_lo) */
-    RETURN_DONE
 };
 
 /* The returns being solved, in lanes (structure of arrays): the evaluation's lanes, the Newton iteration's state
@@ -277,7 +275,6 @@ close_up_lanes(struct newton_lanes *l, int n, struct mpm_return *const *returns)
         if (l->outcome[i] == LANE_ENDED) {
             struct mpm_return *r = returns[l->index[i]];
             r->d = l->result_d[i], r->yield = l->result_yield[i];
-            r->phase = RETURN_DONE;
             continue;
         }
         if (kept != i)
@@ -289,32 +286,10 @@ close_up_lanes(struct newton_lanes *l, int n, struct mpm_return *const *returns)
     return kept;
 }
 
-/* The returns not done, as set up, into lanes 0, 1, ... (padded as close_up_lanes pads); returns their number. */
-__attribute__((optimize("no-tree-vectorize"))) static int
-load_lanes(struct mpm_return *const *returns, int n, struct newton_lanes *l)
-{
-    struct return_lanes *e = &l->eval;
-    int count = 0;
-    for (int k = 0; k < n; k++) {
-        const struct mpm_return *r = returns[k];
-        if (r->phase == RETURN_DONE)
-            continue;
-        e->u[count] = r->u, e->check[count] = (uint16_t)(r->phase == RETURN_YIELD_CHECK);
-        e->eps_p[count] = r->eps_p, e->G[count] = r->G, e->trial[count] = r->trial, e->T_hat[count] = r->T_hat;
-        e->log_rate_scale[count] = r->log_rate_scale, e->log_ratio_floor[count] = r->log_ratio_floor;
-        l->u_lo[count] = r->u_lo, l->u_hi[count] = r->u_hi, l->f_prev[count] = NAN;
-        l->phase[count] = r->phase, l->plastic[count] = 0, l->iter[count] = 0, l->last[count] = 0;
-        l->index[count] = k;
-        count++;
-    }
-    for (int i = count; i < ((count + 15) & ~15); i++)
-        lane_move(l, i, count - 1);
-    return count;
-}
-
 /* The lanes of the returns' set-up, structure of arrays: inputs, then results. */
 struct setup_lanes {
-    double G[MPM_RETURN_LANES], trial[MPM_RETURN_LANES], rho[MPM_RETURN_LANES], T[MPM_RETURN_LANES];
+    double eps_p[MPM_RETURN_LANES], G[MPM_RETURN_LANES], trial[MPM_RETURN_LANES], rho[MPM_RETURN_LANES];
+    double T[MPM_RETURN_LANES];
     double Tm[MPM_RETURN_LANES], previous[MPM_RETURN_LANES], previous_yield[MPM_RETURN_LANES];
     double dt[MPM_RETURN_LANES], log_dt[MPM_RETURN_LANES];
     double T_hat[MPM_RETURN_LANES], log_rate_scale[MPM_RETURN_LANES], log_ratio_floor[MPM_RETURN_LANES];
@@ -374,55 +349,51 @@ FM_INLINE void setup_lane(const struct mpm_material *m, const struct mpm_materia
     l->u[i] = fm_select(start, fm_log(fm_select(start, previous, 1.0)), 0.0);
 }
 
-/* The set-up of returns 0..n-1 (all RETURN_SETUP, one material): packed into lanes, set up together, unpacked. */
-/* The returns' inputs into the set-up lanes, and the lanes' results back.  Not vectorised, as pack_lanes: gcc's
- * vector loops were AVX-512 gathers and scatters. */
+/* The returns' inputs into the set-up lanes.  Not vectorised, as close_up_lanes: gcc's vector loops were AVX-512
+ * gathers. */
 __attribute__((optimize("no-tree-vectorize"))) static void setup_load(struct mpm_return *const *returns, int n,
                                                                       struct setup_lanes *l)
 {
     for (int i = 0; i < n; i++) {
         const struct mpm_return *r = returns[i];
-        l->G[i] = r->G, l->trial[i] = r->trial, l->rho[i] = r->rho, l->T[i] = r->T, l->Tm[i] = r->Tm;
-        l->previous[i] = r->previous, l->previous_yield[i] = r->previous_yield, l->dt[i] = r->dt;
-        l->log_dt[i] = r->log_dt;
+        l->eps_p[i] = r->eps_p, l->G[i] = r->G, l->trial[i] = r->trial, l->rho[i] = r->rho, l->T[i] = r->T;
+        l->Tm[i] = r->Tm, l->previous[i] = r->previous, l->previous_yield[i] = r->previous_yield;
+        l->dt[i] = r->dt, l->log_dt[i] = r->log_dt;
     }
 }
 
-__attribute__((optimize("no-tree-vectorize"))) static void setup_store(const struct setup_lanes *l, int n,
-                                                                       struct mpm_return *const *returns)
+/* The set-up returns into the Newton lanes 0 .. n - 1, lane i return i, padded as close_up_lanes pads: lane to
+ * lane, so that the loop vectorises. */
+static void start_lanes(const struct setup_lanes *restrict s, int n, struct newton_lanes *restrict l)
 {
+    struct return_lanes *e = &l->eval;
     for (int i = 0; i < n; i++) {
-        struct mpm_return *r = returns[i];
-        r->T_hat = l->T_hat[i], r->log_rate_scale = l->log_rate_scale[i], r->log_ratio_floor = l->log_ratio_floor[i];
-        r->u = l->u[i], r->u_lo = l->u_lo[i], r->u_hi = l->u_hi[i];
-        r->phase = l->start[i] ? RETURN_START : RETURN_YIELD_CHECK;
+        e->u[i] = s->u[i], e->check[i] = (uint16_t)(1 - s->start[i]), e->eps_p[i] = s->eps_p[i];
+        e->G[i] = s->G[i], e->trial[i] = s->trial[i], e->T_hat[i] = s->T_hat[i];
+        e->log_rate_scale[i] = s->log_rate_scale[i], e->log_ratio_floor[i] = s->log_ratio_floor[i];
+        l->u_lo[i] = s->u_lo[i], l->u_hi[i] = s->u_hi[i], l->f_prev[i] = NAN;
+        l->phase[i] = s->start[i] ? RETURN_START : RETURN_YIELD_CHECK;
+        l->plastic[i] = 0, l->iter[i] = 0, l->last[i] = 0, l->index[i] = i;
     }
+    for (int i = n; i < ((n + 15) & ~15); i++)
+        lane_move(l, i, n - 1);
 }
 
-static void setup_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
+void mpm_stress_returns(const struct mpm_material *material, struct mpm_return *const *returns, int n)
 {
-    struct setup_lanes l __attribute__((aligned(64)));
+    struct setup_lanes setup __attribute__((aligned(64)));
+    struct newton_lanes lanes __attribute__((aligned(64)));
+    if (n <= 0)
+        return;
     const struct mpm_material m = *material;
     const struct mpm_material_constants c = *returns[0]->constants;
-    setup_load(returns, n, &l);
+    setup_load(returns, n, &setup);
     for (int i = 0; i < n; i++)
-        setup_lane(&m, &c, i, &l);
-    setup_store(&l, n, returns);
-}
-
-void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n)
-{
-    struct newton_lanes lanes __attribute__((aligned(64)));
-    struct mpm_return *setup[MPM_RETURN_LANES];
-    int n_setup = 0;
-    for (int k = 0; k < n; k++)
-        if (returns[k]->phase == RETURN_SETUP)
-            setup[n_setup++] = returns[k];
-    if (n_setup > 0)
-        setup_returns(m, setup, n_setup);
-    int n_active = load_lanes(returns, n, &lanes);
+        setup_lane(&m, &c, i, &setup);
+    start_lanes(&setup, n, &lanes);
+    int n_active = n;
     while (n_active > 0) {
-        consistency_lanes(m, (n_active + 15) & ~15, &lanes.eval);
+        consistency_lanes(&m, (n_active + 15) & ~15, &lanes.eval);
         advance_lanes(&lanes, n_active);
         yield_checks(&lanes, n_active);
         n_active = close_up_lanes(&lanes, n_active, returns);
@@ -499,7 +470,6 @@ static void ptw_return_begin(const struct mpm_material_constants *c, const struc
     r->previous = state->plastic_increment, r->previous_yield = state->yield_stress;
     r->dt = dt, r->log_dt = log_dt;
     r->d = 0.0, r->yield = 0.0;
-    r->phase = RETURN_SETUP;
 }
 
 /* A factor below 1 by far more than the rounding of x < f b b: x < f b b proves sqrt(x) < b, so sqrt(x) <= b,
