@@ -153,6 +153,13 @@ struct newton_lanes {
     int index[MPM_RETURN_LANES];
 };
 
+/* a where the flag c (0 or 1) is 1, else b, without a branch (as fm_select for doubles).  The flags of
+ * advance_lane are 0 or 1 in 64-bit integers, negated as 1 - c: with _Bool operations in it gcc 12 did not
+ * vectorise the loop. */
+FM_INLINE int64_t select_int(int64_t c, int64_t a, int64_t b) { return (a & -c) | (b & (c - 1)); }
+
+FM_INLINE int64_t flag(int condition) { return (int64_t)condition; }
+
 /* Lane i after its evaluation (d, f, df/du and sigma_y at the point its phase asked for), for the phases START,
  * STEP and RECHECK; branch-free, so that the loop over the lanes vectorises, each lane doing the scalar iteration's
  * arithmetic.
@@ -173,13 +180,6 @@ struct newton_lanes {
  *   A8), sigma* - 3 G d, which differs from sigma_y(d) by f(next), of the order of round-off there (at most
  *   1.2e-11 sigma* over the 28.8 million such ends of the benchmark, checked by evaluating them).  A bisection or
  *   a recheck resets the history (f_prev NAN): a bracketing step says nothing about the contraction. */
-/* a where the flag c (0 or 1) is 1, else b, without a branch (as fm_select for doubles).  The flags of
- * advance_lane are 0 or 1 in 64-bit integers, negated as 1 - c: with _Bool operations in it gcc 12 did not
- * vectorise the loop. */
-FM_INLINE int64_t select_int(int64_t c, int64_t a, int64_t b) { return (a & -c) | (b & (c - 1)); }
-
-FM_INLINE int64_t flag(int condition) { return (int64_t)condition; }
-
 FM_INLINE void advance_lane(struct newton_lanes *restrict l, int i)
 {
     const struct return_lanes *e = &l->eval;
