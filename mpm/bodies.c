@@ -120,20 +120,20 @@ static int allocate(struct mpm_points *p, size_t n)
 {
     memset(p, 0, sizeof *p);
     p->count = n;
-    p->x = calloc(3 * n, sizeof *p->x);
-    p->v = calloc(3 * n, sizeof *p->v);
-    p->x_next = calloc(3 * n, sizeof *p->x_next);
-    p->mass = calloc(n, sizeof *p->mass);
-    p->volume0 = calloc(n, sizeof *p->volume0);
-    p->volume = calloc(n, sizeof *p->volume);
-    p->d_bond = calloc(n, sizeof *p->d_bond);
-    p->plastic_work = calloc(n, sizeof *p->plastic_work);
-    p->normal = calloc(3 * n, sizeof *p->normal);
-    p->state = calloc(n, sizeof *p->state);
-    p->body = calloc(n, sizeof *p->body);
-    p->flags = calloc(n, sizeof *p->flags);
-    p->id = calloc(n, sizeof *p->id);
-    p->slot = calloc(n, sizeof *p->slot);
+    p->x = mpm_calloc_lines(3 * n, sizeof *p->x);
+    p->v = mpm_calloc_lines(3 * n, sizeof *p->v);
+    p->x_next = mpm_calloc_lines(3 * n, sizeof *p->x_next);
+    p->mass = mpm_calloc_lines(n, sizeof *p->mass);
+    p->volume0 = mpm_calloc_lines(n, sizeof *p->volume0);
+    p->volume = mpm_calloc_lines(n, sizeof *p->volume);
+    p->d_bond = mpm_calloc_lines(n, sizeof *p->d_bond);
+    p->plastic_work = mpm_calloc_lines(n, sizeof *p->plastic_work);
+    p->normal = mpm_calloc_lines(3 * n, sizeof *p->normal);
+    p->state = mpm_calloc_lines(n, sizeof *p->state);
+    p->body = mpm_calloc_lines(n, sizeof *p->body);
+    p->flags = mpm_calloc_lines(n, sizeof *p->flags);
+    p->id = mpm_calloc_lines(n, sizeof *p->id);
+    p->slot = mpm_calloc_lines(n, sizeof *p->slot);
     if (n >= UINT32_MAX)
         SC_FAIL(SC_EINPUT, "impact: %zu material points; at most %u are supported", n, UINT32_MAX - 1);
     if (!p->id || !p->slot || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond || !p->plastic_work || !p->normal ||

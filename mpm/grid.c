@@ -70,17 +70,17 @@ int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double 
 static int alloc_layers(struct mpm_grid *g)
 {
     size_t n = g->nodes * (size_t)g->layers;
-    g->mass = calloc(n, sizeof *g->mass);
+    g->mass = mpm_calloc_lines(n, sizeof *g->mass);
     /* one double to spare after the vector fields read with node_vector (mpm_impl.h) */
-    g->momentum = calloc(3 * n + 1, sizeof *g->momentum);
-    g->momentum_new = calloc(3 * n + 1, sizeof *g->momentum_new);
-    g->force = calloc(3 * n, sizeof *g->force);
-    g->gradient = calloc(3 * n, sizeof *g->gradient);
-    g->velocity = calloc(3 * n + 1, sizeof *g->velocity);
-    g->bond_sum = calloc(n, sizeof *g->bond_sum);
-    g->bond_weight = calloc(n, sizeof *g->bond_weight);
-    g->contact = calloc(n, sizeof *g->contact);
-    g->wall_held = calloc(n, sizeof *g->wall_held);
+    g->momentum = mpm_calloc_lines(3 * n + 1, sizeof *g->momentum);
+    g->momentum_new = mpm_calloc_lines(3 * n + 1, sizeof *g->momentum_new);
+    g->force = mpm_calloc_lines(3 * n, sizeof *g->force);
+    g->gradient = mpm_calloc_lines(3 * n, sizeof *g->gradient);
+    g->velocity = mpm_calloc_lines(3 * n + 1, sizeof *g->velocity);
+    g->bond_sum = mpm_calloc_lines(n, sizeof *g->bond_sum);
+    g->bond_weight = mpm_calloc_lines(n, sizeof *g->bond_weight);
+    g->contact = mpm_calloc_lines(n, sizeof *g->contact);
+    g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
     if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
         !g->bond_weight || !g->contact || !g->wall_held)
         SC_FAIL(SC_ESIM, "out of memory for a grid of %zu nodes x %d bodies", g->nodes, g->layers);
@@ -93,12 +93,12 @@ static int alloc_blocks(struct mpm_grid *g, size_t points)
         g->blocks[d] = (g->n[d] + BLOCK_CELLS - 1) / BLOCK_CELLS;
     g->block_count = (size_t)g->blocks[0] * (size_t)g->blocks[1] * (size_t)g->blocks[2];
     g->block_start = calloc(g->block_count + 1, sizeof *g->block_start);
-    g->block_points = calloc(points ? points : 1, sizeof *g->block_points);
+    g->block_points = mpm_calloc_lines(points ? points : 1, sizeof *g->block_points);
     g->sort_threads = omp_get_max_threads();
     g->block_cursor = calloc((size_t)g->sort_threads * (g->block_count ? g->block_count : 1), sizeof *g->block_cursor);
-    g->point_block = calloc(points ? points : 1, sizeof *g->point_block);
-    g->point_node = calloc(points ? points : 1, sizeof *g->point_node);
-    g->point_fraction = calloc(3 * (points ? points : 1), sizeof *g->point_fraction);
+    g->point_block = mpm_calloc_lines(points ? points : 1, sizeof *g->point_block);
+    g->point_node = mpm_calloc_lines(points ? points : 1, sizeof *g->point_node);
+    g->point_fraction = mpm_calloc_lines(3 * (points ? points : 1), sizeof *g->point_fraction);
     for (int c = 0; c < 8; c++)
         g->colour_blocks[c] = calloc(g->block_count, sizeof *g->colour_blocks[c]);
     for (int c = 0; c < 8; c++)

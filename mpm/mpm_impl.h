@@ -4,6 +4,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "mpm/material.h"
@@ -49,6 +50,19 @@ struct node_box {
 
 /* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
  * blocks of cells used for the fixed-order particle-to-grid transfer. */
+/* calloc on a 64-byte boundary (cache line, AVX-512 vector): the point and node arrays' vector loads and stores
+ * then never straddle two lines (free() releases it). */
+static inline void *mpm_calloc_lines(size_t count, size_t size)
+{
+    if (size > 0 && count > (SIZE_MAX - 63) / size)
+        return NULL; /* as calloc: no product that wraps around */
+    size_t bytes = (count * size + 63) / 64 * 64;
+    void *block = aligned_alloc(64, bytes ? bytes : 64);
+    if (block)
+        memset(block, 0, bytes);
+    return block;
+}
+
 struct mpm_grid {
     double origin[3], h;
     double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
