@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 #include "mpm/material.h"
 #include "mpm/mpm.h"
@@ -51,15 +52,27 @@ struct node_box {
 /* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
  * blocks of cells used for the fixed-order particle-to-grid transfer. */
 /* calloc on a 64-byte boundary (cache line, AVX-512 vector): the point and node arrays' vector loads and stores
- * then never straddle two lines (free() releases it). */
+ * then never straddle two lines (free() releases it).  Arrays of 4 MB or more go on 2 MB boundaries, rounded up
+ * to 2 MB, in transparent huge pages where the system offers them (madvise: the mode of Debian's kernels): the
+ * transfers reach points and nodes all over such arrays, and with 4 kB pages the 1e6-point impact took 128,000
+ * page faults and many TLB misses (about 34,000 faults with huge pages, wall time -25 %, memory +6 %). */
+#define MPM_HUGE_PAGE ((size_t)2 << 20)
 static inline void *mpm_calloc_lines(size_t count, size_t size)
 {
-    if (size > 0 && count > (SIZE_MAX - 63) / size)
+    if (size > 0 && count > (SIZE_MAX - MPM_HUGE_PAGE) / size)
         return NULL; /* as calloc: no product that wraps around */
-    size_t bytes = (count * size + 63) / 64 * 64;
-    void *block = aligned_alloc(64, bytes ? bytes : 64);
-    if (block)
-        memset(block, 0, bytes);
+    size_t bytes = count * size;
+    int huge = bytes >= 2 * MPM_HUGE_PAGE;
+    size_t align = huge ? MPM_HUGE_PAGE : 64;
+    bytes = (bytes + align - 1) / align * align;
+    void *block = aligned_alloc(align, bytes ? bytes : 64);
+    if (!block)
+        return NULL;
+#ifdef MADV_HUGEPAGE
+    if (huge)
+        madvise(block, bytes, MADV_HUGEPAGE); /* a hint: where it fails the pages stay small */
+#endif
+    memset(block, 0, bytes);
     return block;
 }
 
