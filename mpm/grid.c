@@ -220,7 +220,8 @@ static void block_offsets(struct mpm_grid *g, int threads)
 static void sort_by_block(struct mpm_grid *g, const struct mpm_points *p)
 {
     size_t n = p->count, blocks = g->block_count;
-#pragma omp parallel num_threads(g->sort_threads)
+    int threads = omp_get_max_threads() < g->sort_threads ? omp_get_max_threads() : g->sort_threads;
+#pragma omp parallel num_threads(threads)
     {
         int t = omp_get_thread_num(), threads = omp_get_num_threads();
         size_t lo = n * (size_t)t / (size_t)threads, hi = n * (size_t)(t + 1) / (size_t)threads;

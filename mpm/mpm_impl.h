@@ -49,8 +49,6 @@ struct node_box {
     int lo[3], hi[3];
 };
 
-/* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
- * blocks of cells used for the fixed-order particle-to-grid transfer. */
 /* calloc on a 64-byte boundary (cache line, AVX-512 vector): the point and node arrays' vector loads and stores
  * then never straddle two lines (free() releases it).  Arrays of 4 MB or more go on 2 MB boundaries, rounded up
  * to 2 MB, in transparent huge pages where the system offers them (madvise: the mode of Debian's kernels): the
@@ -76,6 +74,8 @@ static inline void *mpm_calloc_lines(size_t count, size_t size)
     return block;
 }
 
+/* The background grid: uniform, one layer of nodal fields per body (the multi-mesh of Ma et al.), and the
+ * blocks of cells used for the fixed-order particle-to-grid transfer. */
 struct mpm_grid {
     double origin[3], h;
     double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
@@ -99,7 +99,7 @@ struct mpm_grid {
     size_t *block_start;             /* block_count + 1 */
     size_t *block_points;            /* point indices, by block, ascending within a block */
     size_t *block_cursor;            /* sort_threads x block_count: grid_bin_points' counts and write cursors */
-    int sort_threads;                /* threads grid_bin_points sorts with (OpenMP's maximum at grid_create) */
+    int sort_threads;                /* rows of block_cursor: the most threads grid_bin_points sorts with */
     size_t *colour_blocks[8];
     size_t colour_count[8];
     int *point_block;                /* block of each point this step (-1 inactive) */
