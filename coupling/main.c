@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/memory.h"
 #include "core/parallel.h"
 #include "core/version.h"
 #include "coupling/info.h"
@@ -324,6 +325,7 @@ int main(int argc, char **argv)
             return 0;
         }
     }
+    memory_heap_init(); /* before anything large is allocated */
     /* HDF5's exit-time cleanup can crash on a file whose close failed (full disk, file-size limit);
      * every file spraycoat writes is closed or abandoned explicitly, so the cleanup is not needed */
     H5dont_atexit();
