@@ -868,18 +868,6 @@ static void keep_start_positions(struct dem_particles *p, const uint32_t *flying
         memcpy(p->x_start + 3 * flying[k], p->x + 3 * flying[k], 3 * sizeof(double));
 }
 
-/* No smooth forces: exact free flight. */
-static void integrate_free_flight(const struct dem_config *cfg, struct dem_particles *p, const uint32_t *flying,
-                                  size_t count)
-{
-#pragma omp parallel for schedule(static) if (count >= DEM_PARALLEL_MIN)
-    for (size_t k = 0; k < count; k++) {
-        keep_start_positions(p, flying + k, 1);
-        for (int c = 0; c < 3; c++)
-            p->x[3 * flying[k] + c] += cfg->dt * p->v[3 * flying[k] + c];
-    }
-}
-
 static int value_non_finite(const struct dem_particles *p, uint32_t i, const char **quantity)
 {
     for (int c = 0; c < 3; c++) {
@@ -932,6 +920,29 @@ static size_t finish_particles(struct dem_solver *s, const uint32_t *list, size_
     return n;
 }
 
+/* No smooth forces: exact free flight, block by block as the drag's loop below, each block's particles finished
+ * (their contacts over, those at a boundary in hits, their values tested) while they are in cache.  Returns
+ * whether a value is not finite. */
+static int integrate_free_flight(struct dem_solver *s, const uint32_t *flying, size_t count, uint32_t *hits,
+                                 uint8_t *hit_count)
+{
+    struct dem_particles *p = &s->p;
+    const double dt = s->cfg.dt;
+    const size_t blocks = (count + BLOCK - 1) / BLOCK;
+    int bad = 0;
+#pragma omp parallel for schedule(static) reduction(| : bad) if (count >= DEM_PARALLEL_MIN)
+    for (size_t k = 0; k < blocks; k++) {
+        size_t first = k * BLOCK, n = count - first < BLOCK ? count - first : BLOCK;
+        keep_start_positions(p, flying + first, n);
+        for (size_t j = first; j < first + n; j++)
+            for (int c = 0; c < 3; c++)
+                p->x[3 * flying[j] + c] += dt * p->v[3 * flying[j] + c];
+        bad |= any_non_finite(p, flying + first, n);
+        hit_count[k] = (uint8_t)finish_particles(s, flying + first, n, hits + first);
+    }
+    return bad;
+}
+
 /* s->at_boundary: the merge, in index order, of the landed particles at a boundary and the flying ones,
  * found block by block (block k's in hits[k * BLOCK, k * BLOCK + hit_count[k])). */
 static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_t landed_count, const uint32_t *hits,
@@ -970,12 +981,7 @@ int dem_integrate(struct dem_solver *s)
     uint32_t *hits = dem_realloc_or_die(NULL, (blocks ? blocks : 1) * BLOCK * sizeof *hits);
     uint8_t *hit_count = dem_realloc_or_die(NULL, blocks ? blocks : 1);
     if (cfg->gas.model == JET_NONE) {
-        integrate_free_flight(cfg, p, flying, flying_count);
-        bad |= any_non_finite(p, flying, flying_count);
-        for (size_t k = 0; k < blocks; k++) {
-            size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-            hit_count[k] = (uint8_t)finish_particles(s, flying + first, n, hits + first);
-        }
+        bad |= integrate_free_flight(s, flying, flying_count, hits, hit_count);
     } else {
         const int reuse_drag = s->reuse_drag;
         /* Each particle's update is independent and the reductions are integer sums, so the result does not
