@@ -5,6 +5,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "core/balance.h"
 #include "dem/dem.h"
 
 /* The drag at a particle's state as the integrator left it (dem/integrate.c): the force (N), the slip (m/s) and
@@ -128,6 +129,7 @@ struct dem_solver {
     struct dem_candidates candidates;
     int reuse_drag;               /* start a step from the kept drag (struct dem_drag); 1 but in tests */
     struct dem_timing timing;     /* contacts: all of dem_collide, the broad phase included (dem_get_timing) */
+    struct balance integrate_balance; /* the threads' shares of the drag integration (dem/integrate.c) */
     /* The particles flying at the start of the step, in index order (dem_collide lists them; the
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;

@@ -36,9 +36,11 @@
 #endif
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/balance.h"
 #include "core/error.h"
 #include "dem/dem_impl.h"
 #include "dem/gas_eval.h"
@@ -966,6 +968,56 @@ static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_
     s->at_boundary_count = n;
 }
 
+/* The particles in the gas, block by block; their iteration counts are added to *total.  Each particle's update
+ * is independent and the reductions are integer sums, so the result does not depend on which thread does which
+ * block; the vector lanes give the bits of the scalar code.  Each thread takes a contiguous share of the
+ * blocks, balanced by the threads' speeds in the last steps (core/balance.h): it keeps nearly the same
+ * particles from step to step, and their lines stay in its core's caches (dynamic chunks moved them between
+ * the cores every step: Table 1 on 2 threads took 22 % more CPU time, BENCHMARKS.md 2026-12-02 (second
+ * session)), while equal shares waited for the slower core.  Returns whether a value is not finite. */
+static int integrate_with_drag(struct dem_solver *s, const uint32_t *flying, size_t count, uint32_t *hits,
+                               uint8_t *hit_count, struct iteration_count *total)
+{
+    const struct dem_config *cfg = &s->cfg;
+    struct dem_particles *p = &s->p;
+    const int reuse_drag = s->reuse_drag;
+    const size_t blocks = (count + BLOCK - 1) / BLOCK;
+    const int team = count >= DEM_PARALLEL_MIN_INTEGRATE ? omp_get_max_threads() : 1;
+    int bad = 0;
+    balance_prepare(&s->integrate_balance, team);
+#pragma omp parallel num_threads(team)
+    {
+        struct iteration_count mine = {0};
+        int bad_here = 0;
+        size_t first_block, end_block;
+        balance_range(&s->integrate_balance, omp_get_thread_num(), omp_get_num_threads(), blocks, &first_block,
+                      &end_block);
+        double start = omp_get_wtime();
+        struct block *b = dem_aligned_alloc_or_die(_Alignof(struct block), sizeof *b);
+        for (size_t k = first_block; k < end_block; k++) {
+            size_t first = k * BLOCK, n = count - first < BLOCK ? count - first : BLOCK;
+            block_load(p, reuse_drag, s->step, b, flying + first, n);
+            bad_here |= integrate_block(cfg, p, b, &mine);
+            hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
+        }
+        free(b);
+        balance_record(&s->integrate_balance, omp_get_thread_num(), omp_get_num_threads(), end_block - first_block,
+                       omp_get_wtime() - start);
+#pragma omp critical(dem_integrate_counts)
+        {
+            bad |= bad_here;
+            total->iterations += mine.iterations;
+            total->solves += mine.solves;
+            total->unconverged += mine.unconverged;
+            total->subcycled += mine.subcycled;
+            if (mine.max_iterations > total->max_iterations)
+                total->max_iterations = mine.max_iterations;
+        }
+    }
+    balance_update(&s->integrate_balance);
+    return bad;
+}
+
 int dem_integrate(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
@@ -983,36 +1035,7 @@ int dem_integrate(struct dem_solver *s)
     if (cfg->gas.model == JET_NONE) {
         bad |= integrate_free_flight(s, flying, flying_count, hits, hit_count);
     } else {
-        const int reuse_drag = s->reuse_drag;
-        /* Each particle's update is independent and the reductions are integer sums, so the result does not
-         * depend on the schedule; the vector lanes give the bits of the scalar code. */
-#pragma omp parallel if (flying_count >= DEM_PARALLEL_MIN_INTEGRATE)
-        {
-            struct iteration_count count = {0};
-            int bad_here = 0;
-            struct block *b = dem_aligned_alloc_or_die(_Alignof(struct block), sizeof *b);
-/* static: each thread keeps its share of the particles from step to step, and their lines stay in its
- * core's caches (dynamic chunks moved them between the cores every step: Table 1 on 2 threads took 22 %
- * more CPU time, BENCHMARKS.md 2026-12-02 (second session)) */
-#pragma omp for schedule(static)
-            for (size_t k = 0; k < blocks; k++) {
-                size_t first = k * BLOCK, n = flying_count - first < BLOCK ? flying_count - first : BLOCK;
-                block_load(p, reuse_drag, s->step, b, flying + first, n);
-                bad_here |= integrate_block(cfg, p, b, &count);
-                hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
-            }
-            free(b);
-#pragma omp critical(dem_integrate_counts)
-            {
-                bad |= bad_here;
-                total.iterations += count.iterations;
-                total.solves += count.solves;
-                total.unconverged += count.unconverged;
-                total.subcycled += count.subcycled;
-                if (count.max_iterations > total.max_iterations)
-                    total.max_iterations = count.max_iterations;
-            }
-        }
+        bad |= integrate_with_drag(s, flying, flying_count, hits, hit_count, &total);
     }
     s->contact_flags_set = 0; /* every moving particle's were cleared */
     list_at_boundary(s, landed, landed_hits, hits, hit_count, blocks);

@@ -31,6 +31,7 @@ void dem_destroy(struct dem_solver *s)
         return;
     particles_free(&s->p);
     dem_bins_free(&s->bins);
+    balance_free(&s->integrate_balance);
     free(s->candidates.items);
     free(s->moving);
     free(s->at_boundary);

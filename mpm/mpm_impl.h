@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/mman.h>
 
+#include "core/balance.h"
 #include "mpm/material.h"
 #include "mpm/mpm.h"
 
@@ -134,6 +135,7 @@ struct mpm_solver {
     size_t *boundary_points;         /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
     double *boundary_work;           /* per boundary point: the dashpot's work of the step (book_absorbed_energy) */
+    struct balance update_balance;   /* the threads' shares of the point update (update_points) */
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;

@@ -111,6 +111,7 @@ void mpm_destroy(struct mpm_solver *s)
     free(s->material_constants);
     free(s->boundary_points);
     free(s->boundary_work);
+    balance_free(&s->update_balance);
     free(s->series);
     free(s);
 }
@@ -459,8 +460,8 @@ static void note_failure(const struct mpm_points *p, size_t q, long *bad)
 
 /* Both cache lines a 120-byte point state can span, for writing: with 2 threads the other thread's transfers
  * may hold a shared copy, which stress_finish's stores would wait to invalidate (interleaved, 4 ns, 2 threads,
- * with update_chunk: 6.61 6.60 7.78 7.22 7.80e6 PUPS against 6.47 6.44 7.23 7.20 7.40e6 with a plain prefetch of
- * the next block whoever holds it). */
+ * within a thread's chunks: 6.61 6.60 7.78 7.22 7.80e6 PUPS against 6.47 6.44 7.23 7.20 7.40e6 with a plain
+ * prefetch of the next block whoever holds it). */
 static inline void prefetch_state(const struct mpm_point_state *state)
 {
     __builtin_prefetch(state, 1);
@@ -502,17 +503,15 @@ static long update_block(struct mpm_solver *s, long q0, int count, long next_cou
     return bad;
 }
 
-/* Steps 10-11 for the blocks of a chunk of UPDATE_CHUNK blocks from point q0 on (n points in all).  With several
- * threads a block prefetches the next block's states only within the chunk: the next chunk may be another
- * thread's, being updated at that moment, and a prefetch for writing would take its lines away from it. */
-#define UPDATE_CHUNK 2
-static long update_chunk(struct mpm_solver *s, long q0, long n, int threads, double log_dt)
+/* Steps 10-11 for the points [q0, end), block by block; a block prefetches the next block's states, within the
+ * range only: the points after it are another thread's, being updated at that moment, and a prefetch for
+ * writing would take their lines away from it. */
+static long update_range(struct mpm_solver *s, long q0, long end, double log_dt)
 {
-    long bad = -1, end = q0 + UPDATE_CHUNK * POINT_BLOCK < n ? q0 + UPDATE_CHUNK * POINT_BLOCK : n;
-    long prefetch_end = threads > 1 ? end : n;
+    long bad = -1;
     for (long q = q0; q < end; q += POINT_BLOCK) {
         int count = (int)(end - q < POINT_BLOCK ? end - q : POINT_BLOCK);
-        long failed = update_block(s, q, count, prefetch_end - (q + count), log_dt);
+        long failed = update_block(s, q, count, end - (q + count), log_dt);
         if (failed >= 0)
             bad = bad < 0 || failed < bad ? failed : bad;
     }
@@ -522,15 +521,26 @@ static long update_chunk(struct mpm_solver *s, long q0, long n, int threads, dou
 static int update_points(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
-    long n = (long)p->count, bad = n, chunks = (n + UPDATE_CHUNK * POINT_BLOCK - 1) / (UPDATE_CHUNK * POINT_BLOCK);
+    long n = (long)p->count, bad = n, blocks = (n + POINT_BLOCK - 1) / POINT_BLOCK;
     double log_dt = s->dt > 0.0 ? log(s->dt) : 0.0; /* once per step, not per plastic point (the same bits) */
-/* dynamic: the costly plastic points of a particle sit together in index order */
-#pragma omp parallel for schedule(dynamic, 1) reduction(min : bad)
-    for (long chunk = 0; chunk < chunks; chunk++) {
-        long failed = update_chunk(s, chunk * UPDATE_CHUNK * POINT_BLOCK, n, omp_get_num_threads(), log_dt);
+    int team = omp_get_max_threads();
+    balance_prepare(&s->update_balance, team);
+/* Contiguous shares of the blocks, balanced by the threads' speeds in the last steps (core/balance.h): the
+ * costly plastic points of a particle sit together in index order, and a thread keeps nearly the same points
+ * from step to step. */
+#pragma omp parallel num_threads(team) reduction(min : bad)
+    {
+        size_t first, end;
+        int thread = omp_get_thread_num(), threads = omp_get_num_threads();
+        balance_range(&s->update_balance, thread, threads, (size_t)blocks, &first, &end);
+        double start = omp_get_wtime();
+        long q_end = (long)end * POINT_BLOCK < n ? (long)end * POINT_BLOCK : n;
+        long failed = update_range(s, (long)first * POINT_BLOCK, q_end, log_dt);
         if (failed >= 0)
             bad = failed < bad ? failed : bad;
+        balance_record(&s->update_balance, thread, threads, end - first, omp_get_wtime() - start);
     }
+    balance_update(&s->update_balance);
     if (bad < n)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
                 "non-finite state or a non-positive volume (time step %.3g s)", (long long)s->step + 1, s->t, bad,
