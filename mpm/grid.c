@@ -169,6 +169,9 @@ void grid_free(struct mpm_grid *g)
     free(g->bond_weight);
     free(g->contact);
     free(g->wall_held);
+    for (int kind = 0; kind < 2; kind++)
+        for (int colour = 0; colour < 8; colour++)
+            balance_free(&g->colour_balance[kind][colour]);
     free(g->block_start);
     free(g->block_points);
     free(g->block_cursor);
@@ -604,15 +607,28 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
     }
 }
 
+/* The blocks of one colour write disjoint nodes and run in parallel, each thread a contiguous share of them
+ * balanced by the threads' speeds in the last steps (core/balance.h): a thread scatters nearly the same points
+ * to nearly the same nodes from step to step. */
 static void for_each_point_by_colour(struct mpm_solver *s, enum transfer transfer)
 {
     struct mpm_grid *g = &s->grid;
+    int team = omp_get_max_threads();
     for (int colour = 0; colour < 8; colour++) {
-        long count = (long)g->colour_count[colour];
         const size_t *blocks = g->colour_blocks[colour];
-#pragma omp parallel for schedule(dynamic, 1)
-        for (long i = 0; i < count; i++)
-            scatter_block(s, blocks[i], transfer);
+        struct balance *balance = &g->colour_balance[transfer == TRANSFER_ALL][colour];
+        balance_prepare(balance, team);
+#pragma omp parallel num_threads(team)
+        {
+            size_t first, end;
+            int thread = omp_get_thread_num(), threads = omp_get_num_threads();
+            balance_range(balance, thread, threads, g->colour_count[colour], &first, &end);
+            double start = omp_get_wtime();
+            for (size_t i = first; i < end; i++)
+                scatter_block(s, blocks[i], transfer);
+            balance_record(balance, thread, threads, end - first, omp_get_wtime() - start);
+        }
+        balance_update(balance);
     }
 }
 
