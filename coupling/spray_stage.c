@@ -25,7 +25,7 @@ struct spray_run {
     double last_checkpoint_time;
     int64_t last_checkpoint_step;
     double loop_seconds, checkpoint_seconds; /* wall: the time loop, and its checkpoints */
-    int64_t loop_particle_steps;
+    int64_t loop_particle_steps, loop_steps; /* advanced by the time loop of this process */
 };
 
 static int write_checkpoint(struct spray_run *run)
@@ -78,6 +78,7 @@ static int time_loop(struct spray_run *run)
     int64_t total = dem_total_steps(run->solver);
     double start = omp_get_wtime();
     int64_t particle_steps_before = dem_get_counts(run->solver).particle_steps;
+    int64_t steps_before = dem_get_counts(run->solver).step;
     struct progress bar;
     progress_begin(&bar, STAGE, "steps", dem_get_counts(run->solver).step, total);
     run->last_checkpoint_time = log_elapsed();
@@ -100,6 +101,7 @@ static int time_loop(struct spray_run *run)
     progress_end(&bar, total);
     run->loop_seconds = omp_get_wtime() - start;
     run->loop_particle_steps = dem_get_counts(run->solver).particle_steps - particle_steps_before;
+    run->loop_steps = dem_get_counts(run->solver).step - steps_before;
     return SC_OK;
 }
 
@@ -178,6 +180,8 @@ static void log_timing(const struct spray_run *run)
              100.0 * t.integration / loop, 100.0 * t.broad_phase / loop, 100.0 * t.contacts / loop,
              100.0 * t.injection / loop, 100.0 * t.boundaries / loop, 100.0 * t.metrics / loop,
              100.0 * run->checkpoint_seconds / loop, 100.0 * other / loop);
+    log_info("spray: broad phase: %lld grid builds and %lld repairs in %lld steps", (long long)t.grid_builds,
+             (long long)t.grid_repairs, (long long)run->loop_steps);
 }
 
 static void log_summary(const struct spray_run *run)

@@ -110,9 +110,12 @@ int dem_step(struct dem_solver *s);
 int64_t dem_total_steps(const struct dem_solver *s);
 struct dem_counts dem_get_counts(const struct dem_solver *s);
 /* Wall seconds spent in each phase of dem_step since the solver was created (a resumed run counts from its
- * resume), for the stage's closing log line: where the time goes, as LAMMPS's breakdown shows it. */
+ * resume), for the stage's closing log line: where the time goes, as LAMMPS's breakdown shows it; and how often
+ * the broad phase built its grid and pair list afresh or repaired them (as LAMMPS counts its neighbor list
+ * builds), in the same span. */
 struct dem_timing {
     double injection, broad_phase, contacts, integration, boundaries, metrics;
+    int64_t grid_builds, grid_repairs;
 };
 struct dem_timing dem_get_timing(const struct dem_solver *s);
 /* SC_ESIM if injected != in flight + deposited + escaped. */

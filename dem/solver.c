@@ -160,6 +160,8 @@ struct dem_timing dem_get_timing(const struct dem_solver *s)
 {
     struct dem_timing timing = s->timing;
     timing.contacts -= timing.broad_phase; /* the rest of dem_collide: swept tests, sorting, resolution */
+    timing.grid_builds = s->bins.builds;
+    timing.grid_repairs = s->bins.repairs;
     return timing;
 }
 
