@@ -460,7 +460,7 @@ static void note_failure(const struct mpm_points *p, size_t q, long *bad)
 
 /* Both cache lines a 120-byte point state can span, for writing: with 2 threads the other thread's transfers
  * may hold a shared copy, which stress_finish's stores would wait to invalidate (interleaved, 4 ns, 2 threads,
- * within a thread's chunks: 6.61 6.60 7.78 7.22 7.80e6 PUPS against 6.47 6.44 7.23 7.20 7.40e6 with a plain
+ * within a thread's range: 6.61 6.60 7.78 7.22 7.80e6 PUPS against 6.47 6.44 7.23 7.20 7.40e6 with a plain
  * prefetch of the next block whoever holds it). */
 static inline void prefetch_state(const struct mpm_point_state *state)
 {
