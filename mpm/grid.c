@@ -99,10 +99,12 @@ static int alloc_blocks(struct mpm_grid *g, size_t points)
     g->point_block = mpm_calloc_lines(points ? points : 1, sizeof *g->point_block);
     g->point_node = mpm_calloc_lines(points ? points : 1, sizeof *g->point_node);
     g->point_fraction = mpm_calloc_lines(3 * (points ? points : 1), sizeof *g->point_fraction);
-    for (int c = 0; c < 8; c++)
+    for (int c = 0; c < 8; c++) {
         g->colour_blocks[c] = calloc(g->block_count, sizeof *g->colour_blocks[c]);
+        g->colour_points[c] = calloc(g->block_count + 1, sizeof *g->colour_points[c]);
+    }
     for (int c = 0; c < 8; c++)
-        if (!g->colour_blocks[c])
+        if (!g->colour_blocks[c] || !g->colour_points[c])
             SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
     if (!g->block_start || !g->block_points || !g->block_cursor || !g->point_block || !g->point_node ||
         !g->point_fraction)
@@ -178,8 +180,10 @@ void grid_free(struct mpm_grid *g)
     free(g->point_block);
     free(g->point_node);
     free(g->point_fraction);
-    for (int c = 0; c < 8; c++)
+    for (int c = 0; c < 8; c++) {
         free(g->colour_blocks[c]);
+        free(g->colour_points[c]);
+    }
     memset(g, 0, sizeof *g);
 }
 
@@ -246,6 +250,18 @@ static void sort_by_block(struct mpm_grid *g, const struct mpm_points *p)
     }
 }
 
+/* The running sums of the points in each colour's blocks, by which the transfer shares a colour's blocks. */
+static void count_colour_points(struct mpm_grid *g)
+{
+    for (int colour = 0; colour < 8; colour++) {
+        const size_t *blocks = g->colour_blocks[colour];
+        size_t *sum = g->colour_points[colour];
+        sum[0] = 0;
+        for (size_t i = 0; i < g->colour_count[colour]; i++)
+            sum[i + 1] = sum[i] + (g->block_start[blocks[i] + 1] - g->block_start[blocks[i]]);
+    }
+}
+
 void grid_bin_points(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
@@ -281,6 +297,7 @@ void grid_bin_points(struct mpm_solver *s)
     g->box = lo0 <= hi0 ? (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}}
                         : (struct node_box){.lo = {0, 0, 0}, .hi = {-1, -1, -1}}; /* no active point: empty */
     sort_by_block(g, p);
+    count_colour_points(g);
 }
 
 /* Point q's stress less its bulk viscosity (xx, yy, zz, yz, xz, xy) and its external force (the absorbing
@@ -607,26 +624,45 @@ static void scatter_block(struct mpm_solver *s, size_t block, enum transfer tran
     }
 }
 
+/* The first of the ascending `count` values at or above `value`. */
+static size_t lower_bound(const size_t *values, size_t count, size_t value)
+{
+    size_t lo = 0, hi = count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (values[mid] < value)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* The blocks of one colour write disjoint nodes and run in parallel, each thread a contiguous share of them
- * balanced by the threads' speeds in the last steps (core/balance.h): a thread scatters nearly the same points
- * to nearly the same nodes from step to step. */
+ * holding a share of the colour's points balanced by the threads' speeds (points per second) in the last steps
+ * (core/balance.h): a thread scatters nearly the same points to nearly the same nodes from step to step.  The
+ * shares are counted in points, not blocks: the blocks of the grid's margins are empty and those of a particle
+ * full, and shares of equal blocks had left one thread most of the points. */
 static void for_each_point_by_colour(struct mpm_solver *s, enum transfer transfer)
 {
     struct mpm_grid *g = &s->grid;
     int team = omp_get_max_threads();
     for (int colour = 0; colour < 8; colour++) {
-        const size_t *blocks = g->colour_blocks[colour];
+        const size_t *blocks = g->colour_blocks[colour], *sum = g->colour_points[colour];
+        size_t count = g->colour_count[colour];
         struct balance *balance = &g->colour_balance[transfer == TRANSFER_ALL][colour];
         balance_prepare(balance, team);
 #pragma omp parallel num_threads(team)
         {
-            size_t first, end;
+            size_t first_point, end_point;
             int thread = omp_get_thread_num(), threads = omp_get_num_threads();
-            balance_range(balance, thread, threads, g->colour_count[colour], &first, &end);
+            balance_range(balance, thread, threads, sum[count], &first_point, &end_point);
+            size_t first = lower_bound(sum, count, first_point);
+            size_t end = thread == threads - 1 ? count : lower_bound(sum, count, end_point);
             double start = omp_get_wtime();
             for (size_t i = first; i < end; i++)
                 scatter_block(s, blocks[i], transfer);
-            balance_record(balance, thread, threads, end - first, omp_get_wtime() - start);
+            balance_record(balance, thread, threads, sum[end] - sum[first], omp_get_wtime() - start);
         }
         balance_update(balance);
     }

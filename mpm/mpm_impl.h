@@ -101,9 +101,10 @@ struct mpm_grid {
     size_t *block_points;            /* point indices, by block, ascending within a block */
     size_t *block_cursor;            /* sort_threads x block_count: grid_bin_points' counts and write cursors */
     int sort_threads;                /* rows of block_cursor: the most threads grid_bin_points sorts with */
-    size_t *colour_blocks[8];
+    size_t *colour_blocks[8];        /* the blocks of each colour, ascending */
     size_t colour_count[8];
-    struct balance colour_balance[2][8]; /* the threads' shares of each colour's blocks, per kind of transfer */
+    size_t *colour_points[8];        /* colour_count + 1 each: the points in the colour's blocks before each */
+    struct balance colour_balance[2][8]; /* the threads' shares of each colour's points, per kind of transfer */
     int *point_block;                /* block of each point this step (-1 inactive) */
     /* trilinear stencils of this step, cached by grid_bin_points (the positions stay until the step's end) */
     uint32_t *point_node;            /* base node of each active point (nodes < 2^31, grid_create) */
