@@ -119,6 +119,18 @@ static int alloc_blocks(struct mpm_grid *g, size_t points)
     return SC_OK;
 }
 
+/* The least double offset d with d / h > bound as rounded: the rounded quotient grows with d, so d / h > bound
+ * holds exactly for the offsets from it on (grid_contains). */
+static double least_offset_above(double h, double bound)
+{
+    double d = bound * h;
+    while (d / h > bound)
+        d = nextafter(d, -INFINITY);
+    while (!(d / h > bound))
+        d = nextafter(d, INFINITY);
+    return d;
+}
+
 /* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
  * DCell so that z = 0 (the substrate's top) is a node plane. */
 int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
@@ -138,6 +150,9 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
         g->origin[d] = g->h * (floor((lo[d] - cfg->box_margin) / g->h) - 2.0);
         g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
         g->nodes *= (size_t)g->n[d];
+        /* 1 < d / h < n - 2: d / h > 1, and not d / h > the double below n - 2 */
+        g->inside_from[d] = least_offset_above(g->h, 1.0);
+        g->inside_to[d] = least_offset_above(g->h, nextafter((double)g->n[d] - 2.0, -INFINITY));
     }
     g->row = (size_t)g->n[0];
     g->plane = g->row * (size_t)g->n[1];

@@ -80,6 +80,7 @@ static inline void *mpm_calloc_lines(size_t count, size_t size)
 struct mpm_grid {
     double origin[3], h;
     double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
+    double inside_from[3], inside_to[3]; /* grid_contains: the offsets x - origin it accepts, [from, to) */
     int n[3];
     size_t row, plane;               /* n[0] and n[0] n[1]: the index steps in y and z (stencil_node) */
     size_t nodes;
@@ -130,6 +131,10 @@ struct mpm_solver {
     int snapshot_pending;
     /* accounting */
     int64_t removed_points, point_updates, contact_node_steps, bonded_node_steps;
+    /* what grid_to_points found of this step's new positions and velocities, for remove_escaped: the points
+     * whose stencil leaves the grid, and the smallest id of a point gone non-finite (point count: none) */
+    int64_t leaving_points;
+    long nonfinite_id;
     double removed_mass, energy_absorbed, energy_removed, energy_initial;
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;
@@ -168,13 +173,14 @@ void grid_free(struct mpm_grid *grid);
 int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st);
 size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
-/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid); inline: remove_escaped asks
- * for every point and step. */
+/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid): 1 < (x - origin) / h <
+ * n - 2 in every direction, decided without the divisions by the least offsets that pass and fail
+ * (grid_create): the same answer for every x.  Inline: grid_to_points asks for every point and step. */
 static inline int grid_contains(const struct mpm_grid *g, const double x[3])
 {
     for (int d = 0; d < 3; d++) {
-        double xi = (x[d] - g->origin[d]) / g->h;
-        if (!(xi > 1.0 && xi < (double)g->n[d] - 2.0))
+        double offset = x[d] - g->origin[d];
+        if (!(offset >= g->inside_from[d] && offset < g->inside_to[d]))
             return 0;
     }
     return 1;

@@ -258,20 +258,41 @@ static void grid_to_points_range(struct mpm_solver *s, size_t q, size_t end)
     }
 }
 
+/* The points q .. end - 1 after step 7, while their new positions and velocities are in the cache: how many
+ * leave the grid box (*leaving), and the smallest id of one whose position or velocity is not finite (*bad). */
+static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64_t *leaving, long *bad)
+{
+    const struct mpm_points *p = &s->points;
+    for (; q < end; q++) {
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        const double *x = p->x_next + 3 * q, *v = p->v + 3 * q;
+        if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
+            *bad = (long)p->id[q] < *bad ? (long)p->id[q] : *bad;
+        else if (!grid_contains(&s->grid, x))
+            (*leaving)++;
+    }
+}
+
 /* Points per chunk of grid_to_points' parallel loop: a run ends at a chunk's end. */
 #define GRID_TO_POINTS_CHUNK 256
 
 /* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
- * nodal velocity. */
+ * nodal velocity.  The points leaving the grid are counted here for remove_escaped (a pass of its own over the
+ * positions and velocities had cost 2 % of the step). */
 static void grid_to_points(struct mpm_solver *s)
 {
     size_t n = s->points.count;
-    long chunks = (long)((n + GRID_TO_POINTS_CHUNK - 1) / GRID_TO_POINTS_CHUNK);
-#pragma omp parallel for schedule(static)
+    long chunks = (long)((n + GRID_TO_POINTS_CHUNK - 1) / GRID_TO_POINTS_CHUNK), bad = (long)n;
+    int64_t leaving = 0;
+#pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad)
     for (long c = 0; c < chunks; c++) {
-        size_t q = (size_t)c * GRID_TO_POINTS_CHUNK;
-        grid_to_points_range(s, q, n - q < GRID_TO_POINTS_CHUNK ? n : q + GRID_TO_POINTS_CHUNK);
+        size_t q = (size_t)c * GRID_TO_POINTS_CHUNK, end = n - q < GRID_TO_POINTS_CHUNK ? n : q + GRID_TO_POINTS_CHUNK;
+        grid_to_points_range(s, q, end);
+        scan_escapes(s, q, end, &leaving, &bad);
     }
+    s->leaving_points = leaving;
+    s->nonfinite_id = bad;
 }
 
 /* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
@@ -548,25 +569,15 @@ static int update_points(struct mpm_solver *s)
     return SC_OK;
 }
 
-/* Points whose stencil leaves the grid are removed and counted (DESIGN.md); their energy is booked. */
+/* Points whose stencil leaves the grid are removed and counted (DESIGN.md); their energy is booked.  Which they
+ * are, and whether any went non-finite, grid_to_points found (the stress update moves no point). */
 static int remove_escaped(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
-    long n = (long)p->count, bad = n;
-    int64_t leaving = 0;
-#pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad)
-    for (long q = 0; q < n; q++) {
-        if (!(p->flags[q] & POINT_ACTIVE))
-            continue;
-        const double *x = p->x + 3 * q, *v = p->v + 3 * q;
-        if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
-            bad = (long)p->id[q] < bad ? (long)p->id[q] : bad;
-        else if (!grid_contains(&s->grid, x))
-            leaving++;
-    }
-    if (bad < n)
+    int64_t leaving = s->leaving_points;
+    if (s->nonfinite_id < (long)p->count)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
-                "not finite", (long long)s->step, s->t, bad, p->body[p->slot[bad]] + 1);
+                "not finite", (long long)s->step, s->t, s->nonfinite_id, p->body[p->slot[s->nonfinite_id]] + 1);
     for (size_t i = 0; leaving > 0 && i < p->count; i++) {
         size_t q = p->slot[i]; /* by id: energy_removed sums in the same order for any storage order */
         if (!(p->flags[q] & POINT_ACTIVE) || grid_contains(&s->grid, p->x + 3 * q))

@@ -287,6 +287,47 @@ static void test_points_leaving_the_box(void)
     impact_fixture_close(&f);
 }
 
+/* grid_contains decides 1 < (x - origin) / h < n - 2 without dividing: the same answer as the division (which
+ * grid_stencil and the binning make) at every offset within 8 units in the last place of the box's four faces,
+ * and at offsets spread over the box and beyond, for cell sizes whose reciprocals are not exact. */
+static void test_grid_contains(void)
+{
+    const double cells[] = {0.7e-6, 1.5e-6, 2e-6, 1e-3, 0.1, 3.0};
+    int disagree = 0, tried = 0;
+    for (size_t c = 0; c < sizeof cells / sizeof *cells; c++) {
+        double corners[2 * 3] = {-7.3 * cells[c], -11.1 * cells[c], 0.0, 13.7 * cells[c], 21.9 * cells[c], 9.4 * cells[c]};
+        struct mpm_config cfg = {.grid = cells[c], .box_margin = 0.0, .body_count = 1};
+        struct mpm_points points = {.count = 2, .x = corners};
+        struct mpm_grid g;
+        if (grid_create(&cfg, &points, &g) != SC_OK) {
+            CHECK(0, "grid for h = %g", cells[c]);
+            continue;
+        }
+        for (int d = 0; d < 3; d++) {
+            double faces[2] = {g.origin[d] + g.h, g.origin[d] + ((double)g.n[d] - 2.0) * g.h};
+            for (int k = 0; k < 2 + 64; k++) {
+                double x[3] = {g.origin[0] + 3.5 * g.h, g.origin[1] + 3.5 * g.h, g.origin[2] + 3.5 * g.h};
+                if (k < 2) { /* the faces themselves, stepped through below */
+                    x[d] = faces[k];
+                    for (int u = 0; u < 8; u++)
+                        x[d] = nextafter(x[d], -INFINITY);
+                } else { /* from 2 cells before the box to 2 after it */
+                    x[d] = g.origin[d] + ((double)(k - 2) / 63.0 * ((double)g.n[d] + 4.0) - 2.0) * g.h;
+                }
+                for (int u = 0; u < (k < 2 ? 17 : 1); u++, x[d] = nextafter(x[d], INFINITY)) {
+                    double xi = (x[d] - g.origin[d]) / g.h;
+                    int divided = xi > 1.0 && xi < (double)g.n[d] - 2.0;
+                    disagree += grid_contains(&g, x) != divided;
+                    tried++;
+                }
+            }
+        }
+        grid_free(&g);
+    }
+    CHECK(disagree == 0 && tried > 1000, "grid_contains differs from the division at %d of %d offsets", disagree,
+          tried);
+}
+
 static int run_small_impact(int threads, const char *shape_functions, struct impact_fixture *f)
 {
     char ini[512];
@@ -403,6 +444,7 @@ int main(void)
     RUN(test_sphere_on_rigid_wall);
     RUN(test_contact_normals);
     RUN(test_points_leaving_the_box);
+    RUN(test_grid_contains);
     RUN(test_threads_identical);
     RUN(test_threads_identical_ugimp);
     RUN(test_bonding_models);
