@@ -87,11 +87,25 @@ static int alloc_layers(struct mpm_grid *g)
     return SC_OK;
 }
 
-static int alloc_blocks(struct mpm_grid *g, size_t points)
+/* Blocks are 4 cells a side, or 2 where a block of 4 filled with points would hold more than this share of a
+ * colour's points: a colour's blocks are shared among the threads whole, and in the 68,000-point impact of
+ * `make bench` (3 points a cell a side) a block of 4 held a fifth of its colour's points, too coarse a share
+ * (2-thread transfer wall -10 to -13 % with blocks of 2 there; on the 1e6-point grid, 2 % a block, blocks of 2
+ * cost 15 % more work). */
+#define MAX_BLOCK_SHARE 0.05
+
+static void block_grid(struct mpm_grid *g, int shift)
 {
+    g->block_shift = shift;
     for (int d = 0; d < 3; d++)
-        g->blocks[d] = (g->n[d] + BLOCK_CELLS - 1) / BLOCK_CELLS;
+        g->blocks[d] = (g->n[d] + (1 << shift) - 1) >> shift;
     g->block_count = (size_t)g->blocks[0] * (size_t)g->blocks[1] * (size_t)g->blocks[2];
+}
+
+static int alloc_blocks(struct mpm_grid *g, size_t points, double spacing)
+{
+    double cell_points = pow(g->h / spacing, 3.0), colour_points = (double)points / 8.0;
+    block_grid(g, 64.0 * cell_points > MAX_BLOCK_SHARE * colour_points ? 1 : 2);
     g->block_start = calloc(g->block_count + 1, sizeof *g->block_start);
     g->block_points = mpm_calloc_lines(points ? points : 1, sizeof *g->block_points);
     g->sort_threads = omp_get_max_threads();
@@ -171,7 +185,7 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
         g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
     }
     SC_TRY(alloc_layers(g));
-    return alloc_blocks(g, p->count);
+    return alloc_blocks(g, p->count, cfg->spacing);
 }
 
 void grid_free(struct mpm_grid *g)
@@ -299,7 +313,7 @@ void grid_bin_points(struct mpm_solver *s)
             continue;
         int b[3];
         for (int d = 0; d < 3; d++) {
-            b[d] = (int)((unsigned)st.base[d] / BLOCK_CELLS); /* base >= 0 (xi > 1): unsigned, a shift */
+            b[d] = st.base[d] >> g->block_shift; /* base >= 0 (xi > 1) */
             g->point_fraction[3 * q + d] = f[d];
         }
         lo0 = st.base[0] < lo0 ? st.base[0] : lo0, hi0 = st.base[0] > hi0 ? st.base[0] : hi0;

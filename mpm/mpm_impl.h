@@ -95,7 +95,8 @@ struct mpm_grid {
      * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
      * of the fields' last step, the only nodes that grid_transfer_all has to clear (the whole grid at first). */
     struct node_box box, held;
-    /* blocks of BLOCK_CELLS^3 cells; points sorted by block every step */
+    /* blocks of 2^block_shift cells a side (alloc_blocks); points sorted by block every step */
+    int block_shift;
     int blocks[3];
     size_t block_count;
     size_t *block_start;             /* block_count + 1 */
@@ -112,7 +113,6 @@ struct mpm_grid {
     double *point_fraction;          /* 3 per point: x/h - base, the weights being 1 - f and f (Eq. 3.20) */
 };
 
-#define BLOCK_CELLS 4
 
 struct series_row;
 

@@ -609,7 +609,7 @@ static void advance_clocks(struct mpm_solver *s)
 }
 
 /* Steps between two reorderings of the point storage (point_order.c).  The points of a block drift into other
- * blocks slowly (a block is 4 cells), and a reordering costs about one transfer. */
+ * blocks slowly (a block is 2 or 4 cells), and a reordering costs about one transfer. */
 #define REORDER_EVERY 16
 
 int mpm_step(struct mpm_solver *s)
