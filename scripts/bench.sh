@@ -94,7 +94,7 @@ if [ "${BENCH_TABLE1:-1}" != 0 ]; then
     BENCH_REPEAT=1 run_case "Table 1 full (50,050)" cases/mz2015_table1.ini 2
 fi
 echo
-"$(dirname "$0")/bench_impact.sh" "$build"
+"$(dirname "$0")/bench_impact.sh" "$build" "${BENCH_REPEAT:-3}"
 
 echo
 "$(dirname "$0")/bench_render.sh" "$build"
