@@ -135,6 +135,11 @@ struct mpm_solver {
      * whose stencil leaves the grid, and the smallest id of a point gone non-finite (point count: none) */
     int64_t leaving_points;
     long nonfinite_id;
+    /* the largest squared speed of the points that stay active, found with them for the next step's time step;
+     * vmax2_known: the last step found it (0 after set-up and after reading a checkpoint: choose_time_step
+     * computes it itself) */
+    double vmax2;
+    int vmax2_known;
     double removed_mass, energy_absorbed, energy_removed, energy_initial;
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;

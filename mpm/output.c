@@ -270,6 +270,7 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
 {
     struct mpm_points *p = &s->points;
     size_t n = p->count, count;
+    s->vmax2_known = 0; /* the velocities read: the next time step from them */
     SC_TRY(h5_dataset_size(g, "mass", &count));
     if (count != n)
         SC_FAIL(SC_EINPUT, "impact checkpoint holds %zu material points, this case makes %zu", count, n);

@@ -130,19 +130,26 @@ struct mpm_counts mpm_get_counts(const struct mpm_solver *s)
 }
 
 /* dt = cfl DCell / (c + max|v|) (DESIGN.md), the last step cut to end exactly at t_end. */
+static inline double speed_squared(const double v[3]) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2]; }
+
+/* The time step of Section 3.4, dt = cfl DCell / (c + max |v|), from the active points' speeds as the last
+ * step's grid_to_points found them (a maximum: the same bits whoever finds it), or from a pass of its own. */
 static void choose_time_step(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
     long n = (long)p->count;
-    double vmax2 = 0.0;
+    double vmax2 = s->vmax2;
+    if (!s->vmax2_known) {
+        vmax2 = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : vmax2)
-    for (long q = 0; q < n; q++) {
-        const double *v = p->v + 3 * q;
-        if (p->flags[q] & POINT_ACTIVE) {
-            double v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-            vmax2 = v2 > vmax2 ? v2 : vmax2; /* fmax without a libm call: a NaN is skipped alike */
+        for (long q = 0; q < n; q++) {
+            if (p->flags[q] & POINT_ACTIVE) {
+                double v2 = speed_squared(p->v + 3 * q);
+                vmax2 = v2 > vmax2 ? v2 : vmax2; /* fmax without a libm call: a NaN is skipped alike */
+            }
         }
     }
+    s->vmax2_known = 0;
     s->dt = s->cfg.cfl * s->cfg.grid / (s->wave_speed_max + sqrt(vmax2));
     if (s->t + s->dt > s->cfg.t_end)
         s->dt = s->cfg.t_end - s->t;
@@ -259,18 +266,25 @@ static void grid_to_points_range(struct mpm_solver *s, size_t q, size_t end)
 }
 
 /* The points q .. end - 1 after step 7, while their new positions and velocities are in the cache: how many
- * leave the grid box (*leaving), and the smallest id of one whose position or velocity is not finite (*bad). */
-static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64_t *leaving, long *bad)
+ * leave the grid box (*leaving), the smallest id of one whose position or velocity is not finite (*bad), and
+ * the largest squared speed of those that stay (*vmax2: the next step's time step; neither the update nor
+ * remove_escaped changes a velocity). */
+static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64_t *leaving, long *bad,
+                         double *vmax2)
 {
     const struct mpm_points *p = &s->points;
     for (; q < end; q++) {
         if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         const double *x = p->x_next + 3 * q, *v = p->v + 3 * q;
-        if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2]))
+        if (!isfinite(x[0] + x[1] + x[2] + v[0] + v[1] + v[2])) {
             *bad = (long)p->id[q] < *bad ? (long)p->id[q] : *bad;
-        else if (!grid_contains(&s->grid, x))
+        } else if (!grid_contains(&s->grid, x)) {
             (*leaving)++;
+        } else {
+            double v2 = speed_squared(v);
+            *vmax2 = v2 > *vmax2 ? v2 : *vmax2;
+        }
     }
 }
 
@@ -285,14 +299,17 @@ static void grid_to_points(struct mpm_solver *s)
     size_t n = s->points.count;
     long chunks = (long)((n + GRID_TO_POINTS_CHUNK - 1) / GRID_TO_POINTS_CHUNK), bad = (long)n;
     int64_t leaving = 0;
-#pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad)
+    double vmax2 = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : leaving) reduction(min : bad) reduction(max : vmax2)
     for (long c = 0; c < chunks; c++) {
         size_t q = (size_t)c * GRID_TO_POINTS_CHUNK, end = n - q < GRID_TO_POINTS_CHUNK ? n : q + GRID_TO_POINTS_CHUNK;
         grid_to_points_range(s, q, end);
-        scan_escapes(s, q, end, &leaving, &bad);
+        scan_escapes(s, q, end, &leaving, &bad, &vmax2);
     }
     s->leaving_points = leaving;
     s->nonfinite_id = bad;
+    s->vmax2 = vmax2;
+    s->vmax2_known = 1;
 }
 
 /* The re-projected nodal velocities v_I = p_I / m_I (Eq. 3.34), once per node rather than once per point and
