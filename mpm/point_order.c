@@ -1,9 +1,10 @@
 /* The storage order of the material points.  The particle-to-grid transfer visits the points block by block
  * (grid.c); with the points stored in set-up order it gathered each point's 120-byte state from a different
  * place, a cache miss per point.  The solver now and then stores the points block by block, in the order in
- * which the transfer finds them within a colour.  Every result is independent of this order: the transfer visits the points of a block by id
- * (grid_bin_points), each point's update is its own, and sums over points, outputs and checkpoints run in id
- * order.  So a run gives the same bits however often it reorders, for any thread count and after a resume. */
+ * which the transfer finds them within a colour.  Every result is independent of this order: the transfer
+ * visits the points of a block by id (grid_bin_points), each point's update is its own, and sums over points,
+ * outputs and checkpoints run in id order.  So a run gives the same bits however often it reorders, for any
+ * thread count and after a resume. */
 #include <stdlib.h>
 #include <string.h>
 

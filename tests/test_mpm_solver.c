@@ -295,8 +295,8 @@ static void test_grid_contains(void)
     const double cells[] = {0.7e-6, 1.5e-6, 2e-6, 1e-3, 0.1, 3.0};
     int disagree = 0, tried = 0;
     for (size_t c = 0; c < sizeof cells / sizeof *cells; c++) {
-        double corners[2 * 3] = {-7.3 * cells[c], -11.1 * cells[c], 0.0, 13.7 * cells[c], 21.9 * cells[c], 9.4 * cells[c]};
-        struct mpm_config cfg = {.grid = cells[c], .box_margin = 0.0, .body_count = 1};
+        double h = cells[c], corners[2 * 3] = {-7.3 * h, -11.1 * h, 0.0, 13.7 * h, 21.9 * h, 9.4 * h};
+        struct mpm_config cfg = {.grid = h, .spacing = h / 3.0, .box_margin = 0.0, .body_count = 1};
         struct mpm_points points = {.count = 2, .x = corners};
         struct mpm_grid g;
         if (grid_create(&cfg, &points, &g) != SC_OK) {
