@@ -715,16 +715,16 @@ void grid_transfer_all(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     /* the fields are 0 outside the last step's box: clearing that box clears the grid, and this step's nodal
-     * loops write only inside its own box */
+     * loops write only inside its own box.  momentum_new and velocity are not cleared: contact_nodal_update and
+     * nodal_velocities write them at every node of the box, in every layer, before anything reads them, and
+     * nothing reads them outside it (a sixth of the clearing) */
     const struct node_box *held = &g->held;
 #pragma omp parallel
     {
         clear_box(g, held, g->mass, sizeof *g->mass);
         clear_box(g, held, g->momentum, 3 * sizeof *g->momentum);
-        clear_box(g, held, g->momentum_new, 3 * sizeof *g->momentum_new);
         clear_box(g, held, g->force, 3 * sizeof *g->force);
         clear_box(g, held, g->gradient, 3 * sizeof *g->gradient);
-        clear_box(g, held, g->velocity, 3 * sizeof *g->velocity);
         clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
         clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
         clear_box(g, held, g->contact, sizeof *g->contact);
