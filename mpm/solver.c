@@ -292,8 +292,9 @@ static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64
 #define GRID_TO_POINTS_CHUNK 256
 
 /* Step 7, Eq. 3.32: the point velocity takes the nodal velocity change (FLIP) and the position the new
- * nodal velocity.  The points leaving the grid are counted here for remove_escaped (a pass of its own over the
- * positions and velocities had cost 2 % of the step). */
+ * nodal velocity.  The points leaving the grid are counted here for remove_escaped, and the largest speed of
+ * those staying found for the next step's choose_time_step (passes of their own over the positions and
+ * velocities had cost 2.6 % of the step). */
 static void grid_to_points(struct mpm_solver *s)
 {
     size_t n = s->points.count;
