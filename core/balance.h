@@ -10,17 +10,21 @@
  *
  * Use: before the parallel region balance_prepare with the team's size; in it, balance_range, the loop over
  * [first, end) and balance_record with the thread's time; after it balance_update.  A new struct balance
- * (zeros) starts with equal shares, as does a team of another size. */
+ * (zeros) starts with equal shares, as does a team of another size.  Where the items may run in any order,
+ * balance_shares and balance_next add stealing at the end of the shares (below). */
 #ifndef SPRAYCOAT_CORE_BALANCE_H
 #define SPRAYCOAT_CORE_BALANCE_H
 
 #include <stddef.h>
+
+struct balance_rest;
 
 struct balance {
     int threads;     /* the team the speeds are for (0: none yet) */
     double *speed;   /* per thread: items per second, smoothed (0: not measured yet) */
     double *items;   /* per thread: this run's items and seconds (balance_record) */
     double *seconds;
+    struct balance_rest *rest; /* per thread: what is left of its share (balance_shares, balance_next) */
 };
 
 /* Before the region (one thread): the team will have `threads` threads. */
@@ -32,6 +36,16 @@ void balance_range(const struct balance *b, int thread, int threads, size_t coun
 
 /* In the region, by each thread: it did `items` items in `seconds`. */
 void balance_record(struct balance *b, int thread, int threads, size_t items, double seconds);
+
+/* Shares with stealing, for a loop whose items may run on any thread, in any order (no result depends on the
+ * order): the speeds still place the shares, but a thread that has finished its own takes the last items of the
+ * share with the most left, so that no thread waits for another (a core slowed for part of one run, items
+ * costlier than measured).  Before the region (one thread, after balance_prepare): balance_shares with the count.
+ * In the region each thread takes chunks of up to `chunk` items by balance_next until it returns 0: from the front
+ * of its own share, in order, then from the backs of the others; it then calls balance_record with the items it
+ * took.  Items below 2^32. */
+void balance_shares(struct balance *b, size_t count);
+int balance_next(struct balance *b, int thread, size_t chunk, size_t *first, size_t *end);
 
 /* After the region (one thread): this run's speeds join the smoothed ones. */
 void balance_update(struct balance *b);

@@ -974,7 +974,10 @@ static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_
  * blocks, balanced by the threads' speeds in the last steps (core/balance.h): it keeps nearly the same
  * particles from step to step, and their lines stay in its core's caches (dynamic chunks moved them between
  * the cores every step: Table 1 on 2 threads took 22 % more CPU time, BENCHMARKS.md 2026-12-02 (second
- * session)), while equal shares waited for the slower core.  Returns whether a value is not finite. */
+ * session)), while equal shares waited for the slower core.  A thread done with its share takes the last
+ * chunks of another's (INTEGRATE_CHUNK blocks at a time), so that what the speeds got wrong in one step is not
+ * waited for.  Returns whether a value is not finite. */
+#define INTEGRATE_CHUNK 4
 static int integrate_with_drag(struct dem_solver *s, const uint32_t *flying, size_t count, uint32_t *hits,
                                uint8_t *hit_count, struct iteration_count *total)
 {
@@ -985,24 +988,26 @@ static int integrate_with_drag(struct dem_solver *s, const uint32_t *flying, siz
     const int team = count >= DEM_PARALLEL_MIN_INTEGRATE ? omp_get_max_threads() : 1;
     int bad = 0;
     balance_prepare(&s->integrate_balance, team);
+    balance_shares(&s->integrate_balance, blocks);
 #pragma omp parallel num_threads(team)
     {
         struct iteration_count mine = {0};
         int bad_here = 0;
-        size_t first_block, end_block;
-        balance_range(&s->integrate_balance, omp_get_thread_num(), omp_get_num_threads(), blocks, &first_block,
-                      &end_block);
+        size_t first_block, end_block, taken = 0;
+        const int thread = omp_get_thread_num();
         double start = omp_get_wtime();
         struct block *b = dem_aligned_alloc_or_die(_Alignof(struct block), sizeof *b);
-        for (size_t k = first_block; k < end_block; k++) {
-            size_t first = k * BLOCK, n = count - first < BLOCK ? count - first : BLOCK;
-            block_load(p, reuse_drag, s->step, b, flying + first, n);
-            bad_here |= integrate_block(cfg, p, b, &mine);
-            hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
+        while (balance_next(&s->integrate_balance, thread, INTEGRATE_CHUNK, &first_block, &end_block)) {
+            for (size_t k = first_block; k < end_block; k++) {
+                size_t first = k * BLOCK, n = count - first < BLOCK ? count - first : BLOCK;
+                block_load(p, reuse_drag, s->step, b, flying + first, n);
+                bad_here |= integrate_block(cfg, p, b, &mine);
+                hit_count[k] = (uint8_t)block_finish(s, b, hits + first, &bad_here);
+            }
+            taken += end_block - first_block;
         }
         free(b);
-        balance_record(&s->integrate_balance, omp_get_thread_num(), omp_get_num_threads(), end_block - first_block,
-                       omp_get_wtime() - start);
+        balance_record(&s->integrate_balance, thread, omp_get_num_threads(), taken, omp_get_wtime() - start);
 #pragma omp critical(dem_integrate_counts)
         {
             bad |= bad_here;

@@ -3,6 +3,9 @@
 #include "core/balance.h"
 #include "tests/check.h"
 
+#include <omp.h>
+#include <stdlib.h>
+
 /* The shares of a team cover [0, count) in order, without gaps or overlaps. */
 static void check_cover(const struct balance *b, int threads, size_t count)
 {
@@ -85,10 +88,69 @@ static void test_team_change_resets(void)
     balance_free(&b);
 }
 
+
+/* balance_next, one thread: its own share in order from the front, chunk by chunk, then the backs of the others'
+ * shares, always the one with the most left (the first of equals); every item exactly once, and 0 once none is
+ * left. */
+static void test_stealing_takes_every_item_once(void)
+{
+    struct balance b = {0};
+    balance_prepare(&b, 3);
+    balance_shares(&b, 30); /* equal shares [0, 10) [10, 20) [20, 30) */
+    size_t first, end, expected[][2] = {{10, 14}, {14, 18}, {18, 20}, {6, 10}, {26, 30}, {2, 6}, {22, 26}, {0, 2},
+                                        {20, 22}};
+    int taken = 0;
+    for (; balance_next(&b, 1, 4, &first, &end); taken++) {
+        if (taken < 9)
+            CHECK(first == expected[taken][0] && end == expected[taken][1],
+                  "chunk %d of thread 1: [%zu, %zu), expected [%zu, %zu)", taken, first, end, expected[taken][0],
+                  expected[taken][1]);
+    }
+    CHECK(taken == 9, "thread 1 alone took %d chunks, expected 9", taken);
+    CHECK(!balance_next(&b, 0, 4, &first, &end), "thread 0 found items after all were taken");
+    balance_free(&b);
+}
+
+/* Threads taking chunks at once from shares placed by unequal speeds: the chunks cover every item exactly once,
+ * however the threads race (and with a team smaller than the shares: the missing thread's share is taken). */
+static void test_stealing_races_cover_the_items(void)
+{
+    enum { ITEMS = 100003, ROUNDS = 20 };
+    unsigned char *seen = calloc(ITEMS, 1);
+    for (int round = 0; round < ROUNDS; round++) {
+        struct balance b = {0};
+        balance_prepare(&b, 4);
+        for (int t = 0; t < 4; t++)
+            balance_record(&b, t, 4, (size_t)(t + 1) * 100, 1.0); /* shares 1 : 2 : 3 : 4 */
+        balance_update(&b);
+        balance_shares(&b, ITEMS);
+        int team = round % 2 ? 3 : 4; /* odd rounds: thread 3's share has no owner */
+#pragma omp parallel num_threads(team)
+        {
+            size_t first, end;
+            while (balance_next(&b, omp_get_thread_num(), 1 + (size_t)round % 7, &first, &end))
+                for (size_t i = first; i < end; i++) {
+#pragma omp atomic
+                    seen[i]++;
+                }
+        }
+        size_t wrong = 0;
+        for (size_t i = 0; i < ITEMS; i++) {
+            wrong += seen[i] != 1;
+            seen[i] = 0;
+        }
+        CHECK(wrong == 0, "round %d, %d threads: %zu of %d items not taken exactly once", round, team, wrong, ITEMS);
+        balance_free(&b);
+    }
+    free(seen);
+}
+
 int main(void)
 {
     RUN(test_equal_shares_cover_the_items);
     RUN(test_shares_follow_the_speeds);
     RUN(test_team_change_resets);
+    RUN(test_stealing_takes_every_item_once);
+    RUN(test_stealing_races_cover_the_items);
     return check_finish();
 }
