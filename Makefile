@@ -1,5 +1,5 @@
 # spraycoat build.  `make` builds build/spraycoat; see README.md for the other targets.
-# Sources are discovered by folder: add a .c file to core/, dem/, mpm/ or coupling/ and it is built;
+# Sources are discovered by folder: add a .c file to core/, dem/, mpm/, render/, coupling/ or app/ and it is built;
 # add tests/test_NAME.c and it becomes a test program; tests/test_NAME.sh is a shell test.
 
 # `make MPI=1`: the OpenMPI build (mpicc, HDF5's OpenMPI flavour, SPRAYCOAT_MPI), in build-mpi/ by default.
@@ -27,9 +27,9 @@ LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -ldl -lsundials_cvode
             -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
 LDFLAGS  += -fopenmp
 
-LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c) $(filter-out coupling/main.c,$(wildcard coupling/*.c))
+LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c coupling/*.c) $(filter-out app/main.c,$(wildcard app/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
-MAIN_OBJ := $(BUILD)/coupling/main.o
+MAIN_OBJ := $(BUILD)/app/main.o
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
@@ -104,7 +104,7 @@ install: $(BIN)
 	install -m 755 cases/*.sh $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 
 format:
-	clang-format -i core/*.[ch] dem/*.[ch] coupling/*.[ch] tests/*.[ch] tests/bench/*.c
+	clang-format -i core/*.[ch] dem/*.[ch] mpm/*.[ch] render/*.[ch] coupling/*.[ch] app/*.[ch] tests/*.[ch] tests/bench/*.c
 
 clean:
 	rm -rf build build-asan build-bench build-mpi

@@ -1,5 +1,5 @@
 /* From spray impacts to MPM seeds: the [couple] keys, the sampling strata and the placement (coupling/couple.h). */
-#include "coupling/couple.h"
+#include "coupling/coupling.h"
 
 #include <math.h>
 #include <stdarg.h>

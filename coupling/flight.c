@@ -1,5 +1,5 @@
 /* The flight through the gas layer in front of the target with CVODE (coupling/flight.h). */
-#include "coupling/flight.h"
+#include "coupling/coupling.h"
 
 #include <cvode/cvode.h>
 #include <math.h>

@@ -11,7 +11,7 @@
 #include "case_fixture.h"
 #include "core/config.h"
 #include "core/error.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "dem/dem.h"
 
 struct fixture {

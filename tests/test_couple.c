@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
-#include "coupling/couple.h"
+#include "coupling/coupling.h"
 #include "tests/check.h"
 
 #define CANDIDATES 997

@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "core/error.h"
-#include "coupling/flight.h"
+#include "coupling/coupling.h"
 #include "tests/check.h"
 #include "tests/verification_csv.h"
 

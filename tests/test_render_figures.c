@@ -13,7 +13,7 @@
 #include "check.h"
 #include "core/error.h"
 #include "core/h5io.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "render/render.h"
 
 static const char ini[] =

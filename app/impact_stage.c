@@ -21,8 +21,8 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
-#include "coupling/couple.h"
-#include "coupling/stages.h"
+#include "coupling/coupling.h"
+#include "app/app.h"
 #include "mpm/mpm.h"
 
 #define STAGE "impact"

@@ -1,4 +1,4 @@
-#include "coupling/info.h"
+#include "app/app.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -9,7 +9,6 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
-#include "coupling/stages.h"
 
 static const char *const root_attributes[] = {
     "format", "format_version", "program_version", "stage", "case_hash", "created", NULL};

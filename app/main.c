@@ -11,8 +11,7 @@
 #include "core/memory.h"
 #include "core/parallel.h"
 #include "core/version.h"
-#include "coupling/info.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "dem/dem.h"
 
 

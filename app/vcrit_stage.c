@@ -26,7 +26,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "mpm/mpm.h"
 
 #define STAGE "vcrit"

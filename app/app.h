@@ -1,6 +1,7 @@
-/* coupling: the stages of a run and the run directory (DESIGN.md "Run directory"). */
-#ifndef SPRAYCOAT_COUPLING_STAGES_H
-#define SPRAYCOAT_COUPLING_STAGES_H
+/* app: the application above the physics: the command line, the run directory, `spraycoat info` and the stage
+ * drivers (DESIGN.md "Layout", "Run directory"). */
+#ifndef SPRAYCOAT_APP_APP_H
+#define SPRAYCOAT_APP_APP_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -11,7 +12,7 @@
 
 /* The registry of every case key the program accepts (NULL-terminated list of tables). */
 extern const struct cfg_key *const spraycoat_registry[];
-/* The keys of [vcrit] (coupling/vcrit_stage.c). */
+/* The keys of [vcrit] (app/vcrit_stage.c). */
 extern const struct cfg_key vcrit_case_keys[];
 
 /* Create the run directory (and parents), lock it for this process (SC_EIO if another process holds it)
@@ -108,5 +109,12 @@ int stages_interrupt_status(void);
  * RUN_DIR/figures/ and RUN_DIR/report.html.  SC_EIO when RUN_DIR holds none of them or one is malformed. */
 int render_stage_validate(const struct case_file *c, const char *run_dir);
 int render_stage_run(const struct case_file *c, const char *run_dir);
+
+/* `spraycoat info`: what a run directory or an HDF5 file of spraycoat holds. */
+/* target: a run directory or a .h5 file.  SC_EIO when it cannot be read. */
+int info_print(const char *target, FILE *out);
+
+/* A few lines on what a finished run says: deposit fraction, bonded fraction and PBCP, where the report is. */
+void info_headline(const char *run_dir, FILE *out);
 
 #endif

@@ -14,7 +14,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "dem/dem.h"
 #include "mpm/mpm.h"
 #include "render/render.h"

@@ -12,9 +12,8 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
-#include "coupling/couple.h"
-#include "coupling/flight.h"
-#include "coupling/stages.h"
+#include "coupling/coupling.h"
+#include "app/app.h"
 #include "dem/dem.h"
 
 #define STAGE "couple"

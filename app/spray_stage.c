@@ -10,7 +10,7 @@
 #include "core/h5io.h"
 #include "core/log.h"
 #include "core/run_keys.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "dem/dem.h"
 
 #define STAGE "spray"

@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
-#include "coupling/stages.h"
+#include "app/app.h"
 #include "render/render.h"
 
 int render_stage_validate(const struct case_file *c, const char *run_dir)
