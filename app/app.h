@@ -7,8 +7,11 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "core/atomic.h"
 #include "core/config.h"
+#include "core/h5io.h"
 #include "core/run_keys.h"
+#include "coupling/coupling.h"
 
 /* The registry of every case key the program accepts (NULL-terminated list of tables). */
 extern const struct cfg_key *const spraycoat_registry[];
@@ -29,16 +32,19 @@ int run_dir_read_stages(const char *run_dir, char *out, size_t size);
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
 int case_section_given(const struct case_file *c, const char *section);
 
+/* What a stage works on, passed to every stage (no global state decides where a stage takes its input). */
+struct stage_context {
+    const struct case_file *c;
+    const char *run_dir;   /* NULL for `spraycoat check`: validate the case only */
+    int pipeline;          /* 1 under `spraycoat run`: the render stage skips figures that are up to date */
+    int impact_from_seeds; /* 1: the impact stage takes its bodies from RUN_DIR/couple.h5 (the stages of
+                            * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the
+                            * case); 0: from [impact] (one particle or a bodies file) */
+};
+
 /* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
  * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
-uint64_t stage_hash(const struct case_file *c, const char *stage);
-/* 1 when the impact stage takes its bodies from RUN_DIR/couple.h5 (set by stages_set_pipeline: the stages of
- * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the case), 0 when from [impact]
- * (one particle or a bodies file). */
-int impact_takes_seeds(const struct case_file *c);
-void stages_set_pipeline(int on);
-/* 1 in a pipeline (`spraycoat run`): its render stage skips figures that are up to date. */
-int stages_in_pipeline(void);
+uint64_t stage_hash(const struct stage_context *ctx, const char *stage);
 /* 1 when RUN_DIR/couple.h5 exists and was made by this case's couple stage. */
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
@@ -50,65 +56,92 @@ int run_dir_output_current(const char *path, uint64_t case_hash);
  * apply its thread count, and return 0. */
 int stage_begin(const char *stage, const char *output, uint64_t case_hash, const struct case_file *c,
                 struct run_settings *settings);
-/* 1 when a checkpoint is due by the [run] policy: checkpoint_steps steps or checkpoint_wall seconds (log_elapsed)
- * since the last one. */
-int stage_checkpoint_due(const struct run_settings *settings, int64_t step, int64_t last_step, double last_time);
 
-/* A text file written atomically: NAME.tmp, flushed, fsynced, renamed to NAME, folder fsynced. */
-struct text_out {
-    FILE *file;
-    char path[4096];
-    char tmp_path[4104];
+/* ---- the one stage loop (app/stage_loop.c) -------------------------------------------------------------------
+ * A stage with a time loop (the spray, each impact run, each run of the critical-velocity search) describes its
+ * solver by a struct stage_ops; the loop owns what every such stage does the same way: resume from the newest
+ * valid checkpoint of the case, step with checkpoints by the [run] policy, stop at a signal after a checkpoint,
+ * progress, timing, and the final output written atomically with the root attributes. */
+struct stage_ops {
+    const char *label;     /* log, progress and checkpoint name: "spray", "impact", "impact_r0003" */
+    const char *stage;     /* the root attribute stage of its files */
+    const char *format;    /* file format name and version of its checkpoints */
+    int64_t format_version;
+    uint64_t case_hash;
+    const char *run_dir;
+    const struct run_settings *settings;   /* checkpoint policy; NULL: no checkpoints */
+    const char *progress_unit;             /* "steps", "ps" */
+    int64_t progress_total;
+    void *owner;                           /* passed to every callback */
+    int (*step)(void *owner);
+    int (*finished)(void *owner);
+    void (*position)(void *owner, int64_t *step, double *t, int64_t *progress);
+    void (*describe)(void *owner, char *text, size_t size); /* the progress line's text; NULL: none */
+    int (*after_step)(void *owner);                         /* e.g. snapshots; NULL: none */
+    int (*checkpoint_write)(void *owner, hid_t file);       /* the solver's state; NULL: no checkpoints */
+    int (*checkpoint_read)(void *owner, hid_t file);
+    const char *interrupted_note; /* said when interrupted: what is kept and how to continue */
 };
-int text_create_atomic(const char *path, struct text_out *out);
-/* Close, sync and rename; SC_EIO with strerror on failure (the temporary file is removed). */
-int text_commit(struct text_out *out);
-void text_abort(struct text_out *out);
+
+/* Wall seconds of this process's time loop: all of it, and its steps, after-step work and checkpoints. */
+struct stage_timing {
+    double loop, stepping, after_step, checkpoints;
+};
+
+/* Resume from the newest valid checkpoint of the case (*resumed = 1), or leave the solver at its start. */
+int stage_loop_resume(const struct stage_ops *ops, int *resumed);
+/* Step until finished.  SC_EINT / SC_ETERM after writing a checkpoint when a signal arrived. */
+int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing);
+/* The stage's output file `path`, atomically: root attributes (format, version, stage, case hash), the resolved
+ * case text (when c is not NULL), then what `contents` writes. */
+int stage_write_output(const char *path, const char *format, int64_t format_version, const char *stage,
+                       uint64_t case_hash, const struct case_file *c, int (*contents)(void *owner, hid_t file),
+                       void *owner);
 
 /* Check the spray stage's configuration (cross-key checks, input files) and, when run_dir is not NULL,
  * that its checkpoints there (if any) belong to this case, without writing anything. */
-int spray_stage_validate(const struct case_file *c, const char *run_dir);
+int spray_stage_validate(const struct stage_context *ctx);
 
 /* The spray stage: resume from the newest valid checkpoint of this case if there is one, run to t_end
  * with checkpoints, write RUN_DIR/spray.h5.  Skips the work when spray.h5 exists for the same case.
  * Returns SC_EINT/SC_ETERM after writing a checkpoint when interrupted by SIGINT/SIGTERM. */
-int spray_stage_run(const struct case_file *c, const char *run_dir);
+int spray_stage_run(const struct stage_context *ctx);
 
 /* The impact stage's configuration ([impact], the materials it names, the bodies file) and, with run_dir, that
  * its checkpoints there (if any) belong to this case.  Writes nothing. */
-int impact_stage_validate(const struct case_file *c, const char *run_dir);
+int impact_stage_validate(const struct stage_context *ctx);
 
 /* The impact stage (MPM, mpm/): resume from the newest valid checkpoint of this case if there is one, run to
  * t_end with checkpoints and snapshots (RUN_DIR/impact_snapshots/), write RUN_DIR/impact.xdmf and then
  * RUN_DIR/impact.h5.  Skips the work when impact.h5 exists for the same case.  SC_EINT/SC_ETERM after writing
  * a checkpoint when interrupted. */
-int impact_stage_run(const struct case_file *c, const char *run_dir);
+int impact_stage_run(const struct stage_context *ctx);
 
 
 /* The critical-velocity search ([vcrit]): its keys and the impact configuration of every diameter. */
-int vcrit_stage_validate(const struct case_file *c, const char *run_dir);
+int vcrit_stage_validate(const struct stage_context *ctx);
 
 /* Bisection of the impact speed per diameter with single-particle MPM runs; finished runs are recorded in
  * RUN_DIR/vcrit_runs.csv and not repeated after an interruption.  Writes RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5;
  * skips the work when vcrit.h5 exists for the same case.  SC_EINT/SC_ETERM when interrupted. */
-int vcrit_stage_run(const struct case_file *c, const char *run_dir);
+int vcrit_stage_run(const struct stage_context *ctx);
 
 /* The couple stage ([couple]): sample spray.h5's impacts, fly them through the gas layer in front of the target
  * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when
  * spray.h5 is missing or from another case. */
-int couple_stage_validate(const struct case_file *c, const char *run_dir);
-int couple_stage_run(const struct case_file *c, const char *run_dir);
+int couple_stage_validate(const struct stage_context *ctx);
+/* The seeds of RUN_DIR/couple.h5 as the impact runs' bodies.  SC_EIO when couple.h5 is missing or was made from
+ * another case. */
+int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
+void couple_bodies_free(struct couple_bodies *bodies);
+int couple_stage_run(const struct stage_context *ctx);
 extern const struct cfg_key couple_case_keys[];
 
-/* SIGINT/SIGTERM: set a flag the stages poll between steps. */
-void stages_install_signal_handlers(void);
-/* 0, or SC_EINT / SC_ETERM once a signal arrived. */
-int stages_interrupt_status(void);
 
 /* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into
  * RUN_DIR/figures/ and RUN_DIR/report.html.  SC_EIO when RUN_DIR holds none of them or one is malformed. */
-int render_stage_validate(const struct case_file *c, const char *run_dir);
-int render_stage_run(const struct case_file *c, const char *run_dir);
+int render_stage_validate(const struct stage_context *ctx);
+int render_stage_run(const struct stage_context *ctx);
 
 /* `spraycoat info`: what a run directory or an HDF5 file of spraycoat holds. */
 /* target: a run directory or a .h5 file.  SC_EIO when it cannot be read. */

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
 #include "coupling/coupling.h"
@@ -31,6 +32,7 @@ struct spray_rows {
 };
 
 struct couple_work {
+    const struct stage_context *ctx;
     const struct case_file *c;
     const char *run_dir;
     uint64_t hash;
@@ -130,7 +132,7 @@ static int read_spray(struct couple_work *w)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", w->run_dir);
-    if (!run_dir_output_current(path, stage_hash(w->c, "spray")))
+    if (!run_dir_output_current(path, stage_hash(w->ctx, "spray")))
         SC_FAIL(SC_EIO, "couple: the stage's input %s is missing or was made from another case; run the spray stage "
                 "first (`spraycoat spray` or `spraycoat run`)", path);
     hid_t file;
@@ -325,6 +327,12 @@ static int make_seeds(struct couple_work *w)
     for (size_t slot = 0; status == SC_OK && slot < seeds; slot++) {
         status = fill_slot(w, solver, &strata, cursor, taken, slot);
         progress_update(&bar, (int64_t)slot + 1, "");
+        /* couple.h5 is written whole at the end: an interrupted stage keeps nothing and runs again on resume */
+        int interrupted = interrupt_status();
+        if (status == SC_OK && interrupted)
+            status = sc_error_set(interrupted, __FILE__, __LINE__, "couple: interrupted after %zu of %zu seeds; the "
+                                  "stage runs again from its start on `spraycoat resume %s`", slot + 1, seeds,
+                                  w->run_dir);
     }
     progress_end(&bar, (int64_t)seeds);
     for (size_t r = 0; status == SC_OK && r < (size_t)w->cfg.runs; r++)
@@ -578,12 +586,12 @@ static int index_runs(struct couple_bodies *b, const int64_t *run, const char *p
     return SC_OK;
 }
 
-int couple_read_bodies(const char *run_dir, const struct case_file *c, struct couple_bodies *b)
+int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *b)
 {
     memset(b, 0, sizeof *b);
     char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/couple.h5", run_dir);
-    if (!run_dir_output_current(path, stage_hash(c, STAGE)))
+    snprintf(path, sizeof path, "%s/couple.h5", ctx->run_dir);
+    if (!run_dir_output_current(path, stage_hash(ctx, STAGE)))
         SC_FAIL(SC_EIO, "impact: the stage's input %s is missing or was made from another case; run the couple stage "
                 "first (`spraycoat couple` or `spraycoat run`)", path);
     hid_t file;
@@ -607,9 +615,9 @@ int couple_read_bodies(const char *run_dir, const struct case_file *c, struct co
     return status;
 }
 
-int couple_stage_validate(const struct case_file *c, const char *run_dir)
+int couple_stage_validate(const struct stage_context *ctx)
 {
-    (void)run_dir;
+    const struct case_file *c = ctx->c;
     struct couple_config cfg;
     SC_TRY(couple_config_load(c, &cfg));
     struct dem_config spray;
@@ -638,15 +646,15 @@ static int couple(struct couple_work *w)
     return SC_OK;
 }
 
-int couple_stage_run(const struct case_file *c, const char *run_dir)
+int couple_stage_run(const struct stage_context *ctx)
 {
-    struct couple_work w = {.c = c, .run_dir = run_dir, .hash = stage_hash(c, STAGE)};
+    struct couple_work w = {.ctx = ctx, .c = ctx->c, .run_dir = ctx->run_dir, .hash = stage_hash(ctx, STAGE)};
     char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/couple.h5", run_dir);
+    snprintf(path, sizeof path, "%s/couple.h5", ctx->run_dir);
     struct run_settings settings;
-    if (stage_begin(STAGE, path, w.hash, c, &settings))
+    if (stage_begin(STAGE, path, w.hash, ctx->c, &settings))
         return SC_OK;
-    SC_TRY(couple_config_load(c, &w.cfg));
+    SC_TRY(couple_config_load(ctx->c, &w.cfg));
     int status = couple(&w);
     couple_work_free(&w);
     return status;

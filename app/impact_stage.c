@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
 #include "core/parallel.h"
@@ -30,7 +31,7 @@
 #define RUNS_DIR "impact_runs"
 
 struct impact_run {
-    const struct case_file *c;
+    const struct stage_context *ctx;
     const char *run_dir;
     /* where this run's files go: one run (impact.h5 itself) or run r of several (impact_runs/run_NNNN.h5, copied
      * into impact.h5 /run_NNNN when all are done) */
@@ -43,13 +44,10 @@ struct impact_run {
     struct mpm_config cfg;
     struct mpm_solver *solver;
     uint64_t case_hash;
-    double last_checkpoint_time;
-    int64_t last_checkpoint_step;
     double start_time;      /* log_elapsed() when this process started stepping */
     int64_t start_updates;  /* point updates done before (by the run this one resumed) */
     int64_t start_step;
-    /* this process's time loop, wall seconds: all of it, and its steps, snapshots and checkpoints */
-    double loop_seconds, stepping_seconds, snapshot_seconds, checkpoint_seconds;
+    struct stage_timing timing; /* this process's time loop (after_step: the snapshots) */
 };
 
 static void snapshot_path(const struct impact_run *run, int64_t index, char *out, size_t size)
@@ -125,104 +123,57 @@ static int snapshot_if_due(struct impact_run *run)
     return SC_OK;
 }
 
-static int write_checkpoint(struct impact_run *run)
+/* ---- the solver as the stage loop sees it (struct stage_ops) ---- */
+
+/* What `spraycoat info` shows of a checkpoint (the solver's own datasets are its business), then the solver. */
+static int checkpoint_write(void *owner, hid_t file)
 {
+    struct impact_run *run = owner;
     struct mpm_counts counts = mpm_get_counts(run->solver);
-    struct h5_out out;
-    SC_TRY(checkpoint_begin(run->run_dir, run->label, counts.step, &out));
-    int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash);
-    /* what `spraycoat info` shows of a checkpoint (the solver's own datasets are its business) */
-    if (status == SC_OK)
-        status = h5_attr_write_int64(out.file, "step", counts.step);
-    if (status == SC_OK)
-        status = h5_attr_write_double(out.file, "t", counts.t);
-    if (status == SC_OK)
-        status = h5_attr_write_double(out.file, "t_end", run->cfg.t_end);
-    if (status == SC_OK)
-        status = h5_attr_write_int64(out.file, "snapshots", mpm_snapshot_index(run->solver));
-    if (status == SC_OK)
-        status = h5_attr_write_int64(out.file, "active_points", counts.active_points);
-    if (status == SC_OK)
-        status = mpm_checkpoint_write(run->solver, out.file);
-    if (status != SC_OK) {
-        h5_abort(&out);
-        return status;
-    }
-    SC_TRY(checkpoint_commit(&out, run->run_dir, run->label, run->settings.keep_checkpoints));
-    run->last_checkpoint_time = log_elapsed();
-    run->last_checkpoint_step = counts.step;
-    log_info("%s: checkpoint at step %lld (t = %.6g s)", run->label, (long long)counts.step, counts.t);
-    return SC_OK;
+    SC_TRY(h5_attr_write_int64(file, "step", counts.step));
+    SC_TRY(h5_attr_write_double(file, "t", counts.t));
+    SC_TRY(h5_attr_write_double(file, "t_end", run->cfg.t_end));
+    SC_TRY(h5_attr_write_int64(file, "snapshots", mpm_snapshot_index(run->solver)));
+    SC_TRY(h5_attr_write_int64(file, "active_points", counts.active_points));
+    return mpm_checkpoint_write(run->solver, file);
 }
 
-/* 1 when resumed from a checkpoint. */
-static int resume_if_possible(struct impact_run *run, int *resumed)
-{
-    char path[H5IO_PATH_MAX];
-    *resumed = 0;
-    SC_TRY(checkpoint_find_newest(run->run_dir, run->label, MPM_FORMAT, MPM_FORMAT_VERSION, run->case_hash, path,
-                                  sizeof path));
-    if (path[0] == '\0')
-        return SC_OK;
-    hid_t file;
-    SC_TRY(h5_open_read(path, &file));
-    int status = mpm_checkpoint_read(run->solver, file);
-    H5Fclose(file);
-    if (status != SC_OK)
-        return status;
-    struct mpm_counts counts = mpm_get_counts(run->solver);
-    run->last_checkpoint_step = counts.step;
-    *resumed = 1;
-    log_info("%s: resuming from %s (step %lld, t = %.6g s, %lld snapshots taken)", run->label, path,
-             (long long)counts.step, counts.t, (long long)mpm_snapshot_index(run->solver));
-    return SC_OK;
-}
+static int checkpoint_read(void *owner, hid_t file) { return mpm_checkpoint_read(((struct impact_run *)owner)->solver, file); }
 
-static int checkpoint_due(const struct impact_run *run, int64_t step)
-{
-    return stage_checkpoint_due(&run->settings, step, run->last_checkpoint_step, run->last_checkpoint_time);
-}
+static int step(void *owner) { return mpm_step(((struct impact_run *)owner)->solver); }
+
+static int finished(void *owner) { return mpm_finished(((struct impact_run *)owner)->solver); }
+
+static int after_step(void *owner) { return snapshot_if_due(owner); }
 
 /* Progress is counted in simulated picoseconds: the number of steps is not known in advance (dt follows the
  * wave speed and the fastest point), simulated time is. */
 static int64_t picoseconds(double t) { return (int64_t)llround(t * 1e12); }
 
-/* A step, a snapshot or a checkpoint, its wall time added to *seconds. */
-#define TIMED(seconds, call)                                                                                  \
-    do {                                                                                                     \
-        double timed_start_ = log_elapsed();                                                                 \
-        int timed_status_ = (call);                                                                          \
-        *(seconds) += log_elapsed() - timed_start_;                                                          \
-        SC_TRY(timed_status_);                                                                               \
-    } while (0)
-
-static int time_loop(struct impact_run *run)
+static void position(void *owner, int64_t *step_index, double *t, int64_t *progress)
 {
-    struct progress bar;
-    struct mpm_counts counts = mpm_get_counts(run->solver);
-    progress_begin(&bar, run->label, "ps", picoseconds(counts.t), picoseconds(run->cfg.t_end));
-    run->last_checkpoint_time = log_elapsed();
-    double loop_start = log_elapsed();
-    while (!mpm_finished(run->solver)) {
-        TIMED(&run->stepping_seconds, mpm_step(run->solver));
-        TIMED(&run->snapshot_seconds, snapshot_if_due(run));
-        counts = mpm_get_counts(run->solver);
-        int interrupted = stages_interrupt_status();
-        if (interrupted || (checkpoint_due(run, counts.step) && !mpm_finished(run->solver)))
-            TIMED(&run->checkpoint_seconds, write_checkpoint(run));
-        if (interrupted) {
-            progress_end(&bar, picoseconds(counts.t));
-            SC_FAIL(interrupted, "%s: interrupted at step %lld (t = %.6g s); checkpoint written, continue with "
-                    "`spraycoat resume %s`", run->label, (long long)counts.step, counts.t, run->run_dir);
-        }
-        char extra[160];
-        snprintf(extra, sizeof extra, "step %lld, dt %.3g s, %lld of %lld points active", (long long)counts.step,
-                 counts.dt, (long long)counts.active_points, (long long)counts.points);
-        progress_update(&bar, picoseconds(counts.t), extra);
-    }
-    run->loop_seconds = log_elapsed() - loop_start;
-    progress_end(&bar, picoseconds(mpm_get_counts(run->solver).t));
-    return SC_OK;
+    struct mpm_counts counts = mpm_get_counts(((struct impact_run *)owner)->solver);
+    *step_index = counts.step;
+    *t = counts.t;
+    *progress = picoseconds(counts.t);
+}
+
+static void describe(void *owner, char *text, size_t size)
+{
+    struct mpm_counts counts = mpm_get_counts(((struct impact_run *)owner)->solver);
+    snprintf(text, size, "step %lld, dt %.3g s, %lld of %lld points active", (long long)counts.step, counts.dt,
+             (long long)counts.active_points, (long long)counts.points);
+}
+
+static struct stage_ops stage_ops_of(struct impact_run *run, char *note, size_t size)
+{
+    snprintf(note, size, "checkpoint written, continue with `spraycoat resume %s`", run->run_dir);
+    return (struct stage_ops){
+        .label = run->label, .stage = STAGE, .format = MPM_FORMAT, .format_version = MPM_FORMAT_VERSION,
+        .case_hash = run->case_hash, .run_dir = run->run_dir, .settings = &run->settings, .progress_unit = "ps",
+        .progress_total = picoseconds(run->cfg.t_end), .owner = run, .step = step, .finished = finished,
+        .position = position, .describe = describe, .after_step = after_step, .checkpoint_write = checkpoint_write,
+        .checkpoint_read = checkpoint_read, .interrupted_note = note};
 }
 
 /* Open snapshot `index` and check that it was written by this case. */
@@ -271,16 +222,16 @@ static int write_xdmf(const struct impact_run *run)
     static const char *const scalars[] = {"eps_p", "T", "D_bond", "pressure", "von_mises", "rho"};
     static const char *const integers[] = {"body", "id", "surface"};
     int64_t count = mpm_snapshot_index(run->solver);
-    struct text_out out;
-    SC_TRY(text_create_atomic(run->xdmf, &out));
-    FILE *f = out.file;
+    struct atomic_file out;
+    SC_TRY(atomic_open(run->xdmf, &out));
+    FILE *f = out.stream;
     fprintf(f, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
                "  <Grid Name=\"impact\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
     for (int64_t i = 0; i < count; i++) {
         struct snapshot_info info;
         int status = read_snapshot_info(run, i, &info);
         if (status != SC_OK) {
-            text_abort(&out);
+            atomic_abort(&out);
             return status;
         }
         size_t n = info.points;
@@ -305,7 +256,7 @@ static int write_xdmf(const struct impact_run *run)
         fprintf(f, "   </Grid>\n");
     }
     fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
-    return text_commit(&out);
+    return atomic_publish(&out);
 }
 
 /* Copy the snapshot files' /snapshot groups into /snapshots/NNNNNN of the open output file. */
@@ -331,26 +282,18 @@ static int copy_snapshots(const struct impact_run *run, hid_t file)
     return status;
 }
 
+static int output_contents(void *owner, hid_t file)
+{
+    struct impact_run *run = owner;
+    SC_TRY(copy_snapshots(run, file));
+    return mpm_write_results(run->solver, file);
+}
+
 static int write_output(struct impact_run *run)
 {
-    const char *path = run->output;
-    struct h5_out out;
-    SC_TRY(h5_create_atomic(path, &out));
-    char *case_text = case_resolved_text(run->c);
-    int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash);
-    if (status == SC_OK)
-        status = h5_attr_write_string(out.file, "case", case_text);
-    free(case_text);
-    if (status == SC_OK)
-        status = copy_snapshots(run, out.file);
-    if (status == SC_OK)
-        status = mpm_write_results(run->solver, out.file);
-    if (status != SC_OK) {
-        h5_abort(&out);
-        return status;
-    }
-    SC_TRY(h5_commit(&out));
-    log_info("%s: wrote %s", run->label, path);
+    SC_TRY(stage_write_output(run->output, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c,
+                              output_contents, run));
+    log_info("%s: wrote %s", run->label, run->output);
     return SC_OK;
 }
 
@@ -380,11 +323,12 @@ static void log_summary(struct impact_run *run)
              log_elapsed() - run->start_time, (long long)counts.removed_points, (long long)counts.points);
     /* point updates per second of the steps alone, as MPM codes state their speed; the snapshots and checkpoints
      * written in the loop (serial file output, as many as the case asks for) are given beside them */
-    double other = run->loop_seconds - run->stepping_seconds - run->snapshot_seconds - run->checkpoint_seconds;
+    const struct stage_timing *w = &run->timing;
+    double other = w->loop - w->stepping - w->after_step - w->checkpoints;
     log_info("%s: time loop %.3f s wall on %d threads: stepping %.3f s, %.3g point updates/s; snapshots %.3f s, "
-             "checkpoints %.3f s, other %.3f s", run->label, run->loop_seconds, omp_get_max_threads(),
-             run->stepping_seconds, run->stepping_seconds > 0 ? (double)updates / run->stepping_seconds : 0.0,
-             run->snapshot_seconds, run->checkpoint_seconds, other > 0.0 ? other : 0.0);
+             "checkpoints %.3f s, other %.3f s", run->label, w->loop, omp_get_max_threads(), w->stepping,
+             w->stepping > 0 ? (double)updates / w->stepping : 0.0, w->after_step, w->checkpoints,
+             other > 0.0 ? other : 0.0);
     log_info("%s: energy: initial %.6g J, now %.6g J (absorbed by the boundaries %.3g J, carried away %.3g J)",
              run->label, d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
 }
@@ -397,8 +341,8 @@ static int create_solver(struct impact_run *run)
         return status;
     char message[1024];
     snprintf(message, sizeof message, "%s", sc_error_message());
-    const char *key = case_has(run->c, "impact", "bodies") ? "bodies" : "diameter";
-    return case_invalid(run->c, "impact", key, "%s", message);
+    const char *key = case_has(run->ctx->c, "impact", "bodies") ? "bodies" : "diameter";
+    return case_invalid(run->ctx->c, "impact", key, "%s", message);
 }
 
 static int run_stage(struct impact_run *run)
@@ -408,8 +352,12 @@ static int run_stage(struct impact_run *run)
     log_info("%s: %lld material points in %d bodies, grid %.3g m, spacing %.3g m, to t_end = %.6g s on %d "
              "threads", run->label, (long long)counts.points, mpm_body_count(run->solver), run->cfg.grid, run->cfg.spacing,
              run->cfg.t_end, omp_get_max_threads());
+    char note[H5IO_PATH_MAX + 100];
+    const struct stage_ops ops = stage_ops_of(run, note, sizeof note);
     int resumed;
-    SC_TRY(resume_if_possible(run, &resumed));
+    SC_TRY(stage_loop_resume(&ops, &resumed));
+    if (resumed)
+        log_info("%s: %lld snapshots taken before", run->label, (long long)mpm_snapshot_index(run->solver));
     /* a fresh start owns the snapshot folder: files of an earlier, abandoned run must not end up in impact.h5 */
     if (!resumed)
         SC_TRY(clear_snapshots(run, 0));
@@ -419,7 +367,7 @@ static int run_stage(struct impact_run *run)
     run->start_updates = counts.point_updates;
     run->start_step = counts.step;
     SC_TRY(snapshot_if_due(run));
-    SC_TRY(time_loop(run));
+    SC_TRY(stage_loop_run(&ops, &run->timing));
     /* the index first: impact.h5 marks the stage done, so everything else must exist before it */
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
@@ -456,19 +404,21 @@ static int check_sphere_overlap(const struct case_file *c, const struct mpm_conf
 
 static void name_run(struct impact_run *run, long index);
 
-int impact_stage_validate(const struct case_file *c, const char *run_dir)
+int impact_stage_validate(const struct stage_context *ctx)
 {
+    const struct case_file *c = ctx->c;
+    const char *run_dir = ctx->run_dir;
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
-    int status = impact_takes_seeds(c) ? SC_OK : check_sphere_overlap(c, &cfg);
+    int status = ctx->impact_from_seeds ? SC_OK : check_sphere_overlap(c, &cfg);
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;
     /* refuse checkpoints of another case before anything in the run directory is written: the single run's, or
      * those of the runs of the seeds (as many as [couple] asks for) */
     char path[H5IO_PATH_MAX];
-    uint64_t hash = stage_hash(c, STAGE);
-    if (!impact_takes_seeds(c))
+    uint64_t hash = stage_hash(ctx, STAGE);
+    if (!ctx->impact_from_seeds)
         return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
     long runs = case_int(c, "couple", "runs");
     for (long r = 0; r < runs; r++) {
@@ -499,11 +449,11 @@ static void name_run(struct impact_run *run, long index)
     snprintf(run->snapshot_group, sizeof run->snapshot_group, "run_%04ld/snapshots", index);
 }
 
-static int run_single(const struct case_file *c, const char *run_dir, uint64_t hash, const struct run_settings *settings)
+static int run_single(const struct stage_context *ctx, uint64_t hash, const struct run_settings *settings)
 {
-    struct impact_run run = {.c = c, .run_dir = run_dir, .case_hash = hash, .settings = *settings};
+    struct impact_run run = {.ctx = ctx, .run_dir = ctx->run_dir, .case_hash = hash, .settings = *settings};
     name_run(&run, -1);
-    SC_TRY(mpm_config_load(c, &run.cfg));
+    SC_TRY(mpm_config_load(ctx->c, &run.cfg));
     int status = run_stage(&run);
     mpm_destroy(run.solver);
     mpm_config_free(&run.cfg);
@@ -511,16 +461,16 @@ static int run_single(const struct case_file *c, const char *run_dir, uint64_t h
 }
 
 /* Run `index` of the seeds, unless its file is already there (an earlier, interrupted process finished it). */
-static int run_seeded(const struct case_file *c, const char *run_dir, uint64_t hash, const struct run_settings *settings,
+static int run_seeded(const struct stage_context *ctx, uint64_t hash, const struct run_settings *settings,
                       const struct couple_bodies *bodies, long index)
 {
-    struct impact_run run = {.c = c, .run_dir = run_dir, .case_hash = hash, .settings = *settings};
+    struct impact_run run = {.ctx = ctx, .run_dir = ctx->run_dir, .case_hash = hash, .settings = *settings};
     name_run(&run, index);
     if (run_dir_output_current(run.output, hash)) {
         log_info("%s: done already (%s)", run.label, run.output);
         return SC_OK;
     }
-    SC_TRY(mpm_config_load(c, &run.cfg));
+    SC_TRY(mpm_config_load(ctx->c, &run.cfg));
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
     int status = mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
                                         bodies->velocity + 3 * first);
@@ -633,30 +583,34 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     return status;
 }
 
-static int write_gathered(const struct case_file *c, const char *run_dir, uint64_t hash, long runs)
+struct gathering {
+    const char *run_dir;
+    long runs;
+};
+
+static int gathered_contents(void *owner, hid_t file)
+{
+    const struct gathering *g = owner;
+    SC_TRY(h5_attr_write_int64(file, "runs", g->runs));
+    double *means = malloc((size_t)g->runs * 4 * sizeof *means);
+    if (!means)
+        SC_FAIL(SC_ESIM, "out of memory");
+    struct run_totals total = {0};
+    int status = SC_OK;
+    for (long r = 0; status == SC_OK && r < g->runs; r++)
+        status = gather_run(file, g->run_dir, r, &total, means + 4 * r);
+    if (status == SC_OK)
+        status = write_overall_summary(file, g->runs, means, &total);
+    free(means);
+    return status;
+}
+
+static int write_gathered(const struct stage_context *ctx, uint64_t hash, long runs)
 {
     char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
-    struct h5_out out;
-    SC_TRY(h5_create_atomic(path, &out));
-    char *case_text = case_resolved_text(c);
-    double *means = malloc((size_t)runs * 4 * sizeof *means);
-    int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, hash);
-    if (status == SC_OK) status = h5_attr_write_string(out.file, "case", case_text);
-    if (status == SC_OK) status = h5_attr_write_int64(out.file, "runs", runs);
-    if (status == SC_OK && !means) status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    struct run_totals total = {0};
-    for (long r = 0; status == SC_OK && r < runs; r++)
-        status = gather_run(out.file, run_dir, r, &total, means + 4 * r);
-    if (status == SC_OK)
-        status = write_overall_summary(out.file, runs, means, &total);
-    free(means);
-    free(case_text);
-    if (status != SC_OK) {
-        h5_abort(&out);
-        return status;
-    }
-    SC_TRY(h5_commit(&out));
+    snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
+    struct gathering g = {.run_dir = ctx->run_dir, .runs = runs};
+    SC_TRY(stage_write_output(path, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, hash, ctx->c, gathered_contents, &g));
     log_info("impact: wrote %s (%ld runs)", path, runs);
     return SC_OK;
 }
@@ -670,17 +624,17 @@ static int write_first_run_xdmf(const char *run_dir)
     FILE *in = fopen(from, "r");
     if (!in)
         SC_FAIL(SC_EIO, "cannot read %s: %s", from, strerror(errno));
-    struct text_out out;
-    int status = text_create_atomic(to, &out);
+    struct atomic_file out;
+    int status = atomic_open(to, &out);
     char buffer[8192];
     size_t got;
     while (status == SC_OK && (got = fread(buffer, 1, sizeof buffer, in)) > 0)
-        if (fwrite(buffer, 1, got, out.file) != got)
+        if (fwrite(buffer, 1, got, out.stream) != got)
             status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot write %s: %s", to, strerror(errno));
     fclose(in);
     if (status == SC_OK)
-        return text_commit(&out);
-    text_abort(&out);
+        return atomic_publish(&out);
+    atomic_abort(&out);
     return status;
 }
 
@@ -703,13 +657,13 @@ static int remove_run_files(const char *run_dir, long runs)
     return SC_OK;
 }
 
-static int gather(const struct case_file *c, const char *run_dir, uint64_t hash, long runs);
+static int gather(const struct stage_context *ctx, uint64_t hash, long runs);
 
-static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64_t hash,
-                          const struct run_settings *settings)
+static int run_all_seeded(const struct stage_context *ctx, uint64_t hash, const struct run_settings *settings)
 {
+    const char *run_dir = ctx->run_dir;
     struct couple_bodies bodies;
-    SC_TRY(couple_read_bodies(run_dir, c, &bodies));
+    SC_TRY(couple_read_bodies(ctx, &bodies));
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
     int status = SC_OK;
@@ -723,44 +677,45 @@ static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64
     /* every rank takes the next run not yet taken (dynamic balance: runs differ in size) */
     parallel_tasks_begin();
     for (int64_t r; status == SC_OK && (r = parallel_task_next()) < runs;)
-        status = run_seeded(c, run_dir, hash, settings, &bodies, (long)r);
+        status = run_seeded(ctx, hash, settings, &bodies, (long)r);
     parallel_tasks_end();
     couple_bodies_free(&bodies);
     /* rank 0 gathers once every rank is done; the others report its status */
     status = parallel_max_status(status);
     if (status == SC_OK && parallel_rank() == 0)
-        status = gather(c, run_dir, hash, runs);
+        status = gather(ctx, hash, runs);
     return parallel_share_status(status);
 }
 
-static int gather(const struct case_file *c, const char *run_dir, uint64_t hash, long runs)
+static int gather(const struct stage_context *ctx, uint64_t hash, long runs)
 {
-    SC_TRY(write_first_run_xdmf(run_dir));
-    SC_TRY(write_gathered(c, run_dir, hash, runs));
-    return remove_run_files(run_dir, runs);
+    SC_TRY(write_first_run_xdmf(ctx->run_dir));
+    SC_TRY(write_gathered(ctx, hash, runs));
+    return remove_run_files(ctx->run_dir, runs);
 }
 
 /* impact.h5 is there, but a process killed while it cleaned up may have left run files, snapshots and
  * checkpoints of the runs behind. */
-static int remove_leftovers(const struct case_file *c, const char *run_dir)
+static int remove_leftovers(const struct stage_context *ctx)
 {
-    if (impact_takes_seeds(c))
-        return remove_run_files(run_dir, case_int(c, "couple", "runs"));
+    const char *run_dir = ctx->run_dir;
+    if (ctx->impact_from_seeds)
+        return remove_run_files(run_dir, case_int(ctx->c, "couple", "runs"));
     struct impact_run names = {.run_dir = run_dir};
     name_run(&names, -1);
     return clear_snapshots(&names, 1);
 }
 
-int impact_stage_run(const struct case_file *c, const char *run_dir)
+int impact_stage_run(const struct stage_context *ctx)
 {
-    uint64_t hash = stage_hash(c, STAGE);
+    uint64_t hash = stage_hash(ctx, STAGE);
     char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.h5", run_dir);
+    snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
     struct run_settings settings;
-    if (stage_begin(STAGE, path, hash, c, &settings))
-        return parallel_rank() == 0 ? remove_leftovers(c, run_dir) : SC_OK;
-    if (impact_takes_seeds(c))
-        return run_all_seeded(c, run_dir, hash, &settings);
+    if (stage_begin(STAGE, path, hash, ctx->c, &settings))
+        return parallel_rank() == 0 ? remove_leftovers(ctx) : SC_OK;
+    if (ctx->impact_from_seeds)
+        return run_all_seeded(ctx, hash, &settings);
     /* one run: rank 0's (the others have nothing to share) */
-    return parallel_rank() == 0 ? run_single(c, run_dir, hash, &settings) : SC_OK;
+    return parallel_rank() == 0 ? run_single(ctx, hash, &settings) : SC_OK;
 }

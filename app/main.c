@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
 #include "core/memory.h"
@@ -115,10 +116,11 @@ static int command_check(const struct options *opt)
         dem_config_free(&cfg);
     /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
      * name the materials of an impact it never runs) */
+    const struct stage_context ctx = {.c = c};
     if (status == SC_OK && (case_section_given(c, "impact") || case_section_given(c, "vcrit")))
-        status = impact_stage_validate(c, NULL);
+        status = impact_stage_validate(&ctx);
     if (status == SC_OK && case_section_given(c, "vcrit"))
-        status = vcrit_stage_validate(c, NULL);
+        status = vcrit_stage_validate(&ctx);
     if (status == SC_OK) {
         case_print(c, stdout);
         printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
@@ -141,8 +143,8 @@ static void default_run_dir(const char *case_path, char *out, size_t size)
 /* The stages a command runs, as recorded in RUN_DIR/stages for `resume`. */
 struct stage {
     const char *name;
-    int (*validate)(const struct case_file *c, const char *run_dir);
-    int (*run)(const struct case_file *c, const char *run_dir);
+    int (*validate)(const struct stage_context *ctx);
+    int (*run)(const struct stage_context *ctx);
     const char *output;
     int distributed;   /* under MPI every rank runs it */
 };
@@ -167,14 +169,14 @@ static int prepare_run_dir(const struct case_file *c, const char *run_dir, const
  * while the rest wait.  Every rank ends with the same status. */
 static int failed_on_this_rank; /* a failure of a rank's own task, which only that rank can report */
 
-static int run_stage_on_ranks(const struct stage *stage, const struct case_file *c, const char *run_dir)
+static int run_stage_on_ranks(const struct stage *stage, const struct stage_context *ctx)
 {
     if (stage->distributed) {
-        int status = stage->run(c, run_dir);
+        int status = stage->run(ctx);
         failed_on_this_rank = status != SC_OK && status != SC_EINT && status != SC_ETERM;
         return parallel_max_status(status);
     }
-    int status = parallel_rank() == 0 ? stage->run(c, run_dir) : SC_OK;
+    int status = parallel_rank() == 0 ? stage->run(ctx) : SC_OK;
     return parallel_share_status(status);
 }
 
@@ -214,14 +216,16 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         }
     /* the impact stage takes the couple stage's seeds in a pipeline, and on its own when couple.h5 of this case is
      * there (`spraycoat impact` as one stage of a run made by `spraycoat run`) */
-    stages_set_pipeline(pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir)));
+    const struct stage_context ctx = {
+        .c = c, .run_dir = run_dir, .pipeline = pipeline,
+        .impact_from_seeds = pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir))};
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
-        SC_TRY(chosen[i]->validate(c, run_dir));
+        SC_TRY(chosen[i]->validate(&ctx));
     SC_TRY(parallel_share_status(parallel_rank() == 0 ? prepare_run_dir(c, run_dir, list, pipeline) : SC_OK));
-    stages_install_signal_handlers();
+    interrupt_install();
     for (int i = 0; i < count; i++) {
-        SC_TRY(run_stage_on_ranks(chosen[i], c, run_dir));
+        SC_TRY(run_stage_on_ranks(chosen[i], &ctx));
         if (parallel_rank() == 0)
             log_info("results in %s (%s); `spraycoat info %s` summarises them", run_dir, chosen[i]->output, run_dir);
     }

@@ -10,11 +10,11 @@
 #include "app/app.h"
 #include "render/render.h"
 
-int render_stage_validate(const struct case_file *c, const char *run_dir)
+int render_stage_validate(const struct stage_context *ctx)
 {
-    (void)run_dir; /* the outputs to draw are looked for when the stage runs: an earlier stage may make them */
+    /* the outputs to draw are looked for when the stage runs: an earlier stage may make them */
     struct render_config cfg;
-    return render_config_load(c, &cfg);
+    return render_config_load(ctx->c, &cfg);
 }
 
 static int render_stage_draw(const struct case_file *c, const char *run_dir);
@@ -89,17 +89,19 @@ static int write_stamp(const char *run_dir, const char *fingerprint)
 {
     char path[4200];
     stamp_path(run_dir, path, sizeof path);
-    struct text_out out;
-    SC_TRY(text_create_atomic(path, &out));
-    fputs(fingerprint, out.file);
-    return text_commit(&out);
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    fputs(fingerprint, out.stream);
+    return atomic_publish(&out);
 }
 
-int render_stage_run(const struct case_file *c, const char *run_dir)
+int render_stage_run(const struct stage_context *ctx)
 {
+    const struct case_file *c = ctx->c;
+    const char *run_dir = ctx->run_dir;
     char fingerprint[4096];
     render_fingerprint(c, run_dir, fingerprint, sizeof fingerprint);
-    if (stages_in_pipeline() && figures_current(run_dir, fingerprint)) {
+    if (ctx->pipeline && figures_current(run_dir, fingerprint)) {
         log_info("render: the figures and %s/report.html are up to date; nothing to do", run_dir);
         return SC_OK;
     }

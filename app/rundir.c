@@ -22,29 +22,6 @@
 const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, couple_case_keys, mpm_case_keys,
                                                     vcrit_case_keys, render_case_keys, NULL};
 
-static volatile sig_atomic_t received_signal;
-
-static void on_signal(int number) { received_signal = number; }
-
-void stages_install_signal_handlers(void)
-{
-    struct sigaction action;
-    memset(&action, 0, sizeof action);
-    action.sa_handler = on_signal;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, NULL);
-    sigaction(SIGTERM, &action, NULL);
-}
-
-int stages_interrupt_status(void)
-{
-    if (received_signal == SIGINT)
-        return SC_EINT;
-    if (received_signal == SIGTERM)
-        return SC_ETERM;
-    return SC_OK;
-}
-
 static int make_directories(const char *path)
 {
     char partial[4096];
@@ -114,77 +91,14 @@ int run_dir_output_current(const char *path, uint64_t case_hash)
     return ok;
 }
 
-int text_create_atomic(const char *path, struct text_out *out)
-{
-    if (snprintf(out->path, sizeof out->path, "%s", path) >= (int)sizeof out->path)
-        SC_FAIL(SC_EIO, "path too long: %s", path);
-    snprintf(out->tmp_path, sizeof out->tmp_path, "%s.tmp", path);
-    out->file = fopen(out->tmp_path, "w");
-    if (!out->file)
-        SC_FAIL(SC_EIO, "cannot write %s: %s", out->tmp_path, strerror(errno));
-    return SC_OK;
-}
-
-void text_abort(struct text_out *out)
-{
-    if (out->file)
-        fclose(out->file);
-    out->file = NULL;
-    unlink(out->tmp_path);
-}
-
-/* The rename is durable only once the folder holding the name is synced. */
-static int fsync_folder_of(const char *path)
-{
-    char folder[4096];
-    snprintf(folder, sizeof folder, "%s", path);
-    char *slash = strrchr(folder, '/');
-    if (slash == folder)
-        slash[1] = '\0';
-    else if (slash)
-        *slash = '\0';
-    else
-        snprintf(folder, sizeof folder, ".");
-    int fd = open(folder, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd < 0)
-        SC_FAIL(SC_EIO, "cannot open folder %s: %s", folder, strerror(errno));
-    int failed = fsync(fd) != 0 && errno != EINVAL;
-    int saved = errno;
-    close(fd);
-    if (failed)
-        SC_FAIL(SC_EIO, "cannot sync folder %s: %s", folder, strerror(saved));
-    return SC_OK;
-}
-
-int text_commit(struct text_out *out)
-{
-    errno = 0;
-    int failed = ferror(out->file) || fflush(out->file) != 0 || fsync(fileno(out->file)) != 0;
-    int saved = failed ? (errno ? errno : EIO) : 0;
-    if (fclose(out->file) != 0 && !failed) {
-        failed = 1;
-        saved = errno;
-    }
-    out->file = NULL;
-    if (!failed && rename(out->tmp_path, out->path) != 0) {
-        failed = 1;
-        saved = errno;
-    }
-    if (failed) {
-        unlink(out->tmp_path);
-        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, strerror(saved));
-    }
-    return fsync_folder_of(out->path);
-}
-
 int run_dir_write_stages(const char *run_dir, const char *stages)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/stages", run_dir);
-    struct text_out out;
-    SC_TRY(text_create_atomic(path, &out));
-    fprintf(out.file, "%s\n", stages);
-    return text_commit(&out);
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "%s\n", stages);
+    return atomic_publish(&out);
 }
 
 int run_dir_read_stages(const char *run_dir, char *out, size_t size)
@@ -240,13 +154,6 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
     return 0;
 }
 
-int stage_checkpoint_due(const struct run_settings *settings, int64_t step, int64_t last_step, double last_time)
-{
-    if (settings->checkpoint_steps > 0 && step - last_step >= settings->checkpoint_steps)
-        return 1;
-    return settings->checkpoint_wall > 0 && log_elapsed() - last_time >= settings->checkpoint_wall;
-}
-
 /* The sections each stage's results depend on: a stage's inputs are its own keys and everything upstream of it.
  * The impact stage of a pipeline case (one with [couple]) takes its bodies from couple.h5. */
 static const char *const spray_sections[] = {"run", "spray", "powder", "target", "contact", "jet", "deposition", NULL};
@@ -257,33 +164,23 @@ static const char *const pipeline_impact_sections[] = {"run", "spray", "powder",
 static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
 static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
 
-static int pipeline;
-
-void stages_set_pipeline(int on) { pipeline = on; }
-
-int stages_in_pipeline(void) { return pipeline; }
-
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/couple.h5", run_dir);
-    return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(c, "couple"));
+    struct stage_context ctx = {.c = c, .run_dir = run_dir};
+    return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(&ctx, "couple"));
 }
 
-int impact_takes_seeds(const struct case_file *c)
+uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
 {
-    (void)c;
-    return pipeline;
-}
-
-uint64_t stage_hash(const struct case_file *c, const char *stage)
-{
+    const struct case_file *c = ctx->c;
     if (strcmp(stage, "spray") == 0)
         return case_hash_sections(c, spray_sections);
     if (strcmp(stage, "couple") == 0)
         return case_hash_sections(c, couple_sections);
     if (strcmp(stage, "impact") == 0)
-        return case_hash_sections(c, impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
+        return case_hash_sections(c, ctx->impact_from_seeds ? pipeline_impact_sections : impact_sections);
     if (strcmp(stage, "vcrit") == 0)
         return case_hash_sections(c, vcrit_sections);
     return case_hash(c);

@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
 #include "core/parallel.h"
@@ -201,17 +202,17 @@ static int save_records(const struct vcrit_search *v)
 {
     char path[4096];
     records_path(v, path, sizeof path);
-    struct text_out out;
-    SC_TRY(text_create_atomic(path, &out));
-    fprintf(out.file, "# spraycoat vcrit runs of case %016llx\ndiameter,velocity,bonded,pbcp,v_rest,steps\n",
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "# spraycoat vcrit runs of case %016llx\ndiameter,velocity,bonded,pbcp,v_rest,steps\n",
             (unsigned long long)v->case_hash);
     for (size_t i = 0; i < v->done_count; i++) {
         const struct vcrit_record *r = &v->done[i];
         char a[32], b[32], c[32], d[32];
-        fprintf(out.file, "%s,%s,%d,%s,%s,%lld\n", exact(r->diameter, a, sizeof a), exact(r->velocity, b, sizeof b),
+        fprintf(out.stream, "%s,%s,%d,%s,%s,%lld\n", exact(r->diameter, a, sizeof a), exact(r->velocity, b, sizeof b),
                 r->bonded, exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), (long long)r->steps);
     }
-    return text_commit(&out);
+    return atomic_publish(&out);
 }
 
 static int add_record(struct vcrit_search *v, const struct vcrit_record *r)
@@ -309,46 +310,60 @@ static const struct vcrit_record *find_record(const struct vcrit_search *v, doub
 
 /* ---- one MPM run ---------------------------------------------------------------------------------------------- */
 
+/* One MPM run as the stage loop sees it (struct stage_ops): no checkpoints (a run is short; the search records
+ * every finished run in RUN_DIR/vcrit_runs*.csv instead). */
+struct vcrit_run {
+    struct mpm_solver *solver;
+};
+
 static int64_t picoseconds(double t) { return (int64_t)llround(t * 1e12); }
+
+static int run_step(void *owner) { return mpm_step(((struct vcrit_run *)owner)->solver); }
+
+static int run_finished(void *owner) { return mpm_finished(((struct vcrit_run *)owner)->solver); }
+
+static void run_position(void *owner, int64_t *step, double *t, int64_t *progress)
+{
+    struct mpm_counts counts = mpm_get_counts(((struct vcrit_run *)owner)->solver);
+    *step = counts.step;
+    *t = counts.t;
+    *progress = picoseconds(counts.t);
+}
+
+/* The verdict of the run's last body (the particle; the substrate is body 0). */
+static int record_outcome(struct mpm_solver *s, double d, double speed, struct vcrit_record *out)
+{
+    int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
+    if (!bonded)
+        SC_FAIL(SC_ESIM, "out of memory");
+    mpm_verdicts(s, bonded);
+    const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
+    *out = (struct vcrit_record){.diameter = d, .velocity = speed, .bonded = bonded[nb - 1] == 1,
+                                 .pbcp = diag->body[nb - 1].pbcp, .v_rest = diag->body[nb - 1].v_rest,
+                                 .steps = mpm_get_counts(s).step};
+    free(bonded);
+    return SC_OK;
+}
 
 static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit_record *out)
 {
     struct mpm_config cfg;
     SC_TRY(make_config(v, d, speed, &cfg));
-    struct mpm_solver *s = NULL;
-    int status = mpm_create(&cfg, &s);
-    char label[96];
+    struct vcrit_run run = {NULL};
+    int status = mpm_create(&cfg, &run.solver);
+    char label[96], note[4400];
     snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
-    struct progress bar;
+    snprintf(note, sizeof note, "the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with `spraycoat "
+             "resume %s`", v->done_count, v->run_dir, v->run_dir);
+    const struct stage_ops ops = {.label = label, .stage = STAGE, .run_dir = v->run_dir, .progress_unit = "ps",
+                                  .progress_total = picoseconds(cfg.t_end), .owner = &run, .step = run_step,
+                                  .finished = run_finished, .position = run_position, .interrupted_note = note};
+    struct stage_timing timing;
     if (status == SC_OK)
-        progress_begin(&bar, label, "ps", 0, picoseconds(cfg.t_end));
-    while (status == SC_OK && !mpm_finished(s)) {
-        status = mpm_step(s);
-        int interrupted = stages_interrupt_status();
-        if (status == SC_OK && interrupted) {
-            status = sc_error_set(interrupted, __FILE__, __LINE__, "vcrit: interrupted during the run at d = %g m, "
-                                  "%g m/s; the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with "
-                                  "`spraycoat resume %s`", d, speed, v->done_count, v->run_dir, v->run_dir);
-            break;
-        }
-        if (status == SC_OK)
-            progress_update(&bar, picoseconds(mpm_get_counts(s).t), NULL);
-    }
-    if (status == SC_OK) {
-        progress_end(&bar, picoseconds(mpm_get_counts(s).t));
-        int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
-        if (!bonded) {
-            status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-        } else {
-            mpm_verdicts(s, bonded);
-            const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
-            *out = (struct vcrit_record){.diameter = d, .velocity = speed, .bonded = bonded[nb - 1] == 1,
-                                         .pbcp = diag->body[nb - 1].pbcp, .v_rest = diag->body[nb - 1].v_rest,
-                                         .steps = mpm_get_counts(s).step};
-            free(bonded);
-        }
-    }
-    mpm_destroy(s);
+        status = stage_loop_run(&ops, &timing);
+    if (status == SC_OK)
+        status = record_outcome(run.solver, d, speed, out);
+    mpm_destroy(run.solver);
     mpm_config_free(&cfg);
     return status;
 }
@@ -425,20 +440,20 @@ static int write_csv(const struct vcrit_search *v, const struct vcrit_result *re
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.csv", v->run_dir);
-    struct text_out out;
-    SC_TRY(text_create_atomic(path, &out));
-    fprintf(out.file, "diameter,v_crit,pbcp,v_rest,runs\n");
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "diameter,v_crit,pbcp,v_rest,runs\n");
     for (int i = 0; i < v->count; i++) {
         const struct vcrit_result *r = &results[i];
         char a[32], b[32], c[32], d[32];
-        fprintf(out.file, "%s%s,%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
+        fprintf(out.stream, "%s%s,%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
                 exact(r->v_crit, b, sizeof b), exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), r->runs);
         if (bracketed(r))
-            fputc('\n', out.file);
+            fputc('\n', out.stream);
         else
-            fprintf(out.file, "  %s\n", r->note);
+            fprintf(out.stream, "  %s\n", r->note);
     }
-    return text_commit(&out);
+    return atomic_publish(&out);
 }
 
 static int write_runs_group(hid_t parent, int index, const struct vcrit_result *r)
@@ -615,16 +630,18 @@ static int run_search(struct vcrit_search *v, struct vcrit_result *results)
     return parallel_share_status(status);
 }
 
-int vcrit_stage_validate(const struct case_file *c, const char *run_dir)
+int vcrit_stage_validate(const struct stage_context *ctx)
 {
-    (void)run_dir; /* recorded runs of another case are ignored, never refused */
-    struct vcrit_search v = {.c = c};
-    return load_settings(c, &v);
+    /* recorded runs of another case are ignored, never refused */
+    struct vcrit_search v = {.c = ctx->c};
+    return load_settings(ctx->c, &v);
 }
 
-int vcrit_stage_run(const struct case_file *c, const char *run_dir)
+int vcrit_stage_run(const struct stage_context *ctx)
 {
-    struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(c, STAGE)};
+    const struct case_file *c = ctx->c;
+    const char *run_dir = ctx->run_dir;
+    struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(ctx, STAGE)};
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
     if (run_dir_output_current(path, v.case_hash)) {

@@ -29,6 +29,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/atomic.h"
 #include "core/error.h"
 
 /* A range bound of this magnitude or more means "no bound" (registries write 1e300 or HUGE_VAL). */
@@ -1486,79 +1487,13 @@ static int check_line_lengths(const char *path, const char *text)
     return SC_OK;
 }
 
-static int io_error(const char *what, const char *path, int error_number)
-{
-    return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot %s %s: %s", what, path, strerror(error_number));
-}
-
-static int write_and_sync(const char *path, const char *data, size_t length)
-{
-    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return io_error("create", path, errno);
-    while (length > 0) {
-        ssize_t written = write(fd, data, length);
-        if (written < 0 && errno == EINTR)
-            continue;
-        if (written < 0) {
-            int saved = errno;
-            close(fd);
-            return io_error("write", path, saved);
-        }
-        data += written;
-        length -= (size_t)written;
-    }
-    if (fsync(fd) != 0) {
-        int saved = errno;
-        close(fd);
-        return io_error("sync", path, saved);
-    }
-    if (close(fd) != 0)
-        return io_error("close", path, errno);
-    return SC_OK;
-}
-
-/* Make the rename itself durable. */
-static int sync_folder_of(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    char *folder = slash ? must_strndup(path, slash == path ? 1 : (size_t)(slash - path)) : must_strdup(".");
-    int status = SC_OK;
-    int fd = open(folder, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd < 0) {
-        status = io_error("open folder", folder, errno);
-    } else {
-        /* Some file systems cannot sync a folder (EINVAL); the data itself is synced already. */
-        if (fsync(fd) != 0 && errno != EINVAL)
-            status = io_error("sync folder", folder, errno);
-        close(fd);
-    }
-    free(folder);
-    return status;
-}
-
-static int write_file_atomically(const char *path, const char *data, size_t length)
-{
-    size_t size = strlen(path) + 5;
-    char *temporary = must_realloc(NULL, size);
-    snprintf(temporary, size, "%s.tmp", path);
-    int status = write_and_sync(temporary, data, length);
-    if (status == SC_OK && rename(temporary, path) != 0)
-        status = io_error("rename to final name", temporary, errno);
-    if (status == SC_OK)
-        status = sync_folder_of(path);
-    else
-        unlink(temporary);
-    free(temporary);
-    return status;
-}
 
 int case_write_resolved(const struct case_file *c, const char *path)
 {
     char *text = resolved_text(c, false);
     int status = check_line_lengths(path, text);
     if (status == SC_OK)
-        status = write_file_atomically(path, text, strlen(text));
+        status = atomic_write(path, text, strlen(text));
     free(text);
     return status;
 }

@@ -124,36 +124,6 @@ static int format_path(char *buf, size_t size, const char *fmt, ...)
     return status;
 }
 
-static int fsync_path(const char *path, int flags, const char *what)
-{
-    int fd = open(path, flags);
-    if (fd < 0)
-        SC_FAIL(SC_EIO, "cannot open %s %s to sync it: %s", what, path, strerror(errno));
-    if (fsync(fd) != 0) {
-        int saved_errno = errno;
-        close(fd);
-        SC_FAIL(SC_EIO, "cannot sync %s %s: %s", what, path, strerror(saved_errno));
-    }
-    if (close(fd) != 0)
-        SC_FAIL(SC_EIO, "cannot close %s %s: %s", what, path, strerror(errno));
-    return SC_OK;
-}
-
-/* fsync the folder holding `path`, so that a rename into it survives a power cut. */
-static int fsync_parent_dir(const char *path)
-{
-    char dir[H5IO_PATH_MAX];
-    SC_TRY(format_path(dir, sizeof dir, "%s", path));
-    char *slash = strrchr(dir, '/');
-    if (slash == NULL)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == dir)
-        dir[1] = '\0';
-    else
-        *slash = '\0';
-    return fsync_path(dir, O_RDONLY | O_DIRECTORY, "folder");
-}
-
 /* ---------------------------------------------------------------------------------------------------------
  * Files */
 
@@ -172,55 +142,48 @@ static hid_t strong_close_access(void)
 int h5_create_atomic(const char *path, struct h5_out *out)
 {
     out->file = H5I_INVALID_HID;
-    out->path[0] = out->tmp_path[0] = '\0';
-    SC_TRY(format_path(out->path, sizeof out->path, "%s", path));
-    SC_TRY(format_path(out->tmp_path, sizeof out->tmp_path, "%s.tmp", path));
-
+    SC_TRY(atomic_prepare(path, &out->name));
     hid_t fapl = strong_close_access();
     errno = 0;
-    out->file = fapl < 0 ? H5I_INVALID_HID : H5Fcreate(out->tmp_path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+    /* H5F_ACC_EXCL is O_EXCL: the name atomic_prepare freed is created anew, never opened through a link */
+    out->file = fapl < 0 ? H5I_INVALID_HID : H5Fcreate(out->name.tmp_path, H5F_ACC_EXCL, H5P_DEFAULT, fapl);
     int saved_errno = errno;
     char reason[H5IO_REASON_MAX];
     if (out->file < 0)
         file_reason(saved_errno, reason);
     h5io_close(fapl);
     if (out->file < 0) {
-        unlink(out->tmp_path);
-        SC_FAIL(SC_EIO, "cannot create %s: %s", out->tmp_path, reason);
+        char tmp_path[sizeof out->name.tmp_path];
+        snprintf(tmp_path, sizeof tmp_path, "%s", out->name.tmp_path);
+        out->name.tmp_path[0] = '\0'; /* not ours when the exclusive create failed: leave it */
+        SC_FAIL(SC_EIO, "cannot create %s: %s", tmp_path, reason);
     }
     return SC_OK;
 }
 
-/* Close the finished temporary file and make its bytes durable before it gets its final name. */
-static int close_and_sync_tmp(struct h5_out *out)
+/* Close the finished temporary file (its bytes are made durable by atomic_publish). */
+static int close_tmp(struct h5_out *out)
 {
     char reason[H5IO_REASON_MAX];
     if (H5Fflush(out->file, H5F_SCOPE_GLOBAL) < 0)
-        SC_FAIL(SC_EIO, "cannot flush %s: %s", out->tmp_path, hdf5_reason(reason));
+        SC_FAIL(SC_EIO, "cannot flush %s: %s", out->name.tmp_path, hdf5_reason(reason));
     herr_t closed = H5Fclose(out->file);
     out->file = H5I_INVALID_HID;
     if (closed < 0)
-        SC_FAIL(SC_EIO, "cannot close %s: %s", out->tmp_path, hdf5_reason(reason));
-    return fsync_path(out->tmp_path, O_RDONLY, "file");
+        SC_FAIL(SC_EIO, "cannot close %s: %s", out->name.tmp_path, hdf5_reason(reason));
+    return SC_OK;
 }
 
 int h5_commit(struct h5_out *out)
 {
     if (out->file < 0)
-        SC_FAIL(SC_EIO, "cannot commit %s: the file is not open", out->path);
-    int status = close_and_sync_tmp(out);
+        SC_FAIL(SC_EIO, "cannot commit %s: the file is not open", out->name.path);
+    int status = close_tmp(out);
     if (status != SC_OK) {
         h5_abort(out);
         return status;
     }
-    if (rename(out->tmp_path, out->path) != 0) {
-        int saved_errno = errno;
-        h5_abort(out);
-        SC_FAIL(SC_EIO, "cannot rename %s to %s: %s", out->tmp_path, out->path, strerror(saved_errno));
-    }
-    out->tmp_path[0] = '\0';
-    SC_TRY(fsync_parent_dir(out->path));
-    return SC_OK;
+    return atomic_publish(&out->name);
 }
 
 void h5_abort(struct h5_out *out)
@@ -228,9 +191,7 @@ void h5_abort(struct h5_out *out)
     if (out->file >= 0)
         H5Fclose(out->file);
     out->file = H5I_INVALID_HID;
-    if (out->tmp_path[0] != '\0')
-        unlink(out->tmp_path);
-    out->tmp_path[0] = '\0';
+    atomic_abort(&out->name);
 }
 
 int h5_open_read(const char *path, hid_t *file)
@@ -960,7 +921,7 @@ static int remove_stage_files(const char *run_dir, const char *stage, const char
 int checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out)
 {
     out->file = H5I_INVALID_HID;
-    out->path[0] = out->tmp_path[0] = '\0';
+    out->name.path[0] = out->name.tmp_path[0] = '\0';
     SC_TRY(check_stage_name(stage));
     if (step < 0)
         SC_FAIL(SC_EINPUT, "invalid checkpoint step %" PRId64 " for stage %s", step, stage);
@@ -1002,11 +963,11 @@ static void prune_checkpoints(const char *run_dir, const struct checkpoint_list 
 int checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep)
 {
     SC_TRY(check_stage_name(stage));
-    const char *slash = strrchr(out->path, '/');
-    int64_t committed_step = checkpoint_step_of(slash ? slash + 1 : out->path, stage, CHECKPOINT_SUFFIX);
+    const char *slash = strrchr(out->name.path, '/');
+    int64_t committed_step = checkpoint_step_of(slash ? slash + 1 : out->name.path, stage, CHECKPOINT_SUFFIX);
     if (committed_step < 0) {
         h5_abort(out);
-        SC_FAIL(SC_EINPUT, "%s is not a checkpoint of stage %s", out->path, stage);
+        SC_FAIL(SC_EINPUT, "%s is not a checkpoint of stage %s", out->name.path, stage);
     }
     SC_TRY(h5_commit(out));
     struct checkpoint_list list;

@@ -1,7 +1,7 @@
 /* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
  *
- * Every file is written as NAME.tmp, flushed, closed, fsynced, renamed to NAME and the directory fsynced,
- * so a reader never sees a half-written file.  Datasets carry a "units" attribute.  With checksum = 1 a
+ * Every file is written through core/atomic.h: NAME.tmp, flushed, closed, fsynced, renamed to NAME and the
+ * directory fsynced, so a reader never sees a half-written file.  Datasets carry a "units" attribute.  With checksum = 1 a
  * dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read. */
 #ifndef SPRAYCOAT_CORE_H5IO_H
 #define SPRAYCOAT_CORE_H5IO_H
@@ -10,18 +10,20 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define H5IO_PATH_MAX 4096
+#include "core/atomic.h"
+
+#define H5IO_PATH_MAX ATOMIC_PATH_MAX
 
 struct h5_out {
     hid_t file;
-    char path[H5IO_PATH_MAX];     /* final name */
-    char tmp_path[H5IO_PATH_MAX]; /* name while writing */
+    struct atomic_file name; /* the final name and the temporary one (core/atomic.h) */
 };
 
 /* Silence HDF5's own error printing (errors are reported through core/error.h). Call once at start-up. */
 void h5_quiet(void);
 
-/* Create path.tmp (truncating).  SC_EIO with strerror-style message on failure. */
+/* Create path.tmp exclusively (core/atomic.h: a stale file or a planted link of that name is removed first, and
+ * H5F_ACC_EXCL never follows a link).  SC_EIO with a strerror-style message on failure. */
 int h5_create_atomic(const char *path, struct h5_out *out);
 /* Flush and close, fsync, rename to the final name, fsync the folder.  SC_EIO on failure (tmp removed). */
 int h5_commit(struct h5_out *out);

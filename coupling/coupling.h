@@ -81,15 +81,13 @@ struct couple_seed {
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 
-/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs: run r has rows first[r] ... first[r + 1] - 1,
- * ordered by arrival.  SC_EIO when couple.h5 is missing or was made from another case. */
+/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (app/app.h couple_read_bodies): run r has rows
+ * first[r] ... first[r + 1] - 1, ordered by arrival. */
 struct couple_bodies {
     size_t runs, count;
     size_t *first;                   /* runs + 1 */
     double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
 };
-int couple_read_bodies(const char *run_dir, const struct case_file *c, struct couple_bodies *bodies);
-void couple_bodies_free(struct couple_bodies *bodies);
 
 /* coupling: the last flight of a sprayed particle, from the hand-off plane to the wall, through the gas layer in
  * front of the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS

@@ -1,9 +1,12 @@
 /* Cairo over the OSMesa buffer: colour bar, caption, text and tick helpers, PNG output. */
+#include <cairo-svg.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "core/atomic.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "render/render_impl.h"
 
 void render_text(cairo_t *cr, double x, double y, double size, double anchor_x, double anchor_y, const char *text)
@@ -138,14 +141,44 @@ int render_overlay_scene(struct render_image *image, const struct render_scene *
     return SC_OK;
 }
 
+/* Cairo's stream writer: the bytes go to the atomic file's stream. */
+static cairo_status_t write_to_stream(void *closure, const unsigned char *data, unsigned int length)
+{
+    FILE *stream = closure;
+    return fwrite(data, 1, length, stream) == length ? CAIRO_STATUS_SUCCESS : CAIRO_STATUS_WRITE_ERROR;
+}
+
+int render_surface_write_png(cairo_surface_t *surface, const char *path)
+{
+    /* every figure and frame passes here: the place where a long render stops at SIGINT/SIGTERM */
+    int interrupted = interrupt_status();
+    if (interrupted)
+        SC_FAIL(interrupted, "render: interrupted before %s; the figures drawn so far are kept, and the render stage "
+                "draws them all again when it runs next", path);
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    cairo_status_t status = cairo_surface_write_to_png_stream(surface, write_to_stream, out.stream);
+    if (status != CAIRO_STATUS_SUCCESS) {
+        atomic_abort(&out);
+        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
+    }
+    return atomic_publish(&out);
+}
+
+int render_svg_begin(const char *path, double width, double height, struct atomic_file *out,
+                     cairo_surface_t **surface)
+{
+    SC_TRY(atomic_open(path, out));
+    *surface = cairo_svg_surface_create_for_stream(write_to_stream, out->stream, width, height);
+    return SC_OK;
+}
+
 int render_image_write_png(const struct render_image *image, const char *path)
 {
     cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels,
                                                                    CAIRO_FORMAT_ARGB32, image->width,
                                                                    image->height, image->stride);
-    cairo_status_t status = cairo_surface_write_to_png(surface, path);
+    int status = render_surface_write_png(surface, path);
     cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS)
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
-    return SC_OK;
+    return status;
 }

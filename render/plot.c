@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "core/atomic.h"
 #include "core/error.h"
 #include "render/render_impl.h"
 
@@ -249,13 +250,19 @@ int render_plot_write(const struct render_plot *plot, const char *dir, const cha
     cairo_surface_t *surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, plot->width, plot->height);
     cairo_t *cr = cairo_create(surface);
     draw_plot(cr, plot);
-    cairo_status_t status = cairo_surface_write_to_png(surface, path);
-    SC_TRY(finish(cr, surface, path));
-    if (status != CAIRO_STATUS_SUCCESS)
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
+    int written = render_surface_write_png(surface, path);
+    int finished = finish(cr, surface, path);
+    SC_TRY(written);
+    SC_TRY(finished);
     snprintf(path, sizeof path, "%s/%s.svg", dir, name);
-    surface = cairo_svg_surface_create(path, plot->width, plot->height);
+    struct atomic_file out;
+    SC_TRY(render_svg_begin(path, plot->width, plot->height, &out, &surface));
     cr = cairo_create(surface);
     draw_plot(cr, plot);
-    return finish(cr, surface, path);
+    int status = finish(cr, surface, path);
+    if (status != SC_OK) {
+        atomic_abort(&out);
+        return status;
+    }
+    return atomic_publish(&out);
 }

@@ -6,6 +6,7 @@
 #include <cairo.h>
 #include <hdf5.h>
 
+#include "core/atomic.h"
 #include "render/render.h"
 
 /* The colour bar (with field name, unit and range) and the caption, drawn by Cairo over the image. */
@@ -56,5 +57,12 @@ int render_renderer_get(const struct render_config *cfg, struct render_renderer 
 
 /* The results table rows and the page. */
 int render_write_report(const struct render_request *req, const struct render_output *out);
+
+/* Figures go through core/atomic.h like every file: a PNG of the surface written atomically, and an SVG surface
+ * whose bytes go to out's temporary file (atomic_publish it once the surface is finished, atomic_abort on
+ * failure). */
+int render_surface_write_png(cairo_surface_t *surface, const char *path);
+int render_svg_begin(const char *path, double width, double height, struct atomic_file *out,
+                     cairo_surface_t **surface);
 
 #endif

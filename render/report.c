@@ -254,12 +254,11 @@ static void figures(FILE *f, const struct render_output *out)
 
 int render_write_report(const struct render_request *req, const struct render_output *out)
 {
-    char path[4200], tmp[4300];
+    char path[ATOMIC_PATH_MAX];
     snprintf(path, sizeof path, "%s/report.html", req->run_dir);
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
-    if (!f)
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", tmp, strerror(errno));
+    struct atomic_file out_file;
+    SC_TRY(atomic_open(path, &out_file));
+    FILE *f = out_file.stream;
     fprintf(f, "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>spraycoat report: ");
     escaped(f, req->run_dir);
     fprintf(f, "</title><style>%s</style></head><body>\n<h1>spraycoat report: ", style);
@@ -270,13 +269,5 @@ int render_write_report(const struct render_request *req, const struct render_ou
     results(f, req);
     figures(f, out);
     fprintf(f, "</body></html>\n");
-    int failed = ferror(f) | (fflush(f) != 0) | (fsync(fileno(f)) != 0);
-    int saved = errno;
-    failed |= fclose(f) != 0;
-    if (failed || rename(tmp, path) != 0) {
-        saved = failed ? saved : errno;
-        unlink(tmp);
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, strerror(saved));
-    }
-    return SC_OK;
+    return atomic_publish(&out_file);
 }

@@ -458,7 +458,7 @@ static void test_atomic_commit(void)
     const hsize_t dims[1] = {1};
     struct h5_out out;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
-    CHECK(strcmp(out.tmp_path, tmp) == 0, "tmp path \"%s\"", out.tmp_path);
+    CHECK(strcmp(out.name.tmp_path, tmp) == 0, "tmp path \"%s\"", out.name.tmp_path);
     CHECK(h5_write_doubles(out.file, "answer", 1, dims, &value, "1", 0) == SC_OK, "write: %s", sc_error_message());
     CHECK(file_exists(tmp) && !file_exists(path), "before commit: tmp %d, final %d", file_exists(tmp),
           file_exists(path));
@@ -492,8 +492,8 @@ static void test_abort_removes_tmp(void)
     struct h5_out out;
     hid_t group = H5I_INVALID_HID;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
-    char tmp[4096];
-    snprintf(tmp, sizeof tmp, "%s", out.tmp_path);
+    char tmp[sizeof out.name.tmp_path];
+    snprintf(tmp, sizeof tmp, "%s", out.name.tmp_path);
     CHECK(h5_create_group(out.file, "left_open", &group) == SC_OK, "group: %s", sc_error_message());
     h5_abort(&out); /* with a group still open */
     CHECK(!file_exists(tmp) && !file_exists(path), "after abort: tmp %d, final %d", file_exists(tmp),

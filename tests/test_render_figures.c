@@ -296,7 +296,8 @@ static void test_every_figure_of_a_run(void)
     struct fixture f;
     if (fixture_open(&f) != SC_OK)
         return;
-    CHECK(spray_stage_run(f.c, f.dir) == SC_OK, "spray: %s", sc_error_message());
+    const struct stage_context ctx = {.c = f.c, .run_dir = f.dir};
+    CHECK(spray_stage_run(&ctx) == SC_OK, "spray: %s", sc_error_message());
     CHECK(write_impact(f.dir) == SC_OK && write_vcrit(f.dir) == SC_OK, "inputs: %s", sc_error_message());
     struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
     struct render_output out;
