@@ -21,6 +21,9 @@ extern const struct cfg_key vcrit_case_keys[];
 /* Create the run directory (and parents), lock it for this process (SC_EIO if another process holds it)
  * and write RUN_DIR/case.ini, the resolved case.  SC_EIO on failure. */
 int run_dir_prepare(const char *run_dir, const struct case_file *c);
+/* Lock RUN_DIR for this process when it exists already (SC_EIO "in use" if another process holds it), before
+ * anything in it is read. */
+int run_dir_lock_existing(const char *run_dir);
 
 /* RUN_DIR/stages: the comma-separated stages the last command asked for ("spray", "impact", "vcrit"), so that
  * `spraycoat resume RUN_DIR` continues the same work.  Written atomically. */

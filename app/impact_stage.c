@@ -404,6 +404,14 @@ static int check_sphere_overlap(const struct case_file *c, const struct mpm_conf
 
 static void name_run(struct impact_run *run, long index);
 
+static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
+{
+    struct impact_run run = {.ctx = ctx, .cfg = *cfg};
+    int status = create_solver(&run);
+    mpm_destroy(run.solver);
+    return status;
+}
+
 int impact_stage_validate(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
@@ -411,6 +419,10 @@ int impact_stage_validate(const struct stage_context *ctx)
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
     int status = ctx->impact_from_seeds ? SC_OK : check_sphere_overlap(c, &cfg);
+    /* the whole set-up (every body seeded with its points, overlaps of any shapes, bodies that hold no point),
+     * so that a case that cannot run fails here, before the run directory is touched */
+    if (status == SC_OK && !ctx->impact_from_seeds)
+        status = check_set_up(ctx, &cfg);
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;

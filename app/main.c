@@ -156,12 +156,50 @@ static const struct stage stages[] = {
     {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0},
 };
 
+/* The stages a record names (RUN_DIR/stages: "run:" for a pipeline, then comma-separated names) as flags by
+ * index of stages[]; unknown names are left out.  1 when the record is a pipeline's. */
+static int record_stages(const char *record, int *chosen)
+{
+    int pipeline = strncmp(record, RUN_PREFIX, strlen(RUN_PREFIX)) == 0;
+    for (const char *p = record + (pipeline ? strlen(RUN_PREFIX) : 0); *p;) {
+        size_t length = strcspn(p, ",\n");
+        for (size_t i = 0; i < sizeof stages / sizeof stages[0]; i++)
+            if (strlen(stages[i].name) == length && strncmp(stages[i].name, p, length) == 0)
+                chosen[i] = 1;
+        p += length + (p[length] != '\0');
+    }
+    return pipeline;
+}
+
+/* What RUN_DIR/stages must say after this command: its own stages, and those of the earlier record when that
+ * was made for the same case, so that a later single-stage command never drops the unfinished stages of an
+ * interrupted pipeline (resume continues all of them; each skips what is done). */
+static void merged_record(const struct case_file *c, const char *run_dir, const char *list, int pipeline,
+                          char *record, size_t size)
+{
+    int chosen[sizeof stages / sizeof stages[0]] = {0};
+    char old[256], path[4200];
+    struct case_file *old_case = NULL;
+    snprintf(path, sizeof path, "%s/case.ini", run_dir);
+    if (access(path, R_OK) == 0 && run_dir_read_stages(run_dir, old, sizeof old) == SC_OK &&
+        case_load(path, spraycoat_registry, &old_case) == SC_OK && case_hash(old_case) == case_hash(c))
+        pipeline |= record_stages(old, chosen);
+    case_free(old_case);
+    sc_error_clear();
+    record_stages(list, chosen);
+    size_t used = (size_t)snprintf(record, size, "%s", pipeline ? RUN_PREFIX : "");
+    for (size_t i = 0; i < sizeof stages / sizeof stages[0] && used < size; i++)
+        if (chosen[i])
+            used += (size_t)snprintf(record + used, size - used, "%s%s", used > (pipeline ? strlen(RUN_PREFIX) : 0)
+                                     ? "," : "", stages[i].name);
+}
+
 /* Rank 0 makes and locks the run directory and records the stages (RUN_DIR/stages) for `resume`. */
 static int prepare_run_dir(const struct case_file *c, const char *run_dir, const char *list, int pipeline)
 {
-    SC_TRY(run_dir_prepare(run_dir, c));
     char record[300];
-    snprintf(record, sizeof record, "%s%s", pipeline ? RUN_PREFIX : "", list);
+    merged_record(c, run_dir, list, pipeline, record, sizeof record);
+    SC_TRY(run_dir_prepare(run_dir, c));
     return run_dir_write_stages(run_dir, record);
 }
 
@@ -194,6 +232,8 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
 {
     const struct stage *chosen[8];
     int count = 0;
+    if (list[strspn(list, ", ")] == '\0')
+        SC_FAIL(SC_EINPUT, "no stage to run ('%s'; allowed: spray, couple, impact, vcrit, render)", list);
     for (const char *p = list; *p;) {
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
@@ -219,6 +259,8 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     const struct stage_context ctx = {
         .c = c, .run_dir = run_dir, .pipeline = pipeline,
         .impact_from_seeds = pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir))};
+    /* one process per run directory, and before anything there is read (its checkpoints by the validation) */
+    SC_TRY(parallel_share_status(parallel_rank() == 0 ? run_dir_lock_existing(run_dir) : SC_OK));
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
         SC_TRY(chosen[i]->validate(&ctx));

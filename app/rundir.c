@@ -48,8 +48,12 @@ static int make_directories(const char *path)
 /* One process per run directory: two runs writing the same checkpoints and outputs would clash.  The
  * lock is an flock on the directory itself (no lock file to leave behind); the kernel drops it when the
  * process ends, however it ends, so a killed run never leaves the directory locked. */
+static char locked_dir[4096]; /* the run directory this process holds locked ("" none) */
+
 static int lock_run_dir(const char *run_dir)
 {
+    if (strcmp(locked_dir, run_dir) == 0)
+        return SC_OK;
     int fd = open(run_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (fd < 0)
         SC_FAIL(SC_EIO, "cannot open run directory %s: %s", run_dir, strerror(errno));
@@ -61,7 +65,16 @@ static int lock_run_dir(const char *run_dir)
                     "directory", run_dir);
         SC_FAIL(SC_EIO, "cannot lock run directory %s: %s", run_dir, strerror(saved));
     }
+    snprintf(locked_dir, sizeof locked_dir, "%s", run_dir);
     return SC_OK; /* the descriptor stays open, and the lock held, until the process exits */
+}
+
+int run_dir_lock_existing(const char *run_dir)
+{
+    struct stat info;
+    if (stat(run_dir, &info) != 0 || !S_ISDIR(info.st_mode))
+        return SC_OK; /* made and locked by run_dir_prepare; nothing in it to read before */
+    return lock_run_dir(run_dir);
 }
 
 int run_dir_prepare(const char *run_dir, const struct case_file *c)
