@@ -3,14 +3,7 @@
 #ifndef SPRAYCOAT_DEM_MATERIAL_H
 #define SPRAYCOAT_DEM_MATERIAL_H
 
-struct dem_material {
-    double density;        /* kg/m3 (particles; unused for the target) */
-    double shear_modulus;  /* G, Pa */
-    double bulk_modulus;   /* K, Pa */
-    double yield_stress;   /* Y, Pa */
-    double surface_energy; /* gamma, J/m2 */
-    double friction;       /* Coulomb coefficient mu, - */
-};
+#include "dem/dem.h"   /* struct dem_material */
 
 /* E = 9KG/(3K+G) */
 double material_youngs_modulus(const struct dem_material *m);

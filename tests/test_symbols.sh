@@ -5,8 +5,8 @@
 #     mpm/, render_ in render/, couple_ or coupling_ in coupling/; core/ and app/ are sets of small modules, each
 #     file with the prefixes listed below;
 #   - a module's private headers (every M/*.h but the public M/M.h) are included only by M/*.c and M/*.h, never
-#     by the public header, and by a test only when the test says so in a comment that names the header and the
-#     words "module-private" (a white-box test of that module).
+#     by the public header, and by a test only when the test says so in a comment that names the header and says
+#     "module-private" (a white-box test of that module).
 # Usage: tests/test_symbols.sh [BUILD] (default: the folder of $SPRAYCOAT_BIN, else build).
 set -u
 cd "$(dirname "$0")/.."
@@ -102,8 +102,8 @@ check_private() {
                     bad=$((bad + 1)) ;;
                 "$module"/*) ;;
                 tests/*)
-                    if ! grep -v '#include' "$file" | grep -F "$header" | grep -q 'module-private'; then
-                        echo "  $file includes the private $header without a comment saying so (\"module-private ... $header\")"
+                    if ! grep -q 'module-private' "$file" || ! grep -v '#include' "$file" | grep -qF "$header"; then
+                        echo "  $file includes the private $header without a module-private comment naming it"
                         bad=$((bad + 1))
                     fi ;;
                 *)
