@@ -12,6 +12,8 @@
 #ifndef SPRAYCOAT_MPM_MATERIAL_H
 #define SPRAYCOAT_MPM_MATERIAL_H
 
+#include "mpm/mpm.h"   /* struct bulk_viscosity */
+
 enum mpm_strength { MPM_STRENGTH_PTW, MPM_STRENGTH_ELASTIC };
 
 struct mpm_material {
@@ -96,12 +98,6 @@ struct mpm_point_state {
     double yield_stress;   /* current flow stress, Pa */
     double melted;         /* 1 once T >= Tm at the last update, else 0 */
     double plastic_increment; /* delta eps_p of the last update: the first guess of the next return */
-};
-
-struct bulk_viscosity {
-    double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
-                                 (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
-    double length;            /* l, the cell size DCell (m) */
 };
 
 /* What the update did, for diagnostics and bonding. */
