@@ -99,6 +99,16 @@ int vcrit_stage_run(const struct case_file *c, const char *run_dir);
 int couple_stage_validate(const struct case_file *c, const char *run_dir);
 int couple_stage_run(const struct case_file *c, const char *run_dir);
 extern const struct cfg_key couple_case_keys[];
+/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (the couple stage's output, read by the impact
+ * stage): run r has rows first[r] ... first[r + 1] - 1, ordered by arrival.  SC_EIO when couple.h5 is missing or
+ * was made from another case. */
+struct couple_bodies {
+    size_t runs, count;
+    size_t *first;                   /* runs + 1 */
+    double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
+};
+int couple_read_bodies(const char *run_dir, const struct case_file *c, struct couple_bodies *bodies);
+void couple_bodies_free(struct couple_bodies *bodies);
 
 /* SIGINT/SIGTERM: set a flag the stages poll between steps. */
 void stages_install_signal_handlers(void);

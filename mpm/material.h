@@ -48,19 +48,12 @@ double ptw_xi_dot(const struct mpm_material *m, double rho, double G);
 double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
                        double G);
 
-/* The same with T^ = T/Tm (< 1) and xi_dot precomputed, for repeated evaluations at one point. */
-double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double T_hat, double xi_dot,
-                          double G);
-
-/* The flow stress and its partial derivatives, for the Newton return of stress_update.c. */
+/* The flow stress and its partial derivatives, for the Newton return of stress_update.c (mpm/ptw_lane.h). */
 struct ptw_flow {
     double stress;     /* sigma_y = 2 G tau, Pa (Eq. 2.4) */
     double d_eps;      /* d sigma_y / d eps_p */
     double d_log_rate; /* d sigma_y / d ln(rate) */
 };
-/* PTW at eps_p and log_ratio = ln(rate / (gamma xi_dot)) (the rate already floored), T^ = T/Tm (< 1). */
-void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
-                              struct ptw_flow *flow);
 
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
