@@ -98,7 +98,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
                         struct render_camera *cam, const struct render_image **image);
 int render_image_write_png(const struct render_image *image, const char *path);
 
-/* ---- 2-D plots --------------------------------------------------------------------------------------------- */
+/* ---- 2-D plots: histograms (the plot writer itself is module-private, render/render_impl.h) ---------------- */
 
 struct render_histogram {
     int bins;
