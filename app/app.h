@@ -133,12 +133,18 @@ int vcrit_stage_run(const struct stage_context *ctx);
  * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when
  * spray.h5 is missing or from another case. */
 int couple_stage_validate(const struct stage_context *ctx);
-/* The seeds of RUN_DIR/couple.h5 as the impact runs' bodies.  SC_EIO when couple.h5 is missing or was made from
- * another case. */
-int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
-void couple_bodies_free(struct couple_bodies *bodies);
 int couple_stage_run(const struct stage_context *ctx);
 extern const struct cfg_key couple_case_keys[];
+/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (the couple stage's output, read by the impact
+ * stage): run r has rows first[r] ... first[r + 1] - 1, ordered by arrival.  SC_EIO when couple.h5 is missing or
+ * was made from another case. */
+struct couple_bodies {
+    size_t runs, count;
+    size_t *first;                   /* runs + 1 */
+    double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
+};
+int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
+void couple_bodies_free(struct couple_bodies *bodies);
 
 
 /* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into

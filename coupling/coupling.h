@@ -81,14 +81,6 @@ struct couple_seed {
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 
-/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (app/app.h couple_read_bodies): run r has rows
- * first[r] ... first[r + 1] - 1, ordered by arrival. */
-struct couple_bodies {
-    size_t runs, count;
-    size_t *first;                   /* runs + 1 */
-    double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
-};
-
 /* coupling: the last flight of a sprayed particle, from the hand-off plane to the wall, through the gas layer in
  * front of the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS
  * CVODE (BDF, Newton iteration with a dense direct linear solver).
@@ -126,10 +118,6 @@ struct flight_result {
 
 /* Gas velocity u[3] at x[3] (the formula above). */
 void flight_gas_velocity(const struct flight_layer *layer, const double x[3], double u[3]);
-
-/* The time limit of a flight starting at z0 with axial speed vz0: 100 times the time to the wall at that speed
- * (at least 1 m/s). */
-double flight_time_limit(const struct flight_layer *layer, double z0, double vz0);
 
 struct flight_solver;
 

@@ -44,7 +44,9 @@ void flight_gas_velocity(const struct flight_layer *layer, const double x[3], do
     }
 }
 
-double flight_time_limit(const struct flight_layer *layer, double z0, double vz0)
+/* The time limit of a flight starting at z0 with axial speed vz0: 100 times the time to the wall at that speed
+ * (at least 1 m/s). */
+static double flight_time_limit(const struct flight_layer *layer, double z0, double vz0)
 {
     return 100.0 * fabs(layer->wall_z - z0) / fmax(vz0, 1.0);
 }

@@ -8,15 +8,8 @@
 #ifndef SPRAYCOAT_DEM_CONTACT_H
 #define SPRAYCOAT_DEM_CONTACT_H
 
+#include "dem/dem.h"   /* struct contact_law */
 #include "dem/material.h"
-
-enum restitution_model { RESTITUTION_JOHNSON, RESTITUTION_CONSTANT };
-
-struct contact_law {
-    enum restitution_model model;
-    double restitution;             /* e for RESTITUTION_CONSTANT, in [0, 1] */
-    double friction_regularization; /* epsilon of Eq. (11), m/s */
-};
 
 /* Johnson's restitution and phase durations, Eqs. (16)-(19). */
 struct restitution {

@@ -17,10 +17,6 @@
 #include <stdint.h>
 
 #include "core/config.h"
-#include "dem/contact.h"
-#include "dem/gas.h"
-#include "dem/material.h"
-#include "dem/sizes.h"
 
 #define DEM_FORMAT "spraycoat-spray"
 #define DEM_FORMAT_VERSION 2 /* 2: checkpoints hold the kept drag and its history (/drag) */
@@ -29,6 +25,63 @@ enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
 enum dem_particle_state { DEM_FLYING = 0, DEM_DEPOSITED = 1 };
 enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1 };
+
+/* ---- The parts of the configuration that coupling/ and app/ read and fill: the carrier gas (Mukherjee & Zohdi
+ * Section 2.3, Eqs. 24-27, dem/gas.c), the materials (Table 1, dem/material.c), the size law (Section 4.2,
+ * dem/sizes.c) and the contact law (Sections 2.1-2.2, dem/contact.c).  The rest of those files' API is
+ * module-private (dem/gas.h, dem/material.h, dem/sizes.h, dem/contact.h). ---- */
+
+/* The carrier gas.  Coordinates: nozzle exit centre at the origin, spray axis +z; the jet's streamwise coordinate
+ * is x = z + virtual_origin and its cross-stream coordinate r = sqrt(x^2 + y^2) of the spray frame. */
+enum jet_model { JET_BICKLEY, JET_UNIFORM, JET_NONE };
+enum drag_law { DRAG_HAIDER_LEVENSPIEL, DRAG_STOKES };
+
+struct gas_field {
+    enum jet_model model;
+    enum drag_law drag;
+    double c1, c2, c3;          /* jet constants of Eqs. (26)-(27), SI (C1: m^(4/3)/s, C2: m^(5/3)/s, C3: m^(-1/3)) */
+    double virtual_origin;      /* m, distance of the jet's virtual origin behind the nozzle exit */
+    double core_length;         /* m, potential core: for z < core_length the profile of z = core_length
+                                   is used without entrainment (no radial velocity) */
+    double uniform_velocity;    /* m/s along +z, JET_UNIFORM */
+    double density;             /* rho_f, kg/m3 */
+    double kinematic_viscosity; /* nu_f, m2/s */
+};
+
+/* Gas velocity u[3] at position x[3] (JET_NONE: still gas, zero).  Public with gas_drag_force: the couple stage
+ * and coupling/flight.c use the spray's gas. */
+void gas_velocity(const struct gas_field *gas, const double x[3], double u[3]);
+
+/* Drag force f[3] (N) on a sphere of diameter d moving at v[3] in gas moving at u[3], Eq. (24).
+ * JET_NONE means no gas at all: zero force. */
+void gas_drag_force(const struct gas_field *gas, double diameter, const double v[3], const double u[3],
+                    double f[3]);
+
+/* Elastic-plastic constants of a powder or target material.  E and nu follow from the shear and bulk moduli. */
+struct dem_material {
+    double density;        /* kg/m3 (particles; unused for the target) */
+    double shear_modulus;  /* G, Pa */
+    double bulk_modulus;   /* K, Pa */
+    double yield_stress;   /* Y, Pa */
+    double surface_energy; /* gamma, J/m2 */
+    double friction;       /* Coulomb coefficient mu, - */
+};
+
+/* Particle sizes: a (truncated) Weibull law, Eqs. (36)-(37). */
+struct size_distribution {
+    int monodisperse;       /* 1: every particle has the median diameter */
+    double median_diameter; /* m */
+    double shape;           /* Weibull n */
+    double d_min, d_max;    /* truncation, m (0 and INFINITY: none) */
+};
+
+/* The impulse contact law of rigid spheres. */
+enum restitution_model { RESTITUTION_JOHNSON, RESTITUTION_CONSTANT };
+struct contact_law {
+    enum restitution_model model;
+    double restitution;             /* e for RESTITUTION_CONSTANT, in [0, 1] */
+    double friction_regularization; /* epsilon of Eq. (11), m/s */
+};
 
 struct dem_config {
     uint32_t seed;

@@ -6,7 +6,11 @@
 #include <stdint.h>
 
 #include "core/balance.h"
+#include "dem/contact.h"
 #include "dem/dem.h"
+#include "dem/gas.h"
+#include "dem/material.h"
+#include "dem/sizes.h"
 
 /* The drag at a particle's state as the integrator left it (dem/integrate.c): the force (N), the slip (m/s) and
  * Re^0.6459 there, valid while `kept` is 1 (whatever changes x or v outside the integrator clears it); and the

@@ -3,13 +3,13 @@
 #include "dem/material.h"
 
 /* Isotropic elasticity: E = 9KG/(3K+G). */
-double material_youngs_modulus(const struct dem_material *m)
+static double material_youngs_modulus(const struct dem_material *m)
 {
     return 9.0 * m->bulk_modulus * m->shear_modulus / (3.0 * m->bulk_modulus + m->shear_modulus);
 }
 
 /* Isotropic elasticity: nu = (3K-2G)/(2(3K+G)). */
-double material_poisson_ratio(const struct dem_material *m)
+static double material_poisson_ratio(const struct dem_material *m)
 {
     return (3.0 * m->bulk_modulus - 2.0 * m->shear_modulus) /
            (2.0 * (3.0 * m->bulk_modulus + m->shear_modulus));

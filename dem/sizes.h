@@ -2,12 +2,7 @@
 #ifndef SPRAYCOAT_DEM_SIZES_H
 #define SPRAYCOAT_DEM_SIZES_H
 
-struct size_distribution {
-    int monodisperse;       /* 1: every particle has the median diameter */
-    double median_diameter; /* m */
-    double shape;           /* Weibull n */
-    double d_min, d_max;    /* truncation, m (0 and INFINITY: none) */
-};
+#include "dem/dem.h"   /* struct size_distribution */
 
 /* lambda = D_median / ln(2)^(1/n), Eq. (37) */
 double weibull_scale(double median_diameter, double shape);

@@ -12,6 +12,8 @@
 #ifndef SPRAYCOAT_MPM_MATERIAL_H
 #define SPRAYCOAT_MPM_MATERIAL_H
 
+#include "mpm/mpm.h"   /* struct bulk_viscosity */
+
 enum mpm_strength { MPM_STRENGTH_PTW, MPM_STRENGTH_ELASTIC };
 
 struct mpm_material {
@@ -46,19 +48,12 @@ double ptw_xi_dot(const struct mpm_material *m, double rho, double G);
 double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
                        double G);
 
-/* The same with T^ = T/Tm (< 1) and xi_dot precomputed, for repeated evaluations at one point. */
-double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double T_hat, double xi_dot,
-                          double G);
-
-/* The flow stress and its partial derivatives, for the Newton return of stress_update.c. */
+/* The flow stress and its partial derivatives, for the Newton return of stress_update.c (mpm/ptw_lane.h). */
 struct ptw_flow {
     double stress;     /* sigma_y = 2 G tau, Pa (Eq. 2.4) */
     double d_eps;      /* d sigma_y / d eps_p */
     double d_log_rate; /* d sigma_y / d ln(rate) */
 };
-/* PTW at eps_p and log_ratio = ln(rate / (gamma xi_dot)) (the rate already floored), T^ = T/Tm (< 1). */
-void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
-                              struct ptw_flow *flow);
 
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
@@ -96,12 +91,6 @@ struct mpm_point_state {
     double yield_stress;   /* current flow stress, Pa */
     double melted;         /* 1 once T >= Tm at the last update, else 0 */
     double plastic_increment; /* delta eps_p of the last update: the first guess of the next return */
-};
-
-struct bulk_viscosity {
-    double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
-                                 (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
-    double length;            /* l, the cell size DCell (m) */
 };
 
 /* What the update did, for diagnostics and bonding. */

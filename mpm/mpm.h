@@ -19,7 +19,6 @@
 #include <stdint.h>
 
 #include "core/config.h"
-#include "mpm/material.h"
 
 #define MPM_FORMAT "spraycoat-impact"
 #define MPM_FORMAT_VERSION 1
@@ -41,6 +40,17 @@ struct mpm_body {
     double d, h;      /* diameter (or box side) and height (cylinder, box) */
     int material;     /* index into mpm_config.materials */
     int substrate;    /* 1 for the substrate body */
+};
+
+/* A material's constants (PTW strength, MTS shear modulus, Mie-Grueneisen EOS, SCG melt, heating): defined with
+ * the material models and the stress update in the module-private mpm/material.h. */
+struct mpm_material;
+
+/* Artificial bulk viscosity of the stress update. */
+struct bulk_viscosity {
+    double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
+                                 (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
+    double length;            /* l, the cell size DCell (m) */
 };
 
 struct mpm_config {

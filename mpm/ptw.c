@@ -14,6 +14,13 @@
 
 #define PI 3.14159265358979323846
 
+/* The flow stress with T^ = T/Tm (< 1) and xi_dot precomputed, and at log_ratio = ln(rate / (gamma xi_dot)) (the
+ * rate already floored). */
+static double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double that, double xi,
+                                 double G);
+static void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat,
+                                     double G, struct ptw_flow *flow);
+
 /* MTS shear modulus, Tang Eq. 2.6: G0 - D / (exp(T0/T) - 1), clamped at 0; G0 at T <= 0 (the 0 K limit). */
 double mts_shear_modulus(const struct mpm_material *m, double T)
 {
@@ -41,7 +48,8 @@ double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, 
     return ptw_flow_stress_at(m, eps_p, rate, T > 0.0 ? T / Tm : 0.0, ptw_xi_dot(m, rho, G), G);
 }
 
-double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double that, double xi, double G)
+static double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double that, double xi,
+                                 double G)
 {
     if (rate < m->rate_floor)
         rate = m->rate_floor;
@@ -53,8 +61,8 @@ double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rat
 }
 
 /* The lane form of mpm/ptw_lane.h on one point: the bits of every lane of stress_update.c's blocks. */
-void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat, double G,
-                              struct ptw_flow *flow)
+static void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double log_ratio, double T_hat,
+                                     double G, struct ptw_flow *flow)
 {
     *flow = ptw_lane_flow(m, m->ptw_p < PTW_P_SMALL, eps_p, log_ratio, T_hat, G);
 }

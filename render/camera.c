@@ -2,7 +2,7 @@
 #include <math.h>
 
 #include "core/error.h"
-#include "render/render.h"
+#include "render/render_impl.h"
 
 struct render_box render_colorbar_box(const struct render_scene *scene)
 {

@@ -86,11 +86,7 @@ struct render_box {
 struct render_box render_colorbar_box(const struct render_scene *scene);
 struct render_box render_scene_box(const struct render_scene *scene);
 
-/* Frame the camera on the bounding box of the spheres the view shows (for SECTION those with y >= section_y). */
-int render_camera_frame(const struct render_spheres *s, const struct render_scene *scene, struct render_camera *cam);
 void render_camera_project(const struct render_camera *cam, const double x[3], double *px, double *py);
-/* 1 when the view shows sphere i (SECTION hides the half y < section_y). */
-int render_view_shows(const struct render_scene *scene, const double x[3]);
 
 /* An OSMesa context with its buffer, reused from frame to frame. */
 struct render_renderer;
@@ -102,7 +98,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
                         struct render_camera *cam, const struct render_image **image);
 int render_image_write_png(const struct render_image *image, const char *path);
 
-/* ---- 2-D plots --------------------------------------------------------------------------------------------- */
+/* ---- 2-D plots: histograms (the plot writer itself is module-private, render/render_impl.h) ---------------- */
 
 struct render_histogram {
     int bins;
@@ -115,30 +111,6 @@ struct render_histogram {
  * memory. */
 int render_histogram_fill(const double *values, size_t n, int bins, double lo, double hi, struct render_histogram *h);
 void render_histogram_free(struct render_histogram *h);
-
-enum render_series_kind { RENDER_LINE, RENDER_DASHED, RENDER_MARKERS, RENDER_OPEN_MARKERS, RENDER_BARS };
-struct render_series {
-    const char *label;            /* legend text (NULL: not in the legend) */
-    enum render_series_kind kind;
-    size_t count;
-    const double *x, *y;          /* RENDER_BARS: x = left edges, y = heights, each bar bar_width wide */
-    double bar_width;
-    int colour;                   /* index into the palette (colour-blind safe, Okabe & Ito) */
-};
-struct render_panel {
-    const char *title, *xlabel, *ylabel;
-    double xmin, xmax, ymin, ymax; /* NAN: from the data */
-    int y_from_zero;              /* the automatic y range includes 0 */
-    int series_count;
-    const struct render_series *series;
-};
-struct render_plot {
-    int width, height;            /* px (PNG) and pt (SVG) */
-    int panel_count;              /* 1 or 2 (side by side) */
-    struct render_panel panels[2];
-};
-/* Write DIR/NAME.png and DIR/NAME.svg.  SC_EIO on failure. */
-int render_plot_write(const struct render_plot *plot, const char *dir, const char *name);
 
 /* ---- the render stage -------------------------------------------------------------------------------------- */
 

@@ -9,6 +9,39 @@
 #include "core/atomic.h"
 #include "render/render.h"
 
+/* ---- the camera (render/camera.c) ---- */
+
+/* Frame the camera on the bounding box of the spheres the view shows (for SECTION those with y >= section_y). */
+int render_camera_frame(const struct render_spheres *s, const struct render_scene *scene, struct render_camera *cam);
+/* 1 when the view shows sphere i (SECTION hides the half y < section_y). */
+int render_view_shows(const struct render_scene *scene, const double x[3]);
+
+/* ---- 2-D plots (render/plot.c): lines, markers and bars in one or two panels ---- */
+
+enum render_series_kind { RENDER_LINE, RENDER_DASHED, RENDER_MARKERS, RENDER_OPEN_MARKERS, RENDER_BARS };
+struct render_series {
+    const char *label;            /* legend text (NULL: not in the legend) */
+    enum render_series_kind kind;
+    size_t count;
+    const double *x, *y;          /* RENDER_BARS: x = left edges, y = heights, each bar bar_width wide */
+    double bar_width;
+    int colour;                   /* index into the palette (colour-blind safe, Okabe & Ito) */
+};
+struct render_panel {
+    const char *title, *xlabel, *ylabel;
+    double xmin, xmax, ymin, ymax; /* NAN: from the data */
+    int y_from_zero;              /* the automatic y range includes 0 */
+    int series_count;
+    const struct render_series *series;
+};
+struct render_plot {
+    int width, height;            /* px (PNG) and pt (SVG) */
+    int panel_count;              /* 1 or 2 (side by side) */
+    struct render_panel panels[2];
+};
+/* Write DIR/NAME.png and DIR/NAME.svg.  SC_EIO on failure. */
+int render_plot_write(const struct render_plot *plot, const char *dir, const char *name);
+
 /* The colour bar (with field name, unit and range) and the caption, drawn by Cairo over the image. */
 int render_overlay_scene(struct render_image *image, const struct render_scene *scene);
 

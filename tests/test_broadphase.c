@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "check.h"
+/* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "dem/dem_impl.h"
 
 #define CUBE 1.5e-3  /* m: particles bounce inside [0, CUBE]^3 */

@@ -2,6 +2,8 @@
  * the adhesion capture speed, restitution and energy of normal impacts, conservation laws of oblique pair
  * collisions, Chung & Ooi (2011) tests 4 and 7 against the rigid-body solution, the friction
  * regularisation, and separating bodies. */
+/* A white-box test: includes the module-private headers dem/contact.h and dem/material.h (only tests may;
+ * tests/test_symbols.sh). */
 #include "dem/contact.h"
 #include "dem/material.h"
 #include "tests/check.h"

@@ -1,6 +1,7 @@
 /* The carrier gas (dem/gas.c): Haider-Levenspiel drag against the reference table and an independent
  * library value, the jet profile against its table, the continuity of the planar jet, the centreline
  * decay and the potential core, drag forces, response times, and terminal velocities. */
+/* A white-box test: includes the module-private header dem/gas.h (only tests may; tests/test_symbols.sh). */
 #include "dem/gas.h"
 #include "tests/check.h"
 #include "tests/verification_csv.h"

@@ -3,6 +3,7 @@
  * Mie-Grueneisen EOS against hand values and its continuity at mu = 0. */
 #include <string.h>
 
+/* A white-box test: includes the module-private header mpm/material.h (only tests may; tests/test_symbols.sh). */
 #include "mpm/material.h"
 #include "tests/check.h"
 #include "tests/verification_csv.h"

@@ -5,6 +5,7 @@
 
 #include "check.h"
 #include "impact_fixture.h"
+/* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
 #include "mpm/mpm_impl.h"
 
 /* An elastic material: no yield, p = rho0 c0^2 mu exactly (s = gamma0 = 0), no melt within reach. */

@@ -4,6 +4,7 @@
  * the elastic EOS path against an independent integration, and the artificial bulk viscosity. */
 #include <string.h>
 
+/* A white-box test: includes the module-private header mpm/material.h (only tests may; tests/test_symbols.sh). */
 #include "mpm/material.h"
 #include "tests/check.h"
 

@@ -2,6 +2,7 @@
  * distribution functions, and inverse-transform sampling with the counter-based RNG (moments and a
  * one-sample Kolmogorov-Smirnov test, also for the truncated law). */
 #include "core/rng.h"
+/* A white-box test: includes the module-private header dem/sizes.h (only tests may; tests/test_symbols.sh). */
 #include "dem/sizes.h"
 #include "tests/check.h"
 #include "tests/verification_csv.h"

@@ -7,6 +7,7 @@
 #include "check.h"
 #include "tests/verification_csv.h"
 #include "core/h5io.h"
+/* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "dem/dem_impl.h"
 #include "spray_fixture.h"
 
