@@ -33,7 +33,7 @@ int run_dir_write_stages(const char *run_dir, const char *stages);
 int run_dir_read_stages(const char *run_dir, char *out, size_t size);
 
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
-int case_section_given(const struct case_file *c, const char *section);
+int app_case_section_given(const struct case_file *c, const char *section);
 
 /* What a stage works on, passed to every stage (no global state decides where a stage takes its input). */
 struct stage_context {
@@ -143,8 +143,8 @@ struct couple_bodies {
     size_t *first;                   /* runs + 1 */
     double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
 };
-int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
-void couple_bodies_free(struct couple_bodies *bodies);
+int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
+void couple_stage_bodies_free(struct couple_bodies *bodies);
 
 
 /* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into

@@ -33,28 +33,28 @@ enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1 };
 
 /* The carrier gas.  Coordinates: nozzle exit centre at the origin, spray axis +z; the jet's streamwise coordinate
  * is x = z + virtual_origin and its cross-stream coordinate r = sqrt(x^2 + y^2) of the spray frame. */
-enum jet_model { JET_BICKLEY, JET_UNIFORM, JET_NONE };
-enum drag_law { DRAG_HAIDER_LEVENSPIEL, DRAG_STOKES };
+enum dem_jet_model { DEM_JET_BICKLEY, DEM_JET_UNIFORM, DEM_JET_NONE };
+enum dem_drag_law { DEM_DRAG_HAIDER_LEVENSPIEL, DEM_DRAG_STOKES };
 
-struct gas_field {
-    enum jet_model model;
-    enum drag_law drag;
+struct dem_gas_field {
+    enum dem_jet_model model;
+    enum dem_drag_law drag;
     double c1, c2, c3;          /* jet constants of Eqs. (26)-(27), SI (C1: m^(4/3)/s, C2: m^(5/3)/s, C3: m^(-1/3)) */
     double virtual_origin;      /* m, distance of the jet's virtual origin behind the nozzle exit */
     double core_length;         /* m, potential core: for z < core_length the profile of z = core_length
                                    is used without entrainment (no radial velocity) */
-    double uniform_velocity;    /* m/s along +z, JET_UNIFORM */
+    double uniform_velocity;    /* m/s along +z, DEM_JET_UNIFORM */
     double density;             /* rho_f, kg/m3 */
     double kinematic_viscosity; /* nu_f, m2/s */
 };
 
-/* Gas velocity u[3] at position x[3] (JET_NONE: still gas, zero).  Public with gas_drag_force: the couple stage
+/* Gas velocity u[3] at position x[3] (DEM_JET_NONE: still gas, zero).  Public with dem_gas_drag_force: the couple stage
  * and coupling/flight.c use the spray's gas. */
-void gas_velocity(const struct gas_field *gas, const double x[3], double u[3]);
+void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double u[3]);
 
 /* Drag force f[3] (N) on a sphere of diameter d moving at v[3] in gas moving at u[3], Eq. (24).
- * JET_NONE means no gas at all: zero force. */
-void gas_drag_force(const struct gas_field *gas, double diameter, const double v[3], const double u[3],
+ * DEM_JET_NONE means no gas at all: zero force. */
+void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
                     double f[3]);
 
 /* Elastic-plastic constants of a powder or target material.  E and nu follow from the shear and bulk moduli. */
@@ -68,7 +68,7 @@ struct dem_material {
 };
 
 /* Particle sizes: a (truncated) Weibull law, Eqs. (36)-(37). */
-struct size_distribution {
+struct dem_size_distribution {
     int monodisperse;       /* 1: every particle has the median diameter */
     double median_diameter; /* m */
     double shape;           /* Weibull n */
@@ -76,10 +76,10 @@ struct size_distribution {
 };
 
 /* The impulse contact law of rigid spheres. */
-enum restitution_model { RESTITUTION_JOHNSON, RESTITUTION_CONSTANT };
-struct contact_law {
-    enum restitution_model model;
-    double restitution;             /* e for RESTITUTION_CONSTANT, in [0, 1] */
+enum dem_restitution_model { DEM_RESTITUTION_JOHNSON, DEM_RESTITUTION_CONSTANT };
+struct dem_contact_law {
+    enum dem_restitution_model model;
+    double restitution;             /* e for DEM_RESTITUTION_CONSTANT, in [0, 1] */
     double friction_regularization; /* epsilon of Eq. (11), m/s */
 };
 
@@ -99,12 +99,12 @@ struct dem_config {
     double domain_radius, handoff_height;
     long metrics_every;
     /* [powder], [target] */
-    struct size_distribution sizes;
+    struct dem_size_distribution sizes;
     struct dem_material powder, target;
     double standoff, deposit_radius;
     /* [contact], [jet] */
-    struct contact_law contact;
-    struct gas_field gas;
+    struct dem_contact_law contact;
+    struct dem_gas_field gas;
     /* [deposition] */
     enum dem_deposition_rule rule;
     double alpha_adh, critical_velocity;

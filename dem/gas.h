@@ -6,13 +6,13 @@
 #ifndef SPRAYCOAT_DEM_GAS_H
 #define SPRAYCOAT_DEM_GAS_H
 
-#include "dem/dem.h"   /* struct gas_field, gas_velocity and gas_drag_force are public */
+#include "dem/dem.h"   /* struct dem_gas_field, dem_gas_velocity and dem_gas_drag_force are public */
 
 /* Haider & Levenspiel sphere drag, Eq. (25). */
-double drag_coefficient_haider_levenspiel(double reynolds);
+double dem_drag_coefficient_haider_levenspiel(double reynolds);
 
 /* Momentum response time m / |dF/dv| (s) of a sphere of diameter d and density rho at slip speed `slip`;
- * the integrator sub-cycles particles whose response time is shorter than its step.  INFINITY for JET_NONE. */
-double gas_response_time(const struct gas_field *gas, double density, double diameter, double slip);
+ * the integrator sub-cycles particles whose response time is shorter than its step.  INFINITY for DEM_JET_NONE. */
+double dem_gas_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip);
 
 #endif

@@ -47,7 +47,7 @@ struct mpm_body {
 struct mpm_material;
 
 /* Artificial bulk viscosity of the stress update. */
-struct bulk_viscosity {
+struct mpm_bulk_viscosity {
     double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
                                  (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
     double length;            /* l, the cell size DCell (m) */
@@ -69,7 +69,7 @@ struct mpm_config {
     double Gc, Gc_rate, eps_c, eps_rate_c;
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double snapshot_every, series_every;
-    struct bulk_viscosity viscosity;
+    struct mpm_bulk_viscosity viscosity;
     int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
     int fixed_bottom;              /* nodes at and below the substrate's bottom face cannot move vertically */
     double substrate_bottom;       /* z of that face */

@@ -16,10 +16,12 @@ build=${1:-$(dirname "$bin")}
 # The prefixes each object of core/ and app/ may export (besides its own, these are the only ones).
 core_prefixes() {
     case "$1" in
+        atomic) echo "atomic_" ;;
         balance) echo "balance_" ;;
         config) echo "case_" ;;
         error) echo "sc_error_" ;;
         h5io) echo "h5_" ;;
+        interrupt) echo "interrupt_" ;;
         log) echo "log_" ;;
         memory) echo "memory_" ;;
         parallel) echo "parallel_" ;;
@@ -33,7 +35,9 @@ app_prefixes() {
     case "$1" in
         main) echo "main" ;;
         info) echo "info_" ;;
-        rundir) echo "app_ run_dir_ stage_ stages_ text_ spraycoat_registry" ;;
+        rundir) echo "app_ run_dir_ stage_ stages_ spraycoat_registry" ;;
+        stage_loop) echo "stage_" ;;
+        couple_stage) echo "couple_stage_ couple_read_bodies couple_bodies_free" ;;
         vcrit_stage) echo "vcrit_stage_ vcrit_case_keys" ;;
         *_stage) echo "$1_" ;;
         *) echo "" ;;
