@@ -158,9 +158,11 @@ static int fsync_folder_of(const char *path)
 
 int text_commit(struct text_out *out)
 {
+    /* a write that failed earlier (full disk, file-size limit) left its errno: the best reason there is */
+    int earlier = ferror(out->file) ? errno : 0;
     errno = 0;
     int failed = ferror(out->file) || fflush(out->file) != 0 || fsync(fileno(out->file)) != 0;
-    int saved = failed ? (errno ? errno : EIO) : 0;
+    int saved = failed ? (errno ? errno : earlier ? earlier : EIO) : 0;
     if (fclose(out->file) != 0 && !failed) {
         failed = 1;
         saved = errno;
@@ -172,7 +174,7 @@ int text_commit(struct text_out *out)
     }
     if (failed) {
         unlink(out->tmp_path);
-        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, strerror(saved));
+        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, sc_strerror(saved));
     }
     return fsync_folder_of(out->path);
 }

@@ -45,6 +45,10 @@ int h5_read_bytes(hid_t loc, const char *name, void *data, size_t size);
 /* Number of elements (product of dims) of a dataset; SC_EIO if absent. */
 int h5_dataset_size(hid_t loc, const char *name, size_t *count);
 int h5_exists(hid_t loc, const char *path);
+/* Copy the group or dataset from_loc/from_name (attributes, members, values, chunks and filters) to
+ * to_loc/to_name, making missing groups on the way; what H5Ocopy does, but a failed write (full disk, file-size
+ * limit) is SC_EIO with the reason, where H5Ocopy of HDF5 1.10 crashes.  H5Oopen of "/" copies a whole file. */
+int h5_copy(hid_t from_loc, const char *from_name, hid_t to_loc, const char *to_name);
 
 /* Attributes on a file, group or dataset. */
 int h5_attr_write_string(hid_t loc, const char *name, const char *value);
