@@ -323,12 +323,13 @@ static void choose_chunk(const struct dataset_spec *spec, hsize_t chunk[3])
         chunk[0] = 1;
 }
 
-/* Contiguous layout, or chunked with Fletcher32 for checksummed data.  An empty dataset stays contiguous:
- * HDF5 refuses chunks larger than a fixed zero-size dimension, and there are no bytes to protect. */
+/* Chunked with Fletcher32, every dataset of every file (not only where spec->checksum asks): a flipped bit in an
+ * output must stop the stage that reads it, not flow into the next file (issue 24).  An empty dataset stays
+ * contiguous: HDF5 refuses chunks larger than a fixed zero-size dimension, and there are no bytes to protect. */
 static hid_t dataset_creation_plist(const struct dataset_spec *spec)
 {
     hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-    if (dcpl < 0 || !spec->checksum || element_count(spec->rank, spec->dims) == 0)
+    if (dcpl < 0 || element_count(spec->rank, spec->dims) == 0)
         return dcpl;
     hsize_t chunk[3];
     choose_chunk(spec, chunk);

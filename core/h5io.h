@@ -1,8 +1,9 @@
 /* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
  *
  * Every file is written as NAME.tmp, flushed, closed, fsynced, renamed to NAME and the directory fsynced,
- * so a reader never sees a half-written file.  Datasets carry a "units" attribute.  With checksum = 1 a
- * dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read. */
+ * so a reader never sees a half-written file.  Datasets carry a "units" attribute.  Every non-empty dataset is
+ * chunked and written with the Fletcher32 filter, which HDF5 verifies on every read (the `checksum` argument of
+ * the writers is kept for their callers and no longer changes anything: outputs are checked like checkpoints). */
 #ifndef SPRAYCOAT_CORE_H5IO_H
 #define SPRAYCOAT_CORE_H5IO_H
 
