@@ -130,9 +130,7 @@ static int read_spray(struct couple_work *w)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", w->run_dir);
-    if (!run_dir_output_current(path, stage_hash(w->c, "spray")))
-        SC_FAIL(SC_EIO, "couple: the stage's input %s is missing or was made from another case; run the spray stage "
-                "first (`spraycoat spray` or `spraycoat run`)", path);
+    SC_TRY(run_dir_check_input(w->c, w->run_dir, "spray", STAGE, 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
     int status = read_impacts(file, &w->spray);
@@ -583,9 +581,7 @@ int couple_read_bodies(const char *run_dir, const struct case_file *c, struct co
     memset(b, 0, sizeof *b);
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/couple.h5", run_dir);
-    if (!run_dir_output_current(path, stage_hash(c, STAGE)))
-        SC_FAIL(SC_EIO, "impact: the stage's input %s is missing or was made from another case; run the couple stage "
-                "first (`spraycoat couple` or `spraycoat run`)", path);
+    SC_TRY(run_dir_check_input(c, run_dir, STAGE, "impact", 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
     hid_t g = H5Gopen2(file, "seeds", H5P_DEFAULT);

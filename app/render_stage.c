@@ -97,6 +97,11 @@ static int write_stamp(const char *run_dir, const char *fingerprint)
 
 int render_stage_run(const struct case_file *c, const char *run_dir)
 {
+    /* refuse, not warn: the report names this case's keys and hash above the figures, so figures of another
+     * case's file would be wrong results under a right-looking label (exit 3, the same as couple and impact) */
+    static const char *const inputs[] = {"spray", "impact", "vcrit"};
+    for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; i++)
+        SC_TRY(run_dir_check_input(c, run_dir, inputs[i], "render", 0));
     char fingerprint[4096];
     render_fingerprint(c, run_dir, fingerprint, sizeof fingerprint);
     if (stages_in_pipeline() && figures_current(run_dir, fingerprint)) {
