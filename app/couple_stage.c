@@ -558,6 +558,25 @@ static int read_body_columns(hid_t g, struct couple_bodies *b, int64_t *run)
     return SC_OK;
 }
 
+/* Every seed must be a body the impact stage can make: a finite diameter > 0, a finite centre and velocity.  A NaN
+ * there is couple.h5's fault (damaged past its checksum, or written by a faulty couple stage), and the message must
+ * say so, not blame the [impact] keys when the MPM set-up fails on it (issue 24). */
+static int check_body_rows(const struct couple_bodies *b, const int64_t *run, const char *path)
+{
+    for (size_t i = 0; i < b->count; i++) {
+        const double *x = b->center + 3 * i, *v = b->velocity + 3 * i;
+        if (!(isfinite(b->d[i]) && b->d[i] > 0.0))
+            SC_FAIL(SC_EIO, "%s: /seeds/d row %zu (a body of run %04lld) is %g, not a diameter > 0; the file is "
+                    "damaged or was written wrong: rerun the couple stage", path, i, (long long)run[i], b->d[i]);
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(x[k]) || !isfinite(v[k]))
+                SC_FAIL(SC_EIO, "%s: /seeds/%s row %zu (a body of run %04lld) is not finite; the file is damaged or "
+                        "was written wrong: rerun the couple stage", path, isfinite(x[k]) ? "v" : "x", i,
+                        (long long)run[i]);
+    }
+    return SC_OK;
+}
+
 /* Rows are grouped by run, in run order (as written). */
 static int index_runs(struct couple_bodies *b, const int64_t *run, const char *path)
 {
@@ -592,6 +611,8 @@ int couple_read_bodies(const char *run_dir, const struct case_file *c, struct co
         status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     if (status == SC_OK)
         status = read_body_columns(g, b, run);
+    if (status == SC_OK)
+        status = check_body_rows(b, run, path);
     if (status == SC_OK)
         status = index_runs(b, run, path);
     free(run);

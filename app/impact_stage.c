@@ -42,6 +42,7 @@ struct impact_run {
     struct run_settings settings;
     struct mpm_config cfg;
     struct mpm_solver *solver;
+    size_t seed_first, seed_count;      /* a run of the seeds: its rows of couple.h5 /seeds (count 0: [impact]) */
     uint64_t case_hash;
     double last_checkpoint_time;
     int64_t last_checkpoint_step;
@@ -387,7 +388,8 @@ static void log_summary(struct impact_run *run)
              run->label, d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
 }
 
-/* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key. */
+/* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key, or
+ * for a run of the seeds the rows of couple.h5 the bodies came from (no key of the case gave them). */
 static int create_solver(struct impact_run *run)
 {
     int status = mpm_create(&run->cfg, &run->solver);
@@ -395,6 +397,12 @@ static int create_solver(struct impact_run *run)
         return status;
     char message[1024];
     snprintf(message, sizeof message, "%s", sc_error_message());
+    if (run->seed_count == 1)
+        SC_FAIL(SC_EINPUT, "%s: the body of %s/couple.h5 /seeds row %zu: %s", run->label, run->run_dir,
+                run->seed_first, message);
+    if (run->seed_count > 1)
+        SC_FAIL(SC_EINPUT, "%s: the bodies of %s/couple.h5 /seeds rows %zu to %zu: %s", run->label, run->run_dir,
+                run->seed_first, run->seed_first + run->seed_count - 1, message);
     const char *key = case_has(run->c, "impact", "bodies") ? "bodies" : "diameter";
     return case_invalid(run->c, "impact", key, "%s", message);
 }
@@ -520,6 +528,7 @@ static int run_seeded(const struct case_file *c, const char *run_dir, uint64_t h
     }
     SC_TRY(mpm_config_load(c, &run.cfg));
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
+    run.seed_first = first, run.seed_count = count;
     int status = mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
                                         bodies->velocity + 3 * first);
     if (status == SC_OK)

@@ -5,8 +5,11 @@
 # (another seed) is refused by couple and by render with exit status 3, naming the file and the stage to rerun
 # (render drew it without a word before).
 #
-# Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets it).  Needs h5dump and python3.
-# About 4 s.
+# A diameter couple.h5 should not hold (NaN, or too small for the grid) is blamed on couple.h5 and its row, not on
+# the [impact] diameter of the case (issue 24, item 12).
+#
+# Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets it).  Needs h5dump, h5repack, python3.
+# About 6 s.
 set -u
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -23,7 +26,7 @@ fail() {
     failures=$((failures + 1))
 }
 
-for tool in h5dump python3; do
+for tool in h5dump h5repack python3; do
     if ! command -v "$tool" >/dev/null 2>&1; then
         echo "FAIL output_checks ($tool not found)"
         exit 1
@@ -114,5 +117,46 @@ expect couple_other_case $? 'spray.h5' 'made by another case' 'rerun the spray s
 "$BIN" render "$T/other.ini" -o "$T/other" >/dev/null 2>"$T/err"
 expect render_other_case $? 'spray.h5' 'made by another case' 'rerun the spray stage'
 [ -e "$T/other/report.html" ] && fail render_other_case_no_report "report.html was written"
+
+# ---- a seed diameter couple.h5 should not hold: the message names couple.h5 and the row, not [impact] diameter ----
+# set_seed_d DIR ROW VALUE: /seeds/d[ROW] (and the same values in /flight/d) of DIR/couple.h5 becomes VALUE, the
+# file rewritten without filters so that no checksum catches it (a couple stage that wrote a bad value)
+set_seed_d() {
+    h5repack -f NONE "$1/couple.h5" "$1/plain.h5" >/dev/null 2>&1 &&
+        h5dump -d /seeds/d -b LE -o "$T/d.bin" "$1/plain.h5" >/dev/null 2>&1 &&
+        python3 - "$1/plain.h5" "$T/d.bin" "$2" "$3" <<'EOF' && mv "$1/plain.h5" "$1/couple.h5"
+import struct, sys
+data = bytearray(open(sys.argv[1], "rb").read())
+raw = open(sys.argv[2], "rb").read()
+row, value = int(sys.argv[3]), float(sys.argv[4])
+at = data.find(raw)
+if at < 0:
+    sys.exit("/seeds/d is not stored as it is in the file")
+while at >= 0:
+    data[at + 8 * row:at + 8 * row + 8] = struct.pack("<d", value)
+    at = data.find(raw, at + 1)
+open(sys.argv[1], "wb").write(data)
+EOF
+}
+for bad in nan tiny; do
+    cp -R "$T/ref" "$T/seed_$bad"
+    value=nan
+    [ "$bad" = tiny ] && value=1e-7 # finite, but no material point fits in it at [impact] spacing = 1e-6
+    if ! set_seed_d "$T/seed_$bad" 1 "$value"; then
+        fail "impact_seed_$bad" "cannot set /seeds/d row 1 of couple.h5 to $value"
+        continue
+    fi
+    "$BIN" impact "$CASE" -o "$T/seed_$bad" >/dev/null 2>"$T/err"
+    status=$?
+    if grep -q '\[impact\] diameter' "$T/err"; then
+        fail "impact_seed_$bad" "the message blames [impact] diameter: $(grep 'spraycoat:' "$T/err" | head -n 1)"
+    elif [ "$bad" = nan ]; then
+        expect impact_seed_nan "$status" 'couple.h5' '/seeds/d' 'row 1' 'nan' 'rerun the couple stage'
+    elif [ "$status" -eq 2 ] && grep 'spraycoat:' "$T/err" | grep 'couple.h5' | grep -q 'row 1'; then
+        pass impact_seed_tiny
+    else
+        fail impact_seed_tiny "exit status $status, expected 2 naming couple.h5 and row 1: $(tail -n 1 "$T/err")"
+    fi
+done
 
 [ "$failures" -eq 0 ]
