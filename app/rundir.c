@@ -322,9 +322,11 @@ int run_dir_check_input(const struct case_file *c, const char *run_dir, const ch
     char stored[64] = "";
     int status = h5_attr_read_string(file, "case_hash", stored, sizeof stored);
     H5Fclose(file);
-    if (status != SC_OK)
-        SC_FAIL(SC_EIO, "%s: %s is not an output of spraycoat (%s); rerun the %s stage", reader, path,
-                sc_error_message(), stage);
+    if (status != SC_OK) {
+        char reason[1024];
+        snprintf(reason, sizeof reason, "%s", sc_error_message());
+        SC_FAIL(SC_EIO, "%s: %s is not an output of spraycoat (%s); rerun the %s stage", reader, path, reason, stage);
+    }
     if (!made_by_stage(c, stage, stored)) {
         char wanted[32];
         snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)stage_hash(c, stage));

@@ -445,6 +445,75 @@ static void test_groups_and_exists(void)
     remove_tree(dir);
 }
 
+/* h5_copy (what impact.h5 gathers its snapshots and runs with, instead of H5Ocopy): a whole file into a group of
+ * another, and one group by name: values, shapes, attributes of every kind, nested groups, empty datasets and the
+ * Fletcher32 filter all arrive. */
+static void test_copy(void)
+{
+    char dir[64], from[4096], to[4096];
+    make_temp_dir(dir);
+    snprintf(from, sizeof from, "%s/from.h5", dir);
+    snprintf(to, sizeof to, "%s/to.h5", dir);
+    const double x[6] = {1, 2, 3, 4, 5, 6.5};
+    const int64_t ids[3] = {7, -8, 9};
+    const hsize_t dims2[2] = {2, 3}, dims1[1] = {3}, empty[1] = {0};
+    struct h5_out out;
+    hid_t group = H5I_INVALID_HID;
+    CHECK(h5_create_atomic(from, &out) == SC_OK, "create: %s", sc_error_message());
+    CHECK(h5_write_root_attributes(out.file, "test", 1, "impact", 0x1234) == SC_OK, "root: %s", sc_error_message());
+    CHECK(h5_create_group(out.file, "snapshot/inner", &group) == SC_OK, "group: %s", sc_error_message());
+    CHECK(h5_attr_write_double(group, "t", 2.5e-9) == SC_OK, "attr: %s", sc_error_message());
+    CHECK(h5_write_doubles(group, "x", 2, dims2, x, "m", 0) == SC_OK, "x: %s", sc_error_message());
+    CHECK(h5_write_int64s(group, "id", 1, dims1, ids, NULL, 0) == SC_OK, "id: %s", sc_error_message());
+    CHECK(h5_write_doubles(group, "none", 1, empty, NULL, "s", 0) == SC_OK, "none: %s", sc_error_message());
+    H5Gclose(group);
+    CHECK(h5_commit(&out) == SC_OK, "commit: %s", sc_error_message());
+
+    hid_t source = H5I_INVALID_HID;
+    CHECK(h5_open_read(from, &source) == SC_OK, "open: %s", sc_error_message());
+    CHECK(h5_create_atomic(to, &out) == SC_OK, "create: %s", sc_error_message());
+    CHECK(h5_copy(source, "/", out.file, "run_0000") == SC_OK, "copy /: %s", sc_error_message());
+    CHECK(h5_copy(source, "snapshot", out.file, "snapshots/000000") == SC_OK, "copy group: %s", sc_error_message());
+    CHECK(h5_copy(source, "nothing", out.file, "x") == SC_EIO && message_has("nothing"), "copy of nothing: \"%s\"",
+          sc_error_message());
+    H5Fclose(source);
+    CHECK(h5_commit(&out) == SC_OK, "commit: %s", sc_error_message());
+
+    hid_t file = H5I_INVALID_HID;
+    CHECK(h5_open_read(to, &file) == SC_OK, "open: %s", sc_error_message());
+    const char *const prefixes[2] = {"run_0000/snapshot/inner", "snapshots/000000/inner"};
+    for (int k = 0; k < 2; k++) {
+        char units[16] = "";
+        double back[6] = {0}, t = 0;
+        int64_t ids_back[3] = {0};
+        size_t count = 99;
+        hid_t g = H5Gopen2(file, prefixes[k], H5P_DEFAULT);
+        CHECK(g >= 0 && h5_attr_read_double(g, "t", &t) == SC_OK && t == 2.5e-9, "%s: attribute t", prefixes[k]);
+        CHECK(h5_read_doubles(g, "x", back, 6) == SC_OK && memcmp(back, x, sizeof x) == 0, "%s/x: %s", prefixes[k],
+              sc_error_message());
+        CHECK(h5_read_int64s(g, "id", ids_back, 3) == SC_OK && memcmp(ids_back, ids, sizeof ids) == 0, "%s/id: %s",
+              prefixes[k], sc_error_message());
+        CHECK(h5_dataset_size(g, "none", &count) == SC_OK && count == 0, "%s/none: %s", prefixes[k],
+              sc_error_message());
+        hid_t dataset = H5Dopen2(g, "x", H5P_DEFAULT);
+        hid_t dcpl = H5Dget_create_plist(dataset);
+        CHECK(H5Pget_nfilters(dcpl) == 1 && H5Pget_filter2(dcpl, 0, NULL, NULL, NULL, 0, NULL, NULL) ==
+                                                H5Z_FILTER_FLETCHER32, "%s/x lost its Fletcher32 filter", prefixes[k]);
+        CHECK(h5_attr_read_string(dataset, "units", units, sizeof units) == SC_OK && strcmp(units, "m") == 0,
+              "%s/x units \"%s\"", prefixes[k], units);
+        H5Pclose(dcpl);
+        H5Dclose(dataset);
+        H5Gclose(g);
+    }
+    hid_t run = H5Gopen2(file, "run_0000", H5P_DEFAULT);
+    char hash[32] = "";
+    CHECK(h5_attr_read_string(run, "case_hash", hash, sizeof hash) == SC_OK && strcmp(hash, "0000000000001234") == 0,
+          "the root attributes were not copied onto run_0000: \"%s\"", hash);
+    H5Gclose(run);
+    H5Fclose(file);
+    remove_tree(dir);
+}
+
 /* ---------------------------------------------------------------------------------------------------------
  * Files: atomic commit, abort, error messages */
 
@@ -814,6 +883,7 @@ int main(void)
     RUN(test_attributes);
     RUN(test_root_attributes);
     RUN(test_groups_and_exists);
+    RUN(test_copy);
     RUN(test_atomic_commit);
     RUN(test_abort_removes_tmp);
     RUN(test_open_errors_name_the_file);
