@@ -210,7 +210,7 @@ int run_dir_read_stages(const char *run_dir, char *out, size_t size)
     return SC_OK;
 }
 
-int case_section_given(const struct case_file *c, const char *section)
+int app_case_section_given(const struct case_file *c, const char *section)
 {
     for (int t = 0; spraycoat_registry[t]; t++)
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
@@ -230,7 +230,7 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
         char *slash = strrchr(run_dir, '/');
         if (slash)
             *slash = '\0';
-        if (parallel_rank() == 0 && checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
+        if (parallel_rank() == 0 && h5_checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
             log_warn("%s: %s", stage, sc_error_message());
         return 1;
     }
@@ -272,7 +272,7 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
     return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(c, "couple"));
 }
 
-int impact_takes_seeds(const struct case_file *c)
+int stages_impact_takes_seeds(const struct case_file *c)
 {
     (void)c;
     return pipeline;
@@ -285,7 +285,7 @@ uint64_t stage_hash(const struct case_file *c, const char *stage)
     if (strcmp(stage, "couple") == 0)
         return case_hash_sections(c, couple_sections);
     if (strcmp(stage, "impact") == 0)
-        return case_hash_sections(c, impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
+        return case_hash_sections(c, stages_impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
     if (strcmp(stage, "vcrit") == 0)
         return case_hash_sections(c, vcrit_sections);
     return case_hash(c);
@@ -301,7 +301,7 @@ static int made_by_stage(const struct case_file *c, const char *stage, const cha
         return 1;
     if (strcmp(stage, "impact") != 0)
         return 0;
-    const char *const *other = impact_takes_seeds(c) ? impact_sections : pipeline_impact_sections;
+    const char *const *other = stages_impact_takes_seeds(c) ? impact_sections : pipeline_impact_sections;
     snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash_sections(c, other));
     return strcmp(stored, wanted) == 0;
 }
