@@ -53,6 +53,11 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
+/* The input RUN_DIR/STAGE.h5 a later stage (`reader`: couple, impact, render) reads must have been made by this
+ * case's `stage`: SC_EIO naming the file and the stage to rerun when it was made by another case, is not readable,
+ * or (with required) is missing.  Exit status 3, not 2: the case file and command line are fine, what is wrong
+ * is a file in the run directory. */
+int run_dir_check_input(const struct stage_context *ctx, const char *stage, const char *reader, int required);
 
 /* The start every stage shares: 1 (and a log line) when `output` is current for the case, so the stage has
  * nothing to do; otherwise say whether it is rerun over another case's output, load [run] into *settings and

@@ -132,9 +132,7 @@ static int read_spray(struct couple_work *w)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", w->run_dir);
-    if (!run_dir_output_current(path, stage_hash(w->ctx, "spray")))
-        SC_FAIL(SC_EIO, "couple: the stage's input %s is missing or was made from another case; run the spray stage "
-                "first (`spraycoat spray` or `spraycoat run`)", path);
+    SC_TRY(run_dir_check_input(w->ctx, "spray", STAGE, 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
     int status = read_impacts(file, &w->spray);
@@ -568,6 +566,25 @@ static int read_body_columns(hid_t g, struct couple_bodies *b, int64_t *run)
     return SC_OK;
 }
 
+/* Every seed must be a body the impact stage can make: a finite diameter > 0, a finite centre and velocity.  A NaN
+ * there is couple.h5's fault (damaged past its checksum, or written by a faulty couple stage), and the message must
+ * say so, not blame the [impact] keys when the MPM set-up fails on it (issue 24). */
+static int check_body_rows(const struct couple_bodies *b, const int64_t *run, const char *path)
+{
+    for (size_t i = 0; i < b->count; i++) {
+        const double *x = b->center + 3 * i, *v = b->velocity + 3 * i;
+        if (!(isfinite(b->d[i]) && b->d[i] > 0.0))
+            SC_FAIL(SC_EIO, "%s: /seeds/d row %zu (a body of run %04lld) is %g, not a diameter > 0; the file is "
+                    "damaged or was written wrong: rerun the couple stage", path, i, (long long)run[i], b->d[i]);
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(x[k]) || !isfinite(v[k]))
+                SC_FAIL(SC_EIO, "%s: /seeds/%s row %zu (a body of run %04lld) is not finite; the file is damaged or "
+                        "was written wrong: rerun the couple stage", path, isfinite(x[k]) ? "v" : "x", i,
+                        (long long)run[i]);
+    }
+    return SC_OK;
+}
+
 /* Rows are grouped by run, in run order (as written). */
 static int index_runs(struct couple_bodies *b, const int64_t *run, const char *path)
 {
@@ -591,9 +608,7 @@ int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodi
     memset(b, 0, sizeof *b);
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/couple.h5", ctx->run_dir);
-    if (!run_dir_output_current(path, stage_hash(ctx, STAGE)))
-        SC_FAIL(SC_EIO, "impact: the stage's input %s is missing or was made from another case; run the couple stage "
-                "first (`spraycoat couple` or `spraycoat run`)", path);
+    SC_TRY(run_dir_check_input(ctx, STAGE, "impact", 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
     hid_t g = H5Gopen2(file, "seeds", H5P_DEFAULT);
@@ -604,6 +619,8 @@ int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodi
         status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     if (status == SC_OK)
         status = read_body_columns(g, b, run);
+    if (status == SC_OK)
+        status = check_body_rows(b, run, path);
     if (status == SC_OK)
         status = index_runs(b, run, path);
     free(run);

@@ -43,6 +43,7 @@ struct impact_run {
     struct run_settings settings;
     struct mpm_config cfg;
     struct mpm_solver *solver;
+    size_t seed_first, seed_count;      /* a run of the seeds: its rows of couple.h5 /seeds (count 0: [impact]) */
     uint64_t case_hash;
     double start_time;      /* log_elapsed() when this process started stepping */
     int64_t start_updates;  /* point updates done before (by the run this one resumed) */
@@ -273,9 +274,7 @@ static int copy_snapshots(const struct impact_run *run, hid_t file)
             break;
         char name[32];
         snprintf(name, sizeof name, "%06lld", (long long)i);
-        if (H5Ocopy(source, "snapshot", snapshots, name, H5P_DEFAULT, H5P_DEFAULT) < 0)
-            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: cannot copy snapshot %s into impact.h5 "
-                                  "(disk full?)", name);
+        status = h5_copy(source, "snapshot", snapshots, name); /* not H5Ocopy: it crashes on a full disk */
         H5Fclose(source);
     }
     H5Gclose(snapshots);
@@ -333,7 +332,8 @@ static void log_summary(struct impact_run *run)
              run->label, d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
 }
 
-/* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key. */
+/* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key, or
+ * for a run of the seeds the rows of couple.h5 the bodies came from (no key of the case gave them). */
 static int create_solver(struct impact_run *run)
 {
     int status = mpm_create(&run->cfg, &run->solver);
@@ -341,6 +341,12 @@ static int create_solver(struct impact_run *run)
         return status;
     char message[1024];
     snprintf(message, sizeof message, "%s", sc_error_message());
+    if (run->seed_count == 1)
+        SC_FAIL(SC_EINPUT, "%s: the body of %s/couple.h5 /seeds row %zu: %s", run->label, run->run_dir,
+                run->seed_first, message);
+    if (run->seed_count > 1)
+        SC_FAIL(SC_EINPUT, "%s: the bodies of %s/couple.h5 /seeds rows %zu to %zu: %s", run->label, run->run_dir,
+                run->seed_first, run->seed_first + run->seed_count - 1, message);
     const char *key = case_has(run->ctx->c, "impact", "bodies") ? "bodies" : "diameter";
     return case_invalid(run->ctx->c, "impact", key, "%s", message);
 }
@@ -484,6 +490,7 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
     }
     SC_TRY(mpm_config_load(ctx->c, &run.cfg));
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
+    run.seed_first = first, run.seed_count = count;
     int status = mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
                                         bodies->velocity + 3 * first);
     if (status == SC_OK)
@@ -548,10 +555,7 @@ static int gather_run(hid_t out, const char *run_dir, long index, struct run_tot
     SC_TRY(h5_open_read(names.output, &source));
     char group[32];
     snprintf(group, sizeof group, "run_%04ld", index);
-    int status = H5Ocopy(source, "/", out, group, H5P_DEFAULT, H5P_DEFAULT) < 0
-                     ? sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: cannot copy %s into impact.h5 (disk full?)",
-                                    names.output)
-                     : SC_OK;
+    int status = h5_copy(source, "/", out, group); /* not H5Ocopy: it crashes on a full disk */
     hid_t summary = status == SC_OK ? H5Gopen2(source, "summary", H5P_DEFAULT) : H5I_INVALID_HID;
     if (status == SC_OK && summary < 0)
         status = sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: %s has no /summary", names.output);

@@ -198,3 +198,48 @@ uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
         return case_hash_sections(c, vcrit_sections);
     return case_hash(c);
 }
+
+/* Whether the root attribute case_hash of the open file is one this case's `stage` writes (the impact stage's of
+ * either kind: from [impact] or from couple.h5's seeds, since `spraycoat render` reads both). */
+static int made_by_stage(const struct stage_context *ctx, const char *stage, const char *stored)
+{
+    char wanted[32];
+    snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)stage_hash(ctx, stage));
+    if (strcmp(stored, wanted) == 0)
+        return 1;
+    if (strcmp(stage, "impact") != 0)
+        return 0;
+    const char *const *other = ctx->impact_from_seeds ? impact_sections : pipeline_impact_sections;
+    snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash_sections(ctx->c, other));
+    return strcmp(stored, wanted) == 0;
+}
+
+int run_dir_check_input(const struct stage_context *ctx, const char *stage, const char *reader, int required)
+{
+    const char *run_dir = ctx->run_dir;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s.h5", run_dir, stage);
+    if (access(path, F_OK) != 0) {
+        if (!required)
+            return SC_OK;
+        SC_FAIL(SC_EIO, "%s: the stage's input %s is missing; run the %s stage first (`spraycoat %s` or `spraycoat "
+                "run`)", reader, path, stage, stage);
+    }
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    char stored[64] = "";
+    int status = h5_attr_read_string(file, "case_hash", stored, sizeof stored);
+    H5Fclose(file);
+    if (status != SC_OK) {
+        char reason[1024];
+        snprintf(reason, sizeof reason, "%s", sc_error_message());
+        SC_FAIL(SC_EIO, "%s: %s is not an output of spraycoat (%s); rerun the %s stage", reader, path, reason, stage);
+    }
+    if (!made_by_stage(ctx, stage, stored)) {
+        char wanted[32];
+        snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)stage_hash(ctx, stage));
+        SC_FAIL(SC_EIO, "%s: %s was made by another case (case hash %s, this case's %s stage writes %s): rerun the "
+                "%s stage (`spraycoat %s` or `spraycoat run`)", reader, path, stored, stage, wanted, stage, stage);
+    }
+    return SC_OK;
+}

@@ -23,7 +23,7 @@ int atomic_prepare(const char *path, struct atomic_file *out)
     if (unlink(out->tmp_path) != 0 && errno != ENOENT) {
         int saved = errno;
         out->tmp_path[0] = '\0';
-        SC_FAIL(SC_EIO, "cannot remove the stale temporary file %s.tmp: %s", path, strerror(saved));
+        SC_FAIL(SC_EIO, "cannot remove the stale temporary file %s.tmp: %s", path, sc_strerror(saved));
     }
     return SC_OK;
 }
@@ -35,14 +35,14 @@ int atomic_open(const char *path, struct atomic_file *out)
     if (fd < 0) {
         int saved = errno;
         out->tmp_path[0] = '\0'; /* not ours: never unlink what another process created */
-        SC_FAIL(SC_EIO, "cannot create %s.tmp: %s", path, strerror(saved));
+        SC_FAIL(SC_EIO, "cannot create %s.tmp: %s", path, sc_strerror(saved));
     }
     out->stream = fdopen(fd, "w");
     if (!out->stream) {
         int saved = errno;
         close(fd);
         atomic_abort(out);
-        SC_FAIL(SC_EIO, "cannot write %s.tmp: %s", path, strerror(saved));
+        SC_FAIL(SC_EIO, "cannot write %s.tmp: %s", path, sc_strerror(saved));
     }
     return SC_OK;
 }
@@ -72,7 +72,7 @@ int atomic_sync_folder(const char *path)
         snprintf(folder, sizeof folder, "%.*s", (int)length, path);
     int failed = sync_path(folder, O_DIRECTORY);
     if (failed)
-        SC_FAIL(SC_EIO, "cannot sync folder %s: %s", folder, strerror(failed));
+        SC_FAIL(SC_EIO, "cannot sync folder %s: %s", folder, sc_strerror(failed));
     return SC_OK;
 }
 
@@ -81,9 +81,11 @@ static int close_stream(struct atomic_file *out)
 {
     if (!out->stream)
         return 0;
+    /* a write that failed earlier (full disk, file-size limit) left its errno: the best reason there is */
+    int earlier = ferror(out->stream) ? errno : 0;
     errno = 0;
     int failed = ferror(out->stream) || fflush(out->stream) != 0 || fsync(fileno(out->stream)) != 0;
-    int saved = failed ? (errno ? errno : EIO) : 0;
+    int saved = failed ? (errno ? errno : earlier ? earlier : EIO) : 0;
     if (fclose(out->stream) != 0 && !saved)
         saved = errno ? errno : EIO;
     out->stream = NULL;
@@ -101,7 +103,7 @@ int atomic_publish(struct atomic_file *out)
         failed = errno;
     if (failed) {
         atomic_abort(out);
-        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, strerror(failed));
+        SC_FAIL(SC_EIO, "cannot write %s: %s", out->path, sc_strerror(failed));
     }
     out->tmp_path[0] = '\0';
     return atomic_sync_folder(out->path);
@@ -124,7 +126,7 @@ int atomic_write(const char *path, const void *data, size_t length)
     if (length > 0 && fwrite(data, 1, length, out.stream) != length) {
         int saved = errno ? errno : EIO;
         atomic_abort(&out);
-        SC_FAIL(SC_EIO, "cannot write %s: %s", path, strerror(saved));
+        SC_FAIL(SC_EIO, "cannot write %s: %s", path, sc_strerror(saved));
     }
     return atomic_publish(&out);
 }

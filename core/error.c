@@ -1,5 +1,6 @@
 #include "core/error.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -31,4 +32,14 @@ void sc_error_clear(void)
 {
     error_message[0] = '\0';
     error_traceback[0] = '\0';
+}
+
+const char *sc_strerror(int errnum)
+{
+    switch (errnum) {
+    case ENOSPC: return "no space left on device";
+    case EFBIG: return "file size limit exceeded (File too large)";
+    case EDQUOT: return "disk quota exceeded";
+    default: return strerror(errnum);
+    }
 }

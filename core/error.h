@@ -25,6 +25,9 @@ const char *sc_error_message(void);
 /* The traceback of the last error, frames separated by newlines ("" if none). */
 const char *sc_error_traceback(void);
 void sc_error_clear(void);
+/* strerror(errnum), but in words a user can act on where the system's are terse: ENOSPC "no space left on
+ * device", EFBIG "file size limit exceeded (File too large)", EDQUOT "disk quota exceeded". */
+const char *sc_strerror(int errnum);
 
 #define SC_FAIL(status, ...) return sc_error_set((status), __FILE__, __LINE__, __VA_ARGS__)
 

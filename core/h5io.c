@@ -1,7 +1,7 @@
 /* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
  *
  * Failures become SC_EIO through core/error.h with a message naming the file (and dataset or attribute) and the
- * reason: strerror(errno) where the operating system failed, else the innermost entry of HDF5's error stack
+ * reason: strerror(errno) (sc_strerror) where the operating system failed, else the innermost entry of HDF5's error stack
  * ("file signature not found", "data error detected by Fletcher32 checksum"). */
 #include "core/h5io.h"
 #include "core/version.h"
@@ -59,8 +59,15 @@ static herr_t keep_innermost_error(unsigned n, const H5E_error2_t *error, void *
          * first, and the system's reason when there is one */
         const char *desc = error->desc;
         const char *system_reason = strstr(desc, "error message = '");
+        const char *system_errno = strstr(desc, "errno = ");
         int first_line = (int)strcspn(desc, "\n,");
-        if (system_reason) {
+        const char *time_stamp = strstr(desc, ": time = "); /* "file write failed: time = ..." */
+        if (time_stamp && time_stamp - desc < first_line)
+            first_line = (int)(time_stamp - desc);
+        int errnum = system_errno ? atoi(system_errno + strlen("errno = ")) : 0;
+        if (errnum > 0) { /* a full disk or a file-size limit must say so (not "Input/output error") */
+            snprintf(reason, H5IO_REASON_MAX, "%.*s: %s", first_line, desc, sc_strerror(errnum));
+        } else if (system_reason) {
             system_reason += strlen("error message = '");
             snprintf(reason, H5IO_REASON_MAX, "%.*s: %.*s", first_line, desc, (int)strcspn(system_reason, "'"),
                      system_reason);
@@ -85,7 +92,7 @@ static const char *hdf5_reason(char reason[H5IO_REASON_MAX])
 static const char *file_reason(int saved_errno, char reason[H5IO_REASON_MAX])
 {
     if (saved_errno != 0) {
-        snprintf(reason, H5IO_REASON_MAX, "%s", strerror(saved_errno));
+        snprintf(reason, H5IO_REASON_MAX, "%s", sc_strerror(saved_errno));
         return reason;
     }
     return hdf5_reason(reason);
@@ -199,7 +206,7 @@ int h5_open_read(const char *path, hid_t *file)
     *file = H5I_INVALID_HID;
     struct stat info;
     if (stat(path, &info) != 0)
-        SC_FAIL(SC_EIO, "cannot open %s: %s", path, strerror(errno));
+        SC_FAIL(SC_EIO, "cannot open %s: %s", path, sc_strerror(errno));
     if (S_ISDIR(info.st_mode))
         SC_FAIL(SC_EIO, "cannot open %s: it is a folder, not an HDF5 file", path);
     errno = 0;
@@ -277,12 +284,13 @@ static void choose_chunk(const struct dataset_spec *spec, hsize_t chunk[3])
         chunk[0] = 1;
 }
 
-/* Contiguous layout, or chunked with Fletcher32 for checksummed data.  An empty dataset stays contiguous:
- * HDF5 refuses chunks larger than a fixed zero-size dimension, and there are no bytes to protect. */
+/* Chunked with Fletcher32, every dataset of every file (not only where spec->checksum asks): a flipped bit in an
+ * output must stop the stage that reads it, not flow into the next file (issue 24).  An empty dataset stays
+ * contiguous: HDF5 refuses chunks larger than a fixed zero-size dimension, and there are no bytes to protect. */
 static hid_t dataset_creation_plist(const struct dataset_spec *spec)
 {
     hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-    if (dcpl < 0 || !spec->checksum || element_count(spec->rank, spec->dims) == 0)
+    if (dcpl < 0 || element_count(spec->rank, spec->dims) == 0)
         return dcpl;
     hsize_t chunk[3];
     choose_chunk(spec, chunk);
@@ -689,6 +697,201 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
 }
 
 /* ---------------------------------------------------------------------------------------------------------
+ * Copying objects between files
+ *
+ * H5Ocopy would do this, but HDF5 1.10 crashes (SIGSEGV in H5T_close_real, from H5O_copy_header_map) when a write
+ * fails in the middle of a copy: a full disk or a file-size limit (issue 24).  This copy reads every dataset and
+ * attribute into memory and writes it with the ordinary calls, each failure reported like any other write. */
+
+struct copy_walk {
+    hid_t to;
+    int status;
+};
+
+static int vlen_parts(hid_t type) { return H5Tdetect_class(type, H5T_VLEN) > 0 || H5Tis_variable_str(type) > 0; }
+
+/* Room for `points` elements of `type`; NULL with *bytes = 0 when the size overflows or memory is short. */
+static void *element_buffer(hid_t type, hssize_t points, size_t *bytes)
+{
+    size_t size = H5Tget_size(type);
+    *bytes = 0;
+    if (points < 0 || size == 0 || (size_t)points > SIZE_MAX / size)
+        return NULL;
+    *bytes = (size_t)points * size;
+    return calloc(*bytes ? *bytes : 1, 1);
+}
+
+/* Attribute `name` of object `from` onto object `to`, with the same type and shape. */
+static int copy_attribute(hid_t from, const char *name, hid_t to)
+{
+    char reason[H5IO_REASON_MAX] = "", what[H5IO_WHAT_MAX];
+    hid_t attr = H5Aopen(from, name, H5P_DEFAULT);
+    hid_t type = attr < 0 ? H5I_INVALID_HID : H5Aget_type(attr);
+    hid_t space = attr < 0 ? H5I_INVALID_HID : H5Aget_space(attr);
+    size_t bytes = 0;
+    void *buffer = type < 0 || space < 0 ? NULL : element_buffer(type, H5Sget_simple_extent_npoints(space), &bytes);
+    int read = buffer != NULL && H5Aread(attr, type, buffer) >= 0;
+    if (!read && buffer != NULL)
+        hdf5_reason(reason);
+    else if (!read)
+        snprintf(reason, sizeof reason, "out of memory or impossible size");
+    hid_t copy = read ? H5Acreate2(to, name, type, space, H5P_DEFAULT, H5P_DEFAULT) : H5I_INVALID_HID;
+    int written = copy >= 0 && H5Awrite(copy, type, buffer) >= 0;
+    if (read && !written)
+        hdf5_reason(reason);
+    if (copy >= 0 && H5Aclose(copy) < 0 && written) {
+        written = 0;
+        hdf5_reason(reason);
+    }
+    if (read && vlen_parts(type))
+        H5Dvlen_reclaim(type, space, H5P_DEFAULT, buffer);
+    free(buffer);
+    h5io_close(space);
+    h5io_close(type);
+    h5io_close(attr);
+    if (!written) {
+        describe_object(to, "", what);
+        SC_FAIL(SC_EIO, "cannot copy attribute %s to %s: %s", name, what, reason);
+    }
+    return SC_OK;
+}
+
+static herr_t copy_attribute_cb(hid_t from, const char *name, const H5A_info_t *info, void *data)
+{
+    (void)info;
+    struct copy_walk *walk = data;
+    walk->status = copy_attribute(from, name, walk->to);
+    return walk->status == SC_OK ? 0 : -1;
+}
+
+static int copy_attributes(hid_t from, hid_t to)
+{
+    struct copy_walk walk = {to, SC_OK};
+    herr_t done = H5Aiterate2(from, H5_INDEX_NAME, H5_ITER_INC, NULL, copy_attribute_cb, &walk);
+    if (walk.status != SC_OK)
+        return walk.status;
+    if (done < 0) {
+        char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
+        hdf5_reason(reason);
+        describe_object(from, "", what);
+        SC_FAIL(SC_EIO, "cannot list the attributes of %s: %s", what, reason);
+    }
+    return SC_OK;
+}
+
+/* Dataset `from` (open) as `name` in `to_loc`: its type, shape, creation properties (chunks, Fletcher32),
+ * values and attributes. */
+static int copy_dataset(hid_t from, hid_t to_loc, const char *name)
+{
+    char reason[H5IO_REASON_MAX] = "", what[H5IO_WHAT_MAX];
+    hid_t type = H5Dget_type(from), space = H5Dget_space(from), dcpl = H5Dget_create_plist(from);
+    hssize_t points = space < 0 ? -1 : H5Sget_simple_extent_npoints(space);
+    size_t bytes = 0;
+    void *buffer = type < 0 || dcpl < 0 ? NULL : element_buffer(type, points, &bytes);
+    int read = buffer != NULL && (points == 0 || H5Dread(from, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) >= 0);
+    if (!read && buffer != NULL)
+        hdf5_reason(reason);
+    else if (!read)
+        snprintf(reason, sizeof reason, "out of memory or impossible size");
+    hid_t lcpl = read ? intermediate_groups_plist() : H5I_INVALID_HID;
+    hid_t copy = lcpl < 0 ? H5I_INVALID_HID : H5Dcreate2(to_loc, name, type, space, lcpl, dcpl, H5P_DEFAULT);
+    int written = copy >= 0 && (points == 0 || H5Dwrite(copy, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) >= 0);
+    if (read && !written)
+        hdf5_reason(reason);
+    int status = SC_OK;
+    if (written)
+        status = copy_attributes(from, copy);
+    if (copy >= 0 && H5Dclose(copy) < 0 && written && status == SC_OK) {
+        written = 0;
+        hdf5_reason(reason);
+    }
+    if (read && vlen_parts(type))
+        H5Dvlen_reclaim(type, space, H5P_DEFAULT, buffer);
+    free(buffer);
+    h5io_close(lcpl);
+    h5io_close(dcpl);
+    h5io_close(space);
+    h5io_close(type);
+    if (status != SC_OK)
+        return status;
+    if (!written) {
+        describe_object(to_loc, name, what);
+        SC_FAIL(SC_EIO, "cannot copy dataset %s: %s", what, reason);
+    }
+    return SC_OK;
+}
+
+static int copy_object(hid_t from, hid_t to_loc, const char *name);
+
+static herr_t copy_member_cb(hid_t group, const char *name, const H5L_info_t *info, void *data)
+{
+    (void)info;
+    struct copy_walk *walk = data;
+    hid_t member = H5Oopen(group, name, H5P_DEFAULT);
+    if (member < 0) {
+        char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
+        hdf5_reason(reason);
+        describe_object(group, name, what);
+        walk->status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot open %s to copy it: %s", what, reason);
+        return -1;
+    }
+    walk->status = copy_object(member, walk->to, name);
+    H5Oclose(member);
+    return walk->status == SC_OK ? 0 : -1;
+}
+
+/* Group `from` (open) as `name` in `to_loc`: its attributes and, in name order, its members. */
+static int copy_group(hid_t from, hid_t to_loc, const char *name)
+{
+    hid_t group;
+    SC_TRY(h5_create_group(to_loc, name, &group));
+    int status = copy_attributes(from, group);
+    struct copy_walk walk = {group, SC_OK};
+    herr_t done = status != SC_OK ? 0 : H5Literate(from, H5_INDEX_NAME, H5_ITER_INC, NULL, copy_member_cb, &walk);
+    if (status == SC_OK)
+        status = walk.status;
+    if (status == SC_OK && done < 0) {
+        char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
+        hdf5_reason(reason);
+        describe_object(from, "", what);
+        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot list the members of %s: %s", what, reason);
+    }
+    if (H5Gclose(group) < 0 && status == SC_OK) {
+        char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
+        hdf5_reason(reason);
+        describe_object(to_loc, name, what);
+        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot close group %s: %s", what, reason);
+    }
+    return status;
+}
+
+static int copy_object(hid_t from, hid_t to_loc, const char *name)
+{
+    H5I_type_t kind = H5Iget_type(from);
+    if (kind == H5I_GROUP || kind == H5I_FILE)
+        return copy_group(from, to_loc, name);
+    if (kind == H5I_DATASET)
+        return copy_dataset(from, to_loc, name);
+    char what[H5IO_WHAT_MAX];
+    describe_object(to_loc, name, what);
+    SC_FAIL(SC_EIO, "cannot copy to %s: the source is neither a group nor a dataset", what);
+}
+
+int h5_copy(hid_t from_loc, const char *from_name, hid_t to_loc, const char *to_name)
+{
+    hid_t from = H5Oopen(from_loc, from_name, H5P_DEFAULT);
+    if (from < 0) {
+        char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
+        hdf5_reason(reason);
+        describe_object(from_loc, from_name, what);
+        SC_FAIL(SC_EIO, "cannot open %s to copy it: %s", what, reason);
+    }
+    int status = copy_object(from, to_loc, to_name);
+    H5Oclose(from);
+    return status;
+}
+
+/* ---------------------------------------------------------------------------------------------------------
  * Verification */
 
 struct verify_walk {
@@ -857,7 +1060,7 @@ static int read_checkpoint_dir(DIR *folder, const char *dir, const char *stage, 
         struct dirent *entry = readdir(folder);
         if (entry == NULL) {
             if (errno != 0)
-                SC_FAIL(SC_EIO, "cannot list %s: %s", dir, strerror(errno));
+                SC_FAIL(SC_EIO, "cannot list %s: %s", dir, sc_strerror(errno));
             return SC_OK;
         }
         int64_t step = checkpoint_step_of(entry->d_name, stage, suffix);
@@ -877,7 +1080,7 @@ static int list_checkpoints(const char *run_dir, const char *stage, const char *
     if (folder == NULL) {
         if (errno == ENOENT)
             return SC_OK;
-        SC_FAIL(SC_EIO, "cannot list %s: %s", dir, strerror(errno));
+        SC_FAIL(SC_EIO, "cannot list %s: %s", dir, sc_strerror(errno));
     }
     int status = read_checkpoint_dir(folder, dir, stage, suffix, list);
     closedir(folder);
@@ -903,7 +1106,7 @@ static int remove_listed(const char *run_dir, const struct checkpoint_list *list
         char path[H5IO_PATH_MAX];
         SC_TRY(checkpoint_entry_path(run_dir, &list->items[i], path));
         if (unlink(path) != 0 && errno != ENOENT)
-            SC_FAIL(SC_EIO, "cannot remove %s: %s", path, strerror(errno));
+            SC_FAIL(SC_EIO, "cannot remove %s: %s", path, sc_strerror(errno));
     }
     return SC_OK;
 }
@@ -928,7 +1131,7 @@ int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, st
     char dir[H5IO_PATH_MAX], path[H5IO_PATH_MAX];
     SC_TRY(checkpoint_dir(run_dir, dir));
     if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        SC_FAIL(SC_EIO, "cannot create folder %s: %s", dir, strerror(errno));
+        SC_FAIL(SC_EIO, "cannot create folder %s: %s", dir, sc_strerror(errno));
     /* A crash during an earlier write leaves STAGE_*.h5.tmp behind; nothing can use it. */
     SC_TRY(remove_stage_files(run_dir, stage, CHECKPOINT_TMP_SUFFIX));
     SC_TRY(format_path(path, sizeof path, "%s/%s_%08lld" CHECKPOINT_SUFFIX, dir, stage, (long long)step));
@@ -955,7 +1158,7 @@ static void prune_checkpoints(const char *run_dir, const struct checkpoint_list 
             log_warn("cannot remove old checkpoint %s: %s", entry->name, sc_error_message());
             sc_error_clear();
         } else if (unlink(path) != 0 && errno != ENOENT) {
-            log_warn("cannot remove old checkpoint %s: %s", path, strerror(errno));
+            log_warn("cannot remove old checkpoint %s: %s", path, sc_strerror(errno));
         }
     }
 }
@@ -1062,7 +1265,7 @@ static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *
         /* a checkpoint the system will not let us read is not damaged: falling back would later delete it */
         if (access(candidate, R_OK) != 0)
             SC_FAIL(SC_EIO, "cannot read checkpoint %s: %s (not falling back to an older one)", candidate,
-                    strerror(errno));
+                    sc_strerror(errno));
         int status = inspect_checkpoint(candidate, run_dir, want);
         if (status == SC_OK)
             return format_path(path, size, "%s", candidate);

@@ -1,8 +1,9 @@
 /* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
  *
  * Every file is written through core/atomic.h: NAME.tmp, flushed, closed, fsynced, renamed to NAME and the
- * directory fsynced, so a reader never sees a half-written file.  Datasets carry a "units" attribute.  With checksum = 1 a
- * dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read. */
+ * directory fsynced, so a reader never sees a half-written file.  Datasets carry a "units" attribute.  Every
+ * non-empty dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read (the `checksum` argument of
+ * the writers is kept for their callers and no longer changes anything: outputs are checked like checkpoints). */
 #ifndef SPRAYCOAT_CORE_H5IO_H
 #define SPRAYCOAT_CORE_H5IO_H
 
@@ -47,6 +48,10 @@ int h5_read_bytes(hid_t loc, const char *name, void *data, size_t size);
 /* Number of elements (product of dims) of a dataset; SC_EIO if absent. */
 int h5_dataset_size(hid_t loc, const char *name, size_t *count);
 int h5_exists(hid_t loc, const char *path);
+/* Copy the group or dataset from_loc/from_name (attributes, members, values, chunks and filters) to
+ * to_loc/to_name, making missing groups on the way; what H5Ocopy does, but a failed write (full disk, file-size
+ * limit) is SC_EIO with the reason, where H5Ocopy of HDF5 1.10 crashes.  H5Oopen of "/" copies a whole file. */
+int h5_copy(hid_t from_loc, const char *from_name, hid_t to_loc, const char *to_name);
 
 /* Attributes on a file, group or dataset. */
 int h5_attr_write_string(hid_t loc, const char *name, const char *value);

@@ -1,4 +1,5 @@
 /* Reading the run's HDF5 files: whole datasets, with messages that name the file and the dataset. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -61,7 +62,9 @@ int render_read_array(hid_t loc, const char *file, const char *name, struct rend
     out->width = out->rows ? count / out->rows : 0;
     if (read_values(loc, name, integer, out->values, count) != SC_OK) {
         render_array_free(out);
-        SC_FAIL(SC_EIO, "render: %s: cannot read dataset %s (damaged file?)", file, name);
+        char reason[1024]; /* h5io's message names the file and says why ("... Fletcher32 checksum") */
+        snprintf(reason, sizeof reason, "%s", sc_error_message());
+        SC_FAIL(SC_EIO, "render: %s: cannot read dataset %s (damaged file?): %s", file, name, reason);
     }
     return SC_OK;
 }
