@@ -19,7 +19,7 @@ core_prefixes() {
         atomic) echo "atomic_" ;;
         balance) echo "balance_" ;;
         config) echo "case_" ;;
-        error) echo "sc_error_" ;;
+        error) echo "sc_" ;;
         h5io) echo "h5_" ;;
         interrupt) echo "interrupt_" ;;
         log) echo "log_" ;;
