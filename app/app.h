@@ -24,6 +24,8 @@ int run_dir_prepare(const char *run_dir, const struct case_file *c);
 /* Lock RUN_DIR for this process when it exists already (SC_EIO "in use" if another process holds it), before
  * anything in it is read. */
 int run_dir_lock_existing(const char *run_dir);
+/* 1 when another process holds RUN_DIR's lock (a stage is running there now). */
+int run_dir_in_use(const char *run_dir);
 
 /* RUN_DIR/stages: the comma-separated stages the last command asked for ("spray", "impact", "vcrit"), so that
  * `spraycoat resume RUN_DIR` continues the same work.  Written atomically. */

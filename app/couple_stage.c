@@ -322,8 +322,10 @@ static int make_seeds(struct couple_work *w)
                      : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     struct progress bar;
     log_progress_begin(&bar, STAGE, "seeds", 0, (int64_t)seeds);
+    size_t filled = 0;
     for (size_t slot = 0; status == SC_OK && slot < seeds; slot++) {
         status = fill_slot(w, solver, &strata, cursor, taken, slot);
+        filled += status == SC_OK;
         log_progress_update(&bar, (int64_t)slot + 1, "");
         /* couple.h5 is written whole at the end: an interrupted stage keeps nothing and runs again on resume */
         int interrupted = interrupt_status();
@@ -332,7 +334,10 @@ static int make_seeds(struct couple_work *w)
                                   "stage runs again from its start on `spraycoat resume %s`", slot + 1, seeds,
                                   w->run_dir);
     }
-    log_progress_end(&bar, (int64_t)seeds);
+    if (status == SC_OK)
+        log_progress_end(&bar, (int64_t)seeds);
+    else
+        log_progress_stop(&bar, (int64_t)filled);
     for (size_t r = 0; status == SC_OK && r < (size_t)w->cfg.runs; r++)
         couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
     couple_flight_solver_destroy(solver);

@@ -348,7 +348,10 @@ int info_print(const char *target, FILE *out)
     snprintf(path, sizeof path, "%s/case.ini", target);
     if (access(path, R_OK) != 0)
         SC_FAIL(SC_EIO, "info: %s is not a run directory (no readable case.ini)", target);
+    int running = run_dir_in_use(target);
     fprintf(out, "run directory %s\n", target);
+    fprintf(out, "status: %s\n", running ? "running (a spraycoat process holds the run directory now)"
+                                          : "not running");
     fprintf(out, "case: %s\n", path);
     SC_TRY(run_dir_read_stages(target, stages, sizeof stages));
     fprintf(out, "stages asked for: %s\n", stages);
@@ -361,7 +364,8 @@ int info_print(const char *target, FILE *out)
         int asked = strstr(stages, stage) != NULL;
         if (!done && !checkpoints && !asked)
             continue;
-        fprintf(out, "stage %s: %s", stage, done ? "done" : checkpoints ? "interrupted" : "not done");
+        const char *unfinished = running ? "in progress or waiting" : checkpoints ? "interrupted" : "not done";
+        fprintf(out, "stage %s: %s", stage, done ? "done" : unfinished);
         if (checkpoints)
             fprintf(out, "; %zu checkpoints, newest %s", checkpoints, newest);
         fputc('\n', out);

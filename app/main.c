@@ -36,6 +36,7 @@ static const char usage[] =
     "                                           that made RUN_DIR) from its newest checkpoint\n"
     "  spraycoat info RUN_DIR|FILE.h5           what a run or file holds: stage, step, time, metrics\n"
     "  spraycoat keys                           the case-file keys as Markdown tables\n"
+    "  spraycoat help [COMMAND]                 this help, or a command's (also spraycoat COMMAND --help)\n"
     "  spraycoat --help | --version\n"
     "options:\n"
     "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
@@ -44,6 +45,60 @@ static const char usage[] =
     "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n"
     "exit status: 0 done, 1 simulation failed, 2 bad command line or case file, 3 I/O error,\n"
     "             130/143 interrupted by SIGINT/SIGTERM after writing a checkpoint\n";
+
+/* Per-command help (`spraycoat CMD --help`, `spraycoat help CMD`): synopsis, what it does, its options. */
+struct command_help {
+    const char *name, *synopsis, *text;
+};
+static const struct command_help command_helps[] = {
+    {"check", "spraycoat check CASE.ini",
+     "Validate the case file without running anything: every key, its range and the cross-key rules, the input\n"
+     "files it names, and (with [impact] or [vcrit]) the whole impact set-up.  Prints every resolved parameter\n"
+     "with its unit and where it came from (the file or the default) and the case hash.\n"},
+    {"run", "spraycoat run CASE.ini [-o RUN_DIR] [--threads N] [--stages LIST]",
+     "The pipeline: spray, couple, impact, render (couple and impact when the case has [couple] or [impact]).\n"
+     "Each stage skips what is up to date and resumes from its newest checkpoint.  Ends with a summary of the\n"
+     "results.  --stages picks stages (comma-separated: spray,couple,impact,render).\n"},
+    {"resume", "spraycoat resume RUN_DIR [--threads N]",
+     "Continue the stages recorded in RUN_DIR/stages with the case recorded in RUN_DIR/case.ini, from the newest\n"
+     "checkpoint of each; the results are identical, bit for bit, to an uninterrupted run.  Ends with the same\n"
+     "summary as run.\n"},
+    {"spray", "spraycoat spray CASE.ini [-o RUN_DIR] [--threads N]",
+     "The spray stage (DEM): writes RUN_DIR/spray.h5 and spray.xdmf.\n"},
+    {"couple", "spraycoat couple CASE.ini [-o RUN_DIR]",
+     "The couple stage: samples spray.h5's impacts, flies them through the gas layer in front of the target\n"
+     "(CVODE) and writes the impact runs' seeds to RUN_DIR/couple.h5.\n"},
+    {"impact", "spraycoat impact CASE.ini [-o RUN_DIR] [--threads N]",
+     "The impact stage (MPM): the bodies of [impact] (or the couple stage's seeds when RUN_DIR holds couple.h5 of\n"
+     "the case); writes RUN_DIR/impact.h5 and impact.xdmf.\n"},
+    {"vcrit", "spraycoat vcrit CASE.ini [-o RUN_DIR] [--threads N]",
+     "Critical velocity against diameter by bisection of single-particle MPM impacts ([vcrit]); writes\n"
+     "RUN_DIR/vcrit.csv and vcrit.h5.  Runs are shared among MPI ranks in the MPI build.\n"},
+    {"render", "spraycoat render CASE.ini [-o RUN_DIR]",
+     "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"},
+    {"info", "spraycoat info RUN_DIR|FILE.h5",
+     "What a run directory or an HDF5 file of spraycoat holds: stages, steps, times, metrics, and whether a\n"
+     "process is running in the directory now.\n"},
+    {"keys", "spraycoat keys", "Every case-file key as Markdown tables: section, key, unit, default, range.\n"},
+    {"help", "spraycoat help [COMMAND]", "This help, or a command's.\n"},
+};
+
+static const char command_options[] =
+    "options:\n"
+    "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
+    "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+    "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n";
+
+/* The help of `name` on stdout; SC_EINPUT for an unknown command. */
+static int print_command_help(const char *name)
+{
+    for (size_t i = 0; i < sizeof command_helps / sizeof command_helps[0]; i++)
+        if (strcmp(command_helps[i].name, name) == 0) {
+            printf("usage: %s\n\n%s\n%s", command_helps[i].synopsis, command_helps[i].text, command_options);
+            return SC_OK;
+        }
+    SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", name);
+}
 
 /* The stages of `spraycoat run`, in order. */
 #define PIPELINE "spray,couple,impact,render"
@@ -288,6 +343,13 @@ static int command_run(const struct options *opt, const char *list, int pipeline
     return status;
 }
 
+/* The summary `run` and `resume` end with: what the finished run says. */
+static void print_results(const char *run_dir)
+{
+    printf("results in %s:\n", run_dir);
+    info_headline(run_dir, stdout);
+}
+
 /* `run`: the pipeline.  Without --stages: spray, then couple and impact when the case describes them ([couple] or
  * [impact] given; a spray-only case goes from the spray to the render), then render. */
 static int command_pipeline(const struct options *opt)
@@ -307,8 +369,7 @@ static int command_pipeline(const struct options *opt)
             snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
         else
             default_run_dir(opt->target, run_dir, sizeof run_dir);
-        printf("results in %s:\n", run_dir);
-        info_headline(run_dir, stdout);
+        print_results(run_dir);
     }
     return status;
 }
@@ -330,6 +391,8 @@ static int command_resume(const struct options *opt)
     int pipeline = strncmp(list, RUN_PREFIX, strlen(RUN_PREFIX)) == 0;
     int status = run_stages(c, opt->target, list + (pipeline ? strlen(RUN_PREFIX) : 0), pipeline);
     case_free(c);
+    if (status == SC_OK && parallel_rank() == 0)
+        print_results(opt->target);
     return status;
 }
 
@@ -349,6 +412,13 @@ static int dispatch(const struct options *opt)
         return command_resume(opt);
     if (strcmp(command, "info") == 0)
         return info_print(opt->target, stdout);
+    if (strcmp(command, "help") == 0) {
+        if (!opt->target) {
+            fputs(usage, stdout);
+            return SC_OK;
+        }
+        return print_command_help(opt->target);
+    }
     if (strcmp(command, "keys") == 0) {
         if (opt->target)
             SC_FAIL(SC_EINPUT, "keys takes no argument (see spraycoat --help)");
@@ -362,8 +432,16 @@ int main(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
-            fputs(usage, stdout);
-            return 0;
+            /* `spraycoat COMMAND --help`: the command's help; the general one otherwise */
+            const char *command = i > 1 && argv[1][0] != '-' ? argv[1] : NULL;
+            if (!command || strcmp(command, "help") == 0) {
+                fputs(usage, stdout);
+                return 0;
+            }
+            int status = print_command_help(command);
+            if (status != SC_OK)
+                fprintf(stderr, "spraycoat: %s\n", sc_error_message());
+            return status;
         }
         if (strcmp(argv[i], "--version") == 0) {
             printf("spraycoat %s\n", spraycoat_version());

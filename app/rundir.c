@@ -69,6 +69,17 @@ static int lock_run_dir(const char *run_dir)
     return SC_OK; /* the descriptor stays open, and the lock held, until the process exits */
 }
 
+int run_dir_in_use(const char *run_dir)
+{
+    int fd = open(run_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return 0;
+    /* a shared lock is refused while another process holds the exclusive one of a running stage */
+    int in_use = flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+    close(fd); /* drops the shared lock, if taken */
+    return in_use;
+}
+
 int run_dir_lock_existing(const char *run_dir)
 {
     struct stat info;

@@ -93,7 +93,7 @@ static int loop_step(const struct stage_ops *ops, struct loop_state *state, stru
     if ((interrupted && can_checkpoint) || (checkpoint_due(ops, state, step) && !ops->finished(ops->owner)))
         TIMED(&timing->checkpoints, write_checkpoint(ops, state));
     if (interrupted) {
-        log_progress_end(bar, progress);
+        log_progress_stop(bar, progress);
         SC_FAIL(interrupted, "%s: interrupted at step %lld (t = %.6g s); %s", ops->label, (long long)step, t,
                 ops->interrupted_note);
     }
@@ -118,6 +118,8 @@ int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing)
         int status = loop_step(ops, &state, &bar, timing);
         if (status != SC_OK) {
             timing->loop = log_elapsed() - start;
+            if (!interrupt_status()) /* an interruption said "stopped" already */
+                log_progress_stop(&bar, progress);
             return status;
         }
     }

@@ -232,13 +232,18 @@ void log_progress_update(struct progress *p, int64_t count, const char *extra)
         log_info("%s: %s", p->label, facts);
 }
 
-void log_progress_end(struct progress *p, int64_t count)
+/* The closing line: "done" when the work is complete, "stopped" when it was cut short. */
+static void progress_close(struct progress *p, int64_t count, const char *how)
 {
     double now = log_elapsed();
     char total_text[32], rate_text[32];
     format_duration(now - p->start_time, total_text, sizeof total_text);
     format_rate(progress_rate(p, count, now), rate_text, sizeof rate_text);
     p->last_report = now;
-    log_info("%s: done, %" PRId64 " %s in %s (%s %s/s)", p->label, count - p->start_count, p->unit, total_text,
+    log_info("%s: %s, %" PRId64 " %s in %s (%s %s/s)", p->label, how, count - p->start_count, p->unit, total_text,
              rate_text, p->unit);
 }
+
+void log_progress_end(struct progress *p, int64_t count) { progress_close(p, count, "done"); }
+
+void log_progress_stop(struct progress *p, int64_t count) { progress_close(p, count, "stopped"); }

@@ -37,5 +37,7 @@ void log_progress_begin(struct progress *p, const char *label, const char *unit,
  * (e.g. "in flight 1234, deposited 56") and may be NULL. */
 void log_progress_update(struct progress *p, int64_t count, const char *extra);
 void log_progress_end(struct progress *p, int64_t count);
+/* The closing line of work cut short (an interruption or a failure): "stopped", never "done". */
+void log_progress_stop(struct progress *p, int64_t count);
 
 #endif

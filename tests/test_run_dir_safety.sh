@@ -134,4 +134,5 @@ sed 's/^runs = 4$/runs = 1400/; s/^layer_thickness = 1e-3$/layer_thickness = 1e-
 "$bin" spray "$T/many_seeds.ini" -o "$T/seeds" >/dev/null 2>&1
 signal_stage couple "gas layer" INT 130 "$bin" couple "$T/many_seeds.ini" -o "$T/seeds"
 [ -e "$T/seeds/couple.h5" ] && why="${why:+$why; }couple.h5 written by an interrupted stage"
+grep -q 'couple: done' "$T/couple.out" && why="${why:+$why; }the interrupted stage's log says done"
 report couple_stops_at_sigint

@@ -1,0 +1,47 @@
+#!/bin/sh
+# The command line as a user meets it (issue 23, CLI items): per-command help, `resume` ending with the summary
+# of `run`, `info` telling a running job (its run directory locked) from a stopped one.
+# Prints "PASS name" / "FAIL name: why".  Run from the repository root.
+set -u
+bin=${SPRAYCOAT_BIN:-build/spraycoat}
+base=tests/bad_cases/valid_base.ini
+T=$(mktemp -d) || { echo "FAIL cli_setup: mktemp -d failed"; exit 1; }
+trap 'rm -rf "$T"' EXIT
+
+report() { if [ -z "$why" ]; then echo "PASS $1"; else echo "FAIL $1: $why"; fi; }
+
+# per-command help: `spraycoat COMMAND --help` and `spraycoat help COMMAND` give the command's own page
+why=""
+for command in check run resume spray couple impact vcrit render info keys; do
+    "$bin" "$command" --help >"$T/a" 2>&1 || why="${why:+$why; }$command --help exited $?"
+    "$bin" help "$command" >"$T/b" 2>&1 || why="${why:+$why; }help $command exited $?"
+    grep -q "^usage: spraycoat $command" "$T/a" || why="${why:+$why; }$command --help is not the command's page"
+    cmp -s "$T/a" "$T/b" || why="${why:+$why; }help $command differs from $command --help"
+done
+"$bin" help nosuchcommand >/dev/null 2>&1
+[ $? -eq 2 ] || why="${why:+$why; }help of an unknown command does not exit 2"
+"$bin" help | grep -q 'spraycoat help' || why="${why:+$why; }the general help does not list help"
+report per_command_help
+
+# resume ends with the same summary as run
+R=$T/run
+"$bin" run "$base" -o "$R" >"$T/run.out" 2>/dev/null
+"$bin" resume "$R" >"$T/resume.out" 2>/dev/null
+why=""
+grep -q "^results in $R:" "$T/run.out" || why="run prints no summary"
+sed -n '/^results in/,$p' "$T/run.out" >"$T/run.summary"
+sed -n '/^results in/,$p' "$T/resume.out" >"$T/resume.summary"
+[ -s "$T/resume.summary" ] || why="${why:+$why; }resume prints no summary"
+cmp -s "$T/run.summary" "$T/resume.summary" || why="${why:+$why; }resume's summary differs from run's"
+report resume_prints_summary
+
+# info: a run directory whose lock another process holds is running, not interrupted
+why=""
+"$bin" info "$R" | grep -q '^status: not running' || why="a finished run is not 'not running'"
+if command -v flock >/dev/null 2>&1; then
+    flock -n "$R" "$bin" info "$R" >"$T/info.out" 2>&1
+    grep -q '^status: running' "$T/info.out" || why="${why:+$why; }a locked run directory is not 'running'"
+else
+    why="flock(1) is not installed (util-linux)"
+fi
+report info_running_or_not
