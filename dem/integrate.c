@@ -25,15 +25,6 @@
  * two or three (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like
  * the kept force), a chain broken by anything that clears the kept flag, and a checkpoint holds them, so a
  * resumed run gives the same bits. */
-/* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
- * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
- * here.  And no library calls for loops that copy: a consecutive block's copies of d, m and the kept drag
- * became calls of memcpy for 256 bytes each, 4.5 % of a free-flight run in the -march=native build, where
- * inline vector moves cost a few instructions.  No effect on the results: no floating-point option changes.
- * (The Makefile builds this file with -fno-math-errno, so that sqrt vectorises.) */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("O3", "no-tree-loop-distribute-patterns")
-#endif
 
 #include <math.h>
 #include <omp.h>

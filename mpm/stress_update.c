@@ -19,11 +19,6 @@
  * can return a block of points together: each round of mpm_stress_returns evaluates f for every return still
  * iterating, packed into vector lanes (PTW from mpm/ptw_lane.h), and then advances their Newton iterations in
  * lanes too; a lane's arithmetic is that of the point alone. */
-/* The loops over a block's lanes vectorise only at -O3: the default -O2 build asks for -O3 here.  No effect on
- * the results: no floating-point option changes. */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("O3")
-#endif
 
 #include "mpm/material.h"
 #include "mpm/ptw_lane.h"
