@@ -106,7 +106,8 @@ asan: deps
 	ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan-mesa.supp UBSAN_OPTIONS=print_stacktrace=1 \
 	    SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
 
-# Optimised build in its own folder (make does not track flags), then the performance table.
+# Optimised build in its own folder (build/ keeps the portable objects; a change of flags rebuilds everything), then the
+# performance table.
 bench: deps
 	$(MAKE) BUILD=build-bench OPT='-O3 -march=native' all
 	scripts/bench.sh build-bench
