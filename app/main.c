@@ -444,7 +444,11 @@ int main(int argc, char **argv)
             return status;
         }
         if (strcmp(argv[i], "--version") == 0) {
+            /* the first line as before; then the build record that every output's /code group holds */
             printf("spraycoat %s\n", spraycoat_version());
+            for (const struct spraycoat_build_item *item = spraycoat_build_info(); item->name; item++)
+                if (strcmp(item->name, "program_version") != 0)
+                    printf("  %-12s %s\n", item->name, item->value);
             return 0;
         }
     }

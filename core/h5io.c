@@ -680,6 +680,26 @@ static void utc_now_iso8601(char text[32])
         snprintf(text, 32, "unknown");
 }
 
+/* The /code group: the build record (core/version.h), one text attribute per entry. */
+static int write_code_group(hid_t file)
+{
+    hid_t group = H5I_INVALID_HID;
+    if (h5_exists(file, "code")) {
+        group = H5Gopen2(file, "code", H5P_DEFAULT);
+        if (group < 0) {
+            char reason[H5IO_REASON_MAX];
+            SC_FAIL(SC_EIO, "cannot open group /code: %s", hdf5_reason(reason));
+        }
+    } else {
+        SC_TRY(h5_create_group(file, "code", &group));
+    }
+    int status = SC_OK;
+    for (const struct spraycoat_build_item *item = spraycoat_build_info(); item->name && status == SC_OK; item++)
+        status = h5_attr_write_string(group, item->name, item->value);
+    H5Gclose(group);
+    return status;
+}
+
 int h5_write_root_attributes(hid_t file, const char *format, int64_t format_version, const char *stage,
                              uint64_t case_hash)
 {
@@ -693,6 +713,7 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
     SC_TRY(h5_attr_write_string(file, "stage", stage));
     SC_TRY(h5_attr_write_string(file, "units", "SI"));
     SC_TRY(h5_attr_write_string(file, "created", created));
+    SC_TRY(write_code_group(file));
     return SC_OK;
 }
 

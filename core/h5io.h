@@ -62,7 +62,8 @@ int h5_attr_read_double(hid_t loc, const char *name, double *value);
 int h5_attr_read_int64(hid_t loc, const char *name, int64_t *value);
 
 /* Root attributes every spraycoat file carries: format, format_version, program_version, case_hash
- * (hex text), stage, units = "SI", created (UTC ISO 8601; a timing attribute). */
+ * (hex text), stage, units = "SI", created (UTC ISO 8601; a timing attribute); and the group /code with the
+ * build record as text attributes (core/version.h: compiler, flags, target, library versions). */
 int h5_write_root_attributes(hid_t file, const char *format, int64_t format_version, const char *stage,
                              uint64_t case_hash);
 

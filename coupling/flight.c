@@ -1,4 +1,7 @@
-/* The flight through the gas layer in front of the target with CVODE (coupling/flight.h). */
+/* The flight through the gas stagnation layer in front of the target, which Mukherjee & Zohdi leave out
+ * (Section 6): m dv/dt = F_drag(v, u) with their drag, Eqs. 24-25, in the layer's stagnation-point flow
+ * (the model and its equations: coupling/coupling.h, struct couple_flight_layer), integrated with CVODE (BDF, Newton,
+ * dense linear solver); the flight ends at the wall (root finding) or at a time limit. */
 #include "coupling/coupling.h"
 
 #include <cvode/cvode.h>

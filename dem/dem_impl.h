@@ -235,6 +235,13 @@ static inline void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
 /* dem/integrate.c: advance the free particles over one step with the phi-scheme; end the contacts of the
  * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */
 int dem_integrate(struct dem_solver *s);
+/* For tests: the drag integration of the particles list[0, count) (increasing) over step `step`, no contacts
+ * or boundaries: by the block engine, as dem_integrate runs it (reference = 0), or one by one by the scalar
+ * reference (reference = 1), which the engine must match bit for bit.  Adds to counts: [0] fixed-point
+ * iterations, [1] solves, [2] unconverged, [4] sub-cycled particle-steps; [3] the most iterations of a solve.
+ * Returns whether a position or velocity is not finite. */
+int dem_integrate_particles(const struct dem_config *cfg, struct dem_particles *p, int reuse_drag, int64_t step,
+                            const uint32_t *list, size_t count, int reference, int64_t counts[5]);
 
 /* The boundaries of the step's end (dem/solver.c), as tests of one particle after its integration; inline,
  * since dem_integrate asks them of every particle, in parallel. */

@@ -1,39 +1,28 @@
-/* Time integration of the smooth forces, Mukherjee & Zohdi Section 4.4, Eqs. (42)-(53).
+/* Time integration of the smooth forces (the gas drag) of the free particles: Mukherjee & Zohdi 2015,
+ * Section 4.4, Eqs. (42)-(53).
  *
- * Collisions were applied as impulses at the start of the step (dem/collide.c), so within the step each
- * free particle feels only the gas drag, which depends on its own position and velocity: the fixed-point
- * iteration of Eqs. (51)-(52) decouples into one small iteration per particle, converged to the relative
- * error of Eq. (53) for that particle.  The iteration contracts by about phi dt / tau (tau the drag
- * response time); a particle whose response time is shorter than twice the step is sub-cycled with k equal
- * sub-steps so that dt/k <= tau/2 (DESIGN.md: stiff particles must not go unstable).
+ * - Eqs. 42-43: the one-step phi-scheme for v and x (case key phi; 0.5, the trapezoidal rule the paper uses;
+ *   0 explicit Euler).  Eq. 44's net force is here the drag alone (dem/gas_eval.h): contacts were applied as
+ *   impulses at the start of the step (dem/collide.c).
+ * - Eqs. 45-50: the fixed-point form; phi_problem_set holds the explicit parts R_v, R_x (Eqs. 48, 50).
+ * - Eqs. 51-52: one fixed-point iterate (phi_iterate).
+ * - Eq. 53: the convergence test, per particle: the drag depends only on the particle's own x and v, so the
+ *   iteration decouples into one per particle (eq53_exact; eq53_shortcut decides most cases from the squares).
  *
- * Which iterate ends the step: Eq. 53 compares iterate k+1 with iterate k.  When it holds, the step ends at
- * iterate k, not k+1: k is within the tolerance of the fixed point by the same test (its residual, the step
- * to k+1, is), and the force at k is known, since it made k+1.  That force is the start force of the next
- * step (the particle starts there), so each particle-step costs one drag evaluation less than ending at
- * k+1 would (README, "Integration").  The forces are kept per particle (struct
- * dem_particles: drag) and used only while nothing else changed the particle's position or velocity
- * (a contact, deposition, the target plane clear the kept flag), so that a kept force is exactly the force
- * computed again, and a test compares runs with and without them (dem_reuse_drag).
+ * Beyond the paper (README, "Integration"; DESIGN.md):
+ * - A particle whose drag response time tau is below two steps is sub-cycled: k equal sub-steps, dt/k <= tau/2.
+ * - The step ends at iterate k when Eq. 53 holds between k and k + 1 (k is within the tolerance by the same
+ *   test), and the force at k, known, is kept as the next step's start force (struct dem_drag) while nothing
+ *   else changes the particle (contacts, deposition and the target plane clear it; test: dem_reuse_drag).
+ * - The first iterate starts from the end force extrapolated from the last step-end forces: 3 F_n - 3 F_n-1 +
+ *   F_n-2, 2 F_n - F_n-1, or F_n itself (the paper's start).  Any start converges to the same fixed point
+ *   within Eq. 53; the forces are checkpointed, so a resumed run gives the same bits.
  *
- * The first iterate's guess: the iteration may start anywhere (Eqs. 51-52 converge to the same fixed point
- * within Eq. 53's tolerance); it starts where the force at the end of the step is extrapolated from the forces
- * at the ends of the last steps: quadratically from three (3 F_n - 3 F_n-1 + F_n-2), linearly from two
- * (2 F_n - F_n-1), else the start force F_n itself (explicit Euler, where the paper's iteration starts).  In
- * smooth flight the force changes by ~1e-3 of itself per step, so the quadratic guess is within ~1e-9 of the end
- * force and Eq. 53 holds at the first test: one drag evaluation per particle-step where the explicit guess needs
- * two or three (README, "Integration").  The forces extrapolated from are those of the steps' ends (exact, like
- * the kept force), a chain broken by anything that clears the kept flag, and a checkpoint holds them, so a
- * resumed run gives the same bits. */
-/* The loops over a block's lanes vectorise only at -O3 (at -O2 gcc keeps the small loops over x, y, z and the
- * loop nest stays scalar, which with core/fastmath.h is slower than libm): the default -O2 build asks for -O3
- * here.  And no library calls for loops that copy: a consecutive block's copies of d, m and the kept drag
- * became calls of memcpy for 256 bytes each, 4.5 % of a free-flight run in the -march=native build, where
- * inline vector moves cost a few instructions.  No effect on the results: no floating-point option changes.
- * (The Makefile builds this file with -fno-math-errno, so that sqrt vectorises.) */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("O3", "no-tree-loop-distribute-patterns")
-#endif
+ * The equations are coded twice.  integrate_particle_reference, one particle in the order of the equations, is
+ * the readable reference.  The block engine (struct block, integrate_block), which the program runs, computes
+ * the same for 32 particles at once as vector lanes and must give identical bits: tests/test_spray_solver.c
+ * (test_block_engine_matches_reference) compares the two.  Why the engine looks as it does is in the commit
+ * messages. */
 
 #include <math.h>
 #include <omp.h>
@@ -238,6 +227,96 @@ static void integrate_subcycled(const struct dem_config *cfg, double d, double m
     }
     count->subcycled++;
 }
+
+/* ---------------------------------------------------------------------------------------------------------
+ * The reference: one free particle over one step, the equations in order.  This is the readable statement of
+ * what the block engine below computes for 32 particles at once; the engine must give its bits (x, v, the kept
+ * drag and the iteration counts), which tests/test_spray_solver.c checks (test_block_engine_matches_reference).
+ *
+ * 1. The start force F_n: the kept one (reuse_drag and the particle's drag kept), else the drag at (x, v).
+ * 2. The response time tau there; below two steps (or not finite) the particle is sub-cycled
+ *    (integrate_subcycled: phi-steps of dt/k from the start force; nothing is kept for the next step).
+ * 3. Eqs. 48 and 50: the explicit parts; the first iterate (Eqs. 51-52) from the guess of the end force,
+ *    extrapolated from the kept step-end forces: 3 F_n - 3 F_n-1 + F_n-2, 2 F_n - F_n-1, or F_n.
+ * 4. Eq. 53 for the first iterate (it holds only if the iterate moved nothing; or phi = 0: explicit Euler),
+ *    then the fixed-point iteration (phi_iterate_to_convergence): the step ends at iterate k when Eq. 53 holds
+ *    between k and k + 1, with the force at k known.
+ * 5. The drag kept for the next step: the force, slip and Re^0.6459 at the end where known (else zero, not
+ *    kept), in the ring slot of the oldest force (dem_drag_slot); a start force computed afresh to its slot. */
+
+/* The guess of the force at the end of the step from the last `chain` step-end forces (newest first: the start
+ * force, then the ends of the two steps before).  The block engine's end_force_guess, as written there. */
+static void end_force_guess_one(int chain, const double force_start[3], const double previous[2][3],
+                                double guess[3])
+{
+    for (int c = 0; c < 3; c++) {
+        double newest = force_start[c], older = previous[0][c], oldest = previous[1][c];
+        if (chain >= 3)
+            guess[c] = oldest + 3.0 * (newest - older); /* quadratic: 3 F_n - 3 F_n-1 + F_n-2 */
+        else if (chain == 2)
+            guess[c] = newest + (newest - older); /* linear: 2 F_n - F_n-1 */
+        else
+            guess[c] = newest;
+    }
+}
+
+static void integrate_particle_reference(const struct dem_config *cfg, struct dem_particles *p, int reuse_drag,
+                                         int64_t step, size_t i, struct iteration_count *count)
+{
+    struct dem_drag *drag = &p->drag;
+    const double d = p->d[i], m = p->m[i];
+    double x[3], v[3], force_start[3], previous[2][3], slip, power;
+    for (int c = 0; c < 3; c++) {
+        x[c] = p->x[3 * i + c];
+        v[c] = p->v[3 * i + c];
+        previous[0][c] = drag->forces[dem_drag_slot(step, 1)][c][i];
+        previous[1][c] = drag->forces[dem_drag_slot(step, 2)][c][i];
+    }
+    const int kept = drag->kept[i], chain = kept ? 1 + drag->history_count[i] : 0;
+    /* 1. the start force */
+    if (reuse_drag && kept) {
+        for (int c = 0; c < 3; c++)
+            force_start[c] = drag->forces[dem_drag_slot(step, 0)][c][i];
+        slip = drag->slip[i];
+        power = drag->reynolds_power[i];
+    } else {
+        drag_and_slip(&cfg->gas, d, x, v, force_start, &slip, &power);
+        for (int c = 0; c < 3; c++)
+            drag->forces[dem_drag_slot(step, 0)][c][i] = force_start[c];
+    }
+    /* 2. sub-cycled, or 3-4. one phi-step of dt */
+    double tau = gas_eval_response_time(&cfg->gas, cfg->powder.density, d, slip, power);
+    struct step_end end = {.force_known = 0};
+    if (!(tau >= 2.0 * cfg->dt)) {
+        integrate_subcycled(cfg, d, m, tau, force_start, x, v, count);
+    } else {
+        struct phi_problem problem;
+        double guess[3];
+        phi_problem_set(&problem, cfg->phi, d, m, cfg->dt, x, v, force_start);
+        end_force_guess_one(chain, force_start, previous, guess);
+        struct eq53_squares q = phi_iterate(&problem, guess, x, v);
+        int converged = eq53_holds(&q, cfg->fixed_point_tol) | (cfg->phi == 0.0);
+        int64_t iteration = 1;
+        if (!converged)
+            converged = phi_iterate_to_convergence(cfg, &problem, x, v, &iteration, &end);
+        count_solve(count, iteration, converged);
+    }
+    /* 5. the end state and the drag kept for the next step */
+    for (int c = 0; c < 3; c++) {
+        p->x[3 * i + c] = x[c];
+        p->v[3 * i + c] = v[c];
+        drag->forces[dem_drag_slot(step + 1, 0)][c][i] = end.force_known ? end.force[c] : 0.0;
+    }
+    drag->slip[i] = end.force_known ? end.slip : 0.0;
+    drag->reynolds_power[i] = end.force_known ? end.reynolds_power : 0.0;
+    drag->history_count[i] = (uint8_t)(end.force_known && chain > 0 ? (chain < 2 ? chain : 2) : 0);
+    drag->kept[i] = (uint8_t)end.force_known;
+}
+
+/* ---------------------------------------------------------------------------------------------------------
+ * The block engine: the reference above for BLOCK particles at once, as loops over lanes that vectorise.
+ * Same operations in the same order for each lane, so the same bits; where the lanes part ways (sub-cycling,
+ * the few that iterate longest) the lanes finish one by one with the scalar functions above. */
 
 /* The particles of one block as structure of arrays: lane l is particle index[l]. */
 struct block {
@@ -829,6 +908,33 @@ static int integrate_block(const struct dem_config *cfg, struct dem_particles *p
     block_finish_lanes(cfg, b, count);
     block_count(cfg, b, count);
     return block_store(p, b);
+}
+
+int dem_integrate_particles(const struct dem_config *cfg, struct dem_particles *p, int reuse_drag, int64_t step,
+                            const uint32_t *list, size_t count, int reference, int64_t counts[5])
+{
+    struct iteration_count total = {0};
+    int bad = 0;
+    if (reference) {
+        for (size_t k = 0; k < count; k++) {
+            integrate_particle_reference(cfg, p, reuse_drag, step, list[k], &total);
+            for (int c = 0; c < 3; c++)
+                bad |= !isfinite(p->x[3 * list[k] + c]) | !isfinite(p->v[3 * list[k] + c]);
+        }
+    } else {
+        struct block *b = dem_aligned_alloc_or_die(_Alignof(struct block), sizeof *b);
+        for (size_t first = 0; first < count; first += BLOCK) {
+            block_load(p, reuse_drag, step, b, list + first, count - first < BLOCK ? count - first : BLOCK);
+            bad |= integrate_block(cfg, p, b, &total);
+        }
+        free(b);
+    }
+    counts[0] += total.iterations;
+    counts[1] += total.solves;
+    counts[2] += total.unconverged;
+    counts[3] = total.max_iterations > counts[3] ? total.max_iterations : counts[3];
+    counts[4] += total.subcycled;
+    return bad;
 }
 
 /* The moving particles of the step split, in order: those still flying (flying[0, *count)) and those that

@@ -1,4 +1,6 @@
-/* Deposit metrics (Mukherjee & Zohdi Section 5.2), checkpoints and the spray.h5 datasets. */
+/* Deposit metrics, Mukherjee & Zohdi Section 5.2 (unnumbered there): deposit fraction N_dep/N_inj, volume
+ * fraction, mean spread mu and scatter sigma of |x_p - x_0|, maximum deposit thickness; and the deposition
+ * rate.  Also the spray's checkpoints and the spray.h5 datasets. */
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>

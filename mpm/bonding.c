@@ -1,4 +1,6 @@
-/* The direct bonding models of thesis Chapter 4: the bonding parameter D_bond of a surface point in contact
+/* The direct bonding models of thesis Chapter 4, strain-based (Section 4.1.1, Eqs. 4.3-4.5) and energy-based
+ * (Section 4.3, Eqs. 4.16-4.17; the nodal average and the bond of Eqs. 4.6-4.7 are in contact.c): the bonding
+ * parameter D_bond of a surface point in contact
  * with another body grows with its plastic deformation; nodes where the bodies' average D_bond reaches 1 stick
  * the bodies together, also while they separate (contact.c).  D_bond never decreases. */
 #include <math.h>

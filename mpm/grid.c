@@ -1,5 +1,6 @@
 /* The background grid: shape functions (trilinear, Eq. 3.20, or uGIMP) and the particle-to-grid transfers of
- * thesis Section 3.4 steps 1-2 and 8, done block by block in 8 colours so that no two threads ever add to the
+ * thesis Section 3.4 steps 1-2 and 8 (mass and momentum Eqs. 3.23-3.24, forces Eqs. 3.25-3.27, the MUSL
+ * re-projection Eq. 3.33), done block by block in 8 colours so that no two threads ever add to the
  * same node and every node receives its contributions in the same order for any number of threads. */
 #include <limits.h>
 #include <math.h>

@@ -1,4 +1,7 @@
-/* The MUSL step of thesis Section 3.4 (steps 1-12) with contact, bonding and absorbing boundaries. */
+/* The MUSL step of thesis Section 3.4 (steps 1-12, Eqs. 3.23-3.37: mass and momentum to the grid, nodal forces
+ * and momentum update, points' velocity and position, MUSL re-projection, strain increments, density Eq. 3.36,
+ * the time step of Eq. 3.37 with the points' speeds added) with contact (Section 3.5.4), bonding (Chapter 4)
+ * and absorbing boundaries (Section 3.5.5). */
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>

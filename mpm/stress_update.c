@@ -15,15 +15,10 @@
  *   never yields and reports yield_stress 0.
  * - The artificial bulk viscosity q is kept apart from the Cauchy stress (state->viscosity) and its work enters
  *   the internal energy after the EOS solve.
- * The update runs in three phases (mpm_stress_begin, mpm_stress_returns, mpm_stress_finish) so that the solver
- * can return a block of points together: each round of mpm_stress_returns evaluates f for every return still
- * iterating, packed into vector lanes (PTW from mpm/ptw_lane.h), and then advances their Newton iterations in
- * lanes too; a lane's arithmetic is that of the point alone. */
-/* The loops over a block's lanes vectorise only at -O3: the default -O2 build asks for -O3 here.  No effect on
- * the results: no floating-point option changes. */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("O3")
-#endif
+ * mpm_stress_update, one point through the three phases (mpm_stress_begin, mpm_stress_returns,
+ * mpm_stress_finish), is the reference; the solver runs the phases over blocks of points, the returns' Newton
+ * iterations packed into vector lanes (PTW from mpm/ptw_lane.h), and a lane's arithmetic is that of the point
+ * alone: tests/test_mpm_stress_update.c (11) checks that a block gives each point the bits of its update alone. */
 
 #include "mpm/material.h"
 #include "mpm/ptw_lane.h"

@@ -9,8 +9,9 @@ values() {
 
 # same_h5 A B: 0 when the two files hold the same groups, datasets (bit for bit: h5diff -d 0 also compares NaN
 # positions) and attributes, apart from the attributes that legitimately differ between runs: created
-# (timing), program_version (the build) and case (the resolved case text, whose comments say where it was
-# read from; case_hash is compared).  Else 1, with the differences in $why.
+# (timing), program_version (the build), case (the resolved case text, whose comments say where it was
+# read from; case_hash is compared) and the build record of any /code group (compiler, flags, libraries: the
+# builds compared may differ).  Else 1, with the differences in $why.
 same_h5() {
     why=""
     for f in "$1" "$2"; do
@@ -25,7 +26,7 @@ same_h5() {
         why="h5diff failed: $(head -n 3 "$T/h5diff.out" | tr '\n' ' ')"
         return 1
     fi
-    awk '/^attribute: <(created|program_version|case) of / { skip = 1; next }
+    awk '/^attribute: <(created|program_version|case) of / || /^attribute: <[^ ]* of <[^>]*\/code>>/ { skip = 1; next }
          /differences found$/ { if (skip) { skip = 0; next } }
          NF { print }' "$T/h5diff.out" >"$T/h5diff.left"
     if [ -s "$T/h5diff.left" ]; then

@@ -93,7 +93,11 @@ run1 cli_help 0 "usage" "$bin" --help
 run1 cli_help_short 0 "usage" "$bin" -h
 run1 cli_help_after_command 0 "usage" "$bin" check --help
 expect cli_version 0 "spraycoat " "$bin" --version
-[ "$(wc -l <"$tmp/out")" -eq 1 ] || why="$why; --version printed $(wc -l <"$tmp/out") lines, expected 1"
+# the version line first, then the build record of /code (compiler, flags, libraries)
+head -n 1 "$tmp/out" | grep -q '^spraycoat [^ ]*$' || why="$why; --version's first line is \"$(head -n 1 "$tmp/out")\""
+for item in compiler flags hdf5 sundials; do
+    grep -q "^  $item  *[^ ]" "$tmp/out" || why="$why; --version has no $item line"
+done
 report cli_version
 
 # ---- I/O errors: exit 3, the path in the message -----------------------------------------------------------

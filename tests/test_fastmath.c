@@ -1,9 +1,6 @@
 /* core/fastmath.h and core/fastmath_special.h against glibc: the largest error in ulp over the ranges the PTW
  * flow stress (mpm/ptw_lane.h) and the drag (dem/gas_eval.h) use, and the same bits from a vectorised loop as
  * from scalar calls. */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("O3")
-#endif
 
 #include <math.h>
 #include <stdint.h>

@@ -481,6 +481,165 @@ static void test_spin_blow_up_is_reported(void)
     fixture_close(&f);
 }
 
+/* The block engine of dem/integrate.c (32 particles as vector lanes) against its scalar reference, one particle
+ * at a time (integrate_particle_reference): the same bits for x, v, the kept drag and the iteration counts.
+ * Random particles in the jet, diameters from 0.2 um (sub-cycled: response time below two steps) to 100 um,
+ * after some steps (kept forces and their history); a third lose their kept drag (the paper's explicit first
+ * guess, more iterations, so several lanes iterate in the vectorised passes) and some their history (linear or
+ * no extrapolation); with and without the kept start forces; all particles (consecutive blocks) and every other
+ * one (gathered blocks, the last one partial). */
+struct drag_state {
+    size_t n;
+    double *x, *v, *forces[3][3], *slip, *reynolds_power;
+    uint8_t *kept, *history_count;
+};
+
+/* save: a new copy of p's integration state into *st; else p's state back from *st. */
+static void drag_state_copy(struct drag_state *st, struct dem_particles *p, int save)
+{
+    size_t n = p->count, vec = 3 * n * sizeof(double), one = n * sizeof(double);
+    if (save) {
+        st->n = n;
+        st->x = malloc(vec), st->v = malloc(vec), st->slip = malloc(one), st->reynolds_power = malloc(one);
+        st->kept = malloc(n), st->history_count = malloc(n);
+        for (int s = 0; s < 3; s++)
+            for (int c = 0; c < 3; c++)
+                st->forces[s][c] = malloc(one);
+    }
+#define COPY(mine, theirs, size) (save ? memcpy(mine, theirs, size) : memcpy(theirs, mine, size))
+    COPY(st->x, p->x, vec);
+    COPY(st->v, p->v, vec);
+    COPY(st->slip, p->drag.slip, one);
+    COPY(st->reynolds_power, p->drag.reynolds_power, one);
+    COPY(st->kept, p->drag.kept, n);
+    COPY(st->history_count, p->drag.history_count, n);
+    for (int s = 0; s < 3; s++)
+        for (int c = 0; c < 3; c++)
+            COPY(st->forces[s][c], p->drag.forces[s][c], one);
+#undef COPY
+}
+
+static void drag_state_free(struct drag_state *st)
+{
+    free(st->x), free(st->v), free(st->slip), free(st->reynolds_power), free(st->kept), free(st->history_count);
+    for (int s = 0; s < 3; s++)
+        for (int c = 0; c < 3; c++)
+            free(st->forces[s][c]);
+}
+
+/* The first particle (of the list) where a and b differ in any bit, with what differs; -1 if none. */
+static long drag_state_differ(const struct drag_state *a, const struct drag_state *b, const uint32_t *list,
+                              size_t count, const char **what)
+{
+    size_t one = sizeof(double);
+    for (size_t k = 0; k < count; k++) {
+        size_t i = list[k];
+        *what = "x";
+        if (memcmp(a->x + 3 * i, b->x + 3 * i, 3 * one) != 0)
+            return (long)i;
+        *what = "v";
+        if (memcmp(a->v + 3 * i, b->v + 3 * i, 3 * one) != 0)
+            return (long)i;
+        *what = "slip or Re^0.6459";
+        if (memcmp(a->slip + i, b->slip + i, one) != 0 ||
+            memcmp(a->reynolds_power + i, b->reynolds_power + i, one) != 0)
+            return (long)i;
+        *what = "kept or history_count";
+        if (a->kept[i] != b->kept[i] || a->history_count[i] != b->history_count[i])
+            return (long)i;
+        *what = "a kept force";
+        for (int s = 0; s < 3; s++)
+            for (int c = 0; c < 3; c++)
+                if (memcmp(a->forces[s][c] + i, b->forces[s][c] + i, one) != 0)
+                    return (long)i;
+    }
+    return -1;
+}
+
+static void test_block_engine_matches_reference(void)
+{
+    enum { PARTICLES = 150, STEPS = 20 };
+    static char rows[PARTICLES * 160];
+    size_t used = 0;
+    uint64_t state = 0x9e3779b97f4a7c15u;
+#define UNIFORM() ((double)((state = state * 6364136223846793005u + 1442695040888963407u) >> 11) * 0x1p-53)
+    for (int k = 0; k < PARTICLES; k++) {
+        double x = 0.01 * (UNIFORM() - 0.5), y = 0.01 * (UNIFORM() - 0.5), z = 0.005 + 0.1 * UNIFORM();
+        double vx = 10.0 * (UNIFORM() - 0.5), vy = 10.0 * (UNIFORM() - 0.5), vz = 150.0 * UNIFORM();
+        double d = 2e-7 * pow(500.0, UNIFORM()); /* 0.2 to 100 um, log-uniform */
+        used += (size_t)snprintf(rows + used, sizeof rows - used, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,0,0,0,%.17g\n",
+                                 x, y, z, vx, vy, vz, d);
+    }
+    const char *ini = "[spray]\ndt = 1e-6\nt_end = 1\ndomain_radius = 0.2\n[target]\nstandoff = 0.3\n"
+                      "[deposition]\nrule = none\n";
+    struct fixture f;
+    int status = fixture_open(&f, ini, rows);
+    if (status == SC_OK)
+        status = fixture_steps(&f, STEPS);
+    CHECK(status == SC_OK, "fixture and %d steps", STEPS);
+    if (status != SC_OK) {
+        fixture_close(&f);
+        return;
+    }
+    struct dem_particles *p = &f.solver->p;
+    const size_t n = p->count;
+    for (size_t i = 0; i < n; i++) {
+        if (i % 3 == 0)
+            p->drag.kept[i] = 0;
+        else if (i % 5 == 0)
+            p->drag.history_count[i] = (uint8_t)(i % 2);
+    }
+    uint32_t *all = malloc(n * sizeof *all), *every_other = malloc(n * sizeof *every_other);
+    size_t halves = 0;
+    for (size_t i = 0; i < n; i++) {
+        all[i] = (uint32_t)i;
+        if (i % 2)
+            every_other[halves++] = (uint32_t)i;
+    }
+    struct drag_state start, engine, reference;
+    drag_state_copy(&start, p, 1);
+    int64_t subcycled = 0, iterated = 0;
+    for (int reuse = 0; reuse < 2; reuse++) {
+        for (int which = 0; which < 2; which++) {
+            const uint32_t *list = which ? every_other : all;
+            size_t count = which ? halves : n;
+            int64_t counts_engine[5] = {0}, counts_reference[5] = {0};
+            drag_state_copy(&start, p, 0);
+            int bad_engine = dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 0,
+                                                     counts_engine);
+            drag_state_copy(&engine, p, 1);
+            drag_state_copy(&start, p, 0);
+            int bad_reference = dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 1,
+                                                        counts_reference);
+            drag_state_copy(&reference, p, 1);
+            const char *what = "";
+            long first = drag_state_differ(&engine, &reference, list, count, &what);
+            CHECK(first < 0, "reuse_drag %d, %s: particle %ld: %s differs between the block engine and the reference",
+                  reuse, which ? "every other particle" : "all particles", first, what);
+            CHECK(memcmp(counts_engine, counts_reference, sizeof counts_engine) == 0 &&
+                      bad_engine == bad_reference,
+                  "reuse_drag %d, %s: iteration counts differ: engine %lld %lld %lld %lld %lld, reference %lld %lld "
+                  "%lld %lld %lld", reuse, which ? "every other particle" : "all particles",
+                  (long long)counts_engine[0], (long long)counts_engine[1], (long long)counts_engine[2],
+                  (long long)counts_engine[3], (long long)counts_engine[4], (long long)counts_reference[0],
+                  (long long)counts_reference[1], (long long)counts_reference[2], (long long)counts_reference[3],
+                  (long long)counts_reference[4]);
+            subcycled += counts_reference[4];
+            iterated += counts_reference[3] > 2;
+            drag_state_free(&engine);
+            drag_state_free(&reference);
+        }
+    }
+    CHECK(n > 100 && subcycled > 0 && iterated > 0,
+          "the set-up covers the cases (%zu particles, %lld sub-cycled, %lld runs with more than 2 iterations)", n,
+          (long long)subcycled, (long long)iterated);
+    drag_state_free(&start);
+    free(all);
+    free(every_other);
+    fixture_close(&f);
+#undef UNIFORM
+}
+
 int main(void)
 {
     h5_quiet();
@@ -492,6 +651,7 @@ int main(void)
     RUN(test_threads_bit_identical);
     RUN(test_kept_drag_changes_nothing);
     RUN(test_guessed_first_iterate);
+    RUN(test_block_engine_matches_reference);
     RUN(test_checkpoint_round_trip);
     RUN(test_blow_up_is_reported);
     RUN(test_spin_blow_up_is_reported);

@@ -1,0 +1,54 @@
+#!/bin/sh
+# Every output records how the program was built: the group /code of spray.h5 and impact.h5 (a short spray and
+# a short impact) holds the build record of core/version.h as text attributes, none of them empty; the flags
+# state -ffp-contract=off (bit-identical results must not rest on a compiler default); and `spraycoat
+# --version` prints the same record.
+# Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets it).  Needs h5dump.
+set -u
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1: $2"; }
+
+if ! command -v h5dump >/dev/null 2>&1; then
+    fail code_group "h5dump is missing (hdf5-tools)"
+    exit 1
+fi
+
+# attr FILE NAME: the text attribute /code/NAME of FILE ("" when absent)
+attr() { h5dump -a "/code/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): "\(.*\)"$/\1/p'; }
+
+# check NAME FILE: every entry of the record present and not empty, the flags with -ffp-contract=off
+check() {
+    why=""
+    [ -f "$2" ] || { fail "$1" "$2 was not written"; return; }
+    for name in program_version compiler flags file_flags target openmp hdf5 sundials cairo osmesa inih mpi; do
+        [ -n "$(attr "$2" "$name")" ] || why="$why /code/$name missing or empty;"
+    done
+    case "$(attr "$2" flags)" in
+    *-ffp-contract=off*) ;;
+    *) why="$why /code/flags \"$(attr "$2" flags)\" lacks -ffp-contract=off;" ;;
+    esac
+    version=$("$BIN" --version | head -n 1)
+    [ "spraycoat $(attr "$2" program_version)" = "$version" ] ||
+        why="$why /code/program_version \"$(attr "$2" program_version)\" is not that of --version (\"$version\");"
+    "$BIN" --version >"$T/version.txt"
+    for name in compiler flags hdf5 sundials; do
+        grep -qxF "  $(printf '%-12s' "$name") $(attr "$2" "$name")" "$T/version.txt" ||
+            why="$why --version does not print /code/$name \"$(attr "$2" "$name")\";"
+    done
+    if [ -z "$why" ]; then pass "$1"; else fail "$1" "$why"; fi
+}
+
+awk '/^\[/ { section = $0 } section == "[spray]" && /^t_end = / { $0 = "t_end = 2e-4" } { print }' \
+    cases/demo.ini >"$T/spray.ini"
+cp cases/vcrit_al_calibration_grid.csv "$T/" # the demo's v_crit(d) table, a path relative to the case
+"$BIN" spray "$T/spray.ini" -o "$T/spray" >"$T/spray.log" 2>&1 ||
+    fail code_group_spray "the spray failed: $(tail -n 2 "$T/spray.log" | tr '\n' ' ')"
+check code_group_spray "$T/spray/spray.h5"
+
+sed 's/^t_end = .*/t_end = 2e-9/' cases/impact_demo.ini >"$T/impact.ini"
+"$BIN" impact "$T/impact.ini" -o "$T/impact" >"$T/impact.log" 2>&1 ||
+    fail code_group_impact "the impact failed: $(tail -n 2 "$T/impact.log" | tr '\n' ' ')"
+check code_group_impact "$T/impact/impact.h5"
