@@ -74,10 +74,12 @@ struct reader {
     const char *path;
     const struct csv_column *columns;
     int column_count;
+    int flags;
     char *message;
     size_t size;
     long line;
-    int *field_column; /* header field k holds column field_column[k] */
+    int *field_column; /* header field k holds column field_column[k] (-1: ignored) */
+    int header_count;  /* fields of the header */
     int field_count;
     char **fields;
     int fields_capacity;
@@ -145,6 +147,10 @@ static int read_header(struct reader *r)
         for (int c = 0; c < r->column_count; c++)
             if (strcmp(r->fields[k], r->columns[c].name) == 0)
                 column = c;
+        if (column < 0 && (r->flags & CSV_OTHER_COLUMNS)) {
+            r->field_column[k] = -1; /* ignored */
+            continue;
+        }
         if (column < 0)
             return fail(r, SC_EINPUT, "%s:%ld:%d: unknown column '%.*s' in the header; allowed: the columns %s, each "
                         "once", r->path, r->line, k + 1, SHOWN, r->fields[k], names);
@@ -246,11 +252,11 @@ static int grow_table(struct reader *r, struct csv_table *t, size_t *capacity, b
 
 static int read_row(struct reader *r, struct csv_table *t, size_t *capacity)
 {
-    if (r->field_count != r->column_count) {
+    if (r->field_count != r->header_count) {
         char names[512];
         list_columns(r, names, sizeof names);
         return fail(r, SC_EINPUT, "%s:%ld: %d fields, the header has %d (%s)", r->path, r->line, r->field_count,
-                    r->column_count, names);
+                    r->header_count, r->header_count == r->column_count ? names : "with others");
     }
     bool has_names = false;
     for (int c = 0; c < r->column_count; c++)
@@ -264,6 +270,8 @@ static int read_row(struct reader *r, struct csv_table *t, size_t *capacity)
     t->rows++; /* counted now, so that csv_free frees the names of a row that fails half-way */
     for (int k = 0; k < r->field_count; k++) {
         int c = r->field_column[k];
+        if (c < 0)
+            continue;
         const struct csv_column *column = &r->columns[c];
         numbers[c] = NAN;
         switch (column->kind) {
@@ -311,7 +319,7 @@ static bool skipped(const char *line)
     return *line == '\0' || *line == '#';
 }
 
-int csv_read(const char *path, const struct csv_column *columns, int column_count, struct csv_table *out,
+int csv_read(const char *path, const struct csv_column *columns, int column_count, int flags, struct csv_table *out,
              char *message, size_t size)
 {
     *out = (struct csv_table){.columns = column_count};
@@ -321,7 +329,7 @@ int csv_read(const char *path, const struct csv_column *columns, int column_coun
     int opened = input_fopen(path, &file, message, size);
     if (opened != 0)
         return opened < 0 ? SC_EINPUT : SC_EIO;
-    struct reader r = {.path = path, .columns = columns, .column_count = column_count, .message = message,
+    struct reader r = {.path = path, .columns = columns, .column_count = column_count, .flags = flags, .message = message,
                        .size = size};
     char *buffer = NULL;
     size_t buffer_size = 0, capacity = 0;
@@ -335,6 +343,7 @@ int csv_read(const char *path, const struct csv_column *columns, int column_coun
             break;
         if (!header) {
             status = read_header(&r);
+            r.header_count = r.field_count;
             header = true;
         } else {
             status = read_row(&r, out, &capacity);

@@ -3,7 +3,7 @@
  *
  * A FIFO would block the reader and /dev/zero would never end, so every input is opened without blocking and
  * refused unless it is a regular file.  A CSV table has one header line naming its columns (in any order, each
- * exactly once, no others), then one row per line with exactly as many comma-separated fields; blanks around a
+ * exactly once, no others unless CSV_OTHER_COLUMNS), then one row per line with exactly as many comma-separated fields; blanks around a
  * field, blank lines and lines starting with '#' are ignored, a UTF-8 byte order mark (Excel's "CSV UTF-8") is
  * skipped, lines may end in CRLF and have any length.  Every number is checked against its column's range.
  * Errors read "PATH:LINE:COLUMN: name = value: what is wrong; allowed: ..." (LINE and COLUMN from 1). */
@@ -41,9 +41,13 @@ struct csv_table {
     long *lines;     /* the file line of each row, for messages */
 };
 
+/* csv_read's flags: CSV_OTHER_COLUMNS lets the header name columns besides the listed ones, ignored (the v_crit
+ * table that `spraycoat vcrit` writes has more); without it they are an error (a typo must not pass). */
+enum { CSV_OTHER_COLUMNS = 1 };
+
 /* Read the table at `path` (at least one data row).  Returns SC_OK, SC_EINPUT (bad content, not a regular file)
  * or SC_EIO (cannot open or read); on failure `message` holds the reason and *out is empty. */
-int csv_read(const char *path, const struct csv_column *columns, int column_count, struct csv_table *out,
+int csv_read(const char *path, const struct csv_column *columns, int column_count, int flags, struct csv_table *out,
              char *message, size_t size);
 void csv_free(struct csv_table *t);
 

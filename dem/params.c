@@ -207,11 +207,12 @@ static int check_jet(const struct case_file *c, const struct gas_field *gas)
 
 /* Read a CSV table of numbers (core/csv.h); an error names the case key that gave the path. */
 static int read_csv_columns(const struct case_file *c, const char *section, const char *key, const char *path,
-                            const struct csv_column *columns, int column_count, double **rows_out, size_t *count_out)
+                            const struct csv_column *columns, int column_count, int flags, double **rows_out,
+                            size_t *count_out)
 {
     char message[1024];
     struct csv_table table;
-    if (csv_read(path, columns, column_count, &table, message, sizeof message) != SC_OK)
+    if (csv_read(path, columns, column_count, flags, &table, message, sizeof message) != SC_OK)
         return case_invalid(c, section, key, "%s", message);
     *rows_out = table.numbers;
     *count_out = table.rows;
@@ -236,7 +237,7 @@ static int load_particles_file(const struct case_file *c, struct dem_config *cfg
     if (!case_has(c, "spray", "particles"))
         return case_require(c, "spray", "particles", "injection = file");
     SC_TRY(case_path(c, "spray", "particles", cfg->particles_path, sizeof cfg->particles_path));
-    SC_TRY(read_csv_columns(c, "spray", "particles", cfg->particles_path, columns, 10, &cfg->file_particles,
+    SC_TRY(read_csv_columns(c, "spray", "particles", cfg->particles_path, columns, 10, 0, &cfg->file_particles,
                             &cfg->file_particle_count));
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
         const double *row = cfg->file_particles + 10 * i;
@@ -290,7 +291,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
         SC_TRY(read_table_h5(c, path, cfg));
     } else {
         double *rows = NULL;
-        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, &rows, &cfg->table_count));
+        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows,
+                                &cfg->table_count));
         cfg->table_diameter = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
         cfg->table_velocity = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
         for (size_t i = 0; i < cfg->table_count; i++) {

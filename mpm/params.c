@@ -298,7 +298,7 @@ static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
     char path[4096], message[1024];
     SC_TRY(case_path(c, "impact", "bodies", path, sizeof path));
     struct csv_table table;
-    if (csv_read(path, body_columns, BODY_COLUMNS, &table, message, sizeof message) != SC_OK)
+    if (csv_read(path, body_columns, BODY_COLUMNS, 0, &table, message, sizeof message) != SC_OK)
         return case_invalid(c, "impact", "bodies", "%s", message);
     int status = table.rows > (size_t)INT_MAX / 2
                      ? case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows, INT_MAX / 2)
