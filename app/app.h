@@ -27,7 +27,7 @@ int run_dir_write_stages(const char *run_dir, const char *stages);
 int run_dir_read_stages(const char *run_dir, char *out, size_t size);
 
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
-int case_section_given(const struct case_file *c, const char *section);
+int app_case_section_given(const struct case_file *c, const char *section);
 
 /* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
  * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
@@ -35,7 +35,7 @@ uint64_t stage_hash(const struct case_file *c, const char *stage);
 /* 1 when the impact stage takes its bodies from RUN_DIR/couple.h5 (set by stages_set_pipeline: the stages of
  * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the case), 0 when from [impact]
  * (one particle or a bodies file). */
-int impact_takes_seeds(const struct case_file *c);
+int stages_impact_takes_seeds(const struct case_file *c);
 void stages_set_pipeline(int on);
 /* 1 in a pipeline (`spraycoat run`): its render stage skips figures that are up to date. */
 int stages_in_pipeline(void);

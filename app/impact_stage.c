@@ -129,7 +129,7 @@ static int write_checkpoint(struct impact_run *run)
 {
     struct mpm_counts counts = mpm_get_counts(run->solver);
     struct h5_out out;
-    SC_TRY(checkpoint_begin(run->run_dir, run->label, counts.step, &out));
+    SC_TRY(h5_checkpoint_begin(run->run_dir, run->label, counts.step, &out));
     int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash);
     /* what `spraycoat info` shows of a checkpoint (the solver's own datasets are its business) */
     if (status == SC_OK)
@@ -148,7 +148,7 @@ static int write_checkpoint(struct impact_run *run)
         h5_abort(&out);
         return status;
     }
-    SC_TRY(checkpoint_commit(&out, run->run_dir, run->label, run->settings.keep_checkpoints));
+    SC_TRY(h5_checkpoint_commit(&out, run->run_dir, run->label, run->settings.keep_checkpoints));
     run->last_checkpoint_time = log_elapsed();
     run->last_checkpoint_step = counts.step;
     log_info("%s: checkpoint at step %lld (t = %.6g s)", run->label, (long long)counts.step, counts.t);
@@ -160,7 +160,7 @@ static int resume_if_possible(struct impact_run *run, int *resumed)
 {
     char path[H5IO_PATH_MAX];
     *resumed = 0;
-    SC_TRY(checkpoint_find_newest(run->run_dir, run->label, MPM_FORMAT, MPM_FORMAT_VERSION, run->case_hash, path,
+    SC_TRY(h5_checkpoint_find_newest(run->run_dir, run->label, MPM_FORMAT, MPM_FORMAT_VERSION, run->case_hash, path,
                                   sizeof path));
     if (path[0] == '\0')
         return SC_OK;
@@ -200,7 +200,7 @@ static int time_loop(struct impact_run *run)
 {
     struct progress bar;
     struct mpm_counts counts = mpm_get_counts(run->solver);
-    progress_begin(&bar, run->label, "ps", picoseconds(counts.t), picoseconds(run->cfg.t_end));
+    log_progress_begin(&bar, run->label, "ps", picoseconds(counts.t), picoseconds(run->cfg.t_end));
     run->last_checkpoint_time = log_elapsed();
     double loop_start = log_elapsed();
     while (!mpm_finished(run->solver)) {
@@ -211,17 +211,17 @@ static int time_loop(struct impact_run *run)
         if (interrupted || (checkpoint_due(run, counts.step) && !mpm_finished(run->solver)))
             TIMED(&run->checkpoint_seconds, write_checkpoint(run));
         if (interrupted) {
-            progress_end(&bar, picoseconds(counts.t));
+            log_progress_end(&bar, picoseconds(counts.t));
             SC_FAIL(interrupted, "%s: interrupted at step %lld (t = %.6g s); checkpoint written, continue with "
                     "`spraycoat resume %s`", run->label, (long long)counts.step, counts.t, run->run_dir);
         }
         char extra[160];
         snprintf(extra, sizeof extra, "step %lld, dt %.3g s, %lld of %lld points active", (long long)counts.step,
                  counts.dt, (long long)counts.active_points, (long long)counts.points);
-        progress_update(&bar, picoseconds(counts.t), extra);
+        log_progress_update(&bar, picoseconds(counts.t), extra);
     }
     run->loop_seconds = log_elapsed() - loop_start;
-    progress_end(&bar, picoseconds(mpm_get_counts(run->solver).t));
+    log_progress_end(&bar, picoseconds(mpm_get_counts(run->solver).t));
     return SC_OK;
 }
 
@@ -424,7 +424,7 @@ static int run_stage(struct impact_run *run)
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints and snapshot files are no longer needed */
-    SC_TRY(checkpoint_remove_all(run->run_dir, run->label));
+    SC_TRY(h5_checkpoint_remove_all(run->run_dir, run->label));
     SC_TRY(clear_snapshots(run, 1));
     log_summary(run);
     return SC_OK;
@@ -456,7 +456,7 @@ int impact_stage_validate(const struct case_file *c, const char *run_dir)
 {
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
-    int status = impact_takes_seeds(c) ? SC_OK : check_sphere_overlap(c, &cfg);
+    int status = stages_impact_takes_seeds(c) ? SC_OK : check_sphere_overlap(c, &cfg);
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;
@@ -464,13 +464,13 @@ int impact_stage_validate(const struct case_file *c, const char *run_dir)
      * those of the runs of the seeds (as many as [couple] asks for) */
     char path[H5IO_PATH_MAX];
     uint64_t hash = stage_hash(c, STAGE);
-    if (!impact_takes_seeds(c))
-        return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
+    if (!stages_impact_takes_seeds(c))
+        return h5_checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
     long runs = case_int(c, "couple", "runs");
     for (long r = 0; r < runs; r++) {
         struct impact_run names = {.run_dir = run_dir};
         name_run(&names, r);
-        SC_TRY(checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
+        SC_TRY(h5_checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
     }
     return SC_OK;
 }
@@ -690,7 +690,7 @@ static int remove_run_files(const char *run_dir, long runs)
         if (unlink(names.output) != 0 && errno != ENOENT)
             SC_FAIL(SC_EIO, "cannot remove %s: %s", names.output, strerror(errno));
         SC_TRY(clear_snapshots(&names, 1));
-        SC_TRY(checkpoint_remove_all(run_dir, names.label));
+        SC_TRY(h5_checkpoint_remove_all(run_dir, names.label));
     }
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
@@ -705,7 +705,7 @@ static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64
                           const struct run_settings *settings)
 {
     struct couple_bodies bodies;
-    SC_TRY(couple_read_bodies(run_dir, c, &bodies));
+    SC_TRY(couple_stage_read_bodies(run_dir, c, &bodies));
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
     int status = SC_OK;
@@ -721,7 +721,7 @@ static int run_all_seeded(const struct case_file *c, const char *run_dir, uint64
     for (int64_t r; status == SC_OK && (r = parallel_task_next()) < runs;)
         status = run_seeded(c, run_dir, hash, settings, &bodies, (long)r);
     parallel_tasks_end();
-    couple_bodies_free(&bodies);
+    couple_stage_bodies_free(&bodies);
     /* rank 0 gathers once every rank is done; the others report its status */
     status = parallel_max_status(status);
     if (status == SC_OK && parallel_rank() == 0)
@@ -740,7 +740,7 @@ static int gather(const struct case_file *c, const char *run_dir, uint64_t hash,
  * checkpoints of the runs behind. */
 static int remove_leftovers(const struct case_file *c, const char *run_dir)
 {
-    if (impact_takes_seeds(c))
+    if (stages_impact_takes_seeds(c))
         return remove_run_files(run_dir, case_int(c, "couple", "runs"));
     struct impact_run names = {.run_dir = run_dir};
     name_run(&names, -1);
@@ -755,7 +755,7 @@ int impact_stage_run(const struct case_file *c, const char *run_dir)
     struct run_settings settings;
     if (stage_begin(STAGE, path, hash, c, &settings))
         return parallel_rank() == 0 ? remove_leftovers(c, run_dir) : SC_OK;
-    if (impact_takes_seeds(c))
+    if (stages_impact_takes_seeds(c))
         return run_all_seeded(c, run_dir, hash, &settings);
     /* one run: rank 0's (the others have nothing to share) */
     return parallel_rank() == 0 ? run_single(c, run_dir, hash, &settings) : SC_OK;

@@ -208,7 +208,7 @@ int run_dir_read_stages(const char *run_dir, char *out, size_t size)
     return SC_OK;
 }
 
-int case_section_given(const struct case_file *c, const char *section)
+int app_case_section_given(const struct case_file *c, const char *section)
 {
     for (int t = 0; spraycoat_registry[t]; t++)
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
@@ -228,7 +228,7 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
         char *slash = strrchr(run_dir, '/');
         if (slash)
             *slash = '\0';
-        if (parallel_rank() == 0 && checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
+        if (parallel_rank() == 0 && h5_checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
             log_warn("%s: %s", stage, sc_error_message());
         return 1;
     }
@@ -270,7 +270,7 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
     return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(c, "couple"));
 }
 
-int impact_takes_seeds(const struct case_file *c)
+int stages_impact_takes_seeds(const struct case_file *c)
 {
     (void)c;
     return pipeline;
@@ -283,7 +283,7 @@ uint64_t stage_hash(const struct case_file *c, const char *stage)
     if (strcmp(stage, "couple") == 0)
         return case_hash_sections(c, couple_sections);
     if (strcmp(stage, "impact") == 0)
-        return case_hash_sections(c, impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
+        return case_hash_sections(c, stages_impact_takes_seeds(c) ? pipeline_impact_sections : impact_sections);
     if (strcmp(stage, "vcrit") == 0)
         return case_hash_sections(c, vcrit_sections);
     return case_hash(c);

@@ -33,7 +33,7 @@ static int write_checkpoint(struct spray_run *run)
     double start = omp_get_wtime();
     struct dem_counts counts = dem_get_counts(run->solver);
     struct h5_out out;
-    SC_TRY(checkpoint_begin(run->run_dir, STAGE, counts.step, &out));
+    SC_TRY(h5_checkpoint_begin(run->run_dir, STAGE, counts.step, &out));
     int status = h5_write_root_attributes(out.file, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash);
     if (status == SC_OK)
         status = dem_checkpoint_write(run->solver, out.file);
@@ -41,7 +41,7 @@ static int write_checkpoint(struct spray_run *run)
         h5_abort(&out);
         return status;
     }
-    SC_TRY(checkpoint_commit(&out, run->run_dir, STAGE, run->settings.keep_checkpoints));
+    SC_TRY(h5_checkpoint_commit(&out, run->run_dir, STAGE, run->settings.keep_checkpoints));
     run->last_checkpoint_time = log_elapsed();
     run->last_checkpoint_step = counts.step;
     log_info("spray: checkpoint at step %lld (t = %.6g s)", (long long)counts.step, counts.t);
@@ -52,7 +52,7 @@ static int write_checkpoint(struct spray_run *run)
 static int resume_if_possible(struct spray_run *run)
 {
     char path[H5IO_PATH_MAX];
-    SC_TRY(checkpoint_find_newest(run->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, run->case_hash, path,
+    SC_TRY(h5_checkpoint_find_newest(run->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, run->case_hash, path,
                                   sizeof path));
     if (path[0] == '\0')
         return SC_OK;
@@ -80,7 +80,7 @@ static int time_loop(struct spray_run *run)
     int64_t particle_steps_before = dem_get_counts(run->solver).particle_steps;
     int64_t steps_before = dem_get_counts(run->solver).step;
     struct progress bar;
-    progress_begin(&bar, STAGE, "steps", dem_get_counts(run->solver).step, total);
+    log_progress_begin(&bar, STAGE, "steps", dem_get_counts(run->solver).step, total);
     run->last_checkpoint_time = log_elapsed();
     for (int64_t step = dem_get_counts(run->solver).step; step < total; step++) {
         SC_TRY(dem_step(run->solver));
@@ -89,16 +89,16 @@ static int time_loop(struct spray_run *run)
         if (interrupted || (checkpoint_due(run, counts.step) && counts.step < total))
             SC_TRY(write_checkpoint(run));
         if (interrupted) {
-            progress_end(&bar, counts.step);
+            log_progress_end(&bar, counts.step);
             SC_FAIL(interrupted, "spray: interrupted at step %lld; checkpoint written, continue with "
                     "`spraycoat resume %s`", (long long)counts.step, run->run_dir);
         }
         char extra[160];
         snprintf(extra, sizeof extra, "in flight %lld, deposited %lld, escaped %lld", (long long)counts.in_flight,
                  (long long)counts.deposited, (long long)counts.escaped);
-        progress_update(&bar, counts.step, extra);
+        log_progress_update(&bar, counts.step, extra);
     }
-    progress_end(&bar, total);
+    log_progress_end(&bar, total);
     run->loop_seconds = omp_get_wtime() - start;
     run->loop_particle_steps = dem_get_counts(run->solver).particle_steps - particle_steps_before;
     run->loop_steps = dem_get_counts(run->solver).step - steps_before;
@@ -214,7 +214,7 @@ static int run_stage(struct spray_run *run)
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints would only stop a changed case from running here */
-    SC_TRY(checkpoint_remove_all(run->run_dir, STAGE));
+    SC_TRY(h5_checkpoint_remove_all(run->run_dir, STAGE));
     log_summary(run);
     return SC_OK;
 }
@@ -255,7 +255,7 @@ int spray_stage_validate(const struct case_file *c, const char *run_dir)
         return SC_OK;
     /* refuse checkpoints of another case before anything in the run directory is written */
     char path[H5IO_PATH_MAX];
-    return checkpoint_find_newest(run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(c, STAGE), path, sizeof path);
+    return h5_checkpoint_find_newest(run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(c, STAGE), path, sizeof path);
 }
 
 int spray_stage_run(const struct case_file *c, const char *run_dir)

@@ -321,7 +321,7 @@ static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit
     snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
     struct progress bar;
     if (status == SC_OK)
-        progress_begin(&bar, label, "ps", 0, picoseconds(cfg.t_end));
+        log_progress_begin(&bar, label, "ps", 0, picoseconds(cfg.t_end));
     while (status == SC_OK && !mpm_finished(s)) {
         status = mpm_step(s);
         int interrupted = stages_interrupt_status();
@@ -332,10 +332,10 @@ static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit
             break;
         }
         if (status == SC_OK)
-            progress_update(&bar, picoseconds(mpm_get_counts(s).t), NULL);
+            log_progress_update(&bar, picoseconds(mpm_get_counts(s).t), NULL);
     }
     if (status == SC_OK) {
-        progress_end(&bar, picoseconds(mpm_get_counts(s).t));
+        log_progress_end(&bar, picoseconds(mpm_get_counts(s).t));
         int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
         if (!bonded) {
             status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");

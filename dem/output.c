@@ -304,7 +304,7 @@ static int read_particles(hid_t group, struct dem_particles *p)
     size_t n;
     int status = h5_dataset_size(g, "id", &n);
     if (status == SC_OK) {
-        particles_reserve(p, n ? n : 1);
+        dem_particles_reserve(p, n ? n : 1);
         p->count = n;
         int64_t *state = dem_realloc_or_die(NULL, (n ? n : 1) * sizeof *state);
         status = h5_read_int64s(g, "id", p->id, n);
