@@ -37,7 +37,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
-.PHONY: all test asan bench run validate install clean format deps FORCE
+.PHONY: all test asan bench run validate install clean format deps fuzz fuzz-build FORCE
 all: $(BIN) $(TEST_BIN)
 
 deps:
@@ -120,6 +120,30 @@ validate: deps
 	$(MAKE) all
 	scripts/validate.sh $(BUILD)
 
+# `make fuzz`: the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/), built with clang,
+# AddressSanitizer and UBSan into FUZZ_BUILD, each run for FUZZ_SECONDS from its kept corpus tests/fuzz/corpus/.
+# Needs clang (Debian's package ships libFuzzer); tests/test_fuzz.sh runs them briefly in the suite.
+FUZZ_BUILD   ?= build-fuzz
+FUZZ_SECONDS ?= 600
+FUZZ_CC      ?= clang
+FUZZ_CFLAGS  := -std=c17 -g -O1 -march=x86-64-v2 -fno-omit-frame-pointer -fopenmp -D_DEFAULT_SOURCE \
+                -D_POSIX_C_SOURCE=200809L -fsanitize=address,undefined -fno-sanitize-recover=all
+FUZZ_OBJ     := $(patsubst %.c,$(FUZZ_BUILD)/%.o,$(wildcard core/*.c dem/*.c mpm/*.c))
+FUZZ_BIN     := $(FUZZ_BUILD)/fuzz_case $(FUZZ_BUILD)/fuzz_particles_csv $(FUZZ_BUILD)/fuzz_bodies_csv
+
+$(FUZZ_BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(CPPFLAGS) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link -MMD -MP -c $< -o $@
+
+$(FUZZ_BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(FUZZ_OBJ)
+	$(FUZZ_CC) $(CPPFLAGS) $(FUZZ_CFLAGS) -fsanitize=fuzzer $< $(FUZZ_OBJ) $(LDLIBS) -o $@
+
+fuzz-build: $(FUZZ_BIN)
+.SECONDARY: $(FUZZ_OBJ)
+
+fuzz: fuzz-build
+	FUZZ_BUILD=$(FUZZ_BUILD) FUZZ_SECONDS=$(FUZZ_SECONDS) tests/fuzz/run.sh
+
 install: $(BIN)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases
 	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/spraycoat
@@ -130,6 +154,7 @@ format:
 	clang-format -i core/*.[ch] dem/*.[ch] mpm/*.[ch] render/*.[ch] coupling/*.[ch] app/*.[ch] tests/*.[ch] tests/bench/*.c
 
 clean:
-	rm -rf build build-asan build-bench build-mpi
+	rm -rf build build-asan build-bench build-mpi build-fuzz
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
+-include $(shell find $(FUZZ_BUILD) -name '*.d' 2>/dev/null)

@@ -389,23 +389,19 @@ static int run_stage(struct impact_run *run)
 static int check_sphere_overlap(const struct case_file *c, const struct mpm_config *cfg)
 {
     int first = cfg->body_count > 0 && cfg->bodies[0].substrate; /* data row r of the file is body r - 1 + first */
-    for (int i = 0; i < cfg->body_count; i++)
-        for (int j = i + 1; j < cfg->body_count; j++) {
-            const struct mpm_body *a = &cfg->bodies[i], *b = &cfg->bodies[j];
-            if (a->substrate || b->substrate || a->shape != MPM_SPHERE || b->shape != MPM_SPHERE)
-                continue;
-            double dx = a->center[0] - b->center[0], dy = a->center[1] - b->center[1],
-                   dz = a->center[2] - b->center[2];
-            double distance = sqrt(dx * dx + dy * dy + dz * dz), reach = 0.5 * (a->d + b->d);
-            if (distance < reach * (1.0 - 1e-9)) {
-                char path[4096] = "";
-                case_path(c, "impact", "bodies", path, sizeof path);
-                return case_invalid(c, "impact", "bodies", "%s: data rows %d and %d: the spheres overlap (centres "
-                                    "%.4g m apart, radii add up to %.4g m); bodies may touch, not overlap", path,
-                                    i + 1 - first, j + 1 - first, distance, reach);
-            }
-        }
-    return SC_OK;
+    int i, j, found = mpm_find_sphere_overlap(cfg, &i, &j);
+    if (found < 0)
+        SC_FAIL(SC_ESIM, "out of memory checking %d bodies for overlaps", cfg->body_count);
+    if (found == 0)
+        return SC_OK;
+    const struct mpm_body *a = &cfg->bodies[i], *b = &cfg->bodies[j];
+    double dx = a->center[0] - b->center[0], dy = a->center[1] - b->center[1], dz = a->center[2] - b->center[2];
+    double distance = sqrt(dx * dx + dy * dy + dz * dz), reach = 0.5 * (a->d + b->d);
+    char path[4096] = "";
+    case_path(c, "impact", "bodies", path, sizeof path);
+    return case_invalid(c, "impact", "bodies", "%s: data rows %d and %d: the spheres overlap (centres %.4g m apart, "
+                        "radii add up to %.4g m); bodies may touch, not overlap", path, i + 1 - first, j + 1 - first,
+                        distance, reach);
 }
 
 static void name_run(struct impact_run *run, long index);

@@ -104,6 +104,8 @@ static int print_command_help(const char *name)
 #define PIPELINE "spray,couple,impact,render"
 /* RUN_DIR/stages of a `run`: "run:" and the stages, so that `resume` continues a pipeline as a pipeline */
 #define RUN_PREFIX "run:"
+/* Longest -o RUN_DIR: room for the names of the files inside within H5IO_PATH_MAX. */
+#define RUN_DIR_MAX (H5IO_PATH_MAX - 256)
 
 struct options {
     const char *command;
@@ -142,6 +144,10 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     }
     if (!opt->command)
         SC_FAIL(SC_EINPUT, "no command given (see spraycoat --help)");
+    /* the files inside (checkpoints/STAGE_NNNNNNNN.h5.tmp, snapshots/...) must fit in a path too */
+    if (opt->run_dir && strlen(opt->run_dir) > RUN_DIR_MAX)
+        SC_FAIL(SC_EINPUT, "-o RUN_DIR: the path has %zu characters; allowed: at most %d", strlen(opt->run_dir),
+                RUN_DIR_MAX);
     return SC_OK;
 }
 

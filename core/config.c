@@ -27,9 +27,11 @@
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/atomic.h"
+#include "core/csv.h"
 #include "core/error.h"
 
 /* A range bound of this magnitude or more means "no bound" (registries write 1e300 or HUGE_VAL). */
@@ -76,6 +78,13 @@ struct case_file {
     struct registry_view registry;
     struct slot *slots;
     size_t slot_count, slot_capacity;
+    /* Slots by (section, key): an open-addressing hash table of slot positions + 1 (0: empty), at most half full,
+     * so that a case with many [material.NAME] sections loads in linear time (a linear search per key was
+     * quadratic: 1,600 sections took seconds).  Slots appended for a new [material.NAME] are sorted into place
+     * once, when the file is read (or the override set), not per section. */
+    size_t *index;
+    size_t index_size; /* a power of two */
+    bool unsorted;
 };
 
 /* ---- small utilities ---------------------------------------------------------------------------------- */
@@ -258,6 +267,11 @@ static bool valid_instance_name(const char *name)
     return true;
 }
 
+int case_valid_name(const char *name)
+{
+    return name && valid_instance_name(name);
+}
+
 static bool section_matches(const char *pattern, const char *name)
 {
     if (!is_pattern(pattern))
@@ -429,7 +443,7 @@ static void format_unknown_section(const struct registry_view *view, const char 
     char sections[LIST_SIZE], suggestion[160], pattern[128];
     list_sections(view, sections, sizeof sections);
     if (is_bad_instance_name(view, name, pattern, sizeof pattern)) {
-        format_message(out, size, "%s: [%s]: NAME of [%s] must be letters, digits, '_' or '-'; allowed sections: %s",
+        format_message(out, size, "%s: [%s]: NAME of [%s] must be " CASE_NAME_ALLOWED "; allowed sections: %s",
                        where, name, pattern, sections);
         return;
     }
@@ -616,10 +630,49 @@ static int compare_slots(const void *pa, const void *pb)
     return (a->key_rank > b->key_rank) - (a->key_rank < b->key_rank);
 }
 
+static size_t slot_hash(const char *section, const char *key)
+{
+    uint64_t hash = 0xcbf29ce484222325ULL;
+    for (const unsigned char *s = (const unsigned char *)section; *s; s++)
+        hash = (hash ^ *s) * 0x100000001b3ULL;
+    hash = (hash ^ 0xff) * 0x100000001b3ULL; /* separates "ab"+"c" from "a"+"bc" */
+    for (const unsigned char *s = (const unsigned char *)key; *s; s++)
+        hash = (hash ^ *s) * 0x100000001b3ULL;
+    return (size_t)(hash ^ (hash >> 29));
+}
+
+static void index_insert(struct case_file *c, size_t position)
+{
+    const struct slot *slot = &c->slots[position];
+    size_t mask = c->index_size - 1;
+    size_t at = slot_hash(slot->section, slot->spec->key) & mask;
+    while (c->index[at])
+        at = (at + 1) & mask;
+    c->index[at] = position + 1;
+}
+
+/* Rebuild the table for the slots as they are now, growing it to keep it at most half full. */
+static void index_rebuild(struct case_file *c)
+{
+    size_t size = c->index_size ? c->index_size : 256;
+    while (size < 2 * c->slot_count + 2)
+        size *= 2;
+    if (size != c->index_size) {
+        free(c->index);
+        c->index = must_realloc(NULL, size * sizeof *c->index);
+        c->index_size = size;
+    }
+    memset(c->index, 0, size * sizeof *c->index);
+    for (size_t i = 0; i < c->slot_count; i++)
+        index_insert(c, i);
+}
+
 static void sort_slots(struct case_file *c)
 {
     if (c->slot_count > 1)
         qsort(c->slots, c->slot_count, sizeof *c->slots, compare_slots);
+    c->unsorted = false;
+    index_rebuild(c);
 }
 
 static void clear_value(struct slot *slot)
@@ -668,33 +721,48 @@ static void append_slot(struct case_file *c, int key_index, const char *section)
                           .key_rank = key_index,
                           .section = must_strdup(section)};
     apply_default(slot);
+    if (2 * c->slot_count + 2 > c->index_size)
+        index_rebuild(c);
+    else
+        index_insert(c, c->slot_count - 1);
 }
 
 static struct slot *find_slot(const struct case_file *c, const char *section, const char *key)
 {
-    for (size_t i = 0; i < c->slot_count; i++)
-        if (strcmp(c->slots[i].section, section) == 0 && strcmp(c->slots[i].spec->key, key) == 0)
-            return &c->slots[i];
+    if (!c->index_size)
+        return NULL;
+    size_t mask = c->index_size - 1;
+    for (size_t at = slot_hash(section, key) & mask; c->index[at]; at = (at + 1) & mask) {
+        struct slot *slot = &c->slots[c->index[at] - 1];
+        if (strcmp(slot->section, section) == 0 && strcmp(slot->spec->key, key) == 0)
+            return slot;
+    }
     return NULL;
 }
 
-static bool has_instance(const struct case_file *c, const char *section)
+/* Every instance of a pattern section has a slot for each key of it, the first one included. */
+static bool has_instance(const struct case_file *c, const char *section, int rank)
 {
-    for (size_t i = 0; i < c->slot_count; i++)
-        if (strcmp(c->slots[i].section, section) == 0)
-            return true;
-    return false;
+    return find_slot(c, section, c->registry.keys[rank]->key) != NULL;
 }
 
-/* Slots for a [material.NAME] seen for the first time, holding the defaults.  Moves the slots. */
+/* Slots for a [material.NAME] seen for the first time, holding the defaults.  Moves the slots; they are sorted
+ * into place by finish_slots. */
 static void ensure_instance(struct case_file *c, const char *section, int rank)
 {
-    if (has_instance(c, section))
+    if (has_instance(c, section, rank))
         return;
     for (int i = rank; i < c->registry.count; i++)
         if (c->registry.section_rank[i] == rank)
             append_slot(c, i, section);
-    sort_slots(c);
+    c->unsorted = true;
+}
+
+/* The slots in registry order again after new instances: printing, hashing and writing rely on it. */
+static void finish_slots(struct case_file *c)
+{
+    if (c->unsorted)
+        sort_slots(c);
 }
 
 /* ---- reading the file ------------------------------------------------------------------------------------ */
@@ -705,6 +773,7 @@ struct parse_state {
     const char *end;
     int line;       /* number of the line inih works on */
     char *section;  /* current section as written; NULL before the first header */
+    bool any_section; /* a [section] header was read */
     int error_line; /* line of the first error found here, 0 if none */
     char message[MESSAGE_SIZE];
 };
@@ -770,6 +839,7 @@ static bool enter_section_line(struct parse_state *st, const char *line)
     }
     free(st->section);
     st->section = must_strndup(line + 1, (size_t)(close - line - 1));
+    st->any_section = true;
     return enter_section(st);
 }
 
@@ -852,9 +922,17 @@ static int on_key_value(void *user, const char *inih_section, const char *name, 
 
 static int read_case_text(const char *path, char **text_out, size_t *length_out)
 {
-    FILE *file = fopen(path, "rb");
-    if (!file)
-        return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot open case file %s: %s", path, strerror(errno));
+    FILE *file;
+    char why[PATH_MAX + 128];
+    int opened = csv_input_fopen(path, &file, why, sizeof why);
+    struct stat info;
+    /* a folder stays an I/O error (as a missing file); a FIFO would block and /dev/zero never end: bad input */
+    if (opened < 0 && stat(path, &info) == 0 && S_ISDIR(info.st_mode))
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot open case file %s: %s", path, strerror(EISDIR));
+    if (opened < 0)
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s (a case file)", why);
+    if (opened > 0)
+        return sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot open case file %s: %s", path, strerror(opened));
     size_t capacity = 4096, length = 0;
     char *text = must_realloc(NULL, capacity + 1);
     bool too_large = false;
@@ -966,9 +1044,28 @@ static int report_syntax_error(const char *path, const char *text, size_t length
                         (int)shown, start);
 }
 
+/* A CR not followed by LF: the file has old Mac line endings (CR only), which a line reader takes for one long
+ * line ("line too long" or a bogus syntax error would name the wrong thing). */
+static int check_line_endings(const char *path, const char *text, size_t length)
+{
+    int line = 1;
+    for (size_t i = 0; i < length; i++) {
+        if (text[i] == '\n')
+            line++;
+        else if (text[i] == '\r' && i + 1 < length && text[i + 1] != '\n')
+            return sc_error_set(SC_EINPUT, __FILE__, __LINE__,
+                                "%s:%d: the file uses CR line endings (a carriage return without a line feed, as "
+                                "classic Mac OS wrote); save it with LF (Unix) or CRLF (Windows) line endings",
+                                path, line);
+    }
+    return SC_OK;
+}
+
 static int parse_case_text(struct case_file *c, const char *text, size_t length)
 {
     int status = check_text_bytes(c->path, text, length);
+    if (status == SC_OK)
+        status = check_line_endings(c->path, text, length);
     if (status != SC_OK)
         return status;
     /* inih skips a UTF-8 byte order mark too, but the reader must not see it as part of a "[" line. */
@@ -982,6 +1079,16 @@ static int parse_case_text(struct case_file *c, const char *text, size_t length)
         return report_syntax_error(c->path, text + bom, length - bom, result);
     if (st.error_line)
         return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s", st.message);
+    /* an empty file (or comments only) is more likely the wrong file than a wish for every default */
+    if (!st.any_section) {
+        char sections[LIST_SIZE];
+        list_sections(&c->registry, sections, sizeof sections);
+        return sc_error_set(SC_EINPUT, __FILE__, __LINE__,
+                            "%s: no [section] in the file (empty, or comments only); a case file has at least one "
+                            "section (an empty [run] takes every default); allowed sections: %s",
+                            c->path, sections);
+    }
+    finish_slots(c);
     return SC_OK;
 }
 
@@ -1028,6 +1135,7 @@ void case_free(struct case_file *c)
         free(c->slots[i].section);
     }
     free(c->slots);
+    free(c->index);
     registry_close(&c->registry);
     free(c->folder);
     free(c->path);
@@ -1084,6 +1192,7 @@ static int override_value(struct case_file *c, const char *where, const char *se
     if (is_pattern(c->registry.keys[rank]->section))
         ensure_instance(c, section, rank);
     store_value(find_slot(c, section, key), text, &parsed, SOURCE_OVERRIDE, 0, where);
+    finish_slots(c);
     return SC_OK;
 }
 
@@ -1354,8 +1463,9 @@ static uint64_t fnv1a(uint64_t hash, const char *text)
 /* FNV-1a over the bytes of a file; an unreadable file adds nothing (the stage reports it). */
 static uint64_t fnv1a_file(uint64_t hash, const char *path)
 {
-    FILE *file = fopen(path, "rb");
-    if (!file)
+    FILE *file;
+    char why[PATH_MAX + 128];
+    if (csv_input_fopen(path, &file, why, sizeof why) != 0) /* no FIFO or device: it would block or never end */
         return hash;
     unsigned char buffer[65536];
     size_t got;

@@ -74,6 +74,11 @@ int case_path(const struct case_file *c, const char *section, const char *key, c
 /* Line of the key in the file, 0 if not from the file. */
 int case_line(const struct case_file *c, const char *section, const char *key);
 
+/* The NAME of a [material.NAME] section (and so a material name anywhere): 1 if it is made of the characters
+ * CASE_NAME_ALLOWED says, else 0. */
+#define CASE_NAME_ALLOWED "letters, digits, '_' or '-'"
+int case_valid_name(const char *name);
+
 /* Errors in the standard form.  Both return SC_EINPUT. */
 int case_require(const struct case_file *c, const char *section, const char *key, const char *why);
 int case_invalid(const struct case_file *c, const char *section, const char *key, const char *fmt, ...)

@@ -209,6 +209,10 @@ int h5_open_read(const char *path, hid_t *file)
         SC_FAIL(SC_EIO, "cannot open %s: %s", path, sc_strerror(errno));
     if (S_ISDIR(info.st_mode))
         SC_FAIL(SC_EIO, "cannot open %s: it is a folder, not an HDF5 file", path);
+    /* a FIFO would block H5Fopen forever, a device never end */
+    if (!S_ISREG(info.st_mode))
+        SC_FAIL(SC_EIO, "cannot open %s: not a regular file (a FIFO, device or socket); an HDF5 input must be a "
+                "regular file", path);
     errno = 0;
     *file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (*file < 0) {

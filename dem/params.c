@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/csv.h"
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/run_keys.h"
@@ -204,111 +205,39 @@ static int check_jet(const struct case_file *c, const struct dem_gas_field *gas)
     return SC_OK;
 }
 
-/* Split a CSV line in place into at most max fields; returns the number of fields. */
-static int split_csv(char *line, char **fields, int max)
-{
-    int n = 0;
-    char *cursor = line;
-    line[strcspn(line, "\r\n")] = '\0';
-    while (n < max) {
-        fields[n++] = cursor;
-        char *comma = strchr(cursor, ',');
-        if (!comma)
-            break;
-        *comma = '\0';
-        cursor = comma + 1;
-    }
-    for (int i = 0; i < n; i++) {
-        while (*fields[i] == ' ' || *fields[i] == '\t')
-            fields[i]++;
-        char *end = fields[i] + strlen(fields[i]);
-        while (end > fields[i] && (end[-1] == ' ' || end[-1] == '\t'))
-            *--end = '\0';
-    }
-    return n;
-}
-
-static int parse_finite(const char *text, double *value)
-{
-    char *end;
-    errno = 0;
-    *value = strtod(text, &end);
-    return end != text && *end == '\0' && errno == 0 && isfinite(*value);
-}
-
-static int column_index(char **names, int count, const char *wanted)
-{
-    for (int i = 0; i < count; i++)
-        if (strcmp(names[i], wanted) == 0)
-            return i;
-    return -1;
-}
-
-/* Read the numeric columns `wanted` of a CSV file with a header line; '#' lines are comments. */
+/* Read a CSV table of numbers (core/csv.h); an error names the case key that gave the path. */
 static int read_csv_columns(const struct case_file *c, const char *section, const char *key, const char *path,
-                            const char *const *wanted, int wanted_count, double **rows_out, size_t *count_out)
+                            const struct csv_column *columns, int column_count, int flags, double **rows_out,
+                            size_t *count_out)
 {
-    FILE *file = fopen(path, "r");
-    if (!file)
-        return case_invalid(c, section, key, "cannot open %s: %s", path, strerror(errno));
-    char line[4096];
-    char *fields[64];
-    int index[16];
-    int header_seen = 0, header_fields = 0, status = SC_OK;
-    size_t count = 0, capacity = 0, line_number = 0;
-    double *rows = NULL;
-    while (status == SC_OK && fgets(line, sizeof line, file)) {
-        line_number++;
-        if (line[0] == '#' || strspn(line, " \t\r\n") == strlen(line))
-            continue;
-        int nfields = split_csv(line, fields, 64);
-        if (!header_seen) {
-            for (int w = 0; w < wanted_count && status == SC_OK; w++) {
-                index[w] = column_index(fields, nfields, wanted[w]);
-                if (index[w] < 0)
-                    status = case_invalid(c, section, key, "%s: the header has no column '%s'", path, wanted[w]);
-            }
-            header_seen = 1;
-            header_fields = nfields;
-            continue;
-        }
-        if (count == capacity) {
-            capacity = capacity ? 2 * capacity : 256;
-            rows = dem_realloc_or_die(rows, capacity * (size_t)wanted_count * sizeof *rows);
-        }
-        if (nfields < header_fields) {
-            status = case_invalid(c, section, key, "%s:%zu: %d columns, the header has %d", path, line_number,
-                                  nfields, header_fields);
-            break;
-        }
-        for (int w = 0; w < wanted_count && status == SC_OK; w++) {
-            if (index[w] >= nfields || !parse_finite(fields[index[w]], &rows[count * (size_t)wanted_count + (size_t)w]))
-                status = case_invalid(c, section, key, "%s:%zu: column '%s' is not a finite number", path,
-                                      line_number, wanted[w]);
-        }
-        count++;
-    }
-    fclose(file);
-    if (status == SC_OK && !header_seen)
-        status = case_invalid(c, section, key, "%s: empty file (a header line is required)", path);
-    if (status == SC_OK && count == 0)
-        status = case_invalid(c, section, key, "%s: no data rows", path);
-    if (status != SC_OK) {
-        free(rows);
-        return status;
-    }
-    *rows_out = rows;
-    *count_out = count;
+    char message[1024];
+    struct csv_table table;
+    if (csv_read(path, columns, column_count, flags, &table, message, sizeof message) != SC_OK)
+        return case_invalid(c, section, key, "%s", message);
+    *rows_out = table.numbers;
+    *count_out = table.rows;
+    table.numbers = NULL;
+    csv_free(&table);
     return SC_OK;
 }
 
 static int load_particles_file(const struct case_file *c, struct dem_config *cfg)
 {
-    static const char *const columns[] = {"x", "y", "z", "vx", "vy", "vz", "wx", "wy", "wz", "d"};
+    /* the ranges of the keys the columns stand for: positions as standoff and domain_radius (at most 100 m),
+     * velocities as release_speed_max (at most 1e4 m/s), d as d_min, d_max and median_diameter (at most 1 m; at least 1 nm, as no
+     * powder is finer: 1e-300 m passed the keys' range and stalled the run);
+     * spins at most 1e9 rad/s (no key) */
+    static const struct csv_column columns[] = {
+        {"x", CSV_NUMBER, -100, 100, 0, "m", NULL},         {"y", CSV_NUMBER, -100, 100, 0, "m", NULL},
+        {"z", CSV_NUMBER, -100, 100, 0, "m", NULL},         {"vx", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
+        {"vy", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},      {"vz", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
+        {"wx", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},    {"wy", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},
+        {"wz", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},    {"d", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+    };
     if (!case_has(c, "spray", "particles"))
         return case_require(c, "spray", "particles", "injection = file");
     SC_TRY(case_path(c, "spray", "particles", cfg->particles_path, sizeof cfg->particles_path));
-    SC_TRY(read_csv_columns(c, "spray", "particles", cfg->particles_path, columns, 10, &cfg->file_particles,
+    SC_TRY(read_csv_columns(c, "spray", "particles", cfg->particles_path, columns, 10, 0, &cfg->file_particles,
                             &cfg->file_particle_count));
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
         const double *row = cfg->file_particles + 10 * i;
@@ -350,7 +279,9 @@ static int read_table_h5(const struct case_file *c, const char *path, struct dem
 
 static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
 {
-    static const char *const columns[] = {"diameter", "v_crit"};
+    /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at most 1e5 m/s) */
+    static const struct csv_column columns[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+                                                {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
     char path[4096];
     if (!case_has(c, "deposition", "table"))
         return case_require(c, "deposition", "table", "rule = table");
@@ -359,8 +290,9 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
     if (len > 3 && strcmp(path + len - 3, ".h5") == 0) {
         SC_TRY(read_table_h5(c, path, cfg));
     } else {
-        double *rows;
-        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, &rows, &cfg->table_count));
+        double *rows = NULL;
+        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows,
+                                &cfg->table_count));
         cfg->table_diameter = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
         cfg->table_velocity = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
         for (size_t i = 0; i < cfg->table_count; i++) {

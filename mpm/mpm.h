@@ -90,6 +90,12 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
 int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diameter, const double *center,
                            const double *velocity);
 
+/* The first pair of overlapping spheres among the bodies that are not the substrate (first by the lower index,
+ * then by the higher): centres closer than their radii add up to, less a relative 1e-9 (touching is allowed).
+ * Returns 1 and the indices into cfg->bodies, 0 when none overlap, -1 when out of memory.  Near-linear in the
+ * number of spheres (a cell list whose cells are as wide as the largest sphere). */
+int mpm_find_sphere_overlap(const struct mpm_config *cfg, int *first, int *second);
+
 struct mpm_solver;
 
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out);

@@ -1,10 +1,12 @@
 /* The impact stage's case keys ([impact], [material.NAME]) and their resolution into struct mpm_config. */
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/csv.h"
 #include "core/error.h"
 #include "mpm/mpm.h"
 #include "mpm/mpm_impl.h"
@@ -108,6 +110,10 @@ const struct cfg_key mpm_case_keys[] = {
 static int load_material(const struct case_file *c, const char *key, const char *name, struct mpm_material *m)
 {
     char section[96];
+    /* "Al.6061" or "steel 316" cannot name a [material.NAME] section: say so instead of looking it up */
+    if (!case_valid_name(name))
+        return case_invalid(c, "impact", key, "not a valid material name; allowed: " CASE_NAME_ALLOWED " (the NAME of "
+                            "a [material.NAME] section)");
     if (strlen(name) >= sizeof m->name)
         return case_invalid(c, "impact", key, "material name longer than %zu characters", sizeof m->name - 1);
     snprintf(section, sizeof section, "material.%s", name);
@@ -250,103 +256,67 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     return SC_OK;
 }
 
-static int parse_shape(const char *text, enum mpm_shape *shape)
-{
-    if (strcmp(text, "sphere") == 0)
-        *shape = MPM_SPHERE;
-    else if (strcmp(text, "cylinder") == 0)
-        *shape = MPM_CYLINDER;
-    else if (strcmp(text, "box") == 0)
-        *shape = MPM_BOX;
-    else
-        return -1;
-    return 0;
-}
+/* The bodies CSV's columns, with the ranges of the [impact] keys they stand for (positions and sizes as
+ * substrate_diameter and diameter: at most 1 m, and d at least 1 nm; velocities as velocity: at most 1e5 m/s).  The order is the
+ * order of the fields of struct mpm_body's set-up below; a file may list the columns in any order. */
+enum { BODY_SHAPE, BODY_X, BODY_VX = BODY_X + 3, BODY_D = BODY_VX + 3, BODY_H, BODY_MATERIAL, BODY_COLUMNS };
+static const struct csv_column body_columns[BODY_COLUMNS] = {
+    {"shape", CSV_WORD, 0, 0, 0, NULL, "sphere|cylinder|box"},
+    {"x", CSV_NUMBER, -1, 1, 0, "m", NULL},
+    {"y", CSV_NUMBER, -1, 1, 0, "m", NULL},
+    {"z", CSV_NUMBER, -1, 1, 0, "m", NULL},
+    {"vx", CSV_NUMBER, -1e5, 1e5, 0, "m/s", NULL},
+    {"vy", CSV_NUMBER, -1e5, 1e5, 0, "m/s", NULL},
+    {"vz", CSV_NUMBER, -1e5, 1e5, 0, "m/s", NULL},
+    {"d", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+    {"h", CSV_NUMBER, 0, 1, 0, "m", NULL},
+    {"material", CSV_NAME, 0, 0, 0, NULL, NULL},
+};
 
-static char *trim(char *text)
-{
-    while (*text == ' ' || *text == '\t')
-        text++;
-    size_t n = strlen(text);
-    while (n > 0 && (text[n - 1] == ' ' || text[n - 1] == '\t' || text[n - 1] == '\r' || text[n - 1] == '\n'))
-        text[--n] = '\0';
-    return text;
-}
-
-static int split_fields(char *line, char **fields, int max)
-{
-    int n = 0;
-    for (char *save = NULL, *token = strtok_r(line, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
-        if (n == max)
-            return max + 1;
-        fields[n++] = trim(token);
-    }
-    return n;
-}
-
-static int parse_body_row(const struct case_file *c, const char *path, long row, char **fields,
+static int parse_body_row(const struct case_file *c, const char *path, const struct csv_table *table, size_t row,
                           struct mpm_config *cfg, struct mpm_body *body)
 {
-    static const char *const names[] = {"x", "y", "z", "vx", "vy", "vz", "d", "h"};
-    double values[8];
-    if (parse_shape(fields[0], &body->shape) != 0)
-        return case_invalid(c, "impact", "bodies", "%s: data row %ld: shape '%s'; allowed: sphere|cylinder|box", path,
-                            row, fields[0]);
-    for (int k = 0; k < 8; k++) {
-        char *end;
-        errno = 0;
-        values[k] = strtod(fields[k + 1], &end);
-        if (end == fields[k + 1] || *end != '\0' || errno == ERANGE || !isfinite(values[k]))
-            return case_invalid(c, "impact", "bodies", "%s: data row %ld: %s = '%s' is not a finite number", path,
-                                row, names[k], fields[k + 1]);
-    }
-    memcpy(body->center, values, sizeof body->center);
-    memcpy(body->velocity, values + 3, sizeof body->velocity);
-    body->d = values[6];
-    body->h = values[7];
-    if (!(body->d > 0) || (body->shape != MPM_SPHERE && !(body->h > 0)))
-        return case_invalid(c, "impact", "bodies", "%s: data row %ld: d and (cylinder, box) h must be > 0", path, row);
+    static const enum mpm_shape shapes[] = {MPM_SPHERE, MPM_CYLINDER, MPM_BOX};
+    const double *values = table->numbers + row * BODY_COLUMNS;
+    long line = table->lines[row];
+    body->shape = shapes[(int)values[BODY_SHAPE]];
+    memcpy(body->center, values + BODY_X, sizeof body->center);
+    memcpy(body->velocity, values + BODY_VX, sizeof body->velocity);
+    body->d = values[BODY_D];
+    body->h = values[BODY_H];
+    if (body->shape != MPM_SPHERE && !(body->h > 0))
+        return case_invalid(c, "impact", "bodies", "%s:%ld: h = %g: a cylinder's or box's height h must be > 0 m", path,
+                            line, body->h);
     if (body->center[2] - (body->shape == MPM_SPHERE ? 0.5 * body->d : 0.5 * body->h) < cfg->substrate_top - 1e-12)
-        return case_invalid(c, "impact", "bodies", "%s: data row %ld: the body reaches below the substrate's top "
-                            "z = 0", path, row);
-    return material_index(c, "bodies", fields[9], cfg, &body->material);
+        return case_invalid(c, "impact", "bodies", "%s:%ld: the body reaches below the substrate's top z = 0", path,
+                            line);
+    return material_index(c, "bodies", table->names[row * BODY_COLUMNS + BODY_MATERIAL], cfg, &body->material);
 }
 
 static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
 {
-    char path[4096], line[1024];
+    char path[4096], message[1024];
     SC_TRY(case_path(c, "impact", "bodies", path, sizeof path));
-    FILE *file = fopen(path, "r");
-    if (!file)
-        return case_invalid(c, "impact", "bodies", "cannot read %s: %s", path, strerror(errno));
-    static const char *const header[] = {"shape", "x", "y", "z", "vx", "vy", "vz", "d", "h", "material"};
-    char *fields[11];
-    int status = SC_OK;
-    long row = 0;
-    if (!fgets(line, sizeof line, file) || split_fields(line, fields, 10) != 10)
-        status = case_invalid(c, "impact", "bodies", "%s: the first line must be the header "
-                              "shape,x,y,z,vx,vy,vz,d,h,material", path);
-    for (int k = 0; status == SC_OK && k < 10; k++)
-        if (strcmp(fields[k], header[k]) != 0)
-            status = case_invalid(c, "impact", "bodies", "%s: header column %d is '%s', expected '%s'", path, k + 1,
-                                  fields[k], header[k]);
-    while (status == SC_OK && fgets(line, sizeof line, file)) {
-        if (trim(line)[0] == '\0')
-            continue;
-        row++;
-        if (split_fields(line, fields, 10) != 10) {
-            status = case_invalid(c, "impact", "bodies", "%s: data row %ld: expected 10 comma-separated fields",
-                                  path, row);
-            break;
-        }
+    struct csv_table table;
+    if (csv_read(path, body_columns, BODY_COLUMNS, 0, &table, message, sizeof message) != SC_OK)
+        return case_invalid(c, "impact", "bodies", "%s", message);
+    int status = table.rows > (size_t)INT_MAX / 2
+                     ? case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows, INT_MAX / 2)
+                     : SC_OK;
+    struct mpm_body *grown = status == SC_OK ? realloc(cfg->bodies, ((size_t)cfg->body_count + table.rows) *
+                                                                        sizeof *grown)
+                                             : NULL;
+    if (status == SC_OK && !grown)
+        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory for %zu bodies", table.rows);
+    if (grown)
+        cfg->bodies = grown;
+    for (size_t row = 0; status == SC_OK && row < table.rows; row++) {
         struct mpm_body body = {0};
-        status = parse_body_row(c, path, row, fields, cfg, &body);
+        status = parse_body_row(c, path, &table, row, cfg, &body);
         if (status == SC_OK)
-            status = add_body(cfg, &body);
+            cfg->bodies[cfg->body_count++] = body;
     }
-    fclose(file);
-    if (status == SC_OK && row == 0)
-        status = case_invalid(c, "impact", "bodies", "%s: no bodies (only a header)", path);
+    csv_free(&table);
     return status;
 }
 

@@ -7,7 +7,9 @@
 #      experimental bracket (Tang Section 4.1.2) with the shipped Al defaults of G_c and its rate, on the
 #      calibration grid; each verdict must be the README's: 14 um rebounds at 750 m/s and bonds at 810,
 #      30 um rebounds at 710 and bonds at 770.
-# VALIDATE_ONLY=table1|bonding runs one of them.
+#   3. Fuzzing (`make fuzz`): the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/)
+#      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
+# VALIDATE_ONLY=table1|bonding|fuzz runs one of them.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -55,11 +57,28 @@ validate_bonding() {
     [ "$failed" -ne 0 ] || echo "validate: bonding calibration: all four verdicts as calibrated"
 }
 
+validate_fuzz() {
+    seconds=${FUZZ_SECONDS:-600}
+    echo "validate: fuzzing the case reader and the two CSV readers, $seconds s each (make fuzz)"
+    if ! command -v clang >/dev/null 2>&1; then
+        echo "validate: FAIL: fuzzing needs clang (Debian package clang; scripts/bootstrap installs it)"
+        failed=1
+        return
+    fi
+    if ! make -s fuzz-build || ! FUZZ_SECONDS="$seconds" tests/fuzz/run.sh; then
+        echo "validate: FAIL: a fuzz harness crashed (see above for its input)"
+        failed=1
+        return
+    fi
+    echo "validate: fuzzing: no crash"
+}
+
 case $only in
-    all) validate_table1; validate_bonding ;;
+    all) validate_table1; validate_bonding; validate_fuzz ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
-    *) echo "validate: VALIDATE_ONLY must be table1 or bonding, not '$only'" >&2; exit 2 ;;
+    fuzz) validate_fuzz ;;
+    *) echo "validate: VALIDATE_ONLY must be table1, bonding or fuzz, not '$only'" >&2; exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then
     echo "validate: FAILED"

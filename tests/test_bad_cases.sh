@@ -3,7 +3,8 @@
 # `spraycoat COMMAND FILE -o RUN_DIR` (spray, or the impact or vcrit command the manifest names) must end with
 # exit status 2 and a message that names the key, the file (and the line, where the error is in a line); never
 # a crash, and never a partial output in RUN_DIR.
-# Also: an empty case file and a case without some sections are valid (every key has a default); a bad case
+# Also: a case with one empty section, a case without some sections and a CSV with a byte order mark are
+# valid (every key has a default), an empty case file is not; a bad case
 # run into an existing run directory leaves it as it was; a few bad cases run under valgrind without memory
 # errors.  Prints "PASS name" / "FAIL name: why" (tests/run_tests.sh counts them).  Run from the repo root.
 set -u
@@ -59,6 +60,13 @@ i=0
 # utf16_case.ini: "[spray]\ndt = 1e-6\n" saved as UTF-16LE with a byte-order mark.
 printf '\377\376[\000s\000p\000r\000a\000y\000]\000\n\000d\000t\000 \000=\000 \0001\000e\000-\0006\000\n\000' \
     >"$gen/utf16_case.ini"
+
+# cr_line_endings.ini: the valid base saved with old Mac line endings (CR only): one "line" to a line reader.
+tr '\n' '\r' <"$cases/valid_base.ini" >"$gen/cr_line_endings.ini"
+
+# empty_case.ini and comments_only_case.ini: no [section] at all (an empty or wrong file, not a case).
+: >"$gen/empty_case.ini"
+printf '; only a comment\n\n# and another\n' >"$gen/comments_only_case.ini"
 
 # huge_file.ini: 17 MiB of ';' (one long comment line), above the 16 MiB limit for a case file.
 dd if=/dev/zero bs=1048576 count=17 2>/dev/null | tr '\000' ';' >"$gen/huge_file.ini"
@@ -195,9 +203,10 @@ else
     echo "FAIL bad_cases_impact_base_is_valid: check $cases/valid_impact_base.ini: $(first_error_line "$tmp/err")"
 fi
 
-# An empty case file is valid: every key has a default, and check prints them.
-: >"$tmp/empty.ini"
-"$bin" check "$tmp/empty.ini" >"$tmp/out" 2>"$tmp/err"
+# An empty case file is refused (see empty_case.ini above); one section, even an empty one, is enough, and every
+# key has a default: check prints them.
+printf '[run]\n' >"$tmp/one_section.ini"
+"$bin" check "$tmp/one_section.ini" >"$tmp/out" 2>"$tmp/err"
 status=$?
 why=""
 [ "$status" -eq 0 ] || why="$why; $(describe_status $status), expected 0: $(first_error_line "$tmp/err")"
@@ -205,14 +214,32 @@ grep -q '^\[spray\] dt .*2e-6.*(default)' "$tmp/out" || why="$why; no '[spray] d
 grep -q '^\[target\] standoff .*0\.3.*(default)' "$tmp/out" || why="$why; no '[target] standoff = 0.3 ... (default)' line"
 grep -q 'OK' "$tmp/out" || why="$why; no final OK line"
 if grep '^\[' "$tmp/out" | grep -v '(default)' | grep -qv '(unset)'; then
-    why="$why; a key of an empty case is neither (default) nor (unset): $(grep '^\[' "$tmp/out" | grep -v '(default)' |
-        grep -v '(unset)' | head -1)"
+    why="$why; a key of a case with one empty section is neither (default) nor (unset): $(grep '^\[' "$tmp/out" |
+        grep -v '(default)' | grep -v '(unset)' | head -1)"
 fi
 if [ -z "$why" ]; then
-    echo "PASS bad_cases_empty_file_is_valid"
+    echo "PASS bad_cases_one_empty_section_is_valid"
 else
-    echo "FAIL bad_cases_empty_file_is_valid:${why#;}"
+    echo "FAIL bad_cases_one_empty_section_is_valid:${why#;}"
 fi
+
+# A CSV saved by Excel as "CSV UTF-8" starts with a byte order mark: accepted (particles and bodies CSV).
+for base in particles_bad_diameter:particles impact_bodies_overlap:bodies; do
+    name=${base%%:*}
+    kind=${base#*:}
+    sed "s/$name.csv/bom.csv/" "$cases/$name.ini" >"$tmp/bom_$kind.ini"
+    if [ "$kind" = particles ]; then
+        printf '\357\273\277x,y,z,vx,vy,vz,wx,wy,wz,d\r\n0,0,0.001,0,0,30,0,0,0,40e-6\r\n' >"$tmp/bom.csv"
+    else
+        printf '\357\273\277shape,x,y,z,vx,vy,vz,d,h,material\r\nsphere,0,0,4e-6,0,0,-810,8e-6,0,aluminium\r\n' \
+            >"$tmp/bom.csv"
+    fi
+    if "$bin" check "$tmp/bom_$kind.ini" >"$tmp/out" 2>"$tmp/err"; then
+        echo "PASS bad_cases_${kind}_csv_with_bom_is_valid"
+    else
+        echo "FAIL bad_cases_${kind}_csv_with_bom_is_valid: $(first_error_line "$tmp/err")"
+    fi
+done
 
 # Missing sections are fine too: only [spray] and [target] given, comments and blank lines only elsewhere.
 printf '; only two sections\n\n[spray]\nt_end = 5e-4\n\n[target]\nstandoff = 0.05\n\n; the end\n' >"$tmp/sparse.ini"

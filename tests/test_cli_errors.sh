@@ -193,6 +193,39 @@ else
     echo "FAIL io_run_dir_in_use: second run exit $second ($(first_error_line "$tmp/busy_second.err")), first run exit $first_status"
 fi
 
+# ---- inputs that are not regular files: refused at once, never read (a FIFO blocks, /dev/zero never ends) --
+# Under `timeout 10`, so that a regression fails here instead of hanging the suite (124: timed out).
+mkfifo "$tmp/fifo.ini" "$tmp/fifo.csv" 2>/dev/null || echo "FAIL nonregular_setup: mkfifo failed"
+run1 input_case_file_fifo 2 "must be a regular file" timeout 10 "$bin" check "$tmp/fifo.ini"
+run1 input_case_file_dev_zero 2 "must be a regular file" timeout 10 "$bin" check /dev/zero
+particle_case=tests/bad_cases/particles_bad_diameter.ini
+sed "s|^particles = .*|particles = /dev/zero|" "$particle_case" >"$tmp/particles_dev_zero.ini"
+expect input_particles_dev_zero 2 "[spray] particles = /dev/zero: " timeout 10 "$bin" check "$tmp/particles_dev_zero.ini"
+grep -q 'must be a regular file' "$tmp/err" || why="$why; message does not say 'must be a regular file'"
+report input_particles_dev_zero
+sed "s|^particles = .*|particles = $tmp/fifo.csv|" "$particle_case" >"$tmp/particles_fifo.ini"
+run1 input_particles_fifo 2 "must be a regular file" timeout 10 "$bin" spray "$tmp/particles_fifo.ini" -o "$tmp/run_fifo"
+sed "s|^rule = adhesion|rule = table\ntable = /dev/zero|" "$base" >"$tmp/table_dev_zero.ini"
+grep -q '^table = /dev/zero' "$tmp/table_dev_zero.ini" || echo "FAIL nonregular_setup: no table line in $tmp/table_dev_zero.ini"
+run1 input_table_dev_zero 2 "[deposition] table = /dev/zero: " timeout 10 "$bin" check "$tmp/table_dev_zero.ini"
+sed "s|^rule = adhesion|rule = table\ntable = $tmp/fifo.h5|" "$base" >"$tmp/table_fifo_h5.ini"
+mkfifo "$tmp/fifo.h5"
+run1 input_table_h5_fifo 2 "[deposition] table" timeout 10 "$bin" check "$tmp/table_fifo_h5.ini"
+sed "s|^bodies = .*|bodies = /dev/zero|" tests/bad_cases/impact_bodies_overlap.ini >"$tmp/bodies_dev_zero.ini"
+run1 input_bodies_dev_zero 2 "[impact] bodies = /dev/zero: " timeout 10 "$bin" check "$tmp/bodies_dev_zero.ini"
+# spray.h5 read by a later stage, and info: an I/O error (3)
+mkdir -p "$tmp/run_h5_fifo"
+mkfifo "$tmp/run_h5_fifo/spray.h5"
+# (couple refuses it as an input that is not this case's spray.h5, without opening it as HDF5)
+run1 input_spray_h5_fifo 3 "spray.h5" timeout 10 "$bin" couple "$base" -o "$tmp/run_h5_fifo"
+run1 input_info_fifo 3 "not a regular file" timeout 10 "$bin" info "$tmp/run_h5_fifo/spray.h5"
+
+# A run directory path longer than the system allows is a bad command line (2), naming the option and the limit.
+long_dir=$tmp/$(printf '%05000d' 0)
+expect cli_o_path_too_long 2 "-o" "$bin" spray "$base" -o "$long_dir"
+grep -q 'at most' "$tmp/err" || why="$why; the message does not give the limit ('at most')"
+report cli_o_path_too_long
+
 # (c) info of a missing path, of a file that is not HDF5, of an empty and of a truncated HDF5 file.
 run1 io_info_missing_path 3 "$tmp/no_such_run" "$bin" info "$tmp/no_such_run"
 run1 io_info_missing_h5 3 "$tmp/no_such_file.h5" "$bin" info "$tmp/no_such_file.h5"

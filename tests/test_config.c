@@ -3,6 +3,7 @@
  * fresh temporary folder, so the test needs nothing from the tree. */
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -118,18 +119,64 @@ static void test_defaults_and_sources(void)
     case_free(c);
 }
 
+/* An empty file, or one of comments only, has no [section]: refused (it is more likely the wrong file than a wish
+ * for every default); one empty section takes every default. */
 static void test_empty_file(void)
 {
+    expect_input_error("", "bad.ini", "no [section]", "allowed sections: alpha", NULL);
+    expect_input_error("; only a comment\n# and another\n\n", "bad.ini", "no [section]", NULL);
     int status;
-    struct case_file *c = load_text("empty.ini", "", &status);
-    CHECK(status == SC_OK && c, "empty file loads: %s", sc_error_message());
+    struct case_file *c = load_text("empty.ini", "[alpha]\n", &status);
+    CHECK(status == SC_OK && c, "a file with one empty section loads: %s", sc_error_message());
     if (c) {
         CHECK(case_int(c, "alpha", "count") == 3, "default count");
         CHECK(!case_is_given(c, "alpha", "count"), "nothing given");
     }
     case_free(c);
-    c = load_text("comments.ini", "; only a comment\n# and another\n\n", &status);
-    CHECK(status == SC_OK && c, "comment-only file loads: %s", sc_error_message());
+}
+
+/* Old Mac line endings (CR only) are named as such, not as "line too long". */
+static void test_cr_line_endings(void)
+{
+    expect_input_error("[alpha]\rcount = 7\r", "bad.ini:1:", "CR line endings", NULL);
+    expect_input_error("[alpha]\ncount = 7\rlength = 1\n", "bad.ini:2:", "CR line endings", NULL);
+    int status;
+    struct case_file *c = load_text("ok.ini", "[alpha]\r\ncount = 7\r\n", &status);
+    CHECK(status == SC_OK && c && case_int(c, "alpha", "count") == 7, "CRLF is fine: %s", sc_error_message());
+    case_free(c);
+}
+
+/* Many [material.NAME] sections: each keeps its own values (the slots are found by a hash table and sorted once). */
+static void test_many_instances(void)
+{
+    enum { COUNT = 3000 };
+    size_t size = (size_t)COUNT * 64 + 64, used = 0;
+    char *text = malloc(size);
+    CHECK(text != NULL, "memory");
+    if (!text)
+        return;
+    used += (size_t)snprintf(text + used, size - used, "[alpha]\n");
+    for (int i = COUNT - 1; i >= 0; i--) /* in reverse: the slots must end up sorted by name */
+        used += (size_t)snprintf(text + used, size - used, "[material.m%05d]\npoisson = 0.%04d\n", i, i + 1);
+    int status;
+    struct case_file *c = load_text("mat.ini", text, &status);
+    free(text);
+    CHECK(status == SC_OK && c, "load %d materials: %s", COUNT, sc_error_message());
+    if (!c)
+        return;
+    int wrong = 0;
+    for (int i = 0; i < COUNT; i++) {
+        char section[32];
+        snprintf(section, sizeof section, "material.m%05d", i);
+        wrong += !case_has(c, section, "poisson") || fabs(case_real(c, section, "poisson") - (i + 1) * 1e-4) > 1e-12;
+    }
+    CHECK(wrong == 0, "%d of %d materials have the wrong poisson", wrong, COUNT);
+    CHECK(!case_has(c, "material.m99999", "poisson"), "no such material");
+    char *resolved = case_resolved_text(c);
+    const char *first = resolved ? strstr(resolved, "[material.m00000]") : NULL;
+    const char *last = resolved ? strstr(resolved, "[material.m02999]") : NULL;
+    CHECK(first && last && first < last, "materials written in name order");
+    free(resolved);
     case_free(c);
 }
 
@@ -622,6 +669,8 @@ int main(void)
     }
     RUN(test_defaults_and_sources);
     RUN(test_empty_file);
+    RUN(test_cr_line_endings);
+    RUN(test_many_instances);
     RUN(test_missing_file);
     RUN(test_int_errors);
     RUN(test_real_range_and_exclusive_min);

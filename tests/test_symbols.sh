@@ -19,6 +19,7 @@ core_prefixes() {
         atomic) echo "atomic_" ;;
         balance) echo "balance_" ;;
         config) echo "case_" ;;
+        csv) echo "csv_" ;;
         error) echo "sc_" ;;
         h5io) echo "h5_" ;;
         interrupt) echo "interrupt_" ;;
