@@ -309,7 +309,7 @@ static void log_summary(struct impact_run *run)
         if (body->substrate)
             continue;
         const double *v = body->velocity;
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b + 1,
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b,
                  body->d * 1e6,
                  sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), bonded[b] ? "bonded" : "rebounded",
                  100.0 * d->body[b].pbcp, d->body[b].v_rest);

@@ -119,7 +119,7 @@ static void print_impact_results(hid_t file, FILE *out)
         for (int k = 0; k < 7; k++)
             value[k] = column[k] ? column[k][b] : NAN;
         int substrate = value[6] == 1.0;
-        fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b + 1,
+        fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1],
                 substrate ? "-" : value[2] == 1.0 ? "bonded" : "rebounded", 100.0 * value[3], value[4], value[5]);
     }

@@ -278,8 +278,8 @@ static int check_overlaps(const struct mpm_config *cfg, struct point_seed *const
         for (int i = 0; i < found; i++)
             if (points_inside(cfg, candidates[i], seeds[b], counts[b])) {
                 status = sc_error_set(SC_EINPUT, __FILE__, __LINE__,
-                                      "impact: body %d overlaps body %d (bodies may touch, not overlap)", b + 1,
-                                      candidates[i] + 1);
+                                      "impact: body %d overlaps body %d (bodies may touch, not overlap)", b,
+                                      candidates[i]);
                 break;
             }
     }
@@ -322,7 +322,7 @@ int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
         status = seed_body(&cfg->bodies[b], cfg->spacing, &seeds[b], &counts[b], &capacity);
         if (status == SC_OK && counts[b] == 0)
             status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "impact: body %d holds no material point at spacing "
-                              "%g m", b + 1, cfg->spacing);
+                              "%g m", b, cfg->spacing);
         total += counts[b];
     }
     if (status == SC_OK)

@@ -272,7 +272,7 @@ static int per_body_figure(const struct impact_run *run, const struct series_dat
         double *y = buffer + (b + 1) * nt;
         for (size_t i = 0; i < nt; i++)
             y[i] = a->values[i * nb + b] * scale;
-        snprintf(labels[count], 32, "body %zu", b + 1);
+        snprintf(labels[count], 32, "body %zu", b);
         series[count] = (struct render_series){labels[count], RENDER_LINE, nt, buffer, y, 0, count};
         count++;
     }

@@ -148,7 +148,7 @@ static void impact_summary(FILE *f, hid_t group, const char *title)
     for (size_t b = 0; ok && b < a[0].count; b++) {
         if (a[2].values[b] < 0)
             continue; /* the substrate */
-        fprintf(f, "<tr><td>%zu</td>", b + 1);
+        fprintf(f, "<tr><td>%zu</td>", b);
         number_cell(f, a[0].values[b] * 1e6);
         number_cell(f, a[1].values[b]);
         cell(f, "td", a[2].values[b] == 1 ? "bonded" : "rebounded");

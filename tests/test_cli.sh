@@ -45,3 +45,15 @@ else
     why="flock(1) is not installed (util-linux)"
 fi
 report info_running_or_not
+
+# one numbering of bodies everywhere: the index of impact.h5 (/summary rows, the snapshots' `body` field; the
+# substrate is body 0), in the log, in `info` and in the figures
+R=$T/impact
+"$bin" impact tests/bad_cases/valid_impact_base.ini -o "$R" >/dev/null 2>"$T/impact.log"
+why=""
+grep -q 'impact: body 1 (d = 8 um' "$T/impact.log" || why="the log does not call the particle body 1: $(grep -m 1 'body' "$T/impact.log")"
+"$bin" info "$R" >"$T/impact.info" 2>&1
+grep -Eq '^ +1 +particle' "$T/impact.info" || why="${why:+$why; }info does not call the particle body 1"
+substrate=$(h5dump -d /summary/substrate -y -w 0 "$R/impact.h5" 2>/dev/null | awk '/DATA/{on=1; next} on && /[0-9]/{split($0, v, ","); gsub(/ /, "", v[1]); print v[1]; exit}')
+[ "$substrate" = "1" ] || why="${why:+$why; }/summary row 0 is not the substrate ($substrate)"
+report bodies_numbered_as_in_hdf5

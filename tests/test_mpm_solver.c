@@ -324,7 +324,7 @@ static void test_overlap_many_bodies(void)
     free(rows);
     overlap_case(1, &rows);
     int status = rows ? impact_fixture_open(&f, ini, rows) : SC_ESIM;
-    CHECK(status == SC_EINPUT && strstr(sc_error_message(), "body 600 overlaps body 401"),
+    CHECK(status == SC_EINPUT && strstr(sc_error_message(), "body 599 overlaps body 400"),
           "a box moved into a cylinder: status %d, %s", status, sc_error_message());
     impact_fixture_close(&f);
     free(rows);
