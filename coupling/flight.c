@@ -92,7 +92,7 @@ int flight_solver_create(struct flight_solver **out)
 {
     struct flight_solver *solver = calloc(1, sizeof *solver);
     if (!solver)
-        SC_FAIL(SC_ESIM, "flight: out of memory");
+        SC_FAIL_OOM(sizeof *solver, "the flight solver");
     int ok = SUNContext_Create(NULL, &solver->context) == 0;
     if (ok) {
         solver->state = N_VNew_Serial(STATE, solver->context);
@@ -107,7 +107,7 @@ int flight_solver_create(struct flight_solver **out)
     }
     if (!ok) {
         flight_solver_destroy(solver);
-        SC_FAIL(SC_ESIM, "flight: cannot create the CVODE solver (out of memory?)");
+        SC_FAIL(SC_EIO, "flight: cannot create the CVODE solver (out of memory?)");
     }
     *out = solver;
     return SC_OK;
@@ -180,7 +180,7 @@ static int record_sample(struct flight_result *r, size_t *capacity, double t, co
         if (velocities)
             r->sample_v = velocities;
         if (!times || !positions || !velocities)
-            SC_FAIL(SC_ESIM, "flight: out of memory for the trajectory");
+            SC_FAIL_OOM(7 * grown * sizeof *times, "the trajectory");
         *capacity = grown;
     }
     r->sample_t[r->samples] = t;

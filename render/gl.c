@@ -179,7 +179,7 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
     if (!r || !buffer) {
         free(r);
         free(buffer);
-        SC_FAIL(SC_ESIM, "render: out of memory for a %d x %d image", width, height);
+        SC_FAIL_OOM(sizeof *r + (size_t)width * (size_t)height * 4, "the image");
     }
     r->buffer = buffer, r->width = width, r->height = height;
     static const int attributes[] = {OSMESA_FORMAT, OSMESA_BGRA, OSMESA_DEPTH_BITS, 24, OSMESA_STENCIL_BITS, 0,
@@ -298,7 +298,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
     if (!spheres || !colours) {
         free(spheres);
         free(colours);
-        SC_FAIL(SC_ESIM, "render: out of memory for %zu spheres", s->count);
+        SC_FAIL_OOM((4 * s->count + 4) * (sizeof *spheres + 1), "the spheres of a picture");
     }
     size_t n = project_spheres(s, scene, &cam, spheres, colours);
     if (!gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height)) {
