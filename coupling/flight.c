@@ -278,7 +278,8 @@ int flight_integrate(struct flight_solver *solver, const struct flight_layer *la
     int status = integrate_steps(solver, t_limit, edge_ahead, result);
     if (status != SC_OK)
         flight_result_free(result);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 void flight_result_free(struct flight_result *result)

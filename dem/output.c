@@ -370,5 +370,6 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
                         sizeof *s->handoffs));
     SC_TRY(read_records(group, "metrics", (void **)&s->metrics, &s->metric_count, &s->metric_capacity,
                         sizeof *s->metrics));
-    return dem_check_accounting(s);
+    SC_TRY(dem_check_accounting(s));
+    return SC_OK;
 }

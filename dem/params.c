@@ -436,7 +436,8 @@ int dem_config_load(const struct case_file *c, struct dem_config *cfg)
     int status = load_all(c, cfg);
     if (status != SC_OK)
         dem_config_free(cfg);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 void dem_config_free(struct dem_config *cfg)

@@ -190,7 +190,8 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
         g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
     }
     SC_TRY(alloc_layers(g));
-    return alloc_blocks(g, p->count, cfg->spacing);
+    SC_TRY(alloc_blocks(g, p->count, cfg->spacing));
+    return SC_OK;
 }
 
 void grid_free(struct mpm_grid *g)

@@ -127,10 +127,9 @@ static int build_program(struct render_renderer *r)
     GLuint vs, fs;
     SC_TRY(compile_shader(GL_VERTEX_SHADER, vertex_source, &vs));
     int status = compile_shader(GL_FRAGMENT_SHADER, fragment_source, &fs);
-    if (status != SC_OK) {
+    if (status != SC_OK)
         gl.glDeleteShader(vs);
-        return status;
-    }
+    SC_TRY(status);
     r->program = gl.glCreateProgram();
     gl.glAttachShader(r->program, vs);
     gl.glAttachShader(r->program, fs);
@@ -192,10 +191,9 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
     }
     gl.OSMesaPixelStore(OSMESA_Y_UP, 0); /* row 0 of the buffer is the top row, as Cairo and PNG want it */
     int status = build_program(r);
-    if (status != SC_OK) {
+    if (status != SC_OK)
         render_renderer_destroy(r);
-        return status;
-    }
+    SC_TRY(status);
     build_vertex_arrays(r);
     r->image = (struct render_image){width, height, width * 4, (uint32_t *)r->buffer};
     *out = r;
