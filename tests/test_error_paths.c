@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static hid_t make_file(char path[64])
@@ -115,6 +116,30 @@ static void test_out_of_memory_is_one_error(void)
     free(small);
 }
 
+/* SC_DIE_OOM, where no status can be returned: the same message on stderr and exit status 3, not an abort. */
+static void test_die_out_of_memory_exits_3(void)
+{
+    int pipe_ends[2];
+    CHECK(pipe(pipe_ends) == 0, "pipe");
+    fflush(stdout);
+    pid_t child = fork();
+    if (child == 0) {
+        dup2(pipe_ends[1], 2);
+        SC_DIE_OOM(1234, "the child's buffer");
+    }
+    close(pipe_ends[1]);
+    char text[512] = "";
+    ssize_t got = read(pipe_ends[0], text, sizeof text - 1);
+    text[got > 0 ? got : 0] = '\0';
+    close(pipe_ends[0]);
+    int wait_status = 0;
+    waitpid(child, &wait_status, 0);
+    CHECK(WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == SC_EIO, "the child ended with wait status %#x, "
+          "expected exit status 3", wait_status);
+    CHECK(strstr(text, "out of memory: cannot allocate 1234 bytes for the child's buffer") != NULL, "stderr: %s",
+          text);
+}
+
 /* SC_CHECK: records a frame and jumps to the cleanup label; SC_OK falls through. */
 static int failing(void) { SC_FAIL(SC_EINPUT, "bad input"); }
 
@@ -149,6 +174,7 @@ int main(void)
     RUN(test_spray_checkpoint_failure_closes_handles);
     RUN(test_spray_checkpoint_read_failure_closes_handles);
     RUN(test_out_of_memory_is_one_error);
+    RUN(test_die_out_of_memory_exits_3);
     RUN(test_check_records_frame_and_cleans_up);
     return check_finish();
 }
