@@ -47,7 +47,8 @@ int sc_out_of_memory(const char *file, int line, size_t bytes, const char *what)
  * code that cannot return a status. */
 _Noreturn void sc_out_of_memory_exit(const char *file, int line, size_t bytes, const char *what);
 /* *(void **)out_pointer = calloc(count, size) (at least one byte); SC_OK, or SC_EIO recorded by sc_out_of_memory
- * with *out_pointer NULL.  Records the caller's file and line through the SC_CALLOC macro. */
+ * with *out_pointer NULL.  Call it as sc_calloc(&pointer, count, size, what), which passes the caller's file and
+ * line. */
 int sc_calloc_at(const char *file, int line, void *out_pointer, size_t count, size_t size, const char *what);
 #define sc_calloc(out_pointer, count, size, what) sc_calloc_at(__FILE__, __LINE__, (out_pointer), (count), (size), (what))
 

@@ -79,7 +79,7 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
     struct body_sums *sums = calloc((size_t)nb, sizeof *sums);
-    if (!sums) /* no status to return: callers read the diagnostics at once */
+    if (!sums) /* it returns the diagnostics, not a status */
         SC_DIE_OOM((size_t)nb * sizeof *sums, "the diagnostics of the bodies");
     const struct mpm_points *p = &s->points;
     for (size_t i = 0; i < p->count; i++) {
