@@ -33,7 +33,7 @@ int run_dir_write_stages(const char *run_dir, const char *stages);
 int run_dir_read_stages(const char *run_dir, char *out, size_t size);
 
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
-int case_section_given(const struct case_file *c, const char *section);
+int app_case_section_given(const struct case_file *c, const char *section);
 
 /* What a stage works on, passed to every stage (no global state decides where a stage takes its input). */
 struct stage_context {
@@ -135,8 +135,8 @@ int vcrit_stage_run(const struct stage_context *ctx);
 int couple_stage_validate(const struct stage_context *ctx);
 /* The seeds of RUN_DIR/couple.h5 as the impact runs' bodies.  SC_EIO when couple.h5 is missing or was made from
  * another case. */
-int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
-void couple_bodies_free(struct couple_bodies *bodies);
+int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
+void couple_stage_bodies_free(struct couple_bodies *bodies);
 int couple_stage_run(const struct stage_context *ctx);
 extern const struct cfg_key couple_case_keys[];
 

@@ -37,12 +37,12 @@ struct couple_work {
     const char *run_dir;
     uint64_t hash;
     struct couple_config cfg;
-    struct flight_layer layer;
+    struct couple_flight_layer layer;
     struct spray_rows spray;
     struct couple_candidate *candidates;
     size_t candidate_count;
     size_t *handoff_of;               /* per candidate: its hand-off row, or SIZE_MAX */
-    struct flight_result *flights;    /* in the order flown */
+    struct couple_flight_result *flights;    /* in the order flown */
     size_t *flight_candidate;
     size_t flight_count;
     struct couple_seed *seeds;
@@ -243,7 +243,7 @@ static int match_handoffs(struct couple_work *w)
 
 static int setup_layer(struct couple_work *w, const struct dem_config *spray)
 {
-    struct flight_layer *layer = &w->layer;
+    struct couple_flight_layer *layer = &w->layer;
     layer->gas = spray->gas;
     layer->wall_z = spray->standoff;
     layer->thickness = w->cfg.layer_thickness;
@@ -253,7 +253,7 @@ static int setup_layer(struct couple_work *w, const struct dem_config *spray)
     if (isnan(layer->approach_velocity)) {
         const double edge[3] = {0.0, 0.0, spray->standoff - w->cfg.layer_thickness};
         double u[3];
-        gas_velocity(&spray->gas, edge, u);
+        dem_gas_velocity(&spray->gas, edge, u);
         layer->approach_velocity = fmax(u[2], 0.0);
     }
     log_info("couple: gas layer %.4g m thick, approached at %.4g m/s; hand-off plane %.4g m before the target",
@@ -262,13 +262,13 @@ static int setup_layer(struct couple_work *w, const struct dem_config *spray)
 }
 
 /* Fly candidate k from its hand-off crossing; returns its flight row in *row. */
-static int fly(struct couple_work *w, struct flight_solver *solver, size_t k, size_t *row)
+static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_t k, size_t *row)
 {
     const struct dem_handoff *h = &w->spray.handoffs[w->handoff_of[k]];
     const struct couple_candidate *c = &w->candidates[k];
     double density = c->m / (M_PI * c->d * c->d * c->d / 6.0);
     size_t i = w->flight_count;
-    SC_TRY(flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]));
+    SC_TRY(couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]));
     w->flight_candidate[i] = k;
     w->flight_count++;
     *row = i;
@@ -276,7 +276,7 @@ static int fly(struct couple_work *w, struct flight_solver *solver, size_t k, si
 }
 
 /* Slot `slot` takes the next candidate of its stratum that has a hand-off, is not taken and reaches the wall. */
-static int fill_slot(struct couple_work *w, struct flight_solver *solver, const struct couple_strata *strata,
+static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver, const struct couple_strata *strata,
                      size_t *cursor, char *taken, size_t slot)
 {
     size_t s = strata->slot_stratum[slot];
@@ -287,7 +287,7 @@ static int fill_slot(struct couple_work *w, struct flight_solver *solver, const 
         taken[k] = 1;
         size_t row;
         SC_TRY(fly(w, solver, k, &row));
-        const struct flight_result *f = &w->flights[row];
+        const struct couple_flight_result *f = &w->flights[row];
         if (!f->reached)
             continue;
         struct couple_seed *seed = &w->seeds[slot];
@@ -318,15 +318,15 @@ static int make_seeds(struct couple_work *w)
     w->flight_candidate = calloc(n ? n : 1, sizeof *w->flight_candidate);
     size_t *cursor = calloc(strata.count, sizeof *cursor);
     char *taken = calloc(n ? n : 1, 1);
-    struct flight_solver *solver = NULL;
+    struct couple_flight_solver *solver = NULL;
     int status = w->seeds && w->flights && w->flight_candidate && cursor && taken
-                     ? flight_solver_create(&solver)
+                     ? couple_flight_solver_create(&solver)
                      : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     struct progress bar;
-    progress_begin(&bar, STAGE, "seeds", 0, (int64_t)seeds);
+    log_progress_begin(&bar, STAGE, "seeds", 0, (int64_t)seeds);
     for (size_t slot = 0; status == SC_OK && slot < seeds; slot++) {
         status = fill_slot(w, solver, &strata, cursor, taken, slot);
-        progress_update(&bar, (int64_t)slot + 1, "");
+        log_progress_update(&bar, (int64_t)slot + 1, "");
         /* couple.h5 is written whole at the end: an interrupted stage keeps nothing and runs again on resume */
         int interrupted = interrupt_status();
         if (status == SC_OK && interrupted)
@@ -334,10 +334,10 @@ static int make_seeds(struct couple_work *w)
                                   "stage runs again from its start on `spraycoat resume %s`", slot + 1, seeds,
                                   w->run_dir);
     }
-    progress_end(&bar, (int64_t)seeds);
+    log_progress_end(&bar, (int64_t)seeds);
     for (size_t r = 0; status == SC_OK && r < (size_t)w->cfg.runs; r++)
         couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
-    flight_solver_destroy(solver);
+    couple_flight_solver_destroy(solver);
     free(cursor);
     free(taken);
     couple_strata_free(&strata);
@@ -417,7 +417,7 @@ static int write_trajectories(hid_t g, const struct couple_work *w)
     int status = offset && t && x && v ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     size_t at = 0;
     for (size_t i = 0; status == SC_OK && i < nf; i++) {
-        const struct flight_result *f = &w->flights[i];
+        const struct couple_flight_result *f = &w->flights[i];
         offset[i] = (int64_t)at;
         memcpy(t + at, f->sample_t, f->samples * sizeof *t);
         memcpy(x + 3 * at, f->sample_x, 3 * f->samples * sizeof *x);
@@ -445,7 +445,7 @@ static int write_flight_columns(hid_t g, const struct couple_work *w)
     double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
     int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
-    const struct flight_result *f = w->flights;
+    const struct couple_flight_result *f = w->flights;
     const struct couple_candidate *c = w->candidates;
     const size_t *k = w->flight_candidate;
     COLUMN_INT("impact_row", c[k[i]].impact_row)
@@ -532,7 +532,7 @@ static void log_summary(const struct couple_work *w)
 static void couple_work_free(struct couple_work *w)
 {
     for (size_t i = 0; i < w->flight_count; i++)
-        flight_result_free(&w->flights[i]);
+        couple_flight_result_free(&w->flights[i]);
     free(w->flights);
     free(w->flight_candidate);
     free(w->seeds);
@@ -544,7 +544,7 @@ static void couple_work_free(struct couple_work *w)
 
 /* ---- reading the seeds back (the impact stage) ------------------------------------------------------------- */
 
-void couple_bodies_free(struct couple_bodies *b)
+void couple_stage_bodies_free(struct couple_bodies *b)
 {
     free(b->first);
     free(b->d);
@@ -586,7 +586,7 @@ static int index_runs(struct couple_bodies *b, const int64_t *run, const char *p
     return SC_OK;
 }
 
-int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *b)
+int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *b)
 {
     memset(b, 0, sizeof *b);
     char path[H5IO_PATH_MAX];
@@ -611,7 +611,7 @@ int couple_read_bodies(const struct stage_context *ctx, struct couple_bodies *b)
         H5Gclose(g);
     H5Fclose(file);
     if (status != SC_OK)
-        couple_bodies_free(b);
+        couple_stage_bodies_free(b);
     return status;
 }
 

@@ -372,7 +372,7 @@ static int run_stage(struct impact_run *run)
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints and snapshot files are no longer needed */
-    SC_TRY(checkpoint_remove_all(run->run_dir, run->label));
+    SC_TRY(h5_checkpoint_remove_all(run->run_dir, run->label));
     SC_TRY(clear_snapshots(run, 1));
     log_summary(run);
     return SC_OK;
@@ -431,12 +431,12 @@ int impact_stage_validate(const struct stage_context *ctx)
     char path[H5IO_PATH_MAX];
     uint64_t hash = stage_hash(ctx, STAGE);
     if (!ctx->impact_from_seeds)
-        return checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
+        return h5_checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
     long runs = case_int(c, "couple", "runs");
     for (long r = 0; r < runs; r++) {
         struct impact_run names = {.run_dir = run_dir};
         name_run(&names, r);
-        SC_TRY(checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
+        SC_TRY(h5_checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
     }
     return SC_OK;
 }
@@ -660,7 +660,7 @@ static int remove_run_files(const char *run_dir, long runs)
         if (unlink(names.output) != 0 && errno != ENOENT)
             SC_FAIL(SC_EIO, "cannot remove %s: %s", names.output, strerror(errno));
         SC_TRY(clear_snapshots(&names, 1));
-        SC_TRY(checkpoint_remove_all(run_dir, names.label));
+        SC_TRY(h5_checkpoint_remove_all(run_dir, names.label));
     }
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
@@ -675,7 +675,7 @@ static int run_all_seeded(const struct stage_context *ctx, uint64_t hash, const 
 {
     const char *run_dir = ctx->run_dir;
     struct couple_bodies bodies;
-    SC_TRY(couple_read_bodies(ctx, &bodies));
+    SC_TRY(couple_stage_read_bodies(ctx, &bodies));
     char folder[H5IO_PATH_MAX];
     snprintf(folder, sizeof folder, "%s/" RUNS_DIR, run_dir);
     int status = SC_OK;
@@ -691,7 +691,7 @@ static int run_all_seeded(const struct stage_context *ctx, uint64_t hash, const 
     for (int64_t r; status == SC_OK && (r = parallel_task_next()) < runs;)
         status = run_seeded(ctx, hash, settings, &bodies, (long)r);
     parallel_tasks_end();
-    couple_bodies_free(&bodies);
+    couple_stage_bodies_free(&bodies);
     /* rank 0 gathers once every rank is done; the others report its status */
     status = parallel_max_status(status);
     if (status == SC_OK && parallel_rank() == 0)

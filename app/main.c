@@ -117,9 +117,9 @@ static int command_check(const struct options *opt)
     /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
      * name the materials of an impact it never runs) */
     const struct stage_context ctx = {.c = c};
-    if (status == SC_OK && (case_section_given(c, "impact") || case_section_given(c, "vcrit")))
+    if (status == SC_OK && (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit")))
         status = impact_stage_validate(&ctx);
-    if (status == SC_OK && case_section_given(c, "vcrit"))
+    if (status == SC_OK && app_case_section_given(c, "vcrit"))
         status = vcrit_stage_validate(&ctx);
     if (status == SC_OK) {
         case_print(c, stdout);
@@ -296,7 +296,7 @@ static int command_pipeline(const struct options *opt)
         return command_run(opt, opt->stages, 1);
     struct case_file *c;
     SC_TRY(load_case(opt->target, opt, &c));
-    int whole = case_section_given(c, "couple") || case_section_given(c, "impact");
+    int whole = app_case_section_given(c, "couple") || app_case_section_given(c, "impact");
     case_free(c);
     if (!whole)
         log_info("run: the case has no [couple] or [impact] section: no impact runs");

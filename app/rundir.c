@@ -135,7 +135,7 @@ int run_dir_read_stages(const char *run_dir, char *out, size_t size)
     return SC_OK;
 }
 
-int case_section_given(const struct case_file *c, const char *section)
+int app_case_section_given(const struct case_file *c, const char *section)
 {
     for (int t = 0; spraycoat_registry[t]; t++)
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
@@ -155,7 +155,7 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
         char *slash = strrchr(run_dir, '/');
         if (slash)
             *slash = '\0';
-        if (parallel_rank() == 0 && checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
+        if (parallel_rank() == 0 && h5_checkpoint_remove_all(slash ? run_dir : ".", stage) != SC_OK)
             log_warn("%s: %s", stage, sc_error_message());
         return 1;
     }

@@ -164,7 +164,7 @@ static int run_stage(struct spray_run *run)
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints would only stop a changed case from running here */
-    SC_TRY(checkpoint_remove_all(run->ctx->run_dir, STAGE));
+    SC_TRY(h5_checkpoint_remove_all(run->ctx->run_dir, STAGE));
     log_summary(run);
     return SC_OK;
 }
@@ -205,7 +205,7 @@ int spray_stage_validate(const struct stage_context *ctx)
         return SC_OK;
     /* refuse checkpoints of another case before anything in the run directory is written */
     char path[H5IO_PATH_MAX];
-    return checkpoint_find_newest(ctx->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(ctx, STAGE), path,
+    return h5_checkpoint_find_newest(ctx->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(ctx, STAGE), path,
                                   sizeof path);
 }
 

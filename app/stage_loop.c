@@ -31,7 +31,7 @@ static int write_checkpoint(const struct stage_ops *ops, struct loop_state *stat
     double t;
     ops->position(ops->owner, &step, &t, &progress);
     struct h5_out out;
-    SC_TRY(checkpoint_begin(ops->run_dir, ops->label, step, &out));
+    SC_TRY(h5_checkpoint_begin(ops->run_dir, ops->label, step, &out));
     int status = h5_write_root_attributes(out.file, ops->format, ops->format_version, ops->stage, ops->case_hash);
     if (status == SC_OK)
         status = ops->checkpoint_write(ops->owner, out.file);
@@ -39,7 +39,7 @@ static int write_checkpoint(const struct stage_ops *ops, struct loop_state *stat
         h5_abort(&out);
         return status;
     }
-    SC_TRY(checkpoint_commit(&out, ops->run_dir, ops->label, ops->settings->keep_checkpoints));
+    SC_TRY(h5_checkpoint_commit(&out, ops->run_dir, ops->label, ops->settings->keep_checkpoints));
     state->last_checkpoint_time = log_elapsed();
     state->last_checkpoint_step = step;
     log_info("%s: checkpoint at step %lld (t = %.6g s)", ops->label, (long long)step, t);
@@ -52,7 +52,7 @@ int stage_loop_resume(const struct stage_ops *ops, int *resumed)
     if (!ops->checkpoint_read)
         return SC_OK;
     char path[H5IO_PATH_MAX];
-    SC_TRY(checkpoint_find_newest(ops->run_dir, ops->label, ops->format, ops->format_version, ops->case_hash, path,
+    SC_TRY(h5_checkpoint_find_newest(ops->run_dir, ops->label, ops->format, ops->format_version, ops->case_hash, path,
                                   sizeof path));
     if (path[0] == '\0')
         return SC_OK;
@@ -93,14 +93,14 @@ static int loop_step(const struct stage_ops *ops, struct loop_state *state, stru
     if ((interrupted && can_checkpoint) || (checkpoint_due(ops, state, step) && !ops->finished(ops->owner)))
         TIMED(&timing->checkpoints, write_checkpoint(ops, state));
     if (interrupted) {
-        progress_end(bar, progress);
+        log_progress_end(bar, progress);
         SC_FAIL(interrupted, "%s: interrupted at step %lld (t = %.6g s); %s", ops->label, (long long)step, t,
                 ops->interrupted_note);
     }
     char text[200] = "";
     if (ops->describe)
         ops->describe(ops->owner, text, sizeof text);
-    progress_update(bar, progress, ops->describe ? text : NULL);
+    log_progress_update(bar, progress, ops->describe ? text : NULL);
     return SC_OK;
 }
 
@@ -112,7 +112,7 @@ int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing)
     ops->position(ops->owner, &step, &t, &progress);
     struct loop_state state = {.last_checkpoint_step = step, .last_checkpoint_time = log_elapsed()};
     struct progress bar;
-    progress_begin(&bar, ops->label, ops->progress_unit, progress, ops->progress_total);
+    log_progress_begin(&bar, ops->label, ops->progress_unit, progress, ops->progress_total);
     double start = log_elapsed();
     while (!ops->finished(ops->owner)) {
         int status = loop_step(ops, &state, &bar, timing);
@@ -123,7 +123,7 @@ int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing)
     }
     timing->loop = log_elapsed() - start;
     ops->position(ops->owner, &step, &t, &progress);
-    progress_end(&bar, progress);
+    log_progress_end(&bar, progress);
     return SC_OK;
 }
 

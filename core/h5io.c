@@ -918,7 +918,7 @@ static int remove_stage_files(const char *run_dir, const char *stage, const char
     return status;
 }
 
-int checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out)
+int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out)
 {
     out->file = H5I_INVALID_HID;
     out->name.path[0] = out->name.tmp_path[0] = '\0';
@@ -960,7 +960,7 @@ static void prune_checkpoints(const char *run_dir, const struct checkpoint_list 
     }
 }
 
-int checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep)
+int h5_checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep)
 {
     SC_TRY(check_stage_name(stage));
     const char *slash = strrchr(out->name.path, '/');
@@ -1075,7 +1075,7 @@ static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *
     return SC_OK;
 }
 
-int checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
                            uint64_t case_hash, char *path, size_t size)
 {
     if (size > 0)
@@ -1089,7 +1089,7 @@ int checkpoint_find_newest(const char *run_dir, const char *stage, const char *f
     return status;
 }
 
-int checkpoint_remove_all(const char *run_dir, const char *stage)
+int h5_checkpoint_remove_all(const char *run_dir, const char *stage)
 {
     SC_TRY(check_stage_name(stage));
     SC_TRY(remove_stage_files(run_dir, stage, CHECKPOINT_SUFFIX));

@@ -65,17 +65,17 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
 int h5_verify_file(const char *path);
 
 /* Checkpoints: RUN_DIR/checkpoints/STAGE_NNNNNNNN.h5 (NNNNNNNN = step). */
-int checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out);
+int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out);
 /* Commit and delete all but the newest `keep` checkpoints of this stage (keep <= 0: keep all).  Checkpoints of
  * later steps than this one are deleted as well: they belong to a history abandoned by resuming from an older
  * (because the later ones were damaged), and must not be resumed into. */
-int checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep);
+int h5_checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep);
 /* Newest valid checkpoint of `stage` into path[size] ("" if there is none).  A checkpoint that fails
  * h5_verify_file is skipped with a warning (the previous one is used).  One with another case hash or
  * format version is refused: SC_EINPUT with a message naming it. */
-int checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
                            uint64_t case_hash, char *path, size_t size);
 /* Remove every checkpoint of `stage` (after the stage finished). */
-int checkpoint_remove_all(const char *run_dir, const char *stage);
+int h5_checkpoint_remove_all(const char *run_dir, const char *stage);
 
 #endif

@@ -200,7 +200,7 @@ static void draw_bar(const struct progress *p, int64_t count, const char *facts)
     write_stderr(line, 1);
 }
 
-void progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count, int64_t total)
+void log_progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count, int64_t total)
 {
     double now = log_elapsed();
     *p = (struct progress){
@@ -215,7 +215,7 @@ void progress_begin(struct progress *p, const char *label, const char *unit, int
     };
 }
 
-void progress_update(struct progress *p, int64_t count, const char *extra)
+void log_progress_update(struct progress *p, int64_t count, const char *extra)
 {
     if (current_level < LOG_INFO)
         return;
@@ -232,7 +232,7 @@ void progress_update(struct progress *p, int64_t count, const char *extra)
         log_info("%s: %s", p->label, facts);
 }
 
-void progress_end(struct progress *p, int64_t count)
+void log_progress_end(struct progress *p, int64_t count)
 {
     double now = log_elapsed();
     char total_text[32], rate_text[32];

@@ -31,11 +31,11 @@ struct progress {
     int on_terminal;
 };
 
-void progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count,
+void log_progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count,
                     int64_t total);
 /* Report that `count` units are done; cheap when nothing needs printing.  `extra` is appended
  * (e.g. "in flight 1234, deposited 56") and may be NULL. */
-void progress_update(struct progress *p, int64_t count, const char *extra);
-void progress_end(struct progress *p, int64_t count);
+void log_progress_update(struct progress *p, int64_t count, const char *extra);
+void log_progress_end(struct progress *p, int64_t count);
 
 #endif

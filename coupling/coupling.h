@@ -81,7 +81,7 @@ struct couple_seed {
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 
-/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (app/app.h couple_read_bodies): run r has rows
+/* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (app/app.h couple_stage_read_bodies): run r has rows
  * first[r] ... first[r + 1] - 1, ordered by arrival. */
 struct couple_bodies {
     size_t runs, count;
@@ -106,8 +106,8 @@ struct couple_bodies {
  * The flight ends when the sphere touches the wall (centre at wall_z - d/2, found by CVODE's root finding) or
  * at a time limit: a fine particle carried by the outflow may approach the wall only asymptotically. */
 
-struct flight_layer {
-    struct gas_field gas;       /* density, kinematic viscosity and drag law; model none: no gas, no drag */
+struct couple_flight_layer {
+    struct dem_gas_field gas;       /* density, kinematic viscosity and drag law; model none: no gas, no drag */
     double wall_z;              /* m, the wall plane (spray frame) */
     double thickness;           /* m, delta */
     double approach_velocity;   /* m/s, U */
@@ -116,7 +116,7 @@ struct flight_layer {
                                    wall at the start), velocities atol * (speed at the start, at least 1 m/s) */
 };
 
-struct flight_result {
+struct couple_flight_result {
     int reached;                /* 1: the sphere touched the wall; 0: stopped at the time limit */
     double t, x[3], v[3];       /* at the wall (or at the time limit) */
     long steps, rhs_evals, jac_evals, error_test_failures, nonlinear_iterations, nonlinear_failures;
@@ -125,21 +125,21 @@ struct flight_result {
 };
 
 /* Gas velocity u[3] at x[3] (the formula above). */
-void flight_gas_velocity(const struct flight_layer *layer, const double x[3], double u[3]);
+void couple_flight_gas_velocity(const struct couple_flight_layer *layer, const double x[3], double u[3]);
 
 /* The time limit of a flight starting at z0 with axial speed vz0: 100 times the time to the wall at that speed
  * (at least 1 m/s). */
-double flight_time_limit(const struct flight_layer *layer, double z0, double vz0);
+double flight_time_limit(const struct couple_flight_layer *layer, double z0, double vz0);
 
-struct flight_solver;
+struct couple_flight_solver;
 
-int flight_solver_create(struct flight_solver **out);
-void flight_solver_destroy(struct flight_solver *solver);
+int couple_flight_solver_create(struct couple_flight_solver **out);
+void couple_flight_solver_destroy(struct couple_flight_solver *solver);
 
 /* Integrate one particle (diameter d, density rho_p) from (t0, x0, v0) to the wall.  The result's sample arrays
- * are owned by *result (flight_result_free).  SC_ESIM when CVODE fails (the message names its flag). */
-int flight_integrate(struct flight_solver *solver, const struct flight_layer *layer, double diameter, double density,
-                     double t0, const double x0[3], const double v0[3], struct flight_result *result);
-void flight_result_free(struct flight_result *result);
+ * are owned by *result (couple_flight_result_free).  SC_ESIM when CVODE fails (the message names its flag). */
+int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer, double diameter, double density,
+                     double t0, const double x0[3], const double v0[3], struct couple_flight_result *result);
+void couple_flight_result_free(struct couple_flight_result *result);
 
 #endif

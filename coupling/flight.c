@@ -14,7 +14,7 @@
 
 enum { STATE = 6, MAX_STEPS = 200000 };
 
-struct flight_solver {
+struct couple_flight_solver {
     SUNContext context;
     N_Vector state, abstol;
     SUNMatrix jacobian;
@@ -25,11 +25,11 @@ struct flight_solver {
 
 /* What the right-hand side needs. */
 struct flight_particle {
-    const struct flight_layer *layer;
+    const struct couple_flight_layer *layer;
     double diameter, mass;
 };
 
-void flight_gas_velocity(const struct flight_layer *layer, const double x[3], double u[3])
+void couple_flight_gas_velocity(const struct couple_flight_layer *layer, const double x[3], double u[3])
 {
     double s = layer->wall_z - x[2], delta = layer->thickness, speed = layer->approach_velocity;
     if (s >= delta) {
@@ -44,7 +44,7 @@ void flight_gas_velocity(const struct flight_layer *layer, const double x[3], do
     }
 }
 
-double flight_time_limit(const struct flight_layer *layer, double z0, double vz0)
+double flight_time_limit(const struct couple_flight_layer *layer, double z0, double vz0)
 {
     return 100.0 * fabs(layer->wall_z - z0) / fmax(vz0, 1.0);
 }
@@ -57,8 +57,8 @@ static int flight_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
     const double *state = N_VGetArrayPointer(y);
     double *rate = N_VGetArrayPointer(ydot);
     double u[3], force[3];
-    flight_gas_velocity(p->layer, state, u);
-    gas_drag_force(&p->layer->gas, p->diameter, state + 3, u, force);
+    couple_flight_gas_velocity(p->layer, state, u);
+    dem_gas_drag_force(&p->layer->gas, p->diameter, state + 3, u, force);
     for (int k = 0; k < 3; k++) {
         rate[k] = state[3 + k];
         rate[3 + k] = force[k] / p->mass;
@@ -75,7 +75,7 @@ static int flight_contact(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
     return 0;
 }
 
-void flight_solver_destroy(struct flight_solver *solver)
+void couple_flight_solver_destroy(struct couple_flight_solver *solver)
 {
     if (!solver)
         return;
@@ -88,9 +88,9 @@ void flight_solver_destroy(struct flight_solver *solver)
     free(solver);
 }
 
-int flight_solver_create(struct flight_solver **out)
+int couple_flight_solver_create(struct couple_flight_solver **out)
 {
-    struct flight_solver *solver = calloc(1, sizeof *solver);
+    struct couple_flight_solver *solver = calloc(1, sizeof *solver);
     if (!solver)
         SC_FAIL_OOM(sizeof *solver, "the flight solver");
     int ok = SUNContext_Create(NULL, &solver->context) == 0;
@@ -106,7 +106,7 @@ int flight_solver_create(struct flight_solver **out)
         ok = solver->linear != NULL;
     }
     if (!ok) {
-        flight_solver_destroy(solver);
+        couple_flight_solver_destroy(solver);
         SC_FAIL(SC_EIO, "flight: cannot create the CVODE solver (out of memory?)");
     }
     *out = solver;
@@ -125,7 +125,7 @@ static int flight_roots(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
 }
 
 /* The root functions of a flight that is `edge_ahead` of the layer's edge or already inside the layer. */
-static int set_roots(struct flight_solver *solver, int edge_ahead)
+static int set_roots(struct couple_flight_solver *solver, int edge_ahead)
 {
     int flag = edge_ahead ? CVodeRootInit(solver->cvode, 2, flight_roots)
                           : CVodeRootInit(solver->cvode, 1, flight_contact);
@@ -138,7 +138,7 @@ static int set_roots(struct flight_solver *solver, int edge_ahead)
 
 /* CVodeInit the first time, CVodeReInit after: every flight starts with a fresh history and fresh counters,
  * so a flight's result does not depend on the flights before it (DESIGN.md, restart). */
-static int start_flight(struct flight_solver *solver, struct flight_particle *particle, double t0, double t_limit,
+static int start_flight(struct couple_flight_solver *solver, struct flight_particle *particle, double t0, double t_limit,
                         int edge_ahead)
 {
     int flag;
@@ -166,7 +166,7 @@ static int start_flight(struct flight_solver *solver, struct flight_particle *pa
     return SC_OK;
 }
 
-static int record_sample(struct flight_result *r, size_t *capacity, double t, const double *state)
+static int record_sample(struct couple_flight_result *r, size_t *capacity, double t, const double *state)
 {
     if (r->samples == *capacity) {
         size_t grown = *capacity ? 2 * *capacity : 64;
@@ -191,7 +191,7 @@ static int record_sample(struct flight_result *r, size_t *capacity, double t, co
 }
 
 /* Add the counters of the current CVODE integration (a flight has two when it crosses the layer's edge). */
-static void add_counters(void *cvode, struct flight_result *r)
+static void add_counters(void *cvode, struct couple_flight_result *r)
 {
     long steps = 0, rhs = 0, jac = 0, error_tests = 0, iterations = 0, failures = 0;
     CVodeGetNumSteps(cvode, &steps);
@@ -209,7 +209,7 @@ static void add_counters(void *cvode, struct flight_result *r)
 }
 
 /* At the layer's edge: a fresh integration from the current state with the contact root alone. */
-static int restart_at_edge(struct flight_solver *solver, double t, struct flight_result *r)
+static int restart_at_edge(struct couple_flight_solver *solver, double t, struct couple_flight_result *r)
 {
     add_counters(solver->cvode, r);
     int flag = CVodeReInit(solver->cvode, t, solver->state);
@@ -222,7 +222,7 @@ static int restart_at_edge(struct flight_solver *solver, double t, struct flight
 }
 
 /* Step by step (CV_ONE_STEP, every internal step is a trajectory sample) to the contact root or the time limit. */
-static int integrate_steps(struct flight_solver *solver, double t_limit, int edge_ahead, struct flight_result *r)
+static int integrate_steps(struct couple_flight_solver *solver, double t_limit, int edge_ahead, struct couple_flight_result *r)
 {
     size_t capacity = 0;
     double *state = N_VGetArrayPointer(solver->state);
@@ -254,8 +254,8 @@ static int integrate_steps(struct flight_solver *solver, double t_limit, int edg
     return SC_OK;
 }
 
-int flight_integrate(struct flight_solver *solver, const struct flight_layer *layer, double diameter, double density,
-                     double t0, const double x0[3], const double v0[3], struct flight_result *result)
+int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer, double diameter, double density,
+                     double t0, const double x0[3], const double v0[3], struct couple_flight_result *result)
 {
     memset(result, 0, sizeof *result);
     struct flight_particle particle = {layer, diameter, density * M_PI * diameter * diameter * diameter / 6.0};
@@ -277,12 +277,12 @@ int flight_integrate(struct flight_solver *solver, const struct flight_layer *la
     result->t = t0;
     int status = integrate_steps(solver, t_limit, edge_ahead, result);
     if (status != SC_OK)
-        flight_result_free(result);
+        couple_flight_result_free(result);
     SC_TRY(status);
     return SC_OK;
 }
 
-void flight_result_free(struct flight_result *result)
+void couple_flight_result_free(struct couple_flight_result *result)
 {
     free(result->sample_t);
     free(result->sample_x);

@@ -20,7 +20,7 @@
  * box and joins the repaired set; its old pairs are dropped, and its new ones are found from the grid cells
  * of its new box (partners still as built, by the same lower-corner rule, so each pair once) and by testing
  * the other repaired particles directly (their grid entries are stale and skipped).  Removed particles are
- * compacted out of the grid and the list (broadphase_compact).  Past REPAIR_MIN + count / REPAIR_SHARE
+ * compacted out of the grid and the list (dem_broadphase_compact).  Past REPAIR_MIN + count / REPAIR_SHARE
  * repaired particles the grid is rebuilt.  The list then still holds every pair whose swept boxes overlap,
  * once: the contacts found are those of a fresh build. */
 #include <math.h>
@@ -335,7 +335,7 @@ void dem_bins_free(struct dem_bins *bins)
     memset(bins, 0, sizeof *bins);
 }
 
-double time_of_impact(const double dx[3], const double dv[3], double reach, double dt)
+double dem_time_of_impact(const double dx[3], const double dv[3], double reach, double dt)
 {
     double b = dx[0] * dv[0] + dx[1] * dv[1] + dx[2] * dv[2];
     if (b >= 0.0)
@@ -351,7 +351,7 @@ double time_of_impact(const double dx[3], const double dv[3], double reach, doub
     return s <= dt ? s : -1.0;
 }
 
-void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind)
+void dem_candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind)
 {
     if (list->count == list->capacity) {
         list->capacity = list->capacity ? 2 * list->capacity : 64;
@@ -409,16 +409,16 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
         return;
     double dx[3] = {b.x[0] - a.x[0], b.x[1] - a.x[1], b.x[2] - a.x[2]};
     double dv[3] = {b.v[0] - a.v[0], b.v[1] - a.v[1], b.v[2] - a.v[2]};
-    double t_hit = time_of_impact(dx, dv, a.radius + b.radius, dt);
+    double t_hit = dem_time_of_impact(dx, dv, a.radius + b.radius, dt);
     if (t_hit < 0.0)
         return;
     if (a.flying)
-        candidates_push(out, t_hit, first, second, CONTACT_PAIR);
+        dem_candidates_push(out, t_hit, first, second, CONTACT_PAIR);
     else
-        candidates_push(out, t_hit, second, first, CONTACT_PAIR);
+        dem_candidates_push(out, t_hit, second, first, CONTACT_PAIR);
 }
 
-void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
+void dem_broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
 {
 #pragma omp for schedule(static) nowait
     for (size_t k = 0; k < bins->pair_count; k++)
@@ -814,9 +814,9 @@ static int repair(struct dem_bins *bins, const struct dem_particles *p, double d
     return 1;
 }
 
-void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
+void dem_broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt)
 {
-    /* built_count above the count: removals that broadphase_compact could not follow */
+    /* built_count above the count: removals that dem_broadphase_compact could not follow */
     if (bins->reach_lo && p->count >= bins->built_count && collect_failing(bins, p, dt) &&
         (bins->failing_count == 0 || repair(bins, p, dt))) {
         bins->age++;
@@ -873,7 +873,7 @@ static void renumber_entries(struct dem_bins *bins, size_t first, size_t end, co
             bins->entries[e].index = moved_to[bins->entries[e].index];
 }
 
-/* The independent parts of broadphase_compact, largest first: the pair list, the per-particle arrays, the
+/* The independent parts of dem_broadphase_compact, largest first: the pair list, the per-particle arrays, the
  * repaired list, then the grid entries in slices of ENTRY_SLICES. */
 #define COMPACT_JOBS 5
 #define ENTRY_SLICES 8
@@ -908,7 +908,7 @@ static void compact_job(struct dem_bins *bins, int job, const uint32_t *moved_to
     }
 }
 
-void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count)
+void dem_broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count)
 {
     if (!bins->reach_lo || removed_count == 0)
         return;
@@ -925,7 +925,7 @@ void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t r
     free(moved_to);
 }
 
-/* broadphase_visit_box's visitor, called with the index of each entry */
+/* dem_broadphase_visit_box's visitor, called with the index of each entry */
 struct index_visit {
     void (*visit)(uint32_t index, void *context);
     void *context;
@@ -938,7 +938,7 @@ static void visit_index(const struct dem_bin_entry *entry, const int32_t here[3]
     forward->visit(entry->index, forward->context);
 }
 
-int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
+int dem_broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
                          void (*visit)(uint32_t index, void *context), void *context)
 {
     int32_t first[3], last[3];

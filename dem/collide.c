@@ -37,7 +37,7 @@ FM_INLINE void target_hits(const struct dem_solver *s, const uint32_t *moving, s
 }
 
 /* The target contacts of the step's moving particles, appended to `out` in any order (they are sorted); a
- * thread's share of them inside a parallel region, as broadphase_pairs.  TARGET_CHUNK particles at a time (a
+ * thread's share of them inside a parallel region, as dem_broadphase_pairs.  TARGET_CHUNK particles at a time (a
  * free particle is far from the target: the push is rare). */
 #define TARGET_CHUNK 256
 static void find_target_contacts(const struct dem_solver *s, struct dem_candidates *out)
@@ -56,7 +56,7 @@ static void find_target_contacts(const struct dem_solver *s, struct dem_candidat
             target_hits(s, moving, n, 0, t_hit, hits);
         for (const uint8_t *hit = memchr(hits, 1, n); hit; hit = memchr(hit + 1, 1, n - (size_t)(hit + 1 - hits))) {
             size_t k = (size_t)(hit - hits);
-            candidates_push(out, t_hit[k], moving[k], 0, CONTACT_TARGET);
+            dem_candidates_push(out, t_hit[k], moving[k], 0, CONTACT_TARGET);
         }
     }
 }
@@ -68,11 +68,11 @@ static void find_contacts(struct dem_solver *s)
 #pragma omp parallel if (s->bins.pair_count + s->moving_count >= DEM_PARALLEL_MIN)
     {
         struct dem_candidates local = {0};
-        broadphase_pairs(&s->bins, &s->p, s->cfg.dt, &local);
+        dem_broadphase_pairs(&s->bins, &s->p, s->cfg.dt, &local);
         find_target_contacts(s, &local);
 #pragma omp critical(dem_contacts_merge)
         for (size_t k = 0; k < local.count; k++)
-            candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
+            dem_candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
         free(local.items);
     }
 }
@@ -97,7 +97,7 @@ void dem_detect_contacts(struct dem_solver *s)
     struct dem_particles *p = &s->p;
     s->candidates.count = 0;
     double start = omp_get_wtime();
-    broadphase_build(&s->bins, p, s->cfg.dt);
+    dem_broadphase_build(&s->bins, p, s->cfg.dt);
     s->timing.broad_phase += omp_get_wtime() - start;
     find_contacts(s);
     if (s->candidates.count > 1)
@@ -127,7 +127,7 @@ static int sticks(const struct dem_config *cfg, double vn, double mass, double d
 {
     switch (cfg->rule) {
     case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
-        return vn < contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy, gamma_partner, mass,
+        return vn < dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy, gamma_partner, mass,
                                                    r_eff, yield);
     case DEM_DEPOSIT_CRITICAL_VELOCITY: /* cold spray: bonding at and above v_crit */
         return vn >= cfg->critical_velocity;
@@ -232,7 +232,7 @@ static double contact_time(const struct dem_solver *s, uint32_t i, int64_t partn
         dx[k] = xj[k] - xi[k];
         dv[k] = p->v[3 * j + k] - p->v[3 * i + k];
     }
-    double delay = time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt - start);
+    double delay = dem_time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt - start);
     return delay < 0.0 ? -1.0 : start + delay;
 }
 
@@ -307,7 +307,7 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     const struct dem_material *obstacle = partner < 0 ? &cfg->target : &cfg->powder;
     struct sphere_state sphere = sphere_of(p, i, &cfg->powder), before = sphere;
     struct contact_outcome outcome;
-    if (!contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
+    if (!dem_contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;
     store_sphere(s, i, &sphere);
     double r = 0.5 * p->d[i];
@@ -354,7 +354,7 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
         n[k] = (xb[k] - xa[k]) / dist;
     struct sphere_state sa = sphere_of(p, a, &s->cfg.powder), sb = sphere_of(p, b, &s->cfg.powder);
     struct contact_outcome outcome;
-    if (!contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome))
+    if (!dem_contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome))
         return;
     store_sphere(s, a, &sa);
     store_sphere(s, b, &sb);
@@ -392,7 +392,7 @@ static void consider_partner(uint32_t j, void *context)
     if (at < 0.0)
         return;
     uint32_t a = j_flying && j < i ? j : i, b = a == i ? j : i;
-    candidates_push(query->out, at, a, b, CONTACT_PAIR);
+    dem_candidates_push(query->out, at, a, b, CONTACT_PAIR);
 }
 
 /* The box of i's sphere along its current path from its path time to the end of the step. */
@@ -448,7 +448,7 @@ static void find_changed_pairs(struct dem_solver *s, const uint32_t *moved, size
             uint32_t b = a == extents[k].index ? extents[m].index : extents[k].index;
             double at = contact_time(s, a, b);
             if (at >= 0.0)
-                candidates_push(out, at, a, b, CONTACT_PAIR);
+                dem_candidates_push(out, at, a, b, CONTACT_PAIR);
         }
     }
     free(extents);
@@ -463,7 +463,7 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
         uint32_t i = moved[k];
         double at = contact_time(s, i, -1);
         if (at >= 0.0)
-            candidates_push(out, at, i, 0, CONTACT_TARGET);
+            dem_candidates_push(out, at, i, 0, CONTACT_TARGET);
         if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh, also in the free slots (stamps are
                                      * kept from step to step; a new particle there keeps its slot's) */
             memset(s->seen, 0, s->path_capacity * sizeof *s->seen);
@@ -472,7 +472,7 @@ static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved,
         double lo[3], hi[3];
         path_box(s, i, lo, hi);
         struct secondary_query query = {s, i, out};
-        broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
+        dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
     }
     find_changed_pairs(s, moved, moved_count, out);
 }

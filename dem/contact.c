@@ -77,14 +77,14 @@ static double johnson_plastic_restitution(double m_eff, double r_eff, double e_s
 /* Eqs. (16)-(19).  Below V_lim the impact is elastic (e = 1).  Above it Eq. (18) applies, capped at 1:
  * the two branches do not meet (Eq. 18 gives 3.74/53^(1/8) = 2.28 at V_lim and falls below 1 only past
  * about 27 V_lim, notes/dem.md), and e > 1 would create energy. */
-struct restitution contact_restitution(const struct contact_law *law, double m_eff, double r_eff,
+struct restitution dem_contact_restitution(const struct dem_contact_law *law, double m_eff, double r_eff,
                                        double e_star, double yield, double vn)
 {
     struct restitution r;
     r.v_lim = elastic_limit_speed(m_eff, r_eff, e_star, yield);
     r.dt_compression = compression_duration(m_eff, r_eff, yield);
     r.dt_elastic = hertz_contact_duration(m_eff, r_eff, e_star, vn);
-    if (law->model == RESTITUTION_CONSTANT) {
+    if (law->model == DEM_RESTITUTION_CONSTANT) {
         r.e = law->restitution;
     } else if (vn <= r.v_lim) {
         r.e = 1.0;
@@ -96,7 +96,7 @@ struct restitution contact_restitution(const struct contact_law *law, double m_e
 
 /* Eq. (11) with the DESIGN.md erratum: the printed inner branch v/(2 eps) jumps at |v| = eps; v/eps
  * joins the outer branches continuously.  eps <= 0 gives the sharp Coulomb law. */
-double contact_friction_regularization(double slip_speed, double eps)
+double dem_contact_friction_regularization(double slip_speed, double eps)
 {
     if (eps > 0.0 && fabs(slip_speed) <= eps)
         return slip_speed / eps;
@@ -156,14 +156,14 @@ static void split_relative_velocity(const double v_rel[3], const double n[3], st
 /* Friction impulse vector acting on body a, Eq. (10) in impulse form: magnitude mu R(|slip|) J_n,
  * against the slip, capped at the stick limit (2/7) m_eff |slip| (DESIGN.md) so that it at most stops the
  * slip and never reverses it.  Returns the magnitude. */
-static double friction_impulse_on_a(const struct contact_law *law, const struct contact_geometry *g,
+static double friction_impulse_on_a(const struct dem_contact_law *law, const struct contact_geometry *g,
                                     double normal_impulse, double impulse[3])
 {
     double slip_speed = sqrt(dot3(g->slip, g->slip));
     impulse[0] = impulse[1] = impulse[2] = 0.0;
     if (!(slip_speed > 0.0))
         return 0.0;
-    double coulomb = g->friction * contact_friction_regularization(slip_speed, law->friction_regularization) *
+    double coulomb = g->friction * dem_contact_friction_regularization(slip_speed, law->friction_regularization) *
                      normal_impulse;
     double stick = SOLID_SPHERE_STICK_FACTOR * g->m_eff * slip_speed;
     double magnitude = fmin(coulomb, stick);
@@ -175,10 +175,10 @@ static double friction_impulse_on_a(const struct contact_law *law, const struct 
 
 /* Normal impulse magnitude and restitution for an approaching contact, Eq. (7) / Eq. (22) without the
  * external-force terms: J_n = (1 + e) m_eff v_approach. */
-static double normal_impulse(const struct contact_law *law, const struct contact_geometry *g,
+static double normal_impulse(const struct dem_contact_law *law, const struct contact_geometry *g,
                              struct contact_outcome *out)
 {
-    struct restitution rest = contact_restitution(law, g->m_eff, g->r_eff, g->e_star, g->yield, g->vn);
+    struct restitution rest = dem_contact_restitution(law, g->m_eff, g->r_eff, g->e_star, g->yield, g->vn);
     double jn = (1.0 + rest.e) * g->m_eff * g->vn;
     if (out) {
         out->vn = g->vn;
@@ -196,7 +196,7 @@ static double pair_friction(const struct dem_material *a, const struct dem_mater
     return 0.5 * (a->friction + b->friction);
 }
 
-int contact_pair(const struct contact_law *law, struct sphere_state *a, struct sphere_state *b,
+int dem_contact_pair(const struct dem_contact_law *law, struct sphere_state *a, struct sphere_state *b,
                  const double n[3], struct contact_outcome *out)
 {
     double n_b[3] = {-n[0], -n[1], -n[2]};
@@ -212,7 +212,7 @@ int contact_pair(const struct contact_law *law, struct sphere_state *a, struct s
 
     g.m_eff = a->mass * b->mass / (a->mass + b->mass);
     g.r_eff = a->radius * b->radius / (a->radius + b->radius);
-    g.e_star = material_effective_modulus(a->material, b->material);
+    g.e_star = dem_material_effective_modulus(a->material, b->material);
     g.yield = fmin(a->material->yield_stress, b->material->yield_stress);
     g.friction = pair_friction(a->material, b->material);
 
@@ -240,7 +240,7 @@ static double obstacle_effective_radius(double radius, double obstacle_radius)
 }
 
 /* Eqs. (22)-(23) with a motionless obstacle (v_surf = 0): the obstacle's mass is infinite, so m_eff = m_a. */
-int contact_fixed(const struct contact_law *law, struct sphere_state *a, const struct dem_material *obstacle,
+int dem_contact_fixed(const struct dem_contact_law *law, struct sphere_state *a, const struct dem_material *obstacle,
                   double obstacle_radius, const double n[3], struct contact_outcome *out)
 {
     double v_contact[3];
@@ -252,7 +252,7 @@ int contact_fixed(const struct contact_law *law, struct sphere_state *a, const s
 
     g.m_eff = a->mass;
     g.r_eff = obstacle_effective_radius(a->radius, obstacle_radius);
-    g.e_star = material_effective_modulus(a->material, obstacle);
+    g.e_star = dem_material_effective_modulus(a->material, obstacle);
     g.yield = fmin(a->material->yield_stress, obstacle->yield_stress);
     g.friction = pair_friction(a->material, obstacle);
 
@@ -269,7 +269,7 @@ int contact_fixed(const struct contact_law *law, struct sphere_state *a, const s
 
 /* Eq. (34) with alpha_ADH: a particle sticks if v0 < 0.2 alpha F dt1 / m, F = 4 pi gamma12 R (Eq. 32),
  * gamma12 = 2 sqrt(gamma_a gamma_b) (dispersion forces dominant, Section 3), dt1 from Eq. (19). */
-double contact_adhesion_capture_speed(double alpha_adh, double gamma_a, double gamma_b, double mass,
+double dem_contact_adhesion_capture_speed(double alpha_adh, double gamma_a, double gamma_b, double mass,
                                       double r_eff, double yield)
 {
     double interface_energy = 2.0 * sqrt(gamma_a * gamma_b);

@@ -46,12 +46,12 @@ struct dem_config {
     double domain_radius, handoff_height;
     long metrics_every;
     /* [powder], [target] */
-    struct size_distribution sizes;
+    struct dem_size_distribution sizes;
     struct dem_material powder, target;
     double standoff, deposit_radius;
     /* [contact], [jet] */
-    struct contact_law contact;
-    struct gas_field gas;
+    struct dem_contact_law contact;
+    struct dem_gas_field gas;
     /* [deposition] */
     enum dem_deposition_rule rule;
     double alpha_adh, critical_velocity;

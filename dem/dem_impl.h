@@ -175,13 +175,13 @@ struct dem_solver {
 void *dem_realloc_or_die(void *data, size_t bytes);
 /* bytes a multiple of alignment (C17 aligned_alloc); aborts when out of memory, as dem_realloc_or_die. */
 void *dem_aligned_alloc_or_die(size_t alignment, size_t bytes);
-void particles_reserve(struct dem_particles *p, size_t capacity);
-size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
+void dem_particles_reserve(struct dem_particles *p, size_t capacity);
+size_t dem_particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
                         const double w[3], double d, double density);
-void particles_free(struct dem_particles *p);
+void dem_particles_free(struct dem_particles *p);
 /* Remove the particles removed[0, removed_count) (increasing indices), preserving the order of the others
  * (x_start, v_start, w_start excepted: they are scratch of the step and invalid after it). */
-void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count);
+void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count);
 /* The same for any array of `count` rows of `size` bytes. */
 void dem_remove_rows(void *rows, size_t size, size_t count, const uint32_t *removed, size_t removed_count);
 
@@ -194,25 +194,25 @@ void dem_inject_file(struct dem_solver *s);
 void dem_bins_free(struct dem_bins *bins);
 /* Bring the grid and the pair list up to date for this step: the particles that left their reach box, were
  * injected, or flew off a deposit since the build are repaired in place; rebuilt when they are too many. */
-void broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
-/* After particles_compact(p, removed, removed_count) removed those of the old_count particles: the grid and
+void dem_broadphase_build(struct dem_bins *bins, const struct dem_particles *p, double dt);
+/* After dem_particles_compact(p, removed, removed_count) removed those of the old_count particles: the grid and
  * the pair list follow, so that the next build need not start afresh. */
-void broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count);
+void dem_broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size_t removed_count, size_t old_count);
 /* Append to `out` every pair (a, b), at least one flying, whose spheres moving with their current velocities
  * touch while approaching at some s in [0, dt]: a < b when both fly, else a is the flying one.  Inside a
  * parallel region every thread calls it, each with its own `out`, and each tests a share of the pairs (an
  * orphaned `omp for` without a barrier at its end); outside one, it tests them all. */
-void broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
+void dem_broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
                       struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
-double time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
+double dem_time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
 /* Call visit(index, context) for every entry of the cells that the box [lo, hi] overlaps, and every
  * repaired particle whose reach box overlaps it (a particle may be visited more than once).  Returns 0, or
  * -1 without visiting if the box spans more than max_cells cells. */
-int broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
+int dem_broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
                          void (*visit)(uint32_t index, void *context), void *context);
 /* Append one contact to a list. */
-void candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind);
+void dem_candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind);
 
 
 /* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */

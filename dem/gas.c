@@ -9,26 +9,26 @@
 
 /* Eq. (25): C_D = 24/Re (1 + 0.1806 Re^0.6459) + 0.4251 / (1 + 6880.95/Re), with libm's pow (the reference
  * value of the tables; the integrator's force uses core/fastmath.h, within a few ulp of it). */
-double drag_coefficient_haider_levenspiel(double reynolds)
+double dem_drag_coefficient_haider_levenspiel(double reynolds)
 {
     return 24.0 / reynolds * (1.0 + HL_STOKES_CORRECTION * pow(reynolds, HL_STOKES_EXPONENT)) +
            HL_NEWTON_COEFFICIENT / (1.0 + HL_NEWTON_REYNOLDS / reynolds);
 }
 
-void gas_drag_force(const struct gas_field *gas, double diameter, const double v[3], const double u[3],
+void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
                     double f[3])
 {
     gas_eval_drag(gas, diameter, v, u, f);
 }
 
-void gas_velocity(const struct gas_field *gas, const double x[3], double u[3])
+void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double u[3])
 {
     gas_eval_velocity(gas, x, u);
 }
 
 /* For a drag along the slip, dF/dv has eigenvalues -dF/ds (along the slip) and -F/s (across it); dF/ds >= F/s
  * for C_D falling no faster than 1/Re, so dF/ds sets the stiffest time.  Stokes: tau = rho d^2 / (18 mu). */
-double gas_response_time(const struct gas_field *gas, double density, double diameter, double slip)
+double dem_gas_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip)
 {
     slip = fabs(slip);
     double reynolds = gas_eval_reynolds(gas, diameter, slip);

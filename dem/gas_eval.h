@@ -2,7 +2,7 @@
  * inline arithmetic: selects instead of branches on the particle, core/fastmath.h instead of libm (sqrt is
  * correctly rounded, the same in a vector lane), so that the integrator's loops over particles vectorise and
  * every lane gives the bits of the scalar code.
- * dem/gas.c wraps them as gas_velocity and gas_drag_force; dem/integrate.c inlines them. */
+ * dem/gas.c wraps them as dem_gas_velocity and dem_gas_drag_force; dem/integrate.c inlines them. */
 #ifndef SPRAYCOAT_DEM_GAS_EVAL_H
 #define SPRAYCOAT_DEM_GAS_EVAL_H
 
@@ -35,7 +35,7 @@ FM_INLINE void gas_eval_sech2_tanh(double xi, double *sech2, double *tanh_xi)
  * virtual origin, the profile of z = core_length without entrainment (no radial part).  If even that station
  * lies at or behind the virtual origin the profile is singular: still gas there (the parameter layer refuses
  * such a jet).  Every branch is a select, so that loops over particles vectorise. */
-FM_INLINE void gas_eval_bickley(const struct gas_field *gas, const double pos[3], double u[3])
+FM_INLINE void gas_eval_bickley(const struct dem_gas_field *gas, const double pos[3], double u[3])
 {
     /* every operation is done whatever the selects: a conditional floating-point operation could trap, so
      * the compiler would keep the branches and not vectorise */
@@ -61,12 +61,12 @@ FM_INLINE void gas_eval_bickley(const struct gas_field *gas, const double pos[3]
     u[2] = fm_select(defined, axial, 0.0);
 }
 
-/* Gas velocity u[3] at pos[3] for JET_BICKLEY and JET_UNIFORM (JET_NONE: zero). */
-FM_INLINE void gas_eval_velocity(const struct gas_field *gas, const double pos[3], double u[3])
+/* Gas velocity u[3] at pos[3] for DEM_JET_BICKLEY and DEM_JET_UNIFORM (DEM_JET_NONE: zero). */
+FM_INLINE void gas_eval_velocity(const struct dem_gas_field *gas, const double pos[3], double u[3])
 {
     double jet[3];
     gas_eval_bickley(gas, pos, jet);
-    int bickley = gas->model == JET_BICKLEY, uniform = gas->model == JET_UNIFORM;
+    int bickley = gas->model == DEM_JET_BICKLEY, uniform = gas->model == DEM_JET_UNIFORM;
     u[0] = fm_select(bickley, jet[0], 0.0);
     u[1] = fm_select(bickley, jet[1], 0.0);
     u[2] = fm_select(bickley, jet[2], fm_select(uniform, gas->uniform_velocity, 0.0));
@@ -80,30 +80,30 @@ FM_INLINE double gas_eval_reynolds_power(double reynolds)
 
 /* C_D * slip (m/s) for slip > 0, given Re and Re^0.6459: 24 nu / d in place of 24 / Re * slip, so that the
  * Stokes part needs no division by the slip. */
-FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct gas_field *gas, double diameter, double slip,
+FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct dem_gas_field *gas, double diameter, double slip,
                                                           double reynolds, double reynolds_power)
 {
     double stokes_part = 24.0 * gas->kinematic_viscosity / diameter;
     double haider_levenspiel = stokes_part * (1.0 + HL_STOKES_CORRECTION * reynolds_power) +
                                HL_NEWTON_COEFFICIENT * slip * reynolds / (reynolds + HL_NEWTON_REYNOLDS);
-    return fm_select(gas->drag == DRAG_STOKES, stokes_part, haider_levenspiel);
+    return fm_select(gas->drag == DEM_DRAG_STOKES, stokes_part, haider_levenspiel);
 }
 
-FM_INLINE double gas_eval_reynolds(const struct gas_field *gas, double diameter, double slip)
+FM_INLINE double gas_eval_reynolds(const struct dem_gas_field *gas, double diameter, double slip)
 {
     return diameter * slip / gas->kinematic_viscosity;
 }
 
 /* Eq. (24): F = 1/2 rho_f (pi R^2) C_D(Re) |u - v| (u - v), Re = d |u - v| / nu_f, with the slip and Re^0.6459
  * already known.  No slip: no drag (and no 0/0 in Re). */
-FM_INLINE void gas_eval_drag_from_slip(const struct gas_field *gas, double diameter, const double relative[3],
+FM_INLINE void gas_eval_drag_from_slip(const struct dem_gas_field *gas, double diameter, const double relative[3],
                                            double slip, double reynolds_power, double f[3])
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
     double reynolds = gas_eval_reynolds(gas, diameter, slip);
     double factor = 0.5 * gas->density * frontal_area *
                     gas_eval_drag_coefficient_times_slip(gas, diameter, slip, reynolds, reynolds_power);
-    factor = fm_select((slip > 0.0) & (gas->model != JET_NONE), factor, 0.0);
+    factor = fm_select((slip > 0.0) & (gas->model != DEM_JET_NONE), factor, 0.0);
     for (int k = 0; k < 3; k++)
         f[k] = factor * relative[k];
 }
@@ -116,7 +116,7 @@ FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double rela
 }
 
 /* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] (Eq. 24). */
-FM_INLINE void gas_eval_drag(const struct gas_field *gas, double diameter, const double v[3], const double u[3],
+FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
                                  double f[3])
 {
     double relative[3];
@@ -132,7 +132,7 @@ FM_INLINE void gas_eval_drag(const struct gas_field *gas, double diameter, const
  * and multiplying by s (= Re nu / d) removes the 1/Re: every term stays finite as s -> 0, where
  * dF/ds -> 1/2 rho_f A 24 nu / d = 3 pi mu d, the Stokes value.  Stokes alone: dF/ds = 3 pi mu d.
  * reynolds_power is Re^b at this slip (any value when slip is 0). */
-FM_INLINE double gas_eval_drag_slope(const struct gas_field *gas, double diameter, double slip,
+FM_INLINE double gas_eval_drag_slope(const struct dem_gas_field *gas, double diameter, double slip,
                                          double reynolds_power)
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
@@ -144,18 +144,18 @@ FM_INLINE double gas_eval_drag_slope(const struct gas_field *gas, double diamete
         (stokes_part * HL_STOKES_CORRECTION * (1.0 + HL_STOKES_EXPONENT) * reynolds_power +
          HL_NEWTON_COEFFICIENT * slip * reynolds * (2.0 * reynolds + 3.0 * HL_NEWTON_REYNOLDS) /
              (newton_denominator * newton_denominator));
-    int haider_levenspiel_law = (gas->drag == DRAG_HAIDER_LEVENSPIEL) & (slip > 0.0);
+    int haider_levenspiel_law = (gas->drag == DEM_DRAG_HAIDER_LEVENSPIEL) & (slip > 0.0);
     double bracket_times_slip = fm_select(haider_levenspiel_law, haider_levenspiel, stokes_part);
     return 0.5 * gas->density * frontal_area * bracket_times_slip;
 }
 
-/* m / |dF/dv| (s), INFINITY for JET_NONE or no gas density: see gas_response_time. */
-FM_INLINE double gas_eval_response_time(const struct gas_field *gas, double density, double diameter,
+/* m / |dF/dv| (s), INFINITY for DEM_JET_NONE or no gas density: see dem_gas_response_time. */
+FM_INLINE double gas_eval_response_time(const struct dem_gas_field *gas, double density, double diameter,
                                             double slip, double reynolds_power)
 {
     double slope = gas_eval_drag_slope(gas, diameter, slip, reynolds_power);
     double mass = density * GAS_PI * diameter * diameter * diameter / 6.0;
-    int no_drag = (gas->model == JET_NONE) | !(slope > 0.0); /* bitwise: no branch, so loops vectorise */
+    int no_drag = (gas->model == DEM_JET_NONE) | !(slope > 0.0); /* bitwise: no branch, so loops vectorise */
     double response_time = mass / slope;
     return fm_select(no_drag, INFINITY, response_time);
 }

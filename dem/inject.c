@@ -17,7 +17,7 @@ static double sample_diameter(const struct dem_solver *s, int64_t id)
 {
     double u[2];
     rng_uniform2(s->cfg.seed, RNG_STREAM_SIZE, (uint64_t)id, 0, 0, u);
-    return sizes_sample(&s->cfg.sizes, u[0]);
+    return dem_sizes_sample(&s->cfg.sizes, u[0]);
 }
 
 /* Release velocity: speed uniform in [min, max], direction uniform in solid angle inside the cone. */
@@ -104,7 +104,7 @@ static void inject_stream(struct dem_solver *s)
             continue;
         }
         sample_velocity(s, id, v);
-        near[near_count++] = particles_append(&s->p, id, x, v, spin, d, cfg->powder.density);
+        near[near_count++] = dem_particles_append(&s->p, id, x, v, spin, d, cfg->powder.density);
         s->injected++;
     }
     free(near);
@@ -113,10 +113,10 @@ static void inject_stream(struct dem_solver *s)
 void dem_inject_file(struct dem_solver *s)
 {
     const struct dem_config *cfg = &s->cfg;
-    particles_reserve(&s->p, s->p.count + cfg->file_particle_count); /* at once, not by doubling */
+    dem_particles_reserve(&s->p, s->p.count + cfg->file_particle_count); /* at once, not by doubling */
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
         const double *row = cfg->file_particles + 10 * i;
-        particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
+        dem_particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
         s->injected++;
     }
 }

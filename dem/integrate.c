@@ -141,7 +141,7 @@ FM_INLINE struct eq53_squares phi_iterate(const struct phi_problem *problem, con
 
 /* The drag force f at (x, v), with the slip and Re^0.6459 there, from which the response time follows
  * (gas_eval_response_time). */
-FM_INLINE void drag_and_slip(const struct gas_field *gas, double d, const double x[3], const double v[3], double f[3],
+FM_INLINE void drag_and_slip(const struct dem_gas_field *gas, double d, const double x[3], const double v[3], double f[3],
                                  double *slip, double *reynolds_power)
 {
     double u[3], relative[3];
@@ -326,7 +326,7 @@ static inline int any_lane(const uint8_t flags[BLOCK])
 
 /* Gas, drag and response time at the start of the step for every lane; the force, slip and Re^0.6459 may
  * have been kept from the end of the last step. */
-FM_INLINE void start_forces_with(const struct dem_config *cfg, struct block *restrict b, const struct gas_field gas)
+FM_INLINE void start_forces_with(const struct dem_config *cfg, struct block *restrict b, const struct dem_gas_field gas)
 {
     const double density = cfg->powder.density;
     if (!b->start_kept) {
@@ -344,15 +344,15 @@ FM_INLINE void start_forces_with(const struct dem_config *cfg, struct block *res
 
 /* The usual gas, the jet with Haider-Levenspiel drag, is given to the loops below as constants: the selects on
  * the model and the law (dem/gas_eval.h) then fold away, where for any gas they are done in every lane. */
-static int gas_is_usual(const struct gas_field *gas)
+static int gas_is_usual(const struct dem_gas_field *gas)
 {
-    return gas->model == JET_BICKLEY && gas->drag == DRAG_HAIDER_LEVENSPIEL;
+    return gas->model == DEM_JET_BICKLEY && gas->drag == DEM_DRAG_HAIDER_LEVENSPIEL;
 }
 
-static struct gas_field gas_usual(struct gas_field gas)
+static struct dem_gas_field gas_usual(struct dem_gas_field gas)
 {
-    gas.model = JET_BICKLEY;
-    gas.drag = DRAG_HAIDER_LEVENSPIEL;
+    gas.model = DEM_JET_BICKLEY;
+    gas.drag = DEM_DRAG_HAIDER_LEVENSPIEL;
     return gas;
 }
 
@@ -439,7 +439,7 @@ static void block_start(const struct dem_config *cfg, struct block *restrict b)
  * many still iterate.  A lane for which Eq. 53 holds stays at its iterate, whose force is now known; the
  * others move on to the next iterate.  A lane that the squares leave undecided moves, or not, in
  * block_settle_moves. */
-FM_INLINE int next_iterates_with(const struct dem_config *cfg, struct block *restrict b, const struct gas_field gas)
+FM_INLINE int next_iterates_with(const struct dem_config *cfg, struct block *restrict b, const struct dem_gas_field gas)
 {
     const double tol = cfg->fixed_point_tol;
     const int64_t max_iter = cfg->fixed_point_max_iter;
@@ -1037,7 +1037,7 @@ int dem_integrate(struct dem_solver *s)
     size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
     uint32_t *hits = dem_realloc_or_die(NULL, (blocks ? blocks : 1) * BLOCK * sizeof *hits);
     uint8_t *hit_count = dem_realloc_or_die(NULL, blocks ? blocks : 1);
-    if (cfg->gas.model == JET_NONE) {
+    if (cfg->gas.model == DEM_JET_NONE) {
         bad |= integrate_free_flight(s, flying, flying_count, hits, hit_count);
     } else {
         bad |= integrate_with_drag(s, flying, flying_count, hits, hit_count, &total);

@@ -23,7 +23,7 @@ static double material_contact_compliance(const struct dem_material *m)
 }
 
 /* Hertz effective modulus, Mukherjee & Zohdi Section 2.1: 1/E* = (1-nu_a^2)/E_a + (1-nu_b^2)/E_b. */
-double material_effective_modulus(const struct dem_material *a, const struct dem_material *b)
+double dem_material_effective_modulus(const struct dem_material *a, const struct dem_material *b)
 {
     return 1.0 / (material_contact_compliance(a) + material_contact_compliance(b));
 }

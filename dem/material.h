@@ -17,6 +17,6 @@ double material_youngs_modulus(const struct dem_material *m);
 /* nu = (3K-2G)/(2(3K+G)) */
 double material_poisson_ratio(const struct dem_material *m);
 /* 1/E* = (1-nu_a^2)/E_a + (1-nu_b^2)/E_b  (Section 2.1) */
-double material_effective_modulus(const struct dem_material *a, const struct dem_material *b);
+double dem_material_effective_modulus(const struct dem_material *a, const struct dem_material *b);
 
 #endif

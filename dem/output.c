@@ -332,7 +332,7 @@ static int read_particles(hid_t group, struct dem_particles *p)
     int64_t *state = NULL;
     int status;
     SC_CHECK(status, h5_dataset_size(g, "id", &n), done);
-    particles_reserve(p, n ? n : 1);
+    dem_particles_reserve(p, n ? n : 1);
     p->count = n;
     state = malloc((n ? n : 1) * sizeof *state);
     if (!state)

@@ -132,7 +132,7 @@ static int load_spray(const struct case_file *c, struct dem_config *cfg)
 
 static int load_powder(const struct case_file *c, struct dem_config *cfg)
 {
-    struct size_distribution *sizes = &cfg->sizes;
+    struct dem_size_distribution *sizes = &cfg->sizes;
     sizes->monodisperse = case_is(c, "powder", "distribution", "mono");
     sizes->median_diameter = case_real(c, "powder", "median_diameter");
     sizes->shape = case_real(c, "powder", "shape");
@@ -142,8 +142,8 @@ static int load_powder(const struct case_file *c, struct dem_config *cfg)
     if (sizes->d_min >= sizes->d_max)
         return case_invalid(c, "powder", "d_min", "not below d_max = %g m", d_max);
     if (!sizes->monodisperse && sizes->d_max < INFINITY) {
-        double scale = weibull_scale(sizes->median_diameter, sizes->shape);
-        double mass = weibull_cdf(sizes->d_max, scale, sizes->shape) - weibull_cdf(sizes->d_min, scale, sizes->shape);
+        double scale = dem_weibull_scale(sizes->median_diameter, sizes->shape);
+        double mass = dem_weibull_cdf(sizes->d_max, scale, sizes->shape) - dem_weibull_cdf(sizes->d_min, scale, sizes->shape);
         if (!(mass > 1e-12))
             return case_invalid(c, "powder", "d_max",
                                 "the range [d_min, d_max] holds no part of the Weibull distribution "
@@ -161,7 +161,7 @@ static int load_target(const struct case_file *c, struct dem_config *cfg)
     if (cfg->handoff_height >= cfg->standoff)
         return case_invalid(c, "spray", "handoff_height", "not below the standoff %g m", cfg->standoff);
     /* a centre never comes closer to the target than its radius: a lower plane would record nothing */
-    const struct size_distribution *sizes = &cfg->sizes;
+    const struct dem_size_distribution *sizes = &cfg->sizes;
     double d_largest = sizes->monodisperse ? sizes->median_diameter : sizes->d_max;
     if (cfg->injection == DEM_INJECT_STREAM && d_largest < INFINITY && cfg->handoff_height <= 0.5 * d_largest)
         return case_invalid(c, "spray", "handoff_height", "not above the largest particle radius %g m, so "
@@ -171,19 +171,19 @@ static int load_target(const struct case_file *c, struct dem_config *cfg)
 
 static void load_contact_and_jet(const struct case_file *c, struct dem_config *cfg)
 {
-    struct contact_law *law = &cfg->contact;
+    struct dem_contact_law *law = &cfg->contact;
     law->friction_regularization = case_real(c, "contact", "friction_regularization");
     if (case_is(c, "contact", "restitution", "johnson")) {
-        law->model = RESTITUTION_JOHNSON;
+        law->model = DEM_RESTITUTION_JOHNSON;
         law->restitution = 1.0;
     } else {
-        law->model = RESTITUTION_CONSTANT;
+        law->model = DEM_RESTITUTION_CONSTANT;
         law->restitution = case_real(c, "contact", "restitution");
     }
-    struct gas_field *gas = &cfg->gas;
-    gas->model = case_is(c, "jet", "model", "bickley") ? JET_BICKLEY
-                 : case_is(c, "jet", "model", "uniform") ? JET_UNIFORM : JET_NONE;
-    gas->drag = case_is(c, "jet", "drag", "stokes") ? DRAG_STOKES : DRAG_HAIDER_LEVENSPIEL;
+    struct dem_gas_field *gas = &cfg->gas;
+    gas->model = case_is(c, "jet", "model", "bickley") ? DEM_JET_BICKLEY
+                 : case_is(c, "jet", "model", "uniform") ? DEM_JET_UNIFORM : DEM_JET_NONE;
+    gas->drag = case_is(c, "jet", "drag", "stokes") ? DEM_DRAG_STOKES : DEM_DRAG_HAIDER_LEVENSPIEL;
     gas->c1 = case_real(c, "jet", "C1");
     gas->c3 = case_real(c, "jet", "C3");
     /* DESIGN.md erratum of Eq. 27: C2 = C1/(3 C3) makes the planar jet divergence-free. */
@@ -196,9 +196,9 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
 }
 
 /* The self-similar jet is singular at its virtual origin: the core must end downstream of it. */
-static int check_jet(const struct case_file *c, const struct gas_field *gas)
+static int check_jet(const struct case_file *c, const struct dem_gas_field *gas)
 {
-    if (gas->model == JET_BICKLEY && !(gas->virtual_origin + gas->core_length > 0.0))
+    if (gas->model == DEM_JET_BICKLEY && !(gas->virtual_origin + gas->core_length > 0.0))
         return case_invalid(c, "jet", "virtual_origin", "virtual_origin + core_length must be > 0 m (the jet of "
                             "Eqs. 26-27 is singular at its virtual origin)");
     return SC_OK;

@@ -104,7 +104,7 @@ static void drag_reserve(struct dem_drag *drag, size_t old_capacity, size_t capa
     memset(drag->history_count + old_capacity, 0, capacity - old_capacity);
 }
 
-void particles_reserve(struct dem_particles *p, size_t capacity)
+void dem_particles_reserve(struct dem_particles *p, size_t capacity)
 {
     if (capacity <= p->capacity)
         return;
@@ -123,11 +123,11 @@ void particles_reserve(struct dem_particles *p, size_t capacity)
     p->capacity = capacity;
 }
 
-size_t particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
+size_t dem_particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
                         const double w[3], double d, double density)
 {
     if (p->count == p->capacity)
-        particles_reserve(p, p->capacity ? 2 * p->capacity : 1024);
+        dem_particles_reserve(p, p->capacity ? 2 * p->capacity : 1024);
     size_t i = p->count++;
     memcpy(p->x + 3 * i, x, 3 * sizeof(double));
     memcpy(p->v + 3 * i, v, 3 * sizeof(double));
@@ -167,7 +167,7 @@ struct row_array {
  * (dem/collide.c), so moving them was a third of the copying.  The arrays are independent: one thread each,
  * largest first, so that two threads share the bytes about evenly (24 each for x, v, w, 8 for each of the
  * drag's 11 arrays of doubles, d, m and id...). */
-void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
+void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
 {
     enum { ARRAYS = 3 + DRAG_DOUBLE_ARRAYS + 6 };
     struct row_array arrays[ARRAYS] = {{p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)},
@@ -185,7 +185,7 @@ void particles_compact(struct dem_particles *p, const uint32_t *removed, size_t 
     p->count -= removed_count;
 }
 
-void particles_free(struct dem_particles *p)
+void dem_particles_free(struct dem_particles *p)
 {
     void *arrays[] = {p->x, p->v, p->w, p->x_start, p->v_start, p->w_start, p->d, p->m, p->id, p->state,
                       p->drag.kept, p->drag.history_count};

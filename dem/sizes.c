@@ -5,13 +5,13 @@
 #include <math.h>
 
 /* Eq. (37): D_median = lambda ln(2)^(1/n). */
-double weibull_scale(double median_diameter, double shape)
+double dem_weibull_scale(double median_diameter, double shape)
 {
     return median_diameter / pow(log(2.0), 1.0 / shape);
 }
 
 /* F(d) = 1 - exp(-(d/lambda)^n); -expm1 keeps the small-d tail accurate. */
-double weibull_cdf(double d, double scale, double shape)
+double dem_weibull_cdf(double d, double scale, double shape)
 {
     if (!(d > 0.0))
         return 0.0;
@@ -19,7 +19,7 @@ double weibull_cdf(double d, double scale, double shape)
 }
 
 /* Eq. (36): f(d) = n/lambda (d/lambda)^(n-1) exp(-(d/lambda)^n), zero for d < 0. */
-double weibull_pdf(double d, double scale, double shape)
+double dem_weibull_pdf(double d, double scale, double shape)
 {
     if (d < 0.0)
         return 0.0;
@@ -28,7 +28,7 @@ double weibull_pdf(double d, double scale, double shape)
 }
 
 /* F^-1(u) = lambda (-ln(1 - u))^(1/n); log1p keeps small u accurate. */
-double weibull_quantile(double u, double scale, double shape)
+double dem_weibull_quantile(double u, double scale, double shape)
 {
     return scale * pow(-log1p(-u), 1.0 / shape);
 }
@@ -37,13 +37,13 @@ double weibull_quantile(double u, double scale, double shape)
  * linearly onto [F(d_min), F(d_max)], so every draw is accepted (no rejection loop, and one uniform per
  * particle keeps the counter-based random stream simple).  The result is clamped into [d_min, d_max]
  * against round-off in F^-1(F(.)). */
-double sizes_sample(const struct size_distribution *dist, double u)
+double dem_sizes_sample(const struct dem_size_distribution *dist, double u)
 {
     if (dist->monodisperse)
         return dist->median_diameter;
-    double scale = weibull_scale(dist->median_diameter, dist->shape);
-    double cdf_low = weibull_cdf(dist->d_min, scale, dist->shape);
-    double cdf_high = isinf(dist->d_max) ? 1.0 : weibull_cdf(dist->d_max, scale, dist->shape);
-    double d = weibull_quantile(cdf_low + u * (cdf_high - cdf_low), scale, dist->shape);
+    double scale = dem_weibull_scale(dist->median_diameter, dist->shape);
+    double cdf_low = dem_weibull_cdf(dist->d_min, scale, dist->shape);
+    double cdf_high = isinf(dist->d_max) ? 1.0 : dem_weibull_cdf(dist->d_max, scale, dist->shape);
+    double d = dem_weibull_quantile(cdf_low + u * (cdf_high - cdf_low), scale, dist->shape);
     return fmin(fmax(d, dist->d_min), dist->d_max);
 }

@@ -2,7 +2,7 @@
 #ifndef SPRAYCOAT_DEM_SIZES_H
 #define SPRAYCOAT_DEM_SIZES_H
 
-struct size_distribution {
+struct dem_size_distribution {
     int monodisperse;       /* 1: every particle has the median diameter */
     double median_diameter; /* m */
     double shape;           /* Weibull n */
@@ -10,13 +10,13 @@ struct size_distribution {
 };
 
 /* lambda = D_median / ln(2)^(1/n), Eq. (37) */
-double weibull_scale(double median_diameter, double shape);
-double weibull_cdf(double d, double scale, double shape);
-double weibull_pdf(double d, double scale, double shape);
-double weibull_quantile(double u, double scale, double shape);
+double dem_weibull_scale(double median_diameter, double shape);
+double dem_weibull_cdf(double d, double scale, double shape);
+double dem_weibull_pdf(double d, double scale, double shape);
+double dem_weibull_quantile(double u, double scale, double shape);
 
 /* Diameter for a uniform u in (0, 1) by inverse-transform sampling of the (truncated) Weibull law:
  * u is mapped into [F(d_min), F(d_max)] so that truncation needs no rejection. */
-double sizes_sample(const struct size_distribution *dist, double u);
+double dem_sizes_sample(const struct dem_size_distribution *dist, double u);
 
 #endif

@@ -15,8 +15,8 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
         SC_FAIL_OOM(sizeof *s, "the spray solver");
     s->cfg = *cfg;
     s->reuse_drag = 1;
-    s->weibull_lambda = weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);
-    particles_reserve(&s->p, 1024);
+    s->weibull_lambda = dem_weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);
+    dem_particles_reserve(&s->p, 1024);
     if (cfg->injection == DEM_INJECT_FILE)
         dem_inject_file(s);
     *out = s;
@@ -29,7 +29,7 @@ void dem_destroy(struct dem_solver *s)
 {
     if (!s)
         return;
-    particles_free(&s->p);
+    dem_particles_free(&s->p);
     dem_bins_free(&s->bins);
     balance_free(&s->integrate_balance);
     free(s->candidates.items);
@@ -101,8 +101,8 @@ static void apply_boundaries(struct dem_solver *s)
     }
     if (removed_count) {
         size_t old_count = p->count;
-        particles_compact(p, removed, removed_count);
-        broadphase_compact(&s->bins, removed, removed_count, old_count);
+        dem_particles_compact(p, removed, removed_count);
+        dem_broadphase_compact(&s->bins, removed, removed_count, old_count);
         s->escaped += (int64_t)removed_count;
     }
     free(removed);

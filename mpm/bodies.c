@@ -176,7 +176,7 @@ static void fill_points(const struct mpm_config *cfg, int body, const struct poi
     }
 }
 
-int points_create(const struct mpm_config *cfg, struct mpm_points *points)
+int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
 {
     struct point_seed **seeds = calloc((size_t)cfg->body_count, sizeof *seeds);
     size_t *counts = calloc((size_t)cfg->body_count, sizeof *counts), total = 0;
@@ -194,7 +194,7 @@ int points_create(const struct mpm_config *cfg, struct mpm_points *points)
     if (status == SC_OK)
         status = allocate(points, total);
     if (status == SC_OK)
-        points_order_reset(points);
+        mpm_points_order_reset(points);
     size_t offset = 0;
     for (int b = 0; status == SC_OK && b < cfg->body_count; offset += counts[b], b++)
         fill_points(cfg, b, seeds[b], counts[b], offset, points);
@@ -205,7 +205,7 @@ int points_create(const struct mpm_config *cfg, struct mpm_points *points)
     return status;
 }
 
-void points_free(struct mpm_points *p)
+void mpm_points_free(struct mpm_points *p)
 {
     free(p->x);
     free(p->v);

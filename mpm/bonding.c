@@ -31,7 +31,7 @@ static double strain_increment(const struct mpm_config *cfg, double eps_p_increm
 }
 
 /* A surface point in contact with a bonding model on (bonding_update in mpm_impl.h). */
-void bonding_grow(struct mpm_solver *s, size_t q, double eps_p_increment, double von_mises)
+void mpm_bonding_grow(struct mpm_solver *s, size_t q, double eps_p_increment, double von_mises)
 {
     const struct mpm_config *cfg = &s->cfg;
     double increment = cfg->bonding == MPM_BONDING_ENERGY ? energy_increment(cfg, eps_p_increment, von_mises, s->dt)

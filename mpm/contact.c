@@ -32,7 +32,7 @@ static double nodal_bond(const struct mpm_grid *g, size_t I)
 /* Contact normal at a node between bodies a and b, pointing from a into b: the maximum-volume-gradient rule
  * (Section 3.5.4) takes the body whose volume gradient is larger.  sum_p V_p grad N_I(x_p) is minus the spatial
  * gradient of the body's volume field at the node: it points out of its body. */
-int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
+int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3])
 {
     const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
     double la = norm3(ga), lb = norm3(gb);
@@ -112,7 +112,7 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
         for (int b = a + 1; b < g->layers; b++) {
             size_t Ib = (size_t)b * g->nodes + node;
             double n[3], J[3];
-            if (!(g->mass[Ib] > g->mass_cutoff) || contact_normal(g, Ia, Ib, n) != 0)
+            if (!(g->mass[Ib] > g->mass_cutoff) || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
             enum pair_state state = pair_decide(s, Ia, Ib, end, n);
             if (state == PAIR_FREE)
@@ -145,7 +145,7 @@ static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
         for (int b = a + 1; b < g->layers; b++) {
             size_t Ib = (size_t)b * g->nodes + node;
             double n[3], J[3];
-            if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || contact_normal(g, Ia, Ib, n) != 0)
+            if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
             pair_impulse(s, Ia, Ib, mom, n, pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT, J);
             apply_impulse(mom, Ia, Ib, J);
@@ -234,7 +234,7 @@ static int nodal_update(struct mpm_solver *s, size_t node, int k, double *start,
 }
 
 /* Over the nodes of this step's stencils (g->box): outside them every field is 0, and stays 0. */
-void contact_nodal_update(struct mpm_solver *s)
+void mpm_contact_nodal_update(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     long rows = (long)box_rows(&g->box);
@@ -277,8 +277,8 @@ static void correct_node(struct mpm_solver *s, size_t node, int k, double *mom)
         resolve_node(s, node, NULL, mom, &bonded);
 }
 
-/* Over the nodes of this step's stencils, as contact_nodal_update. */
-void contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes)
+/* Over the nodes of this step's stencils, as mpm_contact_nodal_update. */
+void mpm_contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes)
 {
     (void)count_nodes;
     struct mpm_grid *g = &s->grid;

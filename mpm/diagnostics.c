@@ -120,7 +120,7 @@ static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
 {
     const struct mpm_grid *g = &s->grid;
     struct stencil st;
-    grid_point_stencil(s, q, &st); /* this step's binning: the weights of grid_stencil without its divisions */
+    grid_point_stencil(s, q, &st); /* this step's binning: the weights of mpm_grid_stencil without its divisions */
     size_t layer = (size_t)s->points.body[q] * g->nodes;
     /* x, y, z in lanes (mpm_impl.h): one division per node instead of three, each lane the scalar (N p_d) / m_I */
     vec3pad sum = {0, 0, 0, 0};
@@ -176,7 +176,7 @@ static void prefetch_boundary_nodes(const struct mpm_solver *s, size_t q)
 
 /* The points' terms in parallel (each thread its range, prefetching within it), then their sum by id, in the
  * order of the serial loop this was. */
-void book_absorbed_energy(struct mpm_solver *s)
+void mpm_book_absorbed_energy(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
     long n = (long)s->boundary_count;
@@ -204,7 +204,7 @@ void book_absorbed_energy(struct mpm_solver *s)
         s->energy_absorbed -= work[k];
 }
 
-int series_record(struct mpm_solver *s)
+int mpm_series_record(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
     size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;

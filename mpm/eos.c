@@ -10,7 +10,7 @@
 #include "mpm/material.h"
 
 /* Tang Eq. 3.42: p = A + B E. */
-double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume)
+double mpm_eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume)
 {
     double A, B;
     eos_coefficients(m, rho, &A, &B);

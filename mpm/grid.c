@@ -10,7 +10,7 @@
 #include "core/error.h"
 #include "mpm/mpm_impl.h"
 
-size_t grid_node(const struct mpm_grid *g, int i, int j, int k)
+size_t mpm_grid_node(const struct mpm_grid *g, int i, int j, int k)
 {
     return ((size_t)k * (size_t)g->n[1] + (size_t)j) * (size_t)g->n[0] + (size_t)i;
 }
@@ -45,7 +45,7 @@ static void ugimp_weight(double r, double h, double l, double *w, double *dw)
     }
 }
 
-int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
+int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st)
 {
     st->width = kind == MPM_UGIMP ? 3 : 2;
@@ -63,7 +63,7 @@ int grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double 
             ugimp_weight(x[d] - node, g->h, lp, &st->w[d][a], &st->g[d][a]);
         }
     }
-    st->node = grid_node(g, st->base[0], st->base[1], st->base[2]);
+    st->node = mpm_grid_node(g, st->base[0], st->base[1], st->base[2]);
     return 0;
 }
 
@@ -152,7 +152,7 @@ static double least_offset_above(double h, double bound)
 
 /* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
  * DCell so that z = 0 (the substrate's top) is a node plane. */
-int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
+int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
@@ -194,7 +194,7 @@ int grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct
     return SC_OK;
 }
 
-void grid_free(struct mpm_grid *g)
+void mpm_grid_free(struct mpm_grid *g)
 {
     free(g->mass);
     free(g->momentum);
@@ -222,7 +222,7 @@ void grid_free(struct mpm_grid *g)
     memset(g, 0, sizeof *g);
 }
 
-/* The base cell and the fractions of a trilinear stencil at x, as grid_stencil computes them (Eq. 3.20) without
+/* The base cell and the fractions of a trilinear stencil at x, as mpm_grid_stencil computes them (Eq. 3.20) without
  * the weights: 0, or -1 when the stencil leaves the grid.  Inlined into the binning loop, which calls it for
  * every point and step. */
 static inline int linear_cell(const struct mpm_grid *g, const double x[3], struct stencil *st, double f[3])
@@ -235,7 +235,7 @@ static inline int linear_cell(const struct mpm_grid *g, const double x[3], struc
         f[d] = xi - cell;
         st->base[d] = (int)cell;
     }
-    st->node = grid_node(g, st->base[0], st->base[1], st->base[2]);
+    st->node = mpm_grid_node(g, st->base[0], st->base[1], st->base[2]);
     return 0;
 }
 
@@ -297,7 +297,7 @@ static void count_colour_points(struct mpm_grid *g)
     }
 }
 
-void grid_bin_points(struct mpm_solver *s)
+void mpm_grid_bin_points(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
@@ -315,7 +315,7 @@ void grid_bin_points(struct mpm_solver *s)
         if (!(p->flags[q] & POINT_ACTIVE))
             continue;
         if ((linear ? linear_cell(g, p->x + 3 * q, &st, f)
-                    : grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st)) != 0)
+                    : mpm_grid_stencil(g, s->cfg.shape_function, s->lp, p->x + 3 * q, &st)) != 0)
             continue;
         int b[3];
         for (int d = 0; d < 3; d++) {
@@ -439,7 +439,7 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
         scatter_momentum_width(s, q, &st, st.width);
 }
 
-/* Points are visited in block order, and stored in that order only as of the last points_reorder: fetch the
+/* Points are visited in block order, and stored in that order only as of the last mpm_points_reorder: fetch the
  * state, velocity and stencil of the point PREFETCH_AHEAD places ahead (a cache miss on the 120-byte state was
  * the largest stall of the transfer; about 5 % of the step, measured on the 1.5/0.5 impact). */
 #define PREFETCH_AHEAD 8
@@ -717,11 +717,11 @@ static void clear_box(const struct mpm_grid *g, const struct node_box *box, void
     }
 }
 
-void grid_transfer_all(struct mpm_solver *s)
+void mpm_grid_transfer_all(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
     /* the fields are 0 outside the last step's box: clearing that box clears the grid, and this step's nodal
-     * loops write only inside its own box.  momentum_new and velocity are not cleared: contact_nodal_update and
+     * loops write only inside its own box.  momentum_new and velocity are not cleared: mpm_contact_nodal_update and
      * nodal_velocities write them at every node of the box, in every layer, before anything reads them, and
      * nothing reads them outside it (a sixth of the clearing) */
     const struct node_box *held = &g->held;
@@ -740,7 +740,7 @@ void grid_transfer_all(struct mpm_solver *s)
     for_each_point_by_colour(s, TRANSFER_ALL);
 }
 
-void grid_transfer_momentum(struct mpm_solver *s)
+void mpm_grid_transfer_momentum(struct mpm_solver *s)
 {
     struct mpm_grid *g = &s->grid;
 #pragma omp parallel

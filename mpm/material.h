@@ -37,13 +37,13 @@ struct mpm_material {
 
 /* ---- ptw.c ---- */
 /* MTS shear modulus at temperature T (Eq. 2.6), never below 0. */
-double mts_shear_modulus(const struct mpm_material *m, double T);
+double mpm_mts_shear_modulus(const struct mpm_material *m, double T);
 /* xi_dot of Eq. 2.8 (1/s) at density rho and shear modulus G. */
-double ptw_xi_dot(const struct mpm_material *m, double rho, double G);
+double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G);
 /* PTW von Mises flow stress (Pa), Eqs. 2.4-2.7, at plastic strain eps_p, plastic strain rate rate (1/s, floored
  * at m->rate_floor), temperature T, melt temperature Tm, density rho and shear modulus G.  0 at or above melt.
  * When tau_s <= tau_y there is no hardening range and the flow stress is 2 G tau_s. */
-double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
+double mpm_ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
                        double G);
 
 /* The same with T^ = T/Tm (< 1) and xi_dot precomputed, for repeated evaluations at one point. */
@@ -62,7 +62,7 @@ void ptw_flow_stress_log_rate(const struct mpm_material *m, double eps_p, double
 
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
-double scg_melt_temperature(const struct mpm_material *m, double rho);
+double mpm_scg_melt_temperature(const struct mpm_material *m, double rho);
 
 /* ---- eos.c ---- */
 /* The linear-in-energy form p = A(mu) + B(mu) E, E the internal energy per initial volume (J/m3),
@@ -82,7 +82,7 @@ static inline void eos_coefficients(const struct mpm_material *m, double rho, do
     double hugoniot = mu * (c1 + mu * (c2 + mu * c3));
     *A = hugoniot * (1.0 - m->eos_gamma0 * mu / (2.0 * (1.0 + mu)));
 }
-double eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume);
+double mpm_eos_pressure(const struct mpm_material *m, double rho, double energy_per_initial_volume);
 
 /* ---- stress_update.c ---- */
 struct mpm_point_state {
@@ -98,7 +98,7 @@ struct mpm_point_state {
     double plastic_increment; /* delta eps_p of the last update: the first guess of the next return */
 };
 
-struct bulk_viscosity {
+struct mpm_bulk_viscosity {
     double quadratic, linear; /* c_q, c_l of q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression
                                  (epsv_dot < 0; Zhang et al. Eq. 2.82), q = 0 in expansion; 0, 0 = off */
     double length;            /* l, the cell size DCell (m) */
@@ -117,7 +117,7 @@ struct mpm_update_result {
  *   spin_increment[3]:   Omega dt = skew(grad v) dt, components W_yz, W_xz, W_xy (W_ij = (dv_i/dx_j - dv_j/dx_i)/2)
  *   volume0, volume_old, volume_new: V0, V^n, V^{n+1} (m3); rho_new = rho0 V0 / volume_new
  * Returns 0, or -1 when the state became non-finite (the caller reports step and point). */
-int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity *q, const double strain_increment[6],
+int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q, const double strain_increment[6],
                       const double spin_increment[3], double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
 
@@ -136,7 +136,7 @@ void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_cons
 /* mpm_stress_update with the material's constants precomputed and log_dt = ln(dt) computed once per step (the
  * solver's point loop; used only when dt > 0); results identical. */
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
-                               const struct bulk_viscosity *q, const double strain_increment[6],
+                               const struct mpm_bulk_viscosity *q, const double strain_increment[6],
                                const double spin_increment[3], double dt, double log_dt, double volume0,
                                double volume_old, double volume_new, struct mpm_point_state *state,
                                struct mpm_update_result *result);
@@ -183,7 +183,7 @@ int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_con
 /* returns[0 .. n - 1], all of material m and fresh from mpm_stress_begin, solved: d and yield set. */
 void mpm_stress_returns(const struct mpm_material *m, struct mpm_return *const *returns, int n);
 int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
-                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                      const struct mpm_bulk_viscosity *q, double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
                       struct mpm_update_result *result);
 
@@ -197,7 +197,7 @@ struct mpm_stress_block {
     const int *material, *updating;
     const struct mpm_material *materials;
     const struct mpm_material_constants *constants;
-    const struct bulk_viscosity *viscosity;
+    const struct mpm_bulk_viscosity *viscosity;
     double dt, log_dt;
     const double (*strain)[6], (*spin)[3];
     const double *G, *volume0, *volume_old, *volume_new;

@@ -6,7 +6,7 @@
 
 /* Tang Eq. 2.9 (corrected): Tm0 exp(2a (1 - 1/eta)) eta^(2 (Gamma0 - a - 1/3)), eta = rho/rho0.
  * 0 for rho <= 0 (the eta -> 0 limit), so such a point counts as melted. */
-double scg_melt_temperature(const struct mpm_material *m, double rho)
+double mpm_scg_melt_temperature(const struct mpm_material *m, double rho)
 {
     if (!(rho > 0.0))
         return 0.0;

@@ -59,7 +59,7 @@ struct mpm_config {
     double Gc, Gc_rate, eps_c, eps_rate_c;
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double snapshot_every, series_every;
-    struct bulk_viscosity viscosity;
+    struct mpm_bulk_viscosity viscosity;
     int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
     int fixed_bottom;              /* nodes at and below the substrate's bottom face cannot move vertically */
     double substrate_bottom;       /* z of that face */

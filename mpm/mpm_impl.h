@@ -41,7 +41,7 @@ struct mpm_points {
 struct stencil {
     int base[3];
     int width;
-    size_t node;                    /* grid_node of base: node (a, b, c) of the stencil is node + a + b n0 + c n0 n1 */
+    size_t node;                    /* mpm_grid_node of base: node (a, b, c) of the stencil is node + a + b n0 + c n0 n1 */
     double w[3][3], g[3][3];        /* per-direction weights and their derivatives */
 };
 
@@ -91,9 +91,9 @@ struct mpm_grid {
     double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
     uint8_t *wall_held;              /* per layer, substrate = rigid: 1 where the wall held the node this step */
-    /* The nodes of this step's stencils lie in `box` (all layers; grid_bin_points): the nodal loops run over it
+    /* The nodes of this step's stencils lie in `box` (all layers; mpm_grid_bin_points): the nodal loops run over it
      * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
-     * of the fields' last step, the only nodes that grid_transfer_all has to clear (the whole grid at first). */
+     * of the fields' last step, the only nodes that mpm_grid_transfer_all has to clear (the whole grid at first). */
     struct node_box box, held;
     /* blocks of 2^block_shift cells a side (alloc_blocks); points sorted by block every step */
     int block_shift;
@@ -101,15 +101,15 @@ struct mpm_grid {
     size_t block_count;
     size_t *block_start;             /* block_count + 1 */
     size_t *block_points;            /* point indices, by block, ascending within a block */
-    size_t *block_cursor;            /* sort_threads x block_count: grid_bin_points' counts and write cursors */
-    int sort_threads;                /* rows of block_cursor: the most threads grid_bin_points sorts with */
+    size_t *block_cursor;            /* sort_threads x block_count: mpm_grid_bin_points' counts and write cursors */
+    int sort_threads;                /* rows of block_cursor: the most threads mpm_grid_bin_points sorts with */
     size_t *colour_blocks[8];        /* the blocks of each colour, ascending */
     size_t colour_count[8];
     size_t *colour_points[8];        /* colour_count + 1 each: the points in the colour's blocks before each */
     struct balance colour_balance[2][8]; /* the threads' shares of each colour's points, per kind of transfer */
     int *point_block;                /* block of each point this step (-1 inactive) */
-    /* trilinear stencils of this step, cached by grid_bin_points (the positions stay until the step's end) */
-    uint32_t *point_node;            /* base node of each active point (nodes < 2^31, grid_create) */
+    /* trilinear stencils of this step, cached by mpm_grid_bin_points (the positions stay until the step's end) */
+    uint32_t *point_node;            /* base node of each active point (nodes < 2^31, mpm_grid_create) */
     double *point_fraction;          /* 3 per point: x/h - base, the weights being 1 - f and f (Eq. 3.20) */
 };
 
@@ -146,7 +146,7 @@ struct mpm_solver {
     double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
     size_t *boundary_points;         /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
-    double *boundary_work;           /* per boundary point: the dashpot's work of the step (book_absorbed_energy) */
+    double *boundary_work;           /* per boundary point: the dashpot's work of the step (mpm_book_absorbed_energy) */
     struct balance update_balance;   /* the threads' shares of the point update (update_points) */
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
@@ -161,26 +161,26 @@ struct mpm_solver {
                                contacted, bonded */
 
 /* bodies.c */
-int points_create(const struct mpm_config *cfg, struct mpm_points *points);
-void points_free(struct mpm_points *points);
+int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points);
+void mpm_points_free(struct mpm_points *points);
 
 /* point_order.c */
-/* Store the points in the order the particle-to-grid transfer visits them (after grid_bin_points; the caller
+/* Store the points in the order the particle-to-grid transfer visits them (after mpm_grid_bin_points; the caller
  * bins again).  Results do not depend on the storage order. */
-int points_reorder(struct mpm_solver *s);
+int mpm_points_reorder(struct mpm_solver *s);
 /* Storage in set-up order (id = slot = index), e.g. after reading a checkpoint. */
-void points_order_reset(struct mpm_points *p);
+void mpm_points_order_reset(struct mpm_points *p);
 
 /* grid.c */
-int grid_create(const struct mpm_config *cfg, const struct mpm_points *points, struct mpm_grid *grid);
-void grid_free(struct mpm_grid *grid);
+int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *points, struct mpm_grid *grid);
+void mpm_grid_free(struct mpm_grid *grid);
 /* Stencil of a point at x; 0, or -1 when the stencil leaves the grid. */
-int grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
+int mpm_grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                  struct stencil *st);
-size_t grid_node(const struct mpm_grid *grid, int i, int j, int k);
-/* Whether grid_stencil would succeed at x (the point's stencil lies inside the grid): 1 < (x - origin) / h <
+size_t mpm_grid_node(const struct mpm_grid *grid, int i, int j, int k);
+/* Whether mpm_grid_stencil would succeed at x (the point's stencil lies inside the grid): 1 < (x - origin) / h <
  * n - 2 in every direction, decided without the divisions by the least offsets that pass and fail
- * (grid_create): the same answer for every x.  Inline: grid_to_points asks for every point and step. */
+ * (mpm_grid_create): the same answer for every x.  Inline: grid_to_points asks for every point and step. */
 static inline int grid_contains(const struct mpm_grid *g, const double x[3])
 {
     for (int d = 0; d < 3; d++) {
@@ -190,13 +190,13 @@ static inline int grid_contains(const struct mpm_grid *g, const double x[3])
     }
     return 1;
 }
-/* The stencil of point q at its position of this step, after grid_bin_points: trilinear stencils are rebuilt
- * from the cache, with the weights of grid_stencil (1 - f, f; gradients -1/h, 1/h). */
+/* The stencil of point q at its position of this step, after mpm_grid_bin_points: trilinear stencils are rebuilt
+ * from the cache, with the weights of mpm_grid_stencil (1 - f, f; gradients -1/h, 1/h). */
 static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, struct stencil *st)
 {
     const struct mpm_grid *g = &s->grid;
     if (s->cfg.shape_function != MPM_LINEAR) {
-        grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
+        mpm_grid_stencil(g, s->cfg.shape_function, s->lp, s->points.x + 3 * q, st);
         return;
     }
     /* into locals first: the stores to st->w may alias g's doubles, so g->inv_h and the fractions would
@@ -222,7 +222,7 @@ static inline void grid_point_stencil(const struct mpm_solver *s, size_t q, stru
 #define TRILINEAR_RUNS 0
 #endif
 typedef double lanes8 __attribute__((vector_size(8 * sizeof(double))));
-/* The node of the stencil base of point q in its body's layer, after grid_bin_points: points with the same one
+/* The node of the stencil base of point q in its body's layer, after mpm_grid_bin_points: points with the same one
  * form a run. */
 static inline size_t run_key(const struct mpm_solver *s, size_t q)
 {
@@ -294,11 +294,11 @@ static inline size_t box_row_start(const struct mpm_grid *g, const struct node_b
     return (size_t)b->lo[0] + g->row * j + g->plane * (size_t)*k;
 }
 /* Sort the active points into blocks (fixed order for the transfers) and find the box of their stencils. */
-void grid_bin_points(struct mpm_solver *s);
+void mpm_grid_bin_points(struct mpm_solver *s);
 /* Particle-to-grid: mass, momentum, internal and external force, volume gradient, bond sums (step 1-2). */
-void grid_transfer_all(struct mpm_solver *s);
+void mpm_grid_transfer_all(struct mpm_solver *s);
 /* MUSL re-projection: momentum only, into momentum_new (step 8). */
-void grid_transfer_momentum(struct mpm_solver *s);
+void mpm_grid_transfer_momentum(struct mpm_solver *s);
 /* Absorbing-boundary (dashpot) force on a point, Eqs. 3.45-3.46.  Inline: the particle-to-grid transfer and the
  * absorbed-energy booking ask for it at every boundary point and step, and out of line the force went through
  * memory. */
@@ -323,23 +323,23 @@ static inline void boundary_dashpot_force(const struct mpm_solver *s, size_t q, 
 }
 
 /* contact.c: nodal update, contact and bond forces, rigid wall (steps 3-6, 8). */
-void contact_nodal_update(struct mpm_solver *s);
-void contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_nodes);
+void mpm_contact_nodal_update(struct mpm_solver *s);
+void mpm_contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_nodes);
 /* Contact normal between the bodies of layer entries Ia and Ib (same node), from a into b; -1 if undefined. */
-int contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
+int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
 
 /* bonding.c: D_bond of point p grows (bonding_update) where it is a surface point in contact and a model is on;
  * the test inline, since it is all that most points need at every step. */
-void bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
 static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
 {
     if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
-        bonding_grow(s, p, eps_p_increment, von_mises);
+        mpm_bonding_grow(s, p, eps_p_increment, von_mises);
 }
 
 /* diagnostics.c */
-int series_record(struct mpm_solver *s);
-/* Work of the absorbing boundaries this step, on the start momenta (after contact_nodal_update). */
-void book_absorbed_energy(struct mpm_solver *s);
+int mpm_series_record(struct mpm_solver *s);
+/* Work of the absorbing boundaries this step, on the start momenta (after mpm_contact_nodal_update). */
+void mpm_book_absorbed_energy(struct mpm_solver *s);
 
 #endif

@@ -311,7 +311,7 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     SC_TRY(h5_read_bytes(g, "state", p->state, n * sizeof *p->state));
     SC_TRY(h5_read_bytes(g, "body", p->body, n * sizeof *p->body));
     SC_TRY(h5_read_bytes(g, "flags", p->flags, n * sizeof *p->flags));
-    points_order_reset(p); /* the file holds the points in id order */
+    mpm_points_order_reset(p); /* the file holds the points in id order */
     s->t = scalars[0], s->dt = scalars[1], s->next_series = scalars[2], s->next_snapshot = scalars[3];
     s->removed_mass = scalars[4], s->energy_absorbed = scalars[5], s->energy_removed = scalars[6];
     s->energy_initial = scalars[7];

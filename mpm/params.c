@@ -149,9 +149,9 @@ static int load_material(const struct case_file *c, const char *key, const char 
         m->bulk_modulus = case_real(c, section, "bulk_modulus");
     if (case_has(c, section, "poisson")) {
         double nu = case_real(c, section, "poisson");
-        m->bulk_modulus = 2.0 * mts_shear_modulus(m, m->T_initial) * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
+        m->bulk_modulus = 2.0 * mpm_mts_shear_modulus(m, m->T_initial) * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
     }
-    if (!(mts_shear_modulus(m, m->T_initial) > 0.0))
+    if (!(mpm_mts_shear_modulus(m, m->T_initial) > 0.0))
         return case_invalid(c, section, "D", "the shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial "
                             "= %g K", m->T_initial);
     if (m->ptw_sinf > m->ptw_s0)

@@ -2,7 +2,7 @@
  * (grid.c); with the points stored in set-up order it gathered each point's 120-byte state from a different
  * place, a cache miss per point.  The solver now and then stores the points block by block, in the order in
  * which the transfer finds them within a colour.  Every result is independent of this order: the transfer
- * visits the points of a block by id (grid_bin_points), each point's update is its own, and sums over points,
+ * visits the points of a block by id (mpm_grid_bin_points), each point's update is its own, and sums over points,
  * outputs and checkpoints run in id order.  So a run gives the same bits however often it reorders, for any
  * thread count and after a resume. */
 #include <stdlib.h>
@@ -11,7 +11,7 @@
 #include "core/error.h"
 #include "mpm/mpm_impl.h"
 
-void points_order_reset(struct mpm_points *p)
+void mpm_points_order_reset(struct mpm_points *p)
 {
     for (size_t q = 0; q < p->count; q++)
         p->id[q] = p->slot[q] = (uint32_t)q;
@@ -89,7 +89,7 @@ static void transfer_order(const struct mpm_solver *s, uint32_t *from)
             from[k++] = p->slot[i];
 }
 
-int points_reorder(struct mpm_solver *s)
+int mpm_points_reorder(struct mpm_solver *s)
 {
     struct mpm_points *p = &s->points;
     uint32_t *from = malloc((p->count ? p->count : 1) * sizeof *from);

@@ -15,7 +15,7 @@
 #define PI 3.14159265358979323846
 
 /* MTS shear modulus, Tang Eq. 2.6: G0 - D / (exp(T0/T) - 1), clamped at 0; G0 at T <= 0 (the 0 K limit). */
-double mts_shear_modulus(const struct mpm_material *m, double T)
+double mpm_mts_shear_modulus(const struct mpm_material *m, double T)
 {
     if (!(T > 0.0))
         return m->G0;
@@ -24,7 +24,7 @@ double mts_shear_modulus(const struct mpm_material *m, double T)
 }
 
 /* Tang Eq. 2.8 in SI: xi_dot = 1/2 (4 pi rho / (3 M))^(1/3) sqrt(G / rho), M the atomic mass in kg. */
-double ptw_xi_dot(const struct mpm_material *m, double rho, double G)
+double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G)
 {
     if (!(rho > 0.0) || !(G > 0.0))
         return 0.0;
@@ -33,12 +33,12 @@ double ptw_xi_dot(const struct mpm_material *m, double rho, double G)
 
 /* PTW flow stress, Tang Eqs. 2.4-2.7.  The rate is floored at m->rate_floor (and kept > 0): ln(gamma xi/rate)
  * is infinite at rate 0, and elastic or barely plastic points have no meaningful plastic rate. */
-double ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
+double mpm_ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
                        double G)
 {
     if (!(G > 0.0) || !(Tm > 0.0) || !(T < Tm))
         return 0.0;
-    return ptw_flow_stress_at(m, eps_p, rate, T > 0.0 ? T / Tm : 0.0, ptw_xi_dot(m, rho, G), G);
+    return ptw_flow_stress_at(m, eps_p, rate, T > 0.0 ? T / Tm : 0.0, mpm_ptw_xi_dot(m, rho, G), G);
 }
 
 double ptw_flow_stress_at(const struct mpm_material *m, double eps_p, double rate, double that, double xi, double G)

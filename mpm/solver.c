@@ -29,7 +29,7 @@ static void body_constants(struct mpm_solver *s)
     s->wave_speed_max = 0.0;
     for (int b = 0; b < cfg->body_count; b++) {
         const struct mpm_material *m = &cfg->materials[cfg->bodies[b].material];
-        double G = mts_shear_modulus(m, m->T_initial);
+        double G = mpm_mts_shear_modulus(m, m->T_initial);
         double vp = sqrt((m->bulk_modulus + 4.0 * G / 3.0) / m->density), vs = sqrt(G / m->density);
         s->body_dashpot[2 * b] = cfg->absorbing ? m->density * vp * area : 0.0;
         s->body_dashpot[2 * b + 1] = cfg->absorbing ? m->density * vs * area : 0.0;
@@ -91,14 +91,14 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     for (int m = 0; m < cfg->material_count; m++)
         mpm_material_prepare(&s->cfg.materials[m], &s->material_constants[m]);
     body_constants(s);
-    SC_TRY(points_create(&s->cfg, &s->points));
-    SC_TRY(grid_create(&s->cfg, &s->points, &s->grid));
+    SC_TRY(mpm_points_create(&s->cfg, &s->points));
+    SC_TRY(mpm_grid_create(&s->cfg, &s->points, &s->grid));
     SC_TRY(list_boundary_points(s));
     s->energy_initial = kinetic_energy_total(&s->points);
     s->next_series = cfg->series_every;
     s->next_snapshot = cfg->snapshot_every;
     s->snapshot_pending = 1;
-    SC_TRY(series_record(s));
+    SC_TRY(mpm_series_record(s));
     return SC_OK;
 }
 
@@ -106,8 +106,8 @@ void mpm_destroy(struct mpm_solver *s)
 {
     if (!s)
         return;
-    points_free(&s->points);
-    grid_free(&s->grid);
+    mpm_points_free(&s->points);
+    mpm_grid_free(&s->grid);
     mpm_config_free(&s->cfg);
     free(s->body_speed);
     free(s->body_dashpot);
@@ -628,7 +628,7 @@ static int advance_clocks(struct mpm_solver *s)
     const struct mpm_config *cfg = &s->cfg;
     int last = mpm_finished(s);
     if (s->t >= s->next_series * (1.0 - 1e-12) || last) {
-        SC_TRY(series_record(s));
+        SC_TRY(mpm_series_record(s));
         while (s->next_series <= s->t * (1.0 + 1e-12))
             s->next_series += cfg->series_every;
     }
@@ -647,17 +647,17 @@ static int advance_clocks(struct mpm_solver *s)
 int mpm_step(struct mpm_solver *s)
 {
     choose_time_step(s);
-    grid_bin_points(s);
+    mpm_grid_bin_points(s);
     if (s->step % REORDER_EVERY == 0) {
-        SC_TRY(points_reorder(s));
-        grid_bin_points(s);
+        SC_TRY(mpm_points_reorder(s));
+        mpm_grid_bin_points(s);
     }
-    grid_transfer_all(s);
-    contact_nodal_update(s);
-    book_absorbed_energy(s);
+    mpm_grid_transfer_all(s);
+    mpm_contact_nodal_update(s);
+    mpm_book_absorbed_energy(s);
     grid_to_points(s);
-    grid_transfer_momentum(s);
-    contact_correct_momentum(s, s->grid.momentum_new, 0);
+    mpm_grid_transfer_momentum(s);
+    mpm_contact_correct_momentum(s, s->grid.momentum_new, 0);
     nodal_velocities(s);
     SC_TRY(update_points(s));
     double *swap = s->points.x;

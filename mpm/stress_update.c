@@ -415,7 +415,7 @@ FM_INLINE double eos_energy_update(const struct mpm_material *m, double rho_new,
 }
 
 /* Zhang's artificial bulk viscosity: q = rho l^2 c_q epsv_dot^2 - c_l rho l c epsv_dot in compression. */
-static double bulk_viscosity_pressure(const struct mpm_material_constants *c, const struct bulk_viscosity *q,
+static double bulk_viscosity_pressure(const struct mpm_material_constants *c, const struct mpm_bulk_viscosity *q,
                                       double rho_new, double volumetric_rate)
 {
     if (!q || !(volumetric_rate < 0.0))
@@ -456,7 +456,7 @@ static int at_or_above_melt(const struct mpm_material *m, const struct mpm_mater
         *Tm = NAN;
         return 0;
     }
-    *Tm = scg_melt_temperature(m, rho_new);
+    *Tm = mpm_scg_melt_temperature(m, rho_new);
     return !(T < *Tm);
 }
 
@@ -555,7 +555,7 @@ FM_INLINE int stress_begin(const struct mpm_material *m, const struct mpm_materi
 
 /* mpm_stress_finish, inlined into it and into the block's loop (mpm_stress_finish_block). */
 FM_INLINE int stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
-                            const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                            const struct mpm_bulk_viscosity *q, double dt, double volume0, double volume_old,
                             double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
                             struct mpm_update_result *result)
 {
@@ -603,7 +603,7 @@ int mpm_stress_begin(const struct mpm_material *m, const struct mpm_material_con
 }
 
 int mpm_stress_finish(const struct mpm_material *m, const struct mpm_material_constants *c,
-                      const struct bulk_viscosity *q, double dt, double volume0, double volume_old,
+                      const struct mpm_bulk_viscosity *q, double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_stress_work *w, struct mpm_point_state *state,
                       struct mpm_update_result *result)
 {
@@ -634,7 +634,7 @@ void mpm_stress_finish_block(const struct mpm_stress_block *block)
 }
 
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
-                               const struct bulk_viscosity *q, const double strain_increment[6],
+                               const struct mpm_bulk_viscosity *q, const double strain_increment[6],
                                const double spin_increment[3], double dt, double log_dt, double volume0,
                                double volume_old, double volume_new, struct mpm_point_state *state,
                                struct mpm_update_result *result)
@@ -649,7 +649,7 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
     return mpm_stress_finish(m, c, q, dt, volume0, volume_old, volume_new, &w, state, result);
 }
 
-int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity *q, const double strain_increment[6],
+int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q, const double strain_increment[6],
                       const double spin_increment[3], double dt, double volume0, double volume_old,
                       double volume_new, struct mpm_point_state *state, struct mpm_update_result *result)
 {
@@ -664,7 +664,7 @@ int mpm_stress_update(const struct mpm_material *m, const struct bulk_viscosity 
 
 void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_constants *c)
 {
-    c->G_initial = mts_shear_modulus(m, m->T_initial);
+    c->G_initial = mpm_mts_shear_modulus(m, m->T_initial);
     c->wave_speed = mpm_material_wave_speed(m);
     c->log_rate_floor = log(m->rate_floor > DBL_MIN ? m->rate_floor : DBL_MIN);
     c->log_gamma_xi_factor = log(m->ptw_gamma * 0.5 * cbrt(4.0 * M_PI / (3.0 * m->atomic_mass)));
@@ -683,17 +683,17 @@ void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *
     state->T = m->T_initial;
     state->energy = 0.0;
     state->rho = m->density;
-    double Tm = scg_melt_temperature(m, m->density);
+    double Tm = mpm_scg_melt_temperature(m, m->density);
     state->melted = m->T_initial < Tm ? 0.0 : 1.0;
     state->plastic_increment = 0.0; /* no return yet: no first guess from one */
     state->yield_stress = m->strength == MPM_STRENGTH_PTW
-                              ? ptw_flow_stress(m, 0.0, m->rate_floor, m->T_initial, Tm, m->density,
-                                                mts_shear_modulus(m, m->T_initial))
+                              ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, m->T_initial, Tm, m->density,
+                                                mpm_mts_shear_modulus(m, m->T_initial))
                               : 0.0;
 }
 
 /* sqrt((K + 4/3 G(T_initial)) / rho0). */
 double mpm_material_wave_speed(const struct mpm_material *m)
 {
-    return sqrt((m->bulk_modulus + 4.0 / 3.0 * mts_shear_modulus(m, m->T_initial)) / m->density);
+    return sqrt((m->bulk_modulus + 4.0 / 3.0 * mpm_mts_shear_modulus(m, m->T_initial)) / m->density);
 }

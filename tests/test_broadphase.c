@@ -35,7 +35,7 @@ static void add_random_particle(struct dem_particles *p)
         x[c] = CUBE * uniform();
         v[c] = 10.0 * (uniform() - 0.5);
     }
-    size_t i = particles_append(p, next_id++, x, v, w, 2e-5 + 4e-5 * uniform(), DENSITY);
+    size_t i = dem_particles_append(p, next_id++, x, v, w, 2e-5 + 4e-5 * uniform(), DENSITY);
     if (uniform() < deposit_share) {
         p->state[i] = DEM_DEPOSITED;
         memset(p->v + 3 * i, 0, 3 * sizeof(double));
@@ -65,9 +65,9 @@ static int same_contacts_as_fresh(const struct dem_bins *kept, const struct dem_
 {
     struct dem_candidates from_kept = {0}, from_fresh = {0};
     struct dem_bins fresh = {0};
-    broadphase_build(&fresh, p, DT);
-    broadphase_pairs(kept, p, DT, &from_kept);
-    broadphase_pairs(&fresh, p, DT, &from_fresh);
+    dem_broadphase_build(&fresh, p, DT);
+    dem_broadphase_pairs(kept, p, DT, &from_kept);
+    dem_broadphase_pairs(&fresh, p, DT, &from_fresh);
     qsort(from_kept.items, from_kept.count, sizeof *from_kept.items, candidate_order);
     qsort(from_fresh.items, from_fresh.count, sizeof *from_fresh.items, candidate_order);
     int same = from_kept.count == from_fresh.count;
@@ -122,7 +122,7 @@ static void check_visits(const struct dem_bins *kept, const struct dem_particles
         double lo[3], hi[3];
         swept(p, i, lo, hi);
         memset(visited, 0, p->count);
-        if (broadphase_visit_box(kept, lo, hi, 4096, mark_visited, visited) != 0)
+        if (dem_broadphase_visit_box(kept, lo, hi, 4096, mark_visited, visited) != 0)
             continue;
         for (size_t j = 0; j < p->count; j++) {
             double jlo[3], jhi[3];
@@ -185,8 +185,8 @@ static void advance(struct dem_particles *p, struct dem_bins *kept)
             removed[removed_count++] = (uint32_t)i;
     if (removed_count) {
         size_t old_count = p->count;
-        particles_compact(p, removed, removed_count);
-        broadphase_compact(kept, removed, removed_count, old_count);
+        dem_particles_compact(p, removed, removed_count);
+        dem_broadphase_compact(kept, removed, removed_count, old_count);
     }
     free(removed);
     if (uniform() < 0.2)
@@ -206,7 +206,7 @@ static void run_kept_grid(int verify)
     int64_t contacts = 0;
     size_t marked = 0;
     for (int64_t step = 0; step < 300 && check_test_failures == 0; step++) {
-        broadphase_build(&kept, &p, DT);
+        dem_broadphase_build(&kept, &p, DT);
         contacts += same_contacts_as_fresh(&kept, &p, step);
         check_pair_list(&kept, &p, step);
         check_visits(&kept, &p, step);
@@ -221,7 +221,7 @@ static void run_kept_grid(int verify)
           (long long)kept.repairs, (long long)kept.builds);
     CHECK(!verify || marked > 10000, "only %zu particle-steps marked in full runs: the marks are hardly used", marked);
     dem_bins_free(&kept);
-    particles_free(&p);
+    dem_particles_free(&p);
 }
 
 static void test_repairs_match_fresh_builds(void) { run_kept_grid(0); }

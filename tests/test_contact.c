@@ -106,12 +106,12 @@ static void check_johnson_row(const struct csv_row *row)
     double particle_mass = sphere_mass(radius, particle.density);
     double m_eff = is_wall ? particle_mass : 0.5 * particle_mass;
     double r_eff = is_wall ? radius : 0.5 * radius;
-    double e_star = material_effective_modulus(&particle, is_wall ? &target : &particle);
+    double e_star = dem_material_effective_modulus(&particle, is_wall ? &target : &particle);
     CHECK_CLOSE(m_eff, csv_number(row, 3), TABLE_RTOL, 0.0, "mass or reduced mass");
     CHECK_CLOSE(e_star, csv_number(row, 4), TABLE_RTOL, 0.0, "E*");
 
-    struct contact_law law = {RESTITUTION_JOHNSON, 0.0, 1e-6};
-    struct restitution r = contact_restitution(&law, m_eff, r_eff, e_star, particle.yield_stress, vn);
+    struct dem_contact_law law = {DEM_RESTITUTION_JOHNSON, 0.0, 1e-6};
+    struct restitution r = dem_contact_restitution(&law, m_eff, r_eff, e_star, particle.yield_stress, vn);
     CHECK_CLOSE(r.v_lim, csv_number(row, 5), TABLE_RTOL, 0.0, "V_lim (Eq. 17)");
     CHECK_CLOSE(r.e, csv_number(row, 6), TABLE_RTOL, 0.0, "e (Eq. 18, capped at 1)");
     CHECK_CLOSE(r.dt_compression, csv_number(row, 7), TABLE_RTOL, 0.0, "dt1 (Eq. 19)");
@@ -123,12 +123,12 @@ static void check_johnson_row(const struct csv_row *row)
     double down[3] = {0.0, 0.0, -1.0};
     if (is_wall) {
         a.v[2] = -vn;
-        CHECK(contact_fixed(&law, &a, &target, INFINITY, down, &out) == 1, "wall impact applied");
+        CHECK(dem_contact_fixed(&law, &a, &target, INFINITY, down, &out) == 1, "wall impact applied");
     } else {
         struct sphere_state b = sphere_at_rest(radius, &particle);
         a.v[2] = -0.5 * vn;
         b.v[2] = 0.5 * vn;
-        CHECK(contact_pair(&law, &a, &b, down, &out) == 1, "pair impact applied");
+        CHECK(dem_contact_pair(&law, &a, &b, down, &out) == 1, "pair impact applied");
         CHECK_CLOSE(b.v[2] - a.v[2], -r.e * vn, 1e-12, 0.0, "pair: separation speed = e vn");
     }
     CHECK_CLOSE(out.vn, vn, 1e-14, 0.0, "outcome vn");
@@ -148,22 +148,22 @@ static void test_johnson_table(void)
 static void test_johnson_branches(void)
 {
     struct dem_material particle = table_particle(), target = table_target();
-    struct contact_law law = {RESTITUTION_JOHNSON, 0.0, 1e-6};
+    struct dem_contact_law law = {DEM_RESTITUTION_JOHNSON, 0.0, 1e-6};
     double radius = 2e-5, m = sphere_mass(radius, particle.density);
-    double e_star = material_effective_modulus(&particle, &target), y = particle.yield_stress;
-    struct restitution slow = contact_restitution(&law, m, radius, e_star, y, 1e-3);
+    double e_star = dem_material_effective_modulus(&particle, &target), y = particle.yield_stress;
+    struct restitution slow = dem_contact_restitution(&law, m, radius, e_star, y, 1e-3);
     CHECK(slow.e == 1.0, "elastic branch e = %g", slow.e);
-    struct restitution above = contact_restitution(&law, m, radius, e_star, y, 1.01 * slow.v_lim);
+    struct restitution above = dem_contact_restitution(&law, m, radius, e_star, y, 1.01 * slow.v_lim);
     CHECK(above.e == 1.0, "just above V_lim Eq. 18 gives > 1 and is capped: e = %g", above.e);
-    struct restitution v100 = contact_restitution(&law, m, radius, e_star, y, 100.0);
-    struct restitution v1600 = contact_restitution(&law, m, radius, e_star, y, 1600.0);
+    struct restitution v100 = dem_contact_restitution(&law, m, radius, e_star, y, 100.0);
+    struct restitution v1600 = dem_contact_restitution(&law, m, radius, e_star, y, 1600.0);
     CHECK_CLOSE(v1600.e / v100.e, 0.5, 1e-12, 0.0, "plastic e ~ v^(-1/4)");
     double expected = 3.74 * sqrt(y / e_star) * pow(0.5 * m * 100.0 * 100.0 / (y * pow(radius, 3)), -0.125);
     CHECK_CLOSE(v100.e, expected, 1e-12, 0.0, "Eq. 18 at 100 m/s");
     CHECK_CLOSE(v100.dt_compression, v1600.dt_compression, 1e-15, 0.0, "dt1 independent of speed");
 
-    struct contact_law constant = {RESTITUTION_CONSTANT, 0.37, 1e-6};
-    struct restitution c = contact_restitution(&constant, m, radius, e_star, y, 100.0);
+    struct dem_contact_law constant = {DEM_RESTITUTION_CONSTANT, 0.37, 1e-6};
+    struct restitution c = dem_contact_restitution(&constant, m, radius, e_star, y, 100.0);
     CHECK(c.e == 0.37, "constant e returned: %g", c.e);
     CHECK_CLOSE(c.dt_compression, v100.dt_compression, 1e-15, 0.0, "constant mode still gives dt1");
     CHECK_CLOSE(c.dt_elastic, v100.dt_elastic, 1e-15, 0.0, "constant mode still gives the Hertz duration");
@@ -174,15 +174,15 @@ static void test_johnson_branches(void)
  * hence the 0.2 us tolerance); Al alloy sphere on a rigid wall at 0.2 m/s, tc = 732 us. */
 static void test_hertz_duration_chung_ooi(void)
 {
-    struct contact_law law = {RESTITUTION_CONSTANT, 1.0, 1e-6};
+    struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 1.0, 1e-6};
     struct dem_material glass = material_from_e_nu(48e9, 0.2, 2800.0, 0.0);
     double m_glass = sphere_mass(0.01, glass.density);
-    struct restitution pair = contact_restitution(&law, 0.5 * m_glass, 0.005,
-                                                  material_effective_modulus(&glass, &glass), 1e9, 20.0);
+    struct restitution pair = dem_contact_restitution(&law, 0.5 * m_glass, 0.005,
+                                                  dem_material_effective_modulus(&glass, &glass), 1e9, 20.0);
     CHECK_CLOSE(pair.dt_elastic, 40.3e-6, 0.0, 0.2e-6, "glass pair Hertz duration");
     double e_al = 70e9, nu_al = 0.3;
     double m_al = sphere_mass(0.1, 2699.0);
-    struct restitution wall = contact_restitution(&law, m_al, 0.1, e_al / (1.0 - nu_al * nu_al), 1e9, 0.2);
+    struct restitution wall = dem_contact_restitution(&law, m_al, 0.1, e_al / (1.0 - nu_al * nu_al), 1e9, 0.2);
     CHECK_CLOSE(wall.dt_elastic, 732e-6, 0.0, 0.5e-6, "Al sphere on rigid wall Hertz duration");
 }
 
@@ -192,7 +192,7 @@ static void check_adhesion_row(const struct csv_row *row)
 {
     double radius = csv_number(row, 0), alpha = csv_number(row, 1);
     double mass = sphere_mass(radius, 5680.0);
-    double v = contact_adhesion_capture_speed(alpha, 1.1, 0.046, mass, radius, 690e6);
+    double v = dem_contact_adhesion_capture_speed(alpha, 1.1, 0.046, mass, radius, 690e6);
     CHECK_CLOSE(v, csv_number(row, 5), TABLE_RTOL, 0.0, "adhesion capture speed (Eq. 34)");
 }
 
@@ -211,12 +211,12 @@ static void test_normal_wall_impact(void)
 {
     struct dem_material alumina = material_from_e_nu(380e9, 0.23, 4000.0, 0.092);
     for (size_t i = 0; i < N_TEST_RESTITUTIONS; i++) {
-        struct contact_law law = {RESTITUTION_CONSTANT, test_restitutions[i], 1e-8};
+        struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, test_restitutions[i], 1e-8};
         struct sphere_state a = sphere_at_rest(2.5e-3, &alumina);
         a.v[2] = -3.9;
         double before = kinetic_energy(&a), down[3] = {0.0, 0.0, -1.0};
         struct contact_outcome out;
-        CHECK(contact_fixed(&law, &a, &alumina, INFINITY, down, &out) == 1, "impact applied");
+        CHECK(dem_contact_fixed(&law, &a, &alumina, INFINITY, down, &out) == 1, "impact applied");
         CHECK_CLOSE(a.v[2] / 3.9, test_restitutions[i], 1e-12, 1e-12, "wall rebound ratio = e");
         CHECK_CLOSE((before - kinetic_energy(&a)) / before, 1.0 - test_restitutions[i] * test_restitutions[i],
                     1e-12, 1e-12, "wall energy loss fraction 1 - e^2");
@@ -229,7 +229,7 @@ static void test_normal_pair_impact(void)
     struct dem_material steel = material_from_e_nu(200e9, 0.3, 7800.0, 0.3);
     double n[3] = {1.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0}, drift[3] = {0.4, -0.2, 0.0};
     for (size_t i = 0; i < N_TEST_RESTITUTIONS; i++) {
-        struct contact_law law = {RESTITUTION_CONSTANT, test_restitutions[i], 1e-8};
+        struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, test_restitutions[i], 1e-8};
         struct sphere_state a = sphere_at_rest(1e-4, &steel), b = sphere_at_rest(2.3e-4, &steel);
         for (int k = 0; k < 3; k++) {
             a.v[k] = 3.0 * n[k] + drift[k];
@@ -240,7 +240,7 @@ static void test_normal_pair_impact(void)
             v_cm[k] = (a.mass * a.v[k] + b.mass * b.v[k]) / total_mass;
         double cm_energy_before = 0.5 * a.mass * b.mass / total_mass * 4.5 * 4.5;
         struct contact_outcome out;
-        CHECK(contact_pair(&law, &a, &b, n, &out) == 1, "pair impact applied");
+        CHECK(dem_contact_pair(&law, &a, &b, n, &out) == 1, "pair impact applied");
         double rel_after[3], cm_energy_after = 0.0;
         for (int k = 0; k < 3; k++) {
             rel_after[k] = b.v[k] - a.v[k];
@@ -293,7 +293,7 @@ static void test_random_pair_conservation(void)
     hard.density = 7800.0;
     hard.yield_stress = 300e6;
     for (int trial = 0; trial < 2000; trial++) {
-        struct contact_law law = {trial % 2 ? RESTITUTION_JOHNSON : RESTITUTION_CONSTANT, 0.6,
+        struct dem_contact_law law = {trial % 2 ? DEM_RESTITUTION_JOHNSON : DEM_RESTITUTION_CONSTANT, 0.6,
                                   trial % 3 ? 1e-3 : 10.0};
         struct sphere_state a = sphere_at_rest(random_uniform(5e-6, 8e-5), &soft);
         struct sphere_state b = sphere_at_rest(random_uniform(5e-6, 8e-5), &hard);
@@ -326,7 +326,7 @@ static void test_random_pair_conservation(void)
         pair_slip(&a, &b, n, slip_before);
 
         struct contact_outcome out;
-        CHECK(contact_pair(&law, &a, &b, n, &out) == 1, "trial %d: approaching pair collides", trial);
+        CHECK(dem_contact_pair(&law, &a, &b, n, &out) == 1, "trial %d: approaching pair collides", trial);
         angular_momentum(&a, ra, l_after, &l_scale);
         angular_momentum(&b, rb, l_after, &l_scale);
         pair_slip(&a, &b, n, slip_after);
@@ -369,13 +369,13 @@ static void oblique_wall_impact(double theta_deg, double *e_t, double *omega_s, 
                                 double *vn_after)
 {
     struct dem_material alumina = material_from_e_nu(380e9, 0.23, 4000.0, 0.092);
-    struct contact_law law = {RESTITUTION_CONSTANT, 0.98, 1e-8};
+    struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 0.98, 1e-8};
     struct sphere_state a = sphere_at_rest(2.5e-3, &alumina);
     double theta = theta_deg * PI / 180.0, down[3] = {0.0, 0.0, -1.0}, contact_v[3];
     double vt = 3.9 * sin(theta), vn = 3.9 * cos(theta);
     a.v[0] = vt;
     a.v[2] = -vn;
-    contact_fixed(&law, &a, &alumina, INFINITY, down, NULL);
+    dem_contact_fixed(&law, &a, &alumina, INFINITY, down, NULL);
     point_velocity(&a, down, contact_v);
     *e_t = a.v[0] / vt;
     *omega_s = -a.w[1];
@@ -413,7 +413,7 @@ static void test_chung_ooi_oblique_wall(void)
 static void test_chung_ooi_opposite_spins(void)
 {
     struct dem_material al = material_from_e_nu(70e9, 0.33, 2700.0, 0.4);
-    struct contact_law law = {RESTITUTION_CONSTANT, 0.5, 1e-8};
+    struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 0.5, 1e-8};
     double up[3] = {0.0, 0.0, 1.0}, spins[] = {0.175, 2.0, 21.0};
     for (int i = 0; i < 3; i++) {
         struct sphere_state a = sphere_at_rest(0.1, &al), b = sphere_at_rest(0.1, &al);
@@ -422,7 +422,7 @@ static void test_chung_ooi_opposite_spins(void)
         a.w[1] = spins[i];
         b.w[1] = -spins[i];
         struct contact_outcome out;
-        CHECK(contact_pair(&law, &a, &b, up, &out) == 1, "spinning pair collides");
+        CHECK(dem_contact_pair(&law, &a, &b, up, &out) == 1, "spinning pair collides");
         double scale = spins[i] * 0.1;
         CHECK_CLOSE(a.v[0], 0.0, 0.0, 1e-15 * scale, "a tangential x");
         CHECK_CLOSE(b.v[0], 0.0, 0.0, 1e-15 * scale, "b tangential x");
@@ -439,7 +439,7 @@ static void test_chung_ooi_opposite_spins(void)
 static void test_same_sense_spins(void)
 {
     struct dem_material al = material_from_e_nu(70e9, 0.33, 2700.0, 0.4);
-    struct contact_law law = {RESTITUTION_CONSTANT, 0.5, 1e-8};
+    struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 0.5, 1e-8};
     double up[3] = {0.0, 0.0, 1.0}, spins[] = {1.0, 10.0};
     for (int i = 0; i < 2; i++) {
         struct sphere_state a = sphere_at_rest(0.1, &al), b = sphere_at_rest(0.1, &al);
@@ -448,7 +448,7 @@ static void test_same_sense_spins(void)
         a.w[1] = b.w[1] = spins[i];
         double m_eff = 0.5 * a.mass, slip = 2.0 * spins[i] * 0.1;
         double jt = fmin(0.4 * 1.5 * m_eff * 0.4, 2.0 / 7.0 * m_eff * slip);
-        contact_pair(&law, &a, &b, up, NULL);
+        dem_contact_pair(&law, &a, &b, up, NULL);
         CHECK_CLOSE(a.v[0], -jt / a.mass, 1e-12, 0.0, "a pushed against its slip");
         CHECK_CLOSE(b.v[0], jt / b.mass, 1e-12, 0.0, "b pushed the other way");
         CHECK_CLOSE(a.w[1], b.w[1], 1e-14, 0.0, "both spins braked alike");
@@ -465,17 +465,17 @@ static void test_same_sense_spins(void)
 static void test_friction_regularization(void)
 {
     double eps = 0.2;
-    CHECK_CLOSE(contact_friction_regularization(0.05, eps), 0.25, 1e-15, 0.0, "R inside");
-    CHECK_CLOSE(contact_friction_regularization(-0.1, eps), -0.5, 1e-15, 0.0, "R inside, negative");
-    CHECK(contact_friction_regularization(eps, eps) == 1.0, "R continuous at eps");
-    CHECK_CLOSE(contact_friction_regularization(eps * (1.0 - 1e-12), eps), 1.0, 0.0, 1e-11, "R just below eps");
-    CHECK(contact_friction_regularization(3.0, eps) == 1.0, "R outside");
-    CHECK(contact_friction_regularization(-3.0, eps) == -1.0, "R outside, negative");
-    CHECK(contact_friction_regularization(0.0, eps) == 0.0, "R(0)");
+    CHECK_CLOSE(dem_contact_friction_regularization(0.05, eps), 0.25, 1e-15, 0.0, "R inside");
+    CHECK_CLOSE(dem_contact_friction_regularization(-0.1, eps), -0.5, 1e-15, 0.0, "R inside, negative");
+    CHECK(dem_contact_friction_regularization(eps, eps) == 1.0, "R continuous at eps");
+    CHECK_CLOSE(dem_contact_friction_regularization(eps * (1.0 - 1e-12), eps), 1.0, 0.0, 1e-11, "R just below eps");
+    CHECK(dem_contact_friction_regularization(3.0, eps) == 1.0, "R outside");
+    CHECK(dem_contact_friction_regularization(-3.0, eps) == -1.0, "R outside, negative");
+    CHECK(dem_contact_friction_regularization(0.0, eps) == 0.0, "R(0)");
 
     /* Through a wall impact: slip 0.3 m/s below eps = 1 m/s gives J_t = mu J_n s / eps. */
     struct dem_material m = material_from_e_nu(200e9, 0.3, 7800.0, 0.1);
-    struct contact_law law = {RESTITUTION_CONSTANT, 0.5, 1.0};
+    struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 0.5, 1.0};
     double down[3] = {0.0, 0.0, -1.0};
     double slips[] = {0.3, 1.0, 1.5};
     for (int i = 0; i < 3; i++) {
@@ -483,7 +483,7 @@ static void test_friction_regularization(void)
         a.v[0] = slips[i];
         a.v[2] = -1.0;
         struct contact_outcome out;
-        contact_fixed(&law, &a, &m, INFINITY, down, &out);
+        dem_contact_fixed(&law, &a, &m, INFINITY, down, &out);
         double expected = 0.1 * 1.5 * a.mass * fmin(slips[i], 1.0);
         CHECK_CLOSE(out.jn, 1.5 * a.mass, 1e-14, 0.0, "J_n");
         CHECK_CLOSE(out.jt, expected, 1e-12, 0.0, "J_t = mu J_n min(s/eps, 1)");
@@ -493,12 +493,12 @@ static void test_friction_regularization(void)
 
     /* Large mu: the stick cap (2/7) m s stops the contact point exactly; the sphere leaves rolling. */
     struct dem_material grippy = material_from_e_nu(200e9, 0.3, 7800.0, 2.0);
-    struct contact_law sharp = {RESTITUTION_CONSTANT, 0.5, 1e-8};
+    struct dem_contact_law sharp = {DEM_RESTITUTION_CONSTANT, 0.5, 1e-8};
     struct sphere_state a = sphere_at_rest(1e-3, &grippy);
     a.v[1] = 0.7;
     a.v[2] = -1.0;
     struct contact_outcome out;
-    contact_fixed(&sharp, &a, &grippy, INFINITY, down, &out);
+    dem_contact_fixed(&sharp, &a, &grippy, INFINITY, down, &out);
     double contact_v[3];
     point_velocity(&a, down, contact_v);
     CHECK_CLOSE(out.jt, 2.0 / 7.0 * a.mass * 0.7, 1e-14, 0.0, "stick-limited J_t");
@@ -510,16 +510,16 @@ static void test_friction_regularization(void)
 static void test_fixed_sphere_obstacle(void)
 {
     struct dem_material particle = table_particle();
-    struct contact_law law = {RESTITUTION_JOHNSON, 0.0, 1e-6};
+    struct dem_contact_law law = {DEM_RESTITUTION_JOHNSON, 0.0, 1e-6};
     double ra = 2e-5, rb = 6e-5, r_eff = ra * rb / (ra + rb);
     struct sphere_state a = sphere_at_rest(ra, &particle);
     double n[3] = {0.6, 0.0, -0.8};
     a.v[0] = 6.0;
     a.v[2] = -8.0;
     struct contact_outcome out;
-    CHECK(contact_fixed(&law, &a, &particle, rb, n, &out) == 1, "impact on a frozen sphere");
-    struct restitution expected = contact_restitution(&law, a.mass, r_eff,
-                                                      material_effective_modulus(&particle, &particle),
+    CHECK(dem_contact_fixed(&law, &a, &particle, rb, n, &out) == 1, "impact on a frozen sphere");
+    struct restitution expected = dem_contact_restitution(&law, a.mass, r_eff,
+                                                      dem_material_effective_modulus(&particle, &particle),
                                                       particle.yield_stress, 10.0);
     CHECK_CLOSE(out.vn, 10.0, 1e-14, 0.0, "approach speed along n");
     CHECK_CLOSE(out.e, expected.e, 1e-14, 0.0, "e with R_eff of two spheres");
@@ -533,22 +533,22 @@ static void test_softer_yield_used(void)
 {
     struct dem_material soft = table_particle(), hard = table_particle();
     soft.yield_stress = 200e6;
-    struct contact_law law = {RESTITUTION_JOHNSON, 0.0, 1e-6};
+    struct dem_contact_law law = {DEM_RESTITUTION_JOHNSON, 0.0, 1e-6};
     double n[3] = {0.0, 0.0, 1.0}, radius = 3e-5;
     for (int order = 0; order < 2; order++) {
         const struct dem_material *first = order ? &hard : &soft, *second = order ? &soft : &hard;
         struct sphere_state a = sphere_at_rest(radius, first), b = sphere_at_rest(radius, second);
-        double m = sphere_mass(radius, soft.density), e_star = material_effective_modulus(&soft, &hard);
+        double m = sphere_mass(radius, soft.density), e_star = dem_material_effective_modulus(&soft, &hard);
         a.v[2] = 40.0;
         struct contact_outcome out;
-        contact_pair(&law, &a, &b, n, &out);
-        struct restitution pair = contact_restitution(&law, 0.5 * m, 0.5 * radius, e_star, 200e6, 40.0);
+        dem_contact_pair(&law, &a, &b, n, &out);
+        struct restitution pair = dem_contact_restitution(&law, 0.5 * m, 0.5 * radius, e_star, 200e6, 40.0);
         CHECK_CLOSE(out.e, pair.e, 1e-14, 0.0, "pair e with the softer yield");
         CHECK_CLOSE(out.dt_compression, pair.dt_compression, 1e-14, 0.0, "pair dt1 with the softer yield");
         struct sphere_state c = sphere_at_rest(radius, first);
         c.v[2] = 40.0;
-        contact_fixed(&law, &c, second, INFINITY, n, &out);
-        struct restitution wall = contact_restitution(&law, m, radius, e_star, 200e6, 40.0);
+        dem_contact_fixed(&law, &c, second, INFINITY, n, &out);
+        struct restitution wall = dem_contact_restitution(&law, m, radius, e_star, 200e6, 40.0);
         CHECK_CLOSE(out.e, wall.e, 1e-14, 0.0, "wall e with the softer yield");
         CHECK_CLOSE(out.dt_compression, wall.dt_compression, 1e-14, 0.0, "wall dt1 with the softer yield");
     }
@@ -559,7 +559,7 @@ static void test_softer_yield_used(void)
 static void test_separating_untouched(void)
 {
     struct dem_material m = table_particle();
-    struct contact_law law = {RESTITUTION_JOHNSON, 0.0, 1e-6};
+    struct dem_contact_law law = {DEM_RESTITUTION_JOHNSON, 0.0, 1e-6};
     double n[3] = {0.0, 0.0, 1.0};
     struct sphere_state a = sphere_at_rest(1e-5, &m), b = sphere_at_rest(2e-5, &m);
     a.v[0] = 3.0;
@@ -568,16 +568,16 @@ static void test_separating_untouched(void)
     b.w[0] = -2e5;
     struct sphere_state a0 = a, b0 = b;
     struct contact_outcome out = {0};
-    CHECK(contact_pair(&law, &a, &b, n, &out) == 0, "separating pair: no impulse");
+    CHECK(dem_contact_pair(&law, &a, &b, n, &out) == 0, "separating pair: no impulse");
     CHECK(memcmp(&a, &a0, sizeof a) == 0 && memcmp(&b, &b0, sizeof b) == 0, "separating pair unchanged");
     a.v[2] = 0.0; /* grazing */
     a0 = a;
-    CHECK(contact_pair(&law, &a, &b, n, &out) == 0, "grazing pair: no impulse");
+    CHECK(dem_contact_pair(&law, &a, &b, n, &out) == 0, "grazing pair: no impulse");
     CHECK(memcmp(&a, &a0, sizeof a) == 0, "grazing pair unchanged");
     double down[3] = {0.0, 0.0, -1.0};
     a.v[2] = 0.5; /* leaving the wall below */
     a0 = a;
-    CHECK(contact_fixed(&law, &a, &m, INFINITY, down, &out) == 0, "leaving the wall: no impulse");
+    CHECK(dem_contact_fixed(&law, &a, &m, INFINITY, down, &out) == 0, "leaving the wall: no impulse");
     CHECK(memcmp(&a, &a0, sizeof a) == 0, "leaving the wall unchanged");
 }
 

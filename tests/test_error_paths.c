@@ -94,7 +94,7 @@ static void test_spray_checkpoint_read_failure_closes_handles(void)
     CHECK(open_objects == 1, "after the failed read %zd objects are open in the file, expected 1", open_objects);
     CHECK(strstr(sc_error_traceback(), "dem/output.c") != NULL, "no dem/output.c frame in the traceback:\n%s",
           sc_error_traceback());
-    particles_free(&s->p);
+    dem_particles_free(&s->p);
     free(s);
     drop_file(file, path);
 }

@@ -10,15 +10,15 @@
 #include "tests/check.h"
 #include "tests/verification_csv.h"
 
-static struct flight_solver *solver;
+static struct couple_flight_solver *solver;
 
-static struct flight_layer stokes_layer(double wall_z)
+static struct couple_flight_layer stokes_layer(double wall_z)
 {
     /* the table's set-up: mu = 1.8e-5 Pa s (rho_g nu), a uniform stream of 100 m/s (delta = 0) */
-    struct flight_layer layer = {.wall_z = wall_z, .thickness = 0.0, .approach_velocity = 100.0,
+    struct couple_flight_layer layer = {.wall_z = wall_z, .thickness = 0.0, .approach_velocity = 100.0,
                                  .rtol = 1e-10, .atol = 1e-12};
-    layer.gas.model = JET_UNIFORM;
-    layer.gas.drag = DRAG_STOKES;
+    layer.gas.model = DEM_JET_UNIFORM;
+    layer.gas.drag = DEM_DRAG_STOKES;
     layer.gas.density = 1.2;
     layer.gas.kinematic_viscosity = 1.8e-5 / 1.2;
     return layer;
@@ -33,14 +33,14 @@ static void visit_stokes_row(const struct csv_row *row)
     if (t <= 0.0)
         return;
     const double d = 1e-5, rho = 2700.0;
-    struct flight_layer layer = stokes_layer(x + 0.5 * d);
-    struct flight_result r;
+    struct couple_flight_layer layer = stokes_layer(x + 0.5 * d);
+    struct couple_flight_result r;
     const double x0[3] = {0, 0, 0}, v0[3] = {0, 0, 0};
-    CHECK(flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
     CHECK(r.reached, "the particle reaches x = %g m", x);
     CHECK_CLOSE(r.t, t, 1e-6, 0.0, "time to cover x");
     CHECK_CLOSE(r.v[2], v, 1e-6, 0.0, "speed at x");
-    flight_result_free(&r);
+    couple_flight_result_free(&r);
     stokes_rows_checked++;
 }
 
@@ -57,7 +57,7 @@ static void test_stokes_relaxation_table(void)
  * edge may land a rounding error beyond it): upstream the uniform stream, inside the layer the layer's field. */
 static int reference_inside_layer;
 
-static void reference_rate(const struct flight_layer *layer, double d, double mass, const double y[6], double dy[6])
+static void reference_rate(const struct couple_flight_layer *layer, double d, double mass, const double y[6], double dy[6])
 {
     double u[3] = {0.0, 0.0, layer->approach_velocity}, force[3];
     if (reference_inside_layer) {   /* the stagnation-point flow, written out independently of flight.c */
@@ -66,14 +66,14 @@ static void reference_rate(const struct flight_layer *layer, double d, double ma
         u[1] = 0.5 * rate * y[1];
         u[2] = rate * (layer->wall_z - y[2]);
     }
-    gas_drag_force(&layer->gas, d, y + 3, u, force);
+    dem_gas_drag_force(&layer->gas, d, y + 3, u, force);
     for (int k = 0; k < 3; k++) {
         dy[k] = y[3 + k];
         dy[3 + k] = force[k] / mass;
     }
 }
 
-static void rk4_step(const struct flight_layer *layer, double d, double mass, double h, double y[6])
+static void rk4_step(const struct couple_flight_layer *layer, double d, double mass, double h, double y[6])
 {
     double k1[6], k2[6], k3[6], k4[6], tmp[6];
     reference_rate(layer, d, mass, y, k1);
@@ -91,7 +91,7 @@ static void rk4_step(const struct flight_layer *layer, double d, double mass, do
 }
 
 /* One RK4 step from `start` that ends on the plane z = plane: its length found by the secant method. */
-static double rk4_step_to_plane(const struct flight_layer *layer, double d, double mass, const double start[6],
+static double rk4_step_to_plane(const struct couple_flight_layer *layer, double d, double mass, const double start[6],
                                 double h, double plane, double y[6])
 {
     double lo = 0.0, z_lo = start[2], hi = h, z_hi;
@@ -112,7 +112,7 @@ static double rk4_step_to_plane(const struct flight_layer *layer, double d, doub
 
 /* RK4 until the gap closes.  A step that would cross the layer's edge (where u_x, u_y jump) or the contact plane
  * is replaced by the step that ends on it, so that no step straddles the jump. */
-static void rk4_to_wall(const struct flight_layer *layer, double d, double mass, const double y0[6], double h,
+static void rk4_to_wall(const struct couple_flight_layer *layer, double d, double mass, const double y0[6], double h,
                         double *t_wall, double v_wall[3])
 {
     double y[6], t = 0.0;
@@ -139,12 +139,12 @@ static void rk4_to_wall(const struct flight_layer *layer, double d, double mass,
     memcpy(v_wall, y + 3, 3 * sizeof *v_wall);
 }
 
-static struct flight_layer cold_spray_layer(void)
+static struct couple_flight_layer cold_spray_layer(void)
 {
-    struct flight_layer layer = {.wall_z = 0.05, .thickness = 2e-3, .approach_velocity = 450.0, .rtol = 1e-10,
+    struct couple_flight_layer layer = {.wall_z = 0.05, .thickness = 2e-3, .approach_velocity = 450.0, .rtol = 1e-10,
                                  .atol = 1e-12};
-    layer.gas.model = JET_UNIFORM;
-    layer.gas.drag = DRAG_HAIDER_LEVENSPIEL;
+    layer.gas.model = DEM_JET_UNIFORM;
+    layer.gas.drag = DEM_DRAG_HAIDER_LEVENSPIEL;
     layer.gas.density = 2.0;
     layer.gas.kinematic_viscosity = 1.5e-5;
     return layer;
@@ -152,12 +152,12 @@ static struct flight_layer cold_spray_layer(void)
 
 static void test_nonstiff_against_rk4(void)
 {
-    struct flight_layer layer = cold_spray_layer();
+    struct couple_flight_layer layer = cold_spray_layer();
     const double d = 20e-6, rho = 2700.0, mass = rho * M_PI * d * d * d / 6.0;
     /* from the hand-off plane 5 mm before the wall, off axis and slightly oblique */
     const double x0[3] = {1e-3, -0.5e-3, 0.045}, v0[3] = {5.0, -2.0, 600.0};
-    struct flight_result r;
-    CHECK(flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    struct couple_flight_result r;
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
     double y0[6] = {x0[0], x0[1], x0[2], v0[0], v0[1], v0[2]}, t_ref = 0.0, v_ref[3] = {0};
     rk4_to_wall(&layer, d, mass, y0, 2e-10, &t_ref, v_ref);
     CHECK(r.reached, "the 20 um particle reaches the wall");
@@ -167,7 +167,7 @@ static void test_nonstiff_against_rk4(void)
     CHECK(r.v[2] < v0[2], "the layer slows the particle (%g < %g m/s)", r.v[2], v0[2]);
     CHECK(r.steps > 0 && r.rhs_evals >= r.steps && r.samples == (size_t)r.steps + 1,
           "counters: %ld steps, %ld rhs, %zu samples", r.steps, r.rhs_evals, r.samples);
-    flight_result_free(&r);
+    couple_flight_result_free(&r);
 }
 
 /* A 0.1 um particle with Stokes drag: drag response time tau = 50 ns against a flight of tens of microseconds
@@ -179,14 +179,14 @@ static double stokes_gap(const double a[2], const double l[2], double t) { retur
 
 static void test_stiff_particle(void)
 {
-    struct flight_layer layer = cold_spray_layer();
-    layer.gas.drag = DRAG_STOKES;
+    struct couple_flight_layer layer = cold_spray_layer();
+    layer.gas.drag = DEM_DRAG_STOKES;
     layer.rtol = 1e-8;
     layer.atol = 1e-12;
     const double d = 0.1e-6, rho = 2700.0, s0 = 1e-3, speed0 = 300.0;
     const double x0[3] = {0.0, 0.0, layer.wall_z - s0}, v0[3] = {0.0, 0.0, speed0};
-    struct flight_result r;
-    CHECK(flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    struct couple_flight_result r;
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
     CHECK(r.reached, "the fine particle reaches the wall");
     CHECK(r.steps < 1000, "BDF steps stay few for a stiff particle: %ld", r.steps);
     double contact_z = layer.wall_z - 0.5 * d;
@@ -218,42 +218,42 @@ static void test_stiff_particle(void)
     CHECK_CLOSE(r.t, t_exact, 1e-5, 0.0, "arrival time against the exact solution");
     CHECK_CLOSE(r.v[2], v_exact, 1e-4, 0.0, "arrival speed against the exact solution");
     CHECK(r.v[2] < 1e-3 * speed0, "the wall layer stops the fine particle (%g m/s)", r.v[2]);
-    flight_result_free(&r);
+    couple_flight_result_free(&r);
 }
 
 /* The gas layer itself: divergence-free and continuous where it meets the uniform stream. */
 static void test_layer_gas_field(void)
 {
-    struct flight_layer layer = cold_spray_layer();
+    struct couple_flight_layer layer = cold_spray_layer();
     const double h = 1e-7, x[3] = {3e-4, -2e-4, layer.wall_z - 0.7e-3};
     double divergence = 0.0;
     for (int k = 0; k < 3; k++) {
         double plus[3] = {x[0], x[1], x[2]}, minus[3] = {x[0], x[1], x[2]}, up[3], um[3];
         plus[k] += h;
         minus[k] -= h;
-        flight_gas_velocity(&layer, plus, up);
-        flight_gas_velocity(&layer, minus, um);
+        couple_flight_gas_velocity(&layer, plus, up);
+        couple_flight_gas_velocity(&layer, minus, um);
         divergence += (up[k] - um[k]) / (2.0 * h);
     }
     CHECK(fabs(divergence) < 1e-6 * layer.approach_velocity / layer.thickness, "div u = %g /s", divergence);
     double below[3] = {0, 0, layer.wall_z - layer.thickness * (1 + 1e-12)}, u[3];
-    flight_gas_velocity(&layer, below, u);
+    couple_flight_gas_velocity(&layer, below, u);
     CHECK_CLOSE(u[2], layer.approach_velocity, 1e-9, 0.0, "u_z continuous at the layer's edge");
     double wall[3] = {1e-3, 0, layer.wall_z};
-    flight_gas_velocity(&layer, wall, u);
+    couple_flight_gas_velocity(&layer, wall, u);
     CHECK(u[2] == 0.0 && u[0] > 0.0, "at the wall the gas flows outwards only (u_z %g, u_x %g)", u[2], u[0]);
 }
 
 int main(void)
 {
-    if (flight_solver_create(&solver) != SC_OK) {
-        printf("FAIL flight_solver_create: %s\n", sc_error_message());
+    if (couple_flight_solver_create(&solver) != SC_OK) {
+        printf("FAIL couple_flight_solver_create: %s\n", sc_error_message());
         return 1;
     }
     RUN(test_stokes_relaxation_table);
     RUN(test_nonstiff_against_rk4);
     RUN(test_stiff_particle);
     RUN(test_layer_gas_field);
-    flight_solver_destroy(solver);
+    couple_flight_solver_destroy(solver);
     return check_finish();
 }

@@ -117,7 +117,7 @@ static int write_checkpoint(const char *run_dir, const char *stage, int64_t step
                             int64_t format_version, int keep)
 {
     struct h5_out out;
-    SC_TRY(checkpoint_begin(run_dir, stage, step, &out));
+    SC_TRY(h5_checkpoint_begin(run_dir, stage, step, &out));
     double state[CHECKPOINT_VALUES];
     fill_ramp(state, CHECKPOINT_VALUES, (double)step);
     const hsize_t dims[1] = {CHECKPOINT_VALUES};
@@ -128,7 +128,7 @@ static int write_checkpoint(const char *run_dir, const char *stage, int64_t step
         h5_abort(&out);
         return status;
     }
-    return checkpoint_commit(&out, run_dir, stage, keep);
+    return h5_checkpoint_commit(&out, run_dir, stage, keep);
 }
 
 static void checkpoint_path(const char *run_dir, const char *stage, long long step, char path[4096])
@@ -632,7 +632,7 @@ static void test_checkpoint_keeps_last_k(void)
     checkpoint_path(run_dir, "spray", 400, path);
     CHECK(file_exists(path), "checkpoint of step 400 removed although keep = 2");
 
-    CHECK(checkpoint_remove_all(run_dir, "spray") == SC_OK, "remove all: %s", sc_error_message());
+    CHECK(h5_checkpoint_remove_all(run_dir, "spray") == SC_OK, "remove all: %s", sc_error_message());
     CHECK(count_stage_files(run_dir, "spray", ".h5") == 0, "spray checkpoints left after remove_all");
     CHECK(count_stage_files(run_dir, "impact", ".h5") == 3, "remove_all touched another stage");
     remove_tree(run_dir);
@@ -643,7 +643,7 @@ static void test_find_newest(void)
     char run_dir[64], found[4096] = "x", expected[4096];
     make_temp_dir(run_dir);
     sc_error_clear();
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               found[0] == '\0',
           "no checkpoints folder: \"%s\" %s", found, sc_error_message());
@@ -651,7 +651,7 @@ static void test_find_newest(void)
         CHECK(write_checkpoint(run_dir, "spray", step, CASE_HASH, FORMAT_VERSION, 0) == SC_OK, "step %d: %s", step,
               sc_error_message());
     checkpoint_path(run_dir, "spray", 30, expected);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               strcmp(found, expected) == 0,
           "found \"%s\", expected \"%s\"", found, expected);
@@ -659,7 +659,7 @@ static void test_find_newest(void)
     /* The newest is damaged inside its data: fall back to the one before. */
     damage_dataset(expected, "state");
     checkpoint_path(run_dir, "spray", 20, expected);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               strcmp(found, expected) == 0,
           "after damaging step 30: found \"%s\", expected \"%s\"", found, expected);
@@ -668,14 +668,14 @@ static void test_find_newest(void)
     /* The next is cut short (as by a full disk outside the atomic commit): fall back again. */
     CHECK(truncate(expected, 1000) == 0, "truncate %s", expected);
     checkpoint_path(run_dir, "spray", 10, expected);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               strcmp(found, expected) == 0,
           "after truncating step 20: found \"%s\", expected \"%s\"", found, expected);
 
     /* All damaged: nothing to resume from. */
     damage_dataset(expected, "state");
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               found[0] == '\0',
           "all damaged: found \"%s\" %s", found, sc_error_message());
@@ -684,7 +684,7 @@ static void test_find_newest(void)
     CHECK(write_checkpoint(run_dir, "spray", 40, CASE_HASH, FORMAT_VERSION, 0) == SC_OK, "step 40: %s",
           sc_error_message());
     char small[8];
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, small, sizeof small) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, small, sizeof small) ==
                   SC_EIO &&
               small[0] == '\0',
           "small buffer: \"%s\"", sc_error_message());
@@ -698,24 +698,24 @@ static void test_find_newest_refuses_other_case(void)
     CHECK(write_checkpoint(run_dir, "spray", 7, CASE_HASH, FORMAT_VERSION, 2) == SC_OK, "write: %s",
           sc_error_message());
     checkpoint_path(run_dir, "spray", 7, path);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH ^ 1, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH ^ 1, found, sizeof found) ==
                   SC_EINPUT &&
               message_has(path) && message_has("another case") && message_has("0123456789abcdef") &&
               message_has("refusing to resume"),
           "other case hash: \"%s\"", sc_error_message());
     CHECK(found[0] == '\0', "a refused checkpoint was returned: \"%s\"", found);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION + 1, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION + 1, CASE_HASH, found, sizeof found) ==
                   SC_EINPUT &&
               message_has(path) && message_has("version"),
           "other format version: \"%s\"", sc_error_message());
-    CHECK(checkpoint_find_newest(run_dir, "spray", "another-format", FORMAT_VERSION, CASE_HASH, found,
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", "another-format", FORMAT_VERSION, CASE_HASH, found,
                                  sizeof found) == SC_EINPUT &&
               message_has("another-format"),
           "other format: \"%s\"", sc_error_message());
     remove_tree(run_dir);
 }
 
-/* A crash during a write leaves STAGE_N.h5.tmp: find_newest ignores it and the next checkpoint_begin deletes
+/* A crash during a write leaves STAGE_N.h5.tmp: find_newest ignores it and the next h5_checkpoint_begin deletes
  * it; stray files and other stages' files are left alone. */
 static void test_stale_tmp_ignored(void)
 {
@@ -730,15 +730,15 @@ static void test_stale_tmp_ignored(void)
     write_text_file(stray, "not a checkpoint");
     write_text_file(other, "another stage");
     checkpoint_path(run_dir, "spray", 20, expected);
-    CHECK(checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
+    CHECK(h5_checkpoint_find_newest(run_dir, "spray", FORMAT, FORMAT_VERSION, CASE_HASH, found, sizeof found) ==
                   SC_OK &&
               strcmp(found, expected) == 0,
           "found \"%s\", expected \"%s\": %s", found, expected, sc_error_message());
 
     struct h5_out out;
-    CHECK(checkpoint_begin(run_dir, "spray", 40, &out) == SC_OK, "begin: %s", sc_error_message());
-    CHECK(!file_exists(stale), "stale tmp file survived checkpoint_begin");
-    CHECK(file_exists(stray) && file_exists(other), "checkpoint_begin removed files that are not its own");
+    CHECK(h5_checkpoint_begin(run_dir, "spray", 40, &out) == SC_OK, "begin: %s", sc_error_message());
+    CHECK(!file_exists(stale), "stale tmp file survived h5_checkpoint_begin");
+    CHECK(file_exists(stray) && file_exists(other), "h5_checkpoint_begin removed files that are not its own");
     h5_abort(&out);
     CHECK(count_stage_files(run_dir, "spray", ".tmp") == 0, "tmp left after abort");
     remove_tree(run_dir);

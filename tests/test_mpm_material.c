@@ -40,10 +40,10 @@ static void check_ptw_row(const struct csv_row *row)
 {
     struct mpm_material m = aluminium();
     double T = csv_number(row, 0), rate = csv_number(row, 1), eps = csv_number(row, 2);
-    double G = mts_shear_modulus(&m, T);
+    double G = mpm_mts_shear_modulus(&m, T);
     CHECK_CLOSE(G, csv_number(row, 4), PTW_RTOL, 0.0, "MTS shear modulus (Eq. 2.6)");
-    CHECK_CLOSE(ptw_xi_dot(&m, TABLE_RHO, G), csv_number(row, 5), PTW_RTOL, 0.0, "xi_dot (Eq. 2.8)");
-    CHECK_CLOSE(ptw_flow_stress(&m, eps, rate, T, TABLE_TM, TABLE_RHO, G), csv_number(row, 3), PTW_RTOL, 0.0,
+    CHECK_CLOSE(mpm_ptw_xi_dot(&m, TABLE_RHO, G), csv_number(row, 5), PTW_RTOL, 0.0, "xi_dot (Eq. 2.8)");
+    CHECK_CLOSE(mpm_ptw_flow_stress(&m, eps, rate, T, TABLE_TM, TABLE_RHO, G), csv_number(row, 3), PTW_RTOL, 0.0,
                 "PTW flow stress (Eqs. 2.4-2.7)");
     ptw_rows_checked++;
 }
@@ -58,23 +58,23 @@ static void test_ptw_table(void)
 static void test_ptw_limits(void)
 {
     struct mpm_material m = aluminium();
-    double G = mts_shear_modulus(&m, 298.0);
-    CHECK(ptw_flow_stress(&m, 0.1, 1e6, 933.0, 933.0, 2700.0, G) == 0.0, "zero at T = Tm");
-    CHECK(ptw_flow_stress(&m, 0.1, 1e6, 1500.0, 933.0, 2700.0, G) == 0.0, "zero above Tm");
-    CHECK(ptw_flow_stress(&m, 0.1, 1e6, 298.0, 933.0, 2700.0, 0.0) == 0.0, "zero at G = 0");
-    double near = ptw_flow_stress(&m, 0.1, 1e6, 932.999, 933.0, 2700.0, G);
+    double G = mpm_mts_shear_modulus(&m, 298.0);
+    CHECK(mpm_ptw_flow_stress(&m, 0.1, 1e6, 933.0, 933.0, 2700.0, G) == 0.0, "zero at T = Tm");
+    CHECK(mpm_ptw_flow_stress(&m, 0.1, 1e6, 1500.0, 933.0, 2700.0, G) == 0.0, "zero above Tm");
+    CHECK(mpm_ptw_flow_stress(&m, 0.1, 1e6, 298.0, 933.0, 2700.0, 0.0) == 0.0, "zero at G = 0");
+    double near = mpm_ptw_flow_stress(&m, 0.1, 1e6, 932.999, 933.0, 2700.0, G);
     CHECK(isfinite(near) && near > 0.0, "finite just below melt: %g", near);
-    CHECK_CLOSE(ptw_flow_stress(&m, 0.2, 0.0, 298.0, 933.0, 2700.0, G),
-                ptw_flow_stress(&m, 0.2, m.rate_floor, 298.0, 933.0, 2700.0, G), 1e-15, 0.0, "rate 0 -> floor");
+    CHECK_CLOSE(mpm_ptw_flow_stress(&m, 0.2, 0.0, 298.0, 933.0, 2700.0, G),
+                mpm_ptw_flow_stress(&m, 0.2, m.rate_floor, 298.0, 933.0, 2700.0, G), 1e-15, 0.0, "rate 0 -> floor");
     /* p -> 0: tau = tau_s - (tau_s - tau_y) exp(-theta eps / (tau_s - tau_y)); quasi-static taus from the table */
     m.ptw_p = 0.0;
     double ts = 0.002819, ty = 0.002003, eps = 0.05;
     double expected = 2.0 * G * (ts - (ts - ty) * exp(-m.ptw_theta * eps / (ts - ty)));
-    CHECK_CLOSE(ptw_flow_stress(&m, eps, 1.0, 298.0, 933.0, 2700.0, G), expected, 1e-9, 0.0, "p -> 0 limit");
+    CHECK_CLOSE(mpm_ptw_flow_stress(&m, eps, 1.0, 298.0, 933.0, 2700.0, G), expected, 1e-9, 0.0, "p -> 0 limit");
     /* the p -> 0 form is the limit of the p > 0 form */
     struct mpm_material small = aluminium();
     small.ptw_p = 1e-7;
-    CHECK_CLOSE(ptw_flow_stress(&small, eps, 1.0, 298.0, 933.0, 2700.0, G), expected, 1e-6, 0.0, "p = 1e-7");
+    CHECK_CLOSE(mpm_ptw_flow_stress(&small, eps, 1.0, 298.0, 933.0, 2700.0, G), expected, 1e-6, 0.0, "p = 1e-7");
 }
 
 /* ---- (b) SCG melt ---- */
@@ -83,7 +83,7 @@ static void check_melt_row(const struct csv_row *row)
 {
     struct mpm_material m = aluminium();
     double eta = csv_number(row, 0);
-    CHECK_CLOSE(scg_melt_temperature(&m, eta * m.density), csv_number(row, 1), MELT_RTOL, 0.0,
+    CHECK_CLOSE(mpm_scg_melt_temperature(&m, eta * m.density), csv_number(row, 1), MELT_RTOL, 0.0,
                 "SCG melt temperature (Eq. 2.9, erratum)");
 }
 
@@ -97,13 +97,13 @@ static void test_melt_table(void)
 
 static double eos_at_mu(const struct mpm_material *m, double mu, double E)
 {
-    return eos_pressure(m, (1.0 + mu) * m->density, E);
+    return mpm_eos_pressure(m, (1.0 + mu) * m->density, E);
 }
 
 static void test_eos_reference_state(void)
 {
     struct mpm_material m = aluminium();
-    CHECK(eos_pressure(&m, m.density, 0.0) == 0.0, "p(rho0, 0) = 0: got %g", eos_pressure(&m, m.density, 0.0));
+    CHECK(mpm_eos_pressure(&m, m.density, 0.0) == 0.0, "p(rho0, 0) = 0: got %g", mpm_eos_pressure(&m, m.density, 0.0));
     double A, B;
     eos_coefficients(&m, 0.9 * m.density, &A, &B);
     CHECK_CLOSE(B, 1.97, 1e-15, 0.0, "B = Gamma0 in tension (continuity decision)");
@@ -156,11 +156,11 @@ static void test_mts_shear_modulus(void)
 {
     struct mpm_material m = aluminium();
     csv_for_each("ptw_aluminium.csv", find_G298);
-    CHECK_CLOSE(mts_shear_modulus(&m, 298.0), G298_table, PTW_RTOL, 0.0, "G(298 K) vs table");
-    CHECK_CLOSE(mts_shear_modulus(&m, 298.0), 25.54694907e9, 1e-9, 0.0, "G(298 K) = 25.547 GPa");
-    CHECK(mts_shear_modulus(&m, 0.0) == 28.8e9, "G(0 K) = G0");
-    CHECK(mts_shear_modulus(&m, 1e7) == 0.0, "G clamped at 0 when hot");
-    CHECK(mts_shear_modulus(&m, 500.0) < mts_shear_modulus(&m, 298.0), "G falls with T");
+    CHECK_CLOSE(mpm_mts_shear_modulus(&m, 298.0), G298_table, PTW_RTOL, 0.0, "G(298 K) vs table");
+    CHECK_CLOSE(mpm_mts_shear_modulus(&m, 298.0), 25.54694907e9, 1e-9, 0.0, "G(298 K) = 25.547 GPa");
+    CHECK(mpm_mts_shear_modulus(&m, 0.0) == 28.8e9, "G(0 K) = G0");
+    CHECK(mpm_mts_shear_modulus(&m, 1e7) == 0.0, "G clamped at 0 when hot");
+    CHECK(mpm_mts_shear_modulus(&m, 500.0) < mpm_mts_shear_modulus(&m, 298.0), "G falls with T");
 }
 
 /* A point's state at rest: every field set (a body's points all copy one such state, so a field left unset

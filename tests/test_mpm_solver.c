@@ -236,18 +236,18 @@ static void test_contact_normals(void)
     }
     struct mpm_solver *s = f.solver;
     struct mpm_grid *g = &s->grid;
-    grid_bin_points(s);
-    grid_transfer_all(s);
+    mpm_grid_bin_points(s);
+    mpm_grid_transfer_all(s);
     int checked = 0;
     double worst = 0.0;
     for (int k = 0; k < g->n[2]; k++)
         for (int j = 0; j < g->n[1]; j++)
             for (int i = 0; i < g->n[0]; i++) {
-                size_t node = grid_node(g, i, j, k), Ia = node, Ib = g->nodes + node;
+                size_t node = mpm_grid_node(g, i, j, k), Ia = node, Ib = g->nodes + node;
                 double x = g->origin[0] + i * g->h, y = g->origin[1] + j * g->h, n[3];
                 if (!(g->mass[Ia] > g->mass_cutoff && g->mass[Ib] > g->mass_cutoff) || hypot(x, y) > 2.5e-6)
                     continue;
-                if (contact_normal(g, Ia, Ib, n) != 0)
+                if (mpm_contact_normal(g, Ia, Ib, n) != 0)
                     continue;
                 worst = fmax(worst, acos(fmin(1.0, fabs(n[2]))) * 180.0 / M_PI);
                 checked++;
@@ -288,7 +288,7 @@ static void test_points_leaving_the_box(void)
 }
 
 /* grid_contains decides 1 < (x - origin) / h < n - 2 without dividing: the same answer as the division (which
- * grid_stencil and the binning make) at every offset within 8 units in the last place of the box's four faces,
+ * mpm_grid_stencil and the binning make) at every offset within 8 units in the last place of the box's four faces,
  * and at offsets spread over the box and beyond, for cell sizes whose reciprocals are not exact. */
 static void test_grid_contains(void)
 {
@@ -299,7 +299,7 @@ static void test_grid_contains(void)
         struct mpm_config cfg = {.grid = h, .spacing = h / 3.0, .box_margin = 0.0, .body_count = 1};
         struct mpm_points points = {.count = 2, .x = corners};
         struct mpm_grid g;
-        if (grid_create(&cfg, &points, &g) != SC_OK) {
+        if (mpm_grid_create(&cfg, &points, &g) != SC_OK) {
             CHECK(0, "grid for h = %g", cells[c]);
             continue;
         }
@@ -322,7 +322,7 @@ static void test_grid_contains(void)
                 }
             }
         }
-        grid_free(&g);
+        mpm_grid_free(&g);
     }
     CHECK(disagree == 0 && tried > 1000, "grid_contains differs from the division at %d of %d offsets", disagree,
           tried);
