@@ -1,5 +1,6 @@
 /* Contiguous shares balanced by measured speeds (core/balance.h). */
 #include "core/balance.h"
+#include "core/error.h"
 
 #include <stdalign.h>
 #include <stdatomic.h>
@@ -11,12 +12,12 @@
  * core) loses a quarter of the difference, and the shares follow a lasting change within a few runs. */
 #define SMOOTHING 0.25
 
-static void *or_die(void *allocated)
+/* balance_prepare returns no status: an allocation failure ends the process, as every out of memory where no
+ * status can be returned (core/error.h, SC_DIE_OOM: exit status 3) */
+static void *or_die(void *allocated, size_t bytes)
 {
-    if (!allocated) {
-        fprintf(stderr, "spraycoat: out of memory\n");
-        abort();
-    }
+    if (!allocated)
+        SC_DIE_OOM(bytes, "the load balance of a thread team");
     return allocated;
 }
 
@@ -37,10 +38,11 @@ void balance_prepare(struct balance *b, int threads)
         return;
     balance_free(b);
     b->threads = threads;
-    b->speed = or_die(calloc((size_t)threads, sizeof *b->speed));
-    b->items = or_die(calloc((size_t)threads, sizeof *b->items));
-    b->seconds = or_die(calloc((size_t)threads, sizeof *b->seconds));
-    b->rest = or_die(aligned_alloc(alignof(struct balance_rest), (size_t)threads * sizeof *b->rest));
+    b->speed = or_die(calloc((size_t)threads, sizeof *b->speed), (size_t)threads * sizeof *b->speed);
+    b->items = or_die(calloc((size_t)threads, sizeof *b->items), (size_t)threads * sizeof *b->items);
+    b->seconds = or_die(calloc((size_t)threads, sizeof *b->seconds), (size_t)threads * sizeof *b->seconds);
+    b->rest = or_die(aligned_alloc(alignof(struct balance_rest), (size_t)threads * sizeof *b->rest),
+                     (size_t)threads * sizeof *b->rest);
     for (int t = 0; t < threads; t++)
         atomic_init(&b->rest[t].word, 0);
 }

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static _Thread_local char error_message[2048];
@@ -42,4 +43,28 @@ const char *sc_strerror(int errnum)
     case EDQUOT: return "disk quota exceeded";
     default: return strerror(errnum);
     }
+}
+
+int sc_out_of_memory(const char *file, int line, size_t bytes, const char *what)
+{
+    return sc_error_set(SC_EIO, file, line, "out of memory: cannot allocate %zu bytes for %s", bytes, what);
+}
+
+_Noreturn void sc_out_of_memory_exit(const char *file, int line, size_t bytes, const char *what)
+{
+    fprintf(stderr, "spraycoat: out of memory: cannot allocate %zu bytes for %s\n  at %s:%d\n", bytes, what, file,
+            line);
+    fflush(stderr);
+    _Exit(SC_EIO);
+}
+
+int sc_calloc_at(const char *file, int line, void *out_pointer, size_t count, size_t size, const char *what)
+{
+    void *allocated = calloc(count ? count : 1, size ? size : 1);
+    *(void **)out_pointer = allocated;
+    if (!allocated) {
+        size_t bytes = size && count > (size_t)-1 / size ? (size_t)-1 : count * size;
+        return sc_out_of_memory(file, line, bytes, what);
+    }
+    return SC_OK;
 }

@@ -116,7 +116,9 @@ static int strata_alloc(struct couple_strata *s, size_t strata, size_t members, 
     s->slot_stratum = calloc(slots ? slots : 1, sizeof *s->slot_stratum);
     if (!s->offset || !s->members || !s->slot_stratum) {
         couple_strata_free(s);
-        SC_FAIL(SC_ESIM, "couple: out of memory for %zu candidates", members);
+        SC_FAIL_OOM((strata + 1) * sizeof *s->offset + (members ? members : 1) * sizeof *s->members +
+                        (slots ? slots : 1) * sizeof *s->slot_stratum,
+                    "the strata of the candidates");
     }
     return SC_OK;
 }
@@ -155,13 +157,14 @@ static int build_stratified(const struct couple_config *cfg, const struct couple
     size_t n_d = (size_t)ceil(sqrt((double)seeds));
     size_t *by_diameter = malloc((n ? n : 1) * sizeof *by_diameter);
     if (!by_diameter)
-        SC_FAIL(SC_ESIM, "couple: out of memory");
+        SC_FAIL_OOM((n ? n : 1) * sizeof *by_diameter, "the candidates by diameter");
     for (size_t i = 0; i < n; i++)
         by_diameter[i] = i;
     sort_members(cand, by_diameter, n, 0);
-    int status = strata_alloc(s, seeds, n, seeds);
+    int status;
+    SC_CHECK(status, strata_alloc(s, seeds, n, seeds), done);
     size_t stratum = 0;
-    for (size_t i = 0; status == SC_OK && i < n_d; i++) {
+    for (size_t i = 0; i < n_d; i++) {
         size_t first = i * n / n_d, last = (i + 1) * n / n_d;           /* diameter quantile i */
         size_t slots = (seeds - i + n_d - 1) / n_d;                      /* seeds i, i + n_d, ... */
         sort_members(cand, by_diameter + first, last - first, 1);
@@ -173,6 +176,7 @@ static int build_stratified(const struct couple_config *cfg, const struct couple
             s->slot_stratum[i + j * n_d] = stratum;
         }
     }
+done:
     free(by_diameter);
     return status;
 }

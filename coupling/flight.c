@@ -97,7 +97,7 @@ int couple_flight_solver_create(struct couple_flight_solver **out)
 {
     struct couple_flight_solver *solver = calloc(1, sizeof *solver);
     if (!solver)
-        SC_FAIL(SC_ESIM, "flight: out of memory");
+        SC_FAIL_OOM(sizeof *solver, "the flight solver");
     int ok = SUNContext_Create(NULL, &solver->context) == 0;
     if (ok) {
         solver->state = N_VNew_Serial(STATE, solver->context);
@@ -112,7 +112,7 @@ int couple_flight_solver_create(struct couple_flight_solver **out)
     }
     if (!ok) {
         couple_flight_solver_destroy(solver);
-        SC_FAIL(SC_ESIM, "flight: cannot create the CVODE solver (out of memory?)");
+        SC_FAIL(SC_EIO, "flight: cannot create the CVODE solver (out of memory?)");
     }
     *out = solver;
     return SC_OK;
@@ -185,7 +185,7 @@ static int record_sample(struct couple_flight_result *r, size_t *capacity, doubl
         if (velocities)
             r->sample_v = velocities;
         if (!times || !positions || !velocities)
-            SC_FAIL(SC_ESIM, "flight: out of memory for the trajectory");
+            SC_FAIL_OOM(7 * grown * sizeof *times, "the trajectory");
         *capacity = grown;
     }
     r->sample_t[r->samples] = t;
@@ -283,7 +283,8 @@ int couple_flight_integrate(struct couple_flight_solver *solver, const struct co
     int status = integrate_steps(solver, t_limit, edge_ahead, result);
     if (status != SC_OK)
         couple_flight_result_free(result);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 void couple_flight_result_free(struct couple_flight_result *result)

@@ -77,22 +77,27 @@ static int write_column(hid_t group, const char *name, const void *rows, size_t 
     hsize_t dims[2] = {count, (hsize_t)width};
     int rank = width == 1 ? 1 : 2;
     size_t n = count * (size_t)width;
-    void *column = dem_realloc_or_die(NULL, (n ? n : 1) * 8);
+    void *column = malloc((n ? n : 1) * 8);
+    if (!column)
+        SC_FAIL_OOM((n ? n : 1) * 8, name);
     for (size_t i = 0; i < count; i++)
         memcpy((char *)column + i * (size_t)width * 8, (const char *)rows + i * stride + offset, (size_t)width * 8);
     int status = is_int ? h5_write_int64s(group, name, rank, dims, column, units, 0)
                         : h5_write_doubles(group, name, rank, dims, column, units, 0);
     free(column);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
+/* in a function with `int status` and a cleanup label `done` that closes the group */
 #define COLUMN(group, rows, count, type, field, width, units, is_int)                                       \
-    SC_TRY(write_column(group, #field, rows, count, sizeof(type), offsetof(type, field), width, units, is_int))
+    SC_CHECK(status, write_column(group, #field, rows, count, sizeof(type), offsetof(type, field), width, units, is_int), done)
 
 static int write_impacts(hid_t file, const struct dem_solver *s)
 {
     hid_t g;
     SC_TRY(h5_create_group(file, "impacts", &g));
+    int status = SC_OK;
     const struct dem_impact *r = s->impacts;
     size_t n = s->impact_count;
     COLUMN(g, r, n, struct dem_impact, t, 1, "s", 0);
@@ -106,14 +111,16 @@ static int write_impacts(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_impact, m, 1, "kg", 0);
     COLUMN(g, r, n, struct dem_impact, outcome, 1, "0 rebound, 1 deposited", 1);
     COLUMN(g, r, n, struct dem_impact, partner, 1, "-1 target, else particle id", 1);
+done:
     H5Gclose(g);
-    return SC_OK;
+    return status;
 }
 
 static int write_handoffs(hid_t file, const struct dem_solver *s)
 {
     hid_t g;
     SC_TRY(h5_create_group(file, "handoff", &g));
+    int status = SC_OK;
     const struct dem_handoff *r = s->handoffs;
     size_t n = s->handoff_count;
     COLUMN(g, r, n, struct dem_handoff, t, 1, "s", 0);
@@ -122,15 +129,17 @@ static int write_handoffs(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_handoff, v, 3, "m/s", 0);
     COLUMN(g, r, n, struct dem_handoff, w, 3, "rad/s", 0);
     COLUMN(g, r, n, struct dem_handoff, d, 1, "m", 0);
-    SC_TRY(h5_attr_write_double(g, "plane_z", s->cfg.standoff - s->cfg.handoff_height));
+    SC_CHECK(status, h5_attr_write_double(g, "plane_z", s->cfg.standoff - s->cfg.handoff_height), done);
+done:
     H5Gclose(g);
-    return SC_OK;
+    return status;
 }
 
 static int write_metrics(hid_t file, const struct dem_solver *s)
 {
     hid_t g;
     SC_TRY(h5_create_group(file, "metrics", &g));
+    int status = SC_OK;
     const struct dem_metrics *r = s->metrics;
     size_t n = s->metric_count;
     COLUMN(g, r, n, struct dem_metrics, t, 1, "s", 0);
@@ -144,8 +153,9 @@ static int write_metrics(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_metrics, scatter, 1, "m", 0);
     COLUMN(g, r, n, struct dem_metrics, max_thickness, 1, "m", 0);
     COLUMN(g, r, n, struct dem_metrics, deposition_rate, 1, "1/s", 0);
+done:
     H5Gclose(g);
-    return SC_OK;
+    return status;
 }
 
 static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
@@ -154,21 +164,24 @@ static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
     hid_t g;
     SC_TRY(h5_create_group(file, "particles", &g));
     hsize_t n1[1] = {p->count}, n3[2] = {p->count, 3};
-    int64_t *state = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *state);
+    int status = SC_OK;
+    size_t state_bytes = (p->count ? p->count : 1) * sizeof(int64_t);
+    int64_t *state = malloc(state_bytes);
+    if (!state)
+        SC_FAIL_OOM_AT(status, done, state_bytes, "the particle states");
     for (size_t i = 0; i < p->count; i++)
         state[i] = p->state[i];
-    int status = h5_write_int64s(g, "id", 1, n1, p->id, "", checksum);
-    if (status == SC_OK)
-        status = h5_write_int64s(g, "state", 1, n1, state, "0 flying, 1 deposited", checksum);
+    SC_CHECK(status, h5_write_int64s(g, "id", 1, n1, p->id, "", checksum), done);
+    SC_CHECK(status, h5_write_int64s(g, "state", 1, n1, state, "0 flying, 1 deposited", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "x", 2, n3, p->x, "m", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "v", 2, n3, p->v, "m/s", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "w", 2, n3, p->w, "rad/s", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "d", 1, n1, p->d, "m", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "m", 1, n1, p->m, "kg", checksum), done);
+done:
     free(state);
-    SC_TRY(status);
-    SC_TRY(h5_write_doubles(g, "x", 2, n3, p->x, "m", checksum));
-    SC_TRY(h5_write_doubles(g, "v", 2, n3, p->v, "m/s", checksum));
-    SC_TRY(h5_write_doubles(g, "w", 2, n3, p->w, "rad/s", checksum));
-    SC_TRY(h5_write_doubles(g, "d", 1, n1, p->d, "m", checksum));
-    SC_TRY(h5_write_doubles(g, "m", 1, n1, p->m, "kg", checksum));
     H5Gclose(g);
-    return SC_OK;
+    return status;
 }
 
 static int write_stats(hid_t file, const struct dem_solver *s)
@@ -176,24 +189,26 @@ static int write_stats(hid_t file, const struct dem_solver *s)
     struct dem_counts c = dem_get_counts(s);
     hid_t g;
     SC_TRY(h5_create_group(file, "stats", &g));
-    SC_TRY(h5_attr_write_int64(g, "steps", c.step));
-    SC_TRY(h5_attr_write_double(g, "t", c.t));
-    SC_TRY(h5_attr_write_int64(g, "injected", c.injected));
-    SC_TRY(h5_attr_write_int64(g, "in_flight", c.in_flight));
-    SC_TRY(h5_attr_write_int64(g, "deposited", c.deposited));
-    SC_TRY(h5_attr_write_int64(g, "escaped", c.escaped));
-    SC_TRY(h5_attr_write_int64(g, "injection_deferred", s->injection_deferred));
-    SC_TRY(h5_attr_write_int64(g, "contacts_pair", c.contacts_pair));
-    SC_TRY(h5_attr_write_int64(g, "contacts_target", c.contacts_target));
-    SC_TRY(h5_attr_write_int64(g, "contacts_deposit", c.contacts_deposit));
-    SC_TRY(h5_attr_write_int64(g, "fixed_point_iterations", c.fixed_point_iterations));
-    SC_TRY(h5_attr_write_int64(g, "fixed_point_solves", c.fixed_point_solves));
-    SC_TRY(h5_attr_write_int64(g, "fixed_point_unconverged", c.fixed_point_unconverged));
-    SC_TRY(h5_attr_write_int64(g, "fixed_point_max_iterations", c.max_iterations));
-    SC_TRY(h5_attr_write_int64(g, "subcycled_particle_steps", c.subcycled_particle_steps));
-    SC_TRY(h5_attr_write_int64(g, "particle_steps", c.particle_steps));
+    int status = SC_OK;
+    SC_CHECK(status, h5_attr_write_int64(g, "steps", c.step), done);
+    SC_CHECK(status, h5_attr_write_double(g, "t", c.t), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "injected", c.injected), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "in_flight", c.in_flight), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "deposited", c.deposited), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "escaped", c.escaped), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "injection_deferred", s->injection_deferred), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "contacts_pair", c.contacts_pair), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "contacts_target", c.contacts_target), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "contacts_deposit", c.contacts_deposit), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_iterations", c.fixed_point_iterations), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_solves", c.fixed_point_solves), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_unconverged", c.fixed_point_unconverged), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_max_iterations", c.max_iterations), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "subcycled_particle_steps", c.subcycled_particle_steps), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "particle_steps", c.particle_steps), done);
+done:
     H5Gclose(g);
-    return SC_OK;
+    return status;
 }
 
 int dem_write_output(const struct dem_solver *s, hid_t file)
@@ -243,12 +258,16 @@ static void drag_from_record(const struct dem_drag_record *record, int64_t step,
 
 static int write_drag_state(hid_t group, const struct dem_particles *p, int64_t step)
 {
-    struct dem_drag_record *records = dem_realloc_or_die(NULL, (p->count ? p->count : 1) * sizeof *records);
+    size_t bytes = (p->count ? p->count : 1) * sizeof(struct dem_drag_record);
+    struct dem_drag_record *records = malloc(bytes);
+    if (!records)
+        SC_FAIL_OOM(bytes, "the drag records");
     for (size_t i = 0; i < p->count; i++)
         drag_to_record(&p->drag, step, i, &records[i]);
     int status = h5_write_bytes(group, "drag", p->count * sizeof *records, records, 1);
     free(records);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 static int read_drag_state(hid_t group, struct dem_particles *p, int64_t step)
@@ -260,10 +279,14 @@ static int read_drag_state(hid_t group, struct dem_particles *p, int64_t step)
                 p->count * sizeof(struct dem_drag_record));
     if (!bytes)
         return SC_OK;
-    struct dem_drag_record *records = dem_realloc_or_die(NULL, bytes);
-    int status = h5_read_bytes(group, "drag", records, bytes);
-    for (size_t i = 0; status == SC_OK && i < p->count; i++)
+    struct dem_drag_record *records = malloc(bytes);
+    if (!records)
+        SC_FAIL_OOM(bytes, "the drag records");
+    int status;
+    SC_CHECK(status, h5_read_bytes(group, "drag", records, bytes), done);
+    for (size_t i = 0; i < p->count; i++)
         drag_from_record(&records[i], step, &p->drag, i);
+done:
     free(records);
     return status;
 }
@@ -289,10 +312,14 @@ static int read_records(hid_t group, const char *name, void **items, size_t *cou
     SC_TRY(h5_dataset_size(group, name, &bytes));
     if (bytes % item_size != 0)
         SC_FAIL(SC_EIO, "checkpoint dataset %s has %zu bytes, not a multiple of %zu", name, bytes, item_size);
+    free(*items);
+    *items = malloc((bytes ? bytes : item_size));
+    if (!*items) {
+        *count = *capacity = 0;
+        SC_FAIL_OOM(bytes ? bytes : item_size, name);
+    }
     *count = bytes / item_size;
     *capacity = *count ? *count : 1;
-    free(*items);
-    *items = dem_realloc_or_die(NULL, *capacity * item_size);
     if (bytes)
         SC_TRY(h5_read_bytes(group, name, *items, bytes));
     return SC_OK;
@@ -304,28 +331,25 @@ static int read_particles(hid_t group, struct dem_particles *p)
     if (g < 0)
         SC_FAIL(SC_EIO, "checkpoint has no /particles group");
     size_t n;
-    int status = h5_dataset_size(g, "id", &n);
-    if (status == SC_OK) {
-        dem_particles_reserve(p, n ? n : 1);
-        p->count = n;
-        int64_t *state = dem_realloc_or_die(NULL, (n ? n : 1) * sizeof *state);
-        status = h5_read_int64s(g, "id", p->id, n);
-        if (status == SC_OK)
-            status = h5_read_int64s(g, "state", state, n);
-        for (size_t i = 0; status == SC_OK && i < n; i++)
-            p->state[i] = (uint8_t)state[i];
-        free(state);
-    }
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "x", p->x, 3 * n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "v", p->v, 3 * n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "w", p->w, 3 * n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "d", p->d, n);
-    if (status == SC_OK)
-        status = h5_read_doubles(g, "m", p->m, n);
+    int64_t *state = NULL;
+    int status;
+    SC_CHECK(status, h5_dataset_size(g, "id", &n), done);
+    dem_particles_reserve(p, n ? n : 1);
+    p->count = n;
+    state = malloc((n ? n : 1) * sizeof *state);
+    if (!state)
+        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * sizeof *state, "the particle states");
+    SC_CHECK(status, h5_read_int64s(g, "id", p->id, n), done);
+    SC_CHECK(status, h5_read_int64s(g, "state", state, n), done);
+    for (size_t i = 0; i < n; i++)
+        p->state[i] = (uint8_t)state[i];
+    SC_CHECK(status, h5_read_doubles(g, "x", p->x, 3 * n), done);
+    SC_CHECK(status, h5_read_doubles(g, "v", p->v, 3 * n), done);
+    SC_CHECK(status, h5_read_doubles(g, "w", p->w, 3 * n), done);
+    SC_CHECK(status, h5_read_doubles(g, "d", p->d, n), done);
+    SC_CHECK(status, h5_read_doubles(g, "m", p->m, n), done);
+done:
+    free(state);
     H5Gclose(g);
     return status;
 }
@@ -348,5 +372,6 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
                         sizeof *s->handoffs));
     SC_TRY(read_records(group, "metrics", (void **)&s->metrics, &s->metric_count, &s->metric_capacity,
                         sizeof *s->metrics));
-    return dem_check_accounting(s);
+    SC_TRY(dem_check_accounting(s));
+    return SC_OK;
 }

@@ -257,23 +257,28 @@ static int read_table_h5(const struct case_file *c, const char *path, struct dem
     if (h5_open_read(path, &file) != SC_OK)
         return case_invalid(c, "deposition", "table", "%s", sc_error_message());
     size_t n = 0, n2 = 0;
-    int status = h5_dataset_size(file, "diameter", &n);
-    if (status == SC_OK)
-        status = h5_dataset_size(file, "v_crit", &n2);
-    if (status == SC_OK && (n == 0 || n != n2))
+    int status, out_of_memory = 0;
+    SC_CHECK(status, h5_dataset_size(file, "diameter", &n), done);
+    SC_CHECK(status, h5_dataset_size(file, "v_crit", &n2), done);
+    if (n == 0 || n != n2) {
         status = SC_EINPUT;
-    if (status == SC_OK) {
-        cfg->table_diameter = dem_realloc_or_die(NULL, n * sizeof(double));
-        cfg->table_velocity = dem_realloc_or_die(NULL, n * sizeof(double));
-        cfg->table_count = n;
-        status = h5_read_doubles(file, "diameter", cfg->table_diameter, n);
-        if (status == SC_OK)
-            status = h5_read_doubles(file, "v_crit", cfg->table_velocity, n);
+        goto done;
     }
+    cfg->table_diameter = malloc(n * sizeof(double));
+    cfg->table_velocity = malloc(n * sizeof(double));
+    if (!cfg->table_diameter || !cfg->table_velocity) {
+        out_of_memory = 1;
+        SC_FAIL_OOM_AT(status, done, 2 * n * sizeof(double), "the deposition table");
+    }
+    cfg->table_count = n;
+    SC_CHECK(status, h5_read_doubles(file, "diameter", cfg->table_diameter, n), done);
+    SC_CHECK(status, h5_read_doubles(file, "v_crit", cfg->table_velocity, n), done);
+done:
     H5Fclose(file);
-    if (status != SC_OK)
+    if (status != SC_OK && !out_of_memory)
         return case_invalid(c, "deposition", "table",
                             "%s: needs datasets /diameter and /v_crit of equal, non-zero length", path);
+    SC_TRY(status);
     return SC_OK;
 }
 
@@ -293,8 +298,12 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
         double *rows = NULL;
         SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows,
                                 &cfg->table_count));
-        cfg->table_diameter = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
-        cfg->table_velocity = dem_realloc_or_die(NULL, cfg->table_count * sizeof(double));
+        cfg->table_diameter = malloc(cfg->table_count * sizeof(double));
+        cfg->table_velocity = malloc(cfg->table_count * sizeof(double));
+        if (!cfg->table_diameter || !cfg->table_velocity) {
+            free(rows);
+            SC_FAIL_OOM(2 * cfg->table_count * sizeof(double), "the deposition table");
+        }
         for (size_t i = 0; i < cfg->table_count; i++) {
             cfg->table_diameter[i] = rows[2 * i];
             cfg->table_velocity[i] = rows[2 * i + 1];
@@ -359,7 +368,8 @@ int dem_config_load(const struct case_file *c, struct dem_config *cfg)
     int status = load_all(c, cfg);
     if (status != SC_OK)
         dem_config_free(cfg);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 void dem_config_free(struct dem_config *cfg)

@@ -12,7 +12,7 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
 {
     struct dem_solver *s = calloc(1, sizeof *s);
     if (!s)
-        SC_FAIL(SC_ESIM, "spray: out of memory");
+        SC_FAIL_OOM(sizeof *s, "the spray solver");
     s->cfg = *cfg;
     s->reuse_drag = 1;
     s->weibull_lambda = dem_weibull_scale(cfg->sizes.median_diameter, cfg->sizes.shape);

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/error.h"
 #include "mpm/mpm_impl.h"
 
 struct body_sums {
@@ -78,8 +79,8 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
     struct body_sums *sums = calloc((size_t)nb, sizeof *sums);
-    if (!sums)
-        abort();
+    if (!sums) /* it returns the diagnostics, not a status */
+        SC_DIE_OOM((size_t)nb * sizeof *sums, "the diagnostics of the bodies");
     const struct mpm_points *p = &s->points;
     for (size_t i = 0; i < p->count; i++) {
         if (i + DIAGNOSTICS_AHEAD < p->count)
@@ -203,7 +204,7 @@ void mpm_book_absorbed_energy(struct mpm_solver *s)
         s->energy_absorbed -= work[k];
 }
 
-void mpm_series_record(struct mpm_solver *s)
+int mpm_series_record(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
     size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
@@ -211,7 +212,7 @@ void mpm_series_record(struct mpm_solver *s)
         size_t grown = s->series_capacity ? 2 * s->series_capacity : 256;
         double *more = realloc(s->series, grown * width * sizeof *more);
         if (!more)
-            abort();
+            SC_FAIL_OOM(grown * width * sizeof *more, "the impact series");
         s->series = more;
         s->series_capacity = grown;
     }
@@ -230,4 +231,5 @@ void mpm_series_record(struct mpm_solver *s)
                                           (double)x->contacted_points, (double)x->bonded_points};
         memcpy(r, values, sizeof values);
     }
+    return SC_OK;
 }

@@ -84,7 +84,10 @@ static int alloc_layers(struct mpm_grid *g)
     g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
     if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
         !g->bond_weight || !g->contact || !g->wall_held)
-        SC_FAIL(SC_ESIM, "out of memory for a grid of %zu nodes x %d bodies", g->nodes, g->layers);
+        SC_FAIL_OOM(n * (sizeof *g->mass + 15 * sizeof *g->momentum + sizeof *g->bond_sum + sizeof *g->bond_weight +
+                         sizeof *g->contact + sizeof *g->wall_held) +
+                        3 * sizeof *g->momentum,
+                    "the grid (nodes x bodies)");
     return SC_OK;
 }
 
@@ -120,10 +123,12 @@ static int alloc_blocks(struct mpm_grid *g, size_t points, double spacing)
     }
     for (int c = 0; c < 8; c++)
         if (!g->colour_blocks[c] || !g->colour_points[c])
-            SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
+            SC_FAIL_OOM((2 * g->block_count + 1) * sizeof *g->colour_points[c], "the grid blocks of a colour");
     if (!g->block_start || !g->block_points || !g->block_cursor || !g->point_block || !g->point_node ||
         !g->point_fraction)
-        SC_FAIL(SC_ESIM, "out of memory for the grid blocks");
+        SC_FAIL_OOM((points ? points : 1) * (sizeof *g->block_points + sizeof *g->point_block + sizeof *g->point_node +
+                                             3 * sizeof *g->point_fraction),
+                    "the grid blocks");
     for (int k = 0; k < g->blocks[2]; k++)
         for (int j = 0; j < g->blocks[1]; j++)
             for (int i = 0; i < g->blocks[0]; i++) {
@@ -186,7 +191,8 @@ int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, st
         g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
     }
     SC_TRY(alloc_layers(g));
-    return alloc_blocks(g, p->count, cfg->spacing);
+    SC_TRY(alloc_blocks(g, p->count, cfg->spacing));
+    return SC_OK;
 }
 
 void mpm_grid_free(struct mpm_grid *g)

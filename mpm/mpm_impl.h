@@ -338,7 +338,7 @@ static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_i
 }
 
 /* diagnostics.c */
-void mpm_series_record(struct mpm_solver *s);
+int mpm_series_record(struct mpm_solver *s);
 /* Work of the absorbing boundaries this step, on the start momenta (after mpm_contact_nodal_update). */
 void mpm_book_absorbed_energy(struct mpm_solver *s);
 

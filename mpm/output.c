@@ -60,28 +60,33 @@ int mpm_write_snapshot(const struct mpm_solver *s, hid_t group)
     };
     const struct mpm_points *p = &s->points;
     size_t n = active_count(p);
+    int status = SC_OK;
     double *buffer = malloc((3 * n + 1) * sizeof *buffer);
     int64_t *integers = malloc((n + 1) * sizeof *integers);
-    int status = buffer && integers ? SC_OK : SC_ESIM;
-    for (size_t f = 0; status == SC_OK && f < sizeof fields / sizeof fields[0]; f++) {
+    if (!buffer)
+        SC_FAIL_OOM_AT(status, done, (3 * n + 1) * sizeof *buffer, "a snapshot field");
+    if (!integers)
+        SC_FAIL_OOM_AT(status, done, (n + 1) * sizeof *integers, "a snapshot field");
+    for (size_t f = 0; f < sizeof fields / sizeof fields[0]; f++) {
         hsize_t dims[2] = {n, 3};
         gather(p, fields[f].field, buffer);
         if (fields[f].integer) {
             for (size_t k = 0; k < n; k++)
                 integers[k] = (int64_t)buffer[k];
-            status = h5_write_int64s(group, fields[f].name, 1, dims, integers, fields[f].units, 0);
+            SC_CHECK(status, h5_write_int64s(group, fields[f].name, 1, dims, integers, fields[f].units, 0), done);
         } else {
-            status = h5_write_doubles(group, fields[f].name, fields[f].width == 3 ? 2 : 1, dims, buffer,
-                                      fields[f].units, 0);
+            SC_CHECK(status,
+                     h5_write_doubles(group, fields[f].name, fields[f].width == 3 ? 2 : 1, dims, buffer,
+                                      fields[f].units, 0),
+                     done);
         }
     }
-    if (status == SC_OK)
-        status = h5_attr_write_double(group, "t", s->t);
-    if (status == SC_OK)
-        status = h5_attr_write_int64(group, "step", s->step);
+    SC_CHECK(status, h5_attr_write_double(group, "t", s->t), done);
+    SC_CHECK(status, h5_attr_write_int64(group, "step", s->step), done);
+done:
     free(buffer);
     free(integers);
-    return status == SC_ESIM ? sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory") : status;
+    return status;
 }
 
 /* Column `column` of every body out of the recorded series rows into out (rows x bodies). */
@@ -105,29 +110,28 @@ static int write_series(const struct mpm_solver *s, hid_t group)
     size_t nt = s->series_rows, nb = (size_t)s->cfg.body_count, width = SERIES_FIXED + nb * SERIES_PER_BODY;
     double *buffer = malloc((3 * nt * nb + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((3 * nt * nb + 1) * sizeof *buffer, "the impact series");
     int status = SC_OK;
     static const char *const fixed[] = {"t", "energy_total", "energy_absorbed", "energy_removed"};
     static const char *const fixed_units[] = {"s", "J", "J", "J"};
-    for (int c = 0; status == SC_OK && c < SERIES_FIXED; c++) {
+    for (int c = 0; c < SERIES_FIXED; c++) {
         for (size_t r = 0; r < nt; r++)
             buffer[r] = s->series[r * width + (size_t)c];
         hsize_t dims[1] = {nt};
-        status = h5_write_doubles(group, fixed[c], 1, dims, buffer, fixed_units[c], 0);
+        SC_CHECK(status, h5_write_doubles(group, fixed[c], 1, dims, buffer, fixed_units[c], 0), done);
     }
-    for (size_t f = 0; status == SC_OK && f < sizeof per_body / sizeof per_body[0]; f++) {
+    for (size_t f = 0; f < sizeof per_body / sizeof per_body[0]; f++) {
         series_column(s, per_body[f].column, buffer);
         hsize_t dims[2] = {nt, nb};
-        status = h5_write_doubles(group, per_body[f].name, 2, dims, buffer, per_body[f].units, 0);
+        SC_CHECK(status, h5_write_doubles(group, per_body[f].name, 2, dims, buffer, per_body[f].units, 0), done);
     }
-    if (status == SC_OK) {
-        for (size_t r = 0; r < nt; r++)
-            for (size_t b = 0; b < nb; b++)
-                for (int d = 0; d < 3; d++)
-                    buffer[(r * nb + b) * 3 + (size_t)d] = s->series[r * width + SERIES_FIXED + b * SERIES_PER_BODY + (size_t)d];
-        hsize_t dims[3] = {nt, nb, 3};
-        status = h5_write_doubles(group, "v_com", 3, dims, buffer, "m/s", 0);
-    }
+    for (size_t r = 0; r < nt; r++)
+        for (size_t b = 0; b < nb; b++)
+            for (int d = 0; d < 3; d++)
+                buffer[(r * nb + b) * 3 + (size_t)d] = s->series[r * width + SERIES_FIXED + b * SERIES_PER_BODY + (size_t)d];
+    hsize_t dims[3] = {nt, nb, 3};
+    SC_CHECK(status, h5_write_doubles(group, "v_com", 3, dims, buffer, "m/s", 0), done);
+done:
     free(buffer);
     return status;
 }
@@ -138,10 +142,10 @@ static int write_summary(struct mpm_solver *s, hid_t group)
     double *values = calloc((size_t)nb * 6, sizeof *values);
     int64_t *bonded = calloc((size_t)nb, sizeof *bonded), *substrate = calloc((size_t)nb, sizeof *substrate);
     int *verdict = calloc((size_t)nb, sizeof *verdict);
-    if (!values || !bonded || !substrate || !verdict) {
-        free(values), free(bonded), free(substrate), free(verdict);
-        SC_FAIL(SC_ESIM, "out of memory");
-    }
+    int status = SC_OK;
+    if (!values || !bonded || !substrate || !verdict)
+        SC_FAIL_OOM_AT(status, done, (size_t)nb * (6 * sizeof *values + 2 * sizeof *bonded + sizeof *verdict),
+                       "the impact summary");
     mpm_verdicts(s, verdict);
     const struct mpm_diagnostics *d = &s->diagnostics;
     double *diameter = values, *v_impact = values + nb, *pbcp = values + 2 * nb, *v_rest = values + 3 * nb,
@@ -156,13 +160,14 @@ static int write_summary(struct mpm_solver *s, hid_t group)
         substrate[b] = s->cfg.bodies[b].substrate;
     }
     hsize_t dims[1] = {(hsize_t)nb};
-    int status = h5_write_doubles(group, "diameter", 1, dims, diameter, "m", 0);
-    if (status == SC_OK) status = h5_write_doubles(group, "v_impact", 1, dims, v_impact, "m/s", 0);
-    if (status == SC_OK) status = h5_write_int64s(group, "bonded", 1, dims, bonded, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(group, "pbcp", 1, dims, pbcp, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(group, "v_rest", 1, dims, v_rest, "m/s", 0);
-    if (status == SC_OK) status = h5_write_doubles(group, "cor", 1, dims, cor, "-", 0);
-    if (status == SC_OK) status = h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0);
+    SC_CHECK(status, h5_write_doubles(group, "diameter", 1, dims, diameter, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "v_impact", 1, dims, v_impact, "m/s", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "bonded", 1, dims, bonded, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "pbcp", 1, dims, pbcp, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "v_rest", 1, dims, v_rest, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, cor, "-", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0), done);
+done:
     free(values), free(bonded), free(substrate), free(verdict);
     return status;
 }
@@ -186,7 +191,9 @@ static int write_group(hid_t parent, const char *name, int (*writer)(struct mpm_
 {
     hid_t group;
     SC_TRY(h5_create_group(parent, name, &group));
-    int status = writer(s, group);
+    int status;
+    SC_CHECK(status, writer(s, group), done);
+done:
     H5Gclose(group);
     return status;
 }
@@ -198,7 +205,8 @@ int mpm_write_results(struct mpm_solver *s, hid_t parent)
 {
     SC_TRY(write_group(parent, "series", series_writer, s));
     SC_TRY(write_group(parent, "summary", write_summary, s));
-    return write_group(parent, "stats", stats_writer, s);
+    SC_TRY(write_group(parent, "stats", stats_writer, s));
+    return SC_OK;
 }
 
 /* ---- checkpoints ---- */
@@ -223,20 +231,22 @@ static int write_point_doubles(hid_t g, const char *name, const struct mpm_point
     hsize_t dims[2] = {p->count, (hsize_t)width};
     double *ordered = in_id_order(p, data, (size_t)width * sizeof *data);
     if (!ordered)
-        SC_FAIL(SC_ESIM, "out of memory writing the checkpoint's %s", name);
+        SC_FAIL_OOM(p->count * (size_t)width * sizeof *data + 1, name);
     int status = h5_write_doubles(g, name, width > 1 ? 2 : 1, dims, ordered, units, 1);
     free(ordered);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 static int write_point_bytes(hid_t g, const char *name, const struct mpm_points *p, const void *data, size_t size)
 {
     void *ordered = in_id_order(p, data, size);
     if (!ordered)
-        SC_FAIL(SC_ESIM, "out of memory writing the checkpoint's %s", name);
+        SC_FAIL_OOM(p->count * size + 1, name);
     int status = h5_write_bytes(g, name, p->count * size, ordered, 1);
     free(ordered);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
@@ -263,7 +273,8 @@ int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
     /* the point state as its struct bytes: MPM_FORMAT_VERSION changes when struct mpm_point_state does */
     SC_TRY(write_point_bytes(g, "state", p, p->state, sizeof *p->state));
     SC_TRY(write_point_bytes(g, "body", p, p->body, sizeof *p->body));
-    return write_point_bytes(g, "flags", p, p->flags, sizeof *p->flags);
+    SC_TRY(write_point_bytes(g, "flags", p, p->flags, sizeof *p->flags));
+    return SC_OK;
 }
 
 int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
@@ -284,7 +295,7 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
         SC_FAIL(SC_EINPUT, "impact checkpoint: series of %zu values is not a whole number of rows", count);
     double *series = malloc((count + 1) * sizeof *series);
     if (!series)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((count + 1) * sizeof *series, "the impact series");
     free(s->series);
     s->series = series;
     s->series_rows = s->series_capacity = count / width;

@@ -94,7 +94,7 @@ int mpm_points_reorder(struct mpm_solver *s)
     struct mpm_points *p = &s->points;
     uint32_t *from = malloc((p->count ? p->count : 1) * sizeof *from);
     if (!from)
-        SC_FAIL(SC_ESIM, "out of memory reordering %zu material points", p->count);
+        SC_FAIL_OOM((p->count ? p->count : 1) * sizeof *from, "the reordering of the material points");
     transfer_order(s, from);
     permute(p, from);
 #pragma omp parallel for schedule(static)

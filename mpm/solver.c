@@ -16,7 +16,8 @@ static int copy_config(const struct mpm_config *from, struct mpm_config *to)
     to->materials = malloc((size_t)from->material_count * sizeof *to->materials);
     to->bodies = malloc((size_t)from->body_count * sizeof *to->bodies);
     if (!to->materials || !to->bodies)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)from->material_count * sizeof *to->materials + (size_t)from->body_count * sizeof *to->bodies,
+                    "the impact materials and bodies");
     memcpy(to->materials, from->materials, (size_t)from->material_count * sizeof *to->materials);
     memcpy(to->bodies, from->bodies, (size_t)from->body_count * sizeof *to->bodies);
     return SC_OK;
@@ -65,7 +66,8 @@ static int list_boundary_points(struct mpm_solver *s)
     s->boundary_points = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_points);
     s->boundary_work = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_work);
     if (!s->boundary_points || !s->boundary_work)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((s->boundary_count ? s->boundary_count : 1) * (sizeof *s->boundary_points + sizeof *s->boundary_work),
+                    "the absorbing-boundary points");
     size_t k = 0;
     for (size_t q = 0; q < p->count; q++)
         if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
@@ -78,7 +80,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     struct mpm_solver *s = calloc(1, sizeof *s);
     *out = s;
     if (!s)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM(sizeof *s, "the impact solver");
     SC_TRY(copy_config(cfg, &s->cfg));
     s->lp = 0.5 * cfg->spacing;
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
@@ -86,7 +88,9 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->body_diagnostics = calloc((size_t)cfg->body_count, sizeof *s->body_diagnostics);
     s->material_constants = calloc((size_t)cfg->material_count, sizeof *s->material_constants);
     if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics || !s->material_constants)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)cfg->body_count * (3 * sizeof *s->body_speed + sizeof *s->body_diagnostics) +
+                        (size_t)cfg->material_count * sizeof *s->material_constants,
+                    "the impact bodies' constants");
     for (int m = 0; m < cfg->material_count; m++)
         mpm_material_prepare(&s->cfg.materials[m], &s->material_constants[m]);
     body_constants(s);
@@ -97,7 +101,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->next_series = cfg->series_every;
     s->next_snapshot = cfg->snapshot_every;
     s->snapshot_pending = 1;
-    mpm_series_record(s);
+    SC_TRY(mpm_series_record(s));
     return SC_OK;
 }
 
@@ -622,12 +626,12 @@ static int remove_escaped(struct mpm_solver *s)
     return SC_OK;
 }
 
-static void advance_clocks(struct mpm_solver *s)
+static int advance_clocks(struct mpm_solver *s)
 {
     const struct mpm_config *cfg = &s->cfg;
     int last = mpm_finished(s);
     if (s->t >= s->next_series * (1.0 - 1e-12) || last) {
-        mpm_series_record(s);
+        SC_TRY(mpm_series_record(s));
         while (s->next_series <= s->t * (1.0 + 1e-12))
             s->next_series += cfg->series_every;
     }
@@ -636,6 +640,7 @@ static void advance_clocks(struct mpm_solver *s)
         while (s->next_snapshot <= s->t * (1.0 + 1e-12))
             s->next_snapshot += cfg->snapshot_every;
     }
+    return SC_OK;
 }
 
 /* Steps between two reorderings of the point storage (point_order.c).  The points of a block drift into other
@@ -665,7 +670,7 @@ int mpm_step(struct mpm_solver *s)
     s->step++;
     s->point_updates += (int64_t)s->points.count - s->removed_points;
     SC_TRY(remove_escaped(s));
-    advance_clocks(s);
+    SC_TRY(advance_clocks(s));
     return SC_OK;
 }
 

@@ -127,10 +127,9 @@ static int build_program(struct render_renderer *r)
     GLuint vs, fs;
     SC_TRY(compile_shader(GL_VERTEX_SHADER, vertex_source, &vs));
     int status = compile_shader(GL_FRAGMENT_SHADER, fragment_source, &fs);
-    if (status != SC_OK) {
+    if (status != SC_OK)
         gl.glDeleteShader(vs);
-        return status;
-    }
+    SC_TRY(status);
     r->program = gl.glCreateProgram();
     gl.glAttachShader(r->program, vs);
     gl.glAttachShader(r->program, fs);
@@ -179,7 +178,7 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
     if (!r || !buffer) {
         free(r);
         free(buffer);
-        SC_FAIL(SC_ESIM, "render: out of memory for a %d x %d image", width, height);
+        SC_FAIL_OOM(sizeof *r + (size_t)width * (size_t)height * 4, "the image");
     }
     r->buffer = buffer, r->width = width, r->height = height;
     static const int attributes[] = {OSMESA_FORMAT, OSMESA_BGRA, OSMESA_DEPTH_BITS, 24, OSMESA_STENCIL_BITS, 0,
@@ -192,10 +191,9 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
     }
     gl.OSMesaPixelStore(OSMESA_Y_UP, 0); /* row 0 of the buffer is the top row, as Cairo and PNG want it */
     int status = build_program(r);
-    if (status != SC_OK) {
+    if (status != SC_OK)
         render_renderer_destroy(r);
-        return status;
-    }
+    SC_TRY(status);
     build_vertex_arrays(r);
     r->image = (struct render_image){width, height, width * 4, (uint32_t *)r->buffer};
     *out = r;
@@ -298,7 +296,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
     if (!spheres || !colours) {
         free(spheres);
         free(colours);
-        SC_FAIL(SC_ESIM, "render: out of memory for %zu spheres", s->count);
+        SC_FAIL_OOM((4 * s->count + 4) * (sizeof *spheres + 1), "the spheres of a picture");
     }
     size_t n = project_spheres(s, scene, &cam, spheres, colours);
     if (!gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, r->width, r->height)) {

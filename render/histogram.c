@@ -29,7 +29,7 @@ int render_histogram_fill(const double *values, size_t n, int bins, double lo, d
         finite_range(values, n, &lo, &hi);
     h->counts = calloc((size_t)bins, sizeof *h->counts);
     if (!h->counts)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM((size_t)bins * sizeof *h->counts, "a histogram");
     h->bins = bins, h->lo = lo, h->hi = hi, h->total = 0, h->outside = 0;
     for (size_t i = 0; i < n; i++) {
         double v = values[i];

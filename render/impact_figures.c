@@ -53,15 +53,19 @@ static int list_snapshots(struct impact_run *run)
             H5Gclose(g);
         SC_FAIL(SC_EIO, "render: %s: cannot read the snapshot list", run->path);
     }
+    int status = SC_OK;
     run->snapshots = calloc(info.nlinks + 1, sizeof *run->snapshots);
-    herr_t ok = run->snapshots ? H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_name, run) : -1;
+    if (!run->snapshots)
+        SC_FAIL_OOM_AT(status, done, (info.nlinks + 1) * sizeof *run->snapshots, "the snapshot list");
+    if (H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_name, run) < 0)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: cannot read the snapshot list", run->path);
+done:
     H5Gclose(g);
-    if (ok < 0)
-        SC_FAIL(SC_EIO, "render: %s: cannot read the snapshot list", run->path);
-    return SC_OK;
+    return status;
 }
 
-/* The field of snapshot i as one value per point; *x gets the positions when x != NULL. */
+/* The field of snapshot i as one value per point; *x gets the positions when with_x.  On failure neither array is
+ * left allocated. */
 static int read_snapshot(const struct impact_run *run, int i, int with_x, struct render_array *x,
                          struct render_array *value, double *t)
 {
@@ -71,22 +75,32 @@ static int read_snapshot(const struct impact_run *run, int i, int with_x, struct
     if (g < 0)
         SC_FAIL(SC_EIO, "render: %s: cannot open snapshot %s", run->path, name);
     enum render_field field = run->req->cfg->field;
-    int status = render_read_array(g, run->path, field == RENDER_SPEED ? "v" : field_names[field], value);
-    if (status == SC_OK && with_x)
-        status = render_read_array(g, run->path, "x", x);
-    if (status == SC_OK && h5_attr_read_double(g, "t", t) != SC_OK)
-        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s: snapshot %s has no time", run->path, name);
-    H5Gclose(g);
-    if (status == SC_OK && field == RENDER_SPEED) { /* |v| in place: the first third of the buffer */
+    int status;
+    memset(value, 0, sizeof *value);
+    if (with_x)
+        memset(x, 0, sizeof *x);
+    SC_CHECK(status, render_read_array(g, run->path, field == RENDER_SPEED ? "v" : field_names[field], value), done);
+    if (with_x)
+        SC_CHECK(status, render_read_array(g, run->path, "x", x), done);
+    if (h5_attr_read_double(g, "t", t) != SC_OK)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: snapshot %s has no time", run->path, name);
+    if (field == RENDER_SPEED) { /* |v| in place: the first third of the buffer */
         for (size_t k = 0; k < value->rows; k++) {
             const double *v = value->values + 3 * k;
             value->values[k] = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         }
         value->count = value->rows, value->width = 1;
     }
-    if (status == SC_OK && with_x && x->count != 3 * value->count)
-        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s: snapshot %s: x and %s of different lengths",
-                              run->path, name, field_names[field]);
+    if (with_x && x->count != 3 * value->count)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: snapshot %s: x and %s of different lengths", run->path, name,
+                   field_names[field]);
+done:
+    H5Gclose(g);
+    if (status != SC_OK) {
+        render_array_free(value);
+        if (with_x)
+            render_array_free(x);
+    }
     return status;
 }
 
@@ -168,11 +182,11 @@ static int draw_snapshot(struct impact_run *run, struct render_renderer **render
     struct render_scene scene = {view, cfg->width, cfg->height, lo, hi, field_labels[cfg->field],
                                  field_units[cfg->field], caption, cfg->section_y, 0.5};
     const struct render_image *image;
-    int status = render_renderer_get(cfg, renderer);
-    if (status == SC_OK)
-        status = render_spheres_draw(*renderer, &spheres, &scene, NULL, &image);
-    if (status == SC_OK)
-        status = render_image_write_png(image, path);
+    int status;
+    SC_CHECK(status, render_renderer_get(cfg, renderer), done);
+    SC_CHECK(status, render_spheres_draw(*renderer, &spheres, &scene, NULL, &image), done);
+    SC_CHECK(status, render_image_write_png(image, path), done);
+done:
     render_array_free(&x);
     render_array_free(&value);
     return status;
@@ -195,8 +209,7 @@ static int snapshot_pictures(struct impact_run *run, struct render_renderer **re
         SC_TRY(draw_snapshot(run, renderer, run->snapshot_count - 1, views[v], lo, hi, path));
         snprintf(title, sizeof title, "%s, last snapshot, %s view%s", field_labels[cfg->field], view_names[v],
                  run->label);
-        if (!render_output_add(out, name, "impact", 0, title))
-            SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_TRY(render_output_push(out, name, "impact", 0, title, NULL));
     }
     const char *view_name = view_names[cfg->view == RENDER_VIEW_ISO ? 0 : cfg->view == RENDER_VIEW_SECTION ? 1 : 2];
     if (cfg->every > 0) {
@@ -262,11 +275,13 @@ static int per_body_figure(const struct impact_run *run, const struct series_dat
     double *buffer = malloc(((nb + 1) * nt + 1) * sizeof *buffer);
     struct render_series *series = calloc(nb + 1, sizeof *series);
     char (*labels)[32] = calloc(nb + 1, sizeof *labels);
-    int status = buffer && series && labels ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    int count = 0;
-    for (size_t i = 0; status == SC_OK && i < nt; i++)
+    int status = SC_OK, count = 0;
+    if (!buffer || !series || !labels)
+        SC_FAIL_OOM_AT(status, done, ((nb + 1) * nt + 1) * sizeof *buffer + (nb + 1) * (sizeof *series + sizeof *labels),
+                       "a per-body figure");
+    for (size_t i = 0; i < nt; i++)
         buffer[i] = s->t.values[i] * 1e9;
-    for (size_t b = 0; status == SC_OK && b < nb; b++) {
+    for (size_t b = 0; b < nb; b++) {
         if (s->substrate.count == nb && s->substrate.values[b] == 1)
             continue;
         double *y = buffer + (b + 1) * nt;
@@ -282,10 +297,9 @@ static int per_body_figure(const struct impact_run *run, const struct series_dat
     struct render_plot plot = render_plot_start(run->req->cfg, 1);
     plot.panels[0] = (struct render_panel){title, "time t (ns)", ylabel, NAN, NAN, NAN, NAN, 1, count, series};
     render_figures_dir(run->req->run_dir, dir, sizeof dir);
-    if (status == SC_OK && !render_output_add(out, name, "impact", 1, title))
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    if (status == SC_OK)
-        status = render_plot_write(&plot, dir, name);
+    SC_CHECK(status, render_output_push(out, name, "impact", 1, title, NULL), done);
+    SC_CHECK(status, render_plot_write(&plot, dir, name), done);
+done:
     free(buffer), free(series), free(labels);
     return status;
 }
@@ -305,7 +319,7 @@ static int energy_figure(const struct impact_run *run, const struct series_data 
     size_t nt = s->t.count;
     double *buffer = malloc((7 * nt + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((7 * nt + 1) * sizeof *buffer, "the energy figure");
     double *ns = buffer, *ke = buffer + nt, *internal = buffer + 2 * nt, *plastic = buffer + 3 * nt;
     double *total = buffer + 4 * nt, *absorbed = buffer + 5 * nt, *removed = buffer + 6 * nt;
     body_sum(&s->ke, nt, ke);
@@ -328,8 +342,10 @@ static int energy_figure(const struct impact_run *run, const struct series_data 
     struct render_plot plot = render_plot_start(run->req->cfg, 1);
     plot.panels[0] = (struct render_panel){title, "time t (ns)", "energy (µJ)", NAN, NAN, NAN, NAN, 1, 6, series};
     render_figures_dir(run->req->run_dir, dir, sizeof dir);
-    int status = render_output_add(out, name, "impact", 1, title) ? render_plot_write(&plot, dir, name)
-                                                                   : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    int status;
+    SC_CHECK(status, render_output_push(out, name, "impact", 1, title, NULL), done);
+    SC_CHECK(status, render_plot_write(&plot, dir, name), done);
+done:
     free(buffer);
     return status;
 }
@@ -338,13 +354,12 @@ static int series_figures(const struct impact_run *run, struct render_output *ou
 {
     struct series_data s;
     memset(&s, 0, sizeof s);
-    int status = series_read(run, &s);
-    if (status == SC_OK)
-        status = per_body_figure(run, &s, &s.pbcp, 100, "pbcp", "PBCP (%)", out);
-    if (status == SC_OK)
-        status = per_body_figure(run, &s, &s.v_rest, 1, "v_rest", "restitution velocity v_rest (m/s)", out);
-    if (status == SC_OK)
-        status = energy_figure(run, &s, out);
+    int status;
+    SC_CHECK(status, series_read(run, &s), done);
+    SC_CHECK(status, per_body_figure(run, &s, &s.pbcp, 100, "pbcp", "PBCP (%)", out), done);
+    SC_CHECK(status, per_body_figure(run, &s, &s.v_rest, 1, "v_rest", "restitution velocity v_rest (m/s)", out), done);
+    SC_CHECK(status, energy_figure(run, &s, out), done);
+done:
     series_free(&s);
     return status;
 }
@@ -353,11 +368,11 @@ static int series_figures(const struct impact_run *run, struct render_output *ou
 
 static int draw_run(struct impact_run *run, struct render_renderer **renderer, struct render_output *out)
 {
-    int status = series_figures(run, out);
-    if (status == SC_OK)
-        status = list_snapshots(run);
-    if (status == SC_OK)
-        status = snapshot_pictures(run, renderer, out);
+    int status;
+    SC_CHECK(status, series_figures(run, out), done);
+    SC_CHECK(status, list_snapshots(run), done);
+    SC_CHECK(status, snapshot_pictures(run, renderer, out), done);
+done:
     free(run->snapshots);
     run->snapshots = NULL;
     return status;
@@ -384,26 +399,27 @@ static int draw_runs(const struct render_request *req, hid_t file, const char *p
     struct impact_run run = {.req = req, .path = path, .group = file, .radius = point_radius(req, file)};
     if (h5_exists(file, "series")) {
         snprintf(run.prefix, sizeof run.prefix, "impact");
-        return draw_run(&run, renderer, out);
+        SC_TRY(draw_run(&run, renderer, out));
+        return SC_OK;
     }
     struct run_names *runs = calloc(1, sizeof *runs);
     if (!runs)
-        SC_FAIL(SC_ESIM, "out of memory");
-    int status = H5Literate(file, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_run, runs) < 0 || runs->count == 0
-                     ? sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s has neither /series nor /run_NNNN groups "
-                                    "(not an impact.h5?)", path)
-                     : SC_OK;
-    for (int i = 0; status == SC_OK && i < runs->count; i++) {
+        SC_FAIL_OOM(sizeof *runs, "the list of impact runs");
+    int status = SC_OK;
+    if (H5Literate(file, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_run, runs) < 0 || runs->count == 0)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s has neither /series nor /run_NNNN groups (not an impact.h5?)",
+                   path);
+    for (int i = 0; i < runs->count; i++) {
         run.group = H5Gopen2(file, runs->names[i], H5P_DEFAULT);
-        if (run.group < 0) {
-            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s: cannot open /%s", path, runs->names[i]);
-            break;
-        }
+        if (run.group < 0)
+            SC_FAIL_AT(status, done, SC_EIO, "render: %s: cannot open /%s", path, runs->names[i]);
         snprintf(run.prefix, sizeof run.prefix, "impact_%s", runs->names[i]);
         snprintf(run.label, sizeof run.label, " (%s)", runs->names[i]);
         status = draw_run(&run, renderer, out);
         H5Gclose(run.group);
+        SC_CHECK(status, status, done); /* the run's status, its group closed */
     }
+done:
     free(runs);
     return status;
 }
@@ -417,7 +433,7 @@ int render_impact_figures(const struct render_request *req, struct render_render
     SC_TRY(render_open(path, &file));
     int status = draw_runs(req, file, path, renderer, out);
     H5Fclose(file);
-    if (status == SC_OK)
-        log_info("render: impact figures from %s", path);
-    return status;
+    SC_TRY(status);
+    log_info("render: impact figures from %s", path);
+    return SC_OK;
 }

@@ -162,7 +162,8 @@ int render_surface_write_png(cairo_surface_t *surface, const char *path)
         atomic_abort(&out);
         SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
     }
-    return atomic_publish(&out);
+    SC_TRY(atomic_publish(&out));
+    return SC_OK;
 }
 
 int render_svg_begin(const char *path, double width, double height, struct atomic_file *out,
@@ -180,5 +181,6 @@ int render_image_write_png(const struct render_image *image, const char *path)
                                                                    image->height, image->stride);
     int status = render_surface_write_png(surface, path);
     cairo_surface_destroy(surface);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }

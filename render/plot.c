@@ -260,9 +260,9 @@ int render_plot_write(const struct render_plot *plot, const char *dir, const cha
     cr = cairo_create(surface);
     draw_plot(cr, plot);
     int status = finish(cr, surface, path);
-    if (status != SC_OK) {
+    if (status != SC_OK)
         atomic_abort(&out);
-        return status;
-    }
-    return atomic_publish(&out);
+    SC_TRY(status);
+    SC_TRY(atomic_publish(&out));
+    return SC_OK;
 }

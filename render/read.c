@@ -15,19 +15,17 @@ int render_open(const char *path, hid_t *file)
     return SC_OK;
 }
 
-/* Integer datasets (outcome, state, bonded) are read as int64 and converted. */
-static int read_values(hid_t loc, const char *name, int integer, double *values, size_t count)
+/* Integer datasets (outcome, state, bonded) are read as int64 into `integers` (count + 1 of them) and converted. */
+static int read_values(hid_t loc, const char *name, int64_t *integers, double *values, size_t count)
 {
-    if (!integer)
-        return h5_read_doubles(loc, name, values, count);
-    int64_t *buffer = malloc((count + 1) * sizeof *buffer);
-    if (!buffer)
-        return SC_ESIM;
-    int status = h5_read_int64s(loc, name, buffer, count);
-    for (size_t i = 0; status == SC_OK && i < count; i++)
-        values[i] = (double)buffer[i];
-    free(buffer);
-    return status;
+    if (!integers) {
+        SC_TRY(h5_read_doubles(loc, name, values, count));
+        return SC_OK;
+    }
+    SC_TRY(h5_read_int64s(loc, name, integers, count));
+    for (size_t i = 0; i < count; i++)
+        values[i] = (double)integers[i];
+    return SC_OK;
 }
 
 int render_read_array(hid_t loc, const char *file, const char *name, struct render_array *out)
@@ -54,19 +52,26 @@ int render_read_array(hid_t loc, const char *file, const char *name, struct rend
     size_t count = 1;
     for (int k = 0; k < rank; k++)
         count *= (size_t)dims[k];
+    int status = SC_OK;
+    int64_t *integers = NULL;
     out->values = malloc((count + 1) * sizeof *out->values);
     if (!out->values)
-        SC_FAIL(SC_ESIM, "render: out of memory reading %s from %s", name, file);
+        SC_FAIL_OOM_AT(status, done, (count + 1) * sizeof *out->values, name);
+    if (integer && !(integers = malloc((count + 1) * sizeof *integers)))
+        SC_FAIL_OOM_AT(status, done, (count + 1) * sizeof *integers, name);
     out->count = count;
     out->rows = (size_t)dims[0];
     out->width = out->rows ? count / out->rows : 0;
-    if (read_values(loc, name, integer, out->values, count) != SC_OK) {
-        render_array_free(out);
+    if (read_values(loc, name, integers, out->values, count) != SC_OK) {
         char reason[1024]; /* h5io's message names the file and says why ("... Fletcher32 checksum") */
         snprintf(reason, sizeof reason, "%s", sc_error_message());
-        SC_FAIL(SC_EIO, "render: %s: cannot read dataset %s (damaged file?): %s", file, name, reason);
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: cannot read dataset %s: %s", file, name, reason);
     }
-    return SC_OK;
+done:
+    free(integers);
+    if (status != SC_OK)
+        render_array_free(out);
+    return status;
 }
 
 void render_array_free(struct render_array *a)

@@ -75,6 +75,9 @@ int render_open(const char *path, hid_t *file);
 /* Append a figure entry (name, title, group); returns it, or NULL when out of memory. */
 struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group,
                                         int is_plot, const char *title);
+/* render_output_add with a status: SC_OK and *figure (when figure is not NULL) the entry, or out of memory. */
+int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot,
+                       const char *title, struct render_figure **figure);
 /* The plot sizes of the request. */
 struct render_plot render_plot_start(const struct render_config *cfg, int panels);
 /* RUN_DIR/figures */

@@ -30,6 +30,17 @@ struct render_figure *render_output_add(struct render_output *out, const char *n
     return fig;
 }
 
+int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot,
+                       const char *title, struct render_figure **figure)
+{
+    struct render_figure *fig = render_output_add(out, name, group, is_plot, title);
+    if (!fig)
+        SC_FAIL_OOM((size_t)(out->capacity ? 2 * out->capacity : 16) * sizeof *fig, "the list of figures");
+    if (figure)
+        *figure = fig;
+    return SC_OK;
+}
+
 void render_output_free(struct render_output *out)
 {
     for (int i = 0; i < out->count; i++)
@@ -84,11 +95,12 @@ static int draw_all(const struct render_request *req, struct render_output *out)
     struct render_renderer *renderer = NULL;
     int status = SC_OK;
     if (exists(req->run_dir, "spray.h5"))
-        status = render_spray_figures(req, &renderer, out);
-    if (status == SC_OK && exists(req->run_dir, "impact.h5"))
-        status = render_impact_figures(req, &renderer, out);
-    if (status == SC_OK && exists(req->run_dir, "vcrit.h5"))
-        status = render_vcrit_figures(req, out);
+        SC_CHECK(status, render_spray_figures(req, &renderer, out), done);
+    if (exists(req->run_dir, "impact.h5"))
+        SC_CHECK(status, render_impact_figures(req, &renderer, out), done);
+    if (exists(req->run_dir, "vcrit.h5"))
+        SC_CHECK(status, render_vcrit_figures(req, out), done);
+done:
     render_renderer_destroy(renderer);
     return status;
 }
@@ -102,11 +114,9 @@ int render_run_dir(const struct render_request *req, struct render_output *out)
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
     SC_TRY(make_folder(dir));
-    int status = draw_all(req, out);
-    if (status == SC_OK)
-        status = render_write_report(req, out);
-    if (status == SC_OK)
-        log_info("render: %d figures and %d frames in %s, report %s/report.html", out->count, out->frames, dir,
+    SC_TRY(draw_all(req, out));
+    SC_TRY(render_write_report(req, out));
+    log_info("render: %d figures and %d frames in %s, report %s/report.html", out->count, out->frames, dir,
                  req->run_dir);
-    return status;
+    return SC_OK;
 }

@@ -86,13 +86,12 @@ static int write_histogram(const struct render_request *req, struct render_outpu
                            const char *title, const char *xlabel, const double *values, size_t n,
                            const struct render_series *extra)
 {
-    struct render_figure *fig = render_output_add(out, name, "spray", 1, title);
-    if (!fig)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+    struct render_figure *fig;
+    SC_TRY(render_output_push(out, name, "spray", 1, title, &fig));
     SC_TRY(render_histogram_fill(values, n, req->cfg->bins, 0, 0, &fig->histogram));
     double *buffer = malloc(2 * (size_t)req->cfg->bins * sizeof *buffer);
     if (!buffer)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM(2 * (size_t)req->cfg->bins * sizeof *buffer, "a histogram's bars");
     struct render_series series[2];
     char label[64];
     snprintf(label, sizeof label, "%lld values", (long long)fig->histogram.total);
@@ -105,7 +104,8 @@ static int write_histogram(const struct render_request *req, struct render_outpu
     render_figures_dir(req->run_dir, dir, sizeof dir);
     int status = render_plot_write(&plot, dir, name);
     free(buffer);
-    return status;
+    SC_TRY(status);
+    return SC_OK;
 }
 
 /* Diameters of the particles of the final state (um), with the expected counts of the case's Weibull law. */
@@ -116,14 +116,15 @@ static int diameter_figure(const struct render_request *req, const struct spray_
     enum { CURVE = 200 };
     double cx[CURVE], cy[CURVE];
     if (!um)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM((n + 1) * sizeof *um, "the particle diameters");
     for (size_t i = 0; i < n; i++)
         um[i] = s->d.values[i] * 1e6;
     struct render_series curve = {NULL, RENDER_LINE, 0, cx, cy, 0, 1};
     int weibull = case_is(req->c, "powder", "distribution", "weibull");
-    struct render_histogram h;
-    int status = render_histogram_fill(um, n, req->cfg->bins, 0, 0, &h);
-    if (status == SC_OK && weibull) {
+    struct render_histogram h = {0};
+    int status;
+    SC_CHECK(status, render_histogram_fill(um, n, req->cfg->bins, 0, 0, &h), done);
+    if (weibull) {
         double median = case_real(req->c, "powder", "median_diameter"), shape = case_real(req->c, "powder", "shape");
         double d_min = case_real(req->c, "powder", "d_min"), d_max = case_real(req->c, "powder", "d_max");
         double width_m = (h.hi - h.lo) / h.bins * 1e-6;
@@ -135,10 +136,12 @@ static int diameter_figure(const struct render_request *req, const struct spray_
         curve.count = CURVE;
         curve.label = "Weibull law of [powder] x count x bin width";
     }
+    SC_CHECK(status,
+             write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)", um,
+                             n, weibull ? &curve : NULL),
+             done);
+done:
     render_histogram_free(&h);
-    if (status == SC_OK)
-        status = write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)",
-                                 um, n, weibull ? &curve : NULL);
     free(um);
     return status;
 }
@@ -147,9 +150,9 @@ static int diameter_figure(const struct render_request *req, const struct spray_
 static int impact_figures(const struct render_request *req, const struct spray_data *s, struct render_output *out)
 {
     size_t m = s->hit_d.count, k = 0;
-    double *buffer = malloc((4 * m + 1) * sizeof *buffer);
+    double *buffer = malloc((4 * m + 1) * sizeof *buffer), *s_dep = NULL;
     if (!buffer)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM((4 * m + 1) * sizeof *buffer, "the impacts at the target");
     double *speed = buffer, *angle = buffer + m, *d_dep = buffer + 2 * m, *d_reb = buffer + 3 * m;
     for (size_t i = 0; i < m; i++) {
         if (s->hit_partner.values[i] != -1)
@@ -159,35 +162,38 @@ static int impact_figures(const struct render_request *req, const struct spray_d
         angle[k] = speed[k] > 0 ? acos(fmin(1, fabs(v[2]) / speed[k])) * 180 / M_PI : 0;
         k++;
     }
-    int status = write_histogram(req, out, "spray_impact_speed", "Impact speed at the target",
-                                 "impact speed |v_in| (m/s)", speed, k, NULL);
-    if (status == SC_OK)
-        status = write_histogram(req, out, "spray_impact_angle", "Impact angle at the target",
-                                 "angle from the target normal (deg)", angle, k, NULL);
+    int status;
+    SC_CHECK(status,
+             write_histogram(req, out, "spray_impact_speed", "Impact speed at the target", "impact speed |v_in| (m/s)",
+                             speed, k, NULL),
+             done);
+    SC_CHECK(status,
+             write_histogram(req, out, "spray_impact_angle", "Impact angle at the target",
+                             "angle from the target normal (deg)", angle, k, NULL),
+             done);
     /* speed vs diameter, deposited and rebounded apart: [deposition] decides by these two numbers */
     size_t nd = 0, nr = 0;
-    double *s_dep = malloc((2 * m + 1) * sizeof *s_dep), *s_reb = s_dep ? s_dep + m : NULL;
-    if (status == SC_OK && !s_dep)
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
-    for (size_t i = 0, j = 0; status == SC_OK && i < m; i++) {
+    s_dep = malloc((2 * m + 1) * sizeof *s_dep);
+    if (!s_dep)
+        SC_FAIL_OOM_AT(status, done, (2 * m + 1) * sizeof *s_dep, "the impacts at the target");
+    double *s_reb = s_dep + m;
+    for (size_t i = 0, j = 0; i < m; i++) {
         if (s->hit_partner.values[i] != -1)
             continue;
         int deposited = s->hit_outcome.values[i] == 1;
         (deposited ? d_dep : d_reb)[deposited ? nd : nr] = s->hit_d.values[i] * 1e6;
         (deposited ? s_dep : s_reb)[deposited ? nd++ : nr++] = speed[j++];
     }
-    if (status == SC_OK) {
-        struct render_series series[2] = {{"deposited", RENDER_MARKERS, nd, d_dep, s_dep, 0, 2},
-                                          {"rebounded", RENDER_OPEN_MARKERS, nr, d_reb, s_reb, 0, 1}};
-        struct render_plot plot = render_plot_start(req->cfg, 1);
-        plot.panels[0] = (struct render_panel){"Impact speed vs diameter at the target", "diameter d (µm)",
-                                               "impact speed |v_in| (m/s)", NAN, NAN, NAN, NAN, 1, 2, series};
-        char dir[4200];
-        render_figures_dir(req->run_dir, dir, sizeof dir);
-        status = render_output_add(out, "spray_speed_diameter", "spray", 1, plot.panels[0].title)
-                     ? render_plot_write(&plot, dir, "spray_speed_diameter")
-                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
-    }
+    struct render_series series[2] = {{"deposited", RENDER_MARKERS, nd, d_dep, s_dep, 0, 2},
+                                      {"rebounded", RENDER_OPEN_MARKERS, nr, d_reb, s_reb, 0, 1}};
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){"Impact speed vs diameter at the target", "diameter d (µm)",
+                                           "impact speed |v_in| (m/s)", NAN, NAN, NAN, NAN, 1, 2, series};
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    SC_CHECK(status, render_output_push(out, "spray_speed_diameter", "spray", 1, plot.panels[0].title, NULL), done);
+    SC_CHECK(status, render_plot_write(&plot, dir, "spray_speed_diameter"), done);
+done:
     free(s_dep);
     free(buffer);
     return status;
@@ -198,7 +204,7 @@ static int metrics_figure(const struct render_request *req, const struct spray_d
     size_t n = s->t.count;
     double *buffer = malloc((4 * n + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM((4 * n + 1) * sizeof *buffer, "the deposit metrics");
     double *ms = buffer, *spread = buffer + n, *scatter = buffer + 2 * n, *thickness = buffer + 3 * n;
     for (size_t i = 0; i < n; i++) {
         ms[i] = s->t.values[i] * 1e3;
@@ -219,9 +225,10 @@ static int metrics_figure(const struct render_request *req, const struct spray_d
                                            lengths};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
-    int status = render_output_add(out, "spray_metrics", "spray", 1, "Deposit metrics vs time")
-                     ? render_plot_write(&plot, dir, "spray_metrics")
-                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "render: out of memory");
+    int status;
+    SC_CHECK(status, render_output_push(out, "spray_metrics", "spray", 1, "Deposit metrics vs time", NULL), done);
+    SC_CHECK(status, render_plot_write(&plot, dir, "spray_metrics"), done);
+done:
     free(buffer);
     return status;
 }
@@ -268,8 +275,7 @@ static int draw_scene(const struct render_request *req, struct render_renderer *
     render_figures_dir(req->run_dir, path, sizeof path);
     snprintf(path + strlen(path), sizeof path - strlen(path), "/%s.png", name);
     SC_TRY(render_image_write_png(image, path));
-    if (!render_output_add(out, name, "spray", 0, title))
-        SC_FAIL(SC_ESIM, "render: out of memory");
+    SC_TRY(render_output_push(out, name, "spray", 0, title, NULL));
     return SC_OK;
 }
 
@@ -281,7 +287,7 @@ static int particle_pictures(const struct render_request *req, struct render_ren
     double *buffer = malloc((6 * n + 1) * sizeof *buffer), *speed_by_id = deposition_speeds(s);
     if (!buffer || !speed_by_id) {
         free(buffer), free(speed_by_id);
-        SC_FAIL(SC_ESIM, "render: out of memory");
+        SC_FAIL_OOM((6 * n + 1) * sizeof *buffer, "the particle pictures");
     }
     double *x = buffer, *radius = buffer + 3 * n, *value = buffer + 4 * n, *speed = buffer + 5 * n;
     for (size_t i = 0; i < n; i++) {
@@ -299,7 +305,8 @@ static int particle_pictures(const struct render_request *req, struct render_ren
     char caption[96];
     snprintf(caption, sizeof caption, "deposit seen from the nozzle: %zu particles", k);
     scene.caption = caption;
-    int status = draw_scene(req, renderer, out, &deposit, &scene, "spray_deposit", "Deposit on the target");
+    int status;
+    SC_CHECK(status, draw_scene(req, renderer, out, &deposit, &scene, "spray_deposit", "Deposit on the target"), done);
     /* the radius of the plume picture: every particle, half its diameter */
     for (size_t i = 0; i < n; i++)
         radius[i] = 0.5 * s->d.values[i];
@@ -308,8 +315,9 @@ static int particle_pictures(const struct render_request *req, struct render_ren
                                 2.0};
     snprintf(caption, sizeof caption, "final state from the side: %zu particles (nozzle at z = 0)", n);
     side.caption = caption;
-    if (status == SC_OK)
-        status = draw_scene(req, renderer, out, &plume, &side, "spray_plume", "Particles of the final state");
+    SC_CHECK(status, draw_scene(req, renderer, out, &plume, &side, "spray_plume", "Particles of the final state"),
+             done);
+done:
     free(buffer);
     free(speed_by_id);
     return status;
@@ -325,16 +333,13 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     SC_TRY(render_open(s.path, &file));
     int status = spray_data_read(file, &s);
     H5Fclose(file);
-    if (status == SC_OK)
-        status = diameter_figure(req, &s, out);
-    if (status == SC_OK)
-        status = impact_figures(req, &s, out);
-    if (status == SC_OK)
-        status = metrics_figure(req, &s, out);
-    if (status == SC_OK)
-        status = particle_pictures(req, renderer, &s, out);
+    SC_CHECK(status, status, done); /* the read's status, the file closed */
+    SC_CHECK(status, diameter_figure(req, &s, out), done);
+    SC_CHECK(status, impact_figures(req, &s, out), done);
+    SC_CHECK(status, metrics_figure(req, &s, out), done);
+    SC_CHECK(status, particle_pictures(req, renderer, &s, out), done);
+    log_info("render: spray figures from %s", s.path);
+done:
     spray_data_free(&s);
-    if (status == SC_OK)
-        log_info("render: spray figures from %s", s.path);
     return status;
 }

@@ -34,7 +34,7 @@ static int add_run(struct search_runs *r, double d, double v, int bonded)
         if (b2)
             r->bonded = b2;
         if (!d2 || !v2 || !b2)
-            SC_FAIL(SC_ESIM, "out of memory");
+            SC_FAIL_OOM(capacity * (sizeof *d2 + sizeof *v2 + sizeof *b2), "the critical-velocity runs");
         r->capacity = capacity;
     }
     r->d[r->count] = d, r->v[r->count] = v, r->bonded[r->count++] = bonded;
@@ -49,16 +49,17 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     double d;
     struct render_array v, bonded;
     memset(&v, 0, sizeof v), memset(&bonded, 0, sizeof bonded);
-    int status = g < 0 ? SC_EIO : h5_attr_read_double(g, "diameter", &d);
-    if (status == SC_OK)
-        status = render_read_array(g, "vcrit.h5", "velocity", &v);
-    if (status == SC_OK)
-        status = render_read_array(g, "vcrit.h5", "bonded", &bonded);
-    for (size_t i = 0; status == SC_OK && i < v.count && i < bonded.count; i++)
-        status = add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1);
+    if (g < 0)
+        return -1;
+    int status;
+    SC_CHECK(status, h5_attr_read_double(g, "diameter", &d), done);
+    SC_CHECK(status, render_read_array(g, "vcrit.h5", "velocity", &v), done);
+    SC_CHECK(status, render_read_array(g, "vcrit.h5", "bonded", &bonded), done);
+    for (size_t i = 0; i < v.count && i < bonded.count; i++)
+        SC_CHECK(status, add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1), done);
+done:
     render_array_free(&v), render_array_free(&bonded);
-    if (g >= 0)
-        H5Gclose(g);
+    H5Gclose(g);
     return status == SC_OK ? 0 : -1;
 }
 
@@ -81,7 +82,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
     size_t n = d->count, m = runs->count, nb = 0, nr = 0;
     double *buffer = malloc((n + 4 * m + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((n + 4 * m + 1) * sizeof *buffer, "the critical-velocity figure");
     double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m;
     for (size_t i = 0; i < n; i++)
         d_um[i] = d->values[i] * 1e6;
@@ -103,9 +104,10 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            "critical velocity v_crit (m/s)", NAN, NAN, NAN, NAN, 0, 5, series};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
-    int status = render_output_add(out, "vcrit", "vcrit", 1, plot.panels[0].title)
-                     ? render_plot_write(&plot, dir, "vcrit")
-                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    int status;
+    SC_CHECK(status, render_output_push(out, "vcrit", "vcrit", 1, plot.panels[0].title, NULL), done);
+    SC_CHECK(status, render_plot_write(&plot, dir, "vcrit"), done);
+done:
     free(buffer);
     return status;
 }
@@ -119,20 +121,20 @@ int render_vcrit_figures(const struct render_request *req, struct render_output 
     struct render_array d, v;
     struct search_runs runs = {0};
     memset(&d, 0, sizeof d), memset(&v, 0, sizeof v);
-    int status = render_read_array(file, path, "diameter", &d);
-    if (status == SC_OK)
-        status = render_read_array(file, path, "v_crit", &v);
-    if (status == SC_OK && v.count != d.count)
-        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "render: %s: /diameter and /v_crit of different lengths",
-                              path);
-    if (status == SC_OK)
-        status = read_search(file, path, &runs);
+    int status;
+    SC_CHECK(status, render_read_array(file, path, "diameter", &d), done);
+    SC_CHECK(status, render_read_array(file, path, "v_crit", &v), done);
+    if (v.count != d.count)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: /diameter and /v_crit of different lengths", path);
+    SC_CHECK(status, read_search(file, path, &runs), done);
     H5Fclose(file);
-    if (status == SC_OK)
-        status = vcrit_plot(req, &d, &v, &runs, out);
+    file = H5I_INVALID_HID;
+    SC_CHECK(status, vcrit_plot(req, &d, &v, &runs, out), done);
+    log_info("render: vcrit figure from %s", path);
+done:
+    if (file >= 0)
+        H5Fclose(file);
     render_array_free(&d), render_array_free(&v);
     free(runs.d), free(runs.v), free(runs.bonded);
-    if (status == SC_OK)
-        log_info("render: vcrit figure from %s", path);
     return status;
 }

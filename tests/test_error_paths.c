@@ -1,0 +1,180 @@
+/* The one error path (core/error.h): a write that fails midway leaves no HDF5 object open but the file, every
+ * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3). */
+#include "core/error.h"
+#include "core/h5io.h"
+#include "dem/dem.h"
+#include "dem/dem_impl.h"
+#include "tests/check.h"
+
+#include <stdint.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+static hid_t make_file(char path[64])
+{
+    snprintf(path, 64, "/tmp/spraycoat_errors_XXXXXX");
+    int fd = mkstemp(path);
+    if (fd < 0) {
+        perror("mkstemp");
+        exit(2);
+    }
+    close(fd);
+    return H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+}
+
+static void drop_file(hid_t file, const char *path)
+{
+    H5Fclose(file);
+    unlink(path);
+}
+
+/* A spray solver with three particles (their states) and no particle ids: the write of /particles/id fails after the group
+ * /particles was created (h5io refuses a dataset without data). */
+static void broken_solver(struct dem_solver *s)
+{
+    static uint8_t states[3];
+    memset(s, 0, sizeof *s);
+    s->p.count = 3;
+    s->p.state = states;
+}
+
+static void test_spray_output_failure_closes_handles(void)
+{
+    char path[64];
+    hid_t file = make_file(path);
+    CHECK(file >= 0, "cannot create %s", path);
+    struct dem_solver s;
+    broken_solver(&s);
+    sc_error_clear();
+    int status = dem_write_output(&s, file);
+    CHECK(status == SC_EIO, "dem_write_output returned %d, expected SC_EIO", status);
+    ssize_t open_objects = H5Fget_obj_count(file, H5F_OBJ_ALL);
+    CHECK(open_objects == 1, "after the failed write %zd objects are open in the file, expected 1 (the file)",
+          open_objects);
+    CHECK(strstr(sc_error_traceback(), "dem/output.c") != NULL, "no dem/output.c frame in the traceback:\n%s",
+          sc_error_traceback());
+    drop_file(file, path);
+}
+
+static void test_spray_checkpoint_failure_closes_handles(void)
+{
+    char path[64];
+    hid_t file = make_file(path);
+    struct dem_solver s;
+    broken_solver(&s);
+    int status = dem_checkpoint_write(&s, file);
+    CHECK(status == SC_EIO, "dem_checkpoint_write returned %d, expected SC_EIO", status);
+    ssize_t open_objects = H5Fget_obj_count(file, H5F_OBJ_ALL);
+    CHECK(open_objects == 1, "after the failed checkpoint %zd objects are open in the file, expected 1",
+          open_objects);
+    drop_file(file, path);
+}
+
+/* A checkpoint whose /particles group lacks the positions: the read fails inside the group. */
+static void test_spray_checkpoint_read_failure_closes_handles(void)
+{
+    char path[64];
+    hid_t file = make_file(path);
+    hid_t g;
+    CHECK(h5_create_group(file, "particles", &g) == SC_OK, "cannot create /particles");
+    int64_t ids[2] = {0, 1}, states[2] = {0, 0};
+    hsize_t dims[1] = {2};
+    CHECK(h5_write_int64s(g, "id", 1, dims, ids, "", 0) == SC_OK, "cannot write id");
+    CHECK(h5_write_int64s(g, "state", 1, dims, states, "", 0) == SC_OK, "cannot write state");
+    H5Gclose(g);
+    int64_t counters[5] = {0};
+    hsize_t cdims[1] = {5};
+    CHECK(h5_write_int64s(file, "counters", 1, cdims, counters, "", 0) == SC_OK, "cannot write counters");
+    struct dem_solver *s = calloc(1, sizeof *s);
+    CHECK(h5_write_bytes(file, "stats", sizeof s->stats, &s->stats, 0) == SC_OK, "cannot write stats");
+    int status = dem_checkpoint_read(s, file);
+    CHECK(status == SC_EIO, "dem_checkpoint_read returned %d, expected SC_EIO", status);
+    ssize_t open_objects = H5Fget_obj_count(file, H5F_OBJ_ALL);
+    CHECK(open_objects == 1, "after the failed read %zd objects are open in the file, expected 1", open_objects);
+    CHECK(strstr(sc_error_traceback(), "dem/output.c") != NULL, "no dem/output.c frame in the traceback:\n%s",
+          sc_error_traceback());
+    dem_particles_free(&s->p);
+    free(s);
+    drop_file(file, path);
+}
+
+/* Out of memory: one message, status SC_EIO (exit 3), never SC_ESIM (1 is a failed simulation). */
+static void test_out_of_memory_is_one_error(void)
+{
+    sc_error_clear();
+    void *huge = (void *)1;
+    int status = sc_calloc(&huge, SIZE_MAX / 2, 4, "the test's huge array");
+    CHECK(status == SC_EIO, "sc_calloc of an impossible size returned %d, expected SC_EIO (%d)", status, SC_EIO);
+    CHECK(huge == NULL, "sc_calloc left a pointer after failing");
+    CHECK(strstr(sc_error_message(), "out of memory: cannot allocate") != NULL, "message: %s", sc_error_message());
+    CHECK(strstr(sc_error_message(), "the test's huge array") != NULL, "message: %s", sc_error_message());
+    CHECK(strstr(sc_error_traceback(), "test_error_paths.c") != NULL, "traceback: %s", sc_error_traceback());
+    double *small = NULL;
+    CHECK(sc_calloc(&small, 4, sizeof *small, "four doubles") == SC_OK && small && small[3] == 0.0,
+          "sc_calloc of four doubles failed");
+    free(small);
+}
+
+/* SC_DIE_OOM, where no status can be returned: the same message on stderr and exit status 3, not an abort. */
+static void test_die_out_of_memory_exits_3(void)
+{
+    int pipe_ends[2];
+    CHECK(pipe(pipe_ends) == 0, "pipe");
+    fflush(stdout);
+    pid_t child = fork();
+    if (child == 0) {
+        dup2(pipe_ends[1], 2);
+        SC_DIE_OOM(1234, "the child's buffer");
+    }
+    close(pipe_ends[1]);
+    char text[512] = "";
+    ssize_t got = read(pipe_ends[0], text, sizeof text - 1);
+    text[got > 0 ? got : 0] = '\0';
+    close(pipe_ends[0]);
+    int wait_status = 0;
+    waitpid(child, &wait_status, 0);
+    CHECK(WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == SC_EIO, "the child ended with wait status %#x, "
+          "expected exit status 3", wait_status);
+    CHECK(strstr(text, "out of memory: cannot allocate 1234 bytes for the child's buffer") != NULL, "stderr: %s",
+          text);
+}
+
+/* SC_CHECK: records a frame and jumps to the cleanup label; SC_OK falls through. */
+static int failing(void) { SC_FAIL(SC_EINPUT, "bad input"); }
+
+static int with_cleanup(int fail, int *cleaned)
+{
+    int status;
+    SC_CHECK(status, SC_OK, done);
+    if (fail)
+        SC_CHECK(status, failing(), done);
+    status = 42;
+done:
+    *cleaned = 1;
+    return status;
+}
+
+static void test_check_records_frame_and_cleans_up(void)
+{
+    int cleaned = 0;
+    sc_error_clear();
+    CHECK(with_cleanup(0, &cleaned) == 42 && cleaned, "the success path did not run to its end");
+    cleaned = 0;
+    CHECK(with_cleanup(1, &cleaned) == SC_EINPUT && cleaned, "the failure did not reach the cleanup label");
+    const char *trace = sc_error_traceback();
+    const char *first = strstr(trace, "test_error_paths.c");
+    CHECK(first && strstr(first + 1, "test_error_paths.c"), "expected two frames (SC_FAIL, SC_CHECK):\n%s", trace);
+}
+
+int main(void)
+{
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    RUN(test_spray_output_failure_closes_handles);
+    RUN(test_spray_checkpoint_failure_closes_handles);
+    RUN(test_spray_checkpoint_read_failure_closes_handles);
+    RUN(test_out_of_memory_is_one_error);
+    RUN(test_die_out_of_memory_exits_3);
+    RUN(test_check_records_frame_and_cleans_up);
+    return check_finish();
+}
