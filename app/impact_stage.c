@@ -408,10 +408,13 @@ static void name_run(struct impact_run *run, long index);
 
 static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
 {
-    struct impact_run run = {.ctx = ctx, .cfg = *cfg};
-    int status = create_solver(&run);
-    mpm_destroy(run.solver);
-    return status;
+    int status = mpm_check_set_up(cfg);
+    if (status != SC_EINPUT)
+        return status;
+    char message[1024];
+    snprintf(message, sizeof message, "%s", sc_error_message());
+    const char *key = case_has(ctx->c, "impact", "bodies") ? "bodies" : "diameter";
+    return case_invalid(ctx->c, "impact", key, "%s", message);
 }
 
 int impact_stage_validate(const struct stage_context *ctx)

@@ -68,6 +68,12 @@ int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, dou
     return 0;
 }
 
+/* What alloc_layers allocates for one node of one body's layer. */
+#define GRID_BYTES_PER_NODE_LAYER                                                                               \
+    (sizeof *((struct mpm_grid *)0)->mass + 15 * sizeof *((struct mpm_grid *)0)->momentum +                    \
+     sizeof *((struct mpm_grid *)0)->bond_sum + sizeof *((struct mpm_grid *)0)->bond_weight +                  \
+     sizeof *((struct mpm_grid *)0)->contact + sizeof *((struct mpm_grid *)0)->wall_held)
+
 static int alloc_layers(struct mpm_grid *g)
 {
     size_t n = g->nodes * (size_t)g->layers;
@@ -84,10 +90,7 @@ static int alloc_layers(struct mpm_grid *g)
     g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
     if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
         !g->bond_weight || !g->contact || !g->wall_held)
-        SC_FAIL_OOM(n * (sizeof *g->mass + 15 * sizeof *g->momentum + sizeof *g->bond_sum + sizeof *g->bond_weight +
-                         sizeof *g->contact + sizeof *g->wall_held) +
-                        3 * sizeof *g->momentum,
-                    "the grid (nodes x bodies)");
+        SC_FAIL_OOM(n * GRID_BYTES_PER_NODE_LAYER + 3 * sizeof *g->momentum, "the grid (nodes x bodies)");
     return SC_OK;
 }
 
@@ -153,7 +156,8 @@ static double least_offset_above(double h, double bound)
 
 /* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
  * DCell so that z = 0 (the substrate's top) is a node plane. */
-int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
+/* The grid box: the points' bounding box widened by box_margin and two cells, in whole cells. */
+static int grid_box(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
@@ -179,6 +183,20 @@ int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, st
     if (g->nodes > (size_t)1 << 31)
         SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
                 "box_margin", g->nodes, g->n[0], g->n[1], g->n[2]);
+    return SC_OK;
+}
+
+int mpm_grid_bytes(const struct mpm_config *cfg, const struct mpm_points *p, double *bytes)
+{
+    struct mpm_grid g;
+    SC_TRY(grid_box(cfg, p, &g));
+    *bytes = (double)g.nodes * (double)g.layers * (double)GRID_BYTES_PER_NODE_LAYER;
+    return SC_OK;
+}
+
+int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
+{
+    SC_TRY(grid_box(cfg, p, g));
     double lightest = INFINITY;
     for (int m = 0; m < cfg->material_count; m++)
         lightest = fmin(lightest, cfg->materials[m].density);

@@ -99,6 +99,10 @@ int mpm_find_sphere_overlap(const struct mpm_config *cfg, int *first, int *secon
 struct mpm_solver;
 
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out);
+/* What mpm_create would refuse, found without making the solver: every body seeded with its points (overlapping
+ * bodies of any shape, a body that holds no point) and the grid's memory against the machine's.  SC_EINPUT
+ * naming the bodies or the grid. */
+int mpm_check_set_up(const struct mpm_config *cfg);
 void mpm_destroy(struct mpm_solver *s);
 
 /* Advance one step.  SC_ESIM naming step, point, body and quantity when the state is not finite. */

@@ -6,6 +6,7 @@
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "mpm/mpm_impl.h"
@@ -102,6 +103,24 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->next_snapshot = cfg->snapshot_every;
     s->snapshot_pending = 1;
     SC_TRY(mpm_series_record(s));
+    return SC_OK;
+}
+
+int mpm_check_set_up(const struct mpm_config *cfg)
+{
+    struct mpm_points points;
+    SC_TRY(mpm_points_create(cfg, &points));
+    double grid_bytes = 0.0;
+    int status = mpm_grid_bytes(cfg, &points, &grid_bytes);
+    double point_bytes = (double)points.count * (double)sizeof(double) * 40.0; /* about 40 doubles a point */
+    mpm_points_free(&points);
+    SC_TRY(status);
+    double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    if (memory > 0.0 && grid_bytes + point_bytes > memory)
+        SC_FAIL(SC_EINPUT, "impact: the run would need %.3g GB (a grid layer of %.3g GB for each of the %d bodies, "
+                "and the points) on a machine of %.3g GB; use fewer bodies per run, a coarser grid or a smaller "
+                "box_margin", (grid_bytes + point_bytes) / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count,
+                memory / 1e9);
     return SC_OK;
 }
 
