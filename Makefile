@@ -110,7 +110,7 @@ asan: deps
 # performance table.
 bench: deps
 	$(MAKE) BUILD=build-bench OPT='-O3 -march=native' all
-	scripts/bench.sh build-bench
+	BENCH_COMMAND='make bench' scripts/bench.sh build-bench
 
 run: deps
 	$(MAKE) $(BIN)
