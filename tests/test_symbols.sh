@@ -1,6 +1,6 @@
 #!/bin/sh
-# Module boundaries (DESIGN.md: one public header per module states its whole API; everything else is static or
-# module-private):
+# Module boundaries (docs/architecture.md: one public header per module states its whole API; everything else is
+# static or module-private):
 #   - every external function and global of a module's objects carries the module's prefix: dem_ in dem/, mpm_ in
 #     mpm/, render_ in render/, couple_ or coupling_ in coupling/; core/ and app/ are sets of small modules, each
 #     file with the prefixes listed below;
