@@ -37,7 +37,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
-.PHONY: all test asan bench run validate install clean format deps fuzz fuzz-build FORCE
+.PHONY: all test asan bench run validate install clean format deps fuzz fuzz-build docs FORCE
 all: $(BIN) $(TEST_BIN)
 
 deps:
@@ -110,7 +110,7 @@ asan: deps
 # performance table.
 bench: deps
 	$(MAKE) BUILD=build-bench OPT='-O3 -march=native' all
-	scripts/bench.sh build-bench
+	BENCH_COMMAND='make bench' scripts/bench.sh build-bench
 
 run: deps
 	$(MAKE) $(BIN)
@@ -144,9 +144,16 @@ fuzz-build: $(FUZZ_BIN)
 fuzz: fuzz-build
 	FUZZ_BUILD=$(FUZZ_BUILD) FUZZ_SECONDS=$(FUZZ_SECONDS) tests/fuzz/run.sh
 
+# `make docs`: the generated documents, from the program itself: docs/keys.md (`spraycoat keys`) and the man
+# page spraycoat.1 (its help text); tests/test_keys_doc.sh fails when the committed ones are stale.
+docs: $(BIN)
+	$(BIN) keys > docs/keys.md
+	scripts/make_man.sh $(BIN) > spraycoat.1
+
 install: $(BIN)
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/share/spraycoat/cases $(DESTDIR)$(PREFIX)/share/man/man1
 	install -m 755 $(BIN) $(DESTDIR)$(PREFIX)/bin/spraycoat
+	install -m 644 spraycoat.1 $(DESTDIR)$(PREFIX)/share/man/man1/spraycoat.1
 	install -m 644 cases/*.ini cases/*.csv $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 	install -m 755 cases/*.sh $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 

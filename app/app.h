@@ -1,5 +1,5 @@
 /* app: the application above the physics: the command line, the run directory, `spraycoat info` and the stage
- * drivers (DESIGN.md "Layout", "Run directory"). */
+ * drivers (docs/architecture.md; the run directory: docs/files.md). */
 #ifndef SPRAYCOAT_APP_APP_H
 #define SPRAYCOAT_APP_APP_H
 

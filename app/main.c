@@ -1,4 +1,4 @@
-/* The spraycoat command line (DESIGN.md "Command line").  Only this file prints errors and exits. */
+/* The spraycoat command line (README "The commands"; docs/architecture.md).  Only this file prints errors and exits. */
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* core/atomic: the one way spraycoat writes a file (STYLE.md "crash-safe files", redis rdbSave()).
+/* core/atomic: the one way spraycoat writes a file (docs/architecture.md "Atomic writes", after redis rdbSave()).
  *
  * A file is written under a temporary name beside its final one, flushed, fsynced, closed, renamed over the
  * final name, and the folder is fsynced: a reader sees the old file or the whole new one, never a half-written

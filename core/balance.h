@@ -1,7 +1,7 @@
 /* Contiguous shares of a parallel loop's items, balanced by the threads' measured speeds.
  *
  * A static schedule gives each thread the same items every time the loop runs, so that their data stay in its
- * core's caches (a dynamic schedule moved them between the cores: BENCHMARKS.md), but equal shares wait for
+ * core's caches (a dynamic schedule moved them between the cores: BENCHMARKS.md, in git), but equal shares wait for
  * the slowest thread: on a shared or virtual machine the cores are not equally fast at every moment, and the
  * items are not equally costly.  Here thread t of n gets a contiguous share of the items in proportion to the
  * speed (items per second) it showed in the loop's last runs, smoothed: the shares move a little from run to

@@ -38,7 +38,7 @@ struct cfg_key {
     int flags;                 /* CFG_MIN_EXCLUSIVE: value must be > min rather than >= min;
                                   CFG_NOT_HASHED: does not change results (threads, checkpoints) */
     const char *choices;       /* CFG_CHOICE (and CFG_REAL alternatives): "a|b|c" */
-    const char *doc;           /* one line for `spraycoat check` and the README */
+    const char *doc;           /* one line for `spraycoat check` and docs/keys.md */
 };
 
 /* A registry is a NULL-terminated array of tables, each table terminated by an entry with key == NULL.
@@ -101,7 +101,7 @@ int case_write_resolved(const struct case_file *c, const char *path);
  * determines the results, stored in output files so that a resumed run writes the same text. */
 char *case_resolved_text(const struct case_file *c);
 
-/* Emit the registry as a Markdown table per section (for README generation and checks). */
+/* Emit the registry as a Markdown table per section (`spraycoat keys`: docs/keys.md and its check). */
 void case_registry_markdown(const struct cfg_key *const *registry, FILE *out);
 
 #endif

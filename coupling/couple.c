@@ -1,5 +1,5 @@
 /* From spray impacts to MPM seeds: the [couple] keys, the sampling strata and the placement (coupling/coupling.h).
- * No equations of the papers: the sampling and the frames are DESIGN.md's and README's ("The couple stage"). */
+ * No equations of the papers: the sampling and the frames are docs/physics.md's ("The couple stage"). */
 #include "coupling/coupling.h"
 
 #include <math.h>

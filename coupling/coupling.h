@@ -1,4 +1,4 @@
-/* coupling: the physics between the spray and the impact stages (DESIGN.md "Coupling"), one header: the
+/* coupling: the physics between the spray and the impact stages (docs/physics.md "The couple stage"), one header: the
  * sampling of the spray's impacts into MPM seeds (couple.c) and the CVODE flight through the gas layer in front
  * of the target (flight.c). */
 #ifndef SPRAYCOAT_COUPLING_COUPLING_H
@@ -10,7 +10,7 @@
 #include "core/config.h"
 #include "dem/dem.h"
 
-/* coupling: from spray impacts to MPM seeds (the couple stage's sampling and placement, DESIGN.md "Coupling").
+/* coupling: from spray impacts to MPM seeds (the couple stage's sampling and placement, docs/physics.md).
  *
  * Candidates are the first contacts of particles with the target or the deposit (one per particle: the impact a
  * particle makes when it arrives; its later bounces are not new arrivals).  N = runs * bodies_per_run seeds are
@@ -87,7 +87,7 @@ void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds
  *
  * The gas (spray frame: +z towards the target, the wall is the plane z = wall_z, the spray axis is x = y = 0):
  * an axisymmetric stagnation-point flow of thickness delta in front of the wall, approached by a uniform stream
- * of speed U along +z (notes/coldspray.md Section 3: the Hiemenz-type layer behind the wall shock),
+ * of speed U along +z (docs/references.md "The gas layer": the Hiemenz-type layer behind the wall shock),
  *     s = wall_z - z (distance to the wall)
  *     s >= delta:      u = (0, 0, U)
  *     0 <= s < delta:  u_z = U s / delta,  u_x = U x / (2 delta),  u_y = U y / (2 delta)

@@ -142,7 +142,7 @@ static int set_roots(struct couple_flight_solver *solver, int edge_ahead)
 }
 
 /* CVodeInit the first time, CVodeReInit after: every flight starts with a fresh history and fresh counters,
- * so a flight's result does not depend on the flights before it (DESIGN.md, restart). */
+ * so a flight's result does not depend on the flights before it (docs/architecture.md, "Determinism and restart"). */
 static int start_flight(struct couple_flight_solver *solver, struct flight_particle *particle, double t0, double t_limit,
                         int edge_ahead)
 {

@@ -1,6 +1,6 @@
 /* Contacts of one step, Mukherjee & Zohdi: swept-sphere detection in place of the overlap test of Eq. 40
  * (broad phase in dem/broadphase.c), impulse resolution (Sections 2.1-2.2, Eqs. 1-23 in dem/contact.c;
- * collide-and-stream of Section 4.4), deposition rules (Section 3, Eqs. 33-34 with alpha_ADH; DESIGN.md).
+ * collide-and-stream of Section 4.4), deposition rules (Section 3, Eqs. 33-34 with alpha_ADH; docs/physics.md).
  *
  * The paper tests for overlap at the end of a step (Eq. 40); at its step sizes a particle moves more
  * than its diameter per step, so contacts would be missed and particles would tunnel.  Here every pair

@@ -1,5 +1,5 @@
 /* Impulse-momentum contact of rigid spheres, Mukherjee & Zohdi Sections 2.1-2.2 and Appendix A, with the
- * DESIGN.md errata: the friction regularisation of Eq. (11) is made continuous, and the friction impulse
+ * Errata (docs/physics.md): the friction regularisation of Eq. (11) is made continuous, and the friction impulse
  * is capped at the stick limit so that it never reverses the contact-point slip.
  *
  * Sign conventions: for each body the contact point sits at centre + radius * n_body, where n_body is the
@@ -8,7 +8,7 @@
  * (contact-point velocity of b, or zero for an immovable obstacle), Eqs. (4) and (20).
  *
  * The smooth external forces <F^e> of Eqs. (7)-(9) and (22)-(23) are left out: drag is integrated by the
- * time integrator, collisions are instantaneous impulses (collide-and-stream, DESIGN.md). */
+ * time integrator, collisions are instantaneous impulses (collide-and-stream, docs/physics.md). */
 #include "dem/contact.h"
 
 #include <math.h>
@@ -76,7 +76,7 @@ static double johnson_plastic_restitution(double m_eff, double r_eff, double e_s
 
 /* Eqs. (16)-(19).  Below V_lim the impact is elastic (e = 1).  Above it Eq. (18) applies, capped at 1:
  * the two branches do not meet (Eq. 18 gives 3.74/53^(1/8) = 2.28 at V_lim and falls below 1 only past
- * about 27 V_lim, notes/dem.md), and e > 1 would create energy. */
+ * about 27 V_lim, docs/references.md), and e > 1 would create energy. */
 struct restitution dem_contact_restitution(const struct dem_contact_law *law, double m_eff, double r_eff,
                                        double e_star, double yield, double vn)
 {
@@ -94,7 +94,7 @@ struct restitution dem_contact_restitution(const struct dem_contact_law *law, do
     return r;
 }
 
-/* Eq. (11) with the DESIGN.md erratum: the printed inner branch v/(2 eps) jumps at |v| = eps; v/eps
+/* Eq. (11) with the erratum of docs/physics.md: the printed inner branch v/(2 eps) jumps at |v| = eps; v/eps
  * joins the outer branches continuously.  eps <= 0 gives the sharp Coulomb law. */
 double dem_contact_friction_regularization(double slip_speed, double eps)
 {
@@ -154,7 +154,7 @@ static void split_relative_velocity(const double v_rel[3], const double n[3], st
 }
 
 /* Friction impulse vector acting on body a, Eq. (10) in impulse form: magnitude mu R(|slip|) J_n,
- * against the slip, capped at the stick limit (2/7) m_eff |slip| (DESIGN.md) so that it at most stops the
+ * against the slip, capped at the stick limit (2/7) m_eff |slip| (docs/physics.md) so that it at most stops the
  * slip and never reverses it.  Returns the magnitude. */
 static double friction_impulse_on_a(const struct dem_contact_law *law, const struct contact_geometry *g,
                                     double normal_impulse, double impulse[3])

@@ -1,10 +1,10 @@
 /* Module-private (dem/): impulse-momentum contact of rigid spheres, Mukherjee & Zohdi Section 2.1-2.2,
- * Eqs. (1)-(23), with the errata of DESIGN.md (continuous friction regularisation, friction impulse capped
+ * Eqs. (1)-(23), with the errata of docs/physics.md (continuous friction regularisation, friction impulse capped
  * at the stick limit so that it never reverses the contact-point slip).
  *
  * Collisions are instantaneous impulses applied to velocities and spins; the smooth external forces
  * (drag) are integrated separately by the time integrator, so the <F^e> terms of Eqs. (7)-(9), (22)-(23)
- * are not part of the impulse (collide-and-stream, DESIGN.md). */
+ * are not part of the impulse (collide-and-stream, docs/physics.md). */
 #ifndef SPRAYCOAT_DEM_CONTACT_H
 #define SPRAYCOAT_DEM_CONTACT_H
 

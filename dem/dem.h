@@ -194,7 +194,7 @@ struct dem_metrics {
 };
 struct dem_metrics dem_compute_metrics(const struct dem_solver *s);
 
-/* Checkpoint: everything the next step needs, into an open group (STYLE.md: X_checkpoint_write). */
+/* Checkpoint: everything the next step needs, into an open group (X_checkpoint_write, as every module names it). */
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group);
 /* Restore into a solver created from the same configuration. */
 int dem_checkpoint_read(struct dem_solver *s, hid_t group);

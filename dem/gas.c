@@ -1,5 +1,5 @@
 /* The carrier gas, Mukherjee & Zohdi Section 2.3: drag Eq. (24) with the Haider-Levenspiel coefficient
- * Eq. (25) (or Stokes), and the self-similar jet Eqs. (26)-(27) with the DESIGN.md erratum for Eq. (27).
+ * Eq. (25) (or Stokes), and the self-similar jet Eqs. (26)-(27) with the erratum for Eq. (27) (docs/physics.md).
  * One-way coupling: the gas velocity is a prescribed field. */
 #include "dem/gas.h"
 

@@ -1,5 +1,5 @@
 /* Module-private (dem/): the carrier gas, Mukherjee & Zohdi Section 2.3, Eqs. (24)-(27) with the
- * DESIGN.md erratum for Eq. (27).
+ * erratum for Eq. (27) in docs/physics.md.
  *
  * Coordinates: nozzle exit centre at the origin, spray axis +z.  The jet's streamwise coordinate is
  * x = z + virtual_origin and its cross-stream coordinate y is r = sqrt(x^2 + y^2) of the spray frame. */

@@ -9,7 +9,7 @@
  * - Eq. 53: the convergence test, per particle: the drag depends only on the particle's own x and v, so the
  *   iteration decouples into one per particle (eq53_exact; eq53_shortcut decides most cases from the squares).
  *
- * Beyond the paper (README, "Integration"; DESIGN.md):
+ * Beyond the paper (docs/physics.md, "Integration"):
  * - A particle whose drag response time tau is below two steps is sub-cycled: k equal sub-steps, dt/k <= tau/2.
  * - The step ends at iterate k when Eq. 53 holds between k and k + 1 (k is within the tolerance by the same
  *   test), and the force at k, known, is kept as the next step's start force (struct dem_drag) while nothing
@@ -1079,7 +1079,7 @@ static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_
  * block; the vector lanes give the bits of the scalar code.  Each thread takes a contiguous share of the
  * blocks, balanced by the threads' speeds in the last steps (core/balance.h): it keeps nearly the same
  * particles from step to step, and their lines stay in its core's caches (dynamic chunks moved them between
- * the cores every step: Table 1 on 2 threads took 22 % more CPU time, BENCHMARKS.md 2026-12-02 (second
+ * the cores every step: Table 1 on 2 threads took 22 % more CPU time, BENCHMARKS.md in git, 2026-12-02 (second
  * session)), while equal shares waited for the slower core.  A thread done with its share takes the last
  * chunks of another's (INTEGRATE_CHUNK blocks at a time), so that what the speeds got wrong in one step is not
  * waited for.  Returns whether a value is not finite. */

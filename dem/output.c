@@ -15,7 +15,7 @@
 /* Section 5.2.  x0 is the centre of the target (on the spray axis), s = +z the streamwise direction.
  * The paper's "volume of the deposit-target" has no stated thickness: we take the disc of radius
  * deposit_radius and thickness D_median, so the volume fraction is the deposited particle volume in that
- * region per monolayer-thick disc (README, "Metrics"). */
+ * region per monolayer-thick disc (docs/physics.md, "Metrics"). */
 struct dem_metrics dem_compute_metrics(const struct dem_solver *s)
 {
     const struct dem_particles *p = &s->p;

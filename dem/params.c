@@ -187,7 +187,7 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->drag = case_is(c, "jet", "drag", "stokes") ? DEM_DRAG_STOKES : DEM_DRAG_HAIDER_LEVENSPIEL;
     gas->c1 = case_real(c, "jet", "C1");
     gas->c3 = case_real(c, "jet", "C3");
-    /* DESIGN.md erratum of Eq. 27: C2 = C1/(3 C3) makes the planar jet divergence-free. */
+    /* Erratum of Eq. 27 (docs/physics.md): C2 = C1/(3 C3) makes the planar jet divergence-free. */
     gas->c2 = case_has(c, "jet", "C2") ? case_real(c, "jet", "C2") : gas->c1 / (3.0 * gas->c3);
     gas->virtual_origin = case_real(c, "jet", "virtual_origin");
     gas->core_length = case_real(c, "jet", "core_length");

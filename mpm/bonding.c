@@ -9,7 +9,7 @@
 
 /* Energy model, Eqs. 4.16-4.17: dG_s = sigma_vm d eps_p DCell (DCell regularises the energy to the bonding
  * band's width), G_bond = G_c (1 - ln(dG_s / (dG_c/dt dt))), dD = dG_s / G_bond.
- * DESIGN.md erratum: as printed, G_bond turns negative when dG_s > e (dG_c/dt) dt; there we add nothing (a bond
+ * Erratum (docs/physics.md): as printed, G_bond turns negative when dG_s > e (dG_c/dt) dt; there we add nothing (a bond
  * parameter that decreases, or grows without bound as G_bond -> 0+, has no physical meaning).  G_bond between
  * 0 and G_c (rates between 1 and e times the critical rate) speeds bonding up, as the printed law says. */
 static double energy_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt)

@@ -7,7 +7,7 @@
  * contact_scheme = thesis (the default, with which the bonding parameters were calibrated) decides and projects
  * on the updated momenta, and decides and projects again on the MUSL re-projected momenta.  Every step it
  * hands the points the perfectly inelastic collision of the two fields' start velocities, and the re-projection
- * may decide otherwise than the update: energy is lost (README, "Contact and energy").
+ * may decide otherwise than the update: energy is lost (docs/physics.md, "Contact and energy").
  * contact_scheme = consistent takes one decision per node and step, the approach test on the updated momenta,
  * and projects a pair in contact in the step's start momenta (the FLIP reference of the points' velocity
  * change), in the updated momenta and in the re-projected momenta (the strain rate).  A contact node then
@@ -23,7 +23,7 @@ static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a
 /* Nodal bonding parameter of one body, Eq. 4.6.  The equation weights the surface points' D_bond by N but
  * divides by their count, which makes D_bond(I) about D_bond/8 for equal values; the text calls it the
  * arithmetic average.  We take the partition-of-unity average sum(D N)/sum(N), which equals D for equal
- * values (README, "Bonding"). */
+ * values (docs/physics.md, "Bonding"). */
 static double nodal_bond(const struct mpm_grid *g, size_t I)
 {
     return g->bond_weight[I] > 0.0 ? g->bond_sum[I] / g->bond_weight[I] : 0.0;

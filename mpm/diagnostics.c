@@ -142,7 +142,7 @@ static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
  * The dashpot force of a point reaches the points' velocities through its nodes: to first order in dt it
  * changes their kinetic energy by sum_I f_I . v_I dt with the nodal start velocities v_I (FLIP), i.e. by
  * f_p . v_grid(x_p) dt, not by f_p . v_p dt.  Booking with the point's own velocity also counted the part of
- * v_p that the grid does not see (up to 4 % of the initial energy in an 8 ns impact; README, "Contact and
+ * v_p that the grid does not see (up to 4 % of the initial energy in an 8 ns impact; docs/physics.md, "Contact and
  * energy").  Called after the nodal update, on the start momenta the points' velocity change refers to. */
 /* The boundary points are visited by id, scattered over the storage (point_order.c): the fields a point's booking
  * reads are fetched BOOK_AHEAD points ahead, and its 8 nodes' BOOK_AHEAD / 2 ahead (trilinear stencils, whose

@@ -1,7 +1,7 @@
 /* mpm material models (module-private): Tang (2021) Sections 2.4.2, 3.5 and Appendix A.
  *
  *   ptw.c            Preston-Tonks-Wallace flow stress (Eqs. 2.4-2.8), MTS shear modulus G(T) (Eq. 2.6)
- *   melt.c           Steinberg-Cochran-Guinan melt temperature (Eq. 2.9, DESIGN.md erratum on the exponent)
+ *   melt.c           Steinberg-Cochran-Guinan melt temperature (Eq. 2.9, docs/physics.md erratum on the exponent)
  *   eos.c            Mie-Grueneisen pressure, linear in the energy (Eqs. 3.39-3.43; Zhang et al. Eq. 6.180)
  *   stress_update.c  one material point's stress update (Appendix A): Jaumann rotation, elastic trial, radial
  *                    return with the rate-dependent PTW yield solved consistently, EOS energy update,

@@ -1,4 +1,4 @@
-/* Steinberg-Cochran-Guinan melt temperature, Tang Eq. 2.9 with the DESIGN.md erratum: the exponent is
+/* Steinberg-Cochran-Guinan melt temperature, Tang Eq. 2.9 with the erratum of docs/physics.md: the exponent is
  * 2 (Gamma0 - a - 1/3) (Steinberg's law), not 2 Gamma0 - a - 1/3 as the thesis text reads. */
 #include "mpm/material.h"
 

@@ -3,7 +3,7 @@
  * pressure, SCG melt, adiabatic heating, multi-body contact on a multi-mesh (Ma et al.), viscous absorbing
  * boundaries and the energy- (or strain-) based bonding model of Chapter 4.  All quantities SI.
  *
- * Coordinates (DESIGN.md): the substrate's top surface is z = 0 and the substrate fills z < 0; bodies start
+ * Coordinates (docs/physics.md): the substrate's top surface is z = 0 and the substrate fills z < 0; bodies start
  * above it.  The grid is uniform with cell size DCell = [impact] grid, aligned so that z = 0 is a node plane.
  *
  * One step (thesis Section 3.4, steps 1-12): dt = cfl DCell / (c + max|v|); particle-to-grid mass, momentum,
@@ -148,7 +148,7 @@ int mpm_body_count(const struct mpm_solver *s);
 /* Output.  A snapshot (material points: x, v, eps_p, T, D_bond, body, ... with units) into an open group. */
 int mpm_write_snapshot(const struct mpm_solver *s, hid_t group);
 /* The time series recorded every series_every (and at the end) and the per-body summary into an open group:
- * series/ and summary/ and stats/ as in DESIGN.md. */
+ * series/ and summary/ and stats/ as in docs/files.md. */
 int mpm_write_results(struct mpm_solver *s, hid_t group);
 /* 1 when a snapshot is due at the current step (every snapshot_every, the first and the last step). */
 int mpm_snapshot_due(const struct mpm_solver *s);

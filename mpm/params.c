@@ -71,7 +71,7 @@ const struct cfg_key mpm_case_keys[] = {
      "fixed: the grid holds the substrate's bottom face vertically (Tang Section 4.3.3); free: only the dashpots"},
     {"impact", "absorbing", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",
      "viscous absorbing boundaries (Eqs. 3.45-3.46) on the substrate's bottom and sides"},
-    /* [material.NAME]: defaults are Tang's Al (Table 2.1; DESIGN.md erratum on the atomic mass) */
+    /* [material.NAME]: defaults are Tang's Al (Table 2.1; docs/physics.md erratum on the atomic mass) */
     {MAT, "density", CFG_REAL, "kg/m3", "2700", 0, 1e5, 1, NULL, "rho0"},
     {MAT, "strength", CFG_CHOICE, "", "ptw", 0, 0, 0, "ptw|elastic", "deviatoric model: PTW, or elastic (no yield)"},
     {MAT, "ptw_theta", CFG_REAL, "-", "0.01156", 0, 10, 0, NULL, "PTW strain hardening rate theta"},

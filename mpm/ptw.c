@@ -3,7 +3,7 @@
  *
  * Tang prints the hardening constant as d and the high-rate exponent as s1; they are ptw_p and ptw_beta here.
  * The overdriven-shock terms of Eq. 2.7 enter through max/min at every strain rate, as in PTW 2003 and LANL
- * impala (Uintah applies them only above 1e3 /s; notes/mpm.md 2.1, pitfall 1).  The flow stress is the von
+ * impala (Uintah applies them only above 1e3 /s; docs/references.md "PTW").  The flow stress is the von
  * Mises stress 2 G tau (Eq. 2.4) with G the current G(T).  The law itself is in mpm/ptw_lane.h, written for
  * vector lanes (no libm calls, no branches). */
 #include "mpm/material.h"

@@ -94,7 +94,7 @@ FM_INLINE double mts_lane_shear_modulus(const struct mpm_material *m, double T)
     return fm_select(positive, fm_select(G > 0.0, G, 0.0), m->G0);
 }
 
-/* SCG melt temperature, Tang Eq. 2.9 with the DESIGN.md erratum (mpm_scg_melt_temperature of melt.c), as one
+/* SCG melt temperature, Tang Eq. 2.9 with the erratum of docs/physics.md (mpm_scg_melt_temperature of melt.c), as one
  * exponential: Tm0 exp(2a (1 - 1/eta) + 2 (Gamma0 - a - 1/3) ln eta), eta = rho/rho0; 0 for rho <= 0. */
 FM_INLINE double scg_lane_melt_temperature(const struct mpm_material *m, double rho)
 {

@@ -155,7 +155,7 @@ struct mpm_counts mpm_get_counts(const struct mpm_solver *s)
     return c;
 }
 
-/* dt = cfl DCell / (c + max|v|) (DESIGN.md), the last step cut to end exactly at t_end. */
+/* dt = cfl DCell / (c + max|v|) (docs/physics.md), the last step cut to end exactly at t_end. */
 static inline double speed_squared(const double v[3]) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2]; }
 
 /* The time step of Section 3.4, dt = cfl DCell / (c + max |v|), from the active points' speeds as the last
@@ -622,7 +622,7 @@ static int update_points(struct mpm_solver *s)
     return SC_OK;
 }
 
-/* Points whose stencil leaves the grid are removed and counted (DESIGN.md); their energy is booked.  Which they
+/* Points whose stencil leaves the grid are removed and counted (docs/physics.md); their energy is booked.  Which they
  * are, and whether any went non-finite, grid_to_points found (the stress update moves no point). */
 static int remove_escaped(struct mpm_solver *s)
 {

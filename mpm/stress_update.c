@@ -7,10 +7,10 @@
  *   condition with the rate-dependent PTW flow stress evaluated at the END of the step,
  *       f(d) = sigma* - 3 G d - sigma_y(eps_p + d, max(d/dt, rate_floor)) = 0,
  *   by a safeguarded Newton iteration in u = ln d with the analytic derivative of PTW (ptw.c), inside the
- *   bracket [rate_floor dt, sigma* / (3 G)] (PTW is steep in the rate in the shock regime, notes/mpm.md 2.1).
+ *   bracket [rate_floor dt, sigma* / (3 G)] (PTW is steep in the rate in the shock regime, docs/references.md "PTW").
  * - The yield check uses sigma_y(eps_p, rate_floor): the smallest flow stress the point can have.
  * - The rate floor m->rate_floor stands for the plastic strain rate of an elastic or barely plastic point
- *   (PTW needs ln(gamma xi_dot / rate) finite; DESIGN.md "Impact (Tang)").
+ *   (PTW needs ln(gamma xi_dot / rate) finite; docs/physics.md errata).
  * - Melting (T >= Tm(rho_new)) removes the deviatoric stress for either strength model; MPM_STRENGTH_ELASTIC
  *   never yields and reports yield_stress 0.
  * - The artificial bulk viscosity q is kept apart from the Cauchy stress (state->viscosity) and its work enters

@@ -251,7 +251,7 @@ static int series_read(const struct impact_run *run, struct series_data *s)
     SC_TRY(render_read_array(g, p, "series/ke", &s->ke));
     SC_TRY(render_read_array(g, p, "series/plastic_work", &s->plastic));
     SC_TRY(render_read_array(g, p, "series/energy_total", &s->total));
-    /* added after DESIGN.md's list: optional */
+    /* beyond the design's first list of figures: optional */
     if (h5_exists(g, "series/internal_energy"))
         SC_TRY(render_read_array(g, p, "series/internal_energy", &s->internal));
     if (h5_exists(g, "series/energy_absorbed"))

@@ -1,4 +1,4 @@
-/* render: pictures of a run without a display (DESIGN.md "Layout").
+/* render: pictures of a run without a display (docs/architecture.md).
  *
  * 3-D: material points and spray particles drawn as lit spheres of their own size by OSMesa (llvmpipe, no
  * GPU, no display): each sphere is one instanced screen-aligned quad whose fragment shader discards the corners,

@@ -1,5 +1,5 @@
 #!/bin/sh
-# `make bench`: the spray stage's performance table (DESIGN.md "Performance conventions").
+# `make bench`: the performance tables of BENCHMARKS.md, in Markdown (docs/performance.md says what they mean).
 #   free flight with drag: N particles on a sparse lattice in the jet, no contacts
 #   colliding: a dense cloud in vacuum, many particle-particle contacts per step
 #   Table 1: wall time of the paper's full 50,050-particle case (skip with BENCH_TABLE1=0)
@@ -78,11 +78,17 @@ restitution = 0.9
 rule = none
 INI
 
-echo "spraycoat $("$bin" --version | cut -d' ' -f2) on $(lscpu | sed -n 's/^Model name: *//p') ($(nproc) cores)"
-echo "load average at the start: $(cut -d' ' -f1-3 /proc/loadavg) (wall times on a loaded machine are long)"
+# The header row of BENCHMARKS.md: the machine, the commit, the command (the output is Markdown throughout, so
+# `make bench > FILE` or a paste gives BENCHMARKS.md's tables; docs/performance.md says what the columns mean).
+machine="$(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores, $(awk '/^MemTotal/ { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)"
+machine="$machine, $(. /etc/os-release 2>/dev/null && echo "$PRETTY_NAME"), $("$bin" --version | sed -n 's/^ *compiler *:* *//p' | head -n 1)"
+echo "| machine | commit | command | load average at the start |"
+echo "| --- | --- | --- | --- |"
+echo "| $machine | $("$bin" --version | head -n 1 | cut -d' ' -f2) | \`${BENCH_COMMAND:-scripts/bench.sh $build}\` (BENCH_REPEAT=${BENCH_REPEAT:-3}) | $(cut -d' ' -f1-3 /proc/loadavg) |"
 echo
-echo "What 2 threads can gain over 1 here (tests/bench/machine_ceiling.c): arithmetic in registers, and the STREAM"
-echo "triad through memory, which bounds the scaling of a step that streams its arrays:"
+echo "What 2 threads can gain over 1 on this machine, now (tests/bench/machine_ceiling.c): arithmetic in registers,"
+echo "and the STREAM triad through memory, which bounds the scaling of a step that streams its arrays:"
+echo
 gcc -std=c17 -O2 -fopenmp -Wall -Wextra -o "$work/machine_ceiling" tests/bench/machine_ceiling.c
 "$work/machine_ceiling" "$(nproc)"
 echo

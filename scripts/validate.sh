@@ -3,9 +3,9 @@
 #   1. The paper's full Table 1 case (cases/mz2015_table1.ini): 50,050 particles, 125,000 steps.
 #      Prints its accounting, contact counts and deposit metrics (Section 5.2) for comparison with the
 #      paper's Figs. 6-9; checks the particle accounting and that the final files are complete.
-#   2. The bonding calibration (README "Bonding calibration"): the four single-particle impacts of the
+#   2. The bonding calibration (docs/physics.md "Bonding calibration"): the four single-particle impacts of the
 #      experimental bracket (Tang Section 4.1.2) with the shipped Al defaults of G_c and its rate, on the
-#      calibration grid; each verdict must be the README's: 14 um rebounds at 750 m/s and bonds at 810,
+#      calibration grid; each verdict must be the calibrated one: 14 um rebounds at 750 m/s and bonds at 810,
 #      30 um rebounds at 710 and bonds at 770.
 #   3. Fuzzing (`make fuzz`): the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/)
 #      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
@@ -30,7 +30,7 @@ validate_table1() {
     echo "validate: Table 1 case done: 50050 injected"
 }
 
-# The default of an [impact] key, from the key registry (`spraycoat keys` prints the README's tables).
+# The default of an [impact] key, from the key registry (`spraycoat keys` prints docs/keys.md).
 impact_default() {
     "$bin" keys | awk -F'|' -v key="\`$1\`" '$2 ~ key { gsub(/ /, "", $5); print $5; exit }'
 }

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Command-line errors and I/O errors (DESIGN.md "Command line": exit status 2 for a bad command line or case
+# Command-line errors and I/O errors (docs/architecture.md: exit status 2 for a bad command line or case
 # file, 3 for an I/O error).  A bad command line exits 2 with a message; --help and --version exit 0; an I/O
 # error exits 3 with the path in the message, never with a crash, and damages nothing that was there before:
 # a run directory under a regular file, a file-size limit (ulimit -f) while writing spray.h5 or a checkpoint,

@@ -171,8 +171,8 @@ static void test_johnson_branches(void)
     CHECK_CLOSE(c.dt_elastic, v100.dt_elastic, 1e-15, 0.0, "constant mode still gives the Hertz duration");
 }
 
-/* Hertz durations of Chung & Ooi (2011) tests 1 and 2 (notes/dem.md): glass pair at 20 m/s relative,
- * tc = 40.3 us (notes/dem.md; Eq. 16 gives 40.36 us and the digitized Kratos force curve ends at 40.48 us,
+/* Hertz durations of Chung & Ooi (2011) tests 1 and 2 (docs/references.md): glass pair at 20 m/s relative,
+ * tc = 40.3 us (docs/references.md; Eq. 16 gives 40.36 us and the digitized Kratos force curve ends at 40.48 us,
  * hence the 0.2 us tolerance); Al alloy sphere on a rigid wall at 0.2 m/s, tc = 732 us. */
 static void test_hertz_duration_chung_ooi(void)
 {

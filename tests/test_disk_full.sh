@@ -1,6 +1,6 @@
 #!/bin/sh
-# A full disk or a file-size limit while a stage writes (DESIGN.md "Command line": exit 3 on an I/O error; "Run
-# directory and HDF5 files": a reader never sees a half-written file).  The spray stage and the impact stage of
+# A full disk or a file-size limit while a stage writes (docs/architecture.md: exit 3 on an I/O error, and a
+# reader never sees a half-written file).  The spray stage and the impact stage of
 # small cases run under `ulimit -f` limits that stop them at different files: spray.h5, the impact snapshots,
 # its checkpoints and impact.h5 (whose snapshots are copied in at the end: HDF5's H5Ocopy crashed there with
 # SIGSEGV, issue 24).  Each must end with exit status 3, a message saying the file size limit was exceeded (or

@@ -25,7 +25,7 @@ static void test_drag_coefficient(void)
 {
     int rows = csv_for_each("drag_haider_levenspiel.csv", check_drag_row);
     CHECK(rows >= 10, "drag_haider_levenspiel.csv rows: %d", rows);
-    /* CalebBell/fluids, Haider_Levenspiel(200.) (notes/dem.md). */
+    /* CalebBell/fluids, Haider_Levenspiel(200.) (docs/references.md). */
     CHECK_CLOSE(dem_drag_coefficient_haider_levenspiel(200.0), 0.7959551680251666, 1e-13, 0.0, "C_D(200)");
 }
 
@@ -90,7 +90,7 @@ static double planar_divergence(const struct dem_gas_field *gas, double x, doubl
 static const double divergence_x[] = {0.02, 0.1, 0.25};
 static const double divergence_y[] = {0.003, 0.008, 0.015};
 
-/* With C2 = C1/(3 C3) the planar form is divergence-free (DESIGN.md erratum of Eq. 27). */
+/* With C2 = C1/(3 C3) the planar form is divergence-free (erratum of Eq. 27, docs/physics.md). */
 static void test_jet_divergence_free(void)
 {
     struct dem_gas_field gas = table_jet();
@@ -228,7 +228,7 @@ static void test_response_time(void)
     CHECK(dem_gas_response_time(&gas, rho, d, 300.0) < tau_stokes, "HL drag stiffens with slip");
 }
 
-/* ---- terminal velocity of a 40 um Cu sphere in air (notes/dem.md) ---- */
+/* ---- terminal velocity of a 40 um Cu sphere in air (docs/references.md) ---- */
 
 static double terminal_velocity(const struct dem_gas_field *gas, double d, double rho_p)
 {

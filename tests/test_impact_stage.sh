@@ -1,6 +1,6 @@
 #!/bin/sh
 # shellcheck disable=SC2012 # ls lists files this test made, named without blanks
-# The impact stage through the command line (README "The impact stage"): `spraycoat impact` on
+# The impact stage through the command line (docs/files.md, "impact.h5"): `spraycoat impact` on
 # cases/impact_demo.ini (shortened to 10 ns) writes impact.h5 with /snapshots/NNNNNN, /series, /summary and
 # /stats, and impact.xdmf naming only datasets that exist; 1 and 2 threads give identical datasets; a run
 # stopped by SIGTERM (exit 143, after a checkpoint) or killed by SIGKILL and then continued with

@@ -1,4 +1,4 @@
-/* The shipped Al bonding parameters (README, "Bonding calibration") on the calibration grid: a 14 um Al
+/* The shipped Al bonding parameters (docs/physics.md, "Bonding calibration") on the calibration grid: a 14 um Al
  * particle rebounds from an Al substrate at 700 m/s and bonds at 900 m/s (experimental critical velocity
  * 810 m/s, Tang Section 4.1.2). */
 #include <stdlib.h>

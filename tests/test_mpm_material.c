@@ -14,7 +14,7 @@
 #define TABLE_RHO 2700.0
 
 /* Al with the constants of the ptw_aluminium.csv header (Tang Table 2.1, atomic mass in kg) and the EOS/melt
- * constants of notes/mpm.md 2.3-2.4 and scg_melt_aluminium.csv. */
+ * constants of docs/references.md (Mie-Grüneisen, SCG) and scg_melt_aluminium.csv. */
 static struct mpm_material aluminium(void)
 {
     struct mpm_material m = {0};

@@ -130,7 +130,7 @@ static double total_momentum_x(const struct mpm_solver *s, double *scale)
 }
 
 /* Two identical elastic spheres (8 cells across, one cell apart) in a head-on collision at 2 x 20 m/s, with the
- * energy-conserving contact (contact_scheme = consistent, README "Contact and energy"): total momentum conserved
+ * energy-conserving contact (contact_scheme = consistent, docs/physics.md): total momentum conserved
  * to round-off, total energy (kinetic + internal, which holds the strain energy while they touch and the
  * vibration energy after) within 2 % of its start at every step, contact over before the end, no point
  * across the symmetry plane, and a symmetric outcome. */

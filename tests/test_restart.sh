@@ -1,7 +1,7 @@
 #!/bin/sh
 # shellcheck disable=SC2012 # ls lists files this test made, named without blanks
-# The restart guarantee through the public command (DESIGN.md "Determinism and restart", "Run directory and
-# HDF5 files"): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
+# The restart guarantee through the public command (docs/architecture.md "Determinism and restart",
+# docs/files.md): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
 # the same spray.h5 as a run that was never stopped; results do not depend on the thread count; a damaged
 # newest checkpoint falls back to the previous one with a warning; a checkpoint of another case is refused.
 #

@@ -1,6 +1,6 @@
 #!/bin/sh
-# Module boundaries (DESIGN.md: one public header per module states its whole API; everything else is static or
-# module-private):
+# Module boundaries (docs/architecture.md: one public header per module states its whole API; everything else is
+# static or module-private):
 #   - every external function and global of a module's objects carries the module's prefix: dem_ in dem/, mpm_ in
 #     mpm/, render_ in render/, couple_ or coupling_ in coupling/; core/ and app/ are sets of small modules, each
 #     file with the prefixes listed below;
@@ -38,7 +38,7 @@ app_prefixes() {
         info) echo "info_" ;;
         rundir) echo "app_ run_dir_ stage_ stages_ spraycoat_registry" ;;
         stage_loop) echo "stage_" ;;
-        couple_stage) echo "couple_stage_ couple_read_bodies couple_bodies_free" ;;
+        couple_stage) echo "couple_stage_ couple_stage_read_bodies couple_stage_bodies_free" ;;
         vcrit_stage) echo "vcrit_stage_ vcrit_case_keys" ;;
         *_stage) echo "$1_" ;;
         *) echo "" ;;
