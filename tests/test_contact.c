@@ -400,11 +400,11 @@ static void test_chung_ooi_oblique_wall(void)
     }
     double e_t, omega_s, slip_after, vn_ratio;
     oblique_wall_impact(50.0, &e_t, &omega_s, &slip_after, &vn_ratio);
-    CHECK_CLOSE(e_t, 0.847, 0.0, 5e-4, "notes/dem.md: e_t at 50 deg");
-    CHECK_CLOSE(omega_s, -457.0, 0.0, 0.5, "notes/dem.md: omega at 50 deg");
+    CHECK_CLOSE(e_t, 0.847, 0.0, 5e-4, "docs/references.md: e_t at 50 deg");
+    CHECK_CLOSE(omega_s, -457.0, 0.0, 0.5, "docs/references.md: omega at 50 deg");
     oblique_wall_impact(70.0, &e_t, &omega_s, &slip_after, &vn_ratio);
-    CHECK_CLOSE(e_t, 0.934, 0.0, 5e-4, "notes/dem.md: e_t at 70 deg");
-    CHECK_CLOSE(omega_s, -243.0, 0.0, 0.5, "notes/dem.md: omega at 70 deg");
+    CHECK_CLOSE(e_t, 0.934, 0.0, 5e-4, "docs/references.md: e_t at 70 deg");
+    CHECK_CLOSE(omega_s, -243.0, 0.0, 0.5, "docs/references.md: omega at 70 deg");
 }
 
 /* ---- Chung & Ooi (2011) test 7: two identical spheres, opposite spins ---- */

@@ -80,9 +80,9 @@ static void test_oblique_wall_rigid_body(void)
         double slip_after = hit->v_out[0] + hit->w_out[1] * radius;
         CHECK(slip_after >= -1e-12 * speed, "%d deg: slip reversed (%g m/s)", degrees, slip_after);
         if (degrees == 50)
-            CHECK_CLOSE(hit->v_out[0] / vt, 0.847, 0, 5e-4, "50 deg tangential CoR (notes/dem.md)");
+            CHECK_CLOSE(hit->v_out[0] / vt, 0.847, 0, 5e-4, "50 deg tangential CoR (docs/references.md)");
         if (degrees == 70)
-            CHECK_CLOSE(hit->w_out[1], -243.0, 0, 1.0, "70 deg spin (notes/dem.md)");
+            CHECK_CLOSE(hit->w_out[1], -243.0, 0, 1.0, "70 deg spin (docs/references.md)");
         fixture_close(&f);
     }
 }
