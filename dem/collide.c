@@ -293,6 +293,21 @@ static void rest_position(const struct dem_solver *s, int64_t partner, const dou
         rest[2] = fmin(x_hit[2], s->cfg.standoff - r);
 }
 
+/* Eq. 33 under the adhesion rule: the adhesion force acts through the whole contact, so a particle that does
+ * not stick leaves with the normal speed e (v0 - v*), not e v0 (v* the capture speed of Eq. 34, v0 = vn_in
+ * the arrival normal speed; e whatever the contact law gave, read off the rebound: e v0 = the normal speed
+ * out).  n points from the particle to the obstacle; the tangential velocity and the spin are left as the
+ * contact law made them. */
+static void adhesion_slowed_rebound(struct sphere_state *sphere, const double n[3], double vn_in, double capture)
+{
+    if (!(vn_in > 0.0))
+        return;
+    double normal = sphere->v[0] * n[0] + sphere->v[1] * n[1] + sphere->v[2] * n[2]; /* < 0: leaving */
+    double slowed = normal * (vn_in - capture) / vn_in;
+    for (int k = 0; k < 3; k++)
+        sphere->v[k] += (slowed - normal) * n[k];
+}
+
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
 static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
 {
@@ -310,11 +325,15 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     struct contact_outcome outcome;
     if (!dem_contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;
-    store_sphere(s, i, &sphere);
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
     int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
+    if (!stuck && cfg->rule == DEM_DEPOSIT_ADHESION)
+        adhesion_slowed_rebound(&sphere, n, outcome.vn,
+                                dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy,
+                                                                   obstacle->surface_energy, p->m[i], r_eff, yield));
+    store_sphere(s, i, &sphere);
     if (stuck) {
         double rest[3];
         rest_position(s, partner, x_hit, n, r, obstacle_radius, rest);

@@ -238,6 +238,30 @@ static void test_adhesion_threshold(void)
     }
 }
 
+/* Eq. 33 through the solver: above the capture speed v* of Eq. 34 a particle rebounds with e (v0 - v*), the
+ * adhesion acting through the whole contact (R = 40 um, alpha = 1000: v* = 2.524128265 m/s from
+ * adhesion_threshold.csv; e = 0.5; v0 = 10 m/s: 3.737935868 m/s, where e v0 would be 5). */
+static void test_adhesion_slows_rebound(void)
+{
+    const double capture = 2.524128265, e = 0.5, v0 = 10.0;
+    struct fixture f;
+    const char *ini = "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = none\n[contact]\nrestitution = 0.5\n"
+                      "[deposition]\nrule = adhesion\nalpha_adh = 1000\n";
+    if (fixture_open(&f, ini, "0,0,0.29995,0,0,10,0,0,0,8e-5\n") != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    fixture_steps(&f, 20);
+    const struct dem_impact *hit = first_impact(&f);
+    CHECK(hit != NULL, "impact recorded");
+    if (hit) {
+        CHECK(hit->outcome == DEM_REBOUND, "outcome %lld", (long long)hit->outcome);
+        CHECK_CLOSE(-hit->v_out[2], e * (v0 - capture), 1e-8, 0.0, "Eq. 33 rebound e (v0 - v*)");
+        CHECK_CLOSE(hit->v_out[0], 0.0, 0.0, 1e-12, "no tangential velocity from a normal impact");
+    }
+    fixture_close(&f);
+}
+
 /* Deposit build-up: the second of two particles on the axis lands on the first, sticks to it and rests
  * touching it. */
 static void test_deposit_on_deposit(void)
@@ -354,6 +378,7 @@ int main(void)
     RUN(test_pair_spins);
     RUN(test_johnson_wall_impact);
     RUN(test_adhesion_threshold);
+    RUN(test_adhesion_slows_rebound);
     RUN(test_deposit_on_deposit);
     RUN(test_vcrit_table_csv);
     RUN(test_vcrit_table_h5);
