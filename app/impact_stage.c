@@ -217,7 +217,44 @@ static int read_snapshot_info(const struct impact_run *run, int64_t index, struc
     return SC_OK;
 }
 
-/* RUN_DIR/impact.xdmf: a temporal collection of point clouds, one per snapshot of impact.h5. */
+/* Snapshot 0 is written before any step, with every point active, so its `id` is 0 .. n0-1, and points are
+ * only ever removed, so a later snapshot has n <= n0 points: the first n ids of snapshot 0 are then the
+ * connectivity of a snapshot (one vertex cell a point).  *n0 is 0 when snapshot 0 is not so (*n0 stays 0 and
+ * the connectivity is written inline). */
+static int first_snapshot_indices(const struct impact_run *run, size_t *n0)
+{
+    *n0 = 0;
+    hid_t file;
+    SC_TRY(open_snapshot(run, 0, &file));
+    size_t n = 0;
+    int64_t *id = NULL;
+    int status = h5_dataset_size(file, "snapshot/id", &n);
+    if (status == SC_OK && !(id = malloc((n ? n : 1) * sizeof *id)))
+        status = sc_out_of_memory(__FILE__, __LINE__, (n ? n : 1) * sizeof *id, "the ids of snapshot 0");
+    if (status == SC_OK)
+        status = h5_read_int64s(file, "snapshot/id", id, n);
+    H5Fclose(file);
+    size_t i = 0;
+    while (status == SC_OK && i < n && id[i] == (int64_t)i)
+        i++;
+    if (status == SC_OK && i == n)
+        *n0 = n;
+    free(id);
+    return status;
+}
+
+/* The connectivity of n points inline: 0 1 .. n-1 (one vertex cell a point). */
+static void write_inline_indices(FILE *f, size_t n)
+{
+    fprintf(f, "     <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"XML\">", n);
+    for (size_t i = 0; i < n; i++)
+        fprintf(f, i % 20 == 19 ? "%zu\n" : "%zu ", i);
+    fprintf(f, "</DataItem>\n");
+}
+
+/* RUN_DIR/impact.xdmf: a temporal collection of point clouds, one per snapshot of impact.h5.  The Polyvertex
+ * topology has its connectivity (the first n ids of snapshot 0, or inline): without it the Xdmf3 readers of
+ * ParaView make no cells, and the Surface and Points representations draw nothing. */
 static int write_xdmf(const struct impact_run *run)
 {
     static const char *const scalars[] = {"eps_p", "T", "D_bond", "pressure", "von_mises", "rho"};
@@ -226,6 +263,12 @@ static int write_xdmf(const struct impact_run *run)
     struct atomic_file out;
     SC_TRY(atomic_open(run->xdmf, &out));
     FILE *f = out.stream;
+    size_t n0 = 0;
+    int checked = count > 0 ? first_snapshot_indices(run, &n0) : SC_OK;
+    if (checked != SC_OK) {
+        atomic_abort(&out);
+        return checked;
+    }
     fprintf(f, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
                "  <Grid Name=\"impact\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
     for (int64_t i = 0; i < count; i++) {
@@ -239,10 +282,18 @@ static int write_xdmf(const struct impact_run *run)
         char where[128];
         snprintf(where, sizeof where, "impact.h5:/%s/%06lld", run->snapshot_group, (long long)i);
         fprintf(f, "   <Grid Name=\"%06lld\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
-                   "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\"/>\n"
-                   "    <Geometry GeometryType=\"XYZ\">\n"
+                   "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
+                (long long)i, info.t, n);
+        if (n > 0 && n <= n0)
+            fprintf(f, "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%zu\">\n"
+                       "      <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 %zu</DataItem>\n"
+                       "      <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+                       "impact.h5:/%s/000000/id</DataItem>\n     </DataItem>\n", n, n, n0, run->snapshot_group);
+        else if (n > 0)
+            write_inline_indices(f, n);
+        fprintf(f, "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n"
                    "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/x"
-                   "</DataItem>\n    </Geometry>\n", (long long)i, info.t, n, n, where);
+                   "</DataItem>\n    </Geometry>\n", n, where);
         fprintf(f, "    <Attribute Name=\"v\" AttributeType=\"Vector\" Center=\"Node\">\n"
                    "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/v"
                    "</DataItem>\n    </Attribute>\n", n, where);
