@@ -190,7 +190,7 @@ static void read_spray(hid_t file, struct report_data *r)
     r->spread = last(file, "metrics/mean_spread");
     r->scatter = last(file, "metrics/scatter");
     r->max_thickness = last(file, "metrics/max_thickness");
-    struct render_array x, d, state;
+    struct render_array x = {0}, d = {0}, state = {0};
     if (render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/d", &d) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/state", &state) == SC_OK && x.count == 3 * d.count &&
@@ -199,7 +199,7 @@ static void read_spray(hid_t file, struct report_data *r)
                                                    r->profile_h, &r->profile_width);
     render_array_free(&x), render_array_free(&d), render_array_free(&state);
     /* the spray's verdict on each seeded particle: the outcome of its first contact (smallest t) */
-    struct render_array t, id, outcome;
+    struct render_array t = {0}, id = {0}, outcome = {0};
     if (r->seed_count > 0 && render_read_array(file, "spray.h5", "impacts/t", &t) == SC_OK &&
         render_read_array(file, "spray.h5", "impacts/particle_id", &id) == SC_OK &&
         render_read_array(file, "spray.h5", "impacts/outcome", &outcome) == SC_OK && id.count == t.count &&
