@@ -127,6 +127,17 @@ static struct number given(double v)
     return n;
 }
 
+/* "lo to hi", or one number when they print the same. */
+static struct number span(struct number lo, struct number hi)
+{
+    struct number n;
+    if (strcmp(lo.s, hi.s) == 0)
+        snprintf(n.s, sizeof n.s, "%s", lo.s);
+    else
+        snprintf(n.s, sizeof n.s, "%.20s to %.20s", lo.s, hi.s);
+    return n;
+}
+
 static void number_cell_digits(FILE *f, double value, int digits) { cell(f, "td", num(value, digits).s); }
 
 /* ---- what the run's files say ------------------------------------------------------------------------------ */
@@ -448,9 +459,9 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                 r->seed_count);
         escaped(f, case_text(c, "couple", "sample"));
         fprintf(f, "</code>) and flown through the %s mm gas layer in front of the target: speed at the wall "
-                   "%s to %s m/s, changed by %s m/s on average (%s to %s m/s) from the spray's impact speed.</li>\n",
-                given(case_real(c, "couple", "layer_thickness") * 1e3).s, num(v_lo, 3).s, num(v_hi, 3).s,
-                num(change / (double)r->seed_count, 3).s, num(lo, 3).s, num(hi, 3).s);
+                   "%s m/s, changed by %s m/s on average (%s m/s) from the spray's impact speed.</li>\n",
+                given(case_real(c, "couple", "layer_thickness") * 1e3).s, span(num(v_lo, 3), num(v_hi, 3)).s,
+                num(change / (double)r->seed_count, 3).s, span(num(lo, 3), num(hi, 3)).s);
     }
     if (r->impact) {
         double spacing = case_real(c, "impact", "spacing");
@@ -458,10 +469,10 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                    "(<code>[impact] grid, spacing</code>)",
                 given(case_real(c, "impact", "grid") * 1e6).s, given(spacing * 1e6).s);
         if (r->row_count > 0)
-            fprintf(f, ": %s to %s points across a particle's diameter", num(t.d_min / spacing, 2).s,
-                    num(t.d_max / spacing, 2).s);
+            fprintf(f, ": %s points across a particle's diameter",
+                    span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
         if (r->points_max >= r->points_min)
-            fprintf(f, "; %s to %s material points per run", given(r->points_min).s, given(r->points_max).s);
+            fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
         fprintf(f, ".</li>\n");
     }
     fprintf(f, "</ul>\n");
