@@ -500,7 +500,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
                "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
                "(v_rest &gt; %s m/s), stayed (not bonded, v_rest &le; %s m/s), unsettled (no v_rest: no point slow "
                "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
-               "stage.</p>\n",
+               "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
             given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
             given(vrest_threshold).s);
     fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
@@ -565,10 +565,10 @@ static void spray_table(FILE *f, const struct report_data *r)
         const char *unit;
         int digits;
     } rows[] = {
-        {"particles injected", (double)r->injected, "-", 12},
-        {"particles deposited", (double)r->deposited, "-", 12},
-        {"particles still in flight or resting unbonded at the end", (double)r->in_flight, "-", 12},
-        {"particles escaped (left the domain)", (double)r->escaped, "-", 12},
+        {"particles injected", (double)r->injected, "-", 0},
+        {"particles deposited", (double)r->deposited, "-", 0},
+        {"particles still in flight or resting unbonded at the end", (double)r->in_flight, "-", 0},
+        {"particles escaped (left the domain)", (double)r->escaped, "-", 0},
         {"deposit fraction (deposited / injected)", 100 * r->deposit_fraction, "%", 3},
         {"volume fraction (deposited volume within [target] deposit_radius over a disc D_median thick)",
          100 * r->volume_fraction, "%", 3},
@@ -580,7 +580,10 @@ static void spray_table(FILE *f, const struct report_data *r)
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
         fprintf(f, "<tr>");
         cell(f, "td", rows[i].label);
-        number_cell_digits(f, rows[i].value, rows[i].digits);
+        if (rows[i].digits == 0) /* a count */
+            fprintf(f, "<td>%.0f</td>", rows[i].value);
+        else
+            number_cell_digits(f, rows[i].value, rows[i].digits);
         cell(f, "td", rows[i].unit);
         fprintf(f, "</tr>\n");
     }
