@@ -276,8 +276,9 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
         struct body_row *row = &r->rows[r->row_count++];
         *row = (struct body_row){run, b, particle, a[0].values[b], a[1].values[b], a[2].values[b], a[3].values[b],
                                  a[4].values[b], a[5].values[b], -1};
-        for (size_t s = 0; s < r->seed_count; s++)
-            if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle)
+        for (size_t s = 0; s < r->seed_count; s++) /* the same particle: same run, place and diameter */
+            if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle &&
+                fabs(r->seeds[s].d - row->d) <= 0.01 * row->d)
                 row->seed = (int)s;
         particle++;
     }
@@ -415,13 +416,20 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     }
     struct tally t = tally(r, vrest_threshold);
     if (r->impact && r->row_count > 0) {
-        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>: %zu of %zu sampled particles bonded in %d run%s "
-                   "(%zu rebounded, %zu stayed without bonding, %zu unsettled: no v_rest at the end). "
-                   "Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
-                   "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
+        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>: %zu of %zu sampled particles bonded in %d run%s",
                 num(100.0 * (double)t.bonded / (double)r->row_count, 3).s, t.bonded, r->row_count, r->runs,
-                r->runs == 1 ? "" : "s", t.rebounded, t.stuck, t.unsettled, given(100 * pbcp_threshold).s,
-                given(vrest_threshold).s, given(r->t_impact * 1e9).s);
+                r->runs == 1 ? "" : "s");
+        const char *sep = " (";
+        if (t.rebounded)
+            fprintf(f, "%s%zu rebounded", sep, t.rebounded), sep = ", ";
+        if (t.stuck)
+            fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t.stuck), sep = ", ";
+        if (t.unsettled)
+            fprintf(f, "%s%zu unsettled: no v_rest at the end", sep, t.unsettled), sep = ", ";
+        fprintf(f, "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
+                   "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
+                sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
+                given(r->t_impact * 1e9).s);
         if (t.compared > 0)
             fprintf(f, "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
                        "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
@@ -498,7 +506,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
     double spacing = case_real(req->c, "impact", "spacing");
     fprintf(f, "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
                "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
-               "(v_rest &gt; %s m/s), stayed (not bonded, v_rest &le; %s m/s), unsettled (no v_rest: no point slow "
+               "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (no v_rest: no point slow "
                "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
                "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
             given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
@@ -506,7 +514,9 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
     fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
                "<th>points across d</th><th>impact speed (m/s)</th><th>verdict</th><th>spray said</th>"
                "<th>PBCP (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th></tr>\n");
-    static const char *const words[] = {"bonded", "rebounded", "stayed, not bonded", "unsettled"};
+    char low_pbcp[96];
+    snprintf(low_pbcp, sizeof low_pbcp, "not bonded (PBCP < %s %%)", given(100 * pbcp_threshold).s);
+    const char *const words[] = {"bonded", "rebounded", low_pbcp, "unsettled"};
     for (size_t i = 0; i < r->row_count; i++) {
         const struct body_row *row = &r->rows[i];
         enum verdict v = verdict(row, vrest_threshold);
@@ -538,12 +548,21 @@ static void couple_table(FILE *f, const struct report_data *r)
         return;
     fprintf(f, "<h2>Couple stage</h2>\n<p>Each MPM body's particle: its speed at the spray's impact and at the wall "
                "after the gas layer, and the spray's outcome of its first contact.</p>\n<table><tr><th>run</th>"
-               "<th>particle (of the run)</th><th>spray particle id</th><th>diameter (µm)</th>"
+               "<th>body</th><th>spray particle id</th><th>diameter (µm)</th>"
                "<th>spray impact speed (m/s)</th><th>speed at the wall (m/s)</th><th>change (m/s)</th>"
                "<th>spray said</th></tr>\n");
     for (size_t i = 0; i < r->seed_count; i++) {
         const struct seed_row *s = &r->seeds[i];
-        fprintf(f, "<tr><td>run_%04ld</td><td>%ld</td><td>%ld</td>", s->run, s->body, s->particle_id);
+        long body = -1; /* its index in impact.h5 */
+        for (size_t k = 0; k < r->row_count; k++)
+            if (r->rows[k].seed == (int)i)
+                body = (long)r->rows[k].body;
+        fprintf(f, "<tr><td>run_%04ld</td>", s->run);
+        if (body >= 0)
+            fprintf(f, "<td>%ld</td>", body);
+        else
+            cell(f, "td", "-");
+        fprintf(f, "<td>%ld</td>", s->particle_id);
         number_cell_digits(f, s->d * 1e6, 3);
         number_cell_digits(f, s->v_spray, 3);
         number_cell_digits(f, s->v_wall, 3);
