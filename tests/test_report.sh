@@ -2,7 +2,7 @@
 # report.html of a pipeline run states the result (issue 23): a small pipeline of two impact runs of two particle
 # bodies each; the page is parsed (python3, html.parser) and must have a headline naming the deposit fraction, the
 # bonded fraction with its criterion, the coating thickness, the couple stage and the resolution; one results row
-# per particle body of impact.h5 (bodies of every run); every <img src> a file that exists; and, in headless
+# per particle body of impact.h5 (bodies of every run), none "rebounded" without a v_rest; every <img src> a file that exists; and, in headless
 # Chromium, every image loads.  Prints "PASS name" / "FAIL name: why".  Run from the repo root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -51,6 +51,7 @@ class Page(HTMLParser):
         self.stack, self.headline, self.rows, self.imgs = [], "", 0, []
         self.in_headline = 0
         self.in_results = 0
+        self.cells, self.row, self.in_cell = [], None, 0
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
@@ -66,8 +67,17 @@ class Page(HTMLParser):
             self.stack.append(("", tag))
         if self.in_results and tag == "tr" and "body" in (a.get("class") or "").split():
             self.rows += 1
+            self.row = []
+            self.cells.append(self.row)
+        if self.row is not None and tag == "td":
+            self.in_cell = 1
+            self.row.append("")
 
     def handle_endtag(self, tag):
+        if tag == "td":
+            self.in_cell = 0
+        if tag == "tr":
+            self.row = None
         if self.stack and self.stack[-1][1] == tag:
             kind, _ = self.stack.pop()
             if kind == "headline":
@@ -78,6 +88,8 @@ class Page(HTMLParser):
     def handle_data(self, data):
         if self.in_headline:
             self.headline += data
+        if self.in_cell and self.row is not None:
+            self.row[-1] += data
 
 p = Page()
 with open(page, encoding="utf-8") as f:
@@ -93,6 +105,14 @@ if p.rows == 0:
     fails.append("the results table (id=impact-results) has no body rows")
 elif p.rows != bodies:
     fails.append("the results table has %d body rows, impact.h5 %d particle bodies" % (p.rows, bodies))
+# columns: run, body, diameter, points across d, speed, verdict, spray said, PBCP, v_rest, CoR
+for row in p.cells:
+    if len(row) != 10:
+        fails.append("a body row has %d cells, not 10: %s" % (len(row), row))
+    elif row[8].strip() == "n/a" and row[5].strip() == "rebounded":
+        fails.append("a body without v_rest is called rebounded: %s" % row)
+    elif row[1].strip() == "0":
+        fails.append("the substrate (body 0) has a row: %s" % row)
 base = os.path.dirname(page)
 missing = [s for s in p.imgs if not os.path.isfile(os.path.join(base, s))]
 if not p.imgs:
