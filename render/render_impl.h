@@ -88,6 +88,16 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
 int render_impact_figures(const struct render_request *req, struct render_renderer **renderer,
                           struct render_output *out);
 int render_vcrit_figures(const struct render_request *req, struct render_output *out);
+/* The first contact of each particle in spray.h5 /impacts (t and particle_id of m rows): its row with the smallest
+ * t, into rows[] (m entries of room) in order of particle id; returns the count, (size_t)-1 when out of memory. */
+size_t render_first_contacts(const double *t, const double *particle_id, size_t m, size_t *rows);
+/* The radial profile of the coating from spray.h5 /particles (x n*3, d, state; state 1 deposited): `bins` annuli
+ * of equal width around the spray axis out to the farthest deposited particle's edge, r_left[b] their inner
+ * radii (m), *width their width (m), thickness[b] the deposited particle volume whose centre lies in the
+ * annulus over the annulus area (m): the thickness of a fully dense layer (a porous coating of packing fraction
+ * phi is 1/phi thicker).  Returns bins, or 0 when nothing is deposited. */
+int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins,
+                             double *r_left, double *thickness, double *width);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 

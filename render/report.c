@@ -1,5 +1,8 @@
-/* RUN_DIR/report.html: one page with provenance, the case summary, the main results and every figure (images
- * beside it in figures/, so the page is small and the PNGs stay usable on their own). */
+/* RUN_DIR/report.html: one page that opens with the result (the headline: deposit fraction of the spray, bonded
+ * fraction of the MPM runs and its criterion, whether the two agree, coating thickness with its radial profile,
+ * the couple stage's seeds, the impact resolution), then the tables (one row per particle body of every impact
+ * run), every figure (images beside it in figures/, so the page is small and the PNGs stay usable on their own),
+ * and provenance and the case collapsed at the end. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -33,23 +36,17 @@ static void cell(FILE *f, const char *tag, const char *text)
     fprintf(f, "</%s>", tag);
 }
 
-static void number_cell(FILE *f, double value)
-{
-    char text[48];
-    snprintf(text, sizeof text, "%.6g", value);
-    cell(f, "td", text);
-}
-
 static const char style[] =
     "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
-    "th{background:#f2f2f2}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
+    "th{background:#f2f2f2}tr.differs td{background:#fff3cd}#headline li{margin:0.3em 0}"
+    "#headline figure{width:60%}summary{cursor:pointer;font-weight:bold;margin:1em 0}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
     "figure img{width:100%;border:1px solid #ddd}figcaption{font-size:90%}";
 
 /* One row per output file: its root attributes. */
 static void provenance(FILE *f, const struct render_request *req)
 {
-    static const char *const files[] = {"spray.h5", "impact.h5", "vcrit.h5"};
+    static const char *const files[] = {"spray.h5", "couple.h5", "impact.h5", "vcrit.h5"};
     static const char *const attributes[] = {"format", "program_version", "case_hash", "created"};
     char now[64];
     time_t t = time(NULL);
@@ -61,7 +58,7 @@ static void provenance(FILE *f, const struct render_request *req)
     cell(f, "td", now);
     fprintf(f, "</tr></table>\n<table><tr><th>file</th><th>format</th><th>written by</th><th>case hash</th>"
                "<th>written (UTC)</th></tr>\n");
-    for (int i = 0; i < 3; i++) {
+    for (int i = 0; i < 4; i++) {
         char path[4200], value[256];
         snprintf(path, sizeof path, "%s/%s", req->run_dir, files[i]);
         hid_t file;
@@ -97,72 +94,213 @@ static void case_summary(FILE *f, const struct render_request *req)
     fprintf(f, "</table>\n");
 }
 
-/* Spray: the counts of /stats and the last row of /metrics. */
-static void spray_results(FILE *f, hid_t file)
+/* ---- numbers for people ---------------------------------------------------------------------------------- */
+
+/* `digits` significant digits, fixed notation between 1e-3 and 1e6, "n/a" for NaN and infinities. */
+struct number {
+    char s[48];
+};
+static struct number num(double v, int digits)
 {
-    static const char *const counts[] = {"injected", "deposited", "escaped", "in_flight"};
-    static const char *const metrics[] = {"deposit_fraction", "volume_fraction", "mean_spread", "scatter",
-                                          "max_thickness"};
-    static const char *const units[] = {"-", "-", "m", "m", "m"};
-    fprintf(f, "<h3>Spray</h3>\n<table><tr><th>quantity</th><th>value</th><th>unit</th></tr>\n");
-    hid_t stats = h5_exists(file, "stats") ? H5Gopen2(file, "stats", H5P_DEFAULT) : H5I_INVALID_HID;
-    for (int i = 0; stats >= 0 && i < 4; i++) {
-        int64_t value;
-        if (h5_attr_read_int64(stats, counts[i], &value) == SC_OK)
-            fprintf(f, "<tr><td>particles %s</td><td>%lld</td><td>-</td></tr>\n", counts[i], (long long)value);
+    struct number n;
+    if (!isfinite(v)) {
+        snprintf(n.s, sizeof n.s, "n/a");
+        return n;
     }
-    if (stats >= 0)
-        H5Gclose(stats);
-    for (int i = 0; i < 5; i++) {
-        char name[64];
-        snprintf(name, sizeof name, "metrics/%s", metrics[i]);
-        struct render_array a;
-        if (render_read_array(file, "spray.h5", name, &a) != SC_OK || a.count == 0) {
-            render_array_free(&a);
-            continue;
-        }
-        fprintf(f, "<tr><td>%s (at the end)</td>", metrics[i]);
-        number_cell(f, a.values[a.count - 1]);
-        cell(f, "td", units[i]);
-        fprintf(f, "</tr>\n");
-        render_array_free(&a);
+    if (v == 0) {
+        snprintf(n.s, sizeof n.s, "0");
+        return n;
     }
-    sc_error_clear();
-    fprintf(f, "</table>\n");
+    int magnitude = (int)floor(log10(fabs(v)));
+    if (magnitude >= 6 || magnitude < -3)
+        snprintf(n.s, sizeof n.s, "%.*e", digits - 1, v);
+    else
+        snprintf(n.s, sizeof n.s, "%.*f", digits - 1 - magnitude > 0 ? digits - 1 - magnitude : 0, v);
+    return n;
 }
 
-/* Impact: /summary per body of one run group. */
-static void impact_summary(FILE *f, hid_t group, const char *title)
+/* A value of the case (a threshold, a spacing) or a count: as short as it is, up to 6 significant digits. */
+static struct number given(double v)
 {
-    static const char *const names[] = {"diameter", "v_impact", "bonded", "pbcp", "v_rest", "cor"};
+    struct number n;
+    snprintf(n.s, sizeof n.s, "%.6g", v);
+    return n;
+}
+
+/* "lo to hi", or one number when they print the same. */
+static struct number span(struct number lo, struct number hi)
+{
+    struct number n;
+    if (strcmp(lo.s, hi.s) == 0)
+        snprintf(n.s, sizeof n.s, "%s", lo.s);
+    else
+        snprintf(n.s, sizeof n.s, "%.20s to %.20s", lo.s, hi.s);
+    return n;
+}
+
+static void number_cell_digits(FILE *f, double value, int digits) { cell(f, "td", num(value, digits).s); }
+
+/* ---- what the run's files say ------------------------------------------------------------------------------ */
+
+/* One particle body of an impact run (the substrate left out). */
+struct body_row {
+    int run;                 /* -1: a single impact run (top-level /summary) */
+    size_t body;             /* index in impact.h5 (0-based, the substrate included) */
+    size_t particle;         /* its index among the run's particle bodies (the couple's /seeds body) */
+    double d, v, bonded, pbcp, v_rest, cor;
+    int seed;                /* its row of couple.h5 /seeds, -1 when none */
+};
+
+struct seed_row {
+    long run, body, particle_id, impact_row;
+    double d, v_spray, v_wall;
+    int spray_outcome;       /* outcome of the particle's first contact in spray.h5: 0 rebound, 1 deposited, -1 none */
+};
+
+struct report_data {
+    /* spray.h5 */
+    int spray;
+    int64_t injected, deposited, escaped, in_flight;
+    double t_spray, deposit_fraction, volume_fraction, spread, scatter, max_thickness;
+    int profile_bins;
+    double profile_r[20], profile_h[20], profile_width;
+    /* couple.h5 */
+    struct seed_row *seeds;
+    size_t seed_count;
+    /* impact.h5 */
+    int impact, runs;
+    struct body_row *rows;
+    size_t row_count, row_capacity;
+    double points_min, points_max, t_impact;
+};
+
+static double last(hid_t file, const char *name)
+{
+    struct render_array a;
+    double value = NAN;
+    if (render_read_array(file, "spray.h5", name, &a) == SC_OK && a.count > 0)
+        value = a.values[a.count - 1];
+    render_array_free(&a);
+    return value;
+}
+
+static void read_spray(hid_t file, struct report_data *r)
+{
+    r->spray = 1;
+    hid_t stats = h5_exists(file, "stats") ? H5Gopen2(file, "stats", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (stats >= 0) {
+        h5_attr_read_int64(stats, "injected", &r->injected);
+        h5_attr_read_int64(stats, "deposited", &r->deposited);
+        h5_attr_read_int64(stats, "escaped", &r->escaped);
+        h5_attr_read_int64(stats, "in_flight", &r->in_flight);
+        h5_attr_read_double(stats, "t", &r->t_spray);
+        H5Gclose(stats);
+    }
+    r->deposit_fraction = last(file, "metrics/deposit_fraction");
+    r->volume_fraction = last(file, "metrics/volume_fraction");
+    r->spread = last(file, "metrics/mean_spread");
+    r->scatter = last(file, "metrics/scatter");
+    r->max_thickness = last(file, "metrics/max_thickness");
+    struct render_array x = {0}, d = {0}, state = {0};
+    if (render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
+        render_read_array(file, "spray.h5", "particles/d", &d) == SC_OK &&
+        render_read_array(file, "spray.h5", "particles/state", &state) == SC_OK && x.count == 3 * d.count &&
+        state.count == d.count)
+        r->profile_bins = render_thickness_profile(x.values, d.values, state.values, d.count, 20, r->profile_r,
+                                                   r->profile_h, &r->profile_width);
+    render_array_free(&x), render_array_free(&d), render_array_free(&state);
+    /* the spray's verdict on each seeded particle: the outcome of its first contact (smallest t) */
+    struct render_array t = {0}, id = {0}, outcome = {0};
+    if (r->seed_count > 0 && render_read_array(file, "spray.h5", "impacts/t", &t) == SC_OK &&
+        render_read_array(file, "spray.h5", "impacts/particle_id", &id) == SC_OK &&
+        render_read_array(file, "spray.h5", "impacts/outcome", &outcome) == SC_OK && id.count == t.count &&
+        outcome.count == t.count) {
+        for (size_t k = 0; k < r->seed_count; k++) {
+            size_t first = (size_t)-1;
+            for (size_t i = 0; i < t.count; i++)
+                if (id.values[i] == (double)r->seeds[k].particle_id && (first == (size_t)-1 || t.values[i] < t.values[first]))
+                    first = i;
+            r->seeds[k].spray_outcome = first == (size_t)-1 ? -1 : (int)outcome.values[first];
+        }
+    }
+    render_array_free(&t), render_array_free(&id), render_array_free(&outcome);
+    sc_error_clear();
+}
+
+static void read_couple(hid_t file, struct report_data *r)
+{
+    static const char *const names[] = {"seeds/run", "seeds/body", "seeds/particle_id", "seeds/impact_row",
+                                        "seeds/d", "seeds/v_spray", "seeds/v_wall"};
+    struct render_array a[7];
+    int ok = 1;
+    for (int k = 0; k < 7; k++)
+        ok = render_read_array(file, "couple.h5", names[k], &a[k]) == SC_OK && ok;
+    size_t n = ok ? a[0].count : 0;
+    for (int k = 0; ok && k < 7; k++)
+        ok = a[k].count == (k >= 5 ? 3 * n : n);
+    if (ok && n > 0 && (r->seeds = calloc(n, sizeof *r->seeds)) != NULL) {
+        r->seed_count = n;
+        for (size_t i = 0; i < n; i++) {
+            const double *vs = a[5].values + 3 * i, *vw = a[6].values + 3 * i;
+            r->seeds[i] = (struct seed_row){(long)a[0].values[i], (long)a[1].values[i], (long)a[2].values[i],
+                                            (long)a[3].values[i], a[4].values[i],
+                                            sqrt(vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]),
+                                            sqrt(vw[0] * vw[0] + vw[1] * vw[1] + vw[2] * vw[2]), -1};
+        }
+    }
+    for (int k = 0; k < 7; k++)
+        render_array_free(&a[k]);
+    sc_error_clear();
+}
+
+/* The particle bodies of one /summary group (loc: the file or a /run_NNNN group). */
+static void read_summary(hid_t loc, int run, struct report_data *r)
+{
+    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded", "summary/pbcp",
+                                        "summary/v_rest", "summary/cor"};
     struct render_array a[6];
     int ok = 1;
-    for (int k = 0; k < 6; k++) {
-        char name[48];
-        snprintf(name, sizeof name, "summary/%s", names[k]);
-        ok = render_read_array(group, "impact.h5", name, &a[k]) == SC_OK && ok && a[k].count == a[0].count;
-    }
-    sc_error_clear();
-    fprintf(f, "<h3>Impact%s</h3>\n<table><tr><th>body</th><th>diameter (µm)</th><th>impact speed (m/s)</th>"
-               "<th>verdict</th><th>PBCP (%%)</th><th>v_rest (m/s)</th><th>restitution ratio</th></tr>\n", title);
+    for (int k = 0; k < 6; k++)
+        ok = render_read_array(loc, "impact.h5", names[k], &a[k]) == SC_OK && ok && a[k].count == a[0].count;
+    size_t particle = 0;
     for (size_t b = 0; ok && b < a[0].count; b++) {
         if (a[2].values[b] < 0)
             continue; /* the substrate */
-        fprintf(f, "<tr><td>%zu</td>", b);
-        number_cell(f, a[0].values[b] * 1e6);
-        number_cell(f, a[1].values[b]);
-        cell(f, "td", a[2].values[b] == 1 ? "bonded" : "rebounded");
-        number_cell(f, 100 * a[3].values[b]);
-        number_cell(f, a[4].values[b]);
-        number_cell(f, a[5].values[b]);
-        fprintf(f, "</tr>\n");
+        if (r->row_count == r->row_capacity) {
+            size_t capacity = r->row_capacity ? 2 * r->row_capacity : 16;
+            struct body_row *grown = realloc(r->rows, capacity * sizeof *grown);
+            if (!grown)
+                break;
+            r->rows = grown, r->row_capacity = capacity;
+        }
+        struct body_row *row = &r->rows[r->row_count++];
+        *row = (struct body_row){run, b, particle, a[0].values[b], a[1].values[b], a[2].values[b], a[3].values[b],
+                                 a[4].values[b], a[5].values[b], -1};
+        for (size_t s = 0; s < r->seed_count; s++) /* the same particle: same run, place and diameter */
+            if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle &&
+                fabs(r->seeds[s].d - row->d) <= 0.01 * row->d)
+                row->seed = (int)s;
+        particle++;
     }
-    fprintf(f, "</table>\n");
     for (int k = 0; k < 6; k++)
         render_array_free(&a[k]);
+    int64_t points;
+    double t_end;
+    hid_t stats = h5_exists(loc, "stats") ? H5Gopen2(loc, "stats", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (stats >= 0) {
+        if (h5_attr_read_int64(stats, "points", &points) == SC_OK) {
+            r->points_min = fmin(r->points_min, (double)points);
+            r->points_max = fmax(r->points_max, (double)points);
+        }
+        if (h5_attr_read_double(stats, "t_end", &t_end) == SC_OK)
+            r->t_impact = t_end;
+        H5Gclose(stats);
+    }
+    r->runs++;
+    sc_error_clear();
 }
 
-static herr_t impact_run_group(hid_t parent, const char *name, const H5L_info_t *info, void *data)
+static herr_t read_run_group(hid_t parent, const char *name, const H5L_info_t *info, void *data)
 {
     (void)info;
     if (strncmp(name, "run_", 4) != 0)
@@ -170,11 +308,305 @@ static herr_t impact_run_group(hid_t parent, const char *name, const H5L_info_t 
     hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
     if (g < 0)
         return 0;
-    char title[48];
-    snprintf(title, sizeof title, " (%s)", name);
-    impact_summary(data, g, title);
+    read_summary(g, atoi(name + 4), data);
     H5Gclose(g);
     return 0;
+}
+
+/* A pipeline's impact.h5 has /run_NNNN/summary per body (and a top-level /summary of per-run means); a single
+ * impact run has /summary per body. */
+static void read_impact(hid_t file, struct report_data *r)
+{
+    r->impact = 1;
+    r->points_min = INFINITY, r->points_max = -INFINITY, r->t_impact = NAN;
+    if (h5_exists(file, "summary/diameter"))
+        read_summary(file, -1, r);
+    else
+        H5Literate(file, H5_INDEX_NAME, H5_ITER_INC, NULL, read_run_group, r);
+    sc_error_clear();
+}
+
+static int open_output(const struct render_request *req, const char *name, hid_t *file)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", req->run_dir, name);
+    if (access(path, R_OK) != 0 || h5_open_read(path, file) != SC_OK) {
+        sc_error_clear();
+        return 0;
+    }
+    return 1;
+}
+
+static void report_read(const struct render_request *req, struct report_data *r)
+{
+    memset(r, 0, sizeof *r);
+    hid_t file;
+    if (open_output(req, "couple.h5", &file))
+        read_couple(file, r), H5Fclose(file);
+    if (open_output(req, "spray.h5", &file))
+        read_spray(file, r), H5Fclose(file);
+    if (open_output(req, "impact.h5", &file))
+        read_impact(file, r), H5Fclose(file);
+}
+
+static void report_free(struct report_data *r)
+{
+    free(r->seeds);
+    free(r->rows);
+}
+
+/* ---- the page ---------------------------------------------------------------------------------------------- */
+
+enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };
+static enum verdict verdict(const struct body_row *row, double vrest_threshold)
+{
+    if (row->bonded == 1)
+        return BONDED;
+    if (!isfinite(row->v_rest))
+        return UNSETTLED;
+    return row->v_rest > vrest_threshold ? REBOUNDED : STUCK;
+}
+
+static const char *spray_said(const struct report_data *r, const struct body_row *row)
+{
+    if (row->seed < 0)
+        return "-";
+    int o = r->seeds[row->seed].spray_outcome;
+    return o == 1 ? "deposited" : o == 0 ? "rebounded" : "-";
+}
+
+struct tally {
+    size_t bonded, rebounded, stuck, unsettled, compared, disagree, deposited_not_bonded, rebounded_bonded;
+    double d_min, d_max;
+};
+static struct tally tally(const struct report_data *r, double vrest_threshold)
+{
+    struct tally t = {.d_min = INFINITY, .d_max = -INFINITY};
+    for (size_t i = 0; i < r->row_count; i++) {
+        const struct body_row *row = &r->rows[i];
+        enum verdict v = verdict(row, vrest_threshold);
+        t.bonded += v == BONDED, t.rebounded += v == REBOUNDED, t.stuck += v == STUCK, t.unsettled += v == UNSETTLED;
+        t.d_min = fmin(t.d_min, row->d), t.d_max = fmax(t.d_max, row->d);
+        int o = row->seed >= 0 ? r->seeds[row->seed].spray_outcome : -1;
+        if (o < 0 || v == UNSETTLED)
+            continue;
+        t.compared++;
+        if (o == 1 && v != BONDED)
+            t.disagree++, t.deposited_not_bonded++;
+        if (o == 0 && v == BONDED)
+            t.disagree++, t.rebounded_bonded++;
+    }
+    return t;
+}
+
+static void headline(FILE *f, const struct render_request *req, const struct report_data *r,
+                     const struct render_output *out)
+{
+    const struct case_file *c = req->c;
+    double pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
+    double vrest_threshold = case_real(c, "impact", "vrest_threshold");
+    fprintf(f, "<section id=\"headline\">\n<h2>Result</h2>\n<ul>\n");
+    if (r->spray) {
+        fprintf(f, "<li><b>Spray: deposit fraction %s %%</b>: %lld of %lld injected particles deposited on the "
+                   "target (rule <code>[deposition] rule = ",
+                num(100 * r->deposit_fraction, 3).s, (long long)r->deposited, (long long)r->injected);
+        escaped(f, case_text(c, "deposition", "rule"));
+        fprintf(f, "</code>); %lld still in flight or resting unbonded on the target at t = %s ms, %lld escaped.</li>\n",
+                (long long)r->in_flight, given(r->t_spray * 1e3).s, (long long)r->escaped);
+    }
+    struct tally t = tally(r, vrest_threshold);
+    if (r->impact && r->row_count > 0) {
+        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>: %zu of %zu sampled particles bonded in %d run%s",
+                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s, t.bonded, r->row_count, r->runs,
+                r->runs == 1 ? "" : "s");
+        const char *sep = " (";
+        if (t.rebounded)
+            fprintf(f, "%s%zu rebounded", sep, t.rebounded), sep = ", ";
+        if (t.stuck)
+            fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t.stuck), sep = ", ";
+        if (t.unsettled)
+            fprintf(f, "%s%zu unsettled: no v_rest at the end", sep, t.unsettled), sep = ", ";
+        fprintf(f, "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
+                   "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
+                sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
+                given(r->t_impact * 1e9).s);
+        if (t.compared > 0)
+            fprintf(f, "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
+                       "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
+                    t.disagree ? "disagree" : "agree", t.disagree ? t.disagree : t.compared, t.compared,
+                    t.deposited_not_bonded, t.rebounded_bonded,
+                    t.unsettled ? "; unsettled MPM runs are not compared" : "");
+    } else if (r->impact) {
+        fprintf(f, "<li><b>Impact (MPM): no particle body found in impact.h5</b>.</li>\n");
+    }
+    if (r->spray) {
+        fprintf(f, "<li><b>Coating thickness: maximum %s µm</b> (height span of the deposited particles' centres, "
+                   "<code>spray.h5 /metrics/max_thickness</code>)",
+                num(r->max_thickness * 1e6, 3).s);
+        if (r->profile_bins > 0) {
+            double peak = 0;
+            for (int b = 0; b < r->profile_bins; b++)
+                peak = fmax(peak, r->profile_h[b]);
+            fprintf(f, "; dense-equivalent thickness %s µm at the axis (r &lt; %s mm), at most %s µm, out to "
+                       "r = %s mm (profile below)",
+                    num(r->profile_h[0] * 1e6, 3).s, num(r->profile_width * 1e3, 3).s, num(peak * 1e6, 3).s,
+                    num(r->profile_width * r->profile_bins * 1e3, 3).s);
+        } else {
+            fprintf(f, "; nothing deposited");
+        }
+        fprintf(f, ".</li>\n");
+    }
+    if (r->seed_count > 0) {
+        double change = 0, lo = INFINITY, hi = -INFINITY, v_lo = INFINITY, v_hi = -INFINITY;
+        for (size_t i = 0; i < r->seed_count; i++) {
+            double dv = r->seeds[i].v_wall - r->seeds[i].v_spray;
+            change += dv, lo = fmin(lo, dv), hi = fmax(hi, dv);
+            v_lo = fmin(v_lo, r->seeds[i].v_wall), v_hi = fmax(v_hi, r->seeds[i].v_wall);
+        }
+        fprintf(f, "<li><b>Couple stage: %zu particles</b> sampled from the spray's impacts (<code>[couple] sample = ",
+                r->seed_count);
+        escaped(f, case_text(c, "couple", "sample"));
+        fprintf(f, "</code>) and flown through the %s mm gas layer in front of the target: speed at the wall "
+                   "%s m/s, changed by %s m/s on average (%s m/s) from the spray's impact speed.</li>\n",
+                given(case_real(c, "couple", "layer_thickness") * 1e3).s, span(num(v_lo, 3), num(v_hi, 3)).s,
+                num(change / (double)r->seed_count, 3).s, span(num(lo, 3), num(hi, 3)).s);
+    }
+    if (r->impact) {
+        double spacing = case_real(c, "impact", "spacing");
+        fprintf(f, "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
+                   "(<code>[impact] grid, spacing</code>)",
+                given(case_real(c, "impact", "grid") * 1e6).s, given(spacing * 1e6).s);
+        if (r->row_count > 0)
+            fprintf(f, ": %s points across a particle's diameter",
+                    span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
+        if (r->points_max >= r->points_min)
+            fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
+        fprintf(f, ".</li>\n");
+    }
+    fprintf(f, "</ul>\n");
+    const struct render_figure *profile = render_output_find(out, "spray_thickness");
+    if (profile) {
+        fprintf(f, "<figure><img src=\"figures/%s.png\" alt=\"", profile->name);
+        escaped(f, profile->title);
+        fprintf(f, "\"><figcaption>Coating thickness vs radius from the spray axis: the volume of the deposited "
+                   "particles whose centres lie in each annulus, divided by the annulus area, i.e. the thickness "
+                   "of a fully dense layer (a coating of packing fraction &phi; is 1/&phi; thicker). "
+                   "(<a href=\"figures/%s.svg\">SVG</a>)</figcaption></figure>\n",
+                profile->name);
+    }
+    fprintf(f, "</section>\n");
+}
+
+static void impact_table(FILE *f, const struct render_request *req, const struct report_data *r)
+{
+    if (!r->impact)
+        return;
+    double vrest_threshold = case_real(req->c, "impact", "vrest_threshold");
+    double pbcp_threshold = case_real(req->c, "impact", "pbcp_threshold");
+    double spacing = case_real(req->c, "impact", "spacing");
+    fprintf(f, "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
+               "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
+               "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (no v_rest: no point slow "
+               "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
+               "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
+            given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
+            given(vrest_threshold).s);
+    fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
+               "<th>points across d</th><th>impact speed (m/s)</th><th>verdict</th><th>spray said</th>"
+               "<th>PBCP (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th></tr>\n");
+    char low_pbcp[96];
+    snprintf(low_pbcp, sizeof low_pbcp, "not bonded (PBCP < %s %%)", given(100 * pbcp_threshold).s);
+    const char *const words[] = {"bonded", "rebounded", low_pbcp, "unsettled"};
+    for (size_t i = 0; i < r->row_count; i++) {
+        const struct body_row *row = &r->rows[i];
+        enum verdict v = verdict(row, vrest_threshold);
+        const char *said = spray_said(r, row);
+        int differs = row->seed >= 0 && v != UNSETTLED && strcmp(said, "-") != 0 &&
+                      (strcmp(said, "deposited") == 0) != (v == BONDED);
+        fprintf(f, "<tr class=\"body%s\">", differs ? " differs" : "");
+        if (row->run < 0)
+            cell(f, "td", "-");
+        else
+            fprintf(f, "<td>run_%04d</td>", row->run);
+        fprintf(f, "<td>%zu</td>", row->body);
+        number_cell_digits(f, row->d * 1e6, 3);
+        number_cell_digits(f, row->d / spacing, 2);
+        number_cell_digits(f, row->v, 3);
+        cell(f, "td", words[v]);
+        cell(f, "td", said);
+        number_cell_digits(f, 100 * row->pbcp, 3);
+        number_cell_digits(f, row->v_rest, 3);
+        number_cell_digits(f, row->cor, 2);
+        fprintf(f, "</tr>\n");
+    }
+    fprintf(f, "</table>\n");
+}
+
+static void couple_table(FILE *f, const struct report_data *r)
+{
+    if (r->seed_count == 0)
+        return;
+    fprintf(f, "<h2>Couple stage</h2>\n<p>Each MPM body's particle: its speed at the spray's impact and at the wall "
+               "after the gas layer, and the spray's outcome of its first contact.</p>\n<table><tr><th>run</th>"
+               "<th>body</th><th>spray particle id</th><th>diameter (µm)</th>"
+               "<th>spray impact speed (m/s)</th><th>speed at the wall (m/s)</th><th>change (m/s)</th>"
+               "<th>spray said</th></tr>\n");
+    for (size_t i = 0; i < r->seed_count; i++) {
+        const struct seed_row *s = &r->seeds[i];
+        long body = -1; /* its index in impact.h5 */
+        for (size_t k = 0; k < r->row_count; k++)
+            if (r->rows[k].seed == (int)i)
+                body = (long)r->rows[k].body;
+        fprintf(f, "<tr><td>run_%04ld</td>", s->run);
+        if (body >= 0)
+            fprintf(f, "<td>%ld</td>", body);
+        else
+            cell(f, "td", "-");
+        fprintf(f, "<td>%ld</td>", s->particle_id);
+        number_cell_digits(f, s->d * 1e6, 3);
+        number_cell_digits(f, s->v_spray, 3);
+        number_cell_digits(f, s->v_wall, 3);
+        number_cell_digits(f, s->v_wall - s->v_spray, 3);
+        cell(f, "td", s->spray_outcome == 1 ? "deposited" : s->spray_outcome == 0 ? "rebounded" : "-");
+        fprintf(f, "</tr>\n");
+    }
+    fprintf(f, "</table>\n");
+}
+
+static void spray_table(FILE *f, const struct report_data *r)
+{
+    if (!r->spray)
+        return;
+    fprintf(f, "<h2>Spray</h2>\n<table><tr><th>quantity</th><th>value</th><th>unit</th></tr>\n");
+    const struct {
+        const char *label;
+        double value;
+        const char *unit;
+        int digits;
+    } rows[] = {
+        {"particles injected", (double)r->injected, "-", 0},
+        {"particles deposited", (double)r->deposited, "-", 0},
+        {"particles still in flight or resting unbonded at the end", (double)r->in_flight, "-", 0},
+        {"particles escaped (left the domain)", (double)r->escaped, "-", 0},
+        {"deposit fraction (deposited / injected)", 100 * r->deposit_fraction, "%", 3},
+        {"volume fraction (deposited volume within [target] deposit_radius over a disc D_median thick)",
+         100 * r->volume_fraction, "%", 3},
+        {"mean distance of the deposited particles from the target centre", r->spread * 1e3, "mm", 3},
+        {"scatter of that distance (standard deviation)", r->scatter * 1e3, "mm", 3},
+        {"coating thickness, maximum (height span of the deposited centres)", r->max_thickness * 1e6, "µm", 3},
+        {"simulated spray time", r->t_spray * 1e3, "ms", 3},
+    };
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        fprintf(f, "<tr>");
+        cell(f, "td", rows[i].label);
+        if (rows[i].digits == 0) /* a count */
+            fprintf(f, "<td>%.0f</td>", rows[i].value);
+        else
+            number_cell_digits(f, rows[i].value, rows[i].digits);
+        cell(f, "td", rows[i].unit);
+        fprintf(f, "</tr>\n");
+    }
+    fprintf(f, "</table>\n");
 }
 
 static void vcrit_results(FILE *f, hid_t file)
@@ -185,14 +617,14 @@ static void vcrit_results(FILE *f, hid_t file)
     for (int k = 0; k < 4; k++)
         ok = render_read_array(file, "vcrit.h5", names[k], &a[k]) == SC_OK && ok && a[k].count == a[0].count;
     sc_error_clear();
-    fprintf(f, "<h3>Critical velocity</h3>\n<table><tr><th>diameter (µm)</th><th>v_crit (m/s)</th>"
+    fprintf(f, "<h2>Critical velocity</h2>\n<table><tr><th>diameter (µm)</th><th>v_crit (m/s)</th>"
                "<th>PBCP (%%)</th><th>v_rest (m/s)</th></tr>\n");
     for (size_t i = 0; ok && i < a[0].count; i++) {
         fprintf(f, "<tr>");
-        number_cell(f, a[0].values[i] * 1e6);
-        number_cell(f, a[1].values[i]);
-        number_cell(f, 100 * a[2].values[i]);
-        number_cell(f, a[3].values[i]);
+        number_cell_digits(f, a[0].values[i] * 1e6, 3);
+        number_cell_digits(f, a[1].values[i], 4);
+        number_cell_digits(f, 100 * a[2].values[i], 3);
+        number_cell_digits(f, a[3].values[i], 3);
         fprintf(f, "</tr>\n");
     }
     fprintf(f, "</table>\n");
@@ -200,28 +632,14 @@ static void vcrit_results(FILE *f, hid_t file)
         render_array_free(&a[k]);
 }
 
-static void results(FILE *f, const struct render_request *req)
+static void results(FILE *f, const struct render_request *req, const struct report_data *r)
 {
-    fprintf(f, "<h2>Results</h2>\n");
-    static const char *const files[] = {"spray.h5", "impact.h5", "vcrit.h5"};
-    for (int i = 0; i < 3; i++) {
-        char path[4200];
-        snprintf(path, sizeof path, "%s/%s", req->run_dir, files[i]);
-        hid_t file;
-        if (access(path, R_OK) != 0 || h5_open_read(path, &file) != SC_OK) {
-            sc_error_clear();
-            continue;
-        }
-        if (i == 0)
-            spray_results(f, file);
-        else if (i == 1 && h5_exists(file, "summary"))
-            impact_summary(f, file, "");
-        else if (i == 1)
-            H5Literate(file, H5_INDEX_NAME, H5_ITER_INC, NULL, impact_run_group, f);
-        else
-            vcrit_results(f, file);
-        H5Fclose(file);
-    }
+    impact_table(f, req, r);
+    couple_table(f, r);
+    spray_table(f, r);
+    hid_t file;
+    if (open_output(req, "vcrit.h5", &file))
+        vcrit_results(f, file), H5Fclose(file);
 }
 
 static void figures(FILE *f, const struct render_output *out)
@@ -233,8 +651,8 @@ static void figures(FILE *f, const struct render_output *out)
         int shown = 0;
         for (int i = 0; i < out->count; i++) {
             const struct render_figure *fig = &out->figures[i];
-            if (strcmp(fig->group, groups[g]) != 0)
-                continue;
+            if (strcmp(fig->group, groups[g]) != 0 || strcmp(fig->name, "spray_thickness") == 0)
+                continue; /* the thickness profile is in the headline */
             if (!shown++)
                 fprintf(f, "<h3>%s</h3>\n", headings[g]);
             fprintf(f, "<figure><img src=\"figures/%s.png\" alt=\"", fig->name);
@@ -263,11 +681,17 @@ int render_write_report(const struct render_request *req, const struct render_ou
     escaped(f, req->run_dir);
     fprintf(f, "</title><style>%s</style></head><body>\n<h1>spraycoat report: ", style);
     escaped(f, req->run_dir);
-    fprintf(f, "</h1>\n<p>All quantities SI unless the unit says otherwise.</p>\n");
+    fprintf(f, "</h1>\n");
+    struct report_data data;
+    report_read(req, &data);
+    headline(f, req, &data, out);
+    results(f, req, &data);
+    report_free(&data);
+    figures(f, out);
+    fprintf(f, "<details><summary>Provenance and the case</summary>\n");
     provenance(f, req);
     case_summary(f, req);
-    results(f, req);
-    figures(f, out);
+    fprintf(f, "</details>\n");
     fprintf(f, "</body></html>\n");
     return atomic_publish(&out_file);
 }

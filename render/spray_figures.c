@@ -1,6 +1,7 @@
-/* Figures of the spray stage (RUN_DIR/spray.h5): powder sizes with the Weibull law (paper Fig. 4), impact speed
- * and angle at the target, speed vs diameter, deposit metrics vs time (Figs. 7, 9), the deposit seen from the
- * nozzle (Fig. 10) and the plume from the side (Figs. 5, 8). */
+/* Figures of the spray stage (RUN_DIR/spray.h5): powder sizes with the Weibull law (paper Fig. 4), speed and
+ * angle of each particle's first impact, speed vs diameter of first impacts, deposit metrics vs time (Figs. 7, 9),
+ * the radial coating thickness profile, the deposit seen from the nozzle (Fig. 10) and the plume from the side
+ * (Figs. 5, 8). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,14 +15,14 @@
 struct spray_data {
     char path[4200];
     struct render_array d, x, v, state;                               /* /particles */
-    struct render_array hit_d, hit_v, hit_outcome, hit_partner, hit_id; /* /impacts */
+    struct render_array hit_t, hit_d, hit_v, hit_outcome, hit_partner, hit_id; /* /impacts */
     struct render_array t, deposit_fraction, volume_fraction, spread, scatter, thickness; /* /metrics */
     struct render_array id;
 };
 
 static void spray_data_free(struct spray_data *s)
 {
-    struct render_array *all[] = {&s->d, &s->x, &s->v, &s->state, &s->hit_d, &s->hit_v, &s->hit_outcome,
+    struct render_array *all[] = {&s->d, &s->x, &s->v, &s->state, &s->hit_t, &s->hit_d, &s->hit_v, &s->hit_outcome,
                                   &s->hit_partner, &s->hit_id, &s->t, &s->deposit_fraction, &s->volume_fraction,
                                   &s->spread, &s->scatter, &s->thickness, &s->id};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
@@ -36,6 +37,7 @@ static int spray_data_read(hid_t f, struct spray_data *s)
     SC_TRY(render_read_array(f, p, "particles/v", &s->v));
     SC_TRY(render_read_array(f, p, "particles/state", &s->state));
     SC_TRY(render_read_array(f, p, "particles/id", &s->id));
+    SC_TRY(render_read_array(f, p, "impacts/t", &s->hit_t));
     SC_TRY(render_read_array(f, p, "impacts/d", &s->hit_d));
     SC_TRY(render_read_array(f, p, "impacts/v_in", &s->hit_v));
     SC_TRY(render_read_array(f, p, "impacts/outcome", &s->hit_outcome));
@@ -51,7 +53,7 @@ static int spray_data_read(hid_t f, struct spray_data *s)
     if (s->x.count != 3 * n || s->v.count != 3 * n || s->state.count != n || s->id.count != n)
         SC_FAIL(SC_EIO, "render: %s: /particles datasets of different lengths", p);
     size_t m = s->hit_d.count;
-    if (s->hit_v.count != 3 * m || s->hit_outcome.count != m || s->hit_partner.count != m || s->hit_id.count != m)
+    if (s->hit_t.count != m || s->hit_v.count != 3 * m || s->hit_outcome.count != m || s->hit_partner.count != m || s->hit_id.count != m)
         SC_FAIL(SC_EIO, "render: %s: /impacts datasets of different lengths", p);
     return SC_OK;
 }
@@ -94,7 +96,7 @@ static int write_histogram(const struct render_request *req, struct render_outpu
         SC_FAIL_OOM(2 * (size_t)req->cfg->bins * sizeof *buffer, "a histogram's bars");
     struct render_series series[2];
     char label[64];
-    snprintf(label, sizeof label, "%lld values", (long long)fig->histogram.total);
+    snprintf(label, sizeof label, "%lld particles", (long long)fig->histogram.total);
     series[0] = histogram_bars(&fig->histogram, buffer, buffer + req->cfg->bins, label);
     if (extra)
         series[1] = *extra;
@@ -146,48 +148,80 @@ done:
     return status;
 }
 
-/* Contacts with the target itself (partner -1): speed (m/s) and angle from the normal (deg). */
+size_t render_first_contacts(const double *t, const double *particle_id, size_t m, size_t *rows)
+{
+    double max_id = -1;
+    for (size_t i = 0; i < m; i++)
+        if (particle_id[i] >= 0)
+            max_id = fmax(max_id, particle_id[i]);
+    if (max_id < 0)
+        return 0;
+    size_t ids = (size_t)max_id + 1, k = 0;
+    size_t *first = malloc(ids * sizeof *first);
+    if (!first)
+        return (size_t)-1;
+    for (size_t i = 0; i < ids; i++)
+        first[i] = (size_t)-1;
+    for (size_t i = 0; i < m; i++) {
+        if (!(particle_id[i] >= 0))
+            continue;
+        size_t id = (size_t)particle_id[i];
+        if (first[id] == (size_t)-1 || t[i] < t[first[id]])
+            first[id] = i;
+    }
+    for (size_t i = 0; i < ids; i++)
+        if (first[i] != (size_t)-1)
+            rows[k++] = first[i];
+    free(first);
+    return k;
+}
+
+/* First impacts: each particle's first contact (its smallest t in /impacts, with the target or a deposit), one
+ * per particle; the later contacts (rebounds, particles sliding or resting on the target) are left out, so the
+ * histograms show the spray's arrival, not how long particles stay on the target.  Speed (m/s) and angle from
+ * the target normal +z (deg). */
 static int impact_figures(const struct render_request *req, const struct spray_data *s, struct render_output *out)
 {
-    size_t m = s->hit_d.count, k = 0;
+    size_t m = s->hit_d.count, *rows = malloc((m + 1) * sizeof *rows);
     double *buffer = malloc((4 * m + 1) * sizeof *buffer), *s_dep = NULL;
-    if (!buffer)
-        SC_FAIL_OOM((4 * m + 1) * sizeof *buffer, "the impacts at the target");
-    double *speed = buffer, *angle = buffer + m, *d_dep = buffer + 2 * m, *d_reb = buffer + 3 * m;
-    for (size_t i = 0; i < m; i++) {
-        if (s->hit_partner.values[i] != -1)
-            continue;
-        const double *v = s->hit_v.values + 3 * i;
-        speed[k] = norm3(v);
-        angle[k] = speed[k] > 0 ? acos(fmin(1, fabs(v[2]) / speed[k])) * 180 / M_PI : 0;
-        k++;
+    if (!buffer || !rows) {
+        free(buffer), free(rows);
+        SC_FAIL_OOM((4 * m + 1) * sizeof *buffer, "the first impacts");
     }
-    int status;
+    size_t k = render_first_contacts(s->hit_t.values, s->hit_id.values, m, rows);
+    int status = SC_OK;
+    if (k == (size_t)-1)
+        SC_FAIL_OOM_AT(status, done, m * sizeof *rows, "the first impacts");
+    double *speed = buffer, *angle = buffer + m, *d_dep = buffer + 2 * m, *d_reb = buffer + 3 * m;
+    for (size_t j = 0; j < k; j++) {
+        const double *v = s->hit_v.values + 3 * rows[j];
+        speed[j] = norm3(v);
+        angle[j] = speed[j] > 0 ? acos(fmin(1, fabs(v[2]) / speed[j])) * 180 / M_PI : 0;
+    }
     SC_CHECK(status,
-             write_histogram(req, out, "spray_impact_speed", "Impact speed at the target", "impact speed |v_in| (m/s)",
-                             speed, k, NULL),
+             write_histogram(req, out, "spray_impact_speed", "Speed of first impacts (one per particle)",
+                             "impact speed |v_in| (m/s)", speed, k, NULL),
              done);
     SC_CHECK(status,
-             write_histogram(req, out, "spray_impact_angle", "Impact angle at the target",
-                             "angle from the target normal (deg)", angle, k, NULL),
+             write_histogram(req, out, "spray_impact_angle", "Angle of first impacts (one per particle)",
+                             "angle from the target normal +z (deg)", angle, k, NULL),
              done);
     /* speed vs diameter, deposited and rebounded apart: [deposition] decides by these two numbers */
     size_t nd = 0, nr = 0;
     s_dep = malloc((2 * m + 1) * sizeof *s_dep);
     if (!s_dep)
-        SC_FAIL_OOM_AT(status, done, (2 * m + 1) * sizeof *s_dep, "the impacts at the target");
+        SC_FAIL_OOM_AT(status, done, (2 * m + 1) * sizeof *s_dep, "the first impacts");
     double *s_reb = s_dep + m;
-    for (size_t i = 0, j = 0; i < m; i++) {
-        if (s->hit_partner.values[i] != -1)
-            continue;
+    for (size_t j = 0; j < k; j++) {
+        size_t i = rows[j];
         int deposited = s->hit_outcome.values[i] == 1;
         (deposited ? d_dep : d_reb)[deposited ? nd : nr] = s->hit_d.values[i] * 1e6;
-        (deposited ? s_dep : s_reb)[deposited ? nd++ : nr++] = speed[j++];
+        (deposited ? s_dep : s_reb)[deposited ? nd++ : nr++] = speed[j];
     }
     struct render_series series[2] = {{"deposited", RENDER_MARKERS, nd, d_dep, s_dep, 0, 2},
                                       {"rebounded", RENDER_OPEN_MARKERS, nr, d_reb, s_reb, 0, 1}};
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Impact speed vs diameter at the target", "diameter d (µm)",
+    plot.panels[0] = (struct render_panel){"First impacts: speed vs diameter", "diameter d (µm)",
                                            "impact speed |v_in| (m/s)", NAN, NAN, NAN, NAN, 1, 2, series};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
@@ -196,7 +230,60 @@ static int impact_figures(const struct render_request *req, const struct spray_d
 done:
     free(s_dep);
     free(buffer);
+    free(rows);
     return status;
+}
+
+int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins,
+                             double *r_left, double *thickness, double *width)
+{
+    double r_max = 0;
+    int deposited = 0;
+    for (size_t i = 0; i < n; i++)
+        if (state[i] == 1) {
+            r_max = fmax(r_max, hypot(x[3 * i], x[3 * i + 1]) + 0.5 * d[i]);
+            deposited++;
+        }
+    if (!deposited || !(r_max > 0))
+        return 0;
+    *width = r_max / bins;
+    double *volume = thickness;
+    for (int b = 0; b < bins; b++)
+        r_left[b] = b * *width, volume[b] = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (state[i] != 1)
+            continue;
+        int b = (int)(hypot(x[3 * i], x[3 * i + 1]) / *width);
+        volume[b < bins ? b : bins - 1] += M_PI * d[i] * d[i] * d[i] / 6;
+    }
+    for (int b = 0; b < bins; b++) {
+        double r1 = r_left[b], r2 = r1 + *width;
+        thickness[b] = volume[b] / (M_PI * (r2 * r2 - r1 * r1));
+    }
+    return bins;
+}
+
+/* The radial profile of the coating: render_thickness_profile's dense-equivalent thickness per annulus. */
+static int thickness_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
+{
+    enum { BINS = 20 };
+    double r[BINS], h[BINS], width;
+    if (render_thickness_profile(s->x.values, s->d.values, s->state.values, s->d.count, BINS, r, h, &width) == 0)
+        return SC_OK; /* nothing deposited */
+    for (int b = 0; b < BINS; b++)
+        r[b] *= 1e3, h[b] *= 1e6;
+    struct render_series bars = {NULL, RENDER_BARS, BINS, r, h, width * 1e3, 2};
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){"Coating thickness vs radius (dense-equivalent)",
+                                           "radius from the spray axis r (mm)", "thickness (µm)", 0, NAN, 0, NAN, 1,
+                                           1, &bars};
+    char dir[4200];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    SC_TRY(render_output_push(out, "spray_thickness", "spray", 1,
+                              "Coating thickness vs radius: deposited particle volume per annulus / annulus area "
+                              "(a fully dense layer)", NULL));
+    SC_TRY(render_plot_write(&plot, dir, "spray_thickness"));
+    return SC_OK;
 }
 
 static int metrics_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
@@ -337,6 +424,7 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     SC_CHECK(status, diameter_figure(req, &s, out), done);
     SC_CHECK(status, impact_figures(req, &s, out), done);
     SC_CHECK(status, metrics_figure(req, &s, out), done);
+    SC_CHECK(status, thickness_figure(req, &s, out), done);
     SC_CHECK(status, particle_pictures(req, renderer, &s, out), done);
     log_info("render: spray figures from %s", s.path);
 done:

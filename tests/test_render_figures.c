@@ -1,6 +1,7 @@
 /* The render stage on a small run: a real spray stage (300 particles), an impact.h5 with two runs in /run_NNNN
  * groups and a vcrit.h5 written here.  Every figure exists with the requested size and is not blank, the plotted
- * histograms hold the run's data (counts sum to the particles and target contacts in spray.h5), the frame
+ * histograms hold the run's data (counts sum to the particles and to the particles with a contact, one first
+ * impact each, in spray.h5), the frame
  * sequence follows `every`, the report names every figure, and missing or damaged inputs are I/O errors. */
 #include <cairo.h>
 #include <math.h>
@@ -215,23 +216,30 @@ static int fixture_open(struct fixture *f)
     return status;
 }
 
-static int64_t count_target_contacts(const char *dir)
+/* Particles with at least one contact in /impacts: the first impacts the histograms count. */
+static int64_t count_first_impacts(const char *dir)
 {
     char path[256];
     snprintf(path, sizeof path, "%s/spray.h5", dir);
     hid_t file;
-    size_t n = 0;
+    size_t n = 0, m = 0;
     int64_t count = -1;
     if (h5_open_read(path, &file) != SC_OK)
         return -1;
-    if (h5_dataset_size(file, "impacts/partner", &n) == SC_OK) {
-        int64_t *partner = malloc((n + 1) * sizeof *partner);
-        if (partner && h5_read_int64s(file, "impacts/partner", partner, n) == SC_OK) {
+    if (h5_dataset_size(file, "impacts/particle_id", &n) == SC_OK && h5_dataset_size(file, "particles/id", &m) == SC_OK) {
+        int64_t *id = malloc((n + 1) * sizeof *id);
+        char *seen = calloc(n + m + 1, 1);
+        if (id && seen && h5_read_int64s(file, "impacts/particle_id", id, n) == SC_OK) {
             count = 0;
-            for (size_t i = 0; i < n; i++)
-                count += partner[i] == -1;
+            for (size_t i = 0; i < n; i++) {
+                if (id[i] < 0 || (size_t)id[i] > n + m)
+                    continue;
+                count += !seen[id[i]];
+                seen[id[i]] = 1;
+            }
         }
-        free(partner);
+        free(id);
+        free(seen);
     }
     H5Fclose(file);
     return count;
@@ -302,8 +310,8 @@ static void test_every_figure_of_a_run(void)
     struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
     struct render_output out;
     CHECK(render_run_dir(&req, &out) == SC_OK, "render: %s", sc_error_message());
-    /* spray 7, per impact run 3 plots + 3 views, vcrit 1 */
-    CHECK(out.count == 7 + 2 * 6 + 1, "%d figures", out.count);
+    /* spray 8, per impact run 3 plots + 3 views, vcrit 1 */
+    CHECK(out.count == 8 + 2 * 6 + 1, "%d figures", out.count);
     CHECK(out.frames == 2 * 3, "%d frames (every 2nd of 4 snapshots and the last, two runs)", out.frames);
     check_figures(&f, &out);
     const struct render_figure *d = render_output_find(&out, "spray_diameter");
@@ -315,8 +323,8 @@ static void test_every_figure_of_a_run(void)
         sum += d->histogram.counts[b];
     CHECK(d && sum == d->histogram.total && d->histogram.bins == f.cfg.bins, "bins sum to %lld", (long long)sum);
     const struct render_figure *s = render_output_find(&out, "spray_impact_speed");
-    int64_t contacts = count_target_contacts(f.dir);
-    CHECK(s && contacts > 0 && s->histogram.total == contacts, "speed histogram holds %lld of %lld target contacts",
+    int64_t contacts = count_first_impacts(f.dir);
+    CHECK(s && contacts > 0 && s->histogram.total == contacts, "speed histogram holds %lld of %lld first impacts",
           s ? (long long)s->histogram.total : -1LL, (long long)contacts);
     char path[256];
     snprintf(path, sizeof path, "%s/figures/frames/impact_run_0002_eps_p_section_000003.png", f.dir);

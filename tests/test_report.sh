@@ -1,0 +1,151 @@
+#!/bin/sh
+# report.html of a pipeline run states the result (issue 23): a small pipeline of two impact runs of two particle
+# bodies each; the page is parsed (python3, html.parser) and must have a headline naming the deposit fraction, the
+# bonded fraction with its criterion, the coating thickness, the couple stage and the resolution; one results row
+# per particle body of impact.h5 (bodies of every run), none "rebounded" without a v_rest; every <img src> a file that exists; and, in headless
+# Chromium, every image loads.  Prints "PASS name" / "FAIL name: why".  Run from the repo root.
+set -u
+bin=${SPRAYCOAT_BIN:-build/spraycoat}
+T=$(mktemp -d) || { echo "FAIL report_setup: mktemp -d failed"; exit 1; }
+trap 'rm -rf "$T"' EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+. tests/pipeline_lib.sh
+
+if [ ! -x "$bin" ]; then
+    echo "FAIL report_setup: no executable $bin (SPRAYCOAT_BIN)"
+    exit 1
+fi
+if ! command -v python3 >/dev/null 2>&1; then
+    echo "FAIL report_setup: python3 is not installed"
+    exit 1
+fi
+
+# tests/fixtures/pipeline_small.ini with two runs of two bodies and a shorter spray
+sed -e 's/^runs = 4$/runs = 2/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2/' \
+    -e 's/^t_end = 4e-9$/t_end = 3e-9/' tests/fixtures/pipeline_small.ini >"$T/case.ini"
+if ! "$bin" run "$T/case.ini" -o "$T/run" -q >"$T/out" 2>&1; then
+    echo "FAIL report_pipeline: the pipeline failed: $(tail -c 400 "$T/out")"
+    exit 1
+fi
+page="$T/run/report.html"
+
+# particle bodies of impact.h5: substrate == 0 in every /run_NNNN/summary (or the single run's /summary)
+bodies=0
+groups=$(h5ls "$T/run/impact.h5" | awk '/^run_[0-9]+ / { print "/" $1 }')
+[ -n "$groups" ] || groups=""
+for g in ${groups:-""}; do
+    n=$(values "$T/run/impact.h5" "$g/summary/substrate" | grep -c '^0$')
+    bodies=$((bodies + n))
+done
+
+python3 - "$page" "$bodies" >"$T/parsed" 2>&1 <<'PY'
+import os, sys
+from html.parser import HTMLParser
+
+page, bodies = sys.argv[1], int(sys.argv[2])
+
+class Page(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.stack, self.headline, self.rows, self.imgs = [], "", 0, []
+        self.in_headline = 0
+        self.in_results = 0
+        self.cells, self.row, self.in_cell = [], None, 0
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.imgs.append(a.get("src", ""))
+        if a.get("id") == "headline":
+            self.in_headline = 1
+            self.stack.append(("headline", tag))
+        elif a.get("id") == "impact-results":
+            self.in_results = 1
+            self.stack.append(("results", tag))
+        elif self.stack and tag == self.stack[-1][1] and tag not in ("img", "br", "meta"):
+            self.stack.append(("", tag))
+        if self.in_results and tag == "tr" and "body" in (a.get("class") or "").split():
+            self.rows += 1
+            self.row = []
+            self.cells.append(self.row)
+        if self.row is not None and tag == "td":
+            self.in_cell = 1
+            self.row.append("")
+
+    def handle_endtag(self, tag):
+        if tag == "td":
+            self.in_cell = 0
+        if tag == "tr":
+            self.row = None
+        if self.stack and self.stack[-1][1] == tag:
+            kind, _ = self.stack.pop()
+            if kind == "headline":
+                self.in_headline = 0
+            if kind == "results":
+                self.in_results = 0
+
+    def handle_data(self, data):
+        if self.in_headline:
+            self.headline += data
+        if self.in_cell and self.row is not None:
+            self.row[-1] += data
+
+p = Page()
+with open(page, encoding="utf-8") as f:
+    p.feed(f.read())
+fails = []
+head = " ".join(p.headline.split()).lower()
+if not head:
+    fails.append("no headline (an element with id=headline)")
+for word in ("deposit fraction", "bonded", "pbcp", "v_rest", "thickness", "couple", "grid", "spacing"):
+    if word not in head:
+        fails.append("the headline does not say '%s'" % word)
+if p.rows == 0:
+    fails.append("the results table (id=impact-results) has no body rows")
+elif p.rows != bodies:
+    fails.append("the results table has %d body rows, impact.h5 %d particle bodies" % (p.rows, bodies))
+# columns: run, body, diameter, points across d, speed, verdict, spray said, PBCP, v_rest, CoR
+for row in p.cells:
+    if len(row) != 10:
+        fails.append("a body row has %d cells, not 10: %s" % (len(row), row))
+    elif row[8].strip() == "n/a" and row[5].strip() == "rebounded":
+        fails.append("a body without v_rest is called rebounded: %s" % row)
+    elif row[1].strip() == "0":
+        fails.append("the substrate (body 0) has a row: %s" % row)
+base = os.path.dirname(page)
+missing = [s for s in p.imgs if not os.path.isfile(os.path.join(base, s))]
+if not p.imgs:
+    fails.append("no images")
+if missing:
+    fails.append("missing image files: %s" % " ".join(missing[:5]))
+print("; ".join(fails) if fails else "ok %d rows, %d images" % (p.rows, len(p.imgs)))
+PY
+if [ "$bodies" -ge 2 ] && [ "$(cat "$T/parsed")" = "ok $bodies rows, $(grep -o '<img ' "$page" | wc -l) images" ]; then
+    echo "PASS report_states_result"
+else
+    echo "FAIL report_states_result: ($bodies particle bodies in impact.h5) $(tail -c 600 "$T/parsed")"
+fi
+
+# ---- headless Chromium: every image of the page loads ----
+chromium_bin=$(command -v chromium || command -v chromium-browser || true)
+if [ -z "$chromium_bin" ]; then
+    echo "FAIL report_in_chromium: chromium is not installed (scripts/bootstrap installs it)"
+else
+    sed 's|</body>|<script>window.addEventListener("load", function () { var all = document.images, ok = 0; for (var i = 0; i < all.length; i++) if (all[i].complete \&\& all[i].naturalWidth > 0) ok++; document.title = "images " + all.length + " loaded " + ok; });</script></body>|' \
+        "$page" >"$T/run/report_check.html"
+    timeout 60 "$chromium_bin" --headless --no-sandbox --disable-gpu --disable-dev-shm-usage \
+        --virtual-time-budget=5000 --dump-dom "file://$T/run/report_check.html" >"$T/dom" 2>"$T/chromium_err"
+    status=$?
+    counts=$(sed -n 's|.*<title>images \([0-9]*\) loaded \([0-9]*\)</title>.*|\1 \2|p' "$T/dom" | head -n 1)
+    total=${counts% *}
+    loaded=${counts#* }
+    expected=$(grep -o '<img ' "$page" | wc -l)
+    if [ "$status" -eq 0 ] && [ -n "$counts" ] && [ "$total" -eq "$expected" ] && [ "$loaded" -eq "$total" ] &&
+        [ "$total" -ge 1 ]; then
+        echo "PASS report_in_chromium"
+    else
+        echo "FAIL report_in_chromium: exit status $status, images/loaded '$counts', expected $expected;" \
+            "$(tail -c 300 "$T/chromium_err")"
+    fi
+fi
