@@ -500,7 +500,8 @@ static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_re
     hid_t group = H5I_INVALID_HID;
     int status = SC_OK;
     if (!columns || !runs)
-        SC_FAIL_OOM_AT(status, done, (4 * (size_t)v->count + 1) * sizeof *columns + ((size_t)v->count + 1) * sizeof *runs,
+        SC_FAIL_OOM_AT(status, done,
+                       (4 * (size_t)v->count + 1) * sizeof *columns + ((size_t)v->count + 1) * sizeof *runs,
                        "the vcrit table");
     size_t n = 0, m = (size_t)v->count;
     for (int i = 0; i < v->count; i++) {
