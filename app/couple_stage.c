@@ -57,10 +57,12 @@ static int read_into_records(hid_t group, const char *name, size_t rows, size_t 
 {
     double *column = malloc(at_least_one(rows * width) * sizeof *column);
     if (!column)
-        SC_FAIL(SC_ESIM, "couple: out of memory");
-    int status = h5_read_doubles(group, name, column, rows * width);
-    for (size_t i = 0; status == SC_OK && i < rows; i++)
+        SC_FAIL_OOM(at_least_one(rows * width) * sizeof *column, name);
+    int status;
+    SC_CHECK(status, h5_read_doubles(group, name, column, rows * width), done);
+    for (size_t i = 0; i < rows; i++)
         memcpy((char *)records + i * stride + offset, column + i * width, width * sizeof *column);
+done:
     free(column);
     return status;
 }
@@ -70,10 +72,12 @@ static int read_ids_into_records(hid_t group, const char *name, size_t rows, voi
 {
     int64_t *column = malloc(at_least_one(rows) * sizeof *column);
     if (!column)
-        SC_FAIL(SC_ESIM, "couple: out of memory");
-    int status = h5_read_int64s(group, name, column, rows);
-    for (size_t i = 0; status == SC_OK && i < rows; i++)
+        SC_FAIL_OOM(at_least_one(rows) * sizeof *column, name);
+    int status;
+    SC_CHECK(status, h5_read_int64s(group, name, column, rows), done);
+    for (size_t i = 0; i < rows; i++)
         memcpy((char *)records + i * stride + offset, column + i, sizeof *column);
+done:
     free(column);
     return status;
 }
@@ -89,19 +93,19 @@ static int read_impacts(hid_t file, struct spray_rows *rows)
     if (g < 0)
         SC_FAIL(SC_EIO, "couple: spray.h5 has no /impacts group");
     size_t n = 0;
-    int status = h5_dataset_size(g, "t", &n);
+    int status;
+    SC_CHECK(status, h5_dataset_size(g, "t", &n), done);
     rows->impact_count = n;
-    rows->impacts = calloc(n ? n : 1, sizeof *rows->impacts);
-    if (!rows->impacts)
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory for %zu impacts", n);
+    SC_CHECK(status, sc_calloc(&rows->impacts, n ? n : 1, sizeof *rows->impacts, "the spray impacts"), done);
     struct dem_impact *r = rows->impacts;
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, t, 1);
-    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_impact, particle_id);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, x, 3);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, v_in, 3);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, d, 1);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_impact, m, 1);
-    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_impact, partner);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, t, 1), done);
+    SC_CHECK(status, READ_ID(g, n, r, struct dem_impact, particle_id), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, x, 3), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, v_in, 3), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, d, 1), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, m, 1), done);
+    SC_CHECK(status, READ_ID(g, n, r, struct dem_impact, partner), done);
+done:
     H5Gclose(g);
     return status;
 }
@@ -112,17 +116,17 @@ static int read_handoffs(hid_t file, struct spray_rows *rows)
     if (g < 0)
         SC_FAIL(SC_EIO, "couple: spray.h5 has no /handoff group");
     size_t n = 0;
-    int status = h5_dataset_size(g, "t", &n);
+    int status;
+    SC_CHECK(status, h5_dataset_size(g, "t", &n), done);
     rows->handoff_count = n;
-    rows->handoffs = calloc(n ? n : 1, sizeof *rows->handoffs);
-    if (!rows->handoffs)
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory for %zu hand-offs", n);
+    SC_CHECK(status, sc_calloc(&rows->handoffs, n ? n : 1, sizeof *rows->handoffs, "the spray hand-offs"), done);
     struct dem_handoff *r = rows->handoffs;
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, t, 1);
-    if (status == SC_OK) status = READ_ID(g, n, r, struct dem_handoff, particle_id);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, x, 3);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, v, 3);
-    if (status == SC_OK) status = READ_FIELD(g, n, r, struct dem_handoff, d, 1);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, t, 1), done);
+    SC_CHECK(status, READ_ID(g, n, r, struct dem_handoff, particle_id), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, x, 3), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, v, 3), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, d, 1), done);
+done:
     H5Gclose(g);
     return status;
 }
@@ -135,12 +139,11 @@ static int read_spray(struct couple_work *w)
     SC_TRY(run_dir_check_input(w->ctx, "spray", STAGE, 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
-    int status = read_impacts(file, &w->spray);
-    if (status == SC_OK)
-        status = read_handoffs(file, &w->spray);
+    int status;
+    SC_CHECK(status, read_impacts(file, &w->spray), done);
+    SC_CHECK(status, read_handoffs(file, &w->spray), done);
+done:
     H5Fclose(file);
-    if (status != SC_OK)
-        sc_error_trace(__FILE__, __LINE__);
     return status;
 }
 
@@ -189,10 +192,12 @@ static int find_candidates(struct couple_work *w)
     size_t n = w->spray.impact_count;
     size_t *order = rows_by_particle_and_time(w->spray.impacts, n, sizeof *w->spray.impacts,
                                               offsetof(struct dem_impact, particle_id), offsetof(struct dem_impact, t));
+    if (!order)
+        SC_FAIL_OOM(at_least_one(n) * sizeof *order, "the order of the spray impacts");
     w->candidates = calloc(at_least_one(n), sizeof *w->candidates);
-    if (!order || !w->candidates) {
+    if (!w->candidates) {
         free(order);
-        SC_FAIL(SC_ESIM, "couple: out of memory");
+        SC_FAIL_OOM(at_least_one(n) * sizeof *w->candidates, "the couple candidates");
     }
     for (size_t i = 0; i < n; i++) {
         const struct dem_impact *row = &w->spray.impacts[order[i]];
@@ -218,10 +223,12 @@ static int match_handoffs(struct couple_work *w)
     size_t n = w->spray.handoff_count;
     size_t *order = rows_by_particle_and_time(w->spray.handoffs, n, sizeof *w->spray.handoffs,
                                               offsetof(struct dem_handoff, particle_id), offsetof(struct dem_handoff, t));
+    if (!order)
+        SC_FAIL_OOM(at_least_one(n) * sizeof *order, "the order of the spray hand-offs");
     w->handoff_of = malloc(at_least_one(w->candidate_count) * sizeof *w->handoff_of);
-    if (!order || !w->handoff_of) {
+    if (!w->handoff_of) {
         free(order);
-        SC_FAIL(SC_ESIM, "couple: out of memory");
+        SC_FAIL_OOM(at_least_one(w->candidate_count) * sizeof *w->handoff_of, "the couple hand-off rows");
     }
     size_t h = 0;
     for (size_t k = 0; k < w->candidate_count; k++) {
@@ -311,35 +318,37 @@ static int make_seeds(struct couple_work *w)
     SC_TRY(couple_strata_build(w->c, &w->cfg, w->candidates, w->candidate_count, &strata));
     size_t seeds = (size_t)(w->cfg.runs * w->cfg.bodies_per_run), n = w->candidate_count;
     w->seed_count = seeds;
-    w->seeds = calloc(seeds, sizeof *w->seeds);
-    w->flights = calloc(n ? n : 1, sizeof *w->flights);
-    w->flight_candidate = calloc(n ? n : 1, sizeof *w->flight_candidate);
-    size_t *cursor = calloc(strata.count, sizeof *cursor);
-    char *taken = calloc(n ? n : 1, 1);
+    size_t *cursor = NULL;
+    char *taken = NULL;
     struct couple_flight_solver *solver = NULL;
-    int status = w->seeds && w->flights && w->flight_candidate && cursor && taken
-                     ? couple_flight_solver_create(&solver)
-                     : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
     struct progress bar;
     log_progress_begin(&bar, STAGE, "seeds", 0, (int64_t)seeds);
     size_t filled = 0;
-    for (size_t slot = 0; status == SC_OK && slot < seeds; slot++) {
-        status = fill_slot(w, solver, &strata, cursor, taken, slot);
-        filled += status == SC_OK;
+    int status;
+    SC_CHECK(status, sc_calloc(&w->seeds, seeds, sizeof *w->seeds, "the couple seeds"), done);
+    SC_CHECK(status, sc_calloc(&w->flights, n ? n : 1, sizeof *w->flights, "the couple flights"), done);
+    SC_CHECK(status, sc_calloc(&w->flight_candidate, n ? n : 1, sizeof *w->flight_candidate, "the couple flights"),
+             done);
+    SC_CHECK(status, sc_calloc(&cursor, strata.count, sizeof *cursor, "the couple strata"), done);
+    SC_CHECK(status, sc_calloc(&taken, n ? n : 1, 1, "the couple candidates"), done);
+    SC_CHECK(status, couple_flight_solver_create(&solver), done);
+    for (size_t slot = 0; slot < seeds; slot++) {
+        SC_CHECK(status, fill_slot(w, solver, &strata, cursor, taken, slot), done);
+        filled++;
         log_progress_update(&bar, (int64_t)slot + 1, "");
         /* couple.h5 is written whole at the end: an interrupted stage keeps nothing and runs again on resume */
         int interrupted = interrupt_status();
-        if (status == SC_OK && interrupted)
-            status = sc_error_set(interrupted, __FILE__, __LINE__, "couple: interrupted after %zu of %zu seeds; the "
-                                  "stage runs again from its start on `spraycoat resume %s`", slot + 1, seeds,
-                                  w->run_dir);
+        if (interrupted)
+            SC_FAIL_AT(status, done, interrupted, "couple: interrupted after %zu of %zu seeds; the stage runs again "
+                       "from its start on `spraycoat resume %s`", slot + 1, seeds, w->run_dir);
     }
+    for (size_t r = 0; r < (size_t)w->cfg.runs; r++)
+        couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
+done:
     if (status == SC_OK)
         log_progress_end(&bar, (int64_t)seeds);
     else
         log_progress_stop(&bar, (int64_t)filled);
-    for (size_t r = 0; status == SC_OK && r < (size_t)w->cfg.runs; r++)
-        couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
     couple_flight_solver_destroy(solver);
     free(cursor);
     free(taken);
@@ -350,29 +359,29 @@ static int make_seeds(struct couple_work *w)
 /* ---- couple.h5 --------------------------------------------------------------------------------------------- */
 
 /* One column of n rows into group g, each row's value from `expr` (or 3 values from `array`) with row index i;
- * the caller holds `status`, scratch `ints` (n) and `reals` (3 n), and `dims1` / `dims3`. */
+ * the caller holds `status` and a cleanup label `done`, scratch `ints` (n) and `reals` (3 n), and `dims1` /
+ * `dims3`. */
 #define COLUMN_INT(name, expr)                                                                                   \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+    for (size_t i = 0; i < n; i++)                                                                                 \
         ints[i] = (int64_t)(expr);                                                                                 \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_int64s(g, name, 1, dims1, ints, "", 0);
+    SC_CHECK(status, h5_write_int64s(g, name, 1, dims1, ints, "", 0), done);
 #define COLUMN_REAL(name, expr, unit)                                                                            \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+    for (size_t i = 0; i < n; i++)                                                                                 \
         reals[i] = (expr);                                                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 1, dims1, reals, unit, 0);
+    SC_CHECK(status, h5_write_doubles(g, name, 1, dims1, reals, unit, 0), done);
 #define COLUMN_VEC(name, array, unit)                                                                            \
-    for (size_t i = 0; status == SC_OK && i < n; i++)                                                             \
+    for (size_t i = 0; i < n; i++)                                                                                 \
         memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
-    if (status == SC_OK)                                                                                           \
-        status = h5_write_doubles(g, name, 2, dims3, reals, unit, 0);
+    SC_CHECK(status, h5_write_doubles(g, name, 2, dims3, reals, unit, 0), done);
 
 static int write_seed_columns(hid_t g, const struct couple_work *w)
 {
     size_t n = w->seed_count;
     int64_t *ints = malloc(at_least_one(n) * sizeof *ints);
     double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
-    int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    int status = SC_OK;
+    if (!ints || !reals)
+        SC_FAIL_OOM_AT(status, done, at_least_one(n) * (sizeof *ints + 3 * sizeof *reals), "the couple.h5 columns");
     hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
     const struct couple_seed *s = w->seeds;
     COLUMN_INT("run", s[i].run)
@@ -388,6 +397,7 @@ static int write_seed_columns(hid_t g, const struct couple_work *w)
     COLUMN_VEC("x_wall", s[i].x_wall, "m")
     COLUMN_VEC("v_wall", s[i].v_wall, "m/s")
     COLUMN_VEC("v_spray", w->candidates[s[i].candidate].v, "m/s")
+done:
     free(ints);
     free(reals);
     return status;
@@ -398,12 +408,14 @@ static int write_seeds(hid_t file, const struct couple_work *w)
     hid_t g;
     SC_TRY(h5_create_group(file, "seeds", &g));
     static const char *const rules[] = {"random", "stratified", "window"};
-    int status = write_seed_columns(g, w);
-    if (status == SC_OK) status = h5_attr_write_string(g, "sample", rules[w->cfg.sample]);
-    if (status == SC_OK) status = h5_attr_write_int64(g, "runs", w->cfg.runs);
-    if (status == SC_OK) status = h5_attr_write_int64(g, "bodies_per_run", w->cfg.bodies_per_run);
-    if (status == SC_OK) status = h5_attr_write_double(g, "patch_size", w->cfg.patch_size);
-    if (status == SC_OK) status = h5_attr_write_int64(g, "candidates", (int64_t)w->candidate_count);
+    int status;
+    SC_CHECK(status, write_seed_columns(g, w), done);
+    SC_CHECK(status, h5_attr_write_string(g, "sample", rules[w->cfg.sample]), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "runs", w->cfg.runs), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "bodies_per_run", w->cfg.bodies_per_run), done);
+    SC_CHECK(status, h5_attr_write_double(g, "patch_size", w->cfg.patch_size), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "candidates", (int64_t)w->candidate_count), done);
+done:
     H5Gclose(g);
     return status;
 }
@@ -417,9 +429,12 @@ static int write_trajectories(hid_t g, const struct couple_work *w)
     int64_t *offset = malloc((nf + 1) * sizeof *offset);
     double *t = malloc(at_least_one(total) * sizeof *t), *x = malloc(at_least_one(3 * total) * sizeof *x),
            *v = malloc(at_least_one(3 * total) * sizeof *v);
-    int status = offset && t && x && v ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    int status = SC_OK;
+    if (!offset || !t || !x || !v)
+        SC_FAIL_OOM_AT(status, done, (nf + 1) * sizeof *offset + at_least_one(7 * total) * sizeof *t,
+                       "the flight trajectories");
     size_t at = 0;
-    for (size_t i = 0; status == SC_OK && i < nf; i++) {
+    for (size_t i = 0; i < nf; i++) {
         const struct couple_flight_result *f = &w->flights[i];
         offset[i] = (int64_t)at;
         memcpy(t + at, f->sample_t, f->samples * sizeof *t);
@@ -427,13 +442,13 @@ static int write_trajectories(hid_t g, const struct couple_work *w)
         memcpy(v + 3 * at, f->sample_v, 3 * f->samples * sizeof *v);
         at += f->samples;
     }
-    if (status == SC_OK)
-        offset[nf] = (int64_t)at;
+    offset[nf] = (int64_t)at;
     hsize_t off_dims[1] = {nf + 1}, t_dims[1] = {total}, x_dims[2] = {total, 3};
-    if (status == SC_OK) status = h5_write_int64s(g, "sample_offset", 1, off_dims, offset, "", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "sample_t", 1, t_dims, t, "s", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "sample_x", 2, x_dims, x, "m", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "sample_v", 2, x_dims, v, "m/s", 0);
+    SC_CHECK(status, h5_write_int64s(g, "sample_offset", 1, off_dims, offset, "", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "sample_t", 1, t_dims, t, "s", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "sample_x", 2, x_dims, x, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "sample_v", 2, x_dims, v, "m/s", 0), done);
+done:
     free(offset);
     free(t);
     free(x);
@@ -446,7 +461,9 @@ static int write_flight_columns(hid_t g, const struct couple_work *w)
     size_t n = w->flight_count;
     int64_t *ints = malloc(at_least_one(n) * sizeof *ints);
     double *reals = malloc(at_least_one(3 * n) * sizeof *reals);
-    int status = ints && reals ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
+    int status = SC_OK;
+    if (!ints || !reals)
+        SC_FAIL_OOM_AT(status, done, at_least_one(n) * (sizeof *ints + 3 * sizeof *reals), "the couple.h5 columns");
     hsize_t dims1[1] = {n}, dims3[2] = {n, 3};
     const struct couple_flight_result *f = w->flights;
     const struct couple_candidate *c = w->candidates;
@@ -468,6 +485,7 @@ static int write_flight_columns(hid_t g, const struct couple_work *w)
     COLUMN_INT("error_test_failures", f[i].error_test_failures)
     COLUMN_INT("nonlinear_iterations", f[i].nonlinear_iterations)
     COLUMN_INT("nonlinear_failures", f[i].nonlinear_failures)
+done:
     free(ints);
     free(reals);
     return status;
@@ -477,13 +495,15 @@ static int write_flights(hid_t file, const struct couple_work *w)
 {
     hid_t g;
     SC_TRY(h5_create_group(file, "flight", &g));
-    int status = write_flight_columns(g, w);
-    if (status == SC_OK) status = write_trajectories(g, w);
-    if (status == SC_OK) status = h5_attr_write_double(g, "wall_z", w->layer.wall_z);
-    if (status == SC_OK) status = h5_attr_write_double(g, "layer_thickness", w->layer.thickness);
-    if (status == SC_OK) status = h5_attr_write_double(g, "gas_stagnation_velocity", w->layer.approach_velocity);
-    if (status == SC_OK) status = h5_attr_write_double(g, "rtol", w->layer.rtol);
-    if (status == SC_OK) status = h5_attr_write_double(g, "atol", w->layer.atol);
+    int status;
+    SC_CHECK(status, write_flight_columns(g, w), done);
+    SC_CHECK(status, write_trajectories(g, w), done);
+    SC_CHECK(status, h5_attr_write_double(g, "wall_z", w->layer.wall_z), done);
+    SC_CHECK(status, h5_attr_write_double(g, "layer_thickness", w->layer.thickness), done);
+    SC_CHECK(status, h5_attr_write_double(g, "gas_stagnation_velocity", w->layer.approach_velocity), done);
+    SC_CHECK(status, h5_attr_write_double(g, "rtol", w->layer.rtol), done);
+    SC_CHECK(status, h5_attr_write_double(g, "atol", w->layer.atol), done);
+done:
     H5Gclose(g);
     return status;
 }
@@ -495,14 +515,13 @@ static int write_output(const struct couple_work *w)
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
     char *case_text = case_resolved_text(w->c);
-    int status = h5_write_root_attributes(out.file, COUPLE_FORMAT, COUPLE_FORMAT_VERSION, STAGE, w->hash);
-    if (status == SC_OK)
-        status = h5_attr_write_string(out.file, "case", case_text);
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(out.file, COUPLE_FORMAT, COUPLE_FORMAT_VERSION, STAGE, w->hash), done);
+    SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
+    SC_CHECK(status, write_seeds(out.file, w), done);
+    SC_CHECK(status, write_flights(out.file, w), done);
+done:
     free(case_text);
-    if (status == SC_OK)
-        status = write_seeds(out.file, w);
-    if (status == SC_OK)
-        status = write_flights(out.file, w);
     if (status != SC_OK) {
         h5_abort(&out);
         return status;
@@ -563,7 +582,7 @@ static int read_body_columns(hid_t g, struct couple_bodies *b, int64_t *run)
     b->center = malloc(at_least_one(3 * n) * sizeof *b->center);
     b->velocity = malloc(at_least_one(3 * n) * sizeof *b->velocity);
     if (!b->d || !b->center || !b->velocity)
-        SC_FAIL(SC_ESIM, "couple: out of memory for %zu seeds", n);
+        SC_FAIL_OOM(at_least_one(7 * n) * sizeof *b->d, "the seeds of couple.h5");
     SC_TRY(h5_read_int64s(g, "run", run, n));
     SC_TRY(h5_read_doubles(g, "d", b->d, n));
     SC_TRY(h5_read_doubles(g, "x", b->center, 3 * n));
@@ -596,7 +615,7 @@ static int index_runs(struct couple_bodies *b, const int64_t *run, const char *p
     b->runs = b->count ? (size_t)run[b->count - 1] + 1 : 0;
     b->first = calloc(b->runs + 1, sizeof *b->first);
     if (!b->first)
-        SC_FAIL(SC_ESIM, "couple: out of memory");
+        SC_FAIL_OOM((b->runs + 1) * sizeof *b->first, "the runs of couple.h5");
     for (size_t i = 0; i < b->count; i++) {
         if (run[i] < 0 || (size_t)run[i] >= b->runs || (i > 0 && run[i] < run[i - 1]))
             SC_FAIL(SC_EIO, "%s: /seeds/run is not grouped by run (row %zu)", path, i);
@@ -616,18 +635,19 @@ int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodi
     SC_TRY(run_dir_check_input(ctx, STAGE, "impact", 1));
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
+    int64_t *run = NULL;
+    int status;
     hid_t g = H5Gopen2(file, "seeds", H5P_DEFAULT);
-    int status = g < 0 ? sc_error_set(SC_EIO, __FILE__, __LINE__, "%s has no /seeds group", path)
-                       : h5_dataset_size(g, "d", &b->count);
-    int64_t *run = status == SC_OK ? malloc(at_least_one(b->count) * sizeof *run) : NULL;
-    if (status == SC_OK && !run)
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "couple: out of memory");
-    if (status == SC_OK)
-        status = read_body_columns(g, b, run);
-    if (status == SC_OK)
-        status = check_body_rows(b, run, path);
-    if (status == SC_OK)
-        status = index_runs(b, run, path);
+    if (g < 0)
+        SC_FAIL_AT(status, done, SC_EIO, "%s has no /seeds group", path);
+    SC_CHECK(status, h5_dataset_size(g, "d", &b->count), done);
+    run = malloc(at_least_one(b->count) * sizeof *run);
+    if (!run)
+        SC_FAIL_OOM_AT(status, done, at_least_one(b->count) * sizeof *run, "the runs of couple.h5");
+    SC_CHECK(status, read_body_columns(g, b, run), done);
+    SC_CHECK(status, check_body_rows(b, run, path), done);
+    SC_CHECK(status, index_runs(b, run, path), done);
+done:
     free(run);
     if (g >= 0)
         H5Gclose(g);

@@ -77,7 +77,9 @@ static int clear_snapshots(const struct impact_run *run, int remove_folder)
             status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot remove %s: %s", path, strerror(errno));
     }
     closedir(dir);
-    if (status == SC_OK && remove_folder && rmdir(folder) != 0 && errno != ENOENT)
+    if (status != SC_OK)
+        return status;
+    if (remove_folder && rmdir(folder) != 0 && errno != ENOENT)
         SC_FAIL(SC_EIO, "cannot remove folder %s: %s", folder, strerror(errno));
     return status;
 }
@@ -97,14 +99,15 @@ static int write_snapshot(struct impact_run *run)
     snapshot_path(run, index, path, sizeof path);
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
-    int status = h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash);
     hid_t group = H5I_INVALID_HID;
-    if (status == SC_OK)
-        status = h5_create_group(out.file, "snapshot", &group);
-    if (status == SC_OK) {
-        status = mpm_write_snapshot(run->solver, group);
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash),
+             done);
+    SC_CHECK(status, h5_create_group(out.file, "snapshot", &group), done);
+    SC_CHECK(status, mpm_write_snapshot(run->solver, group), done);
+done:
+    if (group >= 0)
         H5Gclose(group);
-    }
     if (status != SC_OK) {
         h5_abort(&out);
         return status;
@@ -204,13 +207,16 @@ static int read_snapshot_info(const struct impact_run *run, int64_t index, struc
 {
     hid_t file;
     SC_TRY(open_snapshot(run, index, &file));
-    int status = h5_dataset_size(file, "snapshot/eps_p", &info->points);
-    if (status == SC_OK) {
-        hid_t group = H5Gopen2(file, "snapshot", H5P_DEFAULT);
-        status = group < 0 ? SC_EIO : h5_attr_read_double(group, "t", &info->t);
-        if (group >= 0)
-            H5Gclose(group);
-    }
+    hid_t group = H5I_INVALID_HID;
+    int status;
+    SC_CHECK(status, h5_dataset_size(file, "snapshot/eps_p", &info->points), done);
+    group = H5Gopen2(file, "snapshot", H5P_DEFAULT);
+    if (group < 0)
+        SC_FAIL_AT(status, done, SC_EIO, "impact: snapshot %06lld has no /snapshot group", (long long)index);
+    SC_CHECK(status, h5_attr_read_double(group, "t", &info->t), done);
+done:
+    if (group >= 0)
+        H5Gclose(group);
     H5Fclose(file);
     if (status != SC_OK)
         SC_FAIL(SC_EIO, "impact: cannot read the time and size of snapshot %06lld", (long long)index);
@@ -317,17 +323,22 @@ static int copy_snapshots(const struct impact_run *run, hid_t file)
     hid_t snapshots;
     SC_TRY(h5_create_group(file, "snapshots", &snapshots));
     int64_t count = mpm_snapshot_index(run->solver);
+    hid_t source = H5I_INVALID_HID;
     int status = SC_OK;
-    for (int64_t i = 0; status == SC_OK && i < count; i++) {
-        hid_t source;
-        status = open_snapshot(run, i, &source);
-        if (status != SC_OK)
-            break;
+    for (int64_t i = 0; i < count; i++) {
+        hid_t opened;
+        SC_CHECK(status, open_snapshot(run, i, &opened), done);
+        source = opened;
         char name[32];
         snprintf(name, sizeof name, "%06lld", (long long)i);
-        status = h5_copy(source, "snapshot", snapshots, name); /* not H5Ocopy: it crashes on a full disk */
+        /* not H5Ocopy: it crashes on a full disk */
+        SC_CHECK(status, h5_copy(source, "snapshot", snapshots, name), done);
         H5Fclose(source);
+        source = H5I_INVALID_HID;
     }
+done:
+    if (source >= 0)
+        H5Fclose(source);
     H5Gclose(snapshots);
     return status;
 }
@@ -441,8 +452,8 @@ static int check_sphere_overlap(const struct case_file *c, const struct mpm_conf
 {
     int first = cfg->body_count > 0 && cfg->bodies[0].substrate; /* data row r of the file is body r - 1 + first */
     int i, j, found = mpm_find_sphere_overlap(cfg, &i, &j);
-    if (found < 0)
-        SC_FAIL(SC_ESIM, "out of memory checking %d bodies for overlaps", cfg->body_count);
+    if (found < 0) /* the cell list: 32 bytes per body */
+        SC_FAIL_OOM((size_t)cfg->body_count * 4 * sizeof(int64_t), "the cell list of the overlap check");
     if (found == 0)
         return SC_OK;
     const struct mpm_body *a = &cfg->bodies[i], *b = &cfg->bodies[j];
@@ -474,11 +485,14 @@ int impact_stage_validate(const struct stage_context *ctx)
     const char *run_dir = ctx->run_dir;
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
-    int status = ctx->impact_from_seeds ? SC_OK : check_sphere_overlap(c, &cfg);
-    /* the whole set-up (every body seeded with its points, overlaps of any shapes, bodies that hold no point),
-     * so that a case that cannot run fails here, before the run directory is touched */
-    if (status == SC_OK && !ctx->impact_from_seeds)
-        status = check_set_up(ctx, &cfg);
+    int status = SC_OK;
+    if (!ctx->impact_from_seeds) {
+        SC_CHECK(status, check_sphere_overlap(c, &cfg), done);
+        /* the whole set-up (every body seeded with its points, overlaps of any shapes, bodies that hold no point),
+         * so that a case that cannot run fails here, before the run directory is touched */
+        SC_CHECK(status, check_set_up(ctx, &cfg), done);
+    }
+done:
     mpm_config_free(&cfg);
     if (status != SC_OK || !run_dir)
         return status;
@@ -541,10 +555,11 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
     SC_TRY(mpm_config_load(ctx->c, &run.cfg));
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
     run.seed_first = first, run.seed_count = count;
-    int status = mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
-                                        bodies->velocity + 3 * first);
-    if (status == SC_OK)
-        status = run_stage(&run);
+    int status;
+    SC_CHECK(status, mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
+                                            bodies->velocity + 3 * first), done);
+    SC_CHECK(status, run_stage(&run), done);
+done:
     mpm_destroy(run.solver);
     mpm_config_free(&run.cfg);
     return status;
@@ -564,14 +579,16 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     SC_TRY(h5_dataset_size(summary, "bonded", &n));
     int64_t *bonded = malloc((n ? n : 1) * sizeof *bonded), *substrate = malloc((n ? n : 1) * sizeof *substrate);
     double *columns = malloc((n ? 3 * n : 3) * sizeof *columns);
-    int status = bonded && substrate && columns ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    if (status == SC_OK) status = h5_read_int64s(summary, "bonded", bonded, n);
-    if (status == SC_OK) status = h5_read_int64s(summary, "substrate", substrate, n);
-    if (status == SC_OK) status = h5_read_doubles(summary, "pbcp", columns, n);
-    if (status == SC_OK) status = h5_read_doubles(summary, "v_rest", columns + n, n);
-    if (status == SC_OK) status = h5_read_doubles(summary, "cor", columns + 2 * n, n);
+    int status = SC_OK;
+    if (!bonded || !substrate || !columns)
+        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * (2 * sizeof *bonded + 3 * sizeof *columns), "a run's summary");
+    SC_CHECK(status, h5_read_int64s(summary, "bonded", bonded, n), done);
+    SC_CHECK(status, h5_read_int64s(summary, "substrate", substrate, n), done);
+    SC_CHECK(status, h5_read_doubles(summary, "pbcp", columns, n), done);
+    SC_CHECK(status, h5_read_doubles(summary, "v_rest", columns + n, n), done);
+    SC_CHECK(status, h5_read_doubles(summary, "cor", columns + 2 * n, n), done);
     struct run_totals run = {0};
-    for (size_t i = 0; status == SC_OK && i < n; i++) {
+    for (size_t i = 0; i < n; i++) {
         if (substrate[i])
             continue;
         run.bodies++;
@@ -590,6 +607,7 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     total->pbcp += run.pbcp;
     total->v_rest += run.v_rest;
     total->cor += run.cor;
+done:
     free(bonded);
     free(substrate);
     free(columns);
@@ -605,12 +623,14 @@ static int gather_run(hid_t out, const char *run_dir, long index, struct run_tot
     SC_TRY(h5_open_read(names.output, &source));
     char group[32];
     snprintf(group, sizeof group, "run_%04ld", index);
-    int status = h5_copy(source, "/", out, group); /* not H5Ocopy: it crashes on a full disk */
-    hid_t summary = status == SC_OK ? H5Gopen2(source, "summary", H5P_DEFAULT) : H5I_INVALID_HID;
-    if (status == SC_OK && summary < 0)
-        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "impact: %s has no /summary", names.output);
-    if (status == SC_OK)
-        status = add_run_summary(summary, total, means);
+    hid_t summary = H5I_INVALID_HID;
+    int status;
+    SC_CHECK(status, h5_copy(source, "/", out, group), done); /* not H5Ocopy: it crashes on a full disk */
+    summary = H5Gopen2(source, "summary", H5P_DEFAULT);
+    if (summary < 0)
+        SC_FAIL_AT(status, done, SC_EIO, "impact: %s has no /summary", names.output);
+    SC_CHECK(status, add_run_summary(summary, total, means), done);
+done:
     if (summary >= 0)
         H5Gclose(summary);
     H5Fclose(source);
@@ -623,29 +643,31 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     hid_t g;
     SC_TRY(h5_create_group(out, "summary", &g));
     double *column = malloc((size_t)runs * sizeof *column);
-    int status = column ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    int status = SC_OK;
+    if (!column)
+        SC_FAIL_OOM_AT(status, done, (size_t)runs * sizeof *column, "the summary of the runs");
     static const char *const names[4] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor"};
     static const char *const units[4] = {"-", "-", "m/s", "-"};
     hsize_t dims[1] = {(hsize_t)runs};
-    for (int k = 0; status == SC_OK && k < 4; k++) {
+    for (int k = 0; k < 4; k++) {
         for (long r = 0; r < runs; r++)
             column[r] = means[4 * r + k];
-        status = h5_write_doubles(g, names[k], 1, dims, column, units[k], 0);
+        SC_CHECK(status, h5_write_doubles(g, names[k], 1, dims, column, units[k], 0), done);
     }
     double bodies = total->bodies ? (double)total->bodies : 1.0;
-    if (status == SC_OK) status = h5_attr_write_int64(g, "runs", runs);
-    if (status == SC_OK) status = h5_attr_write_int64(g, "bodies", total->bodies);
-    if (status == SC_OK) status = h5_attr_write_int64(g, "bonded", total->bonded);
-    if (status == SC_OK) status = h5_attr_write_double(g, "bonded_fraction", (double)total->bonded / bodies);
-    if (status == SC_OK) status = h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies);
-    if (status == SC_OK) status = h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies);
-    if (status == SC_OK) status = h5_attr_write_double(g, "mean_cor", total->cor / bodies);
-    free(column);
-    H5Gclose(g);
-    if (status == SC_OK)
-        log_info("impact: %lld of %lld bodies bonded (%.1f %%) over %ld runs; mean PBCP %.2f %%, mean v_rest %.3g m/s",
+    SC_CHECK(status, h5_attr_write_int64(g, "runs", runs), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "bodies", total->bodies), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "bonded", total->bonded), done);
+    SC_CHECK(status, h5_attr_write_double(g, "bonded_fraction", (double)total->bonded / bodies), done);
+    SC_CHECK(status, h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies), done);
+    SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
+    SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
+    log_info("impact: %lld of %lld bodies bonded (%.1f %%) over %ld runs; mean PBCP %.2f %%, mean v_rest %.3g m/s",
                  (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies, runs,
                  100.0 * total->pbcp / bodies, total->v_rest / bodies);
+done:
+    free(column);
+    H5Gclose(g);
     return status;
 }
 
@@ -660,13 +682,13 @@ static int gathered_contents(void *owner, hid_t file)
     SC_TRY(h5_attr_write_int64(file, "runs", g->runs));
     double *means = malloc((size_t)g->runs * 4 * sizeof *means);
     if (!means)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)g->runs * 4 * sizeof *means, "the means of the runs");
     struct run_totals total = {0};
-    int status = SC_OK;
-    for (long r = 0; status == SC_OK && r < g->runs; r++)
-        status = gather_run(file, g->run_dir, r, &total, means + 4 * r);
-    if (status == SC_OK)
-        status = write_overall_summary(file, g->runs, means, &total);
+    int status;
+    for (long r = 0; r < g->runs; r++)
+        SC_CHECK(status, gather_run(file, g->run_dir, r, &total, means + 4 * r), done);
+    SC_CHECK(status, write_overall_summary(file, g->runs, means, &total), done);
+done:
     free(means);
     return status;
 }
@@ -691,16 +713,20 @@ static int write_first_run_xdmf(const char *run_dir)
     if (!in)
         SC_FAIL(SC_EIO, "cannot read %s: %s", from, strerror(errno));
     struct atomic_file out;
-    int status = atomic_open(to, &out);
+    int opened = 0, status;
+    SC_CHECK(status, atomic_open(to, &out), done);
+    opened = 1;
     char buffer[8192];
     size_t got;
-    while (status == SC_OK && (got = fread(buffer, 1, sizeof buffer, in)) > 0)
+    while ((got = fread(buffer, 1, sizeof buffer, in)) > 0)
         if (fwrite(buffer, 1, got, out.stream) != got)
-            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot write %s: %s", to, strerror(errno));
+            SC_FAIL_AT(status, done, SC_EIO, "cannot write %s: %s", to, strerror(errno));
+    SC_CHECK(status, atomic_publish(&out), done);
+done:
     fclose(in);
-    if (status == SC_OK)
-        return atomic_publish(&out);
-    atomic_abort(&out);
+    /* a failed atomic_open leaves nothing to abort (nor a struct atomic_abort may read) */
+    if (status != SC_OK && opened)
+        atomic_abort(&out);
     return status;
 }
 
@@ -743,7 +769,8 @@ static int run_all_seeded(const struct stage_context *ctx, uint64_t hash, const 
     /* every rank takes the next run not yet taken (dynamic balance: runs differ in size) */
     parallel_tasks_begin();
     for (int64_t r; status == SC_OK && (r = parallel_task_next()) < runs;)
-        status = run_seeded(ctx, hash, settings, &bodies, (long)r);
+        if ((status = run_seeded(ctx, hash, settings, &bodies, (long)r)) != SC_OK)
+            sc_error_trace(__FILE__, __LINE__);
     parallel_tasks_end();
     couple_stage_bodies_free(&bodies);
     /* rank 0 gathers once every rank is done; the others report its status */

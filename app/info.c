@@ -49,6 +49,8 @@ static void print_last_metrics(hid_t file, FILE *out)
     if (h5_dataset_size(file, "metrics/t", &n) != SC_OK || n == 0)
         return;
     double *column = malloc(n * sizeof *column);
+    if (!column)
+        SC_DIE_OOM(n * sizeof *column, "the metrics of spray.h5");
     fprintf(out, "final metrics:\n");
     for (int k = 0; metric_names[k]; k++) {
         char path[128];
@@ -71,10 +73,14 @@ static double *read_column(hid_t loc, const char *name, size_t n)
     if (h5_dataset_size(loc, name, &count) != SC_OK || count != n)
         return NULL;
     double *values = malloc((n + 1) * sizeof *values);
-    if (values && h5_read_doubles(loc, name, values, n) != SC_OK) {
+    if (!values)
+        SC_DIE_OOM((n + 1) * sizeof *values, name);
+    if (h5_read_doubles(loc, name, values, n) != SC_OK) {
         /* integer datasets: read as int64 and convert */
         int64_t *integers = malloc((n + 1) * sizeof *integers);
-        int ok = integers && h5_read_int64s(loc, name, integers, n) == SC_OK;
+        if (!integers)
+            SC_DIE_OOM((n + 1) * sizeof *integers, name);
+        int ok = h5_read_int64s(loc, name, integers, n) == SC_OK;
         for (size_t i = 0; ok && i < n; i++)
             values[i] = (double)integers[i];
         free(integers);
@@ -286,7 +292,8 @@ static size_t stage_checkpoints(const char *run_dir, const char *stage, char *ne
         size_t len = strlen(entry->d_name);
         if (len > prefix + 4 && strncmp(entry->d_name, stage, prefix) == 0 && entry->d_name[prefix] == '_' &&
             strcmp(entry->d_name + len - 3, ".h5") == 0)
-            names[count++] = strdup(entry->d_name);
+            if (!(names[count++] = strdup(entry->d_name)))
+                SC_DIE_OOM(len + 1, "a checkpoint's name");
     }
     closedir(dir);
     qsort(names, count, sizeof *names, compare_names);
@@ -369,10 +376,10 @@ int info_print(const char *target, FILE *out)
         if (checkpoints)
             fprintf(out, "; %zu checkpoints, newest %s", checkpoints, newest);
         fputc('\n', out);
-        if (done)
-            results[k] = strdup(path);
-        else if (checkpoints)
-            results[k] = strdup(newest);
+        if (done && !(results[k] = strdup(path)))
+            SC_DIE_OOM(strlen(path) + 1, "a file name");
+        else if (!done && checkpoints && !(results[k] = strdup(newest)))
+            SC_DIE_OOM(strlen(newest) + 1, "a file name");
         if (k == IMPACT && !done)
             print_runs_done(target, out);
         if (k == VCRIT && !done) {
@@ -384,11 +391,12 @@ int info_print(const char *target, FILE *out)
     }
     print_render_state(target, stages, out);
     int status = SC_OK;
-    for (int k = 0; k < STAGES; k++) {
-        if (results[k] && status == SC_OK)
-            status = info_file(results[k], out);
+    for (int k = 0; k < STAGES; k++)
+        if (results[k])
+            SC_CHECK(status, info_file(results[k], out), done);
+done:
+    for (int k = 0; k < STAGES; k++)
         free(results[k]);
-    }
     return status;
 }
 

@@ -172,20 +172,19 @@ static int command_check(const struct options *opt)
     struct case_file *c;
     SC_TRY(load_case(opt->target, opt, &c));
     struct dem_config cfg;
-    int status = dem_config_load(c, &cfg);
-    if (status == SC_OK)
-        dem_config_free(&cfg);
+    int status;
+    SC_CHECK(status, dem_config_load(c, &cfg), done);
+    dem_config_free(&cfg);
     /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
      * name the materials of an impact it never runs) */
     const struct stage_context ctx = {.c = c};
-    if (status == SC_OK && (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit")))
-        status = impact_stage_validate(&ctx);
-    if (status == SC_OK && app_case_section_given(c, "vcrit"))
-        status = vcrit_stage_validate(&ctx);
-    if (status == SC_OK) {
-        case_print(c, stdout);
-        printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
-    }
+    if (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit"))
+        SC_CHECK(status, impact_stage_validate(&ctx), done);
+    if (app_case_section_given(c, "vcrit"))
+        SC_CHECK(status, vcrit_stage_validate(&ctx), done);
+    case_print(c, stdout);
+    printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
+done:
     case_free(c);
     return status;
 }
@@ -368,8 +367,8 @@ static int command_pipeline(const struct options *opt)
     case_free(c);
     if (!whole)
         log_info("run: the case has no [couple] or [impact] section: no impact runs");
-    int status = command_run(opt, whole ? PIPELINE : "spray,render", 1);
-    if (status == SC_OK && parallel_rank() == 0) {
+    SC_TRY(command_run(opt, whole ? PIPELINE : "spray,render", 1));
+    if (parallel_rank() == 0) {
         char run_dir[4096];
         if (opt->run_dir)
             snprintf(run_dir, sizeof run_dir, "%s", opt->run_dir);
@@ -377,7 +376,7 @@ static int command_pipeline(const struct options *opt)
             default_run_dir(opt->target, run_dir, sizeof run_dir);
         print_results(run_dir);
     }
-    return status;
+    return SC_OK;
 }
 
 /* Continue the stages of the command that made RUN_DIR (RUN_DIR/stages; "spray" when absent) with the case it
@@ -397,9 +396,10 @@ static int command_resume(const struct options *opt)
     int pipeline = strncmp(list, RUN_PREFIX, strlen(RUN_PREFIX)) == 0;
     int status = run_stages(c, opt->target, list + (pipeline ? strlen(RUN_PREFIX) : 0), pipeline);
     case_free(c);
-    if (status == SC_OK && parallel_rank() == 0)
+    SC_TRY(status);
+    if (parallel_rank() == 0)
         print_results(opt->target);
-    return status;
+    return SC_OK;
 }
 
 static int dispatch(const struct options *opt)
@@ -472,8 +472,10 @@ int main(int argc, char **argv)
     log_set_origin(origin);
     struct options opt = {0};
     int status = parse_arguments(argc, argv, &opt);
-    if (status == SC_OK)
-        status = dispatch(&opt);
+    if (status != SC_OK)
+        sc_error_trace(__FILE__, __LINE__);
+    else if ((status = dispatch(&opt)) != SC_OK)
+        sc_error_trace(__FILE__, __LINE__);
     /* the rank where it happened says what went wrong (rank 0 also for what every rank saw) */
     if (status != SC_OK && sc_error_message()[0] && (parallel_rank() == 0 || failed_on_this_rank)) {
         fprintf(stderr, "spraycoat%s: %s\n", origin, sc_error_message());

@@ -28,7 +28,7 @@ static int case_rows(const struct case_file *c, struct render_case_row **rows, i
             capacity++;
     *rows = calloc((size_t)capacity + 1, sizeof **rows);
     if (!*rows)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM(((size_t)capacity + 1) * sizeof **rows, "the report's case summary");
     *count = 0;
     for (int t = 0; spraycoat_registry[t]; t++)
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++) {
@@ -124,9 +124,10 @@ static int render_stage_draw(const struct case_file *c, const char *run_dir)
     req.rows = rows;
     double start = log_elapsed();
     struct render_output out;
-    int status = render_run_dir(&req, &out);
-    if (status == SC_OK)
-        log_info("render: %d figures, %d frames in %.1f s", out.count, out.frames, log_elapsed() - start);
+    int status;
+    SC_CHECK(status, render_run_dir(&req, &out), done);
+    log_info("render: %d figures, %d frames in %.1f s", out.count, out.frames, log_elapsed() - start);
+done:
     render_output_free(&out);
     free(rows);
     return status;

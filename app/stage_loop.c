@@ -32,9 +32,11 @@ static int write_checkpoint(const struct stage_ops *ops, struct loop_state *stat
     ops->position(ops->owner, &step, &t, &progress);
     struct h5_out out;
     SC_TRY(h5_checkpoint_begin(ops->run_dir, ops->label, step, &out));
-    int status = h5_write_root_attributes(out.file, ops->format, ops->format_version, ops->stage, ops->case_hash);
-    if (status == SC_OK)
-        status = ops->checkpoint_write(ops->owner, out.file);
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(out.file, ops->format, ops->format_version, ops->stage, ops->case_hash),
+             done);
+    SC_CHECK(status, ops->checkpoint_write(ops->owner, out.file), done);
+done:
     if (status != SC_OK) {
         h5_abort(&out);
         return status;
@@ -135,14 +137,16 @@ int stage_write_output(const char *path, const char *format, int64_t format_vers
 {
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
-    int status = h5_write_root_attributes(out.file, format, format_version, stage, case_hash);
-    if (status == SC_OK && c) {
-        char *case_text = case_resolved_text(c);
-        status = h5_attr_write_string(out.file, "case", case_text);
-        free(case_text);
+    char *case_text = NULL;
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(out.file, format, format_version, stage, case_hash), done);
+    if (c) {
+        case_text = case_resolved_text(c);
+        SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
     }
-    if (status == SC_OK)
-        status = contents(owner, out.file);
+    SC_CHECK(status, contents(owner, out.file), done);
+done:
+    free(case_text);
     if (status != SC_OK) {
         h5_abort(&out);
         return status;

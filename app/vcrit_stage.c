@@ -221,7 +221,7 @@ static int add_record(struct vcrit_search *v, const struct vcrit_record *r)
         size_t grown = v->done_capacity ? 2 * v->done_capacity : 64;
         struct vcrit_record *more = realloc(v->done, grown * sizeof *more);
         if (!more)
-            SC_FAIL(SC_ESIM, "out of memory");
+            SC_FAIL_OOM(grown * sizeof *more, "the vcrit records");
         v->done = more;
         v->done_capacity = grown;
     }
@@ -243,6 +243,7 @@ static int load_records_file(struct vcrit_search *v, const char *path)
         log_info("vcrit: %s belongs to another case; its runs are not used", path);
         return SC_OK;
     }
+    int status = SC_OK;
     while (ok && fgets(line, sizeof line, file)) {
         struct vcrit_record r;
         long long steps;
@@ -253,14 +254,11 @@ static int load_records_file(struct vcrit_search *v, const char *path)
             break;
         }
         r.steps = steps;
-        int status = add_record(v, &r);
-        if (status != SC_OK) {
-            fclose(file);
-            return status;
-        }
+        SC_CHECK(status, add_record(v, &r), done);
     }
+done:
     fclose(file);
-    return SC_OK;
+    return status;
 }
 
 /* The records of every rank's file (an earlier process, or the other ranks of this one). */
@@ -272,13 +270,14 @@ static int load_records(struct vcrit_search *v)
         SC_FAIL(SC_EIO, "cannot read folder %s: %s", v->run_dir, strerror(errno));
     int status = SC_OK;
     struct dirent *entry;
-    while (status == SC_OK && (entry = readdir(dir))) {
+    while ((entry = readdir(dir))) {
         if (!is_records_file(entry->d_name))
             continue;
         char path[4400];
         snprintf(path, sizeof path, "%s/%s", v->run_dir, entry->d_name);
-        status = load_records_file(v, path);
+        SC_CHECK(status, load_records_file(v, path), done);
     }
+done:
     closedir(dir);
     return status;
 }
@@ -335,7 +334,7 @@ static int record_outcome(struct mpm_solver *s, double d, double speed, struct v
 {
     int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
     if (!bonded)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)nb * sizeof *bonded, "the verdicts of the bodies");
     mpm_verdicts(s, bonded);
     const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
     *out = (struct vcrit_record){.diameter = d, .velocity = speed, .bonded = bonded[nb - 1] == 1,
@@ -350,7 +349,7 @@ static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit
     struct mpm_config cfg;
     SC_TRY(make_config(v, d, speed, &cfg));
     struct vcrit_run run = {NULL};
-    int status = mpm_create(&cfg, &run.solver);
+    int status;
     char label[96], note[4400];
     snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
     snprintf(note, sizeof note, "the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with `spraycoat "
@@ -359,10 +358,10 @@ static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit
                                   .progress_total = picoseconds(cfg.t_end), .owner = &run, .step = run_step,
                                   .finished = run_finished, .position = run_position, .interrupted_note = note};
     struct stage_timing timing;
-    if (status == SC_OK)
-        status = stage_loop_run(&ops, &timing);
-    if (status == SC_OK)
-        status = record_outcome(run.solver, d, speed, out);
+    SC_CHECK(status, mpm_create(&cfg, &run.solver), done);
+    SC_CHECK(status, stage_loop_run(&ops, &timing), done);
+    SC_CHECK(status, record_outcome(run.solver, d, speed, out), done);
+done:
     mpm_destroy(run.solver);
     mpm_config_free(&cfg);
     return status;
@@ -395,7 +394,7 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     result->v_crit = result->pbcp = result->v_rest = NAN;
     result->records = calloc((size_t)v->max_runs, sizeof *result->records);
     if (!result->records)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)v->max_runs * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
     if (result->records[0].bonded) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
@@ -465,8 +464,11 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
     size_t n = (size_t)r->runs;
     double *values = calloc(3 * n + 1, sizeof *values);
     int64_t *integers = calloc(2 * n + 1, sizeof *integers);
-    int status = values && integers ? SC_OK : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
-    for (size_t k = 0; status == SC_OK && k < n; k++) {
+    int status = SC_OK;
+    if (!values || !integers)
+        SC_FAIL_OOM_AT(status, done, (3 * n + 1) * sizeof *values + (2 * n + 1) * sizeof *integers,
+                       "the runs of a vcrit search");
+    for (size_t k = 0; k < n; k++) {
         values[k] = r->records[k].velocity;
         values[n + k] = r->records[k].pbcp;
         values[2 * n + k] = r->records[k].v_rest;
@@ -474,22 +476,15 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
         integers[n + k] = r->records[k].steps;
     }
     hsize_t dims[1] = {n};
-    if (status == SC_OK)
-        status = h5_write_doubles(group, "velocity", 1, dims, values, "m/s", 0);
-    if (status == SC_OK)
-        status = h5_write_int64s(group, "bonded", 1, dims, integers, "-", 0);
-    if (status == SC_OK)
-        status = h5_write_doubles(group, "pbcp", 1, dims, values + n, "-", 0);
-    if (status == SC_OK)
-        status = h5_write_doubles(group, "v_rest", 1, dims, values + 2 * n, "m/s", 0);
-    if (status == SC_OK)
-        status = h5_write_int64s(group, "steps", 1, dims, integers + n, "-", 0);
-    if (status == SC_OK)
-        status = h5_attr_write_double(group, "diameter", r->diameter);
-    if (status == SC_OK)
-        status = h5_attr_write_double(group, "v_crit", r->v_crit);
-    if (status == SC_OK)
-        status = h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed");
+    SC_CHECK(status, h5_write_doubles(group, "velocity", 1, dims, values, "m/s", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "bonded", 1, dims, integers, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "pbcp", 1, dims, values + n, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "v_rest", 1, dims, values + 2 * n, "m/s", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "steps", 1, dims, integers + n, "-", 0), done);
+    SC_CHECK(status, h5_attr_write_double(group, "diameter", r->diameter), done);
+    SC_CHECK(status, h5_attr_write_double(group, "v_crit", r->v_crit), done);
+    SC_CHECK(status, h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed"), done);
+done:
     free(values);
     free(integers);
     H5Gclose(group);
@@ -502,11 +497,12 @@ static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_re
 {
     double *columns = calloc(4 * (size_t)v->count + 1, sizeof *columns);
     int64_t *runs = calloc((size_t)v->count + 1, sizeof *runs);
-    if (!columns || !runs) {
-        free(columns);
-        free(runs);
-        SC_FAIL(SC_ESIM, "out of memory");
-    }
+    hid_t group = H5I_INVALID_HID;
+    int status = SC_OK;
+    if (!columns || !runs)
+        SC_FAIL_OOM_AT(status, done,
+                       (4 * (size_t)v->count + 1) * sizeof *columns + ((size_t)v->count + 1) * sizeof *runs,
+                       "the vcrit table");
     size_t n = 0, m = (size_t)v->count;
     for (int i = 0; i < v->count; i++) {
         if (!bracketed(&results[i]))
@@ -519,23 +515,19 @@ static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_re
         n++;
     }
     hsize_t dims[1] = {n};
-    int status = h5_write_doubles(file, "diameter", 1, dims, columns, "m", 0);
-    if (status == SC_OK)
-        status = h5_write_doubles(file, "v_crit", 1, dims, columns + m, "m/s", 0);
-    if (status == SC_OK)
-        status = h5_write_doubles(file, "pbcp", 1, dims, columns + 2 * m, "-", 0);
-    if (status == SC_OK)
-        status = h5_write_doubles(file, "v_rest", 1, dims, columns + 3 * m, "m/s", 0);
-    if (status == SC_OK)
-        status = h5_write_int64s(file, "runs", 1, dims, runs, "-", 0);
+    SC_CHECK(status, h5_write_doubles(file, "diameter", 1, dims, columns, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(file, "v_crit", 1, dims, columns + m, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(file, "pbcp", 1, dims, columns + 2 * m, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(file, "v_rest", 1, dims, columns + 3 * m, "m/s", 0), done);
+    SC_CHECK(status, h5_write_int64s(file, "runs", 1, dims, runs, "-", 0), done);
+    SC_CHECK(status, h5_create_group(file, "search", &group), done);
+    for (int i = 0; i < v->count; i++)
+        SC_CHECK(status, write_runs_group(group, i, &results[i]), done);
+done:
     free(columns);
     free(runs);
-    hid_t group;
-    if (status == SC_OK)
-        status = h5_create_group(file, "search", &group);
-    for (int i = 0; status == SC_OK && i < v->count; i++)
-        status = write_runs_group(group, i, &results[i]);
-    if (status == SC_OK)
+    /* closed on every path: a group left open kept vcrit.h5 open after a failed write */
+    if (group >= 0)
         H5Gclose(group);
     return status;
 }
@@ -547,12 +539,12 @@ static int write_h5(const struct vcrit_search *v, const struct vcrit_result *res
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
     char *case_text = case_resolved_text(v->c);
-    int status = h5_write_root_attributes(out.file, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash);
-    if (status == SC_OK)
-        status = h5_attr_write_string(out.file, "case", case_text);
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(out.file, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash), done);
+    SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
+    SC_CHECK(status, write_h5_contents(v, results, out.file), done);
+done:
     free(case_text);
-    if (status == SC_OK)
-        status = write_h5_contents(v, results, out.file);
     if (status != SC_OK) {
         h5_abort(&out);
         return status;
@@ -585,12 +577,16 @@ static void free_records(struct vcrit_result *results, int count)
 static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
 {
     int status = load_records(v);
-    if (status == SC_OK && v->done_count > 0)
+    if (status != SC_OK)
+        sc_error_trace(__FILE__, __LINE__);
+    else if (v->done_count > 0)
         log_info("vcrit: %zu runs recorded in %s are reused", v->done_count, v->run_dir);
+    /* every rank takes part in the task counter even after a failure here (no early return) */
     parallel_tasks_begin();
     for (int64_t i; status == SC_OK && (i = parallel_task_next()) < v->count;) {
         results[i].diameter = v->diameters[i];
-        status = search_diameter(v, &results[i]);
+        if ((status = search_diameter(v, &results[i])) != SC_OK)
+            sc_error_trace(__FILE__, __LINE__);
     }
     parallel_tasks_end();
     free_records(results, v->count);
@@ -607,7 +603,8 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
         SC_TRY(search_diameter(v, &results[i]));
     }
     if (v->runs_this_process != runs)
-        SC_FAIL(SC_ESIM, "vcrit: a run of the search is missing from the records after all ranks finished");
+        SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
+                "file removed or damaged while the stage ran?)");
     SC_TRY(write_csv(v, results));
     SC_TRY(write_h5(v, results));
     log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
@@ -653,8 +650,11 @@ int vcrit_stage_run(const struct stage_context *ctx)
     run_settings_load(c, &settings);
     if (settings.threads > 0)
         omp_set_num_threads(settings.threads);
-    struct vcrit_result *results = calloc((size_t)v.count, sizeof *results);
-    int status = results ? run_search(&v, results) : sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory");
+    struct vcrit_result *results = NULL;
+    int status;
+    SC_CHECK(status, sc_calloc(&results, (size_t)v.count, sizeof *results, "the vcrit results"), done);
+    SC_CHECK(status, run_search(&v, results), done);
+done:
     if (results)
         free_records(results, v.count);
     free(results);

@@ -107,7 +107,7 @@ static void *must_realloc(void *pointer, size_t size)
 {
     void *grown = realloc(pointer, size ? size : 1);
     if (!grown)
-        config_bug("out of memory (%zu bytes)", size);
+        SC_DIE_OOM(size ? size : 1, "the case file");
     return grown;
 }
 
@@ -1063,11 +1063,8 @@ static int check_line_endings(const char *path, const char *text, size_t length)
 
 static int parse_case_text(struct case_file *c, const char *text, size_t length)
 {
-    int status = check_text_bytes(c->path, text, length);
-    if (status == SC_OK)
-        status = check_line_endings(c->path, text, length);
-    if (status != SC_OK)
-        return status;
+    SC_TRY(check_text_bytes(c->path, text, length));
+    SC_TRY(check_line_endings(c->path, text, length));
     /* inih skips a UTF-8 byte order mark too, but the reader must not see it as part of a "[" line. */
     size_t bom = length >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
     struct parse_state st = {.c = c, .next = text + bom, .end = text + length};
@@ -1114,9 +1111,10 @@ int case_load(const char *path, const struct cfg_key *const *registry, struct ca
     struct case_file *c = case_create(path, registry);
     char *text = NULL;
     size_t length = 0;
-    int status = read_case_text(path, &text, &length);
-    if (status == SC_OK)
-        status = parse_case_text(c, text, length);
+    int status;
+    SC_CHECK(status, read_case_text(path, &text, &length), done);
+    SC_CHECK(status, parse_case_text(c, text, length), done);
+done:
     free(text);
     if (status != SC_OK) {
         case_free(c);
@@ -1601,9 +1599,10 @@ static int check_line_lengths(const char *path, const char *text)
 int case_write_resolved(const struct case_file *c, const char *path)
 {
     char *text = resolved_text(c, false);
-    int status = check_line_lengths(path, text);
-    if (status == SC_OK)
-        status = atomic_write(path, text, strlen(text));
+    int status;
+    SC_CHECK(status, check_line_lengths(path, text), done);
+    SC_CHECK(status, atomic_write(path, text, strlen(text)), done);
+done:
     free(text);
     return status;
 }

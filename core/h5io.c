@@ -698,8 +698,9 @@ static int write_code_group(hid_t file)
         SC_TRY(h5_create_group(file, "code", &group));
     }
     int status = SC_OK;
-    for (const struct spraycoat_build_item *item = spraycoat_build_info(); item->name && status == SC_OK; item++)
-        status = h5_attr_write_string(group, item->name, item->value);
+    for (const struct spraycoat_build_item *item = spraycoat_build_info(); item->name; item++)
+        SC_CHECK(status, h5_attr_write_string(group, item->name, item->value), done);
+done:
     H5Gclose(group);
     return status;
 }
@@ -759,7 +760,7 @@ static int copy_attribute(hid_t from, const char *name, hid_t to)
     if (!read && buffer != NULL)
         hdf5_reason(reason);
     else if (!read)
-        snprintf(reason, sizeof reason, "out of memory or impossible size");
+        snprintf(reason, sizeof reason, "impossible size");
     hid_t copy = read ? H5Acreate2(to, name, type, space, H5P_DEFAULT, H5P_DEFAULT) : H5I_INVALID_HID;
     int written = copy >= 0 && H5Awrite(copy, type, buffer) >= 0;
     if (read && !written)
@@ -774,6 +775,8 @@ static int copy_attribute(hid_t from, const char *name, hid_t to)
     h5io_close(space);
     h5io_close(type);
     h5io_close(attr);
+    if (buffer == NULL && bytes > 0) /* a size element_buffer could compute, but not allocate */
+        SC_FAIL_OOM(bytes, "a copied attribute");
     if (!written) {
         describe_object(to, "", what);
         SC_FAIL(SC_EIO, "cannot copy attribute %s to %s: %s", name, what, reason);
@@ -817,7 +820,7 @@ static int copy_dataset(hid_t from, hid_t to_loc, const char *name)
     if (!read && buffer != NULL)
         hdf5_reason(reason);
     else if (!read)
-        snprintf(reason, sizeof reason, "out of memory or impossible size");
+        snprintf(reason, sizeof reason, "impossible size");
     hid_t lcpl = read ? intermediate_groups_plist() : H5I_INVALID_HID;
     hid_t copy = lcpl < 0 ? H5I_INVALID_HID : H5Dcreate2(to_loc, name, type, space, lcpl, dcpl, H5P_DEFAULT);
     int written = copy >= 0 && (points == 0 || H5Dwrite(copy, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) >= 0);
@@ -839,6 +842,8 @@ static int copy_dataset(hid_t from, hid_t to_loc, const char *name)
     h5io_close(type);
     if (status != SC_OK)
         return status;
+    if (buffer == NULL && bytes > 0) /* a size element_buffer could compute, but not allocate */
+        SC_FAIL_OOM(bytes, "a copied dataset");
     if (!written) {
         describe_object(to_loc, name, what);
         SC_FAIL(SC_EIO, "cannot copy dataset %s: %s", what, reason);
@@ -870,17 +875,19 @@ static int copy_group(hid_t from, hid_t to_loc, const char *name)
 {
     hid_t group;
     SC_TRY(h5_create_group(to_loc, name, &group));
-    int status = copy_attributes(from, group);
     struct copy_walk walk = {group, SC_OK};
-    herr_t done = status != SC_OK ? 0 : H5Literate(from, H5_INDEX_NAME, H5_ITER_INC, NULL, copy_member_cb, &walk);
-    if (status == SC_OK)
-        status = walk.status;
-    if (status == SC_OK && done < 0) {
+    int status;
+    SC_CHECK(status, copy_attributes(from, group), done);
+    herr_t listed = H5Literate(from, H5_INDEX_NAME, H5_ITER_INC, NULL, copy_member_cb, &walk);
+    SC_CHECK(status, walk.status, done);
+    if (listed < 0) {
         char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
         hdf5_reason(reason);
         describe_object(from, "", what);
-        status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot list the members of %s: %s", what, reason);
+        SC_FAIL_AT(status, done, SC_EIO, "cannot list the members of %s: %s", what, reason);
     }
+done:
+    /* a failure to close is reported when nothing failed before it */
     if (H5Gclose(group) < 0 && status == SC_OK) {
         char reason[H5IO_REASON_MAX], what[H5IO_WHAT_MAX];
         hdf5_reason(reason);
@@ -931,10 +938,8 @@ static int read_into_scratch(hid_t dataset, hid_t type, hid_t space, size_t byte
     if (bytes == 0)
         return 0;
     void *buffer = malloc(bytes);
-    if (buffer == NULL) {
-        snprintf(reason, H5IO_REASON_MAX, "out of memory for %zu bytes", bytes);
-        return -1;
-    }
+    if (buffer == NULL) /* not "damaged": that would fall back to an older checkpoint and delete this one */
+        SC_DIE_OOM(bytes, "checking a dataset's checksums");
     int failed = H5Dread(dataset, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) < 0;
     if (failed)
         hdf5_reason(reason);
@@ -1060,7 +1065,7 @@ static int checkpoint_list_add(struct checkpoint_list *list, int64_t step, const
         size_t capacity = list->capacity ? 2 * list->capacity : 16;
         struct checkpoint_entry *items = realloc(list->items, capacity * sizeof *items);
         if (items == NULL)
-            SC_FAIL(SC_EIO, "out of memory listing checkpoints");
+            SC_FAIL_OOM(capacity * sizeof *items, "the list of checkpoints");
         list->items = items;
         list->capacity = capacity;
     }

@@ -4,15 +4,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/error.h"
 #include "dem/dem_impl.h"
 
-/* Out of memory mid-step: no state worth saving can be written without memory either. */
+/* Out of memory mid-step: no state worth saving can be written without memory either.  The one out-of-memory
+ * message and exit status 3 (core/error.h), not abort(). */
 static void *or_die(void *allocated, size_t bytes)
 {
-    if (!allocated) {
-        fprintf(stderr, "spraycoat: out of memory (%zu bytes requested)\n", bytes);
-        abort();
-    }
+    if (!allocated)
+        SC_DIE_OOM(bytes, "the spray stage's arrays");
     return allocated;
 }
 

@@ -107,7 +107,7 @@ static int seed_body(const struct mpm_body *b, double dp, struct point_seed **se
                     size_t grown = *capacity ? 2 * *capacity : 4096;
                     struct point_seed *more = realloc(*seeds, grown * sizeof *more);
                     if (!more)
-                        SC_FAIL(SC_ESIM, "out of memory seeding material points");
+                        SC_FAIL_OOM(grown * sizeof *more, "seeding material points");
                     *seeds = more;
                     *capacity = grown;
                 }
@@ -136,9 +136,11 @@ static int allocate(struct mpm_points *p, size_t n)
     p->slot = mpm_calloc_lines(n, sizeof *p->slot);
     if (n >= UINT32_MAX)
         SC_FAIL(SC_EINPUT, "impact: %zu material points; at most %u are supported", n, UINT32_MAX - 1);
-    if (!p->id || !p->slot || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond || !p->plastic_work || !p->normal ||
-        !p->state || !p->body || !p->flags)
-        SC_FAIL(SC_ESIM, "out of memory for %zu material points", n);
+    if (!p->x || !p->id || !p->slot || !p->x_next || !p->v || !p->mass || !p->volume0 || !p->volume || !p->d_bond ||
+        !p->plastic_work || !p->normal || !p->state || !p->body || !p->flags)
+        SC_FAIL_OOM(n * (9 * sizeof *p->x + 4 * sizeof *p->mass + sizeof *p->state + sizeof *p->body +
+                         sizeof *p->flags + sizeof *p->id + sizeof *p->slot),
+                    "the material points");
     return SC_OK;
 }
 
@@ -223,9 +225,9 @@ static int check_overlaps(const struct mpm_config *cfg, struct point_seed *const
     struct box_entry *entries = malloc((size_t)n * sizeof *entries);
     int *candidates = malloc((size_t)n * sizeof *candidates), *substrates = malloc((size_t)n * sizeof *substrates);
     if (!boxes || !entries || !candidates || !substrates)
-        status = sc_out_of_memory(__FILE__, __LINE__, (size_t)n * (sizeof *boxes + sizeof *entries + 2 * sizeof(int)),
-                                  "the bodies' overlap check");
-    for (int b = 0; status == SC_OK && b < n; b++) {
+        SC_FAIL_OOM_AT(status, done, (size_t)n * (sizeof *boxes + sizeof *entries + 2 * sizeof(int)),
+                       "the bodies' overlap check");
+    for (int b = 0; b < n; b++) {
         boxes[b] = box_of(&cfg->bodies[b], slack);
         for (int k = 0; !cfg->bodies[b].substrate && k < 3; k++)
             if (boxes[b].hi[k] - boxes[b].lo[k] > width)
@@ -235,7 +237,7 @@ static int check_overlaps(const struct mpm_config *cfg, struct point_seed *const
         width = 1.0;
     size_t small = 0;
     int substrate_count = 0;
-    for (int b = 0; status == SC_OK && b < n; b++) {
+    for (int b = 0; b < n; b++) {
         if (cfg->bodies[b].substrate)
             substrates[substrate_count++] = b;
         if (cfg->bodies[b].substrate)
@@ -244,9 +246,8 @@ static int check_overlaps(const struct mpm_config *cfg, struct point_seed *const
             entries[small].cell[k] = box_cell(boxes[b].lo[k], width);
         entries[small++].body = b;
     }
-    if (status == SC_OK)
-        qsort(entries, small, sizeof *entries, compare_box_entries);
-    for (int b = 0; status == SC_OK && b < n; b++) {
+    qsort(entries, small, sizeof *entries, compare_box_entries);
+    for (int b = 0; b < n; b++) {
         int found = 0;
         /* for a substrate every earlier body; for another body the earlier substrates (a list: a scan of every
          * earlier body for each body made 3e5 bodies take minutes) */
@@ -287,13 +288,11 @@ static int check_overlaps(const struct mpm_config *cfg, struct point_seed *const
         }
         qsort(candidates, (size_t)found, sizeof *candidates, compare_ints);
         for (int i = 0; i < found; i++)
-            if (points_inside(cfg, candidates[i], seeds[b], counts[b])) {
-                status = sc_error_set(SC_EINPUT, __FILE__, __LINE__,
-                                      "impact: body %d overlaps body %d (bodies may touch, not overlap)", b,
-                                      candidates[i]);
-                break;
-            }
+            if (points_inside(cfg, candidates[i], seeds[b], counts[b]))
+                SC_FAIL_AT(status, done, SC_EINPUT, "impact: body %d overlaps body %d (bodies may touch, not overlap)",
+                           b, candidates[i]);
     }
+done:
     free(boxes);
     free(entries);
     free(candidates);
@@ -326,30 +325,33 @@ static void fill_points(const struct mpm_config *cfg, int body, const struct poi
 
 int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
 {
-    struct point_seed **seeds = calloc((size_t)cfg->body_count, sizeof *seeds);
-    size_t *counts = calloc((size_t)cfg->body_count, sizeof *counts), total = 0;
-    int status = seeds && counts ? SC_OK : SC_ESIM;
-    for (int b = 0; status == SC_OK && b < cfg->body_count; b++) {
+    memset(points, 0, sizeof *points);
+    struct point_seed **seeds = NULL;
+    size_t *counts = NULL, total = 0;
+    int status;
+    SC_CHECK(status, sc_calloc(&seeds, (size_t)cfg->body_count, sizeof *seeds, "the bodies' seeds"), done);
+    SC_CHECK(status, sc_calloc(&counts, (size_t)cfg->body_count, sizeof *counts, "the bodies' seeds"), done);
+    for (int b = 0; b < cfg->body_count; b++) {
         size_t capacity = 0;
-        status = seed_body(&cfg->bodies[b], cfg->spacing, &seeds[b], &counts[b], &capacity);
-        if (status == SC_OK && counts[b] == 0)
-            status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "impact: body %d holds no material point at spacing "
-                              "%g m", b, cfg->spacing);
+        SC_CHECK(status, seed_body(&cfg->bodies[b], cfg->spacing, &seeds[b], &counts[b], &capacity), done);
+        if (counts[b] == 0)
+            SC_FAIL_AT(status, done, SC_EINPUT, "impact: body %d holds no material point at spacing %g m", b,
+                       cfg->spacing);
         total += counts[b];
     }
-    if (status == SC_OK)
-        status = check_overlaps(cfg, seeds, counts);
-    if (status == SC_OK)
-        status = allocate(points, total);
-    if (status == SC_OK)
-        mpm_points_order_reset(points);
+    SC_CHECK(status, check_overlaps(cfg, seeds, counts), done);
+    SC_CHECK(status, allocate(points, total), done);
+    mpm_points_order_reset(points);
     size_t offset = 0;
-    for (int b = 0; status == SC_OK && b < cfg->body_count; offset += counts[b], b++)
+    for (int b = 0; b < cfg->body_count; offset += counts[b], b++)
         fill_points(cfg, b, seeds[b], counts[b], offset, points);
+done:
     for (int b = 0; seeds && b < cfg->body_count; b++)
         free(seeds[b]);
     free(seeds);
     free(counts);
+    if (status != SC_OK) /* what allocate got before it failed */
+        mpm_points_free(points);
     return status;
 }
 

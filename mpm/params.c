@@ -178,7 +178,7 @@ static int material_index(const struct case_file *c, const char *key, const char
         }
     struct mpm_material *grown = realloc(cfg->materials, (size_t)(cfg->material_count + 1) * sizeof *grown);
     if (!grown)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)(cfg->material_count + 1) * sizeof *grown, "the impact materials");
     cfg->materials = grown;
     SC_TRY(load_material(c, key, name, &cfg->materials[cfg->material_count]));
     *index = cfg->material_count++;
@@ -189,7 +189,7 @@ static int add_body(struct mpm_config *cfg, const struct mpm_body *body)
 {
     struct mpm_body *grown = realloc(cfg->bodies, (size_t)(cfg->body_count + 1) * sizeof *grown);
     if (!grown)
-        SC_FAIL(SC_ESIM, "out of memory");
+        SC_FAIL_OOM((size_t)(cfg->body_count + 1) * sizeof *grown, "the impact bodies");
     cfg->bodies = grown;
     cfg->bodies[cfg->body_count++] = *body;
     return SC_OK;
@@ -300,22 +300,21 @@ static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
     struct csv_table table;
     if (csv_read(path, body_columns, BODY_COLUMNS, 0, &table, message, sizeof message) != SC_OK)
         return case_invalid(c, "impact", "bodies", "%s", message);
-    int status = table.rows > (size_t)INT_MAX / 2
-                     ? case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows, INT_MAX / 2)
-                     : SC_OK;
-    struct mpm_body *grown = status == SC_OK ? realloc(cfg->bodies, ((size_t)cfg->body_count + table.rows) *
-                                                                        sizeof *grown)
-                                             : NULL;
-    if (status == SC_OK && !grown)
-        status = sc_error_set(SC_ESIM, __FILE__, __LINE__, "out of memory for %zu bodies", table.rows);
-    if (grown)
-        cfg->bodies = grown;
-    for (size_t row = 0; status == SC_OK && row < table.rows; row++) {
+    int status = SC_OK;
+    if (table.rows > (size_t)INT_MAX / 2)
+        SC_CHECK(status, case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows,
+                                      INT_MAX / 2), done);
+    size_t bytes = ((size_t)cfg->body_count + table.rows) * sizeof *cfg->bodies;
+    struct mpm_body *grown = realloc(cfg->bodies, bytes ? bytes : 1);
+    if (!grown)
+        SC_FAIL_OOM_AT(status, done, bytes, "the impact bodies");
+    cfg->bodies = grown;
+    for (size_t row = 0; row < table.rows; row++) {
         struct mpm_body body = {0};
-        status = parse_body_row(c, path, &table, row, cfg, &body);
-        if (status == SC_OK)
-            cfg->bodies[cfg->body_count++] = body;
+        SC_CHECK(status, parse_body_row(c, path, &table, row, cfg, &body), done);
+        cfg->bodies[cfg->body_count++] = body;
     }
+done:
     csv_free(&table);
     return status;
 }
@@ -366,16 +365,13 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
-    int status = load_numerics(c, cfg);
-    if (status == SC_OK)
-        status = load_substrate(c, cfg);
-    if (status == SC_OK)
-        status = case_has(c, "impact", "bodies") ? load_bodies_file(c, cfg) : load_single_particle(c, cfg);
-    if (status == SC_OK) {
-        /* every material the case names is checked, also one used by no body */
-        int unused;
-        status = material_index(c, "material", case_text(c, "impact", "material"), cfg, &unused);
-    }
+    int status, unused;
+    SC_CHECK(status, load_numerics(c, cfg), done);
+    SC_CHECK(status, load_substrate(c, cfg), done);
+    SC_CHECK(status, case_has(c, "impact", "bodies") ? load_bodies_file(c, cfg) : load_single_particle(c, cfg), done);
+    /* every material the case names is checked, also one used by no body */
+    SC_CHECK(status, material_index(c, "material", case_text(c, "impact", "material"), cfg, &unused), done);
+done:
     if (status != SC_OK)
         mpm_config_free(cfg);
     return status;

@@ -1,9 +1,11 @@
 /* The one error path (core/error.h): a write that fails midway leaves no HDF5 object open but the file, every
  * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3). */
+#include "app/app.h"
 #include "core/error.h"
 #include "core/h5io.h"
 #include "dem/dem.h"
 #include "dem/dem_impl.h"
+#include "tests/case_fixture.h"
 #include "tests/check.h"
 
 #include <stdint.h>
@@ -140,6 +142,62 @@ static void test_die_out_of_memory_exits_3(void)
           text);
 }
 
+/* How often `needle` occurs in `text`. */
+static int occurrences(const char *text, const char *needle)
+{
+    int count = 0;
+    for (const char *at = strstr(text, needle); at; at = strstr(at + 1, needle))
+        count++;
+    return count;
+}
+
+/* An app-level failure (issue 24): couple.h5 of this case whose /seeds lacks the centres /seeds/x.  The impact
+ * stage's read of the seeds fails; afterwards no HDF5 object of any file is open (the file and /seeds closed on
+ * the failure path), nothing of the bodies is kept, and the traceback has the frame of couple_stage_read_bodies
+ * as well as read_body_columns' (a status chain passed the failure up without its frame). */
+static void test_failed_seed_read_closes_couple_h5(void)
+{
+    char dir[64];
+    CHECK(case_fixture_write(dir, "[run]\n", NULL, NULL, NULL, NULL) == 0, "cannot write the case");
+    struct case_file *c = NULL;
+    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    if (!c)
+        return;
+    struct stage_context ctx = {.c = c, .run_dir = dir, .impact_from_seeds = 1};
+    char path[128];
+    snprintf(path, sizeof path, "%s/couple.h5", dir);
+    hid_t file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    CHECK(file >= 0, "cannot create %s", path);
+    CHECK(h5_write_root_attributes(file, "spraycoat-couple", 1, "couple", stage_hash(&ctx, "couple")) == SC_OK,
+          "cannot write the root attributes");
+    hid_t g;
+    CHECK(h5_create_group(file, "seeds", &g) == SC_OK, "cannot create /seeds");
+    int64_t run[2] = {0, 0};
+    double d[2] = {1e-5, 2e-5};
+    hsize_t dims[1] = {2};
+    CHECK(h5_write_int64s(g, "run", 1, dims, run, "", 0) == SC_OK, "cannot write /seeds/run");
+    CHECK(h5_write_doubles(g, "d", 1, dims, d, "m", 0) == SC_OK, "cannot write /seeds/d");
+    H5Gclose(g);
+    H5Fclose(file);
+    CHECK(H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) == 0, "objects open before the read");
+
+    sc_error_clear();
+    struct couple_bodies bodies;
+    int status = couple_stage_read_bodies(&ctx, &bodies);
+    CHECK(status == SC_EIO, "couple_stage_read_bodies returned %d, expected SC_EIO: %s", status, sc_error_message());
+    ssize_t open_objects = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL);
+    CHECK(open_objects == 0, "after the failed read %zd HDF5 objects are open, expected none", open_objects);
+    CHECK(bodies.d == NULL && bodies.center == NULL && bodies.first == NULL && bodies.count == 0,
+          "the failed read kept bodies");
+    CHECK(strstr(sc_error_message(), "x") != NULL, "message: %s", sc_error_message());
+    CHECK(occurrences(sc_error_traceback(), "app/couple_stage.c") >= 2,
+          "expected the frames of read_body_columns and couple_stage_read_bodies in the traceback:\n%s",
+          sc_error_traceback());
+    case_free(c);
+    unlink(path);
+    case_fixture_remove(dir);
+}
+
 /* SC_CHECK: records a frame and jumps to the cleanup label; SC_OK falls through. */
 static int failing(void) { SC_FAIL(SC_EINPUT, "bad input"); }
 
@@ -176,5 +234,6 @@ int main(void)
     RUN(test_out_of_memory_is_one_error);
     RUN(test_die_out_of_memory_exits_3);
     RUN(test_check_records_frame_and_cleans_up);
+    RUN(test_failed_seed_read_closes_couple_h5);
     return check_finish();
 }

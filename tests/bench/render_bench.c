@@ -51,7 +51,7 @@ static int write_h5(const char *path, const double *x, const double *eps, const 
     hsize_t dn[1] = {n}, d3[2] = {n, 3}, one[1] = {1}, two[2] = {1, 1};
     double zero = 0, *v = calloc(3 * n, sizeof *v);
     int64_t bonded = 1;
-    int status = v ? h5_write_root_attributes(out.file, "spraycoat-impact", 1, "impact", 0) : SC_ESIM;
+    int status = v ? h5_write_root_attributes(out.file, "spraycoat-impact", 1, "impact", 0) : SC_EIO;
     if (status == SC_OK && (status = h5_create_group(out.file, "snapshots", &snapshots)) == SC_OK) {
         if ((status = h5_create_group(snapshots, "000000", &g)) == SC_OK) {
             status = h5_write_doubles(g, "x", 2, d3, x, "m", 0);
