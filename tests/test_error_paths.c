@@ -1,5 +1,6 @@
 /* The one error path (core/error.h): a write that fails midway leaves no HDF5 object open but the file, every
  * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3). */
+/* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "app/app.h"
 #include "core/error.h"
 #include "core/h5io.h"
