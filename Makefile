@@ -37,7 +37,7 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
-.PHONY: all test asan bench run validate install clean format deps fuzz fuzz-build docs FORCE
+.PHONY: all test asan bench run validate install clean format format-check deps fuzz fuzz-build docs FORCE
 all: $(BIN) $(TEST_BIN)
 
 deps:
@@ -92,7 +92,7 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 # The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process) and, on a CPU
 # with AVX-512, the bench build, whose AVX-512-only code paths the portable build never takes
 # (tests/test_native_build.sh compares the two).
-test: deps
+test: deps format-check
 	$(MAKE) all
 	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
 	if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then \
@@ -157,8 +157,13 @@ install: $(BIN)
 	install -m 644 cases/*.ini cases/*.csv $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 	install -m 755 cases/*.sh $(DESTDIR)$(PREFIX)/share/spraycoat/cases/
 
+# Every C file of the repository, in the style of .clang-format; `make test` (and so CI) fails on unformatted code.
+C_FILES   = $(shell git ls-files '*.c' '*.h' 2>/dev/null)
 format:
-	clang-format -i core/*.[ch] dem/*.[ch] mpm/*.[ch] render/*.[ch] coupling/*.[ch] app/*.[ch] tests/*.[ch] tests/bench/*.c
+	clang-format -i $(C_FILES)
+
+format-check:
+	@clang-format --dry-run -Werror $(C_FILES) && echo "format-check: $(words $(C_FILES)) C files formatted"
 
 clean:
 	rm -rf build build-asan build-bench build-mpi build-fuzz

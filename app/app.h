@@ -73,16 +73,16 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
  * valid checkpoint of the case, step with checkpoints by the [run] policy, stop at a signal after a checkpoint,
  * progress, timing, and the final output written atomically with the root attributes. */
 struct stage_ops {
-    const char *label;     /* log, progress and checkpoint name: "spray", "impact", "impact_r0003" */
-    const char *stage;     /* the root attribute stage of its files */
-    const char *format;    /* file format name and version of its checkpoints */
+    const char *label;  /* log, progress and checkpoint name: "spray", "impact", "impact_r0003" */
+    const char *stage;  /* the root attribute stage of its files */
+    const char *format; /* file format name and version of its checkpoints */
     int64_t format_version;
     uint64_t case_hash;
     const char *run_dir;
-    const struct run_settings *settings;   /* checkpoint policy; NULL: no checkpoints */
-    const char *progress_unit;             /* "steps", "ps" */
+    const struct run_settings *settings; /* checkpoint policy; NULL: no checkpoints */
+    const char *progress_unit;           /* "steps", "ps" */
     int64_t progress_total;
-    void *owner;                           /* passed to every callback */
+    void *owner; /* passed to every callback */
     int (*step)(void *owner);
     int (*finished)(void *owner);
     void (*position)(void *owner, int64_t *step, double *t, int64_t *progress);
@@ -127,7 +127,6 @@ int impact_stage_validate(const struct stage_context *ctx);
  * a checkpoint when interrupted. */
 int impact_stage_run(const struct stage_context *ctx);
 
-
 /* The critical-velocity search ([vcrit]): its keys and the impact configuration of every diameter. */
 int vcrit_stage_validate(const struct stage_context *ctx);
 
@@ -147,12 +146,11 @@ extern const struct cfg_key couple_case_keys[];
  * was made from another case. */
 struct couple_bodies {
     size_t runs, count;
-    size_t *first;                   /* runs + 1 */
-    double *d, *center, *velocity;   /* count, 3 count, 3 count (impact frame) */
+    size_t *first;                 /* runs + 1 */
+    double *d, *center, *velocity; /* count, 3 count, 3 count (impact frame) */
 };
 int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
 void couple_stage_bodies_free(struct couple_bodies *bodies);
-
 
 /* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into
  * RUN_DIR/figures/ and RUN_DIR/report.html.  SC_EIO when RUN_DIR holds none of them or one is malformed. */

@@ -17,12 +17,15 @@
 #include "app/app.h"
 #include "dem/dem.h"
 
-#define STAGE "couple"
-#define COUPLE_FORMAT "spraycoat-couple"
+#define STAGE                 "couple"
+#define COUPLE_FORMAT         "spraycoat-couple"
 #define COUPLE_FORMAT_VERSION 1
 
 /* malloc(0) may return NULL: every array gets at least one element. */
-static size_t at_least_one(size_t n) { return n ? n : 1; }
+static size_t at_least_one(size_t n)
+{
+    return n ? n : 1;
+}
 
 /* The rows of spray.h5 the stage uses. */
 struct spray_rows {
@@ -41,8 +44,8 @@ struct couple_work {
     struct spray_rows spray;
     struct couple_candidate *candidates;
     size_t candidate_count;
-    size_t *handoff_of;               /* per candidate: its hand-off row, or SIZE_MAX */
-    struct couple_flight_result *flights;    /* in the order flown */
+    size_t *handoff_of;                   /* per candidate: its hand-off row, or SIZE_MAX */
+    struct couple_flight_result *flights; /* in the order flown */
     size_t *flight_candidate;
     size_t flight_count;
     struct couple_seed *seeds;
@@ -82,9 +85,9 @@ done:
     return status;
 }
 
-#define READ_FIELD(group, rows, array, type, field, width)                                                       \
+#define READ_FIELD(group, rows, array, type, field, width)                                                             \
     read_into_records(group, #field, rows, width, array, sizeof(type), offsetof(type, field))
-#define READ_ID(group, rows, array, type, field)                                                                 \
+#define READ_ID(group, rows, array, type, field)                                                                       \
     read_ids_into_records(group, #field, rows, array, sizeof(type), offsetof(type, field))
 
 static int read_impacts(hid_t file, struct spray_rows *rows)
@@ -221,8 +224,9 @@ static int find_candidates(struct couple_work *w)
 static int match_handoffs(struct couple_work *w)
 {
     size_t n = w->spray.handoff_count;
-    size_t *order = rows_by_particle_and_time(w->spray.handoffs, n, sizeof *w->spray.handoffs,
-                                              offsetof(struct dem_handoff, particle_id), offsetof(struct dem_handoff, t));
+    size_t *order =
+        rows_by_particle_and_time(w->spray.handoffs, n, sizeof *w->spray.handoffs,
+                                  offsetof(struct dem_handoff, particle_id), offsetof(struct dem_handoff, t));
     if (!order)
         SC_FAIL_OOM(at_least_one(n) * sizeof *order, "the order of the spray hand-offs");
     w->handoff_of = malloc(at_least_one(w->candidate_count) * sizeof *w->handoff_of);
@@ -306,10 +310,11 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         seed->run = (int64_t)(slot / (size_t)w->cfg.bodies_per_run);
         return SC_OK;
     }
-    return case_invalid(w->c, "couple", "runs", "seed %zu: no further spray impact of its %s reaches the wall with a "
+    return case_invalid(w->c, "couple", "runs",
+                        "seed %zu: no further spray impact of its %s reaches the wall with a "
                         "hand-off crossing (%zu flown so far); allowed: fewer runs or bodies_per_run, or a spray with "
-                        "more impacts", slot + 1, w->cfg.sample == COUPLE_STRATIFIED ? "stratum" : "sample",
-                        w->flight_count);
+                        "more impacts",
+                        slot + 1, w->cfg.sample == COUPLE_STRATIFIED ? "stratum" : "sample", w->flight_count);
 }
 
 static int make_seeds(struct couple_work *w)
@@ -339,8 +344,10 @@ static int make_seeds(struct couple_work *w)
         /* couple.h5 is written whole at the end: an interrupted stage keeps nothing and runs again on resume */
         int interrupted = interrupt_status();
         if (interrupted)
-            SC_FAIL_AT(status, done, interrupted, "couple: interrupted after %zu of %zu seeds; the stage runs again "
-                       "from its start on `spraycoat resume %s`", slot + 1, seeds, w->run_dir);
+            SC_FAIL_AT(status, done, interrupted,
+                       "couple: interrupted after %zu of %zu seeds; the stage runs again "
+                       "from its start on `spraycoat resume %s`",
+                       slot + 1, seeds, w->run_dir);
     }
     for (size_t r = 0; r < (size_t)w->cfg.runs; r++)
         couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
@@ -361,17 +368,17 @@ done:
 /* One column of n rows into group g, each row's value from `expr` (or 3 values from `array`) with row index i;
  * the caller holds `status` and a cleanup label `done`, scratch `ints` (n) and `reals` (3 n), and `dims1` /
  * `dims3`. */
-#define COLUMN_INT(name, expr)                                                                                   \
-    for (size_t i = 0; i < n; i++)                                                                                 \
-        ints[i] = (int64_t)(expr);                                                                                 \
+#define COLUMN_INT(name, expr)                                                                                         \
+    for (size_t i = 0; i < n; i++)                                                                                     \
+        ints[i] = (int64_t)(expr);                                                                                     \
     SC_CHECK(status, h5_write_int64s(g, name, 1, dims1, ints, "", 0), done);
-#define COLUMN_REAL(name, expr, unit)                                                                            \
-    for (size_t i = 0; i < n; i++)                                                                                 \
-        reals[i] = (expr);                                                                                         \
+#define COLUMN_REAL(name, expr, unit)                                                                                  \
+    for (size_t i = 0; i < n; i++)                                                                                     \
+        reals[i] = (expr);                                                                                             \
     SC_CHECK(status, h5_write_doubles(g, name, 1, dims1, reals, unit, 0), done);
-#define COLUMN_VEC(name, array, unit)                                                                            \
-    for (size_t i = 0; i < n; i++)                                                                                 \
-        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                         \
+#define COLUMN_VEC(name, array, unit)                                                                                  \
+    for (size_t i = 0; i < n; i++)                                                                                     \
+        memcpy(reals + 3 * i, (array), 3 * sizeof *reals);                                                             \
     SC_CHECK(status, h5_write_doubles(g, name, 2, dims3, reals, unit, 0), done);
 
 static int write_seed_columns(hid_t g, const struct couple_work *w)
@@ -546,9 +553,9 @@ static void log_summary(const struct couple_work *w)
         steps += w->flights[i].steps;
     double n = (double)at_least_one(w->seed_count);
     log_info("couple: %zu seeds in %ld runs from %zu candidate impacts (%zu flights, %ld CVODE steps); mean diameter "
-             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall after the gas layer", w->seed_count,
-             w->cfg.runs, w->candidate_count, w->flight_count, steps, 1e6 * diameter / n, speed_spray / n,
-             speed_wall / n);
+             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall after the gas layer",
+             w->seed_count, w->cfg.runs, w->candidate_count, w->flight_count, steps, 1e6 * diameter / n,
+             speed_spray / n, speed_wall / n);
 }
 
 static void couple_work_free(struct couple_work *w)
@@ -598,13 +605,16 @@ static int check_body_rows(const struct couple_bodies *b, const int64_t *run, co
     for (size_t i = 0; i < b->count; i++) {
         const double *x = b->center + 3 * i, *v = b->velocity + 3 * i;
         if (!(isfinite(b->d[i]) && b->d[i] > 0.0))
-            SC_FAIL(SC_EIO, "%s: /seeds/d row %zu (a body of run %04lld) is %g, not a diameter > 0; the file is "
-                    "damaged or was written wrong: rerun the couple stage", path, i, (long long)run[i], b->d[i]);
+            SC_FAIL(SC_EIO,
+                    "%s: /seeds/d row %zu (a body of run %04lld) is %g, not a diameter > 0; the file is "
+                    "damaged or was written wrong: rerun the couple stage",
+                    path, i, (long long)run[i], b->d[i]);
         for (int k = 0; k < 3; k++)
             if (!isfinite(x[k]) || !isfinite(v[k]))
-                SC_FAIL(SC_EIO, "%s: /seeds/%s row %zu (a body of run %04lld) is not finite; the file is damaged or "
-                        "was written wrong: rerun the couple stage", path, isfinite(x[k]) ? "v" : "x", i,
-                        (long long)run[i]);
+                SC_FAIL(SC_EIO,
+                        "%s: /seeds/%s row %zu (a body of run %04lld) is not finite; the file is damaged or "
+                        "was written wrong: rerun the couple stage",
+                        path, isfinite(x[k]) ? "v" : "x", i, (long long)run[i]);
     }
     return SC_OK;
 }
@@ -666,7 +676,8 @@ int couple_stage_validate(const struct stage_context *ctx)
     SC_TRY(dem_config_load(c, &spray));
     int status = SC_OK;
     if (spray.handoff_height <= 0.0)
-        status = case_invalid(c, "spray", "handoff_height", "the couple stage starts its flights at the hand-off "
+        status = case_invalid(c, "spray", "handoff_height",
+                              "the couple stage starts its flights at the hand-off "
                               "plane; allowed: handoff_height > 0");
     dem_config_free(&spray);
     return status;

@@ -26,27 +26,27 @@
 #include "app/app.h"
 #include "mpm/mpm.h"
 
-#define STAGE "impact"
+#define STAGE        "impact"
 #define SNAPSHOT_DIR "impact_snapshots"
-#define RUNS_DIR "impact_runs"
+#define RUNS_DIR     "impact_runs"
 
 struct impact_run {
     const struct stage_context *ctx;
     const char *run_dir;
     /* where this run's files go: one run (impact.h5 itself) or run r of several (impact_runs/run_NNNN.h5, copied
      * into impact.h5 /run_NNNN when all are done) */
-    char label[32];                     /* checkpoint and log name: "impact" or "impact_rNNNN" */
+    char label[32]; /* checkpoint and log name: "impact" or "impact_rNNNN" */
     char snapshot_dir[H5IO_PATH_MAX - 64];
     char output[H5IO_PATH_MAX];
     char xdmf[H5IO_PATH_MAX];
-    char snapshot_group[64];            /* the snapshots' group in the final impact.h5 */
+    char snapshot_group[64]; /* the snapshots' group in the final impact.h5 */
     struct run_settings settings;
     struct mpm_config cfg;
     struct mpm_solver *solver;
-    size_t seed_first, seed_count;      /* a run of the seeds: its rows of couple.h5 /seeds (count 0: [impact]) */
+    size_t seed_first, seed_count; /* a run of the seeds: its rows of couple.h5 /seeds (count 0: [impact]) */
     uint64_t case_hash;
-    double start_time;      /* log_elapsed() when this process started stepping */
-    int64_t start_updates;  /* point updates done before (by the run this one resumed) */
+    double start_time;     /* log_elapsed() when this process started stepping */
+    int64_t start_updates; /* point updates done before (by the run this one resumed) */
     int64_t start_step;
     struct stage_timing timing; /* this process's time loop (after_step: the snapshots) */
 };
@@ -101,8 +101,7 @@ static int write_snapshot(struct impact_run *run)
     SC_TRY(h5_create_atomic(path, &out));
     hid_t group = H5I_INVALID_HID;
     int status;
-    SC_CHECK(status, h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash),
-             done);
+    SC_CHECK(status, h5_write_root_attributes(out.file, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash), done);
     SC_CHECK(status, h5_create_group(out.file, "snapshot", &group), done);
     SC_CHECK(status, mpm_write_snapshot(run->solver, group), done);
 done:
@@ -142,17 +141,32 @@ static int checkpoint_write(void *owner, hid_t file)
     return mpm_checkpoint_write(run->solver, file);
 }
 
-static int checkpoint_read(void *owner, hid_t file) { return mpm_checkpoint_read(((struct impact_run *)owner)->solver, file); }
+static int checkpoint_read(void *owner, hid_t file)
+{
+    return mpm_checkpoint_read(((struct impact_run *)owner)->solver, file);
+}
 
-static int step(void *owner) { return mpm_step(((struct impact_run *)owner)->solver); }
+static int step(void *owner)
+{
+    return mpm_step(((struct impact_run *)owner)->solver);
+}
 
-static int finished(void *owner) { return mpm_finished(((struct impact_run *)owner)->solver); }
+static int finished(void *owner)
+{
+    return mpm_finished(((struct impact_run *)owner)->solver);
+}
 
-static int after_step(void *owner) { return snapshot_if_due(owner); }
+static int after_step(void *owner)
+{
+    return snapshot_if_due(owner);
+}
 
 /* Progress is counted in simulated picoseconds: the number of steps is not known in advance (dt follows the
  * wave speed and the fastest point), simulated time is. */
-static int64_t picoseconds(double t) { return (int64_t)llround(t * 1e12); }
+static int64_t picoseconds(double t)
+{
+    return (int64_t)llround(t * 1e12);
+}
 
 static void position(void *owner, int64_t *step_index, double *t, int64_t *progress)
 {
@@ -172,12 +186,24 @@ static void describe(void *owner, char *text, size_t size)
 static struct stage_ops stage_ops_of(struct impact_run *run, char *note, size_t size)
 {
     snprintf(note, size, "checkpoint written, continue with `spraycoat resume %s`", run->run_dir);
-    return (struct stage_ops){
-        .label = run->label, .stage = STAGE, .format = MPM_FORMAT, .format_version = MPM_FORMAT_VERSION,
-        .case_hash = run->case_hash, .run_dir = run->run_dir, .settings = &run->settings, .progress_unit = "ps",
-        .progress_total = picoseconds(run->cfg.t_end), .owner = run, .step = step, .finished = finished,
-        .position = position, .describe = describe, .after_step = after_step, .checkpoint_write = checkpoint_write,
-        .checkpoint_read = checkpoint_read, .interrupted_note = note};
+    return (struct stage_ops){.label = run->label,
+                              .stage = STAGE,
+                              .format = MPM_FORMAT,
+                              .format_version = MPM_FORMAT_VERSION,
+                              .case_hash = run->case_hash,
+                              .run_dir = run->run_dir,
+                              .settings = &run->settings,
+                              .progress_unit = "ps",
+                              .progress_total = picoseconds(run->cfg.t_end),
+                              .owner = run,
+                              .step = step,
+                              .finished = finished,
+                              .position = position,
+                              .describe = describe,
+                              .after_step = after_step,
+                              .checkpoint_write = checkpoint_write,
+                              .checkpoint_read = checkpoint_read,
+                              .interrupted_note = note};
 }
 
 /* Open snapshot `index` and check that it was written by this case. */
@@ -186,8 +212,10 @@ static int open_snapshot(const struct impact_run *run, int64_t index, hid_t *fil
     char path[H5IO_PATH_MAX], stored[64] = "", wanted[64];
     snapshot_path(run, index, path, sizeof path);
     if (access(path, R_OK) != 0)
-        SC_FAIL(SC_EIO, "%s: snapshot %s is missing (removed while the run was interrupted?); remove %s/checkpoints/"
-                "%s_*.h5 to run it from the start", run->label, path, run->run_dir, run->label);
+        SC_FAIL(SC_EIO,
+                "%s: snapshot %s is missing (removed while the run was interrupted?); remove %s/checkpoints/"
+                "%s_*.h5 to run it from the start",
+                run->label, path, run->run_dir, run->label);
     SC_TRY(h5_open_read(path, file));
     snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)run->case_hash);
     if (h5_attr_read_string(*file, "case_hash", stored, sizeof stored) != SC_OK || strcmp(stored, wanted) != 0) {
@@ -287,30 +315,41 @@ static int write_xdmf(const struct impact_run *run)
         size_t n = info.points;
         char where[128];
         snprintf(where, sizeof where, "impact.h5:/%s/%06lld", run->snapshot_group, (long long)i);
-        fprintf(f, "   <Grid Name=\"%06lld\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
-                   "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
+        fprintf(f,
+                "   <Grid Name=\"%06lld\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
+                "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
                 (long long)i, info.t, n);
         if (n > 0 && n <= n0)
-            fprintf(f, "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%zu\">\n"
-                       "      <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 %zu</DataItem>\n"
-                       "      <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
-                       "impact.h5:/%s/000000/id</DataItem>\n     </DataItem>\n", n, n, n0, run->snapshot_group);
+            fprintf(f,
+                    "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%zu\">\n"
+                    "      <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 %zu</DataItem>\n"
+                    "      <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+                    "impact.h5:/%s/000000/id</DataItem>\n     </DataItem>\n",
+                    n, n, n0, run->snapshot_group);
         else if (n > 0)
             write_inline_indices(f, n);
-        fprintf(f, "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n"
-                   "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/x"
-                   "</DataItem>\n    </Geometry>\n", n, where);
-        fprintf(f, "    <Attribute Name=\"v\" AttributeType=\"Vector\" Center=\"Node\">\n"
-                   "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/v"
-                   "</DataItem>\n    </Attribute>\n", n, where);
+        fprintf(f,
+                "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n"
+                "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/x"
+                "</DataItem>\n    </Geometry>\n",
+                n, where);
+        fprintf(f,
+                "    <Attribute Name=\"v\" AttributeType=\"Vector\" Center=\"Node\">\n"
+                "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/v"
+                "</DataItem>\n    </Attribute>\n",
+                n, where);
         for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++)
-            fprintf(f, "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                       "     <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/%s"
-                       "</DataItem>\n    </Attribute>\n", scalars[k], n, where, scalars[k]);
+            fprintf(f,
+                    "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                    "     <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/%s"
+                    "</DataItem>\n    </Attribute>\n",
+                    scalars[k], n, where, scalars[k]);
         for (size_t k = 0; k < sizeof integers / sizeof integers[0]; k++)
-            fprintf(f, "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                       "     <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">%s/%s"
-                       "</DataItem>\n    </Attribute>\n", integers[k], n, where, integers[k]);
+            fprintf(f,
+                    "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                    "     <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">%s/%s"
+                    "</DataItem>\n    </Attribute>\n",
+                    integers[k], n, where, integers[k]);
         fprintf(f, "   </Grid>\n");
     }
     fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
@@ -371,8 +410,7 @@ static void log_summary(struct impact_run *run)
         if (body->substrate)
             continue;
         const double *v = body->velocity;
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b,
-                 body->d * 1e6,
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b, body->d * 1e6,
                  sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), bonded[b] ? "bonded" : "rebounded",
                  100.0 * d->body[b].pbcp, d->body[b].v_rest);
     }
@@ -380,14 +418,16 @@ static void log_summary(struct impact_run *run)
     struct mpm_counts counts = mpm_get_counts(run->solver);
     int64_t updates = counts.point_updates - run->start_updates;
     log_info("%s: t = %.6g s after %lld steps (%lld in this process, %.1f s wall); %lld of %lld points removed (left "
-             "the grid box)", run->label, counts.t, (long long)counts.step, (long long)(counts.step - run->start_step),
+             "the grid box)",
+             run->label, counts.t, (long long)counts.step, (long long)(counts.step - run->start_step),
              log_elapsed() - run->start_time, (long long)counts.removed_points, (long long)counts.points);
     /* point updates per second of the steps alone, as MPM codes state their speed; the snapshots and checkpoints
      * written in the loop (serial file output, as many as the case asks for) are given beside them */
     const struct stage_timing *w = &run->timing;
     double other = w->loop - w->stepping - w->after_step - w->checkpoints;
     log_info("%s: time loop %.3f s wall on %d threads: stepping %.3f s, %.3g point updates/s; snapshots %.3f s, "
-             "checkpoints %.3f s, other %.3f s", run->label, w->loop, omp_get_max_threads(), w->stepping,
+             "checkpoints %.3f s, other %.3f s",
+             run->label, w->loop, omp_get_max_threads(), w->stepping,
              w->stepping > 0 ? (double)updates / w->stepping : 0.0, w->after_step, w->checkpoints,
              other > 0.0 ? other : 0.0);
     log_info("%s: energy: initial %.6g J, now %.6g J (absorbed by the boundaries %.3g J, carried away %.3g J)",
@@ -404,8 +444,8 @@ static int create_solver(struct impact_run *run)
     char message[1024];
     snprintf(message, sizeof message, "%s", sc_error_message());
     if (run->seed_count == 1)
-        SC_FAIL(SC_EINPUT, "%s: the body of %s/couple.h5 /seeds row %zu: %s", run->label, run->run_dir,
-                run->seed_first, message);
+        SC_FAIL(SC_EINPUT, "%s: the body of %s/couple.h5 /seeds row %zu: %s", run->label, run->run_dir, run->seed_first,
+                message);
     if (run->seed_count > 1)
         SC_FAIL(SC_EINPUT, "%s: the bodies of %s/couple.h5 /seeds rows %zu to %zu: %s", run->label, run->run_dir,
                 run->seed_first, run->seed_first + run->seed_count - 1, message);
@@ -418,7 +458,8 @@ static int run_stage(struct impact_run *run)
     SC_TRY(create_solver(run));
     struct mpm_counts counts = mpm_get_counts(run->solver);
     log_info("%s: %lld material points in %d bodies, grid %.3g m, spacing %.3g m, to t_end = %.6g s on %d "
-             "threads", run->label, (long long)counts.points, mpm_body_count(run->solver), run->cfg.grid, run->cfg.spacing,
+             "threads",
+             run->label, (long long)counts.points, mpm_body_count(run->solver), run->cfg.grid, run->cfg.spacing,
              run->cfg.t_end, omp_get_max_threads());
     char note[H5IO_PATH_MAX + 100];
     const struct stage_ops ops = stage_ops_of(run, note, sizeof note);
@@ -461,9 +502,10 @@ static int check_sphere_overlap(const struct case_file *c, const struct mpm_conf
     double distance = sqrt(dx * dx + dy * dy + dz * dz), reach = 0.5 * (a->d + b->d);
     char path[4096] = "";
     case_path(c, "impact", "bodies", path, sizeof path);
-    return case_invalid(c, "impact", "bodies", "%s: data rows %d and %d: the spheres overlap (centres %.4g m apart, "
-                        "radii add up to %.4g m); bodies may touch, not overlap", path, i + 1 - first, j + 1 - first,
-                        distance, reach);
+    return case_invalid(c, "impact", "bodies",
+                        "%s: data rows %d and %d: the spheres overlap (centres %.4g m apart, "
+                        "radii add up to %.4g m); bodies may touch, not overlap",
+                        path, i + 1 - first, j + 1 - first, distance, reach);
 }
 
 static void name_run(struct impact_run *run, long index);
@@ -506,7 +548,8 @@ done:
     for (long r = 0; r < runs; r++) {
         struct impact_run names = {.run_dir = run_dir};
         name_run(&names, r);
-        SC_TRY(h5_checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
+        SC_TRY(
+            h5_checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
     }
     return SC_OK;
 }
@@ -556,8 +599,10 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
     run.seed_first = first, run.seed_count = count;
     int status;
-    SC_CHECK(status, mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
-                                            bodies->velocity + 3 * first), done);
+    SC_CHECK(status,
+             mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
+                                    bodies->velocity + 3 * first),
+             done);
     SC_CHECK(status, run_stage(&run), done);
 done:
     mpm_destroy(run.solver);
@@ -663,8 +708,8 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
     log_info("impact: %lld of %lld bodies bonded (%.1f %%) over %ld runs; mean PBCP %.2f %%, mean v_rest %.3g m/s",
-                 (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies, runs,
-                 100.0 * total->pbcp / bodies, total->v_rest / bodies);
+             (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies, runs,
+             100.0 * total->pbcp / bodies, total->v_rest / bodies);
 done:
     free(column);
     H5Gclose(g);

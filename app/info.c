@@ -61,9 +61,17 @@ static void print_last_metrics(hid_t file, FILE *out)
     free(column);
 }
 
-static const char *const impact_stats[] = {"steps", "t_end", "points", "point_updates", "removed_points",
-                                           "removed_mass", "contact_node_steps", "bonded_node_steps",
-                                           "energy_initial", "grid_nodes", NULL};
+static const char *const impact_stats[] = {"steps",
+                                           "t_end",
+                                           "points",
+                                           "point_updates",
+                                           "removed_points",
+                                           "removed_mass",
+                                           "contact_node_steps",
+                                           "bonded_node_steps",
+                                           "energy_initial",
+                                           "grid_nodes",
+                                           NULL};
 static const char *const impact_checkpoint[] = {"step", "t", "t_end", "snapshots", "active_points", NULL};
 
 /* A double or int64 dataset of n elements as doubles (NULL when absent or of another size). */
@@ -113,8 +121,8 @@ static void print_impact_results(hid_t file, FILE *out)
     size_t n;
     if (h5_dataset_size(file, "summary/bonded", &n) != SC_OK || n == 0)
         return;
-    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded", "summary/pbcp",
-                                        "summary/v_rest", "summary/cor", "summary/substrate"};
+    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded",   "summary/pbcp",
+                                        "summary/v_rest",   "summary/cor",      "summary/substrate"};
     double *column[7];
     for (int k = 0; k < 7; k++)
         column[k] = read_column(file, names[k], n);
@@ -127,7 +135,10 @@ static void print_impact_results(hid_t file, FILE *out)
         int substrate = value[6] == 1.0;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1],
-                substrate ? "-" : value[2] == 1.0 ? "bonded" : "rebounded", 100.0 * value[3], value[4], value[5]);
+                substrate         ? "-"
+                : value[2] == 1.0 ? "bonded"
+                                  : "rebounded",
+                100.0 * value[3], value[4], value[5]);
     }
     for (int k = 0; k < 7; k++)
         free(column[k]);
@@ -175,8 +186,8 @@ static void print_impact_runs(hid_t file, FILE *out)
     hid_t summary = H5Gopen2(file, "summary", H5P_DEFAULT);
     if (summary < 0)
         return;
-    static const char *const overall[] = {"runs", "bodies", "bonded", "bonded_fraction", "mean_pbcp", "mean_v_rest",
-                                          "mean_cor", NULL};
+    static const char *const overall[] = {"runs",      "bodies",      "bonded",   "bonded_fraction",
+                                          "mean_pbcp", "mean_v_rest", "mean_cor", NULL};
     fprintf(out, "summary (all runs):\n");
     for (int k = 0; overall[k]; k++)
         print_attribute(summary, overall[k], out);
@@ -260,8 +271,7 @@ static int info_file(const char *path, FILE *out)
             int64_t counters[5];
             if (h5_read_int64s(file, "counters", counters, 5) == SC_OK)
                 fprintf(out, "checkpoint: step %lld, injected %lld, escaped %lld, deposited %lld\n",
-                        (long long)counters[0], (long long)counters[1], (long long)counters[2],
-                        (long long)counters[3]);
+                        (long long)counters[0], (long long)counters[1], (long long)counters[2], (long long)counters[3]);
         }
         print_last_metrics(file, out);
     }
@@ -357,8 +367,7 @@ int info_print(const char *target, FILE *out)
         SC_FAIL(SC_EIO, "info: %s is not a run directory (no readable case.ini)", target);
     int running = run_dir_in_use(target);
     fprintf(out, "run directory %s\n", target);
-    fprintf(out, "status: %s\n", running ? "running (a spraycoat process holds the run directory now)"
-                                          : "not running");
+    fprintf(out, "status: %s\n", running ? "running (a spraycoat process holds the run directory now)" : "not running");
     fprintf(out, "case: %s\n", path);
     SC_TRY(run_dir_read_stages(target, stages, sizeof stages));
     fprintf(out, "stages asked for: %s\n", stages);
@@ -437,8 +446,10 @@ void info_headline(const char *run_dir, FILE *out)
             H5Gclose(summary);
         }
         if (runs > 0)
-            fprintf(out, "impact: %.0f %% of %lld bodies bonded over %lld MPM runs; mean PBCP %.1f %%, mean v_rest %.3g m/s\n",
-                    100.0 * fraction, (long long)bodies, (long long)runs, 100.0 * pbcp, v_rest);
+            fprintf(
+                out,
+                "impact: %.0f %% of %lld bodies bonded over %lld MPM runs; mean PBCP %.1f %%, mean v_rest %.3g m/s\n",
+                100.0 * fraction, (long long)bodies, (long long)runs, 100.0 * pbcp, v_rest);
         H5Fclose(file);
     }
     snprintf(path, sizeof path, "%s/report.html", run_dir);

@@ -15,7 +15,6 @@
 #include "app/app.h"
 #include "dem/dem.h"
 
-
 static const char usage[] =
     "usage:\n"
     "  spraycoat check CASE.ini                 validate the case; print every resolved parameter\n"
@@ -83,11 +82,10 @@ static const struct command_help command_helps[] = {
     {"help", "spraycoat help [COMMAND]", "This help, or a command's.\n"},
 };
 
-static const char command_options[] =
-    "options:\n"
-    "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
-    "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
-    "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n";
+static const char command_options[] = "options:\n"
+                                      "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
+                                      "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+                                      "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n";
 
 /* The help of `name` on stdout; SC_EINPUT for an unknown command. */
 static int print_command_help(const char *name)
@@ -206,7 +204,7 @@ struct stage {
     int (*validate)(const struct stage_context *ctx);
     int (*run)(const struct stage_context *ctx);
     const char *output;
-    int distributed;   /* under MPI every rank runs it */
+    int distributed; /* under MPI every rank runs it */
 };
 static const struct stage stages[] = {
     {"spray", spray_stage_validate, spray_stage_run, "spray.h5", 0},
@@ -234,8 +232,8 @@ static int record_stages(const char *record, int *chosen)
 /* What RUN_DIR/stages must say after this command: its own stages, and those of the earlier record when that
  * was made for the same case, so that a later single-stage command never drops the unfinished stages of an
  * interrupted pipeline (resume continues all of them; each skips what is done). */
-static void merged_record(const struct case_file *c, const char *run_dir, const char *list, int pipeline,
-                          char *record, size_t size)
+static void merged_record(const struct case_file *c, const char *run_dir, const char *list, int pipeline, char *record,
+                          size_t size)
 {
     int chosen[sizeof stages / sizeof stages[0]] = {0};
     char old[256], path[4200];
@@ -250,8 +248,8 @@ static void merged_record(const struct case_file *c, const char *run_dir, const 
     size_t used = (size_t)snprintf(record, size, "%s", pipeline ? RUN_PREFIX : "");
     for (size_t i = 0; i < sizeof stages / sizeof stages[0] && used < size; i++)
         if (chosen[i])
-            used += (size_t)snprintf(record + used, size - used, "%s%s", used > (pipeline ? strlen(RUN_PREFIX) : 0)
-                                     ? "," : "", stages[i].name);
+            used += (size_t)snprintf(record + used, size - used, "%s%s",
+                                     used > (pipeline ? strlen(RUN_PREFIX) : 0) ? "," : "", stages[i].name);
 }
 
 /* Rank 0 makes and locks the run directory and records the stages (RUN_DIR/stages) for `resume`. */
@@ -316,9 +314,11 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         }
     /* the impact stage takes the couple stage's seeds in a pipeline, and on its own when couple.h5 of this case is
      * there (`spraycoat impact` as one stage of a run made by `spraycoat run`) */
-    const struct stage_context ctx = {
-        .c = c, .run_dir = run_dir, .pipeline = pipeline,
-        .impact_from_seeds = pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir))};
+    const struct stage_context ctx = {.c = c,
+                                      .run_dir = run_dir,
+                                      .pipeline = pipeline,
+                                      .impact_from_seeds =
+                                          pipeline || (strstr(list, "impact") && run_dir_has_seeds(c, run_dir))};
     /* one process per run directory, and before anything there is read (its checkpoints by the validation) */
     SC_TRY(parallel_share_status(parallel_rank() == 0 ? run_dir_lock_existing(run_dir) : SC_OK));
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */

@@ -34,8 +34,8 @@ static int case_rows(const struct case_file *c, struct render_case_row **rows, i
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++) {
             if (strchr(k->section, '*') || !case_is_given(c, k->section, k->key))
                 continue; /* [material.NAME] keys are per material; the resolved case.ini holds them */
-            (*rows)[(*count)++] = (struct render_case_row){k->section, k->key, case_text(c, k->section, k->key),
-                                                           k->unit};
+            (*rows)[(*count)++] =
+                (struct render_case_row){k->section, k->key, case_text(c, k->section, k->key), k->unit};
         }
     return SC_OK;
 }

@@ -19,8 +19,8 @@
 #include "mpm/mpm.h"
 #include "render/render.h"
 
-const struct cfg_key *const spraycoat_registry[] = {run_case_keys, dem_case_keys, couple_case_keys, mpm_case_keys,
-                                                    vcrit_case_keys, render_case_keys, NULL};
+const struct cfg_key *const spraycoat_registry[] = {
+    run_case_keys, dem_case_keys, couple_case_keys, mpm_case_keys, vcrit_case_keys, render_case_keys, NULL};
 
 static int make_directories(const char *path)
 {
@@ -61,8 +61,10 @@ static int lock_run_dir(const char *run_dir)
         int saved = errno;
         close(fd);
         if (saved == EWOULDBLOCK)
-            SC_FAIL(SC_EIO, "run directory %s is in use by another spraycoat process; wait for it or use another "
-                    "directory", run_dir);
+            SC_FAIL(SC_EIO,
+                    "run directory %s is in use by another spraycoat process; wait for it or use another "
+                    "directory",
+                    run_dir);
         SC_FAIL(SC_EIO, "cannot lock run directory %s: %s", run_dir, strerror(saved));
     }
     snprintf(locked_dir, sizeof locked_dir, "%s", run_dir);
@@ -181,9 +183,9 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
 /* The sections each stage's results depend on: a stage's inputs are its own keys and everything upstream of it.
  * The impact stage of a pipeline case (one with [couple]) takes its bodies from couple.h5. */
 static const char *const spray_sections[] = {"run", "spray", "powder", "target", "contact", "jet", "deposition", NULL};
-static const char *const couple_sections[] = {"run", "spray", "powder", "target", "contact", "jet", "deposition",
-                                              "couple", NULL};
-static const char *const pipeline_impact_sections[] = {"run", "spray", "powder", "target", "contact", "jet",
+static const char *const couple_sections[] = {"run", "spray",      "powder", "target", "contact",
+                                              "jet", "deposition", "couple", NULL};
+static const char *const pipeline_impact_sections[] = {"run",        "spray",  "powder", "target",     "contact", "jet",
                                                        "deposition", "couple", "impact", "material.*", NULL};
 static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
 static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
@@ -233,8 +235,10 @@ int run_dir_check_input(const struct stage_context *ctx, const char *stage, cons
     if (access(path, F_OK) != 0) {
         if (!required)
             return SC_OK;
-        SC_FAIL(SC_EIO, "%s: the stage's input %s is missing; run the %s stage first (`spraycoat %s` or `spraycoat "
-                "run`)", reader, path, stage, stage);
+        SC_FAIL(SC_EIO,
+                "%s: the stage's input %s is missing; run the %s stage first (`spraycoat %s` or `spraycoat "
+                "run`)",
+                reader, path, stage, stage);
     }
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
@@ -249,8 +253,10 @@ int run_dir_check_input(const struct stage_context *ctx, const char *stage, cons
     if (!made_by_stage(ctx, stage, stored)) {
         char wanted[32];
         snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)stage_hash(ctx, stage));
-        SC_FAIL(SC_EIO, "%s: %s was made by another case (case hash %s, this case's %s stage writes %s): rerun the "
-                "%s stage (`spraycoat %s` or `spraycoat run`)", reader, path, stored, stage, wanted, stage, stage);
+        SC_FAIL(SC_EIO,
+                "%s: %s was made by another case (case hash %s, this case's %s stage writes %s): rerun the "
+                "%s stage (`spraycoat %s` or `spraycoat run`)",
+                reader, path, stored, stage, wanted, stage, stage);
     }
     return SC_OK;
 }

@@ -28,7 +28,10 @@ struct spray_run {
 
 /* ---- the solver as the stage loop sees it (struct stage_ops) ---- */
 
-static int step(void *owner) { return dem_step(((struct spray_run *)owner)->solver); }
+static int step(void *owner)
+{
+    return dem_step(((struct spray_run *)owner)->solver);
+}
 
 static int finished(void *owner)
 {
@@ -50,20 +53,37 @@ static void describe(void *owner, char *text, size_t size)
              (long long)counts.deposited, (long long)counts.escaped);
 }
 
-static int checkpoint_write(void *owner, hid_t file) { return dem_checkpoint_write(((struct spray_run *)owner)->solver, file); }
+static int checkpoint_write(void *owner, hid_t file)
+{
+    return dem_checkpoint_write(((struct spray_run *)owner)->solver, file);
+}
 
-static int checkpoint_read(void *owner, hid_t file) { return dem_checkpoint_read(((struct spray_run *)owner)->solver, file); }
+static int checkpoint_read(void *owner, hid_t file)
+{
+    return dem_checkpoint_read(((struct spray_run *)owner)->solver, file);
+}
 
 static int time_loop(struct spray_run *run)
 {
     char note[H5IO_PATH_MAX + 100];
     snprintf(note, sizeof note, "checkpoint written, continue with `spraycoat resume %s`", run->ctx->run_dir);
-    const struct stage_ops ops = {
-        .label = STAGE, .stage = STAGE, .format = DEM_FORMAT, .format_version = DEM_FORMAT_VERSION,
-        .case_hash = run->case_hash, .run_dir = run->ctx->run_dir, .settings = &run->settings,
-        .progress_unit = "steps", .progress_total = dem_total_steps(run->solver), .owner = run, .step = step,
-        .finished = finished, .position = position, .describe = describe, .checkpoint_write = checkpoint_write,
-        .checkpoint_read = checkpoint_read, .interrupted_note = note};
+    const struct stage_ops ops = {.label = STAGE,
+                                  .stage = STAGE,
+                                  .format = DEM_FORMAT,
+                                  .format_version = DEM_FORMAT_VERSION,
+                                  .case_hash = run->case_hash,
+                                  .run_dir = run->ctx->run_dir,
+                                  .settings = &run->settings,
+                                  .progress_unit = "steps",
+                                  .progress_total = dem_total_steps(run->solver),
+                                  .owner = run,
+                                  .step = step,
+                                  .finished = finished,
+                                  .position = position,
+                                  .describe = describe,
+                                  .checkpoint_write = checkpoint_write,
+                                  .checkpoint_read = checkpoint_read,
+                                  .interrupted_note = note};
     int resumed;
     SC_TRY(stage_loop_resume(&ops, &resumed));
     struct dem_counts before = dem_get_counts(run->solver);
@@ -74,14 +94,17 @@ static int time_loop(struct spray_run *run)
     return SC_OK;
 }
 
-static int output_contents(void *owner, hid_t file) { return dem_write_output(((struct spray_run *)owner)->solver, file); }
+static int output_contents(void *owner, hid_t file)
+{
+    return dem_write_output(((struct spray_run *)owner)->solver, file);
+}
 
 static int write_output(struct spray_run *run)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/spray.h5", run->ctx->run_dir);
-    SC_TRY(stage_write_output(path, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c,
-                              output_contents, run));
+    SC_TRY(stage_write_output(path, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c, output_contents,
+                              run));
     log_info("spray: wrote %s", path);
     return SC_OK;
 }
@@ -107,28 +130,38 @@ static int write_xdmf(const struct spray_run *run)
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
     FILE *file = out.stream;
-    fprintf(file, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-                  "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
-                  "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n", n);
+    fprintf(file,
+            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+            "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
+            "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
+            n);
     if (n > 0)
         write_inline_indices(file, n);
-    fprintf(file, "   </Topology>\n   <Geometry GeometryType=\"XYZ\">\n"
-                  "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-                  "spray.h5:/particles/x</DataItem>\n   </Geometry>\n", n);
+    fprintf(file,
+            "   </Topology>\n   <Geometry GeometryType=\"XYZ\">\n"
+            "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+            "spray.h5:/particles/x</DataItem>\n   </Geometry>\n",
+            n);
     static const char *const vectors[] = {"v", "w"}, *const scalars[] = {"d", "m"};
     for (int k = 0; k < 2; k++)
-        fprintf(file, "   <Attribute Name=\"%s\" AttributeType=\"Vector\" Center=\"Node\">\n"
-                      "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-                      "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n", vectors[k], n, vectors[k]);
+        fprintf(file,
+                "   <Attribute Name=\"%s\" AttributeType=\"Vector\" Center=\"Node\">\n"
+                "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
+                vectors[k], n, vectors[k]);
     for (int k = 0; k < 2; k++)
-        fprintf(file, "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                      "    <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-                      "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n", scalars[k], n, scalars[k]);
+        fprintf(file,
+                "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                "    <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
+                scalars[k], n, scalars[k]);
     static const char *const integers[] = {"id", "state"};
     for (int k = 0; k < 2; k++)
-        fprintf(file, "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                      "    <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
-                      "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n", integers[k], n, integers[k]);
+        fprintf(file,
+                "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                "    <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
+                integers[k], n, integers[k]);
     fprintf(file, "  </Grid>\n </Domain>\n</Xdmf>\n");
     return atomic_publish(&out);
 }
@@ -156,17 +189,16 @@ static void log_summary(const struct spray_run *run)
 {
     struct dem_metrics m = dem_compute_metrics(run->solver);
     struct dem_counts c = dem_get_counts(run->solver);
-    log_info("spray: t = %.6g s: injected %lld, deposited %lld (fraction %.4f), escaped %lld, in flight %lld",
-             m.t, (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.escaped,
+    log_info("spray: t = %.6g s: injected %lld, deposited %lld (fraction %.4f), escaped %lld, in flight %lld", m.t,
+             (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.escaped,
              (long long)m.in_flight);
     log_info("spray: contacts: particle-particle %lld, target %lld, deposit %lld; fixed-point iterations "
              "%.2f per solve (max %lld, unconverged %lld), sub-cycled particle-steps %lld",
              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.contacts_deposit,
              c.fixed_point_solves ? (double)c.fixed_point_iterations / (double)c.fixed_point_solves : 0.0,
-             (long long)c.max_iterations, (long long)c.fixed_point_unconverged,
-             (long long)c.subcycled_particle_steps);
-    log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m",
-             m.volume_fraction, m.mean_spread, m.scatter, m.max_thickness);
+             (long long)c.max_iterations, (long long)c.fixed_point_unconverged, (long long)c.subcycled_particle_steps);
+    log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m", m.volume_fraction,
+             m.mean_spread, m.scatter, m.max_thickness);
     log_timing(run);
 }
 
@@ -223,7 +255,7 @@ int spray_stage_validate(const struct stage_context *ctx)
     /* refuse checkpoints of another case before anything in the run directory is written */
     char path[H5IO_PATH_MAX];
     return h5_checkpoint_find_newest(ctx->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(ctx, STAGE), path,
-                                  sizeof path);
+                                     sizeof path);
 }
 
 int spray_stage_run(const struct stage_context *ctx)

@@ -55,7 +55,7 @@ int stage_loop_resume(const struct stage_ops *ops, int *resumed)
         return SC_OK;
     char path[H5IO_PATH_MAX];
     SC_TRY(h5_checkpoint_find_newest(ops->run_dir, ops->label, ops->format, ops->format_version, ops->case_hash, path,
-                                  sizeof path));
+                                     sizeof path));
     if (path[0] == '\0')
         return SC_OK;
     hid_t file;
@@ -72,12 +72,12 @@ int stage_loop_resume(const struct stage_ops *ops, int *resumed)
 }
 
 /* A call's wall time added to *seconds. */
-#define TIMED(seconds, call)                                                                                  \
-    do {                                                                                                     \
-        double timed_start_ = log_elapsed();                                                                 \
-        int timed_status_ = (call);                                                                          \
-        *(seconds) += log_elapsed() - timed_start_;                                                          \
-        SC_TRY(timed_status_);                                                                               \
+#define TIMED(seconds, call)                                                                                           \
+    do {                                                                                                               \
+        double timed_start_ = log_elapsed();                                                                           \
+        int timed_status_ = (call);                                                                                    \
+        *(seconds) += log_elapsed() - timed_start_;                                                                    \
+        SC_TRY(timed_status_);                                                                                         \
     } while (0)
 
 /* One step and what follows it: after-step work, a checkpoint when due or interrupted, the progress line. */

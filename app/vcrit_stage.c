@@ -30,10 +30,10 @@
 #include "app/app.h"
 #include "mpm/mpm.h"
 
-#define STAGE "vcrit"
-#define VCRIT_FORMAT "spraycoat-vcrit"
+#define STAGE                "vcrit"
+#define VCRIT_FORMAT         "spraycoat-vcrit"
 #define VCRIT_FORMAT_VERSION 1
-#define MAX_DIAMETERS 256
+#define MAX_DIAMETERS        256
 
 const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
@@ -44,8 +44,7 @@ const struct cfg_key vcrit_case_keys[] = {
      "upper end of the search: a particle at this speed must bond"},
     {"vcrit", "tolerance", CFG_REAL, "m/s", "10", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
      "bisection stops when the bracket [rebounds, bonds] is at most this wide"},
-    {"vcrit", "max_runs", CFG_INT, "-", "20", 2, 1000, 0, NULL,
-     "most MPM runs per diameter (the two ends included)"},
+    {"vcrit", "max_runs", CFG_INT, "-", "20", 2, 1000, 0, NULL, "most MPM runs per diameter (the two ends included)"},
     {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
      "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
      "about 2)"},
@@ -101,8 +100,10 @@ static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
         while (*end == ' ' || *end == '\t')
             end++;
         if (end == token || *end != '\0' || errno == ERANGE || !isfinite(d) || !(d > 0) || d > 1)
-            return case_invalid(c, "vcrit", "diameters", "'%s' is not a diameter; allowed: comma-separated numbers "
-                                "in m, each > 0 and <= 1", token);
+            return case_invalid(c, "vcrit", "diameters",
+                                "'%s' is not a diameter; allowed: comma-separated numbers "
+                                "in m, each > 0 and <= 1",
+                                token);
         if (v->count == MAX_DIAMETERS)
             return case_invalid(c, "vcrit", "diameters", "more than %d diameters", MAX_DIAMETERS);
         v->diameters[v->count++] = d;
@@ -142,10 +143,12 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     if (!(v->v_low < v->v_high))
         return case_invalid(c, "vcrit", "v_low", "not below v_high = %g m/s", v->v_high);
     if (case_has(c, "impact", "bodies"))
-        return case_invalid(c, "impact", "bodies", "vcrit runs single particles ([impact] material, the diameters "
+        return case_invalid(c, "impact", "bodies",
+                            "vcrit runs single particles ([impact] material, the diameters "
                             "of [vcrit]); remove bodies from the case");
     if (v->scale > 0 && case_is(c, "impact", "substrate", "rigid"))
-        return case_invalid(c, "vcrit", "substrate_scale", "scales a deformable substrate, but [impact] substrate = "
+        return case_invalid(c, "vcrit", "substrate_scale",
+                            "scales a deformable substrate, but [impact] substrate = "
                             "rigid; allowed: 0 with a rigid substrate");
     /* every run's set-up must be possible before the first one starts */
     for (int i = 0; i < v->count; i++) {
@@ -157,11 +160,15 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
                 substrate_d = cfg.bodies[b].d;
         mpm_config_free(&cfg);
         if (v->diameters[i] < 2.0 * spacing)
-            return case_invalid(c, "vcrit", "diameters", "%g m is less than two point spacings ([impact] spacing = "
-                                "%g m)", v->diameters[i], spacing);
+            return case_invalid(c, "vcrit", "diameters",
+                                "%g m is less than two point spacings ([impact] spacing = "
+                                "%g m)",
+                                v->diameters[i], spacing);
         if (substrate_d < 2.0 * spacing || substrate_d > 1.0)
-            return case_invalid(c, "vcrit", "substrate_scale", "gives a substrate of %g m for d = %g m; allowed: "
-                                "two point spacings (%g m) to 1 m", substrate_d, v->diameters[i], 2.0 * spacing);
+            return case_invalid(c, "vcrit", "substrate_scale",
+                                "gives a substrate of %g m for d = %g m; allowed: "
+                                "two point spacings (%g m) to 1 m",
+                                substrate_d, v->diameters[i], 2.0 * spacing);
     }
     return SC_OK;
 }
@@ -248,8 +255,8 @@ static int load_records_file(struct vcrit_search *v, const char *path)
         struct vcrit_record r;
         long long steps;
         char rest;
-        if (sscanf(line, "%lf,%lf,%d,%lf,%lf,%lld %c", &r.diameter, &r.velocity, &r.bonded, &r.pbcp, &r.v_rest,
-                   &steps, &rest) != 6) {
+        if (sscanf(line, "%lf,%lf,%d,%lf,%lf,%lld %c", &r.diameter, &r.velocity, &r.bonded, &r.pbcp, &r.v_rest, &steps,
+                   &rest) != 6) {
             log_warn("vcrit: %s: unreadable line '%.60s'; the runs from there on will be done again", path, line);
             break;
         }
@@ -315,11 +322,20 @@ struct vcrit_run {
     struct mpm_solver *solver;
 };
 
-static int64_t picoseconds(double t) { return (int64_t)llround(t * 1e12); }
+static int64_t picoseconds(double t)
+{
+    return (int64_t)llround(t * 1e12);
+}
 
-static int run_step(void *owner) { return mpm_step(((struct vcrit_run *)owner)->solver); }
+static int run_step(void *owner)
+{
+    return mpm_step(((struct vcrit_run *)owner)->solver);
+}
 
-static int run_finished(void *owner) { return mpm_finished(((struct vcrit_run *)owner)->solver); }
+static int run_finished(void *owner)
+{
+    return mpm_finished(((struct vcrit_run *)owner)->solver);
+}
 
 static void run_position(void *owner, int64_t *step, double *t, int64_t *progress)
 {
@@ -337,8 +353,11 @@ static int record_outcome(struct mpm_solver *s, double d, double speed, struct v
         SC_FAIL_OOM((size_t)nb * sizeof *bonded, "the verdicts of the bodies");
     mpm_verdicts(s, bonded);
     const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
-    *out = (struct vcrit_record){.diameter = d, .velocity = speed, .bonded = bonded[nb - 1] == 1,
-                                 .pbcp = diag->body[nb - 1].pbcp, .v_rest = diag->body[nb - 1].v_rest,
+    *out = (struct vcrit_record){.diameter = d,
+                                 .velocity = speed,
+                                 .bonded = bonded[nb - 1] == 1,
+                                 .pbcp = diag->body[nb - 1].pbcp,
+                                 .v_rest = diag->body[nb - 1].v_rest,
                                  .steps = mpm_get_counts(s).step};
     free(bonded);
     return SC_OK;
@@ -352,11 +371,20 @@ static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit
     int status;
     char label[96], note[4400];
     snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
-    snprintf(note, sizeof note, "the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with `spraycoat "
-             "resume %s`", v->done_count, v->run_dir, v->run_dir);
-    const struct stage_ops ops = {.label = label, .stage = STAGE, .run_dir = v->run_dir, .progress_unit = "ps",
-                                  .progress_total = picoseconds(cfg.t_end), .owner = &run, .step = run_step,
-                                  .finished = run_finished, .position = run_position, .interrupted_note = note};
+    snprintf(note, sizeof note,
+             "the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with `spraycoat "
+             "resume %s`",
+             v->done_count, v->run_dir, v->run_dir);
+    const struct stage_ops ops = {.label = label,
+                                  .stage = STAGE,
+                                  .run_dir = v->run_dir,
+                                  .progress_unit = "ps",
+                                  .progress_total = picoseconds(cfg.t_end),
+                                  .owner = &run,
+                                  .step = run_step,
+                                  .finished = run_finished,
+                                  .position = run_position,
+                                  .interrupted_note = note};
     struct stage_timing timing;
     SC_CHECK(status, mpm_create(&cfg, &run.solver), done);
     SC_CHECK(status, stage_loop_run(&ops, &timing), done);
@@ -421,17 +449,19 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     result->pbcp = best.pbcp;
     result->v_rest = best.v_rest;
     if (high - low > v->tolerance) {
-        snprintf(result->note, sizeof result->note, "max_runs reached: bonds at %g m/s, rebounds at %g m/s", high,
-                 low);
-        log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter,
-                 result->note, v->tolerance);
+        snprintf(result->note, sizeof result->note, "max_runs reached: bonds at %g m/s, rebounds at %g m/s", high, low);
+        log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter, result->note,
+                 v->tolerance);
     }
     return SC_OK;
 }
 
 /* ---- outputs --------------------------------------------------------------------------------------------------- */
 
-static int bracketed(const struct vcrit_result *r) { return isfinite(r->v_crit); }
+static int bracketed(const struct vcrit_result *r)
+{
+    return isfinite(r->v_crit);
+}
 
 /* vcrit.csv: the table of the spray stage's rule = table.  Diameters without a bracket are '#' comment lines
  * (with NaN and the reason): the table reader skips them, so the file stays usable as it is. */
@@ -604,11 +634,11 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
     }
     if (v->runs_this_process != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
-                "file removed or damaged while the stage ran?)");
+                        "file removed or damaged while the stage ran?)");
     SC_TRY(write_csv(v, results));
     SC_TRY(write_h5(v, results));
-    log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
-             v->run_dir, (long long)v->runs_this_process, log_elapsed() - start);
+    log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir, v->run_dir,
+             (long long)v->runs_this_process, log_elapsed() - start);
     SC_TRY(remove_records(v));
     log_table(v, results);
     return SC_OK;
@@ -619,8 +649,9 @@ static int run_search(struct vcrit_search *v, struct vcrit_result *results)
     double start = log_elapsed();
     if (parallel_rank() == 0)
         log_info("vcrit: %d diameters, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d threads x %d "
-                 "process%s", v->count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(),
-                 parallel_size(), parallel_size() > 1 ? "es" : "");
+                 "process%s",
+                 v->count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(), parallel_size(),
+                 parallel_size() > 1 ? "es" : "");
     int status = parallel_max_status(search_shared(v, results));
     if (status == SC_OK && parallel_rank() == 0)
         status = replay_and_write(v, results, start);

@@ -28,9 +28,18 @@ struct balance_rest {
     alignas(64) _Atomic uint64_t word;
 };
 
-static uint64_t rest_word(size_t front, size_t back) { return (uint64_t)front | (uint64_t)back << 32; }
-static size_t rest_front(uint64_t word) { return (size_t)(word & UINT32_MAX); }
-static size_t rest_back(uint64_t word) { return (size_t)(word >> 32); }
+static uint64_t rest_word(size_t front, size_t back)
+{
+    return (uint64_t)front | (uint64_t)back << 32;
+}
+static size_t rest_front(uint64_t word)
+{
+    return (size_t)(word & UINT32_MAX);
+}
+static size_t rest_back(uint64_t word)
+{
+    return (size_t)(word >> 32);
+}
 
 void balance_prepare(struct balance *b, int threads)
 {

@@ -20,9 +20,9 @@
 struct balance_rest;
 
 struct balance {
-    int threads;     /* the team the speeds are for (0: none yet) */
-    double *speed;   /* per thread: items per second, smoothed (0: not measured yet) */
-    double *items;   /* per thread: this run's items and seconds (balance_record) */
+    int threads;   /* the team the speeds are for (0: none yet) */
+    double *speed; /* per thread: items per second, smoothed (0: not measured yet) */
+    double *items; /* per thread: this run's items and seconds (balance_record) */
     double *seconds;
     struct balance_rest *rest; /* per thread: what is left of its share (balance_shares, balance_next) */
 };

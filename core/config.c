@@ -443,8 +443,8 @@ static void format_unknown_section(const struct registry_view *view, const char 
     char sections[LIST_SIZE], suggestion[160], pattern[128];
     list_sections(view, sections, sizeof sections);
     if (is_bad_instance_name(view, name, pattern, sizeof pattern)) {
-        format_message(out, size, "%s: [%s]: NAME of [%s] must be " CASE_NAME_ALLOWED "; allowed sections: %s",
-                       where, name, pattern, sections);
+        format_message(out, size, "%s: [%s]: NAME of [%s] must be " CASE_NAME_ALLOWED "; allowed sections: %s", where,
+                       name, pattern, sections);
         return;
     }
     suggest_section(view, name, suggestion, sizeof suggestion);
@@ -771,10 +771,10 @@ struct parse_state {
     struct case_file *c;
     const char *next; /* next unread byte */
     const char *end;
-    int line;       /* number of the line inih works on */
-    char *section;  /* current section as written; NULL before the first header */
+    int line;         /* number of the line inih works on */
+    char *section;    /* current section as written; NULL before the first header */
     bool any_section; /* a [section] header was read */
-    int error_line; /* line of the first error found here, 0 if none */
+    int error_line;   /* line of the first error found here, 0 if none */
     char message[MESSAGE_SIZE];
 };
 
@@ -1510,7 +1510,10 @@ uint64_t case_hash_sections(const struct case_file *c, const char *const *sectio
     return hash;
 }
 
-uint64_t case_hash(const struct case_file *c) { return case_hash_sections(c, NULL); }
+uint64_t case_hash(const struct case_file *c)
+{
+    return case_hash_sections(c, NULL);
+}
 
 /* Slots [first, end) share one section; returns end. */
 static size_t section_group_end(const struct case_file *c, size_t first)
@@ -1594,7 +1597,6 @@ static int check_line_lengths(const char *path, const char *text)
     }
     return SC_OK;
 }
-
 
 int case_write_resolved(const struct case_file *c, const char *path)
 {

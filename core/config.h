@@ -18,17 +18,17 @@
 #include <stdio.h>
 
 enum cfg_type {
-    CFG_INT,     /* integer in [min, max] */
-    CFG_REAL,    /* finite real in [min, max]; if choices != NULL, one of those words is accepted as well */
-    CFG_CHOICE,  /* one of the '|'-separated words in choices */
-    CFG_PATH,    /* a file path; relative paths are relative to the case file's folder */
-    CFG_STRING,  /* any non-empty text */
+    CFG_INT,    /* integer in [min, max] */
+    CFG_REAL,   /* finite real in [min, max]; if choices != NULL, one of those words is accepted as well */
+    CFG_CHOICE, /* one of the '|'-separated words in choices */
+    CFG_PATH,   /* a file path; relative paths are relative to the case file's folder */
+    CFG_STRING, /* any non-empty text */
 };
 
 enum cfg_flags { CFG_MIN_EXCLUSIVE = 1, CFG_NOT_HASHED = 2 };
 
 struct cfg_key {
-    const char *section;       /* "spray"; "material.*" matches any [material.NAME] */
+    const char *section; /* "spray"; "material.*" matches any [material.NAME] */
     const char *key;
     enum cfg_type type;
     const char *unit;          /* SI unit ("m", "m/s", "kg/m3", "-" dimensionless, "" none) */

@@ -95,7 +95,10 @@ static int fail(struct reader *r, int status, const char *fmt, ...)
     return status;
 }
 
-static bool is_blank(char c) { return c == ' ' || c == '\t'; }
+static bool is_blank(char c)
+{
+    return c == ' ' || c == '\t';
+}
 
 /* Split `line` in place at commas; blanks around each field dropped.  Returns SC_OK or SC_EIO (memory). */
 static int split(struct reader *r, char *line)
@@ -152,11 +155,15 @@ static int read_header(struct reader *r)
             continue;
         }
         if (column < 0)
-            return fail(r, SC_EINPUT, "%s:%ld:%d: unknown column '%.*s' in the header; allowed: the columns %s, each "
-                        "once", r->path, r->line, k + 1, SHOWN, r->fields[k], names);
+            return fail(r, SC_EINPUT,
+                        "%s:%ld:%d: unknown column '%.*s' in the header; allowed: the columns %s, each "
+                        "once",
+                        r->path, r->line, k + 1, SHOWN, r->fields[k], names);
         if (seen[column])
-            return fail(r, SC_EINPUT, "%s:%ld:%d: duplicate column '%s' in the header (first in column %d); allowed: "
-                        "the columns %s, each once", r->path, r->line, k + 1, r->fields[k], seen[column], names);
+            return fail(r, SC_EINPUT,
+                        "%s:%ld:%d: duplicate column '%s' in the header (first in column %d); allowed: "
+                        "the columns %s, each once",
+                        r->path, r->line, k + 1, r->fields[k], seen[column], names);
         seen[column] = k + 1;
         r->field_column[k] = column;
     }
@@ -218,8 +225,10 @@ static int parse_name(struct reader *r, int k, const struct csv_column *column, 
 {
     const char *text = r->fields[k];
     if (!case_valid_name(text))
-        return fail(r, SC_EINPUT, "%s:%ld:%d: %s = '%.*s': not a valid name; allowed: " CASE_NAME_ALLOWED
-                    " (as in the section [material.NAME])", r->path, r->line, k + 1, column->name, SHOWN, text);
+        return fail(r, SC_EINPUT,
+                    "%s:%ld:%d: %s = '%.*s': not a valid name; allowed: " CASE_NAME_ALLOWED
+                    " (as in the section [material.NAME])",
+                    r->path, r->line, k + 1, column->name, SHOWN, text);
     *name = strdup(text);
     if (!*name)
         return fail(r, SC_EIO, "%s:%ld: out of memory", r->path, r->line);
@@ -302,8 +311,8 @@ static char *next_line(struct reader *r, FILE *file, char **buffer, size_t *capa
     r->line++;
     char *line = *buffer;
     if ((size_t)length != strlen(line)) {
-        *status = fail(r, SC_EINPUT, "%s:%ld:%zu: NUL byte; a CSV file must be text", r->path, r->line,
-                       strlen(line) + 1);
+        *status =
+            fail(r, SC_EINPUT, "%s:%ld:%zu: NUL byte; a CSV file must be text", r->path, r->line, strlen(line) + 1);
         return NULL;
     }
     if (r->line == 1 && length >= 3 && memcmp(line, "\xef\xbb\xbf", 3) == 0)
@@ -329,7 +338,11 @@ int csv_read(const char *path, const struct csv_column *columns, int column_coun
     int opened = csv_input_fopen(path, &file, message, size);
     if (opened != 0)
         return opened < 0 ? SC_EINPUT : SC_EIO;
-    struct reader r = {.path = path, .columns = columns, .column_count = column_count, .flags = flags, .message = message,
+    struct reader r = {.path = path,
+                       .columns = columns,
+                       .column_count = column_count,
+                       .flags = flags,
+                       .message = message,
                        .size = size};
     char *buffer = NULL;
     size_t buffer_size = 0, capacity = 0;

@@ -3,9 +3,9 @@
  *
  * A FIFO would block the reader and /dev/zero would never end, so every input is opened without blocking and
  * refused unless it is a regular file.  A CSV table has one header line naming its columns (in any order, each
- * exactly once, no others unless CSV_OTHER_COLUMNS), then one row per line with exactly as many comma-separated fields; blanks around a
- * field, blank lines and lines starting with '#' are ignored, a UTF-8 byte order mark (Excel's "CSV UTF-8") is
- * skipped, lines may end in CRLF and have any length.  Every number is checked against its column's range.
+ * exactly once, no others unless CSV_OTHER_COLUMNS), then one row per line with exactly as many comma-separated fields;
+ * blanks around a field, blank lines and lines starting with '#' are ignored, a UTF-8 byte order mark (Excel's "CSV
+ * UTF-8") is skipped, lines may end in CRLF and have any length.  Every number is checked against its column's range.
  * Errors read "PATH:LINE:COLUMN: name = value: what is wrong; allowed: ..." (LINE and COLUMN from 1). */
 #ifndef SPRAYCOAT_CORE_CSV_H
 #define SPRAYCOAT_CORE_CSV_H

@@ -26,8 +26,14 @@ void sc_error_trace(const char *file, int line)
         snprintf(error_traceback + used, sizeof error_traceback - used, "\n  at %s:%d", file, line);
 }
 
-const char *sc_error_message(void) { return error_message; }
-const char *sc_error_traceback(void) { return error_traceback; }
+const char *sc_error_message(void)
+{
+    return error_message;
+}
+const char *sc_error_traceback(void)
+{
+    return error_traceback;
+}
 
 void sc_error_clear(void)
 {
@@ -38,10 +44,14 @@ void sc_error_clear(void)
 const char *sc_strerror(int errnum)
 {
     switch (errnum) {
-    case ENOSPC: return "no space left on device";
-    case EFBIG: return "file size limit exceeded (File too large)";
-    case EDQUOT: return "disk quota exceeded";
-    default: return strerror(errnum);
+    case ENOSPC:
+        return "no space left on device";
+    case EFBIG:
+        return "file size limit exceeded (File too large)";
+    case EDQUOT:
+        return "disk quota exceeded";
+    default:
+        return strerror(errnum);
     }
 }
 

@@ -23,16 +23,15 @@
 
 enum sc_status {
     SC_OK = 0,
-    SC_ESIM = 1,      /* the simulation failed: NaN, blow-up */
-    SC_EINPUT = 2,    /* bad command line or case file */
-    SC_EIO = 3,       /* I/O error */
-    SC_EINT = 130,    /* interrupted by SIGINT after a checkpoint */
-    SC_ETERM = 143,   /* interrupted by SIGTERM after a checkpoint */
+    SC_ESIM = 1,    /* the simulation failed: NaN, blow-up */
+    SC_EINPUT = 2,  /* bad command line or case file */
+    SC_EIO = 3,     /* I/O error */
+    SC_EINT = 130,  /* interrupted by SIGINT after a checkpoint */
+    SC_ETERM = 143, /* interrupted by SIGTERM after a checkpoint */
 };
 
 /* Record the message of a new error (replacing any earlier one) and return status. */
-int sc_error_set(int status, const char *file, int line, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
+int sc_error_set(int status, const char *file, int line, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 /* Append one traceback frame to the current error; returns nothing. */
 void sc_error_trace(const char *file, int line);
 /* The message of the last error ("" if none). */
@@ -53,17 +52,18 @@ _Noreturn void sc_out_of_memory_exit(const char *file, int line, size_t bytes, c
  * with *out_pointer NULL.  Call it as sc_calloc(&pointer, count, size, what), which passes the caller's file and
  * line. */
 int sc_calloc_at(const char *file, int line, void *out_pointer, size_t count, size_t size, const char *what);
-#define sc_calloc(out_pointer, count, size, what) sc_calloc_at(__FILE__, __LINE__, (out_pointer), (count), (size), (what))
+#define sc_calloc(out_pointer, count, size, what)                                                                      \
+    sc_calloc_at(__FILE__, __LINE__, (out_pointer), (count), (size), (what))
 
 #define SC_FAIL(status, ...) return sc_error_set((status), __FILE__, __LINE__, __VA_ARGS__)
 
-#define SC_TRY(expr)                                                                                  \
-    do {                                                                                              \
-        int sc_try_status_ = (expr);                                                                  \
-        if (sc_try_status_ != SC_OK) {                                                                \
-            sc_error_trace(__FILE__, __LINE__);                                                       \
-            return sc_try_status_;                                                                    \
-        }                                                                                             \
+#define SC_TRY(expr)                                                                                                   \
+    do {                                                                                                               \
+        int sc_try_status_ = (expr);                                                                                   \
+        if (sc_try_status_ != SC_OK) {                                                                                 \
+            sc_error_trace(__FILE__, __LINE__);                                                                        \
+            return sc_try_status_;                                                                                     \
+        }                                                                                                              \
     } while (0)
 
 /* return the out-of-memory error for `bytes` bytes of `what` (a string) */
@@ -72,27 +72,27 @@ int sc_calloc_at(const char *file, int line, void *out_pointer, size_t count, si
 #define SC_DIE_OOM(bytes, what) sc_out_of_memory_exit(__FILE__, __LINE__, (bytes), (what))
 
 /* status_var = expr; on failure record a traceback frame and goto label (the function's one cleanup path). */
-#define SC_CHECK(status_var, expr, label)                                                             \
-    do {                                                                                              \
-        (status_var) = (expr);                                                                        \
-        if ((status_var) != SC_OK) {                                                                  \
-            sc_error_trace(__FILE__, __LINE__);                                                       \
-            goto label;                                                                               \
-        }                                                                                             \
+#define SC_CHECK(status_var, expr, label)                                                                              \
+    do {                                                                                                               \
+        (status_var) = (expr);                                                                                         \
+        if ((status_var) != SC_OK) {                                                                                   \
+            sc_error_trace(__FILE__, __LINE__);                                                                        \
+            goto label;                                                                                                \
+        }                                                                                                              \
     } while (0)
 
 /* status_var = a new error (sc_error_set with the arguments) and goto label. */
-#define SC_FAIL_AT(status_var, label, code, ...)                                                      \
-    do {                                                                                              \
-        (status_var) = sc_error_set((code), __FILE__, __LINE__, __VA_ARGS__);                         \
-        goto label;                                                                                   \
+#define SC_FAIL_AT(status_var, label, code, ...)                                                                       \
+    do {                                                                                                               \
+        (status_var) = sc_error_set((code), __FILE__, __LINE__, __VA_ARGS__);                                          \
+        goto label;                                                                                                    \
     } while (0)
 
 /* status_var = the out-of-memory error for `bytes` bytes of `what`, and goto label. */
-#define SC_FAIL_OOM_AT(status_var, label, bytes, what)                                                \
-    do {                                                                                              \
-        (status_var) = sc_out_of_memory(__FILE__, __LINE__, (bytes), (what));                         \
-        goto label;                                                                                   \
+#define SC_FAIL_OOM_AT(status_var, label, bytes, what)                                                                 \
+    do {                                                                                                               \
+        (status_var) = sc_out_of_memory(__FILE__, __LINE__, (bytes), (what));                                          \
+        goto label;                                                                                                    \
     } while (0)
 
 #endif

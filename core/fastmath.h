@@ -25,7 +25,7 @@
 #define FM_LN2_HI 6.93147180369123816490e-01
 #define FM_LN2_LO 1.90821492927058770002e-10
 #define FM_LOG2_E 1.44269504088896338700e+00
-#define FM_SQRT2 1.41421356237309504880
+#define FM_SQRT2  1.41421356237309504880
 /* Adding 1.5 * 2^52 rounds a double of magnitude below 2^51 to an integer held in the low mantissa bits. */
 #define FM_ROUNDING_SHIFTER 6755399441055744.0
 

@@ -1,7 +1,8 @@
 /* HDF5 helpers: crash-safe files, typed datasets with units, attributes, checkpoints.
  *
  * Failures become SC_EIO through core/error.h with a message naming the file (and dataset or attribute) and the
- * reason: strerror(errno) (sc_strerror) where the operating system failed, else the innermost entry of HDF5's error stack
+ * reason: strerror(errno) (sc_strerror) where the operating system failed, else the innermost entry of HDF5's error
+ * stack
  * ("file signature not found", "data error detected by Fletcher32 checksum"). */
 #include "core/h5io.h"
 #include "core/version.h"
@@ -21,19 +22,21 @@
 #include <time.h>
 #include <unistd.h>
 
-
 /* A checksummed chunk holds at most this many bytes: large enough for fast I/O, small enough to fit HDF5's
  * default 1 MiB chunk cache, and one damaged byte costs a read of one chunk, not of the whole dataset. */
 #define H5IO_CHUNK_BYTES ((hsize_t)1 << 20)
 
 /* Room for "FILE:/group/dataset" and for HDF5's error descriptions in messages. */
-#define H5IO_WHAT_MAX (2 * H5IO_PATH_MAX)
+#define H5IO_WHAT_MAX   (2 * H5IO_PATH_MAX)
 #define H5IO_REASON_MAX 512
 
 /* ---------------------------------------------------------------------------------------------------------
  * Small utilities */
 
-void h5_quiet(void) { H5Eset_auto2(H5E_DEFAULT, NULL, NULL); }
+void h5_quiet(void)
+{
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+}
 
 /* Close any HDF5 identifier (ignores invalid ones), so cleanup code needs no per-type bookkeeping. */
 static void h5io_close(hid_t id)
@@ -41,14 +44,29 @@ static void h5io_close(hid_t id)
     if (id < 0)
         return;
     switch (H5Iget_type(id)) {
-    case H5I_FILE: H5Fclose(id); break;
-    case H5I_GROUP: H5Gclose(id); break;
-    case H5I_DATASET: H5Dclose(id); break;
-    case H5I_DATASPACE: H5Sclose(id); break;
-    case H5I_DATATYPE: H5Tclose(id); break;
-    case H5I_ATTR: H5Aclose(id); break;
-    case H5I_GENPROP_LST: H5Pclose(id); break;
-    default: break;
+    case H5I_FILE:
+        H5Fclose(id);
+        break;
+    case H5I_GROUP:
+        H5Gclose(id);
+        break;
+    case H5I_DATASET:
+        H5Dclose(id);
+        break;
+    case H5I_DATASPACE:
+        H5Sclose(id);
+        break;
+    case H5I_DATATYPE:
+        H5Tclose(id);
+        break;
+    case H5I_ATTR:
+        H5Aclose(id);
+        break;
+    case H5I_GENPROP_LST:
+        H5Pclose(id);
+        break;
+    default:
+        break;
     }
 }
 
@@ -211,8 +229,10 @@ int h5_open_read(const char *path, hid_t *file)
         SC_FAIL(SC_EIO, "cannot open %s: it is a folder, not an HDF5 file", path);
     /* a FIFO would block H5Fopen forever, a device never end */
     if (!S_ISREG(info.st_mode))
-        SC_FAIL(SC_EIO, "cannot open %s: not a regular file (a FIFO, device or socket); an HDF5 input must be a "
-                "regular file", path);
+        SC_FAIL(SC_EIO,
+                "cannot open %s: not a regular file (a FIFO, device or socket); an HDF5 input must be a "
+                "regular file",
+                path);
     errno = 0;
     *file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (*file < 0) {
@@ -349,18 +369,18 @@ static int write_dataset(hid_t loc, const struct dataset_spec *spec)
     return status;
 }
 
-int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
-                     const char *units, int checksum)
+int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data, const char *units,
+                     int checksum)
 {
-    const struct dataset_spec spec = {name, rank, dims, H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, sizeof(double),
-                                      data, units, checksum};
+    const struct dataset_spec spec = {name,           rank, dims,  H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE,
+                                      sizeof(double), data, units, checksum};
     return write_dataset(loc, &spec);
 }
 
-int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data,
-                    const char *units, int checksum)
+int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data, const char *units,
+                    int checksum)
 {
-    const struct dataset_spec spec = {name, rank, dims, H5T_NATIVE_INT64, H5T_STD_I64LE, sizeof(int64_t),
+    const struct dataset_spec spec = {name, rank,  dims,    H5T_NATIVE_INT64, H5T_STD_I64LE, sizeof(int64_t),
                                       data, units, checksum};
     return write_dataset(loc, &spec);
 }
@@ -411,10 +431,14 @@ static int dataset_element_count(hid_t dataset, size_t *count, const char *what)
 static const char *type_class_name(H5T_class_t type_class)
 {
     switch (type_class) {
-    case H5T_INTEGER: return "integer";
-    case H5T_FLOAT: return "floating-point";
-    case H5T_STRING: return "string";
-    default: return "other";
+    case H5T_INTEGER:
+        return "integer";
+    case H5T_FLOAT:
+        return "floating-point";
+    case H5T_STRING:
+        return "string";
+    default:
+        return "other";
     }
 }
 
@@ -585,8 +609,8 @@ static int attr_read_number(hid_t loc, const char *name, hid_t memory_type, H5T_
     SC_TRY(attr_open(loc, name, &attr, what));
     hid_t type = H5Aget_type(attr);
     hid_t space = H5Aget_space(attr);
-    int right_kind = type >= 0 && H5Tget_class(type) == type_class && space >= 0 &&
-                     H5Sget_simple_extent_npoints(space) == 1;
+    int right_kind =
+        type >= 0 && H5Tget_class(type) == type_class && space >= 0 && H5Sget_simple_extent_npoints(space) == 1;
     herr_t read = right_kind ? H5Aread(attr, memory_type, value) : -1;
     if (right_kind && read < 0)
         hdf5_reason(reason);
@@ -734,7 +758,10 @@ struct copy_walk {
     int status;
 };
 
-static int vlen_parts(hid_t type) { return H5Tdetect_class(type, H5T_VLEN) > 0 || H5Tis_variable_str(type) > 0; }
+static int vlen_parts(hid_t type)
+{
+    return H5Tdetect_class(type, H5T_VLEN) > 0 || H5Tis_variable_str(type) > 0;
+}
 
 /* Room for `points` elements of `type`; NULL with *bytes = 0 when the size overflows or memory is short. */
 static void *element_buffer(hid_t type, hssize_t points, size_t *bytes)
@@ -965,8 +992,7 @@ static int read_dataset_fully(hid_t dataset, hid_t file_type, char reason[H5IO_R
     if (points < 0)
         hdf5_reason(reason);
     else if (type_size == 0 || (size_t)points > SIZE_MAX / type_size)
-        snprintf(reason, H5IO_REASON_MAX, "impossible size (%lld elements of %zu bytes)", (long long)points,
-                 type_size);
+        snprintf(reason, H5IO_REASON_MAX, "impossible size (%lld elements of %zu bytes)", (long long)points, type_size);
     else
         status = read_into_scratch(dataset, type, space, (size_t)points * type_size, reason);
     h5io_close(space);
@@ -1020,7 +1046,7 @@ int h5_verify_file(const char *path)
 /* ---------------------------------------------------------------------------------------------------------
  * Checkpoints: RUN_DIR/checkpoints/STAGE_NNNNNNNN.h5 */
 
-#define CHECKPOINT_SUFFIX ".h5"
+#define CHECKPOINT_SUFFIX     ".h5"
 #define CHECKPOINT_TMP_SUFFIX ".h5.tmp"
 
 struct checkpoint_entry {
@@ -1100,8 +1126,7 @@ static int read_checkpoint_dir(DIR *folder, const char *dir, const char *stage, 
 }
 
 /* This stage's files with `suffix` in RUN_DIR/checkpoints, newest first; empty when the folder is missing. */
-static int list_checkpoints(const char *run_dir, const char *stage, const char *suffix,
-                            struct checkpoint_list *list)
+static int list_checkpoints(const char *run_dir, const char *stage, const char *suffix, struct checkpoint_list *list)
 {
     *list = (struct checkpoint_list){NULL, 0, 0};
     char dir[H5IO_PATH_MAX];
@@ -1124,8 +1149,7 @@ static int list_checkpoints(const char *run_dir, const char *stage, const char *
     return SC_OK;
 }
 
-static int checkpoint_entry_path(const char *run_dir, const struct checkpoint_entry *entry,
-                                 char path[H5IO_PATH_MAX])
+static int checkpoint_entry_path(const char *run_dir, const struct checkpoint_entry *entry, char path[H5IO_PATH_MAX])
 {
     return format_path(path, H5IO_PATH_MAX, "%s/checkpoints/%s", run_dir, entry->name);
 }
@@ -1173,8 +1197,7 @@ int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, st
  * belong to a history this run abandoned when it resumed from an older checkpoint (the later ones were damaged),
  * and keeping them would make the next resume jump back into that history.  A failed delete only warns: the new
  * checkpoint is safe, and stopping a long run for an old file would do more harm. */
-static void prune_checkpoints(const char *run_dir, const struct checkpoint_list *list, int64_t committed_step,
-                              int keep)
+static void prune_checkpoints(const char *run_dir, const struct checkpoint_list *list, int64_t committed_step, int keep)
 {
     int kept = 0;
     for (size_t i = 0; i < list->count; i++) {
@@ -1309,7 +1332,7 @@ static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *
 }
 
 int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
-                           uint64_t case_hash, char *path, size_t size)
+                              uint64_t case_hash, char *path, size_t size)
 {
     if (size > 0)
         path[0] = '\0';

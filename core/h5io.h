@@ -2,8 +2,9 @@
  *
  * Every file is written through core/atomic.h: NAME.tmp, flushed, closed, fsynced, renamed to NAME and the
  * directory fsynced, so a reader never sees a half-written file.  Datasets carry a "units" attribute.  Every
- * non-empty dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read (the `checksum` argument of
- * the writers is kept for their callers and no longer changes anything: outputs are checked like checkpoints). */
+ * non-empty dataset is chunked and written with the Fletcher32 filter, which HDF5 verifies on every read (the
+ * `checksum` argument of the writers is kept for their callers and no longer changes anything: outputs are checked like
+ * checkpoints). */
 #ifndef SPRAYCOAT_CORE_H5IO_H
 #define SPRAYCOAT_CORE_H5IO_H
 
@@ -36,10 +37,10 @@ int h5_open_read(const char *path, hid_t *file);
 int h5_create_group(hid_t parent, const char *name, hid_t *group);
 
 /* Datasets.  dims has `rank` entries (rank 1 to 3); zero-length datasets are allowed. */
-int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
-                     const char *units, int checksum);
-int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data,
-                    const char *units, int checksum);
+int h5_write_doubles(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data, const char *units,
+                     int checksum);
+int h5_write_int64s(hid_t loc, const char *name, int rank, const hsize_t *dims, const int64_t *data, const char *units,
+                    int checksum);
 int h5_write_bytes(hid_t loc, const char *name, size_t size, const void *data, int checksum);
 /* Read a whole dataset of `count` elements (error if its size differs). */
 int h5_read_doubles(hid_t loc, const char *name, double *data, size_t count);
@@ -80,7 +81,7 @@ int h5_checkpoint_commit(struct h5_out *out, const char *run_dir, const char *st
  * h5_verify_file is skipped with a warning (the previous one is used).  One with another case hash or
  * format version is refused: SC_EINPUT with a message naming it. */
 int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
-                           uint64_t case_hash, char *path, size_t size);
+                              uint64_t case_hash, char *path, size_t size);
 /* Remove every checkpoint of `stage` (after the stage finished). */
 int h5_checkpoint_remove_all(const char *run_dir, const char *stage);
 

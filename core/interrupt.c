@@ -8,7 +8,10 @@
 
 static volatile sig_atomic_t received_signal;
 
-static void on_signal(int number) { received_signal = number; }
+static void on_signal(int number)
+{
+    received_signal = number;
+}
 
 void interrupt_install(void)
 {

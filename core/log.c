@@ -18,8 +18,8 @@
 #define BAR_PERIOD 0.2
 /* Seconds between plain progress lines when progress.interval is 0. */
 #define DEFAULT_INTERVAL 10.0
-#define BAR_CELLS 24
-#define LINE_SIZE 4096
+#define BAR_CELLS        24
+#define LINE_SIZE        4096
 
 static enum log_level current_level = LOG_INFO;
 static double clock_origin = -1.0;
@@ -50,16 +50,24 @@ void log_set_level(enum log_level level)
     current_level = level < LOG_QUIET ? LOG_QUIET : level > LOG_DEBUG ? LOG_DEBUG : level;
 }
 
-enum log_level log_get_level(void) { return current_level; }
+enum log_level log_get_level(void)
+{
+    return current_level;
+}
 
 static const char *level_name(enum log_level level)
 {
     switch (level) {
-    case LOG_ERROR: return "error";
-    case LOG_WARN: return "warning";
-    case LOG_INFO: return "info";
-    case LOG_DEBUG: return "debug";
-    default: return "log";
+    case LOG_ERROR:
+        return "error";
+    case LOG_WARN:
+        return "warning";
+    case LOG_INFO:
+        return "info";
+    case LOG_DEBUG:
+        return "debug";
+    default:
+        return "log";
     }
 }
 
@@ -99,13 +107,13 @@ static void log_message(enum log_level level, const char *fmt, va_list args)
     write_stderr(line, 0);
 }
 
-#define DEFINE_LOG_FUNCTION(name, level)                                                                        \
-    void name(const char *fmt, ...)                                                                             \
-    {                                                                                                           \
-        va_list args;                                                                                           \
-        va_start(args, fmt);                                                                                    \
-        log_message(level, fmt, args);                                                                          \
-        va_end(args);                                                                                           \
+#define DEFINE_LOG_FUNCTION(name, level)                                                                               \
+    void name(const char *fmt, ...)                                                                                    \
+    {                                                                                                                  \
+        va_list args;                                                                                                  \
+        va_start(args, fmt);                                                                                           \
+        log_message(level, fmt, args);                                                                                 \
+        va_end(args);                                                                                                  \
     }
 
 DEFINE_LOG_FUNCTION(log_error, LOG_ERROR)
@@ -244,6 +252,12 @@ static void progress_close(struct progress *p, int64_t count, const char *how)
              rate_text, p->unit);
 }
 
-void log_progress_end(struct progress *p, int64_t count) { progress_close(p, count, "done"); }
+void log_progress_end(struct progress *p, int64_t count)
+{
+    progress_close(p, count, "done");
+}
 
-void log_progress_stop(struct progress *p, int64_t count) { progress_close(p, count, "stopped"); }
+void log_progress_stop(struct progress *p, int64_t count)
+{
+    progress_close(p, count, "stopped");
+}

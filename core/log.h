@@ -21,18 +21,17 @@ void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 struct progress {
-    const char *label;      /* e.g. "spray" */
-    const char *unit;       /* what is counted, e.g. "steps" */
-    int64_t total;          /* 0 if unknown */
-    int64_t start_count;    /* count at begin (a resumed run starts part way) */
-    double start_time;      /* log_elapsed() at begin */
-    double last_report;     /* log_elapsed() of the last output */
-    double interval;        /* seconds between plain log lines when not on a terminal */
+    const char *label;   /* e.g. "spray" */
+    const char *unit;    /* what is counted, e.g. "steps" */
+    int64_t total;       /* 0 if unknown */
+    int64_t start_count; /* count at begin (a resumed run starts part way) */
+    double start_time;   /* log_elapsed() at begin */
+    double last_report;  /* log_elapsed() of the last output */
+    double interval;     /* seconds between plain log lines when not on a terminal */
     int on_terminal;
 };
 
-void log_progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count,
-                    int64_t total);
+void log_progress_begin(struct progress *p, const char *label, const char *unit, int64_t start_count, int64_t total);
 /* Report that `count` units are done; cheap when nothing needs printing.  `extra` is appended
  * (e.g. "in flight 1234, deposited 56") and may be NULL. */
 void log_progress_update(struct progress *p, int64_t count, const char *extra);

@@ -5,7 +5,7 @@
 #include <mpi.h>
 
 static MPI_Win task_window = MPI_WIN_NULL;
-static int64_t *task_counter;   /* on rank 0: the next task */
+static int64_t *task_counter; /* on rank 0: the next task */
 
 void parallel_init(int *argc, char ***argv)
 {
@@ -13,7 +13,10 @@ void parallel_init(int *argc, char ***argv)
     MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
 }
 
-void parallel_finalize(void) { MPI_Finalize(); }
+void parallel_finalize(void)
+{
+    MPI_Finalize();
+}
 
 int parallel_rank(void)
 {
@@ -29,9 +32,15 @@ int parallel_size(void)
     return size;
 }
 
-int parallel_enabled(void) { return 1; }
+int parallel_enabled(void)
+{
+    return 1;
+}
 
-void parallel_barrier(void) { MPI_Barrier(MPI_COMM_WORLD); }
+void parallel_barrier(void)
+{
+    MPI_Barrier(MPI_COMM_WORLD);
+}
 
 int parallel_max_status(int status)
 {
@@ -84,14 +93,35 @@ void parallel_init(int *argc, char ***argv)
     (void)argv;
 }
 void parallel_finalize(void) {}
-int parallel_rank(void) { return 0; }
-int parallel_size(void) { return 1; }
-int parallel_enabled(void) { return 0; }
+int parallel_rank(void)
+{
+    return 0;
+}
+int parallel_size(void)
+{
+    return 1;
+}
+int parallel_enabled(void)
+{
+    return 0;
+}
 void parallel_barrier(void) {}
-int parallel_max_status(int status) { return status; }
-int parallel_share_status(int status) { return status; }
-void parallel_tasks_begin(void) { next_task = 0; }
-int64_t parallel_task_next(void) { return next_task++; }
+int parallel_max_status(int status)
+{
+    return status;
+}
+int parallel_share_status(int status)
+{
+    return status;
+}
+void parallel_tasks_begin(void)
+{
+    next_task = 0;
+}
+int64_t parallel_task_next(void)
+{
+    return next_task++;
+}
 void parallel_tasks_end(void) {}
 
 #endif

@@ -39,7 +39,10 @@
 #define STRINGIFY_(x) #x
 #define STRINGIFY(x)  STRINGIFY_(x)
 
-const char *spraycoat_version(void) { return SPRAYCOAT_VERSION; }
+const char *spraycoat_version(void)
+{
+    return SPRAYCOAT_VERSION;
+}
 
 #if defined(__clang__)
 #define COMPILER "clang " __VERSION__
@@ -137,8 +140,9 @@ static const char target[] =
 #endif
 
 #if defined(OSMESA_MAJOR_VERSION)
-#define OSMESA                                                                                                   \
-    STRINGIFY(OSMESA_MAJOR_VERSION) "." STRINGIFY(OSMESA_MINOR_VERSION) "." STRINGIFY(                        \
+#define OSMESA                                                                                                         \
+    STRINGIFY(OSMESA_MAJOR_VERSION)                                                                                    \
+    "." STRINGIFY(OSMESA_MINOR_VERSION) "." STRINGIFY(                                                                 \
         OSMESA_PATCH_VERSION) " (headers; the library is loaded when rendering)"
 #else
 #define OSMESA "unknown (no GL/osmesa.h at build time)"

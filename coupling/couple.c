@@ -39,7 +39,7 @@ int couple_config_load(const struct case_file *c, struct couple_config *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
     cfg->sample = case_is(c, "couple", "sample", "stratified") ? COUPLE_STRATIFIED
-                  : case_is(c, "couple", "sample", "window") ? COUPLE_WINDOW
+                  : case_is(c, "couple", "sample", "window")   ? COUPLE_WINDOW
                                                                : COUPLE_RANDOM;
     cfg->bodies_per_run = case_int(c, "couple", "bodies_per_run");
     cfg->runs = case_int(c, "couple", "runs");
@@ -79,7 +79,8 @@ static double candidate_key(const struct couple_candidate *a)
 /* Ties broken by the impact row: a total order, so the strata do not depend on qsort's algorithm. */
 static int compare_members(const void *pa, const void *pb)
 {
-    const struct couple_candidate *a = &sort_candidates[*(const size_t *)pa], *b = &sort_candidates[*(const size_t *)pb];
+    const struct couple_candidate *a = &sort_candidates[*(const size_t *)pa],
+                                  *b = &sort_candidates[*(const size_t *)pb];
     double ka = candidate_key(a), kb = candidate_key(b);
     if (ka != kb)
         return ka < kb ? -1 : 1;
@@ -165,8 +166,8 @@ static int build_stratified(const struct couple_config *cfg, const struct couple
     SC_CHECK(status, strata_alloc(s, seeds, n, seeds), done);
     size_t stratum = 0;
     for (size_t i = 0; i < n_d; i++) {
-        size_t first = i * n / n_d, last = (i + 1) * n / n_d;           /* diameter quantile i */
-        size_t slots = (seeds - i + n_d - 1) / n_d;                      /* seeds i, i + n_d, ... */
+        size_t first = i * n / n_d, last = (i + 1) * n / n_d; /* diameter quantile i */
+        size_t slots = (seeds - i + n_d - 1) / n_d;           /* seeds i, i + n_d, ... */
         sort_members(cand, by_diameter + first, last - first, 1);
         for (size_t j = 0; j < slots; j++, stratum++) {
             size_t lo = first + j * (last - first) / slots, hi = first + (j + 1) * (last - first) / slots;
@@ -203,9 +204,10 @@ int couple_strata_build(const struct case_file *c, const struct couple_config *c
     memset(strata, 0, sizeof *strata);
     size_t seeds = (size_t)(cfg->runs * cfg->bodies_per_run);
     if (n < seeds)
-        return couple_invalid(c, "runs", "%ld runs of %ld bodies need %zu spray impacts, and spray.h5 has %zu "
-                            "particles that reached the target; allowed: runs * bodies_per_run <= %zu", cfg->runs,
-                            cfg->bodies_per_run, seeds, n, n);
+        return couple_invalid(c, "runs",
+                              "%ld runs of %ld bodies need %zu spray impacts, and spray.h5 has %zu "
+                              "particles that reached the target; allowed: runs * bodies_per_run <= %zu",
+                              cfg->runs, cfg->bodies_per_run, seeds, n, n);
     if (cfg->sample == COUPLE_RANDOM)
         SC_TRY(build_random(cfg, n, seeds, strata));
     else if (cfg->sample == COUPLE_WINDOW)
@@ -215,10 +217,12 @@ int couple_strata_build(const struct case_file *c, const struct couple_config *c
     size_t members = strata->offset[strata->count];
     if (cfg->sample == COUPLE_WINDOW && members < seeds) {
         couple_strata_free(strata);
-        return couple_invalid(c, "patch_size", "the window of %g m centred at (%g, %g) m holds %zu arrivals, "
-                            "fewer than the %zu seeds of %ld runs of %ld bodies; allowed: a larger window, fewer "
-                            "runs or bodies", cfg->patch_size, cfg->window_x, cfg->window_y, members, seeds,
-                            cfg->runs, cfg->bodies_per_run);
+        return couple_invalid(c, "patch_size",
+                              "the window of %g m centred at (%g, %g) m holds %zu arrivals, "
+                              "fewer than the %zu seeds of %ld runs of %ld bodies; allowed: a larger window, fewer "
+                              "runs or bodies",
+                              cfg->patch_size, cfg->window_x, cfg->window_y, members, seeds, cfg->runs,
+                              cfg->bodies_per_run);
     }
     return SC_OK;
 }
@@ -242,7 +246,10 @@ static int compare_arrival(const void *pa, const void *pb)
 }
 
 /* x folded periodically into [-size/2, size/2). */
-static double fold(double x, double size) { return x - size * floor(x / size + 0.5); }
+static double fold(double x, double size)
+{
+    return x - size * floor(x / size + 0.5);
+}
 
 /* Lift body k until it clears every earlier body of the run (bodies may touch, not overlap). */
 static void clear_earlier_bodies(struct couple_seed *seeds, size_t k)

@@ -36,11 +36,11 @@ enum couple_sample { COUPLE_RANDOM, COUPLE_STRATIFIED, COUPLE_WINDOW };
 struct couple_config {
     enum couple_sample sample;
     long bodies_per_run, runs;
-    double layer_thickness;          /* m */
-    double stagnation_velocity;      /* m/s; NAN: from the jet at the layer's edge ("jet") */
+    double layer_thickness;     /* m */
+    double stagnation_velocity; /* m/s; NAN: from the jet at the layer's edge ("jet") */
     double rtol, atol;
-    double patch_size, window_x, window_y, max_gap;   /* m */
-    uint32_t seed;                   /* [run] seed */
+    double patch_size, window_x, window_y, max_gap; /* m */
+    uint32_t seed;                                  /* [run] seed */
 };
 
 extern const struct cfg_key couple_case_keys[];
@@ -50,17 +50,17 @@ int couple_config_load(const struct case_file *c, struct couple_config *cfg);
 /* A candidate: the spray's impact (spray frame) and, once flown, its arrival at the wall. */
 struct couple_candidate {
     int64_t impact_row, particle_id;
-    double t, x[3], v[3], d, m;      /* the spray's first contact */
+    double t, x[3], v[3], d, m; /* the spray's first contact */
 };
 
 /* The strata of the sampling rule: every seed slot k (0 <= k < N) draws from stratum slot_stratum[k], whose
  * candidates (indices into the candidate array) are members[offset[s]] ... members[offset[s + 1] - 1] in the
  * order they are tried. */
 struct couple_strata {
-    size_t count;                    /* strata */
-    size_t *offset;                  /* count + 1 */
+    size_t count;   /* strata */
+    size_t *offset; /* count + 1 */
     size_t *members;
-    size_t *slot_stratum;            /* N */
+    size_t *slot_stratum; /* N */
 };
 
 /* Build the strata for `n` candidates and N = runs * bodies_per_run seeds.  SC_EINPUT (naming [couple] keys)
@@ -71,11 +71,11 @@ void couple_strata_free(struct couple_strata *strata);
 
 /* One seed's arrival at the wall (spray frame) and, after placement, its body in the impact frame. */
 struct couple_seed {
-    size_t candidate;                /* index into the candidate array */
-    size_t flight;                   /* row of its flight in couple.h5 /flight */
+    size_t candidate; /* index into the candidate array */
+    size_t flight;    /* row of its flight in couple.h5 /flight */
     double t_wall, x_wall[3], v_wall[3], d, m;
     int64_t run, body;
-    double center[3], velocity[3];   /* impact frame */
+    double center[3], velocity[3]; /* impact frame */
 };
 
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
@@ -99,21 +99,21 @@ void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds
  * at a time limit: a fine particle carried by the outflow may approach the wall only asymptotically. */
 
 struct couple_flight_layer {
-    struct dem_gas_field gas;       /* density, kinematic viscosity and drag law; model none: no gas, no drag */
-    double wall_z;              /* m, the wall plane (spray frame) */
-    double thickness;           /* m, delta */
-    double approach_velocity;   /* m/s, U */
-    double rtol;                /* CVODE relative tolerance */
-    double atol;                /* absolute tolerance, relative to the scales: positions atol * (distance to the
-                                   wall at the start), velocities atol * (speed at the start, at least 1 m/s) */
+    struct dem_gas_field gas; /* density, kinematic viscosity and drag law; model none: no gas, no drag */
+    double wall_z;            /* m, the wall plane (spray frame) */
+    double thickness;         /* m, delta */
+    double approach_velocity; /* m/s, U */
+    double rtol;              /* CVODE relative tolerance */
+    double atol;              /* absolute tolerance, relative to the scales: positions atol * (distance to the
+                                 wall at the start), velocities atol * (speed at the start, at least 1 m/s) */
 };
 
 struct couple_flight_result {
-    int reached;                /* 1: the sphere touched the wall; 0: stopped at the time limit */
-    double t, x[3], v[3];       /* at the wall (or at the time limit) */
+    int reached;          /* 1: the sphere touched the wall; 0: stopped at the time limit */
+    double t, x[3], v[3]; /* at the wall (or at the time limit) */
     long steps, rhs_evals, jac_evals, error_test_failures, nonlinear_iterations, nonlinear_failures;
-    size_t samples;             /* the trajectory at every internal CVODE step, the start included */
-    double *sample_t, *sample_x, *sample_v;   /* samples, 3 * samples, 3 * samples */
+    size_t samples;                         /* the trajectory at every internal CVODE step, the start included */
+    double *sample_t, *sample_x, *sample_v; /* samples, 3 * samples, 3 * samples */
 };
 
 /* Gas velocity u[3] at x[3] (the formula above). */
@@ -126,8 +126,9 @@ void couple_flight_solver_destroy(struct couple_flight_solver *solver);
 
 /* Integrate one particle (diameter d, density rho_p) from (t0, x0, v0) to the wall.  The result's sample arrays
  * are owned by *result (couple_flight_result_free).  SC_ESIM when CVODE fails (the message names its flag). */
-int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer, double diameter, double density,
-                     double t0, const double x0[3], const double v0[3], struct couple_flight_result *result);
+int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer,
+                            double diameter, double density, double t0, const double x0[3], const double v0[3],
+                            struct couple_flight_result *result);
 void couple_flight_result_free(struct couple_flight_result *result);
 
 #endif

@@ -43,7 +43,7 @@ void couple_flight_gas_velocity(const struct couple_flight_layer *layer, const d
         u[1] = speed * x[1] / (2.0 * delta);
         u[2] = speed * s / delta;
     } else {
-        u[0] = u[1] = u[2] = 0.0;   /* inside the wall: never reached, the flight stops at contact */
+        u[0] = u[1] = u[2] = 0.0; /* inside the wall: never reached, the flight stops at contact */
     }
 }
 
@@ -132,10 +132,10 @@ static int flight_roots(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
 /* The root functions of a flight that is `edge_ahead` of the layer's edge or already inside the layer. */
 static int set_roots(struct couple_flight_solver *solver, int edge_ahead)
 {
-    int flag = edge_ahead ? CVodeRootInit(solver->cvode, 2, flight_roots)
-                          : CVodeRootInit(solver->cvode, 1, flight_contact);
+    int flag =
+        edge_ahead ? CVodeRootInit(solver->cvode, 2, flight_roots) : CVodeRootInit(solver->cvode, 1, flight_contact);
     if (flag == CV_SUCCESS) {
-        int direction[2] = {-1, -1};   /* the gaps close */
+        int direction[2] = {-1, -1}; /* the gaps close */
         flag = CVodeSetRootDirection(solver->cvode, direction);
     }
     return flag;
@@ -143,8 +143,8 @@ static int set_roots(struct couple_flight_solver *solver, int edge_ahead)
 
 /* CVodeInit the first time, CVodeReInit after: every flight starts with a fresh history and fresh counters,
  * so a flight's result does not depend on the flights before it (docs/architecture.md, "Determinism and restart"). */
-static int start_flight(struct couple_flight_solver *solver, struct flight_particle *particle, double t0, double t_limit,
-                        int edge_ahead)
+static int start_flight(struct couple_flight_solver *solver, struct flight_particle *particle, double t0,
+                        double t_limit, int edge_ahead)
 {
     int flag;
     if (!solver->initialised) {
@@ -227,7 +227,8 @@ static int restart_at_edge(struct couple_flight_solver *solver, double t, struct
 }
 
 /* Step by step (CV_ONE_STEP, every internal step is a trajectory sample) to the contact root or the time limit. */
-static int integrate_steps(struct couple_flight_solver *solver, double t_limit, int edge_ahead, struct couple_flight_result *r)
+static int integrate_steps(struct couple_flight_solver *solver, double t_limit, int edge_ahead,
+                           struct couple_flight_result *r)
 {
     size_t capacity = 0;
     double *state = N_VGetArrayPointer(solver->state);
@@ -259,8 +260,9 @@ static int integrate_steps(struct couple_flight_solver *solver, double t_limit, 
     return SC_OK;
 }
 
-int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer, double diameter, double density,
-                     double t0, const double x0[3], const double v0[3], struct couple_flight_result *result)
+int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer,
+                            double diameter, double density, double t0, const double x0[3], const double v0[3],
+                            struct couple_flight_result *result)
 {
     memset(result, 0, sizeof *result);
     struct flight_particle particle = {layer, diameter, density * M_PI * diameter * diameter * diameter / 6.0};

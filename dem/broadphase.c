@@ -39,14 +39,14 @@
 #define CELL_DIAMETERS 2.0
 /* Reach boxes: 2 to 16 steps ahead (or plain swept boxes), and a skin of this many radii for the bending of
  * paths; after PLAIN_BUILDS plain builds a horizon is tried again. */
-#define MIN_HORIZON 2.0
-#define MAX_HORIZON 16.0
-#define SKIN_RADII 0.5
+#define MIN_HORIZON  2.0
+#define MAX_HORIZON  16.0
+#define SKIN_RADII   0.5
 #define PLAIN_BUILDS 16
 /* Repairs: a rebuild once more than REPAIR_MIN + count / REPAIR_SHARE particles are repaired, or when a new
  * reach box spans more than REPAIR_MAX_CELLS cells (cells sized for slower particles). */
-#define REPAIR_MIN 64
-#define REPAIR_SHARE 32
+#define REPAIR_MIN       64
+#define REPAIR_SHARE     32
 #define REPAIR_MAX_CELLS 512
 /* The index of a grid entry whose particle was removed since the build. */
 #define REMOVED_ENTRY UINT32_MAX
@@ -80,8 +80,14 @@ static inline int32_t cell_index(double coordinate, double cell)
 /* fmin and fmax without the libm calls (gcc keeps them calls: about 3 % of a free-flight step went to them).
  * The same value for every input, signed zeros and NaN included: x86-64's minsd/maxsd, which return the
  * second operand when the two are equal, and the other operand when one is a NaN. */
-static inline double lesser(double a, double b) { return (a < b) | (b != b) ? a : b; }
-static inline double greater(double a, double b) { return (a > b) | (b != b) ? a : b; }
+static inline double lesser(double a, double b)
+{
+    return (a < b) | (b != b) ? a : b;
+}
+static inline double greater(double a, double b)
+{
+    return (a > b) | (b != b) ? a : b;
+}
 
 /* The box that particle i's sphere can reach within `horizon` steps at its current velocity, widened by the
  * skin; a deposited particle reaches its sphere only. */
@@ -201,7 +207,10 @@ static size_t fill_entries(struct dem_bins *bins, const struct dem_particles *p)
 #define SORT_GROUPS 256
 #define SORT_SLICES 16
 
-static size_t slice_bound(size_t count, size_t k) { return count * k / SORT_SLICES; }
+static size_t slice_bound(size_t count, size_t k)
+{
+    return count * k / SORT_SLICES;
+}
 
 /* Entries [first, end) of bins->scratch: how many fall in each group. */
 static void count_groups(const struct dem_bins *bins, size_t first, size_t end, int group_shift, uint32_t *counts)
@@ -418,7 +427,8 @@ static void test_pair(const struct dem_particles *p, uint32_t first, uint32_t se
         dem_candidates_push(out, t_hit, second, first, CONTACT_PAIR);
 }
 
-void dem_broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt, struct dem_candidates *out)
+void dem_broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
+                          struct dem_candidates *out)
 {
 #pragma omp for schedule(static) nowait
     for (size_t k = 0; k < bins->pair_count; k++)
@@ -526,8 +536,8 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
  * (or its repair) is still where its box was made for it (deposits never move), so it passes whatever the
  * test says.  No branches, so that gcc vectorises the loop (the sweep of a deposited particle, at rest, is
  * v * 0; no lesser or greater). */
-static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
-                        size_t end, uint8_t *restrict inside)
+static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first, size_t end,
+                        uint8_t *restrict inside)
 {
     /* local restrict copies: the stores to inside[] cannot change them */
     const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d;
@@ -539,7 +549,8 @@ static void reach_flags(const struct dem_bins *bins, const struct dem_particles 
         double radius = 0.5 * d[i] * (1.0 + DEM_BOX_MARGIN), span = flying ? dt : 0.0;
         int holds = same & (built_flying[i] | !flying);
         for (int c = 0; c < 3; c++) /* a NaN fails here, a harmless extra repair */
-            holds &= dem_sweep_inside(x[3 * i + c], v[3 * i + c], span, radius, reach_lo[3 * i + c], reach_hi[3 * i + c]);
+            holds &=
+                dem_sweep_inside(x[3 * i + c], v[3 * i + c], span, radius, reach_lo[3 * i + c], reach_hi[3 * i + c]);
         inside[i] = (uint8_t)(holds | (same & !built_flying[i]));
     }
 }
@@ -590,7 +601,10 @@ static void reach_flags_of_runs(const struct dem_bins *bins, const struct dem_pa
     }
 }
 
-static size_t repair_limit(size_t count) { return REPAIR_MIN + count / REPAIR_SHARE; }
+static size_t repair_limit(size_t count)
+{
+    return REPAIR_MIN + count / REPAIR_SHARE;
+}
 
 /* Particle i failed the test of reach_flags, or was injected since: list it in bins->failing.  Returns
  * 0 if the repaired set would then exceed its limit. */
@@ -939,7 +953,7 @@ static void visit_index(const struct dem_bin_entry *entry, const int32_t here[3]
 }
 
 int dem_broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
-                         void (*visit)(uint32_t index, void *context), void *context)
+                             void (*visit)(uint32_t index, void *context), void *context)
 {
     int32_t first[3], last[3];
     for (int c = 0; c < 3; c++) {

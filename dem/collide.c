@@ -46,8 +46,8 @@ static void find_target_contacts(const struct dem_solver *s, struct dem_candidat
     const size_t chunks = (s->moving_count + TARGET_CHUNK - 1) / TARGET_CHUNK;
 #pragma omp for schedule(static) nowait
     for (size_t chunk = 0; chunk < chunks; chunk++) {
-        size_t first = chunk * TARGET_CHUNK, n = s->moving_count - first < TARGET_CHUNK ? s->moving_count - first
-                                                                                             : TARGET_CHUNK;
+        size_t first = chunk * TARGET_CHUNK,
+               n = s->moving_count - first < TARGET_CHUNK ? s->moving_count - first : TARGET_CHUNK;
         const uint32_t *moving = s->moving + first;
         double t_hit[TARGET_CHUNK];
         uint8_t hits[TARGET_CHUNK];
@@ -73,7 +73,8 @@ static void find_contacts(struct dem_solver *s)
         find_target_contacts(s, &local);
 #pragma omp critical(dem_contacts_merge)
         for (size_t k = 0; k < local.count; k++)
-            dem_candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b, local.items[k].kind);
+            dem_candidates_push(&s->candidates, local.items[k].s, local.items[k].a, local.items[k].b,
+                                local.items[k].kind);
         free(local.items);
     }
 }
@@ -129,7 +130,7 @@ static int sticks(const struct dem_config *cfg, double vn, double mass, double d
     switch (cfg->rule) {
     case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
         return vn < dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy, gamma_partner, mass,
-                                                   r_eff, yield);
+                                                       r_eff, yield);
     case DEM_DEPOSIT_CRITICAL_VELOCITY: /* cold spray: bonding at and above v_crit */
         return vn >= cfg->critical_velocity;
     case DEM_DEPOSIT_TABLE:

@@ -28,7 +28,10 @@
  * the slip changes by J (1/m + r^2/I) summed over both bodies = (7/2) J / m_eff, so J = (2/7) m_eff s. */
 #define SOLID_SPHERE_STICK_FACTOR (2.0 / 7.0)
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void cross3(const double a[3], const double b[3], double out[3])
 {
@@ -60,8 +63,7 @@ static double elastic_limit_speed(double m_eff, double r_eff, double e_star, dou
 {
     double yield_ratio = yield / e_star;
     double yield_ratio_sq = yield_ratio * yield_ratio;
-    double energy = JOHNSON_ELASTIC_LIMIT_COEFFICIENT * r_eff * r_eff * r_eff * yield * yield_ratio_sq *
-                    yield_ratio_sq;
+    double energy = JOHNSON_ELASTIC_LIMIT_COEFFICIENT * r_eff * r_eff * r_eff * yield * yield_ratio_sq * yield_ratio_sq;
     return sqrt(2.0 * energy / m_eff);
 }
 
@@ -77,8 +79,8 @@ static double johnson_plastic_restitution(double m_eff, double r_eff, double e_s
 /* Eqs. (16)-(19).  Below V_lim the impact is elastic (e = 1).  Above it Eq. (18) applies, capped at 1:
  * the two branches do not meet (Eq. 18 gives 3.74/53^(1/8) = 2.28 at V_lim and falls below 1 only past
  * about 27 V_lim, docs/references.md), and e > 1 would create energy. */
-struct restitution dem_contact_restitution(const struct dem_contact_law *law, double m_eff, double r_eff,
-                                       double e_star, double yield, double vn)
+struct restitution dem_contact_restitution(const struct dem_contact_law *law, double m_eff, double r_eff, double e_star,
+                                           double yield, double vn)
 {
     struct restitution r;
     r.v_lim = elastic_limit_speed(m_eff, r_eff, e_star, yield);
@@ -134,13 +136,13 @@ static void apply_impulse(struct sphere_state *s, const double n_body[3], const 
 
 /* What both contact kinds share once the bodies' reduced quantities are known. */
 struct contact_geometry {
-    double m_eff;      /* reduced mass, kg */
-    double r_eff;      /* effective radius, m */
-    double e_star;     /* effective modulus, Pa */
-    double yield;      /* yield stress of the softer body, Pa */
-    double friction;   /* Coulomb mu of the pair */
-    double slip[3];    /* tangential relative contact-point velocity, a minus b, m/s */
-    double vn;         /* normal approach speed, m/s */
+    double m_eff;    /* reduced mass, kg */
+    double r_eff;    /* effective radius, m */
+    double e_star;   /* effective modulus, Pa */
+    double yield;    /* yield stress of the softer body, Pa */
+    double friction; /* Coulomb mu of the pair */
+    double slip[3];  /* tangential relative contact-point velocity, a minus b, m/s */
+    double vn;       /* normal approach speed, m/s */
 };
 
 /* Relative contact-point velocity (a minus b) split into the approach speed along n and the tangential
@@ -163,8 +165,8 @@ static double friction_impulse_on_a(const struct dem_contact_law *law, const str
     impulse[0] = impulse[1] = impulse[2] = 0.0;
     if (!(slip_speed > 0.0))
         return 0.0;
-    double coulomb = g->friction * dem_contact_friction_regularization(slip_speed, law->friction_regularization) *
-                     normal_impulse;
+    double coulomb =
+        g->friction * dem_contact_friction_regularization(slip_speed, law->friction_regularization) * normal_impulse;
     double stick = SOLID_SPHERE_STICK_FACTOR * g->m_eff * slip_speed;
     double magnitude = fmin(coulomb, stick);
     double scale = -magnitude / slip_speed;
@@ -197,7 +199,7 @@ static double pair_friction(const struct dem_material *a, const struct dem_mater
 }
 
 int dem_contact_pair(const struct dem_contact_law *law, struct sphere_state *a, struct sphere_state *b,
-                 const double n[3], struct contact_outcome *out)
+                     const double n[3], struct contact_outcome *out)
 {
     double n_b[3] = {-n[0], -n[1], -n[2]};
     double va[3], vb[3], v_rel[3];
@@ -220,7 +222,7 @@ int dem_contact_pair(const struct dem_contact_law *law, struct sphere_state *a, 
     double impulse_a[3], impulse_b[3];
     double jt = friction_impulse_on_a(law, &g, jn, impulse_a);
     for (int k = 0; k < 3; k++) {
-        impulse_a[k] -= jn * n[k]; /* the normal impulse pushes a back along -n */
+        impulse_a[k] -= jn * n[k];    /* the normal impulse pushes a back along -n */
         impulse_b[k] = -impulse_a[k]; /* equal and opposite: momentum is conserved exactly */
     }
     apply_impulse(a, n, impulse_a);
@@ -241,7 +243,7 @@ static double obstacle_effective_radius(double radius, double obstacle_radius)
 
 /* Eqs. (22)-(23) with a motionless obstacle (v_surf = 0): the obstacle's mass is infinite, so m_eff = m_a. */
 int dem_contact_fixed(const struct dem_contact_law *law, struct sphere_state *a, const struct dem_material *obstacle,
-                  double obstacle_radius, const double n[3], struct contact_outcome *out)
+                      double obstacle_radius, const double n[3], struct contact_outcome *out)
 {
     double v_contact[3];
     struct contact_geometry g;
@@ -269,8 +271,8 @@ int dem_contact_fixed(const struct dem_contact_law *law, struct sphere_state *a,
 
 /* Eq. (34) with alpha_ADH: a particle sticks if v0 < 0.2 alpha F dt1 / m, F = 4 pi gamma12 R (Eq. 32),
  * gamma12 = 2 sqrt(gamma_a gamma_b) (dispersion forces dominant, Section 3), dt1 from Eq. (19). */
-double dem_contact_adhesion_capture_speed(double alpha_adh, double gamma_a, double gamma_b, double mass,
-                                      double r_eff, double yield)
+double dem_contact_adhesion_capture_speed(double alpha_adh, double gamma_a, double gamma_b, double mass, double r_eff,
+                                          double yield)
 {
     double interface_energy = 2.0 * sqrt(gamma_a * gamma_b);
     double adhesion_force = 4.0 * PI * interface_energy * r_eff;

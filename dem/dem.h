@@ -18,7 +18,7 @@
 
 #include "core/config.h"
 
-#define DEM_FORMAT "spraycoat-spray"
+#define DEM_FORMAT         "spraycoat-spray"
 #define DEM_FORMAT_VERSION 2 /* 2: checkpoints hold the kept drag and its history (/drag) */
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
@@ -55,7 +55,7 @@ void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double
 /* Drag force f[3] (N) on a sphere of diameter d moving at v[3] in gas moving at u[3], Eq. (24).
  * DEM_JET_NONE means no gas at all: zero force. */
 void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
-                    double f[3]);
+                        double f[3]);
 
 /* Elastic-plastic constants of a powder or target material.  E and nu follow from the shear and bulk moduli. */
 struct dem_material {
@@ -85,12 +85,12 @@ struct dem_contact_law {
 
 struct dem_config {
     uint32_t seed;
-    int threads;                  /* 0: all cores */
+    int threads; /* 0: all cores */
     /* [spray] */
     double dt, t_end;
     enum dem_injection injection;
-    char particles_path[4096];    /* with injection = file */
-    size_t file_particle_count;   /* rows of the particles file: x y z vx vy vz wx wy wz d */
+    char particles_path[4096];  /* with injection = file */
+    size_t file_particle_count; /* rows of the particles file: x y z vx vy vz wx wy wz d */
     double *file_particles;
     long feed_count, feed_every, max_injected;
     double nozzle_radius, release_speed_min, release_speed_max, release_cone; /* release_cone in rad */
@@ -108,7 +108,7 @@ struct dem_config {
     /* [deposition] */
     enum dem_deposition_rule rule;
     double alpha_adh, critical_velocity;
-    size_t table_count;           /* v_crit(d) table, diameters ascending */
+    size_t table_count; /* v_crit(d) table, diameters ascending */
     double *table_diameter, *table_velocity;
 };
 
@@ -126,8 +126,8 @@ struct dem_impact {
     int64_t particle_id;
     double x[3], v_in[3], v_out[3], w_in[3], w_out[3];
     double d, m;
-    int64_t outcome;  /* enum dem_outcome */
-    int64_t partner;  /* -1 the target, else the deposited particle's id */
+    int64_t outcome; /* enum dem_outcome */
+    int64_t partner; /* -1 the target, else the deposited particle's id */
 };
 
 /* One row per crossing of the hand-off plane z = standoff - handoff_height (spray.h5:/handoff). */
@@ -146,7 +146,7 @@ struct dem_counts {
     int64_t contacts_pair, contacts_target, contacts_deposit;
     int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
     int64_t subcycled_particle_steps;
-    int64_t particle_steps;        /* flying particles advanced, summed over steps */
+    int64_t particle_steps; /* flying particles advanced, summed over steps */
 };
 
 struct dem_solver;
@@ -181,7 +181,7 @@ const struct dem_handoff *dem_handoffs(const struct dem_solver *s, size_t *count
 size_t dem_particle_count(const struct dem_solver *s);
 struct dem_particle_view {
     int64_t id;
-    int state;       /* enum dem_particle_state */
+    int state; /* enum dem_particle_state */
     double x[3], v[3], w[3], d, m;
 };
 struct dem_particle_view dem_particle(const struct dem_solver *s, size_t index);

@@ -28,7 +28,10 @@ struct dem_drag {
 };
 
 /* The ring slot at step `step` of the force `age` steps older than the one at the particle's state (age 0). */
-static inline int dem_drag_slot(int64_t step, int age) { return (int)((step + 3 - age) % 3); }
+static inline int dem_drag_slot(int64_t step, int age)
+{
+    return (int)((step + 3 - age) % 3);
+}
 
 /* A particle's drag (struct dem_drag) as the checkpoint's dataset "drag" holds it, one record per particle. */
 struct dem_drag_record {
@@ -39,22 +42,22 @@ struct dem_drag_record {
 /* Particles in flight and deposited, structure of arrays, in order of injection (= order of id). */
 struct dem_particles {
     size_t count, capacity;
-    double *x, *v, *w;     /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
-    double *x_start;       /* position at the start of the step, of the particles that collided in it
-                            * (dem/collide.c keep_start_velocity) or flew to a boundary (dem/integrate.c):
-                            * read only for those, for the hand-off crossings */
-    double *v_start;       /* velocity and spin at the start of the step, kept only for the particles that */
-    double *w_start;       /* collided in it (dem/collide.c): the hand-off rows of particles that stuck */
-    double *d, *m;         /* diameter (m), mass (kg) */
+    double *x, *v, *w; /* 3 per particle: position (m), velocity (m/s), spin (rad/s) */
+    double *x_start;   /* position at the start of the step, of the particles that collided in it
+                        * (dem/collide.c keep_start_velocity) or flew to a boundary (dem/integrate.c):
+                        * read only for those, for the hand-off crossings */
+    double *v_start;   /* velocity and spin at the start of the step, kept only for the particles that */
+    double *w_start;   /* collided in it (dem/collide.c): the hand-off rows of particles that stuck */
+    double *d, *m;     /* diameter (m), mass (kg) */
     int64_t *id;
-    uint8_t *state;        /* enum dem_particle_state */
+    uint8_t *state; /* enum dem_particle_state */
     struct dem_drag drag;
 };
 
 /* One entry per (particle, cell its swept box overlaps). */
 struct dem_bin_entry {
     int32_t cell[3];
-    uint32_t index;        /* particle index */
+    uint32_t index; /* particle index */
 };
 
 /* Swept-box hash grid: cubic cells of side `cell`; each particle is entered in every cell that its reach box
@@ -64,11 +67,11 @@ struct dem_bin_entry {
  * particle's swept box of the step stays inside its reach box (broadphase.c, like a Verlet list's skin). */
 struct dem_bins {
     double cell;
-    size_t bucket_count;          /* power of two */
-    uint32_t *bucket_start;       /* bucket_count + 1 */
+    size_t bucket_count;    /* power of two */
+    uint32_t *bucket_start; /* bucket_count + 1 */
     struct dem_bin_entry *entries;
     size_t entry_count, entry_capacity;
-    uint32_t *entry_bucket;       /* scratch for the counting sort */
+    uint32_t *entry_bucket; /* scratch for the counting sort */
     struct dem_bin_entry *scratch;
     /* the particles as built: reach boxes (corners lo and hi, x, y, z each), ids and flying flags.  Two arrays
      * of corners rather than one of boxes: gcc 12 vectorises reach_flags over stride-3 groups, not stride 6. */
@@ -83,15 +86,15 @@ struct dem_bins {
     /* Repairs between builds (broadphase.c): a particle whose reach box was renewed after the build (it left
      * the old one, or was injected) is in repaired_list; its grid entries are stale and skipped.  `failing`
      * is scratch: the particles renewed in this step. */
-    uint8_t *repaired;            /* per particle: 0 in the grid as built, else repaired */
+    uint8_t *repaired; /* per particle: 0 in the grid as built, else repaired */
     uint32_t *repaired_list, *failing;
     size_t repaired_count, failing_count;
-    uint32_t *pairs;              /* 2 per listed pair: lower index, higher index */
+    uint32_t *pairs; /* 2 per listed pair: lower index, higher index */
     size_t pair_count, pair_capacity;
-    double horizon;               /* steps covered by a reach box; 0: the step's swept box, no skin */
-    int64_t age;                  /* steps served since the build, not counting its own */
-    int64_t plain_builds;         /* builds with horizon 0 in a row */
-    int64_t builds, repairs;      /* for the statistics */
+    double horizon;          /* steps covered by a reach box; 0: the step's swept box, no skin */
+    int64_t age;             /* steps served since the build, not counting its own */
+    int64_t plain_builds;    /* builds with horizon 0 in a row */
+    int64_t builds, repairs; /* for the statistics */
 };
 
 /* Boxes are widened by this fraction of the radius so that rounding cannot drop a grazing contact. */
@@ -113,7 +116,7 @@ enum dem_contact_kind { CONTACT_TARGET = 0, CONTACT_PAIR = 1 };
 /* A contact found by the swept-sphere test: particles a (< b when both fly) touch at time s in the step. */
 struct dem_candidate {
     double s;
-    uint32_t a, b;        /* b unused for CONTACT_TARGET */
+    uint32_t a, b; /* b unused for CONTACT_TARGET */
     int kind;
 };
 
@@ -123,16 +126,16 @@ struct dem_candidates {
 };
 
 struct dem_solver {
-    struct dem_config cfg;        /* copy; table and file arrays are owned by the caller's config */
+    struct dem_config cfg; /* copy; table and file arrays are owned by the caller's config */
     double weibull_lambda;
     int64_t step;
     int64_t injected, escaped, deposited;
-    int64_t injection_deferred;   /* particles that found no free place in the nozzle disc */
+    int64_t injection_deferred; /* particles that found no free place in the nozzle disc */
     struct dem_particles p;
     struct dem_bins bins;
     struct dem_candidates candidates;
-    int reuse_drag;               /* start a step from the kept drag (struct dem_drag); 1 but in tests */
-    struct dem_timing timing;     /* contacts: all of dem_collide, the broad phase included (dem_get_timing) */
+    int reuse_drag;                   /* start a step from the kept drag (struct dem_drag); 1 but in tests */
+    struct dem_timing timing;         /* contacts: all of dem_collide, the broad phase included (dem_get_timing) */
     struct balance integrate_balance; /* the threads' shares of the drag integration (dem/integrate.c) */
     /* The particles flying at the start of the step, in index order (dem_collide lists them; the
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
@@ -150,16 +153,16 @@ struct dem_solver {
      * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity; valid only
      * where start_kept[i] is set (a particle whose velocity has not changed is on its start path: x at 0). */
     double *path_time, *path_x;
-    uint8_t *path_changed;        /* set when the path restarts; read by the next pass of contacts */
-    uint8_t *start_kept;          /* set when x_start, v_start and w_start of the particle hold this step's
-                                   * start (it collided) and its path restarted */
-    int contact_flags_set;        /* a start_kept or path_changed was set in this step (else all are 0: the
-                                   * step's end need not visit them) */
-    uint32_t *seen;               /* per particle: stamp of the last grid query that visited it (only equality
-                                   * with the current stamp counts; stamps grow from step to step) */
+    uint8_t *path_changed; /* set when the path restarts; read by the next pass of contacts */
+    uint8_t *start_kept;   /* set when x_start, v_start and w_start of the particle hold this step's
+                            * start (it collided) and its path restarted */
+    int contact_flags_set; /* a start_kept or path_changed was set in this step (else all are 0: the
+                            * step's end need not visit them) */
+    uint32_t *seen;        /* per particle: stamp of the last grid query that visited it (only equality
+                            * with the current stamp counts; stamps grow from step to step) */
     uint32_t seen_stamp;
     size_t path_capacity;
-    struct dem_counts stats;      /* cumulative contact and iteration counts */
+    struct dem_counts stats; /* cumulative contact and iteration counts */
     struct dem_impact *impacts;
     size_t impact_count, impact_capacity;
     struct dem_handoff *handoffs;
@@ -171,7 +174,7 @@ struct dem_solver {
 /* Loops over fewer particles (or pairs) than this run on one thread: opening a parallel region costs more
  * than they do, and far more on a loaded machine, where the threads wait for each other at its end.  The
  * drag integration, about a microsecond per particle, goes parallel from DEM_PARALLEL_MIN_INTEGRATE. */
-#define DEM_PARALLEL_MIN 2048
+#define DEM_PARALLEL_MIN           2048
 #define DEM_PARALLEL_MIN_INTEGRATE 512
 
 /* dem/particles.c */
@@ -181,7 +184,7 @@ void *dem_realloc_or_die(void *data, size_t bytes);
 void *dem_aligned_alloc_or_die(size_t alignment, size_t bytes);
 void dem_particles_reserve(struct dem_particles *p, size_t capacity);
 size_t dem_particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
-                        const double w[3], double d, double density);
+                            const double w[3], double d, double density);
 void dem_particles_free(struct dem_particles *p);
 /* Remove the particles removed[0, removed_count) (increasing indices), preserving the order of the others
  * (x_start, v_start, w_start excepted: they are scratch of the step and invalid after it). */
@@ -207,17 +210,16 @@ void dem_broadphase_compact(struct dem_bins *bins, const uint32_t *removed, size
  * parallel region every thread calls it, each with its own `out`, and each tests a share of the pairs (an
  * orphaned `omp for` without a barrier at its end); outside one, it tests them all. */
 void dem_broadphase_pairs(const struct dem_bins *bins, const struct dem_particles *p, double dt,
-                      struct dem_candidates *out);
+                          struct dem_candidates *out);
 /* First time s in [0, dt] at which |dx + dv s| = reach while approaching; -1 if none. */
 double dem_time_of_impact(const double dx[3], const double dv[3], double reach, double dt);
 /* Call visit(index, context) for every entry of the cells that the box [lo, hi] overlaps, and every
  * repaired particle whose reach box overlaps it (a particle may be visited more than once).  Returns 0, or
  * -1 without visiting if the box spans more than max_cells cells. */
 int dem_broadphase_visit_box(const struct dem_bins *bins, const double lo[3], const double hi[3], size_t max_cells,
-                         void (*visit)(uint32_t index, void *context), void *context);
+                             void (*visit)(uint32_t index, void *context), void *context);
 /* Append one contact to a list. */
 void dem_candidates_push(struct dem_candidates *list, double s, uint32_t a, uint32_t b, int kind);
-
 
 /* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */
 void dem_detect_contacts(struct dem_solver *s);
@@ -245,7 +247,10 @@ int dem_integrate_particles(const struct dem_config *cfg, struct dem_particles *
 
 /* The boundaries of the step's end (dem/solver.c), as tests of one particle after its integration; inline,
  * since dem_integrate asks them of every particle, in parallel. */
-static inline double dem_handoff_plane(const struct dem_config *cfg) { return cfg->standoff - cfg->handoff_height; }
+static inline double dem_handoff_plane(const struct dem_config *cfg)
+{
+    return cfg->standoff - cfg->handoff_height;
+}
 
 /* Did particle i cross the hand-off plane in this step (also a particle that crossed and stuck in it)? */
 static inline int dem_crossed_handoff(const struct dem_solver *s, uint32_t i)

@@ -16,7 +16,7 @@ double dem_drag_coefficient_haider_levenspiel(double reynolds)
 }
 
 void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
-                    double f[3])
+                        double f[3])
 {
     gas_eval_drag(gas, diameter, v, u, f);
 }

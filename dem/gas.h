@@ -6,7 +6,7 @@
 #ifndef SPRAYCOAT_DEM_GAS_H
 #define SPRAYCOAT_DEM_GAS_H
 
-#include "dem/dem.h"   /* struct dem_gas_field, dem_gas_velocity and dem_gas_drag_force are public */
+#include "dem/dem.h" /* struct dem_gas_field, dem_gas_velocity and dem_gas_drag_force are public */
 
 /* Haider & Levenspiel sphere drag, Eq. (25). */
 double dem_drag_coefficient_haider_levenspiel(double reynolds);

@@ -14,10 +14,10 @@
 #define GAS_PI 3.14159265358979323846
 
 /* Haider & Levenspiel (1989) sphere constants, Eq. (25). */
-#define HL_STOKES_CORRECTION 0.1806
-#define HL_STOKES_EXPONENT 0.6459
+#define HL_STOKES_CORRECTION  0.1806
+#define HL_STOKES_EXPONENT    0.6459
 #define HL_NEWTON_COEFFICIENT 0.4251
-#define HL_NEWTON_REYNOLDS 6880.95
+#define HL_NEWTON_REYNOLDS    6880.95
 
 /* sech^2(xi) and tanh(xi) from q = exp(-2|xi|) <= 1, which cannot overflow (cosh(xi) does for
  * |xi| > ~710): sech^2 = 4q/(1+q)^2, tanh = sign(xi) (1-q)/(1+q). */
@@ -81,7 +81,7 @@ FM_INLINE double gas_eval_reynolds_power(double reynolds)
 /* C_D * slip (m/s) for slip > 0, given Re and Re^0.6459: 24 nu / d in place of 24 / Re * slip, so that the
  * Stokes part needs no division by the slip. */
 FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct dem_gas_field *gas, double diameter, double slip,
-                                                          double reynolds, double reynolds_power)
+                                                      double reynolds, double reynolds_power)
 {
     double stokes_part = 24.0 * gas->kinematic_viscosity / diameter;
     double haider_levenspiel = stokes_part * (1.0 + HL_STOKES_CORRECTION * reynolds_power) +
@@ -97,7 +97,7 @@ FM_INLINE double gas_eval_reynolds(const struct dem_gas_field *gas, double diame
 /* Eq. (24): F = 1/2 rho_f (pi R^2) C_D(Re) |u - v| (u - v), Re = d |u - v| / nu_f, with the slip and Re^0.6459
  * already known.  No slip: no drag (and no 0/0 in Re). */
 FM_INLINE void gas_eval_drag_from_slip(const struct dem_gas_field *gas, double diameter, const double relative[3],
-                                           double slip, double reynolds_power, double f[3])
+                                       double slip, double reynolds_power, double f[3])
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
     double reynolds = gas_eval_reynolds(gas, diameter, slip);
@@ -117,7 +117,7 @@ FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double rela
 
 /* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] (Eq. 24). */
 FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
-                                 double f[3])
+                             double f[3])
 {
     double relative[3];
     double slip = gas_eval_slip(v, u, relative);
@@ -133,25 +133,24 @@ FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, c
  * dF/ds -> 1/2 rho_f A 24 nu / d = 3 pi mu d, the Stokes value.  Stokes alone: dF/ds = 3 pi mu d.
  * reynolds_power is Re^b at this slip (any value when slip is 0). */
 FM_INLINE double gas_eval_drag_slope(const struct dem_gas_field *gas, double diameter, double slip,
-                                         double reynolds_power)
+                                     double reynolds_power)
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
     double stokes_part = 24.0 * gas->kinematic_viscosity / diameter; /* 24/Re * s */
     double reynolds = gas_eval_reynolds(gas, diameter, slip);
     double newton_denominator = reynolds + HL_NEWTON_REYNOLDS;
     double haider_levenspiel =
-        stokes_part +
-        (stokes_part * HL_STOKES_CORRECTION * (1.0 + HL_STOKES_EXPONENT) * reynolds_power +
-         HL_NEWTON_COEFFICIENT * slip * reynolds * (2.0 * reynolds + 3.0 * HL_NEWTON_REYNOLDS) /
-             (newton_denominator * newton_denominator));
+        stokes_part + (stokes_part * HL_STOKES_CORRECTION * (1.0 + HL_STOKES_EXPONENT) * reynolds_power +
+                       HL_NEWTON_COEFFICIENT * slip * reynolds * (2.0 * reynolds + 3.0 * HL_NEWTON_REYNOLDS) /
+                           (newton_denominator * newton_denominator));
     int haider_levenspiel_law = (gas->drag == DEM_DRAG_HAIDER_LEVENSPIEL) & (slip > 0.0);
     double bracket_times_slip = fm_select(haider_levenspiel_law, haider_levenspiel, stokes_part);
     return 0.5 * gas->density * frontal_area * bracket_times_slip;
 }
 
 /* m / |dF/dv| (s), INFINITY for DEM_JET_NONE or no gas density: see dem_gas_response_time. */
-FM_INLINE double gas_eval_response_time(const struct dem_gas_field *gas, double density, double diameter,
-                                            double slip, double reynolds_power)
+FM_INLINE double gas_eval_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip,
+                                        double reynolds_power)
 {
     double slope = gas_eval_drag_slope(gas, diameter, slip, reynolds_power);
     double mass = density * GAS_PI * diameter * diameter * diameter / 6.0;

@@ -36,8 +36,7 @@ static void sample_velocity(const struct dem_solver *s, int64_t id, double v[3])
     v[2] = speed * cos_polar;
 }
 
-static int overlaps(const struct dem_particles *p, const size_t *near, size_t near_count, const double x[3],
-                    double d)
+static int overlaps(const struct dem_particles *p, const size_t *near, size_t near_count, const double x[3], double d)
 {
     for (size_t k = 0; k < near_count; k++) {
         size_t j = near[k];

@@ -89,14 +89,14 @@ FM_INLINE int eq53_holds(const struct eq53_squares *q, double tol)
 
 /* The constants of one phi-scheme step of length h (Eqs. 47-52) and its start state. */
 struct phi_problem {
-    double d;                           /* diameter */
-    double h_over_m_phi, h_phi;         /* h/m phi and h phi: the implicit parts */
-    double x0[3], v0[3];                /* start of the step */
+    double d;                            /* diameter */
+    double h_over_m_phi, h_phi;          /* h/m phi and h phi: the implicit parts */
+    double x0[3], v0[3];                 /* start of the step */
     double residual_x[3], residual_v[3]; /* the explicit parts, Eqs. 48 and 50 */
 };
 
-FM_INLINE void phi_problem_set(struct phi_problem *problem, double phi, double d, double m, double h,
-                                   const double x[3], const double v[3], const double force_start[3])
+FM_INLINE void phi_problem_set(struct phi_problem *problem, double phi, double d, double m, double h, const double x[3],
+                               const double v[3], const double force_start[3])
 {
     problem->d = d;
     problem->h_over_m_phi = h / m * phi;
@@ -106,7 +106,7 @@ FM_INLINE void phi_problem_set(struct phi_problem *problem, double phi, double d
         problem->x0[c] = x[c];
         problem->v0[c] = v[c];
         problem->residual_v[c] = v[c] + h_over_m_explicit * force_start[c]; /* Eq. 48 */
-        problem->residual_x[c] = x[c] + h_explicit * v[c];                 /* Eq. 50 */
+        problem->residual_x[c] = x[c] + h_explicit * v[c];                  /* Eq. 50 */
     }
 }
 
@@ -130,8 +130,8 @@ FM_INLINE struct eq53_squares phi_iterate(const struct phi_problem *problem, con
 
 /* The drag force f at (x, v), with the slip and Re^0.6459 there, from which the response time follows
  * (gas_eval_response_time). */
-FM_INLINE void drag_and_slip(const struct dem_gas_field *gas, double d, const double x[3], const double v[3], double f[3],
-                                 double *slip, double *reynolds_power)
+FM_INLINE void drag_and_slip(const struct dem_gas_field *gas, double d, const double x[3], const double v[3],
+                             double f[3], double *slip, double *reynolds_power)
 {
     double u[3], relative[3];
     gas_eval_velocity(gas, x, u);
@@ -246,8 +246,7 @@ static void integrate_subcycled(const struct dem_config *cfg, double d, double m
 
 /* The guess of the force at the end of the step from the last `chain` step-end forces (newest first: the start
  * force, then the ends of the two steps before).  The block engine's end_force_guess, as written there. */
-static void end_force_guess_one(int chain, const double force_start[3], const double previous[2][3],
-                                double guess[3])
+static void end_force_guess_one(int chain, const double force_start[3], const double previous[2][3], double guess[3])
 {
     for (int c = 0; c < 3; c++) {
         double newest = force_start[c], older = previous[0][c], oldest = previous[1][c];
@@ -446,7 +445,7 @@ static void block_start_forces(const struct dem_config *cfg, struct block *restr
 /* The force at the end of lane l's step extrapolated from its start force and the forces at the ends of the
  * steps before (a polynomial in time through the last `chain` step-end forces, at most quadratic). */
 FM_INLINE void end_force_guess(const struct block *b, int l, int all_quadratic, const double force_start[3],
-                                double guess[3])
+                               double guess[3])
 {
     int chain = all_quadratic ? 3 : b->chain[l];
     for (int c = 0; c < 3; c++) {

@@ -11,8 +11,7 @@ static double material_youngs_modulus(const struct dem_material *m)
 /* Isotropic elasticity: nu = (3K-2G)/(2(3K+G)). */
 static double material_poisson_ratio(const struct dem_material *m)
 {
-    return (3.0 * m->bulk_modulus - 2.0 * m->shear_modulus) /
-           (2.0 * (3.0 * m->bulk_modulus + m->shear_modulus));
+    return (3.0 * m->bulk_modulus - 2.0 * m->shear_modulus) / (2.0 * (3.0 * m->bulk_modulus + m->shear_modulus));
 }
 
 /* Compliance (1 - nu^2)/E of one body, the term each body adds to 1/E*. */

@@ -20,8 +20,8 @@ struct dem_metrics dem_compute_metrics(const struct dem_solver *s)
 {
     const struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
-    struct dem_metrics m = {.t = (double)s->step * cfg->dt, .injected = s->injected, .deposited = s->deposited,
-                            .escaped = s->escaped};
+    struct dem_metrics m = {
+        .t = (double)s->step * cfg->dt, .injected = s->injected, .deposited = s->deposited, .escaped = s->escaped};
     m.in_flight = s->injected - s->deposited - s->escaped;
     m.deposit_fraction = s->injected ? (double)s->deposited / (double)s->injected : 0.0;
     double region2 = cfg->deposit_radius * cfg->deposit_radius, volume = 0.0, spread_sum = 0.0;
@@ -71,8 +71,8 @@ void dem_sample_metrics(struct dem_solver *s)
 
 /* ---------------------------------------------------------------- column writers */
 
-static int write_column(hid_t group, const char *name, const void *rows, size_t count, size_t stride,
-                        size_t offset, int width, const char *units, int is_int)
+static int write_column(hid_t group, const char *name, const void *rows, size_t count, size_t stride, size_t offset,
+                        int width, const char *units, int is_int)
 {
     hsize_t dims[2] = {count, (hsize_t)width};
     int rank = width == 1 ? 1 : 2;
@@ -90,8 +90,10 @@ static int write_column(hid_t group, const char *name, const void *rows, size_t 
 }
 
 /* in a function with `int status` and a cleanup label `done` that closes the group */
-#define COLUMN(group, rows, count, type, field, width, units, is_int)                                       \
-    SC_CHECK(status, write_column(group, #field, rows, count, sizeof(type), offsetof(type, field), width, units, is_int), done)
+#define COLUMN(group, rows, count, type, field, width, units, is_int)                                                  \
+    SC_CHECK(status,                                                                                                   \
+             write_column(group, #field, rows, count, sizeof(type), offsetof(type, field), width, units, is_int),      \
+             done)
 
 static int write_impacts(hid_t file, const struct dem_solver *s)
 {
@@ -305,8 +307,7 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
     return SC_OK;
 }
 
-static int read_records(hid_t group, const char *name, void **items, size_t *count, size_t *capacity,
-                        size_t item_size)
+static int read_records(hid_t group, const char *name, void **items, size_t *count, size_t *capacity, size_t item_size)
 {
     size_t bytes;
     SC_TRY(h5_dataset_size(group, name, &bytes));

@@ -144,11 +144,13 @@ static int load_powder(const struct case_file *c, struct dem_config *cfg)
         return case_invalid(c, "powder", "d_min", "not below d_max = %g m", d_max);
     if (!sizes->monodisperse && sizes->d_max < INFINITY) {
         double scale = dem_weibull_scale(sizes->median_diameter, sizes->shape);
-        double mass = dem_weibull_cdf(sizes->d_max, scale, sizes->shape) - dem_weibull_cdf(sizes->d_min, scale, sizes->shape);
+        double mass =
+            dem_weibull_cdf(sizes->d_max, scale, sizes->shape) - dem_weibull_cdf(sizes->d_min, scale, sizes->shape);
         if (!(mass > 1e-12))
             return case_invalid(c, "powder", "d_max",
                                 "the range [d_min, d_max] holds no part of the Weibull distribution "
-                                "(median %g m, shape %g)", sizes->median_diameter, sizes->shape);
+                                "(median %g m, shape %g)",
+                                sizes->median_diameter, sizes->shape);
     }
     load_material(c, "powder", &cfg->powder);
     return SC_OK;
@@ -165,8 +167,10 @@ static int load_target(const struct case_file *c, struct dem_config *cfg)
     const struct dem_size_distribution *sizes = &cfg->sizes;
     double d_largest = sizes->monodisperse ? sizes->median_diameter : sizes->d_max;
     if (cfg->injection == DEM_INJECT_STREAM && d_largest < INFINITY && cfg->handoff_height <= 0.5 * d_largest)
-        return case_invalid(c, "spray", "handoff_height", "not above the largest particle radius %g m, so "
-                            "particle centres would never cross it", 0.5 * d_largest);
+        return case_invalid(c, "spray", "handoff_height",
+                            "not above the largest particle radius %g m, so "
+                            "particle centres would never cross it",
+                            0.5 * d_largest);
     return SC_OK;
 }
 
@@ -182,8 +186,9 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
         law->restitution = case_real(c, "contact", "restitution");
     }
     struct dem_gas_field *gas = &cfg->gas;
-    gas->model = case_is(c, "jet", "model", "bickley") ? DEM_JET_BICKLEY
-                 : case_is(c, "jet", "model", "uniform") ? DEM_JET_UNIFORM : DEM_JET_NONE;
+    gas->model = case_is(c, "jet", "model", "bickley")   ? DEM_JET_BICKLEY
+                 : case_is(c, "jet", "model", "uniform") ? DEM_JET_UNIFORM
+                                                         : DEM_JET_NONE;
     gas->drag = case_is(c, "jet", "drag", "stokes") ? DEM_DRAG_STOKES : DEM_DRAG_HAIDER_LEVENSPIEL;
     gas->c1 = case_real(c, "jet", "C1");
     gas->c3 = case_real(c, "jet", "C3");
@@ -200,7 +205,8 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
 static int check_jet(const struct case_file *c, const struct dem_gas_field *gas)
 {
     if (gas->model == DEM_JET_BICKLEY && !(gas->virtual_origin + gas->core_length > 0.0))
-        return case_invalid(c, "jet", "virtual_origin", "virtual_origin + core_length must be > 0 m (the jet of "
+        return case_invalid(c, "jet", "virtual_origin",
+                            "virtual_origin + core_length must be > 0 m (the jet of "
                             "Eqs. 26-27 is singular at its virtual origin)");
     return SC_OK;
 }
@@ -224,15 +230,15 @@ static int read_csv_columns(const struct case_file *c, const char *section, cons
 static int load_particles_file(const struct case_file *c, struct dem_config *cfg)
 {
     /* the ranges of the keys the columns stand for: positions as standoff and domain_radius (at most 100 m),
-     * velocities as release_speed_max (at most 1e4 m/s), d as d_min, d_max and median_diameter (at most 1 m; at least 1 nm, as no
-     * powder is finer: 1e-300 m passed the keys' range and stalled the run);
-     * spins at most 1e9 rad/s (no key) */
+     * velocities as release_speed_max (at most 1e4 m/s), d as d_min, d_max and median_diameter (at most 1 m; at least 1
+     * nm, as no powder is finer: 1e-300 m passed the keys' range and stalled the run); spins at most 1e9 rad/s (no key)
+     */
     static const struct csv_column columns[] = {
-        {"x", CSV_NUMBER, -100, 100, 0, "m", NULL},         {"y", CSV_NUMBER, -100, 100, 0, "m", NULL},
-        {"z", CSV_NUMBER, -100, 100, 0, "m", NULL},         {"vx", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
-        {"vy", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},      {"vz", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
-        {"wx", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},    {"wy", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},
-        {"wz", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},    {"d", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+        {"x", CSV_NUMBER, -100, 100, 0, "m", NULL},      {"y", CSV_NUMBER, -100, 100, 0, "m", NULL},
+        {"z", CSV_NUMBER, -100, 100, 0, "m", NULL},      {"vx", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
+        {"vy", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},   {"vz", CSV_NUMBER, -1e4, 1e4, 0, "m/s", NULL},
+        {"wx", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL}, {"wy", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL},
+        {"wz", CSV_NUMBER, -1e9, 1e9, 0, "rad/s", NULL}, {"d", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
     };
     if (!case_has(c, "spray", "particles"))
         return case_require(c, "spray", "particles", "injection = file");
@@ -245,8 +251,10 @@ static int load_particles_file(const struct case_file *c, struct dem_config *cfg
             return case_invalid(c, "spray", "particles", "%s: data row %zu: diameter d = %g m must be > 0",
                                 cfg->particles_path, i + 1, row[9]);
         if (row[2] + row[9] / 2 > cfg->standoff)
-            return case_invalid(c, "spray", "particles", "%s: data row %zu: the particle lies beyond the target "
-                                "plane z = %g m", cfg->particles_path, i + 1, cfg->standoff);
+            return case_invalid(c, "spray", "particles",
+                                "%s: data row %zu: the particle lies beyond the target "
+                                "plane z = %g m",
+                                cfg->particles_path, i + 1, cfg->standoff);
     }
     return SC_OK;
 }
@@ -284,7 +292,8 @@ done:
 
 static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
 {
-    /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at most 1e5 m/s) */
+    /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at
+     * most 1e5 m/s) */
     static const struct csv_column columns[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
                                                 {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
     char path[4096];
@@ -296,8 +305,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
         SC_TRY(read_table_h5(c, path, cfg));
     } else {
         double *rows = NULL;
-        SC_TRY(read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows,
-                                &cfg->table_count));
+        SC_TRY(
+            read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows, &cfg->table_count));
         cfg->table_diameter = malloc(cfg->table_count * sizeof(double));
         cfg->table_velocity = malloc(cfg->table_count * sizeof(double));
         if (!cfg->table_diameter || !cfg->table_velocity) {
@@ -314,8 +323,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
         if (!(cfg->table_diameter[i] > 0) || !(cfg->table_velocity[i] > 0) ||
             (i > 0 && !(cfg->table_diameter[i] > cfg->table_diameter[i - 1])))
             return case_invalid(c, "deposition", "table",
-                                "%s: row %zu: diameters must be positive and strictly increasing, v_crit > 0",
-                                path, i + 1);
+                                "%s: row %zu: diameters must be positive and strictly increasing, v_crit > 0", path,
+                                i + 1);
     }
     return SC_OK;
 }

@@ -16,14 +16,20 @@ static void *or_die(void *allocated, size_t bytes)
     return allocated;
 }
 
-void *dem_realloc_or_die(void *data, size_t bytes) { return or_die(realloc(data, bytes ? bytes : 1), bytes); }
+void *dem_realloc_or_die(void *data, size_t bytes)
+{
+    return or_die(realloc(data, bytes ? bytes : 1), bytes);
+}
 
 void *dem_aligned_alloc_or_die(size_t alignment, size_t bytes)
 {
     return or_die(aligned_alloc(alignment, bytes), bytes);
 }
 
-static void *resize(void *data, size_t count, size_t size) { return dem_realloc_or_die(data, count * size); }
+static void *resize(void *data, size_t count, size_t size)
+{
+    return dem_realloc_or_die(data, count * size);
+}
 
 /* Where each particle array starts within a page, in cache lines.  Large blocks come from mmap and start at
  * the same offset of a page, so element i of every array of doubles maps to the same set of the L1 cache:
@@ -33,9 +39,19 @@ static void *resize(void *data, size_t count, size_t size) { return dem_realloc_
  * doubles 12 apart, the bytes 1 apart. */
 enum { PAGE_BYTES = 4096, LINE_BYTES = 64 };
 enum particle_array {
-    ARRAY_X, ARRAY_V, ARRAY_W, ARRAY_X_START, ARRAY_V_START, ARRAY_W_START,
-    ARRAY_D, ARRAY_M, ARRAY_ID, ARRAY_DRAG, /* 11 of them */
-    ARRAY_STATE = ARRAY_DRAG + 11, ARRAY_KEPT, ARRAY_HISTORY_COUNT
+    ARRAY_X,
+    ARRAY_V,
+    ARRAY_W,
+    ARRAY_X_START,
+    ARRAY_V_START,
+    ARRAY_W_START,
+    ARRAY_D,
+    ARRAY_M,
+    ARRAY_ID,
+    ARRAY_DRAG, /* 11 of them */
+    ARRAY_STATE = ARRAY_DRAG + 11,
+    ARRAY_KEPT,
+    ARRAY_HISTORY_COUNT
 };
 
 static size_t stagger_lines(enum particle_array array)
@@ -124,7 +140,7 @@ void dem_particles_reserve(struct dem_particles *p, size_t capacity)
 }
 
 size_t dem_particles_append(struct dem_particles *p, int64_t id, const double x[3], const double v[3],
-                        const double w[3], double d, double density)
+                            const double w[3], double d, double density)
 {
     if (p->count == p->capacity)
         dem_particles_reserve(p, p->capacity ? 2 * p->capacity : 1024);
@@ -170,8 +186,8 @@ struct row_array {
 void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
 {
     enum { ARRAYS = 3 + DRAG_DOUBLE_ARRAYS + 6 };
-    struct row_array arrays[ARRAYS] = {{p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)},
-                                       {p->w, 3 * sizeof(double)}};
+    struct row_array arrays[ARRAYS] = {
+        {p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)}, {p->w, 3 * sizeof(double)}};
     double **drag_arrays[DRAG_DOUBLE_ARRAYS];
     drag_double_arrays(&p->drag, drag_arrays);
     for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++)
@@ -187,8 +203,8 @@ void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, siz
 
 void dem_particles_free(struct dem_particles *p)
 {
-    void *arrays[] = {p->x, p->v, p->w, p->x_start, p->v_start, p->w_start, p->d, p->m, p->id, p->state,
-                      p->drag.kept, p->drag.history_count};
+    void *arrays[] = {p->x, p->v, p->w,  p->x_start, p->v_start,   p->w_start,
+                      p->d, p->m, p->id, p->state,   p->drag.kept, p->drag.history_count};
     for (size_t a = 0; a < sizeof arrays / sizeof *arrays; a++)
         array_free(arrays[a]);
     double **drag_arrays[DRAG_DOUBLE_ARRAYS];

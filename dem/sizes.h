@@ -2,7 +2,7 @@
 #ifndef SPRAYCOAT_DEM_SIZES_H
 #define SPRAYCOAT_DEM_SIZES_H
 
-#include "dem/dem.h"   /* struct dem_size_distribution */
+#include "dem/dem.h" /* struct dem_size_distribution */
 
 /* lambda = D_median / ln(2)^(1/n), Eq. (37) */
 double dem_weibull_scale(double median_diameter, double shape);

@@ -23,7 +23,10 @@ int dem_create(const struct dem_config *cfg, struct dem_solver **out)
     return SC_OK;
 }
 
-void dem_reuse_drag(struct dem_solver *s, int reuse) { s->reuse_drag = reuse != 0; }
+void dem_reuse_drag(struct dem_solver *s, int reuse)
+{
+    s->reuse_drag = reuse != 0;
+}
 
 void dem_destroy(struct dem_solver *s)
 {
@@ -189,7 +192,10 @@ const struct dem_handoff *dem_handoffs(const struct dem_solver *s, size_t *count
     return s->handoffs;
 }
 
-size_t dem_particle_count(const struct dem_solver *s) { return s->p.count; }
+size_t dem_particle_count(const struct dem_solver *s)
+{
+    return s->p.count;
+}
 
 struct dem_particle_view dem_particle(const struct dem_solver *s, size_t index)
 {

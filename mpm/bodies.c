@@ -83,14 +83,13 @@ static void classify(const struct mpm_body *b, double dp, double tol, struct poi
         seed->normal[1] = seed->x[1] - b->center[1];
         seed->normal[2] = 0.0;
     }
-    double norm = sqrt(seed->normal[0] * seed->normal[0] + seed->normal[1] * seed->normal[1] +
-                       seed->normal[2] * seed->normal[2]);
+    double norm =
+        sqrt(seed->normal[0] * seed->normal[0] + seed->normal[1] * seed->normal[1] + seed->normal[2] * seed->normal[2]);
     for (int k = 0; k < 3 && norm > 0; k++)
         seed->normal[k] /= norm;
 }
 
-static int seed_body(const struct mpm_body *b, double dp, struct point_seed **seeds, size_t *count,
-                     size_t *capacity)
+static int seed_body(const struct mpm_body *b, double dp, struct point_seed **seeds, size_t *count, size_t *capacity)
 {
     long lo[3], hi[3];
     lattice_range(b, dp, lo, hi);

@@ -18,7 +18,10 @@
 
 #include "mpm/mpm_impl.h"
 
-static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+static double norm3(const double *a)
+{
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+}
 
 /* Nodal bonding parameter of one body, Eq. 4.6.  The equation weights the surface points' D_bond by N but
  * divides by their count, which makes D_bond(I) about D_bond/8 for equal values; the text calls it the
@@ -60,7 +63,7 @@ static enum pair_state pair_decide(const struct mpm_solver *s, size_t Ia, size_t
     if (pair_bonded(s, Ia, Ib))
         return PAIR_BONDED;
     const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
-    double approach = 0.0;   /* Eq. 3.29 divided by ma mb */
+    double approach = 0.0; /* Eq. 3.29 divided by ma mb */
     for (int d = 0; d < 3; d++)
         approach += (pa[d] / g->mass[Ia] - pb[d] / g->mass[Ib]) * n[d];
     return approach > 0.0 ? PAIR_CONTACT : PAIR_FREE;
@@ -73,7 +76,7 @@ static void pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const
     const struct mpm_grid *g = &s->grid;
     double ma = g->mass[Ia], mb = g->mass[Ib];
     const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
-    for (int d = 0; d < 3; d++)   /* Eq. 3.31 times dt: both bodies move with their common velocity */
+    for (int d = 0; d < 3; d++) /* Eq. 3.31 times dt: both bodies move with their common velocity */
         J[d] = (ma * pb[d] - mb * pa[d]) / (ma + mb);
     if (state == PAIR_BONDED || s->cfg.contact == MPM_CONTACT_STICK)
         return;
@@ -82,7 +85,7 @@ static void pair_impulse(const struct mpm_solver *s, size_t Ia, size_t Ib, const
     for (int d = 0; d < 3; d++)
         Jt[d] = J[d] - Jn * n[d];
     Jt_norm = norm3(Jt);
-    double scale = 0.0;   /* frictionless: the normal part only */
+    double scale = 0.0; /* frictionless: the normal part only */
     if (s->cfg.contact == MPM_CONTACT_FRICTION && Jt_norm > 0.0)
         scale = fmin(1.0, s->cfg.friction * fabs(Jn) / Jt_norm);
     for (int d = 0; d < 3; d++)

@@ -110,8 +110,9 @@ void mpm_verdicts(struct mpm_solver *s, int *bonded)
     const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
     for (int b = 0; b < d->body_count; b++) {
         const struct mpm_body_diagnostics *body = &d->body[b];
-        bonded[b] = s->cfg.bodies[b].substrate ? -1
-                    : body->pbcp >= s->cfg.pbcp_threshold && body->v_rest <= s->cfg.vrest_threshold;
+        bonded[b] = s->cfg.bodies[b].substrate
+                        ? -1
+                        : body->pbcp >= s->cfg.pbcp_threshold && body->v_rest <= s->cfg.vrest_threshold;
     }
 }
 
@@ -225,10 +226,19 @@ int mpm_series_record(struct mpm_solver *s)
     for (int b = 0; b < nb; b++) {
         const struct mpm_body_diagnostics *x = &d->body[b];
         double *r = row + SERIES_FIXED + (size_t)b * SERIES_PER_BODY;
-        double values[SERIES_PER_BODY] = {x->v_com[0], x->v_com[1], x->v_com[2], x->kinetic_energy,
-                                          x->internal_energy, x->plastic_work, x->mean_eps_p,
-                                          x->plastic_energy_density, x->pbcp, x->v_rest, x->mean_d_bond,
-                                          (double)x->contacted_points, (double)x->bonded_points};
+        double values[SERIES_PER_BODY] = {x->v_com[0],
+                                          x->v_com[1],
+                                          x->v_com[2],
+                                          x->kinetic_energy,
+                                          x->internal_energy,
+                                          x->plastic_work,
+                                          x->mean_eps_p,
+                                          x->plastic_energy_density,
+                                          x->pbcp,
+                                          x->v_rest,
+                                          x->mean_d_bond,
+                                          (double)x->contacted_points,
+                                          (double)x->bonded_points};
         memcpy(r, values, sizeof values);
     }
     return SC_OK;

@@ -47,7 +47,7 @@ static void ugimp_weight(double r, double h, double l, double *w, double *dw)
 }
 
 int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, double lp, const double x[3],
-                 struct stencil *st)
+                     struct stencil *st)
 {
     st->width = kind == MPM_UGIMP ? 3 : 2;
     for (int d = 0; d < 3; d++) {
@@ -69,9 +69,9 @@ int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, dou
 }
 
 /* What alloc_layers allocates for one node of one body's layer. */
-#define GRID_BYTES_PER_NODE_LAYER                                                                               \
-    (sizeof *((struct mpm_grid *)0)->mass + 15 * sizeof *((struct mpm_grid *)0)->momentum +                    \
-     sizeof *((struct mpm_grid *)0)->bond_sum + sizeof *((struct mpm_grid *)0)->bond_weight +                  \
+#define GRID_BYTES_PER_NODE_LAYER                                                                                      \
+    (sizeof *((struct mpm_grid *)0)->mass + 15 * sizeof *((struct mpm_grid *)0)->momentum +                            \
+     sizeof *((struct mpm_grid *)0)->bond_sum + sizeof *((struct mpm_grid *)0)->bond_weight +                          \
      sizeof *((struct mpm_grid *)0)->contact + sizeof *((struct mpm_grid *)0)->wall_held)
 
 static int alloc_layers(struct mpm_grid *g)
@@ -181,8 +181,10 @@ static int grid_box(const struct mpm_config *cfg, const struct mpm_points *p, st
     g->row = (size_t)g->n[0];
     g->plane = g->row * (size_t)g->n[1];
     if (g->nodes > (size_t)1 << 31)
-        SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
-                "box_margin", g->nodes, g->n[0], g->n[1], g->n[2]);
+        SC_FAIL(SC_EINPUT,
+                "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
+                "box_margin",
+                g->nodes, g->n[0], g->n[1], g->n[2]);
     return SC_OK;
 }
 
@@ -345,8 +347,8 @@ void mpm_grid_bin_points(struct mpm_solver *s)
         lo1 = st.base[1] < lo1 ? st.base[1] : lo1, hi1 = st.base[1] > hi1 ? st.base[1] : hi1;
         lo2 = st.base[2] < lo2 ? st.base[2] : lo2, hi2 = st.base[2] > hi2 ? st.base[2] : hi2;
         g->point_node[q] = (uint32_t)st.node;
-        g->point_block[q] = (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] +
-                                  (size_t)b[0]);
+        g->point_block[q] =
+            (int)(((size_t)b[2] * (size_t)g->blocks[1] + (size_t)b[1]) * (size_t)g->blocks[0] + (size_t)b[0]);
     }
     g->box = lo0 <= hi0 ? (struct node_box){.lo = {lo0, lo1, lo2}, .hi = {hi0 + last, hi1 + last, hi2 + last}}
                         : (struct node_box){.lo = {0, 0, 0}, .hi = {-1, -1, -1}}; /* no active point: empty */
@@ -424,8 +426,7 @@ static void scatter_all(struct mpm_solver *s, size_t q)
 
 /* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
  * start positions. */
-STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil,
-                                           int width)
+STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;

@@ -12,7 +12,7 @@
 #ifndef SPRAYCOAT_MPM_MATERIAL_H
 #define SPRAYCOAT_MPM_MATERIAL_H
 
-#include "mpm/mpm.h"   /* struct mpm_bulk_viscosity */
+#include "mpm/mpm.h" /* struct mpm_bulk_viscosity */
 
 enum mpm_strength { MPM_STRENGTH_PTW, MPM_STRENGTH_ELASTIC };
 
@@ -23,18 +23,18 @@ struct mpm_material {
     /* PTW, Tang Table 2.1 (dimensionless unless noted) */
     double ptw_theta, ptw_p, ptw_s0, ptw_sinf, ptw_kappa, ptw_gamma;
     double ptw_y0, ptw_yinf, ptw_y1, ptw_y2, ptw_beta;
-    double atomic_mass;         /* kg per atom */
-    double rate_floor;          /* 1/s: smallest plastic strain rate given to PTW (ln(gamma xi/rate) at rate 0) */
+    double atomic_mass; /* kg per atom */
+    double rate_floor;  /* 1/s: smallest plastic strain rate given to PTW (ln(gamma xi/rate) at rate 0) */
     /* MTS shear modulus G(T) = G0 - D / (exp(T0/T) - 1), Eq. 2.6 */
-    double G0, D, T0;           /* Pa, Pa, K */
+    double G0, D, T0; /* Pa, Pa, K */
     /* Mie-Grueneisen: bulk sound speed c0 (m/s), Hugoniot slope s, Grueneisen gamma0 */
     double eos_c0, eos_s, eos_gamma0;
     /* SCG melt: melt_T0 (K) at rho0, melt_a the first-order volume correction of gamma */
     double melt_T0, melt_a;
-    double specific_heat;       /* J/(kg K) */
-    double taylor_quinney;      /* fraction of plastic work turned into heat */
-    double T_initial;           /* K */
-    double bulk_modulus;        /* Pa, for wave speeds (time step, absorbing boundaries): rho0 c0^2 by default */
+    double specific_heat;  /* J/(kg K) */
+    double taylor_quinney; /* fraction of plastic work turned into heat */
+    double T_initial;      /* K */
+    double bulk_modulus;   /* Pa, for wave speeds (time step, absorbing boundaries): rho0 c0^2 by default */
 };
 
 /* ---- ptw.c ---- */
@@ -46,7 +46,7 @@ double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G);
  * at m->rate_floor), temperature T, melt temperature Tm, density rho and shear modulus G.  0 at or above melt.
  * When tau_s <= tau_y there is no hardening range and the flow stress is 2 G tau_s. */
 double mpm_ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
-                       double G);
+                           double G);
 
 /* The flow stress and its partial derivatives, for the Newton return of stress_update.c (mpm/ptw_lane.h). */
 struct ptw_flow {
@@ -81,24 +81,24 @@ double mpm_eos_pressure(const struct mpm_material *m, double rho, double energy_
 
 /* ---- stress_update.c ---- */
 struct mpm_point_state {
-    double stress[6];      /* Cauchy stress without the bulk viscosity: s - p I */
-    double pressure;       /* EOS pressure p (Pa) */
-    double viscosity;      /* artificial bulk viscosity q (Pa); the force uses stress - q I */
-    double eps_p;          /* effective plastic strain */
-    double T;              /* temperature, K */
-    double energy;         /* internal energy of the point, J (Eq. 3.39: e, not per volume) */
-    double rho;            /* density at the start of the step, kg/m3 (updated to rho_new) */
-    double yield_stress;   /* current flow stress, Pa */
-    double melted;         /* 1 once T >= Tm at the last update, else 0 */
+    double stress[6];         /* Cauchy stress without the bulk viscosity: s - p I */
+    double pressure;          /* EOS pressure p (Pa) */
+    double viscosity;         /* artificial bulk viscosity q (Pa); the force uses stress - q I */
+    double eps_p;             /* effective plastic strain */
+    double T;                 /* temperature, K */
+    double energy;            /* internal energy of the point, J (Eq. 3.39: e, not per volume) */
+    double rho;               /* density at the start of the step, kg/m3 (updated to rho_new) */
+    double yield_stress;      /* current flow stress, Pa */
+    double melted;            /* 1 once T >= Tm at the last update, else 0 */
     double plastic_increment; /* delta eps_p of the last update: the first guess of the next return */
 };
 
 /* What the update did, for diagnostics and bonding. */
 struct mpm_update_result {
-    double eps_p_increment;   /* delta eps_p >= 0 */
-    double von_mises;         /* von Mises stress after the update (Pa) */
-    double plastic_work;      /* J dissipated plastically this step: V sigma_y delta eps_p */
-    double energy_increment;  /* J: e^{n+1} - e^n */
+    double eps_p_increment;  /* delta eps_p >= 0 */
+    double von_mises;        /* von Mises stress after the update (Pa) */
+    double plastic_work;     /* J dissipated plastically this step: V sigma_y delta eps_p */
+    double energy_increment; /* J: e^{n+1} - e^n */
 };
 
 /* Update one material point over a step dt (Appendix A, Eqs. A1-A11).
@@ -106,19 +106,20 @@ struct mpm_update_result {
  *   spin_increment[3]:   Omega dt = skew(grad v) dt, components W_yz, W_xz, W_xy (W_ij = (dv_i/dx_j - dv_j/dx_i)/2)
  *   volume0, volume_old, volume_new: V0, V^n, V^{n+1} (m3); rho_new = rho0 V0 / volume_new
  * Returns 0, or -1 when the state became non-finite (the caller reports step and point). */
-int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q, const double strain_increment[6],
-                      const double spin_increment[3], double dt, double volume0, double volume_old,
-                      double volume_new, struct mpm_point_state *state, struct mpm_update_result *result);
+int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q,
+                      const double strain_increment[6], const double spin_increment[3], double dt, double volume0,
+                      double volume_old, double volume_new, struct mpm_point_state *state,
+                      struct mpm_update_result *result);
 
 /* Quantities of a material that are constant during a run, computed once per material (mpm_material_prepare)
  * and passed to mpm_stress_update_prepared instead of being recomputed for every point. */
 struct mpm_material_constants {
-    double G_initial;      /* G(T_initial), Eq. 2.6 */
-    double wave_speed;     /* mpm_material_wave_speed, for the bulk viscosity */
-    double log_rate_floor; /* ln(rate_floor) */
+    double G_initial;           /* G(T_initial), Eq. 2.6 */
+    double wave_speed;          /* mpm_material_wave_speed, for the bulk viscosity */
+    double log_rate_floor;      /* ln(rate_floor) */
     double log_gamma_xi_factor; /* ln(gamma (4 pi / (3 M))^(1/3) / 2): ln(gamma xi_dot) less ln(G^3/rho)/6 */
-    double melt_eta_low;   /* rho/rho0 above which Tm(rho) >= melt_T_low */
-    double melt_T_low;     /* a lower bound of Tm above melt_eta_low (0: none, Eq. 2.9 not monotone) */
+    double melt_eta_low;        /* rho/rho0 above which Tm(rho) >= melt_T_low */
+    double melt_T_low;          /* a lower bound of Tm above melt_eta_low (0: none, Eq. 2.9 not monotone) */
 };
 void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_constants *c);
 
@@ -156,8 +157,8 @@ struct mpm_return {
 /* What passes from mpm_stress_begin to mpm_stress_finish. */
 struct mpm_stress_work {
     double strain[6], s_rot[6], s_new[6]; /* strain increment, rotated and new deviatoric stress */
-    double volumetric, rho_new;          /* trace/3 of the strain increment, density at the end of the step */
-    double yield, d;                     /* flow stress and plastic increment of a point without return */
+    double volumetric, rho_new;           /* trace/3 of the strain increment, density at the end of the step */
+    double yield, d;                      /* flow stress and plastic increment of a point without return */
     int melted, returning;
     struct mpm_return ret;
 };

@@ -20,7 +20,7 @@
 
 #include "core/config.h"
 
-#define MPM_FORMAT "spraycoat-impact"
+#define MPM_FORMAT         "spraycoat-impact"
 #define MPM_FORMAT_VERSION 1
 
 enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
@@ -37,9 +37,9 @@ enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
 struct mpm_body {
     enum mpm_shape shape;
     double center[3], velocity[3];
-    double d, h;      /* diameter (or box side) and height (cylinder, box) */
-    int material;     /* index into mpm_config.materials */
-    int substrate;    /* 1 for the substrate body */
+    double d, h;   /* diameter (or box side) and height (cylinder, box) */
+    int material;  /* index into mpm_config.materials */
+    int substrate; /* 1 for the substrate body */
 };
 
 /* A material's constants (PTW strength, MTS shear modulus, Mie-Grueneisen EOS, SCG melt, heating): defined with
@@ -57,9 +57,9 @@ struct mpm_config {
     int material_count;
     struct mpm_material *materials;
     int body_count;
-    struct mpm_body *bodies;       /* the substrate first when it is a deformable body */
+    struct mpm_body *bodies; /* the substrate first when it is a deformable body */
     enum mpm_substrate substrate;
-    double substrate_top;          /* z of the rigid wall or the substrate's top (0) */
+    double substrate_top; /* z of the rigid wall or the substrate's top (0) */
     double grid, spacing, cfl, t_end, box_margin;
     enum mpm_shape_function shape_function;
     enum mpm_contact_law contact;
@@ -70,9 +70,9 @@ struct mpm_config {
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double snapshot_every, series_every;
     struct mpm_bulk_viscosity viscosity;
-    int absorbing;                 /* viscous absorbing boundaries on the substrate's bottom and sides */
-    int fixed_bottom;              /* nodes at and below the substrate's bottom face cannot move vertically */
-    double substrate_bottom;       /* z of that face */
+    int absorbing;           /* viscous absorbing boundaries on the substrate's bottom and sides */
+    int fixed_bottom;        /* nodes at and below the substrate's bottom face cannot move vertically */
+    double substrate_bottom; /* z of that face */
 };
 
 /* The keys of [impact] and [material.NAME] (NULL-key terminated). */
@@ -115,7 +115,7 @@ struct mpm_counts {
     double t, dt;
     int64_t points, active_points, removed_points;
     double removed_mass;
-    int64_t point_updates;      /* active points advanced, summed over steps */
+    int64_t point_updates; /* active points advanced, summed over steps */
     int64_t contact_node_steps, bonded_node_steps;
 };
 struct mpm_counts mpm_get_counts(const struct mpm_solver *s);
@@ -123,18 +123,18 @@ struct mpm_counts mpm_get_counts(const struct mpm_solver *s);
 /* Per-body diagnostics at the current state (Tang Chapter 5).  Arrays have body_count entries. */
 struct mpm_body_diagnostics {
     double mass, kinetic_energy, internal_energy, plastic_work;
-    double mean_eps_p, plastic_energy_density;   /* Eq. 4.15, J/m3, mass-weighted mean */
+    double mean_eps_p, plastic_energy_density; /* Eq. 4.15, J/m3, mass-weighted mean */
     double v_com[3];
-    double pbcp;                  /* Eq. 5.1: points with D >= 1 over points with D > 0 (0 when none) */
-    double v_rest;                /* mean v_z of points slower than vrest_filter (m/s, + away from the substrate) */
-    double mean_d_bond;           /* over surface points */
+    double pbcp;        /* Eq. 5.1: points with D >= 1 over points with D > 0 (0 when none) */
+    double v_rest;      /* mean v_z of points slower than vrest_filter (m/s, + away from the substrate) */
+    double mean_d_bond; /* over surface points */
     int64_t contacted_points, bonded_points;
 };
 struct mpm_diagnostics {
     double t;
     int body_count;
-    struct mpm_body_diagnostics *body;   /* owned by the solver; valid until the next call */
-    double energy_total;          /* kinetic + internal + absorbed by boundaries + carried away by removed points */
+    struct mpm_body_diagnostics *body; /* owned by the solver; valid until the next call */
+    double energy_total; /* kinetic + internal + absorbed by boundaries + carried away by removed points */
     double energy_absorbed, energy_removed, energy_initial;
 };
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
@@ -152,7 +152,7 @@ int mpm_write_snapshot(const struct mpm_solver *s, hid_t group);
 int mpm_write_results(struct mpm_solver *s, hid_t group);
 /* 1 when a snapshot is due at the current step (every snapshot_every, the first and the last step). */
 int mpm_snapshot_due(const struct mpm_solver *s);
-int64_t mpm_snapshot_index(const struct mpm_solver *s);   /* number of snapshots taken so far */
+int64_t mpm_snapshot_index(const struct mpm_solver *s); /* number of snapshots taken so far */
 void mpm_snapshot_taken(struct mpm_solver *s);
 
 /* Checkpoint: everything the next step needs, into an open group; read back into a solver made from the same

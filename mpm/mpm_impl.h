@@ -13,11 +13,11 @@
 #include "mpm/mpm.h"
 
 enum point_flags {
-    POINT_ACTIVE = 1,    /* inside the grid box; removed points keep their slot with this bit cleared */
-    POINT_SURFACE = 2,   /* on its body's surface at set-up (a lattice neighbour lies outside the body) */
-    POINT_BOTTOM = 4,    /* substrate point on the bottom face: absorbing boundary */
-    POINT_SIDE = 8,      /* substrate point on a side face: absorbing boundary, outward normal in `normal` */
-    POINT_CONTACT = 16,  /* surface point touching another body this step (x_p in S of Section 4.1.1) */
+    POINT_ACTIVE = 1,   /* inside the grid box; removed points keep their slot with this bit cleared */
+    POINT_SURFACE = 2,  /* on its body's surface at set-up (a lattice neighbour lies outside the body) */
+    POINT_BOTTOM = 4,   /* substrate point on the bottom face: absorbing boundary */
+    POINT_SIDE = 8,     /* substrate point on a side face: absorbing boundary, outward normal in `normal` */
+    POINT_CONTACT = 16, /* surface point touching another body this step (x_p in S of Section 4.1.1) */
 };
 
 /* Material points, structure of arrays.  The arrays are stored in a spatial order (point_order.c) that changes
@@ -26,12 +26,12 @@ enum point_flags {
 struct mpm_points {
     size_t count;
     uint32_t *id, *slot;
-    double *x, *v;                  /* 3 per point */
-    double *x_next;                 /* 3 per point: positions at the end of the step (swapped with x) */
+    double *x, *v;  /* 3 per point */
+    double *x_next; /* 3 per point: positions at the end of the step (swapped with x) */
     double *mass, *volume0, *volume;
-    double *d_bond;                 /* bonding parameter D_bond (Eq. 4.16a / 4.5) */
-    double *plastic_work;           /* J, accumulated: Eq. 4.15 times the volume */
-    double *normal;                 /* 3 per point: outward normal of a side face (POINT_SIDE) */
+    double *d_bond;       /* bonding parameter D_bond (Eq. 4.16a / 4.5) */
+    double *plastic_work; /* J, accumulated: Eq. 4.15 times the volume */
+    double *normal;       /* 3 per point: outward normal of a side face (POINT_SIDE) */
     struct mpm_point_state *state;
     int32_t *body;
     uint8_t *flags;
@@ -41,8 +41,8 @@ struct mpm_points {
 struct stencil {
     int base[3];
     int width;
-    size_t node;                    /* mpm_grid_node of base: node (a, b, c) of the stencil is node + a + b n0 + c n0 n1 */
-    double w[3][3], g[3][3];        /* per-direction weights and their derivatives */
+    size_t node;             /* mpm_grid_node of base: node (a, b, c) of the stencil is node + a + b n0 + c n0 n1 */
+    double w[3][3], g[3][3]; /* per-direction weights and their derivatives */
 };
 
 /* A box of grid nodes, lo[d] .. hi[d] inclusive (empty when lo[0] > hi[0]), walked in rows along x. */
@@ -79,18 +79,18 @@ static inline void *mpm_calloc_lines(size_t count, size_t size)
  * blocks of cells used for the fixed-order particle-to-grid transfer. */
 struct mpm_grid {
     double origin[3], h;
-    double inv_h;                    /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
+    double inv_h;                        /* 1 / h: the trilinear weight gradient, +-1/h (divided once, same bits) */
     double inside_from[3], inside_to[3]; /* grid_contains: the offsets x - origin it accepts, [from, to) */
     int n[3];
-    size_t row, plane;               /* n[0] and n[0] n[1]: the index steps in y and z (stencil_node) */
+    size_t row, plane; /* n[0] and n[0] n[1]: the index steps in y and z (stencil_node) */
     size_t nodes;
     int layers;
-    double mass_cutoff;              /* nodes lighter than this carry no velocity */
-    double *mass, *momentum, *momentum_new, *force, *gradient;   /* per layer; vectors 3 per node */
-    double *velocity;                /* per layer, 3 per node: momentum_new / mass after the re-projection */
-    double *bond_sum, *bond_weight;  /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
-    uint8_t *contact;                /* per layer: 1 where a contact or bond force acted this step */
-    uint8_t *wall_held;              /* per layer, substrate = rigid: 1 where the wall held the node this step */
+    double mass_cutoff;                                        /* nodes lighter than this carry no velocity */
+    double *mass, *momentum, *momentum_new, *force, *gradient; /* per layer; vectors 3 per node */
+    double *velocity;               /* per layer, 3 per node: momentum_new / mass after the re-projection */
+    double *bond_sum, *bond_weight; /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
+    uint8_t *contact;               /* per layer: 1 where a contact or bond force acted this step */
+    uint8_t *wall_held;             /* per layer, substrate = rigid: 1 where the wall held the node this step */
     /* The nodes of this step's stencils lie in `box` (all layers; mpm_grid_bin_points): the nodal loops run over it
      * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
      * of the fields' last step, the only nodes that mpm_grid_transfer_all has to clear (the whole grid at first). */
@@ -99,20 +99,19 @@ struct mpm_grid {
     int block_shift;
     int blocks[3];
     size_t block_count;
-    size_t *block_start;             /* block_count + 1 */
-    size_t *block_points;            /* point indices, by block, ascending within a block */
-    size_t *block_cursor;            /* sort_threads x block_count: mpm_grid_bin_points' counts and write cursors */
-    int sort_threads;                /* rows of block_cursor: the most threads mpm_grid_bin_points sorts with */
-    size_t *colour_blocks[8];        /* the blocks of each colour, ascending */
+    size_t *block_start;      /* block_count + 1 */
+    size_t *block_points;     /* point indices, by block, ascending within a block */
+    size_t *block_cursor;     /* sort_threads x block_count: mpm_grid_bin_points' counts and write cursors */
+    int sort_threads;         /* rows of block_cursor: the most threads mpm_grid_bin_points sorts with */
+    size_t *colour_blocks[8]; /* the blocks of each colour, ascending */
     size_t colour_count[8];
-    size_t *colour_points[8];        /* colour_count + 1 each: the points in the colour's blocks before each */
+    size_t *colour_points[8];            /* colour_count + 1 each: the points in the colour's blocks before each */
     struct balance colour_balance[2][8]; /* the threads' shares of each colour's points, per kind of transfer */
-    int *point_block;                /* block of each point this step (-1 inactive) */
+    int *point_block;                    /* block of each point this step (-1 inactive) */
     /* trilinear stencils of this step, cached by mpm_grid_bin_points (the positions stay until the step's end) */
-    uint32_t *point_node;            /* base node of each active point (nodes < 2^31, mpm_grid_create) */
-    double *point_fraction;          /* 3 per point: x/h - base, the weights being 1 - f and f (Eq. 3.20) */
+    uint32_t *point_node;   /* base node of each active point (nodes < 2^31, mpm_grid_create) */
+    double *point_fraction; /* 3 per point: x/h - base, the weights being 1 - f and f (Eq. 3.20) */
 };
-
 
 struct series_row;
 
@@ -120,9 +119,9 @@ struct mpm_solver {
     struct mpm_config cfg;
     struct mpm_points points;
     struct mpm_grid grid;
-    double wave_speed_max;           /* largest longitudinal wave speed of the materials */
+    double wave_speed_max;                             /* largest longitudinal wave speed of the materials */
     struct mpm_material_constants *material_constants; /* one per material, for the stress update */
-    double lp;                       /* uGIMP half-width of a point's domain, dp/2 */
+    double lp;                                         /* uGIMP half-width of a point's domain, dp/2 */
     /* time */
     int64_t step;
     double t, dt;
@@ -143,11 +142,11 @@ struct mpm_solver {
     double removed_mass, energy_absorbed, energy_removed, energy_initial;
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;
-    double *body_dashpot;            /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
-    size_t *boundary_points;         /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
+    double *body_dashpot;    /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
+    size_t *boundary_points; /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
-    double *boundary_work;           /* per boundary point: the dashpot's work of the step (mpm_book_absorbed_energy) */
-    struct balance update_balance;   /* the threads' shares of the point update (update_points) */
+    double *boundary_work;         /* per boundary point: the dashpot's work of the step (mpm_book_absorbed_energy) */
+    struct balance update_balance; /* the threads' shares of the point update (update_points) */
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;
@@ -156,9 +155,10 @@ struct mpm_solver {
     struct mpm_body_diagnostics *body_diagnostics;
 };
 
-#define SERIES_FIXED 4      /* t, energy_total, energy_absorbed, energy_removed */
-#define SERIES_PER_BODY 13  /* v_com[3], ke, internal, plastic_work, mean_eps_p, ped, pbcp, v_rest, mean_d_bond,
-                               contacted, bonded */
+#define SERIES_FIXED 4 /* t, energy_total, energy_absorbed, energy_removed */
+#define SERIES_PER_BODY                                                                                                \
+    13 /* v_com[3], ke, internal, plastic_work, mean_eps_p, ped, pbcp, v_rest, mean_d_bond,                            \
+          contacted, bonded */
 
 /* bodies.c */
 int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points);
@@ -178,7 +178,7 @@ int mpm_grid_bytes(const struct mpm_config *cfg, const struct mpm_points *points
 void mpm_grid_free(struct mpm_grid *grid);
 /* Stencil of a point at x; 0, or -1 when the stencil leaves the grid. */
 int mpm_grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
-                 struct stencil *st);
+                     struct stencil *st);
 size_t mpm_grid_node(const struct mpm_grid *grid, int i, int j, int k);
 /* Whether mpm_grid_stencil would succeed at x (the point's stencil lies inside the grid): 1 < (x - origin) / h <
  * n - 2 in every direction, decided without the divisions by the least offsets that pass and fail
@@ -269,7 +269,10 @@ typedef double vec3pad __attribute__((vector_size(4 * sizeof(double))));
 /* Node I of a field with 3 doubles per node into *v, with the first double of node I + 1 as the pad lane (the
  * fields are allocated with one double to spare, alloc_layers).  The helpers take vectors by pointer: a vector
  * passed by value has another ABI with AVX than without (gcc's -Wpsabi, an error in the x86-64-v2 build). */
-static inline void node_vector(vec3pad *v, const double *field, size_t I) { memcpy(v, field + 3 * I, sizeof *v); }
+static inline void node_vector(vec3pad *v, const double *field, size_t I)
+{
+    memcpy(v, field + 3 * I, sizeof *v);
+}
 /* Adds the first three lanes of *a to node I of a field with 3 doubles per node (the pad lane is not stored). */
 static inline void node_add(double *field, size_t I, const vec3pad *a)
 {

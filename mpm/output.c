@@ -34,17 +34,39 @@ static void gather(const struct mpm_points *p, enum field f, double *out)
             continue;
         const struct mpm_point_state *s = &p->state[q];
         switch (f) {
-        case F_X: memcpy(out + 3 * k, p->x + 3 * q, 3 * sizeof *out); break;
-        case F_V: memcpy(out + 3 * k, p->v + 3 * q, 3 * sizeof *out); break;
-        case F_EPS_P: out[k] = s->eps_p; break;
-        case F_T: out[k] = s->T; break;
-        case F_D_BOND: out[k] = p->d_bond[q]; break;
-        case F_PRESSURE: out[k] = s->pressure; break;
-        case F_VON_MISES: out[k] = von_mises(s->stress); break;
-        case F_RHO: out[k] = s->rho; break;
-        case F_BODY: out[k] = p->body[q]; break;
-        case F_ID: out[k] = (double)i; break;
-        case F_SURFACE: out[k] = (p->flags[q] & POINT_SURFACE) != 0; break;
+        case F_X:
+            memcpy(out + 3 * k, p->x + 3 * q, 3 * sizeof *out);
+            break;
+        case F_V:
+            memcpy(out + 3 * k, p->v + 3 * q, 3 * sizeof *out);
+            break;
+        case F_EPS_P:
+            out[k] = s->eps_p;
+            break;
+        case F_T:
+            out[k] = s->T;
+            break;
+        case F_D_BOND:
+            out[k] = p->d_bond[q];
+            break;
+        case F_PRESSURE:
+            out[k] = s->pressure;
+            break;
+        case F_VON_MISES:
+            out[k] = von_mises(s->stress);
+            break;
+        case F_RHO:
+            out[k] = s->rho;
+            break;
+        case F_BODY:
+            out[k] = p->body[q];
+            break;
+        case F_ID:
+            out[k] = (double)i;
+            break;
+        case F_SURFACE:
+            out[k] = (p->flags[q] & POINT_SURFACE) != 0;
+            break;
         }
         k++;
     }
@@ -52,11 +74,24 @@ static void gather(const struct mpm_points *p, enum field f, double *out)
 
 int mpm_write_snapshot(const struct mpm_solver *s, hid_t group)
 {
-    static const struct { const char *name; enum field field; int width; const char *units; int integer; } fields[] = {
-        {"x", F_X, 3, "m", 0},           {"v", F_V, 3, "m/s", 0},          {"eps_p", F_EPS_P, 1, "-", 0},
-        {"T", F_T, 1, "K", 0},           {"D_bond", F_D_BOND, 1, "-", 0},  {"pressure", F_PRESSURE, 1, "Pa", 0},
-        {"von_mises", F_VON_MISES, 1, "Pa", 0}, {"rho", F_RHO, 1, "kg/m3", 0}, {"body", F_BODY, 1, "-", 1},
-        {"id", F_ID, 1, "-", 1},         {"surface", F_SURFACE, 1, "-", 1},
+    static const struct {
+        const char *name;
+        enum field field;
+        int width;
+        const char *units;
+        int integer;
+    } fields[] = {
+        {"x", F_X, 3, "m", 0},
+        {"v", F_V, 3, "m/s", 0},
+        {"eps_p", F_EPS_P, 1, "-", 0},
+        {"T", F_T, 1, "K", 0},
+        {"D_bond", F_D_BOND, 1, "-", 0},
+        {"pressure", F_PRESSURE, 1, "Pa", 0},
+        {"von_mises", F_VON_MISES, 1, "Pa", 0},
+        {"rho", F_RHO, 1, "kg/m3", 0},
+        {"body", F_BODY, 1, "-", 1},
+        {"id", F_ID, 1, "-", 1},
+        {"surface", F_SURFACE, 1, "-", 1},
     };
     const struct mpm_points *p = &s->points;
     size_t n = active_count(p);
@@ -75,10 +110,10 @@ int mpm_write_snapshot(const struct mpm_solver *s, hid_t group)
                 integers[k] = (int64_t)buffer[k];
             SC_CHECK(status, h5_write_int64s(group, fields[f].name, 1, dims, integers, fields[f].units, 0), done);
         } else {
-            SC_CHECK(status,
-                     h5_write_doubles(group, fields[f].name, fields[f].width == 3 ? 2 : 1, dims, buffer,
-                                      fields[f].units, 0),
-                     done);
+            SC_CHECK(
+                status,
+                h5_write_doubles(group, fields[f].name, fields[f].width == 3 ? 2 : 1, dims, buffer, fields[f].units, 0),
+                done);
         }
     }
     SC_CHECK(status, h5_attr_write_double(group, "t", s->t), done);
@@ -96,15 +131,26 @@ static void series_column(const struct mpm_solver *s, int column, double *out)
     size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
     for (size_t r = 0; r < s->series_rows; r++)
         for (int b = 0; b < nb; b++)
-            out[r * (size_t)nb + (size_t)b] = s->series[r * width + SERIES_FIXED + (size_t)b * SERIES_PER_BODY + column];
+            out[r * (size_t)nb + (size_t)b] =
+                s->series[r * width + SERIES_FIXED + (size_t)b * SERIES_PER_BODY + column];
 }
 
 static int write_series(const struct mpm_solver *s, hid_t group)
 {
-    static const struct { const char *name; int column; const char *units; } per_body[] = {
-        {"ke", 3, "J"},           {"internal_energy", 4, "J"}, {"plastic_work", 5, "J"},
-        {"mean_eps_p", 6, "-"},   {"plastic_energy_density", 7, "J/m3"}, {"pbcp", 8, "-"},
-        {"v_rest", 9, "m/s"},     {"mean_d_bond", 10, "-"},    {"contacted_points", 11, "-"},
+    static const struct {
+        const char *name;
+        int column;
+        const char *units;
+    } per_body[] = {
+        {"ke", 3, "J"},
+        {"internal_energy", 4, "J"},
+        {"plastic_work", 5, "J"},
+        {"mean_eps_p", 6, "-"},
+        {"plastic_energy_density", 7, "J/m3"},
+        {"pbcp", 8, "-"},
+        {"v_rest", 9, "m/s"},
+        {"mean_d_bond", 10, "-"},
+        {"contacted_points", 11, "-"},
         {"bonded_points", 12, "-"},
     };
     size_t nt = s->series_rows, nb = (size_t)s->cfg.body_count, width = SERIES_FIXED + nb * SERIES_PER_BODY;
@@ -128,7 +174,8 @@ static int write_series(const struct mpm_solver *s, hid_t group)
     for (size_t r = 0; r < nt; r++)
         for (size_t b = 0; b < nb; b++)
             for (int d = 0; d < 3; d++)
-                buffer[(r * nb + b) * 3 + (size_t)d] = s->series[r * width + SERIES_FIXED + b * SERIES_PER_BODY + (size_t)d];
+                buffer[(r * nb + b) * 3 + (size_t)d] =
+                    s->series[r * width + SERIES_FIXED + b * SERIES_PER_BODY + (size_t)d];
     hsize_t dims[3] = {nt, nb, 3};
     SC_CHECK(status, h5_write_doubles(group, "v_com", 3, dims, buffer, "m/s", 0), done);
 done:
@@ -155,7 +202,7 @@ static int write_summary(struct mpm_solver *s, hid_t group)
         v_impact[b] = s->body_speed[b];
         pbcp[b] = d->body[b].pbcp;
         v_rest[b] = d->body[b].v_rest;
-        cor[b] = v_impact[b] > 0 ? v_rest[b] / v_impact[b] : NAN;   /* restitution ratio */
+        cor[b] = v_impact[b] > 0 ? v_rest[b] / v_impact[b] : NAN; /* restitution ratio */
         bonded[b] = verdict[b];
         substrate[b] = s->cfg.bodies[b].substrate;
     }
@@ -198,8 +245,14 @@ done:
     return status;
 }
 
-static int series_writer(struct mpm_solver *s, hid_t g) { return write_series(s, g); }
-static int stats_writer(struct mpm_solver *s, hid_t g) { return write_stats(s, g); }
+static int series_writer(struct mpm_solver *s, hid_t g)
+{
+    return write_series(s, g);
+}
+static int stats_writer(struct mpm_solver *s, hid_t g)
+{
+    return write_stats(s, g);
+}
 
 int mpm_write_results(struct mpm_solver *s, hid_t parent)
 {
@@ -211,7 +264,7 @@ int mpm_write_results(struct mpm_solver *s, hid_t parent)
 
 /* ---- checkpoints ---- */
 
-#define CHECKPOINT_DOUBLES 12
+#define CHECKPOINT_DOUBLES  12
 #define CHECKPOINT_INTEGERS 7
 
 /* A copy of a per-point array (size bytes a point) in id order: checkpoints hold the points in set-up order,
@@ -225,8 +278,8 @@ static void *in_id_order(const struct mpm_points *p, const void *data, size_t si
     return out;
 }
 
-static int write_point_doubles(hid_t g, const char *name, const struct mpm_points *p, const double *data,
-                               int width, const char *units)
+static int write_point_doubles(hid_t g, const char *name, const struct mpm_points *p, const double *data, int width,
+                               const char *units)
 {
     hsize_t dims[2] = {p->count, (hsize_t)width};
     double *ordered = in_id_order(p, data, (size_t)width * sizeof *data);
@@ -252,10 +305,21 @@ static int write_point_bytes(hid_t g, const char *name, const struct mpm_points 
 int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
 {
     const struct mpm_points *p = &s->points;
-    double scalars[CHECKPOINT_DOUBLES] = {s->t, s->dt, s->next_series, s->next_snapshot, s->removed_mass,
-                                          s->energy_absorbed, s->energy_removed, s->energy_initial, 0, 0, 0, 0};
-    int64_t integers[CHECKPOINT_INTEGERS] = {s->step, s->snapshot_count, s->snapshot_pending, s->removed_points,
-                                             s->point_updates, s->contact_node_steps, s->bonded_node_steps};
+    double scalars[CHECKPOINT_DOUBLES] = {s->t,
+                                          s->dt,
+                                          s->next_series,
+                                          s->next_snapshot,
+                                          s->removed_mass,
+                                          s->energy_absorbed,
+                                          s->energy_removed,
+                                          s->energy_initial,
+                                          0,
+                                          0,
+                                          0,
+                                          0};
+    int64_t integers[CHECKPOINT_INTEGERS] = {
+        s->step,          s->snapshot_count,     s->snapshot_pending, s->removed_points,
+        s->point_updates, s->contact_node_steps, s->bonded_node_steps};
     hsize_t ds[1] = {CHECKPOINT_DOUBLES}, is[1] = {CHECKPOINT_INTEGERS};
     size_t width = SERIES_FIXED + (size_t)s->cfg.body_count * SERIES_PER_BODY;
     hsize_t series_dims[2] = {s->series_rows, width};

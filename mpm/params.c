@@ -48,9 +48,11 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
      "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none"},
     {"impact", "Gc", CFG_REAL, "J/m2", "1500", 0, 1e9, 1, NULL,
-     "critical surface adhesion energy G_c, Eq. 4.16b (default from the sweep in docs/physics.md, \"Bonding calibration\")"},
+     "critical surface adhesion energy G_c, Eq. 4.16b (default from the sweep in docs/physics.md, \"Bonding "
+     "calibration\")"},
     {"impact", "Gc_rate", CFG_REAL, "J/m2/s", "2e11", 0, 1e30, 1, NULL,
-     "critical adhesion energy rate dG_c/dt, Eq. 4.16b (default from the sweep in docs/physics.md; not the printed value)"},
+     "critical adhesion energy rate dG_c/dt, Eq. 4.16b (default from the sweep in docs/physics.md; not the printed "
+     "value)"},
     {"impact", "eps_c", CFG_REAL, "-", "1.4", 0, 1e3, 1, NULL, "critical bonding strain, Eq. 4.4"},
     {"impact", "eps_rate_c", CFG_REAL, "1/s", "1.35e9", 0, 1e20, 1, NULL, "critical bonding strain rate, Eq. 4.4"},
     {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
@@ -91,8 +93,7 @@ const struct cfg_key mpm_case_keys[] = {
     {MAT, "G0", CFG_REAL, "Pa", "28.8e9", 0, 1e13, 1, NULL, "MTS shear modulus at 0 K, Eq. 2.6"},
     {MAT, "D", CFG_REAL, "Pa", "3.44e9", 0, 1e13, 0, NULL, "MTS constant D, Eq. 2.6"},
     {MAT, "T0", CFG_REAL, "K", "215", 0, 1e5, 1, NULL, "MTS temperature constant T0, Eq. 2.6"},
-    {MAT, "eos_c0", CFG_REAL, "m/s", "5240", 0, 1e5, 1, NULL,
-     "Mie-Grueneisen bulk sound speed c0 (Steinberg 6061-T6)"},
+    {MAT, "eos_c0", CFG_REAL, "m/s", "5240", 0, 1e5, 1, NULL, "Mie-Grueneisen bulk sound speed c0 (Steinberg 6061-T6)"},
     {MAT, "eos_s", CFG_REAL, "-", "1.4", 0, 10, 0, NULL, "Mie-Grueneisen Hugoniot slope s (Steinberg 6061-T6)"},
     {MAT, "eos_gamma0", CFG_REAL, "-", "1.97", 0, 10, 0, NULL, "Grueneisen gamma0 (Steinberg 6061-T6)"},
     {MAT, "melt_T0", CFG_REAL, "K", "933", 0, 1e5, 1, NULL, "SCG melt temperature at rho0, Eq. 2.9 (pure Al)"},
@@ -112,14 +113,17 @@ static int load_material(const struct case_file *c, const char *key, const char 
     char section[96];
     /* "Al.6061" or "steel 316" cannot name a [material.NAME] section: say so instead of looking it up */
     if (!case_valid_name(name))
-        return case_invalid(c, "impact", key, "not a valid material name; allowed: " CASE_NAME_ALLOWED " (the NAME of "
+        return case_invalid(c, "impact", key,
+                            "not a valid material name; allowed: " CASE_NAME_ALLOWED " (the NAME of "
                             "a [material.NAME] section)");
     if (strlen(name) >= sizeof m->name)
         return case_invalid(c, "impact", key, "material name longer than %zu characters", sizeof m->name - 1);
     snprintf(section, sizeof section, "material.%s", name);
     if (!case_has(c, section, "density"))
-        return case_invalid(c, "impact", key, "no [%s] section in the case (its keys default to Tang's Al; an "
-                            "empty section is enough)", section);
+        return case_invalid(c, "impact", key,
+                            "no [%s] section in the case (its keys default to Tang's Al; an "
+                            "empty section is enough)",
+                            section);
     memset(m, 0, sizeof *m);
     snprintf(m->name, sizeof m->name, "%s", name);
     m->strength = case_is(c, section, "strength", "elastic") ? MPM_STRENGTH_ELASTIC : MPM_STRENGTH_PTW;
@@ -158,8 +162,10 @@ static int load_material(const struct case_file *c, const char *key, const char 
         m->bulk_modulus = 2.0 * mpm_mts_shear_modulus(m, m->T_initial) * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
     }
     if (!(mpm_mts_shear_modulus(m, m->T_initial) > 0.0))
-        return case_invalid(c, section, "D", "the shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial "
-                            "= %g K", m->T_initial);
+        return case_invalid(c, section, "D",
+                            "the shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial "
+                            "= %g K",
+                            m->T_initial);
     if (m->ptw_sinf > m->ptw_s0)
         return case_invalid(c, section, "ptw_sinf", "above ptw_s0 = %g", m->ptw_s0);
     if (m->ptw_yinf > m->ptw_y0)
@@ -198,7 +204,8 @@ static int add_body(struct mpm_config *cfg, const struct mpm_body *body)
 static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->substrate = case_is(c, "impact", "substrate", "rigid") ? MPM_SUBSTRATE_RIGID
-                     : case_is(c, "impact", "substrate", "box") ? MPM_SUBSTRATE_BOX : MPM_SUBSTRATE_CYLINDER;
+                     : case_is(c, "impact", "substrate", "box") ? MPM_SUBSTRATE_BOX
+                                                                : MPM_SUBSTRATE_CYLINDER;
     cfg->substrate_top = 0.0;
     if (cfg->substrate == MPM_SUBSTRATE_RIGID)
         return SC_OK;
@@ -213,8 +220,10 @@ static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
     cfg->substrate_bottom = -body.h;
     SC_TRY(material_index(c, "substrate_material", case_text(c, "impact", "substrate_material"), cfg, &body.material));
     if (body.d < 2.0 * cfg->spacing || body.h < 2.0 * cfg->spacing)
-        return case_invalid(c, "impact", "substrate_height", "the substrate must be at least two point spacings "
-                            "(%g m) across", 2.0 * cfg->spacing);
+        return case_invalid(c, "impact", "substrate_height",
+                            "the substrate must be at least two point spacings "
+                            "(%g m) across",
+                            2.0 * cfg->spacing);
     return add_body(cfg, &body);
 }
 
@@ -226,14 +235,15 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->t_end = case_real(c, "impact", "t_end");
     cfg->box_margin = case_real(c, "impact", "box_margin");
     cfg->shape_function = case_is(c, "impact", "shape_functions", "ugimp") ? MPM_UGIMP : MPM_LINEAR;
-    cfg->contact = case_is(c, "impact", "contact", "stick")     ? MPM_CONTACT_STICK
+    cfg->contact = case_is(c, "impact", "contact", "stick")      ? MPM_CONTACT_STICK
                    : case_is(c, "impact", "contact", "friction") ? MPM_CONTACT_FRICTION
                                                                  : MPM_CONTACT_FRICTIONLESS;
-    cfg->contact_scheme = case_is(c, "impact", "contact_scheme", "consistent") ? MPM_CONTACT_CONSISTENT
-                                                                                : MPM_CONTACT_THESIS;
+    cfg->contact_scheme =
+        case_is(c, "impact", "contact_scheme", "consistent") ? MPM_CONTACT_CONSISTENT : MPM_CONTACT_THESIS;
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN
-                   : case_is(c, "impact", "bonding", "none") ? MPM_BONDING_NONE : MPM_BONDING_ENERGY;
+                   : case_is(c, "impact", "bonding", "none") ? MPM_BONDING_NONE
+                                                             : MPM_BONDING_ENERGY;
     cfg->Gc = case_real(c, "impact", "Gc");
     cfg->Gc_rate = case_real(c, "impact", "Gc_rate");
     cfg->eps_c = case_real(c, "impact", "eps_c");
@@ -251,14 +261,16 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
         return case_invalid(c, "impact", "spacing", "larger than the grid cell %g m; allowed: at most DCell",
                             cfg->grid);
     if (cfg->grid / cfg->spacing > 16.0)
-        return case_invalid(c, "impact", "spacing", "more than 16 points per cell edge (DCell = %g m); allowed: "
-                            "spacing >= DCell/16", cfg->grid);
+        return case_invalid(c, "impact", "spacing",
+                            "more than 16 points per cell edge (DCell = %g m); allowed: "
+                            "spacing >= DCell/16",
+                            cfg->grid);
     return SC_OK;
 }
 
 /* The bodies CSV's columns, with the ranges of the [impact] keys they stand for (positions and sizes as
- * substrate_diameter and diameter: at most 1 m, and d at least 1 nm; velocities as velocity: at most 1e5 m/s).  The order is the
- * order of the fields of struct mpm_body's set-up below; a file may list the columns in any order. */
+ * substrate_diameter and diameter: at most 1 m, and d at least 1 nm; velocities as velocity: at most 1e5 m/s).  The
+ * order is the order of the fields of struct mpm_body's set-up below; a file may list the columns in any order. */
 enum { BODY_SHAPE, BODY_X, BODY_VX = BODY_X + 3, BODY_D = BODY_VX + 3, BODY_H, BODY_MATERIAL, BODY_COLUMNS };
 static const struct csv_column body_columns[BODY_COLUMNS] = {
     {"shape", CSV_WORD, 0, 0, 0, NULL, "sphere|cylinder|box"},
@@ -302,8 +314,9 @@ static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
         return case_invalid(c, "impact", "bodies", "%s", message);
     int status = SC_OK;
     if (table.rows > (size_t)INT_MAX / 2)
-        SC_CHECK(status, case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows,
-                                      INT_MAX / 2), done);
+        SC_CHECK(status,
+                 case_invalid(c, "impact", "bodies", "%s: %zu bodies; at most %d", path, table.rows, INT_MAX / 2),
+                 done);
     size_t bytes = ((size_t)cfg->body_count + table.rows) * sizeof *cfg->bodies;
     struct mpm_body *grown = realloc(cfg->bodies, bytes ? bytes : 1);
     if (!grown)

@@ -41,7 +41,7 @@ double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G)
 /* PTW flow stress, Tang Eqs. 2.4-2.7.  The rate is floored at m->rate_floor (and kept > 0): ln(gamma xi/rate)
  * is infinite at rate 0, and elastic or barely plastic points have no meaningful plastic rate. */
 double mpm_ptw_flow_stress(const struct mpm_material *m, double eps_p, double rate, double T, double Tm, double rho,
-                       double G)
+                           double G)
 {
     if (!(G > 0.0) || !(Tm > 0.0) || !(T < Tm))
         return 0.0;

@@ -74,8 +74,8 @@ FM_INLINE struct ptw_hardening ptw_lane_hardening_p0(const struct mpm_material *
 FM_INLINE struct ptw_hardening ptw_lane_tau(const struct mpm_material *m, int p_small, double eps_p, double tau_s,
                                             double tau_y)
 {
-    struct ptw_hardening h = p_small ? ptw_lane_hardening_p0(m, eps_p, tau_s, tau_y)
-                                     : ptw_lane_hardening(m, eps_p, tau_s, tau_y);
+    struct ptw_hardening h =
+        p_small ? ptw_lane_hardening_p0(m, eps_p, tau_s, tau_y) : ptw_lane_hardening(m, eps_p, tau_s, tau_y);
     int singular = fabs(m->ptw_s0 - tau_y) <= PTW_S0_TY_SMALL * m->ptw_s0;
     int no_range = tau_s <= tau_y;
     h.tau = fm_select(no_range, tau_s, fm_select(singular, tau_y, h.tau));

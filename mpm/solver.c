@@ -17,7 +17,8 @@ static int copy_config(const struct mpm_config *from, struct mpm_config *to)
     to->materials = malloc((size_t)from->material_count * sizeof *to->materials);
     to->bodies = malloc((size_t)from->body_count * sizeof *to->bodies);
     if (!to->materials || !to->bodies)
-        SC_FAIL_OOM((size_t)from->material_count * sizeof *to->materials + (size_t)from->body_count * sizeof *to->bodies,
+        SC_FAIL_OOM((size_t)from->material_count * sizeof *to->materials +
+                        (size_t)from->body_count * sizeof *to->bodies,
                     "the impact materials and bodies");
     memcpy(to->materials, from->materials, (size_t)from->material_count * sizeof *to->materials);
     memcpy(to->bodies, from->bodies, (size_t)from->body_count * sizeof *to->bodies);
@@ -67,7 +68,8 @@ static int list_boundary_points(struct mpm_solver *s)
     s->boundary_points = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_points);
     s->boundary_work = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_work);
     if (!s->boundary_points || !s->boundary_work)
-        SC_FAIL_OOM((s->boundary_count ? s->boundary_count : 1) * (sizeof *s->boundary_points + sizeof *s->boundary_work),
+        SC_FAIL_OOM((s->boundary_count ? s->boundary_count : 1) *
+                        (sizeof *s->boundary_points + sizeof *s->boundary_work),
                     "the absorbing-boundary points");
     size_t k = 0;
     for (size_t q = 0; q < p->count; q++)
@@ -117,10 +119,11 @@ int mpm_check_set_up(const struct mpm_config *cfg)
     SC_TRY(status);
     double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     if (memory > 0.0 && grid_bytes + point_bytes > memory)
-        SC_FAIL(SC_EINPUT, "impact: the run would need %.3g GB (a grid layer of %.3g GB for each of the %d bodies, "
+        SC_FAIL(SC_EINPUT,
+                "impact: the run would need %.3g GB (a grid layer of %.3g GB for each of the %d bodies, "
                 "and the points) on a machine of %.3g GB; use fewer bodies per run, a coarser grid or a smaller "
-                "box_margin", (grid_bytes + point_bytes) / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count,
-                memory / 1e9);
+                "box_margin",
+                (grid_bytes + point_bytes) / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count, memory / 1e9);
     return SC_OK;
 }
 
@@ -142,21 +145,35 @@ void mpm_destroy(struct mpm_solver *s)
     free(s);
 }
 
-int mpm_finished(const struct mpm_solver *s) { return s->t >= s->cfg.t_end * (1.0 - 1e-12); }
-int mpm_body_count(const struct mpm_solver *s) { return s->cfg.body_count; }
+int mpm_finished(const struct mpm_solver *s)
+{
+    return s->t >= s->cfg.t_end * (1.0 - 1e-12);
+}
+int mpm_body_count(const struct mpm_solver *s)
+{
+    return s->cfg.body_count;
+}
 
 struct mpm_counts mpm_get_counts(const struct mpm_solver *s)
 {
-    struct mpm_counts c = {.step = s->step, .t = s->t, .dt = s->dt, .points = (int64_t)s->points.count,
-                           .removed_points = s->removed_points, .removed_mass = s->removed_mass,
-                           .point_updates = s->point_updates, .contact_node_steps = s->contact_node_steps,
+    struct mpm_counts c = {.step = s->step,
+                           .t = s->t,
+                           .dt = s->dt,
+                           .points = (int64_t)s->points.count,
+                           .removed_points = s->removed_points,
+                           .removed_mass = s->removed_mass,
+                           .point_updates = s->point_updates,
+                           .contact_node_steps = s->contact_node_steps,
                            .bonded_node_steps = s->bonded_node_steps};
     c.active_points = c.points - c.removed_points;
     return c;
 }
 
 /* dt = cfl DCell / (c + max|v|) (docs/physics.md), the last step cut to end exactly at t_end. */
-static inline double speed_squared(const double v[3]) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2]; }
+static inline double speed_squared(const double v[3])
+{
+    return v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+}
 
 /* The time step of Section 3.4, dt = cfl DCell / (c + max |v|), from the active points' speeds as the last
  * step's grid_to_points found them (a maximum: the same bits whoever finds it), or from a pass of its own. */
@@ -295,8 +312,7 @@ static void grid_to_points_range(struct mpm_solver *s, size_t q, size_t end)
  * leave the grid box (*leaving), the smallest id of one whose position or velocity is not finite (*bad), and
  * the largest squared speed of those that stay (*vmax2: the next step's time step; neither the update nor
  * remove_escaped changes a velocity). */
-static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64_t *leaving, long *bad,
-                         double *vmax2)
+static void scan_escapes(const struct mpm_solver *s, size_t q, size_t end, int64_t *leaving, long *bad, double *vmax2)
 {
     const struct mpm_points *p = &s->points;
     for (; q < end; q++) {
@@ -457,12 +473,24 @@ static struct mpm_stress_block stress_block(const struct mpm_solver *s, long q0,
                                             struct point_block *b)
 {
     const struct mpm_points *p = &s->points;
-    return (struct mpm_stress_block){
-        .n = count, .material = b->material, .updating = b->updating, .materials = s->cfg.materials,
-        .constants = s->material_constants, .viscosity = &s->cfg.viscosity, .dt = s->dt, .log_dt = log_dt,
-        .strain = b->strain, .spin = b->spin, .G = b->G, .volume0 = p->volume0 + q0, .volume_old = p->volume + q0,
-        .volume_new = b->volume_new, .state = p->state + q0, .work = b->work, .result = b->result,
-        .failed = b->failed};
+    return (struct mpm_stress_block){.n = count,
+                                     .material = b->material,
+                                     .updating = b->updating,
+                                     .materials = s->cfg.materials,
+                                     .constants = s->material_constants,
+                                     .viscosity = &s->cfg.viscosity,
+                                     .dt = s->dt,
+                                     .log_dt = log_dt,
+                                     .strain = b->strain,
+                                     .spin = b->spin,
+                                     .G = b->G,
+                                     .volume0 = p->volume0 + q0,
+                                     .volume_old = p->volume + q0,
+                                     .volume_new = b->volume_new,
+                                     .state = p->state + q0,
+                                     .work = b->work,
+                                     .result = b->result,
+                                     .failed = b->failed};
 }
 
 /* The materials and shear moduli G(T) of the block's points: in lanes for the first point's material, again one
@@ -480,8 +508,8 @@ static void block_shear_moduli(const struct mpm_solver *s, long q0, struct point
     mpm_shear_moduli(&s->cfg.materials[first], &s->material_constants[first], count, b->T, b->G);
     for (int k = 1; k < count; k++)
         if (b->material[k] != first)
-            mpm_shear_moduli(&s->cfg.materials[b->material[k]], &s->material_constants[b->material[k]], 1,
-                             &b->T[k], &b->G[k]);
+            mpm_shear_moduli(&s->cfg.materials[b->material[k]], &s->material_constants[b->material[k]], 1, &b->T[k],
+                             &b->G[k]);
 }
 
 /* The plastic returns of the block, one material at a time (each lane's result is its own: the grouping does not
@@ -616,9 +644,10 @@ static int update_points(struct mpm_solver *s)
     }
     balance_update(&s->update_balance);
     if (bad < n)
-        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
-                "non-finite state or a non-positive volume (time step %.3g s)", (long long)s->step + 1, s->t, bad,
-                p->body[p->slot[bad]] + 1, s->dt);
+        SC_FAIL(SC_ESIM,
+                "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
+                "non-finite state or a non-positive volume (time step %.3g s)",
+                (long long)s->step + 1, s->t, bad, p->body[p->slot[bad]] + 1, s->dt);
     return SC_OK;
 }
 
@@ -629,8 +658,10 @@ static int remove_escaped(struct mpm_solver *s)
     struct mpm_points *p = &s->points;
     int64_t leaving = s->leaving_points;
     if (s->nonfinite_id < (long)p->count)
-        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
-                "not finite", (long long)s->step, s->t, s->nonfinite_id, p->body[p->slot[s->nonfinite_id]] + 1);
+        SC_FAIL(SC_ESIM,
+                "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
+                "not finite",
+                (long long)s->step, s->t, s->nonfinite_id, p->body[p->slot[s->nonfinite_id]] + 1);
     for (size_t i = 0; leaving > 0 && i < p->count; i++) {
         size_t q = p->slot[i]; /* by id: energy_removed sums in the same order for any storage order */
         if (!(p->flags[q] & POINT_ACTIVE) || grid_contains(&s->grid, p->x + 3 * q))
@@ -693,8 +724,14 @@ int mpm_step(struct mpm_solver *s)
     return SC_OK;
 }
 
-int mpm_snapshot_due(const struct mpm_solver *s) { return s->snapshot_pending; }
-int64_t mpm_snapshot_index(const struct mpm_solver *s) { return s->snapshot_count; }
+int mpm_snapshot_due(const struct mpm_solver *s)
+{
+    return s->snapshot_pending;
+}
+int64_t mpm_snapshot_index(const struct mpm_solver *s)
+{
+    return s->snapshot_count;
+}
 void mpm_snapshot_taken(struct mpm_solver *s)
 {
     s->snapshot_pending = 0;

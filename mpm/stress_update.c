@@ -49,7 +49,10 @@ static double contract(const double a[6], const double b[6])
 }
 
 /* Tang Eq. A5: sqrt(3/2 s:s). */
-static double von_mises(const double s[6]) { return sqrt(1.5 * contract(s, s)); }
+static double von_mises(const double s[6])
+{
+    return sqrt(1.5 * contract(s, s));
+}
 
 /* Row a times column b of two 3 x 3 matrices: a0 b0 + a1 b1 + a2 b2, in that order. */
 static inline double row_col(double a0, double a1, double a2, double b0, double b1, double b2)
@@ -87,8 +90,8 @@ FM_INLINE void jaumann_rotate(const double sigma[6], const double spin[3], doubl
  *   df/du = -d (3 G + d sigma_y/d eps_p) - d sigma_y/d ln(rate)   (the last term 0 where the rate is floored).
  * At u = -inf (d = 0, the rate floored) this is the yield check: f = sigma* - sigma_y(eps_p, rate_floor). */
 FM_INLINE void consistency_lane(const struct mpm_material *m, int p_small, double u, double eps_p, double G,
-                                double trial, double T_hat, double log_rate_scale, double log_ratio_floor,
-                                double *d, double *f, double *df_du, double *yield)
+                                double trial, double T_hat, double log_rate_scale, double log_ratio_floor, double *d,
+                                double *f, double *df_du, double *yield)
 {
     double L = u - log_rate_scale;
     int floored = !(L > log_ratio_floor);
@@ -115,12 +118,14 @@ static void consistency_lanes(const struct mpm_material *material, int n, struct
     const struct mpm_material m = *material;
     if (m.ptw_p < PTW_P_SMALL) {
         for (int i = 0; i < n; i++)
-            consistency_lane(&m, 1, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i], l->T_hat[i], l->log_rate_scale[i],
-                             l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i], &l->yield[i]);
+            consistency_lane(&m, 1, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i],
+                             l->T_hat[i], l->log_rate_scale[i], l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i],
+                             &l->yield[i]);
     } else {
         for (int i = 0; i < n; i++)
-            consistency_lane(&m, 0, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i], l->T_hat[i], l->log_rate_scale[i],
-                             l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i], &l->yield[i]);
+            consistency_lane(&m, 0, fm_select(l->check[i], -INFINITY, l->u[i]), l->eps_p[i], l->G[i], l->trial[i],
+                             l->T_hat[i], l->log_rate_scale[i], l->log_ratio_floor[i], &l->d[i], &l->f[i], &l->df_du[i],
+                             &l->yield[i]);
     }
 }
 
@@ -151,9 +156,15 @@ struct newton_lanes {
 /* a where the flag c (0 or 1) is 1, else b, without a branch (as fm_select for doubles).  The flags of
  * advance_lane are 0 or 1 in 64-bit integers, negated as 1 - c: with _Bool operations in it gcc 12 did not
  * vectorise the loop. */
-FM_INLINE int64_t select_int(int64_t c, int64_t a, int64_t b) { return (a & -c) | (b & (c - 1)); }
+FM_INLINE int64_t select_int(int64_t c, int64_t a, int64_t b)
+{
+    return (a & -c) | (b & (c - 1));
+}
 
-FM_INLINE int64_t flag(int condition) { return (int64_t)condition; }
+FM_INLINE int64_t flag(int condition)
+{
+    return (int64_t)condition;
+}
 
 /* Lane i after its evaluation (d, f, df/du and sigma_y at the point its phase asked for), for the phases START,
  * STEP and RECHECK; branch-free, so that the loop over the lanes vectorises, each lane doing the scalar iteration's
@@ -210,9 +221,9 @@ FM_INLINE void advance_lane(struct newton_lanes *restrict l, int i)
     l->f_prev[i] = fm_select((int)held, f_prev, fm_select((int)inside, f, NAN));
     l->eval.u[i] =
         fm_select((int)recheck, recheck_mid, fm_select((int)to_recheck, u, fm_select((int)inside, next, mid)));
-    l->last[i] = select_int(held, select_int(recheck, flag(u_hi - u_lo <= NEWTON_XTOL), last),
-                            select_int(inside | to_recheck, flag(fabs(next - u) <= NEWTON_XTOL),
-                                       flag(hi - lo <= NEWTON_XTOL)));
+    l->last[i] =
+        select_int(held, select_int(recheck, flag(u_hi - u_lo <= NEWTON_XTOL), last),
+                   select_int(inside | to_recheck, flag(fabs(next - u) <= NEWTON_XTOL), flag(hi - lo <= NEWTON_XTOL)));
     int64_t goes_to_recheck = (1 - recheck) & to_recheck;
     l->phase[i] = select_int(checking, phase, /* yield_checks decides */
                              select_int(goes_to_recheck, RETURN_RECHECK, RETURN_STEP));
@@ -262,8 +273,8 @@ static void lane_move(struct newton_lanes *l, int to, int from)
  * of the last to a multiple of 16 lanes (padding to 8 instead made consistency_lanes half again as costly on
  * AVX-512: perf, 4 ns impact).  Returns the lanes that go on.  Scalar copies: gcc's vector loops over such
  * index lists were AVX-512 gathers and scatters, slow on AMD Zen. */
-__attribute__((optimize("no-tree-vectorize"))) static int
-close_up_lanes(struct newton_lanes *l, int n, struct mpm_return *const *returns)
+__attribute__((optimize("no-tree-vectorize"))) static int close_up_lanes(struct newton_lanes *l, int n,
+                                                                         struct mpm_return *const *returns)
 {
     int kept = 0;
     for (int i = 0; i < n; i++) {
@@ -328,7 +339,7 @@ FM_INLINE void setup_lane(const struct mpm_material *m, const struct mpm_materia
     Tm = fm_select(Tm != Tm, scg_lane_melt_temperature(m, l->rho[i]), Tm); /* NAN: not computed yet */
     l->T_hat[i] = fm_select(T > 0.0, T / Tm, 0.0);
     l->log_rate_scale[i] = fm_select(dt > 0.0, log_gamma_xi + l->log_dt[i], INFINITY); /* L = ln d - this */
-    l->log_ratio_floor[i] = c->log_rate_floor - log_gamma_xi;                        /* L at the rate floor */
+    l->log_ratio_floor[i] = c->log_rate_floor - log_gamma_xi;                          /* L at the rate floor */
     double d_hi = trial / (3.0 * G), floor_dt = m->rate_floor * dt, hi_part = 1e-3 * d_hi;
     double d_lo = fm_select(floor_dt < hi_part, floor_dt, hi_part);
     d_lo = fm_select(d_lo > DBL_MIN, d_lo, DBL_MIN);
@@ -405,7 +416,7 @@ FM_INLINE double eos_energy_update(const struct mpm_material *m, double rho_new,
     double A, B;
     eos_coefficients(m, rho_new, &A, &B);
     double p = (A + B * e_trial / volume0) / (1.0 + 0.5 * B * dV / volume0); /* Eq. 3.43 */
-    *energy = e_trial - 0.5 * dV * p;                                         /* Eq. 3.40 */
+    *energy = e_trial - 0.5 * dV * p;                                        /* Eq. 3.40 */
     return p;
 }
 
@@ -543,7 +554,7 @@ FM_INLINE int stress_begin(const struct mpm_material *m, const struct mpm_materi
     double sigma_rot[6];
     w->rho_new = m->density * volume0 / volume_new;
     jaumann_rotate(state->stress, spin_increment, sigma_rot); /* Eq. A2 */
-    elastic_trial(sigma_rot, strain_increment, G, w);        /* Eqs. A3, A4, A1.3 */
+    elastic_trial(sigma_rot, strain_increment, G, w);         /* Eqs. A3, A4, A1.3 */
     w->returning = deviatoric_begin(m, c, state, G, dt, log_dt, w);
     return w->returning;
 }
@@ -566,8 +577,8 @@ FM_INLINE int stress_finish(const struct mpm_material *m, const struct mpm_mater
         s_half[k] = 0.5 * (w->s_rot[k] + s_new[k]);
     double plastic_work = volume_half * yield * d;
     double energy_old = state->energy;
-    double p = eos_energy_update(m, rho_new, volume_half * contract(s_half, w->strain), state->pressure, volume0,
-                                 dV, &state->energy);
+    double p = eos_energy_update(m, rho_new, volume_half * contract(s_half, w->strain), state->pressure, volume0, dV,
+                                 &state->energy);
     double volumetric_rate = dt > 0.0 ? 3.0 * w->volumetric / dt : 0.0;
     double visc = bulk_viscosity_pressure(c, q, rho_new, volumetric_rate);
     state->energy -= visc * dV; /* work of q */
@@ -613,8 +624,8 @@ void mpm_stress_begin_block(const struct mpm_stress_block *block)
     const struct mpm_stress_block b = *block;
     for (int k = 0; k < b.n; k++)
         if (b.updating[k])
-            stress_begin(&b.materials[b.material[k]], &b.constants[b.material[k]], b.strain[k], b.spin[k], b.G[k],
-                         b.dt, b.log_dt, b.volume0[k], b.volume_new[k], &b.state[k], &b.work[k]);
+            stress_begin(&b.materials[b.material[k]], &b.constants[b.material[k]], b.strain[k], b.spin[k], b.G[k], b.dt,
+                         b.log_dt, b.volume0[k], b.volume_new[k], &b.state[k], &b.work[k]);
 }
 
 /* The same for mpm_stress_finish; failed[k] is 1 where it returned -1. */
@@ -623,9 +634,9 @@ void mpm_stress_finish_block(const struct mpm_stress_block *block)
     const struct mpm_stress_block b = *block;
     for (int k = 0; k < b.n; k++)
         if (b.updating[k])
-            b.failed[k] = stress_finish(&b.materials[b.material[k]], &b.constants[b.material[k]], b.viscosity, b.dt,
-                                        b.volume0[k], b.volume_old[k], b.volume_new[k], &b.work[k], &b.state[k],
-                                        &b.result[k]) != 0;
+            b.failed[k] =
+                stress_finish(&b.materials[b.material[k]], &b.constants[b.material[k]], b.viscosity, b.dt, b.volume0[k],
+                              b.volume_old[k], b.volume_new[k], &b.work[k], &b.state[k], &b.result[k]) != 0;
 }
 
 int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_material_constants *c,
@@ -644,14 +655,15 @@ int mpm_stress_update_prepared(const struct mpm_material *m, const struct mpm_ma
     return mpm_stress_finish(m, c, q, dt, volume0, volume_old, volume_new, &w, state, result);
 }
 
-int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q, const double strain_increment[6],
-                      const double spin_increment[3], double dt, double volume0, double volume_old,
-                      double volume_new, struct mpm_point_state *state, struct mpm_update_result *result)
+int mpm_stress_update(const struct mpm_material *m, const struct mpm_bulk_viscosity *q,
+                      const double strain_increment[6], const double spin_increment[3], double dt, double volume0,
+                      double volume_old, double volume_new, struct mpm_point_state *state,
+                      struct mpm_update_result *result)
 {
     struct mpm_material_constants c;
     mpm_material_prepare(m, &c);
-    return mpm_stress_update_prepared(m, &c, q, strain_increment, spin_increment, dt, dt > 0.0 ? log(dt) : 0.0,
-                                      volume0, volume_old, volume_new, state, result);
+    return mpm_stress_update_prepared(m, &c, q, strain_increment, spin_increment, dt, dt > 0.0 ? log(dt) : 0.0, volume0,
+                                      volume_old, volume_new, state, result);
 }
 
 /* The melt bound: Tm(eta) = Tm0 exp(2a(1 - 1/eta)) eta^k grows with eta when a >= 0 and k >= 0 (Eq. 2.9). */
@@ -683,7 +695,7 @@ void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *
     state->plastic_increment = 0.0; /* no return yet: no first guess from one */
     state->yield_stress = m->strength == MPM_STRENGTH_PTW
                               ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, m->T_initial, Tm, m->density,
-                                                mpm_mts_shear_modulus(m, m->T_initial))
+                                                    mpm_mts_shear_modulus(m, m->T_initial))
                               : 0.0;
 }
 

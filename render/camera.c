@@ -33,7 +33,10 @@ static void cross(const double a[3], const double b[3], double out[3])
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void normalise(double v[3])
 {
@@ -50,7 +53,7 @@ static void view_axes(enum render_view view, struct render_camera *cam)
         [RENDER_VIEW_SIDE] = {0, -1, 0},  [RENDER_VIEW_FACING] = {0, 0, -1},
     };
     static const double up_hint[][3] = {
-        [RENDER_VIEW_ISO] = {0, 0, 1}, [RENDER_VIEW_SECTION] = {0, 0, 1}, [RENDER_VIEW_TOP] = {0, 1, 0},
+        [RENDER_VIEW_ISO] = {0, 0, 1},  [RENDER_VIEW_SECTION] = {0, 0, 1}, [RENDER_VIEW_TOP] = {0, 1, 0},
         [RENDER_VIEW_SIDE] = {0, 0, 1}, [RENDER_VIEW_FACING] = {0, -1, 0},
     };
     for (int k = 0; k < 3; k++)

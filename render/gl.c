@@ -23,15 +23,48 @@
  * in every command, though only rendering needs them (BENCHMARKS.md in git, 2026-12-02 third session).  libOSMesa
  * exports the GL entry points it implements; each is looked up once, with the type of its declaration. */
 #define OSMESA_LIBRARY "libOSMesa.so.8"
-#define GL_FUNCTIONS(X)                                                                                            \
-    X(OSMesaCreateContextAttribs) X(OSMesaMakeCurrent) X(OSMesaPixelStore) X(OSMesaDestroyContext)                 \
-    X(glCreateShader) X(glShaderSource) X(glCompileShader) X(glGetShaderiv) X(glGetShaderInfoLog)                  \
-    X(glDeleteShader) X(glCreateProgram) X(glAttachShader) X(glLinkProgram) X(glGetProgramiv)                      \
-    X(glGetUniformLocation) X(glDeleteProgram) X(glUseProgram) X(glUniform1f) X(glUniform2f)                       \
-    X(glGenVertexArrays) X(glBindVertexArray) X(glDeleteVertexArrays) X(glGenBuffers) X(glBindBuffer)              \
-    X(glBufferData) X(glDeleteBuffers) X(glVertexAttribPointer) X(glVertexAttribDivisor)                          \
-    X(glEnableVertexAttribArray) X(glDrawArraysInstanced) X(glViewport) X(glClearColor) X(glClearDepth)           \
-    X(glClear) X(glEnable) X(glDepthFunc) X(glFinish) X(glGetError)
+/* One function a line: clang-format reflows this list differently on every pass. */
+/* clang-format off */
+#define GL_FUNCTIONS(X) \
+    X(OSMesaCreateContextAttribs) \
+    X(OSMesaMakeCurrent) \
+    X(OSMesaPixelStore) \
+    X(OSMesaDestroyContext) \
+    X(glCreateShader) \
+    X(glShaderSource) \
+    X(glCompileShader) \
+    X(glGetShaderiv) \
+    X(glGetShaderInfoLog) \
+    X(glDeleteShader) \
+    X(glCreateProgram) \
+    X(glAttachShader) \
+    X(glLinkProgram) \
+    X(glGetProgramiv) \
+    X(glGetUniformLocation) \
+    X(glDeleteProgram) \
+    X(glUseProgram) \
+    X(glUniform1f) \
+    X(glUniform2f) \
+    X(glGenVertexArrays) \
+    X(glBindVertexArray) \
+    X(glDeleteVertexArrays) \
+    X(glGenBuffers) \
+    X(glBindBuffer) \
+    X(glBufferData) \
+    X(glDeleteBuffers) \
+    X(glVertexAttribPointer) \
+    X(glVertexAttribDivisor) \
+    X(glEnableVertexAttribArray) \
+    X(glDrawArraysInstanced) \
+    X(glViewport) \
+    X(glClearColor) \
+    X(glClearDepth) \
+    X(glClear) \
+    X(glEnable) \
+    X(glDepthFunc) \
+    X(glFinish) \
+    X(glGetError)
+/* clang-format on */
 #define GL_DECLARE(name) __typeof__(name) *name;
 static struct {
     GL_FUNCTIONS(GL_DECLARE)
@@ -48,8 +81,8 @@ static int gl_load(void)
         SC_FAIL(SC_EIO, "render: cannot load %s (%s); install Mesa's OSMesa (Debian: libosmesa6)", OSMESA_LIBRARY,
                 dlerror());
     const char *missing = NULL;
-#define GL_LOOK_UP(name)                                                                                           \
-    gl.name = (__typeof__(name) *)dlsym(handle, #name);                                                            \
+#define GL_LOOK_UP(name)                                                                                               \
+    gl.name = (__typeof__(name) *)dlsym(handle, #name);                                                                \
     missing = !gl.name && !missing ? #name : missing;
     GL_FUNCTIONS(GL_LOOK_UP)
 #undef GL_LOOK_UP
@@ -90,20 +123,19 @@ static const char vertex_source[] =
     "    depth_radius = sphere.w * depth_per_pixel;\n"
     "}\n";
 
-static const char fragment_source[] =
-    "#version 330 core\n"
-    "in vec2 local;\n"
-    "flat in vec3 base;\n"
-    "flat in float centre_depth;\n"
-    "flat in float depth_radius;\n"
-    "out vec4 frag;\n"
-    "void main() {\n"
-    "    float d2 = dot(local, local);\n"
-    "    if (d2 > 1.0) discard;\n"
-    "    float nz = sqrt(1.0 - d2);\n"
-    "    frag = vec4(base * (0.35 + 0.65 * nz), 1.0);\n"
-    "    gl_FragDepth = 0.5 * (centre_depth - depth_radius * nz) + 0.5;\n"
-    "}\n";
+static const char fragment_source[] = "#version 330 core\n"
+                                      "in vec2 local;\n"
+                                      "flat in vec3 base;\n"
+                                      "flat in float centre_depth;\n"
+                                      "flat in float depth_radius;\n"
+                                      "out vec4 frag;\n"
+                                      "void main() {\n"
+                                      "    float d2 = dot(local, local);\n"
+                                      "    if (d2 > 1.0) discard;\n"
+                                      "    float nz = sqrt(1.0 - d2);\n"
+                                      "    frag = vec4(base * (0.35 + 0.65 * nz), 1.0);\n"
+                                      "    gl_FragDepth = 0.5 * (centre_depth - depth_radius * nz) + 0.5;\n"
+                                      "}\n";
 
 static int compile_shader(GLenum type, const char *source, GLuint *out)
 {
@@ -181,9 +213,19 @@ int render_renderer_create(int width, int height, struct render_renderer **out)
         SC_FAIL_OOM(sizeof *r + (size_t)width * (size_t)height * 4, "the image");
     }
     r->buffer = buffer, r->width = width, r->height = height;
-    static const int attributes[] = {OSMESA_FORMAT, OSMESA_BGRA, OSMESA_DEPTH_BITS, 24, OSMESA_STENCIL_BITS, 0,
-                                     OSMESA_PROFILE, OSMESA_CORE_PROFILE, OSMESA_CONTEXT_MAJOR_VERSION, 3,
-                                     OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
+    static const int attributes[] = {OSMESA_FORMAT,
+                                     OSMESA_BGRA,
+                                     OSMESA_DEPTH_BITS,
+                                     24,
+                                     OSMESA_STENCIL_BITS,
+                                     0,
+                                     OSMESA_PROFILE,
+                                     OSMESA_CORE_PROFILE,
+                                     OSMESA_CONTEXT_MAJOR_VERSION,
+                                     3,
+                                     OSMESA_CONTEXT_MINOR_VERSION,
+                                     3,
+                                     0};
     r->context = gl.OSMesaCreateContextAttribs(attributes, NULL);
     if (!r->context || !gl.OSMesaMakeCurrent(r->context, r->buffer, GL_UNSIGNED_BYTE, width, height)) {
         render_renderer_destroy(r);

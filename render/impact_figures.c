@@ -17,13 +17,13 @@
 
 struct impact_run {
     const struct render_request *req;
-    const char *path;       /* RUN_DIR/impact.h5 */
-    hid_t group;            /* the run: the root or /run_NNNN */
-    char prefix[48];        /* figure names: "impact" or "impact_run_0001" */
-    char label[48];         /* "" or " (run_0001)" */
-    double radius;          /* of a material point (m) */
+    const char *path; /* RUN_DIR/impact.h5 */
+    hid_t group;      /* the run: the root or /run_NNNN */
+    char prefix[48];  /* figure names: "impact" or "impact_run_0001" */
+    char label[48];   /* "" or " (run_0001)" */
+    double radius;    /* of a material point (m) */
     int snapshot_count;
-    char (*snapshots)[32];  /* names in /snapshots, ascending */
+    char (*snapshots)[32]; /* names in /snapshots, ascending */
 };
 
 static const char *const field_names[] = {"eps_p", "T", "D_bond", "speed"};
@@ -179,8 +179,9 @@ static int draw_snapshot(struct impact_run *run, struct render_renderer **render
     char caption[128];
     snprintf(caption, sizeof caption, "t = %.2f ns%s", t * 1e9, run->label);
     struct render_spheres spheres = {value.count, x.values, NULL, run->radius, value.values};
-    struct render_scene scene = {view, cfg->width, cfg->height, lo, hi, field_labels[cfg->field],
-                                 field_units[cfg->field], caption, cfg->section_y, 0.5};
+    struct render_scene scene = {
+        view,    cfg->width,     cfg->height, lo, hi, field_labels[cfg->field], field_units[cfg->field],
+        caption, cfg->section_y, 0.5};
     const struct render_image *image;
     int status;
     SC_CHECK(status, render_renderer_get(cfg, renderer), done);
@@ -219,8 +220,8 @@ static int snapshot_pictures(struct impact_run *run, struct render_renderer **re
     for (int i = 0; i < run->snapshot_count; i++) {
         if (!is_frame(run, i))
             continue;
-        snprintf(path, sizeof path, "%s/frames/%s_%s_%s_%s.png", dir, run->prefix, field_names[cfg->field],
-                 view_name, run->snapshots[i]);
+        snprintf(path, sizeof path, "%s/frames/%s_%s_%s_%s.png", dir, run->prefix, field_names[cfg->field], view_name,
+                 run->snapshots[i]);
         SC_TRY(draw_snapshot(run, renderer, i, cfg->view, lo, hi, path));
         out->frames++;
     }
@@ -235,8 +236,8 @@ struct series_data {
 
 static void series_free(struct series_data *s)
 {
-    struct render_array *all[] = {&s->t, &s->pbcp, &s->v_rest, &s->ke, &s->internal, &s->plastic, &s->total,
-                                  &s->absorbed, &s->removed, &s->substrate};
+    struct render_array *all[] = {&s->t,       &s->pbcp,  &s->v_rest,   &s->ke,      &s->internal,
+                                  &s->plastic, &s->total, &s->absorbed, &s->removed, &s->substrate};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         render_array_free(all[i]);
 }
@@ -261,8 +262,7 @@ static int series_read(const struct impact_run *run, struct series_data *s)
     if (h5_exists(g, "summary/substrate"))
         SC_TRY(render_read_array(g, p, "summary/substrate", &s->substrate));
     size_t nt = s->t.count;
-    if (s->pbcp.rows != nt || s->v_rest.count != s->pbcp.count || s->ke.count != s->pbcp.count ||
-        s->total.count != nt)
+    if (s->pbcp.rows != nt || s->v_rest.count != s->pbcp.count || s->ke.count != s->pbcp.count || s->total.count != nt)
         SC_FAIL(SC_EIO, "render: %s: /series datasets of inconsistent sizes", p);
     return SC_OK;
 }
@@ -274,10 +274,11 @@ static int per_body_figure(const struct impact_run *run, const struct series_dat
     size_t nt = s->t.count, nb = a->width;
     double *buffer = malloc(((nb + 1) * nt + 1) * sizeof *buffer);
     struct render_series *series = calloc(nb + 1, sizeof *series);
-    char (*labels)[32] = calloc(nb + 1, sizeof *labels);
+    char(*labels)[32] = calloc(nb + 1, sizeof *labels);
     int status = SC_OK, count = 0;
     if (!buffer || !series || !labels)
-        SC_FAIL_OOM_AT(status, done, ((nb + 1) * nt + 1) * sizeof *buffer + (nb + 1) * (sizeof *series + sizeof *labels),
+        SC_FAIL_OOM_AT(status, done,
+                       ((nb + 1) * nt + 1) * sizeof *buffer + (nb + 1) * (sizeof *series + sizeof *labels),
                        "a per-body figure");
     for (size_t i = 0; i < nt; i++)
         buffer[i] = s->t.values[i] * 1e9;
@@ -332,9 +333,12 @@ static int energy_figure(const struct impact_run *run, const struct series_data 
         removed[i] = s->removed.count ? s->removed.values[i] * 1e6 : NAN;
     }
     struct render_series series[] = {
-        {"kinetic", RENDER_LINE, nt, ns, ke, 0, 0},         {"internal", RENDER_LINE, nt, ns, internal, 0, 1},
-        {"plastic work", RENDER_DASHED, nt, ns, plastic, 0, 1}, {"absorbed by boundaries", RENDER_LINE, nt, ns, absorbed, 0, 2},
-        {"carried off by removed points", RENDER_LINE, nt, ns, removed, 0, 3}, {"total", RENDER_LINE, nt, ns, total, 0, 6},
+        {"kinetic", RENDER_LINE, nt, ns, ke, 0, 0},
+        {"internal", RENDER_LINE, nt, ns, internal, 0, 1},
+        {"plastic work", RENDER_DASHED, nt, ns, plastic, 0, 1},
+        {"absorbed by boundaries", RENDER_LINE, nt, ns, absorbed, 0, 2},
+        {"carried off by removed points", RENDER_LINE, nt, ns, removed, 0, 3},
+        {"total", RENDER_LINE, nt, ns, total, 0, 6},
     };
     char name[96], title[160], dir[4200];
     snprintf(name, sizeof name, "%s_energy", run->prefix);

@@ -72,8 +72,7 @@ void render_format_tick(double value, double step, char *out, size_t size)
 
 void render_palette(int i, double rgb[3])
 {
-    static const unsigned colours[] = {0x0072B2, 0xD55E00, 0x009E73, 0xCC79A7, 0xE69F00, 0x56B4E9, 0x000000,
-                                       0xF0E442};
+    static const unsigned colours[] = {0x0072B2, 0xD55E00, 0x009E73, 0xCC79A7, 0xE69F00, 0x56B4E9, 0x000000, 0xF0E442};
     unsigned c = colours[((i % 8) + 8) % 8];
     rgb[0] = ((c >> 16) & 255) / 255.0, rgb[1] = ((c >> 8) & 255) / 255.0, rgb[2] = (c & 255) / 255.0;
 }
@@ -117,9 +116,8 @@ static void draw_bar_ticks(cairo_t *cr, struct render_box bar, const struct rend
 
 int render_overlay_scene(struct render_image *image, const struct render_scene *scene)
 {
-    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels,
-                                                                   CAIRO_FORMAT_ARGB32, image->width,
-                                                                   image->height, image->stride);
+    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels, CAIRO_FORMAT_ARGB32,
+                                                                   image->width, image->height, image->stride);
     cairo_t *cr = cairo_create(surface);
     double font = fmax(11, image->height / 45.0);
     struct render_box bar = render_colorbar_box(scene);
@@ -130,8 +128,7 @@ int render_overlay_scene(struct render_image *image, const struct render_scene *
              scene->unit && scene->unit[0] ? scene->unit : "-");
     render_text(cr, bar.x + bar.width, bar.y - 0.8 * font, font, 0.5, 1, title);
     if (scene->caption)
-        render_text(cr, 0.02 * image->width, 0.5 * fmax(20, 0.08 * image->height), 1.2 * font, 0, 0.5,
-                    scene->caption);
+        render_text(cr, 0.02 * image->width, 0.5 * fmax(20, 0.08 * image->height), 1.2 * font, 0, 0.5, scene->caption);
     cairo_surface_flush(surface);
     int status = cairo_status(cr);
     cairo_destroy(cr);
@@ -153,8 +150,10 @@ int render_surface_write_png(cairo_surface_t *surface, const char *path)
     /* every figure and frame passes here: the place where a long render stops at SIGINT/SIGTERM */
     int interrupted = interrupt_status();
     if (interrupted)
-        SC_FAIL(interrupted, "render: interrupted before %s; the figures drawn so far are kept, and the render stage "
-                "draws them all again when it runs next", path);
+        SC_FAIL(interrupted,
+                "render: interrupted before %s; the figures drawn so far are kept, and the render stage "
+                "draws them all again when it runs next",
+                path);
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
     cairo_status_t status = cairo_surface_write_to_png_stream(surface, write_to_stream, out.stream);
@@ -166,8 +165,7 @@ int render_surface_write_png(cairo_surface_t *surface, const char *path)
     return SC_OK;
 }
 
-int render_svg_begin(const char *path, double width, double height, struct atomic_file *out,
-                     cairo_surface_t **surface)
+int render_svg_begin(const char *path, double width, double height, struct atomic_file *out, cairo_surface_t **surface)
 {
     SC_TRY(atomic_open(path, out));
     *surface = cairo_svg_surface_create_for_stream(write_to_stream, out->stream, width, height);
@@ -176,9 +174,8 @@ int render_svg_begin(const char *path, double width, double height, struct atomi
 
 int render_image_write_png(const struct render_image *image, const char *path)
 {
-    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels,
-                                                                   CAIRO_FORMAT_ARGB32, image->width,
-                                                                   image->height, image->stride);
+    cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels, CAIRO_FORMAT_ARGB32,
+                                                                   image->width, image->height, image->stride);
     int status = render_surface_write_png(surface, path);
     cairo_surface_destroy(surface);
     SC_TRY(status);

@@ -24,8 +24,10 @@ const struct cfg_key render_case_keys[] = {
      "section view: the cut plane y = section_y (the impact axis of a single particle lies in y = 0)"},
     {"render", "deposit_color", CFG_CHOICE, "", "diameter", 0, 0, CFG_NOT_HASHED, "diameter|speed",
      "colour of deposited particles in the deposit picture: diameter or impact speed"},
-    {"render", "plot_width", CFG_INT, "px", "800", 200, 8192, CFG_NOT_HASHED, NULL, "width of 2-D plots (PNG px, SVG pt)"},
-    {"render", "plot_height", CFG_INT, "px", "500", 150, 8192, CFG_NOT_HASHED, NULL, "height of 2-D plots (PNG px, SVG pt)"},
+    {"render", "plot_width", CFG_INT, "px", "800", 200, 8192, CFG_NOT_HASHED, NULL,
+     "width of 2-D plots (PNG px, SVG pt)"},
+    {"render", "plot_height", CFG_INT, "px", "500", 150, 8192, CFG_NOT_HASHED, NULL,
+     "height of 2-D plots (PNG px, SVG pt)"},
     {"render", "bins", CFG_INT, "-", "30", 2, 1000, CFG_NOT_HASHED, NULL, "number of bins of the histograms"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };

@@ -13,7 +13,7 @@ struct range {
     double lo, hi;
 };
 
-struct frame {                /* the data-to-device mapping of one panel */
+struct frame { /* the data-to-device mapping of one panel */
     double left, top, width, height;
     struct range x, y;
     double font;
@@ -57,14 +57,24 @@ static void data_ranges(const struct render_panel *p, struct range *x, struct ra
         r->lo = from_zero ? 0 : r->lo - pad;
         r->hi += pad;
     }
-    if (isfinite(p->xmin)) x->lo = p->xmin;
-    if (isfinite(p->xmax)) x->hi = p->xmax;
-    if (isfinite(p->ymin)) y->lo = p->ymin;
-    if (isfinite(p->ymax)) y->hi = p->ymax;
+    if (isfinite(p->xmin))
+        x->lo = p->xmin;
+    if (isfinite(p->xmax))
+        x->hi = p->xmax;
+    if (isfinite(p->ymin))
+        y->lo = p->ymin;
+    if (isfinite(p->ymax))
+        y->hi = p->ymax;
 }
 
-static double to_x(const struct frame *f, double v) { return f->left + (v - f->x.lo) / (f->x.hi - f->x.lo) * f->width; }
-static double to_y(const struct frame *f, double v) { return f->top + (1 - (v - f->y.lo) / (f->y.hi - f->y.lo)) * f->height; }
+static double to_x(const struct frame *f, double v)
+{
+    return f->left + (v - f->x.lo) / (f->x.hi - f->x.lo) * f->width;
+}
+static double to_y(const struct frame *f, double v)
+{
+    return f->top + (1 - (v - f->y.lo) / (f->y.hi - f->y.lo)) * f->height;
+}
 
 static void draw_axes(cairo_t *cr, const struct frame *f, const struct render_panel *p)
 {

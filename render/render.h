@@ -76,7 +76,7 @@ struct render_camera {
     double right[3], up[3], toward[3]; /* unit vectors; toward points from the scene to the viewer */
     double center[3];                  /* the point at (px0, py0) */
     double pixels_per_metre, px0, py0;
-    double depth_half;                 /* half the depth range (m) */
+    double depth_half; /* half the depth range (m) */
 };
 
 /* The pixel box of the colour bar (x, y from the top-left) and of the region the scene is framed into. */
@@ -102,10 +102,10 @@ int render_image_write_png(const struct render_image *image, const char *path);
 
 struct render_histogram {
     int bins;
-    double lo, hi;     /* edges: lo + i (hi - lo) / bins */
-    int64_t *counts;   /* bins entries, values in [lo, hi) (hi itself in the last bin) */
-    int64_t total;     /* values counted (sum of counts) */
-    int64_t outside;   /* values outside [lo, hi] or not finite */
+    double lo, hi;   /* edges: lo + i (hi - lo) / bins */
+    int64_t *counts; /* bins entries, values in [lo, hi) (hi itself in the last bin) */
+    int64_t total;   /* values counted (sum of counts) */
+    int64_t outside; /* values outside [lo, hi] or not finite */
 };
 /* Bin n values into `bins` bins over [lo, hi]; lo >= hi: the range of the finite values.  SC_ESIM when out of
  * memory. */
@@ -121,12 +121,12 @@ enum render_field { RENDER_EPS_P, RENDER_T, RENDER_D_BOND, RENDER_SPEED };
 
 struct render_config {
     enum render_field field;
-    enum render_view view;        /* of the frame sequence */
+    enum render_view view; /* of the frame sequence */
     int width, height, plot_width, plot_height;
-    long every;                   /* frames: every Nth snapshot (and the last); 0: none */
-    double range_min, range_max;  /* NAN: automatic (over the snapshots drawn) */
-    double point_radius;          /* NAN: half the [impact] spacing of the run */
-    int deposit_by_speed;         /* deposit colours: 0 diameter, 1 impact speed */
+    long every;                  /* frames: every Nth snapshot (and the last); 0: none */
+    double range_min, range_max; /* NAN: automatic (over the snapshots drawn) */
+    double point_radius;         /* NAN: half the [impact] spacing of the run */
+    int deposit_by_speed;        /* deposit colours: 0 diameter, 1 impact speed */
     int bins;
     double section_y;
 };
@@ -140,16 +140,16 @@ struct render_case_row {
 
 /* What render_run_dir drew: one entry per figure, with the data of the histograms, for checks. */
 struct render_figure {
-    char name[64];             /* file name without extension, in RUN_DIR/figures/ */
+    char name[64]; /* file name without extension, in RUN_DIR/figures/ */
     char title[160];
-    char group[32];            /* "spray", "impact", "vcrit", "frames" */
-    int is_plot;               /* 1: .png and .svg; 0: .png only (3-D render) */
+    char group[32];                    /* "spray", "impact", "vcrit", "frames" */
+    int is_plot;                       /* 1: .png and .svg; 0: .png only (3-D render) */
     struct render_histogram histogram; /* bins == 0 when not a histogram */
 };
 struct render_output {
     int count, capacity;
     struct render_figure *figures;
-    int frames;                /* frame-sequence PNGs written (not listed in figures) */
+    int frames; /* frame-sequence PNGs written (not listed in figures) */
 };
 void render_output_free(struct render_output *out);
 /* The figure named `name`, or NULL. */

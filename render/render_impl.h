@@ -20,23 +20,23 @@ int render_view_shows(const struct render_scene *scene, const double x[3]);
 
 enum render_series_kind { RENDER_LINE, RENDER_DASHED, RENDER_MARKERS, RENDER_OPEN_MARKERS, RENDER_BARS };
 struct render_series {
-    const char *label;            /* legend text (NULL: not in the legend) */
+    const char *label; /* legend text (NULL: not in the legend) */
     enum render_series_kind kind;
     size_t count;
-    const double *x, *y;          /* RENDER_BARS: x = left edges, y = heights, each bar bar_width wide */
+    const double *x, *y; /* RENDER_BARS: x = left edges, y = heights, each bar bar_width wide */
     double bar_width;
-    int colour;                   /* index into the palette (colour-blind safe, Okabe & Ito) */
+    int colour; /* index into the palette (colour-blind safe, Okabe & Ito) */
 };
 struct render_panel {
     const char *title, *xlabel, *ylabel;
     double xmin, xmax, ymin, ymax; /* NAN: from the data */
-    int y_from_zero;              /* the automatic y range includes 0 */
+    int y_from_zero;               /* the automatic y range includes 0 */
     int series_count;
     const struct render_series *series;
 };
 struct render_plot {
-    int width, height;            /* px (PNG) and pt (SVG) */
-    int panel_count;              /* 1 or 2 (side by side) */
+    int width, height; /* px (PNG) and pt (SVG) */
+    int panel_count;   /* 1 or 2 (side by side) */
     struct render_panel panels[2];
 };
 /* Write DIR/NAME.png and DIR/NAME.svg.  SC_EIO on failure. */
@@ -73,11 +73,11 @@ int render_open(const char *path, hid_t *file);
 /* ---- building the output ---- */
 
 /* Append a figure entry (name, title, group); returns it, or NULL when out of memory. */
-struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group,
-                                        int is_plot, const char *title);
+struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group, int is_plot,
+                                        const char *title);
 /* render_output_add with a status: SC_OK and *figure (when figure is not NULL) the entry, or out of memory. */
-int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot,
-                       const char *title, struct render_figure **figure);
+int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot, const char *title,
+                       struct render_figure **figure);
 /* The plot sizes of the request. */
 struct render_plot render_plot_start(const struct render_config *cfg, int panels);
 /* RUN_DIR/figures */
@@ -96,8 +96,8 @@ size_t render_first_contacts(const double *t, const double *particle_id, size_t 
  * radii (m), *width their width (m), thickness[b] the deposited particle volume whose centre lies in the
  * annulus over the annulus area (m): the thickness of a fully dense layer (a porous coating of packing fraction
  * phi is 1/phi thicker).  Returns bins, or 0 when nothing is deposited. */
-int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins,
-                             double *r_left, double *thickness, double *width);
+int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins, double *r_left,
+                             double *thickness, double *width);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 
@@ -108,7 +108,6 @@ int render_write_report(const struct render_request *req, const struct render_ou
  * whose bytes go to out's temporary file (atomic_publish it once the surface is finished, atomic_abort on
  * failure). */
 int render_surface_write_png(cairo_surface_t *surface, const char *path);
-int render_svg_begin(const char *path, double width, double height, struct atomic_file *out,
-                     cairo_surface_t **surface);
+int render_svg_begin(const char *path, double width, double height, struct atomic_file *out, cairo_surface_t **surface);
 
 #endif

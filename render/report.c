@@ -20,11 +20,20 @@ static void escaped(FILE *f, const char *text)
 {
     for (const char *p = text ? text : ""; *p; p++) {
         switch (*p) {
-        case '<': fputs("&lt;", f); break;
-        case '>': fputs("&gt;", f); break;
-        case '&': fputs("&amp;", f); break;
-        case '"': fputs("&quot;", f); break;
-        default: fputc(*p, f);
+        case '<':
+            fputs("&lt;", f);
+            break;
+        case '>':
+            fputs("&gt;", f);
+            break;
+        case '&':
+            fputs("&amp;", f);
+            break;
+        case '"':
+            fputs("&quot;", f);
+            break;
+        default:
+            fputc(*p, f);
         }
     }
 }
@@ -40,7 +49,8 @@ static const char style[] =
     "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
     "th{background:#f2f2f2}tr.differs td{background:#fff3cd}#headline li{margin:0.3em 0}"
-    "#headline figure{width:60%}summary{cursor:pointer;font-weight:bold;margin:1em 0}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
+    "#headline figure{width:60%}summary{cursor:pointer;font-weight:bold;margin:1em "
+    "0}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
     "figure img{width:100%;border:1px solid #ddd}figcaption{font-size:90%}";
 
 /* One row per output file: its root attributes. */
@@ -138,23 +148,26 @@ static struct number span(struct number lo, struct number hi)
     return n;
 }
 
-static void number_cell_digits(FILE *f, double value, int digits) { cell(f, "td", num(value, digits).s); }
+static void number_cell_digits(FILE *f, double value, int digits)
+{
+    cell(f, "td", num(value, digits).s);
+}
 
 /* ---- what the run's files say ------------------------------------------------------------------------------ */
 
 /* One particle body of an impact run (the substrate left out). */
 struct body_row {
-    int run;                 /* -1: a single impact run (top-level /summary) */
-    size_t body;             /* index in impact.h5 (0-based, the substrate included) */
-    size_t particle;         /* its index among the run's particle bodies (the couple's /seeds body) */
+    int run;         /* -1: a single impact run (top-level /summary) */
+    size_t body;     /* index in impact.h5 (0-based, the substrate included) */
+    size_t particle; /* its index among the run's particle bodies (the couple's /seeds body) */
     double d, v, bonded, pbcp, v_rest, cor;
-    int seed;                /* its row of couple.h5 /seeds, -1 when none */
+    int seed; /* its row of couple.h5 /seeds, -1 when none */
 };
 
 struct seed_row {
     long run, body, particle_id, impact_row;
     double d, v_spray, v_wall;
-    int spray_outcome;       /* outcome of the particle's first contact in spray.h5: 0 rebound, 1 deposited, -1 none */
+    int spray_outcome; /* outcome of the particle's first contact in spray.h5: 0 rebound, 1 deposited, -1 none */
 };
 
 struct report_data {
@@ -218,7 +231,8 @@ static void read_spray(hid_t file, struct report_data *r)
         for (size_t k = 0; k < r->seed_count; k++) {
             size_t first = (size_t)-1;
             for (size_t i = 0; i < t.count; i++)
-                if (id.values[i] == (double)r->seeds[k].particle_id && (first == (size_t)-1 || t.values[i] < t.values[first]))
+                if (id.values[i] == (double)r->seeds[k].particle_id &&
+                    (first == (size_t)-1 || t.values[i] < t.values[first]))
                     first = i;
             r->seeds[k].spray_outcome = first == (size_t)-1 ? -1 : (int)outcome.values[first];
         }
@@ -229,8 +243,8 @@ static void read_spray(hid_t file, struct report_data *r)
 
 static void read_couple(hid_t file, struct report_data *r)
 {
-    static const char *const names[] = {"seeds/run", "seeds/body", "seeds/particle_id", "seeds/impact_row",
-                                        "seeds/d", "seeds/v_spray", "seeds/v_wall"};
+    static const char *const names[] = {"seeds/run", "seeds/body",    "seeds/particle_id", "seeds/impact_row",
+                                        "seeds/d",   "seeds/v_spray", "seeds/v_wall"};
     struct render_array a[7];
     int ok = 1;
     for (int k = 0; k < 7; k++)
@@ -242,10 +256,14 @@ static void read_couple(hid_t file, struct report_data *r)
         r->seed_count = n;
         for (size_t i = 0; i < n; i++) {
             const double *vs = a[5].values + 3 * i, *vw = a[6].values + 3 * i;
-            r->seeds[i] = (struct seed_row){(long)a[0].values[i], (long)a[1].values[i], (long)a[2].values[i],
-                                            (long)a[3].values[i], a[4].values[i],
+            r->seeds[i] = (struct seed_row){(long)a[0].values[i],
+                                            (long)a[1].values[i],
+                                            (long)a[2].values[i],
+                                            (long)a[3].values[i],
+                                            a[4].values[i],
                                             sqrt(vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]),
-                                            sqrt(vw[0] * vw[0] + vw[1] * vw[1] + vw[2] * vw[2]), -1};
+                                            sqrt(vw[0] * vw[0] + vw[1] * vw[1] + vw[2] * vw[2]),
+                                            -1};
         }
     }
     for (int k = 0; k < 7; k++)
@@ -256,8 +274,8 @@ static void read_couple(hid_t file, struct report_data *r)
 /* The particle bodies of one /summary group (loc: the file or a /run_NNNN group). */
 static void read_summary(hid_t loc, int run, struct report_data *r)
 {
-    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded", "summary/pbcp",
-                                        "summary/v_rest", "summary/cor"};
+    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded",
+                                        "summary/pbcp",     "summary/v_rest",   "summary/cor"};
     struct render_array a[6];
     int ok = 1;
     for (int k = 0; k < 6; k++)
@@ -274,8 +292,16 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
             r->rows = grown, r->row_capacity = capacity;
         }
         struct body_row *row = &r->rows[r->row_count++];
-        *row = (struct body_row){run, b, particle, a[0].values[b], a[1].values[b], a[2].values[b], a[3].values[b],
-                                 a[4].values[b], a[5].values[b], -1};
+        *row = (struct body_row){run,
+                                 b,
+                                 particle,
+                                 a[0].values[b],
+                                 a[1].values[b],
+                                 a[2].values[b],
+                                 a[3].values[b],
+                                 a[4].values[b],
+                                 a[5].values[b],
+                                 -1};
         for (size_t s = 0; s < r->seed_count; s++) /* the same particle: same run, place and diameter */
             if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle &&
                 fabs(r->seeds[s].d - row->d) <= 0.01 * row->d)
@@ -407,11 +433,13 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     double vrest_threshold = case_real(c, "impact", "vrest_threshold");
     fprintf(f, "<section id=\"headline\">\n<h2>Result</h2>\n<ul>\n");
     if (r->spray) {
-        fprintf(f, "<li><b>Spray: deposit fraction %s %%</b>: %lld of %lld injected particles deposited on the "
-                   "target (rule <code>[deposition] rule = ",
+        fprintf(f,
+                "<li><b>Spray: deposit fraction %s %%</b>: %lld of %lld injected particles deposited on the "
+                "target (rule <code>[deposition] rule = ",
                 num(100 * r->deposit_fraction, 3).s, (long long)r->deposited, (long long)r->injected);
         escaped(f, case_text(c, "deposition", "rule"));
-        fprintf(f, "</code>); %lld still in flight or resting unbonded on the target at t = %s ms, %lld escaped.</li>\n",
+        fprintf(f,
+                "</code>); %lld still in flight or resting unbonded on the target at t = %s ms, %lld escaped.</li>\n",
                 (long long)r->in_flight, given(r->t_spray * 1e3).s, (long long)r->escaped);
     }
     struct tally t = tally(r, vrest_threshold);
@@ -426,13 +454,15 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
             fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t.stuck), sep = ", ";
         if (t.unsettled)
             fprintf(f, "%s%zu unsettled: no v_rest at the end", sep, t.unsettled), sep = ", ";
-        fprintf(f, "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
-                   "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
+        fprintf(f,
+                "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
+                "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
                 sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
                 given(r->t_impact * 1e9).s);
         if (t.compared > 0)
-            fprintf(f, "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
-                       "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
+            fprintf(f,
+                    "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
+                    "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
                     t.disagree ? "disagree" : "agree", t.disagree ? t.disagree : t.compared, t.compared,
                     t.deposited_not_bonded, t.rebounded_bonded,
                     t.unsettled ? "; unsettled MPM runs are not compared" : "");
@@ -440,15 +470,17 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         fprintf(f, "<li><b>Impact (MPM): no particle body found in impact.h5</b>.</li>\n");
     }
     if (r->spray) {
-        fprintf(f, "<li><b>Coating thickness: maximum %s µm</b> (height span of the deposited particles' centres, "
-                   "<code>spray.h5 /metrics/max_thickness</code>)",
+        fprintf(f,
+                "<li><b>Coating thickness: maximum %s µm</b> (height span of the deposited particles' centres, "
+                "<code>spray.h5 /metrics/max_thickness</code>)",
                 num(r->max_thickness * 1e6, 3).s);
         if (r->profile_bins > 0) {
             double peak = 0;
             for (int b = 0; b < r->profile_bins; b++)
                 peak = fmax(peak, r->profile_h[b]);
-            fprintf(f, "; dense-equivalent thickness %s µm at the axis (r &lt; %s mm), at most %s µm, out to "
-                       "r = %s mm (profile below)",
+            fprintf(f,
+                    "; dense-equivalent thickness %s µm at the axis (r &lt; %s mm), at most %s µm, out to "
+                    "r = %s mm (profile below)",
                     num(r->profile_h[0] * 1e6, 3).s, num(r->profile_width * 1e3, 3).s, num(peak * 1e6, 3).s,
                     num(r->profile_width * r->profile_bins * 1e3, 3).s);
         } else {
@@ -466,15 +498,17 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         fprintf(f, "<li><b>Couple stage: %zu particles</b> sampled from the spray's impacts (<code>[couple] sample = ",
                 r->seed_count);
         escaped(f, case_text(c, "couple", "sample"));
-        fprintf(f, "</code>) and flown through the %s mm gas layer in front of the target: speed at the wall "
-                   "%s m/s, changed by %s m/s on average (%s m/s) from the spray's impact speed.</li>\n",
+        fprintf(f,
+                "</code>) and flown through the %s mm gas layer in front of the target: speed at the wall "
+                "%s m/s, changed by %s m/s on average (%s m/s) from the spray's impact speed.</li>\n",
                 given(case_real(c, "couple", "layer_thickness") * 1e3).s, span(num(v_lo, 3), num(v_hi, 3)).s,
                 num(change / (double)r->seed_count, 3).s, span(num(lo, 3), num(hi, 3)).s);
     }
     if (r->impact) {
         double spacing = case_real(c, "impact", "spacing");
-        fprintf(f, "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
-                   "(<code>[impact] grid, spacing</code>)",
+        fprintf(f,
+                "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
+                "(<code>[impact] grid, spacing</code>)",
                 given(case_real(c, "impact", "grid") * 1e6).s, given(spacing * 1e6).s);
         if (r->row_count > 0)
             fprintf(f, ": %s points across a particle's diameter",
@@ -488,10 +522,11 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     if (profile) {
         fprintf(f, "<figure><img src=\"figures/%s.png\" alt=\"", profile->name);
         escaped(f, profile->title);
-        fprintf(f, "\"><figcaption>Coating thickness vs radius from the spray axis: the volume of the deposited "
-                   "particles whose centres lie in each annulus, divided by the annulus area, i.e. the thickness "
-                   "of a fully dense layer (a coating of packing fraction &phi; is 1/&phi; thicker). "
-                   "(<a href=\"figures/%s.svg\">SVG</a>)</figcaption></figure>\n",
+        fprintf(f,
+                "\"><figcaption>Coating thickness vs radius from the spray axis: the volume of the deposited "
+                "particles whose centres lie in each annulus, divided by the annulus area, i.e. the thickness "
+                "of a fully dense layer (a coating of packing fraction &phi; is 1/&phi; thicker). "
+                "(<a href=\"figures/%s.svg\">SVG</a>)</figcaption></figure>\n",
                 profile->name);
     }
     fprintf(f, "</section>\n");
@@ -504,13 +539,14 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
     double vrest_threshold = case_real(req->c, "impact", "vrest_threshold");
     double pbcp_threshold = case_real(req->c, "impact", "pbcp_threshold");
     double spacing = case_real(req->c, "impact", "spacing");
-    fprintf(f, "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
-               "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
-               "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (no v_rest: no point slow "
-               "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
-               "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
-            given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
-            given(vrest_threshold).s);
+    fprintf(
+        f,
+        "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
+        "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
+        "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (no v_rest: no point slow "
+        "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
+        "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
+        given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s);
     fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
                "<th>points across d</th><th>impact speed (m/s)</th><th>verdict</th><th>spray said</th>"
                "<th>PBCP (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th></tr>\n");
@@ -665,9 +701,11 @@ static void figures(FILE *f, const struct render_output *out)
         }
     }
     if (out->frames > 0)
-        fprintf(f, "<p>%d frames of the impact snapshots are in <code>figures/frames/</code>; "
-                   "<code>ffmpeg -framerate 10 -pattern_type glob -i 'figures/frames/*.png' -pix_fmt yuv420p "
-                   "impact.mp4</code> makes a film of them.</p>\n", out->frames);
+        fprintf(f,
+                "<p>%d frames of the impact snapshots are in <code>figures/frames/</code>; "
+                "<code>ffmpeg -framerate 10 -pattern_type glob -i 'figures/frames/*.png' -pix_fmt yuv420p "
+                "impact.mp4</code> makes a film of them.</p>\n",
+                out->frames);
 }
 
 int render_write_report(const struct render_request *req, const struct render_output *out)

@@ -10,8 +10,8 @@
 #include "core/log.h"
 #include "render/render_impl.h"
 
-struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group,
-                                        int is_plot, const char *title)
+struct render_figure *render_output_add(struct render_output *out, const char *name, const char *group, int is_plot,
+                                        const char *title)
 {
     if (out->count == out->capacity) {
         int capacity = out->capacity ? 2 * out->capacity : 16;
@@ -30,8 +30,8 @@ struct render_figure *render_output_add(struct render_output *out, const char *n
     return fig;
 }
 
-int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot,
-                       const char *title, struct render_figure **figure)
+int render_output_push(struct render_output *out, const char *name, const char *group, int is_plot, const char *title,
+                       struct render_figure **figure)
 {
     struct render_figure *fig = render_output_add(out, name, group, is_plot, title);
     if (!fig)
@@ -67,7 +67,10 @@ struct render_plot render_plot_start(const struct render_config *cfg, int panels
     return plot;
 }
 
-void render_figures_dir(const char *run_dir, char *out, size_t size) { snprintf(out, size, "%s/figures", run_dir); }
+void render_figures_dir(const char *run_dir, char *out, size_t size)
+{
+    snprintf(out, size, "%s/figures", run_dir);
+}
 
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer)
 {
@@ -117,6 +120,6 @@ int render_run_dir(const struct render_request *req, struct render_output *out)
     SC_TRY(draw_all(req, out));
     SC_TRY(render_write_report(req, out));
     log_info("render: %d figures and %d frames in %s, report %s/report.html", out->count, out->frames, dir,
-                 req->run_dir);
+             req->run_dir);
     return SC_OK;
 }

@@ -14,17 +14,31 @@
 
 struct spray_data {
     char path[4200];
-    struct render_array d, x, v, state;                               /* /particles */
-    struct render_array hit_t, hit_d, hit_v, hit_outcome, hit_partner, hit_id; /* /impacts */
+    struct render_array d, x, v, state;                                                   /* /particles */
+    struct render_array hit_t, hit_d, hit_v, hit_outcome, hit_partner, hit_id;            /* /impacts */
     struct render_array t, deposit_fraction, volume_fraction, spread, scatter, thickness; /* /metrics */
     struct render_array id;
 };
 
 static void spray_data_free(struct spray_data *s)
 {
-    struct render_array *all[] = {&s->d, &s->x, &s->v, &s->state, &s->hit_t, &s->hit_d, &s->hit_v, &s->hit_outcome,
-                                  &s->hit_partner, &s->hit_id, &s->t, &s->deposit_fraction, &s->volume_fraction,
-                                  &s->spread, &s->scatter, &s->thickness, &s->id};
+    struct render_array *all[] = {&s->d,
+                                  &s->x,
+                                  &s->v,
+                                  &s->state,
+                                  &s->hit_t,
+                                  &s->hit_d,
+                                  &s->hit_v,
+                                  &s->hit_outcome,
+                                  &s->hit_partner,
+                                  &s->hit_id,
+                                  &s->t,
+                                  &s->deposit_fraction,
+                                  &s->volume_fraction,
+                                  &s->spread,
+                                  &s->scatter,
+                                  &s->thickness,
+                                  &s->id};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         render_array_free(all[i]);
 }
@@ -53,12 +67,16 @@ static int spray_data_read(hid_t f, struct spray_data *s)
     if (s->x.count != 3 * n || s->v.count != 3 * n || s->state.count != n || s->id.count != n)
         SC_FAIL(SC_EIO, "render: %s: /particles datasets of different lengths", p);
     size_t m = s->hit_d.count;
-    if (s->hit_t.count != m || s->hit_v.count != 3 * m || s->hit_outcome.count != m || s->hit_partner.count != m || s->hit_id.count != m)
+    if (s->hit_t.count != m || s->hit_v.count != 3 * m || s->hit_outcome.count != m || s->hit_partner.count != m ||
+        s->hit_id.count != m)
         SC_FAIL(SC_EIO, "render: %s: /impacts datasets of different lengths", p);
     return SC_OK;
 }
 
-static double norm3(const double *v) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+static double norm3(const double *v)
+{
+    return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
 
 /* Truncated Weibull density (Eqs. 36-37: lambda = D_median / ln(2)^(1/n)) per metre, 0 outside [d_min, d_max]. */
 static double weibull_density(double d, double median, double shape, double d_min, double d_max)
@@ -139,8 +157,8 @@ static int diameter_figure(const struct render_request *req, const struct spray_
         curve.label = "Weibull law of [powder] x count x bin width";
     }
     SC_CHECK(status,
-             write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)", um,
-                             n, weibull ? &curve : NULL),
+             write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)", um, n,
+                             weibull ? &curve : NULL),
              done);
 done:
     render_histogram_free(&h);
@@ -221,8 +239,16 @@ static int impact_figures(const struct render_request *req, const struct spray_d
     struct render_series series[2] = {{"deposited", RENDER_MARKERS, nd, d_dep, s_dep, 0, 2},
                                       {"rebounded", RENDER_OPEN_MARKERS, nr, d_reb, s_reb, 0, 1}};
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"First impacts: speed vs diameter", "diameter d (µm)",
-                                           "impact speed |v_in| (m/s)", NAN, NAN, NAN, NAN, 1, 2, series};
+    plot.panels[0] = (struct render_panel){"First impacts: speed vs diameter",
+                                           "diameter d (µm)",
+                                           "impact speed |v_in| (m/s)",
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           1,
+                                           2,
+                                           series};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
     SC_CHECK(status, render_output_push(out, "spray_speed_diameter", "spray", 1, plot.panels[0].title, NULL), done);
@@ -234,8 +260,8 @@ done:
     return status;
 }
 
-int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins,
-                             double *r_left, double *thickness, double *width)
+int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins, double *r_left,
+                             double *thickness, double *width)
 {
     double r_max = 0;
     int deposited = 0;
@@ -275,13 +301,21 @@ static int thickness_figure(const struct render_request *req, const struct spray
     struct render_series bars = {NULL, RENDER_BARS, BINS, r, h, width * 1e3, 2};
     struct render_plot plot = render_plot_start(req->cfg, 1);
     plot.panels[0] = (struct render_panel){"Coating thickness vs radius (dense-equivalent)",
-                                           "radius from the spray axis r (mm)", "thickness (µm)", 0, NAN, 0, NAN, 1,
-                                           1, &bars};
+                                           "radius from the spray axis r (mm)",
+                                           "thickness (µm)",
+                                           0,
+                                           NAN,
+                                           0,
+                                           NAN,
+                                           1,
+                                           1,
+                                           &bars};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
     SC_TRY(render_output_push(out, "spray_thickness", "spray", 1,
                               "Coating thickness vs radius: deposited particle volume per annulus / annulus area "
-                              "(a fully dense layer)", NULL));
+                              "(a fully dense layer)",
+                              NULL));
     SC_TRY(render_plot_write(&plot, dir, "spray_thickness"));
     return SC_OK;
 }
@@ -306,10 +340,10 @@ static int metrics_figure(const struct render_request *req, const struct spray_d
                                        {"max thickness", RENDER_LINE, n, ms, thickness, 0, 2}};
     struct render_plot plot = render_plot_start(req->cfg, 2);
     plot.width *= 2;
-    plot.panels[0] = (struct render_panel){"Deposit fractions", "time t (ms)", "fraction (-)", NAN, NAN, 0, NAN, 1, 2,
-                                           fractions};
-    plot.panels[1] = (struct render_panel){"Deposit extent", "time t (ms)", "length (mm)", NAN, NAN, NAN, NAN, 1, 3,
-                                           lengths};
+    plot.panels[0] =
+        (struct render_panel){"Deposit fractions", "time t (ms)", "fraction (-)", NAN, NAN, 0, NAN, 1, 2, fractions};
+    plot.panels[1] =
+        (struct render_panel){"Deposit extent", "time t (ms)", "length (mm)", NAN, NAN, NAN, NAN, 1, 3, lengths};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
     int status;
@@ -386,9 +420,16 @@ static int particle_pictures(const struct render_request *req, struct render_ren
         value[k++] = req->cfg->deposit_by_speed ? speed_by_id[(size_t)s->id.values[i]] : s->d.values[i] * 1e6;
     }
     struct render_spheres deposit = {k, x, radius, 0, value};
-    struct render_scene scene = {RENDER_VIEW_FACING, req->cfg->width, req->cfg->height, 0, 1,
+    struct render_scene scene = {RENDER_VIEW_FACING,
+                                 req->cfg->width,
+                                 req->cfg->height,
+                                 0,
+                                 1,
                                  req->cfg->deposit_by_speed ? "impact speed" : "diameter",
-                                 req->cfg->deposit_by_speed ? "m/s" : "µm", NULL, 0, 2.0};
+                                 req->cfg->deposit_by_speed ? "m/s" : "µm",
+                                 NULL,
+                                 0,
+                                 2.0};
     char caption[96];
     snprintf(caption, sizeof caption, "deposit seen from the nozzle: %zu particles", k);
     scene.caption = caption;
@@ -398,8 +439,8 @@ static int particle_pictures(const struct render_request *req, struct render_ren
     for (size_t i = 0; i < n; i++)
         radius[i] = 0.5 * s->d.values[i];
     struct render_spheres plume = {n, s->x.values, radius, 0, speed};
-    struct render_scene side = {RENDER_VIEW_SIDE, req->cfg->width, req->cfg->height, 0, 1, "speed", "m/s", NULL, 0,
-                                2.0};
+    struct render_scene side = {
+        RENDER_VIEW_SIDE, req->cfg->width, req->cfg->height, 0, 1, "speed", "m/s", NULL, 0, 2.0};
     snprintf(caption, sizeof caption, "final state from the side: %zu particles (nozzle at z = 0)", n);
     side.caption = caption;
     SC_CHECK(status, draw_scene(req, renderer, out, &plume, &side, "spray_plume", "Particles of the final state"),
@@ -410,8 +451,7 @@ done:
     return status;
 }
 
-int render_spray_figures(const struct render_request *req, struct render_renderer **renderer,
-                         struct render_output *out)
+int render_spray_figures(const struct render_request *req, struct render_renderer **renderer, struct render_output *out)
 {
     struct spray_data s;
     memset(&s, 0, sizeof s);

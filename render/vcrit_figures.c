@@ -16,7 +16,7 @@ static const double tang_vcrit[] = {824, 809, 791, 776, 761};
 
 struct search_runs {
     size_t count, capacity;
-    double *d, *v;   /* um, m/s */
+    double *d, *v; /* um, m/s */
     int *bonded;
 };
 
@@ -100,8 +100,16 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
         {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
     };
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter", "diameter d (µm)",
-                                           "critical velocity v_crit (m/s)", NAN, NAN, NAN, NAN, 0, 5, series};
+    plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter",
+                                           "diameter d (µm)",
+                                           "critical velocity v_crit (m/s)",
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           0,
+                                           5,
+                                           series};
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);
     int status;

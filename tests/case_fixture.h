@@ -12,10 +12,10 @@
 
 /* dir[64] becomes a new folder; rows (NULL: none) go to dir/csv_name under `header`, and `reference` (the INI
  * lines that name that file) is appended to the case.  0 or -1 (folder or file not made). */
-static int case_fixture_write(char dir[64], const char *ini, const char *csv_name, const char *header,
-                              const char *rows, const char *reference) __attribute__((unused));
-static int case_fixture_write(char dir[64], const char *ini, const char *csv_name, const char *header,
-                              const char *rows, const char *reference)
+static int case_fixture_write(char dir[64], const char *ini, const char *csv_name, const char *header, const char *rows,
+                              const char *reference) __attribute__((unused));
+static int case_fixture_write(char dir[64], const char *ini, const char *csv_name, const char *header, const char *rows,
+                              const char *reference)
 {
     strcpy(dir, "/tmp/spraycoat-test-XXXXXX");
     if (!mkdtemp(dir))

@@ -30,12 +30,12 @@ static void check_report(int ok, const char *file, int line, const char *fmt, ..
 #define CHECK(cond, ...) check_report(!!(cond), __FILE__, __LINE__, __VA_ARGS__)
 
 /* |actual - expected| <= rtol |expected| + atol */
-#define CHECK_CLOSE(actual, expected, rtol, atol, what)                                                \
-    do {                                                                                               \
-        double check_a_ = (actual), check_e_ = (expected);                                             \
-        check_report(fabs(check_a_ - check_e_) <= (rtol) * fabs(check_e_) + (atol), __FILE__, __LINE__, \
-                     "%s: got %.12g, expected %.12g (rtol %g, atol %g)", (what), check_a_, check_e_,   \
-                     (double)(rtol), (double)(atol));                                                  \
+#define CHECK_CLOSE(actual, expected, rtol, atol, what)                                                                \
+    do {                                                                                                               \
+        double check_a_ = (actual), check_e_ = (expected);                                                             \
+        check_report(fabs(check_a_ - check_e_) <= (rtol)*fabs(check_e_) + (atol), __FILE__, __LINE__,                  \
+                     "%s: got %.12g, expected %.12g (rtol %g, atol %g)", (what), check_a_, check_e_, (double)(rtol),   \
+                     (double)(atol));                                                                                  \
     } while (0)
 
 static void check_run(const char *name, void (*test)(void)) __attribute__((unused));
@@ -57,7 +57,10 @@ static void check_run(const char *name, void (*test)(void))
 
 /* Exit status of the test program. */
 static int check_finish(void) __attribute__((unused));
-static int check_finish(void) { return check_total_failed ? 1 : 0; }
+static int check_finish(void)
+{
+    return check_total_failed ? 1 : 0;
+}
 
 /* Folder of the independently computed reference tables. */
 static const char *check_verification_dir(void) __attribute__((unused));

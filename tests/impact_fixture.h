@@ -22,8 +22,7 @@ struct impact_fixture {
 };
 
 /* rows: bodies as "shape,x,y,z,vx,vy,vz,d,h,material\n" lines (NULL: the single particle of [impact]). */
-static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows)
-    __attribute__((unused));
+static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows) __attribute__((unused));
 static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows)
 {
     static const struct cfg_key *const registry[] = {run_case_keys, mpm_case_keys, NULL};

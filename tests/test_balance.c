@@ -13,8 +13,10 @@ static void check_cover(const struct balance *b, int threads, size_t count)
     for (int t = 0; t < threads; t++) {
         size_t first, end;
         balance_range(b, t, threads, count, &first, &end);
-        CHECK(first == expected_first && end >= first, "%d threads, %zu items: thread %d has [%zu, %zu), expected to "
-              "start at %zu", threads, count, t, first, end, expected_first);
+        CHECK(first == expected_first && end >= first,
+              "%d threads, %zu items: thread %d has [%zu, %zu), expected to "
+              "start at %zu",
+              threads, count, t, first, end, expected_first);
         expected_first = end;
     }
     CHECK(expected_first == count, "%d threads, %zu items: the shares end at %zu", threads, count, expected_first);
@@ -32,7 +34,8 @@ static void test_equal_shares_cover_the_items(void)
     size_t first, end;
     balance_prepare(&b, 4);
     balance_range(&b, 2, 4, 1000, &first, &end);
-    CHECK(first == 500 && end == 750, "4 equal shares of 1000: thread 2 has [%zu, %zu), expected [500, 750)", first, end);
+    CHECK(first == 500 && end == 750, "4 equal shares of 1000: thread 2 has [%zu, %zu), expected [500, 750)", first,
+          end);
     balance_free(&b);
 }
 
@@ -88,7 +91,6 @@ static void test_team_change_resets(void)
     balance_free(&b);
 }
 
-
 /* balance_next, one thread: its own share in order from the front, chunk by chunk, then the backs of the others'
  * shares, always the one with the most left (the first of equals); every item exactly once, and 0 once none is
  * left. */
@@ -97,8 +99,8 @@ static void test_stealing_takes_every_item_once(void)
     struct balance b = {0};
     balance_prepare(&b, 3);
     balance_shares(&b, 30); /* equal shares [0, 10) [10, 20) [20, 30) */
-    size_t first, end, expected[][2] = {{10, 14}, {14, 18}, {18, 20}, {6, 10}, {26, 30}, {2, 6}, {22, 26}, {0, 2},
-                                        {20, 22}};
+    size_t first, end,
+        expected[][2] = {{10, 14}, {14, 18}, {18, 20}, {6, 10}, {26, 30}, {2, 6}, {22, 26}, {0, 2}, {20, 22}};
     int taken = 0;
     for (; balance_next(&b, 1, 4, &first, &end); taken++) {
         if (taken < 9)

@@ -10,8 +10,8 @@
 /* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "dem/dem_impl.h"
 
-#define CUBE 1.5e-3  /* m: particles bounce inside [0, CUBE]^3 */
-#define DT 4e-6    /* s: a sweep of about half a diameter at 5 m/s */
+#define CUBE    1.5e-3 /* m: particles bounce inside [0, CUBE]^3 */
+#define DT      4e-6   /* s: a sweep of about half a diameter at 5 m/s */
 #define DENSITY 4000.0
 
 /* splitmix64: a small deterministic generator for the configurations */
@@ -96,8 +96,8 @@ static void check_pair_list(const struct dem_bins *kept, const struct dem_partic
         bad += pairs[2 * k] >= pairs[2 * k + 1] || pairs[2 * k + 1] >= p->count;
         duplicates += k > 0 && pair_order(pairs + 2 * k, pairs + 2 * k - 2) == 0;
     }
-    CHECK(bad == 0 && duplicates == 0, "step %lld: %zu pairs out of order or range, %zu listed twice",
-          (long long)step, bad, duplicates);
+    CHECK(bad == 0 && duplicates == 0, "step %lld: %zu pairs out of order or range, %zu listed twice", (long long)step,
+          bad, duplicates);
     free(pairs);
 }
 
@@ -111,7 +111,10 @@ static void swept(const struct dem_particles *p, size_t i, double lo[3], double 
     }
 }
 
-static void mark_visited(uint32_t index, void *context) { ((uint8_t *)context)[index] = 1; }
+static void mark_visited(uint32_t index, void *context)
+{
+    ((uint8_t *)context)[index] = 1;
+}
 
 /* The query of a flying particle's swept box visits every particle whose swept box meets it. */
 static void check_visits(const struct dem_bins *kept, const struct dem_particles *p, int64_t step)
@@ -225,10 +228,16 @@ static void run_kept_grid(int verify)
     dem_particles_free(&p);
 }
 
-static void test_repairs_match_fresh_builds(void) { run_kept_grid(0); }
+static void test_repairs_match_fresh_builds(void)
+{
+    run_kept_grid(0);
+}
 
 /* The integration's marks (struct dem_bins: reach_verified) stand in for the box test: the same contacts. */
-static void test_verified_reach_matches_fresh_builds(void) { run_kept_grid(1); }
+static void test_verified_reach_matches_fresh_builds(void)
+{
+    run_kept_grid(1);
+}
 
 int main(void)
 {

@@ -206,8 +206,8 @@ static void test_int_errors(void)
 
 static void test_real_range_and_exclusive_min(void)
 {
-    expect_input_error("[alpha]\nlength = 0\n", "bad.ini:2:", "[alpha] length = 0: out of range",
-                       "allowed: > 0 m", NULL);
+    expect_input_error("[alpha]\nlength = 0\n", "bad.ini:2:", "[alpha] length = 0: out of range", "allowed: > 0 m",
+                       NULL);
     expect_input_error("[alpha]\nlength = -1e-3\n", "allowed: > 0 m", NULL);
     expect_input_error("[alpha]\nfraction = 1.5\n", "[alpha] fraction = 1.5", "allowed: 0 .. 1 -", NULL);
     expect_input_error("[alpha]\nfraction = abc\n", "not a number", "allowed: 0 .. 1 -", NULL);
@@ -322,7 +322,8 @@ static void test_syntax_errors(void)
 
 static void test_binary_garbage(void)
 {
-    static const char garbage[] = "[alpha]\ncount = 1\n\x7f" "ELF\x02\x01\x01\x00\x00\xff\xfe\n";
+    static const char garbage[] = "[alpha]\ncount = 1\n\x7f"
+                                  "ELF\x02\x01\x01\x00\x00\xff\xfe\n";
     char path[PATH_MAX];
     write_file(path, sizeof path, "garbage.ini", garbage, (long)sizeof garbage - 1);
     struct case_file *c = NULL;
@@ -466,8 +467,10 @@ static void test_hash(void)
     CHECK(a != changed, "a changed value changes the hash");
     CHECK(a != fewer, "a removed material changes the hash");
     int status;
-    struct case_file *c = load_text("h5.ini", "[alpha]\ncount = 5\nlength = 2\n[material.b]\ndensity=1\n"
-                                              "[material.a]\ndensity=2\n", &status);
+    struct case_file *c = load_text("h5.ini",
+                                    "[alpha]\ncount = 5\nlength = 2\n[material.b]\ndensity=1\n"
+                                    "[material.a]\ndensity=2\n",
+                                    &status);
     if (c) {
         CHECK(case_hash(c) == a, "same text, same hash");
         case_set(c, "alpha", "fraction", "0.5", NULL);
@@ -481,8 +484,10 @@ static void test_write_resolved_round_trip(void)
     char data[PATH_MAX];
     write_file(data, sizeof data, "particles.csv", "x\n1\n", -1);
     int status;
-    struct case_file *c = load_text("round.ini", "[alpha]\ncount = 5 ; five\ndata = particles.csv\ntitle = A run\n"
-                                                 "[material.steel]\ndensity = 7.8e3\n[material.none]\n", &status);
+    struct case_file *c = load_text("round.ini",
+                                    "[alpha]\ncount = 5 ; five\ndata = particles.csv\ntitle = A run\n"
+                                    "[material.steel]\ndensity = 7.8e3\n[material.none]\n",
+                                    &status);
     CHECK(status == SC_OK && c, "load: %s", sc_error_message());
     if (!c)
         return;
@@ -560,8 +565,14 @@ static char *capture(void (*write)(const void *, FILE *), const void *what)
     return text;
 }
 
-static void print_case(const void *c, FILE *out) { case_print(c, out); }
-static void print_markdown(const void *r, FILE *out) { case_registry_markdown(r, out); }
+static void print_case(const void *c, FILE *out)
+{
+    case_print(c, out);
+}
+static void print_markdown(const void *r, FILE *out)
+{
+    case_registry_markdown(r, out);
+}
 
 static void test_print(void)
 {
@@ -593,10 +604,10 @@ static void test_markdown(void)
 
 static void remove_temp_folder(void)
 {
-    static const char *const names[] = {"case.ini", "empty.ini", "comments.ini", "bad.ini", "ok.ini", "garbage.ini",
-                                        "nul.ini", "latin1.ini", "noise.ini", "bom.ini", "mat.ini", "set.ini",
-                                        "req.ini", "h1.ini", "h2.ini", "h3.ini", "h4.ini", "h5.ini",
-                                        "particles.csv", "round.ini", "print.ini"};
+    static const char *const names[] = {
+        "case.ini",   "empty.ini", "comments.ini", "bad.ini", "ok.ini",        "garbage.ini", "nul.ini",
+        "latin1.ini", "noise.ini", "bom.ini",      "mat.ini", "set.ini",       "req.ini",     "h1.ini",
+        "h2.ini",     "h3.ini",    "h4.ini",       "h5.ini",  "particles.csv", "round.ini",   "print.ini"};
     char path[PATH_MAX + 32];
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", temp_folder, names[i]);

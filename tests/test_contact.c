@@ -14,11 +14,16 @@
 
 #define PI 3.14159265358979323846
 
-
 /* ---- small vector and body helpers ---- */
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-static double norm3(const double a[3]) { return sqrt(dot3(a, a)); }
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static double norm3(const double a[3])
+{
+    return sqrt(dot3(a, a));
+}
 
 static void cross3(const double a[3], const double b[3], double out[3])
 {
@@ -31,7 +36,10 @@ static double sphere_mass(double radius, double density)
 {
     return 4.0 / 3.0 * PI * radius * radius * radius * density;
 }
-static double sphere_inertia(const struct sphere_state *s) { return 0.4 * s->mass * s->radius * s->radius; }
+static double sphere_inertia(const struct sphere_state *s)
+{
+    return 0.4 * s->mass * s->radius * s->radius;
+}
 
 static double kinetic_energy(const struct sphere_state *s)
 {
@@ -86,15 +94,23 @@ static void pair_slip(const struct sphere_state *a, const struct sphere_state *b
 
 static struct dem_material table_particle(void)
 {
-    struct dem_material m = {.density = 5680.0, .shear_modulus = 77e9, .bulk_modulus = 167e9,
-                             .yield_stress = 690e6, .surface_energy = 0.046, .friction = 0.3};
+    struct dem_material m = {.density = 5680.0,
+                             .shear_modulus = 77e9,
+                             .bulk_modulus = 167e9,
+                             .yield_stress = 690e6,
+                             .surface_energy = 0.046,
+                             .friction = 0.3};
     return m;
 }
 
 static struct dem_material table_target(void)
 {
-    struct dem_material m = {.density = 0.0, .shear_modulus = 80e9, .bulk_modulus = 160e9,
-                             .yield_stress = 690e6, .surface_energy = 1.1, .friction = 0.3};
+    struct dem_material m = {.density = 0.0,
+                             .shear_modulus = 80e9,
+                             .bulk_modulus = 160e9,
+                             .yield_stress = 690e6,
+                             .surface_energy = 1.1,
+                             .friction = 0.3};
     return m;
 }
 
@@ -179,8 +195,8 @@ static void test_hertz_duration_chung_ooi(void)
     struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 1.0, 1e-6};
     struct dem_material glass = material_from_e_nu(48e9, 0.2, 2800.0, 0.0);
     double m_glass = sphere_mass(0.01, glass.density);
-    struct restitution pair = dem_contact_restitution(&law, 0.5 * m_glass, 0.005,
-                                                  dem_material_effective_modulus(&glass, &glass), 1e9, 20.0);
+    struct restitution pair =
+        dem_contact_restitution(&law, 0.5 * m_glass, 0.005, dem_material_effective_modulus(&glass, &glass), 1e9, 20.0);
     CHECK_CLOSE(pair.dt_elastic, 40.3e-6, 0.0, 0.2e-6, "glass pair Hertz duration");
     double e_al = 70e9, nu_al = 0.3;
     double m_al = sphere_mass(0.1, 2699.0);
@@ -220,8 +236,8 @@ static void test_normal_wall_impact(void)
         struct contact_outcome out;
         CHECK(dem_contact_fixed(&law, &a, &alumina, INFINITY, down, &out) == 1, "impact applied");
         CHECK_CLOSE(a.v[2] / 3.9, test_restitutions[i], 1e-12, 1e-12, "wall rebound ratio = e");
-        CHECK_CLOSE((before - kinetic_energy(&a)) / before, 1.0 - test_restitutions[i] * test_restitutions[i],
-                    1e-12, 1e-12, "wall energy loss fraction 1 - e^2");
+        CHECK_CLOSE((before - kinetic_energy(&a)) / before, 1.0 - test_restitutions[i] * test_restitutions[i], 1e-12,
+                    1e-12, "wall energy loss fraction 1 - e^2");
         CHECK(a.v[0] == 0.0 && a.v[1] == 0.0 && norm3(a.w) == 0.0, "no tangential motion from a normal impact");
     }
 }
@@ -250,8 +266,8 @@ static void test_normal_pair_impact(void)
             cm_energy_after += 0.5 * (a.mass * da * da + b.mass * db * db);
         }
         CHECK_CLOSE(dot3(rel_after, n) / 4.5, test_restitutions[i], 1e-12, 1e-12, "pair rebound ratio = e");
-        CHECK_CLOSE(1.0 - cm_energy_after / cm_energy_before, 1.0 - test_restitutions[i] * test_restitutions[i],
-                    1e-12, 1e-12, "pair centre-of-mass energy loss fraction 1 - e^2");
+        CHECK_CLOSE(1.0 - cm_energy_after / cm_energy_before, 1.0 - test_restitutions[i] * test_restitutions[i], 1e-12,
+                    1e-12, "pair centre-of-mass energy loss fraction 1 - e^2");
         CHECK(norm3(a.w) == 0.0 && norm3(b.w) == 0.0, "no spin from a normal impact");
     }
 }
@@ -296,7 +312,7 @@ static void test_random_pair_conservation(void)
     hard.yield_stress = 300e6;
     for (int trial = 0; trial < 2000; trial++) {
         struct dem_contact_law law = {trial % 2 ? DEM_RESTITUTION_JOHNSON : DEM_RESTITUTION_CONSTANT, 0.6,
-                                  trial % 3 ? 1e-3 : 10.0};
+                                      trial % 3 ? 1e-3 : 10.0};
         struct sphere_state a = sphere_at_rest(random_uniform(5e-6, 8e-5), &soft);
         struct sphere_state b = sphere_at_rest(random_uniform(5e-6, 8e-5), &hard);
         double n[3], ra[3], rb[3];
@@ -367,8 +383,7 @@ static void oblique_rigid_body(double theta, double speed, double mu, double e, 
 }
 
 /* Sphere above the wall (n = -z), sliding along +x: the triad t = x, s = n x t = -y, omega_s = w.s. */
-static void oblique_wall_impact(double theta_deg, double *e_t, double *omega_s, double *slip_after,
-                                double *vn_after)
+static void oblique_wall_impact(double theta_deg, double *e_t, double *omega_s, double *slip_after, double *vn_after)
 {
     struct dem_material alumina = material_from_e_nu(380e9, 0.23, 4000.0, 0.092);
     struct dem_contact_law law = {DEM_RESTITUTION_CONSTANT, 0.98, 1e-8};
@@ -520,9 +535,8 @@ static void test_fixed_sphere_obstacle(void)
     a.v[2] = -8.0;
     struct contact_outcome out;
     CHECK(dem_contact_fixed(&law, &a, &particle, rb, n, &out) == 1, "impact on a frozen sphere");
-    struct restitution expected = dem_contact_restitution(&law, a.mass, r_eff,
-                                                      dem_material_effective_modulus(&particle, &particle),
-                                                      particle.yield_stress, 10.0);
+    struct restitution expected = dem_contact_restitution(
+        &law, a.mass, r_eff, dem_material_effective_modulus(&particle, &particle), particle.yield_stress, 10.0);
     CHECK_CLOSE(out.vn, 10.0, 1e-14, 0.0, "approach speed along n");
     CHECK_CLOSE(out.e, expected.e, 1e-14, 0.0, "e with R_eff of two spheres");
     CHECK_CLOSE(out.dt_compression, sqrt(PI * a.mass / (24.0 * r_eff * particle.yield_stress)), 1e-14, 0.0,

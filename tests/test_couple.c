@@ -38,8 +38,15 @@ static void make_candidates(void)
 
 static struct couple_config config(enum couple_sample sample, long runs, long bodies)
 {
-    struct couple_config cfg = {.sample = sample, .runs = runs, .bodies_per_run = bodies, .layer_thickness = 1e-3,
-                                .rtol = 1e-8, .atol = 1e-10, .patch_size = 40e-6, .max_gap = 10e-6, .seed = 3};
+    struct couple_config cfg = {.sample = sample,
+                                .runs = runs,
+                                .bodies_per_run = bodies,
+                                .layer_thickness = 1e-3,
+                                .rtol = 1e-8,
+                                .atol = 1e-10,
+                                .patch_size = 40e-6,
+                                .max_gap = 10e-6,
+                                .seed = 3};
     return cfg;
 }
 
@@ -198,8 +205,8 @@ static void test_place_window(void)
 static void test_place_fold_and_clear(void)
 {
     struct couple_config cfg = config(COUPLE_RANDOM, 1, 2);
-    struct couple_seed seeds[2] = {seed_at(0.0, 5e-3, 5e-3, 700.0, 20e-6), seed_at(1e-12, 5e-3 + 2e-6 + 40e-6, 5e-3,
-                                                                                     700.0, 20e-6)};
+    struct couple_seed seeds[2] = {seed_at(0.0, 5e-3, 5e-3, 700.0, 20e-6),
+                                   seed_at(1e-12, 5e-3 + 2e-6 + 40e-6, 5e-3, 700.0, 20e-6)};
     couple_place_run(&cfg, seeds, 2);
     CHECK(seeds[0].center[0] == 0.0 && seeds[0].center[1] == 0.0, "the first arrival at the patch centre");
     CHECK_CLOSE(seeds[1].center[0], 2e-6, 1e-9, 1e-15, "offset folded into the 40 um patch");

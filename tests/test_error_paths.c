@@ -32,8 +32,8 @@ static void drop_file(hid_t file, const char *path)
     unlink(path);
 }
 
-/* A spray solver with three particles (their states) and no particle ids: the write of /particles/id fails after the group
- * /particles was created (h5io refuses a dataset without data). */
+/* A spray solver with three particles (their states) and no particle ids: the write of /particles/id fails after the
+ * group /particles was created (h5io refuses a dataset without data). */
 static void broken_solver(struct dem_solver *s)
 {
     static uint8_t states[3];
@@ -69,8 +69,7 @@ static void test_spray_checkpoint_failure_closes_handles(void)
     int status = dem_checkpoint_write(&s, file);
     CHECK(status == SC_EIO, "dem_checkpoint_write returned %d, expected SC_EIO", status);
     ssize_t open_objects = H5Fget_obj_count(file, H5F_OBJ_ALL);
-    CHECK(open_objects == 1, "after the failed checkpoint %zd objects are open in the file, expected 1",
-          open_objects);
+    CHECK(open_objects == 1, "after the failed checkpoint %zd objects are open in the file, expected 1", open_objects);
     drop_file(file, path);
 }
 
@@ -137,10 +136,11 @@ static void test_die_out_of_memory_exits_3(void)
     close(pipe_ends[0]);
     int wait_status = 0;
     waitpid(child, &wait_status, 0);
-    CHECK(WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == SC_EIO, "the child ended with wait status %#x, "
-          "expected exit status 3", wait_status);
-    CHECK(strstr(text, "out of memory: cannot allocate 1234 bytes for the child's buffer") != NULL, "stderr: %s",
-          text);
+    CHECK(WIFEXITED(wait_status) && WEXITSTATUS(wait_status) == SC_EIO,
+          "the child ended with wait status %#x, "
+          "expected exit status 3",
+          wait_status);
+    CHECK(strstr(text, "out of memory: cannot allocate 1234 bytes for the child's buffer") != NULL, "stderr: %s", text);
 }
 
 /* How often `needle` occurs in `text`. */
@@ -200,7 +200,10 @@ static void test_failed_seed_read_closes_couple_h5(void)
 }
 
 /* SC_CHECK: records a frame and jumps to the cleanup label; SC_OK falls through. */
-static int failing(void) { SC_FAIL(SC_EINPUT, "bad input"); }
+static int failing(void)
+{
+    SC_FAIL(SC_EINPUT, "bad input");
+}
 
 static int with_cleanup(int fail, int *cleaned)
 {

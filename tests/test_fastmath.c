@@ -35,10 +35,22 @@ static double worst_ulp(double (*fm)(double), double (*ref)(double), double lo, 
     return worst;
 }
 
-static double fm_expm1_call(double x) { return fm_expm1(x); }
-static double fm_erf_call(double x) { return fm_erf_from_gauss(x, fm_exp(-x * x)); }
-static double fm_exp_call(double x) { return fm_exp(x); }
-static double fm_log_call(double x) { return fm_log(x); }
+static double fm_expm1_call(double x)
+{
+    return fm_expm1(x);
+}
+static double fm_erf_call(double x)
+{
+    return fm_erf_from_gauss(x, fm_exp(-x * x));
+}
+static double fm_exp_call(double x)
+{
+    return fm_exp(x);
+}
+static double fm_log_call(double x)
+{
+    return fm_log(x);
+}
 
 static void check_range(const char *name, double (*fm)(double), double (*ref)(double), double lo, double hi,
                         double max_ulp)
@@ -82,8 +94,14 @@ static void test_exp_log(void)
     check_range("fm_log", fm_log_call, log, 0.5, 2.0, 2.0);
 }
 
-static double inverse_cbrt_reference(double x) { return (double)powl((long double)x, -1.0L / 3.0L); }
-static double fm_inverse_cbrt_call(double x) { return fm_inverse_cbrt(x); }
+static double inverse_cbrt_reference(double x)
+{
+    return (double)powl((long double)x, -1.0L / 3.0L);
+}
+static double fm_inverse_cbrt_call(double x)
+{
+    return fm_inverse_cbrt(x);
+}
 
 /* x^(-1/3) as the jet uses it (x = z + virtual_origin: about 1e-3 to 10 m), over every exponent residue mod 3,
  * and far out. */
@@ -97,9 +115,18 @@ static void test_inverse_cbrt(void)
           "exact cubes: %.17g %.17g %.17g", fm_inverse_cbrt(8.0), fm_inverse_cbrt(0.125), fm_inverse_cbrt(1.0));
 }
 
-static double __attribute__((noinline)) erf_scalar(double x) { return fm_erf_call(x); }
-static double __attribute__((noinline)) expm1_scalar(double x) { return fm_expm1(x); }
-static double __attribute__((noinline)) inverse_cbrt_scalar(double x) { return fm_inverse_cbrt(x); }
+static double __attribute__((noinline)) erf_scalar(double x)
+{
+    return fm_erf_call(x);
+}
+static double __attribute__((noinline)) expm1_scalar(double x)
+{
+    return fm_expm1(x);
+}
+static double __attribute__((noinline)) inverse_cbrt_scalar(double x)
+{
+    return fm_inverse_cbrt(x);
+}
 
 /* A loop the compiler vectorises (-O3 here) gives the bits of the scalar calls in every lane. */
 static void test_lanes_match_scalar(void)

@@ -15,8 +15,8 @@ static struct couple_flight_solver *solver;
 static struct couple_flight_layer stokes_layer(double wall_z)
 {
     /* the table's set-up: mu = 1.8e-5 Pa s (rho_g nu), a uniform stream of 100 m/s (delta = 0) */
-    struct couple_flight_layer layer = {.wall_z = wall_z, .thickness = 0.0, .approach_velocity = 100.0,
-                                 .rtol = 1e-10, .atol = 1e-12};
+    struct couple_flight_layer layer = {
+        .wall_z = wall_z, .thickness = 0.0, .approach_velocity = 100.0, .rtol = 1e-10, .atol = 1e-12};
     layer.gas.model = DEM_JET_UNIFORM;
     layer.gas.drag = DEM_DRAG_STOKES;
     layer.gas.density = 1.2;
@@ -57,10 +57,11 @@ static void test_stokes_relaxation_table(void)
  * edge may land a rounding error beyond it): upstream the uniform stream, inside the layer the layer's field. */
 static int reference_inside_layer;
 
-static void reference_rate(const struct couple_flight_layer *layer, double d, double mass, const double y[6], double dy[6])
+static void reference_rate(const struct couple_flight_layer *layer, double d, double mass, const double y[6],
+                           double dy[6])
 {
     double u[3] = {0.0, 0.0, layer->approach_velocity}, force[3];
-    if (reference_inside_layer) {   /* the stagnation-point flow, written out independently of flight.c */
+    if (reference_inside_layer) { /* the stagnation-point flow, written out independently of flight.c */
         double rate = layer->approach_velocity / layer->thickness;
         u[0] = 0.5 * rate * y[0];
         u[1] = 0.5 * rate * y[1];
@@ -141,8 +142,8 @@ static void rk4_to_wall(const struct couple_flight_layer *layer, double d, doubl
 
 static struct couple_flight_layer cold_spray_layer(void)
 {
-    struct couple_flight_layer layer = {.wall_z = 0.05, .thickness = 2e-3, .approach_velocity = 450.0, .rtol = 1e-10,
-                                 .atol = 1e-12};
+    struct couple_flight_layer layer = {
+        .wall_z = 0.05, .thickness = 2e-3, .approach_velocity = 450.0, .rtol = 1e-10, .atol = 1e-12};
     layer.gas.model = DEM_JET_UNIFORM;
     layer.gas.drag = DEM_DRAG_HAIDER_LEVENSPIEL;
     layer.gas.density = 2.0;
@@ -175,7 +176,10 @@ static void test_nonstiff_against_rk4(void)
  *     tau s'' + s' + (U / delta) s = 0    (s = distance to the wall),
  * so s(t) = A exp(l1 t) + B exp(l2 t) with the roots of tau l^2 + l + U/delta = 0: the arrival (s = d/2) and its
  * speed follow exactly.  The particle slows with the gas and reaches the wall at a tiny speed, never passing it. */
-static double stokes_gap(const double a[2], const double l[2], double t) { return a[0] * exp(l[0] * t) + a[1] * exp(l[1] * t); }
+static double stokes_gap(const double a[2], const double l[2], double t)
+{
+    return a[0] * exp(l[0] * t) + a[1] * exp(l[1] * t);
+}
 
 static void test_stiff_particle(void)
 {
@@ -198,7 +202,7 @@ static void test_stiff_particle(void)
     double mu = layer.gas.density * layer.gas.kinematic_viscosity, tau = rho * d * d / (18.0 * mu);
     double k = layer.approach_velocity / layer.thickness, root = sqrt(1.0 - 4.0 * tau * k);
     double l[2] = {(-1.0 + root) / (2.0 * tau), (-1.0 - root) / (2.0 * tau)};
-    double a[2];   /* s(0) = s0, s'(0) = -speed0 */
+    double a[2]; /* s(0) = s0, s'(0) = -speed0 */
     a[0] = (-speed0 - l[1] * s0) / (l[0] - l[1]);
     a[1] = s0 - a[0];
     double lo = 0.0, hi = 1.0;

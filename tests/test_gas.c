@@ -10,7 +10,6 @@
 
 #define PI 3.14159265358979323846
 
-
 #define TABLE_RTOL 1e-8
 
 /* ---- drag coefficient ---- */

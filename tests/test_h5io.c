@@ -10,9 +10,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#define FORMAT "spraycoat-test"
+#define FORMAT         "spraycoat-test"
 #define FORMAT_VERSION 3
-#define CASE_HASH 0x0123456789abcdefull
+#define CASE_HASH      0x0123456789abcdefull
 
 /* ---------------------------------------------------------------------------------------------------------
  * Helpers */
@@ -46,9 +46,15 @@ static void remove_tree(const char *path)
     }
 }
 
-static int file_exists(const char *path) { return access(path, F_OK) == 0; }
+static int file_exists(const char *path)
+{
+    return access(path, F_OK) == 0;
+}
 
-static int message_has(const char *needle) { return strstr(sc_error_message(), needle) != NULL; }
+static int message_has(const char *needle)
+{
+    return strstr(sc_error_message(), needle) != NULL;
+}
 
 static void write_text_file(const char *path, const char *text)
 {
@@ -164,8 +170,7 @@ static void test_round_trip_doubles(void)
     double vector_in[ROWS] = {0}, matrix_in[ROWS * COLS] = {0};
     size_t count = 0;
     CHECK(h5_read_doubles(file, "vector", vector_in, ROWS) == SC_OK, "read vector: %s", sc_error_message());
-    CHECK(h5_read_doubles(file, "matrix", matrix_in, ROWS * COLS) == SC_OK, "read matrix: %s",
-          sc_error_message());
+    CHECK(h5_read_doubles(file, "matrix", matrix_in, ROWS * COLS) == SC_OK, "read matrix: %s", sc_error_message());
     CHECK(memcmp(vector, vector_in, sizeof vector) == 0, "vector differs after the round trip");
     CHECK(memcmp(matrix, matrix_in, sizeof matrix) == 0, "matrix differs after the round trip");
     CHECK(h5_dataset_size(file, "matrix", &count) == SC_OK && count == ROWS * COLS, "matrix size %zu", count);
@@ -207,8 +212,7 @@ static void test_round_trip_int64s_and_bytes(void)
     struct h5_out out;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
     CHECK(h5_write_int64s(out.file, "ids", 1, ids_dims, ids, "1", 1) == SC_OK, "ids: %s", sc_error_message());
-    CHECK(h5_write_int64s(out.file, "pairs", 2, pairs_dims, pairs, NULL, 0) == SC_OK, "pairs: %s",
-          sc_error_message());
+    CHECK(h5_write_int64s(out.file, "pairs", 2, pairs_dims, pairs, NULL, 0) == SC_OK, "pairs: %s", sc_error_message());
     CHECK(h5_write_bytes(out.file, "blob", sizeof blob, blob, 1) == SC_OK, "blob: %s", sc_error_message());
     CHECK(h5_commit(&out) == SC_OK, "commit: %s", sc_error_message());
 
@@ -299,8 +303,8 @@ static void test_large_checksummed_dataset_is_chunked(void)
     hsize_t chunk[2] = {0, 0};
     CHECK(H5Pget_layout(dcpl) == H5D_CHUNKED, "checksummed dataset is not chunked");
     H5Pget_chunk(dcpl, 2, chunk);
-    CHECK(chunk[1] == COLS && chunk[0] >= 1 && chunk[0] * COLS * sizeof(double) <= (1u << 20),
-          "chunk %llu x %llu", (unsigned long long)chunk[0], (unsigned long long)chunk[1]);
+    CHECK(chunk[1] == COLS && chunk[0] >= 1 && chunk[0] * COLS * sizeof(double) <= (1u << 20), "chunk %llu x %llu",
+          (unsigned long long)chunk[0], (unsigned long long)chunk[1]);
     CHECK(H5Pget_nfilters(dcpl) == 1, "expected one filter (Fletcher32), got %d", H5Pget_nfilters(dcpl));
     H5Pclose(dcpl);
     H5Dclose(dataset);
@@ -321,8 +325,7 @@ static void test_read_errors_name_the_dataset(void)
     const hsize_t dims[1] = {4};
     struct h5_out out;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
-    CHECK(h5_write_doubles(out.file, "speeds", 1, dims, values, "m/s", 0) == SC_OK, "write: %s",
-          sc_error_message());
+    CHECK(h5_write_doubles(out.file, "speeds", 1, dims, values, "m/s", 0) == SC_OK, "write: %s", sc_error_message());
     CHECK(h5_commit(&out) == SC_OK, "commit: %s", sc_error_message());
 
     hid_t file = H5I_INVALID_HID;
@@ -330,8 +333,7 @@ static void test_read_errors_name_the_dataset(void)
     double buffer[5];
     int64_t integers[4];
     size_t count = 0;
-    CHECK(h5_read_doubles(file, "speeds", buffer, 5) == SC_EIO && message_has("speeds") &&
-              message_has("4 elements"),
+    CHECK(h5_read_doubles(file, "speeds", buffer, 5) == SC_EIO && message_has("speeds") && message_has("4 elements"),
           "wrong count: \"%s\"", sc_error_message());
     CHECK(h5_read_doubles(file, "missing", buffer, 4) == SC_EIO && message_has("missing"), "missing: \"%s\"",
           sc_error_message());
@@ -351,8 +353,7 @@ static void test_attributes(void)
     struct h5_out out;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
     CHECK(h5_attr_write_string(out.file, "note", "first") == SC_OK, "write: %s", sc_error_message());
-    CHECK(h5_attr_write_string(out.file, "note", "second, longer value") == SC_OK, "overwrite: %s",
-          sc_error_message());
+    CHECK(h5_attr_write_string(out.file, "note", "second, longer value") == SC_OK, "overwrite: %s", sc_error_message());
     CHECK(h5_attr_write_string(out.file, "empty", "") == SC_OK, "empty: %s", sc_error_message());
     CHECK(h5_attr_write_double(out.file, "dt", 2.5e-9) == SC_OK, "double: %s", sc_error_message());
     CHECK(h5_attr_write_double(out.file, "dt", 1.25e-9) == SC_OK, "double overwrite: %s", sc_error_message());
@@ -388,29 +389,28 @@ static void test_root_attributes(void)
     snprintf(path, sizeof path, "%s/root.h5", dir);
     struct h5_out out;
     CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
-    CHECK(h5_write_root_attributes(out.file, FORMAT, FORMAT_VERSION, "spray", 0xdeadbeefull) == SC_OK,
-          "write: %s", sc_error_message());
+    CHECK(h5_write_root_attributes(out.file, FORMAT, FORMAT_VERSION, "spray", 0xdeadbeefull) == SC_OK, "write: %s",
+          sc_error_message());
     CHECK(h5_commit(&out) == SC_OK, "commit: %s", sc_error_message());
 
     hid_t file = H5I_INVALID_HID;
     CHECK(h5_open_read(path, &file) == SC_OK, "open: %s", sc_error_message());
     char text[128] = "";
     int64_t version = 0;
-    CHECK(h5_attr_read_string(file, "format", text, sizeof text) == SC_OK && strcmp(text, FORMAT) == 0,
-          "format \"%s\"", text);
+    CHECK(h5_attr_read_string(file, "format", text, sizeof text) == SC_OK && strcmp(text, FORMAT) == 0, "format \"%s\"",
+          text);
     CHECK(h5_attr_read_int64(file, "format_version", &version) == SC_OK && version == FORMAT_VERSION,
           "format_version %lld", (long long)version);
-    CHECK(h5_attr_read_string(file, "case_hash", text, sizeof text) == SC_OK &&
-              strcmp(text, "00000000deadbeef") == 0,
+    CHECK(h5_attr_read_string(file, "case_hash", text, sizeof text) == SC_OK && strcmp(text, "00000000deadbeef") == 0,
           "case_hash \"%s\"", text);
-    CHECK(h5_attr_read_string(file, "stage", text, sizeof text) == SC_OK && strcmp(text, "spray") == 0,
-          "stage \"%s\"", text);
-    CHECK(h5_attr_read_string(file, "units", text, sizeof text) == SC_OK && strcmp(text, "SI") == 0,
-          "units \"%s\"", text);
+    CHECK(h5_attr_read_string(file, "stage", text, sizeof text) == SC_OK && strcmp(text, "spray") == 0, "stage \"%s\"",
+          text);
+    CHECK(h5_attr_read_string(file, "units", text, sizeof text) == SC_OK && strcmp(text, "SI") == 0, "units \"%s\"",
+          text);
     CHECK(h5_attr_read_string(file, "program_version", text, sizeof text) == SC_OK && text[0] != '\0',
           "program_version \"%s\"", text);
-    CHECK(h5_attr_read_string(file, "created", text, sizeof text) == SC_OK && strlen(text) == 20 &&
-              text[4] == '-' && text[7] == '-' && text[10] == 'T' && text[13] == ':' && text[19] == 'Z',
+    CHECK(h5_attr_read_string(file, "created", text, sizeof text) == SC_OK && strlen(text) == 20 && text[4] == '-' &&
+              text[7] == '-' && text[10] == 'T' && text[13] == ':' && text[19] == 'Z',
           "created \"%s\" is not UTC ISO 8601", text);
     H5Fclose(file);
     remove_tree(dir);
@@ -497,8 +497,9 @@ static void test_copy(void)
               sc_error_message());
         hid_t dataset = H5Dopen2(g, "x", H5P_DEFAULT);
         hid_t dcpl = H5Dget_create_plist(dataset);
-        CHECK(H5Pget_nfilters(dcpl) == 1 && H5Pget_filter2(dcpl, 0, NULL, NULL, NULL, 0, NULL, NULL) ==
-                                                H5Z_FILTER_FLETCHER32, "%s/x lost its Fletcher32 filter", prefixes[k]);
+        CHECK(H5Pget_nfilters(dcpl) == 1 &&
+                  H5Pget_filter2(dcpl, 0, NULL, NULL, NULL, 0, NULL, NULL) == H5Z_FILTER_FLETCHER32,
+              "%s/x lost its Fletcher32 filter", prefixes[k]);
         CHECK(h5_attr_read_string(dataset, "units", units, sizeof units) == SC_OK && strcmp(units, "m") == 0,
               "%s/x units \"%s\"", prefixes[k], units);
         H5Pclose(dcpl);
@@ -580,11 +581,10 @@ static void test_open_errors_name_the_file(void)
     snprintf(nowhere, sizeof nowhere, "%s/no/such/folder/out.h5", dir);
     write_text_file(text, "this is not an HDF5 file\n");
     hid_t file = H5I_INVALID_HID;
-    CHECK(h5_open_read(missing, &file) == SC_EIO && message_has(missing) &&
-              message_has("No such file or directory"),
+    CHECK(h5_open_read(missing, &file) == SC_EIO && message_has(missing) && message_has("No such file or directory"),
           "missing file: \"%s\"", sc_error_message());
-    CHECK(h5_open_read(text, &file) == SC_EIO && message_has(text) && message_has("signature"),
-          "text file: \"%s\"", sc_error_message());
+    CHECK(h5_open_read(text, &file) == SC_EIO && message_has(text) && message_has("signature"), "text file: \"%s\"",
+          sc_error_message());
     CHECK(h5_open_read(dir, &file) == SC_EIO && message_has(dir), "folder: \"%s\"", sc_error_message());
     CHECK(h5_verify_file(text) == SC_EIO && message_has(text), "verify text file: \"%s\"", sc_error_message());
     struct h5_out out;
@@ -676,8 +676,8 @@ static void test_every_dataset_is_checked(void)
         const char *name;
         const void *values;
         size_t size;
-    } sets[3] = {{"doubles", doubles, sizeof doubles}, {"integers", integers, sizeof integers},
-                 {"bytes", bytes, sizeof bytes}};
+    } sets[3] = {
+        {"doubles", doubles, sizeof doubles}, {"integers", integers, sizeof integers}, {"bytes", bytes, sizeof bytes}};
     for (int k = 0; k < 3; k++) {
         struct h5_out out;
         CHECK(h5_create_atomic(path, &out) == SC_OK, "create: %s", sc_error_message());
@@ -695,7 +695,7 @@ static void test_every_dataset_is_checked(void)
         double d[3];
         int64_t i[5];
         unsigned char b[7];
-        status = k == 0 ? h5_read_doubles(file, "doubles", d, 3)
+        status = k == 0   ? h5_read_doubles(file, "doubles", d, 3)
                  : k == 1 ? h5_read_int64s(file, "integers", i, 5)
                           : h5_read_bytes(file, "bytes", b, sizeof b);
         H5Fclose(file);
@@ -746,8 +746,8 @@ static void test_checkpoint_keeps_last_k(void)
 
     /* keep <= 0 keeps everything; another stage's checkpoints are never touched. */
     for (int step = 1; step <= 3; step++)
-        CHECK(write_checkpoint(run_dir, "impact", step, CASE_HASH, FORMAT_VERSION, 0) == SC_OK, "impact %d: %s",
-              step, sc_error_message());
+        CHECK(write_checkpoint(run_dir, "impact", step, CASE_HASH, FORMAT_VERSION, 0) == SC_OK, "impact %d: %s", step,
+              sc_error_message());
     CHECK(count_stage_files(run_dir, "impact", ".h5") == 3, "impact checkpoints %d, expected 3",
           count_stage_files(run_dir, "impact", ".h5"));
     CHECK(count_stage_files(run_dir, "spray", ".h5") == 2, "spray checkpoints changed by another stage");
@@ -837,7 +837,7 @@ static void test_find_newest_refuses_other_case(void)
               message_has(path) && message_has("version"),
           "other format version: \"%s\"", sc_error_message());
     CHECK(h5_checkpoint_find_newest(run_dir, "spray", "another-format", FORMAT_VERSION, CASE_HASH, found,
-                                 sizeof found) == SC_EINPUT &&
+                                    sizeof found) == SC_EINPUT &&
               message_has("another-format"),
           "other format: \"%s\"", sc_error_message());
     remove_tree(run_dir);

@@ -36,7 +36,10 @@ static void mapping_flags(uintptr_t at, char *flags, size_t size)
     fclose(smaps);
 }
 
-static int kernel_has_huge_pages(void) { return access("/sys/kernel/mm/transparent_hugepage/enabled", R_OK) == 0; }
+static int kernel_has_huge_pages(void)
+{
+    return access("/sys/kernel/mm/transparent_hugepage/enabled", R_OK) == 0;
+}
 
 /* Arrays of a few MB, as the spray's particles and grid: in the advised part of the heap, usable, and freed. */
 static void test_heap_blocks_advised(void)

@@ -10,16 +10,18 @@ static int verdict_at(double velocity, double *pbcp, double *v_rest)
 {
     struct impact_fixture f;
     char ini[512];
-    snprintf(ini, sizeof ini, "[impact]\ngrid = 2e-6\nspacing = 0.667e-6\ndiameter = 14e-6\nsubstrate_diameter = 30e-6\n"
-             "substrate_height = 10e-6\nvelocity = %g\nt_end = 40e-9\n[material.aluminium]\n", velocity);
+    snprintf(ini, sizeof ini,
+             "[impact]\ngrid = 2e-6\nspacing = 0.667e-6\ndiameter = 14e-6\nsubstrate_diameter = 30e-6\n"
+             "substrate_height = 10e-6\nvelocity = %g\nt_end = 40e-9\n[material.aluminium]\n",
+             velocity);
     int bonded[2] = {-2, -2};
     if (impact_fixture_open(&f, ini, NULL) == SC_OK && impact_fixture_run(&f) == SC_OK) {
         mpm_verdicts(f.solver, bonded);
         const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
         *pbcp = d->body[1].pbcp;
         *v_rest = d->body[1].v_rest;
-        printf("  %g m/s: %s, PBCP %.3f, v_rest %.3f m/s\n", velocity, bonded[1] == 1 ? "bonded" : "rebounded",
-               *pbcp, *v_rest);
+        printf("  %g m/s: %s, PBCP %.3f, v_rest %.3f m/s\n", velocity, bonded[1] == 1 ? "bonded" : "rebounded", *pbcp,
+               *v_rest);
     }
     impact_fixture_close(&f);
     return bonded[1];

@@ -9,14 +9,14 @@
 #include "mpm/mpm_impl.h"
 
 /* An elastic material: no yield, p = rho0 c0^2 mu exactly (s = gamma0 = 0), no melt within reach. */
-#define ELASTIC_MATERIAL                                                                                       \
-    "[material.elastic]\nstrength = elastic\ndensity = 1000\neos_c0 = 1000\neos_s = 0\neos_gamma0 = 0\n"      \
+#define ELASTIC_MATERIAL                                                                                               \
+    "[material.elastic]\nstrength = elastic\ndensity = 1000\neos_c0 = 1000\neos_s = 0\neos_gamma0 = 0\n"               \
     "G0 = 1e9\nD = 0\nmelt_T0 = 1e5\n"
 
 /* Poisson ratio 0 (K = 2G/3): a column has no lateral expansion, so a narrow one carries the uniaxial-strain
  * wave at c_L = sqrt((K + 4G/3)/rho) without lateral release. */
-#define NU0_MATERIAL                                                                                           \
-    "[material.nu0]\nstrength = elastic\ndensity = 1000\neos_c0 = 816.496580927726\neos_s = 0\n"             \
+#define NU0_MATERIAL                                                                                                   \
+    "[material.nu0]\nstrength = elastic\ndensity = 1000\neos_c0 = 816.496580927726\neos_s = 0\n"                       \
     "eos_gamma0 = 0\nG0 = 1e9\nD = 0\nmelt_T0 = 1e5\n"
 
 static double nu0_wave_speed(void)
@@ -101,7 +101,7 @@ static void test_bar_vibration_period(void)
         double sum = 0.0, t = mpm_get_counts(f.solver).t;
         long n = 0;
         for (size_t q = 0; q < p->count; q++)
-            if (p->x[3 * q + 2] > zc + L / 2 - 2e-3) {   /* the top end moves with -v0 cos(omega t) */
+            if (p->x[3 * q + 2] > zc + L / 2 - 2e-3) { /* the top end moves with -v0 cos(omega t) */
                 sum += p->v[3 * q + 2];
                 n++;
             }
@@ -138,9 +138,11 @@ static void two_spheres(const char *law)
 {
     struct impact_fixture f;
     char ini[1024];
-    snprintf(ini, sizeof ini, "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
+    snprintf(ini, sizeof ini,
+             "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
              "t_end = 70e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\nbulk_viscosity_quadratic = 0\n"
-             "box_margin = 3e-3\ncontact = %s\ncontact_scheme = consistent\n" ELASTIC_MATERIAL, law);
+             "box_margin = 3e-3\ncontact = %s\ncontact_scheme = consistent\n" ELASTIC_MATERIAL,
+             law);
     const char *rows = "sphere,-0.0045,0,0.03,20,0,0,0.008,0,elastic\nsphere,0.0045,0,0.03,-20,0,0,0.008,0,elastic\n";
     if (impact_fixture_open(&f, ini, rows) != SC_OK) {
         CHECK(0, "set-up");
@@ -156,7 +158,7 @@ static void two_spheres(const char *law)
             break;
         }
         worst_momentum = fmax(worst_momentum, fabs(total_momentum_x(f.solver, &scale) - p0));
-        for (size_t q = 0; q < p->count; q++) {   /* body 0 stays left of the plane x = 0, body 1 right */
+        for (size_t q = 0; q < p->count; q++) { /* body 0 stays left of the plane x = 0, body 1 right */
             double x = p->x[3 * q];
             worst_penetration = fmax(worst_penetration, p->body[q] == 0 ? x : -x);
         }
@@ -172,12 +174,12 @@ static void two_spheres(const char *law)
            worst_drift, d->energy_total / e0 - 1.0, t_last_contact, d->body[0].v_com[0], d->body[1].v_com[0]);
     CHECK(worst_momentum <= 1e-12 * scale, "total momentum changed by %g (scale %g)", worst_momentum, scale);
     CHECK(worst_drift < 0.02, "%s: total energy drifted by %.4f of its start (bound 0.02)", law, worst_drift);
-    CHECK(contacts > 0 && t_last_contact < 0.9 * f.cfg.t_end, "%s: in contact until %g s of %g s", law,
-          t_last_contact, f.cfg.t_end);
+    CHECK(contacts > 0 && t_last_contact < 0.9 * f.cfg.t_end, "%s: in contact until %g s of %g s", law, t_last_contact,
+          f.cfg.t_end);
     CHECK(worst_penetration <= 1e-3, "a point crossed the symmetry plane by %g m (more than a grid cell)",
           worst_penetration);
-    CHECK(d->body[0].v_com[0] < 0 && d->body[1].v_com[0] > 0, "the spheres separate: v %g, %g",
-          d->body[0].v_com[0], d->body[1].v_com[0]);
+    CHECK(d->body[0].v_com[0] < 0 && d->body[1].v_com[0] > 0, "the spheres separate: v %g, %g", d->body[0].v_com[0],
+          d->body[1].v_com[0]);
     CHECK_CLOSE(d->body[0].v_com[0], -d->body[1].v_com[0], 1e-4, 0.0, "symmetric rebound velocities");
     impact_fixture_close(&f);
 }
@@ -213,7 +215,8 @@ static void test_sphere_on_rigid_wall(void)
     }
     const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
     printf("  sphere on a rigid wall: energy drift at most %.4f, %.4f at the end; lowest point z = %.3g m; "
-           "v_z %.4g m/s after\n", worst_drift, d->energy_total / e0 - 1.0, lowest, d->body[0].v_com[2]);
+           "v_z %.4g m/s after\n",
+           worst_drift, d->energy_total / e0 - 1.0, lowest, d->body[0].v_com[2]);
     CHECK(worst_drift < 0.02, "total energy drifted by %.4f of its start (bound 0.02)", worst_drift);
     CHECK(lowest >= 0.0, "a point went below the wall, to z = %g m", lowest);
     CHECK(d->body[0].v_com[2] > 0.0 && t_last_contact < 0.9 * f.cfg.t_end,
@@ -221,8 +224,14 @@ static void test_sphere_on_rigid_wall(void)
     impact_fixture_close(&f);
 }
 
-static void test_two_spheres(void) { two_spheres("frictionless"); }
-static void test_two_spheres_stick(void) { two_spheres("stick"); }
+static void test_two_spheres(void)
+{
+    two_spheres("frictionless");
+}
+static void test_two_spheres_stick(void)
+{
+    two_spheres("stick");
+}
 
 /* A sphere resting on a block: nodal contact normals at the interface point along z within 5 degrees. */
 static void test_contact_normals(void)
@@ -371,7 +380,8 @@ static void test_grid_contains(void)
 static int run_small_impact(int threads, const char *shape_functions, struct impact_fixture *f)
 {
     char ini[512];
-    snprintf(ini, sizeof ini, "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
+    snprintf(ini, sizeof ini,
+             "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
              "substrate_height = 6e-6\nvelocity = 850\nt_end = 8e-9\nshape_functions = %s\n[material.aluminium]\n",
              shape_functions);
     omp_set_num_threads(threads);
@@ -406,15 +416,23 @@ static void threads_identical(const char *shape_functions)
     impact_fixture_close(&two);
 }
 
-static void test_threads_identical(void) { threads_identical("linear"); }
-static void test_threads_identical_ugimp(void) { threads_identical("ugimp"); }
+static void test_threads_identical(void)
+{
+    threads_identical("linear");
+}
+static void test_threads_identical_ugimp(void)
+{
+    threads_identical("ugimp");
+}
 
 /* A short coarse impact with the given [impact] bonding lines; D_bond of every point must never decrease. */
 static int bonding_run(const char *bonding, struct impact_fixture *f, int *monotone)
 {
     char ini[512];
-    snprintf(ini, sizeof ini, "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
-             "substrate_height = 6e-6\nvelocity = 900\nt_end = 6e-9\n%s\n[material.aluminium]\n", bonding);
+    snprintf(ini, sizeof ini,
+             "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
+             "substrate_height = 6e-6\nvelocity = 900\nt_end = 6e-9\n%s\n[material.aluminium]\n",
+             bonding);
     if (impact_fixture_open(f, ini, NULL) != SC_OK)
         return -1;
     const struct mpm_points *p = &f->solver->points;
@@ -471,7 +489,7 @@ static void test_bonding_models(void)
     CHECK(bonding_run("bonding = strain\neps_c = 0.05\neps_rate_c = 1e9", &f, &monotone) == 0, "strain model run");
     CHECK(monotone, "D_bond never decreases (strain model)");
     CHECK(largest_d_bond(f.solver, &non_surface) > 0.0 && non_surface == 0, "the strain model grows D_bond on "
-          "surface points");
+                                                                            "surface points");
     impact_fixture_close(&f);
 }
 

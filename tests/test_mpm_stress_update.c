@@ -62,8 +62,8 @@ static void isochoric(double size, double shear, double de[6])
 }
 
 /* A step at constant volume V0. */
-static struct mpm_update_result step(const struct mpm_material *m, const double de[6], const double spin[3],
-                                     double dt, struct mpm_point_state *state)
+static struct mpm_update_result step(const struct mpm_material *m, const double de[6], const double spin[3], double dt,
+                                     struct mpm_point_state *state)
 {
     struct mpm_update_result r;
     int rc = mpm_stress_update(m, NULL, de, spin, dt, V0, V0, V0, state, &r);
@@ -92,8 +92,8 @@ static void run_consistency(double rate, double sigma_end, int *plastic_steps)
         if (r.eps_p_increment == 0.0)
             continue;
         (*plastic_steps)++;
-        double ptw = mpm_ptw_flow_stress(&m, state.eps_p, fmax(r.eps_p_increment / dt, RATE_FLOOR), 298.0, Tm,
-                                     state.rho, G);
+        double ptw =
+            mpm_ptw_flow_stress(&m, state.eps_p, fmax(r.eps_p_increment / dt, RATE_FLOOR), 298.0, Tm, state.rho, G);
         CHECK_CLOSE(vm, ptw, 1e-8, 0.0, "von Mises = PTW(eps_p, d/dt) after the return");
         CHECK_CLOSE(state.yield_stress, ptw, 1e-12, 0.0, "stored yield stress");
         CHECK_CLOSE(vm + 3.0 * G * r.eps_p_increment, sigma_trial, 1e-9, 0.0, "consistency sigma* - 3G d");
@@ -416,8 +416,7 @@ static void check_block_order(const struct mpm_material *m, const struct mpm_mat
         plastic += r.eps_p_increment > 0.0;
     }
     printf("  %d returns, %d plastic of %d points\n", n, plastic, LANE_POINTS);
-    CHECK(n >= LANE_POINTS / 2 && plastic >= LANE_POINTS / 3, "%d returns, %d plastic of %d", n, plastic,
-          LANE_POINTS);
+    CHECK(n >= LANE_POINTS / 2 && plastic >= LANE_POINTS / 3, "%d returns, %d plastic of %d", n, plastic, LANE_POINTS);
     CHECK(differ == 0, "%d of %d points differ from their update alone (order %s)", differ, LANE_POINTS,
           reversed ? "reversed" : "forward");
 }

@@ -10,7 +10,7 @@
 #include "core/error.h"
 #include "render/render.h"
 
-#define WIDTH 640
+#define WIDTH  640
 #define HEIGHT 360
 
 static void channels(uint32_t pixel, int rgb[3])
@@ -33,8 +33,8 @@ static int colour_error(uint32_t pixel, const double rgb[3])
 /* matplotlib's published entries 0, 128 and 255 */
 static void test_viridis_table(void)
 {
-    static const double expected[3][3] = {{0.267004, 0.004874, 0.329415}, {0.127568, 0.566949, 0.550556},
-                                          {0.993248, 0.906157, 0.143936}};
+    static const double expected[3][3] = {
+        {0.267004, 0.004874, 0.329415}, {0.127568, 0.566949, 0.550556}, {0.993248, 0.906157, 0.143936}};
     static const int index[3] = {0, 128, 255};
     for (int i = 0; i < 3; i++) {
         double rgb[3];
@@ -72,7 +72,7 @@ static void make_sheet(struct sheet *s)
 static struct render_scene top_scene(void)
 {
     return (struct render_scene){RENDER_VIEW_TOP, WIDTH, HEIGHT, 3.0, 10.5, "effective plastic strain", "-",
-                                 "t = 1.00 ns", 0, 0.5};
+                                 "t = 1.00 ns",   0,     0.5};
 }
 
 static void test_gradient_colours(void)
@@ -90,8 +90,7 @@ static void test_gradient_colours(void)
     const struct render_image *image;
     CHECK(render_spheres_draw(r, &spheres, &scene, &cam, &image) == SC_OK, "draw: %s", sc_error_message());
     CHECK(image->width == WIDTH && image->height == HEIGHT, "image %d x %d", image->width, image->height);
-    CHECK(cam.pixels_per_metre * 0.5e-6 > 5, "spheres of %.2f px radius are not points",
-          cam.pixels_per_metre * 0.5e-6);
+    CHECK(cam.pixels_per_metre * 0.5e-6 > 5, "spheres of %.2f px radius are not points", cam.pixels_per_metre * 0.5e-6);
     int worst = 0;
     for (size_t i = 0; i < s.count; i++) {
         double px, py, rgb[3];

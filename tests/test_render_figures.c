@@ -30,9 +30,9 @@ static const char ini[] =
     "point_radius = 0.5e-6\n";
 
 #define SNAPSHOTS 4
-#define POINTS 60
-#define STEPS 5
-#define BODIES 2
+#define POINTS    60
+#define STEPS     5
+#define BODIES    2
 
 /* Snapshot k of a run: a 5 x 4 x 3 block sinking by k um, eps_p growing with depth and time. */
 static int write_snapshot(hid_t snapshots, int k)
@@ -50,12 +50,18 @@ static int write_snapshot(hid_t snapshots, int k)
     }
     hsize_t n[1] = {POINTS}, n3[2] = {POINTS, 3};
     int status = h5_write_doubles(g, "x", 2, n3, x, "m", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "v", 2, n3, v, "m/s", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "eps_p", 1, n, eps, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "T", 1, n, T, "K", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "D_bond", 1, n, D, "-", 0);
-    if (status == SC_OK) status = h5_write_int64s(g, "body", 1, n, body, "-", 0);
-    if (status == SC_OK) status = h5_attr_write_double(g, "t", k * 1e-9);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "v", 2, n3, v, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "eps_p", 1, n, eps, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "T", 1, n, T, "K", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "D_bond", 1, n, D, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(g, "body", 1, n, body, "-", 0);
+    if (status == SC_OK)
+        status = h5_attr_write_double(g, "t", k * 1e-9);
     H5Gclose(g);
     return status;
 }
@@ -90,12 +96,18 @@ static int write_summary(hid_t run)
     int64_t bonded[BODIES] = {-1, 1}, substrate[BODIES] = {1, 0};
     hsize_t nb[1] = {BODIES};
     int status = h5_write_doubles(g, "diameter", 1, nb, d, "m", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "v_impact", 1, nb, v, "m/s", 0);
-    if (status == SC_OK) status = h5_write_int64s(g, "bonded", 1, nb, bonded, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "pbcp", 1, nb, pbcp, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "v_rest", 1, nb, vr, "m/s", 0);
-    if (status == SC_OK) status = h5_write_doubles(g, "cor", 1, nb, cor, "-", 0);
-    if (status == SC_OK) status = h5_write_int64s(g, "substrate", 1, nb, substrate, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "v_impact", 1, nb, v, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(g, "bonded", 1, nb, bonded, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "pbcp", 1, nb, pbcp, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "v_rest", 1, nb, vr, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(g, "cor", 1, nb, cor, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_int64s(g, "substrate", 1, nb, substrate, "-", 0);
     H5Gclose(g);
     return status;
 }
@@ -147,15 +159,21 @@ static int write_vcrit(const char *dir)
     hsize_t n[1] = {2}, m[1] = {3};
     hid_t search, run;
     int status = h5_write_root_attributes(out.file, "spraycoat-vcrit", 1, "vcrit", 0);
-    if (status == SC_OK) status = h5_write_doubles(out.file, "diameter", 1, n, d, "m", 0);
-    if (status == SC_OK) status = h5_write_doubles(out.file, "v_crit", 1, n, v, "m/s", 0);
-    if (status == SC_OK) status = h5_write_doubles(out.file, "pbcp", 1, n, p, "-", 0);
-    if (status == SC_OK) status = h5_write_doubles(out.file, "v_rest", 1, n, vr, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(out.file, "diameter", 1, n, d, "m", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(out.file, "v_crit", 1, n, v, "m/s", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(out.file, "pbcp", 1, n, p, "-", 0);
+    if (status == SC_OK)
+        status = h5_write_doubles(out.file, "v_rest", 1, n, vr, "m/s", 0);
     if (status == SC_OK && (status = h5_create_group(out.file, "search", &search)) == SC_OK) {
         if ((status = h5_create_group(search, "000", &run)) == SC_OK) {
             status = h5_write_doubles(run, "velocity", 1, m, velocity, "m/s", 0);
-            if (status == SC_OK) status = h5_write_int64s(run, "bonded", 1, m, bonded, "-", 0);
-            if (status == SC_OK) status = h5_attr_write_double(run, "diameter", 14e-6);
+            if (status == SC_OK)
+                status = h5_write_int64s(run, "bonded", 1, m, bonded, "-", 0);
+            if (status == SC_OK)
+                status = h5_attr_write_double(run, "diameter", 14e-6);
             H5Gclose(run);
         }
         H5Gclose(search);
@@ -226,7 +244,8 @@ static int64_t count_first_impacts(const char *dir)
     int64_t count = -1;
     if (h5_open_read(path, &file) != SC_OK)
         return -1;
-    if (h5_dataset_size(file, "impacts/particle_id", &n) == SC_OK && h5_dataset_size(file, "particles/id", &m) == SC_OK) {
+    if (h5_dataset_size(file, "impacts/particle_id", &n) == SC_OK &&
+        h5_dataset_size(file, "particles/id", &m) == SC_OK) {
         int64_t *id = malloc((n + 1) * sizeof *id);
         char *seen = calloc(n + m + 1, 1);
         if (id && seen && h5_read_int64s(file, "impacts/particle_id", id, n) == SC_OK) {
@@ -337,8 +356,8 @@ static void test_every_figure_of_a_run(void)
     FILE *garbage = fopen(path, "w");
     fputs("not HDF5\n", garbage);
     fclose(garbage);
-    CHECK(render_run_dir(&req, &out) == SC_EIO && strstr(sc_error_message(), "vcrit.h5"),
-          "damaged vcrit.h5: %s", sc_error_message());
+    CHECK(render_run_dir(&req, &out) == SC_EIO && strstr(sc_error_message(), "vcrit.h5"), "damaged vcrit.h5: %s",
+          sc_error_message());
     render_output_free(&out);
     case_free(f.c);
     case_fixture_remove(f.dir);
@@ -351,8 +370,8 @@ static void test_nothing_to_draw(void)
         return;
     struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
     struct render_output out;
-    CHECK(render_run_dir(&req, &out) == SC_EIO && strstr(sc_error_message(), "no output"),
-          "empty run directory: %s", sc_error_message());
+    CHECK(render_run_dir(&req, &out) == SC_EIO && strstr(sc_error_message(), "no output"), "empty run directory: %s",
+          sc_error_message());
     render_output_free(&out);
     case_free(f.c);
     case_fixture_remove(f.dir);

@@ -57,8 +57,7 @@ static void test_open_unit_extremes(void)
     double lowest = rng_bits_to_open_unit(0);
     double highest = rng_bits_to_open_unit(UINT64_MAX);
     CHECK(lowest == 0.5 / two_pow_53, "bits 0 give %.17g, expected 2^-54", lowest);
-    CHECK(highest < 1.0 && highest == 1.0 - 1.0 / two_pow_53, "all-ones bits give %.17g, expected 1 - 2^-53",
-          highest);
+    CHECK(highest < 1.0 && highest == 1.0 - 1.0 / two_pow_53, "all-ones bits give %.17g, expected 1 - 2^-53", highest);
     const uint64_t probes[] = {0, 1u << 11, (1ull << 63) - 1, 1ull << 63, UINT64_MAX - (1u << 11), UINT64_MAX};
     for (size_t i = 0; i < sizeof probes / sizeof probes[0]; i++) {
         double u = rng_bits_to_open_unit(probes[i]);
@@ -101,7 +100,10 @@ static void test_mean_and_variance(void)
     CHECK_CLOSE(variance, 1.0 / 12.0, 0.0, 5.0 * variance_error, "variance of 1e6 uniforms");
 }
 
-static int same_pair(const double a[2], const double b[2]) { return a[0] == b[0] && a[1] == b[1]; }
+static int same_pair(const double a[2], const double b[2])
+{
+    return a[0] == b[0] && a[1] == b[1];
+}
 
 static void test_inputs_select_different_numbers(void)
 {
@@ -131,8 +133,8 @@ static void test_pure_function(void)
     for (uint64_t id = 0; id < 1000; id++)
         rng_uniform2(SEED, RNG_STREAM_SIZE, id, 99, 2, unrelated);
     rng_uniform2(SEED, RNG_STREAM_SIZE, 123456789012ull, 99, 2, again);
-    CHECK(memcmp(first, again, sizeof first) == 0, "repeated draw differs: %.17g %.17g vs %.17g %.17g",
-          first[0], first[1], again[0], again[1]);
+    CHECK(memcmp(first, again, sizeof first) == 0, "repeated draw differs: %.17g %.17g vs %.17g %.17g", first[0],
+          first[1], again[0], again[1]);
 }
 
 /* Pearson chi-square of 1e6 draws in 100 equal bins, 99 degrees of freedom; the 99.9 % quantile of

@@ -9,11 +9,10 @@
 
 #include <string.h>
 
-
 /* ---- sampling helpers ---- */
 
 #define SAMPLE_COUNT 200000
-#define SAMPLE_SEED 20150302u
+#define SAMPLE_SEED  20150302u
 /* 1 % critical value of sqrt(N) D for the one-sample Kolmogorov-Smirnov test, large N. */
 #define KS_CRITICAL_1PERCENT 1.63
 
@@ -110,8 +109,7 @@ static void check_weibull_row(const struct csv_row *row)
     /* The same test against a law with the same median and a 10 % larger shape must reject. */
     struct truncated_weibull wrong = {dem_weibull_scale(median, 1.1 * shape), 1.1 * shape, 0.0, INFINITY};
     double ks_wrong = ks_statistic(&wrong);
-    CHECK(ks_wrong > KS_CRITICAL_1PERCENT, "n %g: KS sqrt(N) D = %g should reject the wrong shape", shape,
-          ks_wrong);
+    CHECK(ks_wrong > KS_CRITICAL_1PERCENT, "n %g: KS sqrt(N) D = %g should reject the wrong shape", shape, ks_wrong);
 }
 
 static void test_weibull_table(void)

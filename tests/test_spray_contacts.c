@@ -9,9 +9,9 @@
 #include "spray_fixture.h"
 
 /* Vacuum, constant restitution, no deposition; the target 0.3 m away. */
-#define VACUUM_CASE(e, mu, eps)                                                                             \
-    "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"                    \
-    "[contact]\nrestitution = " e "\nfriction_regularization = " eps "\n[powder]\ndensity = 4000\nfriction = " mu \
+#define VACUUM_CASE(e, mu, eps)                                                                                        \
+    "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = none\n[deposition]\nrule = none\n"                               \
+    "[contact]\nrestitution = " e "\nfriction_regularization = " eps "\n[powder]\ndensity = 4000\nfriction = " mu      \
     "\n[target]\nfriction = " mu "\n"
 
 static const struct dem_impact *first_impact(struct fixture *f)
@@ -127,8 +127,10 @@ static void test_pair_angular_momentum(void)
     /* exactly touching: centre distance = sum of radii */
     double dz = sqrt(0.00016 * 0.00016 - 0.00005 * 0.00005 - 0.00003 * 0.00003);
     char rows[256];
-    snprintf(rows, sizeof rows, "0,0,0.1,3,-1,20,100,-300,50,0.0002\n"
-                                "0.00005,0.00003,%.17g,-2,4,-10,-500,200,80,0.00012\n", 0.1 + dz);
+    snprintf(rows, sizeof rows,
+             "0,0,0.1,3,-1,20,100,-300,50,0.0002\n"
+             "0.00005,0.00003,%.17g,-2,4,-10,-500,200,80,0.00012\n",
+             0.1 + dz);
     if (fixture_open(&f, VACUUM_CASE("0.7", "0.4", "1e-4"), rows) != SC_OK) {
         CHECK(0, "fixture");
         return;
@@ -217,8 +219,9 @@ static void test_adhesion_threshold(void)
     const double factors[2] = {0.99, 1.01};
     for (int k = 0; k < 2; k++) {
         char ini[512], rows[128];
-        snprintf(ini, sizeof ini, "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = none\n[deposition]\n"
-                                  "rule = adhesion\nalpha_adh = 1000\n");
+        snprintf(ini, sizeof ini,
+                 "[spray]\ndt = 1e-6\nt_end = 1e-4\n[jet]\nmodel = none\n[deposition]\n"
+                 "rule = adhesion\nalpha_adh = 1000\n");
         snprintf(rows, sizeof rows, "0,0,0.29995,0,0,%.12g,0,0,0,8e-5\n", factors[k] * threshold);
         struct fixture f;
         if (fixture_open(&f, ini, rows) != SC_OK) {
@@ -322,8 +325,10 @@ static void run_table_case(const char *table_name, int as_h5)
     CHECK(write_vcrit_table(path, as_h5) == 0, "write %s", path);
     for (int k = 0; k < 2; k++) {
         char ini[512], rows[128];
-        snprintf(ini, sizeof ini, "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n[deposition]\n"
-                                  "rule = table\ntable = %s\n", path);
+        snprintf(ini, sizeof ini,
+                 "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n[deposition]\n"
+                 "rule = table\ntable = %s\n",
+                 path);
         snprintf(rows, sizeof rows, "0,0,0.299983,0,0,%.17g,0,0,0,3e-5\n", speeds[k]);
         struct fixture f;
         if (fixture_open(&f, ini, rows) != SC_OK) {
@@ -342,8 +347,14 @@ static void run_table_case(const char *table_name, int as_h5)
     CHECK(system(command) == 0, "cleanup");
 }
 
-static void test_vcrit_table_csv(void) { run_table_case("vcrit.csv", 0); }
-static void test_vcrit_table_h5(void) { run_table_case("vcrit.h5", 1); }
+static void test_vcrit_table_csv(void)
+{
+    run_table_case("vcrit.csv", 0);
+}
+static void test_vcrit_table_h5(void)
+{
+    run_table_case("vcrit.h5", 1);
+}
 
 /* The hand-off plane is crossed and the target reached in the same step: the crossing is still recorded,
  * at the plane, with the velocity before the impact. */

@@ -340,8 +340,7 @@ static void test_kept_drag_changes_nothing(void)
         struct dem_counts c = dem_get_counts(kept.solver);
         CHECK(c.contacts_pair > 0 && c.contacts_target > 0 && c.deposited > 0 && c.escaped > 0,
               "contacts, deposits and escapes happened (%lld pair, %lld target, %lld deposited, %lld escaped)",
-              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.deposited,
-              (long long)c.escaped);
+              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.deposited, (long long)c.escaped);
         CHECK(same_state(kept.solver, computed.solver), "kept and recomputed start forces differ");
     }
     fixture_close(&kept);
@@ -360,7 +359,8 @@ static int run_jet_flight(double tol, struct fixture *f)
     char ini[512];
     snprintf(ini, sizeof ini,
              "[spray]\ndt = 1e-6\nt_end = 1\nfixed_point_tol = %.17g\ndomain_radius = 0.2\n[target]\n"
-             "standoff = 0.3\n[deposition]\nrule = none\n", tol);
+             "standoff = 0.3\n[deposition]\nrule = none\n",
+             tol);
     const char *rows = "0.003,0.002,0.01,0,0,50,0,0,0,4e-5\n-0.004,0.001,0.03,0,0,20,0,0,0,1e-5\n"
                        "0.001,-0.002,0.05,0.5,0,80,0,0,0,1.6e-4\n0,0,0.02,0,0,60,0,0,0,4e-5\n";
     if (fixture_open(f, ini, rows) != SC_OK)
@@ -605,25 +605,24 @@ static void test_block_engine_matches_reference(void)
             size_t count = which ? halves : n;
             int64_t counts_engine[5] = {0}, counts_reference[5] = {0};
             drag_state_copy(&start, p, 0);
-            int bad_engine = dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 0,
-                                                     counts_engine);
+            int bad_engine =
+                dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 0, counts_engine);
             drag_state_copy(&engine, p, 1);
             drag_state_copy(&start, p, 0);
-            int bad_reference = dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 1,
-                                                        counts_reference);
+            int bad_reference =
+                dem_integrate_particles(&f.solver->cfg, p, reuse, f.solver->step, list, count, 1, counts_reference);
             drag_state_copy(&reference, p, 1);
             const char *what = "";
             long first = drag_state_differ(&engine, &reference, list, count, &what);
             CHECK(first < 0, "reuse_drag %d, %s: particle %ld: %s differs between the block engine and the reference",
                   reuse, which ? "every other particle" : "all particles", first, what);
-            CHECK(memcmp(counts_engine, counts_reference, sizeof counts_engine) == 0 &&
-                      bad_engine == bad_reference,
+            CHECK(memcmp(counts_engine, counts_reference, sizeof counts_engine) == 0 && bad_engine == bad_reference,
                   "reuse_drag %d, %s: iteration counts differ: engine %lld %lld %lld %lld %lld, reference %lld %lld "
-                  "%lld %lld %lld", reuse, which ? "every other particle" : "all particles",
-                  (long long)counts_engine[0], (long long)counts_engine[1], (long long)counts_engine[2],
-                  (long long)counts_engine[3], (long long)counts_engine[4], (long long)counts_reference[0],
-                  (long long)counts_reference[1], (long long)counts_reference[2], (long long)counts_reference[3],
-                  (long long)counts_reference[4]);
+                  "%lld %lld %lld",
+                  reuse, which ? "every other particle" : "all particles", (long long)counts_engine[0],
+                  (long long)counts_engine[1], (long long)counts_engine[2], (long long)counts_engine[3],
+                  (long long)counts_engine[4], (long long)counts_reference[0], (long long)counts_reference[1],
+                  (long long)counts_reference[2], (long long)counts_reference[3], (long long)counts_reference[4]);
             subcycled += counts_reference[4];
             iterated += counts_reference[3] > 2;
             drag_state_free(&engine);

@@ -11,7 +11,7 @@
 #include "tests/check.h"
 
 #define CSV_MAX_FIELDS 16
-#define CSV_LINE_MAX 1024
+#define CSV_LINE_MAX   1024
 
 struct csv_row {
     int count;

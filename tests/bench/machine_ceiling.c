@@ -8,10 +8,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#define CHAINS 64                       /* enough independent chains to fill the FP pipes */
-#define COMPUTE_ROUNDS 20000000L        /* per thread */
-#define TRIAD_DOUBLES ((size_t)1 << 25) /* 256 MB per array */
-#define REPEATS 5
+#define CHAINS         64                /* enough independent chains to fill the FP pipes */
+#define COMPUTE_ROUNDS 20000000L         /* per thread */
+#define TRIAD_DOUBLES  ((size_t)1 << 25) /* 256 MB per array */
+#define REPEATS        5
 
 /* Multiply-adds per second on `threads` threads, all doing the same work. */
 static double compute_rate(int threads)

@@ -24,23 +24,23 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-#define SEED 20240611u
-#define N_DEFAULT 20000
-#define D_MIN 20e-6        /* m */
-#define D_MAX 60e-6        /* m */
+#define SEED         20240611u
+#define N_DEFAULT    20000
+#define D_MIN        20e-6  /* m */
+#define D_MAX        60e-6  /* m */
 #define CLOUD_RADIUS 2.5e-3 /* m: the cloud is 5 mm wide */
-#define Z_LO 4.5e-3        /* m: 8 mm of room behind the target, so rebounding particles stay at z > 0 */
-#define Z_HI 7.5e-3        /* m */
-#define Z_WALL 8.0e-3      /* m: target plane (spraycoat standoff) */
-#define V_MEAN 50.0        /* m/s, towards the target */
-#define V_SPREAD 5.0       /* m/s */
-#define V_LATERAL 1.0      /* m/s */
+#define Z_LO         4.5e-3 /* m: 8 mm of room behind the target, so rebounding particles stay at z > 0 */
+#define Z_HI         7.5e-3 /* m */
+#define Z_WALL       8.0e-3 /* m: target plane (spraycoat standoff) */
+#define V_MEAN       50.0   /* m/s, towards the target */
+#define V_SPREAD     5.0    /* m/s */
+#define V_LATERAL    1.0    /* m/s */
 #define MAX_ATTEMPTS 100000
 
 /* Copper-like material, the same for both codes. */
-#define RHO 8960.0   /* kg/m3 */
-#define YOUNG 120e9  /* Pa */
-#define POISSON 0.34
+#define RHO         8960.0 /* kg/m3 */
+#define YOUNG       120e9  /* Pa */
+#define POISSON     0.34
 #define RESTITUTION 0.8
 
 static uint64_t rng_state = SEED;
@@ -54,7 +54,10 @@ static double uniform(void)
     return (double)(z >> 11) * 0x1.0p-53; /* [0, 1) */
 }
 
-static double between(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+static double between(double lo, double hi)
+{
+    return lo + (hi - lo) * uniform();
+}
 
 /* Uniform grid of cells of size >= D_MAX over the cloud's bounding box; each cell lists its particles. */
 struct grid {
@@ -63,16 +66,22 @@ struct grid {
     int *head, *next;
 };
 
-static int cell_index(const struct grid *g, int i, int j, int k) { return (k * g->ny + j) * g->nx + i; }
+static int cell_index(const struct grid *g, int i, int j, int k)
+{
+    return (k * g->ny + j) * g->nx + i;
+}
 
 static void cell_of(const struct grid *g, const double *x, int c[3])
 {
     c[0] = (int)((x[0] - g->x0) / g->cell);
     c[1] = (int)((x[1] - g->y0) / g->cell);
     c[2] = (int)((x[2] - g->z0) / g->cell);
-    if (c[0] >= g->nx) c[0] = g->nx - 1;
-    if (c[1] >= g->ny) c[1] = g->ny - 1;
-    if (c[2] >= g->nz) c[2] = g->nz - 1;
+    if (c[0] >= g->nx)
+        c[0] = g->nx - 1;
+    if (c[1] >= g->ny)
+        c[1] = g->ny - 1;
+    if (c[2] >= g->nz)
+        c[2] = g->nz - 1;
 }
 
 static int overlaps_any(const struct grid *g, const double *pos, const double *diam, const double *x, double d)
@@ -150,7 +159,8 @@ int main(int argc, char **argv)
         int ci = cell_index(&g, c[0], c[1], c[2]);
         g.next[p] = g.head[ci];
         g.head[ci] = (int)p;
-        double speed = sqrt(vel[3 * p] * vel[3 * p] + vel[3 * p + 1] * vel[3 * p + 1] + vel[3 * p + 2] * vel[3 * p + 2]);
+        double speed =
+            sqrt(vel[3 * p] * vel[3 * p] + vel[3 * p + 1] * vel[3 * p + 1] + vel[3 * p + 2] * vel[3 * p + 2]);
         d_lo = fmin(d_lo, d);
         d_hi = fmax(d_hi, d);
         v_hi = fmax(v_hi, speed);

@@ -55,10 +55,14 @@ static int write_h5(const char *path, const double *x, const double *eps, const 
     if (status == SC_OK && (status = h5_create_group(out.file, "snapshots", &snapshots)) == SC_OK) {
         if ((status = h5_create_group(snapshots, "000000", &g)) == SC_OK) {
             status = h5_write_doubles(g, "x", 2, d3, x, "m", 0);
-            if (status == SC_OK) status = h5_write_doubles(g, "v", 2, d3, v, "m/s", 0);
-            if (status == SC_OK) status = h5_write_doubles(g, "eps_p", 1, dn, eps, "-", 0);
-            if (status == SC_OK) status = h5_write_int64s(g, "body", 1, dn, body, "-", 0);
-            if (status == SC_OK) status = h5_attr_write_double(g, "t", 40e-9);
+            if (status == SC_OK)
+                status = h5_write_doubles(g, "v", 2, d3, v, "m/s", 0);
+            if (status == SC_OK)
+                status = h5_write_doubles(g, "eps_p", 1, dn, eps, "-", 0);
+            if (status == SC_OK)
+                status = h5_write_int64s(g, "body", 1, dn, body, "-", 0);
+            if (status == SC_OK)
+                status = h5_attr_write_double(g, "t", 40e-9);
             H5Gclose(g);
         }
         H5Gclose(snapshots);
@@ -68,14 +72,16 @@ static int write_h5(const char *path, const double *x, const double *eps, const 
         status = h5_write_doubles(series, "t", 1, one, &zero, "s", 0);
         for (int f = 0; status == SC_OK && f < 4; f++)
             status = h5_write_doubles(series, per_body[f], 2, two, &zero, "-", 0);
-        if (status == SC_OK) status = h5_write_doubles(series, "energy_total", 1, one, &zero, "J", 0);
+        if (status == SC_OK)
+            status = h5_write_doubles(series, "energy_total", 1, one, &zero, "J", 0);
         H5Gclose(series);
     }
     const char *summary_fields[] = {"diameter", "v_impact", "pbcp", "v_rest", "cor"};
     if (status == SC_OK && (status = h5_create_group(out.file, "summary", &summary)) == SC_OK) {
         for (int f = 0; status == SC_OK && f < 5; f++)
             status = h5_write_doubles(summary, summary_fields[f], 1, one, &zero, "-", 0);
-        if (status == SC_OK) status = h5_write_int64s(summary, "bonded", 1, one, &bonded, "-", 0);
+        if (status == SC_OK)
+            status = h5_write_int64s(summary, "bonded", 1, one, &bonded, "-", 0);
         H5Gclose(summary);
     }
     free(v);
@@ -106,8 +112,8 @@ int main(int argc, char **argv)
     static const char *const names[] = {"iso", "section", "top"};
     struct render_spheres spheres = {n, x, NULL, 0.125e-6, eps};
     for (int v = 0; v < 3; v++) {
-        struct render_scene scene = {views[v], 1920, 1080, 0, 2.7, "effective plastic strain", "-", "t = 40.00 ns",
-                                     0, 0.5};
+        struct render_scene scene = {views[v], 1920,           1080, 0,  2.7, "effective plastic strain",
+                                     "-",      "t = 40.00 ns", 0,    0.5};
         const struct render_image *image;
         double start = now();
         int status = render_spheres_draw(r, &spheres, &scene, NULL, &image);

@@ -3,8 +3,8 @@
 #include "tests/fuzz/fuzz_common.h"
 
 static const char fixed_case_text[] = "[impact]\ngrid = 2e-6\nspacing = 1e-6\nsubstrate_diameter = 20e-6\n"
-                                "substrate_height = 6e-6\nbodies = bodies.csv\n\n[material.aluminium]\n\n"
-                                "[material.copper]\ndensity = 8960\n";
+                                      "substrate_height = 6e-6\nbodies = bodies.csv\n\n[material.aluminium]\n\n"
+                                      "[material.copper]\ndensity = 8960\n";
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

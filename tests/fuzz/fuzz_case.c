@@ -1,7 +1,7 @@
 /* libFuzzer harness of the case-file reader (core/config.c): any bytes as case.ini.  A case that loads is also
- * printed, hashed, written back (and read again) and resolved by the spray and impact stages' configuration (dem/params.c,
- * mpm/params.c), which read the CSV files it may name.  A crash, a sanitizer report or an abort (the reader's
- * "internal error") is a bug; an SC_EINPUT or SC_EIO status is the expected answer to bad input. */
+ * printed, hashed, written back (and read again) and resolved by the spray and impact stages' configuration
+ * (dem/params.c, mpm/params.c), which read the CSV files it may name.  A crash, a sanitizer report or an abort (the
+ * reader's "internal error") is a bug; an SC_EINPUT or SC_EIO status is the expected answer to bad input. */
 #include "tests/fuzz/fuzz_common.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

@@ -2,7 +2,8 @@
  * `[spray] particles` of a fixed case, read by dem_config_load. */
 #include "tests/fuzz/fuzz_common.h"
 
-static const char fixed_case_text[] = "[spray]\ninjection = file\nparticles = particles.csv\n\n[target]\nstandoff = 0.05\n";
+static const char fixed_case_text[] =
+    "[spray]\ninjection = file\nparticles = particles.csv\n\n[target]\nstandoff = 0.05\n";
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
