@@ -164,4 +164,14 @@ int info_print(const char *target, FILE *out);
 /* A few lines on what a finished run says: deposit fraction, bonded fraction and PBCP, where the report is. */
 void info_headline(const char *run_dir, FILE *out);
 
+/* ---- XDMF index files (app/xdmf.c): pieces of a Uniform grid of n points whose data lie in HDF5 at `where`
+ * ("spray.h5:/particles"), each line starting with `indent`. */
+enum xdmf_kind { XDMF_SCALAR, XDMF_INTEGER, XDMF_VECTOR };
+/* The connectivity 0 1 .. n-1 inline: one vertex cell a point (without it ParaView's Xdmf3 readers make none). */
+void xdmf_inline_indices(FILE *f, const char *indent, size_t n);
+/* The points' positions, the dataset x. */
+void xdmf_geometry(FILE *f, const char *indent, size_t n, const char *where);
+/* A point field: the dataset `name` (n doubles, n integers, or n x 3 doubles). */
+void xdmf_attribute(FILE *f, const char *indent, const char *name, enum xdmf_kind kind, size_t n, const char *where);
+
 #endif

@@ -515,25 +515,19 @@ done:
     return status;
 }
 
+static int output_contents(void *owner, hid_t file)
+{
+    const struct couple_work *w = owner;
+    SC_TRY(write_seeds(file, w));
+    return write_flights(file, w);
+}
+
 static int write_output(const struct couple_work *w)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/couple.h5", w->run_dir);
-    struct h5_out out;
-    SC_TRY(h5_create_atomic(path, &out));
-    char *case_text = case_resolved_text(w->c);
-    int status;
-    SC_CHECK(status, h5_write_root_attributes(out.file, COUPLE_FORMAT, COUPLE_FORMAT_VERSION, STAGE, w->hash), done);
-    SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
-    SC_CHECK(status, write_seeds(out.file, w), done);
-    SC_CHECK(status, write_flights(out.file, w), done);
-done:
-    free(case_text);
-    if (status != SC_OK) {
-        h5_abort(&out);
-        return status;
-    }
-    SC_TRY(h5_commit(&out));
+    SC_TRY(stage_write_output(path, COUPLE_FORMAT, COUPLE_FORMAT_VERSION, STAGE, w->hash, w->c, output_contents,
+                              (void *)w));
     log_info("couple: wrote %s", path);
     return SC_OK;
 }

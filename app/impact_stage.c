@@ -277,15 +277,6 @@ static int first_snapshot_indices(const struct impact_run *run, size_t *n0)
     return status;
 }
 
-/* The connectivity of n points inline: 0 1 .. n-1 (one vertex cell a point). */
-static void write_inline_indices(FILE *f, size_t n)
-{
-    fprintf(f, "     <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"XML\">", n);
-    for (size_t i = 0; i < n; i++)
-        fprintf(f, i % 20 == 19 ? "%zu\n" : "%zu ", i);
-    fprintf(f, "</DataItem>\n");
-}
-
 /* RUN_DIR/impact.xdmf: a temporal collection of point clouds, one per snapshot of impact.h5.  The Polyvertex
  * topology has its connectivity (the first n ids of snapshot 0, or inline): without it the Xdmf3 readers of
  * ParaView make no cells, and the Surface and Points representations draw nothing. */
@@ -327,29 +318,14 @@ static int write_xdmf(const struct impact_run *run)
                     "impact.h5:/%s/000000/id</DataItem>\n     </DataItem>\n",
                     n, n, n0, run->snapshot_group);
         else if (n > 0)
-            write_inline_indices(f, n);
-        fprintf(f,
-                "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n"
-                "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/x"
-                "</DataItem>\n    </Geometry>\n",
-                n, where);
-        fprintf(f,
-                "    <Attribute Name=\"v\" AttributeType=\"Vector\" Center=\"Node\">\n"
-                "     <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/v"
-                "</DataItem>\n    </Attribute>\n",
-                n, where);
+            xdmf_inline_indices(f, "     ", n);
+        fprintf(f, "    </Topology>\n");
+        xdmf_geometry(f, "    ", n, where);
+        xdmf_attribute(f, "    ", "v", XDMF_VECTOR, n, where);
         for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++)
-            fprintf(f,
-                    "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                    "     <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s/%s"
-                    "</DataItem>\n    </Attribute>\n",
-                    scalars[k], n, where, scalars[k]);
+            xdmf_attribute(f, "    ", scalars[k], XDMF_SCALAR, n, where);
         for (size_t k = 0; k < sizeof integers / sizeof integers[0]; k++)
-            fprintf(f,
-                    "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                    "     <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">%s/%s"
-                    "</DataItem>\n    </Attribute>\n",
-                    integers[k], n, where, integers[k]);
+            xdmf_attribute(f, "    ", integers[k], XDMF_INTEGER, n, where);
         fprintf(f, "   </Grid>\n");
     }
     fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");

@@ -109,16 +109,6 @@ static int write_output(struct spray_run *run)
     return SC_OK;
 }
 
-/* The connectivity of n particles inline: 0 1 .. n-1 (one vertex cell a particle; /particles/id is not that
- * once particles have escaped). */
-static void write_inline_indices(FILE *f, size_t n)
-{
-    fprintf(f, "    <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"XML\">", n);
-    for (size_t i = 0; i < n; i++)
-        fprintf(f, i % 20 == 19 ? "%zu\n" : "%zu ", i);
-    fprintf(f, "</DataItem>\n");
-}
-
 /* RUN_DIR/spray.xdmf: the final particles of spray.h5 as a point cloud for ParaView/VisIt.  The Polyvertex
  * topology has its connectivity: without it the Xdmf3 readers of ParaView make no cells, and the Surface and
  * Points representations draw nothing. */
@@ -135,33 +125,19 @@ static int write_xdmf(const struct spray_run *run)
             "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
             "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
             n);
+    /* /particles/id is not 0 .. n-1 once particles have escaped: the connectivity is inline */
     if (n > 0)
-        write_inline_indices(file, n);
-    fprintf(file,
-            "   </Topology>\n   <Geometry GeometryType=\"XYZ\">\n"
-            "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-            "spray.h5:/particles/x</DataItem>\n   </Geometry>\n",
-            n);
-    static const char *const vectors[] = {"v", "w"}, *const scalars[] = {"d", "m"};
+        xdmf_inline_indices(file, "    ", n);
+    fprintf(file, "   </Topology>\n");
+    const char *where = "spray.h5:/particles";
+    xdmf_geometry(file, "   ", n, where);
+    static const char *const vectors[] = {"v", "w"}, *const scalars[] = {"d", "m"}, *const integers[] = {"id", "state"};
     for (int k = 0; k < 2; k++)
-        fprintf(file,
-                "   <Attribute Name=\"%s\" AttributeType=\"Vector\" Center=\"Node\">\n"
-                "    <DataItem Dimensions=\"%zu 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
-                vectors[k], n, vectors[k]);
+        xdmf_attribute(file, "   ", vectors[k], XDMF_VECTOR, n, where);
     for (int k = 0; k < 2; k++)
-        fprintf(file,
-                "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                "    <DataItem Dimensions=\"%zu\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
-                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
-                scalars[k], n, scalars[k]);
-    static const char *const integers[] = {"id", "state"};
+        xdmf_attribute(file, "   ", scalars[k], XDMF_SCALAR, n, where);
     for (int k = 0; k < 2; k++)
-        fprintf(file,
-                "   <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                "    <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
-                "spray.h5:/particles/%s</DataItem>\n   </Attribute>\n",
-                integers[k], n, integers[k]);
+        xdmf_attribute(file, "   ", integers[k], XDMF_INTEGER, n, where);
     fprintf(file, "  </Grid>\n </Domain>\n</Xdmf>\n");
     return atomic_publish(&out);
 }

@@ -562,24 +562,23 @@ done:
     return status;
 }
 
+struct vcrit_output {
+    const struct vcrit_search *v;
+    const struct vcrit_result *results;
+};
+
+static int output_contents(void *owner, hid_t file)
+{
+    const struct vcrit_output *o = owner;
+    return write_h5_contents(o->v, o->results, file);
+}
+
 static int write_h5(const struct vcrit_search *v, const struct vcrit_result *results)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", v->run_dir);
-    struct h5_out out;
-    SC_TRY(h5_create_atomic(path, &out));
-    char *case_text = case_resolved_text(v->c);
-    int status;
-    SC_CHECK(status, h5_write_root_attributes(out.file, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash), done);
-    SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
-    SC_CHECK(status, write_h5_contents(v, results, out.file), done);
-done:
-    free(case_text);
-    if (status != SC_OK) {
-        h5_abort(&out);
-        return status;
-    }
-    return h5_commit(&out);
+    struct vcrit_output o = {v, results};
+    return stage_write_output(path, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash, v->c, output_contents, &o);
 }
 
 static void log_table(const struct vcrit_search *v, const struct vcrit_result *results)

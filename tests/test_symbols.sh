@@ -38,6 +38,7 @@ app_prefixes() {
         info) echo "info_" ;;
         rundir) echo "app_ run_dir_ stage_ stages_ spraycoat_registry" ;;
         stage_loop) echo "stage_" ;;
+        xdmf) echo "xdmf_" ;;
         couple_stage) echo "couple_stage_ couple_stage_read_bodies couple_stage_bodies_free" ;;
         vcrit_stage) echo "vcrit_stage_ vcrit_case_keys" ;;
         *_stage) echo "$1_" ;;
