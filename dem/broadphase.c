@@ -33,7 +33,7 @@
 /* Cells per particle per axis stay bounded: a particle far faster than the rest widens the cells instead
  * of filling thousands of them.  4 (a reach box along the fastest sweep spans about 3 cells) rather than 8:
  * half the entries, in free flight 20 instructions fewer per particle-step, Table 1 on 1 thread no slower
- * (BENCHMARKS.md's history in git, 2026-12-02 third session). */
+ * (BENCHMARKS.md's history in git). */
 #define MAX_CELLS_PER_SWEEP 4.0
 /* Cell side in largest diameters: 2 balances entries per particle (about 3) against pairs per cell. */
 #define CELL_DIAMETERS 2.0

@@ -337,7 +337,7 @@ struct block {
      * all 32 lanes at once, 8 independent 4-lane chains interleaved.  Each lane's body is one long chain of
      * dependent operations (square roots, the series of exp and log, divisions); with 64-bit flags gcc
      * vectorises 4 lanes at a time, the chains hardly overlap, and free flight took 1.7x the time.  The spills
-     * of the 32-lane loop cost less (2026-12-01: 16 lanes as fast; the force evaluation split into one loop
+     * of the 32-lane loop cost less (16 lanes as fast; the force evaluation split into one loop
      * per long chain, 4 lanes each, 8 % fewer instructions but no faster). */
     uint8_t active[BLOCK], converged[BLOCK], force_known[BLOCK], stops[BLOCK];
     /* the squares of Eq. 53 of the last iterate, and whether they left it undecided */
@@ -1078,8 +1078,8 @@ static void list_at_boundary(struct dem_solver *s, const uint32_t *landed, size_
  * block; the vector lanes give the bits of the scalar code.  Each thread takes a contiguous share of the
  * blocks, balanced by the threads' speeds in the last steps (core/balance.h): it keeps nearly the same
  * particles from step to step, and their lines stay in its core's caches (dynamic chunks moved them between
- * the cores every step: Table 1 on 2 threads took 22 % more CPU time, BENCHMARKS.md in git, 2026-12-02 (second
- * session)), while equal shares waited for the slower core.  A thread done with its share takes the last
+ * the cores every step: Table 1 on 2 threads took 22 % more CPU time; BENCHMARKS.md's history in git), while
+ * equal shares waited for the slower core.  A thread done with its share takes the last
  * chunks of another's (INTEGRATE_CHUNK blocks at a time), so that what the speeds got wrong in one step is not
  * waited for.  Returns whether a value is not finite. */
 #define INTEGRATE_CHUNK 4

@@ -20,7 +20,7 @@
 
 /* OSMesa is loaded when the first renderer is made, not linked: linking it loads llvmpipe (LLVM, Z3 and more)
  * into every spraycoat process, and their relocations cost ~0.04 s of CPU and ~0.15 s of wall time before main
- * in every command, though only rendering needs them (BENCHMARKS.md in git, 2026-12-02 third session).  libOSMesa
+ * in every command, though only rendering needs them (BENCHMARKS.md's history in git).  libOSMesa
  * exports the GL entry points it implements; each is looked up once, with the type of its declaration. */
 #define OSMESA_LIBRARY "libOSMesa.so.8"
 /* One function a line: clang-format reflows this list differently on every pass. */
