@@ -70,11 +70,13 @@ _Noreturn void sc_out_of_memory_exit(const char *file, int line, size_t bytes, c
 
 int sc_calloc_at(const char *file, int line, void *out_pointer, size_t count, size_t size, const char *what)
 {
+    *(void **)out_pointer = NULL;
+    /* a count * size beyond size_t is no allocation at all (and not handed to calloc, which sanitizers abort on) */
+    if (size && count > (size_t)-1 / size)
+        return sc_out_of_memory(file, line, (size_t)-1, what);
     void *allocated = calloc(count ? count : 1, size ? size : 1);
     *(void **)out_pointer = allocated;
-    if (!allocated) {
-        size_t bytes = size && count > (size_t)-1 / size ? (size_t)-1 : count * size;
-        return sc_out_of_memory(file, line, bytes, what);
-    }
+    if (!allocated)
+        return sc_out_of_memory(file, line, count * size, what);
     return SC_OK;
 }

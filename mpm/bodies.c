@@ -168,6 +168,19 @@ static struct body_box box_of(const struct mpm_body *b, double slack)
     return box;
 }
 
+void mpm_bodies_bounds(const struct mpm_config *cfg, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (int b = 0; b < cfg->body_count; b++) {
+        struct body_box box = box_of(&cfg->bodies[b], cfg->spacing);
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], box.lo[k]);
+            hi[k] = fmax(hi[k], box.hi[k]);
+        }
+    }
+}
+
 static int boxes_meet(const struct body_box *a, const struct body_box *b)
 {
     for (int k = 0; k < 3; k++)

@@ -156,19 +156,13 @@ static double least_offset_above(double h, double bound)
 
 /* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
  * DCell so that z = 0 (the substrate's top) is a node plane. */
-/* The grid box: the points' bounding box widened by box_margin and two cells, in whole cells. */
-static int grid_box(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
+/* The grid box: the bounding box lo..hi widened by box_margin and two cells, in whole cells. */
+static int grid_box(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
     g->inv_h = 1.0 / g->h;
     g->layers = cfg->body_count;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t q = 0; q < p->count; q++)
-        for (int d = 0; d < 3; d++) {
-            lo[d] = fmin(lo[d], p->x[3 * q + d]);
-            hi[d] = fmax(hi[d], p->x[3 * q + d]);
-        }
     g->nodes = 1;
     for (int d = 0; d < 3; d++) {
         g->origin[d] = g->h * (floor((lo[d] - cfg->box_margin) / g->h) - 2.0);
@@ -188,17 +182,22 @@ static int grid_box(const struct mpm_config *cfg, const struct mpm_points *p, st
     return SC_OK;
 }
 
-int mpm_grid_bytes(const struct mpm_config *cfg, const struct mpm_points *p, double *bytes)
+int mpm_grid_bytes(const struct mpm_config *cfg, const double lo[3], const double hi[3], double *bytes)
 {
     struct mpm_grid g;
-    SC_TRY(grid_box(cfg, p, &g));
+    SC_TRY(grid_box(cfg, lo, hi, &g));
     *bytes = (double)g.nodes * (double)g.layers * (double)GRID_BYTES_PER_NODE_LAYER;
     return SC_OK;
 }
-
 int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
 {
-    SC_TRY(grid_box(cfg, p, g));
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t q = 0; q < p->count; q++)
+        for (int d = 0; d < 3; d++) {
+            lo[d] = fmin(lo[d], p->x[3 * q + d]);
+            hi[d] = fmax(hi[d], p->x[3 * q + d]);
+        }
+    SC_TRY(grid_box(cfg, lo, hi, g));
     double lightest = INFINITY;
     for (int m = 0; m < cfg->material_count; m++)
         lightest = fmin(lightest, cfg->materials[m].density);

@@ -110,20 +110,20 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
 
 int mpm_check_set_up(const struct mpm_config *cfg)
 {
+    /* the grid's memory first, from the bodies' box (no point seeded yet: a run too large fails at once) */
+    double lo[3], hi[3], grid_bytes = 0.0;
+    mpm_bodies_bounds(cfg, lo, hi);
+    SC_TRY(mpm_grid_bytes(cfg, lo, hi, &grid_bytes));
+    double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    if (memory > 0.0 && grid_bytes > memory)
+        SC_FAIL(SC_EINPUT,
+                "impact: the run would need %.3g GB for its grid (a layer of %.3g GB for each of the %d "
+                "bodies) on a machine of %.3g GB; use fewer bodies per run, a coarser grid or a smaller box_margin",
+                grid_bytes / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count, memory / 1e9);
+    /* then every body seeded with its points: overlapping bodies of any shape, a body that holds no point */
     struct mpm_points points;
     SC_TRY(mpm_points_create(cfg, &points));
-    double grid_bytes = 0.0;
-    int status = mpm_grid_bytes(cfg, &points, &grid_bytes);
-    double point_bytes = (double)points.count * (double)sizeof(double) * 40.0; /* about 40 doubles a point */
     mpm_points_free(&points);
-    SC_TRY(status);
-    double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
-    if (memory > 0.0 && grid_bytes + point_bytes > memory)
-        SC_FAIL(SC_EINPUT,
-                "impact: the run would need %.3g GB (a grid layer of %.3g GB for each of the %d bodies, "
-                "and the points) on a machine of %.3g GB; use fewer bodies per run, a coarser grid or a smaller "
-                "box_margin",
-                (grid_bytes + point_bytes) / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count, memory / 1e9);
     return SC_OK;
 }
 

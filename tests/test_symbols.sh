@@ -66,8 +66,9 @@ check_objects() {
             bad=$((bad + 1))
             continue
         fi
-        # defined external symbols; OpenMP's named critical sections (.gomp_critical_user_*) are not names of ours
-        for sym in $(nm -g --defined-only "$o" | awk 'NF == 3 { print $3 }' | grep -v '^\.gomp_critical_user_'); do
+        # defined external symbols; OpenMP's named critical sections (.gomp_critical_user_*) and AddressSanitizer's
+        # one-definition-rule indicators (__odr_asan.*) are not names of ours
+        for sym in $(nm -g --defined-only "$o" | awk 'NF == 3 { print $3 }' | grep -v -e '^\.gomp_critical_user_' -e '^__odr_asan\.'); do
             ok=0
             for p in $allowed; do
                 case "$sym" in "$p"*) ok=1 ;; esac
