@@ -18,7 +18,6 @@ echo "render: 1920 x 1080 px, LP_NUM_THREADS=${LP_NUM_THREADS:-default} (llvmpip
 echo "| view                     |    points | draw s    | + PNG s  |"
 echo "| ------------------------ | --------- | --------- | -------- |"
 mkdir "$work/run"
-"$work/render_bench" "$work/run"
 cat >"$work/case.ini" <<INI
 [render]
 width = 1920
@@ -26,6 +25,7 @@ height = 1080
 every = 0
 point_radius = 0.125e-6
 INI
+"$work/render_bench" "$work/run" "$work/case.ini"
 start=$(date +%s.%N)
 "$bin" render "$work/case.ini" -o "$work/run" -q
 end=$(date +%s.%N)

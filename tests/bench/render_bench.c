@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include "app/app.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "core/h5io.h"
 #include "render/render.h"
@@ -43,7 +45,8 @@ static size_t make_points(double *x, double *eps, int64_t *body)
     return n;
 }
 
-static int write_h5(const char *path, const double *x, const double *eps, const int64_t *body, size_t n)
+static int write_h5(const char *path, const double *x, const double *eps, const int64_t *body, size_t n,
+                    uint64_t case_hash)
 {
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
@@ -51,7 +54,7 @@ static int write_h5(const char *path, const double *x, const double *eps, const 
     hsize_t dn[1] = {n}, d3[2] = {n, 3}, one[1] = {1}, two[2] = {1, 1};
     double zero = 0, *v = calloc(3 * n, sizeof *v);
     int64_t bonded = 1;
-    int status = v ? h5_write_root_attributes(out.file, "spraycoat-impact", 1, "impact", 0) : SC_EIO;
+    int status = v ? h5_write_root_attributes(out.file, "spraycoat-impact", 1, "impact", case_hash) : SC_EIO;
     if (status == SC_OK && (status = h5_create_group(out.file, "snapshots", &snapshots)) == SC_OK) {
         if ((status = h5_create_group(snapshots, "000000", &g)) == SC_OK) {
             status = h5_write_doubles(g, "x", 2, d3, x, "m", 0);
@@ -100,6 +103,19 @@ int main(int argc, char **argv)
     int64_t *body = malloc(capacity * sizeof *body);
     size_t n = make_points(x, eps, body);
     const char *dir = argc > 1 ? argv[1] : "/tmp";
+    /* the case `spraycoat render` is then run with: impact.h5 carries its impact stage's hash, or render refuses
+     * it as another case's */
+    uint64_t case_hash = 0;
+    if (argc > 2) {
+        struct case_file *c;
+        if (case_load(argv[2], spraycoat_registry, &c) != SC_OK) {
+            fprintf(stderr, "render_bench: %s\n", sc_error_message());
+            return 2;
+        }
+        struct stage_context ctx = {.c = c};
+        case_hash = stage_hash(&ctx, "impact");
+        case_free(c);
+    }
     char path[4200];
     struct render_renderer *r;
     double t0 = now();
@@ -129,7 +145,7 @@ int main(int argc, char **argv)
     }
     render_renderer_destroy(r);
     snprintf(path, sizeof path, "%s/impact.h5", dir);
-    int status = argc > 1 ? write_h5(path, x, eps, body, n) : SC_OK;
+    int status = argc > 1 ? write_h5(path, x, eps, body, n, case_hash) : SC_OK;
     free(x), free(eps), free(body);
     if (status != SC_OK)
         fprintf(stderr, "render_bench: %s\n", sc_error_message());
