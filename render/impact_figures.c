@@ -292,14 +292,12 @@ static int per_body_figure(const struct impact_run *run, const struct series_dat
         series[count] = (struct render_series){labels[count], RENDER_LINE, nt, buffer, y, 0, count};
         count++;
     }
-    char name[96], title[160], dir[4200];
+    char name[96], title[160];
     snprintf(name, sizeof name, "%s_%s", run->prefix, what);
     snprintf(title, sizeof title, "%s vs time per body%s", strcmp(what, "pbcp") == 0 ? "PBCP" : "v_rest", run->label);
     struct render_plot plot = render_plot_start(run->req->cfg, 1);
     plot.panels[0] = (struct render_panel){title, "time t (ns)", ylabel, NAN, NAN, NAN, NAN, 1, count, series};
-    render_figures_dir(run->req->run_dir, dir, sizeof dir);
-    SC_CHECK(status, render_output_push(out, name, "impact", 1, title, NULL), done);
-    SC_CHECK(status, render_plot_write(&plot, dir, name), done);
+    SC_CHECK(status, render_plot_publish(run->req->run_dir, out, name, "impact", title, &plot), done);
 done:
     free(buffer), free(series), free(labels);
     return status;
@@ -340,15 +338,13 @@ static int energy_figure(const struct impact_run *run, const struct series_data 
         {"carried off by removed points", RENDER_LINE, nt, ns, removed, 0, 3},
         {"total", RENDER_LINE, nt, ns, total, 0, 6},
     };
-    char name[96], title[160], dir[4200];
+    char name[96], title[160];
     snprintf(name, sizeof name, "%s_energy", run->prefix);
     snprintf(title, sizeof title, "Energy balance%s", run->label);
     struct render_plot plot = render_plot_start(run->req->cfg, 1);
     plot.panels[0] = (struct render_panel){title, "time t (ns)", "energy (µJ)", NAN, NAN, NAN, NAN, 1, 6, series};
-    render_figures_dir(run->req->run_dir, dir, sizeof dir);
     int status;
-    SC_CHECK(status, render_output_push(out, name, "impact", 1, title, NULL), done);
-    SC_CHECK(status, render_plot_write(&plot, dir, name), done);
+    SC_CHECK(status, render_plot_publish(run->req->run_dir, out, name, "impact", title, &plot), done);
 done:
     free(buffer);
     return status;

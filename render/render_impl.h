@@ -82,6 +82,9 @@ int render_output_push(struct render_output *out, const char *name, const char *
 struct render_plot render_plot_start(const struct render_config *cfg, int panels);
 /* RUN_DIR/figures */
 void render_figures_dir(const char *run_dir, char *out, size_t size);
+/* A plot's figure entry (name, group, title) and its files RUN_DIR/figures/NAME.png and .svg. */
+int render_plot_publish(const char *run_dir, struct render_output *out, const char *name, const char *group,
+                        const char *title, const struct render_plot *plot);
 
 int render_spray_figures(const struct render_request *req, struct render_renderer **renderer,
                          struct render_output *out);

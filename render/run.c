@@ -41,6 +41,15 @@ int render_output_push(struct render_output *out, const char *name, const char *
     return SC_OK;
 }
 
+int render_plot_publish(const char *run_dir, struct render_output *out, const char *name, const char *group,
+                        const char *title, const struct render_plot *plot)
+{
+    char dir[4200];
+    render_figures_dir(run_dir, dir, sizeof dir);
+    SC_TRY(render_output_push(out, name, group, 1, title, NULL));
+    return render_plot_write(plot, dir, name);
+}
+
 void render_output_free(struct render_output *out)
 {
     for (int i = 0; i < out->count; i++)

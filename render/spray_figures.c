@@ -249,10 +249,9 @@ static int impact_figures(const struct render_request *req, const struct spray_d
                                            1,
                                            2,
                                            series};
-    char dir[4200];
-    render_figures_dir(req->run_dir, dir, sizeof dir);
-    SC_CHECK(status, render_output_push(out, "spray_speed_diameter", "spray", 1, plot.panels[0].title, NULL), done);
-    SC_CHECK(status, render_plot_write(&plot, dir, "spray_speed_diameter"), done);
+    SC_CHECK(status,
+             render_plot_publish(req->run_dir, out, "spray_speed_diameter", "spray", plot.panels[0].title, &plot),
+             done);
 done:
     free(s_dep);
     free(buffer);
@@ -310,14 +309,10 @@ static int thickness_figure(const struct render_request *req, const struct spray
                                            1,
                                            1,
                                            &bars};
-    char dir[4200];
-    render_figures_dir(req->run_dir, dir, sizeof dir);
-    SC_TRY(render_output_push(out, "spray_thickness", "spray", 1,
-                              "Coating thickness vs radius: deposited particle volume per annulus / annulus area "
-                              "(a fully dense layer)",
-                              NULL));
-    SC_TRY(render_plot_write(&plot, dir, "spray_thickness"));
-    return SC_OK;
+    return render_plot_publish(req->run_dir, out, "spray_thickness", "spray",
+                               "Coating thickness vs radius: deposited particle volume per annulus / annulus area "
+                               "(a fully dense layer)",
+                               &plot);
 }
 
 static int metrics_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
@@ -344,11 +339,9 @@ static int metrics_figure(const struct render_request *req, const struct spray_d
         (struct render_panel){"Deposit fractions", "time t (ms)", "fraction (-)", NAN, NAN, 0, NAN, 1, 2, fractions};
     plot.panels[1] =
         (struct render_panel){"Deposit extent", "time t (ms)", "length (mm)", NAN, NAN, NAN, NAN, 1, 3, lengths};
-    char dir[4200];
-    render_figures_dir(req->run_dir, dir, sizeof dir);
     int status;
-    SC_CHECK(status, render_output_push(out, "spray_metrics", "spray", 1, "Deposit metrics vs time", NULL), done);
-    SC_CHECK(status, render_plot_write(&plot, dir, "spray_metrics"), done);
+    SC_CHECK(status, render_plot_publish(req->run_dir, out, "spray_metrics", "spray", "Deposit metrics vs time", &plot),
+             done);
 done:
     free(buffer);
     return status;

@@ -110,11 +110,8 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            0,
                                            5,
                                            series};
-    char dir[4200];
-    render_figures_dir(req->run_dir, dir, sizeof dir);
     int status;
-    SC_CHECK(status, render_output_push(out, "vcrit", "vcrit", 1, plot.panels[0].title, NULL), done);
-    SC_CHECK(status, render_plot_write(&plot, dir, "vcrit"), done);
+    SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
 done:
     free(buffer);
     return status;
