@@ -24,6 +24,7 @@ core_prefixes() {
         h5io) echo "h5_" ;;
         interrupt) echo "interrupt_" ;;
         log) echo "log_" ;;
+        logistic) echo "logistic_" ;;
         memory) echo "memory_" ;;
         parallel) echo "parallel_" ;;
         rng) echo "rng_" ;;

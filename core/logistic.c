@@ -1,0 +1,187 @@
+/* Logistic regression by Newton's method (core/logistic.h): Tang (2021) Eqs. 4.10-4.14. */
+#include "core/logistic.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "core/error.h"
+
+#define MAX_ITERATIONS 200
+
+void logistic_quadratic_terms(double x1, double x2, double terms[LOGISTIC_MAX_TERMS])
+{
+    terms[0] = 1.0;
+    terms[1] = x1;
+    terms[2] = x2;
+    terms[3] = x1 * x1;
+    terms[4] = x1 * x2;
+    terms[5] = x2 * x2;
+}
+
+double logistic_quadratic_z(const double theta[LOGISTIC_MAX_TERMS], double x1, double x2)
+{
+    double terms[LOGISTIC_MAX_TERMS], z = 0;
+    logistic_quadratic_terms(x1, x2, terms);
+    for (int j = 0; j < LOGISTIC_MAX_TERMS; j++)
+        z += terms[j] * theta[j];
+    return z;
+}
+
+/* -log(sigma(z)) and -log(1 - sigma(z)) without overflow: log(1 + e^-z) and log(1 + e^z). */
+static double log1pexp(double z)
+{
+    return z > 0 ? z + log1p(exp(-z)) : log1p(exp(z));
+}
+
+/* m J (Eq. 4.13 times m) and, when lambda > 0, the ridge term. */
+static double penalised_cost(const double *X, const int *y, size_t m, int p, double lambda, const double *theta,
+                             double *plain)
+{
+    double sum = 0;
+    for (size_t i = 0; i < m; i++) {
+        double z = 0;
+        for (int j = 0; j < p; j++)
+            z += X[i * (size_t)p + (size_t)j] * theta[j];
+        sum += y[i] ? log1pexp(-z) : log1pexp(z);
+    }
+    if (plain)
+        *plain = sum / (double)m;
+    for (int j = 1; j < p; j++)
+        sum += 0.5 * lambda * theta[j] * theta[j];
+    return sum;
+}
+
+/* Gradient (m times Eq. 4.14, plus the ridge term) and Hessian X^T W X (+ lambda) at theta. */
+static void gradient_hessian(const double *X, const int *y, size_t m, int p, double lambda, const double *theta,
+                             double *g, double *H)
+{
+    memset(g, 0, (size_t)p * sizeof *g);
+    memset(H, 0, (size_t)(p * p) * sizeof *H);
+    for (size_t i = 0; i < m; i++) {
+        const double *row = X + i * (size_t)p;
+        double z = 0;
+        for (int j = 0; j < p; j++)
+            z += row[j] * theta[j];
+        double h = 1.0 / (1.0 + exp(-z)), w = h * (1.0 - h);
+        for (int j = 0; j < p; j++) {
+            g[j] += row[j] * (h - y[i]);
+            for (int k = 0; k < p; k++)
+                H[j * p + k] += w * row[j] * row[k];
+        }
+    }
+    for (int j = 1; j < p; j++) {
+        g[j] += lambda * theta[j];
+        H[j * p + j] += lambda;
+    }
+}
+
+/* Cholesky factor L (lower, in place) of the symmetric positive definite A; -1 when it is not. */
+static int cholesky(double *A, int p)
+{
+    for (int j = 0; j < p; j++) {
+        double d = A[j * p + j];
+        for (int k = 0; k < j; k++)
+            d -= A[j * p + k] * A[j * p + k];
+        if (!(d > 1e-300))
+            return -1;
+        A[j * p + j] = sqrt(d);
+        for (int i = j + 1; i < p; i++) {
+            double s = A[i * p + j];
+            for (int k = 0; k < j; k++)
+                s -= A[i * p + k] * A[j * p + k];
+            A[i * p + j] = s / A[j * p + j];
+        }
+    }
+    return 0;
+}
+
+/* x = (L L^T)^-1 b. */
+static void cholesky_solve(const double *L, int p, const double *b, double *x)
+{
+    for (int i = 0; i < p; i++) {
+        double s = b[i];
+        for (int k = 0; k < i; k++)
+            s -= L[i * p + k] * x[k];
+        x[i] = s / L[i * p + i];
+    }
+    for (int i = p - 1; i >= 0; i--) {
+        double s = x[i];
+        for (int k = i + 1; k < p; k++)
+            s -= L[k * p + i] * x[k];
+        x[i] = s / L[i * p + i];
+    }
+}
+
+/* One damped Newton step: the full step, halved until the penalised cost does not rise.  Returns the step's
+ * largest relative change, or -1 when the Hessian is singular. */
+static double newton_step(const double *X, const int *y, size_t m, int p, double lambda, double *theta, double *cost)
+{
+    double g[LOGISTIC_MAX_TERMS], H[LOGISTIC_MAX_TERMS * LOGISTIC_MAX_TERMS], step[LOGISTIC_MAX_TERMS];
+    gradient_hessian(X, y, m, p, lambda, theta, g, H);
+    if (cholesky(H, p) != 0)
+        return -1;
+    cholesky_solve(H, p, g, step);
+    double trial[LOGISTIC_MAX_TERMS], scale = 1.0, change = 0;
+    for (int halvings = 0; halvings < 40; halvings++, scale *= 0.5) {
+        for (int j = 0; j < p; j++)
+            trial[j] = theta[j] - scale * step[j];
+        double c = penalised_cost(X, y, m, p, lambda, trial, NULL);
+        if (c <= *cost) {
+            *cost = c;
+            break;
+        }
+    }
+    for (int j = 0; j < p; j++) {
+        change = fmax(change, fabs(trial[j] - theta[j]) / (1.0 + fabs(theta[j])));
+        theta[j] = trial[j];
+    }
+    return change;
+}
+
+/* Standard errors from the inverse of the (penalised) Hessian at the fit. */
+static int standard_errors(const double *X, const int *y, size_t m, int p, double lambda, struct logistic_fit *fit)
+{
+    double g[LOGISTIC_MAX_TERMS], H[LOGISTIC_MAX_TERMS * LOGISTIC_MAX_TERMS];
+    gradient_hessian(X, y, m, p, lambda, fit->theta, g, H);
+    if (cholesky(H, p) != 0) {
+        for (int j = 0; j < p; j++)
+            fit->se[j] = INFINITY;
+        return SC_OK;
+    }
+    for (int j = 0; j < p; j++) {
+        double e[LOGISTIC_MAX_TERMS] = {0}, column[LOGISTIC_MAX_TERMS];
+        e[j] = 1.0;
+        cholesky_solve(H, p, e, column);
+        fit->se[j] = sqrt(column[j]);
+    }
+    return SC_OK;
+}
+
+int logistic_fit(const double *X, const int *y, size_t m, int p, double lambda, struct logistic_fit *fit)
+{
+    memset(fit, 0, sizeof *fit);
+    if (m < 1 || p < 1 || p > LOGISTIC_MAX_TERMS || !(lambda >= 0))
+        SC_FAIL(SC_EINPUT,
+                "logistic fit: %zu outcomes, %d terms, lambda %g; allowed: m >= 1, 1 <= p <= %d, lambda >= 0", m, p,
+                lambda, LOGISTIC_MAX_TERMS);
+    fit->terms = p;
+    double cost = penalised_cost(X, y, m, p, lambda, fit->theta, NULL);
+    for (fit->iterations = 1; fit->iterations <= MAX_ITERATIONS; fit->iterations++) {
+        double change = newton_step(X, y, m, p, lambda, fit->theta, &cost);
+        if (change < 0 && penalised_cost(X, y, m, p, 0.0, fit->theta, NULL) < 1e-6 * (double)m)
+            break; /* separated: the weights h (1 - h) underflow as |Z| grows */
+        if (change < 0)
+            SC_FAIL(SC_ESIM,
+                    "logistic fit: the Hessian is singular at iteration %d (a term that is zero or repeats "
+                    "another over the %zu outcomes)",
+                    fit->iterations, m);
+        if (change < 1e-10) {
+            fit->converged = 1;
+            break;
+        }
+    }
+    penalised_cost(X, y, m, p, lambda, fit->theta, &fit->cost);
+    /* separated data: the likelihood tends to 1 while theta runs away; the Newton steps never shrink */
+    fit->separable = !fit->converged && fit->cost < 1e-6;
+    return standard_errors(X, y, m, p, lambda, fit);
+}
