@@ -135,6 +135,45 @@ int vcrit_stage_validate(const struct stage_context *ctx);
  * skips the work when vcrit.h5 exists for the same case.  SC_EINT/SC_ETERM when interrupted. */
 int vcrit_stage_run(const struct stage_context *ctx);
 
+/* ---- single-particle impact runs recorded for restart (app/vcrit_stage.c), shared by vcrit and calibrate -------
+ * Every finished run goes into RUN_DIR/NAME_runs.csv (rank 0; NAME_runs_rankK.csv on rank K), rewritten atomically;
+ * a run already recorded for the case (same diameter, speed, Gc and Gc_rate) is taken from there, not repeated. */
+enum vcrit_verdict { VCRIT_REBOUNDED = 0, VCRIT_BONDED = 1, VCRIT_UNSETTLED = 2 };
+struct vcrit_run_record {
+    double diameter, velocity, Gc, Gc_rate; /* m, m/s, J/m2, J/m2/s: what identifies the run */
+    int verdict;                            /* enum vcrit_verdict, from mpm_verdicts */
+    double pbcp, v_rest, cor;               /* cor: rebound over impact speed, both along the substrate normal */
+    int64_t steps;
+};
+struct vcrit_runs {
+    const char *run_dir, *name; /* name: "vcrit", "calibrate" */
+    uint64_t case_hash;
+    struct vcrit_run_record *done; /* every recorded run */
+    size_t count, capacity;
+    int64_t new_runs; /* runs this process made */
+};
+struct mpm_config;
+/* "bonded", "rebounded", "unsettled". */
+const char *vcrit_verdict_name(int verdict);
+/* The records of every rank's file for this case (others ignored). */
+int vcrit_runs_load(struct vcrit_runs *r);
+/* The outcome of *run (diameter, velocity, Gc, Gc_rate set; cfg the impact set-up of exactly that run): from the
+ * records, or an MPM run to cfg->t_end through the stage loop, then recorded. */
+int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *run);
+/* Remove every rank's record file (once the stage's output is written). */
+int vcrit_runs_remove(const struct vcrit_runs *r);
+void vcrit_runs_free(struct vcrit_runs *r);
+/* A comma-separated list of numbers, each > 0 and <= max, from [section] key into out[capacity]; *count may be 0. */
+int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, double *out,
+                          int capacity, int *count);
+
+/* `spraycoat calibrate` ([calibrate], app/calibrate_stage.c): the bonding calibration of Tang (2021) Sections
+ * 4.1.2 and 5.1 over a (Gc, Gc_rate) grid.  Writes RUN_DIR/calibrate.csv, calibrate_runs... (while it runs),
+ * calibrate_outcomes.csv and calibrate.h5; restartable and shared among MPI ranks like vcrit. */
+extern const struct cfg_key calibrate_case_keys[];
+int calibrate_stage_validate(const struct stage_context *ctx);
+int calibrate_stage_run(const struct stage_context *ctx);
+
 /* The couple stage ([couple]): sample spray.h5's impacts, fly them through the gas layer in front of the target
  * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when
  * spray.h5 is missing or from another case. */

@@ -24,6 +24,9 @@ static const char usage[] =
     "  spraycoat impact CASE.ini [-o RUN_DIR]   run the impact stage (MPM impacts of [impact]; resumes\n"
     "                                           like spray)\n"
     "  spraycoat vcrit CASE.ini [-o RUN_DIR]    critical velocity vs diameter from MPM impacts ([vcrit])\n"
+    "  spraycoat calibrate CASE.ini [-o RUN_DIR]\n"
+    "                                           bonding calibration: logistic boundaries of (Gc, Gc_rate)\n"
+    "                                           from MPM impacts of two sizes ([calibrate]), then figures\n"
     "  spraycoat render CASE.ini [-o RUN_DIR]   figures (RUN_DIR/figures/) and RUN_DIR/report.html from the\n"
     "                                           outputs RUN_DIR holds ([render])\n"
     "  spraycoat couple CASE.ini [-o RUN_DIR]   sample the spray's impacts, fly them through the gas layer\n"
@@ -73,6 +76,13 @@ static const struct command_help command_helps[] = {
     {"vcrit", "spraycoat vcrit CASE.ini [-o RUN_DIR] [--threads N]",
      "Critical velocity against diameter by bisection of single-particle MPM impacts ([vcrit]); writes\n"
      "RUN_DIR/vcrit.csv and vcrit.h5.  Runs are shared among MPI ranks in the MPI build.\n"},
+    {"calibrate", "spraycoat calibrate CASE.ini [-o RUN_DIR] [--threads N]",
+     "The bonding calibration of Tang (2021) Sections 4.1.2 and 5.1 ([calibrate]): single-particle MPM impacts of\n"
+     "each size at its experimental critical velocity over a grid of Gc and Gc_rate, each classified bonded or\n"
+     "rebounded by the impact verdict (unsettled runs are counted and left out), a second-order logistic\n"
+     "regression per size (Eqs. 4.10-4.14), the bonding boundaries h = 0.5 and their intersection, the calibrated\n"
+     "pair.  Writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv, calibrate.h5, then the figures and report of\n"
+     "the render stage.  Runs are shared among MPI ranks; `spraycoat resume RUN_DIR` reuses finished runs.\n"},
     {"render", "spraycoat render CASE.ini [-o RUN_DIR]",
      "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"},
     {"info", "spraycoat info RUN_DIR|FILE.h5",
@@ -176,10 +186,13 @@ static int command_check(const struct options *opt)
     /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
      * name the materials of an impact it never runs) */
     const struct stage_context ctx = {.c = c};
-    if (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit"))
+    if (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit") ||
+        app_case_section_given(c, "calibrate"))
         SC_CHECK(status, impact_stage_validate(&ctx), done);
     if (app_case_section_given(c, "vcrit"))
         SC_CHECK(status, vcrit_stage_validate(&ctx), done);
+    if (app_case_section_given(c, "calibrate"))
+        SC_CHECK(status, calibrate_stage_validate(&ctx), done);
     case_print(c, stdout);
     printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
 done:
@@ -210,7 +223,8 @@ static const struct stage stages[] = {
     {"spray", spray_stage_validate, spray_stage_run, "spray.h5", 0},
     {"couple", couple_stage_validate, couple_stage_run, "couple.h5", 0},
     {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf", 1},
-    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit.h5", 1},
+    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit_cor.csv, vcrit.h5", 1},
+    {"calibrate", calibrate_stage_validate, calibrate_stage_run, "calibrate.csv, calibrate.h5", 1},
     {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0},
 };
 
@@ -414,6 +428,8 @@ static int dispatch(const struct options *opt)
     if (strcmp(command, "spray") == 0 || strcmp(command, "couple") == 0 || strcmp(command, "impact") == 0 ||
         strcmp(command, "vcrit") == 0 || strcmp(command, "render") == 0)
         return command_run(opt, command, 0);
+    if (strcmp(command, "calibrate") == 0)
+        return command_run(opt, "calibrate,render", 0);
     if (strcmp(command, "resume") == 0)
         return command_resume(opt);
     if (strcmp(command, "info") == 0)

@@ -101,7 +101,7 @@ int render_stage_run(const struct stage_context *ctx)
     const char *run_dir = ctx->run_dir;
     /* refuse, not warn: the report names this case's keys and hash above the figures, so figures of another
      * case's file would be wrong results under a right-looking label (exit 3, the same as couple and impact) */
-    static const char *const inputs[] = {"spray", "impact", "vcrit"};
+    static const char *const inputs[] = {"spray", "impact", "vcrit", "calibrate"};
     for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; i++)
         SC_TRY(run_dir_check_input(ctx, inputs[i], "render", 0));
     char fingerprint[4096];

@@ -20,7 +20,8 @@
 #include "render/render.h"
 
 const struct cfg_key *const spraycoat_registry[] = {
-    run_case_keys, dem_case_keys, couple_case_keys, mpm_case_keys, vcrit_case_keys, render_case_keys, NULL};
+    run_case_keys,   dem_case_keys,       couple_case_keys, mpm_case_keys,
+    vcrit_case_keys, calibrate_case_keys, render_case_keys, NULL};
 
 static int make_directories(const char *path)
 {
@@ -189,6 +190,7 @@ static const char *const pipeline_impact_sections[] = {"run",        "spray",  "
                                                        "deposition", "couple", "impact", "material.*", NULL};
 static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
 static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
+static const char *const calibrate_sections[] = {"run", "impact", "material.*", "calibrate", NULL};
 
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
 {
@@ -209,6 +211,8 @@ uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
         return case_hash_sections(c, ctx->impact_from_seeds ? pipeline_impact_sections : impact_sections);
     if (strcmp(stage, "vcrit") == 0)
         return case_hash_sections(c, vcrit_sections);
+    if (strcmp(stage, "calibrate") == 0)
+        return case_hash_sections(c, calibrate_sections);
     return case_hash(c);
 }
 

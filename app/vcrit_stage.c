@@ -34,6 +34,7 @@
 #define VCRIT_FORMAT         "spraycoat-vcrit"
 #define VCRIT_FORMAT_VERSION 1
 #define MAX_DIAMETERS        256
+#define MAX_COR_OFFSETS      32
 
 const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
@@ -48,21 +49,17 @@ const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
      "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
      "about 2)"},
+    {"vcrit", "cor_below", CFG_STRING, "m/s", NULL, 0, 0, 0, NULL,
+     "comma-separated speed differences (each > 0): after the bisection, one more run per diameter at v_crit minus "
+     "each, for the coefficient of restitution against impact speed (RUN_DIR/vcrit_cor.csv); not given: none"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
-};
-
-struct vcrit_record {
-    double diameter, velocity;
-    int bonded;
-    double pbcp, v_rest;
-    int64_t steps;
 };
 
 struct vcrit_result {
     double diameter, v_crit, pbcp, v_rest;
     int runs;
-    struct vcrit_record *records; /* the runs of this diameter in the order of the search */
-    char note[200];               /* "" when bracketed and converged */
+    struct vcrit_run_record *records; /* the runs of this diameter in the order of the search, then the CoR runs */
+    char note[200];                   /* "" when bracketed and converged */
 };
 
 struct vcrit_search {
@@ -73,9 +70,9 @@ struct vcrit_search {
     int count;
     double v_low, v_high, tolerance, scale, angle;
     int max_runs;
-    struct vcrit_record *done; /* every finished run (also those of an earlier, interrupted process) */
-    size_t done_count, done_capacity;
-    int64_t runs_this_process;
+    double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
+    int cor_count;
+    struct vcrit_runs runs; /* every finished run (also those of an earlier, interrupted process) */
 };
 
 static int compare_doubles(const void *a, const void *b)
@@ -84,30 +81,36 @@ static int compare_doubles(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
+int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, double *out,
+                          int capacity, int *count)
 {
     char text[4096];
-    if (snprintf(text, sizeof text, "%s", case_text(c, "vcrit", "diameters")) >= (int)sizeof text)
-        return case_invalid(c, "vcrit", "diameters", "too long");
-    v->count = 0;
+    if (snprintf(text, sizeof text, "%s", case_text(c, section, key)) >= (int)sizeof text)
+        return case_invalid(c, section, key, "too long");
+    *count = 0;
     char *save = NULL;
     for (char *token = strtok_r(text, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
         while (*token == ' ' || *token == '\t')
             token++;
         char *end;
         errno = 0;
-        double d = strtod(token, &end);
+        double x = strtod(token, &end);
         while (*end == ' ' || *end == '\t')
             end++;
-        if (end == token || *end != '\0' || errno == ERANGE || !isfinite(d) || !(d > 0) || d > 1)
-            return case_invalid(c, "vcrit", "diameters",
-                                "'%s' is not a diameter; allowed: comma-separated numbers "
-                                "in m, each > 0 and <= 1",
-                                token);
-        if (v->count == MAX_DIAMETERS)
-            return case_invalid(c, "vcrit", "diameters", "more than %d diameters", MAX_DIAMETERS);
-        v->diameters[v->count++] = d;
+        if (end == token || *end != '\0' || errno == ERANGE || !isfinite(x) || !(x > 0) || x > max)
+            return case_invalid(c, section, key,
+                                "'%s' is not allowed; allowed: comma-separated numbers, each > 0 and <= %g", token,
+                                max);
+        if (*count == capacity)
+            return case_invalid(c, section, key, "more than %d values", capacity);
+        out[(*count)++] = x;
     }
+    return SC_OK;
+}
+
+static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
+{
+    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "diameters", 1.0, v->diameters, MAX_DIAMETERS, &v->count));
     if (v->count == 0)
         return case_invalid(c, "vcrit", "diameters", "no diameter given");
     qsort(v->diameters, (size_t)v->count, sizeof v->diameters[0], compare_doubles);
@@ -134,6 +137,9 @@ static int make_config(const struct vcrit_search *v, double d, double speed, str
 static int load_settings(const struct case_file *c, struct vcrit_search *v)
 {
     SC_TRY(parse_diameters(c, v));
+    v->cor_count = 0;
+    if (case_has(c, "vcrit", "cor_below"))
+        SC_TRY(vcrit_runs_parse_list(c, "vcrit", "cor_below", 1e5, v->cor_offsets, MAX_COR_OFFSETS, &v->cor_count));
     v->v_low = case_real(c, "vcrit", "v_low");
     v->v_high = case_real(c, "vcrit", "v_high");
     v->tolerance = case_real(c, "vcrit", "tolerance");
@@ -185,139 +191,167 @@ static const char *exact(double value, char *out, size_t size)
     return out;
 }
 
-/* ---- the record of finished runs: RUN_DIR/vcrit_runs.csv ---------------------------------------------------- */
+/* ---- the record of finished runs: RUN_DIR/NAME_runs.csv (vcrit_runs.csv, calibrate_runs.csv) ------------------ */
+
+const char *vcrit_verdict_name(int verdict)
+{
+    return verdict == VCRIT_BONDED ? "bonded" : verdict == VCRIT_REBOUNDED ? "rebounded" : "unsettled";
+}
 
 /* This rank's record file. */
-static void records_path(const struct vcrit_search *v, char *out, size_t size)
+static void records_path(const struct vcrit_runs *r, char *out, size_t size)
 {
     if (parallel_rank() == 0)
-        snprintf(out, size, "%s/vcrit_runs.csv", v->run_dir);
+        snprintf(out, size, "%s/%s_runs.csv", r->run_dir, r->name);
     else
-        snprintf(out, size, "%s/vcrit_runs_rank%d.csv", v->run_dir, parallel_rank());
+        snprintf(out, size, "%s/%s_runs_rank%d.csv", r->run_dir, r->name, parallel_rank());
 }
 
 /* 1 for the name of any rank's record file. */
-static int is_records_file(const char *name)
+static int is_records_file(const struct vcrit_runs *r, const char *name)
 {
-    if (strcmp(name, "vcrit_runs.csv") == 0)
+    size_t n = strlen(r->name);
+    if (strncmp(name, r->name, n) != 0)
+        return 0;
+    name += n;
+    if (strcmp(name, "_runs.csv") == 0)
         return 1;
     int rank, end = 0;
-    return sscanf(name, "vcrit_runs_rank%d.csv%n", &rank, &end) == 1 && name[end] == '\0';
+    return sscanf(name, "_runs_rank%d.csv%n", &rank, &end) == 1 && name[end] == '\0';
 }
 
-static int save_records(const struct vcrit_search *v)
+static void records_title(const struct vcrit_runs *r, char *out, size_t size)
 {
-    char path[4096];
-    records_path(v, path, sizeof path);
+    snprintf(out, size, "# spraycoat %s runs of case %016llx\n", r->name, (unsigned long long)r->case_hash);
+}
+
+#define RECORDS_HEADER "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
+
+static int save_records(const struct vcrit_runs *r)
+{
+    char path[4096], title[128];
+    records_path(r, path, sizeof path);
+    records_title(r, title, sizeof title);
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
-    fprintf(out.stream, "# spraycoat vcrit runs of case %016llx\ndiameter,velocity,bonded,pbcp,v_rest,steps\n",
-            (unsigned long long)v->case_hash);
-    for (size_t i = 0; i < v->done_count; i++) {
-        const struct vcrit_record *r = &v->done[i];
-        char a[32], b[32], c[32], d[32];
-        fprintf(out.stream, "%s,%s,%d,%s,%s,%lld\n", exact(r->diameter, a, sizeof a), exact(r->velocity, b, sizeof b),
-                r->bonded, exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), (long long)r->steps);
+    fprintf(out.stream, "%s%s", title, RECORDS_HEADER);
+    for (size_t i = 0; i < r->count; i++) {
+        const struct vcrit_run_record *x = &r->done[i];
+        char a[32], b[32], c[32], d[32], e[32], f[32], g[32];
+        fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld\n", exact(x->diameter, a, sizeof a),
+                exact(x->velocity, b, sizeof b), exact(x->Gc, c, sizeof c), exact(x->Gc_rate, d, sizeof d), x->verdict,
+                exact(x->pbcp, e, sizeof e), exact(x->v_rest, f, sizeof f), exact(x->cor, g, sizeof g),
+                (long long)x->steps);
     }
     return atomic_publish(&out);
 }
 
-static int add_record(struct vcrit_search *v, const struct vcrit_record *r)
+static int add_record(struct vcrit_runs *r, const struct vcrit_run_record *x)
 {
-    if (v->done_count == v->done_capacity) {
-        size_t grown = v->done_capacity ? 2 * v->done_capacity : 64;
-        struct vcrit_record *more = realloc(v->done, grown * sizeof *more);
+    if (r->count == r->capacity) {
+        size_t grown = r->capacity ? 2 * r->capacity : 64;
+        struct vcrit_run_record *more = realloc(r->done, grown * sizeof *more);
         if (!more)
-            SC_FAIL_OOM(grown * sizeof *more, "the vcrit records");
-        v->done = more;
-        v->done_capacity = grown;
+            SC_FAIL_OOM(grown * sizeof *more, "the records of the impact runs");
+        r->done = more;
+        r->capacity = grown;
     }
-    v->done[v->done_count++] = *r;
+    r->done[r->count++] = *x;
     return SC_OK;
 }
 
-/* Runs recorded in `path` for this case; a file of another case (or damaged) is ignored. */
-static int load_records_file(struct vcrit_search *v, const char *path)
+/* Runs recorded in `path` for this case; a file of another case or format (or damaged) is ignored. */
+static int load_records_file(struct vcrit_runs *r, const char *path)
 {
-    char line[512], wanted[128];
+    char line[512], title[128];
     FILE *file = fopen(path, "r");
     if (!file)
         return SC_OK;
-    snprintf(wanted, sizeof wanted, "# spraycoat vcrit runs of case %016llx\n", (unsigned long long)v->case_hash);
-    int ok = fgets(line, sizeof line, file) && strcmp(line, wanted) == 0 && fgets(line, sizeof line, file);
+    records_title(r, title, sizeof title);
+    int ok = fgets(line, sizeof line, file) && strcmp(line, title) == 0 && fgets(line, sizeof line, file) &&
+             strcmp(line, RECORDS_HEADER) == 0;
     if (!ok) {
         fclose(file);
-        log_info("vcrit: %s belongs to another case; its runs are not used", path);
+        log_info("%s: %s belongs to another case or version; its runs are not used", r->name, path);
         return SC_OK;
     }
     int status = SC_OK;
-    while (ok && fgets(line, sizeof line, file)) {
-        struct vcrit_record r;
+    while (fgets(line, sizeof line, file)) {
+        struct vcrit_run_record x;
         long long steps;
         char rest;
-        if (sscanf(line, "%lf,%lf,%d,%lf,%lf,%lld %c", &r.diameter, &r.velocity, &r.bonded, &r.pbcp, &r.v_rest, &steps,
-                   &rest) != 6) {
-            log_warn("vcrit: %s: unreadable line '%.60s'; the runs from there on will be done again", path, line);
+        if (sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity, &x.Gc, &x.Gc_rate,
+                   &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest) != 9) {
+            log_warn("%s: %s: unreadable line '%.60s'; the runs from there on will be done again", r->name, path, line);
             break;
         }
-        r.steps = steps;
-        SC_CHECK(status, add_record(v, &r), done);
+        x.steps = steps;
+        SC_CHECK(status, add_record(r, &x), done);
     }
 done:
     fclose(file);
     return status;
 }
 
-/* The records of every rank's file (an earlier process, or the other ranks of this one). */
-static int load_records(struct vcrit_search *v)
+int vcrit_runs_load(struct vcrit_runs *r)
 {
-    v->done_count = 0;
-    DIR *dir = opendir(v->run_dir);
+    r->count = 0;
+    DIR *dir = opendir(r->run_dir);
     if (!dir)
-        SC_FAIL(SC_EIO, "cannot read folder %s: %s", v->run_dir, strerror(errno));
+        SC_FAIL(SC_EIO, "cannot read folder %s: %s", r->run_dir, strerror(errno));
     int status = SC_OK;
     struct dirent *entry;
     while ((entry = readdir(dir))) {
-        if (!is_records_file(entry->d_name))
+        if (!is_records_file(r, entry->d_name))
             continue;
         char path[4400];
-        snprintf(path, sizeof path, "%s/%s", v->run_dir, entry->d_name);
-        SC_CHECK(status, load_records_file(v, path), done);
+        snprintf(path, sizeof path, "%s/%s", r->run_dir, entry->d_name);
+        SC_CHECK(status, load_records_file(r, path), done);
     }
 done:
     closedir(dir);
     return status;
 }
 
-static int remove_records(const struct vcrit_search *v)
+int vcrit_runs_remove(const struct vcrit_runs *r)
 {
-    DIR *dir = opendir(v->run_dir);
+    DIR *dir = opendir(r->run_dir);
     if (!dir)
-        SC_FAIL(SC_EIO, "cannot read folder %s: %s", v->run_dir, strerror(errno));
+        SC_FAIL(SC_EIO, "cannot read folder %s: %s", r->run_dir, strerror(errno));
     int status = SC_OK;
     struct dirent *entry;
     while ((entry = readdir(dir))) {
         char path[4400];
-        snprintf(path, sizeof path, "%s/%s", v->run_dir, entry->d_name);
-        if (is_records_file(entry->d_name) && unlink(path) != 0 && errno != ENOENT && status == SC_OK)
+        snprintf(path, sizeof path, "%s/%s", r->run_dir, entry->d_name);
+        if (is_records_file(r, entry->d_name) && unlink(path) != 0 && errno != ENOENT && status == SC_OK)
             status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot remove %s: %s", path, strerror(errno));
     }
     closedir(dir);
     return status;
 }
 
-static const struct vcrit_record *find_record(const struct vcrit_search *v, double d, double speed)
+void vcrit_runs_free(struct vcrit_runs *r)
 {
-    for (size_t i = 0; i < v->done_count; i++)
-        if (v->done[i].diameter == d && v->done[i].velocity == speed)
-            return &v->done[i];
+    free(r->done);
+    r->done = NULL;
+    r->count = r->capacity = 0;
+}
+
+static const struct vcrit_run_record *find_record(const struct vcrit_runs *r, const struct vcrit_run_record *key)
+{
+    for (size_t i = 0; i < r->count; i++) {
+        const struct vcrit_run_record *x = &r->done[i];
+        if (x->diameter == key->diameter && x->velocity == key->velocity && x->Gc == key->Gc &&
+            x->Gc_rate == key->Gc_rate)
+            return x;
+    }
     return NULL;
 }
 
 /* ---- one MPM run ---------------------------------------------------------------------------------------------- */
 
 /* One MPM run as the stage loop sees it (struct stage_ops): no checkpoints (a run is short; the search records
- * every finished run in RUN_DIR/vcrit_runs*.csv instead). */
+ * every finished run in RUN_DIR/NAME_runs*.csv instead). */
 struct vcrit_run {
     struct mpm_solver *solver;
 };
@@ -345,100 +379,136 @@ static void run_position(void *owner, int64_t *step, double *t, int64_t *progres
     *progress = picoseconds(counts.t);
 }
 
-/* The verdict of the run's last body (the particle; the substrate is body 0). */
-static int record_outcome(struct mpm_solver *s, double d, double speed, struct vcrit_record *out)
+/* The verdict of the run's last body (the particle; the substrate is body 0) through mpm_verdicts: 1 bonded, 0
+ * rebounded, anything else (a verdict that has not settled) unsettled.  The coefficient of restitution is the
+ * particle's centre-of-mass velocity along the substrate normal (+z, away) over the normal impact speed. */
+static int record_outcome(struct mpm_solver *s, const struct mpm_config *cfg, struct vcrit_run_record *out)
 {
-    int nb = mpm_body_count(s), *bonded = calloc((size_t)nb, sizeof *bonded);
-    if (!bonded)
-        SC_FAIL_OOM((size_t)nb * sizeof *bonded, "the verdicts of the bodies");
-    mpm_verdicts(s, bonded);
+    int nb = mpm_body_count(s), *verdicts = calloc((size_t)nb, sizeof *verdicts);
+    if (!verdicts)
+        SC_FAIL_OOM((size_t)nb * sizeof *verdicts, "the verdicts of the bodies");
+    mpm_verdicts(s, verdicts);
     const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
-    *out = (struct vcrit_record){.diameter = d,
-                                 .velocity = speed,
-                                 .bonded = bonded[nb - 1] == 1,
-                                 .pbcp = diag->body[nb - 1].pbcp,
-                                 .v_rest = diag->body[nb - 1].v_rest,
-                                 .steps = mpm_get_counts(s).step};
-    free(bonded);
+    const struct mpm_body_diagnostics *particle = &diag->body[nb - 1];
+    double normal_speed = -cfg->bodies[cfg->body_count - 1].velocity[2];
+    int v = verdicts[nb - 1];
+    out->verdict = v == 1 ? VCRIT_BONDED : v == 0 ? VCRIT_REBOUNDED : VCRIT_UNSETTLED;
+    out->pbcp = particle->pbcp;
+    out->v_rest = particle->v_rest;
+    out->cor = normal_speed > 0 ? particle->v_com[2] / normal_speed : NAN;
+    out->steps = mpm_get_counts(s).step;
+    free(verdicts);
     return SC_OK;
 }
 
-static int simulate(struct vcrit_search *v, double d, double speed, struct vcrit_record *out)
+static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *out)
 {
-    struct mpm_config cfg;
-    SC_TRY(make_config(v, d, speed, &cfg));
     struct vcrit_run run = {NULL};
     int status;
-    char label[96], note[4400];
-    snprintf(label, sizeof label, "vcrit d = %.4g um, %.6g m/s", d * 1e6, speed);
+    char label[160], note[4400];
+    snprintf(label, sizeof label, "%s d = %.4g um, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
+             out->diameter * 1e6, out->velocity, out->Gc, out->Gc_rate);
     snprintf(note, sizeof note,
-             "the %zu finished runs are recorded in %s/vcrit_runs.csv: continue with `spraycoat "
+             "the %zu finished runs are recorded in %s/%s_runs.csv: continue with `spraycoat "
              "resume %s`",
-             v->done_count, v->run_dir, v->run_dir);
+             r->count, r->run_dir, r->name, r->run_dir);
     const struct stage_ops ops = {.label = label,
-                                  .stage = STAGE,
-                                  .run_dir = v->run_dir,
+                                  .stage = r->name,
+                                  .run_dir = r->run_dir,
                                   .progress_unit = "ps",
-                                  .progress_total = picoseconds(cfg.t_end),
+                                  .progress_total = picoseconds(cfg->t_end),
                                   .owner = &run,
                                   .step = run_step,
                                   .finished = run_finished,
                                   .position = run_position,
                                   .interrupted_note = note};
     struct stage_timing timing;
-    SC_CHECK(status, mpm_create(&cfg, &run.solver), done);
+    SC_CHECK(status, mpm_create(cfg, &run.solver), done);
     SC_CHECK(status, stage_loop_run(&ops, &timing), done);
-    SC_CHECK(status, record_outcome(run.solver, d, speed, out), done);
+    SC_CHECK(status, record_outcome(run.solver, cfg, out), done);
 done:
     mpm_destroy(run.solver);
-    mpm_config_free(&cfg);
     return status;
+}
+
+int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *run)
+{
+    const struct vcrit_run_record *known = find_record(r, run);
+    if (known) {
+        *run = *known;
+        return SC_OK;
+    }
+    double start = log_elapsed();
+    SC_TRY(simulate(r, cfg, run));
+    SC_TRY(add_record(r, run));
+    SC_TRY(save_records(r));
+    r->new_runs++;
+    log_info("%s: d = %.4g um at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld "
+             "steps, %.1f s)",
+             r->name, run->diameter * 1e6, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
+             100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps, log_elapsed() - start);
+    return SC_OK;
 }
 
 /* The outcome at (d, speed): from the record, or a new run that is then recorded. */
 static int outcome(struct vcrit_search *v, struct vcrit_result *result, double speed)
 {
-    double d = result->diameter;
-    const struct vcrit_record *known = find_record(v, d, speed);
-    struct vcrit_record r;
-    if (known) {
-        r = *known;
-    } else {
-        double start = log_elapsed();
-        SC_TRY(simulate(v, d, speed, &r));
-        SC_TRY(add_record(v, &r));
-        SC_TRY(save_records(v));
-        v->runs_this_process++;
-        log_info("vcrit: d = %.4g um at %.6g m/s: %s (PBCP %.2f %%, v_rest %.3g m/s; %lld steps, %.1f s)", d * 1e6,
-                 speed, r.bonded ? "bonded" : "rebounded", 100 * r.pbcp, r.v_rest, (long long)r.steps,
-                 log_elapsed() - start);
-    }
+    struct vcrit_run_record r = {.diameter = result->diameter,
+                                 .velocity = speed,
+                                 .Gc = case_real(v->c, "impact", "Gc"),
+                                 .Gc_rate = case_real(v->c, "impact", "Gc_rate")};
+    struct mpm_config cfg;
+    SC_TRY(make_config(v, r.diameter, speed, &cfg));
+    int status = vcrit_runs_outcome(&v->runs, &cfg, &r);
+    mpm_config_free(&cfg);
+    SC_TRY(status);
     result->records[result->runs++] = r;
+    return SC_OK;
+}
+
+/* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond. */
+static int is_bonded(const struct vcrit_run_record *r)
+{
+    return r->verdict == VCRIT_BONDED;
+}
+
+/* Runs below v_crit for the coefficient of restitution against impact speed ([vcrit] cor_below). */
+static int cor_runs(struct vcrit_search *v, struct vcrit_result *result)
+{
+    for (int k = 0; k < v->cor_count; k++) {
+        double speed = result->v_crit - v->cor_offsets[k];
+        int known = 0;
+        for (int i = 0; i < result->runs; i++)
+            known |= result->records[i].velocity == speed;
+        if (speed > 0 && !known)
+            SC_TRY(outcome(v, result, speed));
+    }
     return SC_OK;
 }
 
 static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
 {
     result->v_crit = result->pbcp = result->v_rest = NAN;
-    result->records = calloc((size_t)v->max_runs, sizeof *result->records);
+    size_t capacity = (size_t)(v->max_runs + v->cor_count);
+    result->records = calloc(capacity, sizeof *result->records);
     if (!result->records)
-        SC_FAIL_OOM((size_t)v->max_runs * sizeof *result->records, "the runs of a vcrit search");
+        SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
-    if (result->records[0].bonded) {
+    if (is_bonded(&result->records[0])) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
-    if (!result->records[1].bonded) {
+    if (!is_bonded(&result->records[1])) {
         snprintf(result->note, sizeof result->note, "not bracketed: rebounds still at v_high = %g m/s", v->v_high);
         return SC_OK;
     }
     double low = v->v_low, high = v->v_high;
-    struct vcrit_record best = result->records[1];
+    struct vcrit_run_record best = result->records[1];
     while (high - low > v->tolerance && result->runs < v->max_runs) {
         SC_TRY(outcome(v, result, 0.5 * (low + high)));
-        const struct vcrit_record *r = &result->records[result->runs - 1];
-        if (r->bonded) {
+        const struct vcrit_run_record *r = &result->records[result->runs - 1];
+        if (is_bonded(r)) {
             high = r->velocity;
             best = *r;
         } else {
@@ -453,7 +523,7 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
         log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter, result->note,
                  v->tolerance);
     }
-    return SC_OK;
+    return cor_runs(v, result);
 }
 
 /* ---- outputs --------------------------------------------------------------------------------------------------- */
@@ -485,6 +555,45 @@ static int write_csv(const struct vcrit_search *v, const struct vcrit_result *re
     return atomic_publish(&out);
 }
 
+static int compare_runs(const void *a, const void *b)
+{
+    const struct vcrit_run_record *x = a, *y = b;
+    if (x->diameter != y->diameter)
+        return (x->diameter > y->diameter) - (x->diameter < y->diameter);
+    return (x->velocity > y->velocity) - (x->velocity < y->velocity);
+}
+
+/* vcrit_cor.csv: every run of every diameter (bisection and cor_below), by diameter and speed: the coefficient of
+ * restitution against impact speed. */
+static int write_cor_csv(const struct vcrit_search *v, const struct vcrit_result *results)
+{
+    size_t n = 0;
+    for (int i = 0; i < v->count; i++)
+        n += (size_t)results[i].runs;
+    struct vcrit_run_record *all;
+    SC_TRY(sc_calloc(&all, n, sizeof *all, "the runs of the vcrit search"));
+    for (int i = 0, k = 0; i < v->count; i++)
+        for (int j = 0; j < results[i].runs; j++)
+            all[k++] = results[i].records[j];
+    qsort(all, n, sizeof *all, compare_runs);
+    char path[4096];
+    snprintf(path, sizeof path, "%s/vcrit_cor.csv", v->run_dir);
+    struct atomic_file out;
+    int status;
+    SC_CHECK(status, atomic_open(path, &out), done);
+    fprintf(out.stream, "diameter,velocity,verdict,cor,pbcp,v_rest\n");
+    for (size_t k = 0; k < n; k++) {
+        char a[32], b[32], c[32], d[32], e[32];
+        fprintf(out.stream, "%s,%s,%s,%s,%s,%s\n", exact(all[k].diameter, a, sizeof a),
+                exact(all[k].velocity, b, sizeof b), vcrit_verdict_name(all[k].verdict), exact(all[k].cor, c, sizeof c),
+                exact(all[k].pbcp, d, sizeof d), exact(all[k].v_rest, e, sizeof e));
+    }
+    SC_CHECK(status, atomic_publish(&out), done);
+done:
+    free(all);
+    return status;
+}
+
 static int write_runs_group(hid_t parent, int index, const struct vcrit_result *r)
 {
     char name[32];
@@ -492,18 +601,20 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
     hid_t group;
     SC_TRY(h5_create_group(parent, name, &group));
     size_t n = (size_t)r->runs;
-    double *values = calloc(3 * n + 1, sizeof *values);
-    int64_t *integers = calloc(2 * n + 1, sizeof *integers);
+    double *values = calloc(4 * n + 1, sizeof *values);
+    int64_t *integers = calloc(3 * n + 1, sizeof *integers);
     int status = SC_OK;
     if (!values || !integers)
-        SC_FAIL_OOM_AT(status, done, (3 * n + 1) * sizeof *values + (2 * n + 1) * sizeof *integers,
+        SC_FAIL_OOM_AT(status, done, (4 * n + 1) * sizeof *values + (3 * n + 1) * sizeof *integers,
                        "the runs of a vcrit search");
     for (size_t k = 0; k < n; k++) {
         values[k] = r->records[k].velocity;
         values[n + k] = r->records[k].pbcp;
         values[2 * n + k] = r->records[k].v_rest;
-        integers[k] = r->records[k].bonded;
+        values[3 * n + k] = r->records[k].cor;
+        integers[k] = is_bonded(&r->records[k]);
         integers[n + k] = r->records[k].steps;
+        integers[2 * n + k] = r->records[k].verdict;
     }
     hsize_t dims[1] = {n};
     SC_CHECK(status, h5_write_doubles(group, "velocity", 1, dims, values, "m/s", 0), done);
@@ -511,6 +622,8 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
     SC_CHECK(status, h5_write_doubles(group, "pbcp", 1, dims, values + n, "-", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "v_rest", 1, dims, values + 2 * n, "m/s", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "steps", 1, dims, integers + n, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, values + 3 * n, "-", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "verdict", 1, dims, integers + 2 * n, "-", 0), done);
     SC_CHECK(status, h5_attr_write_double(group, "diameter", r->diameter), done);
     SC_CHECK(status, h5_attr_write_double(group, "v_crit", r->v_crit), done);
     SC_CHECK(status, h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed"), done);
@@ -605,11 +718,11 @@ static void free_records(struct vcrit_result *results, int count)
 /* Every rank takes the next diameter not yet taken and bisects it. */
 static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
 {
-    int status = load_records(v);
+    int status = vcrit_runs_load(&v->runs);
     if (status != SC_OK)
         sc_error_trace(__FILE__, __LINE__);
-    else if (v->done_count > 0)
-        log_info("vcrit: %zu runs recorded in %s are reused", v->done_count, v->run_dir);
+    else if (v->runs.count > 0)
+        log_info("vcrit: %zu runs recorded in %s are reused", v->runs.count, v->run_dir);
     /* every rank takes part in the task counter even after a failure here (no early return) */
     parallel_tasks_begin();
     for (int64_t i; status == SC_OK && (i = parallel_task_next()) < v->count;) {
@@ -625,20 +738,21 @@ static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
 /* Rank 0, once every diameter is done: the bisections again from all ranks' records, then the outputs. */
 static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results, double start)
 {
-    int64_t runs = v->runs_this_process;
-    SC_TRY(load_records(v));
+    int64_t runs = v->runs.new_runs;
+    SC_TRY(vcrit_runs_load(&v->runs));
     for (int i = 0; i < v->count; i++) {
         results[i].diameter = v->diameters[i];
         SC_TRY(search_diameter(v, &results[i]));
     }
-    if (v->runs_this_process != runs)
+    if (v->runs.new_runs != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
                         "file removed or damaged while the stage ran?)");
     SC_TRY(write_csv(v, results));
+    SC_TRY(write_cor_csv(v, results));
     SC_TRY(write_h5(v, results));
-    log_info("vcrit: wrote %s/vcrit.csv and %s/vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir, v->run_dir,
-             (long long)v->runs_this_process, log_elapsed() - start);
-    SC_TRY(remove_records(v));
+    log_info("vcrit: wrote %s/vcrit.csv, vcrit_cor.csv and vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
+             (long long)v->runs.new_runs, log_elapsed() - start);
+    SC_TRY(vcrit_runs_remove(&v->runs));
     log_table(v, results);
     return SC_OK;
 }
@@ -669,6 +783,7 @@ int vcrit_stage_run(const struct stage_context *ctx)
     const struct case_file *c = ctx->c;
     const char *run_dir = ctx->run_dir;
     struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(ctx, STAGE)};
+    v.runs = (struct vcrit_runs){.run_dir = run_dir, .name = STAGE, .case_hash = v.case_hash};
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
     if (run_dir_output_current(path, v.case_hash)) {
@@ -688,6 +803,6 @@ done:
     if (results)
         free_records(results, v.count);
     free(results);
-    free(v.done);
+    vcrit_runs_free(&v.runs);
     return status;
 }

@@ -1,0 +1,601 @@
+/* `spraycoat calibrate`: the bonding calibration of Tang (2021), Sections 4.1.2 and 5.1.
+ *
+ * Over a grid of the energy model's parameters (Gc, Gc_rate), single-particle impacts of each size of
+ * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, after Schmidt et
+ * al.; substrates 30 and 50 um across).  Each run is classified by the impact stage's verdict (mpm_verdicts):
+ * bonded (1) or rebounded (0); a verdict that has not settled is neither, left out of the fit and counted.  Per
+ * size, a second-order logistic regression of the outcomes on the scaled parameters (Eqs. 4.10-4.14,
+ * core/logistic.h) gives the bonding boundary h = 0.5 (Z = 0); the intersection of the first two sizes'
+ * boundaries is the calibrated (Gc, Gc_rate): the pair at which both sizes just bond at their critical velocity.
+ *
+ * Runs are recorded and shared among MPI ranks exactly as vcrit's (struct vcrit_runs, RUN_DIR/calibrate_runs.csv):
+ * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, and rank 0
+ * fits and writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (docs/files.md). */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "core/logistic.h"
+#include "core/parallel.h"
+#include "core/run_keys.h"
+#include "app/app.h"
+#include "mpm/mpm.h"
+
+#define STAGE                    "calibrate"
+#define CALIBRATE_FORMAT         "spraycoat-calibrate"
+#define CALIBRATE_FORMAT_VERSION 1
+#define MAX_SIZES                4
+#define BOUNDARY_SAMPLES         401 /* x1 values at which the boundary Z = 0 is solved for x2 */
+#define MAX_CROSSINGS            8
+#define BRANCHES                 4 /* two roots, solved for x2 and for x1 */
+
+const struct cfg_key calibrate_case_keys[] = {
+    {"calibrate", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
+     "comma-separated particle diameters of the calibration (Tang Section 4.1.2: 14 and 30 um); the first two "
+     "sizes' boundaries intersect in the calibrated parameters"},
+    {"calibrate", "velocities", CFG_STRING, "m/s", "810,770", 0, 0, 0, NULL,
+     "impact speed of each diameter: its experimental critical velocity (Tang Section 4.1.2 after Schmidt et al.: "
+     "810 and 770 m/s)"},
+    {"calibrate", "substrate_diameters", CFG_STRING, "m", "30e-6,50e-6", 0, 0, 0, NULL,
+     "substrate diameter of each particle diameter (Tang Section 4.1.2: 30 and 50 um; height from [impact])"},
+    {"calibrate", "Gc_min", CFG_REAL, "J/m2", "500", 0, 1e9, CFG_MIN_EXCLUSIVE, NULL, "lowest Gc of the grid"},
+    {"calibrate", "Gc_max", CFG_REAL, "J/m2", "3000", 0, 1e9, CFG_MIN_EXCLUSIVE, NULL,
+     "highest Gc of the grid (>= Gc_min)"},
+    {"calibrate", "Gc_count", CFG_INT, "-", "6", 1, 100, 0, NULL, "Gc values, evenly spaced from Gc_min to Gc_max"},
+    {"calibrate", "Gc_rate_min", CFG_REAL, "J/m2/s", "5e10", 0, 1e30, CFG_MIN_EXCLUSIVE, NULL,
+     "lowest Gc_rate of the grid"},
+    {"calibrate", "Gc_rate_max", CFG_REAL, "J/m2/s", "5e11", 0, 1e30, CFG_MIN_EXCLUSIVE, NULL,
+     "highest Gc_rate of the grid (>= Gc_rate_min)"},
+    {"calibrate", "Gc_rate_count", CFG_INT, "-", "6", 1, 100, 0, NULL,
+     "Gc_rate values, evenly spaced from Gc_rate_min to Gc_rate_max"},
+    {"calibrate", "ridge", CFG_REAL, "-", "1e-3", 0, 1e6, 0, NULL,
+     "ridge term lambda of the logistic fit in the scaled parameters (0: plain maximum likelihood, which has no "
+     "finite solution when the outcomes are separable, as a deterministic grid's often are)"},
+    {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
+};
+
+struct calibrate_size {
+    double diameter, velocity, substrate;
+    int counts[3];           /* rebounded, bonded, unsettled (enum vcrit_verdict) */
+    struct logistic_fit fit; /* valid when fitted */
+    int fitted;
+    double *boundary; /* Gc then Gc_rate: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
+    size_t boundary_count;
+    char note[200]; /* "" when fitted */
+};
+
+struct calibrate {
+    const struct case_file *c;
+    const char *run_dir;
+    uint64_t case_hash;
+    int size_count, gc_count, rate_count;
+    double gc_min, gc_max, rate_min, rate_max, ridge, angle;
+    struct calibrate_size sizes[MAX_SIZES];
+    struct vcrit_runs runs;
+    struct vcrit_run_record *outcomes;   /* one per task, in task order */
+    double crossings[2 * MAX_CROSSINGS]; /* (Gc, Gc_rate) pairs, the chosen first */
+    int crossing_count;
+};
+
+/* ---- the settings ------------------------------------------------------------------------------------------- */
+
+static int parse_sizes(const struct case_file *c, struct calibrate *k)
+{
+    double d[MAX_SIZES], v[MAX_SIZES], s[MAX_SIZES];
+    int nd, nv, ns;
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, d, MAX_SIZES, &nd));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, v, MAX_SIZES, &nv));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "substrate_diameters", 1.0, s, MAX_SIZES, &ns));
+    if (nd == 0)
+        return case_invalid(c, STAGE, "diameters", "no diameter given");
+    if (nv != nd)
+        return case_invalid(c, STAGE, "velocities", "%d speeds for %d diameters; allowed: one per diameter", nv, nd);
+    if (ns != nd)
+        return case_invalid(c, STAGE, "substrate_diameters", "%d values for %d diameters; allowed: one per diameter",
+                            ns, nd);
+    k->size_count = nd;
+    for (int i = 0; i < nd; i++)
+        k->sizes[i] = (struct calibrate_size){.diameter = d[i], .velocity = v[i], .substrate = s[i]};
+    return SC_OK;
+}
+
+static int load_grid(const struct case_file *c, struct calibrate *k)
+{
+    k->gc_min = case_real(c, STAGE, "Gc_min");
+    k->gc_max = case_real(c, STAGE, "Gc_max");
+    k->gc_count = (int)case_int(c, STAGE, "Gc_count");
+    k->rate_min = case_real(c, STAGE, "Gc_rate_min");
+    k->rate_max = case_real(c, STAGE, "Gc_rate_max");
+    k->rate_count = (int)case_int(c, STAGE, "Gc_rate_count");
+    k->ridge = case_real(c, STAGE, "ridge");
+    if (k->gc_max < k->gc_min)
+        return case_invalid(c, STAGE, "Gc_max", "below Gc_min = %g J/m2", k->gc_min);
+    if (k->rate_max < k->rate_min)
+        return case_invalid(c, STAGE, "Gc_rate_max", "below Gc_rate_min = %g J/m2/s", k->rate_min);
+    if ((k->gc_count > 1) != (k->gc_max > k->gc_min))
+        return case_invalid(c, STAGE, "Gc_count",
+                            "%d values between %g and %g J/m2; allowed: 1 when Gc_min = Gc_max, "
+                            "else at least 2",
+                            k->gc_count, k->gc_min, k->gc_max);
+    if ((k->rate_count > 1) != (k->rate_max > k->rate_min))
+        return case_invalid(c, STAGE, "Gc_rate_count",
+                            "%d values between %g and %g J/m2/s; allowed: 1 when Gc_rate_min = Gc_rate_max, else at "
+                            "least 2",
+                            k->rate_count, k->rate_min, k->rate_max);
+    if (!case_is(c, "impact", "bonding", "energy"))
+        return case_invalid(c, "impact", "bonding",
+                            "is not energy: calibrate varies the energy model's Gc and "
+                            "Gc_rate; allowed: energy");
+    return SC_OK;
+}
+
+static int task_count(const struct calibrate *k)
+{
+    return k->size_count * k->gc_count * k->rate_count;
+}
+
+static double grid_value(double min, double max, int count, int i)
+{
+    return count > 1 ? min + (max - min) * i / (count - 1.0) : min;
+}
+
+/* Task t: size t / (Gc_count Gc_rate_count), then Gc, then Gc_rate. */
+static struct vcrit_run_record task_run(const struct calibrate *k, int t)
+{
+    int per_size = k->gc_count * k->rate_count, i = t / per_size, g = (t % per_size) / k->rate_count,
+        r = t % k->rate_count;
+    return (struct vcrit_run_record){.diameter = k->sizes[i].diameter,
+                                     .velocity = k->sizes[i].velocity,
+                                     .Gc = grid_value(k->gc_min, k->gc_max, k->gc_count, g),
+                                     .Gc_rate = grid_value(k->rate_min, k->rate_max, k->rate_count, r)};
+}
+
+/* The impact set-up of task t: [impact] with one sphere of the size at its speed, the size's substrate diameter
+ * (a deformable substrate) and the task's Gc and Gc_rate. */
+static int make_config(const struct calibrate *k, int t, struct mpm_config *cfg)
+{
+    struct vcrit_run_record run = task_run(k, t);
+    const struct calibrate_size *size = &k->sizes[t / (k->gc_count * k->rate_count)];
+    SC_TRY(mpm_config_load(k->c, cfg));
+    for (int b = 0; b < cfg->body_count; b++)
+        if (cfg->bodies[b].substrate)
+            cfg->bodies[b].d = size->substrate;
+    cfg->Gc = run.Gc;
+    cfg->Gc_rate = run.Gc_rate;
+    int status = mpm_config_single_particle(cfg, run.diameter, run.velocity, k->angle);
+    if (status != SC_OK)
+        mpm_config_free(cfg);
+    return status;
+}
+
+static int load_settings(const struct case_file *c, struct calibrate *k)
+{
+    SC_TRY(parse_sizes(c, k));
+    SC_TRY(load_grid(c, k));
+    k->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
+    if (case_has(c, "impact", "bodies"))
+        return case_invalid(c, "impact", "bodies",
+                            "calibrate runs single particles ([impact] material, the sizes of "
+                            "[calibrate]); remove bodies from the case");
+    for (int i = 0; i < k->size_count; i++) {
+        struct mpm_config cfg;
+        SC_TRY(make_config(k, i * k->gc_count * k->rate_count, &cfg));
+        double spacing = cfg.spacing;
+        mpm_config_free(&cfg);
+        if (k->sizes[i].diameter < 2.0 * spacing)
+            return case_invalid(c, STAGE, "diameters", "%g m is less than two point spacings ([impact] spacing = %g m)",
+                                k->sizes[i].diameter, spacing);
+    }
+    return SC_OK;
+}
+
+/* ---- the runs ----------------------------------------------------------------------------------------------- */
+
+static int task_outcome(struct calibrate *k, int t)
+{
+    struct vcrit_run_record run = task_run(k, t);
+    struct mpm_config cfg;
+    SC_TRY(make_config(k, t, &cfg));
+    int status = vcrit_runs_outcome(&k->runs, &cfg, &run);
+    mpm_config_free(&cfg);
+    SC_TRY(status);
+    k->outcomes[t] = run;
+    return SC_OK;
+}
+
+/* Every rank takes the next run not yet taken. */
+static int runs_shared(struct calibrate *k)
+{
+    int status = vcrit_runs_load(&k->runs);
+    if (status != SC_OK)
+        sc_error_trace(__FILE__, __LINE__);
+    else if (k->runs.count > 0)
+        log_info("calibrate: %zu runs recorded in %s are reused", k->runs.count, k->run_dir);
+    /* every rank takes part in the task counter even after a failure here (no early return) */
+    parallel_tasks_begin();
+    for (int64_t t; status == SC_OK && (t = parallel_task_next()) < task_count(k);)
+        if ((status = task_outcome(k, (int)t)) != SC_OK)
+            sc_error_trace(__FILE__, __LINE__);
+    parallel_tasks_end();
+    return status;
+}
+
+/* ---- the fit ------------------------------------------------------------------------------------------------ */
+
+/* The parameters scaled to [0, 1] over the grid (a conditioned Hessian; the ridge term acts on these). */
+static double scaled(double value, double min, double max)
+{
+    return max > min ? (value - min) / (max - min) : 0.0;
+}
+
+static double unscaled(double x, double min, double max)
+{
+    return max > min ? min + x * (max - min) : min;
+}
+
+/* A point of the boundary Z(x1, x2) = 0 in [0, 1]^2: branch b = 2 axis + sign.  axis 0: x1 = t and x2 the root
+ * (sign 0: -, 1: +) of the quadratic in x2; axis 1: x2 = t and x1 the root.  Both, so that a boundary steep in
+ * either direction is found.  0 when there is no root in [0, 1]. */
+static int boundary_point(const double *theta, int b, double t, double *x1, double *x2)
+{
+    int axis = b / 2, sign = b % 2;
+    double a = axis ? theta[3] : theta[5], lin = axis ? theta[1] + theta[4] * t : theta[2] + theta[4] * t,
+           c = axis ? theta[0] + theta[2] * t + theta[5] * t * t : theta[0] + theta[1] * t + theta[3] * t * t, root;
+    if (fabs(a) <= 1e-12 * (fabs(lin) + fabs(c))) {
+        if (sign == 1 || lin == 0)
+            return 0;
+        root = -c / lin;
+    } else {
+        double disc = lin * lin - 4 * a * c;
+        if (disc < 0)
+            return 0;
+        root = (-lin + (sign ? 1 : -1) * sqrt(disc)) / (2 * a);
+    }
+    if (!(root >= -1e-9 && root <= 1 + 1e-9))
+        return 0;
+    *x1 = axis ? root : t;
+    *x2 = axis ? t : root;
+    return 1;
+}
+
+/* The boundary h = 0.5 of a fitted size in Gc and Gc_rate: the four branches over the grid, a NaN gap after each. */
+static int sample_boundary(const struct calibrate *k, struct calibrate_size *size)
+{
+    size_t n = BRANCHES * (BOUNDARY_SAMPLES + 1);
+    SC_TRY(sc_calloc(&size->boundary, 2 * n, sizeof *size->boundary, "the bonding boundary"));
+    double *gc = size->boundary, *rate = size->boundary + n;
+    for (int b = 0; b < BRANCHES; b++) {
+        for (int i = 0; i < BOUNDARY_SAMPLES; i++) {
+            size_t at = (size_t)b * (BOUNDARY_SAMPLES + 1) + (size_t)i;
+            double x1, x2;
+            int on = boundary_point(size->fit.theta, b, i / (BOUNDARY_SAMPLES - 1.0), &x1, &x2);
+            gc[at] = on ? unscaled(x1, k->gc_min, k->gc_max) : NAN;
+            rate[at] = on ? unscaled(x2, k->rate_min, k->rate_max) : NAN;
+        }
+        gc[(size_t)b * (BOUNDARY_SAMPLES + 1) + BOUNDARY_SAMPLES] = NAN;
+        rate[(size_t)b * (BOUNDARY_SAMPLES + 1) + BOUNDARY_SAMPLES] = NAN;
+    }
+    size->boundary_count = n;
+    return SC_OK;
+}
+
+/* The outcomes of one size as rows of Eq. 4.12 (unsettled ones left out) and the fit. */
+static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_size *size, double *X, int *y)
+{
+    int per_size = k->gc_count * k->rate_count, m = 0;
+    for (int t = index * per_size; t < (index + 1) * per_size; t++) {
+        const struct vcrit_run_record *r = &k->outcomes[t];
+        int verdict = r->verdict == VCRIT_BONDED || r->verdict == VCRIT_REBOUNDED ? r->verdict : VCRIT_UNSETTLED;
+        size->counts[verdict]++;
+        if (verdict == VCRIT_UNSETTLED)
+            continue;
+        logistic_quadratic_terms(scaled(r->Gc, k->gc_min, k->gc_max), scaled(r->Gc_rate, k->rate_min, k->rate_max),
+                                 X + 6 * m);
+        y[m++] = verdict == VCRIT_BONDED;
+    }
+    if (size->counts[VCRIT_BONDED] == 0 || size->counts[VCRIT_REBOUNDED] == 0) {
+        snprintf(size->note, sizeof size->note, "no boundary in the grid: %d bonded, %d rebounded, %d unsettled",
+                 size->counts[VCRIT_BONDED], size->counts[VCRIT_REBOUNDED], size->counts[VCRIT_UNSETTLED]);
+        return SC_OK;
+    }
+    if (logistic_fit(X, y, (size_t)m, 6, k->ridge, &size->fit) != SC_OK) {
+        snprintf(size->note, sizeof size->note, "no fit: %s", sc_error_message());
+        sc_error_clear();
+        return SC_OK;
+    }
+    size->fitted = 1;
+    if (size->fit.separable)
+        snprintf(size->note, sizeof size->note, "outcomes separable: the fit ran away (set ridge > 0)");
+    return sample_boundary(k, size);
+}
+
+static int fit_size(const struct calibrate *k, int index, struct calibrate_size *size)
+{
+    size_t per_size = (size_t)(k->gc_count * k->rate_count);
+    double *X;
+    int *y;
+    SC_TRY(sc_calloc(&X, 6 * per_size, sizeof *X, "the logistic regression"));
+    int status = sc_calloc(&y, per_size, sizeof *y, "the logistic regression");
+    if (status == SC_OK)
+        status = fit_outcomes(k, index, size, X, y);
+    free(X);
+    free(y);
+    return status;
+}
+
+/* Z of size b along branch `branch` of size a's boundary at t (NaN off the boundary). */
+static double z_along(const struct calibrate_size *a, const struct calibrate_size *b, int branch, double t)
+{
+    double x1, x2;
+    return boundary_point(a->fit.theta, branch, t, &x1, &x2) ? logistic_quadratic_z(b->fit.theta, x1, x2) : NAN;
+}
+
+/* Record the crossing at (x1, x2) unless an earlier one lies within 1e-3 (scaled): the branches of the two axes
+ * find the same points. */
+static void add_crossing(struct calibrate *k, double x1, double x2)
+{
+    double gc = unscaled(x1, k->gc_min, k->gc_max), rate = unscaled(x2, k->rate_min, k->rate_max);
+    for (int i = 0; i < k->crossing_count; i++)
+        if (fabs(scaled(k->crossings[2 * i], k->gc_min, k->gc_max) - x1) < 1e-3 &&
+            fabs(scaled(k->crossings[2 * i + 1], k->rate_min, k->rate_max) - x2) < 1e-3)
+            return;
+    if (k->crossing_count == MAX_CROSSINGS)
+        return;
+    k->crossings[2 * k->crossing_count] = gc;
+    k->crossings[2 * k->crossing_count + 1] = rate;
+    k->crossing_count++;
+}
+
+/* Where size b's Z changes sign along size a's boundary: bisection on each bracketing pair of samples. */
+static void find_crossings(struct calibrate *k, const struct calibrate_size *a, const struct calibrate_size *b)
+{
+    for (int branch = 0; branch < BRANCHES; branch++)
+        for (int i = 0; i + 1 < BOUNDARY_SAMPLES; i++) {
+            double lo = i / (BOUNDARY_SAMPLES - 1.0), hi = (i + 1) / (BOUNDARY_SAMPLES - 1.0);
+            double zlo = z_along(a, b, branch, lo), zhi = z_along(a, b, branch, hi);
+            if (!isfinite(zlo) || !isfinite(zhi) || (zlo > 0) == (zhi > 0))
+                continue;
+            for (int it = 0; it < 60; it++) {
+                double mid = 0.5 * (lo + hi), zmid = z_along(a, b, branch, mid);
+                if (!isfinite(zmid))
+                    break;
+                if ((zmid > 0) == (zlo > 0))
+                    lo = mid, zlo = zmid;
+                else
+                    hi = mid;
+            }
+            double x1, x2;
+            if (boundary_point(a->fit.theta, branch, lo, &x1, &x2))
+                add_crossing(k, x1, x2);
+        }
+}
+
+/* The calibrated pair: of the intersections, the one nearest the grid's centre (scaled), put first. */
+static void choose_crossing(struct calibrate *k)
+{
+    int best = 0;
+    double best_distance = INFINITY;
+    for (int i = 0; i < k->crossing_count; i++) {
+        double dx = scaled(k->crossings[2 * i], k->gc_min, k->gc_max) - 0.5,
+               dy = scaled(k->crossings[2 * i + 1], k->rate_min, k->rate_max) - 0.5;
+        if (dx * dx + dy * dy < best_distance)
+            best = i, best_distance = dx * dx + dy * dy;
+    }
+    for (int j = 0; j < 2 && best > 0; j++) {
+        double swap = k->crossings[j];
+        k->crossings[j] = k->crossings[2 * best + j];
+        k->crossings[2 * best + j] = swap;
+    }
+}
+
+static int fit_all(struct calibrate *k)
+{
+    for (int i = 0; i < k->size_count; i++)
+        SC_TRY(fit_size(k, i, &k->sizes[i]));
+    if (k->size_count >= 2 && k->sizes[0].fitted && k->sizes[1].fitted)
+        find_crossings(k, &k->sizes[0], &k->sizes[1]);
+    choose_crossing(k);
+    return SC_OK;
+}
+
+/* ---- outputs ------------------------------------------------------------------------------------------------ */
+
+/* calibrate_outcomes.csv: every run; calibrate.csv: the intersections, the calibrated pair first. */
+static int write_csvs(const struct calibrate *k)
+{
+    char path[4096];
+    struct atomic_file out;
+    snprintf(path, sizeof path, "%s/calibrate_outcomes.csv", k->run_dir);
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor\n");
+    for (int t = 0; t < task_count(k); t++) {
+        const struct vcrit_run_record *r = &k->outcomes[t];
+        fprintf(out.stream, "%.17g,%.17g,%.17g,%.17g,%s,%.17g,%.17g,%.17g\n", r->diameter, r->velocity, r->Gc,
+                r->Gc_rate, vcrit_verdict_name(r->verdict), r->pbcp, r->v_rest, r->cor);
+    }
+    SC_TRY(atomic_publish(&out));
+    snprintf(path, sizeof path, "%s/calibrate.csv", k->run_dir);
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "Gc,Gc_rate,calibrated\n");
+    for (int i = 0; i < k->crossing_count; i++)
+        fprintf(out.stream, "%.17g,%.17g,%d\n", k->crossings[2 * i], k->crossings[2 * i + 1], i == 0);
+    if (k->crossing_count == 0)
+        fprintf(out.stream, "# no intersection of the first two sizes' bonding boundaries in the grid\n");
+    for (int i = 0; i < k->size_count; i++)
+        if (k->sizes[i].note[0])
+            fprintf(out.stream, "# d = %g m: %s\n", k->sizes[i].diameter, k->sizes[i].note);
+    return atomic_publish(&out);
+}
+
+static int write_runs(const struct calibrate *k, hid_t file)
+{
+    size_t n = (size_t)task_count(k);
+    double *values;
+    int64_t *verdicts;
+    SC_TRY(sc_calloc(&values, 7 * n, sizeof *values, "the calibration runs"));
+    int status = sc_calloc(&verdicts, n, sizeof *verdicts, "the calibration verdicts");
+    hid_t group = H5I_INVALID_HID;
+    if (status != SC_OK)
+        goto done;
+    for (size_t t = 0; t < n; t++) {
+        const struct vcrit_run_record *r = &k->outcomes[t];
+        double row[7] = {r->diameter, r->velocity, r->Gc, r->Gc_rate, r->pbcp, r->v_rest, r->cor};
+        for (int j = 0; j < 7; j++)
+            values[(size_t)j * n + t] = row[j];
+        verdicts[t] = r->verdict;
+    }
+    static const char *const names[] = {"diameter", "velocity", "Gc", "Gc_rate", "pbcp", "v_rest", "cor"};
+    static const char *const units[] = {"m", "m/s", "J/m2", "J/m2/s", "-", "m/s", "-"};
+    hsize_t dims[1] = {n};
+    SC_CHECK(status, h5_create_group(file, "runs", &group), done);
+    for (int j = 0; j < 7; j++)
+        SC_CHECK(status, h5_write_doubles(group, names[j], 1, dims, values + (size_t)j * n, units[j], 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "verdict", 1, dims, verdicts, "-", 0), done);
+done:
+    free(values);
+    free(verdicts);
+    if (group >= 0)
+        H5Gclose(group);
+    return status;
+}
+
+static int write_size(const struct calibrate *k, hid_t parent, int index)
+{
+    const struct calibrate_size *s = &k->sizes[index];
+    char name[32];
+    snprintf(name, sizeof name, "%03d", index);
+    hid_t group;
+    SC_TRY(h5_create_group(parent, name, &group));
+    int status;
+    hsize_t six[1] = {6}, n[1] = {s->boundary_count};
+    SC_CHECK(status, h5_attr_write_double(group, "diameter", s->diameter), done);
+    SC_CHECK(status, h5_attr_write_double(group, "velocity", s->velocity), done);
+    SC_CHECK(status, h5_attr_write_double(group, "substrate_diameter", s->substrate), done);
+    SC_CHECK(status, h5_attr_write_int64(group, "bonded", s->counts[VCRIT_BONDED]), done);
+    SC_CHECK(status, h5_attr_write_int64(group, "rebounded", s->counts[VCRIT_REBOUNDED]), done);
+    SC_CHECK(status, h5_attr_write_int64(group, "unsettled", s->counts[VCRIT_UNSETTLED]), done);
+    SC_CHECK(status, h5_attr_write_string(group, "result", s->note[0] ? s->note : "fitted"), done);
+    if (s->fitted) {
+        SC_CHECK(status, h5_write_doubles(group, "theta", 1, six, s->fit.theta, "-", 0), done);
+        SC_CHECK(status, h5_write_doubles(group, "theta_se", 1, six, s->fit.se, "-", 0), done);
+        SC_CHECK(status, h5_attr_write_double(group, "cost", s->fit.cost), done);
+        SC_CHECK(status, h5_write_doubles(group, "boundary_Gc", 1, n, s->boundary, "J/m2", 0), done);
+        SC_CHECK(status,
+                 h5_write_doubles(group, "boundary_Gc_rate", 1, n, s->boundary + s->boundary_count, "J/m2/s", 0), done);
+    }
+done:
+    H5Gclose(group);
+    return status;
+}
+
+/* calibrate.h5 (docs/files.md): the grid, /runs, /size/NNN with the fit and boundary, /intersection. */
+static int output_contents(void *owner, hid_t file)
+{
+    const struct calibrate *k = owner;
+    double none = NAN;
+    const double *best = k->crossing_count ? k->crossings : NULL;
+    SC_TRY(h5_attr_write_double(file, "Gc", best ? best[0] : none));
+    SC_TRY(h5_attr_write_double(file, "Gc_rate", best ? best[1] : none));
+    static const char *const grid[] = {"Gc_min", "Gc_max", "Gc_rate_min", "Gc_rate_max", "ridge"};
+    double values[] = {k->gc_min, k->gc_max, k->rate_min, k->rate_max, k->ridge};
+    for (int i = 0; i < 5; i++)
+        SC_TRY(h5_attr_write_double(file, grid[i], values[i]));
+    SC_TRY(write_runs(k, file));
+    hid_t group;
+    SC_TRY(h5_create_group(file, "size", &group));
+    int status = SC_OK;
+    for (int i = 0; i < k->size_count && status == SC_OK; i++)
+        status = write_size(k, group, i);
+    H5Gclose(group);
+    SC_TRY(status);
+    double gc[MAX_CROSSINGS], rate[MAX_CROSSINGS];
+    for (int i = 0; i < k->crossing_count; i++)
+        gc[i] = k->crossings[2 * i], rate[i] = k->crossings[2 * i + 1];
+    hsize_t dims[1] = {(hsize_t)k->crossing_count};
+    SC_TRY(h5_write_doubles(file, "intersection_Gc", 1, dims, gc, "J/m2", 0));
+    return h5_write_doubles(file, "intersection_Gc_rate", 1, dims, rate, "J/m2/s", 0);
+}
+
+static void log_results(const struct calibrate *k)
+{
+    for (int i = 0; i < k->size_count; i++) {
+        const struct calibrate_size *s = &k->sizes[i];
+        log_info("calibrate: d = %.4g um at %g m/s: %d bonded, %d rebounded, %d unsettled%s%s", s->diameter * 1e6,
+                 s->velocity, s->counts[VCRIT_BONDED], s->counts[VCRIT_REBOUNDED], s->counts[VCRIT_UNSETTLED],
+                 s->note[0] ? "; " : "", s->note);
+    }
+    if (k->crossing_count)
+        log_info("calibrate: calibrated Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s (%d intersection%s)", k->crossings[0],
+                 k->crossings[1], k->crossing_count, k->crossing_count > 1 ? "s" : "");
+    else
+        log_warn("calibrate: the bonding boundaries do not intersect in the grid: no calibrated pair");
+}
+
+/* Rank 0, once every run is done: the outcomes from all ranks' records, the fits, the outputs. */
+static int fit_and_write(struct calibrate *k, double start)
+{
+    int64_t runs = k->runs.new_runs;
+    SC_TRY(vcrit_runs_load(&k->runs));
+    for (int t = 0; t < task_count(k); t++)
+        SC_TRY(task_outcome(k, t));
+    if (k->runs.new_runs != runs)
+        SC_FAIL(SC_EIO, "calibrate: a run is missing from the records after all ranks finished (a records file "
+                        "removed or damaged while the stage ran?)");
+    SC_TRY(fit_all(k));
+    SC_TRY(write_csvs(k));
+    char path[4096];
+    snprintf(path, sizeof path, "%s/calibrate.h5", k->run_dir);
+    SC_TRY(stage_write_output(path, CALIBRATE_FORMAT, CALIBRATE_FORMAT_VERSION, STAGE, k->case_hash, k->c,
+                              output_contents, k));
+    log_info("calibrate: wrote %s/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (%lld runs in this "
+             "process, %.1f s)",
+             k->run_dir, (long long)k->runs.new_runs, log_elapsed() - start);
+    SC_TRY(vcrit_runs_remove(&k->runs));
+    log_results(k);
+    return SC_OK;
+}
+
+static int calibrate_all(struct calibrate *k)
+{
+    double start = log_elapsed();
+    if (parallel_rank() == 0)
+        log_info("calibrate: %d sizes x %d Gc x %d Gc_rate = %d runs, on %d threads x %d process%s", k->size_count,
+                 k->gc_count, k->rate_count, task_count(k), omp_get_max_threads(), parallel_size(),
+                 parallel_size() > 1 ? "es" : "");
+    int status = parallel_max_status(runs_shared(k));
+    if (status == SC_OK && parallel_rank() == 0)
+        status = fit_and_write(k, start);
+    return parallel_share_status(status);
+}
+
+int calibrate_stage_validate(const struct stage_context *ctx)
+{
+    struct calibrate k = {.c = ctx->c};
+    return load_settings(ctx->c, &k);
+}
+
+int calibrate_stage_run(const struct stage_context *ctx)
+{
+    struct calibrate k = {.c = ctx->c, .run_dir = ctx->run_dir, .case_hash = stage_hash(ctx, STAGE)};
+    k.runs = (struct vcrit_runs){.run_dir = ctx->run_dir, .name = STAGE, .case_hash = k.case_hash};
+    char path[4096];
+    snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
+    struct run_settings settings;
+    if (stage_begin(STAGE, path, k.case_hash, ctx->c, &settings))
+        return SC_OK;
+    SC_TRY(load_settings(ctx->c, &k));
+    int status;
+    SC_CHECK(status, sc_calloc(&k.outcomes, (size_t)task_count(&k), sizeof *k.outcomes, "the calibration runs"), done);
+    SC_CHECK(status, calibrate_all(&k), done);
+done:
+    for (int i = 0; i < k.size_count; i++)
+        free(k.sizes[i].boundary);
+    free(k.outcomes);
+    vcrit_runs_free(&k.runs);
+    return status;
+}

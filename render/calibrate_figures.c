@@ -1,0 +1,168 @@
+/* The calibration figures (RUN_DIR/calibrate.h5, app/calibrate_stage.c): per size the outcomes over the (Gc,
+ * Gc_rate) grid with the bonding boundary h = 0.5 (Tang 2021 Fig. 4.4 a, b), and both boundaries with their
+ * intersection, the calibrated pair (Fig. 4.4 c, Fig. 5.1). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "render/render_impl.h"
+
+#define RATE_UNIT 1e11 /* Gc_rate is drawn in 1e11 J/m2/s */
+#define MAX_SIZES 2    /* the figures show the first two sizes: the two of the calibration */
+
+struct calibrate_data {
+    struct render_array d, gc, rate, verdict; /* /runs */
+    struct render_array boundary_gc[MAX_SIZES], boundary_rate[MAX_SIZES];
+    struct render_array cross_gc, cross_rate;
+    double diameter[MAX_SIZES], velocity[MAX_SIZES];
+    int sizes;
+};
+
+static void data_free(struct calibrate_data *c)
+{
+    render_array_free(&c->d), render_array_free(&c->gc), render_array_free(&c->rate);
+    render_array_free(&c->verdict), render_array_free(&c->cross_gc), render_array_free(&c->cross_rate);
+    for (int i = 0; i < MAX_SIZES; i++)
+        render_array_free(&c->boundary_gc[i]), render_array_free(&c->boundary_rate[i]);
+}
+
+static int read_size(hid_t file, const char *path, int i, struct calibrate_data *c)
+{
+    char name[32];
+    snprintf(name, sizeof name, "size/%03d", i);
+    if (!h5_exists(file, name))
+        return SC_OK;
+    hid_t g = H5Gopen2(file, name, H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "render: %s: cannot open /%s", path, name);
+    int status;
+    SC_CHECK(status, h5_attr_read_double(g, "diameter", &c->diameter[i]), done);
+    SC_CHECK(status, h5_attr_read_double(g, "velocity", &c->velocity[i]), done);
+    if (h5_exists(g, "boundary_Gc")) {
+        SC_CHECK(status, render_read_array(g, path, "boundary_Gc", &c->boundary_gc[i]), done);
+        SC_CHECK(status, render_read_array(g, path, "boundary_Gc_rate", &c->boundary_rate[i]), done);
+        for (size_t k = 0; k < c->boundary_rate[i].count; k++)
+            c->boundary_rate[i].values[k] /= RATE_UNIT;
+    }
+    c->sizes = i + 1;
+done:
+    H5Gclose(g);
+    return status;
+}
+
+static int read_data(const char *path, struct calibrate_data *c)
+{
+    hid_t file;
+    SC_TRY(render_open(path, &file));
+    int status;
+    SC_CHECK(status, render_read_array(file, path, "runs/diameter", &c->d), done);
+    SC_CHECK(status, render_read_array(file, path, "runs/Gc", &c->gc), done);
+    SC_CHECK(status, render_read_array(file, path, "runs/Gc_rate", &c->rate), done);
+    SC_CHECK(status, render_read_array(file, path, "runs/verdict", &c->verdict), done);
+    SC_CHECK(status, render_read_array(file, path, "intersection_Gc", &c->cross_gc), done);
+    SC_CHECK(status, render_read_array(file, path, "intersection_Gc_rate", &c->cross_rate), done);
+    for (int i = 0; i < MAX_SIZES; i++)
+        SC_CHECK(status, read_size(file, path, i, c), done);
+    if (c->gc.count != c->d.count || c->rate.count != c->d.count || c->verdict.count != c->d.count)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: the datasets of /runs have different lengths", path);
+    for (size_t k = 0; k < c->rate.count; k++)
+        c->rate.values[k] /= RATE_UNIT;
+    for (size_t k = 0; k < c->cross_rate.count; k++)
+        c->cross_rate.values[k] /= RATE_UNIT;
+done:
+    H5Fclose(file);
+    return status;
+}
+
+/* The runs of size i with verdict v into x, y; returns their number. */
+static size_t select_runs(const struct calibrate_data *c, int i, int v, double *x, double *y)
+{
+    size_t n = 0;
+    for (size_t k = 0; k < c->d.count; k++)
+        if (c->d.values[k] == c->diameter[i] && (int)c->verdict.values[k] == v)
+            x[n] = c->gc.values[k], y[n++] = c->rate.values[k];
+    return n;
+}
+
+static const char *const rate_label = "critical adhesion energy rate Gc_rate (10^11 J/m²/s)";
+static const char *const gc_label = "critical adhesion energy Gc (J/m²)";
+
+/* Fig. 4.4 a, b: per size the bonded, rebounded and unsettled runs and the fitted boundary. */
+static int sizes_plot(const struct render_request *req, const struct calibrate_data *c, struct render_output *out)
+{
+    static const char *const labels[] = {"rebounded", "bonded", "unsettled"};
+    static const enum render_series_kind kinds[] = {RENDER_OPEN_MARKERS, RENDER_MARKERS, RENDER_OPEN_MARKERS};
+    static const int colours[] = {6, 2, 4};
+    size_t m = c->d.count, bytes = (6 * m * (size_t)c->sizes + 1) * sizeof(double);
+    double *blocks = malloc(bytes); /* per panel and verdict: x (m values), then y three blocks later */
+    if (!blocks)
+        SC_FAIL_OOM(bytes, "the calibration figure");
+    struct render_series series[MAX_SIZES][4];
+    char titles[MAX_SIZES][96];
+    struct render_plot plot = render_plot_start(req->cfg, c->sizes);
+    for (int i = 0; i < c->sizes; i++) {
+        for (int v = 0; v < 3; v++) {
+            double *x = blocks + ((size_t)i * 6 + (size_t)v) * m, *y = x + 3 * m;
+            series[i][v] = (struct render_series){labels[v], kinds[v], select_runs(c, i, v, x, y), x, y, 0, colours[v]};
+        }
+        series[i][3] = (struct render_series){"boundary h = 0.5",
+                                              RENDER_LINE,
+                                              c->boundary_gc[i].count,
+                                              c->boundary_gc[i].values,
+                                              c->boundary_rate[i].values,
+                                              0,
+                                              0};
+        snprintf(titles[i], sizeof titles[i], "%.3g µm at %.4g m/s", c->diameter[i] * 1e6, c->velocity[i]);
+        plot.panels[i] = (struct render_panel){titles[i], gc_label, rate_label, NAN, NAN, NAN, NAN, 0, 4, series[i]};
+    }
+    int status = render_plot_publish(req->run_dir, out, "calibrate_sizes", "calibrate",
+                                     "Calibration outcomes and bonding boundaries", &plot);
+    free(blocks);
+    return status;
+}
+
+/* Fig. 4.4 c, Fig. 5.1: both boundaries and their intersection. */
+static int boundaries_plot(const struct render_request *req, const struct calibrate_data *c, struct render_output *out)
+{
+    char labels[MAX_SIZES][64];
+    struct render_series series[MAX_SIZES + 1];
+    int n = 0;
+    for (int i = 0; i < c->sizes; i++) {
+        snprintf(labels[i], sizeof labels[i], "boundary %.3g µm", c->diameter[i] * 1e6);
+        series[n++] = (struct render_series){
+            labels[i], RENDER_LINE,   c->boundary_gc[i].count, c->boundary_gc[i].values, c->boundary_rate[i].values,
+            0,         i == 0 ? 0 : 1};
+    }
+    series[n++] = (struct render_series){"intersection (first: calibrated)",
+                                         RENDER_MARKERS,
+                                         c->cross_gc.count,
+                                         c->cross_gc.values,
+                                         c->cross_rate.values,
+                                         0,
+                                         5};
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){
+        "Bonding boundaries and the calibrated parameters", gc_label, rate_label, NAN, NAN, NAN, NAN, 0, n, series};
+    return render_plot_publish(req->run_dir, out, "calibrate", "calibrate", plot.panels[0].title, &plot);
+}
+
+int render_calibrate_figures(const struct render_request *req, struct render_output *out)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/calibrate.h5", req->run_dir);
+    struct calibrate_data c;
+    memset(&c, 0, sizeof c);
+    int status;
+    SC_CHECK(status, read_data(path, &c), done);
+    if (c.sizes > 0)
+        SC_CHECK(status, sizes_plot(req, &c, out), done);
+    SC_CHECK(status, boundaries_plot(req, &c, out), done);
+    log_info("render: calibration figures from %s", path);
+done:
+    data_free(&c);
+    return status;
+}
