@@ -41,7 +41,8 @@ app_prefixes() {
         stage_loop) echo "stage_" ;;
         xdmf) echo "xdmf_" ;;
         couple_stage) echo "couple_stage_ couple_stage_read_bodies couple_stage_bodies_free" ;;
-        vcrit_stage) echo "vcrit_stage_ vcrit_case_keys" ;;
+        vcrit_stage) echo "vcrit_stage_ vcrit_case_keys vcrit_runs_ vcrit_verdict_name" ;;
+        calibrate_stage) echo "calibrate_stage_ calibrate_case_keys" ;;
         *_stage) echo "$1_" ;;
         *) echo "" ;;
     esac
