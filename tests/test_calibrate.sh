@@ -1,0 +1,132 @@
+#!/bin/sh
+# `spraycoat calibrate` (app/calibrate_stage.c):
+#   1. a tiny calibration (8 and 10 um on a 2 um grid, 2 x 2 parameter pairs, 4 ns per run: seconds) writes
+#      calibrate.csv, calibrate_outcomes.csv (one row per run, a verdict word each), calibrate.h5 and the two
+#      figures, and removes its record file;
+#   2. the fit, boundaries and intersection from known outcomes: an 11 x 11 grid is started, stopped by SIGTERM
+#      (exit 143) after its first run, and its record file replaced by synthetic outcomes (bonded below the lines
+#      x1 + 2 x2 = 1.35 for the first size and x1 - x2 = 0.25 for the second, in the grid scaled to [0, 1], five
+#      runs unsettled); `spraycoat resume` reuses all 242 records (no MPM run), counts the unsettled runs, and finds
+#      the intersection of the two boundaries near the lines' (x1, x2) = (0.617, 0.367), i.e. Gc = 717 J/m2 and
+#      Gc_rate = 1.367e11 J/m2/s, within 0.06 of the scaled grid (half a grid step of 0.1, plus the fit's
+#      curvature);
+#   3. a case with fewer speeds than diameters is refused (exit 2, naming the key).
+# Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1 ($2)"; }
+if [ ! -x "$BIN" ]; then
+    echo "FAIL calibrate (no $BIN; run from the repository root after make)"
+    exit 1
+fi
+T=$(mktemp -d) || exit 1
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+
+write_case() { # write_case FILE COUNT VELOCITIES
+    cat >"$1" <<EOF
+; tiny calibration for tests/test_calibrate.sh: far too coarse for physics, quick
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_height = 6e-6
+t_end = 4e-9
+
+[material.aluminium]
+
+[calibrate]
+diameters = 8e-6,10e-6
+velocities = $3
+substrate_diameters = 20e-6,24e-6
+Gc_min = 100
+Gc_max = 1100
+Gc_count = $2
+Gc_rate_min = 1e11
+Gc_rate_max = 2e11
+Gc_rate_count = $2
+EOF
+}
+
+# ---- 1. a tiny calibration end to end ------------------------------------------------------------------------------
+write_case "$T/tiny.ini" 2 "900,850"
+why=""
+"$BIN" calibrate "$T/tiny.ini" -o "$T/tiny" >"$T/tiny.log" 2>&1 || why="exit $?: $(tail -n 2 "$T/tiny.log" | tr '\n' ' ');"
+for f in calibrate.csv calibrate_outcomes.csv calibrate.h5 figures/calibrate.png figures/calibrate_sizes.png; do
+    [ -s "$T/tiny/$f" ] || why="$why no $f;"
+done
+rows=$(grep -cE '^[0-9.e+-]+,[0-9.e+-]+,[0-9.e+-]+,[0-9.e+-]+,(bonded|rebounded|unsettled),' "$T/tiny/calibrate_outcomes.csv" 2>/dev/null)
+[ "${rows:-0}" -eq 8 ] || why="$why $rows outcome rows, expected 8;"
+head -n 1 "$T/tiny/calibrate.csv" 2>/dev/null | grep -q '^Gc,Gc_rate,calibrated$' || why="$why calibrate.csv header;"
+[ -e "$T/tiny/calibrate_runs.csv" ] && why="$why calibrate_runs.csv left behind;"
+if [ -z "$why" ]; then pass calibrate_outputs; else fail calibrate_outputs "$why"; fi
+
+# ---- 2. known outcomes through the record file: the fit, the boundaries, the intersection --------------------------
+write_case "$T/grid.ini" 11 "900,850"
+RUN=$T/grid
+"$BIN" calibrate "$T/grid.ini" -o "$RUN" >"$T/grid.log" 2>&1 &
+bg=$!
+i=0
+while [ "$i" -lt 3000 ] && kill -0 "$bg" 2>/dev/null; do
+    [ "$(grep -c '^[0-9]' "$RUN/calibrate_runs.csv" 2>/dev/null)" -ge 1 ] 2>/dev/null && break
+    sleep 0.02
+    i=$((i + 1))
+done
+kill -TERM "$bg" 2>/dev/null
+wait "$bg" 2>/dev/null
+status=$?
+bg=""
+why=""
+[ "$status" -eq 143 ] || why="exit status $status after SIGTERM, expected 143;"
+title=$(head -n 1 "$RUN/calibrate_runs.csv" 2>/dev/null)
+# the grid values as the stage computes them: min + (max - min) i / (count - 1), printed exactly
+awk -v title="$title" 'BEGIN {
+    print title
+    print "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps"
+    split("8e-06 1e-05", d, " "); split("900 850", v, " ")
+    for (s = 1; s <= 2; s++)
+        for (g = 0; g <= 10; g++)
+            for (r = 0; r <= 10; r++) {
+                gc = 100 + (1100 - 100) * g / 10.0; rate = 1e11 + (2e11 - 1e11) * r / 10.0
+                x1 = g / 10.0; x2 = r / 10.0
+                bonded = s == 1 ? x1 + 2 * x2 < 1.35 : x1 - x2 < 0.25
+                verdict = (s == 2 && g == 0 && r < 5) ? 2 : bonded
+                printf "%s,%s,%.17g,%.17g,%d,0,0,0,1\n", d[s], v[s], gc, rate, verdict
+            }
+}' >"$T/records.csv"
+mv "$T/records.csv" "$RUN/calibrate_runs.csv"
+"$BIN" resume "$RUN" >"$T/resume.log" 2>&1 || why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
+grep -q '242 runs recorded' "$T/resume.log" || why="$why the 242 records were not reused;"
+grep -q 'calibrate: d = 10 um at 850 m/s: .* 5 unsettled' "$T/resume.log" || why="$why 5 unsettled runs not counted;"
+best=$(grep ',1$' "$RUN/calibrate.csv" 2>/dev/null)
+echo "$best" | awk -F, '{ x1 = ($1 - 100) / 1000; x2 = ($2 - 1e11) / 1e11
+    exit !(NF == 3 && (x1 - 0.6167) ^ 2 < 0.06 ^ 2 && (x2 - 0.3667) ^ 2 < 0.06 ^ 2) }' ||
+    why="$why calibrated pair '$best', expected near Gc = 717, Gc_rate = 1.367e11;"
+if [ -z "$why" ]; then pass calibrate_known_outcomes; else fail calibrate_known_outcomes "$why"; fi
+
+# ---- 3. a speed per diameter ---------------------------------------------------------------------------------------
+write_case "$T/bad.ini" 2 "900"
+"$BIN" calibrate "$T/bad.ini" -o "$T/bad" >"$T/bad.log" 2>&1
+status=$?
+if [ "$status" -eq 2 ] && grep -q 'velocities' "$T/bad.log" && [ ! -e "$T/bad/case.ini" ]; then
+    pass calibrate_bad_case
+else
+    fail calibrate_bad_case "exit $status: $(tail -n 1 "$T/bad.log")"
+fi
+exit 0
