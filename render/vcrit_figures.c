@@ -1,5 +1,5 @@
-/* The critical-velocity figure (RUN_DIR/vcrit.h5): v_crit vs diameter, every run of the search, and the thesis's
- * predictions for comparison. */
+/* The critical-velocity figures (RUN_DIR/vcrit.h5): v_crit vs diameter, every run of the search, and the thesis's
+ * predictions for comparison; the coefficient of restitution against impact speed per diameter (every run). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,11 +16,11 @@ static const double tang_vcrit[] = {824, 809, 791, 776, 761};
 
 struct search_runs {
     size_t count, capacity;
-    double *d, *v; /* um, m/s */
+    double *d, *v, *cor; /* um, m/s, - (NaN when the file has no cor) */
     int *bonded;
 };
 
-static int add_run(struct search_runs *r, double d, double v, int bonded)
+static int add_run(struct search_runs *r, double d, double v, int bonded, double cor)
 {
     if (r->count == r->capacity) {
         size_t capacity = r->capacity ? 2 * r->capacity : 64;
@@ -33,11 +33,14 @@ static int add_run(struct search_runs *r, double d, double v, int bonded)
         int *b2 = realloc(r->bonded, capacity * sizeof *b2);
         if (b2)
             r->bonded = b2;
-        if (!d2 || !v2 || !b2)
-            SC_FAIL_OOM(capacity * (sizeof *d2 + sizeof *v2 + sizeof *b2), "the critical-velocity runs");
+        double *c2 = realloc(r->cor, capacity * sizeof *c2);
+        if (c2)
+            r->cor = c2;
+        if (!d2 || !v2 || !b2 || !c2)
+            SC_FAIL_OOM(capacity * (sizeof *d2 + sizeof *v2 + sizeof *b2 + sizeof *c2), "the critical-velocity runs");
         r->capacity = capacity;
     }
-    r->d[r->count] = d, r->v[r->count] = v, r->bonded[r->count++] = bonded;
+    r->d[r->count] = d, r->v[r->count] = v, r->cor[r->count] = cor, r->bonded[r->count++] = bonded;
     return SC_OK;
 }
 
@@ -47,18 +50,21 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     struct search_runs *runs = data;
     hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
     double d;
-    struct render_array v, bonded;
-    memset(&v, 0, sizeof v), memset(&bonded, 0, sizeof bonded);
+    struct render_array v, bonded, cor;
+    memset(&v, 0, sizeof v), memset(&bonded, 0, sizeof bonded), memset(&cor, 0, sizeof cor);
     if (g < 0)
         return -1;
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &d), done);
     SC_CHECK(status, render_read_array(g, "vcrit.h5", "velocity", &v), done);
     SC_CHECK(status, render_read_array(g, "vcrit.h5", "bonded", &bonded), done);
+    if (h5_exists(g, "cor")) /* files of versions before CoR have none */
+        SC_CHECK(status, render_read_array(g, "vcrit.h5", "cor", &cor), done);
     for (size_t i = 0; i < v.count && i < bonded.count; i++)
-        SC_CHECK(status, add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1), done);
+        SC_CHECK(status,
+                 add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1, i < cor.count ? cor.values[i] : NAN), done);
 done:
-    render_array_free(&v), render_array_free(&bonded);
+    render_array_free(&v), render_array_free(&bonded), render_array_free(&cor);
     H5Gclose(g);
     return status == SC_OK ? 0 : -1;
 }
@@ -117,6 +123,36 @@ done:
     return status;
 }
 
+/* CoR against impact speed: one marker series per diameter (the runs of a diameter are consecutive). */
+#define COR_DIAMETERS 16
+static int cor_plot(const struct render_request *req, const struct search_runs *runs, struct render_output *out)
+{
+    struct render_series series[COR_DIAMETERS];
+    char labels[COR_DIAMETERS][32];
+    int n = 0;
+    for (size_t i = 0; i < runs->count && n < COR_DIAMETERS;) {
+        size_t j = i;
+        while (j < runs->count && runs->d[j] == runs->d[i])
+            j++;
+        snprintf(labels[n], sizeof labels[n], "%.3g µm", runs->d[i]);
+        series[n] = (struct render_series){labels[n], RENDER_MARKERS, j - i, runs->v + i, runs->cor + i, 0, n % 8};
+        n++;
+        i = j;
+    }
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){"Coefficient of restitution vs impact speed",
+                                           "impact speed (m/s)",
+                                           "coefficient of restitution (normal)",
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           1,
+                                           n,
+                                           series};
+    return render_plot_publish(req->run_dir, out, "vcrit_cor", "vcrit", plot.panels[0].title, &plot);
+}
+
 int render_vcrit_figures(const struct render_request *req, struct render_output *out)
 {
     char path[4200];
@@ -135,11 +171,12 @@ int render_vcrit_figures(const struct render_request *req, struct render_output 
     H5Fclose(file);
     file = H5I_INVALID_HID;
     SC_CHECK(status, vcrit_plot(req, &d, &v, &runs, out), done);
-    log_info("render: vcrit figure from %s", path);
+    SC_CHECK(status, cor_plot(req, &runs, out), done);
+    log_info("render: vcrit figures from %s", path);
 done:
     if (file >= 0)
         H5Fclose(file);
     render_array_free(&d), render_array_free(&v);
-    free(runs.d), free(runs.v), free(runs.bonded);
+    free(runs.d), free(runs.v), free(runs.bonded), free(runs.cor);
     return status;
 }

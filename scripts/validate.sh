@@ -9,7 +9,17 @@
 #      30 um rebounds at 710 and bonds at 770.
 #   3. Fuzzing (`make fuzz`): the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/)
 #      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
-# VALIDATE_ONLY=table1|bonding|fuzz runs one of them.
+#   4. The resolution study (Tang Table 4.2; docs/validation.md "Resolution study"): `spraycoat calibrate
+#      cases/calibrate_al.ini` and `spraycoat vcrit` of 14, 22 and 30 um (cases/vcrit_al.ini, the shipped
+#      calibration) at three grids DCell/dp: coarse 2.0/1.0, medium 1.5/0.5, fine 1.0/0.35 um.  Parts
+#      calibrate_coarse|calibrate_medium|calibrate_fine and vcrit_coarse|vcrit_medium|vcrit_fine, each into
+#      runs/validate_PART (restartable: run the same part again, or `spraycoat resume runs/validate_PART`).  A
+#      calibration part fails when the two bonding boundaries do not intersect in the grid, a vcrit part when v_crit
+#      does not fall with d (Tang Table 5.4).  Hours on the 2 cores here: docs/validation.md.
+#   5. v_crit(d) from 10 to 45 um with the shipped calibration and CoR(v) below it (cases/vcrit_al.ini, part
+#      vcrit_al): copies the results to cases/vcrit_al.csv, cases/vcrit_al_cor.csv and the figures to
+#      cases/vcrit_al.png and cases/vcrit_al_cor.png (tests/test_vcrit_al.sh checks the tables).
+# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|vcrit_al runs one of them.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -73,12 +83,102 @@ validate_fuzz() {
     echo "validate: fuzzing: no crash"
 }
 
+# The grid DCell/dp (m) of a resolution: coarse, medium, fine.
+grid_of() {
+    case $1 in
+        coarse) echo "2e-6 1e-6" ;;
+        medium) echo "1.5e-6 0.5e-6" ;;
+        fine) echo "1e-6 0.35e-6" ;;
+    esac
+}
+
+# resolution_case BASE RESOLUTION OUT [SED...]: BASE with the resolution's grid and spacing (and more sed edits).
+resolution_case() {
+    base=$1 out=$3 more=${4:-}
+    set -- $(grid_of "$2")
+    sed -e "s/^grid = .*/grid = $1/" -e "s/^spacing = .*/spacing = $2/" -e "${more:-s/^//}" "$base" >"$out"
+}
+
+validate_calibrate() {
+    run=runs/validate_calibrate_$1
+    mkdir -p runs
+    resolution_case cases/calibrate_al.ini "$1" "$run.ini" ""
+    echo "validate: the bonding calibration at the $1 grid ($(grid_of "$1") m) into $run (hours: docs/validation.md)"
+    if ! "$bin" calibrate "$run.ini" -o "$run"; then
+        echo "validate: FAIL: spraycoat calibrate at the $1 grid"
+        failed=1
+        return
+    fi
+    cat "$run/calibrate.csv"
+    if ! grep -q ',1$' "$run/calibrate.csv"; then
+        echo "validate: FAIL: calibration at the $1 grid: the bonding boundaries of 14 and 30 um do not intersect"
+        failed=1
+        return
+    fi
+    echo "validate: calibration at the $1 grid: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2) (Gc, Gc_rate)"
+}
+
+# 1 when the v_crit column of a vcrit.csv falls with the diameter (comment lines: unbracketed, a failure too).
+vcrit_falls() {
+    awk -F, 'NR > 1 && /^#/ { bad = 1 } NR > 1 && !/^#/ { if (n && $2 >= last) bad = 1; last = $2; n++ }
+        END { exit bad || n < 2 }' "$1"
+}
+
+validate_vcrit() {
+    run=runs/validate_vcrit_$1
+    mkdir -p runs
+    resolution_case cases/vcrit_al.ini "$1" "$run.ini" "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d"
+    echo "validate: v_crit of 14, 22 and 30 um at the $1 grid ($(grid_of "$1") m) into $run (hours: docs/validation.md)"
+    if ! "$bin" vcrit "$run.ini" -o "$run"; then
+        echo "validate: FAIL: spraycoat vcrit at the $1 grid"
+        failed=1
+        return
+    fi
+    cat "$run/vcrit.csv"
+    if ! vcrit_falls "$run/vcrit.csv"; then
+        echo "validate: FAIL: v_crit at the $1 grid does not fall with d (Tang Table 5.4: 824, 791, 761 m/s)"
+        failed=1
+        return
+    fi
+    echo "validate: v_crit at the $1 grid falls with d"
+}
+
+validate_vcrit_al() {
+    run=runs/validate_vcrit_al
+    echo "validate: v_crit(d) of 10 to 45 um and CoR(v) with the shipped calibration into $run (hours: docs/validation.md)"
+    if ! "$bin" vcrit cases/vcrit_al.ini -o "$run" || ! "$bin" render cases/vcrit_al.ini -o "$run"; then
+        echo "validate: FAIL: spraycoat vcrit cases/vcrit_al.ini"
+        failed=1
+        return
+    fi
+    cp "$run/vcrit.csv" cases/vcrit_al.csv
+    cp "$run/vcrit_cor.csv" cases/vcrit_al_cor.csv
+    cp "$run/figures/vcrit.png" cases/vcrit_al.png
+    cp "$run/figures/vcrit_cor.png" cases/vcrit_al_cor.png
+    cat cases/vcrit_al.csv
+    if ! vcrit_falls cases/vcrit_al.csv; then
+        echo "validate: FAIL: v_crit(d) of cases/vcrit_al.csv does not fall with d"
+        failed=1
+        return
+    fi
+    echo "validate: cases/vcrit_al.csv, vcrit_al_cor.csv and their figures written; v_crit falls with d"
+}
+
 case $only in
-    all) validate_table1; validate_bonding; validate_fuzz ;;
+    all)
+        validate_table1; validate_bonding; validate_fuzz
+        for r in coarse medium fine; do validate_calibrate $r; validate_vcrit $r; done
+        validate_vcrit_al ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
-    *) echo "validate: VALIDATE_ONLY must be table1, bonding or fuzz, not '$only'" >&2; exit 2 ;;
+    calibrate_coarse | calibrate_medium | calibrate_fine) validate_calibrate "${only#calibrate_}" ;;
+    vcrit_coarse | vcrit_medium | vcrit_fine) validate_vcrit "${only#vcrit_}" ;;
+    vcrit_al) validate_vcrit_al ;;
+    *)
+        echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
+            "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine or vcrit_al, not '$only'" >&2
+        exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then
     echo "validate: FAILED"
