@@ -12,7 +12,7 @@ report() { if [ -z "$why" ]; then echo "PASS $1"; else echo "FAIL $1: $why"; fi;
 
 # per-command help: `spraycoat COMMAND --help` and `spraycoat help COMMAND` give the command's own page
 why=""
-for command in check run resume spray couple impact vcrit render info keys; do
+for command in check run resume spray couple impact vcrit calibrate render info keys; do
     "$bin" "$command" --help >"$T/a" 2>&1 || why="${why:+$why; }$command --help exited $?"
     "$bin" help "$command" >"$T/b" 2>&1 || why="${why:+$why; }help $command exited $?"
     grep -q "^usage: spraycoat $command" "$T/a" || why="${why:+$why; }$command --help is not the command's page"
