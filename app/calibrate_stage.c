@@ -1,12 +1,12 @@
 /* `spraycoat calibrate`: the bonding calibration of Tang (2021), Sections 4.1.2 and 5.1.
  *
  * Over a grid of the energy model's parameters (Gc, Gc_rate), single-particle impacts of each size of
- * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, after Schmidt et
- * al.; substrates 30 and 50 um across).  Each run is classified by the impact stage's verdict (mpm_verdicts):
- * bonded (1) or rebounded (0); a verdict that has not settled is neither, left out of the fit and counted.  Per
- * size, a second-order logistic regression of the outcomes on the scaled parameters (Eqs. 4.10-4.14,
- * core/logistic.h) gives the bonding boundary h = 0.5 (Z = 0); the intersection of the first two sizes'
- * boundaries is the calibrated (Gc, Gc_rate): the pair at which both sizes just bond at their critical velocity.
+ * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, measured by
+ * Hassani-Gangaraj et al. 2018, the thesis's [9]; substrates 30 and 50 um across).  Each run is classified by the
+ * impact stage's verdict (mpm_verdicts): bonded (1) or rebounded (0); a verdict that has not settled is neither, left
+ * out of the fit and counted.  Per size, a second-order logistic regression of the outcomes on the scaled parameters
+ * (Eqs. 4.10-4.14, core/logistic.h) gives the bonding boundary h = 0.5 (Z = 0); the intersection of the first two
+ * sizes' boundaries is the calibrated (Gc, Gc_rate): the pair at which both sizes just bond at their critical velocity.
  *
  * Runs are recorded and shared among MPI ranks exactly as vcrit's (struct vcrit_runs, RUN_DIR/calibrate_runs.csv):
  * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, and rank 0
@@ -39,7 +39,8 @@ const struct cfg_key calibrate_case_keys[] = {
      "comma-separated particle diameters of the calibration (Tang Section 4.1.2: 14 and 30 um); the first two "
      "sizes' boundaries intersect in the calibrated parameters"},
     {"calibrate", "velocities", CFG_STRING, "m/s", "810,770", 0, 0, 0, NULL,
-     "impact speed of each diameter: its experimental critical velocity (Tang Section 4.1.2 after Schmidt et al.: "
+     "impact speed of each diameter: its experimental critical velocity (Tang Section 4.1.2 after Hassani-Gangaraj et "
+     "al. 2018: "
      "810 and 770 m/s)"},
     {"calibrate", "substrate_diameters", CFG_STRING, "m", "30e-6,50e-6", 0, 0, 0, NULL,
      "substrate diameter of each particle diameter (Tang Section 4.1.2: 30 and 50 um; height from [impact])"},
