@@ -140,16 +140,9 @@ static int cor_plot(const struct render_request *req, const struct search_runs *
         i = j;
     }
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Coefficient of restitution vs impact speed",
-                                           "impact speed (m/s)",
-                                           "coefficient of restitution (normal)",
-                                           NAN,
-                                           NAN,
-                                           NAN,
-                                           NAN,
-                                           1,
-                                           n,
-                                           series};
+    const char *title = "Coefficient of restitution vs impact speed";
+    plot.panels[0] = (struct render_panel){
+        title, "impact speed (m/s)", "coefficient of restitution (normal)", NAN, NAN, NAN, NAN, 1, n, series};
     return render_plot_publish(req->run_dir, out, "vcrit_cor", "vcrit", plot.panels[0].title, &plot);
 }
 

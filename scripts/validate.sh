@@ -99,69 +99,66 @@ resolution_case() {
     sed -e "s/^grid = .*/grid = $1/" -e "s/^spacing = .*/spacing = $2/" -e "${more:-s/^//}" "$base" >"$out"
 }
 
-validate_calibrate() {
-    run=runs/validate_calibrate_$1
+# run_study COMMAND RESOLUTION BASE SED: `spraycoat COMMAND` of BASE (edited by SED) at the resolution's grid into
+# run=runs/validate_COMMAND_RESOLUTION; fails (and says so) when the command fails.
+run_study() {
+    run=runs/validate_$1_$2
     mkdir -p runs
-    resolution_case cases/calibrate_al.ini "$1" "$run.ini" ""
-    echo "validate: the bonding calibration at the $1 grid ($(grid_of "$1") m) into $run (hours: docs/validation.md)"
-    if ! "$bin" calibrate "$run.ini" -o "$run"; then
-        echo "validate: FAIL: spraycoat calibrate at the $1 grid"
-        failed=1
-        return
-    fi
-    cat "$run/calibrate.csv"
-    if ! grep -q ',1$' "$run/calibrate.csv"; then
-        echo "validate: FAIL: calibration at the $1 grid: the bonding boundaries of 14 and 30 um do not intersect"
-        failed=1
-        return
-    fi
-    echo "validate: calibration at the $1 grid: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2) (Gc, Gc_rate)"
+    resolution_case "$3" "$2" "$run.ini" "$4"
+    echo "validate: spraycoat $1 at the $2 grid ($(grid_of "$2") m) into $run (hours: docs/validation.md)"
+    "$bin" "$1" "$run.ini" -o "$run" && return 0
+    fail_part "spraycoat $1 at the $2 grid"
+    return 1
 }
 
-# 1 when the v_crit column of a vcrit.csv falls with the diameter (comment lines: unbracketed, a failure too).
+fail_part() {
+    echo "validate: FAIL: $*"
+    failed=1
+}
+
+validate_calibrate() {
+    run_study calibrate "$1" cases/calibrate_al.ini "" || return 0
+    cat "$run/calibrate.csv"
+    if grep -q ',1$' "$run/calibrate.csv"; then
+        echo "validate: calibration at the $1 grid: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2) (Gc, Gc_rate)"
+    else
+        fail_part "calibration at the $1 grid: the bonding boundaries of 14 and 30 um do not intersect"
+    fi
+}
+
+# Succeeds when the v_crit column of a vcrit.csv falls with the diameter (an unbracketed '#' line fails).
 vcrit_falls() {
     awk -F, 'NR > 1 && /^#/ { bad = 1 } NR > 1 && !/^#/ { if (n && $2 >= last) bad = 1; last = $2; n++ }
         END { exit bad || n < 2 }' "$1"
 }
 
 validate_vcrit() {
-    run=runs/validate_vcrit_$1
-    mkdir -p runs
-    resolution_case cases/vcrit_al.ini "$1" "$run.ini" "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d"
-    echo "validate: v_crit of 14, 22 and 30 um at the $1 grid ($(grid_of "$1") m) into $run (hours: docs/validation.md)"
-    if ! "$bin" vcrit "$run.ini" -o "$run"; then
-        echo "validate: FAIL: spraycoat vcrit at the $1 grid"
-        failed=1
-        return
-    fi
+    run_study vcrit "$1" cases/vcrit_al.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d" || return 0
     cat "$run/vcrit.csv"
-    if ! vcrit_falls "$run/vcrit.csv"; then
-        echo "validate: FAIL: v_crit at the $1 grid does not fall with d (Tang Table 5.4: 824, 791, 761 m/s)"
-        failed=1
-        return
+    if vcrit_falls "$run/vcrit.csv"; then
+        echo "validate: v_crit of 14, 22 and 30 um at the $1 grid falls with d"
+    else
+        fail_part "v_crit at the $1 grid does not fall with d (Tang Table 5.4: 824, 791, 761 m/s)"
     fi
-    echo "validate: v_crit at the $1 grid falls with d"
 }
 
 validate_vcrit_al() {
     run=runs/validate_vcrit_al
     echo "validate: v_crit(d) of 10 to 45 um and CoR(v) with the shipped calibration into $run (hours: docs/validation.md)"
     if ! "$bin" vcrit cases/vcrit_al.ini -o "$run" || ! "$bin" render cases/vcrit_al.ini -o "$run"; then
-        echo "validate: FAIL: spraycoat vcrit cases/vcrit_al.ini"
-        failed=1
-        return
+        fail_part "spraycoat vcrit cases/vcrit_al.ini"
+        return 0
     fi
     cp "$run/vcrit.csv" cases/vcrit_al.csv
     cp "$run/vcrit_cor.csv" cases/vcrit_al_cor.csv
     cp "$run/figures/vcrit.png" cases/vcrit_al.png
     cp "$run/figures/vcrit_cor.png" cases/vcrit_al_cor.png
     cat cases/vcrit_al.csv
-    if ! vcrit_falls cases/vcrit_al.csv; then
-        echo "validate: FAIL: v_crit(d) of cases/vcrit_al.csv does not fall with d"
-        failed=1
-        return
+    if vcrit_falls cases/vcrit_al.csv; then
+        echo "validate: cases/vcrit_al.csv, vcrit_al_cor.csv and their figures written; v_crit falls with d"
+    else
+        fail_part "v_crit(d) of cases/vcrit_al.csv does not fall with d"
     fi
-    echo "validate: cases/vcrit_al.csv, vcrit_al_cor.csv and their figures written; v_crit falls with d"
 }
 
 case $only in
