@@ -680,10 +680,10 @@ static void results(FILE *f, const struct render_request *req, const struct repo
 
 static void figures(FILE *f, const struct render_output *out)
 {
-    static const char *const groups[] = {"spray", "impact", "vcrit"};
-    static const char *const headings[] = {"Spray", "Impact", "Critical velocity"};
+    static const char *const groups[] = {"spray", "impact", "vcrit", "calibrate"};
+    static const char *const headings[] = {"Spray", "Impact", "Critical velocity", "Bonding calibration"};
     fprintf(f, "<h2>Figures</h2>\n");
-    for (int g = 0; g < 3; g++) {
+    for (int g = 0; g < 4; g++) {
         int shown = 0;
         for (int i = 0; i < out->count; i++) {
             const struct render_figure *fig = &out->figures[i];
