@@ -329,8 +329,8 @@ static void test_every_figure_of_a_run(void)
     struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
     struct render_output out;
     CHECK(render_run_dir(&req, &out) == SC_OK, "render: %s", sc_error_message());
-    /* spray 8, per impact run 3 plots + 3 views, vcrit 1 */
-    CHECK(out.count == 8 + 2 * 6 + 1, "%d figures", out.count);
+    /* spray 8, per impact run 3 plots + 3 views, vcrit 2 (v_crit(d) and CoR(v)) */
+    CHECK(out.count == 8 + 2 * 6 + 2, "%d figures", out.count);
     CHECK(out.frames == 2 * 3, "%d frames (every 2nd of 4 snapshots and the last, two runs)", out.frames);
     check_figures(&f, &out);
     const struct render_figure *d = render_output_find(&out, "spray_diameter");
