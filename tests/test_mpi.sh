@@ -3,7 +3,8 @@
 # gives the same files as one process for
 #   the pipeline (spray and couple on rank 0, the four impact runs shared out),
 #   a pipeline stopped by SIGTERM during the impact runs and resumed under mpirun,
-#   a vcrit search (the two diameters shared out, the bisections replayed by rank 0).
+#   a vcrit search (the two diameters shared out, the bisections replayed by rank 0),
+#   a bonding calibration (the runs shared out, the fit by rank 0).
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 MPI_BIN=${SPRAYCOAT_MPI_BIN:-}
@@ -95,4 +96,42 @@ if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/vcrit_one/vcrit.csv" "$T/v
     pass mpi_vcrit_same_as_one_process
 else
     fail mpi_vcrit_same_as_one_process "exit $one / $two; $why $(diff "$T/vcrit_one/vcrit.csv" "$T/vcrit_two/vcrit.csv" | head -n 4 | tr '\n' ' ')"
+fi
+
+# ---- a bonding calibration (its eight runs shared out, the fit by rank 0) ----------------------------------------
+cat >"$T/calibrate.ini" <<EOF
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_height = 6e-6
+t_end = 4e-9
+
+[material.aluminium]
+
+[calibrate]
+diameters = 8e-6,10e-6
+velocities = 900,850
+substrate_diameters = 20e-6,24e-6
+Gc_min = 100
+Gc_max = 3000
+Gc_count = 2
+Gc_rate_min = 1e10
+Gc_rate_max = 5e11
+Gc_rate_count = 2
+EOF
+"$BIN" calibrate "$T/calibrate.ini" -o "$T/calibrate_one" >"$T/calibrate_one.log" 2>&1
+one=$?
+$MPIRUN "$MPI_BIN" calibrate "$T/calibrate.ini" -o "$T/calibrate_two" >"$T/calibrate_two.log" 2>&1
+two=$?
+if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/calibrate_one/calibrate.csv" "$T/calibrate_two/calibrate.csv" &&
+    cmp -s "$T/calibrate_one/calibrate_outcomes.csv" "$T/calibrate_two/calibrate_outcomes.csv" &&
+    grep -q '\[rank 1\] info: calibrate' "$T/calibrate_two.log" &&
+    [ -z "$(ls "$T"/calibrate_two/calibrate_runs*.csv 2>/dev/null)" ]; then
+    pass mpi_calibrate_same_as_one_process
+else
+    fail mpi_calibrate_same_as_one_process "exit $one / $two; $(diff "$T/calibrate_one/calibrate_outcomes.csv" \
+        "$T/calibrate_two/calibrate_outcomes.csv" | head -n 4 | tr '\n' ' ')"
 fi
