@@ -1,6 +1,6 @@
 #!/bin/sh
 # Bad case files (tests/bad_cases/, listed in tests/bad_cases/EXPECT): `spraycoat check FILE` and
-# `spraycoat COMMAND FILE -o RUN_DIR` (spray, or the impact or vcrit command the manifest names) must end with
+# `spraycoat COMMAND FILE -o RUN_DIR` (spray, or the impact, vcrit or calibrate command the manifest names) must end with
 # exit status 2 and a message that names the key, the file (and the line, where the error is in a line); never
 # a crash, and never a partial output in RUN_DIR.
 # Also: a case with one empty section, a case without some sections and a CSV with a byte order mark are
@@ -130,7 +130,7 @@ while IFS="$tab" read -r file text line command rest; do
     [ -n "${line:-}" ] || line=-
     [ -n "${command:-}" ] || command=spray
     case "$command" in
-    spray | impact | vcrit) ;;
+    spray | impact | vcrit | calibrate) ;;
     *)
         echo "FAIL bad_case_${file%.ini}: unknown command '$command' in $manifest"
         continue
