@@ -27,7 +27,7 @@ CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) osmesa 2>/dev/null)
 CFLAGS   += -std=c17 -ffp-contract=off -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE \
             -D_POSIX_C_SOURCE=200809L
 LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -ldl -lsundials_cvode -lsundials_nvecserial \
-            -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
+            -lsundials_sunlinsoldense -lsundials_sunmatrixdense -ludunits2 -lm
 LDFLAGS  += -fopenmp
 
 LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c coupling/*.c) $(filter-out app/main.c,$(wildcard app/*.c))

@@ -149,11 +149,30 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     return SC_OK;
 }
 
+/* Several errors of a case file: each on its own line (the recorded message may be cut short), then one line
+ * that counts them, which main prints as the error. */
+static int report_every_error(const char *path, const char *every_error)
+{
+    int count = 0;
+    for (const char *line = every_error; *line; count++) {
+        size_t length = strcspn(line, "\n");
+        if (parallel_rank() == 0)
+            fprintf(stderr, "spraycoat: %.*s\n", (int)length, line);
+        line += length + (line[length] == '\n');
+    }
+    SC_FAIL(SC_EINPUT, "%s: %d errors in the case file (above)", path, count);
+}
+
 static int load_case(const char *path, const struct options *opt, struct case_file **c)
 {
     if (!path)
         SC_FAIL(SC_EINPUT, "%s needs a case file (see spraycoat --help)", opt->command);
-    SC_TRY(case_load(path, spraycoat_registry, c));
+    char *every_error = NULL;
+    int loaded = case_load_reporting(path, spraycoat_registry, c, &every_error);
+    if (loaded != SC_OK && every_error && strchr(every_error, '\n'))
+        loaded = report_every_error(path, every_error);
+    free(every_error);
+    SC_TRY(loaded);
     if (opt->threads) {
         int status = case_set(*c, "run", "threads", opt->threads, "command line --threads");
         if (status != SC_OK) {
