@@ -17,6 +17,8 @@ endif
 PREFIX   ?= /usr/local
 OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
+# the semantic version (README "Versions"): the file VERSION, one line MAJOR.MINOR.PATCH
+SEMVER   := $(shell cat VERSION 2>/dev/null || echo 0.0.0)
 
 # OSMesa's headers only: render/gl.c loads the library when it first renders (dlopen), so that llvmpipe is not
 # loaded into every process
@@ -74,8 +76,8 @@ $(BUILD)/flags.stamp: FORCE
 	@mkdir -p $(dir $@)
 	@printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' | cmp -s - $@ || \
 	    printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' > $@
-$(BUILD)/core/version.o: $(BUILD)/version.stamp
-$(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"' \
+$(BUILD)/core/version.o: $(BUILD)/version.stamp VERSION
+$(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"' -DSPRAYCOAT_SEMVER='"$(SEMVER)"' \
     -DSPRAYCOAT_FLAGS='"$(call c_string,$(BUILD_FLAGS))"' -DSPRAYCOAT_FILE_FLAGS='"$(call c_string,$(FILE_FLAGS))"'
 FORCE:
 
