@@ -454,7 +454,8 @@ static int computes(const char *command)
 
 static void prefer_passive_wait(int argc, char **argv)
 {
-    if (getenv("OMP_WAIT_POLICY") || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)))
+    const char *policy = getenv("OMP_WAIT_POLICY");
+    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)))
         return;
     if (setenv("OMP_WAIT_POLICY", "passive", 1) == 0 && setenv(REEXEC_MARK, "1", 1) == 0)
         execv("/proc/self/exe", argv);
@@ -467,6 +468,8 @@ static void prefer_passive_wait(int argc, char **argv)
 static void describe_wait_policy(char *out, size_t size)
 {
     const char *policy = getenv("OMP_WAIT_POLICY");
+    if (policy && !*policy)
+        policy = NULL; /* libgomp takes an empty value as unset */
     if (policy && getenv(REEXEC_MARK))
         snprintf(out, size, "%s (set by spraycoat: OMP_WAIT_POLICY was unset)", policy);
     else if (policy)

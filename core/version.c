@@ -29,7 +29,8 @@
 #ifndef SPRAYCOAT_VERSION
 #define SPRAYCOAT_VERSION "unknown"
 #endif
-/* The semantic version MAJOR.MINOR.PATCH, from the file VERSION (README "Versions" says when each part grows). */
+/* The semantic version MAJOR.MINOR.PATCH, from the file VERSION (README, "The commands", says when each part
+ * grows). */
 #ifndef SPRAYCOAT_SEMVER
 #define SPRAYCOAT_SEMVER "0.0.0 (not built by the Makefile)"
 #endif
