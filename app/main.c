@@ -459,7 +459,8 @@ static void prefer_passive_wait(int argc, char **argv)
         return;
     if (setenv("OMP_WAIT_POLICY", "passive", 1) == 0 && setenv(REEXEC_MARK, "1", 1) == 0)
         execv("/proc/self/exe", argv);
-    /* no /proc (or no memory): run on with libgomp's default, and do not claim a passive wait */
+    /* no /proc (or no memory): run on with libgomp's default, and do not claim a passive wait.  (Under valgrind
+     * the second start leaves valgrind unless it traces children: set OMP_WAIT_POLICY there.) */
     unsetenv("OMP_WAIT_POLICY");
     unsetenv(REEXEC_MARK);
 }
