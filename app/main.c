@@ -150,18 +150,23 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     return SC_OK;
 }
 
-/* Several errors of a case file: each on its own line (the recorded message may be cut short), then one line
- * that counts them, which main prints as the error. */
-static int report_every_error(const char *path, const char *every_error)
+/* Several errors of a case file: each on its own line (the recorded message may be cut short), then the
+ * recorded message's first line, "FILE: N errors in the case file", which main prints as the error. */
+static int report_every_error(const char *every_error)
 {
-    int count = 0;
-    for (const char *line = every_error; *line; count++) {
+    for (const char *line = every_error; *line;) {
         size_t length = strcspn(line, "\n");
         if (parallel_rank() == 0)
             fprintf(stderr, "spraycoat: %.*s\n", (int)length, line);
         line += length + (line[length] == '\n');
     }
-    SC_FAIL(SC_EINPUT, "%s: %d errors in the case file (above)", path, count);
+    const char *message = sc_error_message();
+    int head = (int)strcspn(message, "\n");
+    if (head > 0 && message[head - 1] == ':')
+        head--;
+    char summary[512];
+    snprintf(summary, sizeof summary, "%.*s (above)", head, message);
+    SC_FAIL(SC_EINPUT, "%s", summary);
 }
 
 static int load_case(const char *path, const struct options *opt, struct case_file **c)
@@ -171,7 +176,7 @@ static int load_case(const char *path, const struct options *opt, struct case_fi
     char *every_error = NULL;
     int loaded = case_load_reporting(path, spraycoat_registry, c, &every_error);
     if (loaded != SC_OK && every_error && strchr(every_error, '\n'))
-        loaded = report_every_error(path, every_error);
+        loaded = report_every_error(every_error);
     free(every_error);
     SC_TRY(loaded);
     if (opt->threads) {

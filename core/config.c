@@ -43,6 +43,8 @@
 #define MAX_LINE_CHARS (INI_MAX_LINE - 2)
 /* Same size as the message buffer in core/error.c. */
 #define MESSAGE_SIZE 2048
+/* Errors listed from one file; beyond, they are counted (a binary file read as a case would list thousands). */
+#define MAX_LISTED_ERRORS 100
 /* Key and section lists in messages. */
 #define LIST_SIZE 1024
 
@@ -817,12 +819,13 @@ static int parse_fail(struct parse_state *st, const char *fmt, ...) __attribute_
 static int parse_fail(struct parse_state *st, const char *fmt, ...)
 {
     char message[MESSAGE_SIZE];
+    if (++st->error_count > MAX_LISTED_ERRORS)
+        return 0;
     va_list args;
     va_start(args, fmt);
     vsnprintf(message, sizeof message, fmt, args);
     va_end(args);
     buffer_append(&st->errors, "%s\n", message);
-    st->error_count++;
     return 0;
 }
 
@@ -1148,6 +1151,8 @@ static int check_line_endings(const char *path, const char *text, size_t length)
  * short by the message buffer; *every_error has them all). */
 static int report_errors(const struct case_file *c, struct parse_state *st, char **every_error)
 {
+    if (st->error_count > MAX_LISTED_ERRORS)
+        buffer_append(&st->errors, "%s: %d more errors not listed\n", c->path, st->error_count - MAX_LISTED_ERRORS);
     while (st->errors.length > 0 && st->errors.data[st->errors.length - 1] == '\n')
         st->errors.data[--st->errors.length] = '\0';
     int status;
