@@ -72,3 +72,16 @@ done
 grep -q "3 errors in the case file" "$tmp/three.err" || why="$why no count of 3 errors;"
 [ ! -s "$tmp/three.out" ] || why="$why stdout not empty;"
 if [ -z "$why" ]; then pass cli_check_every_error; else fail cli_check_every_error "$why $(cat "$tmp/three.err")"; fi
+
+# without the units database: values with a unit are refused with a message that says where it was looked for
+# and how to fix it; a case of bare numbers needs no database (it is read only for a value with a unit)
+UDUNITS2_XML_PATH=$tmp/none/udunits2.xml "$bin" check "$tmp/a.ini" >/dev/null 2>"$tmp/nodb.err"
+status=$?
+UDUNITS2_XML_PATH=$tmp/none/udunits2.xml "$bin" check "$tmp/demo.ini" >/dev/null 2>&1
+bare=$?
+why=""
+[ "$status" -eq 2 ] || why="exit status $status with units, expected 2;"
+grep -qF "$tmp/none/udunits2.xml" "$tmp/nodb.err" && grep -q "UDUNITS2_XML_PATH" "$tmp/nodb.err" ||
+    why="$why the message does not name the database and UDUNITS2_XML_PATH;"
+[ "$bare" -eq 0 ] || why="$why a case of bare numbers fails without the database (status $bare);"
+if [ -z "$why" ]; then pass cli_units_no_database; else fail cli_units_no_database "$why $(head -c 300 "$tmp/nodb.err")"; fi
