@@ -54,7 +54,8 @@ static const struct command_help command_helps[] = {
     {"check", "spraycoat check CASE.ini",
      "Validate the case file without running anything: every key, its range and the cross-key rules, the input\n"
      "files it names, and (with [impact] or [vcrit]) the whole impact set-up.  Prints every resolved parameter\n"
-     "with its unit and where it came from (the file or the default) and the case hash.\n"},
+     "with its unit and where it came from (the file or the default; a value written with a unit as given and in\n"
+     "SI: 30 mm = 0.03 m) and the case hash, or every error of the file (bad values, units, keys, sections).\n"},
     {"run", "spraycoat run CASE.ini [-o RUN_DIR] [--threads N] [--stages LIST]",
      "The pipeline: spray, couple, impact, render (couple and impact when the case has [couple] or [impact]).\n"
      "Each stage skips what is up to date and resumes from its newest checkpoint.  Ends with a summary of the\n"
