@@ -17,6 +17,8 @@ endif
 PREFIX   ?= /usr/local
 OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
+# the semantic version (README, "The commands", says how it grows): the file VERSION, one line MAJOR.MINOR.PATCH
+SEMVER   := $(shell cat VERSION 2>/dev/null || echo 0.0.0)
 
 # OSMesa's headers only: render/gl.c loads the library when it first renders (dlopen), so that llvmpipe is not
 # loaded into every process
@@ -27,7 +29,7 @@ CPPFLAGS += -I. $(shell pkg-config --cflags $(PKGS) osmesa 2>/dev/null)
 CFLAGS   += -std=c17 -ffp-contract=off -Wall -Wextra -Werror -g $(OPT) -fopenmp -D_DEFAULT_SOURCE \
             -D_POSIX_C_SOURCE=200809L
 LDLIBS   += $(shell pkg-config --libs $(PKGS) 2>/dev/null) -ldl -lsundials_cvode -lsundials_nvecserial \
-            -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm
+            -lsundials_sunlinsoldense -lsundials_sunmatrixdense -ludunits2 -lm
 LDFLAGS  += -fopenmp
 
 LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c coupling/*.c) $(filter-out app/main.c,$(wildcard app/*.c))
@@ -37,11 +39,16 @@ TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
-.PHONY: all test asan bench run validate install clean format format-check deps fuzz fuzz-build docs FORCE
+.PHONY: all test asan bench run validate install clean format format-check deps test-deps fuzz fuzz-build docs FORCE
 all: $(BIN) $(TEST_BIN)
 
 deps:
 	@scripts/bootstrap --mpi
+
+# `make test` also installs ParaView's Python, so that tests/test_paraview.sh runs rather than skips (scripts/bootstrap
+# says what it costs); `make run` and the others do without it.
+test-deps:
+	@scripts/bootstrap --mpi --paraview
 
 # Per-file optimisation (after $(OPT), so it wins; no floating-point option changes, so no value changes).
 # The loops over a block's lanes in the DEM integrator, the MPM stress update and the fastmath test vectorise
@@ -74,8 +81,8 @@ $(BUILD)/flags.stamp: FORCE
 	@mkdir -p $(dir $@)
 	@printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' | cmp -s - $@ || \
 	    printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' > $@
-$(BUILD)/core/version.o: $(BUILD)/version.stamp
-$(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"' \
+$(BUILD)/core/version.o: $(BUILD)/version.stamp VERSION
+$(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"' -DSPRAYCOAT_SEMVER='"$(SEMVER)"' \
     -DSPRAYCOAT_FLAGS='"$(call c_string,$(BUILD_FLAGS))"' -DSPRAYCOAT_FILE_FLAGS='"$(call c_string,$(FILE_FLAGS))"'
 FORCE:
 
@@ -92,7 +99,7 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 # The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process) and, on a CPU
 # with AVX-512, the bench build, whose AVX-512-only code paths the portable build never takes
 # (tests/test_native_build.sh compares the two).
-test: deps format-check
+test: test-deps format-check
 	$(MAKE) all
 	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
 	if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then \

@@ -11,6 +11,7 @@
 #include "core/log.h"
 #include "core/memory.h"
 #include "core/parallel.h"
+#include "core/units.h"
 #include "core/version.h"
 #include "app/app.h"
 #include "dem/dem.h"
@@ -56,7 +57,8 @@ static const struct command_help command_helps[] = {
     {"check", "spraycoat check CASE.ini",
      "Validate the case file without running anything: every key, its range and the cross-key rules, the input\n"
      "files it names, and (with [impact] or [vcrit]) the whole impact set-up.  Prints every resolved parameter\n"
-     "with its unit and where it came from (the file or the default) and the case hash.\n"},
+     "with its unit and where it came from (the file or the default; a value written with a unit as given and in\n"
+     "SI: 30 mm = 0.03 m) and the case hash, or every error of the file (bad values, units, keys, sections).\n"},
     {"run", "spraycoat run CASE.ini [-o RUN_DIR] [--threads N] [--stages LIST]",
      "The pipeline: spray, couple, impact, render (couple and impact when the case has [couple] or [impact]).\n"
      "Each stage skips what is up to date and resumes from its newest checkpoint.  Ends with a summary of the\n"
@@ -159,11 +161,35 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     return SC_OK;
 }
 
+/* Several errors of a case file: each on its own line (the recorded message may be cut short), then the
+ * recorded message's first line, "FILE: N errors in the case file", which main prints as the error. */
+static int report_every_error(const char *every_error)
+{
+    for (const char *line = every_error; *line;) {
+        size_t length = strcspn(line, "\n");
+        if (parallel_rank() == 0)
+            fprintf(stderr, "spraycoat: %.*s\n", (int)length, line);
+        line += length + (line[length] == '\n');
+    }
+    const char *message = sc_error_message();
+    int head = (int)strcspn(message, "\n");
+    if (head > 0 && message[head - 1] == ':')
+        head--;
+    char summary[512];
+    snprintf(summary, sizeof summary, "%.*s (above)", head, message);
+    SC_FAIL(SC_EINPUT, "%s", summary);
+}
+
 static int load_case(const char *path, const struct options *opt, struct case_file **c)
 {
     if (!path)
         SC_FAIL(SC_EINPUT, "%s needs a case file (see spraycoat --help)", opt->command);
-    SC_TRY(case_load(path, spraycoat_registry, c));
+    char *every_error = NULL;
+    int loaded = case_load_reporting(path, spraycoat_registry, c, &every_error);
+    if (loaded != SC_OK && every_error && strchr(every_error, '\n'))
+        loaded = report_every_error(every_error);
+    free(every_error);
+    SC_TRY(loaded);
     if (opt->threads) {
         int status = case_set(*c, "run", "threads", opt->threads, "command line --threads");
         if (status != SC_OK) {
@@ -416,6 +442,65 @@ static int command_resume(const struct options *opt)
     return SC_OK;
 }
 
+/* ---- OpenMP's wait policy ---------------------------------------------------------------------------------
+ * libgomp reads OMP_WAIT_POLICY (and GOMP_SPINCOUNT) once, when it is loaded, before main.  Unset, a thread that
+ * waits at a barrier spins 300,000 times before it sleeps: on a machine whose cores are busy with other work, the
+ * spinning threads take the time the working ones need (2 threads on a loaded 2-core machine ran 4x slower than
+ * with a passive wait; docs/performance.md).  So a command that computes runs itself again, once, with
+ * OMP_WAIT_POLICY=passive when the user has not set the variable; a value the user set is kept as it is. */
+#define REEXEC_MARK "SPRAYCOAT_PASSIVE_WAIT" /* set in the environment of the run again: not twice */
+
+/* The command of argv (its first word that is not an option or an option's value), NULL if none. */
+static const char *command_word(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "-o") == 0 || strcmp(argv[i], "--threads") == 0 || strcmp(argv[i], "--stages") == 0)
+            i++;
+        else if (argv[i][0] != '-')
+            return argv[i];
+    }
+    return NULL;
+}
+
+/* The commands that run OpenMP loops; the others (check, info, keys, help) are not worth a second start. */
+static int computes(const char *command)
+{
+    static const char *const computing[] = {"run", "resume", "spray", "couple", "impact", "vcrit", "render"};
+    for (size_t i = 0; command && i < sizeof computing / sizeof computing[0]; i++)
+        if (strcmp(command, computing[i]) == 0)
+            return 1;
+    return 0;
+}
+
+static void prefer_passive_wait(int argc, char **argv)
+{
+    const char *policy = getenv("OMP_WAIT_POLICY");
+    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)))
+        return;
+    if (setenv("OMP_WAIT_POLICY", "passive", 1) == 0 && setenv(REEXEC_MARK, "1", 1) == 0)
+        execv("/proc/self/exe", argv);
+    /* no /proc (or no memory): run on with libgomp's default, and do not claim a passive wait.  (Under valgrind
+     * the second start leaves valgrind unless it traces children: set OMP_WAIT_POLICY there.) */
+    unsetenv("OMP_WAIT_POLICY");
+    unsetenv(REEXEC_MARK);
+}
+
+/* The wait policy of this process (or, for --version, that of the commands that compute). */
+static void describe_wait_policy(char *out, size_t size)
+{
+    const char *policy = getenv("OMP_WAIT_POLICY");
+    if (policy && !*policy)
+        policy = NULL; /* libgomp takes an empty value as unset */
+    if (policy && getenv(REEXEC_MARK))
+        snprintf(out, size, "%s (set by spraycoat: OMP_WAIT_POLICY was unset)", policy);
+    else if (policy)
+        snprintf(out, size, "%.64s (OMP_WAIT_POLICY of the environment)", policy);
+    else
+        snprintf(out, size,
+                 "passive for the commands that compute (spraycoat sets OMP_WAIT_POLICY=passive "
+                 "unless it is set)");
+}
+
 static int dispatch(const struct options *opt)
 {
     const char *command = opt->command;
@@ -450,6 +535,24 @@ static int dispatch(const struct options *opt)
     SC_FAIL(SC_EINPUT, "unknown command '%s' (see spraycoat --help)", command);
 }
 
+/* The semantic version first, then the build record that every output's /code group holds (program_version, the
+ * git description, shown as "git"), the units database read for case files and the OpenMP wait policy the
+ * commands that compute run with. */
+static void print_version(void)
+{
+    const struct spraycoat_build_item *items = spraycoat_build_info();
+    for (const struct spraycoat_build_item *item = items; item->name; item++)
+        if (strcmp(item->name, "version") == 0)
+            printf("spraycoat %s\n", item->value);
+    for (const struct spraycoat_build_item *item = items; item->name; item++)
+        if (strcmp(item->name, "version") != 0)
+            printf("  %-12s %s\n", strcmp(item->name, "program_version") == 0 ? "git" : item->name, item->value);
+    printf("  %-12s %s\n", "udunits2", units_database_path());
+    char policy[160];
+    describe_wait_policy(policy, sizeof policy);
+    printf("  %-12s %s\n", "omp_wait", policy);
+}
+
 int main(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++) {
@@ -466,14 +569,11 @@ int main(int argc, char **argv)
             return status;
         }
         if (strcmp(argv[i], "--version") == 0) {
-            /* the first line as before; then the build record that every output's /code group holds */
-            printf("spraycoat %s\n", spraycoat_version());
-            for (const struct spraycoat_build_item *item = spraycoat_build_info(); item->name; item++)
-                if (strcmp(item->name, "program_version") != 0)
-                    printf("  %-12s %s\n", item->name, item->value);
+            print_version();
             return 0;
         }
     }
+    prefer_passive_wait(argc, argv);
     memory_heap_init(); /* before anything large is allocated */
     /* HDF5's exit-time cleanup can crash on a file whose close failed (full disk, file-size limit);
      * every file spraycoat writes is closed or abandoned explicitly, so the cleanup is not needed */
@@ -488,6 +588,11 @@ int main(int argc, char **argv)
     log_set_origin(origin);
     struct options opt = {0};
     int status = parse_arguments(argc, argv, &opt);
+    if (status == SC_OK && computes(opt.command)) {
+        char policy[160];
+        describe_wait_policy(policy, sizeof policy);
+        log_debug("OpenMP wait policy: %s", policy);
+    }
     if (status != SC_OK)
         sc_error_trace(__FILE__, __LINE__);
     else if ((status = dispatch(&opt)) != SC_OK)

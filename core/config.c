@@ -33,6 +33,7 @@
 #include "core/atomic.h"
 #include "core/csv.h"
 #include "core/error.h"
+#include "core/units.h"
 
 /* A range bound of this magnitude or more means "no bound" (registries write 1e300 or HUGE_VAL). */
 #define OPEN_BOUND 1e300
@@ -42,15 +43,18 @@
 #define MAX_LINE_CHARS (INI_MAX_LINE - 2)
 /* Same size as the message buffer in core/error.c. */
 #define MESSAGE_SIZE 2048
+/* Errors listed from one file; beyond, they are counted (a binary file read as a case would list thousands). */
+#define MAX_LISTED_ERRORS 100
 /* Key and section lists in messages. */
 #define LIST_SIZE 1024
 
 enum value_source { SOURCE_UNSET, SOURCE_DEFAULT, SOURCE_FILE, SOURCE_OVERRIDE };
 
 struct parsed_value {
-    double real;  /* CFG_REAL, and CFG_INT as a double */
-    long integer; /* CFG_INT */
-    bool is_word; /* CFG_REAL given as one of its words */
+    double real;   /* CFG_REAL, and CFG_INT as a double */
+    long integer;  /* CFG_INT */
+    bool is_word;  /* CFG_REAL given as one of its words */
+    bool has_unit; /* CFG_REAL written with a unit ("30 mm"): `real` is the value converted to the key's unit */
 };
 
 struct slot {
@@ -547,13 +551,26 @@ static const char *comment_hint(const char *text)
     return strstr(text, " #") || strstr(text, "\t#") ? " (inline comments start with ';')" : "";
 }
 
+/* What follows a number may be a unit ("30 mm", "30mm", "425 degC", "20 µm", "5 %"), not a comment ("1 # note")
+ * nor a second number or word list ("1, 2"): a letter, '%', '°' or 'µ' (UTF-8 0xc2 0xb0, 0xc2 0xb5,
+ * or the Greek mu 0xce 0xbc), after blanks. */
+static bool starts_unit(const char *text)
+{
+    while (is_blank(*text))
+        text++;
+    unsigned char c = (unsigned char)*text;
+    return isalpha(c) || c == '%' || c == 0xc2 || c == 0xce;
+}
+
 static bool parse_int(const struct cfg_key *spec, const char *text, struct parsed_value *out, char *why, size_t size)
 {
     char *end;
     errno = 0;
     long value = strtol(text, &end, 10);
     if (end == text || *end != '\0' || is_blank(text[0])) {
-        snprintf(why, size, "not an integer%s", comment_hint(text));
+        bool unit = end != text && starts_unit(end);
+        snprintf(why, size, "not an integer%s%s", unit ? " (a count: write it without a unit)" : "",
+                 comment_hint(text));
         return false;
     }
     if (errno == ERANGE || !within_range(spec, (double)value)) {
@@ -575,7 +592,7 @@ static bool parse_real(const struct cfg_key *spec, const char *text, struct pars
     char *end;
     errno = 0;
     double value = strtod(text, &end);
-    if (end == text || *end != '\0' || is_blank(text[0])) {
+    if (end == text || is_blank(text[0]) || (*end != '\0' && !starts_unit(end))) {
         snprintf(why, size, "not a number%s%s", spec->choices ? " nor one of the words" : "", comment_hint(text));
         return false;
     }
@@ -584,8 +601,25 @@ static bool parse_real(const struct cfg_key *spec, const char *text, struct pars
         snprintf(why, size, "not a finite number");
         return false;
     }
+    if (*end != '\0') {
+        const char *unit = end;
+        while (is_blank(*unit))
+            unit++;
+        if (units_to_si(value, unit, spec->unit, &value, why, size) != UNITS_OK)
+            return false;
+        out->has_unit = true;
+        if (!isfinite(value)) {
+            snprintf(why, size, "not a finite number in %s", spec->unit);
+            return false;
+        }
+    }
     if (!within_range(spec, value)) {
-        snprintf(why, size, "out of range");
+        char shown[64];
+        format_number(value, shown, sizeof shown);
+        if (out->has_unit)
+            snprintf(why, size, "out of range (%s %s)", shown, spec->unit);
+        else
+            snprintf(why, size, "out of range");
         return false;
     }
     out->real = value;
@@ -771,24 +805,27 @@ struct parse_state {
     struct case_file *c;
     const char *next; /* next unread byte */
     const char *end;
-    int line;         /* number of the line inih works on */
-    char *section;    /* current section as written; NULL before the first header */
-    bool any_section; /* a [section] header was read */
-    int error_line;   /* line of the first error found here, 0 if none */
-    char message[MESSAGE_SIZE];
+    int line;          /* number of the line inih works on */
+    char *section;     /* current section as written; NULL before the first header */
+    bool any_section;  /* a [section] header was read */
+    bool skip_section; /* the current section is unknown (reported once): its keys are not reported again */
+    int error_count;
+    struct text_buffer errors; /* every error, one line each, in the order of the file */
 };
 
-/* Record the first error; returns 0, the handler's "failed". */
+/* Record an error and go on reading, so that one pass reports every bad line; returns 0, the handler's
+ * "failed". */
 static int parse_fail(struct parse_state *st, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static int parse_fail(struct parse_state *st, const char *fmt, ...)
 {
-    if (st->error_line)
+    char message[MESSAGE_SIZE];
+    if (++st->error_count > MAX_LISTED_ERRORS)
         return 0;
     va_list args;
     va_start(args, fmt);
-    vsnprintf(st->message, sizeof st->message, fmt, args);
+    vsnprintf(message, sizeof message, fmt, args);
     va_end(args);
-    st->error_line = st->line > 0 ? st->line : 1;
+    buffer_append(&st->errors, "%s\n", message);
     return 0;
 }
 
@@ -811,9 +848,10 @@ static bool enter_section(struct parse_state *st)
     snprintf(where, sizeof where, "%s:%d", st->c->path, st->line);
     int rank = find_section_rank(&st->c->registry, st->section);
     if (rank < 0) {
-        format_unknown_section(&st->c->registry, where, st->section, st->message, sizeof st->message);
-        st->error_line = st->line;
-        return false;
+        char message[MESSAGE_SIZE];
+        format_unknown_section(&st->c->registry, where, st->section, message, sizeof message);
+        st->skip_section = true;
+        return parse_fail(st, "%s", message);
     }
     if (is_pattern(st->c->registry.keys[rank]->section))
         ensure_instance(st->c, st->section, rank);
@@ -832,6 +870,7 @@ static bool enter_section_line(struct parse_state *st, const char *line)
     /* inih ignores text after ']', so "[spray] dt = 1" would lose dt without a word. */
     if (*rest && *rest != ';' && *rest != '#' && *rest != '\n' && *rest != '\r') {
         int length = (int)strcspn(line, "\r\n");
+        st->skip_section = true;
         return parse_fail(st,
                           "%s:%d: syntax error: text after ']' of a section header: got \"%.*s\"; a section "
                           "header stands alone on its line",
@@ -840,14 +879,48 @@ static bool enter_section_line(struct parse_state *st, const char *line)
     free(st->section);
     st->section = must_strndup(line + 1, (size_t)(close - line - 1));
     st->any_section = true;
+    st->skip_section = false;
     return enter_section(st);
+}
+
+static void format_syntax_error(const char *path, int line, const char *start, const char *end, char *out, size_t size);
+
+/* An empty line in inih's buffer, in place of a line already reported (inih then skips it). */
+static char *blank_line(char *buffer)
+{
+    buffer[0] = '\n';
+    buffer[1] = '\0';
+    return buffer;
+}
+
+/* The first of `chars` in [s, stop) before an inline comment (';' after a blank), as inih finds it; stop if none. */
+static const char *find_before_comment(const char *s, const char *stop, const char *chars)
+{
+    bool after_blank = false;
+    for (; s < stop && !strchr(chars, *s); s++) {
+        if (INI_ALLOW_INLINE_COMMENTS && after_blank && strchr(INI_INLINE_COMMENT_PREFIXES, *s))
+            return stop;
+        after_blank = is_blank(*s);
+    }
+    return s;
+}
+
+/* Would inih call the line [start, stop) (blanks trimmed) a syntax error: neither empty, a comment, a
+ * "[section]" with its ']' nor "key = value" (or "key: value")? */
+static bool is_syntax_error(const char *start, const char *stop)
+{
+    if (start == stop || strchr(INI_START_COMMENT_PREFIXES, *start))
+        return false;
+    if (*start == '[')
+        return find_before_comment(start + 1, stop, "]") == stop;
+    return find_before_comment(start, stop, "=:") == stop;
 }
 
 /* inih's reader: hands over one line per call, so that inih's line count is ours. */
 static char *next_line(char *buffer, int size, void *stream)
 {
     struct parse_state *st = stream;
-    if (st->error_line || st->next >= st->end)
+    if (st->next >= st->end)
         return NULL;
     const char *start = st->next;
     const char *newline = memchr(start, '\n', (size_t)(st->end - start));
@@ -862,13 +935,19 @@ static char *next_line(char *buffer, int size, void *stream)
     if (size < 3 || length > (size_t)size - 2) {
         parse_fail(st, "%s:%d: syntax error: line too long (%zu characters; at most %d)", st->c->path, st->line, length,
                    size - 2);
-        return NULL;
+        return blank_line(buffer);
+    }
+    if (is_syntax_error(start, stop)) {
+        char message[MESSAGE_SIZE];
+        format_syntax_error(st->c->path, st->line, start, stop, message, sizeof message);
+        parse_fail(st, "%s", message);
+        return blank_line(buffer); /* inih would stop at nothing but report only the first */
     }
     memcpy(buffer, start, length);
     buffer[length] = '\n';
     buffer[length + 1] = '\0';
-    if (buffer[0] == '[' && !enter_section_line(st, buffer))
-        return NULL;
+    if (buffer[0] == '[')
+        enter_section_line(st, buffer);
     return buffer;
 }
 
@@ -890,8 +969,8 @@ static int on_key_value(void *user, const char *inih_section, const char *name, 
     (void)inih_section; /* the reader tracks the section: inih truncates long names */
     struct parse_state *st = user;
     struct case_file *c = st->c;
-    if (st->error_line)
-        return 0;
+    if (st->skip_section)
+        return 1; /* the unknown section was reported; its keys would only repeat it */
     char where[PATH_MAX + 32], sections[LIST_SIZE];
     snprintf(where, sizeof where, "%s:%d", c->path, st->line);
     if (!value)
@@ -904,18 +983,17 @@ static int on_key_value(void *user, const char *inih_section, const char *name, 
     struct slot *slot = find_slot(c, st->section, name);
     if (!slot) {
         int rank = find_section_rank(&c->registry, st->section);
-        format_unknown_key(&c->registry, where, st->section, rank, name, value, st->message, sizeof st->message);
-        st->error_line = st->line;
-        return 0;
+        char message[MESSAGE_SIZE];
+        format_unknown_key(&c->registry, where, st->section, rank, name, value, message, sizeof message);
+        return parse_fail(st, "%s", message);
     }
     if (slot->source == SOURCE_FILE)
         return parse_fail(st, "%s: [%s] %s = %s: duplicate key; first given at line %d", where, st->section, name,
                           value, slot->line);
     struct parsed_value parsed;
-    if (!check_value(slot->spec, st->section, value, where, &parsed, st->message, sizeof st->message)) {
-        st->error_line = st->line;
-        return 0;
-    }
+    char message[MESSAGE_SIZE];
+    if (!check_value(slot->spec, st->section, value, where, &parsed, message, sizeof message))
+        return parse_fail(st, "%s", message);
     store_value(slot, value, &parsed, SOURCE_FILE, st->line, NULL);
     return 1;
 }
@@ -1023,14 +1101,9 @@ static int check_text_bytes(const char *path, const char *text, size_t length)
     return SC_OK;
 }
 
-/* inih found a line that is neither "key = value", "[section]" nor a comment. */
-static int report_syntax_error(const char *path, const char *text, size_t length, int line)
+/* The message for a line [start, end) that is neither "key = value", "[section]" nor a comment. */
+static void format_syntax_error(const char *path, int line, const char *start, const char *end, char *out, size_t size)
 {
-    const char *start = text, *end = text + length;
-    for (int n = 1; n < line && start < end; n++) {
-        const char *newline = memchr(start, '\n', (size_t)(end - start));
-        start = newline ? newline + 1 : end;
-    }
     while (start < end && is_blank(*start))
         start++;
     size_t shown = 0;
@@ -1040,8 +1113,21 @@ static int report_syntax_error(const char *path, const char *text, size_t length
         shown--; /* do not cut a UTF-8 character in half */
     const char *what = start < end && *start == '[' ? "section header without ']'"
                                                     : "expected \"key = value\", \"[section]\" or a comment";
-    return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s:%d: syntax error: %s, got \"%.*s\"", path, line, what,
-                        (int)shown, start);
+    format_message(out, size, "%s:%d: syntax error: %s, got \"%.*s\"", path, line, what, (int)shown, start);
+}
+
+/* inih found a syntax error the reader did not (a safety net: is_syntax_error should find them all first). */
+static void append_syntax_error(struct parse_state *st, const char *text, size_t length, int line)
+{
+    const char *start = text, *end = text + length;
+    for (int n = 1; n < line && start < end; n++) {
+        const char *newline = memchr(start, '\n', (size_t)(end - start));
+        start = newline ? newline + 1 : end;
+    }
+    const char *stop = memchr(start, '\n', (size_t)(end - start));
+    char message[MESSAGE_SIZE];
+    format_syntax_error(st->c->path, line, start, stop ? stop : end, message, sizeof message);
+    parse_fail(st, "%s", message);
 }
 
 /* A CR not followed by LF: the file has old Mac line endings (CR only), which a line reader takes for one long
@@ -1061,7 +1147,28 @@ static int check_line_endings(const char *path, const char *text, size_t length)
     return SC_OK;
 }
 
-static int parse_case_text(struct case_file *c, const char *text, size_t length)
+/* Every error of the file: the one error as it is, or "FILE: N errors in the case file:" and the list (cut
+ * short by the message buffer; *every_error has them all). */
+static int report_errors(const struct case_file *c, struct parse_state *st, char **every_error)
+{
+    if (st->error_count > MAX_LISTED_ERRORS)
+        buffer_append(&st->errors, "%s: %d more errors not listed\n", c->path, st->error_count - MAX_LISTED_ERRORS);
+    while (st->errors.length > 0 && st->errors.data[st->errors.length - 1] == '\n')
+        st->errors.data[--st->errors.length] = '\0';
+    int status;
+    if (st->error_count == 1)
+        status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s", st->errors.data);
+    else
+        status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s: %d errors in the case file:\n%s", c->path,
+                              st->error_count, st->errors.data);
+    if (every_error) {
+        *every_error = st->errors.data;
+        st->errors.data = NULL;
+    }
+    return status;
+}
+
+static int parse_case_text(struct case_file *c, const char *text, size_t length, char **every_error)
 {
     SC_TRY(check_text_bytes(c->path, text, length));
     SC_TRY(check_line_endings(c->path, text, length));
@@ -1070,12 +1177,17 @@ static int parse_case_text(struct case_file *c, const char *text, size_t length)
     struct parse_state st = {.c = c, .next = text + bom, .end = text + length};
     int result = ini_parse_stream(next_line, &st, on_key_value, &st);
     free(st.section);
-    if (result < 0)
+    if (result < 0) {
+        free(st.errors.data);
         return sc_error_set(SC_EIO, __FILE__, __LINE__, "%s: inih failed (status %d, out of memory?)", c->path, result);
-    if (result > 0 && (st.error_line == 0 || result < st.error_line))
-        return report_syntax_error(c->path, text + bom, length - bom, result);
-    if (st.error_line)
-        return sc_error_set(SC_EINPUT, __FILE__, __LINE__, "%s", st.message);
+    }
+    if (result > 0 && st.error_count == 0)
+        append_syntax_error(&st, text + bom, length - bom, result);
+    if (st.error_count > 0) {
+        int status = report_errors(c, &st, every_error);
+        free(st.errors.data);
+        return status;
+    }
     /* an empty file (or comments only) is more likely the wrong file than a wish for every default */
     if (!st.any_section) {
         char sections[LIST_SIZE];
@@ -1107,13 +1219,21 @@ static struct case_file *case_create(const char *path, const struct cfg_key *con
 
 int case_load(const char *path, const struct cfg_key *const *registry, struct case_file **out)
 {
+    return case_load_reporting(path, registry, out, NULL);
+}
+
+int case_load_reporting(const char *path, const struct cfg_key *const *registry, struct case_file **out,
+                        char **every_error)
+{
     *out = NULL;
+    if (every_error)
+        *every_error = NULL;
     struct case_file *c = case_create(path, registry);
     char *text = NULL;
     size_t length = 0;
     int status;
     SC_CHECK(status, read_case_text(path, &text, &length), done);
-    SC_CHECK(status, parse_case_text(c, text, length), done);
+    SC_CHECK(status, parse_case_text(c, text, length, every_error), done);
 done:
     free(text);
     if (status != SC_OK) {
@@ -1404,8 +1524,15 @@ static void print_row_columns(const struct case_file *c, const struct slot *slot
 {
     snprintf(name, size, "[%s] %s", slot->section, slot->spec->key);
     snprintf(value, size, "%s", or_empty(slot->text));
-    if (slot->text && !slot->value.is_word && slot->spec->unit && *slot->spec->unit)
+    bool has_unit = slot->spec->unit && *slot->spec->unit;
+    if (slot->text && slot->value.has_unit) { /* the value as given and in SI: "30 mm = 0.03 m" */
+        char si[64];
+        format_number(slot->value.real, si, sizeof si);
+        bool dimensionless = !has_unit || strcmp(slot->spec->unit, "-") == 0;
+        append_text(value, size, " = %s%s%s", si, dimensionless ? "" : " ", dimensionless ? "" : slot->spec->unit);
+    } else if (slot->text && !slot->value.is_word && has_unit) {
         append_text(value, size, " %s", slot->spec->unit);
+    }
     char where[PATH_MAX + 32];
     describe_source(c, slot, where, sizeof where);
     snprintf(source, size, "(%s)", where);
@@ -1645,10 +1772,25 @@ static void print_markdown_table(const struct registry_view *view, int rank, FIL
     fputc('\n', out);
 }
 
+/* What every table below assumes: how values and their units are written. */
+static const char markdown_header[] =
+    "# Case-file keys\n\n"
+    "Generated by `spraycoat keys` (`make docs`); tests/test_keys_doc.sh checks that this page is current.\n\n"
+    "A case file is INI: `key = value` lines under `[section]` headers, comments start with `;` or `#`.  A bare\n"
+    "number is in the SI unit of the key's *unit* column (`-`: dimensionless).  A real value may carry a unit of\n"
+    "its own, which [UDUNITS-2](https://docs.unidata.ucar.edu/udunits/current/) converts to that unit:\n"
+    "`standoff = 30 mm`, `median_diameter = 20 um` (or `20 µm`), `T_initial = 25 degC`, `yield_stress = 250 MPa`,\n"
+    "`dt = 50 ns`, `release_speed_max = 60 m/s`, fractions in `%`: SI prefixes, products, quotients and integer\n"
+    "powers (`g/cm3`, `J/(kg K)`, `mm/s`).  A unit of another dimension (`standoff = 30 s`) or one UDUNITS-2 does\n"
+    "not know is an error that names the unit given and the unit expected; the range is checked after the\n"
+    "conversion.  Integer keys (counts) and the keys whose unit has a fractional power (`m^(4/3)/s`) take bare\n"
+    "numbers.  `spraycoat check CASE` shows a value given with a unit next to its SI value (`30 mm = 0.03 m`).\n\n";
+
 void case_registry_markdown(const struct cfg_key *const *registry, FILE *out)
 {
     struct registry_view view;
     registry_open(&view, registry);
+    fputs(markdown_header, out);
     for (int i = 0; i < view.count; i++)
         if (view.section_rank[i] == i)
             print_markdown_table(&view, i, out);

@@ -51,6 +51,12 @@ struct case_file;
 /* Parse `path`.  On success *out owns the parsed case.  Errors: SC_EIO when the file cannot be read,
  * SC_EINPUT for anything wrong in it. */
 int case_load(const char *path, const struct cfg_key *const *registry, struct case_file **out);
+/* The same, and on SC_EINPUT for the lines of the file, *every_error (the caller frees it) lists every error
+ * found (bad values, unknown sections and keys, syntax), one a line, in the order of the file; the recorded error
+ * is that one error, or "FILE: N errors in the case file:" and the list (which the message buffer may cut
+ * short).  *every_error is NULL on success and for the other errors. */
+int case_load_reporting(const char *path, const struct cfg_key *const *registry, struct case_file **out,
+                        char **every_error);
 void case_free(struct case_file *c);
 
 /* Override a value as if it were given in the file (e.g. --threads); `origin` is shown as its source

@@ -29,6 +29,11 @@
 #ifndef SPRAYCOAT_VERSION
 #define SPRAYCOAT_VERSION "unknown"
 #endif
+/* The semantic version MAJOR.MINOR.PATCH, from the file VERSION (README, "The commands", says when each part
+ * grows). */
+#ifndef SPRAYCOAT_SEMVER
+#define SPRAYCOAT_SEMVER "0.0.0 (not built by the Makefile)"
+#endif
 #ifndef SPRAYCOAT_FLAGS
 #define SPRAYCOAT_FLAGS "unknown (not built by the Makefile)"
 #endif
@@ -151,7 +156,7 @@ static const char target[] =
 /* libinih's ini.h has no version macro. */
 #define INIH "linked (ini.h carries no version)"
 
-enum { ITEMS = 12 };
+enum { ITEMS = 13 };
 static struct spraycoat_build_item items[ITEMS + 1];
 static char hdf5_text[64], mpi_text[256];
 static pthread_once_t once = PTHREAD_ONCE_INIT;
@@ -192,6 +197,7 @@ static void fill_items(void)
     fill_hdf5();
     fill_mpi();
     const struct spraycoat_build_item list[] = {
+        {"version", SPRAYCOAT_SEMVER},
         {"program_version", SPRAYCOAT_VERSION},
         {"compiler", COMPILER},
         {"flags", SPRAYCOAT_FLAGS},

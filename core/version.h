@@ -11,7 +11,8 @@ struct spraycoat_build_item {
     const char *value;
 };
 
-/* The build record, ended by an entry whose name is NULL: program_version, compiler, flags (the flags every
+/* The build record, ended by an entry whose name is NULL: version (semantic, MAJOR.MINOR.PATCH, from the file
+ * VERSION), program_version (git describe), compiler, flags (the flags every
  * file is compiled with), file_flags (the per-file additions), target (the instruction sets compiled for),
  * openmp, then the libraries: hdf5, sundials, cairo, osmesa, inih, mpi.  Never empty values; the same for the
  * life of the process (filled on the first call, thread-safe). */

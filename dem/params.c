@@ -26,7 +26,7 @@ const struct cfg_key dem_case_keys[] = {
     {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL, "radius of the injection disc at z = 0"},
     {"spray", "release_speed_min", CFG_REAL, "m/s", "0", 0, 1e4, 0, NULL, "lowest release speed"},
     {"spray", "release_speed_max", CFG_REAL, "m/s", "50", 0, 1e4, 0, NULL, "highest release speed"},
-    {"spray", "release_cone", CFG_REAL, "deg", "0", 0, 89.9, 0, NULL,
+    {"spray", "release_cone", CFG_REAL, "degree", "0", 0, 89.9, 0, NULL,
      "half-angle of the cone of release directions around +z (uniform in solid angle)"},
     {"spray", "phi", CFG_REAL, "-", "0.5", 0, 1, 0, NULL, "phi of the one-step scheme, Eqs. 42-43 (0.5: trapezoidal)"},
     /* at most 0.1: dem/integrate.c's first_iterate_stops needs tol < 1 */

@@ -36,7 +36,7 @@ const struct cfg_key mpm_case_keys[] = {
      "diameter or box side, h the height); replaces diameter/velocity/angle"},
     {"impact", "diameter", CFG_REAL, "m", "14e-6", 0, 1, 1, NULL, "single particle: diameter"},
     {"impact", "velocity", CFG_REAL, "m/s", "810", 0, 1e5, 0, NULL, "single particle: impact speed"},
-    {"impact", "angle", CFG_REAL, "deg", "0", 0, 89, 0, NULL,
+    {"impact", "angle", CFG_REAL, "degree", "0", 0, 89, 0, NULL,
      "single particle: angle of the velocity from the substrate normal (oblique impact along +x)"},
     {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
      "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},

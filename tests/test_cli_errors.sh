@@ -93,9 +93,11 @@ run1 cli_help 0 "usage" "$bin" --help
 run1 cli_help_short 0 "usage" "$bin" -h
 run1 cli_help_after_command 0 "usage" "$bin" check --help
 expect cli_version 0 "spraycoat " "$bin" --version
-# the version line first, then the build record of /code (compiler, flags, libraries)
-head -n 1 "$tmp/out" | grep -q '^spraycoat [^ ]*$' || why="$why; --version's first line is \"$(head -n 1 "$tmp/out")\""
-for item in compiler flags hdf5 sundials; do
+# the semantic version first (MAJOR.MINOR.PATCH), then the build record of /code (git description, compiler,
+# flags, libraries)
+head -n 1 "$tmp/out" | grep -Eqx 'spraycoat [0-9]+\.[0-9]+\.[0-9]+' ||
+    why="$why; --version's first line is \"$(head -n 1 "$tmp/out")\""
+for item in git compiler flags hdf5 sundials mpi omp_wait; do
     grep -q "^  $item  *[^ ]" "$tmp/out" || why="$why; --version has no $item line"
 done
 report cli_version

@@ -1,8 +1,9 @@
 #!/bin/sh
 # Every output records how the program was built: the group /code of spray.h5 and impact.h5 (a short spray and
-# a short impact) holds the build record of core/version.h as text attributes, none of them empty; the flags
-# state -ffp-contract=off (bit-identical results must not rest on a compiler default); and `spraycoat
-# --version` prints the same record.
+# a short impact) holds the build record of core/version.h as text attributes, none of them empty; the semantic
+# version is that of the file VERSION (MAJOR.MINOR.PATCH); the flags state -ffp-contract=off (bit-identical
+# results must not rest on a compiler default); and `spraycoat --version` prints the same record, the semantic
+# version on its first line and the git description as "git".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets it).  Needs h5dump.
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -23,17 +24,22 @@ attr() { h5dump -a "/code/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): "\(.*\)"$/\1/
 check() {
     why=""
     [ -f "$2" ] || { fail "$1" "$2 was not written"; return; }
-    for name in program_version compiler flags file_flags target openmp hdf5 sundials cairo osmesa inih mpi; do
+    for name in version program_version compiler flags file_flags target openmp hdf5 sundials cairo osmesa inih mpi; do
         [ -n "$(attr "$2" "$name")" ] || why="$why /code/$name missing or empty;"
     done
     case "$(attr "$2" flags)" in
     *-ffp-contract=off*) ;;
     *) why="$why /code/flags \"$(attr "$2" flags)\" lacks -ffp-contract=off;" ;;
     esac
+    semver=$(cat VERSION)
+    echo "$semver" | grep -Eqx '[0-9]+\.[0-9]+\.[0-9]+' || why="$why VERSION \"$semver\" is not MAJOR.MINOR.PATCH;"
+    [ "$(attr "$2" version)" = "$semver" ] || why="$why /code/version \"$(attr "$2" version)\" is not VERSION's;"
     version=$("$BIN" --version | head -n 1)
-    [ "spraycoat $(attr "$2" program_version)" = "$version" ] ||
-        why="$why /code/program_version \"$(attr "$2" program_version)\" is not that of --version (\"$version\");"
+    [ "spraycoat $(attr "$2" version)" = "$version" ] ||
+        why="$why /code/version \"$(attr "$2" version)\" is not that of --version (\"$version\");"
     "$BIN" --version >"$T/version.txt"
+    grep -qxF "  $(printf '%-12s' git) $(attr "$2" program_version)" "$T/version.txt" ||
+        why="$why --version does not print the git description /code/program_version;"
     for name in compiler flags hdf5 sundials; do
         grep -qxF "  $(printf '%-12s' "$name") $(attr "$2" "$name")" "$T/version.txt" ||
             why="$why --version does not print /code/$name \"$(attr "$2" "$name")\";"

@@ -670,6 +670,43 @@ static void test_hash_follows_file_contents(void)
     unlink(data);
 }
 
+/* One pass reports every bad line, in the order of the file: a bad value, an unknown key, a syntax error and an
+ * unknown section (whose keys are not reported again); a single error keeps its message as it is. */
+static void test_every_error(void)
+{
+    char path[PATH_MAX];
+    write_file(path, sizeof path, "bad.ini",
+               "[alpha]\ncount = 0\ncuont = 3\njust words\n[gamma]\nx = 1\n[alpha]\nlength = 2\nfraction = 7\n", -1);
+    struct case_file *c = NULL;
+    char *every = NULL;
+    sc_error_clear();
+    int status = case_load_reporting(path, registry, &c, &every);
+    CHECK(status == SC_EINPUT && !c, "status %d", status);
+    case_free(c);
+    static const char *const expected[] = {"bad.ini:2: [alpha] count = 0: out of range", "bad.ini:3: [alpha] cuont",
+                                           "bad.ini:4: syntax error", "bad.ini:5: [gamma]: unknown section",
+                                           "bad.ini:9: [alpha] fraction = 7: out of range"};
+    int lines = 0;
+    const char *line = every ? every : "";
+    for (; *line; lines++) {
+        size_t length = strcspn(line, "\n");
+        if (lines < 5)
+            CHECK(strstr(line, expected[lines]) && (size_t)(strstr(line, expected[lines]) - line) < length,
+                  "error %d is \"%.*s\", expected \"%s\"", lines + 1, (int)length, line, expected[lines]);
+        line += length + (line[length] == '\n');
+    }
+    CHECK(lines == 5, "%d errors listed, expected 5:\n%s", lines, every ? every : "(none)");
+    CHECK(strstr(sc_error_message(), "bad.ini: 5 errors in the case file:"), "message: %s", sc_error_message());
+    free(every);
+    /* one error: the message of that error alone, and the list holds just it */
+    write_file(path, sizeof path, "bad.ini", "[alpha]\ncount = 0\n", -1);
+    status = case_load_reporting(path, registry, &c, &every);
+    CHECK(status == SC_EINPUT && every && !strchr(every, '\n'), "one error, one line: %s", every ? every : "(none)");
+    CHECK(strstr(sc_error_message(), "bad.ini:2: [alpha] count = 0") == sc_error_message() + strlen(path) - 7,
+          "message: %s", sc_error_message());
+    free(every);
+}
+
 int main(void)
 {
     const char *base = getenv("TMPDIR");
@@ -693,6 +730,7 @@ int main(void)
     RUN(test_unknown_key);
     RUN(test_duplicate_key);
     RUN(test_syntax_errors);
+    RUN(test_every_error);
     RUN(test_binary_garbage);
     RUN(test_utf8_bom_and_crlf);
     RUN(test_material_sections);

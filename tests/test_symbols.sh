@@ -29,6 +29,7 @@ core_prefixes() {
         parallel) echo "parallel_" ;;
         rng) echo "rng_" ;;
         run_keys) echo "run_" ;;
+        units) echo "units_" ;;
         version) echo "spraycoat_version spraycoat_build_info" ;;
         *) echo "" ;;
     esac

@@ -1,0 +1,127 @@
+/* Units in case files, converted with UDUNITS-2 (see core/units.h).
+ *
+ * UDUNITS-2 knows the SI prefixes and derived units, non-SI units in use (degC, degF, bar, psi, inch, min, h, %)
+ * and parses products, quotients and integer powers ("kg/m3", "J/(kg K)", "m2/s", "µm" in UTF-8), so that no
+ * table of units lives here.  Its parser has no fractional powers: a key whose unit is "m^(4/3)/s" takes bare SI
+ * numbers only (UNITS_KEY_NO_UNIT). */
+#include "core/units.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <string.h>
+#include <udunits2.h>
+
+static ut_system *unit_system;
+static char database_path[1024];
+static pthread_once_t load_once = PTHREAD_ONCE_INIT;
+
+/* Read the database once; it stays for the life of the process (reachable, so not a leak to LSan). */
+static void load_database(void)
+{
+    ut_set_error_message_handler(ut_ignore); /* UDUNITS-2 prints to stderr by default; we report ourselves */
+    ut_status status;
+    const char *path = ut_get_path_xml(NULL, &status);
+    snprintf(database_path, sizeof database_path, "%s", path ? path : "(none)");
+    unit_system = ut_read_xml(NULL);
+}
+
+static ut_system *units_system(void)
+{
+    pthread_once(&load_once, load_database);
+    return unit_system;
+}
+
+const char *units_database_path(void)
+{
+    units_system();
+    return database_path;
+}
+
+/* The registry writes dimensionless as "-" or leaves the unit empty; UDUNITS-2 spells it "1". */
+static const char *key_unit_text(const char *key_unit)
+{
+    return !key_unit || !*key_unit || strcmp(key_unit, "-") == 0 ? "1" : key_unit;
+}
+
+static ut_unit *parse_unit(ut_system *system, const char *text)
+{
+    return ut_parse(system, text, UT_UTF8);
+}
+
+int units_key_unit_known(const char *key_unit)
+{
+    ut_system *system = units_system();
+    if (!system)
+        return 0;
+    ut_unit *unit = parse_unit(system, key_unit_text(key_unit));
+    ut_free(unit);
+    return unit != NULL;
+}
+
+/* value * factor where factor = 1/n for a whole n (mm, um, ns, %, mm/s): divide by n, which rounds correctly
+ * (30 mm is the double nearest 0.03, as "0.03" is; the factor is taken as whole when within 1e-12 of it), where
+ * multiplying by 0.001, itself rounded, may miss it by an ulp and so change the case hash between "30 mm" and "0.03".
+ * Affine conversions (degC) go through UDUNITS-2. */
+static double convert(const cv_converter *forward, const cv_converter *back, double value)
+{
+    double offset = cv_convert_double(forward, 0.0);
+    double inverse = cv_convert_double(back, 1.0); /* 1 s in ns: 999999999.99999994, UDUNITS-2 inverts 1e-9 */
+    double whole = nearbyint(inverse);
+    if (offset == 0.0 && whole > 1.0 && whole < 9007199254740992.0 && fabs(inverse - whole) <= 1e-12 * whole)
+        return value / whole;
+    return cv_convert_double(forward, value);
+}
+
+static enum units_status convert_units(ut_unit *from, ut_unit *to, double value, double *si, const char *given,
+                                       const char *expected, char *why, size_t size)
+{
+    if (!ut_are_convertible(from, to)) {
+        snprintf(why, size, "the unit \"%s\" is not convertible to the key's unit \"%s\" (another dimension)", given,
+                 expected);
+        return UNITS_MISMATCH;
+    }
+    cv_converter *forward = ut_get_converter(from, to), *back = ut_get_converter(to, from);
+    enum units_status status = UNITS_OK;
+    if (!forward || !back) {
+        snprintf(why, size, "cannot convert \"%s\" to \"%s\"", given, expected);
+        status = UNITS_MISMATCH;
+    } else {
+        *si = convert(forward, back, value);
+    }
+    cv_free(forward);
+    cv_free(back);
+    return status;
+}
+
+enum units_status units_to_si(double value, const char *given, const char *key_unit, double *si, char *why, size_t size)
+{
+    ut_system *system = units_system();
+    if (!system) {
+        snprintf(why, size,
+                 "cannot read the UDUNITS-2 database of units (%s; set UDUNITS2_XML_PATH, or install "
+                 "libudunits2-data); write the value in SI without a unit",
+                 database_path);
+        return UNITS_NO_DATABASE;
+    }
+    const char *expected = key_unit_text(key_unit);
+    ut_unit *to = parse_unit(system, expected);
+    if (!to) {
+        snprintf(why, size, "this key takes a bare number in %s (no unit: UDUNITS-2 cannot express its unit)",
+                 key_unit);
+        return UNITS_KEY_NO_UNIT;
+    }
+    ut_unit *from = parse_unit(system, given);
+    enum units_status status;
+    if (!from) {
+        snprintf(why, size,
+                 "unknown unit \"%s\" (UDUNITS-2 units, e.g. mm, um, degC, MPa, ns, m/s); the key's unit is \"%s\"",
+                 given, expected);
+        status = UNITS_UNKNOWN;
+    } else {
+        status = convert_units(from, to, value, si, given, expected, why, size);
+    }
+    ut_free(from);
+    ut_free(to);
+    return status;
+}
