@@ -144,6 +144,15 @@ static void print_impact_results(hid_t file, FILE *out)
         free(column[k]);
 }
 
+/* calibrate.h5: the calibrated pair (NaN where the boundaries do not intersect in the grid) and the grid. */
+static void print_calibrate_results(hid_t file, FILE *out)
+{
+    fprintf(out, "calibration:\n");
+    static const char *const names[] = {"Gc", "Gc_rate", "Gc_min", "Gc_max", "Gc_rate_min", "Gc_rate_max"};
+    for (int k = 0; k < 6; k++)
+        print_attribute(file, names[k], out);
+}
+
 /* vcrit.h5: the table and the diameters without a bracket. */
 static void print_vcrit_results(hid_t file, FILE *out)
 {
@@ -259,6 +268,8 @@ static int info_file(const char *path, FILE *out)
             print_attribute(file, impact_checkpoint[k], out);
     } else if (strcmp(stage, "vcrit") == 0) {
         print_vcrit_results(file, out);
+    } else if (strcmp(stage, "calibrate") == 0) {
+        print_calibrate_results(file, out);
     } else {
         if (h5_exists(file, "stats")) {
             hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
@@ -352,8 +363,8 @@ static void print_render_state(const char *run_dir, const char *stages, FILE *ou
 
 int info_print(const char *target, FILE *out)
 {
-    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit"};
-    enum { STAGES = 4, VCRIT = 3, IMPACT = 2 };
+    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate"};
+    enum { STAGES = 5, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
@@ -391,8 +402,8 @@ int info_print(const char *target, FILE *out)
             SC_DIE_OOM(strlen(newest) + 1, "a file name");
         if (k == IMPACT && !done)
             print_runs_done(target, out);
-        if (k == VCRIT && !done) {
-            snprintf(path, sizeof path, "%s/vcrit_runs.csv", target);
+        if ((k == VCRIT || k == CALIBRATE) && !done) {
+            snprintf(path, sizeof path, "%s/%s_runs.csv", target, stage);
             int lines = count_lines(path);
             if (lines >= 2)
                 fprintf(out, "  %d runs recorded in %s\n", lines - 2, path);

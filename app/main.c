@@ -331,12 +331,13 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     const struct stage *chosen[8];
     int count = 0;
     if (list[strspn(list, ", ")] == '\0')
-        SC_FAIL(SC_EINPUT, "no stage to run ('%s'; allowed: spray, couple, impact, vcrit, render)", list);
+        SC_FAIL(SC_EINPUT, "no stage to run ('%s'; allowed: spray, couple, impact, vcrit, calibrate, render)", list);
     for (const char *p = list; *p;) {
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
         if (!stage || count == 8)
-            SC_FAIL(SC_EINPUT, "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, render)",
+            SC_FAIL(SC_EINPUT,
+                    "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, calibrate, render)",
                     (int)length, p, list);
         int repeated = 0;
         for (int i = 0; i < count; i++)

@@ -10,6 +10,7 @@
 #      the intersection of the two boundaries near the lines' (x1, x2) = (0.617, 0.367), i.e. Gc = 717 J/m2 and
 #      Gc_rate = 1.367e11 J/m2/s, within 0.06 of the scaled grid (half a grid step of 0.1, plus the fit's
 #      curvature);
+#   `spraycoat info` reports the stage done and the calibrated Gc;
 #   3. a case with fewer speeds than diameters is refused (exit 2, naming the key).
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
@@ -119,6 +120,15 @@ echo "$best" | awk -F, '{ x1 = ($1 - 100) / 1000; x2 = ($2 - 1e11) / 1e11
     exit !(NF == 3 && (x1 - 0.6167) ^ 2 < 0.06 ^ 2 && (x2 - 0.3667) ^ 2 < 0.06 ^ 2) }' ||
     why="$why calibrated pair '$best', expected near Gc = 717, Gc_rate = 1.367e11;"
 if [ -z "$why" ]; then pass calibrate_known_outcomes; else fail calibrate_known_outcomes "$why"; fi
+
+# `spraycoat info` lists the calibrate stage as done and prints the calibrated pair of calibrate.h5
+"$BIN" info "$RUN" >"$T/info.log" 2>&1
+gc=$(awk '$1 == "Gc" { print $2 }' "$T/info.log")
+if grep -q '^stage calibrate: done' "$T/info.log" && awk -v g="$gc" 'BEGIN { exit !(g > 650 && g < 780) }'; then
+    pass calibrate_info
+else
+    fail calibrate_info "info printed: $(grep -E 'calibrate|Gc' "$T/info.log" | tr '\n' ' ')"
+fi
 
 # ---- 3. a speed per diameter ---------------------------------------------------------------------------------------
 write_case "$T/bad.ini" 2 "900"
