@@ -21,6 +21,11 @@ struct render_box render_scene_box(const struct render_scene *scene)
     return (struct render_box){0, top, fmax(1, right), fmax(1, scene->height - top - bottom)};
 }
 
+double render_point_radius(double spacing)
+{
+    return spacing * 0.5 * sqrt(3.0);
+}
+
 int render_view_shows(const struct render_scene *scene, const double x[3])
 {
     return scene->view != RENDER_VIEW_SECTION || x[1] >= scene->section_y;

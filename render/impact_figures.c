@@ -104,7 +104,8 @@ done:
     return status;
 }
 
-/* Half the [impact] spacing the run used, from the resolved case stored in impact.h5 (or the case given). */
+/* render_point_radius of the [impact] spacing the run used, from the resolved case stored in impact.h5 (or the
+ * case given). */
 static double point_radius(const struct render_request *req, hid_t file)
 {
     if (!isnan(req->cfg->point_radius))
@@ -120,7 +121,7 @@ static double point_radius(const struct render_request *req, hid_t file)
     }
     sc_error_clear();
     free(text);
-    return 0.5 * spacing;
+    return render_point_radius(spacing);
 }
 
 /* ---- 3-D pictures ---- */

@@ -19,7 +19,7 @@ const struct cfg_key render_case_keys[] = {
     {"render", "range_max", CFG_REAL, "unit of field", "auto", -1e300, 1e300, CFG_NOT_HASHED, "auto",
      "value drawn with the high end of viridis; auto: the largest over the snapshots drawn"},
     {"render", "point_radius", CFG_REAL, "m", "auto", 0, 1, CFG_MIN_EXCLUSIVE | CFG_NOT_HASHED, "auto",
-     "radius of the material-point spheres; auto: half the [impact] spacing the run used"},
+     "radius of the material-point spheres; auto: sqrt(3)/2 x the [impact] spacing the run used (no see-through gaps)"},
     {"render", "section_y", CFG_REAL, "m", "0", -1, 1, CFG_NOT_HASHED, NULL,
      "section view: the cut plane y = section_y (the impact axis of a single particle lies in y = 0)"},
     {"render", "deposit_color", CFG_CHOICE, "", "diameter", 0, 0, CFG_NOT_HASHED, "diameter|speed",

@@ -71,6 +71,16 @@ struct render_scene {
     double min_pixel_radius; /* spheres are drawn at least this big (px), so that far views show something */
 };
 
+/* The radius a material point of a lattice of `spacing` is drawn with: spacing sqrt(3)/2, the radius at which
+ * spheres on a cubic lattice fill space (a cube's centre is that far from its corners).  Spheres of half the
+ * spacing only touch: along a lattice axis the background shows between every four of them, and once the body
+ * stretches (an impact spreads the particle sideways by ~10 %) the gaps widen.  Under most of the body the
+ * columns lean outward and their lower points hide the gaps, but no point ever crosses a mirror plane of a
+ * symmetric impact (x = 0, y = 0): there the gaps line up into see-through lines that look like cracks.  At
+ * sqrt(3)/2 no line of sight passes an undeformed lattice and a sideways stretch of up to 22 % stays closed; the
+ * price is a silhouette 0.37 spacing larger on each side ([render] point_radius sets another radius). */
+double render_point_radius(double spacing);
+
 /* Orthographic camera: pixel (px, py) from the top-left corner of the image of a point x. */
 struct render_camera {
     double right[3], up[3], toward[3]; /* unit vectors; toward points from the scene to the viewer */
