@@ -180,9 +180,21 @@ static int draw_snapshot(struct impact_run *run, struct render_renderer **render
     char caption[128];
     snprintf(caption, sizeof caption, "t = %.2f ns%s", t * 1e9, run->label);
     struct render_spheres spheres = {value.count, x.values, NULL, run->radius, value.values};
-    struct render_scene scene = {
-        view,    cfg->width,     cfg->height, lo, hi, field_labels[cfg->field], field_units[cfg->field],
-        caption, cfg->section_y, 0.5};
+    struct render_scene scene = {view,
+                                 cfg->width,
+                                 cfg->height,
+                                 lo,
+                                 hi,
+                                 field_labels[cfg->field],
+                                 field_units[cfg->field],
+                                 caption,
+                                 cfg->section_y,
+                                 0.5,
+                                 1,
+                                 0,
+                                 0,
+                                 NULL,
+                                 NULL};
     const struct render_image *image;
     int status;
     SC_CHECK(status, render_renderer_get(cfg, renderer), done);
@@ -214,15 +226,15 @@ static int snapshot_pictures(struct impact_run *run, struct render_renderer **re
         SC_TRY(render_output_push(out, name, "impact", 0, title, NULL));
     }
     const char *view_name = view_names[cfg->view == RENDER_VIEW_ISO ? 0 : cfg->view == RENDER_VIEW_SECTION ? 1 : 2];
-    if (cfg->every > 0) {
-        snprintf(path, sizeof path, "%s/frames", dir);
+    if (cfg->every > 0) { /* the film of this run: figures/film_impact/ or film_impact_run_NNNN/ */
+        snprintf(path, sizeof path, "%s/film_%s", dir, run->prefix);
         SC_TRY(mkdir_if_missing(path));
     }
     for (int i = 0; i < run->snapshot_count; i++) {
         if (!is_frame(run, i))
             continue;
-        snprintf(path, sizeof path, "%s/frames/%s_%s_%s_%s.png", dir, run->prefix, field_names[cfg->field], view_name,
-                 run->snapshots[i]);
+        snprintf(path, sizeof path, "%s/film_%s/%s_%s_%s.png", dir, run->prefix, field_names[cfg->field], view_name,
+                 run->snapshots[i]); /* film_impact_run_0001/eps_p_section_000003.png */
         SC_TRY(draw_snapshot(run, renderer, i, cfg->view, lo, hi, path));
         out->frames++;
     }

@@ -13,7 +13,8 @@ const struct cfg_key render_case_keys[] = {
     {"render", "width", CFG_INT, "px", "1280", 64, 8192, CFG_NOT_HASHED, NULL, "width of 3-D pictures and frames"},
     {"render", "height", CFG_INT, "px", "720", 64, 8192, CFG_NOT_HASHED, NULL, "height of 3-D pictures and frames"},
     {"render", "every", CFG_INT, "snapshots", "1", 0, 1e9, CFG_NOT_HASHED, NULL,
-     "frame sequence: every Nth impact snapshot (and the last) into figures/frames/; 0: no frames"},
+     "films: every Nth snapshot (and the last) as PNG frames, the spray plume into figures/film_plume/, each "
+     "impact run into figures/film_impact*/; 0: none (command line: --every N)"},
     {"render", "range_min", CFG_REAL, "unit of field", "auto", -1e300, 1e300, CFG_NOT_HASHED, "auto",
      "value drawn with the low end of viridis; auto: the smallest over the snapshots drawn"},
     {"render", "range_max", CFG_REAL, "unit of field", "auto", -1e300, 1e300, CFG_NOT_HASHED, "auto",

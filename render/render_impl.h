@@ -43,7 +43,7 @@ struct render_plot {
 int render_plot_write(const struct render_plot *plot, const char *dir, const char *name);
 
 /* The colour bar (with field name, unit and range) and the caption, drawn by Cairo over the image. */
-int render_overlay_scene(struct render_image *image, const struct render_scene *scene);
+int render_overlay_scene(struct render_image *image, const struct render_scene *scene, const struct render_camera *cam);
 
 /* Text: the font every picture uses (sans-serif) at `size` px; anchor_x and anchor_y in [0, 1] place the text's
  * box relative to (x, y): 0 left/top, 0.5 centre, 1 right/bottom. */

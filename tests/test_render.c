@@ -72,8 +72,21 @@ static void make_sheet(struct sheet *s)
 
 static struct render_scene top_scene(void)
 {
-    return (struct render_scene){RENDER_VIEW_TOP, WIDTH, HEIGHT, 3.0, 10.5, "effective plastic strain", "-",
-                                 "t = 1.00 ns",   0,     0.5};
+    return (struct render_scene){RENDER_VIEW_TOP,
+                                 WIDTH,
+                                 HEIGHT,
+                                 3.0,
+                                 10.5,
+                                 "effective plastic strain",
+                                 "-",
+                                 "t = 1.00 ns",
+                                 0,
+                                 0.5,
+                                 0,
+                                 0,
+                                 0,
+                                 NULL,
+                                 NULL};
 }
 
 static void test_gradient_colours(void)
@@ -141,7 +154,8 @@ static void test_section_shows_cut_face(void)
                 value[n] = x[3 * n + 1] * 1e6; /* -3 .. 2 */
             }
     struct render_spheres spheres = {N, x, NULL, 0.5e-6, value};
-    struct render_scene scene = {RENDER_VIEW_SECTION, WIDTH, HEIGHT, -3, 2, "y", "um", NULL, 0, 0.5};
+    struct render_scene scene = {
+        RENDER_VIEW_SECTION, WIDTH, HEIGHT, -3, 2, "y", "um", NULL, 0, 0.5, 0, 0, 0, NULL, NULL};
     struct render_renderer *r;
     if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
         CHECK(0, "renderer: %s", sc_error_message());
@@ -236,7 +250,7 @@ static void test_no_lines_on_mirror_planes(void)
                 value[n] = 0.5;
             }
     struct render_spheres spheres = {N, x, NULL, render_point_radius(h), value};
-    struct render_scene scene = {RENDER_VIEW_TOP, WIDTH, HEIGHT, 0, 1, "value", "-", NULL, 0, 0.5};
+    struct render_scene scene = {RENDER_VIEW_TOP, WIDTH, HEIGHT, 0, 1, "value", "-", NULL, 0, 0.5, 0, 0, 0, NULL, NULL};
     struct render_renderer *r;
     if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
         CHECK(0, "renderer: %s", sc_error_message());
