@@ -566,7 +566,7 @@ static void plume_caption(const struct spray_snapshot *snap, char *out, size_t s
     size_t flying = 0;
     for (size_t i = 0; i < snap->d.count; i++)
         flying += snap->state.values[i] == 0;
-    snprintf(out, size, "t = %.3f ms: %zu particles in flight, %zu on the target", snap->t * 1e3, flying,
+    snprintf(out, size, "t = %.3f ms: %zu particles in flight, %zu deposited", snap->t * 1e3, flying,
              snap->d.count - flying);
 }
 
