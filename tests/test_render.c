@@ -297,6 +297,54 @@ static void test_no_lines_on_mirror_planes(void)
     free(x), free(value);
 }
 
+/* Decorations: on a side view framed on a box (the plume picture), the guide (a nozzle-exit line) is drawn where
+ * the camera puts it, and the scale bar is as long as its label says: its longest black horizontal run in the
+ * scene's bottom band is render_scale_length(a fifth of the scene's width) x pixels per metre, to 2 px. */
+static void test_guides_and_scale_bar(void)
+{
+    double x[3 * 3] = {0, 0, 0.002, 0.001, 0, 0.010, -0.001, 0, 0.020}, value[3] = {0, 0.5, 1};
+    double radius[3] = {1e-4, 1e-4, 1e-4}, line[6] = {-0.003, 0, 0, 0.003, 0, 0};
+    double frame[6] = {-0.008, 0, -0.001, 0.008, 0, 0.031};
+    struct render_guide nozzle = {line, 2, 0, "nozzle exit", 1};
+    struct render_spheres spheres = {3, x, radius, 0, value};
+    struct render_scene scene = {RENDER_VIEW_SIDE, WIDTH, HEIGHT, 0, 1, "speed", "m/s", NULL, 0, 2.0, 1, 1, 1,
+                                 &nozzle,          frame};
+    struct render_renderer *r;
+    if (render_renderer_create(WIDTH, HEIGHT, &r) != SC_OK) {
+        CHECK(0, "renderer: %s", sc_error_message());
+        return;
+    }
+    struct render_camera cam;
+    const struct render_image *image;
+    CHECK(render_spheres_draw(r, &spheres, &scene, &cam, &image) == SC_OK, "draw: %s", sc_error_message());
+    /* the frame box, not the spheres, sets the scale: 16 mm wide or 32 mm high into the scene box */
+    struct render_box box = render_scene_box(&scene);
+    double expected = 0.92 * fmin(box.width / 0.016, box.height / 0.032);
+    CHECK_CLOSE(cam.pixels_per_metre, expected, 1e-9, 0, "pixels per metre of the frame box");
+    double mid[3] = {0.0015, 0, 0}, px, py;
+    render_camera_project(&cam, mid, &px, &py);
+    uint32_t pixel = render_pixel(image, (int)px, (int)py);
+    int c[3];
+    channels(pixel, c);
+    CHECK(c[0] > 150 && c[1] < 90 && c[2] < 90, "guide at (%.0f, %.0f) is %06x, not the guides' red", px, py,
+          pixel & 0xffffff);
+    double bar_m = render_scale_length(0.2 * box.width / cam.pixels_per_metre);
+    int longest = 0;
+    for (int y = (int)(box.y + 0.8 * box.height); y < (int)(box.y + box.height); y++) {
+        int run = 0;
+        for (int xpix = (int)(box.x + 0.5 * box.width); xpix < (int)(box.x + box.width); xpix++) {
+            run = (render_pixel(image, xpix, y) & 0xffffff) == 0 ? run + 1 : 0;
+            longest = run > longest ? run : longest;
+        }
+    }
+    CHECK(fabs(longest - bar_m * cam.pixels_per_metre) <= 2, "scale bar %d px, %g m is %.1f px", longest, bar_m,
+          bar_m * cam.pixels_per_metre);
+    CHECK_CLOSE(render_scale_length(0.0042), 0.002, 1e-12, 0, "round length below 4.2 mm");
+    CHECK_CLOSE(render_scale_length(7e-6), 5e-6, 1e-12, 0, "round length below 7 um");
+    CHECK_CLOSE(render_scale_length(1e-3), 1e-3, 1e-12, 0, "round length below 1 mm");
+    render_renderer_destroy(r);
+}
+
 static void test_histogram(void)
 {
     double values[] = {0, 0.5, 1, 1.5, 2, 2.5, 3, 3.5, 4, NAN};
@@ -319,6 +367,7 @@ int main(void)
     RUN(test_section_shows_cut_face);
     RUN(test_same_input_same_pixels);
     RUN(test_no_lines_on_mirror_planes);
+    RUN(test_guides_and_scale_bar);
     RUN(test_histogram);
     return check_finish();
 }
