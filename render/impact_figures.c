@@ -1,12 +1,10 @@
 /* Figures of the impact stage (RUN_DIR/impact.h5): per run (the root, or each /run_NNNN/ group) PBCP and v_rest
  * vs time per body, the energy balance vs time, the last snapshot in the three views, and the frame sequence
  * (Tang Figs. 4.5, 5.10, 5.12, 5.15-5.17). */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "core/error.h"
 #include "core/h5io.h"
@@ -126,13 +124,6 @@ static double point_radius(const struct render_request *req, hid_t file)
 
 /* ---- 3-D pictures ---- */
 
-static int mkdir_if_missing(const char *path)
-{
-    if (mkdir(path, 0777) != 0 && errno != EEXIST)
-        SC_FAIL(SC_EIO, "render: cannot create folder %s: %s", path, strerror(errno));
-    return SC_OK;
-}
-
 /* Snapshot i is a frame: every Nth, and the last. */
 static int is_frame(const struct impact_run *run, int i)
 {
@@ -228,7 +219,7 @@ static int snapshot_pictures(struct impact_run *run, struct render_renderer **re
     const char *view_name = view_names[cfg->view == RENDER_VIEW_ISO ? 0 : cfg->view == RENDER_VIEW_SECTION ? 1 : 2];
     if (cfg->every > 0) { /* the film of this run: figures/film_impact/ or film_impact_run_NNNN/ */
         snprintf(path, sizeof path, "%s/film_%s", dir, run->prefix);
-        SC_TRY(mkdir_if_missing(path));
+        SC_TRY(render_film_folder(path));
     }
     for (int i = 0; i < run->snapshot_count; i++) {
         if (!is_frame(run, i))

@@ -80,6 +80,9 @@ int render_output_push(struct render_output *out, const char *name, const char *
                        struct render_figure **figure);
 /* The plot sizes of the request. */
 struct render_plot render_plot_start(const struct render_config *cfg, int panels);
+/* A film's folder (RUN_DIR/figures/film_*), made if missing and emptied of the PNGs of an earlier render, so
+ * that its frames are those of this one (a different `every` leaves no stale frame in a video made of them). */
+int render_film_folder(const char *path);
 /* RUN_DIR/figures */
 void render_figures_dir(const char *run_dir, char *out, size_t size);
 /* A plot's figure entry (name, group, title) and its files RUN_DIR/figures/NAME.png and .svg. */

@@ -2,12 +2,10 @@
  * angle of each particle's first impact, speed vs diameter of first impacts, deposit metrics vs time (Figs. 7, 9),
  * the radial coating thickness profile, the deposit seen from the nozzle (Fig. 10) and the plume from the side
  * (Figs. 5, 8). */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "core/error.h"
 #include "core/h5io.h"
@@ -629,8 +627,7 @@ static int plume_pictures(const struct render_request *req, struct render_render
     if (every <= 0)
         goto done;
     snprintf(path, sizeof path, "%s/film_plume", dir);
-    if (mkdir(path, 0777) != 0 && errno != EEXIST)
-        SC_FAIL_AT(status, done, SC_EIO, "render: cannot create folder %s: %s", path, strerror(errno));
+    SC_CHECK(status, render_film_folder(path), done);
     for (long i = 0; i < count; i++) {
         if (i % every != 0 && i != count - 1)
             continue;
