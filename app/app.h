@@ -208,6 +208,8 @@ void info_headline(const char *run_dir, FILE *out);
 enum xdmf_kind { XDMF_SCALAR, XDMF_INTEGER, XDMF_VECTOR };
 /* The connectivity 0 1 .. n-1 inline: one vertex cell a point (without it ParaView's Xdmf3 readers make none). */
 void xdmf_inline_indices(FILE *f, const char *indent, size_t n);
+/* The same connectivity as the first n of the `total` integers 0 1 .. total-1 of an HDF5 dataset ("FILE:/PATH"). */
+void xdmf_slab_indices(FILE *f, const char *indent, size_t n, size_t total, const char *dataset);
 /* The points' positions, the dataset x. */
 void xdmf_geometry(FILE *f, const char *indent, size_t n, const char *where);
 /* A point field: the dataset `name` (n doubles, n integers, or n x 3 doubles). */

@@ -85,8 +85,10 @@ static const struct command_help command_helps[] = {
      "regression per size (Eqs. 4.10-4.14), the bonding boundaries h = 0.5 and their intersection, the calibrated\n"
      "pair.  Writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv, calibrate.h5, then the figures and report of\n"
      "the render stage.  Runs are shared among MPI ranks; `spraycoat resume RUN_DIR` reuses finished runs.\n"},
-    {"render", "spraycoat render CASE.ini [-o RUN_DIR]",
-     "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"},
+    {"render", "spraycoat render CASE.ini [-o RUN_DIR] [--every N]",
+     "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"
+     "--every N (overrides [render] every): films as PNG frames of every Nth snapshot and the last, the plume\n"
+     "from spray.h5 in figures/film_plume/ and each impact run in figures/film_impact*/; 0: none.\n"},
     {"info", "spraycoat info RUN_DIR|FILE.h5",
      "What a run directory or an HDF5 file of spraycoat holds: stages, steps, times, metrics, and whether a\n"
      "process is running in the directory now.\n"},
@@ -123,19 +125,23 @@ struct options {
     const char *run_dir;
     const char *threads;
     const char *stages;
+    const char *every; /* render: --every N */
 };
 
 static int parse_arguments(int argc, char **argv, struct options *opt)
 {
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
-        if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0 || strcmp(arg, "--stages") == 0) {
+        if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0 || strcmp(arg, "--stages") == 0 ||
+            strcmp(arg, "--every") == 0) {
             if (i + 1 >= argc)
                 SC_FAIL(SC_EINPUT, "option %s needs a value", arg);
             if (arg[1] == 'o')
                 opt->run_dir = argv[++i];
             else if (strcmp(arg, "--threads") == 0)
                 opt->threads = argv[++i];
+            else if (strcmp(arg, "--every") == 0)
+                opt->every = argv[++i];
             else
                 opt->stages = argv[++i];
         } else if (strcmp(arg, "-v") == 0 || strcmp(arg, "--verbose") == 0) {
@@ -190,8 +196,10 @@ static int load_case(const char *path, const struct options *opt, struct case_fi
         loaded = report_every_error(every_error);
     free(every_error);
     SC_TRY(loaded);
-    if (opt->threads) {
-        int status = case_set(*c, "run", "threads", opt->threads, "command line --threads");
+    if (opt->threads || opt->every) {
+        int status = opt->threads ? case_set(*c, "run", "threads", opt->threads, "command line --threads") : SC_OK;
+        if (status == SC_OK && opt->every)
+            status = case_set(*c, "render", "every", opt->every, "command line --every");
         if (status != SC_OK) {
             case_free(*c);
             *c = NULL;
@@ -511,6 +519,8 @@ static int dispatch(const struct options *opt)
         return command_pipeline(opt);
     if (opt->stages)
         SC_FAIL(SC_EINPUT, "--stages goes with the run command (see spraycoat --help)");
+    if (opt->every && strcmp(command, "render") != 0)
+        SC_FAIL(SC_EINPUT, "--every goes with the render and run commands (see spraycoat help render)");
     if (strcmp(command, "spray") == 0 || strcmp(command, "couple") == 0 || strcmp(command, "impact") == 0 ||
         strcmp(command, "vcrit") == 0 || strcmp(command, "render") == 0)
         return command_run(opt, command, 0);

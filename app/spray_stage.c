@@ -24,13 +24,22 @@ struct spray_run {
     uint64_t case_hash;
     struct stage_timing timing;
     int64_t loop_particle_steps, loop_steps; /* advanced by the time loop of this process */
+    struct dem_snapshots snapshots;          /* spray.h5 /snapshots, kept in the checkpoints */
+    int64_t snapshot_steps;                  /* 0: none */
 };
 
 /* ---- the solver as the stage loop sees it (struct stage_ops) ---- */
 
+/* A snapshot every snapshot_steps and at the last step: taken inside the step, so that the checkpoint written
+ * after a step holds exactly the snapshots up to it and a resumed run neither repeats nor misses one. */
 static int step(void *owner)
 {
-    return dem_step(((struct spray_run *)owner)->solver);
+    struct spray_run *run = owner;
+    SC_TRY(dem_step(run->solver));
+    int64_t now = dem_get_counts(run->solver).step;
+    if (run->snapshot_steps > 0 && (now % run->snapshot_steps == 0 || now == dem_total_steps(run->solver)))
+        SC_TRY(dem_snapshot_take(run->solver, &run->snapshots));
+    return SC_OK;
 }
 
 static int finished(void *owner)
@@ -55,12 +64,16 @@ static void describe(void *owner, char *text, size_t size)
 
 static int checkpoint_write(void *owner, hid_t file)
 {
-    return dem_checkpoint_write(((struct spray_run *)owner)->solver, file);
+    struct spray_run *run = owner;
+    SC_TRY(dem_checkpoint_write(run->solver, file));
+    return dem_snapshots_write(&run->snapshots, file, 1);
 }
 
 static int checkpoint_read(void *owner, hid_t file)
 {
-    return dem_checkpoint_read(((struct spray_run *)owner)->solver, file);
+    struct spray_run *run = owner;
+    SC_TRY(dem_checkpoint_read(run->solver, file));
+    return dem_snapshots_read(file, &run->snapshots);
 }
 
 static int time_loop(struct spray_run *run)
@@ -96,7 +109,9 @@ static int time_loop(struct spray_run *run)
 
 static int output_contents(void *owner, hid_t file)
 {
-    return dem_write_output(((struct spray_run *)owner)->solver, file);
+    struct spray_run *run = owner;
+    SC_TRY(dem_write_output(run->solver, file));
+    return dem_snapshots_write(&run->snapshots, file, 0);
 }
 
 static int write_output(struct spray_run *run)
@@ -109,9 +124,48 @@ static int write_output(struct spray_run *run)
     return SC_OK;
 }
 
-/* RUN_DIR/spray.xdmf: the final particles of spray.h5 as a point cloud for ParaView/VisIt.  The Polyvertex
- * topology has its connectivity: without it the Xdmf3 readers of ParaView make no cells, and the Surface and
- * Points representations draw nothing. */
+/* The fields of a particle grid in spray.h5 at `where`: v, d, id, state (and w, m for /particles). */
+static void xdmf_particle_fields(FILE *file, const char *indent, size_t n, const char *where, int final)
+{
+    xdmf_geometry(file, indent, n, where);
+    xdmf_attribute(file, indent, "v", XDMF_VECTOR, n, where);
+    if (final)
+        xdmf_attribute(file, indent, "w", XDMF_VECTOR, n, where);
+    xdmf_attribute(file, indent, "d", XDMF_SCALAR, n, where);
+    if (final)
+        xdmf_attribute(file, indent, "m", XDMF_SCALAR, n, where);
+    xdmf_attribute(file, indent, "id", XDMF_INTEGER, n, where);
+    xdmf_attribute(file, indent, "state", XDMF_INTEGER, n, where);
+}
+
+/* The snapshots as a temporal collection: one grid a snapshot, its vertex cells a hyperslab of
+ * /snapshots/index. */
+static void xdmf_snapshots(FILE *file, const struct dem_snapshots *list)
+{
+    size_t most = 0;
+    for (size_t i = 0; i < list->count; i++)
+        most = list->items[i].count > most ? list->items[i].count : most;
+    fprintf(file, "  <Grid Name=\"spray\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    for (size_t i = 0; i < list->count; i++) {
+        size_t n = list->items[i].count;
+        char where[64];
+        snprintf(where, sizeof where, "spray.h5:/snapshots/%06zu", i);
+        fprintf(file,
+                "   <Grid Name=\"%06zu\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
+                "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
+                i, list->items[i].t, n);
+        if (n > 0)
+            xdmf_slab_indices(file, "     ", n, most, "spray.h5:/snapshots/index");
+        fprintf(file, "    </Topology>\n");
+        xdmf_particle_fields(file, "    ", n, where, 0);
+        fprintf(file, "   </Grid>\n");
+    }
+    fprintf(file, "  </Grid>\n");
+}
+
+/* RUN_DIR/spray.xdmf for ParaView/VisIt: the snapshots of spray.h5 as a time series, or, without snapshots
+ * (snapshot_every = 0), the final particles.  The Polyvertex topology has its connectivity: without it the
+ * Xdmf3 readers of ParaView make no cells, and the Surface and Points representations draw nothing. */
 static int write_xdmf(const struct spray_run *run)
 {
     char path[H5IO_PATH_MAX];
@@ -120,25 +174,22 @@ static int write_xdmf(const struct spray_run *run)
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
     FILE *file = out.stream;
-    fprintf(file,
-            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-            "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
-            "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
-            n);
-    /* /particles/id is not 0 .. n-1 once particles have escaped: the connectivity is inline */
-    if (n > 0)
-        xdmf_inline_indices(file, "    ", n);
-    fprintf(file, "   </Topology>\n");
-    const char *where = "spray.h5:/particles";
-    xdmf_geometry(file, "   ", n, where);
-    static const char *const vectors[] = {"v", "w"}, *const scalars[] = {"d", "m"}, *const integers[] = {"id", "state"};
-    for (int k = 0; k < 2; k++)
-        xdmf_attribute(file, "   ", vectors[k], XDMF_VECTOR, n, where);
-    for (int k = 0; k < 2; k++)
-        xdmf_attribute(file, "   ", scalars[k], XDMF_SCALAR, n, where);
-    for (int k = 0; k < 2; k++)
-        xdmf_attribute(file, "   ", integers[k], XDMF_INTEGER, n, where);
-    fprintf(file, "  </Grid>\n </Domain>\n</Xdmf>\n");
+    fprintf(file, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n");
+    if (run->snapshots.count > 0) {
+        xdmf_snapshots(file, &run->snapshots);
+    } else {
+        fprintf(file,
+                "  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
+                "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%zu\" NodesPerElement=\"1\">\n",
+                n);
+        /* /particles/id is not 0 .. n-1 once particles have escaped: the connectivity is inline */
+        if (n > 0)
+            xdmf_inline_indices(file, "    ", n);
+        fprintf(file, "   </Topology>\n");
+        xdmf_particle_fields(file, "   ", n, "spray.h5:/particles", 1);
+        fprintf(file, "  </Grid>\n");
+    }
+    fprintf(file, " </Domain>\n</Xdmf>\n");
     return atomic_publish(&out);
 }
 
@@ -181,6 +232,7 @@ static void log_summary(const struct spray_run *run)
 static int run_stage(struct spray_run *run)
 {
     SC_TRY(dem_create(&run->cfg, &run->solver));
+    run->snapshot_steps = dem_snapshot_steps(&run->cfg);
     log_info("spray: %lld steps of %.3g s to t_end = %.6g s on %d threads", (long long)dem_total_steps(run->solver),
              run->cfg.dt, run->cfg.t_end, omp_get_max_threads());
     SC_TRY(time_loop(run));
@@ -245,6 +297,7 @@ int spray_stage_run(const struct stage_context *ctx)
     }
     SC_TRY(config_for_run(ctx->c, &run.cfg));
     int status = run_stage(&run);
+    dem_snapshots_free(&run.snapshots);
     dem_destroy(run.solver);
     dem_config_free(&run.cfg);
     return status;

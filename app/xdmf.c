@@ -11,6 +11,16 @@ void xdmf_inline_indices(FILE *f, const char *indent, size_t n)
     fprintf(f, "</DataItem>\n");
 }
 
+void xdmf_slab_indices(FILE *f, const char *indent, size_t n, size_t total, const char *dataset)
+{
+    fprintf(f,
+            "%s<DataItem ItemType=\"HyperSlab\" Dimensions=\"%zu\">\n"
+            "%s <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 %zu</DataItem>\n"
+            "%s <DataItem Dimensions=\"%zu\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">%s</DataItem>\n"
+            "%s</DataItem>\n",
+            indent, n, indent, n, indent, total, dataset, indent);
+}
+
 void xdmf_geometry(FILE *f, const char *indent, size_t n, const char *where)
 {
     fprintf(f,

@@ -98,6 +98,7 @@ struct dem_config {
     long fixed_point_max_iter;
     double domain_radius, handoff_height;
     long metrics_every;
+    double snapshot_every; /* s; 0: no snapshots */
     /* [powder], [target] */
     struct dem_size_distribution sizes;
     struct dem_material powder, target;
@@ -200,5 +201,30 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group);
 int dem_checkpoint_read(struct dem_solver *s, hid_t group);
 /* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats) into an open file. */
 int dem_write_output(const struct dem_solver *s, hid_t file);
+
+/* The particles at one time: spray.h5 /snapshots/NNNNNN (docs/files.md).  The spray stage takes one every
+ * snapshot_every of simulated time and at the end, keeps them in memory and in its checkpoints (a resumed run
+ * goes on from the snapshots of its checkpoint: none twice, none missing) and writes them with the output. */
+struct dem_snapshot {
+    double t;
+    int64_t step;
+    size_t count;
+    int64_t *id, *state;
+    double *x, *v, *d; /* x and v: 3 per particle */
+};
+struct dem_snapshots {
+    size_t count, capacity;
+    struct dem_snapshot *items;
+};
+/* Steps between snapshots (0: none) of a configuration. */
+int64_t dem_snapshot_steps(const struct dem_config *cfg);
+/* Append the solver's particles now; SC_ESIM when out of memory. */
+int dem_snapshot_take(const struct dem_solver *s, struct dem_snapshots *list);
+/* The group `snapshots` of loc with one group per snapshot (6-digit index; attributes t, step); checksum as
+ * h5_write_doubles. */
+int dem_snapshots_write(const struct dem_snapshots *list, hid_t loc, int checksum);
+/* Replace list by the group `snapshots` of loc (none: an empty list). */
+int dem_snapshots_read(hid_t loc, struct dem_snapshots *list);
+void dem_snapshots_free(struct dem_snapshots *list);
 
 #endif

@@ -3,6 +3,7 @@
  * rate.  Also the spray's checkpoints and the spray.h5 datasets. */
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -375,4 +376,158 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
                         sizeof *s->metrics));
     SC_TRY(dem_check_accounting(s));
     return SC_OK;
+}
+
+/* ---------------------------------------------------------------- snapshots */
+
+int64_t dem_snapshot_steps(const struct dem_config *cfg)
+{
+    if (!(cfg->snapshot_every > 0))
+        return 0;
+    double steps = round(cfg->snapshot_every / cfg->dt);
+    return steps < 1 ? 1 : (int64_t)fmin(steps, 9e18);
+}
+
+static void snapshot_free(struct dem_snapshot *snap)
+{
+    free(snap->id), free(snap->state), free(snap->x), free(snap->v), free(snap->d);
+    memset(snap, 0, sizeof *snap);
+}
+
+void dem_snapshots_free(struct dem_snapshots *list)
+{
+    for (size_t i = 0; i < list->count; i++)
+        snapshot_free(&list->items[i]);
+    free(list->items);
+    memset(list, 0, sizeof *list);
+}
+
+/* Room for one more snapshot of n particles at the end of the list (its arrays allocated). */
+static int snapshot_append(struct dem_snapshots *list, size_t n, struct dem_snapshot **out)
+{
+    if (list->count == list->capacity) {
+        size_t grown = list->capacity ? 2 * list->capacity : 16;
+        struct dem_snapshot *more = realloc(list->items, grown * sizeof *more);
+        if (!more)
+            SC_FAIL_OOM(grown * sizeof *more, "the snapshot list");
+        list->items = more, list->capacity = grown;
+    }
+    struct dem_snapshot *snap = &list->items[list->count];
+    memset(snap, 0, sizeof *snap);
+    size_t k = n ? n : 1;
+    snap->count = n;
+    snap->id = malloc(k * sizeof *snap->id), snap->state = malloc(k * sizeof *snap->state);
+    snap->x = malloc(3 * k * sizeof *snap->x), snap->v = malloc(3 * k * sizeof *snap->v);
+    snap->d = malloc(k * sizeof *snap->d);
+    if (!snap->id || !snap->state || !snap->x || !snap->v || !snap->d) {
+        snapshot_free(snap);
+        SC_FAIL_OOM(k * 9 * sizeof(double), "a snapshot of the particles");
+    }
+    list->count++;
+    *out = snap;
+    return SC_OK;
+}
+
+int dem_snapshot_take(const struct dem_solver *s, struct dem_snapshots *list)
+{
+    const struct dem_particles *p = &s->p;
+    struct dem_snapshot *snap;
+    SC_TRY(snapshot_append(list, p->count, &snap));
+    snap->step = s->step;
+    snap->t = (double)s->step * s->cfg.dt;
+    for (size_t i = 0; i < p->count; i++)
+        snap->state[i] = p->state[i];
+    memcpy(snap->id, p->id, p->count * sizeof *snap->id);
+    memcpy(snap->x, p->x, 3 * p->count * sizeof *snap->x);
+    memcpy(snap->v, p->v, 3 * p->count * sizeof *snap->v);
+    memcpy(snap->d, p->d, p->count * sizeof *snap->d);
+    return SC_OK;
+}
+
+static int snapshot_write(const struct dem_snapshot *snap, hid_t parent, size_t index, int checksum)
+{
+    char name[32];
+    snprintf(name, sizeof name, "%06zu", index);
+    hid_t g;
+    SC_TRY(h5_create_group(parent, name, &g));
+    hsize_t n1[1] = {snap->count}, n3[2] = {snap->count, 3};
+    int status;
+    SC_CHECK(status, h5_attr_write_double(g, "t", snap->t), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "step", snap->step), done);
+    SC_CHECK(status, h5_write_int64s(g, "id", 1, n1, snap->id, "", checksum), done);
+    SC_CHECK(status, h5_write_int64s(g, "state", 1, n1, snap->state, "0 flying, 1 deposited", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "x", 2, n3, snap->x, "m", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "v", 2, n3, snap->v, "m/s", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "d", 1, n1, snap->d, "m", checksum), done);
+done:
+    H5Gclose(g);
+    return status;
+}
+
+int dem_snapshots_write(const struct dem_snapshots *list, hid_t loc, int checksum)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(loc, "snapshots", &g));
+    int status = SC_OK;
+    size_t most = 0;
+    int64_t *index = NULL;
+    SC_CHECK(status, h5_attr_write_int64(g, "count", (int64_t)list->count), done);
+    for (size_t i = 0; i < list->count; i++) {
+        SC_CHECK(status, snapshot_write(&list->items[i], g, i, checksum), done);
+        most = list->items[i].count > most ? list->items[i].count : most;
+    }
+    /* 0 1 .. : the vertex cells of every snapshot for spray.xdmf (a hyperslab of its first n) */
+    index = malloc((most ? most : 1) * sizeof *index);
+    if (!index)
+        SC_FAIL_OOM_AT(status, done, (most ? most : 1) * sizeof *index, "the snapshot index");
+    for (size_t i = 0; i < most; i++)
+        index[i] = (int64_t)i;
+    hsize_t dims[1] = {most};
+    SC_CHECK(status, h5_write_int64s(g, "index", 1, dims, index, "", checksum), done);
+done:
+    free(index);
+    H5Gclose(g);
+    return status;
+}
+
+static int snapshot_read(hid_t parent, size_t index, struct dem_snapshots *list)
+{
+    char name[32];
+    snprintf(name, sizeof name, "%06zu", index);
+    hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "snapshots: no group %s", name);
+    size_t n;
+    struct dem_snapshot *snap;
+    int status;
+    SC_CHECK(status, h5_dataset_size(g, "id", &n), done);
+    SC_CHECK(status, snapshot_append(list, n, &snap), done);
+    SC_CHECK(status, h5_attr_read_double(g, "t", &snap->t), done);
+    SC_CHECK(status, h5_attr_read_int64(g, "step", &snap->step), done);
+    SC_CHECK(status, h5_read_int64s(g, "id", snap->id, n), done);
+    SC_CHECK(status, h5_read_int64s(g, "state", snap->state, n), done);
+    SC_CHECK(status, h5_read_doubles(g, "x", snap->x, 3 * n), done);
+    SC_CHECK(status, h5_read_doubles(g, "v", snap->v, 3 * n), done);
+    SC_CHECK(status, h5_read_doubles(g, "d", snap->d, n), done);
+done:
+    H5Gclose(g);
+    return status;
+}
+
+int dem_snapshots_read(hid_t loc, struct dem_snapshots *list)
+{
+    dem_snapshots_free(list);
+    if (!h5_exists(loc, "snapshots"))
+        return SC_OK;
+    hid_t g = H5Gopen2(loc, "snapshots", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "cannot open the group snapshots");
+    int64_t count = 0;
+    int status;
+    SC_CHECK(status, h5_attr_read_int64(g, "count", &count), done);
+    for (int64_t i = 0; i < count; i++)
+        SC_CHECK(status, snapshot_read(g, (size_t)i, list), done);
+done:
+    H5Gclose(g);
+    return status;
 }

@@ -38,6 +38,9 @@ const struct cfg_key dem_case_keys[] = {
     {"spray", "handoff_height", CFG_REAL, "m", "0.01", 0, 100, 0, NULL,
      "height above the target of the hand-off plane whose crossings are recorded"},
     {"spray", "metrics_every", CFG_INT, "steps", "100", 1, 2e9, 0, NULL, "steps between metric samples"},
+    {"spray", "snapshot_every", CFG_REAL, "s", "auto", 0, 100, 0, "auto",
+     "simulated time between snapshots of the particles in spray.h5 /snapshots (and the end); auto: t_end / 32; "
+     "0: none"},
     /* [powder] */
     {"powder", "distribution", CFG_CHOICE, "", "weibull", 0, 0, 0, "weibull|mono", "size distribution, Eq. 36"},
     {"powder", "median_diameter", CFG_REAL, "m", "160e-6", 0, 1, 1, NULL, "D_median, Eq. 37"},
@@ -121,6 +124,8 @@ static int load_spray(const struct case_file *c, struct dem_config *cfg)
     cfg->domain_radius = case_real(c, "spray", "domain_radius");
     cfg->handoff_height = case_real(c, "spray", "handoff_height");
     cfg->metrics_every = case_int(c, "spray", "metrics_every");
+    cfg->snapshot_every =
+        case_is(c, "spray", "snapshot_every", "auto") ? cfg->t_end / 32 : case_real(c, "spray", "snapshot_every");
     if (cfg->release_speed_min > cfg->release_speed_max)
         return case_invalid(c, "spray", "release_speed_min", "greater than release_speed_max = %g m/s",
                             cfg->release_speed_max);

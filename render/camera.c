@@ -12,13 +12,30 @@ struct render_box render_colorbar_box(const struct render_scene *scene)
     return (struct render_box){w - margin - label_space - bar_w, 0.5 * (h - bar_h) + 0.03 * h, bar_w, bar_h};
 }
 
-/* Left of the colour bar (and its title, which may be wider than the bar), below the caption band. */
+/* Left of the colour bar (and its title, which may be wider than the bar), below the caption band; with axes,
+ * right of and above their labels. */
 struct render_box render_scene_box(const struct render_scene *scene)
 {
     struct render_box bar = render_colorbar_box(scene);
     double top = fmax(20, 0.08 * scene->height), bottom = 0.03 * scene->height;
-    double right = bar.x - fmax(40, 0.1 * scene->width);
-    return (struct render_box){0, top, fmax(1, right), fmax(1, scene->height - top - bottom)};
+    double right = bar.x - fmax(40, 0.1 * scene->width), left = 0;
+    if (scene->axes) /* room for the tick labels and the axis titles */
+        left = fmax(60, 0.08 * scene->width), bottom = fmax(45, 0.1 * scene->height);
+    return (struct render_box){left, top, fmax(1, right - left), fmax(1, scene->height - top - bottom)};
+}
+
+double render_scale_length(double target)
+{
+    if (!(target > 0) || !isfinite(target))
+        return 0;
+    double magnitude = pow(10, floor(log10(target)));
+    double mantissa = target / magnitude;
+    return (mantissa >= 5 ? 5 : mantissa >= 2 ? 2 : 1) * magnitude;
+}
+
+double render_point_radius(double spacing)
+{
+    return spacing * 0.5 * sqrt(3.0);
 }
 
 int render_view_shows(const struct render_scene *scene, const double x[3])
@@ -79,14 +96,24 @@ int render_camera_frame(const struct render_spheres *s, const struct render_scen
         if (!render_view_shows(scene, x))
             continue;
         double r = sphere_radius(s, i);
-        for (int k = 0; k < 3; k++) {
+        for (int k = scene->frame ? 2 : 0; k < 3; k++) { /* with a frame box: the depth range only */
             double c = dot(x, axis[k]);
             lo[k] = fmin(lo[k], c - r);
             hi[k] = fmax(hi[k], c + r);
         }
     }
-    if (!(lo[0] <= hi[0])) /* nothing to show: a unit box around the origin keeps the picture well defined */
+    for (int corner = 0; corner < 8 && scene->frame; corner++) { /* the frame box's corners */
+        double x[3];
         for (int k = 0; k < 3; k++)
+            x[k] = scene->frame[(corner >> k & 1) ? 3 + k : k];
+        for (int k = 0; k < 3; k++) {
+            double c = dot(x, axis[k]);
+            lo[k] = fmin(lo[k], c);
+            hi[k] = fmax(hi[k], c);
+        }
+    }
+    for (int k = 0; k < 3; k++) /* nothing to show: a unit box around the origin keeps the picture well defined */
+        if (!(lo[k] <= hi[k]))
             lo[k] = -1, hi[k] = 1;
     double mid[3];
     for (int k = 0; k < 3; k++)

@@ -352,7 +352,7 @@ int render_spheres_draw(struct render_renderer *r, const struct render_spheres *
     GLenum error = gl.glGetError();
     if (error != GL_NO_ERROR)
         SC_FAIL(SC_EIO, "render: OpenGL error 0x%x while drawing %zu spheres", (unsigned)error, n);
-    SC_TRY(render_overlay_scene(&r->image, scene));
+    SC_TRY(render_overlay_scene(&r->image, scene, &cam));
     if (cam_out)
         *cam_out = cam;
     *image = &r->image;

@@ -1,12 +1,10 @@
 /* Figures of the impact stage (RUN_DIR/impact.h5): per run (the root, or each /run_NNNN/ group) PBCP and v_rest
  * vs time per body, the energy balance vs time, the last snapshot in the three views, and the frame sequence
  * (Tang Figs. 4.5, 5.10, 5.12, 5.15-5.17). */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "core/error.h"
 #include "core/h5io.h"
@@ -104,7 +102,8 @@ done:
     return status;
 }
 
-/* Half the [impact] spacing the run used, from the resolved case stored in impact.h5 (or the case given). */
+/* render_point_radius of the [impact] spacing the run used, from the resolved case stored in impact.h5 (or the
+ * case given). */
 static double point_radius(const struct render_request *req, hid_t file)
 {
     if (!isnan(req->cfg->point_radius))
@@ -120,17 +119,10 @@ static double point_radius(const struct render_request *req, hid_t file)
     }
     sc_error_clear();
     free(text);
-    return 0.5 * spacing;
+    return render_point_radius(spacing);
 }
 
 /* ---- 3-D pictures ---- */
-
-static int mkdir_if_missing(const char *path)
-{
-    if (mkdir(path, 0777) != 0 && errno != EEXIST)
-        SC_FAIL(SC_EIO, "render: cannot create folder %s: %s", path, strerror(errno));
-    return SC_OK;
-}
 
 /* Snapshot i is a frame: every Nth, and the last. */
 static int is_frame(const struct impact_run *run, int i)
@@ -179,9 +171,21 @@ static int draw_snapshot(struct impact_run *run, struct render_renderer **render
     char caption[128];
     snprintf(caption, sizeof caption, "t = %.2f ns%s", t * 1e9, run->label);
     struct render_spheres spheres = {value.count, x.values, NULL, run->radius, value.values};
-    struct render_scene scene = {
-        view,    cfg->width,     cfg->height, lo, hi, field_labels[cfg->field], field_units[cfg->field],
-        caption, cfg->section_y, 0.5};
+    struct render_scene scene = {view,
+                                 cfg->width,
+                                 cfg->height,
+                                 lo,
+                                 hi,
+                                 field_labels[cfg->field],
+                                 field_units[cfg->field],
+                                 caption,
+                                 cfg->section_y,
+                                 0.5,
+                                 1,
+                                 0,
+                                 0,
+                                 NULL,
+                                 NULL};
     const struct render_image *image;
     int status;
     SC_CHECK(status, render_renderer_get(cfg, renderer), done);
@@ -213,15 +217,15 @@ static int snapshot_pictures(struct impact_run *run, struct render_renderer **re
         SC_TRY(render_output_push(out, name, "impact", 0, title, NULL));
     }
     const char *view_name = view_names[cfg->view == RENDER_VIEW_ISO ? 0 : cfg->view == RENDER_VIEW_SECTION ? 1 : 2];
-    if (cfg->every > 0) {
-        snprintf(path, sizeof path, "%s/frames", dir);
-        SC_TRY(mkdir_if_missing(path));
+    if (cfg->every > 0) { /* the film of this run: figures/film_impact/ or film_impact_run_NNNN/ */
+        snprintf(path, sizeof path, "%s/film_%s", dir, run->prefix);
+        SC_TRY(render_film_folder(path));
     }
     for (int i = 0; i < run->snapshot_count; i++) {
         if (!is_frame(run, i))
             continue;
-        snprintf(path, sizeof path, "%s/frames/%s_%s_%s_%s.png", dir, run->prefix, field_names[cfg->field], view_name,
-                 run->snapshots[i]);
+        snprintf(path, sizeof path, "%s/film_%s/%s_%s_%s.png", dir, run->prefix, field_names[cfg->field], view_name,
+                 run->snapshots[i]); /* film_impact_run_0001/eps_p_section_000003.png */
         SC_TRY(draw_snapshot(run, renderer, i, cfg->view, lo, hi, path));
         out->frames++;
     }

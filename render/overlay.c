@@ -114,7 +114,126 @@ static void draw_bar_ticks(cairo_t *cr, struct render_box bar, const struct rend
     render_text(cr, bar.x + 0.5 * bar.width, bar.y + bar.height + 0.6 * font, 0.85 * font, 0.5, 0, range_text);
 }
 
-int render_overlay_scene(struct render_image *image, const struct render_scene *scene)
+/* A length with the unit that keeps the number from 1 to 999: nm, µm, mm or m. */
+static void format_length(double metres, char *out, size_t size)
+{
+    static const struct {
+        double scale;
+        const char *unit;
+    } units[] = {{1e-9, "nm"}, {1e-6, "µm"}, {1e-3, "mm"}, {1, "m"}};
+    int u = 0;
+    while (u < 3 && metres >= 1000 * units[u].scale * (1 - 1e-9))
+        u++;
+    snprintf(out, size, "%g %s", metres / units[u].scale, units[u].unit);
+}
+
+/* A bar of a round length (render_scale_length of a fifth of the scene's width) at the bottom right of the
+ * scene, its length above it.  Orthographic views: true for every length in the picture's plane. */
+static void draw_scale_bar(cairo_t *cr, const struct render_scene *scene, const struct render_camera *cam, double font)
+{
+    struct render_box box = render_scene_box(scene);
+    double length = render_scale_length(0.2 * box.width / cam->pixels_per_metre);
+    if (!(length > 0))
+        return;
+    double px = length * cam->pixels_per_metre, x1 = box.x + box.width - 0.02 * box.width, x0 = x1 - px;
+    double y = box.y + box.height - 0.2 * font;
+    char text[32];
+    format_length(length, text, sizeof text);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 3);
+    cairo_move_to(cr, x0, y);
+    cairo_line_to(cr, x1, y);
+    cairo_move_to(cr, x0, y - 5), cairo_line_to(cr, x0, y + 5);
+    cairo_move_to(cr, x1, y - 5), cairo_line_to(cr, x1, y + 5);
+    cairo_stroke(cr);
+    render_text(cr, 0.5 * (x0 + x1), y - 6, font, 0.5, 1, text);
+}
+
+/* The world axis (0 x, 1 y, 2 z) a camera direction runs along and its sign; -1 when oblique (the iso view). */
+static int world_axis(const double dir[3], double *sign)
+{
+    for (int k = 0; k < 3; k++)
+        if (fabs(fabs(dir[k]) - 1) < 1e-9) {
+            *sign = dir[k] > 0 ? 1 : -1;
+            return k;
+        }
+    return -1;
+}
+
+/* One axis along the scene box's bottom (vertical = 0) or left side, ticks in mm of the world coordinate. */
+static void draw_axis(cairo_t *cr, const struct render_camera *cam, struct render_box box, int vertical, double font)
+{
+    static const char *const names[] = {"x (mm)", "y (mm)", "z (mm)"};
+    double sign;
+    int k = world_axis(vertical ? cam->up : cam->right, &sign);
+    if (k < 0)
+        return;
+    double ppm = cam->pixels_per_metre;
+    /* world coordinate (mm) at the two ends of the side; screen y grows downward */
+    double a = vertical ? cam->center[k] + sign * (cam->py0 - (box.y + box.height)) / ppm
+                        : cam->center[k] + sign * (box.x - cam->px0) / ppm;
+    double b = vertical ? cam->center[k] + sign * (cam->py0 - box.y) / ppm
+                        : cam->center[k] + sign * (box.x + box.width - cam->px0) / ppm;
+    double ticks[16], step;
+    int n = render_nice_ticks(fmin(a, b) * 1e3, fmax(a, b) * 1e3, 8, ticks, &step);
+    double base = vertical ? box.x : box.y + box.height;
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1);
+    if (vertical)
+        cairo_move_to(cr, base - 0.5, box.y), cairo_line_to(cr, base - 0.5, box.y + box.height);
+    else
+        cairo_move_to(cr, box.x, base + 0.5), cairo_line_to(cr, box.x + box.width, base + 0.5);
+    cairo_stroke(cr);
+    for (int i = 0; i < n; i++) {
+        double along = (ticks[i] * 1e-3 - cam->center[k]) * sign * ppm;
+        char label[32];
+        render_format_tick(ticks[i], step, label, sizeof label);
+        if (vertical) {
+            double y = cam->py0 - along;
+            cairo_move_to(cr, base, y), cairo_line_to(cr, base - 5, y);
+            cairo_stroke(cr);
+            render_text(cr, base - 8, y, 0.9 * font, 1, 0.5, label);
+        } else {
+            double x = cam->px0 + along;
+            cairo_move_to(cr, x, base), cairo_line_to(cr, x, base + 5);
+            cairo_stroke(cr);
+            render_text(cr, x, base + 8, 0.9 * font, 0.5, 0, label);
+        }
+    }
+    if (vertical) /* beside the axis' top end: above it is the caption */
+        render_text(cr, base + 8, box.y, font, 0, 0.5, names[k]);
+    else
+        render_text(cr, box.x + 0.5 * box.width, base + 10 + 1.1 * font, font, 0.5, 0, names[k]);
+}
+
+/* The guides: labelled polylines in the scene (nozzle exit, target). */
+static void draw_guides(cairo_t *cr, const struct render_scene *scene, const struct render_camera *cam, double font)
+{
+    for (int g = 0; g < scene->guide_count; g++) {
+        const struct render_guide *guide = &scene->guides[g];
+        if (guide->count < 1)
+            continue;
+        cairo_set_source_rgb(cr, 0.80, 0.15, 0.10);
+        cairo_set_line_width(cr, 2.5);
+        double px, py, first_x, first_y;
+        for (int i = 0; i < guide->count; i++) {
+            render_camera_project(cam, guide->points + 3 * i, &px, &py);
+            if (i == 0)
+                cairo_move_to(cr, px, py), first_x = px, first_y = py;
+            else
+                cairo_line_to(cr, px, py);
+        }
+        if (guide->closed)
+            cairo_close_path(cr);
+        cairo_stroke(cr);
+        render_camera_project(cam, guide->points, &first_x, &first_y);
+        if (guide->label)
+            render_text(cr, first_x, first_y + (guide->label_below ? 0.4 * font : -0.4 * font), font, 0,
+                        guide->label_below ? 0 : 1, guide->label);
+    }
+}
+
+int render_overlay_scene(struct render_image *image, const struct render_scene *scene, const struct render_camera *cam)
 {
     cairo_surface_t *surface = cairo_image_surface_create_for_data((unsigned char *)image->pixels, CAIRO_FORMAT_ARGB32,
                                                                    image->width, image->height, image->stride);
@@ -129,6 +248,13 @@ int render_overlay_scene(struct render_image *image, const struct render_scene *
     render_text(cr, bar.x + bar.width, bar.y - 0.8 * font, font, 0.5, 1, title);
     if (scene->caption)
         render_text(cr, 0.02 * image->width, 0.5 * fmax(20, 0.08 * image->height), 1.2 * font, 0, 0.5, scene->caption);
+    draw_guides(cr, scene, cam, font);
+    if (scene->axes) {
+        draw_axis(cr, cam, render_scene_box(scene), 0, font);
+        draw_axis(cr, cam, render_scene_box(scene), 1, font);
+    }
+    if (scene->scale_bar)
+        draw_scale_bar(cr, scene, cam, font);
     cairo_surface_flush(surface);
     int status = cairo_status(cr);
     cairo_destroy(cr);

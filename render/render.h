@@ -60,6 +60,15 @@ struct render_spheres {
     const double *value;  /* the coloured field, one per sphere */
 };
 
+/* A labelled polyline in the scene (the nozzle exit, the target line), drawn over the spheres. */
+struct render_guide {
+    const double *points; /* 3 per point (m) */
+    int count;
+    int closed;        /* 1: back to the first point */
+    const char *label; /* next to the first point (NULL: none) */
+    int label_below;   /* 1: below the first point, 0: above */
+};
+
 struct render_scene {
     enum render_view view;
     int width, height;       /* px */
@@ -69,7 +78,24 @@ struct render_scene {
     const char *caption;     /* top-left label, e.g. "t = 12.0 ns" (NULL: none) */
     double section_y;        /* RENDER_VIEW_SECTION: the cut plane y = section_y (m) */
     double min_pixel_radius; /* spheres are drawn at least this big (px), so that far views show something */
+    /* decorations, all off when zero */
+    int scale_bar; /* 1: a bar of a round length (nm, um or mm) at the bottom right of the scene */
+    int axes;      /* 1: axes with ticks in mm along the bottom and the left (SIDE, FACING, TOP views) */
+    int guide_count;
+    const struct render_guide *guides;
+    const double *frame; /* NULL, or lo[3] then hi[3] (m): the camera frames this box, not the spheres, so that
+                            the frames of a film share one view and the guides are in the picture */
 };
+
+/* The radius a material point of a lattice of `spacing` is drawn with: spacing sqrt(3)/2, the radius at which
+ * spheres on a cubic lattice fill space (a cube's centre is that far from its corners).  Spheres of half the
+ * spacing only touch: along a lattice axis the background shows between every four of them, and once the body
+ * stretches (an impact spreads the particle sideways by ~10 %) the gaps widen.  Under most of the body the
+ * columns lean outward and their lower points hide the gaps, but no point ever crosses a mirror plane of a
+ * symmetric impact (x = 0, y = 0): there the gaps line up into see-through lines that look like cracks.  At
+ * sqrt(3)/2 no line of sight passes an undeformed lattice and a sideways stretch of up to 22 % stays closed; the
+ * price is a silhouette 0.37 spacing larger on each side ([render] point_radius sets another radius). */
+double render_point_radius(double spacing);
 
 /* Orthographic camera: pixel (px, py) from the top-left corner of the image of a point x. */
 struct render_camera {
@@ -78,6 +104,9 @@ struct render_camera {
     double pixels_per_metre, px0, py0;
     double depth_half; /* half the depth range (m) */
 };
+
+/* A scale bar's length: 1, 2 or 5 x 10^k metres, the largest not above `target` (m). */
+double render_scale_length(double target);
 
 /* The pixel box of the colour bar (x, y from the top-left) and of the region the scene is framed into. */
 struct render_box {

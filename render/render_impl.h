@@ -43,7 +43,7 @@ struct render_plot {
 int render_plot_write(const struct render_plot *plot, const char *dir, const char *name);
 
 /* The colour bar (with field name, unit and range) and the caption, drawn by Cairo over the image. */
-int render_overlay_scene(struct render_image *image, const struct render_scene *scene);
+int render_overlay_scene(struct render_image *image, const struct render_scene *scene, const struct render_camera *cam);
 
 /* Text: the font every picture uses (sans-serif) at `size` px; anchor_x and anchor_y in [0, 1] place the text's
  * box relative to (x, y): 0 left/top, 0.5 centre, 1 right/bottom. */
@@ -80,6 +80,9 @@ int render_output_push(struct render_output *out, const char *name, const char *
                        struct render_figure **figure);
 /* The plot sizes of the request. */
 struct render_plot render_plot_start(const struct render_config *cfg, int panels);
+/* A film's folder (RUN_DIR/figures/film_*), made if missing and emptied of the PNGs of an earlier render, so
+ * that its frames are those of this one (a different `every` leaves no stale frame in a video made of them). */
+int render_film_folder(const char *path);
 /* RUN_DIR/figures */
 void render_figures_dir(const char *run_dir, char *out, size_t size);
 /* A plot's figure entry (name, group, title) and its files RUN_DIR/figures/NAME.png and .svg. */

@@ -700,11 +700,12 @@ static void figures(FILE *f, const struct render_output *out)
             fprintf(f, "</figcaption></figure>\n");
         }
     }
-    if (out->frames > 0)
+    if (out->frames > 0) /* spraycoat does not call ffmpeg: the frames are the film */
         fprintf(f,
-                "<p>%d frames of the impact snapshots are in <code>figures/frames/</code>; "
-                "<code>ffmpeg -framerate 10 -pattern_type glob -i 'figures/frames/*.png' -pix_fmt yuv420p "
-                "impact.mp4</code> makes a film of them.</p>\n",
+                "<p>%d film frames (every <code>[render] every</code>-th snapshot and the last) are in "
+                "<code>figures/film_plume/</code> (the spray) and <code>figures/film_impact*/</code> (each impact "
+                "run); <code>ffmpeg -framerate 10 -pattern_type glob -i 'figures/film_plume/*.png' -pix_fmt "
+                "yuv420p plume.mp4</code> makes a video of one.</p>\n",
                 out->frames);
 }
 

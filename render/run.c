@@ -1,4 +1,5 @@
 /* render_run_dir: every figure the run's outputs allow, then the report. */
+#include <dirent.h>
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -92,6 +93,29 @@ static int make_folder(const char *path)
 {
     if (mkdir(path, 0777) != 0 && errno != EEXIST)
         SC_FAIL(SC_EIO, "render: cannot create folder %s: %s", path, strerror(errno));
+    return SC_OK;
+}
+
+int render_film_folder(const char *path)
+{
+    SC_TRY(make_folder(path));
+    DIR *dir = opendir(path);
+    if (!dir)
+        SC_FAIL(SC_EIO, "render: cannot read folder %s: %s", path, strerror(errno));
+    struct dirent *entry;
+    char file[4600];
+    while ((entry = readdir(dir))) {
+        size_t len = strlen(entry->d_name);
+        if (len < 4 || strcmp(entry->d_name + len - 4, ".png") != 0)
+            continue;
+        snprintf(file, sizeof file, "%s/%s", path, entry->d_name);
+        if (unlink(file) != 0 && errno != ENOENT) {
+            int saved = errno;
+            closedir(dir);
+            SC_FAIL(SC_EIO, "render: cannot remove the old frame %s: %s", file, strerror(saved));
+        }
+    }
+    closedir(dir);
     return SC_OK;
 }
 

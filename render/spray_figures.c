@@ -393,26 +393,51 @@ static int draw_scene(const struct render_request *req, struct render_renderer *
     return SC_OK;
 }
 
-/* The deposit seen from the nozzle and the plume from the side, particles as spheres of their diameter. */
-static int particle_pictures(const struct render_request *req, struct render_renderer **renderer,
-                             const struct spray_data *s, struct render_output *out)
+/* The nozzle exit (radius R, at z = 0) and the target plane (z = standoff) of the case, for the guides. */
+struct spray_geometry {
+    double nozzle_radius, standoff;
+};
+
+static struct spray_geometry spray_geometry(const struct render_request *req)
+{
+    return (struct spray_geometry){case_real(req->c, "spray", "nozzle_radius"),
+                                   case_real(req->c, "target", "standoff")};
+}
+
+/* The deposit seen from the nozzle: deposited particles as spheres of their diameter on axes in mm, with the
+ * nozzle exit's outline (the circle of radius R on the axis). */
+static int deposit_picture(const struct render_request *req, struct render_renderer **renderer,
+                           const struct spray_data *s, struct render_output *out)
 {
     size_t n = s->d.count, k = 0;
-    double *buffer = malloc((6 * n + 1) * sizeof *buffer), *speed_by_id = deposition_speeds(s);
+    double *buffer = malloc((5 * n + 1) * sizeof *buffer), *speed_by_id = deposition_speeds(s);
     if (!buffer || !speed_by_id) {
         free(buffer), free(speed_by_id);
-        SC_FAIL_OOM((6 * n + 1) * sizeof *buffer, "the particle pictures");
+        SC_FAIL_OOM((5 * n + 1) * sizeof *buffer, "the deposit picture");
     }
-    double *x = buffer, *radius = buffer + 3 * n, *value = buffer + 4 * n, *speed = buffer + 5 * n;
+    double *x = buffer, *radius = buffer + 3 * n, *value = buffer + 4 * n;
     for (size_t i = 0; i < n; i++) {
-        speed[i] = norm3(s->v.values + 3 * i);
         if (s->state.values[i] != 1)
             continue;
         memcpy(x + 3 * k, s->x.values + 3 * i, 3 * sizeof *x);
         radius[k] = 0.5 * s->d.values[i];
         value[k++] = req->cfg->deposit_by_speed ? speed_by_id[(size_t)s->id.values[i]] : s->d.values[i] * 1e6;
     }
-    struct render_spheres deposit = {k, x, radius, 0, value};
+    struct spray_geometry geo = spray_geometry(req);
+    enum { SEGMENTS = 96 };
+    double circle[3 * SEGMENTS], extent = geo.nozzle_radius;
+    for (int i = 0; i < SEGMENTS; i++) {
+        double phi = 2 * M_PI * i / SEGMENTS;
+        circle[3 * i] = geo.nozzle_radius * cos(phi), circle[3 * i + 1] = geo.nozzle_radius * sin(phi);
+        circle[3 * i + 2] = geo.standoff;
+    }
+    for (size_t i = 0; i < k; i++)
+        extent = fmax(extent, fmax(fabs(x[3 * i]), fabs(x[3 * i + 1])) + radius[i]);
+    extent *= 1.05;
+    double frame[6] = {-extent, -extent, geo.standoff, extent, extent, geo.standoff};
+    char label[96], caption[128];
+    snprintf(label, sizeof label, "nozzle exit (d = %.3g mm)", 2e3 * geo.nozzle_radius);
+    struct render_guide nozzle = {circle, SEGMENTS, 1, label, 0};
     struct render_scene scene = {RENDER_VIEW_FACING,
                                  req->cfg->width,
                                  req->cfg->height,
@@ -420,27 +445,202 @@ static int particle_pictures(const struct render_request *req, struct render_ren
                                  1,
                                  req->cfg->deposit_by_speed ? "impact speed" : "diameter",
                                  req->cfg->deposit_by_speed ? "m/s" : "µm",
-                                 NULL,
+                                 caption,
                                  0,
-                                 2.0};
-    char caption[96];
-    snprintf(caption, sizeof caption, "deposit seen from the nozzle: %zu particles", k);
-    scene.caption = caption;
-    int status;
-    SC_CHECK(status, draw_scene(req, renderer, out, &deposit, &scene, "spray_deposit", "Deposit on the target"), done);
-    /* the radius of the plume picture: every particle, half its diameter */
-    for (size_t i = 0; i < n; i++)
-        radius[i] = 0.5 * s->d.values[i];
-    struct render_spheres plume = {n, s->x.values, radius, 0, speed};
-    struct render_scene side = {
-        RENDER_VIEW_SIDE, req->cfg->width, req->cfg->height, 0, 1, "speed", "m/s", NULL, 0, 2.0};
-    snprintf(caption, sizeof caption, "final state from the side: %zu particles (nozzle at z = 0)", n);
-    side.caption = caption;
-    SC_CHECK(status, draw_scene(req, renderer, out, &plume, &side, "spray_plume", "Particles of the final state"),
-             done);
-done:
+                                 2.0,
+                                 0,
+                                 1,
+                                 1,
+                                 &nozzle,
+                                 frame};
+    snprintf(caption, sizeof caption, "deposit on the target seen from the nozzle: %zu particles", k);
+    struct render_spheres deposit = {k, x, radius, 0, value};
+    int status = draw_scene(req, renderer, out, &deposit, &scene, "spray_deposit", "Deposit on the target");
     free(buffer);
     free(speed_by_id);
+    return status;
+}
+
+/* Snapshot i of spray.h5 (/snapshots/NNNNNN): positions, speeds |v|, diameters and states. */
+struct spray_snapshot {
+    struct render_array x, v, d, state;
+    double t;
+};
+
+static void snapshot_free(struct spray_snapshot *snap)
+{
+    render_array_free(&snap->x), render_array_free(&snap->v), render_array_free(&snap->d);
+    render_array_free(&snap->state);
+}
+
+static int snapshot_read(hid_t file, const char *path, long i, struct spray_snapshot *snap)
+{
+    memset(snap, 0, sizeof *snap);
+    char name[64];
+    snprintf(name, sizeof name, "snapshots/%06ld", i);
+    hid_t g = H5Gopen2(file, name, H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "render: %s: no snapshot %s", path, name);
+    int status;
+    SC_CHECK(status, render_read_array(g, path, "x", &snap->x), done);
+    SC_CHECK(status, render_read_array(g, path, "v", &snap->v), done);
+    SC_CHECK(status, render_read_array(g, path, "d", &snap->d), done);
+    SC_CHECK(status, render_read_array(g, path, "state", &snap->state), done);
+    if (h5_attr_read_double(g, "t", &snap->t) != SC_OK)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: snapshot %s has no time", path, name);
+    size_t n = snap->d.count;
+    if (snap->x.count != 3 * n || snap->v.count != 3 * n || snap->state.count != n)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: snapshot %s: datasets of different lengths", path, name);
+    for (size_t k = 0; k < n; k++) /* |v| in place */
+        snap->v.values[k] = norm3(snap->v.values + 3 * k);
+done:
+    H5Gclose(g);
+    if (status != SC_OK)
+        snapshot_free(snap);
+    return status;
+}
+
+/* The plume from the side (x right, z up: the nozzle exit at the bottom, the target at the top), framed on
+ * nozzle to target so that every frame of the film shows the same region, with axes in mm and both drawn. */
+struct plume_view {
+    struct spray_geometry geo;
+    double frame[6], nozzle[6], target[6];
+    char nozzle_label[96], target_label[96];
+    struct render_guide guides[2];
+    double vmax; /* colour range 0 .. vmax (m/s) */
+};
+
+static void plume_view_init(const struct render_request *req, const struct spray_data *s, struct plume_view *pv)
+{
+    pv->geo = spray_geometry(req);
+    double width = pv->geo.nozzle_radius, length = pv->geo.standoff;
+    for (size_t i = 0; i < s->d.count; i++)
+        width = fmax(width, fabs(s->x.values[3 * i]) + 0.5 * s->d.values[i]);
+    width *= 1.1;
+    double frame[6] = {-width, 0, -0.04 * length, width, 0, 1.04 * length};
+    double nozzle[6] = {-pv->geo.nozzle_radius, 0, 0, pv->geo.nozzle_radius, 0, 0};
+    double target[6] = {-width, 0, length, width, 0, length};
+    memcpy(pv->frame, frame, sizeof frame), memcpy(pv->nozzle, nozzle, sizeof nozzle);
+    memcpy(pv->target, target, sizeof target);
+    snprintf(pv->nozzle_label, sizeof pv->nozzle_label, "nozzle exit (d = %.3g mm)", 2e3 * pv->geo.nozzle_radius);
+    snprintf(pv->target_label, sizeof pv->target_label, "target (standoff %.3g mm)", 1e3 * length);
+    pv->guides[0] = (struct render_guide){pv->nozzle, 2, 0, pv->nozzle_label, 1};
+    pv->guides[1] = (struct render_guide){pv->target, 2, 0, pv->target_label, 0};
+    pv->vmax = 0;
+    for (size_t i = 0; i < s->hit_d.count; i++)
+        pv->vmax = fmax(pv->vmax, norm3(s->hit_v.values + 3 * i));
+    for (size_t i = 0; i < s->d.count; i++)
+        pv->vmax = fmax(pv->vmax, norm3(s->v.values + 3 * i));
+    if (!(pv->vmax > 0))
+        pv->vmax = 1;
+}
+
+/* Draw particles (x, |v|, d, state of n) from the side into path. */
+static int plume_draw(const struct render_request *req, struct render_renderer **renderer, const struct plume_view *pv,
+                      const struct spray_snapshot *snap, const char *caption, const char *path)
+{
+    size_t n = snap->d.count;
+    double *radius = malloc((n + 1) * sizeof *radius);
+    if (!radius)
+        SC_FAIL_OOM((n + 1) * sizeof *radius, "the plume picture");
+    for (size_t i = 0; i < n; i++)
+        radius[i] = 0.5 * snap->d.values[i];
+    struct render_spheres plume = {n, snap->x.values, radius, 0, snap->v.values};
+    struct render_scene side = {
+        RENDER_VIEW_SIDE, req->cfg->width, req->cfg->height, 0, pv->vmax, "speed", "m/s", caption, 0, 2.0, 0, 1, 2,
+        pv->guides,       pv->frame};
+    const struct render_image *image;
+    int status;
+    SC_CHECK(status, render_renderer_get(req->cfg, renderer), done);
+    SC_CHECK(status, render_spheres_draw(*renderer, &plume, &side, NULL, &image), done);
+    SC_CHECK(status, render_image_write_png(image, path), done);
+done:
+    free(radius);
+    return status;
+}
+
+static void plume_caption(const struct spray_snapshot *snap, char *out, size_t size)
+{
+    size_t flying = 0;
+    for (size_t i = 0; i < snap->d.count; i++)
+        flying += snap->state.values[i] == 0;
+    snprintf(out, size, "t = %.3f ms: %zu particles in flight, %zu deposited", snap->t * 1e3, flying,
+             snap->d.count - flying);
+}
+
+/* The number of snapshots in spray.h5 (0 without /snapshots: a run with snapshot_every = 0). */
+static int snapshot_count(hid_t file, const char *path, long *count)
+{
+    *count = 0;
+    if (!h5_exists(file, "snapshots"))
+        return SC_OK;
+    hid_t g = H5Gopen2(file, "snapshots", H5P_DEFAULT);
+    int64_t c = -1;
+    if (g >= 0)
+        h5_attr_read_int64(g, "count", &c), H5Gclose(g);
+    if (c < 0)
+        SC_FAIL(SC_EIO, "render: %s: /snapshots has no count", path);
+    *count = (long)c;
+    return SC_OK;
+}
+
+/* The plume picture: the snapshot halfway through the run (the plume in flight), or without snapshots the final
+ * state; and the film: every `every`-th snapshot and the last into figures/film_plume/. */
+static int plume_pictures(const struct render_request *req, struct render_renderer **renderer,
+                          const struct spray_data *s, struct render_output *out)
+{
+    struct plume_view pv;
+    plume_view_init(req, s, &pv);
+    char dir[4200], path[4400], caption[160];
+    render_figures_dir(req->run_dir, dir, sizeof dir);
+    snprintf(path, sizeof path, "%s/spray_plume.png", dir);
+    hid_t file;
+    SC_TRY(render_open(s->path, &file));
+    long count, every = req->cfg->every;
+    int status;
+    struct spray_snapshot snap;
+    memset(&snap, 0, sizeof snap);
+    SC_CHECK(status, snapshot_count(file, s->path, &count), done);
+    if (count == 0) { /* the final state: /particles */
+        struct spray_snapshot final = {s->x, s->v, s->d, s->state, NAN};
+        double *speed = malloc((s->d.count + 1) * sizeof *speed);
+        if (!speed)
+            SC_FAIL_OOM_AT(status, done, (s->d.count + 1) * sizeof *speed, "the plume picture");
+        for (size_t i = 0; i < s->d.count; i++)
+            speed[i] = norm3(s->v.values + 3 * i);
+        final.v.values = speed;
+        snprintf(caption, sizeof caption, "final state from the side: %zu particles (no snapshots)", s->d.count);
+        status = plume_draw(req, renderer, &pv, &final, caption, path);
+        free(speed);
+        SC_CHECK(status, status, done);
+        SC_CHECK(status, render_output_push(out, "spray_plume", "spray", 0, "Particles of the final state", NULL),
+                 done);
+        goto done;
+    }
+    SC_CHECK(status, snapshot_read(file, s->path, count / 2, &snap), done);
+    plume_caption(&snap, caption, sizeof caption);
+    SC_CHECK(status, plume_draw(req, renderer, &pv, &snap, caption, path), done);
+    snapshot_free(&snap);
+    SC_CHECK(status,
+             render_output_push(out, "spray_plume", "spray", 0, "The plume in flight, halfway through the run", NULL),
+             done);
+    if (every <= 0)
+        goto done;
+    snprintf(path, sizeof path, "%s/film_plume", dir);
+    SC_CHECK(status, render_film_folder(path), done);
+    for (long i = 0; i < count; i++) {
+        if (i % every != 0 && i != count - 1)
+            continue;
+        SC_CHECK(status, snapshot_read(file, s->path, i, &snap), done);
+        plume_caption(&snap, caption, sizeof caption);
+        snprintf(path, sizeof path, "%s/film_plume/plume_%06ld.png", dir, i);
+        SC_CHECK(status, plume_draw(req, renderer, &pv, &snap, caption, path), done);
+        snapshot_free(&snap);
+        out->frames++;
+    }
+done:
+    snapshot_free(&snap);
+    H5Fclose(file);
     return status;
 }
 
@@ -458,7 +658,8 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     SC_CHECK(status, impact_figures(req, &s, out), done);
     SC_CHECK(status, metrics_figure(req, &s, out), done);
     SC_CHECK(status, thickness_figure(req, &s, out), done);
-    SC_CHECK(status, particle_pictures(req, renderer, &s, out), done);
+    SC_CHECK(status, deposit_picture(req, renderer, &s, out), done);
+    SC_CHECK(status, plume_pictures(req, renderer, &s, out), done);
     log_info("render: spray figures from %s", s.path);
 done:
     spray_data_free(&s);

@@ -8,7 +8,8 @@
 # number of points is the length of the snapshot's (or /particles') x, the number of cells equals it (one
 # vertex cell a point: a Polyvertex topology without connectivity gives 0 cells in the Xdmf3 readers and the
 # Surface and Points representations draw nothing), the time steps are the snapshots (values and count), and
-# the point arrays are the group's datasets other than x.
+# the point arrays are the group's datasets other than x.  spray.xdmf is the time series of spray.h5
+# /snapshots/NNNNNN (snapshot_every), or the final /particles without time when the run took no snapshots.
 #
 # Without ParaView's Python prints SKIP and the reason.  VisIt is not packaged in Debian 12 (no test).
 # `tests/test_paraview.sh RUN_DIR...` checks those run folders instead of making new ones.
@@ -89,14 +90,16 @@ def attribute_t(h5, group):
 def expected(xdmf):
     """[(time or None, points, array names)] from the HDF5 file the XDMF file indexes."""
     folder, name = os.path.split(xdmf)
-    if name == "spray.xdmf":
-        sets = datasets(os.path.join(folder, "spray.h5"))
-        names = sorted(p.split("/")[-1] for p in sets if p.startswith("/particles/") and p != "/particles/x")
-        return [(None, sets["/particles/x"], names)]
-    h5 = os.path.join(folder, "impact.h5")
+    h5 = os.path.join(folder, "spray.h5" if name == "spray.xdmf" else "impact.h5")
     sets = datasets(h5)
     m = re.match(r"impact_run_(\d+)\.xdmf$", name)
-    if m:
+    if name == "spray.xdmf" and not any(p.startswith("/snapshots/") for p in sets):
+        # snapshot_every = 0: the final particles, no time
+        names = sorted(p.split("/")[-1] for p in sets if p.startswith("/particles/") and p != "/particles/x")
+        return [(None, sets["/particles/x"], names)]
+    if name == "spray.xdmf":
+        base = "/snapshots"  # the spray's time series: one step a snapshot
+    elif m:
         base = "/run_%s/snapshots" % m.group(1)
     elif any(p.startswith("/snapshots/") for p in sets):
         base = "/snapshots"

@@ -21,7 +21,7 @@ static const char ini[] =
     "[run]\nseed = 3\n"
     "[spray]\ndt = 1e-6\nt_end = 3e-3\nfeed_count = 20\nfeed_every = 10\nmax_injected = 300\n"
     "nozzle_radius = 0.005\nrelease_speed_min = 20\nrelease_speed_max = 60\nrelease_cone = 2\n"
-    "domain_radius = 0.03\nhandoff_height = 0.005\nmetrics_every = 100\n"
+    "domain_radius = 0.03\nhandoff_height = 0.005\nmetrics_every = 100\nsnapshot_every = 5e-4\n"
     "[powder]\ndistribution = weibull\nmedian_diameter = 40e-6\nshape = 3.5\nd_min = 10e-6\nd_max = 100e-6\n"
     "[target]\nstandoff = 0.03\ndeposit_radius = 0.005\n"
     "[jet]\nmodel = bickley\nC1 = 30\nC3 = 20\nvirtual_origin = 0.05\ncore_length = 0.005\n"
@@ -277,6 +277,24 @@ static size_t count_particles(const char *dir)
     return n;
 }
 
+/* The count attribute of spray.h5 /snapshots (-1 when absent). */
+static int64_t count_spray_snapshots(const char *dir)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/spray.h5", dir);
+    hid_t file, group;
+    int64_t n = -1;
+    if (h5_open_read(path, &file) == SC_OK) {
+        if ((group = H5Gopen2(file, "snapshots", H5P_DEFAULT)) >= 0) {
+            h5_attr_read_int64(group, "count", &n);
+            H5Gclose(group);
+        }
+        H5Fclose(file);
+    }
+    sc_error_clear();
+    return n;
+}
+
 static void check_figures(const struct fixture *f, const struct render_output *out)
 {
     for (int i = 0; i < out->count; i++) {
@@ -331,7 +349,13 @@ static void test_every_figure_of_a_run(void)
     CHECK(render_run_dir(&req, &out) == SC_OK, "render: %s", sc_error_message());
     /* spray 8, per impact run 3 plots + 3 views, vcrit 2 (v_crit(d) and CoR(v)) */
     CHECK(out.count == 8 + 2 * 6 + 2, "%d figures", out.count);
-    CHECK(out.frames == 2 * 3, "%d frames (every 2nd of 4 snapshots and the last, two runs)", out.frames);
+    /* the spray's snapshots: one every 500 of 3000 steps, the last at the end; the plume film every 2nd and the
+     * last: 0 2 4 5 */
+    int64_t spray_snapshots = count_spray_snapshots(f.dir);
+    CHECK(spray_snapshots == 6, "%lld spray snapshots, expected 6 (every 5e-4 s of 3e-3 s)",
+          (long long)spray_snapshots);
+    CHECK(out.frames == 2 * 3 + 4, "%d frames (impact: every 2nd of 4 snapshots and the last, two runs; plume: 4)",
+          out.frames);
     check_figures(&f, &out);
     const struct render_figure *d = render_output_find(&out, "spray_diameter");
     size_t particles = count_particles(f.dir);
@@ -346,9 +370,13 @@ static void test_every_figure_of_a_run(void)
     CHECK(s && contacts > 0 && s->histogram.total == contacts, "speed histogram holds %lld of %lld first impacts",
           s ? (long long)s->histogram.total : -1LL, (long long)contacts);
     char path[256];
-    snprintf(path, sizeof path, "%s/figures/frames/impact_run_0002_eps_p_section_000003.png", f.dir);
+    snprintf(path, sizeof path, "%s/figures/film_impact_run_0002/eps_p_section_000003.png", f.dir);
     int w, h;
     CHECK(png_facts(path, &w, &h) == 2 && w == f.cfg.width, "last frame of run 2: %s", path);
+    snprintf(path, sizeof path, "%s/figures/film_plume/plume_000005.png", f.dir);
+    CHECK(png_facts(path, &w, &h) == 2 && w == f.cfg.width, "last frame of the plume: %s", path);
+    snprintf(path, sizeof path, "%s/figures/film_plume/plume_000003.png", f.dir);
+    CHECK(png_facts(path, &w, &h) != 2, "plume frame 3 drawn, though every = 2: %s", path);
     check_report_names_figures(&f, &out);
     render_output_free(&out);
     /* damaged input: the message names the file, the status is an I/O error */

@@ -1,7 +1,8 @@
 #!/bin/sh
 # `spraycoat render` from the command line: a small spray run drawn twice gives the same PNG bytes; headless
 # Chromium opens report.html and every image in it loads; nothing to draw, a damaged spray.h5 and a bad [render]
-# range are errors with exit status 3, 3 and 2 and a message.  No display is needed (OSMesa, Cairo).
+# range are errors with exit status 3, 3 and 2 and a message; `render --every N` draws the plume film, one frame
+# per Nth snapshot of spray.h5 and the last.  No display is needed (OSMesa, Cairo).  Needs h5ls.
 # Prints "PASS name" / "FAIL name: why" (tests/run_tests.sh counts them).  Run from the repo root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -117,6 +118,29 @@ else
         echo "FAIL render_report_in_chromium: exit status $status, images/loaded '$counts', expected $expected;" \
             "$(tail -c 300 "$tmp/chromium_err")"
     fi
+fi
+
+# ---- the plume film: render --every 3 draws snapshots 0, 3, 6, .. and the last of spray.h5 /snapshots, and
+# removes the frames of the renders above ([render] every = 1: every snapshot) ----
+"$bin" render "$tmp/case.ini" -o "$tmp/run" --every 3 -q >"$tmp/out" 2>&1
+status=$?
+snapshots=$(h5ls "$tmp/run/spray.h5/snapshots" 2>/dev/null | awk '$2 == "Group"' | wc -l | tr -d ' ')
+expected=$(awk -v n="$snapshots" 'BEGIN { c = 0; for (i = 0; i < n; i++) if (i % 3 == 0 || i == n - 1) c++; print c }')
+frames=$(ls "$tmp/run/figures/film_plume/" 2>/dev/null | grep -c '^plume_[0-9]*\.png$')
+last=$(printf 'plume_%06d.png' $((snapshots - 1)))
+if [ "$status" -eq 0 ] && [ "$snapshots" -ge 10 ] && [ "$frames" -eq "$expected" ] &&
+    [ -s "$tmp/run/figures/film_plume/$last" ]; then
+    echo "PASS render_film_frames ($frames frames of $snapshots snapshots)"
+else
+    echo "FAIL render_film_frames: exit status $status, $frames frames of $snapshots snapshots, expected $expected" \
+        "with $last; $(tail -c 300 "$tmp/out")"
+fi
+"$bin" spray "$tmp/case.ini" -o "$tmp/run" --every 3 >/dev/null 2>"$tmp/err"
+status=$?
+if [ "$status" -eq 2 ] && grep -q -- "--every" "$tmp/err"; then
+    echo "PASS render_every_only_render"
+else
+    echo "FAIL render_every_only_render: spray --every: exit status $status, stderr: $(head -c 300 "$tmp/err")"
 fi
 
 # ---- a damaged spray.h5: exit 3 naming it ----

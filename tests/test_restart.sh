@@ -2,7 +2,7 @@
 # shellcheck disable=SC2012 # ls lists files this test made, named without blanks
 # The restart guarantee through the public command (docs/architecture.md "Determinism and restart",
 # docs/files.md): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
-# the same spray.h5 as a run that was never stopped; results do not depend on the thread count; a damaged
+# the same spray.h5 as a run that was never stopped (its /snapshots too: each once, none missing); results do not depend on the thread count; a damaged
 # newest checkpoint falls back to the previous one with a warning; a checkpoint of another case is refused.
 #
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).  Needs h5ls, h5diff and
@@ -65,9 +65,11 @@ if [ -n "${SPRAYCOAT_SANITIZED:-}" ]; then # ASan/UBSan runs are several times s
 fi
 CASE=$T/short.ini
 OTHER=$T/other_seed.ini
-sed -e "s/^t_end *=.*/t_end = $t_end/" -e "s/^checkpoint_steps *=.*/checkpoint_steps = $every/" "$DEMO" >"$CASE"
+# snapshots of the particles every 100 steps (spray.h5 /snapshots): a resumed run must hold each exactly once
+sed -e "s/^t_end *=.*/t_end = $t_end\nsnapshot_every = 1e-4/" -e "s/^checkpoint_steps *=.*/checkpoint_steps = $every/" \
+    "$DEMO" >"$CASE"
 sed -e 's/^seed *=.*/seed = 1234567/' "$CASE" >"$OTHER"
-if ! grep -q "^t_end = $t_end\$" "$CASE" || ! grep -q "^checkpoint_steps = $every\$" "$CASE" ||
+if ! grep -q "^t_end = $t_end\$" "$CASE" || ! grep -q "^snapshot_every = 1e-4\$" "$CASE" || ! grep -q "^checkpoint_steps = $every\$" "$CASE" ||
     ! grep -q '^seed = 1234567$' "$OTHER"; then
     echo "FAIL restart ($DEMO no longer has the lines t_end, checkpoint_steps and seed this test rewrites)"
     exit 1
@@ -234,6 +236,22 @@ ref_ms=$(($(now_ms) - ref_start))
 [ "$ref_ms" -gt 0 ] || ref_ms=1000
 note "reference run: $ref_ms ms, $(datasets "$T/ref/spray.h5" | wc -l | tr -d ' ') datasets"
 pass restart_reference
+
+# The step attribute of every snapshot of DIR/spray.h5, in the order of their names, one line; and the list a
+# run must hold: 100, 200, .. up to the last step (t_end / dt), each once, none missing.
+snapshot_steps() {
+    h5ls "$1/spray.h5/snapshots" 2>/dev/null | awk '$2 == "Group" { print $1 }' | LC_ALL=C sort | while read -r g; do
+        h5dump -a "/snapshots/$g/step" "$1/spray.h5" 2>/dev/null | sed -n 's/.*(0): *\([0-9]*\).*/\1/p'
+    done | tr '\n' ' '
+}
+expected_steps=$(awk -v t="$t_end" 'BEGIN { n = int(t / 1e-6 + 0.5); for (s = 100; s <= n; s += 100) printf "%d ", s }')
+test=restart_snapshots_reference
+got=$(snapshot_steps "$T/ref")
+if [ "$got" = "$expected_steps" ]; then
+    pass "$test"
+else
+    fail "$test" "snapshot steps [$got], expected [$expected_steps]"
+fi
 
 # ---- 2. SIGKILL at several moments, resume each time ----------------------------------------------------------
 # The kills come at fixed fractions of the reference run's wall time after the start of `spray` (the first,
@@ -405,6 +423,15 @@ resume_and_compare() { # NAME RUN_DIR
 }
 if signal_run restart_sigterm TERM 143 "$T/term" && resume_and_compare restart_sigterm "$T/term"; then
     pass restart_sigterm
+fi
+# the snapshots of the run stopped by SIGTERM and resumed: each step once, none missing (same_results compared
+# them with the reference's already; this names what went wrong)
+test=restart_snapshots_resumed
+got=$(snapshot_steps "$T/term")
+if [ "$got" = "$expected_steps" ]; then
+    pass "$test"
+else
+    fail "$test" "snapshot steps after SIGTERM and resume [$got], expected [$expected_steps]"
 fi
 if signal_run restart_sigint INT 130 "$T/int" && resume_and_compare restart_sigint "$T/int"; then
     pass restart_sigint

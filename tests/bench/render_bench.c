@@ -128,8 +128,8 @@ int main(int argc, char **argv)
     static const char *const names[] = {"iso", "section", "top"};
     struct render_spheres spheres = {n, x, NULL, 0.125e-6, eps};
     for (int v = 0; v < 3; v++) {
-        struct render_scene scene = {views[v], 1920,           1080, 0,  2.7, "effective plastic strain",
-                                     "-",      "t = 40.00 ns", 0,    0.5};
+        struct render_scene scene = {
+            views[v], 1920, 1080, 0, 2.7, "effective plastic strain", "-", "t = 40.00 ns", 0, 0.5, 1, 0, 0, NULL, NULL};
         const struct render_image *image;
         double start = now();
         int status = render_spheres_draw(r, &spheres, &scene, NULL, &image);
