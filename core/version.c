@@ -1,5 +1,7 @@
 #include "core/version.h"
 
+#include "core/isa.h"
+
 #include <hdf5.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -151,7 +153,7 @@ static const char target[] =
 /* libinih's ini.h has no version macro. */
 #define INIH "linked (ini.h carries no version)"
 
-enum { ITEMS = 12 };
+enum { ITEMS = 13 };
 static struct spraycoat_build_item items[ITEMS + 1];
 static char hdf5_text[64], mpi_text[256];
 static pthread_once_t once = PTHREAD_ONCE_INIT;
@@ -197,6 +199,7 @@ static void fill_items(void)
         {"flags", SPRAYCOAT_FLAGS},
         {"file_flags", SPRAYCOAT_FILE_FLAGS},
         {"target", target},
+        {"isa", isa_name()},
         {"openmp", OPENMP},
         {"hdf5", hdf5_text},
         {"sundials", SUNDIALS},
