@@ -55,16 +55,57 @@ test-deps:
 # only at -O3, whatever OPT is.  The integrator's loops over particles call sqrt: without errno (nothing there
 # reads it) the correctly rounded instruction vectorises, where a call that may set errno keeps the loop scalar.
 # And no library calls for its loops that copy (memcpy for a block's 256-byte copies cost more than inline moves).
+# (Patterns: they hold for the objects of every instruction-set level below too.)
 INTEGRATE_CFLAGS     := -O3 -fno-tree-loop-distribute-patterns -fno-math-errno
 STRESS_UPDATE_CFLAGS := -O3
-$(BUILD)/dem/integrate.o: CFLAGS += $(INTEGRATE_CFLAGS)
-$(BUILD)/mpm/stress_update.o: CFLAGS += $(STRESS_UPDATE_CFLAGS)
+$(BUILD)/dem/integrate%.o: private CFLAGS += $(INTEGRATE_CFLAGS)
+$(BUILD)/mpm/stress_update%.o: private CFLAGS += $(STRESS_UPDATE_CFLAGS)
 $(BUILD)/tests/test_fastmath.o: CFLAGS += -O3
+
+# One build, fast on every x86-64 (docs/performance.md, "One build for every x86-64"): the hot kernels, the
+# impact's transfers, grid-to-points and stress update and the spray's integration and contacts, are compiled
+# once per instruction-set level (ISA_LEVELS: x86-64-v2, -v3 with AVX2, -v4 with AVX-512) into
+# $(BUILD)/M/F.vN.o, whose external functions objcopy renames NAME -> NAME_vN (calls between the kernel files
+# too); app/isa_dispatch.c defines each NAME as a jump to the level core/isa.c chooses before main (the best the
+# CPU runs, or SPRAYCOAT_ISA=v2|v3|v4).  Every other file is compiled once, with $(OPT).  Needs gcc >= 12 on
+# x86-64 (__builtin_cpu_supports("x86-64-v3")); elsewhere, or with `make ISA_LEVELS=`, one build as before.
+ISA_KERNEL_SRC := mpm/grid.c mpm/solver.c mpm/stress_update.c dem/integrate.c dem/broadphase.c
+ISA_CFLAGS     := -O3
+ISA_LEVELS     ?= v2 v3 v4
+ISA_COMPILER   := $(shell printf '\043if defined(__x86_64__) && !defined(__clang__) && __GNUC__ >= 12\nyes\n\043endif\n' | \
+                    $(CC) -E -P - 2>/dev/null)
+ifneq ($(ISA_COMPILER),yes)
+ISA_LEVELS     :=
+endif
+ifneq ($(strip $(ISA_LEVELS)),)
+ISA_RAW_OBJ    := $(foreach v,$(ISA_LEVELS),$(ISA_KERNEL_SRC:%.c=$(BUILD)/%.$(v).raw.o))
+LIB_OBJ        := $(filter-out $(ISA_KERNEL_SRC:%.c=$(BUILD)/%.o),$(LIB_OBJ)) \
+                  $(foreach v,$(ISA_LEVELS),$(ISA_KERNEL_SRC:%.c=$(BUILD)/%.$(v).o))
+$(BUILD)/core/isa.o: private CPPFLAGS += -DSPRAYCOAT_ISA_VARIANTS
+$(BUILD)/app/isa_dispatch.o: private CPPFLAGS += -DSPRAYCOAT_ISA_KERNELS -I$(BUILD)/isa
+$(BUILD)/app/isa_dispatch.o: $(BUILD)/isa/kernels.list
+# the kernel functions, from the level-2 objects (scripts/isa_kernels.sh), and each level's renaming
+$(BUILD)/isa/kernels.list: $(ISA_KERNEL_SRC:%.c=$(BUILD)/%.$(firstword $(ISA_LEVELS)).raw.o) scripts/isa_kernels.sh
+	@mkdir -p $(dir $@)
+	scripts/isa_kernels.sh $@ $(BUILD)/isa/isa_kernels.h $(filter %.o,$^)
+$(BUILD)/isa/%.syms: $(BUILD)/isa/kernels.list
+	awk '{ print $$1, $$1 "_$*" }' $< > $@
+define ISA_RULES
+$(BUILD)/%.$(1).raw.o: %.c $(BUILD)/flags.stamp
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$(CPPFLAGS) $$(CFLAGS) $(ISA_CFLAGS) -march=x86-64-$(1) -MMD -MP -c $$< -o $$@
+$(BUILD)/%.$(1).o: $(BUILD)/%.$(1).raw.o $(BUILD)/isa/$(1).syms
+	objcopy --redefine-syms=$(BUILD)/isa/$(1).syms $$< $$@
+endef
+$(foreach v,$(ISA_LEVELS),$(eval $(call ISA_RULES,$(v))))
+.SECONDARY: $(ISA_RAW_OBJ) $(foreach v,$(ISA_LEVELS),$(BUILD)/isa/$(v).syms)
+ISA_FILE_FLAGS := ; per level, chosen at run time ($(ISA_KERNEL_SRC)): $(ISA_CFLAGS) -march=x86-64-$(subst $() ,|,$(strip $(ISA_LEVELS)))
+endif
 
 # The build record of every output's /code group (core/version.c): the flags every file is compiled with
 # (CPPFLAGS without its -I paths, CFLAGS) and the per-file additions of the program.
 BUILD_FLAGS := $(strip $(filter-out -I%,$(CPPFLAGS)) $(CFLAGS))
-FILE_FLAGS  := dem/integrate.c: $(INTEGRATE_CFLAGS); mpm/stress_update.c: $(STRESS_UPDATE_CFLAGS)
+FILE_FLAGS  := dem/integrate.c: $(INTEGRATE_CFLAGS); mpm/stress_update.c: $(STRESS_UPDATE_CFLAGS)$(ISA_FILE_FLAGS)
 # TEXT as the contents of a C string literal inside a shell word in single quotes
 c_string = $(subst ','\'',$(subst ",\",$(subst \,\\,$(1))))
 
@@ -96,15 +137,12 @@ $(BIN): $(MAIN_OBJ) $(BUILD)/libspraycoat.a
 $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-# The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process) and, on a CPU
-# with AVX-512, the bench build, whose AVX-512-only code paths the portable build never takes
-# (tests/test_native_build.sh compares the two).
+# The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process); every
+# instruction-set level of the kernels this CPU runs is compared with level 2 (tests/test_native_build.sh).
 test: test-deps format-check
 	$(MAKE) all
 	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
-	if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then \
-	    $(MAKE) BUILD=build-bench OPT='-O3 -march=native' build-bench/spraycoat; fi
-	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat SPRAYCOAT_NATIVE_BIN=build-bench/spraycoat tests/run_tests.sh $(BUILD)
+	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.
 asan: deps
@@ -113,11 +151,11 @@ asan: deps
 	ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan-mesa.supp UBSAN_OPTIONS=print_stacktrace=1 \
 	    SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
 
-# Optimised build in its own folder (build/ keeps the portable objects; a change of flags rebuilds everything), then the
-# performance table.
+# The performance tables, of the build users get: the default build, its kernels at the level this CPU runs
+# (scripts/bench.sh prints which).
 bench: deps
-	$(MAKE) BUILD=build-bench OPT='-O3 -march=native' all
-	BENCH_COMMAND='make bench' scripts/bench.sh build-bench
+	$(MAKE) all
+	BENCH_COMMAND='make bench' scripts/bench.sh $(BUILD)
 
 run: deps
 	$(MAKE) $(BIN)

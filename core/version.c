@@ -1,5 +1,7 @@
 #include "core/version.h"
 
+#include "core/isa.h"
+
 #include <hdf5.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -203,6 +205,7 @@ static void fill_items(void)
         {"flags", SPRAYCOAT_FLAGS},
         {"file_flags", SPRAYCOAT_FILE_FLAGS},
         {"target", target},
+        {"isa", isa_name()},
         {"openmp", OPENMP},
         {"hdf5", hdf5_text},
         {"sundials", SUNDIALS},

@@ -14,8 +14,9 @@ struct spraycoat_build_item {
 /* The build record, ended by an entry whose name is NULL: version (semantic, MAJOR.MINOR.PATCH, from the file
  * VERSION), program_version (git describe), compiler, flags (the flags every
  * file is compiled with), file_flags (the per-file additions), target (the instruction sets compiled for),
- * openmp, then the libraries: hdf5, sundials, cairo, osmesa, inih, mpi.  Never empty values; the same for the
- * life of the process (filled on the first call, thread-safe). */
+ * isa (the instruction-set level the kernels run with, core/isa.h), openmp, then the libraries: hdf5, sundials, cairo,
+ * osmesa, inih, mpi.  Never empty values; the same for the life of the process (filled on the first call, thread-safe).
+ */
 const struct spraycoat_build_item *spraycoat_build_info(void);
 
 #endif

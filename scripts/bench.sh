@@ -82,9 +82,11 @@ INI
 # `make bench > FILE` or a paste gives BENCHMARKS.md's tables; docs/performance.md says what the columns mean).
 machine="$(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores, $(awk '/^MemTotal/ { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)"
 machine="$machine, $(. /etc/os-release 2>/dev/null && echo "$PRETTY_NAME"), $("$bin" --version | sed -n 's/^ *compiler *:* *//p' | head -n 1)"
-echo "| machine | commit | command | load average at the start |"
-echo "| --- | --- | --- | --- |"
-echo "| $machine | $("$bin" --version | head -n 1 | cut -d' ' -f2) | \`${BENCH_COMMAND:-scripts/bench.sh $build}\` (BENCH_REPEAT=${BENCH_REPEAT:-3}) | $(cut -d' ' -f1-3 /proc/loadavg) |"
+# The instruction-set level the kernels ran with (core/isa.h: the best this CPU runs, or SPRAYCOAT_ISA's).
+isa=$("$bin" --version | sed -n 's/^ *isa *//p')
+echo "| machine | commit | command | kernels' instruction set | load average at the start |"
+echo "| --- | --- | --- | --- | --- |"
+echo "| $machine | $("$bin" --version | head -n 1 | cut -d' ' -f2) | \`${BENCH_COMMAND:-scripts/bench.sh $build}\` (BENCH_REPEAT=${BENCH_REPEAT:-3}) | ${isa:-unknown} | $(cut -d' ' -f1-3 /proc/loadavg) |"
 echo
 echo "What 2 threads can gain over 1 on this machine, now (tests/bench/machine_ceiling.c): arithmetic in registers,"
 echo "and the STREAM triad through memory, which bounds the scaling of a step that streams its arrays:"

@@ -60,4 +60,4 @@ echo "| ---------------------------------- | ------- | --------- | ----- | -----
 for t in 1 2; do run_case small "14 um, 810 m/s, 1.5/0.5, 10 ns" "$t"; done
 for t in 1 2; do run_case large "14 um, 810 m/s, 0.7/0.2, 0.3 ns" "$t"; done
 echo
-echo "best of $repeats run(s); load average before the first run: $load_before"
+echo "best of $repeats run(s); kernels: $("$bin" --version | sed -n 's/^ *isa *//p'); load average before the first run: $load_before"

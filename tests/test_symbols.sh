@@ -23,6 +23,7 @@ core_prefixes() {
         error) echo "sc_" ;;
         h5io) echo "h5_" ;;
         interrupt) echo "interrupt_" ;;
+        isa) echo "isa_" ;;
         log) echo "log_" ;;
         logistic) echo "logistic_" ;;
         memory) echo "memory_" ;;
@@ -38,6 +39,8 @@ app_prefixes() {
     case "$1" in
         main) echo "main" ;;
         info) echo "info_" ;;
+        # the kernels' names, each a jump to its level's compilation, and their table (app/isa_dispatch.c)
+        isa_dispatch) echo "isa_dispatch_ dem_ mpm_" ;;
         rundir) echo "app_ run_dir_ stage_ stages_ spraycoat_registry" ;;
         stage_loop) echo "stage_" ;;
         xdmf) echo "xdmf_" ;;
