@@ -158,7 +158,7 @@ static const char target[] =
 /* libinih's ini.h has no version macro. */
 #define INIH "linked (ini.h carries no version)"
 
-enum { ITEMS = 13 };
+enum { ITEMS = 14 };
 static struct spraycoat_build_item items[ITEMS + 1];
 static char hdf5_text[64], mpi_text[256];
 static pthread_once_t once = PTHREAD_ONCE_INIT;
