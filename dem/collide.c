@@ -4,10 +4,11 @@
  *
  * The paper tests for overlap at the end of a step (Eq. 40); at its step sizes a particle moves more
  * than its diameter per step, so contacts would be missed and particles would tunnel.  Here every pair
- * whose spheres, moving with their start-of-step velocities, touch at some time s in [0, dt] is a contact.
- * Contacts are resolved once, at the start of the step, as impulses, in order of (s, a, b): a total
- * order, so results do not depend on the thread count.  Each contact is re-tested for approach with the
- * velocities current when it is resolved. */
+ * whose spheres (widened by their drag skins, dem/integrate.c), moving with their start-of-step velocities,
+ * touch at some time s in [0, dt] is a contact.  Contacts are resolved as impulses in order of time,
+ * (s, kind, a, b): a total order, so results do not depend on the thread count; after every change of a
+ * path the new path's contacts join them ("contacts of changed paths" below; docs/physics.md, "Contacts
+ * in order of time"). */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
