@@ -224,6 +224,14 @@ static void log_summary(const struct spray_run *run)
              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.contacts_deposit,
              c.fixed_point_solves ? (double)c.fixed_point_iterations / (double)c.fixed_point_solves : 0.0,
              (long long)c.max_iterations, (long long)c.fixed_point_unconverged, (long long)c.subcycled_particle_steps);
+    if (c.clamps) /* the contact search missed a contact (docs/physics.md, "Contact detection") */
+        log_warn("spray: %lld end-of-step corrections (clamps): particles put back out of the target or another "
+                 "particle; %lld stopped caught between bodies",
+                 (long long)c.clamps, (long long)c.trapped);
+    else
+        log_info("spray: no end-of-step corrections (clamps): no particle ended a step inside another or the target; "
+                 "%lld stopped caught between bodies",
+                 (long long)c.trapped);
     log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m", m.volume_fraction,
              m.mean_spread, m.scatter, m.max_thickness);
     log_timing(run);

@@ -28,6 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/fastmath.h"
 #include "dem/dem_impl.h"
 
 /* Cells per particle per axis stay bounded: a particle far faster than the rest widens the cells instead
@@ -96,7 +97,8 @@ static void reach_box(const struct dem_particles *p, size_t i, double dt, double
     int flying = p->state[i] == DEM_FLYING;
     /* horizon 0: the swept box of this step alone, as a grid rebuilt every step would hold it */
     double skin = flying && horizon > 0.0 ? SKIN_RADII : 0.0;
-    double radius = 0.5 * p->d[i] * (1.0 + DEM_BOX_MARGIN + skin);
+    /* the contact radius (with the drag skin) as reach_flags tests it, then the skin of the horizon */
+    double radius = dem_contact_radius(p, i) * (1.0 + DEM_BOX_MARGIN) + 0.5 * p->d[i] * skin;
     double span = horizon > 0.0 ? dt * horizon : dt;
     for (int c = 0; c < 3; c++) {
         double start = p->x[3 * i + c], end = start + (flying ? p->v[3 * i + c] * span : 0.0);
@@ -383,7 +385,7 @@ struct swept_sphere {
 
 static struct swept_sphere swept_sphere_of(const struct dem_particles *p, uint32_t i)
 {
-    struct swept_sphere sphere = {.radius = 0.5 * p->d[i], .index = i, .flying = p->state[i] == DEM_FLYING};
+    struct swept_sphere sphere = {.radius = dem_contact_radius(p, i), .index = i, .flying = p->state[i] == DEM_FLYING};
     for (int c = 0; c < 3; c++) {
         sphere.x[c] = p->x[3 * i + c];
         sphere.v[c] = sphere.flying ? p->v[3 * i + c] : 0.0;
@@ -536,23 +538,36 @@ static void ensure_particle_capacity(struct dem_bins *bins, size_t count)
  * (or its repair) is still where its box was made for it (deposits never move), so it passes whatever the
  * test says.  No branches, so that gcc vectorises the loop (the sweep of a deposited particle, at rest, is
  * v * 0; no lesser or greater). */
-static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first, size_t end,
-                        uint8_t *restrict inside)
+FM_INLINE void reach_flags_with(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first,
+                                size_t end, uint8_t *restrict inside, int with_skin)
 {
     /* local restrict copies: the stores to inside[] cannot change them */
-    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d;
+    const double *restrict x = p->x, *restrict v = p->v, *restrict d = p->d, *restrict drag_skin = p->skin;
+    const double no_skin = 0.0;
     const double *restrict reach_lo = bins->reach_lo, *restrict reach_hi = bins->reach_hi;
     const int64_t *restrict id = p->id, *restrict built_id = bins->built_id;
     const uint8_t *restrict state = p->state, *restrict built_flying = bins->built_flying;
     for (size_t i = first; i < end; i++) {
         int same = id[i] == built_id[i], flying = state[i] == DEM_FLYING;
-        double radius = 0.5 * d[i] * (1.0 + DEM_BOX_MARGIN), span = flying ? dt : 0.0;
+        double skin = with_skin ? drag_skin[i] : no_skin; /* with_skin: a constant where inlined */
+        double radius = (0.5 * d[i] + fm_select(flying, skin, 0.0)) * (1.0 + DEM_BOX_MARGIN), span = flying ? dt : 0.0;
         int holds = same & (built_flying[i] | !flying);
         for (int c = 0; c < 3; c++) /* a NaN fails here, a harmless extra repair */
             holds &=
                 dem_sweep_inside(x[3 * i + c], v[3 * i + c], span, radius, reach_lo[3 * i + c], reach_hi[3 * i + c]);
         inside[i] = (uint8_t)(holds | (same & !built_flying[i]));
     }
+}
+
+/* The drag skins (dem_contact_radius) widen the flying particles' spheres; none where the particles have
+ * none (a broad phase run on its own, as tests/test_broadphase.c does). */
+static void reach_flags(const struct dem_bins *bins, const struct dem_particles *p, double dt, size_t first, size_t end,
+                        uint8_t *restrict inside)
+{
+    if (p->skin)
+        reach_flags_with(bins, p, dt, first, end, inside, 1);
+    else
+        reach_flags_with(bins, p, dt, first, end, inside, 0);
 }
 
 /* Are all n flags (0 or 1) set?  A loop that vectorises. */
@@ -660,7 +675,8 @@ static void rebuild(struct dem_bins *bins, const struct dem_particles *p, double
         reach_box(p, i, dt, bins->horizon, bins->reach_lo + 3 * i, bins->reach_hi + 3 * i);
         bins->built_id[i] = p->id[i];
         bins->built_flying[i] = p->state[i] == DEM_FLYING;
-        d_largest = p->d[i] > d_largest ? p->d[i] : d_largest;
+        double reach_d = 2.0 * dem_contact_radius(p, i); /* with the drag skin */
+        d_largest = reach_d > d_largest ? reach_d : d_largest;
         for (int c = 0; c < 3 && bins->built_flying[i]; c++) {
             double speed = fabs(p->v[3 * i + c]);
             speed_largest = speed > speed_largest ? speed : speed_largest;

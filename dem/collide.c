@@ -4,15 +4,18 @@
  *
  * The paper tests for overlap at the end of a step (Eq. 40); at its step sizes a particle moves more
  * than its diameter per step, so contacts would be missed and particles would tunnel.  Here every pair
- * whose spheres, moving with their start-of-step velocities, touch at some time s in [0, dt] is a contact.
- * Contacts are resolved once, at the start of the step, as impulses, in order of (s, a, b): a total
- * order, so results do not depend on the thread count.  Each contact is re-tested for approach with the
- * velocities current when it is resolved. */
+ * whose spheres (widened by their drag skins, dem/integrate.c), moving with their start-of-step velocities,
+ * touch at some time s in [0, dt] is a contact.  Contacts are resolved as impulses in order of time,
+ * (s, kind, a, b): a total order, so results do not depend on the thread count; after every change of a
+ * path the new path's contacts join them ("contacts of changed paths" below; docs/physics.md, "Contacts
+ * in order of time"). */
 #include <math.h>
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/error.h"
 #include "core/fastmath.h"
 #include "dem/dem_impl.h"
 
@@ -26,12 +29,12 @@
 FM_INLINE void target_hits(const struct dem_solver *s, const uint32_t *moving, size_t n, int consecutive,
                            double *restrict t_hit, uint8_t *restrict hits)
 {
-    const double *restrict x = s->p.x, *restrict v = s->p.v, *restrict d = s->p.d;
+    const double *restrict x = s->p.x, *restrict v = s->p.v, *restrict d = s->p.d, *restrict skin = s->p.skin;
     const double standoff = s->cfg.standoff, dt = s->cfg.dt;
     const size_t i0 = moving[0];
     for (size_t k = 0; k < n; k++) {
         size_t i = consecutive ? i0 + k : moving[k];
-        double gap = standoff - 0.5 * d[i] - x[3 * i + 2], vz = v[3 * i + 2];
+        double gap = standoff - (0.5 * d[i] + skin[i]) - x[3 * i + 2], vz = v[3 * i + 2]; /* dem_contact_radius */
         t_hit[k] = fm_select(gap <= 0.0, 0.0, gap / vz);
         hits[k] = (uint8_t)(!(vz <= 0.0) & (t_hit[k] <= dt));
     }
@@ -199,14 +202,19 @@ static void path_position(const struct dem_solver *s, uint32_t i, double at, dou
         out[k] = origin[k] + s->p.v[3 * i + k] * since;
 }
 
+#define PATH_SEARCH_DUE 1 /* path_changed: restarted, its contacts not yet searched */
+#define PATH_LISTED     2 /* path_changed: in the step's list of changed particles (contacts of changed paths) */
+
 /* After a velocity change at time `at` (keep_start_velocity came first) with the particle at x: its path
  * restarts there. */
 static void path_restart(struct dem_solver *s, uint32_t i, double at, const double x[3])
 {
     s->path_time[i] = at;
     memcpy(s->path_x + 3 * i, x, 3 * sizeof(double));
-    s->path_changed[i] = 1;
+    s->path_changed[i] |= PATH_SEARCH_DUE;
     s->contact_flags_set = 1;
+    if (s->p.state[i] == DEM_FLYING) /* the drag skin of the new velocity */
+        dem_drag_skin_after_contact(s, i, x);
 }
 
 /* When particle i, on its current path, touches the target (partner < 0) or particle `partner` (on its
@@ -220,7 +228,7 @@ static double contact_time(const struct dem_solver *s, uint32_t i, int64_t partn
     const double dt = s->cfg.dt;
     if (partner < 0) {
         double vz = p->v[3 * i + 2], start = path_start_time(s, i);
-        double gap = s->cfg.standoff - 0.5 * p->d[i] - path_origin(s, i)[2];
+        double gap = s->cfg.standoff - dem_contact_radius(p, i) - path_origin(s, i)[2];
         if (vz <= 0.0)
             return -1.0;
         double at = gap <= 0.0 ? start : start + gap / vz;
@@ -234,7 +242,7 @@ static double contact_time(const struct dem_solver *s, uint32_t i, int64_t partn
         dx[k] = xj[k] - xi[k];
         dv[k] = p->v[3 * j + k] - p->v[3 * i + k];
     }
-    double delay = dem_time_of_impact(dx, dv, 0.5 * (p->d[i] + p->d[j]), dt - start);
+    double delay = dem_time_of_impact(dx, dv, dem_contact_radius(p, i) + dem_contact_radius(p, j), dt - start);
     return delay < 0.0 ? -1.0 : start + delay;
 }
 
@@ -282,16 +290,26 @@ static void obstacle_normal(const struct dem_particles *p, int64_t partner, cons
         n[k] = (xj[k] - x[k]) / dist;
 }
 
-/* Where a particle of radius r that stuck at x_hit rests: exactly touching the obstacle.  The sweep is
- * straight while drag bends the real path, so a contact found at time 0 can start from an overlap of
- * order a dt^2. */
-static void rest_position(const struct dem_solver *s, int64_t partner, const double x_hit[3], const double n[3],
-                          double r, double obstacle_radius, double rest[3])
+static double squared_distance(const double a[3], const double b[3])
 {
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+}
+
+/* Where a particle of radius r that stuck at x_hit rests: where it met the obstacle, not overlapping it. */
+static void rest_position(struct dem_solver *s, int64_t partner, const double x_hit[3], const double n[3], double r,
+                          double obstacle_radius, double rest[3])
+{
+    /* At x_hit, within the drag skins of touching (dem_contact_radius): moved to touching only out of an
+     * overlap, which is a correction, counted (docs/physics.md, "Contact detection"); moved in, it could
+     * overlap a neighbour. */
+    double reach = partner < 0 ? r : r + obstacle_radius;
+    double depth =
+        partner < 0 ? x_hit[2] - (s->cfg.standoff - r) : reach - sqrt(squared_distance(x_hit, s->p.x + 3 * partner));
     for (int k = 0; k < 3; k++)
-        rest[k] = partner < 0 ? x_hit[k] : s->p.x[3 * partner + k] - n[k] * (r + obstacle_radius);
-    if (partner < 0)
-        rest[2] = fmin(x_hit[2], s->cfg.standoff - r);
+        rest[k] = depth <= 0.0 ? x_hit[k] : partner < 0 ? x_hit[k] : s->p.x[3 * partner + k] - n[k] * reach;
+    if (partner < 0 && depth > 0.0)
+        rest[2] = s->cfg.standoff - r;
+    s->stats.clamps += depth > 1e-9 * reach;
 }
 
 /* Eq. 33 under the adhesion rule: the adhesion force acts through the whole contact, so a particle that does
@@ -386,10 +404,16 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
 
 /* ---------------------------------------------------------------- contacts of changed paths */
 
-/* A particle whose velocity changed in the step can meet particles its old path never came near.  After
- * the contacts found at the start of the step, up to SECONDARY_PASSES passes look for contacts of the
- * changed particles along their new paths (to the end of the step) and resolve them in order of time. */
-#define SECONDARY_PASSES    4
+/* A particle whose velocity changed in the step (or that stuck in it) can meet particles its old path never
+ * came near, and its old contacts no longer hold.  The contacts are therefore resolved as events in order
+ * of time: those found at the start of the step (sorted) and, after every change of a particle's path, the
+ * contacts of its new path (from where it restarted to the end of the step: the path the integration then
+ * follows, dem/integrate.c) with the target, the unchanged particles (through the grid) and the particles
+ * changed before it (directly: their grid entries hold their old paths), pushed into a heap.  A contact
+ * found before a change of one of its particles no longer matches their paths (its time, found again, is
+ * not the same) and is dropped: the search after the change found the one that holds.  The step goes on
+ * until no contact is left, so none is dropped; past DEM_MAX_CONTACT_EVENTS per moving particle (a particle
+ * caught between bodies that never lets go) it stops with an error naming the particles and the step. */
 #define SECONDARY_MAX_CELLS 4096
 
 struct secondary_query {
@@ -397,6 +421,20 @@ struct secondary_query {
     uint32_t moving;
     struct dem_candidates *out;
 };
+
+/* A pair contact of i (whose path changed) with j, if they touch while approaching in the rest of the step;
+ * the flying particle first, the lower index first when both fly (the order of dem_broadphase_pairs). */
+static void push_pair_contact(struct dem_solver *s, uint32_t i, uint32_t j, struct dem_candidates *out)
+{
+    double at = contact_time(s, i, j);
+    if (at < 0.0)
+        return;
+    int i_flying = s->p.state[i] == DEM_FLYING, j_flying = s->p.state[j] == DEM_FLYING;
+    if (!i_flying && !j_flying)
+        return;
+    uint32_t a = !i_flying || (j_flying && j < i) ? j : i, b = a == i ? j : i;
+    dem_candidates_push(out, at, a, b, CONTACT_PAIR);
+}
 
 static void consider_partner(uint32_t j, void *context)
 {
@@ -406,20 +444,15 @@ static void consider_partner(uint32_t j, void *context)
     if (j == i || s->seen[j] == s->seen_stamp)
         return;
     s->seen[j] = s->seen_stamp;
-    int j_flying = s->p.state[j] == DEM_FLYING;
-    if (j_flying && s->path_changed[j])
-        return; /* both changed: find_changed_pairs */
-    double at = contact_time(s, i, j);
-    if (at < 0.0)
-        return;
-    uint32_t a = j_flying && j < i ? j : i, b = a == i ? j : i;
-    dem_candidates_push(query->out, at, a, b, CONTACT_PAIR);
+    if (s->path_changed[j] & PATH_LISTED)
+        return; /* changed too: tested directly */
+    push_pair_contact(s, i, j, query->out);
 }
 
 /* The box of i's sphere along its current path from its path time to the end of the step. */
 static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], double hi[3])
 {
-    double end[3], radius = 0.5 * s->p.d[i] * (1.0 + 1e-9);
+    double end[3], radius = dem_contact_radius(&s->p, i) * (1.0 + 1e-9);
     const double *origin = path_origin(s, i);
     path_position(s, i, s->cfg.dt, end);
     for (int c = 0; c < 3; c++) {
@@ -428,109 +461,253 @@ static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], doubl
     }
 }
 
-/* The x-extent of a changed particle's new path, for sweep and prune among changed particles. */
-struct path_extent {
-    double lo[3], hi[3];
-    uint32_t index;
+/* The particles whose path changed in this step, in order of their first change, with the boxes of their
+ * paths (path_box) when they were last searched: boxes that do not meet hold no contact. */
+struct changed_list {
+    uint32_t *items;
+    double *lo, *hi; /* 3 per item */
+    size_t count, capacity, box_capacity;
 };
 
-static int extent_order(const void *pa, const void *pb)
+static int boxes_meet(const double *lo_a, const double *hi_a, const double *lo_b, const double *hi_b)
 {
-    const struct path_extent *a = pa, *b = pb;
-    if (a->lo[0] != b->lo[0])
-        return a->lo[0] < b->lo[0] ? -1 : 1;
-    return a->index < b->index ? -1 : (a->index > b->index);
+    return lo_a[0] <= hi_b[0] && lo_b[0] <= hi_a[0] && lo_a[1] <= hi_b[1] && lo_b[1] <= hi_a[1] && lo_a[2] <= hi_b[2] &&
+           lo_b[2] <= hi_a[2];
 }
 
-static int extents_overlap(const struct path_extent *a, const struct path_extent *b)
+/* The contacts of particle i's new path, into `out`: the target, the unchanged particles whose grid boxes
+ * its path's box meets, and every particle changed before it. */
+static void find_contacts_of_new_path(struct dem_solver *s, uint32_t i, const struct changed_list *changed,
+                                      struct dem_candidates *out)
 {
-    for (int c = 0; c < 3; c++)
-        if (a->lo[c] > b->hi[c] || b->lo[c] > a->hi[c])
-            return 0;
-    return 1;
-}
-
-/* Changed particles have left the paths the grid holds: pairs of them are found by sorting their new path
- * boxes along x (sweep and prune) instead. */
-static void find_changed_pairs(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
-                               struct dem_candidates *out)
-{
-    struct path_extent *extents = dem_realloc_or_die(NULL, (moved_count ? moved_count : 1) * sizeof *extents);
-    for (size_t k = 0; k < moved_count; k++) {
-        extents[k].index = moved[k];
-        path_box(s, moved[k], extents[k].lo, extents[k].hi);
-    }
-    qsort(extents, moved_count, sizeof *extents, extent_order);
-    for (size_t k = 0; k < moved_count; k++) {
-        for (size_t m = k + 1; m < moved_count && extents[m].lo[0] <= extents[k].hi[0]; m++) {
-            if (!extents_overlap(&extents[k], &extents[m]))
-                continue;
-            uint32_t a = extents[k].index < extents[m].index ? extents[k].index : extents[m].index;
-            uint32_t b = a == extents[k].index ? extents[m].index : extents[k].index;
-            double at = contact_time(s, a, b);
-            if (at >= 0.0)
-                dem_candidates_push(out, at, a, b, CONTACT_PAIR);
-        }
-    }
-    free(extents);
-}
-
-/* Contacts of the particles changed in the last pass: with the target, with unchanged particles (through
- * the grid) and with each other. */
-static void find_secondary_contacts(struct dem_solver *s, const uint32_t *moved, size_t moved_count,
-                                    struct dem_candidates *out)
-{
-    for (size_t k = 0; k < moved_count; k++) {
-        uint32_t i = moved[k];
+    if (s->p.state[i] == DEM_FLYING) {
         double at = contact_time(s, i, -1);
         if (at >= 0.0)
             dem_candidates_push(out, at, i, 0, CONTACT_TARGET);
-        if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh, also in the free slots (stamps are
-                                     * kept from step to step; a new particle there keeps its slot's) */
-            memset(s->seen, 0, s->path_capacity * sizeof *s->seen);
-            s->seen_stamp = 1;
-        }
-        double lo[3], hi[3];
-        path_box(s, i, lo, hi);
-        struct secondary_query query = {s, i, out};
-        dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
     }
-    find_changed_pairs(s, moved, moved_count, out);
+    if (++s->seen_stamp == 0) { /* wrapped: start the stamps afresh, also in the free slots (stamps are
+                                 * kept from step to step; a new particle there keeps its slot's) */
+        memset(s->seen, 0, s->path_capacity * sizeof *s->seen);
+        s->seen_stamp = 1;
+    }
+    double lo[3], hi[3];
+    path_box(s, i, lo, hi);
+    struct secondary_query query = {s, i, out};
+    dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
+    for (size_t k = 0; k < changed->count; k++)
+        if (changed->items[k] != i && boxes_meet(lo, hi, changed->lo + 3 * k, changed->hi + 3 * k))
+            push_pair_contact(s, i, changed->items[k], out);
 }
 
-static void resolve_secondary_contacts(struct dem_solver *s)
+/* The heap of contacts found after changes, in candidate_order (a binary min-heap). */
+static void heap_push(struct dem_candidates *heap, const struct dem_candidate *c)
 {
-    struct dem_particles *p = &s->p;
-    uint32_t *moved = dem_realloc_or_die(NULL, (s->moving_count ? s->moving_count : 1) * sizeof *moved);
-    struct dem_candidates found = {0};
-    for (int pass = 0; pass < SECONDARY_PASSES; pass++) {
-        /* only a particle flying at the step's start can have changed its path */
-        size_t moved_count = 0;
-        for (size_t k = 0; k < s->moving_count; k++) {
-            uint32_t i = s->moving[k];
-            if (s->path_changed[i] && p->state[i] == DEM_FLYING)
-                moved[moved_count++] = i;
-        }
-        if (moved_count == 0)
+    dem_candidates_push(heap, c->s, c->a, c->b, c->kind);
+    struct dem_candidate *h = heap->items;
+    for (size_t k = heap->count - 1; k > 0;) {
+        size_t parent = (k - 1) / 2;
+        if (candidate_order(&h[k], &h[parent]) >= 0)
             break;
-        found.count = 0;
-        find_secondary_contacts(s, moved, moved_count, &found);
-        for (size_t k = 0; k < s->moving_count; k++)
-            s->path_changed[s->moving[k]] = 0;
-        if (found.count > 1)
-            qsort(found.items, found.count, sizeof *found.items, candidate_order);
-        for (size_t k = 0; k < found.count; k++) {
-            const struct dem_candidate *c = &found.items[k];
-            if (c->kind == CONTACT_TARGET) {
-                if (p->state[c->a] == DEM_FLYING)
-                    resolve_fixed(s, c->a, -1);
-            } else {
-                resolve_pair(s, c->a, c->b);
-            }
-        }
+        struct dem_candidate t = h[k];
+        h[k] = h[parent];
+        h[parent] = t;
+        k = parent;
     }
+}
+
+static struct dem_candidate heap_pop(struct dem_candidates *heap)
+{
+    struct dem_candidate *h = heap->items, top = h[0];
+    h[0] = h[--heap->count];
+    for (size_t k = 0;;) {
+        size_t least = k, left = 2 * k + 1, right = left + 1;
+        if (left < heap->count && candidate_order(&h[left], &h[least]) < 0)
+            least = left;
+        if (right < heap->count && candidate_order(&h[right], &h[least]) < 0)
+            least = right;
+        if (least == k)
+            break;
+        struct dem_candidate t = h[k];
+        h[k] = h[least];
+        h[least] = t;
+        k = least;
+    }
+    return top;
+}
+
+/* Does contact c still hold on the particles' current paths (its time found again is the same)? */
+static int still_holds(const struct dem_solver *s, const struct dem_candidate *c)
+{
+    double at = c->kind == CONTACT_TARGET ? contact_time(s, c->a, -1) : contact_time(s, c->a, c->b);
+    return at >= 0.0 && fabs(at - c->s) <= 1e-9 * s->cfg.dt;
+}
+
+static void resolve_candidate(struct dem_solver *s, const struct dem_candidate *c)
+{
+    if (c->kind == CONTACT_TARGET) {
+        if (s->p.state[c->a] == DEM_FLYING)
+            resolve_fixed(s, c->a, -1);
+    } else {
+        resolve_pair(s, c->a, c->b);
+    }
+}
+
+/* Particle i moves on from where it is at time `at` with velocity v and no spin. */
+static void restart_with_velocity(struct dem_solver *s, uint32_t i, double at, const double v[3])
+{
+    double x[3];
+    path_position(s, i, at, x);
+    struct sphere_state sphere = sphere_of(&s->p, i, &s->cfg.powder);
+    memcpy(sphere.v, v, sizeof sphere.v);
+    memset(sphere.w, 0, sizeof sphere.w);
+    store_sphere(s, i, &sphere);
+    path_restart(s, i, at, x);
+}
+
+/* Do flying particles i and j touch at time `at` (within their contact radii)? */
+static int touching_at(const struct dem_solver *s, uint32_t i, uint32_t j, double at)
+{
+    double xi[3], xj[3], reach = (dem_contact_radius(&s->p, i) + dem_contact_radius(&s->p, j)) * (1.0 + 1e-9);
+    path_position(s, i, at, xi);
+    path_position(s, j, at, xj);
+    return squared_distance(xi, xj) <= reach * reach;
+}
+
+/* A flying particle caught between bodies: DEM_TRAP_CONTACTS contacts in one step, as within the drag skins of
+ * two bodies facing each other (it bounces from one to the other without moving on) or in a cluster that
+ * collapses inelastically (a chain of touching spheres at e = 0.5: the contacts pile up without end).  At
+ * the time of its contact c, and again at every further contact in the step, it and the changed particles
+ * touching it (transitively) move on as one body without spin: at rest if c is with the target or a
+ * deposit, else at their centre-of-mass velocity (momentum kept).  Counted; the members go to members[],
+ * their number returned. */
+static size_t stop_trapped(struct dem_solver *s, const struct dem_candidate *c, uint32_t i,
+                           const struct changed_list *changed, uint32_t *members)
+{
+    const struct dem_particles *p = &s->p;
+    size_t n = 0;
+    members[n++] = i;
+    int fixed = c->kind == CONTACT_TARGET || p->state[c->a] != DEM_FLYING || p->state[c->b] != DEM_FLYING;
+    for (size_t m = 0; m < n; m++)
+        for (size_t k = 0; k < changed->count; k++) {
+            uint32_t j = changed->items[k];
+            int member = 0;
+            for (size_t q = 0; q < n; q++)
+                member |= members[q] == j;
+            if (!member && p->state[j] == DEM_FLYING && touching_at(s, members[m], j, c->s))
+                members[n++] = j;
+        }
+    double momentum[3] = {0.0, 0.0, 0.0}, mass = 0.0, v[3] = {0.0, 0.0, 0.0};
+    for (size_t m = 0; m < n && !fixed; m++) {
+        mass += p->m[members[m]];
+        for (int k = 0; k < 3; k++)
+            momentum[k] += p->m[members[m]] * p->v[3 * members[m] + k];
+    }
+    for (int k = 0; k < 3 && !fixed; k++)
+        v[k] = momentum[k] / mass;
+    for (size_t m = 0; m < n; m++)
+        restart_with_velocity(s, members[m], c->s, v);
+    s->stats.trapped += (int64_t)n;
+    return n;
+}
+
+/* The contacts of particle i's new path into the heap; i joins the list of changed particles. */
+static void search_new_path(struct dem_solver *s, uint32_t i, struct changed_list *changed, struct dem_candidates *heap,
+                            struct dem_candidates *found)
+{
+    s->path_changed[i] &= (uint8_t)~PATH_SEARCH_DUE;
+    found->count = 0;
+    find_contacts_of_new_path(s, i, changed, found);
+    for (size_t k = 0; k < found->count; k++)
+        heap_push(heap, &found->items[k]);
+    size_t k = 0;
+    if (!(s->path_changed[i] & PATH_LISTED)) {
+        s->path_changed[i] |= PATH_LISTED;
+        uint32_t *slot = dem_grow((void **)&changed->items, &changed->count, &changed->capacity, sizeof *slot);
+        *slot = i;
+        k = changed->count - 1;
+        if (changed->capacity > changed->box_capacity) {
+            changed->box_capacity = changed->capacity;
+            changed->lo = dem_realloc_or_die(changed->lo, 3 * changed->box_capacity * sizeof(double));
+            changed->hi = dem_realloc_or_die(changed->hi, 3 * changed->box_capacity * sizeof(double));
+        }
+    } else {
+        while (changed->items[k] != i)
+            k++;
+    }
+    path_box(s, i, changed->lo + 3 * k, changed->hi + 3 * k);
+}
+
+/* After contact c: the new contacts of particle i (one of c's), if its path changed, and of those that a
+ * stop changed with it. */
+static void search_changed(struct dem_solver *s, const struct dem_candidate *c, uint32_t i,
+                           struct changed_list *changed, struct dem_candidates *heap, struct dem_candidates *found)
+{
+    if (!(s->path_changed[i] & PATH_SEARCH_DUE))
+        return;
+    if (++s->contacts_in_step[i] >= DEM_TRAP_CONTACTS && s->p.state[i] == DEM_FLYING) {
+        uint32_t *members = dem_realloc_or_die(NULL, (changed->count + 1) * sizeof *members);
+        size_t n = stop_trapped(s, c, i, changed, members);
+        for (size_t m = 1; m < n; m++)
+            search_new_path(s, members[m], changed, heap, found);
+        free(members);
+    }
+    search_new_path(s, i, changed, heap, found);
+}
+
+/* The contacts did not end: SC_ESIM naming the step and the particles of the last contact. */
+static int contacts_did_not_end(const struct dem_solver *s, const struct dem_candidate *c, int64_t events)
+{
+    const struct dem_particles *p = &s->p;
+    if (c->kind == CONTACT_TARGET)
+        SC_FAIL(SC_ESIM,
+                "spray: step %lld (t = %.9g s): %lld contacts in the step and still more: particle %lld keeps meeting "
+                "the target; a smaller [spray] dt resolves it",
+                (long long)s->step, (double)s->step * s->cfg.dt, (long long)events, (long long)p->id[c->a]);
+    SC_FAIL(SC_ESIM,
+            "spray: step %lld (t = %.9g s): %lld contacts in the step and still more: particles %lld and %lld keep "
+            "meeting; a smaller [spray] dt resolves it",
+            (long long)s->step, (double)s->step * s->cfg.dt, (long long)events, (long long)p->id[c->a],
+            (long long)p->id[c->b]);
+}
+
+/* Every contact of the step, in order of time (see above). */
+static int resolve_contacts_in_order(struct dem_solver *s)
+{
+    const struct dem_candidates *initial = &s->candidates;
+    struct dem_candidates heap = {0}, found = {0};
+    struct changed_list changed = {0};
+    const int64_t most = DEM_MAX_CONTACT_EVENTS * (int64_t)(s->moving_count + 1);
+    int64_t events = 0;
+    int status = SC_OK;
+    for (size_t next = 0;;) {
+        struct dem_candidate c;
+        int from_heap =
+            heap.count && (next == initial->count || candidate_order(&heap.items[0], &initial->items[next]) < 0);
+        if (from_heap)
+            c = heap_pop(&heap);
+        else if (next < initial->count)
+            c = initial->items[next++];
+        else
+            break;
+        if (!still_holds(s, &c))
+            continue;
+        if (++events > most) {
+            status = contacts_did_not_end(s, &c, events);
+            break;
+        }
+        resolve_candidate(s, &c);
+        search_changed(s, &c, c.a, &changed, &heap, &found);
+        if (c.kind == CONTACT_PAIR)
+            search_changed(s, &c, c.b, &changed, &heap, &found);
+    }
+    for (size_t k = 0; k < changed.count; k++)
+        s->contacts_in_step[changed.items[k]] = 0;
+    free(heap.items);
     free(found.items);
-    free(moved);
+    free(changed.items);
+    free(changed.lo);
+    free(changed.hi);
+    return status;
 }
 
 /* Slices of the particles for list_moving: each slice's flyers are counted, then written after those of the
@@ -608,29 +785,19 @@ static void ensure_path_capacity(struct dem_solver *s)
     s->path_changed = dem_realloc_or_die(s->path_changed, capacity);
     s->seen = dem_realloc_or_die(s->seen, capacity * sizeof *s->seen);
     s->start_kept = dem_realloc_or_die(s->start_kept, capacity);
+    s->contacts_in_step = dem_realloc_or_die(s->contacts_in_step, capacity * sizeof *s->contacts_in_step);
+    memset(s->contacts_in_step + old, 0, (capacity - old) * sizeof *s->contacts_in_step);
     memset(s->path_changed + old, 0, capacity - old);
     memset(s->seen + old, 0, (capacity - old) * sizeof *s->seen);
     memset(s->start_kept + old, 0, capacity - old);
     s->path_capacity = capacity;
 }
 
-void dem_collide(struct dem_solver *s)
+int dem_collide(struct dem_solver *s)
 {
-    struct dem_particles *p = &s->p;
     list_moving(s);
     ensure_path_capacity(s);
+    dem_drag_skins(s);
     dem_detect_contacts(s);
-    /* In the order found; each contact's time and geometry come from the paths current when it is
-     * resolved (contact_time), so a contact made void by an earlier one is dropped. */
-    for (size_t k = 0; k < s->candidates.count; k++) {
-        const struct dem_candidate *c = &s->candidates.items[k];
-        if (c->kind == CONTACT_TARGET) {
-            if (p->state[c->a] == DEM_FLYING)
-                resolve_fixed(s, c->a, -1);
-        } else {
-            resolve_pair(s, c->a, c->b);
-        }
-    }
-    if (s->contact_flags_set) /* else no path changed */
-        resolve_secondary_contacts(s);
+    return resolve_contacts_in_order(s);
 }

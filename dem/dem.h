@@ -148,6 +148,10 @@ struct dem_counts {
     int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
     int64_t subcycled_particle_steps;
     int64_t particle_steps; /* flying particles advanced, summed over steps */
+    int64_t clamps;         /* corrections of a particle found inside the target or another particle: at a
+                             * step's end (put back on the target plane) or where it stuck (put touching) */
+    int64_t trapped;        /* flying particles stopped, caught between bodies (DEM_TRAP_CONTACTS contacts in
+                             * one step) */
 };
 
 struct dem_solver;

@@ -2,6 +2,7 @@
 #ifndef SPRAYCOAT_DEM_IMPL_H
 #define SPRAYCOAT_DEM_IMPL_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -52,7 +53,20 @@ struct dem_particles {
     int64_t *id;
     uint8_t *state; /* enum dem_particle_state */
     struct dem_drag drag;
+    /* The drag skin of each particle flying in the step (m): a bound on how far the drag bends its path off
+     * the straight line within the step (dem/integrate.c, dem_drag_skins); every contact test widens the
+     * particle's radius by it (dem_contact_radius).  Scratch of the step, owned by the solver (skin_capacity),
+     * not moved by dem_particles_compact; read only for flying particles; NULL: no skins (a broad phase
+     * run on its own). */
+    double *skin;
 };
+
+/* The radius with which particle i enters every contact test: its own, widened by its drag skin while it
+ * flies (a deposit does not move). */
+static inline double dem_contact_radius(const struct dem_particles *p, size_t i)
+{
+    return 0.5 * p->d[i] + (p->skin && p->state[i] == DEM_FLYING ? p->skin[i] : 0.0);
+}
 
 /* One entry per (particle, cell its swept box overlaps). */
 struct dem_bin_entry {
@@ -153,7 +167,8 @@ struct dem_solver {
      * path_x[3i..3i+2] at time path_time[i] of the step and moves on with its current velocity; valid only
      * where start_kept[i] is set (a particle whose velocity has not changed is on its start path: x at 0). */
     double *path_time, *path_x;
-    uint8_t *path_changed; /* set when the path restarts; read by the next pass of contacts */
+    uint8_t *path_changed; /* dem/collide.c: the path restarted (its contacts not yet searched), and the
+                            * particle is in the step's list of changed ones */
     uint8_t *start_kept;   /* set when x_start, v_start and w_start of the particle hold this step's
                             * start (it collided) and its path restarted */
     int contact_flags_set; /* a start_kept or path_changed was set in this step (else all are 0: the
@@ -161,7 +176,9 @@ struct dem_solver {
     uint32_t *seen;        /* per particle: stamp of the last grid query that visited it (only equality
                             * with the current stamp counts; stamps grow from step to step) */
     uint32_t seen_stamp;
+    uint32_t *contacts_in_step; /* per particle: its contacts in this step so far (0 between steps) */
     size_t path_capacity;
+    size_t skin_capacity;    /* of p.skin */
     struct dem_counts stats; /* cumulative contact and iteration counts */
     struct dem_impact *impacts;
     size_t impact_count, impact_capacity;
@@ -223,9 +240,15 @@ void dem_candidates_push(struct dem_candidates *list, double s, uint32_t a, uint
 
 /* dem/collide.c: bin the particles and list the contacts of this step (swept spheres), sorted. */
 void dem_detect_contacts(struct dem_solver *s);
-/* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time; lists the
- * step's moving particles (s->moving) first. */
-void dem_collide(struct dem_solver *s);
+/* dem/collide.c: find the contacts of this step and resolve them as impulses in order of time, searching
+ * anew after every change of a path until none is left; lists the step's moving particles (s->moving)
+ * first.  SC_ESIM naming the particles and the step past DEM_MAX_CONTACT_EVENTS contacts per moving
+ * particle in one step. */
+int dem_collide(struct dem_solver *s);
+#define DEM_MAX_CONTACT_EVENTS 1000
+/* A particle with this many contacts in one step is caught between bodies and stops (dem/collide.c); a
+ * chain of 10 touching spheres hit at one end takes a few dozen. */
+#define DEM_TRAP_CONTACTS 256
 /* The contacts of the step are over for moving particle i: its contact flags (dem/collide.c) are cleared, so
  * that they are 0 for every particle between steps.  Inline: the integration asks it of every particle. */
 static inline void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
@@ -233,6 +256,27 @@ static inline void dem_contacts_end_step(struct dem_solver *s, uint32_t i)
     s->start_kept[i] = 0;
     s->path_changed[i] = 0;
 }
+
+/* The drag skin of a particle of mass m under the drag force f at slip `slip` over a step: how far the drag
+ * can bend its path off the straight line of its start velocity, a dt^2 / 2 for a constant acceleration
+ * a = |f| / m, and phi a dt^2 for the phi-scheme's step (Eqs. 42-43: x = x0 + dt v0 + phi dt^2 (...)/m;
+ * sub-steps give no more), with a factor 2 for the drag's growth within the step: 2 max(phi, 1/2) |f| dt^2 / m;
+ * and at most 2 slip dt, since the drag only brings the velocity towards the gas's (a particle whose response
+ * time is far below dt).  One formula for the skin of the step (dem_drag_skins) and the one foreseen for the
+ * next (block_verify_reach), so that both give the same bits. */
+static inline double dem_skin_from_force(const struct dem_config *cfg, const double f[3], double slip, double m)
+{
+    double phi = cfg->phi > 0.5 ? cfg->phi : 0.5;
+    double bent = 2.0 * phi * cfg->dt * cfg->dt * sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) / m;
+    double relaxed = 2.0 * slip * cfg->dt;
+    return bent < relaxed ? bent : relaxed;
+}
+
+/* dem/integrate.c: the drag skins (p.skin) of the step's moving particles, from the drag at their start
+ * states; and of particle i anew after its velocity changed in the step, from the drag at x with its new
+ * velocity. */
+void dem_drag_skins(struct dem_solver *s);
+void dem_drag_skin_after_contact(struct dem_solver *s, uint32_t i, const double x[3]);
 
 /* dem/integrate.c: advance the free particles over one step with the phi-scheme; end the contacts of the
  * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */

@@ -228,6 +228,107 @@ static void integrate_subcycled(const struct dem_config *cfg, double d, double m
     count->subcycled++;
 }
 
+/* Sub-steps for the rest of a step, of length h, for a particle of response time tau: h/k <= tau/2. */
+static int64_t substeps_over(double h, double tau)
+{
+    if (!(tau < 2.0 * h))
+        return 1;
+    double k = ceil(2.0 * h / tau);
+    return k > MAX_SUBSTEPS ? MAX_SUBSTEPS : (int64_t)k;
+}
+
+/* A particle whose velocity changed in this step's contacts (dem/collide.c) goes on from where its path
+ * restarted, path_x at path_time, over the rest of the step, h = dt - path_time: the path along which the
+ * contacts of the rest of the step were searched (docs/physics.md, "Contact detection").  The phi-scheme of
+ * the reference from the drag there, computed afresh (a contact clears the kept drag), in sub-steps where
+ * tau < 2 h; the force at the end, where known, is kept for the next step, with no history before it. */
+static void integrate_rest_of_step(const struct dem_solver *s, struct dem_particles *p, uint32_t i,
+                                   struct iteration_count *count)
+{
+    const struct dem_config *cfg = &s->cfg;
+    const double d = p->d[i], m = p->m[i], h = cfg->dt - s->path_time[i];
+    double x[3], v[3];
+    memcpy(x, s->path_x + 3 * i, sizeof x);
+    memcpy(v, p->v + 3 * i, sizeof v);
+    struct step_end end = {.force_known = 0};
+    if (cfg->gas.model == DEM_JET_NONE) {
+        for (int c = 0; c < 3; c++)
+            x[c] += h * v[c];
+    } else if (h > 0.0) {
+        double force[3], slip, power;
+        drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
+        int64_t substeps = substeps_over(h, gas_eval_response_time(&cfg->gas, cfg->powder.density, d, slip, power));
+        for (int64_t k = 0; k < substeps; k++) {
+            if (k > 0 && end.force_known)
+                memcpy(force, end.force, sizeof force);
+            else if (k > 0)
+                drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
+            phi_step(cfg, d, m, h / (double)substeps, force, x, v, count, &end);
+        }
+        count->subcycled += substeps > 1;
+    }
+    struct dem_drag *drag = &p->drag;
+    for (int c = 0; c < 3; c++) {
+        p->x[3 * i + c] = x[c];
+        p->v[3 * i + c] = v[c];
+        drag->forces[dem_drag_slot(s->step + 1, 0)][c][i] = end.force_known ? end.force[c] : 0.0;
+    }
+    drag->slip[i] = end.force_known ? end.slip : 0.0;
+    drag->reynolds_power[i] = end.force_known ? end.reynolds_power : 0.0;
+    drag->history_count[i] = 0;
+    drag->kept[i] = (uint8_t)end.force_known;
+}
+
+/* ---------------------------------------------------------------------------------------------------------
+ * The drag skins (dem_impl.h, dem_skin_from_force): from the force at each moving particle's start state,
+ * the kept one where there is one (the same bits as computed afresh), else computed. */
+static void ensure_skin_capacity(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    if (p->capacity <= s->skin_capacity && p->skin)
+        return;
+    size_t old = p->skin ? s->skin_capacity : 0, capacity = p->capacity ? p->capacity : 1;
+    p->skin = dem_realloc_or_die(p->skin, capacity * sizeof *p->skin);
+    memset(p->skin + old, 0, (capacity - old) * sizeof *p->skin);
+    s->skin_capacity = capacity;
+}
+
+void dem_drag_skins(struct dem_solver *s)
+{
+    struct dem_particles *p = &s->p;
+    const struct dem_config *cfg = &s->cfg;
+    ensure_skin_capacity(s);
+    const int no_gas = cfg->gas.model == DEM_JET_NONE, reuse = s->reuse_drag;
+    const int slot = dem_drag_slot(s->step, 0);
+    const size_t count = s->moving_count;
+#pragma omp parallel for schedule(static) if (count >= DEM_PARALLEL_MIN)
+    for (size_t k = 0; k < count; k++) {
+        uint32_t i = s->moving[k];
+        double f[3] = {0.0, 0.0, 0.0}, slip = 0.0, power;
+        if (no_gas) {
+            p->skin[i] = 0.0;
+            continue;
+        }
+        if (reuse && p->drag.kept[i]) {
+            for (int c = 0; c < 3; c++)
+                f[c] = p->drag.forces[slot][c][i];
+            slip = p->drag.slip[i];
+        } else {
+            drag_and_slip(&cfg->gas, p->d[i], p->x + 3 * i, p->v + 3 * i, f, &slip, &power);
+        }
+        p->skin[i] = dem_skin_from_force(cfg, f, slip, p->m[i]);
+    }
+}
+
+void dem_drag_skin_after_contact(struct dem_solver *s, uint32_t i, const double x[3])
+{
+    struct dem_particles *p = &s->p;
+    double f[3] = {0.0, 0.0, 0.0}, slip = 0.0, power;
+    if (s->cfg.gas.model != DEM_JET_NONE)
+        drag_and_slip(&s->cfg.gas, p->d[i], x, p->v + 3 * i, f, &slip, &power);
+    p->skin[i] = dem_skin_from_force(&s->cfg, f, slip, p->m[i]);
+}
+
 /* ---------------------------------------------------------------------------------------------------------
  * The reference: one free particle over one step, the equations in order.  This is the readable statement of
  * what the block engine below computes for 32 particles at once; the engine must give its bits (x, v, the kept
@@ -849,8 +950,12 @@ FM_INLINE void block_verify_reach(const struct dem_solver *s, const struct block
     const size_t i0 = b->index[0], count = consecutive ? BLOCK : b->count;
     for (size_t l = 0; l < count; l++) {
         size_t i = lane_particle(b, i0, consecutive, l);
-        double radius = 0.5 * b->d[l] * (1.0 + DEM_BOX_MARGIN);
-        int64_t holds = 1;
+        /* the next step's drag skin, from the force kept for it (unknown: not verified) */
+        double force[3];
+        lane_get(b->end_force, (int)l, force);
+        double skin = dem_skin_from_force(&s->cfg, force, b->end_slip[l], b->m[l]);
+        double radius = (0.5 * b->d[l] + skin) * (1.0 + DEM_BOX_MARGIN);
+        int64_t holds = b->force_known[l];
         for (int c = 0; c < 3; c++)
             holds &= (int64_t)dem_sweep_inside(b->x[c][l], b->v[c][l], dt, radius, lo[3 * i + c], hi[3 * i + c]);
         verified[i] = (uint8_t)(holds & built_flying[i] & !at_boundary[l]);
@@ -1128,17 +1233,84 @@ static int integrate_with_drag(struct dem_solver *s, const uint32_t *flying, siz
     return bad;
 }
 
+/* The flying particles whose path restarted in this step's contacts (start_kept) leave flying[0, *count)
+ * (kept in order) for restarted[0, return value), in order; flying is copied to a list of its own, *owned,
+ * where it was not. */
+static size_t split_restarted(const struct dem_solver *s, const uint32_t **flying, size_t *count, int *owned,
+                              uint32_t **restarted)
+{
+    *restarted = NULL;
+    if (!s->contact_flags_set)
+        return 0;
+    const uint32_t *list = *flying;
+    size_t n = 0, r = 0;
+    for (size_t k = 0; k < *count; k++)
+        r += s->start_kept[list[k]] != 0;
+    if (r == 0)
+        return 0;
+    uint32_t *kept = *owned ? (uint32_t *)list : dem_realloc_or_die(NULL, *count * sizeof *kept);
+    *restarted = dem_realloc_or_die(NULL, r * sizeof **restarted);
+    r = 0;
+    for (size_t k = 0; k < *count; k++) {
+        uint32_t i = list[k];
+        if (s->start_kept[i])
+            (*restarted)[r++] = i;
+        else
+            kept[n++] = i;
+    }
+    *flying = kept;
+    *count = n;
+    *owned = 1;
+    return r;
+}
+
+/* The merge of two increasing index lists into a new one. */
+static uint32_t *merge_indices(const uint32_t *a, size_t a_count, const uint32_t *b, size_t b_count)
+{
+    uint32_t *out = dem_realloc_or_die(NULL, (a_count + b_count ? a_count + b_count : 1) * sizeof *out);
+    size_t i = 0, j = 0, n = 0;
+    while (i < a_count || j < b_count)
+        out[n++] = j == b_count || (i < a_count && a[i] < b[j]) ? a[i++] : b[j++];
+    return out;
+}
+
+/* The particles whose path restarted in the step: each over the rest of it, from where its path restarted
+ * (integrate_rest_of_step), then finished as finish_particles does; those at a boundary are merged into
+ * the landed ones at a boundary (*landed, *landed_hits; a new list, *landed_owned).  Returns whether a value
+ * is not finite. */
+static int integrate_restarted(struct dem_solver *s, uint32_t *restarted, size_t count, uint32_t **landed,
+                               size_t *landed_hits, int *landed_owned, struct iteration_count *total)
+{
+    for (size_t k = 0; k < count; k++)
+        integrate_rest_of_step(s, &s->p, restarted[k], total);
+    int bad = any_non_finite(&s->p, restarted, count);
+    size_t hits = finish_particles(s, restarted, count, restarted);
+    if (hits) {
+        uint32_t *merged = merge_indices(*landed, *landed_hits, restarted, hits);
+        if (*landed_owned)
+            free(*landed);
+        *landed = merged;
+        *landed_hits += hits;
+        *landed_owned = 1;
+    }
+    return bad;
+}
+
 int dem_integrate(struct dem_solver *s)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
     size_t flying_count, landed_count;
-    uint32_t *landed;
+    uint32_t *landed, *restarted;
     int owned;
     const uint32_t *flying = flying_particles(s, &flying_count, &landed, &landed_count, &owned);
+    int landed_owned = 0;             /* landed is a merged list of its own */
+    uint32_t *moving_landed = landed; /* flying_particles's list (or NULL) */
+    size_t restarted_count = split_restarted(s, &flying, &flying_count, &owned, &restarted);
     struct iteration_count total = {.max_iterations = s->stats.max_iterations};
     int bad = any_non_finite(p, landed, landed_count);
     size_t landed_hits = finish_particles(s, landed, landed_count, landed);
+    bad |= integrate_restarted(s, restarted, restarted_count, &landed, &landed_hits, &landed_owned, &total);
     size_t blocks = (flying_count + BLOCK - 1) / BLOCK;
     uint32_t *hits = dem_realloc_or_die(NULL, (blocks ? blocks : 1) * BLOCK * sizeof *hits);
     uint8_t *hit_count = dem_realloc_or_die(NULL, blocks ? blocks : 1);
@@ -1151,15 +1323,17 @@ int dem_integrate(struct dem_solver *s)
     list_at_boundary(s, landed, landed_hits, hits, hit_count, blocks);
     free(hits);
     free(hit_count);
-    if (owned) {
+    if (landed_owned)
         free(landed);
+    free(moving_landed);
+    free(restarted);
+    if (owned)
         free((void *)flying);
-    }
     s->stats.fixed_point_iterations += total.iterations;
     s->stats.fixed_point_solves += total.solves;
     s->stats.fixed_point_unconverged += total.unconverged;
     s->stats.subcycled_particle_steps += total.subcycled;
-    s->stats.particle_steps += (int64_t)flying_count;
+    s->stats.particle_steps += (int64_t)(flying_count + restarted_count);
     s->stats.max_iterations = total.max_iterations;
     size_t first_bad;
     const char *quantity;

@@ -209,6 +209,8 @@ static int write_stats(hid_t file, const struct dem_solver *s)
     SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_max_iterations", c.max_iterations), done);
     SC_CHECK(status, h5_attr_write_int64(g, "subcycled_particle_steps", c.subcycled_particle_steps), done);
     SC_CHECK(status, h5_attr_write_int64(g, "particle_steps", c.particle_steps), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "clamps", c.clamps), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "trapped", c.trapped), done);
 done:
     H5Gclose(g);
     return status;

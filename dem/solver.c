@@ -32,6 +32,7 @@ void dem_destroy(struct dem_solver *s)
 {
     if (!s)
         return;
+    free(s->p.skin); /* the solver's, not the particle arrays' */
     dem_particles_free(&s->p);
     dem_bins_free(&s->bins);
     balance_free(&s->integrate_balance);
@@ -43,6 +44,7 @@ void dem_destroy(struct dem_solver *s)
     free(s->path_changed);
     free(s->start_kept);
     free(s->seen);
+    free(s->contacts_in_step);
     free(s->impacts);
     free(s->handoffs);
     free(s->metrics);
@@ -95,6 +97,7 @@ static void apply_boundaries(struct dem_solver *s)
         if (dem_beyond_target(s, i)) {
             p->x[3 * i + 2] = s->cfg.standoff - 0.5 * p->d[i];
             p->drag.kept[i] = 0;
+            s->stats.clamps++; /* the contact search missed it: counted (docs/physics.md, "Contact detection") */
         }
         if (dem_escapes(s, i)) {
             if (!removed)
@@ -143,7 +146,7 @@ int dem_step(struct dem_solver *s)
     double mark = omp_get_wtime();
     dem_inject(s);
     time_phase(&timing->injection, &mark);
-    dem_collide(s);
+    SC_TRY(dem_collide(s));
     time_phase(&timing->contacts, &mark);
     SC_TRY(dem_integrate(s));
     time_phase(&timing->integration, &mark);
