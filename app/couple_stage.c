@@ -1,4 +1,4 @@
-/* The couple stage: spray.h5 -> sampled impacts -> CVODE flights through the gas layer -> MPM seeds in
+/* The couple stage: spray.h5 -> sampled impacts -> CVODE flights through the jet's wall region -> MPM seeds in
  * RUN_DIR/couple.h5 (/seeds, /flight).  The stage has no checkpoints: it flies a few hundred particles at most,
  * in well under a second each, and writes couple.h5 atomically at the end, so an interrupted stage is simply
  * run again (with the same result: the flights and the sampling are deterministic). */
@@ -538,7 +538,7 @@ static void log_summary(const struct couple_work *w)
         steps += w->flights[i].steps;
     double n = (double)at_least_one(w->seed_count);
     log_info("couple: %zu seeds in %ld runs from %zu candidate impacts (%zu flights, %ld CVODE steps); mean diameter "
-             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall after the gas layer",
+             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall (CVODE through the jet's wall region)",
              w->seed_count, w->cfg.runs, w->candidate_count, w->flight_count, steps, 1e6 * diameter / n,
              speed_spray / n, speed_wall / n);
 }

@@ -1,5 +1,5 @@
 /* coupling: the physics between the spray and the impact stages (docs/physics.md "The couple stage"), one header: the
- * sampling of the spray's impacts into MPM seeds (couple.c) and the CVODE flight through the gas layer in front
+ * sampling of the spray's impacts into MPM seeds (couple.c) and the CVODE flight through the jet's wall region in front
  * of the target (flight.c). */
 #ifndef SPRAYCOAT_COUPLING_COUPLING_H
 #define SPRAYCOAT_COUPLING_COUPLING_H
@@ -22,7 +22,7 @@
  *               from its sub-stratum;
  *   window      the candidates whose impact point lies in the square patch of side patch_size centred at
  *               (window_x, window_y) on the target, in order of arrival.
- * A drawn candidate whose flight through the gas layer does not reach the wall is replaced by the next one of its
+ * A drawn candidate whose flight to the wall does not reach the wall is replaced by the next one of its
  * stratum.  Seed k belongs to run k / bodies_per_run.
  *
  * Placement in the impact frame (substrate top z = 0, bodies above it moving towards -z): within a run, bodies in
