@@ -50,11 +50,13 @@ struct dem_gas_field {
     double kinematic_viscosity; /* nu_f, m2/s */
     /* The wall region of the jet impinging on the target (dem/gas_eval.h, docs/physics.md "The jet at the
      * wall"): set by dem_gas_set_wall; stagnation_height 0 (a zeroed struct) is the free jet everywhere. */
-    double stagnation_factor;  /* [jet] stagnation_height: H in half-widths of the free jet at the wall */
-    double wall_z;             /* m, the wall plane (the target, z = standoff) */
-    double stagnation_height;  /* m, H: the wall region is wall_z - H < z */
-    double wall_axis_speed;    /* m/s, U_H: the free jet's axial speed on the axis at z = wall_z - H */
-    double wall_inverse_width; /* 1/m, a_H = C3 / x_H^(2/3): the free jet's profile sech^2(a_H r) there */
+    double stagnation_factor;         /* [jet] stagnation_height: H in half-widths of the free jet at the wall */
+    double wall_z;                    /* m, the wall plane (the target, z = standoff) */
+    double stagnation_height;         /* m, H: the wall region is wall_z - H < z */
+    double wall_axis_speed;           /* m/s, U_H: the free jet's axial speed on the axis at z = wall_z - H */
+    double wall_inverse_width;        /* 1/m, a_H = C3 / x_H^(2/3): the free jet's profile sech^2(a_H r) there */
+    double inverse_stagnation_height; /* 1/m, 1/H (0 without a wall region) */
+    double wall_outflow_scale;        /* m/s, U_H / (a_H^2 H): the wall jet's u_r = g' scale F(a_H r) / r */
 };
 
 /* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the

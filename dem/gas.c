@@ -35,6 +35,7 @@ void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z)
 {
     gas->wall_z = wall_z;
     gas->stagnation_height = gas->wall_axis_speed = gas->wall_inverse_width = 0.0;
+    gas->inverse_stagnation_height = gas->wall_outflow_scale = 0.0;
     if (gas->model != DEM_JET_BICKLEY || !(gas->stagnation_factor > 0.0))
         return;
     double half_width = HALF_WIDTH_XI * pow(jet_station(gas, wall_z), 2.0 / 3.0) / gas->c3;
@@ -42,6 +43,9 @@ void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z)
     double x_top = jet_station(gas, wall_z - gas->stagnation_height);
     gas->wall_axis_speed = gas->c1 / cbrt(x_top);
     gas->wall_inverse_width = gas->c3 / pow(x_top, 2.0 / 3.0);
+    gas->inverse_stagnation_height = 1.0 / gas->stagnation_height;
+    gas->wall_outflow_scale =
+        gas->wall_axis_speed / (gas->wall_inverse_width * gas->wall_inverse_width * gas->stagnation_height);
 }
 
 void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double u[3])

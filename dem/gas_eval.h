@@ -95,15 +95,16 @@ FM_INLINE void gas_eval_wall(const struct dem_gas_field *gas, const double pos[3
     double at[3] = {pos[0], pos[1], fm_select(in_region, top, pos[2])};
     double jet[3], xi, tanh_xi, q;
     gas_eval_bickley(gas, at, jet, &xi, &tanh_xi, &q); /* in the region xi = a_H r, the station being z_H's */
-    double eta = (gas->wall_z - pos[2]) / fm_select(height > 0.0, height, 1.0);
+    /* multiplications by 1/H and 1/r^2, set once, in place of divisions: this runs in the integrator's loops */
+    double eta = (gas->wall_z - pos[2]) * gas->inverse_stagnation_height;
     eta = fm_select(eta > 0.0, eta, 0.0);
     double g = eta * (2.0 - eta), slope = 2.0 * (1.0 - eta);
-    double r = sqrt(pos[0] * pos[0] + pos[1] * pos[1]), a = gas->wall_inverse_width;
-    double safe_r = fm_select(r > 0.0, r, 1.0);
-    double outflow = slope * gas->wall_axis_speed * gas_eval_disc_flux(xi, tanh_xi, q) /
-                     (fm_select(a > 0.0, a * a, 1.0) * fm_select(height > 0.0, height, 1.0) * safe_r);
-    outflow = fm_select(r > 0.0, outflow, 0.0);
-    double ux = g * jet[0] + outflow * pos[0] / safe_r, uy = g * jet[1] + outflow * pos[1] / safe_r;
+    double r2 = pos[0] * pos[0] + pos[1] * pos[1];
+    double inverse_r2 = 1.0 / fm_select(r2 > 0.0, r2, 1.0);
+    /* u_r / r: on the axis (r = 0) the outflow vanishes */
+    double outflow_over_r = slope * gas->wall_outflow_scale * gas_eval_disc_flux(xi, tanh_xi, q) * inverse_r2;
+    outflow_over_r = fm_select(r2 > 0.0, outflow_over_r, 0.0);
+    double ux = g * jet[0] + outflow_over_r * pos[0], uy = g * jet[1] + outflow_over_r * pos[1];
     u[0] = fm_select(in_region, ux, jet[0]);
     u[1] = fm_select(in_region, uy, jet[1]);
     u[2] = fm_select(in_region, g * jet[2], jet[2]);
