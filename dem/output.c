@@ -405,7 +405,8 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
     SC_TRY(read_drag_state(group, &s->p, s->step));
     SC_TRY(read_records(group, "impacts", (void **)&s->impacts, &s->impact_count, &s->impact_capacity,
                         sizeof *s->impacts));
-    memset(s->contacts_of, 0, s->contacts_of_capacity * sizeof *s->contacts_of); /* derived: rebuilt */
+    if (s->contacts_of) /* derived: rebuilt */
+        memset(s->contacts_of, 0, s->contacts_of_capacity * sizeof *s->contacts_of);
     for (size_t k = 0; k < s->impact_count; k++)
         ++*dem_contacts_of(s, s->impacts[k].particle_id);
     SC_TRY(read_records(group, "handoffs", (void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity,

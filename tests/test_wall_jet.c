@@ -252,8 +252,50 @@ static void test_spray_impacts_match_flight(void)
     CHECK(fine < 0.2 * coarse, "first order in dt: %g -> %g", coarse, fine);
 }
 
+/* Resting particles: in gas (here a still one), a particle that meets the target at 0.5 m/s along the normal
+ * (below rest_speed, 1 m/s) comes to rest there: state resting, counted, its one contact recorded with outcome 2
+ * and contact_index 0, and never re-collided; one at 5 m/s rebounds and leaves.  Without gas it rebounds too. */
+static void test_resting(void)
+{
+    const char *rows = "0,0,0.2994999,0,0,0.5,0,0,0,0.001\n0.01,0,0.2994999,0,0,5,0,0,0,0.001\n";
+    for (int gas = 0; gas < 2; gas++) {
+        char ini[512];
+        snprintf(ini, sizeof ini,
+                 "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = %s\nuniform_velocity = 0\n"
+                 "[contact]\nrestitution = 0.9\n[deposition]\nrule = none\n",
+                 gas ? "uniform" : "none");
+        struct fixture f;
+        if (fixture_open(&f, ini, rows) != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        CHECK(fixture_steps(&f, 1000) == SC_OK, "steps");
+        struct dem_counts c = dem_get_counts(f.solver);
+        size_t n;
+        const struct dem_impact *hits = dem_impacts(f.solver, &n);
+        CHECK(dem_check_accounting(f.solver) == SC_OK, "accounting: %s", sc_error_message());
+        if (gas) {
+            CHECK(c.resting == 1 && c.in_flight == 1 && c.contacts_target == 2,
+                  "resting %lld, in flight %lld, "
+                  "target contacts %lld",
+                  (long long)c.resting, (long long)c.in_flight, (long long)c.contacts_target);
+            const struct dem_impact *slow = n == 2 ? &hits[hits[0].particle_id != 0] : NULL;
+            const struct dem_impact *fast = n == 2 ? &hits[hits[0].particle_id == 0] : NULL;
+            CHECK(slow && slow->particle_id == 0 && slow->outcome == DEM_RESTED && slow->contact_index == 0 &&
+                      slow->v_out[2] == 0.0 && fast->outcome == DEM_REBOUND,
+                  "the slow one rested at its first contact, the fast one rebounded");
+            CHECK(dem_particle(f.solver, 0).state == DEM_RESTING, "state resting");
+        } else {
+            CHECK(c.resting == 0 && c.contacts_target == 2, "no gas: both rebound (resting %lld)",
+                  (long long)c.resting);
+        }
+        fixture_close(&f);
+    }
+}
+
 int main(void)
 {
+    RUN(test_resting);
     RUN(test_far_field_is_free_jet);
     RUN(test_continuous_and_still_at_wall);
     RUN(test_bounded);
