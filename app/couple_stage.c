@@ -1,4 +1,4 @@
-/* The couple stage: spray.h5 -> sampled impacts -> CVODE flights through the gas layer -> MPM seeds in
+/* The couple stage: spray.h5 -> sampled impacts -> CVODE flights through the jet's wall region -> MPM seeds in
  * RUN_DIR/couple.h5 (/seeds, /flight).  The stage has no checkpoints: it flies a few hundred particles at most,
  * in well under a second each, and writes couple.h5 atomically at the end, so an interrupted stage is simply
  * run again (with the same result: the flights and the sampling are deterministic). */
@@ -253,20 +253,12 @@ static int match_handoffs(struct couple_work *w)
 static int setup_layer(struct couple_work *w, const struct dem_config *spray)
 {
     struct couple_flight_layer *layer = &w->layer;
-    layer->gas = spray->gas;
-    layer->wall_z = spray->standoff;
-    layer->thickness = w->cfg.layer_thickness;
+    layer->gas = spray->gas; /* its wall at the target (dem_config_load): the field the spray flew through */
     layer->rtol = w->cfg.rtol;
     layer->atol = w->cfg.atol;
-    layer->approach_velocity = w->cfg.stagnation_velocity;
-    if (isnan(layer->approach_velocity)) {
-        const double edge[3] = {0.0, 0.0, spray->standoff - w->cfg.layer_thickness};
-        double u[3];
-        dem_gas_velocity(&spray->gas, edge, u);
-        layer->approach_velocity = fmax(u[2], 0.0);
-    }
-    log_info("couple: gas layer %.4g m thick, approached at %.4g m/s; hand-off plane %.4g m before the target",
-             layer->thickness, layer->approach_velocity, spray->handoff_height);
+    log_info("couple: the spray's gas, wall region %.4g m deep (axial speed %.4g m/s at its top); hand-off plane "
+             "%.4g m before the target",
+             layer->gas.stagnation_height, layer->gas.wall_axis_speed, spray->handoff_height);
     return SC_OK;
 }
 
@@ -505,9 +497,8 @@ static int write_flights(hid_t file, const struct couple_work *w)
     int status;
     SC_CHECK(status, write_flight_columns(g, w), done);
     SC_CHECK(status, write_trajectories(g, w), done);
-    SC_CHECK(status, h5_attr_write_double(g, "wall_z", w->layer.wall_z), done);
-    SC_CHECK(status, h5_attr_write_double(g, "layer_thickness", w->layer.thickness), done);
-    SC_CHECK(status, h5_attr_write_double(g, "gas_stagnation_velocity", w->layer.approach_velocity), done);
+    SC_CHECK(status, h5_attr_write_double(g, "wall_z", w->layer.gas.wall_z), done);
+    SC_CHECK(status, h5_attr_write_double(g, "stagnation_height", w->layer.gas.stagnation_height), done);
     SC_CHECK(status, h5_attr_write_double(g, "rtol", w->layer.rtol), done);
     SC_CHECK(status, h5_attr_write_double(g, "atol", w->layer.atol), done);
 done:
@@ -547,7 +538,7 @@ static void log_summary(const struct couple_work *w)
         steps += w->flights[i].steps;
     double n = (double)at_least_one(w->seed_count);
     log_info("couple: %zu seeds in %ld runs from %zu candidate impacts (%zu flights, %ld CVODE steps); mean diameter "
-             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall after the gas layer",
+             "%.3g um, mean speed %.4g m/s in the spray, %.4g m/s at the wall (CVODE through the jet's wall region)",
              w->seed_count, w->cfg.runs, w->candidate_count, w->flight_count, steps, 1e6 * diameter / n,
              speed_spray / n, speed_wall / n);
 }

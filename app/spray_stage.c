@@ -58,8 +58,8 @@ static void position(void *owner, int64_t *step_index, double *t, int64_t *progr
 static void describe(void *owner, char *text, size_t size)
 {
     struct dem_counts counts = dem_get_counts(((struct spray_run *)owner)->solver);
-    snprintf(text, size, "in flight %lld, deposited %lld, escaped %lld", (long long)counts.in_flight,
-             (long long)counts.deposited, (long long)counts.escaped);
+    snprintf(text, size, "in flight %lld, deposited %lld, resting %lld, escaped %lld", (long long)counts.in_flight,
+             (long long)counts.deposited, (long long)counts.resting, (long long)counts.escaped);
 }
 
 static int checkpoint_write(void *owner, hid_t file)
@@ -216,9 +216,13 @@ static void log_summary(const struct spray_run *run)
 {
     struct dem_metrics m = dem_compute_metrics(run->solver);
     struct dem_counts c = dem_get_counts(run->solver);
-    log_info("spray: t = %.6g s: injected %lld, deposited %lld (fraction %.4f), escaped %lld, in flight %lld", m.t,
-             (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.escaped,
-             (long long)m.in_flight);
+    log_info("spray: t = %.6g s: injected %lld, deposited %lld (deposition efficiency %.4f), resting %lld, escaped "
+             "%lld, in flight %lld",
+             m.t, (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.resting,
+             (long long)m.escaped, (long long)m.in_flight);
+    log_info("spray: deposits made on a first impact %lld (share %.4f); target contacts per injected particle %.3g",
+             (long long)m.first_impact_deposits, m.first_impact_share,
+             m.injected ? (double)c.contacts_target / (double)m.injected : 0.0);
     log_info("spray: contacts: particle-particle %lld, target %lld, deposit %lld; fixed-point iterations "
              "%.2f per solve (max %lld, unconverged %lld), sub-cycled particle-steps %lld",
              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.contacts_deposit,

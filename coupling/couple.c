@@ -18,11 +18,6 @@ const struct cfg_key couple_case_keys[] = {
      "the arrivals inside a square window of the target in arrival order"},
     {"couple", "bodies_per_run", CFG_INT, "", "1", 1, 1000, 0, NULL, "bodies (seeds) in each impact run"},
     {"couple", "runs", CFG_INT, "", "1", 1, 100000, 0, NULL, "independent impact runs"},
-    {"couple", "layer_thickness", CFG_REAL, "m", "1e-3", 0, 1, 0, NULL,
-     "thickness of the stagnation-point gas layer in front of the target (gas speed falls linearly to 0 at "
-     "the wall; 0: a uniform stream up to the wall)"},
-    {"couple", "gas_stagnation_velocity", CFG_REAL, "m/s", "jet", 0, 1e4, 0, "jet",
-     "gas speed towards the wall at the layer's edge and above it; jet: the [jet] axial gas speed there"},
     {"couple", "rtol", CFG_REAL, "-", "1e-8", 1e-14, 1e-2, 0, NULL, "CVODE relative tolerance of the flight"},
     {"couple", "atol", CFG_REAL, "-", "1e-10", 1e-16, 1e-2, 0, NULL,
      "CVODE absolute tolerance, relative to the hand-off distance (positions) and speed (velocities)"},
@@ -43,10 +38,6 @@ int couple_config_load(const struct case_file *c, struct couple_config *cfg)
                                                                : COUPLE_RANDOM;
     cfg->bodies_per_run = case_int(c, "couple", "bodies_per_run");
     cfg->runs = case_int(c, "couple", "runs");
-    cfg->layer_thickness = case_real(c, "couple", "layer_thickness");
-    cfg->stagnation_velocity = case_is(c, "couple", "gas_stagnation_velocity", "jet")
-                                   ? NAN
-                                   : case_real(c, "couple", "gas_stagnation_velocity");
     cfg->rtol = case_real(c, "couple", "rtol");
     cfg->atol = case_real(c, "couple", "atol");
     cfg->patch_size = case_real(c, "couple", "patch_size");

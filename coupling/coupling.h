@@ -1,5 +1,5 @@
 /* coupling: the physics between the spray and the impact stages (docs/physics.md "The couple stage"), one header: the
- * sampling of the spray's impacts into MPM seeds (couple.c) and the CVODE flight through the gas layer in front
+ * sampling of the spray's impacts into MPM seeds (couple.c) and the CVODE flight through the jet's wall region in front
  * of the target (flight.c). */
 #ifndef SPRAYCOAT_COUPLING_COUPLING_H
 #define SPRAYCOAT_COUPLING_COUPLING_H
@@ -22,7 +22,7 @@
  *               from its sub-stratum;
  *   window      the candidates whose impact point lies in the square patch of side patch_size centred at
  *               (window_x, window_y) on the target, in order of arrival.
- * A drawn candidate whose flight through the gas layer does not reach the wall is replaced by the next one of its
+ * A drawn candidate whose flight to the wall does not reach the wall is replaced by the next one of its
  * stratum.  Seed k belongs to run k / bodies_per_run.
  *
  * Placement in the impact frame (substrate top z = 0, bodies above it moving towards -z): within a run, bodies in
@@ -36,8 +36,6 @@ enum couple_sample { COUPLE_RANDOM, COUPLE_STRATIFIED, COUPLE_WINDOW };
 struct couple_config {
     enum couple_sample sample;
     long bodies_per_run, runs;
-    double layer_thickness;     /* m */
-    double stagnation_velocity; /* m/s; NAN: from the jet at the layer's edge ("jet") */
     double rtol, atol;
     double patch_size, window_x, window_y, max_gap; /* m */
     uint32_t seed;                                  /* [run] seed */
@@ -81,28 +79,22 @@ struct couple_seed {
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 
-/* coupling: the last flight of a sprayed particle, from the hand-off plane to the wall, through the gas layer in
- * front of the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS
- * CVODE (BDF, Newton iteration with a dense direct linear solver).
+/* coupling: the last flight of a sprayed particle, from the hand-off plane to the wall, through the gas in front of
+ * the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS CVODE (BDF,
+ * Newton iteration with a dense direct linear solver).
  *
- * The gas (spray frame: +z towards the target, the wall is the plane z = wall_z, the spray axis is x = y = 0):
- * an axisymmetric stagnation-point flow of thickness delta in front of the wall, approached by a uniform stream
- * of speed U along +z (docs/references.md "The gas layer": the Hiemenz-type layer behind the wall shock),
- *     s = wall_z - z (distance to the wall)
- *     s >= delta:      u = (0, 0, U)
- *     0 <= s < delta:  u_z = U s / delta,  u_x = U x / (2 delta),  u_y = U y / (2 delta)
- * which is divergence-free in both regions (radial outflow from continuity: (1/r) d(r u_r)/dr = U / delta) and
- * continuous in u_z at s = delta; delta = 0 is a uniform stream up to the wall.  The gas is not disturbed by the
- * particles (one-way coupling, as in the spray stage).  The particle: a rigid sphere of diameter d and density
- * rho_p, m dv/dt = F_drag(v, u) with the drag law of [jet] (Haider-Levenspiel Eq. 25 or Stokes); no gravity.
- * The flight ends when the sphere touches the wall (centre at wall_z - d/2, found by CVODE's root finding) or
- * at a time limit: a fine particle carried by the outflow may approach the wall only asymptotically. */
+ * The gas is the spray's (dem_gas_velocity, docs/physics.md "The jet at the wall"): in the spray frame (+z towards
+ * the target, the wall is the plane z = gas.wall_z, the spray axis is x = y = 0) the free jet of Eqs. 26-27 above
+ * the wall region z < wall_z - H, and in it the stagnation flow whose axial velocity falls to zero at the wall and
+ * the radial wall jet it feeds: the spray stage decides stick or rebound with the velocity the particle has after
+ * crossing the same field.  The gas is not disturbed by the particles (one-way coupling, as in the spray stage).
+ * The particle: a rigid sphere of diameter d and density rho_p, m dv/dt = F_drag(v, u) with the drag law of [jet]
+ * (Haider-Levenspiel Eq. 25 or Stokes); no gravity.  The flight ends when the sphere touches the wall (centre at
+ * wall_z - d/2, found by CVODE's root finding) or at a time limit: a fine particle carried by the wall jet may
+ * approach the wall only asymptotically. */
 
 struct couple_flight_layer {
-    struct dem_gas_field gas; /* density, kinematic viscosity and drag law; model none: no gas, no drag */
-    double wall_z;            /* m, the wall plane (spray frame) */
-    double thickness;         /* m, delta */
-    double approach_velocity; /* m/s, U */
+    struct dem_gas_field gas; /* the spray's gas, its wall placed (dem_gas_set_wall); model none: no gas, no drag */
     double rtol;              /* CVODE relative tolerance */
     double atol;              /* absolute tolerance, relative to the scales: positions atol * (distance to the
                                  wall at the start), velocities atol * (speed at the start, at least 1 m/s) */
@@ -115,9 +107,6 @@ struct couple_flight_result {
     size_t samples;                         /* the trajectory at every internal CVODE step, the start included */
     double *sample_t, *sample_x, *sample_v; /* samples, 3 * samples, 3 * samples */
 };
-
-/* Gas velocity u[3] at x[3] (the formula above). */
-void couple_flight_gas_velocity(const struct couple_flight_layer *layer, const double x[3], double u[3]);
 
 struct couple_flight_solver;
 

@@ -1,7 +1,8 @@
-/* The flight through the gas stagnation layer in front of the target, which Mukherjee & Zohdi leave out
- * (Section 6): m dv/dt = F_drag(v, u) with their drag, Eqs. 24-25, in the layer's stagnation-point flow
- * (the model and its equations: coupling/coupling.h, struct couple_flight_layer), integrated with CVODE (BDF, Newton,
- * dense linear solver); the flight ends at the wall (root finding) or at a time limit. */
+/* The last flight of a sprayed particle, from the hand-off plane to the wall: m dv/dt = F_drag(v, u) with
+ * Mukherjee & Zohdi's drag, Eqs. 24-25, in the spray's own gas field, the jet impinging on the target (dem/,
+ * dem_gas_velocity: the free jet above the wall region, the stagnation flow and the radial wall jet in it),
+ * integrated with CVODE (BDF, Newton, dense linear solver); the flight ends at the wall (root finding) or at a time
+ * limit. */
 #include "coupling/coupling.h"
 
 #include <cvode/cvode.h>
@@ -32,26 +33,11 @@ struct flight_particle {
     double diameter, mass;
 };
 
-void couple_flight_gas_velocity(const struct couple_flight_layer *layer, const double x[3], double u[3])
-{
-    double s = layer->wall_z - x[2], delta = layer->thickness, speed = layer->approach_velocity;
-    if (s >= delta) {
-        u[0] = u[1] = 0.0;
-        u[2] = speed;
-    } else if (s >= 0.0) {
-        u[0] = speed * x[0] / (2.0 * delta);
-        u[1] = speed * x[1] / (2.0 * delta);
-        u[2] = speed * s / delta;
-    } else {
-        u[0] = u[1] = u[2] = 0.0; /* inside the wall: never reached, the flight stops at contact */
-    }
-}
-
 /* The time limit of a flight starting at z0 with axial speed vz0: 100 times the time to the wall at that speed
  * (at least 1 m/s). */
 static double flight_time_limit(const struct couple_flight_layer *layer, double z0, double vz0)
 {
-    return 100.0 * fabs(layer->wall_z - z0) / fmax(vz0, 1.0);
+    return 100.0 * fabs(layer->gas.wall_z - z0) / fmax(vz0, 1.0);
 }
 
 /* y = (x, y, z, vx, vy, vz): dx/dt = v, m dv/dt = F_drag(v, u(x)). */
@@ -62,7 +48,7 @@ static int flight_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
     const double *state = N_VGetArrayPointer(y);
     double *rate = N_VGetArrayPointer(ydot);
     double u[3], force[3];
-    couple_flight_gas_velocity(p->layer, state, u);
+    dem_gas_velocity(&p->layer->gas, state, u);
     dem_gas_drag_force(&p->layer->gas, p->diameter, state + 3, u, force);
     for (int k = 0; k < 3; k++) {
         rate[k] = state[3 + k];
@@ -76,7 +62,7 @@ static int flight_contact(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
 {
     (void)t;
     const struct flight_particle *p = data;
-    g[0] = p->layer->wall_z - 0.5 * p->diameter - N_VGetArrayPointer(y)[2];
+    g[0] = p->layer->gas.wall_z - 0.5 * p->diameter - N_VGetArrayPointer(y)[2];
     return 0;
 }
 
@@ -118,18 +104,18 @@ int couple_flight_solver_create(struct couple_flight_solver **out)
     return SC_OK;
 }
 
-/* Contact, and the layer's edge s = delta where the gas velocity has a kink (u_x, u_y jump from zero): the
- * integration stops there and starts afresh, so that no step straddles the discontinuity in the right-hand side
- * (CVODE's error control assumes a smooth one). */
+/* Contact, and the top of the wall region z = wall_z - H, where the gas velocity's derivatives jump (the free
+ * jet's decay above, the stagnation profile below): the integration stops there and starts afresh, so that no
+ * step straddles the kink in the right-hand side (CVODE's error control assumes a smooth one). */
 static int flight_roots(sunrealtype t, N_Vector y, sunrealtype *g, void *data)
 {
     const struct flight_particle *p = data;
     flight_contact(t, y, g, data);
-    g[1] = p->layer->wall_z - p->layer->thickness - N_VGetArrayPointer(y)[2];
+    g[1] = p->layer->gas.wall_z - p->layer->gas.stagnation_height - N_VGetArrayPointer(y)[2];
     return 0;
 }
 
-/* The root functions of a flight that is `edge_ahead` of the layer's edge or already inside the layer. */
+/* The root functions of a flight that is `edge_ahead` of the wall region or already inside it. */
 static int set_roots(struct couple_flight_solver *solver, int edge_ahead)
 {
     int flag =
@@ -267,7 +253,7 @@ int couple_flight_integrate(struct couple_flight_solver *solver, const struct co
     memset(result, 0, sizeof *result);
     struct flight_particle particle = {layer, diameter, density * M_PI * diameter * diameter * diameter / 6.0};
     double *state = N_VGetArrayPointer(solver->state), *abstol = N_VGetArrayPointer(solver->abstol);
-    double length = fmax(fabs(layer->wall_z - x0[2]), diameter);
+    double length = fmax(fabs(layer->gas.wall_z - x0[2]), diameter);
     double speed = fmax(sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]), 1.0);
     for (int k = 0; k < 3; k++) {
         state[k] = x0[k];
@@ -276,7 +262,8 @@ int couple_flight_integrate(struct couple_flight_solver *solver, const struct co
         abstol[3 + k] = layer->atol * speed;
     }
     double t_limit = t0 + flight_time_limit(layer, x0[2], v0[2]);
-    int edge_ahead = layer->thickness > 0.0 && layer->wall_z - x0[2] > layer->thickness;
+    double height = layer->gas.stagnation_height;
+    int edge_ahead = height > 0.0 && layer->gas.wall_z - x0[2] > height;
     SC_TRY(start_flight(solver, &particle, t0, t_limit, edge_ahead));
     int flag = CVodeSVtolerances(solver->cvode, layer->rtol, solver->abstol);
     if (flag != CV_SUCCESS)

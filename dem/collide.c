@@ -262,9 +262,15 @@ static void record_impact(struct dem_solver *s, uint32_t i, double at, const dou
     row->m = p->m[i];
     row->outcome = outcome;
     row->partner = partner;
+    uint32_t *contacts = dem_contacts_of(s, p->id[i]);
+    row->contact_index = *contacts;
+    ++*contacts;
+    if (outcome == DEM_STUCK && row->contact_index == 0)
+        s->first_impact_deposits++;
 }
 
-static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
+/* Particle i stops at x: deposited (it stuck) or resting (it lies there without having stuck). */
+static void freeze(struct dem_solver *s, uint32_t i, const double x[3], int state)
 {
     struct dem_particles *p = &s->p;
     keep_start_velocity(s, i);
@@ -272,8 +278,11 @@ static void freeze(struct dem_solver *s, uint32_t i, const double x[3])
     memcpy(p->x + 3 * i, x, 3 * sizeof(double));
     memset(p->v + 3 * i, 0, 3 * sizeof(double));
     memset(p->w + 3 * i, 0, 3 * sizeof(double));
-    p->state[i] = DEM_DEPOSITED;
-    s->deposited++;
+    p->state[i] = (uint8_t)state;
+    if (state == DEM_DEPOSITED)
+        s->deposited++;
+    else
+        s->resting++;
 }
 
 /* Unit normal from the centre x of particle i to the obstacle: the target plane or deposited `partner`. */
@@ -352,15 +361,23 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
         adhesion_slowed_rebound(&sphere, n, outcome.vn,
                                 dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy,
                                                                    obstacle->surface_energy, p->m[i], r_eff, yield));
+    /* A rebounder that arrives slower than rest_speed along the normal comes to rest instead: in the wall region
+     * the gas pushes it back at once, and it would bounce in place, re-collided every step, for the rest of the
+     * run (docs/physics.md "Resting particles").  Without gas nothing brings it back: it rebounds. */
+    int rests = !stuck && cfg->gas.model != DEM_JET_NONE && outcome.vn < cfg->rest_speed;
     store_sphere(s, i, &sphere);
-    if (stuck) {
+    if (stuck || rests) {
         double rest[3];
         rest_position(s, partner, x_hit, n, r, obstacle_radius, rest);
         memcpy(x_hit, rest, sizeof rest);
-        freeze(s, i, x_hit);
+        freeze(s, i, x_hit, stuck ? DEM_DEPOSITED : DEM_RESTING);
     }
     path_restart(s, i, at, x_hit);
-    record_impact(s, i, at, x_hit, &before, stuck ? DEM_STUCK : DEM_REBOUND, partner < 0 ? -1 : p->id[partner]);
+    record_impact(s, i, at, x_hit, &before,
+                  stuck   ? DEM_STUCK
+                  : rests ? DEM_RESTED
+                          : DEM_REBOUND,
+                  partner < 0 ? -1 : p->id[partner]);
     if (partner < 0)
         s->stats.contacts_target++;
     else

@@ -19,12 +19,14 @@
 #include "core/config.h"
 
 #define DEM_FORMAT         "spraycoat-spray"
-#define DEM_FORMAT_VERSION 2 /* 2: checkpoints hold the kept drag and its history (/drag) */
+#define DEM_FORMAT_VERSION 3 /* 3: impacts carry contact_index; resting particles (state 2) and their count */
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
-enum dem_particle_state { DEM_FLYING = 0, DEM_DEPOSITED = 1 };
-enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1 };
+/* DEM_RESTING: a rebounder that lies on the target at negligible normal speed ([contact] rest_speed): it no longer
+ * moves nor is re-collided; flying particles meet it as an obstacle, like a deposit, but it has not stuck. */
+enum dem_particle_state { DEM_FLYING = 0, DEM_DEPOSITED = 1, DEM_RESTING = 2 };
+enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1, DEM_RESTED = 2 };
 
 /* ---- The parts of the configuration that coupling/ and app/ read and fill: the carrier gas (Mukherjee & Zohdi
  * Section 2.3, Eqs. 24-27, dem/gas.c), the materials (Table 1, dem/material.c), the size law (Section 4.2,
@@ -46,7 +48,22 @@ struct dem_gas_field {
     double uniform_velocity;    /* m/s along +z, DEM_JET_UNIFORM */
     double density;             /* rho_f, kg/m3 */
     double kinematic_viscosity; /* nu_f, m2/s */
+    /* The wall region of the jet impinging on the target (dem/gas_eval.h, docs/physics.md "The jet at the
+     * wall"): set by dem_gas_set_wall; stagnation_height 0 (a zeroed struct) is the free jet everywhere. */
+    double stagnation_factor;         /* [jet] stagnation_height: H in half-widths of the free jet at the wall */
+    double wall_z;                    /* m, the wall plane (the target, z = standoff) */
+    double stagnation_height;         /* m, H: the wall region is wall_z - H < z */
+    double wall_axis_speed;           /* m/s, U_H: the free jet's axial speed on the axis at z = wall_z - H */
+    double wall_inverse_width;        /* 1/m, a_H = C3 / x_H^(2/3): the free jet's profile sech^2(a_H r) there */
+    double inverse_stagnation_height; /* 1/m, 1/H (0 without a wall region) */
+    double wall_outflow_scale;        /* m/s, U_H / (a_H^2 H): the wall jet's u_r = g' scale F(a_H r) / r */
 };
+
+/* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the
+ * free jet's half-width (sech^2 = 1/2) at the wall, at most wall_z, and the free jet's profile at the top of the
+ * wall region.  Only the Bickley jet has a width and so a wall region; for the other models (or a factor 0) H = 0,
+ * the free field up to the wall. */
+void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z);
 
 /* Gas velocity u[3] at position x[3] (DEM_JET_NONE: still gas, zero).  Public with dem_gas_drag_force: the couple stage
  * and coupling/flight.c use the spray's gas. */
@@ -105,6 +122,7 @@ struct dem_config {
     double standoff, deposit_radius;
     /* [contact], [jet] */
     struct dem_contact_law contact;
+    double rest_speed; /* m/s: a target contact slower than this along the normal leaves the particle resting */
     struct dem_gas_field gas;
     /* [deposition] */
     enum dem_deposition_rule rule;
@@ -127,8 +145,9 @@ struct dem_impact {
     int64_t particle_id;
     double x[3], v_in[3], v_out[3], w_in[3], w_out[3];
     double d, m;
-    int64_t outcome; /* enum dem_outcome */
-    int64_t partner; /* -1 the target, else the deposited particle's id */
+    int64_t outcome;       /* enum dem_outcome */
+    int64_t partner;       /* -1 the target, else the deposited (or resting) particle's id */
+    int64_t contact_index; /* the particle's contacts with the target or fixed particles before this one */
 };
 
 /* One row per crossing of the hand-off plane z = standoff - handoff_height (spray.h5:/handoff). */
@@ -144,6 +163,8 @@ struct dem_counts {
     int64_t step;
     double t;
     int64_t injected, in_flight, deposited, escaped;
+    int64_t resting;               /* particles lying on the target (or a deposit) without having stuck */
+    int64_t first_impact_deposits; /* deposits made on the particle's first contact (contact_index 0) */
     int64_t contacts_pair, contacts_target, contacts_deposit;
     int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
     int64_t subcycled_particle_steps;
@@ -196,6 +217,8 @@ struct dem_metrics {
     double t;
     int64_t injected, in_flight, deposited, escaped;
     double deposit_fraction, volume_fraction, mean_spread, scatter, max_thickness, deposition_rate;
+    int64_t resting, first_impact_deposits;
+    double first_impact_share; /* first_impact_deposits / deposited (0 without deposits) */
 };
 struct dem_metrics dem_compute_metrics(const struct dem_solver *s);
 

@@ -144,6 +144,11 @@ struct dem_solver {
     double weibull_lambda;
     int64_t step;
     int64_t injected, escaped, deposited;
+    int64_t resting, first_impact_deposits;
+    /* contacts with the target or fixed particles so far, by particle id (ids are 0, 1, ... in order of
+     * injection): the next impact row's contact_index; rebuilt from /impacts on a restart */
+    uint32_t *contacts_of;
+    size_t contacts_of_capacity;
     int64_t injection_deferred; /* particles that found no free place in the nozzle disc */
     struct dem_particles p;
     struct dem_bins bins;
@@ -330,6 +335,8 @@ static inline int dem_at_boundary(const struct dem_solver *s, uint32_t i)
 
 /* dem/output.c */
 void dem_sample_metrics(struct dem_solver *s);
+/* The contact count of particle `id` (struct dem_solver contacts_of), the array grown to hold it. */
+uint32_t *dem_contacts_of(struct dem_solver *s, int64_t id);
 
 /* Grow a record array by one and return the new slot. */
 void *dem_grow(void **items, size_t *count, size_t *capacity, size_t item_size);

@@ -21,6 +21,33 @@ void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const 
     gas_eval_drag(gas, diameter, v, u, f);
 }
 
+/* The free jet's station (x = z + virtual_origin) whose profile holds at z: the core's end inside the core. */
+static double jet_station(const struct dem_gas_field *gas, double z)
+{
+    double x = z + gas->virtual_origin;
+    return z < gas->core_length || !(x > 0.0) ? gas->core_length + gas->virtual_origin : x;
+}
+
+/* sech^2(xi) = 1/2 at xi = acosh(sqrt 2) = 0.88137: the half-width b = 0.88137 x^(2/3) / C3. */
+#define HALF_WIDTH_XI 0.88137358701954302523
+
+void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z)
+{
+    gas->wall_z = wall_z;
+    gas->stagnation_height = gas->wall_axis_speed = gas->wall_inverse_width = 0.0;
+    gas->inverse_stagnation_height = gas->wall_outflow_scale = 0.0;
+    if (gas->model != DEM_JET_BICKLEY || !(gas->stagnation_factor > 0.0))
+        return;
+    double half_width = HALF_WIDTH_XI * pow(jet_station(gas, wall_z), 2.0 / 3.0) / gas->c3;
+    gas->stagnation_height = fmin(gas->stagnation_factor * half_width, wall_z);
+    double x_top = jet_station(gas, wall_z - gas->stagnation_height);
+    gas->wall_axis_speed = gas->c1 / cbrt(x_top);
+    gas->wall_inverse_width = gas->c3 / pow(x_top, 2.0 / 3.0);
+    gas->inverse_stagnation_height = 1.0 / gas->stagnation_height;
+    gas->wall_outflow_scale =
+        gas->wall_axis_speed / (gas->wall_inverse_width * gas->wall_inverse_width * gas->stagnation_height);
+}
+
 void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double u[3])
 {
     gas_eval_velocity(gas, x, u);

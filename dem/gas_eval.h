@@ -21,12 +21,13 @@
 
 /* sech^2(xi) and tanh(xi) from q = exp(-2|xi|) <= 1, which cannot overflow (cosh(xi) does for
  * |xi| > ~710): sech^2 = 4q/(1+q)^2, tanh = sign(xi) (1-q)/(1+q). */
-FM_INLINE void gas_eval_sech2_tanh(double xi, double *sech2, double *tanh_xi)
+FM_INLINE void gas_eval_sech2_tanh(double xi, double *sech2, double *tanh_xi, double *q_out)
 {
     double q = fm_exp(-2.0 * fabs(xi));
     double inverse_one_plus_q = 1.0 / (1.0 + q);
     *sech2 = 4.0 * q * inverse_one_plus_q * inverse_one_plus_q;
     *tanh_xi = copysign((1.0 - q) * inverse_one_plus_q, xi);
+    *q_out = q;
 }
 
 /* The self-similar jet in the spray frame.  Downstream of the potential core: Eq. (26)
@@ -35,7 +36,8 @@ FM_INLINE void gas_eval_sech2_tanh(double xi, double *sech2, double *tanh_xi)
  * virtual origin, the profile of z = core_length without entrainment (no radial part).  If even that station
  * lies at or behind the virtual origin the profile is singular: still gas there (the parameter layer refuses
  * such a jet).  Every branch is a select, so that loops over particles vectorise. */
-FM_INLINE void gas_eval_bickley(const struct dem_gas_field *gas, const double pos[3], double u[3])
+FM_INLINE void gas_eval_bickley(const struct dem_gas_field *gas, const double pos[3], double u[3], double *xi_out,
+                                double *tanh_out, double *q_out)
 {
     /* every operation is done whatever the selects: a conditional floating-point operation could trap, so
      * the compiler would keep the branches and not vectorise */
@@ -48,7 +50,9 @@ FM_INLINE void gas_eval_bickley(const struct dem_gas_field *gas, const double po
     double inverse_two_thirds = inverse_cube_root * inverse_cube_root;
     double xi = gas->c3 * r * inverse_two_thirds;
     double sech2, tanh_xi;
-    gas_eval_sech2_tanh(xi, &sech2, &tanh_xi);
+    gas_eval_sech2_tanh(xi, &sech2, &tanh_xi, q_out);
+    *xi_out = xi;
+    *tanh_out = tanh_xi;
     double axial = gas->c1 * inverse_cube_root * sech2;
     double entrained = gas->c2 * inverse_two_thirds * (2.0 * xi * sech2 - tanh_xi);
     double radial = fm_select(in_core, 0.0, entrained);
@@ -61,11 +65,57 @@ FM_INLINE void gas_eval_bickley(const struct dem_gas_field *gas, const double po
     u[2] = fm_select(defined, axial, 0.0);
 }
 
-/* Gas velocity u[3] at pos[3] for DEM_JET_BICKLEY and DEM_JET_UNIFORM (DEM_JET_NONE: zero). */
+/* rho tanh(rho) - ln cosh(rho) for rho >= 0 (given tanh rho and q = exp(-2 rho), which the jet's profile computed):
+ * 2 pi/a^2 times it is the volume flux of the profile sech^2(a r') through the disc r' < rho/a.
+ * ln cosh rho = rho - ln 2 + ln(1 + q) (no overflow); below rho = 1e-3 the series rho^2/2 - rho^4/4 (the
+ * difference of two nearly equal terms would lose its digits). */
+FM_INLINE double gas_eval_disc_flux(double rho, double tanh_rho, double q)
+{
+    double log_cosh = rho - 0.69314718055994530942 + fm_log(1.0 + q);
+    double rho2 = rho * rho;
+    return fm_select(rho < 1e-3, 0.5 * rho2 - 0.25 * rho2 * rho2, rho * tanh_rho - log_cosh);
+}
+
+/* The jet impinging on the wall z = wall_z (docs/physics.md "The jet at the wall").  Above the wall region
+ * (s = wall_z - z >= H) the free jet.  In it (0 <= s < H, eta = s/H, g = eta (2 - eta)), with W(r) and V(r) the
+ * free jet's axial and radial velocity at the region's top z_H = wall_z - H:
+ *     u_z = g(eta) W(r)                                     (stagnation: 0 at the wall, dg/deta = 0 at the top)
+ *     u_r = g(eta) V(r) + g'(eta) U_H F(a_H r) / (a_H^2 H r)  (F = gas_eval_disc_flux)
+ * The second term of u_r carries away, radially, the axial flux that g' W / H removes from the jet: it makes
+ * div u = 0 but for the free jet's own part g (V/r + dV/dr + dW/dz) (Eq. 27 is the planar jet's entrainment), so
+ * the volume flux into a cylinder r < R of the wall region through its top leaves through its side to within
+ * the free jet's entrainment there.  At the wall u_r = 2 U_H F / (a_H^2 H r): a stagnation-point flow U_H r/H near
+ * the axis, a radial wall jet beyond, at most 0.77/k U_H (k = H/b; the most of F(rho)/rho is 0.340 at
+ * rho = 1.30), decaying as 1/r, as the Glauert wall jet's r^-1.1 (Poreh, Tsuei & Cermak 1967).  The free jet
+ * below the wall (z > wall_z) is never asked for: every branch is a select. */
+FM_INLINE void gas_eval_wall(const struct dem_gas_field *gas, const double pos[3], double u[3])
+{
+    double height = gas->stagnation_height, top = gas->wall_z - height;
+    int in_region = (pos[2] > top) & (height > 0.0);
+    double at[3] = {pos[0], pos[1], fm_select(in_region, top, pos[2])};
+    double jet[3], xi, tanh_xi, q;
+    gas_eval_bickley(gas, at, jet, &xi, &tanh_xi, &q); /* in the region xi = a_H r, the station being z_H's */
+    /* multiplications by 1/H and 1/r^2, set once, in place of divisions: this runs in the integrator's loops */
+    double eta = (gas->wall_z - pos[2]) * gas->inverse_stagnation_height;
+    eta = fm_select(eta > 0.0, eta, 0.0);
+    double g = eta * (2.0 - eta), slope = 2.0 * (1.0 - eta);
+    double r2 = pos[0] * pos[0] + pos[1] * pos[1];
+    double inverse_r2 = 1.0 / fm_select(r2 > 0.0, r2, 1.0);
+    /* u_r / r: on the axis (r = 0) the outflow vanishes */
+    double outflow_over_r = slope * gas->wall_outflow_scale * gas_eval_disc_flux(xi, tanh_xi, q) * inverse_r2;
+    outflow_over_r = fm_select(r2 > 0.0, outflow_over_r, 0.0);
+    double ux = g * jet[0] + outflow_over_r * pos[0], uy = g * jet[1] + outflow_over_r * pos[1];
+    u[0] = fm_select(in_region, ux, jet[0]);
+    u[1] = fm_select(in_region, uy, jet[1]);
+    u[2] = fm_select(in_region, g * jet[2], jet[2]);
+}
+
+/* Gas velocity u[3] at pos[3] for DEM_JET_BICKLEY (with its wall region) and DEM_JET_UNIFORM (DEM_JET_NONE:
+ * zero). */
 FM_INLINE void gas_eval_velocity(const struct dem_gas_field *gas, const double pos[3], double u[3])
 {
     double jet[3];
-    gas_eval_bickley(gas, pos, jet);
+    gas_eval_wall(gas, pos, jet);
     int bickley = gas->model == DEM_JET_BICKLEY, uniform = gas->model == DEM_JET_UNIFORM;
     u[0] = fm_select(bickley, jet[0], 0.0);
     u[1] = fm_select(bickley, jet[1], 0.0);

@@ -23,8 +23,11 @@ struct dem_metrics dem_compute_metrics(const struct dem_solver *s)
     const struct dem_config *cfg = &s->cfg;
     struct dem_metrics m = {
         .t = (double)s->step * cfg->dt, .injected = s->injected, .deposited = s->deposited, .escaped = s->escaped};
-    m.in_flight = s->injected - s->deposited - s->escaped;
+    m.resting = s->resting;
+    m.first_impact_deposits = s->first_impact_deposits;
+    m.in_flight = s->injected - s->deposited - s->escaped - s->resting;
     m.deposit_fraction = s->injected ? (double)s->deposited / (double)s->injected : 0.0;
+    m.first_impact_share = s->deposited ? (double)s->first_impact_deposits / (double)s->deposited : 0.0;
     double region2 = cfg->deposit_radius * cfg->deposit_radius, volume = 0.0, spread_sum = 0.0;
     double z_min = INFINITY, z_max = -INFINITY;
     for (size_t i = 0; i < p->count; i++) {
@@ -53,6 +56,21 @@ struct dem_metrics dem_compute_metrics(const struct dem_solver *s)
         m.max_thickness = z_max - z_min;
     }
     return m;
+}
+
+uint32_t *dem_contacts_of(struct dem_solver *s, int64_t id)
+{
+    size_t need = (size_t)id + 1;
+    if (need > s->contacts_of_capacity) {
+        size_t capacity = s->contacts_of_capacity ? s->contacts_of_capacity : 1024;
+        while (capacity < need)
+            capacity *= 2;
+        s->contacts_of = dem_realloc_or_die(s->contacts_of, capacity * sizeof *s->contacts_of);
+        memset(s->contacts_of + s->contacts_of_capacity, 0,
+               (capacity - s->contacts_of_capacity) * sizeof *s->contacts_of);
+        s->contacts_of_capacity = capacity;
+    }
+    return &s->contacts_of[id];
 }
 
 void dem_sample_metrics(struct dem_solver *s)
@@ -112,8 +130,9 @@ static int write_impacts(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_impact, w_out, 3, "rad/s", 0);
     COLUMN(g, r, n, struct dem_impact, d, 1, "m", 0);
     COLUMN(g, r, n, struct dem_impact, m, 1, "kg", 0);
-    COLUMN(g, r, n, struct dem_impact, outcome, 1, "0 rebound, 1 deposited", 1);
+    COLUMN(g, r, n, struct dem_impact, outcome, 1, "0 rebound, 1 deposited, 2 came to rest", 1);
     COLUMN(g, r, n, struct dem_impact, partner, 1, "-1 target, else particle id", 1);
+    COLUMN(g, r, n, struct dem_impact, contact_index, 1, "0 first contact of the particle", 1);
 done:
     H5Gclose(g);
     return status;
@@ -156,6 +175,9 @@ static int write_metrics(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_metrics, scatter, 1, "m", 0);
     COLUMN(g, r, n, struct dem_metrics, max_thickness, 1, "m", 0);
     COLUMN(g, r, n, struct dem_metrics, deposition_rate, 1, "1/s", 0);
+    COLUMN(g, r, n, struct dem_metrics, resting, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, first_impact_deposits, 1, "", 1);
+    COLUMN(g, r, n, struct dem_metrics, first_impact_share, 1, "-", 0);
 done:
     H5Gclose(g);
     return status;
@@ -175,7 +197,7 @@ static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
     for (size_t i = 0; i < p->count; i++)
         state[i] = p->state[i];
     SC_CHECK(status, h5_write_int64s(g, "id", 1, n1, p->id, "", checksum), done);
-    SC_CHECK(status, h5_write_int64s(g, "state", 1, n1, state, "0 flying, 1 deposited", checksum), done);
+    SC_CHECK(status, h5_write_int64s(g, "state", 1, n1, state, "0 flying, 1 deposited, 2 resting", checksum), done);
     SC_CHECK(status, h5_write_doubles(g, "x", 2, n3, p->x, "m", checksum), done);
     SC_CHECK(status, h5_write_doubles(g, "v", 2, n3, p->v, "m/s", checksum), done);
     SC_CHECK(status, h5_write_doubles(g, "w", 2, n3, p->w, "rad/s", checksum), done);
@@ -199,6 +221,8 @@ static int write_stats(hid_t file, const struct dem_solver *s)
     SC_CHECK(status, h5_attr_write_int64(g, "in_flight", c.in_flight), done);
     SC_CHECK(status, h5_attr_write_int64(g, "deposited", c.deposited), done);
     SC_CHECK(status, h5_attr_write_int64(g, "escaped", c.escaped), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "resting", c.resting), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "first_impact_deposits", c.first_impact_deposits), done);
     SC_CHECK(status, h5_attr_write_int64(g, "injection_deferred", s->injection_deferred), done);
     SC_CHECK(status, h5_attr_write_int64(g, "contacts_pair", c.contacts_pair), done);
     SC_CHECK(status, h5_attr_write_int64(g, "contacts_target", c.contacts_target), done);
@@ -229,7 +253,16 @@ int dem_write_output(const struct dem_solver *s, hid_t file)
 /* ---------------------------------------------------------------- checkpoints */
 
 /* Scalars of the solver state, in this order, in the dataset "counters". */
-enum { COUNTER_STEP, COUNTER_INJECTED, COUNTER_ESCAPED, COUNTER_DEPOSITED, COUNTER_DEFERRED, COUNTER_COUNT };
+enum {
+    COUNTER_STEP,
+    COUNTER_INJECTED,
+    COUNTER_ESCAPED,
+    COUNTER_DEPOSITED,
+    COUNTER_DEFERRED,
+    COUNTER_RESTING,
+    COUNTER_FIRST_IMPACT_DEPOSITS,
+    COUNTER_COUNT
+};
 
 /* The drag kept at each particle's state and the step-end forces before it (struct dem_drag): the next step's
  * first iterate is guessed from them, so a resumed run needs them to give the same bits.  One struct
@@ -298,7 +331,8 @@ done:
 
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
 {
-    int64_t counters[COUNTER_COUNT] = {s->step, s->injected, s->escaped, s->deposited, s->injection_deferred};
+    int64_t counters[COUNTER_COUNT] = {
+        s->step, s->injected, s->escaped, s->deposited, s->injection_deferred, s->resting, s->first_impact_deposits};
     hsize_t dims[1] = {COUNTER_COUNT};
     SC_TRY(h5_write_int64s(group, "counters", 1, dims, counters, "", 1));
     SC_TRY(h5_write_bytes(group, "stats", sizeof s->stats, &s->stats, 1));
@@ -367,11 +401,17 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
     s->escaped = counters[COUNTER_ESCAPED];
     s->deposited = counters[COUNTER_DEPOSITED];
     s->injection_deferred = counters[COUNTER_DEFERRED];
+    s->resting = counters[COUNTER_RESTING];
+    s->first_impact_deposits = counters[COUNTER_FIRST_IMPACT_DEPOSITS];
     SC_TRY(h5_read_bytes(group, "stats", &s->stats, sizeof s->stats));
     SC_TRY(read_particles(group, &s->p));
     SC_TRY(read_drag_state(group, &s->p, s->step));
     SC_TRY(read_records(group, "impacts", (void **)&s->impacts, &s->impact_count, &s->impact_capacity,
                         sizeof *s->impacts));
+    if (s->contacts_of) /* derived: rebuilt */
+        memset(s->contacts_of, 0, s->contacts_of_capacity * sizeof *s->contacts_of);
+    for (size_t k = 0; k < s->impact_count; k++)
+        ++*dem_contacts_of(s, s->impacts[k].particle_id);
     SC_TRY(read_records(group, "handoffs", (void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity,
                         sizeof *s->handoffs));
     SC_TRY(read_records(group, "metrics", (void **)&s->metrics, &s->metric_count, &s->metric_capacity,

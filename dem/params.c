@@ -67,6 +67,9 @@ const struct cfg_key dem_case_keys[] = {
      "johnson: velocity-dependent e of Eqs. 16-19; or a constant e in [0, 1]"},
     {"contact", "friction_regularization", CFG_REAL, "m/s", "1e-4", 0, 1e3, 1, NULL,
      "slip speed epsilon of the regularised Coulomb law, Eq. 11"},
+    {"contact", "rest_speed", CFG_REAL, "m/s", "1", 0, 1e3, 0, NULL,
+     "a particle that meets the target or a fixed particle slower than this along the normal and does not stick "
+     "comes to rest there (resting: no longer moved or re-collided; 0: never; jet model none: never)"},
     /* [jet] */
     {"jet", "model", CFG_CHOICE, "", "bickley", 0, 0, 0, "bickley|uniform|none",
      "gas field: self-similar jet of Eqs. 26-27, uniform stream along +z, or no gas (no drag)"},
@@ -83,6 +86,10 @@ const struct cfg_key dem_case_keys[] = {
     {"jet", "gas_density", CFG_REAL, "kg/m3", "1.1", 0, 1e4, 1, NULL, "carrier gas density (Table 1)"},
     {"jet", "gas_viscosity", CFG_REAL, "m2/s", "25e-6", 0, 1, 1, NULL, "kinematic viscosity (Table 1)"},
     {"jet", "uniform_velocity", CFG_REAL, "m/s", "0", -1e4, 1e4, 0, NULL, "gas velocity along +z, model = uniform"},
+    {"jet", "stagnation_height", CFG_REAL, "-", "1.5", 0, 10, 0, NULL,
+     "model = bickley: height of the wall region in front of the target, in half-widths of the free jet at the "
+     "target (1.5: the impingement region of 0.14 of the nozzle-to-plate distance, Beltaos & Rajaratnam 1974, "
+     "over a round jet's half-width of 0.094 of it); 0: the free jet up to the target"},
     /* [deposition] */
     {"deposition", "rule", CFG_CHOICE, "", "adhesion", 0, 0, 0, "adhesion|critical_velocity|table|none",
      "adhesion: stick below the Eq. 34 speed; critical_velocity/table: stick at or above v_crit (cold "
@@ -183,6 +190,7 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
 {
     struct dem_contact_law *law = &cfg->contact;
     law->friction_regularization = case_real(c, "contact", "friction_regularization");
+    cfg->rest_speed = case_real(c, "contact", "rest_speed");
     if (case_is(c, "contact", "restitution", "johnson")) {
         law->model = DEM_RESTITUTION_JOHNSON;
         law->restitution = 1.0;
@@ -204,6 +212,8 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->uniform_velocity = case_real(c, "jet", "uniform_velocity");
     gas->density = case_real(c, "jet", "gas_density");
     gas->kinematic_viscosity = case_real(c, "jet", "gas_viscosity");
+    gas->stagnation_factor = case_real(c, "jet", "stagnation_height");
+    dem_gas_set_wall(gas, cfg->standoff);
 }
 
 /* The self-similar jet is singular at its virtual origin: the core must end downstream of it. */

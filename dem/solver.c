@@ -48,6 +48,7 @@ void dem_destroy(struct dem_solver *s)
     free(s->impacts);
     free(s->handoffs);
     free(s->metrics);
+    free(s->contacts_of);
     free(s);
 }
 
@@ -116,19 +117,18 @@ static void apply_boundaries(struct dem_solver *s)
 
 int dem_check_accounting(const struct dem_solver *s)
 {
-    int64_t flying = 0, deposited = 0;
+    int64_t flying = 0, deposited = 0, resting = 0;
     for (size_t i = 0; i < s->p.count; i++) {
-        if (s->p.state[i] == DEM_FLYING)
-            flying++;
-        else
-            deposited++;
+        flying += s->p.state[i] == DEM_FLYING;
+        deposited += s->p.state[i] == DEM_DEPOSITED;
+        resting += s->p.state[i] == DEM_RESTING;
     }
-    if (deposited != s->deposited || s->injected != flying + deposited + s->escaped)
+    if (deposited != s->deposited || resting != s->resting || s->injected != flying + deposited + resting + s->escaped)
         SC_FAIL(SC_ESIM,
                 "spray: step %lld: particle accounting broken: injected %lld != in flight %lld + deposited %lld "
-                "(counter %lld) + escaped %lld",
+                "(counter %lld) + resting %lld (counter %lld) + escaped %lld",
                 (long long)s->step, (long long)s->injected, (long long)flying, (long long)deposited,
-                (long long)s->deposited, (long long)s->escaped);
+                (long long)s->deposited, (long long)resting, (long long)s->resting, (long long)s->escaped);
     return SC_OK;
 }
 
@@ -179,7 +179,9 @@ struct dem_counts dem_get_counts(const struct dem_solver *s)
     counts.injected = s->injected;
     counts.deposited = s->deposited;
     counts.escaped = s->escaped;
-    counts.in_flight = s->injected - s->deposited - s->escaped;
+    counts.resting = s->resting;
+    counts.first_impact_deposits = s->first_impact_deposits;
+    counts.in_flight = s->injected - s->deposited - s->escaped - s->resting;
     return counts;
 }
 

@@ -499,10 +499,11 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                 r->seed_count);
         escaped(f, case_text(c, "couple", "sample"));
         fprintf(f,
-                "</code>) and flown through the %s mm gas layer in front of the target: speed at the wall "
-                "%s m/s, changed by %s m/s on average (%s m/s) from the spray's impact speed.</li>\n",
-                given(case_real(c, "couple", "layer_thickness") * 1e3).s, span(num(v_lo, 3), num(v_hi, 3)).s,
-                num(change / (double)r->seed_count, 3).s, span(num(lo, 3), num(hi, 3)).s);
+                "</code>) and flown from the hand-off plane through the spray's gas at the target (the jet's "
+                "wall region): speed at the wall %s m/s, changed by %s m/s on average (%s m/s) from the spray's "
+                "impact speed.</li>\n",
+                span(num(v_lo, 3), num(v_hi, 3)).s, num(change / (double)r->seed_count, 3).s,
+                span(num(lo, 3), num(hi, 3)).s);
     }
     if (r->impact) {
         double spacing = case_real(c, "impact", "spacing");

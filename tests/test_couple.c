@@ -41,7 +41,6 @@ static struct couple_config config(enum couple_sample sample, long runs, long bo
     struct couple_config cfg = {.sample = sample,
                                 .runs = runs,
                                 .bodies_per_run = bodies,
-                                .layer_thickness = 1e-3,
                                 .rtol = 1e-8,
                                 .atol = 1e-10,
                                 .patch_size = 40e-6,

@@ -129,10 +129,10 @@ signal_stage render "spray figures from" TERM 143 "$bin" render "$small" -o "$R"
 report render_stops_at_sigterm
 
 # many seeds at tight tolerances: the couple stage's flights take a few seconds
-sed 's/^runs = 4$/runs = 1400/; s/^layer_thickness = 1e-3$/layer_thickness = 1e-3\nrtol = 1e-12\natol = 1e-14/' \
+sed 's/^runs = 4$/runs = 1400\nrtol = 1e-12\natol = 1e-14/' \
     "$small" >"$T/many_seeds.ini"
 "$bin" spray "$T/many_seeds.ini" -o "$T/seeds" >/dev/null 2>&1
-signal_stage couple "gas layer" INT 130 "$bin" couple "$T/many_seeds.ini" -o "$T/seeds"
+signal_stage couple "wall region" INT 130 "$bin" couple "$T/many_seeds.ini" -o "$T/seeds"
 [ -e "$T/seeds/couple.h5" ] && why="${why:+$why; }couple.h5 written by an interrupted stage"
 grep -q 'couple: done' "$T/couple.out" && why="${why:+$why; }the interrupted stage's log says done"
 report couple_stops_at_sigint

@@ -1,0 +1,306 @@
+/* The jet impinging on the target (dem/gas_eval.h, docs/physics.md "The jet at the wall"): the field is the free
+ * jet above the wall region, continuous across its top, bounded by the free jet's speed entering it, still along
+ * the axis at the wall, mass-consistent to within the free jet's own entrainment (volume flux through a control
+ * cylinder), with a wall jet that decays as 1/r; and the spray stage's impact velocities are the couple stage's
+ * CVODE velocities at the wall, particle by particle, to the spray integrator's accuracy. */
+#include <math.h>
+#include <string.h>
+
+#include "check.h"
+#include "coupling/coupling.h"
+#include "spray_fixture.h"
+
+/* The demo's cold-spray jet (cases/demo.ini) and the paper's Table 1 jet (cases/mz2015_table1.ini), each with its
+ * wall at the case's standoff and the default stagnation height. */
+static struct dem_gas_field jet(int table1)
+{
+    struct dem_gas_field gas = {.model = DEM_JET_BICKLEY, .drag = DEM_DRAG_HAIDER_LEVENSPIEL};
+    gas.c1 = table1 ? 30.0 : 320.0;
+    gas.c3 = table1 ? 20.0 : 40.0;
+    gas.c2 = gas.c1 / (3.0 * gas.c3);
+    gas.virtual_origin = table1 ? 0.1 : 0.05;
+    gas.core_length = table1 ? 0.02 : 0.002;
+    gas.density = 1.1;
+    gas.kinematic_viscosity = 25e-6;
+    gas.stagnation_factor = 1.5;
+    dem_gas_set_wall(&gas, table1 ? 0.30 : 0.03);
+    return gas;
+}
+
+static double half_width(const struct dem_gas_field *gas)
+{
+    return 0.88137358701954302523 / gas->wall_inverse_width; /* at the region's top */
+}
+
+static void velocity_at(const struct dem_gas_field *gas, double r, double z, double u[3])
+{
+    const double x[3] = {r, 0.0, z};
+    dem_gas_velocity(gas, x, u);
+}
+
+static double norm3(const double u[3])
+{
+    return sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+}
+
+/* Above the wall region the field is the free jet's, bit for bit; and the region is there. */
+static void test_far_field_is_free_jet(void)
+{
+    for (int table1 = 0; table1 < 2; table1++) {
+        struct dem_gas_field gas = jet(table1), free_jet = gas;
+        free_jet.stagnation_factor = 0.0;
+        dem_gas_set_wall(&free_jet, gas.wall_z);
+        double b = half_width(&gas), top = gas.wall_z - gas.stagnation_height;
+        CHECK(gas.stagnation_height > 1.4 * b && gas.stagnation_height < 1.6 * b, "H = %g m, 1.5 b = %g m",
+              gas.stagnation_height, 1.5 * b);
+        int same = 1;
+        for (int i = 0; i <= 40; i++)
+            for (int j = 0; j <= 40; j++) {
+                double r = 5.0 * b * i / 40.0, z = top * j / 40.0, u[3], v[3];
+                velocity_at(&gas, r, z, u);
+                velocity_at(&free_jet, r, z, v);
+                same &= memcmp(u, v, sizeof u) == 0;
+            }
+        CHECK(same, "jet %d: the field above z = %g m is the free jet's", table1, top);
+    }
+}
+
+/* Continuous across the top of the region and at the axis; still along the axis at the wall. */
+static void test_continuous_and_still_at_wall(void)
+{
+    for (int table1 = 0; table1 < 2; table1++) {
+        struct dem_gas_field gas = jet(table1);
+        double b = half_width(&gas), top = gas.wall_z - gas.stagnation_height, worst = 0.0, wall_uz = 0.0;
+        for (int i = 0; i <= 100; i++) {
+            double r = 6.0 * b * i / 100.0, above[3], below[3], wall[3];
+            velocity_at(&gas, r, top * (1.0 - 1e-12), above);
+            velocity_at(&gas, r, top * (1.0 + 1e-12), below);
+            velocity_at(&gas, r, gas.wall_z, wall);
+            for (int k = 0; k < 3; k++)
+                worst = fmax(worst, fabs(above[k] - below[k]));
+            wall_uz = fmax(wall_uz, fabs(wall[2]));
+        }
+        CHECK(worst < 1e-6 * gas.wall_axis_speed, "jet %d: largest jump across the region's top %g m/s", table1, worst);
+        CHECK(wall_uz == 0.0, "jet %d: u_z at the wall %g m/s", table1, wall_uz);
+        double near_axis[3], axis[3];
+        velocity_at(&gas, 1e-12 * b, gas.wall_z - 0.3 * gas.stagnation_height, near_axis);
+        velocity_at(&gas, 0.0, gas.wall_z - 0.3 * gas.stagnation_height, axis);
+        CHECK(fabs(near_axis[0]) < 1e-6 && fabs(near_axis[2] - axis[2]) < 1e-9 * axis[2] && axis[0] == 0.0,
+              "jet %d: continuous at the axis (u_r %g m/s next to it)", table1, near_axis[0]);
+    }
+}
+
+/* No gas speed in the wall region above the free jet's axial speed entering it (U_H, the largest speed of the
+ * free jet at and below the region's top), at any point of a fine grid out to 20 half-widths. */
+static void test_bounded(void)
+{
+    for (int table1 = 0; table1 < 2; table1++) {
+        struct dem_gas_field gas = jet(table1);
+        double b = half_width(&gas), largest = 0.0, largest_radial = 0.0;
+        for (int i = 0; i <= 400; i++)
+            for (int j = 0; j <= 100; j++) {
+                double r = 20.0 * b * i / 400.0, z = gas.wall_z - gas.stagnation_height * j / 100.0, u[3];
+                velocity_at(&gas, r, z, u);
+                largest = fmax(largest, norm3(u));
+                largest_radial = fmax(largest_radial, u[0]);
+            }
+        CHECK(largest <= gas.wall_axis_speed, "jet %d: largest gas speed %g m/s <= U_H = %g m/s", table1, largest,
+              gas.wall_axis_speed);
+        /* the wall jet's peak: 2 * 0.340 / (1.5 * 0.881) U_H = 0.514 U_H (the free jet's entrainment is inward) */
+        CHECK(largest_radial > 0.45 * gas.wall_axis_speed && largest_radial < 0.52 * gas.wall_axis_speed,
+              "jet %d: wall jet's peak %g U_H", table1, largest_radial / gas.wall_axis_speed);
+    }
+}
+
+/* Simpson's rule over [a, b] with n (even) intervals of f(t, context). */
+static double simpson(double (*f)(double, const void *), const void *context, double a, double b, int n)
+{
+    double h = (b - a) / n, sum = f(a, context) + f(b, context);
+    for (int i = 1; i < n; i++)
+        sum += (i % 2 ? 4.0 : 2.0) * f(a + i * h, context);
+    return sum * h / 3.0;
+}
+
+struct flux_context {
+    const struct dem_gas_field *gas;
+    double radius, z;
+};
+
+static double axial_flux_density(double r, const void *context)
+{
+    const struct flux_context *c = context;
+    double u[3];
+    velocity_at(c->gas, r, c->z, u);
+    return 2.0 * M_PI * r * u[2];
+}
+
+static double radial_flux_density(double z, const void *context)
+{
+    const struct flux_context *c = context;
+    double u[3];
+    velocity_at(c->gas, c->radius, z, u);
+    return 2.0 * M_PI * c->radius * u[0];
+}
+
+/* Volume flux (incompressible gas) into the cylinder r < R of the wall region through its top, against the flux
+ * out through its side (none through the wall): they differ by the free jet's own entrainment through the side,
+ * g(eta) V(R) integrated (2/3 H V(R) 2 pi R), and that difference is the model's stated mass accuracy: within 12 %
+ * of the flux for both jets at R = b, 2b, 4b (Eq. 27's entrainment is the planar jet's, not the round one's). */
+static void test_mass_balance(void)
+{
+    for (int table1 = 0; table1 < 2; table1++) {
+        struct dem_gas_field gas = jet(table1);
+        double b = half_width(&gas), top = gas.wall_z - gas.stagnation_height;
+        for (int m = 1; m <= 4; m *= 2) {
+            double radius = m * b;
+            struct flux_context c = {&gas, radius, top * (1.0 + 1e-12)};
+            double in = simpson(axial_flux_density, &c, 0.0, radius, 4000);
+            double out = simpson(radial_flux_density, &c, top * (1.0 + 1e-12), gas.wall_z, 4000);
+            double at_top[3];
+            velocity_at(&gas, radius, top * (1.0 - 1e-12), at_top); /* V(R): the free jet's radial velocity */
+            double entrainment = 2.0 / 3.0 * gas.stagnation_height * at_top[0] * 2.0 * M_PI * radius;
+            CHECK(fabs(out - entrainment - in) < 1e-6 * in, "jet %d, R = %d b: in %g, out %g, entrainment %g m3/s",
+                  table1, m, in, out, entrainment);
+            CHECK(fabs(out - in) < 0.12 * in, "jet %d, R = %d b: flux out %g against in %g m3/s (%.2f %%)", table1, m,
+                  out, in, 100.0 * (out - in) / in);
+        }
+    }
+}
+
+/* Far out along the wall the wall jet decays as 1/r (Glauert-type; Poreh, Tsuei & Cermak 1967 measure r^-1.1). */
+static void test_wall_jet_decays(void)
+{
+    struct dem_gas_field gas = jet(0);
+    double b = half_width(&gas), u4[3], u8[3], u16[3];
+    velocity_at(&gas, 4.0 * b, gas.wall_z, u4);
+    velocity_at(&gas, 8.0 * b, gas.wall_z, u8);
+    velocity_at(&gas, 16.0 * b, gas.wall_z, u16);
+    CHECK(u4[0] > u8[0] && u8[0] > u16[0] && u16[0] > 0.0, "u_r at the wall decreasing: %g, %g, %g m/s", u4[0], u8[0],
+          u16[0]);
+    CHECK_CLOSE(u16[0] * 16.0, u8[0] * 8.0, 1e-4, 0.0, "u_r r constant far out");
+}
+
+/* ---- the spray's impact velocity against the couple stage's flight through the same field ---------------------- */
+
+/* Twelve particles of 10-30 um at 500-700 m/s, on and off the axis, from 17 mm before the target (above the
+ * hand-off plane 8 mm before it, itself above the wall region of 6.1 mm): each first target impact's v_in against
+ * a CVODE flight (rtol 1e-10) from the particle's hand-off row.  Returns the largest relative difference. */
+static double spray_against_flight(const char *dt)
+{
+    char ini[1024], rows[2048] = "";
+    snprintf(ini, sizeof ini,
+             "[spray]\ndt = %s\nt_end = 6e-5\nhandoff_height = 0.008\ndomain_radius = 0.02\n"
+             "[powder]\ndensity = 2700\n[target]\nstandoff = 0.03\n"
+             "[jet]\nmodel = bickley\nC1 = 320\nC3 = 40\nvirtual_origin = 0.05\ncore_length = 0.002\n"
+             "[deposition]\nrule = none\n",
+             dt);
+    for (int k = 0; k < 12; k++) {
+        char row[160];
+        double r = 0.25e-3 * k, d = 10e-6 + 20e-6 * (k % 4) / 3.0, v = 500.0 + 200.0 * (k % 3) / 2.0;
+        snprintf(row, sizeof row, "%.17g,%.17g,0.013,%.17g,0,%.17g,0,0,0,%.17g\n", r * cos(k), r * sin(k),
+                 0.02 * v * cos(k), v, d);
+        strcat(rows, row);
+    }
+    struct fixture f;
+    if (fixture_open(&f, ini, rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return INFINITY;
+    }
+    struct couple_flight_solver *solver = NULL;
+    double worst = 0.0;
+    int compared = 0;
+    if (fixture_steps(&f, dem_total_steps(f.solver)) == SC_OK && couple_flight_solver_create(&solver) == SC_OK) {
+        struct couple_flight_layer layer = {.gas = f.cfg.gas, .rtol = 1e-10, .atol = 1e-12};
+        size_t n_impacts, n_handoffs;
+        const struct dem_impact *impacts = dem_impacts(f.solver, &n_impacts);
+        const struct dem_handoff *handoffs = dem_handoffs(f.solver, &n_handoffs);
+        for (size_t k = 0; k < n_impacts; k++) {
+            const struct dem_impact *hit = &impacts[k];
+            if (hit->contact_index != 0 || hit->partner != -1)
+                continue;
+            const struct dem_handoff *h = NULL;
+            for (size_t j = 0; j < n_handoffs; j++)
+                if (handoffs[j].particle_id == hit->particle_id)
+                    h = &handoffs[j];
+            struct couple_flight_result r;
+            if (!h || couple_flight_integrate(solver, &layer, h->d, 2700.0, h->t, h->x, h->v, &r) != SC_OK) {
+                CHECK(0, "particle %lld: hand-off row and flight", (long long)hit->particle_id);
+                continue;
+            }
+            double diff[3] = {r.v[0] - hit->v_in[0], r.v[1] - hit->v_in[1], r.v[2] - hit->v_in[2]};
+            worst = fmax(worst, norm3(diff) / norm3(r.v));
+            compared++;
+            couple_flight_result_free(&r);
+        }
+    }
+    CHECK(compared == 12, "dt = %s: 12 first impacts compared (%d)", dt, compared);
+    couple_flight_solver_destroy(solver);
+    fixture_close(&f);
+    return worst;
+}
+
+/* The spray's impact velocity is the one after the wall region: it agrees with CVODE to the spray's first-order
+ * accuracy in time (the impact takes the velocity at the start of the step of contact: an error of about the
+ * drag deceleration times dt), and the difference falls tenfold with dt. */
+static void test_spray_impacts_match_flight(void)
+{
+    double coarse = spray_against_flight("1e-6"), fine = spray_against_flight("1e-7");
+    printf("  largest relative difference |v_spray - v_cvode| / |v_cvode|: %.3g at dt = 1 us, %.3g at 0.1 us\n", coarse,
+           fine);
+    CHECK(coarse < 0.02, "dt = 1 us: within 2 %% (%g)", coarse);
+    CHECK(fine < 0.002, "dt = 0.1 us: within 0.2 %% (%g)", fine);
+    CHECK(fine < 0.2 * coarse, "first order in dt: %g -> %g", coarse, fine);
+}
+
+/* Resting particles: in gas (here a still one), a particle that meets the target at 0.5 m/s along the normal
+ * (below rest_speed, 1 m/s) comes to rest there: state resting, counted, its one contact recorded with outcome 2
+ * and contact_index 0, and never re-collided; one at 5 m/s rebounds and leaves.  Without gas it rebounds too. */
+static void test_resting(void)
+{
+    const char *rows = "0,0,0.2994999,0,0,0.5,0,0,0,0.001\n0.01,0,0.2994999,0,0,5,0,0,0,0.001\n";
+    for (int gas = 0; gas < 2; gas++) {
+        char ini[512];
+        snprintf(ini, sizeof ini,
+                 "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = %s\nuniform_velocity = 0\n"
+                 "[contact]\nrestitution = 0.9\n[deposition]\nrule = none\n",
+                 gas ? "uniform" : "none");
+        struct fixture f;
+        if (fixture_open(&f, ini, rows) != SC_OK) {
+            CHECK(0, "fixture");
+            return;
+        }
+        CHECK(fixture_steps(&f, 1000) == SC_OK, "steps");
+        struct dem_counts c = dem_get_counts(f.solver);
+        size_t n;
+        const struct dem_impact *hits = dem_impacts(f.solver, &n);
+        CHECK(dem_check_accounting(f.solver) == SC_OK, "accounting: %s", sc_error_message());
+        if (gas) {
+            CHECK(c.resting == 1 && c.in_flight == 1 && c.contacts_target == 2,
+                  "resting %lld, in flight %lld, "
+                  "target contacts %lld",
+                  (long long)c.resting, (long long)c.in_flight, (long long)c.contacts_target);
+            const struct dem_impact *slow = n == 2 ? &hits[hits[0].particle_id != 0] : NULL;
+            const struct dem_impact *fast = n == 2 ? &hits[hits[0].particle_id == 0] : NULL;
+            CHECK(slow && slow->particle_id == 0 && slow->outcome == DEM_RESTED && slow->contact_index == 0 &&
+                      slow->v_out[2] == 0.0 && fast->outcome == DEM_REBOUND,
+                  "the slow one rested at its first contact, the fast one rebounded");
+            CHECK(dem_particle(f.solver, 0).state == DEM_RESTING, "state resting");
+        } else {
+            CHECK(c.resting == 0 && c.contacts_target == 2, "no gas: both rebound (resting %lld)",
+                  (long long)c.resting);
+        }
+        fixture_close(&f);
+    }
+}
+
+int main(void)
+{
+    RUN(test_resting);
+    RUN(test_far_field_is_free_jet);
+    RUN(test_continuous_and_still_at_wall);
+    RUN(test_bounded);
+    RUN(test_mass_balance);
+    RUN(test_wall_jet_decays);
+    RUN(test_spray_impacts_match_flight);
+    return check_finish();
+}
