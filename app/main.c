@@ -474,22 +474,30 @@ static const char *command_word(int argc, char **argv)
 /* The commands that run OpenMP loops; the others (check, info, keys, help) are not worth a second start. */
 static int computes(const char *command)
 {
-    static const char *const computing[] = {"run", "resume", "spray", "couple", "impact", "vcrit", "render"};
+    static const char *const computing[] = {"run",    "resume", "spray",     "couple",
+                                            "impact", "vcrit",  "calibrate", "render"};
     for (size_t i = 0; command && i < sizeof computing / sizeof computing[0]; i++)
         if (strcmp(command, computing[i]) == 0)
             return 1;
     return 0;
 }
 
+/* Under valgrind, /proc/self/exe is valgrind's tool, not spraycoat, and a second start would run outside valgrind
+ * (unless it traces children): its preloaded core library in LD_PRELOAD tells. */
+static int under_valgrind(void)
+{
+    const char *preload = getenv("LD_PRELOAD");
+    return preload && strstr(preload, "vgpreload") != NULL;
+}
+
 static void prefer_passive_wait(int argc, char **argv)
 {
     const char *policy = getenv("OMP_WAIT_POLICY");
-    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)))
+    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)) || under_valgrind())
         return;
     if (setenv("OMP_WAIT_POLICY", "passive", 1) == 0 && setenv(REEXEC_MARK, "1", 1) == 0)
         execv("/proc/self/exe", argv);
-    /* no /proc (or no memory): run on with libgomp's default, and do not claim a passive wait.  (Under valgrind
-     * the second start leaves valgrind unless it traces children: set OMP_WAIT_POLICY there.) */
+    /* no /proc (or no memory): run on with libgomp's default, and do not claim a passive wait */
     unsetenv("OMP_WAIT_POLICY");
     unsetenv(REEXEC_MARK);
 }

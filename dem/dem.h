@@ -245,7 +245,7 @@ struct dem_snapshots {
 };
 /* Steps between snapshots (0: none) of a configuration. */
 int64_t dem_snapshot_steps(const struct dem_config *cfg);
-/* Append the solver's particles now; SC_ESIM when out of memory. */
+/* Append the solver's particles now; SC_EIO (SC_FAIL_OOM) when out of memory. */
 int dem_snapshot_take(const struct dem_solver *s, struct dem_snapshots *list);
 /* The group `snapshots` of loc with one group per snapshot (6-digit index; attributes t, step); checksum as
  * h5_write_doubles. */
