@@ -67,6 +67,7 @@ struct mpm_config {
     double friction;
     enum mpm_bonding bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c;
+    double bonding_floor; /* smallest G_bond / G_c and eps_bond / eps_c (bonding.c) */
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double snapshot_every, series_every;
     struct mpm_bulk_viscosity viscosity;

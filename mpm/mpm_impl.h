@@ -338,6 +338,10 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
 /* bonding.c: D_bond of point p grows (bonding_update) where it is a surface point in contact and a model is on;
  * the test inline, since it is all that most points need at every step. */
 void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+/* The increment of D_bond for a plastic strain increment at a von Mises stress over a step dt (the model of cfg;
+ * exposed for the tests), and the bounded rate factor max(1 - ln r, floor) of Eqs. 4.4 and 4.16b. */
+double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt);
+double mpm_bonding_rate_factor(double r, double floor);
 static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
 {
     if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))

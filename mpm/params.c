@@ -55,6 +55,9 @@ const struct cfg_key mpm_case_keys[] = {
      "value)"},
     {"impact", "eps_c", CFG_REAL, "-", "1.4", 0, 1e3, 1, NULL, "critical bonding strain, Eq. 4.4"},
     {"impact", "eps_rate_c", CFG_REAL, "1/s", "1.35e9", 0, 1e20, 1, NULL, "critical bonding strain rate, Eq. 4.4"},
+    {"impact", "bonding_floor", CFG_REAL, "-", "0.5", 0, 1, 1, NULL,
+     "smallest G_bond/G_c (energy model) and eps_bond/eps_c (strain model) at high rates: keeps dD bounded and "
+     "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
     {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
      "bonded verdict needs PBCP (Eq. 5.1) at least this"},
     {"impact", "vrest_threshold", CFG_REAL, "m/s", "5", 0, 1e4, 0, NULL,
@@ -248,6 +251,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->Gc_rate = case_real(c, "impact", "Gc_rate");
     cfg->eps_c = case_real(c, "impact", "eps_c");
     cfg->eps_rate_c = case_real(c, "impact", "eps_rate_c");
+    cfg->bonding_floor = case_real(c, "impact", "bonding_floor");
     cfg->pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
     cfg->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     cfg->vrest_filter = case_real(c, "impact", "vrest_filter");
