@@ -3,7 +3,8 @@
  *
  * Per diameter: one run at v_low (must rebound) and one at v_high (must bond), then bisection of the bracket
  * until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known to bond.  Each run goes
- * to [impact] t_end and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]).
+ * to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity
+ * thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled).
  * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
  * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
  * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
@@ -355,7 +356,7 @@ static int record_outcome(struct mpm_solver *s, double d, double speed, struct v
     const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
     *out = (struct vcrit_record){.diameter = d,
                                  .velocity = speed,
-                                 .bonded = bonded[nb - 1] == 1,
+                                 .bonded = bonded[nb - 1], /* MPM_VERDICT_*: 1 bonded, 0 rebounded, 2 unsettled */
                                  .pbcp = diag->body[nb - 1].pbcp,
                                  .v_rest = diag->body[nb - 1].v_rest,
                                  .steps = mpm_get_counts(s).step};
@@ -410,11 +411,28 @@ static int outcome(struct vcrit_search *v, struct vcrit_result *result, double s
         SC_TRY(save_records(v));
         v->runs_this_process++;
         log_info("vcrit: d = %.4g um at %.6g m/s: %s (PBCP %.2f %%, v_rest %.3g m/s; %lld steps, %.1f s)", d * 1e6,
-                 speed, r.bonded ? "bonded" : "rebounded", 100 * r.pbcp, r.v_rest, (long long)r.steps,
-                 log_elapsed() - start);
+                 speed, mpm_verdict_name(r.bonded), 100 * r.pbcp, r.v_rest, (long long)r.steps, log_elapsed() - start);
     }
     result->records[result->runs++] = r;
     return SC_OK;
+}
+
+/* An unsettled run (its verdict still changing at t_end, mpm/verdict.c) counts as not bonded: v_crit is the
+ * lowest speed known to bond with a settled verdict.  The note and the log say how many there were, since each
+ * may have bonded in a longer run (then v_crit is lower than reported). */
+static void note_unsettled(struct vcrit_result *result)
+{
+    int unsettled = 0;
+    for (int k = 0; k < result->runs; k++)
+        unsettled += result->records[k].bonded == MPM_VERDICT_UNSETTLED;
+    if (unsettled == 0)
+        return;
+    size_t used = strlen(result->note);
+    snprintf(result->note + used, sizeof result->note - used, "%s%d unsettled run%s counted as not bonded",
+             used ? "; " : "", unsettled, unsettled > 1 ? "s" : "");
+    log_warn("vcrit: d = %g m: %d of %d runs unsettled at t_end, counted as not bonded (a longer t_end may lower "
+             "v_crit)",
+             result->diameter, unsettled, result->runs);
 }
 
 static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
@@ -424,13 +442,16 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     if (!result->records)
         SC_FAIL_OOM((size_t)v->max_runs * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
-    if (result->records[0].bonded) {
+    if (result->records[0].bonded == MPM_VERDICT_BONDED) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
+        note_unsettled(result);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
-    if (!result->records[1].bonded) {
-        snprintf(result->note, sizeof result->note, "not bracketed: rebounds still at v_high = %g m/s", v->v_high);
+    if (result->records[1].bonded != MPM_VERDICT_BONDED) {
+        snprintf(result->note, sizeof result->note, "not bracketed: %s still at v_high = %g m/s",
+                 result->records[1].bonded == MPM_VERDICT_UNSETTLED ? "unsettled" : "rebounds", v->v_high);
+        note_unsettled(result);
         return SC_OK;
     }
     double low = v->v_low, high = v->v_high;
@@ -438,7 +459,7 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     while (high - low > v->tolerance && result->runs < v->max_runs) {
         SC_TRY(outcome(v, result, 0.5 * (low + high)));
         const struct vcrit_record *r = &result->records[result->runs - 1];
-        if (r->bonded) {
+        if (r->bonded == MPM_VERDICT_BONDED) {
             high = r->velocity;
             best = *r;
         } else {
@@ -453,6 +474,7 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
         log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter, result->note,
                  v->tolerance);
     }
+    note_unsettled(result);
     return SC_OK;
 }
 

@@ -150,6 +150,11 @@ struct mpm_solver {
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;
+    /* verdicts (verdict.c), judged at every series row: per body the time its verdict settled (NaN: not
+     * settled) and the last row's judgement (1 bonded); whether every particle is settled */
+    double *settled_at;
+    int *bonded_now;
+    int all_settled;
     /* scratch for diagnostics */
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
@@ -347,6 +352,13 @@ static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_i
     if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
         mpm_bonding_grow(s, p, eps_p_increment, von_mises);
 }
+
+/* verdict.c: the verdict state made from the series recorded so far (mpm_verdict_replay), judged again after
+ * each new series row (mpm_verdict_record). */
+int mpm_verdict_create(struct mpm_solver *s);
+void mpm_verdict_free(struct mpm_solver *s);
+void mpm_verdict_record(struct mpm_solver *s);
+void mpm_verdict_replay(struct mpm_solver *s);
 
 /* diagnostics.c */
 int mpm_series_record(struct mpm_solver *s);
