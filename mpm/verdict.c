@@ -3,7 +3,8 @@
  * series row (series_every) each particle is judged on that row's PBCP and v_rest (bonded: PBCP >= pbcp_threshold
  * and v_rest <= vrest_threshold); its verdict is settled at a row when over the window [t - W, t] (W:
  * settle_window, or two wave transits across the body, body_window) every row has a v_rest (some point slower
- * than vrest_filter), the same judgement, v_com moved by at most
+ * than vrest_filter), the body does not move towards the substrate (v_com_z >= -settle_vcom), the same
+ * judgement, v_com moved by at most
  * settle_vcom in every component and PBCP by at most settle_pbcp.  The run stops once every particle is settled
  * (stop_when_settled) and otherwise at t_end; a body not settled then is `unsettled`, never rebounded.
  * Everything here is derived from the recorded series, so a run read back from a checkpoint replays it. */
@@ -65,7 +66,8 @@ static int settled_over(const struct mpm_solver *s, long first, size_t row, int 
     int verdict = bonded_at(cfg, last);
     for (long j = first; j <= (long)row; j++) {
         const double *c = body_columns(s, (size_t)j, b);
-        if (isnan(c[COLUMN_VREST]) || bonded_at(cfg, c) != verdict)
+        /* a body still moving towards the substrate is in flight (or still landing), whatever it reads */
+        if (isnan(c[COLUMN_VREST]) || bonded_at(cfg, c) != verdict || c[COLUMN_VCOM + 2] < -cfg->settle_vcom)
             return 0;
         for (int k = 0; k < 4; k++) {
             double value = k < 3 ? c[COLUMN_VCOM + k] : c[COLUMN_PBCP];

@@ -95,6 +95,14 @@ static void fast_at_the_end(double t, double *v, double *pbcp, double *v_rest)
     *v_rest = t > 35e-9 ? NAN : *v_rest;
 }
 
+/* Still approaching at a steady 50 m/s (slower than vrest_filter, so v_rest has a value): in flight. */
+static void approaching(double t, double *v, double *pbcp, double *v_rest)
+{
+    (void)t;
+    *v = *v_rest = -50.0;
+    *pbcp = 0.0;
+}
+
 /* At rest, but v_rest on either side of the 5 m/s threshold, row by row. */
 static void flickers(double t, double *v, double *pbcp, double *v_rest)
 {
@@ -123,9 +131,10 @@ static void test_steady_rebound(void)
 
 static void test_unsettled_cases(void)
 {
-    const history shapes[3] = {fast_at_the_end, flickers, still_bonding};
-    const char *what[3] = {"no v_rest at the end", "v_rest either side of the threshold", "PBCP growing"};
-    for (int k = 0; k < 3; k++) {
+    const history shapes[4] = {fast_at_the_end, flickers, still_bonding, approaching};
+    const char *what[4] = {"no v_rest at the end", "v_rest either side of the threshold", "PBCP growing",
+                           "approaching at a steady speed"};
+    for (int k = 0; k < 4; k++) {
         struct impact_fixture f;
         CHECK(judged(&f, 1, &shapes[k], 60e-9) == 0, "set-up");
         CHECK(verdict_of(&f, 0) == MPM_VERDICT_UNSETTLED, "%s: %s", what[k], mpm_verdict_name(verdict_of(&f, 0)));
