@@ -387,6 +387,10 @@ static void report_free(struct report_data *r)
 
 /* ---- the page ---------------------------------------------------------------------------------------------- */
 
+/* The resolution the default [impact] Gc, Gc_rate were calibrated on (docs/physics.md, "Bonding calibration",
+ * cases/bonding_calibration_al.csv): change it with them. */
+#define CALIBRATION_RESOLUTION "grid cells of 2.0 µm with points 0.667 µm apart"
+
 enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };
 static enum verdict verdict(const struct body_row *row, double vrest_threshold)
 {
@@ -519,7 +523,10 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                     span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
         if (r->points_max >= r->points_min)
             fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
-        fprintf(f, ".</li>\n");
+        fprintf(f,
+                ". The shipped bonding parameters belong to %s (docs/physics.md, \"Bonding calibration\"): on "
+                "another grid the verdicts are not calibrated.</li>\n",
+                CALIBRATION_RESOLUTION);
     }
     fprintf(f, "</ul>\n");
     const struct render_figure *profile = render_output_find(out, "spray_thickness");
