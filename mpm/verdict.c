@@ -3,11 +3,11 @@
  * series row (series_every) each particle is judged on that row's PBCP and v_rest (bonded: PBCP >= pbcp_threshold
  * and v_rest <= vrest_threshold); its verdict is settled at a row when over the window [t - W, t] (W:
  * settle_window, or two wave transits across the body, body_window) every row has a v_rest (some point slower
- * than vrest_filter), the body does not move towards the substrate (v_com_z >= -settle_vcom), the same
- * judgement, v_com moved by at most
- * settle_vcom in every component and PBCP by at most settle_pbcp.  The run stops once every particle is settled
- * (stop_when_settled) and otherwise at t_end; a body not settled then is `unsettled`, never rebounded.
- * Everything here is derived from the recorded series, so a run read back from a checkpoint replays it. */
+ * than vrest_filter), the body does not move towards the substrate (v_com_z >= -settle_vcom), the judgement is
+ * the same, v_com moved by at most settle_vcom in every component and PBCP by at most settle_pbcp.  The run stops
+ * once every particle is settled (stop_when_settled) and otherwise at t_end; a body not settled then is
+ * `unsettled`, never rebounded.  Everything here is derived from the recorded series, so a run read back from a
+ * checkpoint replays it. */
 #include <math.h>
 #include <stdlib.h>
 
