@@ -40,7 +40,7 @@ def curve(law):
         lr = XMIN + (XMAX - XMIN) * k / 2000
         d = law(10 ** lr)
         if d is None or d <= 0 or math.log10(d) > YMAX:
-            if d is not None and d > 0:  # the printed law leaving the top of the plot on its way to +inf at e
+            if current and d is not None and d > 0:  # leaving the top of the plot (the printed law: to +inf at e)
                 current.append((lr, YMAX))
             if current:
                 segments.append(current)
