@@ -386,9 +386,12 @@ static void log_summary(struct impact_run *run)
         if (body->substrate)
             continue;
         const double *v = body->velocity;
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s, PBCP %.2f %%, v_rest %.3g m/s", run->label, b, body->d * 1e6,
-                 sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), bonded[b] ? "bonded" : "rebounded",
-                 100.0 * d->body[b].pbcp, d->body[b].v_rest);
+        char settled[64] = "not settled by the end of the run";
+        if (bonded[b] != MPM_VERDICT_UNSETTLED)
+            snprintf(settled, sizeof settled, "settled at %.4g ns", 1e9 * mpm_verdict_settled_at(run->solver, b));
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, v_rest %.3g m/s, v_com_z %.3g m/s",
+                 run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
+                 mpm_verdict_name(bonded[b]), settled, 100.0 * d->body[b].pbcp, d->body[b].v_rest, d->body[b].v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);
@@ -589,7 +592,7 @@ done:
 /* ---- gathering the runs into impact.h5 --------------------------------------------------------------------- */
 
 struct run_totals {
-    int64_t bodies, bonded;
+    int64_t bodies, bonded, unsettled;
     double pbcp, v_rest, cor;
 };
 
@@ -599,13 +602,15 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     size_t n;
     SC_TRY(h5_dataset_size(summary, "bonded", &n));
     int64_t *bonded = malloc((n ? n : 1) * sizeof *bonded), *substrate = malloc((n ? n : 1) * sizeof *substrate);
+    int64_t *verdict = malloc((n ? n : 1) * sizeof *verdict);
     double *columns = malloc((n ? 3 * n : 3) * sizeof *columns);
     int status = SC_OK;
-    if (!bonded || !substrate || !columns)
-        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * (2 * sizeof *bonded + 3 * sizeof *columns), "a run's summary");
+    if (!bonded || !substrate || !verdict || !columns)
+        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * (3 * sizeof *bonded + 3 * sizeof *columns), "a run's summary");
     SC_CHECK(status, h5_read_int64s(summary, "bonded", bonded, n), done);
     SC_CHECK(status, h5_read_int64s(summary, "substrate", substrate, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "pbcp", columns, n), done);
+    SC_CHECK(status, h5_read_int64s(summary, "verdict", verdict, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "v_rest", columns + n, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "cor", columns + 2 * n, n), done);
     struct run_totals run = {0};
@@ -614,6 +619,7 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
             continue;
         run.bodies++;
         run.bonded += bonded[i] == 1;
+        run.unsettled += verdict[i] == MPM_VERDICT_UNSETTLED;
         run.pbcp += columns[i];
         run.v_rest += columns[n + i];
         run.cor += columns[2 * n + i];
@@ -625,12 +631,14 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     out[3] = run.cor / bodies;
     total->bodies += run.bodies;
     total->bonded += run.bonded;
+    total->unsettled += run.unsettled;
     total->pbcp += run.pbcp;
     total->v_rest += run.v_rest;
     total->cor += run.cor;
 done:
     free(bonded);
     free(substrate);
+    free(verdict);
     free(columns);
     return status;
 }
@@ -680,12 +688,14 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     SC_CHECK(status, h5_attr_write_int64(g, "bodies", total->bodies), done);
     SC_CHECK(status, h5_attr_write_int64(g, "bonded", total->bonded), done);
     SC_CHECK(status, h5_attr_write_double(g, "bonded_fraction", (double)total->bonded / bodies), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "unsettled", total->unsettled), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
-    log_info("impact: %lld of %lld bodies bonded (%.1f %%) over %ld runs; mean PBCP %.2f %%, mean v_rest %.3g m/s",
-             (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies, runs,
-             100.0 * total->pbcp / bodies, total->v_rest / bodies);
+    log_info("impact: %lld of %lld bodies bonded (%.1f %%), %lld unsettled, over %ld runs; mean PBCP %.2f %%, mean "
+             "v_rest %.3g m/s",
+             (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies,
+             (long long)total->unsettled, runs, 100.0 * total->pbcp / bodies, total->v_rest / bodies);
 done:
     free(column);
     H5Gclose(g);

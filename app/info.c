@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "mpm/mpm.h"
 
 static const char *const root_attributes[] = {
     "format", "format_version", "program_version", "stage", "case_hash", "created", NULL};
@@ -125,7 +126,7 @@ static void print_impact_results(hid_t file, FILE *out)
     size_t n;
     if (h5_dataset_size(file, "summary/bonded", &n) != SC_OK || n == 0)
         return;
-    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded",   "summary/pbcp",
+    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/verdict",  "summary/pbcp",
                                         "summary/v_rest",   "summary/cor",      "summary/substrate"};
     double *column[7];
     for (int k = 0; k < 7; k++)
@@ -139,10 +140,8 @@ static void print_impact_results(hid_t file, FILE *out)
         int substrate = value[6] == 1.0;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1],
-                substrate         ? "-"
-                : value[2] == 1.0 ? "bonded"
-                                  : "rebounded",
-                100.0 * value[3], value[4], value[5]);
+                substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]), 100.0 * value[3], value[4],
+                value[5]);
     }
     for (int k = 0; k < 7; k++)
         free(column[k]);

@@ -3,7 +3,8 @@
  *
  * Per diameter: one run at v_low (must rebound) and one at v_high (must bond), then bisection of the bracket
  * until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known to bond.  Each run goes
- * to [impact] t_end and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]).
+ * to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity
+ * thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled).
  * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
  * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
  * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
@@ -466,6 +467,24 @@ static int outcome(struct vcrit_search *v, struct vcrit_result *result, double s
     return SC_OK;
 }
 
+/* An unsettled run (its verdict still changing at t_end, mpm/verdict.c) counts as not bonded: v_crit is the
+ * lowest speed known to bond with a settled verdict.  The note and the log say how many there were, since each
+ * may have bonded in a longer run (then v_crit is lower than reported). */
+static void note_unsettled(struct vcrit_result *result)
+{
+    int unsettled = 0;
+    for (int k = 0; k < result->runs; k++)
+        unsettled += result->records[k].verdict == VCRIT_UNSETTLED;
+    if (unsettled == 0)
+        return;
+    size_t used = strlen(result->note);
+    snprintf(result->note + used, sizeof result->note - used, "%s%d unsettled run%s counted as not bonded",
+             used ? "; " : "", unsettled, unsettled > 1 ? "s" : "");
+    log_warn("vcrit: d = %g m: %d of %d runs unsettled at t_end, counted as not bonded (a longer t_end may lower "
+             "v_crit)",
+             result->diameter, unsettled, result->runs);
+}
+
 /* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond. */
 static int is_bonded(const struct vcrit_run_record *r)
 {
@@ -496,11 +515,14 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     SC_TRY(outcome(v, result, v->v_low));
     if (is_bonded(&result->records[0])) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
+        note_unsettled(result);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
     if (!is_bonded(&result->records[1])) {
-        snprintf(result->note, sizeof result->note, "not bracketed: rebounds still at v_high = %g m/s", v->v_high);
+        snprintf(result->note, sizeof result->note, "not bracketed: %s still at v_high = %g m/s",
+                 result->records[1].verdict == VCRIT_UNSETTLED ? "unsettled" : "rebounds", v->v_high);
+        note_unsettled(result);
         return SC_OK;
     }
     double low = v->v_low, high = v->v_high;
@@ -523,6 +545,7 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
         log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter, result->note,
                  v->tolerance);
     }
+    note_unsettled(result);
     return cor_runs(v, result);
 }
 

@@ -105,17 +105,6 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     return d;
 }
 
-void mpm_verdicts(struct mpm_solver *s, int *bonded)
-{
-    const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
-    for (int b = 0; b < d->body_count; b++) {
-        const struct mpm_body_diagnostics *body = &d->body[b];
-        bonded[b] = s->cfg.bodies[b].substrate
-                        ? -1
-                        : body->pbcp >= s->cfg.pbcp_threshold && body->v_rest <= s->cfg.vrest_threshold;
-    }
-}
-
 /* The grid's start-of-step velocity of body `layer`'s field at point q, sum_I N_Ip p_I / m_I. */
 static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
 {

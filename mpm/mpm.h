@@ -67,7 +67,10 @@ struct mpm_config {
     double friction;
     enum mpm_bonding bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c;
+    double bonding_floor; /* smallest G_bond / G_c and eps_bond / eps_c (bonding.c) */
     double pbcp_threshold, vrest_threshold, vrest_filter;
+    double settle_window, settle_vcom, settle_pbcp; /* settled verdicts (verdict.c) */
+    int stop_when_settled;                          /* end the run once every verdict settled */
     double snapshot_every, series_every;
     struct mpm_bulk_viscosity viscosity;
     int absorbing;           /* viscous absorbing boundaries on the substrate's bottom and sides */
@@ -107,7 +110,7 @@ void mpm_destroy(struct mpm_solver *s);
 
 /* Advance one step.  SC_ESIM naming step, point, body and quantity when the state is not finite. */
 int mpm_step(struct mpm_solver *s);
-/* 1 once t >= t_end. */
+/* 1 once t >= t_end, or once every verdict settled (stop_when_settled). */
 int mpm_finished(const struct mpm_solver *s);
 
 struct mpm_counts {
@@ -139,9 +142,25 @@ struct mpm_diagnostics {
 };
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
 
-/* Verdict per body (Tang Section 5.2.1): bonded when PBCP >= pbcp_threshold and v_rest <= vrest_threshold;
- * -1 for the substrate.  out has body_count entries. */
-void mpm_verdicts(struct mpm_solver *s, int *bonded);
+/* Verdict per body (Tang Section 5.2.1; mpm/verdict.c, docs/physics.md "Settled verdicts"): judged at every
+ * series row, bonded when PBCP >= pbcp_threshold and v_rest <= vrest_threshold; settled once that judgement, v_com
+ * (within settle_vcom) and PBCP (within settle_pbcp) have held over the last settle_window.  out has body_count
+ * entries: the settled judgement, MPM_VERDICT_UNSETTLED while it is not settled (also when v_rest has no value),
+ * MPM_VERDICT_SUBSTRATE for the substrate. */
+enum mpm_verdict {
+    MPM_VERDICT_SUBSTRATE = -1,
+    MPM_VERDICT_REBOUNDED = 0,
+    MPM_VERDICT_BONDED = 1,
+    MPM_VERDICT_UNSETTLED = 2
+};
+void mpm_verdicts(struct mpm_solver *s, int *verdict);
+/* "bonded", "rebounded", "unsettled" or "-" (the substrate). */
+const char *mpm_verdict_name(int verdict);
+/* The time at which body b's verdict settled (the end of the first window over which it held, and has held
+ * since); NaN while unsettled and for the substrate. */
+double mpm_verdict_settled_at(const struct mpm_solver *s, int body);
+/* 1 when every body but the substrate is settled (the run ends then with stop_when_settled = yes). */
+int mpm_all_settled(const struct mpm_solver *s);
 
 int mpm_body_count(const struct mpm_solver *s);
 

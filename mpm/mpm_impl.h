@@ -150,6 +150,11 @@ struct mpm_solver {
     /* series rows recorded so far: SERIES_FIXED + body_count * SERIES_PER_BODY doubles each */
     size_t series_rows, series_capacity;
     double *series;
+    /* verdicts (verdict.c), judged at every series row: per body the time its verdict settled (NaN: not
+     * settled) and the last row's judgement (1 bonded); whether every particle is settled */
+    double *settled_at;
+    int *bonded_now;
+    int all_settled;
     /* scratch for diagnostics */
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
@@ -338,11 +343,22 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
 /* bonding.c: D_bond of point p grows (bonding_update) where it is a surface point in contact and a model is on;
  * the test inline, since it is all that most points need at every step. */
 void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
+/* The increment of D_bond for a plastic strain increment at a von Mises stress over a step dt (the model of cfg;
+ * exposed for the tests), and the bounded rate factor max(1 - ln r, floor) of Eqs. 4.4 and 4.16b. */
+double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt);
+double mpm_bonding_rate_factor(double r, double floor);
 static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
 {
     if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
         mpm_bonding_grow(s, p, eps_p_increment, von_mises);
 }
+
+/* verdict.c: the verdict state made from the series recorded so far (mpm_verdict_replay), judged again after
+ * each new series row (mpm_verdict_record). */
+int mpm_verdict_create(struct mpm_solver *s);
+void mpm_verdict_free(struct mpm_solver *s);
+void mpm_verdict_record(struct mpm_solver *s);
+void mpm_verdict_replay(struct mpm_solver *s);
 
 /* diagnostics.c */
 int mpm_series_record(struct mpm_solver *s);

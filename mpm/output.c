@@ -187,35 +187,43 @@ static int write_summary(struct mpm_solver *s, hid_t group)
 {
     int nb = s->cfg.body_count;
     double *values = calloc((size_t)nb * 6, sizeof *values);
-    int64_t *bonded = calloc((size_t)nb, sizeof *bonded), *substrate = calloc((size_t)nb, sizeof *substrate);
+    int64_t *integers = calloc((size_t)nb * 4, sizeof *integers);
     int *verdict = calloc((size_t)nb, sizeof *verdict);
     int status = SC_OK;
-    if (!values || !bonded || !substrate || !verdict)
-        SC_FAIL_OOM_AT(status, done, (size_t)nb * (6 * sizeof *values + 2 * sizeof *bonded + sizeof *verdict),
+    if (!values || !integers || !verdict)
+        SC_FAIL_OOM_AT(status, done, (size_t)nb * (6 * sizeof *values + 4 * sizeof *integers + sizeof *verdict),
                        "the impact summary");
     mpm_verdicts(s, verdict);
     const struct mpm_diagnostics *d = &s->diagnostics;
     double *diameter = values, *v_impact = values + nb, *pbcp = values + 2 * nb, *v_rest = values + 3 * nb,
-           *cor = values + 4 * nb;
+           *cor = values + 4 * nb, *t_settled = values + 5 * nb;
+    int64_t *bonded = integers, *substrate = integers + nb, *verdicts = integers + 2 * nb, *settled = integers + 3 * nb;
     for (int b = 0; b < nb; b++) {
         diameter[b] = s->cfg.bodies[b].d;
         v_impact[b] = s->body_speed[b];
         pbcp[b] = d->body[b].pbcp;
         v_rest[b] = d->body[b].v_rest;
         cor[b] = v_impact[b] > 0 ? v_rest[b] / v_impact[b] : NAN; /* restitution ratio */
-        bonded[b] = verdict[b];
+        t_settled[b] = mpm_verdict_settled_at(s, b);
+        verdicts[b] = verdict[b];
+        /* 1 only for a settled bond: a reader of `bonded` alone never takes an unsettled body for bonded */
+        bonded[b] = verdict[b] == MPM_VERDICT_SUBSTRATE ? -1 : verdict[b] == MPM_VERDICT_BONDED;
+        settled[b] = !isnan(t_settled[b]);
         substrate[b] = s->cfg.bodies[b].substrate;
     }
     hsize_t dims[1] = {(hsize_t)nb};
     SC_CHECK(status, h5_write_doubles(group, "diameter", 1, dims, diameter, "m", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "v_impact", 1, dims, v_impact, "m/s", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "bonded", 1, dims, bonded, "-", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "verdict", 1, dims, verdicts, "-", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "settled", 1, dims, settled, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "t_settled", 1, dims, t_settled, "s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "pbcp", 1, dims, pbcp, "-", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "v_rest", 1, dims, v_rest, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, cor, "-", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0), done);
 done:
-    free(values), free(bonded), free(substrate), free(verdict);
+    free(values), free(integers), free(verdict);
     return status;
 }
 
@@ -382,5 +390,6 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     s->step = integers[0], s->snapshot_count = integers[1], s->snapshot_pending = (int)integers[2];
     s->removed_points = integers[3], s->point_updates = integers[4], s->contact_node_steps = integers[5];
     s->bonded_node_steps = integers[6];
+    mpm_verdict_replay(s); /* derived from the series read back */
     return SC_OK;
 }

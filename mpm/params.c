@@ -28,7 +28,9 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "spacing", CFG_REAL, "m", "0.5e-6", 0, 1, 1, NULL,
      "dp: lattice spacing of the material points (at most DCell)"},
     {"impact", "cfl", CFG_REAL, "-", "0.1", 0, 1, 1, NULL, "dt = cfl DCell / (c + max|v|) every step"},
-    {"impact", "t_end", CFG_REAL, "s", "60e-9", 0, 1e-3, 1, NULL, "simulated time after first contact"},
+    {"impact", "t_end", CFG_REAL, "s", "100e-9", 0, 1e-3, 1, NULL,
+     "simulated time after first contact at most: the run ends earlier once every verdict settled (Tang judges "
+     "at 80-100 ns)"},
     {"impact", "shape_functions", CFG_CHOICE, "", "linear", 0, 0, 0, "linear|ugimp",
      "linear: trilinear (Eq. 3.20); ugimp: uniform GIMP (Bardenhagen & Kober 2004), less cell-crossing noise"},
     {"impact", "bodies", CFG_PATH, "", NULL, 0, 0, 0, NULL,
@@ -55,10 +57,22 @@ const struct cfg_key mpm_case_keys[] = {
      "value)"},
     {"impact", "eps_c", CFG_REAL, "-", "1.4", 0, 1e3, 1, NULL, "critical bonding strain, Eq. 4.4"},
     {"impact", "eps_rate_c", CFG_REAL, "1/s", "1.35e9", 0, 1e20, 1, NULL, "critical bonding strain rate, Eq. 4.4"},
+    {"impact", "bonding_floor", CFG_REAL, "-", "0.5", 0, 1, 1, NULL,
+     "smallest G_bond/G_c (energy model) and eps_bond/eps_c (strain model) at high rates: keeps dD bounded and "
+     "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
     {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
      "bonded verdict needs PBCP (Eq. 5.1) at least this"},
     {"impact", "vrest_threshold", CFG_REAL, "m/s", "5", 0, 1e4, 0, NULL,
      "bonded verdict needs the restitution velocity at most this (Tang: 0.6 at 80-100 ns; docs/physics.md)"},
+    {"impact", "settle_window", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL,
+     "a verdict is settled when PBCP, v_rest and v_com have kept it over this last stretch of time (docs/physics.md, "
+     "\"Settled verdicts\"); at least 4 series_every"},
+    {"impact", "settle_vcom", CFG_REAL, "m/s", "0.5", 0, 1e4, 0, NULL,
+     "settled: each component of the body's centre-of-mass velocity moved by at most this over settle_window"},
+    {"impact", "settle_pbcp", CFG_REAL, "-", "0.005", 0, 1, 0, NULL,
+     "settled: PBCP moved by at most this over settle_window"},
+    {"impact", "stop_when_settled", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",
+     "end the impact run once every particle's verdict is settled (else at t_end)"},
     {"impact", "vrest_filter", CFG_REAL, "m/s", "60", 0, 1e5, 1, NULL,
      "only points slower than this count in the restitution velocity (ejected material left out)"},
     {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL, "simulated time between snapshots"},
@@ -248,15 +262,25 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->Gc_rate = case_real(c, "impact", "Gc_rate");
     cfg->eps_c = case_real(c, "impact", "eps_c");
     cfg->eps_rate_c = case_real(c, "impact", "eps_rate_c");
+    cfg->bonding_floor = case_real(c, "impact", "bonding_floor");
     cfg->pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
     cfg->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     cfg->vrest_filter = case_real(c, "impact", "vrest_filter");
+    cfg->settle_window = case_real(c, "impact", "settle_window");
+    cfg->settle_vcom = case_real(c, "impact", "settle_vcom");
+    cfg->settle_pbcp = case_real(c, "impact", "settle_pbcp");
+    cfg->stop_when_settled = case_is(c, "impact", "stop_when_settled", "yes");
     cfg->snapshot_every = case_real(c, "impact", "snapshot_every");
     cfg->series_every = case_real(c, "impact", "series_every");
     cfg->viscosity.linear = case_real(c, "impact", "bulk_viscosity_linear");
     cfg->viscosity.quadratic = case_real(c, "impact", "bulk_viscosity_quadratic");
     cfg->viscosity.length = cfg->grid;
     cfg->absorbing = case_is(c, "impact", "absorbing", "yes");
+    if (cfg->settle_window < 4.0 * cfg->series_every * (1.0 - 1e-9))
+        return case_invalid(c, "impact", "settle_window",
+                            "shorter than 4 series_every (%g s): the window must hold several series rows; allowed: "
+                            "at least %g s",
+                            cfg->series_every, 4.0 * cfg->series_every);
     if (cfg->spacing > cfg->grid)
         return case_invalid(c, "impact", "spacing", "larger than the grid cell %g m; allowed: at most DCell",
                             cfg->grid);

@@ -105,6 +105,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->next_snapshot = cfg->snapshot_every;
     s->snapshot_pending = 1;
     SC_TRY(mpm_series_record(s));
+    SC_TRY(mpm_verdict_create(s));
     return SC_OK;
 }
 
@@ -142,12 +143,13 @@ void mpm_destroy(struct mpm_solver *s)
     free(s->boundary_work);
     balance_free(&s->update_balance);
     free(s->series);
+    mpm_verdict_free(s);
     free(s);
 }
 
 int mpm_finished(const struct mpm_solver *s)
 {
-    return s->t >= s->cfg.t_end * (1.0 - 1e-12);
+    return s->t >= s->cfg.t_end * (1.0 - 1e-12) || (s->cfg.stop_when_settled && s->all_settled);
 }
 int mpm_body_count(const struct mpm_solver *s)
 {
@@ -682,6 +684,8 @@ static int advance_clocks(struct mpm_solver *s)
     int last = mpm_finished(s);
     if (s->t >= s->next_series * (1.0 - 1e-12) || last) {
         SC_TRY(mpm_series_record(s));
+        mpm_verdict_record(s);
+        last = mpm_finished(s); /* the verdicts may have settled on this row */
         while (s->next_series <= s->t * (1.0 + 1e-12))
             s->next_series += cfg->series_every;
     }

@@ -274,8 +274,12 @@ static void read_couple(hid_t file, struct report_data *r)
 /* The particle bodies of one /summary group (loc: the file or a /run_NNNN group). */
 static void read_summary(hid_t loc, int run, struct report_data *r)
 {
-    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/bonded",
-                                        "summary/pbcp",     "summary/v_rest",   "summary/cor"};
+    /* summary/verdict (-1 substrate, 0 rebounded, 1 bonded, 2 unsettled; mpm/verdict.c), or in files without it
+     * summary/bonded (-1, 0, 1) */
+    const char *names[] = {"summary/diameter", "summary/v_impact", "summary/verdict",
+                           "summary/pbcp",     "summary/v_rest",   "summary/cor"};
+    if (!h5_exists(loc, names[2]))
+        names[2] = "summary/bonded";
     struct render_array a[6];
     int ok = 1;
     for (int k = 0; k < 6; k++)
@@ -383,12 +387,16 @@ static void report_free(struct report_data *r)
 
 /* ---- the page ---------------------------------------------------------------------------------------------- */
 
+/* The resolution the default [impact] Gc, Gc_rate were calibrated on (docs/physics.md, "Bonding calibration",
+ * cases/bonding_calibration_al.csv): change it with them. */
+#define CALIBRATION_RESOLUTION "grid cells of 2.0 µm with points 0.667 µm apart"
+
 enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };
 static enum verdict verdict(const struct body_row *row, double vrest_threshold)
 {
     if (row->bonded == 1)
         return BONDED;
-    if (!isfinite(row->v_rest))
+    if (row->bonded == 2 || !isfinite(row->v_rest)) /* not settled by the run's end (mpm/verdict.c), or no v_rest */
         return UNSETTLED;
     return row->v_rest > vrest_threshold ? REBOUNDED : STUCK;
 }
@@ -453,7 +461,7 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         if (t.stuck)
             fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t.stuck), sep = ", ";
         if (t.unsettled)
-            fprintf(f, "%s%zu unsettled: no v_rest at the end", sep, t.unsettled), sep = ", ";
+            fprintf(f, "%s%zu unsettled: the verdict still changing at the end", sep, t.unsettled), sep = ", ";
         fprintf(f,
                 "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
                 "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
@@ -516,7 +524,10 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                     span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
         if (r->points_max >= r->points_min)
             fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
-        fprintf(f, ".</li>\n");
+        fprintf(f,
+                ". The shipped bonding parameters belong to %s (docs/physics.md, \"Bonding calibration\"): on "
+                "another grid the verdicts are not calibrated.</li>\n",
+                CALIBRATION_RESOLUTION);
     }
     fprintf(f, "</ul>\n");
     const struct render_figure *profile = render_output_find(out, "spray_thickness");
@@ -540,14 +551,16 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
     double vrest_threshold = case_real(req->c, "impact", "vrest_threshold");
     double pbcp_threshold = case_real(req->c, "impact", "pbcp_threshold");
     double spacing = case_real(req->c, "impact", "spacing");
-    fprintf(
-        f,
-        "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
-        "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
-        "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (no v_rest: no point slow "
-        "enough to measure it). <i>Spray said</i>: the outcome of the particle's first contact in the spray "
-        "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
-        given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s);
+    fprintf(f,
+            "<h2>Impact results</h2>\n<p>One row per particle body of every run (body: its index in impact.h5, "
+            "the substrate being body 0). Verdict: bonded (PBCP &ge; %s %% and v_rest &le; %s m/s), rebounded "
+            "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (the verdict still "
+            "changing at the "
+            "run's end, or no v_rest: no point slow enough to measure it). <i>Spray said</i>: the outcome of the "
+            "particle's first contact in the spray "
+            "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
+            given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
+            given(vrest_threshold).s);
     fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
                "<th>points across d</th><th>impact speed (m/s)</th><th>verdict</th><th>spray said</th>"
                "<th>PBCP (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th></tr>\n");

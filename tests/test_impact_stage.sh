@@ -193,7 +193,7 @@ fi
 
 # ---- 6. info on a finished run shows the per-body summary --------------------------------------------------------
 if "$BIN" info "$RUN" >"$T/info.log" 2>&1 && grep -q 'stage impact: done' "$T/info.log" &&
-    grep -q 'summary (per body)' "$T/info.log" && grep -Eq 'particle .*(bonded|rebounded)' "$T/info.log" &&
+    grep -q 'summary (per body)' "$T/info.log" && grep -Eq 'particle .*(bonded|rebounded|unsettled)' "$T/info.log" &&
     "$BIN" info "$RUN/impact.h5" >"$T/info2.log" 2>&1 && grep -q 'summary (per body)' "$T/info2.log"; then
     pass impact_stage_info
 else

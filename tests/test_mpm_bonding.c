@@ -1,6 +1,7 @@
 /* The shipped Al bonding parameters (docs/physics.md, "Bonding calibration") on the calibration grid: a 14 um Al
  * particle rebounds from an Al substrate at 700 m/s and bonds at 900 m/s (experimental critical velocity
- * 810 m/s, Tang Section 4.1.2). */
+ * 810 m/s, Tang Section 4.1.2), settled verdicts (mpm/verdict.c; up to 100 ns: at 40 ns the 700 m/s run is still
+ * unsettled, leaving at 21 m/s). */
 #include <stdlib.h>
 
 #include "check.h"
@@ -12,7 +13,7 @@ static int verdict_at(double velocity, double *pbcp, double *v_rest)
     char ini[512];
     snprintf(ini, sizeof ini,
              "[impact]\ngrid = 2e-6\nspacing = 0.667e-6\ndiameter = 14e-6\nsubstrate_diameter = 30e-6\n"
-             "substrate_height = 10e-6\nvelocity = %g\nt_end = 40e-9\n[material.aluminium]\n",
+             "substrate_height = 10e-6\nvelocity = %g\nt_end = 100e-9\n[material.aluminium]\n",
              velocity);
     int bonded[2] = {-2, -2};
     if (impact_fixture_open(&f, ini, NULL) == SC_OK && impact_fixture_run(&f) == SC_OK) {
@@ -20,8 +21,8 @@ static int verdict_at(double velocity, double *pbcp, double *v_rest)
         const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
         *pbcp = d->body[1].pbcp;
         *v_rest = d->body[1].v_rest;
-        printf("  %g m/s: %s, PBCP %.3f, v_rest %.3f m/s\n", velocity, bonded[1] == 1 ? "bonded" : "rebounded", *pbcp,
-               *v_rest);
+        printf("  %g m/s: %s at %.4g ns, PBCP %.3f, v_rest %.3f m/s\n", velocity, mpm_verdict_name(bonded[1]),
+               1e9 * mpm_get_counts(f.solver).t, *pbcp, *v_rest);
     }
     impact_fixture_close(&f);
     return bonded[1];

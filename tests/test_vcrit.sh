@@ -47,6 +47,12 @@ spacing = 1e-6
 substrate_diameter = 20e-6
 substrate_height = 6e-6
 t_end = 10e-9
+; verdicts settle within 10 ns (mpm/verdict.c; physics needs 50-60 ns): a short window, any v_com and PBCP
+; drift, and v_rest over all points (at 10 ns a fast particle has hardly a point under the 60 m/s filter)
+settle_window = 2e-9
+settle_vcom = 1e4
+settle_pbcp = 1
+vrest_filter = 1e4
 
 [material.aluminium]
 

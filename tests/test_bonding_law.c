@@ -1,0 +1,113 @@
+/* The bonding laws of mpm/bonding.c over a sweep of the rate ratio r (issue 22, item 4): bounded and monotone in
+ * the rate, and equal to the thesis's Eqs. 4.16-4.17 (energy) and 4.3-4.5 (strain) where 1 - ln r is at least
+ * bonding_floor.  As printed, dD = dG / (G_c (1 - ln r)) grows without bound as r -> e- and is 0 above e. */
+#include <math.h>
+
+#include "check.h"
+/* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
+#include "mpm/mpm_impl.h"
+
+/* The shipped Al defaults (mpm/params.c) on a 1.5 um grid and a 0.5 ns ... 1 ps step */
+static struct mpm_config law(enum mpm_bonding model)
+{
+    return (struct mpm_config){.bonding = model,
+                               .grid = 1.5e-6,
+                               .Gc = 1500.0,
+                               .Gc_rate = 2e11,
+                               .eps_c = 1.4,
+                               .eps_rate_c = 1.35e9,
+                               .bonding_floor = 0.5};
+}
+
+#define SWEEP 2001 /* r from 1e-6 to 1e6, 2000 steps a decade / 6 */
+static const double sigma_vm = 300e6, dt = 1e-12;
+
+/* The plastic strain increment that gives rate ratio r in `model` (energy: dG / (G_c_rate dt); strain: the strain
+ * rate over eps_rate_c). */
+static double increment_for(const struct mpm_config *cfg, double r)
+{
+    return cfg->bonding == MPM_BONDING_ENERGY ? r * cfg->Gc_rate * dt / (sigma_vm * cfg->grid)
+                                              : r * cfg->eps_rate_c * dt;
+}
+
+/* The printed law: Eq. 4.16 with Eq. 4.17, or Eq. 4.5 with Eq. 4.4 (NaN where its factor is not positive). */
+static double printed(const struct mpm_config *cfg, double deps)
+{
+    if (cfg->bonding == MPM_BONDING_ENERGY) {
+        double dG = sigma_vm * deps * cfg->grid, G_bond = cfg->Gc * (1.0 - log(dG / (cfg->Gc_rate * dt)));
+        return G_bond > 0 ? dG / G_bond : NAN;
+    }
+    double eps_bond = cfg->eps_c * (1.0 - log(deps / dt / cfg->eps_rate_c));
+    return eps_bond > 0 ? deps / eps_bond : NAN;
+}
+
+/* The largest dD the bounded law may give: the increment over the smallest critical value, floor x critical. */
+static double bound(const struct mpm_config *cfg, double deps)
+{
+    return cfg->bonding == MPM_BONDING_ENERGY ? sigma_vm * deps * cfg->grid / (cfg->Gc * cfg->bonding_floor)
+                                              : deps / (cfg->eps_c * cfg->bonding_floor);
+}
+
+static void sweep(enum mpm_bonding model)
+{
+    struct mpm_config cfg = law(model);
+    double previous = 0.0, r_join = exp(1.0 - cfg.bonding_floor), worst_equal = 0.0;
+    int increasing = 1, bounded = 1, compared = 0;
+    for (int k = 0; k < SWEEP; k++) {
+        double r = pow(10.0, -6.0 + 12.0 * k / (SWEEP - 1)), deps = increment_for(&cfg, r);
+        double dD = mpm_bonding_increment(&cfg, deps, sigma_vm, dt);
+        if (!(dD >= previous) || !isfinite(dD)) {
+            if (increasing)
+                printf("  r = %.6g: dD = %.6g after %.6g\n", r, dD, previous);
+            increasing = 0;
+        }
+        if (!(dD <= bound(&cfg, deps) * (1 + 1e-12))) {
+            if (bounded)
+                printf("  r = %.6g: dD = %.6g above the bound %.6g\n", r, dD, bound(&cfg, deps));
+            bounded = 0;
+        }
+        if (r <= r_join) { /* the printed law's well-behaved range: 1 - ln r >= floor */
+            worst_equal = fmax(worst_equal, fabs(dD / printed(&cfg, deps) - 1.0));
+            compared++;
+        }
+        previous = dD;
+    }
+    CHECK(increasing, "dD increases with the rate over r = 1e-6 .. 1e6 (finite everywhere)");
+    CHECK(bounded, "dD at most increment / (critical value x bonding_floor)");
+    CHECK(compared > 1000, "%d rates in the printed law's well-behaved range", compared);
+    CHECK(worst_equal <= 1e-14, "equal to the printed law for 1 - ln r >= floor: worst relative difference %.3g",
+          worst_equal);
+    /* the jetting points the printed law gave nothing (r > e) now bond fastest: more than just below e */
+    double below = mpm_bonding_increment(&cfg, increment_for(&cfg, 0.99 * M_E), sigma_vm, dt);
+    double above = mpm_bonding_increment(&cfg, increment_for(&cfg, 10.0 * M_E), sigma_vm, dt);
+    CHECK(above > below && below > 0, "r = 10e: dD %.4g > r = 0.99e: dD %.4g > 0", above, below);
+}
+
+static void test_energy_law(void)
+{
+    sweep(MPM_BONDING_ENERGY);
+}
+
+static void test_strain_law(void)
+{
+    sweep(MPM_BONDING_STRAIN);
+}
+
+/* bonding_floor = 1: the factor never falls below 1, dD = dG / G_c above the critical rate. */
+static void test_floor_one(void)
+{
+    struct mpm_config cfg = law(MPM_BONDING_ENERGY);
+    cfg.bonding_floor = 1.0;
+    double deps = increment_for(&cfg, 50.0);
+    CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt), sigma_vm * deps * cfg.grid / cfg.Gc, 1e-15, 0.0,
+                "dD at r = 50 with floor 1");
+    CHECK(mpm_bonding_increment(&cfg, 0.0, sigma_vm, dt) == 0.0, "no plastic increment: dD = 0");
+}
+
+int main(void)
+{
+    RUN(test_energy_law);
+    RUN(test_strain_law);
+    RUN(test_floor_one);
+    return check_finish();
+}

@@ -1,0 +1,190 @@
+/* Settled verdicts (mpm/verdict.c; issue 22, item 3): a verdict counts only once PBCP, v_rest and v_com have held
+ * it over the settling window; a transient rebound is `unsettled`, never `rebounded`; a body without v_rest is
+ * never rebounded; the run ends once every particle is settled.  The judging is tested on series rows written
+ * into a small solver (the shapes of the issue's 14 um run at 750 m/s), the end of a run on an elastic sphere
+ * bouncing off a rigid wall. */
+#include <math.h>
+
+#include "check.h"
+#include "impact_fixture.h"
+/* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
+#include "mpm/mpm_impl.h"
+
+#define ROW_DT 0.5e-9 /* series_every */
+
+/* What one body's series looks like over time. */
+typedef void (*history)(double t, double *v_com_z, double *pbcp, double *v_rest);
+
+/* A solver with `bodies` small spheres over a rigid wall (defaults: settle_window 10 ns, settle_vcom 0.5 m/s,
+ * settle_pbcp 0.005, pbcp_threshold 0.05, vrest_threshold 5 m/s); its series replaced by rows every ROW_DT up to
+ * t_last, body k following shapes[k]. */
+static int judged(struct impact_fixture *f, int bodies, const history *shapes, double t_last)
+{
+    const char *ini = "[impact]\nsubstrate = rigid\ngrid = 2e-6\nspacing = 1e-6\n[material.aluminium]\n";
+    char rows[256] = "";
+    for (int k = 0; k < bodies; k++)
+        snprintf(rows + strlen(rows), sizeof rows - strlen(rows), "sphere,%g,0,3e-6,0,0,-100,4e-6,0,aluminium\n",
+                 10e-6 * k);
+    if (impact_fixture_open(f, ini, rows) != SC_OK)
+        return -1;
+    struct mpm_solver *s = f->solver;
+    size_t width = SERIES_FIXED + (size_t)bodies * SERIES_PER_BODY, n = (size_t)llround(t_last / ROW_DT) + 1;
+    double *series = calloc(n * width, sizeof *series);
+    if (!series)
+        return -1;
+    for (size_t r = 0; r < n; r++) {
+        double *row = series + r * width, t = (double)r * ROW_DT;
+        row[0] = t;
+        for (int k = 0; k < bodies; k++) {
+            double *c = row + SERIES_FIXED + (size_t)k * SERIES_PER_BODY;
+            shapes[k](t, &c[2], &c[8], &c[9]); /* v_com z, pbcp, v_rest (mpm_series_record) */
+        }
+    }
+    free(s->series);
+    s->series = series, s->series_rows = s->series_capacity = n;
+    mpm_verdict_replay(s);
+    return 0;
+}
+
+static int verdict_of(struct impact_fixture *f, int body)
+{
+    int v[4];
+    mpm_verdicts(f->solver, v);
+    return v[body];
+}
+
+/* The issue's 14 um particle at 750 m/s: it leaves at 30 m/s at 40 ns, and the bonds pull it back; v_com decays
+ * as 30 exp(-(t - 40 ns)/6 ns) m/s, PBCP 0.3.  Before 40 ns it is stopped from -750 m/s. */
+static void held_back(double t, double *v, double *pbcp, double *v_rest)
+{
+    *v = t < 40e-9 ? -750.0 + 780.0 * t / 40e-9 : 30.0 * exp(-(t - 40e-9) / 6e-9);
+    *pbcp = 0.3;
+    *v_rest = t < 5e-9 ? NAN : *v; /* no point slower than 60 m/s at first */
+}
+
+static void test_transient_rebound_is_unsettled(void)
+{
+    struct impact_fixture f;
+    history shapes[1] = {held_back};
+    CHECK(judged(&f, 1, shapes, 40e-9) == 0, "set-up");
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_UNSETTLED, "at 40 ns, leaving at 30 m/s: %s, not rebounded",
+          mpm_verdict_name(verdict_of(&f, 0)));
+    CHECK(!mpm_all_settled(f.solver), "not settled at 40 ns");
+    impact_fixture_close(&f);
+    CHECK(judged(&f, 1, shapes, 80e-9) == 0, "set-up");
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_BONDED, "at 80 ns: %s", mpm_verdict_name(verdict_of(&f, 0)));
+    /* settled once v(t - 10 ns) - v(t) <= 0.5 m/s: v(t - 10 ns) (1 - exp(-10/6)) = 0.5, on the next row */
+    double t = 40e-9 + 10e-9 + 6e-9 * log(30.0 * (1.0 - exp(-10.0 / 6.0)) / 0.5);
+    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), ceil(t / ROW_DT) * ROW_DT, 0.0, 1e-13, "settled at (s)");
+    CHECK(mpm_all_settled(f.solver), "every particle settled at 80 ns");
+    impact_fixture_close(&f);
+}
+
+/* Leaving at a steady 20 m/s: rebounded, settled one window after it left (20 ns). */
+static void flies_off(double t, double *v, double *pbcp, double *v_rest)
+{
+    *v = t < 20e-9 ? -300.0 + 320.0 * t / 20e-9 : 20.0;
+    *pbcp = 0.01;
+    *v_rest = t < 5e-9 ? NAN : *v;
+}
+
+/* Leaving, but with no point slower than vrest_filter at the end (v_rest NaN). */
+static void fast_at_the_end(double t, double *v, double *pbcp, double *v_rest)
+{
+    flies_off(t, v, pbcp, v_rest);
+    *v_rest = t > 35e-9 ? NAN : *v_rest;
+}
+
+/* Still approaching at a steady 50 m/s (slower than vrest_filter, so v_rest has a value): in flight. */
+static void approaching(double t, double *v, double *pbcp, double *v_rest)
+{
+    (void)t;
+    *v = *v_rest = -50.0;
+    *pbcp = 0.0;
+}
+
+/* At rest, but v_rest on either side of the 5 m/s threshold, row by row. */
+static void flickers(double t, double *v, double *pbcp, double *v_rest)
+{
+    *v = 0.0;
+    *pbcp = 0.3;
+    *v_rest = (long)llround(t / ROW_DT) % 2 ? 4.0 : 6.0;
+}
+
+/* At rest and bonded by v_rest, PBCP still growing by 0.01 per ns. */
+static void still_bonding(double t, double *v, double *pbcp, double *v_rest)
+{
+    *v = 0.0;
+    *v_rest = 0.0;
+    *pbcp = 0.05 + 1e7 * t;
+}
+
+static void test_steady_rebound(void)
+{
+    struct impact_fixture f;
+    history shapes[1] = {flies_off};
+    CHECK(judged(&f, 1, shapes, 50e-9) == 0, "set-up");
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED, "steady 20 m/s: %s", mpm_verdict_name(verdict_of(&f, 0)));
+    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), 30e-9, 0.0, 1e-13, "settled at (s)");
+    impact_fixture_close(&f);
+}
+
+static void test_unsettled_cases(void)
+{
+    const history shapes[4] = {fast_at_the_end, flickers, still_bonding, approaching};
+    const char *what[4] = {"no v_rest at the end", "v_rest either side of the threshold", "PBCP growing",
+                           "approaching at a steady speed"};
+    for (int k = 0; k < 4; k++) {
+        struct impact_fixture f;
+        CHECK(judged(&f, 1, &shapes[k], 60e-9) == 0, "set-up");
+        CHECK(verdict_of(&f, 0) == MPM_VERDICT_UNSETTLED, "%s: %s", what[k], mpm_verdict_name(verdict_of(&f, 0)));
+        CHECK(isnan(mpm_verdict_settled_at(f.solver, 0)), "%s: no settling time", what[k]);
+        impact_fixture_close(&f);
+    }
+}
+
+/* Two particles: the run may end only when both are settled. */
+static void test_every_body_settles(void)
+{
+    struct impact_fixture f;
+    history shapes[2] = {flies_off, held_back};
+    CHECK(judged(&f, 2, shapes, 60e-9) == 0, "set-up");
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED && verdict_of(&f, 1) == MPM_VERDICT_UNSETTLED,
+          "at 60 ns: %s and %s", mpm_verdict_name(verdict_of(&f, 0)), mpm_verdict_name(verdict_of(&f, 1)));
+    CHECK(!mpm_all_settled(f.solver) && !mpm_finished(f.solver), "the run goes on while one is unsettled");
+    impact_fixture_close(&f);
+}
+
+/* An elastic sphere (4 cells across, Poisson ratio 0.33) at 20 m/s onto the rigid wall: it rebounds, flies off at a
+ * steady speed, and the run ends one window after that, before t_end, with the verdict `rebounded`. */
+static void test_run_ends_when_settled(void)
+{
+    struct impact_fixture f;
+    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 2e-6\nspacing = 1e-6\n"
+                      "t_end = 400e-9\ncfl = 0.2\nbonding = none\nbox_margin = 40e-6\n"
+                      "[material.elastic]\nstrength = elastic\ndensity = 1000\neos_c0 = 1000\neos_s = 0\n"
+                      "eos_gamma0 = 0\nG0 = 1e9\nD = 0\nmelt_T0 = 1e5\n";
+    if (impact_fixture_open(&f, ini, "sphere,0,0,4.5e-6,0,0,-20,8e-6,0,elastic\n") != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    CHECK(impact_fixture_run(&f) == SC_OK, "run");
+    struct mpm_counts c = mpm_get_counts(f.solver);
+    const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
+    printf("  ended at %.4g ns (settled at %.4g ns), v_com_z %.4g m/s, %s\n", c.t * 1e9,
+           mpm_verdict_settled_at(f.solver, 0) * 1e9, d->body[0].v_com[2], mpm_verdict_name(verdict_of(&f, 0)));
+    CHECK(c.t < 0.9 * f.cfg.t_end, "the run ended at %g s, before t_end", c.t);
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED && d->body[0].v_com[2] > 0, "rebounded, moving up");
+    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), c.t, 0.0, 1e-15, "ended on the row it settled (s)");
+    impact_fixture_close(&f);
+}
+
+int main(void)
+{
+    RUN(test_transient_rebound_is_unsettled);
+    RUN(test_steady_rebound);
+    RUN(test_unsettled_cases);
+    RUN(test_every_body_settles);
+    RUN(test_run_ends_when_settled);
+    return check_finish();
+}
