@@ -77,6 +77,11 @@ spacing = 1e-6
 substrate_diameter = 20e-6
 substrate_height = 6e-6
 t_end = 10e-9
+; verdicts that settle within 10 ns (as tests/test_vcrit.sh): a short window, any drift, v_rest over all points
+settle_window = 2e-9
+settle_vcom = 1e4
+settle_pbcp = 1
+vrest_filter = 1e4
 
 [material.aluminium]
 
