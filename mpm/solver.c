@@ -380,7 +380,7 @@ static void nodal_velocities(struct mpm_solver *s)
             int heavy = g->mass[I] > g->mass_cutoff;
             for (int d = 0; d < 3; d++)
                 g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
-            g->contact[I] &= (uint8_t)heavy;
+            g->contact[I] = heavy ? g->contact[I] : 0; /* the pair state of contact.c, kept where heavy */
         }
     }
 }
