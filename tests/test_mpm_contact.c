@@ -180,8 +180,9 @@ static void test_hertz_contact_time(void)
 
 /* Bonds act only while separating (Tang 2021, Section 4.1.1) and then hold: two elastic spheres whose surface
  * points are all bonded (D_bond = 1, no plastic work to grow it) collide head-on at 2 x 20 m/s; the approach is
- * ordinary contact, and when the spheres turn to separate the bonds hold them: at the end their centres are
- * closer than at touching (8 mm).  Unbonded, they leave at 17.7 m/s each (test_two_elastic_spheres). */
+ * ordinary contact, and when the spheres turn to separate the bonds hold them: over the last 20 us their centres
+ * stay within 0.2 mm of their distance at touching (8 mm), where spheres that part move 0.3 mm apart in 20 us
+ * even at 7.7 m/s each.  Unbonded, they leave at 17.7 m/s each (test_two_elastic_spheres). */
 static void test_bonds_hold_while_separating(void)
 {
     struct impact_fixture f;
@@ -198,16 +199,23 @@ static void test_bonds_hold_while_separating(void)
     for (size_t q = 0; q < p->count; q++)
         if (p->flags[q] & POINT_SURFACE)
             p->d_bond[q] = 1.0;
-    if (impact_fixture_run(&f) != SC_OK)
-        CHECK(0, "run");
-    double a[3], b[3];
-    body_com(s, 0, a);
-    body_com(s, 1, b);
+    double a[3], b[3], widest = 0.0; /* the largest distance of the centres over the last 20 us */
+    while (!mpm_finished(s)) {
+        if (mpm_step(s) != SC_OK) {
+            CHECK(0, "run");
+            break;
+        }
+        if (s->t >= f.cfg.t_end - 20e-6) {
+            body_com(s, 0, a);
+            body_com(s, 1, b);
+            widest = fmax(widest, b[0] - a[0]);
+        }
+    }
     const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
-    printf("  bonded spheres: centres %.4g m apart at the end (8e-3 at touching), v_com %.3g, %.3g m/s; %lld bonded "
-           "node-steps\n",
-           b[0] - a[0], d->body[0].v_com[0], d->body[1].v_com[0], (long long)mpm_get_counts(s).bonded_node_steps);
-    CHECK(b[0] - a[0] < 8e-3, "the bonded spheres separated: centres %g m apart", b[0] - a[0]);
+    printf("  bonded spheres: centres at most %.4g m apart over the last 20 us (8e-3 at touching), v_com %.3g, %.3g "
+           "m/s at the end; %lld bonded node-steps\n",
+           widest, d->body[0].v_com[0], d->body[1].v_com[0], (long long)mpm_get_counts(s).bonded_node_steps);
+    CHECK(widest < 8.2e-3, "the bonded spheres separated: centres up to %g m apart", widest);
     impact_fixture_close(&f);
 }
 
