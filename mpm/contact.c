@@ -53,8 +53,11 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
     return 0;
 }
 
-/* How a pair of bodies interacts at a node this step (the value stored in g->contact for the re-projection). */
-enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED };
+/* How a pair of bodies interacts at a node this step, the value stored in g->contact: the re-projection projects
+ * CONTACT and BONDED pairs again; TOUCHING (contact_scheme = once: surfaces met, no impulse as the pair is not
+ * approaching) marks the node for the bonding model only, whose surface points in contact (x_p in S, Section
+ * 4.1.1) are those of nodes with any state but FREE. */
+enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
 
 static int pair_bonded(const struct mpm_solver *s, size_t Ia, size_t Ib)
 {
@@ -155,8 +158,13 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
                 continue;
             enum pair_state state = s->cfg.contact_scheme == MPM_CONTACT_ONCE ? pair_decide_once(s, Ia, Ib, end, n)
                                                                               : pair_decide(s, Ia, Ib, end, n);
-            if (state == PAIR_FREE)
+            if (state == PAIR_FREE) {
+                if (s->cfg.contact_scheme == MPM_CONTACT_ONCE && surfaces_meet(s, Ia, Ib, n)) {
+                    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+                    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+                }
                 continue;
+            }
             pair_impulse(s, Ia, Ib, end, n, state, J);
             apply_impulse(end, Ia, Ib, J);
             if (start) {
@@ -187,6 +195,8 @@ static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
             double n[3], J[3];
             if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
+            if (g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+                continue; /* no impulse this step */
             enum pair_state state = pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
             if (s->cfg.contact_scheme == MPM_CONTACT_ONCE)
                 state = g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
