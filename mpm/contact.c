@@ -1,18 +1,25 @@
 /* Nodal update, multi-body contact and bonding forces (thesis Section 3.4 steps 3-6 and 8, Section 3.5.4,
- * Section 4.1.1).  Every body has its own nodal fields (the multi-mesh); where two bodies have mass at a node
- * and approach each other (Eq. 3.29), or are bonded there (nodal D_bond >= 1, Eqs. 4.6-4.7), equal and
- * opposite nodal impulses bring them to a common velocity (sticking, Eq. 3.31), to a common normal velocity
- * (frictionless), or limit the tangential part by Coulomb's law (friction).
+ * Section 4.1.1).  Every body has its own nodal fields (the multi-velocity-field contact of Bardenhagen et al.
+ * 2000, 2001); where two bodies have mass at a node and are in contact there, or are bonded there (nodal
+ * D_bond >= 1, Eqs. 4.6-4.7), equal and opposite nodal impulses bring them to a common velocity (sticking,
+ * Eq. 3.31), to a common normal velocity (frictionless), or limit the tangential part by Coulomb's law.
  *
- * contact_scheme = thesis (the default, with which the bonding parameters were calibrated) decides and projects
- * on the updated momenta, and decides and projects again on the MUSL re-projected momenta.  Every step it
- * hands the points the perfectly inelastic collision of the two fields' start velocities, and the re-projection
- * may decide otherwise than the update: energy is lost (docs/physics.md, "Contact and energy").
- * contact_scheme = consistent takes one decision per node and step, the approach test on the updated momenta,
- * and projects a pair in contact in the step's start momenta (the FLIP reference of the points' velocity
- * change), in the updated momenta and in the re-projected momenta (the strain rate).  A contact node then
- * moves the points as one common field would (single-field MPM), and the strain rate follows the motion the
- * points made: two elastic spheres keep their energy within 2 % (tests/test_mpm_solver.c). */
+ * contact_scheme = once (the default) takes one decision per node and step, on the updated momenta: in contact
+ * where the bodies approach along the normal (Eq. 3.29) and their surfaces meet, i.e. the separation of the
+ * bodies' nodal centres of mass along the normal is at most contact_gap cells (Nairn's position-based contact
+ * detection: Lemiale et al. 2010, Nairn 2013); bonded pairs stick only while separating (Tang 2021, Section
+ * 4.1.1: the bond resists separation; an approaching bonded pair is in ordinary contact).  The decision is
+ * applied alike to the start momenta (the FLIP reference of the points' velocity change), the updated momenta
+ * (the points' motion) and the MUSL re-projected momenta (the strain rate): Nairn et al. 2020 correct twice,
+ * after particle-to-grid and after the update, to get the acceleration the points receive.  Two elastic
+ * spheres keep their energy within 2 % and start touching when their surfaces meet (tests/test_mpm_contact.c).
+ * The rigid wall takes the same decision with the wall as the second body.  docs/physics.md, "Contact".
+ *
+ * contact_scheme = thesis decides and projects on the updated momenta, and decides and projects again on the
+ * MUSL re-projected momenta: every step it hands the points the perfectly inelastic collision of the two
+ * fields' start velocities, and the re-projection may decide otherwise than the update (two elastic spheres
+ * lose 10 % of their energy).  contact_scheme = consistent is once without the gap test, with bonded nodes
+ * sticking also while approaching: contact starts up to a cell before the surfaces meet. */
 #include <math.h>
 #include <string.h>
 
@@ -46,8 +53,11 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
     return 0;
 }
 
-/* How a pair of bodies interacts at a node this step. */
-enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED };
+/* How a pair of bodies interacts at a node this step, the value stored in g->contact: the re-projection projects
+ * CONTACT and BONDED pairs again; TOUCHING (contact_scheme = once: surfaces met, no impulse as the pair is not
+ * approaching) marks the node for the bonding model only, whose surface points in contact (x_p in S, Section
+ * 4.1.1) are those of nodes with any state but FREE. */
+enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
 
 static int pair_bonded(const struct mpm_solver *s, size_t Ia, size_t Ib)
 {
@@ -67,6 +77,35 @@ static enum pair_state pair_decide(const struct mpm_solver *s, size_t Ia, size_t
     for (int d = 0; d < 3; d++)
         approach += (pa[d] / g->mass[Ia] - pb[d] / g->mass[Ib]) * n[d];
     return approach > 0.0 ? PAIR_CONTACT : PAIR_FREE;
+}
+
+/* Whether the surfaces of bodies a and b meet at the node (contact_scheme = once): the separation of their
+ * nodal centres of mass along the normal n (from a into b) is at most contact_gap cells.  Two half-spaces
+ * touching with 2 points per cell along n have centres 0.75 to 0.86 cells apart (the surface on a node plane or
+ * half-way between), trilinear weights; Nairn's ContactPosition cutoff for uGIMP and 2 points a cell is 0.8. */
+static int surfaces_meet(const struct mpm_solver *s, size_t Ia, size_t Ib, const double n[3])
+{
+    const struct mpm_grid *g = &s->grid;
+    const double *xa = g->moment + 3 * Ia, *xb = g->moment + 3 * Ib;
+    double separation = 0.0;
+    for (int d = 0; d < 3; d++)
+        separation += (xb[d] / g->mass[Ib] - xa[d] / g->mass[Ia]) * n[d];
+    return separation <= s->cfg.contact_gap * g->h;
+}
+
+/* The one decision of contact_scheme = once, on the updated momenta: bonded while separating, in contact while
+ * approaching with the surfaces met. */
+static enum pair_state pair_decide_once(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *mom,
+                                        const double n[3])
+{
+    const struct mpm_grid *g = &s->grid;
+    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
+    double approach = 0.0; /* Eq. 3.29 divided by ma mb */
+    for (int d = 0; d < 3; d++)
+        approach += (pa[d] / g->mass[Ia] - pb[d] / g->mass[Ib]) * n[d];
+    if (approach <= 0.0)
+        return pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_FREE;
+    return surfaces_meet(s, Ia, Ib, n) ? PAIR_CONTACT : PAIR_FREE;
 }
 
 /* The impulse on body a (body b receives its opposite) that the contact rule gives for the momenta `mom`. */
@@ -117,16 +156,22 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
             double n[3], J[3];
             if (!(g->mass[Ib] > g->mass_cutoff) || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            enum pair_state state = pair_decide(s, Ia, Ib, end, n);
-            if (state == PAIR_FREE)
+            enum pair_state state = s->cfg.contact_scheme == MPM_CONTACT_ONCE ? pair_decide_once(s, Ia, Ib, end, n)
+                                                                              : pair_decide(s, Ia, Ib, end, n);
+            if (state == PAIR_FREE) {
+                if (s->cfg.contact_scheme == MPM_CONTACT_ONCE && surfaces_meet(s, Ia, Ib, n)) {
+                    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+                    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+                }
                 continue;
+            }
             pair_impulse(s, Ia, Ib, end, n, state, J);
             apply_impulse(end, Ia, Ib, J);
             if (start) {
                 pair_impulse(s, Ia, Ib, start, n, state, J);
                 apply_impulse(start, Ia, Ib, J);
             }
-            g->contact[Ia] = g->contact[Ib] = 1;
+            g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
             touched = 1;
             *bonded |= state == PAIR_BONDED;
         }
@@ -134,10 +179,10 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
     return touched;
 }
 
-/* contact_scheme = consistent, the MUSL re-projected momenta: the pairs in contact in this step's nodal update
- * (both bodies flagged) are projected again without a new approach test, so that the strain rate is that of
- * the motion the points made.  (With three or more bodies at a node, a pair whose bodies both touched a third
- * body there is projected too.) */
+/* contact_scheme = consistent or once, the MUSL re-projected momenta: the pairs in contact in this step's nodal
+ * update (both bodies flagged) are projected again without a new test, so that the strain rate is that of the
+ * motion the points made; once projects a pair as it was decided (bonded or in contact).  (With three or more bodies at
+ * a node, a pair whose bodies both touched a third body there is projected too.) */
 static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
 {
     const struct mpm_grid *g = &s->grid;
@@ -150,7 +195,12 @@ static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
             double n[3], J[3];
             if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            pair_impulse(s, Ia, Ib, mom, n, pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT, J);
+            if (g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+                continue; /* no impulse this step */
+            enum pair_state state = pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
+            if (s->cfg.contact_scheme == MPM_CONTACT_ONCE)
+                state = g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+            pair_impulse(s, Ia, Ib, mom, n, state, J);
             apply_impulse(mom, Ia, Ib, J);
         }
     }
@@ -170,6 +220,17 @@ static int below_wall(const struct mpm_solver *s, int k)
     return g->origin[2] + (double)k * g->h <= s->cfg.substrate_top + 1e-9 * g->h;
 }
 
+/* contact_scheme = once: whether body layer I's surface meets the wall at its node, the wall taken as a body
+ * whose nodal centre of mass lies as far below the wall as the body's lies above it at touching: the body's
+ * centre of mass at the node at most contact_gap / 2 cells above the wall (surfaces_meet). */
+static int wall_meets(const struct mpm_solver *s, size_t I)
+{
+    const struct mpm_grid *g = &s->grid;
+    if (!g->moments)
+        return 1;
+    return g->moment[3 * I + 2] / g->mass[I] - s->cfg.substrate_top <= 0.5 * s->cfg.contact_gap * g->h;
+}
+
 /* The nodal update's side of the wall: decide which layers of the node are held, and project. */
 static void rigid_wall_hold(struct mpm_solver *s, size_t node, int k)
 {
@@ -177,7 +238,7 @@ static void rigid_wall_hold(struct mpm_solver *s, size_t node, int k)
     int at_wall = below_wall(s, k);
     for (int l = 0; l < g->layers; l++) {
         size_t I = (size_t)l * g->nodes + node;
-        int held = at_wall && g->momentum_new[3 * I + 2] < 0.0;
+        int held = at_wall && g->momentum_new[3 * I + 2] < 0.0 && wall_meets(s, I);
         g->wall_held[I] = (uint8_t)held;
         if (held)
             g->momentum_new[3 * I + 2] = g->momentum[3 * I + 2] = 0.0;
@@ -243,7 +304,7 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
     long rows = (long)box_rows(&g->box);
     size_t length = box_row_length(&g->box);
     int64_t contacts = 0, bonds = 0;
-    double *start = s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT ? g->momentum : NULL;
+    double *start = s->cfg.contact_scheme != MPM_CONTACT_THESIS ? g->momentum : NULL;
 #pragma omp parallel for schedule(static) reduction(+ : contacts, bonds)
     for (long r = 0; r < rows; r++) {
         int k, bonded;
@@ -274,7 +335,7 @@ static void correct_node(struct mpm_solver *s, size_t node, int k, double *mom)
     int bonded;
     if (g->layers < 2 || bodies_at(g, node) < 2)
         return;
-    if (s->cfg.contact_scheme == MPM_CONTACT_CONSISTENT)
+    if (s->cfg.contact_scheme != MPM_CONTACT_THESIS)
         reproject_node(s, node, mom);
     else
         resolve_node(s, node, NULL, mom, &bonded);

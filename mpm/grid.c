@@ -70,7 +70,7 @@ int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, dou
 
 /* What alloc_layers allocates for one node of one body's layer. */
 #define GRID_BYTES_PER_NODE_LAYER                                                                                      \
-    (sizeof *((struct mpm_grid *)0)->mass + 15 * sizeof *((struct mpm_grid *)0)->momentum +                            \
+    (sizeof *((struct mpm_grid *)0)->mass + 18 * sizeof *((struct mpm_grid *)0)->momentum +                            \
      sizeof *((struct mpm_grid *)0)->bond_sum + sizeof *((struct mpm_grid *)0)->bond_weight +                          \
      sizeof *((struct mpm_grid *)0)->contact + sizeof *((struct mpm_grid *)0)->wall_held)
 
@@ -83,13 +83,14 @@ static int alloc_layers(struct mpm_grid *g)
     g->momentum_new = mpm_calloc_lines(3 * n + 1, sizeof *g->momentum_new);
     g->force = mpm_calloc_lines(3 * n, sizeof *g->force);
     g->gradient = mpm_calloc_lines(3 * n, sizeof *g->gradient);
+    g->moment = mpm_calloc_lines(3 * n, sizeof *g->moment);
     g->velocity = mpm_calloc_lines(3 * n + 1, sizeof *g->velocity);
     g->bond_sum = mpm_calloc_lines(n, sizeof *g->bond_sum);
     g->bond_weight = mpm_calloc_lines(n, sizeof *g->bond_weight);
     g->contact = mpm_calloc_lines(n, sizeof *g->contact);
     g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
-    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->velocity || !g->bond_sum ||
-        !g->bond_weight || !g->contact || !g->wall_held)
+    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->moment || !g->velocity ||
+        !g->bond_sum || !g->bond_weight || !g->contact || !g->wall_held)
         SC_FAIL_OOM(n * GRID_BYTES_PER_NODE_LAYER + 3 * sizeof *g->momentum, "the grid (nodes x bodies)");
     return SC_OK;
 }
@@ -209,6 +210,7 @@ int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, st
         g->box.lo[d] = g->held.lo[d] = 0;
         g->box.hi[d] = g->held.hi[d] = g->n[d] - 1;
     }
+    g->moments = cfg->contact_scheme == MPM_CONTACT_ONCE && (g->layers > 1 || cfg->substrate == MPM_SUBSTRATE_RIGID);
     SC_TRY(alloc_layers(g));
     SC_TRY(alloc_blocks(g, p->count, cfg->spacing));
     return SC_OK;
@@ -221,6 +223,7 @@ void mpm_grid_free(struct mpm_grid *g)
     free(g->momentum_new);
     free(g->force);
     free(g->gradient);
+    free(g->moment);
     free(g->velocity);
     free(g->bond_sum);
     free(g->bond_weight);
@@ -379,8 +382,10 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
     const double *v = p->v + 3 * q;
     point_force_terms(s, q, sig, fext);
     double sxx = sig[0], syy = sig[1], szz = sig[2], syz = sig[3], sxz = sig[4], sxy = sig[5];
-    int surface = (p->flags[q] & POINT_SURFACE) != 0;
+    int surface = (p->flags[q] & POINT_SURFACE) != 0, moments = g->moments;
     double dbond = p->d_bond[q];
+    const double *x = p->x + 3 * q;
+    vec3pad mx = {m * x[0], m * x[1], m * x[2], 0.0};
     /* m v_i N is evaluated (m v_i) N: the products hoisted give the same bits, and the stores below may alias v.
      * Vectors x, y, z in lanes (mpm_impl.h) with each lane's operations those of the scalar code: the force's
      * row i is -V (col0_i dN_0 + col1_i dN_1 + col2_i dN_2) + N fext_i, summed left to right. */
@@ -406,6 +411,10 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
                 node_add(g->momentum, I, &momentum);
                 node_add(g->force, I, &force);
                 node_add(g->gradient, I, &gradient);
+                if (moments) {
+                    vec3pad moment = mx * N;
+                    node_add(g->moment, I, &moment);
+                }
                 if (surface) {
                     g->bond_sum[I] += dbond * N;
                     g->bond_weight[I] += N;
@@ -486,7 +495,7 @@ static void prefetch_point(const struct mpm_solver *s, size_t q)
 
 /* The sums of the fields particle-to-grid adds to, lane n for node n of the stencil. */
 struct stencil_sums {
-    lanes8 mass, momentum[3], force[3], gradient[3], bond_sum, bond_weight;
+    lanes8 mass, momentum[3], force[3], gradient[3], moment[3], bond_sum, bond_weight;
 };
 
 /* Lane shuffles of two 8-lane vectors, indices 8-15 picking from the second (gcc's and clang's builtins). */
@@ -544,6 +553,9 @@ static inline void sums_load(const struct mpm_grid *g, const size_t pair[4], int
     lanes_load3(sum->force, g->force, pair);
     lanes_load3(sum->gradient, g->gradient, pair);
     lanes8 zero = {0};
+    sum->moment[0] = sum->moment[1] = sum->moment[2] = zero;
+    if (g->moments)
+        lanes_load3(sum->moment, g->moment, pair);
     sum->bond_sum = sum->bond_weight = zero;
     if (bonds) {
         lanes_load(&sum->bond_sum, g->bond_sum, pair);
@@ -557,6 +569,8 @@ static inline void sums_store(struct mpm_grid *g, const size_t pair[4], int bond
     lanes_store3(g->momentum, pair, sum->momentum);
     lanes_store3(g->force, pair, sum->force);
     lanes_store3(g->gradient, pair, sum->gradient);
+    if (g->moments)
+        lanes_store3(g->moment, pair, sum->moment);
     if (bonds) {
         lanes_store(g->bond_sum, pair, &sum->bond_sum);
         lanes_store(g->bond_weight, pair, &sum->bond_weight);
@@ -586,6 +600,9 @@ static inline void run_point_add(const struct mpm_solver *s, size_t q, struct st
     sum->gradient[0] += V * dN0;
     sum->gradient[1] += V * dN1;
     sum->gradient[2] += V * dN2;
+    if (g->moments)
+        for (int i = 0; i < 3; i++)
+            sum->moment[i] += m * p->x[3 * q + i] * N;
     /* row i: -V (col0_i dN_0 + col1_i dN_1 + col2_i dN_2) + N fext_i, the columns of scatter_all_width */
     sum->force[0] += -V * ((sxx * dN0 + sxy * dN1) + sxz * dN2) + N * fext[0];
     sum->force[1] += -V * ((sxy * dN0 + syy * dN1) + syz * dN2) + N * fext[1];
@@ -750,6 +767,8 @@ void mpm_grid_transfer_all(struct mpm_solver *s)
         clear_box(g, held, g->momentum, 3 * sizeof *g->momentum);
         clear_box(g, held, g->force, 3 * sizeof *g->force);
         clear_box(g, held, g->gradient, 3 * sizeof *g->gradient);
+        if (g->moments)
+            clear_box(g, held, g->moment, 3 * sizeof *g->moment);
         clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
         clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
         clear_box(g, held, g->contact, sizeof *g->contact);

@@ -27,9 +27,11 @@ enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
 enum mpm_substrate { MPM_SUBSTRATE_CYLINDER, MPM_SUBSTRATE_BOX, MPM_SUBSTRATE_RIGID };
 enum mpm_shape_function { MPM_LINEAR, MPM_UGIMP };
 enum mpm_contact_law { MPM_CONTACT_STICK, MPM_CONTACT_FRICTIONLESS, MPM_CONTACT_FRICTION };
-/* thesis: contact decided and projected on the updated momenta, and again on the MUSL re-projected ones;
- * consistent: one decision per node and step, projected on the start, updated and re-projected momenta */
-enum mpm_contact_scheme { MPM_CONTACT_THESIS, MPM_CONTACT_CONSISTENT };
+/* once: one decision per node and step (approach, surfaces met, bonds only while separating), projected on the
+ * updated and re-projected momenta; thesis: contact decided and projected on the updated momenta, and again on
+ * the MUSL re-projected ones; consistent: one decision (approach) per node and step, projected on the start,
+ * updated and re-projected momenta */
+enum mpm_contact_scheme { MPM_CONTACT_THESIS, MPM_CONTACT_CONSISTENT, MPM_CONTACT_ONCE };
 enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
 
 /* A body: its points fill the shape on a lattice of spacing dp.  center is the centre of the sphere, of the
@@ -64,6 +66,8 @@ struct mpm_config {
     enum mpm_shape_function shape_function;
     enum mpm_contact_law contact;
     enum mpm_contact_scheme contact_scheme;
+    double contact_gap; /* contact_scheme = once: largest separation of touching bodies' nodal centres, cells */
+    double flip;        /* FLIP share of the points' new velocity, the rest PIC (Eq. 3.32 is flip = 1) */
     double friction;
     enum mpm_bonding bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c;

@@ -87,6 +87,11 @@ struct mpm_grid {
     int layers;
     double mass_cutoff;                                        /* nodes lighter than this carry no velocity */
     double *mass, *momentum, *momentum_new, *force, *gradient; /* per layer; vectors 3 per node */
+    /* per layer, 3 per node: sum_p m_p N_Ip x_p, the first mass moment, whose quotient by the mass is the body's
+     * centre of mass seen from the node (the contact gap test, contact.c); filled only where `moments` (several
+     * layers or the rigid wall, with contact_scheme = once) */
+    double *moment;
+    int moments;
     double *velocity;               /* per layer, 3 per node: momentum_new / mass after the re-projection */
     double *bond_sum, *bond_weight; /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;               /* per layer: 1 where a contact or bond force acted this step */

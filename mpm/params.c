@@ -43,10 +43,16 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
      "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},
     {"impact", "friction", CFG_REAL, "-", "0.2", 0, 10, 0, NULL, "Coulomb coefficient, contact = friction"},
-    {"impact", "contact_scheme", CFG_CHOICE, "", "thesis", 0, 0, 0, "thesis|consistent",
-     "thesis: the contact of the updated and of the re-projected momenta decided apart (calibrated; dissipates "
-     "energy); consistent: one decision per node and step for the start, updated and re-projected momenta "
-     "(conserves energy; docs/physics.md, \"The impact stage\")"},
+    {"impact", "contact_scheme", CFG_CHOICE, "", "once", 0, 0, 0, "once|thesis|consistent",
+     "once: one decision per node and step (approach and surfaces within contact_gap; bonds only while "
+     "separating) for the start, updated and re-projected momenta; thesis: the contact of the updated and of the "
+     "re-projected momenta decided apart (dissipates energy); consistent: once without the gap test, bonded "
+     "nodes sticking also while approaching (docs/physics.md, \"Contact\")"},
+    {"impact", "contact_gap", CFG_REAL, "cells", "0.8", 0, 2, 0, NULL,
+     "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this far "
+     "apart along the normal (Nairn's position-based detection; 0.75-0.86 for touching surfaces, 2 points a cell)"},
+    {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
+     "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
      "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none"},
     {"impact", "Gc", CFG_REAL, "J/m2", "1500", 0, 1e9, 1, NULL,
@@ -252,8 +258,11 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->contact = case_is(c, "impact", "contact", "stick")      ? MPM_CONTACT_STICK
                    : case_is(c, "impact", "contact", "friction") ? MPM_CONTACT_FRICTION
                                                                  : MPM_CONTACT_FRICTIONLESS;
-    cfg->contact_scheme =
-        case_is(c, "impact", "contact_scheme", "consistent") ? MPM_CONTACT_CONSISTENT : MPM_CONTACT_THESIS;
+    cfg->contact_scheme = case_is(c, "impact", "contact_scheme", "consistent") ? MPM_CONTACT_CONSISTENT
+                          : case_is(c, "impact", "contact_scheme", "thesis")   ? MPM_CONTACT_THESIS
+                                                                               : MPM_CONTACT_ONCE;
+    cfg->contact_gap = case_real(c, "impact", "contact_gap");
+    cfg->flip = case_real(c, "impact", "flip");
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN
                    : case_is(c, "impact", "bonding", "none") ? MPM_BONDING_NONE

@@ -200,6 +200,19 @@ static void choose_time_step(struct mpm_solver *s)
         s->dt = s->cfg.t_end - s->t;
 }
 
+/* Step 7 for one point from its grid sums: the position moves with the new grid velocity vnew; the velocity takes
+ * the grid's velocity change dv (FLIP, Eq. 3.32), or with flip < 1 that share of it and the rest of vnew (PIC),
+ * which damps the points' velocity noise the grid does not see (docs/physics.md, "Transfers"). */
+static inline void point_velocity_position(const struct mpm_solver *s, double *v, const double *x, double *xn,
+                                           const vec3pad *dv, const vec3pad *vnew)
+{
+    double flip = s->cfg.flip;
+    for (int d = 0; d < 3; d++) {
+        v[d] = flip == 1.0 ? v[d] + (*dv)[d] : flip * (v[d] + (*dv)[d]) + (1.0 - flip) * (*vnew)[d];
+        xn[d] = x[d] + s->dt * (*vnew)[d];
+    }
+}
+
 /* Step 7, Eq. 3.32, for one point with its stencil. */
 STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
 {
@@ -226,10 +239,7 @@ STENCIL_INLINE void point_from_grid_width(struct mpm_solver *s, size_t q, const 
                 dv += w * (momentum_new - momentum);
                 vnew += w * momentum_new;
             }
-    for (int d = 0; d < 3; d++) {
-        v[d] += dv[d];
-        xn[d] = x[d] + s->dt * vnew[d];
-    }
+    point_velocity_position(s, v, x, xn, &dv, &vnew);
 }
 
 /* The 8 nodes of a run of trilinear stencils (mpm_impl.h) as grid-to-points reads them: the masses in lanes,
@@ -272,10 +282,7 @@ static inline void run_point_from_grid(struct mpm_solver *s, size_t q, const str
             dv += w[n] * r->change[n];
             vnew += w[n] * r->momentum_new[n];
         }
-    for (int d = 0; d < 3; d++) {
-        v[d] += dv[d];
-        xn[d] = x[d] + s->dt * vnew[d];
-    }
+    point_velocity_position(s, v, x, xn, &dv, &vnew);
 }
 
 /* Step 7 for the points q .. end - 1; trilinear stencils in runs of consecutive active points with the same key
@@ -375,7 +382,7 @@ static void nodal_velocities(struct mpm_solver *s)
             int heavy = g->mass[I] > g->mass_cutoff;
             for (int d = 0; d < 3; d++)
                 g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
-            g->contact[I] &= (uint8_t)heavy;
+            g->contact[I] = heavy ? g->contact[I] : 0; /* the pair state of contact.c, kept where heavy */
         }
     }
 }
