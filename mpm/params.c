@@ -43,7 +43,7 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
      "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},
     {"impact", "friction", CFG_REAL, "-", "0.2", 0, 10, 0, NULL, "Coulomb coefficient, contact = friction"},
-    {"impact", "contact_scheme", CFG_CHOICE, "", "once", 0, 0, 0, "once|thesis|consistent",
+    {"impact", "contact_scheme", CFG_CHOICE, "", "thesis", 0, 0, 0, "thesis|once|consistent",
      "once: one decision per node and step (approach and surfaces within contact_gap; bonds only while "
      "separating) for the start, updated and re-projected momenta; thesis: the contact of the updated and of the "
      "re-projected momenta decided apart (dissipates energy); consistent: once without the gap test, bonded "

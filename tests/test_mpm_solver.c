@@ -48,9 +48,10 @@ static double mean_vz(const struct mpm_solver *s, int body, double radius, doubl
 static void test_wave_speed(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = nu0\ngrid = 1e-3\nspacing = 0.5e-3\n"
-                      "t_end = 30e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
-                      "bulk_viscosity_quadratic = 0\nbox_margin = 2e-3\n" NU0_MATERIAL;
+    const char *ini =
+        "[impact]\nstop_when_settled = no\nsubstrate = rigid\nmaterial = nu0\ngrid = 1e-3\nspacing = 0.5e-3\n"
+        "t_end = 30e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
+        "bulk_viscosity_quadratic = 0\nbox_margin = 2e-3\n" NU0_MATERIAL;
     /* 4 mm wide, 40 mm tall, moving down at 1 m/s, touching the wall */
     if (impact_fixture_open(&f, ini, "box,0,0,0.02,0,0,-1,0.004,0.04,nu0\n") != SC_OK) {
         CHECK(0, "set-up");
@@ -80,9 +81,10 @@ static void test_wave_speed(void)
 static void test_bar_vibration_period(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = nu0\ngrid = 1e-3\nspacing = 0.5e-3\n"
-                      "t_end = 80e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
-                      "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" NU0_MATERIAL;
+    const char *ini =
+        "[impact]\nstop_when_settled = no\nsubstrate = rigid\nmaterial = nu0\ngrid = 1e-3\nspacing = 0.5e-3\n"
+        "t_end = 80e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
+        "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" NU0_MATERIAL;
     const double L = 0.04, v0 = 0.5;
     /* a 4 mm thick, 40 mm long cylinder along z, well above the rigid wall */
     const double zc = 0.04;
@@ -139,7 +141,7 @@ static void two_spheres(const char *law)
     struct impact_fixture f;
     char ini[1024];
     snprintf(ini, sizeof ini,
-             "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
+             "[impact]\nstop_when_settled = no\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
              "t_end = 70e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\nbulk_viscosity_quadratic = 0\n"
              "box_margin = 3e-3\ncontact = %s\ncontact_scheme = consistent\n" ELASTIC_MATERIAL,
              law);
@@ -191,9 +193,10 @@ static void two_spheres(const char *law)
 static void test_sphere_on_rigid_wall(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
-                      "t_end = 70e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
-                      "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
+    const char *ini =
+        "[impact]\nstop_when_settled = no\nsubstrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\n"
+        "t_end = 70e-6\ncfl = 0.2\nbonding = none\nbulk_viscosity_linear = 0\n"
+        "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
     if (impact_fixture_open(&f, ini, "sphere,0,0,0.0055,0,0,-50,0.008,0,elastic\n") != SC_OK) {
         CHECK(0, "set-up");
         return;
@@ -237,9 +240,10 @@ static void test_two_spheres_stick(void)
 static void test_contact_normals(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nsubstrate = box\nsubstrate_diameter = 30e-6\nsubstrate_height = 10e-6\n"
-                      "grid = 1e-6\nspacing = 0.5e-6\ndiameter = 14e-6\nvelocity = 0\nt_end = 1e-9\n"
-                      "[material.aluminium]\n";
+    const char *ini =
+        "[impact]\nstop_when_settled = no\nsubstrate = box\nsubstrate_diameter = 30e-6\nsubstrate_height = 10e-6\n"
+        "grid = 1e-6\nspacing = 0.5e-6\ndiameter = 14e-6\nvelocity = 0\nt_end = 1e-9\n"
+        "[material.aluminium]\n";
     if (impact_fixture_open(&f, ini, NULL) != SC_OK) {
         CHECK(0, "set-up");
         return;
@@ -281,7 +285,8 @@ static double active_mass(const struct mpm_solver *s)
 static void test_points_leaving_the_box(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nsubstrate = rigid\ngrid = 2e-6\nspacing = 1e-6\nt_end = 40e-9\nbox_margin = 2e-6\n"
+    const char *ini = "[impact]\nstop_when_settled = no\nsubstrate = rigid\ngrid = 2e-6\nspacing = 1e-6\nt_end = "
+                      "40e-9\nbox_margin = 2e-6\n"
                       "[material.aluminium]\n";
     if (impact_fixture_open(&f, ini, "sphere,0,0,10e-6,500,0,0,10e-6,0,aluminium\n") != SC_OK) {
         CHECK(0, "set-up");
@@ -323,7 +328,8 @@ static void overlap_case(int plant, char **rows_out)
 
 static void test_overlap_many_bodies(void)
 {
-    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 2e-6\nspacing = 1e-6\nt_end = 1e-9\n"
+    const char *ini = "[impact]\nstop_when_settled = no\nsubstrate = rigid\nmaterial = elastic\ngrid = 2e-6\nspacing = "
+                      "1e-6\nt_end = 1e-9\n"
                       "bonding = none\nbox_margin = 2e-6\n" ELASTIC_MATERIAL;
     char *rows;
     overlap_case(0, &rows);
@@ -381,7 +387,8 @@ static int run_small_impact(int threads, const char *shape_functions, struct imp
 {
     char ini[512];
     snprintf(ini, sizeof ini,
-             "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
+             "[impact]\nstop_when_settled = no\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = "
+             "20e-6\n"
              "substrate_height = 6e-6\nvelocity = 850\nt_end = 8e-9\nshape_functions = %s\n[material.aluminium]\n",
              shape_functions);
     omp_set_num_threads(threads);
@@ -430,7 +437,8 @@ static int bonding_run(const char *bonding, struct impact_fixture *f, int *monot
 {
     char ini[512];
     snprintf(ini, sizeof ini,
-             "[impact]\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\n"
+             "[impact]\nstop_when_settled = no\ngrid = 2e-6\nspacing = 0.67e-6\ndiameter = 10e-6\nsubstrate_diameter = "
+             "20e-6\n"
              "substrate_height = 6e-6\nvelocity = 900\nt_end = 6e-9\n%s\n[material.aluminium]\n",
              bonding);
     if (impact_fixture_open(f, ini, NULL) != SC_OK)
