@@ -48,8 +48,8 @@ const struct cfg_key mpm_case_keys[] = {
      "separating) for the start, updated and re-projected momenta; thesis: the contact of the updated and of the "
      "re-projected momenta decided apart (dissipates energy); consistent: once without the gap test, bonded "
      "nodes sticking also while approaching (docs/physics.md, \"Contact\")"},
-    {"impact", "contact_gap", CFG_REAL, "cells", "0.8", 0, 2, 0, NULL,
-     "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this far "
+    {"impact", "contact_gap", CFG_REAL, "-", "0.8", 0, 2, 0, NULL,
+     "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this many cells "
      "apart along the normal (Nairn's position-based detection; 0.75-0.86 for touching surfaces, 2 points a cell)"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
