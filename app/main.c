@@ -1,4 +1,5 @@
 /* The spraycoat command line (README "The commands"; docs/architecture.md).  Only this file prints errors and exits. */
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -455,8 +456,10 @@ static int command_resume(const struct options *opt)
  * libgomp reads OMP_WAIT_POLICY (and GOMP_SPINCOUNT) once, when it is loaded, before main.  Unset, a thread that
  * waits at a barrier spins 300,000 times before it sleeps: on a machine whose cores are busy with other work, the
  * spinning threads take the time the working ones need (2 threads on a loaded 2-core machine ran 4x slower than
- * with a passive wait; docs/performance.md).  So a command that computes runs itself again, once, with
- * OMP_WAIT_POLICY=passive when the user has not set the variable; a value the user set is kept as it is. */
+ * with a passive wait; docs/performance.md).  On an idle machine the passive wait costs instead: a thread that
+ * sleeps at every barrier is woken late, and the spray's short loops ran 2.6x slower.  So a command that computes
+ * runs itself again, once, with OMP_WAIT_POLICY=passive when the user has not set the variable and the machine is
+ * busy when it starts; a value the user set is kept as it is. */
 #define REEXEC_MARK "SPRAYCOAT_PASSIVE_WAIT" /* set in the environment of the run again: not twice */
 
 /* The command of argv (its first word that is not an option or an option's value), NULL if none. */
@@ -490,10 +493,24 @@ static int under_valgrind(void)
     return preload && strstr(preload, "vgpreload") != NULL;
 }
 
+/* Busy: other work already keeps the cores running, the 1-minute load average at least the online cores less one
+ * half (a 2-core machine with nothing else to do shows about 1 here).  Unknown counts as busy, the safe choice. */
+static int machine_busy(double *load, long *cores)
+{
+    *load = NAN;
+    *cores = sysconf(_SC_NPROCESSORS_ONLN);
+    if (getloadavg(load, 1) != 1 || *cores < 1)
+        return 1;
+    return *load >= (double)*cores - 0.5;
+}
+
 static void prefer_passive_wait(int argc, char **argv)
 {
     const char *policy = getenv("OMP_WAIT_POLICY");
-    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)) || under_valgrind())
+    double load;
+    long cores;
+    if ((policy && *policy) || getenv(REEXEC_MARK) || !computes(command_word(argc, argv)) || under_valgrind() ||
+        !machine_busy(&load, &cores))
         return;
     if (setenv("OMP_WAIT_POLICY", "passive", 1) == 0 && setenv(REEXEC_MARK, "1", 1) == 0)
         execv("/proc/self/exe", argv);
@@ -503,19 +520,26 @@ static void prefer_passive_wait(int argc, char **argv)
 }
 
 /* The wait policy of this process (or, for --version, that of the commands that compute). */
-static void describe_wait_policy(char *out, size_t size)
+static void describe_wait_policy(char *out, size_t size, int computing)
 {
     const char *policy = getenv("OMP_WAIT_POLICY");
     if (policy && !*policy)
         policy = NULL; /* libgomp takes an empty value as unset */
+    double load;
+    long cores;
+    int busy = machine_busy(&load, &cores);
     if (policy && getenv(REEXEC_MARK))
-        snprintf(out, size, "%s (set by spraycoat: OMP_WAIT_POLICY was unset)", policy);
+        snprintf(out, size, "%s (set by spraycoat: OMP_WAIT_POLICY was unset and the machine busy)", policy);
     else if (policy)
         snprintf(out, size, "%.64s (OMP_WAIT_POLICY of the environment)", policy);
+    else if (computing)
+        snprintf(out, size, "libgomp's default, spin then sleep (the machine was idle: load %.2f on %ld cores)", load,
+                 cores);
     else
         snprintf(out, size,
-                 "passive for the commands that compute (spraycoat sets OMP_WAIT_POLICY=passive "
-                 "unless it is set)");
+                 "passive for the commands that compute when the machine is busy (load average >= cores - 0.5; "
+                 "now %.2f on %ld cores: %s), else libgomp's default; OMP_WAIT_POLICY overrides",
+                 load, cores, busy ? "busy" : "idle");
 }
 
 static int dispatch(const struct options *opt)
@@ -567,8 +591,8 @@ static void print_version(void)
         if (strcmp(item->name, "version") != 0)
             printf("  %-12s %s\n", strcmp(item->name, "program_version") == 0 ? "git" : item->name, item->value);
     printf("  %-12s %s\n", "udunits2", units_database_path());
-    char policy[160];
-    describe_wait_policy(policy, sizeof policy);
+    char policy[256];
+    describe_wait_policy(policy, sizeof policy, 0);
     printf("  %-12s %s\n", "omp_wait", policy);
 }
 
@@ -608,8 +632,8 @@ int main(int argc, char **argv)
     struct options opt = {0};
     int status = parse_arguments(argc, argv, &opt);
     if (status == SC_OK && computes(opt.command)) {
-        char policy[160];
-        describe_wait_policy(policy, sizeof policy);
+        char policy[256];
+        describe_wait_policy(policy, sizeof policy, 1);
         log_debug("OpenMP wait policy: %s", policy);
     }
     if (status != SC_OK)
