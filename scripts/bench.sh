@@ -6,6 +6,10 @@
 # Particle-steps are the flying particles advanced, summed over steps (spray.h5:/stats particle_steps).
 # First the machine's own 1 -> 2 thread scaling (tests/bench/machine_ceiling.c), measured in the same minutes.
 set -eu
+# One OpenMP wait policy for every figure: spraycoat picks passive when the machine is busy at the start of a
+# command (docs/performance.md), so without this the figures would depend on the load a moment before each run.
+# Active is the idle machine's choice (within the noise of libgomp's default there); a value you set is kept.
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-active}"
 build=${1:-build}
 bin="$build/spraycoat"
 work=$(mktemp -d)

@@ -11,7 +11,8 @@ trap 'rm -rf "$work"' EXIT
 # shellcheck disable=SC2046 # pkg-config prints several words
 cc -std=c17 -O2 -I. $(pkg-config --cflags hdf5-serial osmesa cairo) -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L \
     tests/bench/render_bench.c "$build/libspraycoat.a" $(pkg-config --libs hdf5-serial inih osmesa cairo) \
-    -lsundials_cvode -lsundials_nvecserial -lsundials_sunlinsoldense -lsundials_sunmatrixdense -lm -fopenmp \
+    -lsundials_cvode -lsundials_nvecserial -lsundials_sunlinsoldense -lsundials_sunmatrixdense -ludunits2 -ldl -lm \
+    -fopenmp \
     -o "$work/render_bench"
 
 echo "render: 1920 x 1080 px, LP_NUM_THREADS=${LP_NUM_THREADS:-default} (llvmpipe threads)"
