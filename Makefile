@@ -58,8 +58,9 @@ test-deps:
 # (Patterns: they hold for the objects of every instruction-set level below too.)
 INTEGRATE_CFLAGS     := -O3 -fno-tree-loop-distribute-patterns -fno-math-errno
 STRESS_UPDATE_CFLAGS := -O3
-$(BUILD)/dem/integrate%.o: private CFLAGS += $(INTEGRATE_CFLAGS)
-$(BUILD)/mpm/stress_update%.o: private CFLAGS += $(STRESS_UPDATE_CFLAGS)
+# (the single build's integrate.o, and the per-level integrate.vN.raw.o: a pattern's % never matches nothing)
+$(BUILD)/dem/integrate.o $(BUILD)/dem/integrate%.o: private CFLAGS += $(INTEGRATE_CFLAGS)
+$(BUILD)/mpm/stress_update.o $(BUILD)/mpm/stress_update%.o: private CFLAGS += $(STRESS_UPDATE_CFLAGS)
 $(BUILD)/tests/test_fastmath.o: CFLAGS += -O3
 
 # One build, fast on every x86-64 (docs/performance.md, "One build for every x86-64"): the hot kernels, the

@@ -90,7 +90,7 @@ machine="$machine, $(. /etc/os-release 2>/dev/null && echo "$PRETTY_NAME"), $("$
 isa=$("$bin" --version | sed -n 's/^ *isa *//p')
 echo "| machine | commit | command | kernels' instruction set | load average at the start |"
 echo "| --- | --- | --- | --- | --- |"
-echo "| $machine | $("$bin" --version | head -n 1 | cut -d' ' -f2) | \`${BENCH_COMMAND:-scripts/bench.sh $build}\` (BENCH_REPEAT=${BENCH_REPEAT:-3}) | ${isa:-unknown} | $(cut -d' ' -f1-3 /proc/loadavg) |"
+echo "| $machine | $("$bin" --version | sed -n 's/^ *git *//p') | \`${BENCH_COMMAND:-scripts/bench.sh $build}\` (BENCH_REPEAT=${BENCH_REPEAT:-3}) | ${isa:-unknown} | $(cut -d' ' -f1-3 /proc/loadavg) |"
 echo
 echo "What 2 threads can gain over 1 on this machine, now (tests/bench/machine_ceiling.c): arithmetic in registers,"
 echo "and the STREAM triad through memory, which bounds the scaling of a step that streams its arrays:"
