@@ -450,20 +450,23 @@ void info_headline(const char *run_dir, FILE *out)
     hid_t summary;
     if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
         double fraction = NAN, pbcp = NAN, v_rest = NAN;
-        int64_t bodies = 0, runs = 0;
+        int64_t bodies = 0, runs = 0, unsettled = -1;
         if (h5_exists(file, "summary") && (summary = H5Gopen2(file, "summary", H5P_DEFAULT)) >= 0) {
             h5_attr_read_double(summary, "bonded_fraction", &fraction);
             h5_attr_read_double(summary, "mean_pbcp", &pbcp);
             h5_attr_read_double(summary, "mean_v_rest", &v_rest);
             h5_attr_read_int64(summary, "bodies", &bodies);
             h5_attr_read_int64(summary, "runs", &runs);
+            h5_attr_read_int64(summary, "unsettled", &unsettled);
             H5Gclose(summary);
         }
-        if (runs > 0)
-            fprintf(
-                out,
-                "impact: %.0f %% of %lld bodies bonded over %lld MPM runs; mean PBCP %.1f %%, mean v_rest %.3g m/s\n",
-                100.0 * fraction, (long long)bodies, (long long)runs, 100.0 * pbcp, v_rest);
+        if (runs > 0) {
+            fprintf(out, "impact: %.0f %% of %lld bodies bonded over %lld MPM runs", 100.0 * fraction,
+                    (long long)bodies, (long long)runs);
+            if (unsettled >= 0) /* a verdict still changing at t_end is neither bonded nor rebounded */
+                fprintf(out, ", %lld unsettled", (long long)unsettled);
+            fprintf(out, "; mean PBCP %.1f %%, mean v_rest %.3g m/s\n", 100.0 * pbcp, v_rest);
+        }
         H5Fclose(file);
     }
     snprintf(path, sizeof path, "%s/report.html", run_dir);
