@@ -754,11 +754,11 @@ static void list_flying(const uint8_t *state, size_t first, size_t end, uint32_t
 }
 
 /* s->moving: the flying particles, in index order.  The list of the last step still holds when no particle
- * was injected, deposited or removed since (the particles and their states are as then). */
+ * was injected, deposited, brought to rest or removed since (the particles and their states are as then). */
 static void list_moving(struct dem_solver *s)
 {
     const struct dem_particles *p = &s->p;
-    if (s->moving && p->count == s->listed_count && s->deposited == s->deposited_at_listing &&
+    if (s->moving && p->count == s->listed_count && dem_stopped_count(s) == s->stopped_at_listing &&
         s->escaped == s->escaped_at_listing)
         return;
     if (p->count > s->moving_capacity) {
@@ -785,7 +785,7 @@ static void list_moving(struct dem_solver *s)
         total += flyers[k];
     s->moving_count = total;
     s->listed_count = count;
-    s->deposited_at_listing = s->deposited;
+    s->stopped_at_listing = dem_stopped_count(s);
     s->escaped_at_listing = s->escaped;
 }
 

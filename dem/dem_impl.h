@@ -160,10 +160,12 @@ struct dem_solver {
      * integration and the boundaries of the step use them): the per-step passes need not visit deposits. */
     uint32_t *moving;
     size_t moving_count, moving_capacity;
-    /* the particle count and the deposits and escapes counted when moving was listed: the same deposits at the
-     * integration, none landed in the step's contacts; all the same at the next step, the same list */
+    /* the particle count, the stopped particles (deposited or resting) and the escapes counted when moving was
+     * listed: the same stopped count at the integration, none stopped in the step's contacts; all the same at
+     * the next step, the same list.  A particle that comes to rest counts like one that sticks: left in the
+     * list, it would be integrated (drag gives it a velocity and moves it) while it is meant to lie still. */
     size_t listed_count;
-    int64_t deposited_at_listing, escaped_at_listing;
+    int64_t stopped_at_listing, escaped_at_listing;
     /* The moving particles that the step's boundaries concern (dem_at_boundary), in index order: found by
      * dem_integrate as each particle finishes the step, handled by the step's end (dem/solver.c). */
     uint32_t *at_boundary;
@@ -192,6 +194,12 @@ struct dem_solver {
     struct dem_metrics *metrics;
     size_t metric_count, metric_capacity;
 };
+
+/* The particles that no longer move: deposited or resting. */
+static inline int64_t dem_stopped_count(const struct dem_solver *s)
+{
+    return s->deposited + s->resting;
+}
 
 /* Loops over fewer particles (or pairs) than this run on one thread: opening a parallel region costs more
  * than they do, and far more on a loaded machine, where the threads wait for each other at its end.  The

@@ -1047,7 +1047,7 @@ int dem_integrate_particles(const struct dem_config *cfg, struct dem_particles *
 static const uint32_t *flying_particles(const struct dem_solver *s, size_t *count, uint32_t **landed,
                                         size_t *landed_count, int *owned)
 {
-    *owned = s->deposited != s->deposited_at_listing;
+    *owned = dem_stopped_count(s) != s->stopped_at_listing;
     if (!*owned) {
         *count = s->moving_count;
         *landed = NULL;

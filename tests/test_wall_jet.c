@@ -293,9 +293,39 @@ static void test_resting(void)
     }
 }
 
+/* A resting particle lies still: in a gas that blows onto the target (uniform, 20 m/s along +z), the particle
+ * that came to rest at 0.5 m/s keeps the position where it rested and zero velocity for the 999 steps after,
+ * and nothing is put back on the target plane (clamps 0).  Formerly, while no particle stuck, escaped or was
+ * injected, the solver kept the step's list of moving particles, the resting one in it: the drag moved it into
+ * the target, and the end-of-step correction put it back, every step; a particle meeting it saw it move. */
+static void test_resting_stays_put(void)
+{
+    const char *rows = "0,0,0.2994999,0,0,0.5,0,0,0,0.001\n0.01,0,0.2994999,0,0,5,0,0,0,0.001\n";
+    const char *ini = "[spray]\ndt = 1e-6\nt_end = 1e-3\n[jet]\nmodel = uniform\nuniform_velocity = 20\n"
+                      "[contact]\nrestitution = 0.9\n[deposition]\nrule = none\n";
+    struct fixture f;
+    if (fixture_open(&f, ini, rows) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    CHECK(fixture_steps(&f, 1) == SC_OK, "first step");
+    struct dem_particle_view rested = dem_particle(f.solver, 0);
+    CHECK(rested.state == DEM_RESTING, "particle 0 rests after its first step (state %d)", rested.state);
+    CHECK(rested.v[0] == 0.0 && rested.v[1] == 0.0 && rested.v[2] == 0.0, "at rest: v = (%g, %g, %g) m/s", rested.v[0],
+          rested.v[1], rested.v[2]);
+    CHECK(fixture_steps(&f, 999) == SC_OK, "steps");
+    struct dem_particle_view later = dem_particle(f.solver, 0);
+    CHECK(memcmp(later.x, rested.x, sizeof later.x) == 0 && later.v[2] == 0.0,
+          "still where it rested 999 steps later: z moved by %g m, v_z %g m/s", later.x[2] - rested.x[2], later.v[2]);
+    CHECK(dem_get_counts(f.solver).clamps == 0, "no corrections (clamps %lld)",
+          (long long)dem_get_counts(f.solver).clamps);
+    fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_resting);
+    RUN(test_resting_stays_put);
     RUN(test_far_field_is_free_jet);
     RUN(test_continuous_and_still_at_wall);
     RUN(test_bounded);
