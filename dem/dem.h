@@ -17,9 +17,12 @@
 #include <stdint.h>
 
 #include "core/config.h"
+#include "dem/nozzle.h"
 
-#define DEM_FORMAT         "spraycoat-spray"
-#define DEM_FORMAT_VERSION 3 /* 3: impacts carry contact_index; resting particles (state 2) and their count */
+#define DEM_FORMAT "spraycoat-spray"
+#define DEM_FORMAT_VERSION                                                                                             \
+    4 /* 3: impacts carry contact_index; resting particles (state 2) and their count;                                  \
+       4: particles, impacts and hand-offs carry the temperature; /nozzle */
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
@@ -57,6 +60,9 @@ struct dem_gas_field {
     double wall_inverse_width;        /* 1/m, a_H = C3 / x_H^(2/3): the free jet's profile sech^2(a_H r) there */
     double inverse_stagnation_height; /* 1/m, 1/H (0 without a wall region) */
     double wall_outflow_scale;        /* m/s, U_H / (a_H^2 H): the wall jet's u_r = g' scale F(a_H r) / r */
+    double gas_temperature;           /* K */
+    double gas_gamma;
+    double gas_constant; /* J/(kg K) */
 };
 
 /* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the
@@ -129,6 +135,10 @@ struct dem_config {
     double alpha_adh, critical_velocity;
     size_t table_count; /* v_crit(d) table, diameters ascending */
     double *table_diameter, *table_velocity;
+    /* [powder] temperature and specific_heat; [nozzle] (nozzle.enabled 0 without the section) */
+    double powder_temperature;   /* K: the particles' temperature at release without [nozzle] */
+    double powder_specific_heat; /* J/(kg K) */
+    struct dem_nozzle nozzle;
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -148,6 +158,7 @@ struct dem_impact {
     int64_t outcome;       /* enum dem_outcome */
     int64_t partner;       /* -1 the target, else the deposited (or resting) particle's id */
     int64_t contact_index; /* the particle's contacts with the target or fixed particles before this one */
+    double temperature;    /* K: the particle's temperature (constant after the nozzle exit) */
 };
 
 /* One row per crossing of the hand-off plane z = standoff - handoff_height (spray.h5:/handoff). */
@@ -156,6 +167,7 @@ struct dem_handoff {
     int64_t particle_id;
     double x[3], v[3], w[3];
     double d;
+    double temperature; /* K: the particle's temperature (constant after the nozzle exit) */
 };
 
 /* Accounting and solver statistics. */
