@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "dem/nozzle.h"
 #include "tests/check.h"
+#include "tests/spray_fixture.h"
 
 /* Area ratios of M = 4 and M = 0.5 at gamma = 1.4, and M = 2 at gamma = 5/3, in closed form:
  * A/A* = (1/M) [(2/(g+1)) (1 + (g-1)/2 M^2)]^((g+1)/(2(g-1))): (1/4) 3.5^3, 2 (0.875)^3, (1/2) 1.75^2. */
@@ -139,6 +140,50 @@ static void test_shock_inside(void)
     CHECK(dem_nozzle_solve(&n, 10e-6, 50e-6) == SC_OK, "over-expanded is fine: %s", sc_error_message());
 }
 
+/* The spray stage with [nozzle]: every hand-off row carries the speed and temperature of the nozzle's table at its
+ * diameter (no gas drag after the exit: jet model none), and the jet's constants follow the exit state unless given
+ * in [jet]. */
+static const char *nozzle_case = "[run]\nseed = 3\n"
+                                 "[spray]\ndt = 1e-6\nt_end = 4e-5\nfeed_count = 5\nfeed_every = 5\n"
+                                 "max_injected = 20\nnozzle_radius = 0.00315\ndomain_radius = 0.02\n"
+                                 "handoff_height = 0.003\n"
+                                 "[powder]\ndistribution = weibull\nmedian_diameter = 30e-6\nshape = 4\n"
+                                 "d_min = 15e-6\nd_max = 45e-6\ndensity = 2700\nspecific_heat = 896\n"
+                                 "[target]\nstandoff = 0.01\n"
+                                 "[nozzle]\nstagnation_pressure = 6.55e6\nstagnation_temperature = 698.15\n"
+                                 "throat_diameter = 2e-3\nexit_diameter = 6.3e-3\nconvergent_length = 0.03\n"
+                                 "divergent_length = 0.14\n"
+                                 "[jet]\nmodel = none\nC1 = 123\n"
+                                 "[deposition]\nrule = none\n";
+
+static void test_spray_release(void)
+{
+    struct fixture f;
+    if (fixture_open(&f, nozzle_case, NULL) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    const struct dem_nozzle *n = &f.cfg.nozzle;
+    CHECK(n->enabled, "[nozzle] read");
+    CHECK_CLOSE(f.cfg.gas.core_length, 6.3e-3 * (4.2 + 1.1 * n->exit.mach * n->exit.mach), 1e-12, 0, "core length");
+    CHECK_CLOSE(f.cfg.gas.c1, 123.0, 0, 0, "C1 given in [jet] wins");
+    CHECK_CLOSE(f.cfg.gas.density, n->exit.density, 0, 0, "gas density of the exit");
+    CHECK_CLOSE(f.cfg.gas.gas_temperature, n->exit.temperature, 0, 0, "gas temperature of the exit");
+    fixture_steps(&f, 40);
+    size_t count;
+    const struct dem_handoff *h = dem_handoffs(f.solver, &count);
+    CHECK(count >= 15, "%zu hand-off rows", count);
+    for (size_t k = 0; k < count; k++) {
+        double speed, temperature;
+        dem_nozzle_lookup(n, h[k].d, &speed, &temperature);
+        CHECK_CLOSE(sqrt(h[k].v[0] * h[k].v[0] + h[k].v[1] * h[k].v[1] + h[k].v[2] * h[k].v[2]), speed, 1e-12, 0,
+                    "release speed of the table");
+        CHECK_CLOSE(h[k].temperature, temperature, 0, 0, "temperature of the table");
+        CHECK(temperature > 400 && temperature < 520, "heated in the nozzle: %g K", temperature);
+    }
+    fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_area_mach);
@@ -146,5 +191,6 @@ int main(void)
     RUN(test_drag_limits);
     RUN(test_particle_against_rk4);
     RUN(test_shock_inside);
+    RUN(test_spray_release);
     return check_finish();
 }
