@@ -26,8 +26,8 @@ static double release_state(const struct dem_config *cfg, double d, double *nozz
 {
     double temperature = cfg->powder_temperature;
     *nozzle_speed = 0.0;
-    if (cfg->nozzle.enabled)
-        dem_nozzle_lookup(&cfg->nozzle, d, nozzle_speed, &temperature);
+    if (cfg->nozzle)
+        dem_nozzle_lookup(cfg->nozzle, d, nozzle_speed, &temperature);
     return temperature;
 }
 
@@ -40,7 +40,7 @@ static void sample_velocity(const struct dem_solver *s, int64_t id, double d, do
     rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_VELOCITY, (uint64_t)id, 0, 1, u + 2);
     const struct dem_config *cfg = &s->cfg;
     double speed = cfg->release_speed_min + (cfg->release_speed_max - cfg->release_speed_min) * u[0];
-    if (cfg->nozzle.enabled)
+    if (cfg->nozzle)
         release_state(cfg, d, &speed);
     double cos_polar = 1.0 - u[1] * (1.0 - cos(cfg->release_cone));
     double sin_polar = sqrt(fmax(0.0, 1.0 - cos_polar * cos_polar));

@@ -1,6 +1,6 @@
-/* The de Laval nozzle (dem/nozzle.h, docs/physics.md "Nozzle"): quasi-1-D isentropic flow, the shock check at the
- * exit, and the particles' acceleration and heating along the axis integrated with CVODE (BDF, Newton, dense). */
-#include "dem/nozzle.h"
+/* The de Laval nozzle (its API in dem/dem.h, docs/physics.md "Nozzle"): quasi-1-D isentropic flow, the shock check at
+ * the exit, and the particles' acceleration and heating along the axis integrated with CVODE (BDF, Newton, dense). */
+#include "dem/dem.h"
 
 #include <cvode/cvode.h>
 #include <math.h>

@@ -304,8 +304,8 @@ done:
 
 int dem_write_output(const struct dem_solver *s, hid_t file)
 {
-    if (s->cfg.nozzle.enabled)
-        SC_TRY(write_nozzle(file, &s->cfg.nozzle));
+    if (s->cfg.nozzle)
+        SC_TRY(write_nozzle(file, s->cfg.nozzle));
     SC_TRY(write_particles(file, s, 0));
     SC_TRY(write_impacts(file, s));
     SC_TRY(write_handoffs(file, s));

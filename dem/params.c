@@ -8,6 +8,7 @@
 #include "core/csv.h"
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/log.h"
 #include "core/run_keys.h"
 #include "dem/dem.h"
 #include "dem/dem_impl.h"
@@ -444,7 +445,10 @@ static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
     for (size_t k = 0; k < sizeof required / sizeof *required; k++)
         if (!case_has(c, "nozzle", required[k]))
             return case_require(c, "nozzle", required[k], "a [nozzle] section");
-    struct dem_nozzle *n = &cfg->nozzle;
+    struct dem_nozzle *n = calloc(1, sizeof *n);
+    if (!n)
+        SC_FAIL_OOM(sizeof *n, "the nozzle");
+    cfg->nozzle = n;
     n->enabled = 1;
     n->gas = case_is(c, "nozzle", "gas", "he")    ? DEM_NOZZLE_HE
              : case_is(c, "nozzle", "gas", "air") ? DEM_NOZZLE_AIR
@@ -475,6 +479,12 @@ static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
         return case_invalid(c, "nozzle", "ambient_pressure", "%s", message);
     }
     SC_TRY(status);
+    int last = DEM_NOZZLE_TABLE_ROWS - 1;
+    log_info("nozzle: %s, exit Mach %.3f, %.1f m/s, %.1f K, %.4g Pa; particles %.3g-%.3g um leave at %.1f-%.1f m/s "
+             "and %.1f-%.1f K",
+             n->properties.name, n->exit.mach, n->exit.velocity, n->exit.temperature, n->exit.pressure,
+             n->table_diameter[0] * 1e6, n->table_diameter[last] * 1e6, n->table_velocity[0], n->table_velocity[last],
+             n->table_temperature[0], n->table_temperature[last]);
     map_jet(c, n, &cfg->gas);
     dem_gas_set_wall(&cfg->gas, cfg->standoff);
     return check_jet(c, &cfg->gas);
@@ -521,6 +531,8 @@ void dem_config_free(struct dem_config *cfg)
     free(cfg->file_particles);
     free(cfg->table_diameter);
     free(cfg->table_velocity);
+    free(cfg->nozzle);
+    cfg->nozzle = NULL;
     cfg->file_particles = cfg->table_diameter = cfg->table_velocity = NULL;
     cfg->file_particle_count = cfg->table_count = 0;
 }
