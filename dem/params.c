@@ -24,7 +24,8 @@ const struct cfg_key dem_case_keys[] = {
     {"spray", "feed_count", CFG_INT, "-", "50", 1, 1e7, 0, NULL, "N_in: particles per injection (Eq. 35)"},
     {"spray", "feed_every", CFG_INT, "steps", "100", 1, 2e9, 0, NULL, "T_in: steps between injections (Eq. 35)"},
     {"spray", "max_injected", CFG_INT, "-", "50050", 1, 1e9, 0, NULL, "injection stops after this many particles"},
-    {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL, "radius of the injection disc at z = 0"},
+    {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL,
+     "radius of the injection disc at z = 0 (with [nozzle] and not given: the nozzle's exit radius)"},
     {"spray", "release_speed_min", CFG_REAL, "m/s", "0", 0, 1e4, 0, NULL, "lowest release speed"},
     {"spray", "release_speed_max", CFG_REAL, "m/s", "50", 0, 1e4, 0, NULL, "highest release speed"},
     {"spray", "release_cone", CFG_REAL, "degree", "0", 0, 89.9, 0, NULL,
@@ -431,6 +432,25 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
     gas->gas_constant = n->properties.gas_constant;
 }
 
+/* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc
+ * is the nozzle's exit unless [spray] nozzle_radius is given. */
+static int nozzle_release(const struct case_file *c, struct dem_config *cfg)
+{
+    if (case_is_given(c, "spray", "release_speed_min") || case_is_given(c, "spray", "release_speed_max"))
+        log_warn("[spray] release_speed_min/max are not used with [nozzle]: each particle leaves at the nozzle's "
+                 "exit speed of its diameter");
+    if (case_is_given(c, "spray", "nozzle_radius") || cfg->injection != DEM_INJECT_STREAM)
+        return SC_OK;
+    cfg->nozzle_radius = 0.5 * cfg->nozzle->exit_diameter;
+    double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
+    if (d_smallest >= 2 * cfg->nozzle_radius)
+        return case_invalid(c, "nozzle", "exit_diameter", "the nozzle exit is smaller than the particles");
+    if (cfg->domain_radius <= cfg->nozzle_radius)
+        return case_invalid(c, "spray", "domain_radius", "not larger than the nozzle's exit radius %g m",
+                            cfg->nozzle_radius);
+    return SC_OK;
+}
+
 static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
 {
     cfg->powder_temperature = case_real(c, "powder", "temperature");
@@ -487,7 +507,8 @@ static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
              n->table_temperature[0], n->table_temperature[last]);
     map_jet(c, n, &cfg->gas);
     dem_gas_set_wall(&cfg->gas, cfg->standoff);
-    return check_jet(c, &cfg->gas);
+    SC_TRY(check_jet(c, &cfg->gas));
+    return nozzle_release(c, cfg);
 }
 
 static int load_all(const struct case_file *c, struct dem_config *cfg)
