@@ -264,6 +264,7 @@ static void record_impact(struct dem_solver *s, uint32_t i, double at, const dou
     row->partner = partner;
     uint32_t *contacts = dem_contacts_of(s, p->id[i]);
     row->contact_index = *contacts;
+    row->temperature = p->temperature[i];
     ++*contacts;
     if (outcome == DEM_STUCK && row->contact_index == 0)
         s->first_impact_deposits++;

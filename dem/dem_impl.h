@@ -59,6 +59,7 @@ struct dem_particles {
      * not moved by dem_particles_compact; read only for flying particles; NULL: no skins (a broad phase
      * run on its own). */
     double *skin;
+    double *temperature; /* K: set at injection (the nozzle's exit table, or [powder] temperature), constant after */
 };
 
 /* The radius with which particle i enters every contact test: its own, widened by its drag skin while it

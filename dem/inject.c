@@ -20,14 +20,28 @@ static double sample_diameter(const struct dem_solver *s, int64_t id)
     return dem_sizes_sample(&s->cfg.sizes, u[0]);
 }
 
-/* Release velocity: speed uniform in [min, max], direction uniform in solid angle inside the cone. */
-static void sample_velocity(const struct dem_solver *s, int64_t id, double v[3])
+/* The particle's temperature at release and, with [nozzle], its speed at the nozzle exit (dem/nozzle.c's table,
+ * interpolated in diameter); without [nozzle] the [powder] temperature and speed 0 (sample_velocity draws it). */
+static double release_state(const struct dem_config *cfg, double d, double *nozzle_speed)
+{
+    double temperature = cfg->powder_temperature;
+    *nozzle_speed = 0.0;
+    if (cfg->nozzle)
+        dem_nozzle_lookup(cfg->nozzle, d, nozzle_speed, &temperature);
+    return temperature;
+}
+
+/* Release velocity: speed uniform in [min, max] (with [nozzle]: the nozzle's exit speed of the particle's diameter),
+ * direction uniform in solid angle inside the cone. */
+static void sample_velocity(const struct dem_solver *s, int64_t id, double d, double v[3])
 {
     double u[4];
     rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_VELOCITY, (uint64_t)id, 0, 0, u);
     rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_VELOCITY, (uint64_t)id, 0, 1, u + 2);
     const struct dem_config *cfg = &s->cfg;
     double speed = cfg->release_speed_min + (cfg->release_speed_max - cfg->release_speed_min) * u[0];
+    if (cfg->nozzle)
+        release_state(cfg, d, &speed);
     double cos_polar = 1.0 - u[1] * (1.0 - cos(cfg->release_cone));
     double sin_polar = sqrt(fmax(0.0, 1.0 - cos_polar * cos_polar));
     double azimuth = 2.0 * M_PI * u[2];
@@ -102,8 +116,11 @@ static void inject_stream(struct dem_solver *s)
                          (long long)s->step, (long long)id, PLACEMENT_ATTEMPTS);
             continue;
         }
-        sample_velocity(s, id, v);
-        near[near_count++] = dem_particles_append(&s->p, id, x, v, spin, d, cfg->powder.density);
+        sample_velocity(s, id, d, v);
+        size_t i = dem_particles_append(&s->p, id, x, v, spin, d, cfg->powder.density);
+        double unused;
+        s->p.temperature[i] = release_state(cfg, d, &unused);
+        near[near_count++] = i;
         s->injected++;
     }
     free(near);
@@ -115,7 +132,9 @@ void dem_inject_file(struct dem_solver *s)
     dem_particles_reserve(&s->p, s->p.count + cfg->file_particle_count); /* at once, not by doubling */
     for (size_t i = 0; i < cfg->file_particle_count; i++) {
         const double *row = cfg->file_particles + 10 * i;
-        dem_particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
+        size_t k = dem_particles_append(&s->p, (int64_t)i, row, row + 3, row + 6, row[9], cfg->powder.density);
+        double unused; /* the file gives the velocity; the temperature is the release state's of the diameter */
+        s->p.temperature[k] = release_state(cfg, row[9], &unused);
         s->injected++;
     }
 }

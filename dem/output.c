@@ -133,6 +133,7 @@ static int write_impacts(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_impact, outcome, 1, "0 rebound, 1 deposited, 2 came to rest", 1);
     COLUMN(g, r, n, struct dem_impact, partner, 1, "-1 target, else particle id", 1);
     COLUMN(g, r, n, struct dem_impact, contact_index, 1, "0 first contact of the particle", 1);
+    COLUMN(g, r, n, struct dem_impact, temperature, 1, "K", 0);
 done:
     H5Gclose(g);
     return status;
@@ -151,6 +152,7 @@ static int write_handoffs(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_handoff, v, 3, "m/s", 0);
     COLUMN(g, r, n, struct dem_handoff, w, 3, "rad/s", 0);
     COLUMN(g, r, n, struct dem_handoff, d, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_handoff, temperature, 1, "K", 0);
     SC_CHECK(status, h5_attr_write_double(g, "plane_z", s->cfg.standoff - s->cfg.handoff_height), done);
 done:
     H5Gclose(g);
@@ -203,6 +205,7 @@ static int write_particles(hid_t file, const struct dem_solver *s, int checksum)
     SC_CHECK(status, h5_write_doubles(g, "w", 2, n3, p->w, "rad/s", checksum), done);
     SC_CHECK(status, h5_write_doubles(g, "d", 1, n1, p->d, "m", checksum), done);
     SC_CHECK(status, h5_write_doubles(g, "m", 1, n1, p->m, "kg", checksum), done);
+    SC_CHECK(status, h5_write_doubles(g, "temperature", 1, n1, p->temperature, "K", checksum), done);
 done:
     free(state);
     H5Gclose(g);
@@ -240,8 +243,69 @@ done:
     return status;
 }
 
+/* spray.h5 /nozzle (docs/files.md): the gas along the axis (/nozzle/profile) and each diameter's exit state
+ * (/nozzle/particles), with the stagnation and exit states as attributes. */
+static int write_nozzle_profile(hid_t nozzle, const struct dem_nozzle *n)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(nozzle, "profile", &g));
+    int status = SC_OK;
+    const struct dem_nozzle_station *r = n->profile;
+    size_t count = DEM_NOZZLE_PROFILE_POINTS;
+    COLUMN(g, r, count, struct dem_nozzle_station, x, 1, "m", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, diameter, 1, "m", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, mach, 1, "-", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, pressure, 1, "Pa", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, temperature, 1, "K", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, density, 1, "kg/m3", 0);
+    COLUMN(g, r, count, struct dem_nozzle_station, velocity, 1, "m/s", 0);
+done:
+    H5Gclose(g);
+    return status;
+}
+
+static int write_nozzle_particles(hid_t nozzle, const struct dem_nozzle *n)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(nozzle, "particles", &g));
+    hsize_t dims[1] = {DEM_NOZZLE_TABLE_ROWS};
+    int status;
+    SC_CHECK(status, h5_write_doubles(g, "diameter", 1, dims, n->table_diameter, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "velocity", 1, dims, n->table_velocity, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "temperature", 1, dims, n->table_temperature, "K", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "time", 1, dims, n->table_time, "s", 0), done);
+done:
+    H5Gclose(g);
+    return status;
+}
+
+static int write_nozzle(hid_t file, const struct dem_nozzle *n)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "nozzle", &g));
+    int status;
+    SC_CHECK(status, h5_attr_write_string(g, "gas", n->properties.name), done);
+    SC_CHECK(status, h5_attr_write_double(g, "gamma", n->properties.gamma), done);
+    SC_CHECK(status, h5_attr_write_double(g, "gas_constant", n->properties.gas_constant), done);
+    SC_CHECK(status, h5_attr_write_double(g, "stagnation_pressure", n->stagnation_pressure), done);
+    SC_CHECK(status, h5_attr_write_double(g, "stagnation_temperature", n->stagnation_temperature), done);
+    SC_CHECK(status, h5_attr_write_double(g, "ambient_pressure", n->ambient_pressure), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_mach", n->exit.mach), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_pressure", n->exit.pressure), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_temperature", n->exit.temperature), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_density", n->exit.density), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_velocity", n->exit.velocity), done);
+    SC_CHECK(status, write_nozzle_profile(g, n), done);
+    SC_CHECK(status, write_nozzle_particles(g, n), done);
+done:
+    H5Gclose(g);
+    return status;
+}
+
 int dem_write_output(const struct dem_solver *s, hid_t file)
 {
+    if (s->cfg.nozzle)
+        SC_TRY(write_nozzle(file, s->cfg.nozzle));
     SC_TRY(write_particles(file, s, 0));
     SC_TRY(write_impacts(file, s));
     SC_TRY(write_handoffs(file, s));
@@ -386,6 +450,7 @@ static int read_particles(hid_t group, struct dem_particles *p)
     SC_CHECK(status, h5_read_doubles(g, "w", p->w, 3 * n), done);
     SC_CHECK(status, h5_read_doubles(g, "d", p->d, n), done);
     SC_CHECK(status, h5_read_doubles(g, "m", p->m, n), done);
+    SC_CHECK(status, h5_read_doubles(g, "temperature", p->temperature, n), done);
 done:
     free(state);
     H5Gclose(g);

@@ -8,6 +8,7 @@
 #include "core/csv.h"
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/log.h"
 #include "core/run_keys.h"
 #include "dem/dem.h"
 #include "dem/dem_impl.h"
@@ -23,7 +24,8 @@ const struct cfg_key dem_case_keys[] = {
     {"spray", "feed_count", CFG_INT, "-", "50", 1, 1e7, 0, NULL, "N_in: particles per injection (Eq. 35)"},
     {"spray", "feed_every", CFG_INT, "steps", "100", 1, 2e9, 0, NULL, "T_in: steps between injections (Eq. 35)"},
     {"spray", "max_injected", CFG_INT, "-", "50050", 1, 1e9, 0, NULL, "injection stops after this many particles"},
-    {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL, "radius of the injection disc at z = 0"},
+    {"spray", "nozzle_radius", CFG_REAL, "m", "0.01", 0, 10, 1, NULL,
+     "radius of the injection disc at z = 0 (with [nozzle] and not given: the nozzle's exit radius)"},
     {"spray", "release_speed_min", CFG_REAL, "m/s", "0", 0, 1e4, 0, NULL, "lowest release speed"},
     {"spray", "release_speed_max", CFG_REAL, "m/s", "50", 0, 1e4, 0, NULL, "highest release speed"},
     {"spray", "release_cone", CFG_REAL, "degree", "0", 0, 89.9, 0, NULL,
@@ -100,6 +102,25 @@ const struct cfg_key dem_case_keys[] = {
     {"deposition", "table", CFG_PATH, "", NULL, 0, 0, 0, NULL,
      "v_crit(d) table (CSV with columns diameter,v_crit, or HDF5 with datasets diameter, v_crit: the "
      "output of `spraycoat vcrit`), rule = table"},
+    /* [powder]: the particles' temperature (docs/physics.md "Nozzle") */
+    {"powder", "temperature", CFG_REAL, "K", "293.15", 0, 5000, 1, NULL,
+     "particles' temperature at release without [nozzle] (with it: at the nozzle inlet)"},
+    {"powder", "specific_heat", CFG_REAL, "J/(kg K)", "900", 0, 1e5, 1, NULL,
+     "particle specific heat, for the heating in [nozzle] (Al about 900, Cu 385, steel 500)"},
+    /* [nozzle]: the de Laval nozzle (dem/nozzle.c); optional: without stagnation_pressure none */
+    {"nozzle", "gas", CFG_CHOICE, "", "n2", 0, 0, 0, "n2|he|air",
+     "process gas (properties in docs/physics.md \"Nozzle\")"},
+    {"nozzle", "stagnation_pressure", CFG_REAL, "Pa", NULL, 0, 1e9, 1, NULL,
+     "gas pressure in the pre-chamber (gives the nozzle: release speeds, temperatures and the jet from it)"},
+    {"nozzle", "stagnation_temperature", CFG_REAL, "K", NULL, 0, 5000, 1, NULL, "gas temperature in the pre-chamber"},
+    {"nozzle", "throat_diameter", CFG_REAL, "m", NULL, 0, 1, 1, NULL, "throat diameter"},
+    {"nozzle", "exit_diameter", CFG_REAL, "m", NULL, 0, 1, 1, NULL, "exit diameter (at least the throat's)"},
+    {"nozzle", "inlet_diameter", CFG_REAL, "m", "auto", 0, 1, 1, "auto",
+     "diameter at the convergent part's inlet; auto: 3 throat diameters"},
+    {"nozzle", "convergent_length", CFG_REAL, "m", NULL, 0, 10, 1, NULL, "length of the conical convergent part"},
+    {"nozzle", "divergent_length", CFG_REAL, "m", NULL, 0, 10, 1, NULL, "length of the conical divergent part"},
+    {"nozzle", "ambient_pressure", CFG_REAL, "Pa", "101325", 0, 1e9, 0, NULL,
+     "pressure of the room the nozzle sprays into (checks the exit for a shock inside the nozzle)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -361,6 +382,135 @@ static int load_deposition(const struct case_file *c, struct dem_config *cfg)
     return SC_OK;
 }
 
+/* The size range of the nozzle's table: the 0.1 % and 99.9 % quantiles of the size law (a single size: half to
+ * twice it), or the particles file's smallest and largest. */
+static void nozzle_size_range(const struct dem_config *cfg, double *d_small, double *d_large)
+{
+    const struct dem_size_distribution *sizes = &cfg->sizes;
+    if (cfg->injection == DEM_INJECT_FILE && cfg->file_particle_count > 0) {
+        *d_small = INFINITY, *d_large = 0.0;
+        for (size_t i = 0; i < cfg->file_particle_count; i++) {
+            *d_small = fmin(*d_small, cfg->file_particles[10 * i + 9]);
+            *d_large = fmax(*d_large, cfg->file_particles[10 * i + 9]);
+        }
+    } else if (sizes->monodisperse) {
+        *d_small = 0.5 * sizes->median_diameter, *d_large = 2.0 * sizes->median_diameter;
+    } else {
+        *d_small = dem_sizes_sample(sizes, 0.001), *d_large = dem_sizes_sample(sizes, 0.999);
+    }
+}
+
+/* The free jet from the nozzle's exit state (docs/physics.md "Nozzle"), key by key unless given in [jet]: potential
+ * core L = D_e (4.2 + 1.1 M_e^2) (Lau, Morris & Fisher 1979), virtual origin x0 = D_e / (2 S) so that the round
+ * jet's half-width b = S (z + x0), S = 0.094 (Pope 2000, Table 5.2), is the nozzle's radius at the exit; C3 makes
+ * the Bickley profile's half-width 0.88137 x^(2/3) / C3 equal b at the core's end x_c = L + x0, C1 its axis speed
+ * there the exit velocity; gas density and kinematic viscosity of the exit's static state. */
+#define ROUND_JET_SPREADING 0.094
+static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struct dem_gas_field *gas)
+{
+    const struct dem_nozzle_station *e = &n->exit;
+    double exit_d = n->exit_diameter;
+    if (!case_is_given(c, "jet", "core_length"))
+        gas->core_length = exit_d * (4.2 + 1.1 * e->mach * e->mach);
+    if (!case_is_given(c, "jet", "virtual_origin"))
+        gas->virtual_origin = exit_d / (2.0 * ROUND_JET_SPREADING);
+    double x_core = gas->core_length + gas->virtual_origin;
+    if (!case_is_given(c, "jet", "C3"))
+        gas->c3 = 0.88137358701954302523 / (ROUND_JET_SPREADING * cbrt(x_core));
+    if (!case_is_given(c, "jet", "C1"))
+        gas->c1 = e->velocity * cbrt(x_core);
+    if (!case_is_given(c, "jet", "C2"))
+        gas->c2 = gas->c1 / (3.0 * gas->c3);
+    if (!case_is_given(c, "jet", "gas_density"))
+        gas->density = e->density;
+    if (!case_is_given(c, "jet", "gas_viscosity"))
+        gas->kinematic_viscosity = dem_nozzle_viscosity(&n->properties, e->temperature) / e->density;
+    /* the static exit state; [jet] gas_temperature, gas_gamma and gas_constant (the bow shock's keys) are to win
+     * over these when given, as the keys above do */
+    gas->gas_temperature = e->temperature;
+    gas->gas_gamma = n->properties.gamma;
+    gas->gas_constant = n->properties.gas_constant;
+}
+
+/* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc
+ * is the nozzle's exit unless [spray] nozzle_radius is given. */
+static int nozzle_release(const struct case_file *c, struct dem_config *cfg)
+{
+    if (case_is_given(c, "spray", "release_speed_min") || case_is_given(c, "spray", "release_speed_max"))
+        log_warn("[spray] release_speed_min/max are not used with [nozzle]: each particle leaves at the nozzle's "
+                 "exit speed of its diameter");
+    if (case_is_given(c, "spray", "nozzle_radius") || cfg->injection != DEM_INJECT_STREAM)
+        return SC_OK;
+    cfg->nozzle_radius = 0.5 * cfg->nozzle->exit_diameter;
+    double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
+    if (d_smallest >= 2 * cfg->nozzle_radius)
+        return case_invalid(c, "nozzle", "exit_diameter", "the nozzle exit is smaller than the particles");
+    if (cfg->domain_radius <= cfg->nozzle_radius)
+        return case_invalid(c, "spray", "domain_radius", "not larger than the nozzle's exit radius %g m",
+                            cfg->nozzle_radius);
+    return SC_OK;
+}
+
+static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
+{
+    cfg->powder_temperature = case_real(c, "powder", "temperature");
+    cfg->powder_specific_heat = case_real(c, "powder", "specific_heat");
+    static const char *const required[] = {"stagnation_pressure", "stagnation_temperature", "throat_diameter",
+                                           "exit_diameter",       "convergent_length",      "divergent_length"};
+    int given = 0;
+    for (size_t k = 0; k < sizeof required / sizeof *required; k++)
+        given |= case_has(c, "nozzle", required[k]);
+    if (!given)
+        return SC_OK;
+    for (size_t k = 0; k < sizeof required / sizeof *required; k++)
+        if (!case_has(c, "nozzle", required[k]))
+            return case_require(c, "nozzle", required[k], "a [nozzle] section");
+    struct dem_nozzle *n = calloc(1, sizeof *n);
+    if (!n)
+        SC_FAIL_OOM(sizeof *n, "the nozzle");
+    cfg->nozzle = n;
+    n->enabled = 1;
+    n->gas = case_is(c, "nozzle", "gas", "he")    ? DEM_NOZZLE_HE
+             : case_is(c, "nozzle", "gas", "air") ? DEM_NOZZLE_AIR
+                                                  : DEM_NOZZLE_N2;
+    n->properties = *dem_nozzle_gas_properties(n->gas);
+    n->stagnation_pressure = case_real(c, "nozzle", "stagnation_pressure");
+    n->stagnation_temperature = case_real(c, "nozzle", "stagnation_temperature");
+    n->throat_diameter = case_real(c, "nozzle", "throat_diameter");
+    n->exit_diameter = case_real(c, "nozzle", "exit_diameter");
+    n->inlet_diameter = case_is(c, "nozzle", "inlet_diameter", "auto") ? 3.0 * n->throat_diameter
+                                                                       : case_real(c, "nozzle", "inlet_diameter");
+    n->convergent_length = case_real(c, "nozzle", "convergent_length");
+    n->divergent_length = case_real(c, "nozzle", "divergent_length");
+    n->ambient_pressure = case_real(c, "nozzle", "ambient_pressure");
+    n->particle_density = cfg->powder.density;
+    n->particle_specific_heat = cfg->powder_specific_heat;
+    n->particle_temperature = cfg->powder_temperature;
+    if (n->exit_diameter < n->throat_diameter)
+        return case_invalid(c, "nozzle", "exit_diameter", "below throat_diameter = %g m", n->throat_diameter);
+    if (n->inlet_diameter <= n->throat_diameter)
+        return case_invalid(c, "nozzle", "inlet_diameter", "not above throat_diameter = %g m", n->throat_diameter);
+    double d_small, d_large;
+    nozzle_size_range(cfg, &d_small, &d_large);
+    int status = dem_nozzle_solve(n, d_small, d_large);
+    if (status == SC_EINPUT) {
+        char message[1024];
+        snprintf(message, sizeof message, "%s", sc_error_message());
+        return case_invalid(c, "nozzle", "ambient_pressure", "%s", message);
+    }
+    SC_TRY(status);
+    int last = DEM_NOZZLE_TABLE_ROWS - 1;
+    log_info("nozzle: %s, exit Mach %.3f, %.1f m/s, %.1f K, %.4g Pa; particles %.3g-%.3g um leave at %.1f-%.1f m/s "
+             "and %.1f-%.1f K",
+             n->properties.name, n->exit.mach, n->exit.velocity, n->exit.temperature, n->exit.pressure,
+             n->table_diameter[0] * 1e6, n->table_diameter[last] * 1e6, n->table_velocity[0], n->table_velocity[last],
+             n->table_temperature[0], n->table_temperature[last]);
+    map_jet(c, n, &cfg->gas);
+    dem_gas_set_wall(&cfg->gas, cfg->standoff);
+    SC_TRY(check_jet(c, &cfg->gas));
+    return nozzle_release(c, cfg);
+}
+
 static int load_all(const struct case_file *c, struct dem_config *cfg)
 {
     struct run_settings run;
@@ -383,6 +533,7 @@ static int load_all(const struct case_file *c, struct dem_config *cfg)
         SC_TRY(load_particles_file(c, cfg));
     }
     SC_TRY(load_deposition(c, cfg));
+    SC_TRY(load_nozzle(c, cfg));
     return SC_OK;
 }
 
@@ -401,6 +552,8 @@ void dem_config_free(struct dem_config *cfg)
     free(cfg->file_particles);
     free(cfg->table_diameter);
     free(cfg->table_velocity);
+    free(cfg->nozzle);
+    cfg->nozzle = NULL;
     cfg->file_particles = cfg->table_diameter = cfg->table_velocity = NULL;
     cfg->file_particle_count = cfg->table_count = 0;
 }

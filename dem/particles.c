@@ -51,13 +51,16 @@ enum particle_array {
     ARRAY_DRAG, /* 11 of them */
     ARRAY_STATE = ARRAY_DRAG + 11,
     ARRAY_KEPT,
-    ARRAY_HISTORY_COUNT
+    ARRAY_HISTORY_COUNT,
+    ARRAY_TEMPERATURE
 };
 
 static size_t stagger_lines(enum particle_array array)
 {
     if (array < ARRAY_D)
         return 12 * (size_t)array;
+    if (array == ARRAY_TEMPERATURE)
+        return 56; /* after the drag's last array (52), not read by the integration */
     if (array < ARRAY_STATE)
         return 4 * (size_t)(array - ARRAY_D);
     return 60 + (size_t)(array - ARRAY_STATE);
@@ -135,6 +138,7 @@ void dem_particles_reserve(struct dem_particles *p, size_t capacity)
     p->m = array_grow(p->m, before, capacity, sizeof(double), ARRAY_M);
     p->id = array_grow(p->id, before, capacity, sizeof(int64_t), ARRAY_ID);
     p->state = array_grow(p->state, before, capacity, sizeof(uint8_t), ARRAY_STATE);
+    p->temperature = array_grow(p->temperature, before, capacity, sizeof(double), ARRAY_TEMPERATURE);
     drag_reserve(&p->drag, before, capacity);
     p->capacity = capacity;
 }
@@ -155,6 +159,7 @@ size_t dem_particles_append(struct dem_particles *p, int64_t id, const double x[
     p->m[i] = density * M_PI * d * d * d / 6.0;
     p->id[i] = id;
     p->state[i] = DEM_FLYING;
+    p->temperature[i] = 293.15; /* the injector sets the particle's own (dem/inject.c) */
     p->drag.kept[i] = 0;
     p->drag.history_count[i] = 0;
     return i;
@@ -185,15 +190,16 @@ struct row_array {
  * drag's 11 arrays of doubles, d, m and id...). */
 void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, size_t removed_count)
 {
-    enum { ARRAYS = 3 + DRAG_DOUBLE_ARRAYS + 6 };
+    enum { ARRAYS = 3 + DRAG_DOUBLE_ARRAYS + 7 };
     struct row_array arrays[ARRAYS] = {
         {p->x, 3 * sizeof(double)}, {p->v, 3 * sizeof(double)}, {p->w, 3 * sizeof(double)}};
     double **drag_arrays[DRAG_DOUBLE_ARRAYS];
     drag_double_arrays(&p->drag, drag_arrays);
     for (int a = 0; a < DRAG_DOUBLE_ARRAYS; a++)
         arrays[3 + a] = (struct row_array){*drag_arrays[a], sizeof(double)};
-    const struct row_array rest[6] = {{p->d, sizeof(double)}, {p->m, sizeof(double)}, {p->id, sizeof(int64_t)},
-                                      {p->state, 1},          {p->drag.kept, 1},      {p->drag.history_count, 1}};
+    const struct row_array rest[7] = {
+        {p->d, sizeof(double)}, {p->m, sizeof(double)},     {p->id, sizeof(int64_t)},        {p->state, 1},
+        {p->drag.kept, 1},      {p->drag.history_count, 1}, {p->temperature, sizeof(double)}};
     memcpy(arrays + 3 + DRAG_DOUBLE_ARRAYS, rest, sizeof rest);
 #pragma omp parallel for schedule(dynamic, 1) if (p->count >= DEM_PARALLEL_MIN)
     for (int a = 0; a < ARRAYS; a++)
@@ -203,8 +209,9 @@ void dem_particles_compact(struct dem_particles *p, const uint32_t *removed, siz
 
 void dem_particles_free(struct dem_particles *p)
 {
-    void *arrays[] = {p->x, p->v, p->w,  p->x_start, p->v_start,   p->w_start,
-                      p->d, p->m, p->id, p->state,   p->drag.kept, p->drag.history_count};
+    void *arrays[] = {p->x,          p->v, p->w,  p->x_start, p->v_start,   p->w_start,
+                      p->d,          p->m, p->id, p->state,   p->drag.kept, p->drag.history_count,
+                      p->temperature};
     for (size_t a = 0; a < sizeof arrays / sizeof *arrays; a++)
         array_free(arrays[a]);
     double **drag_arrays[DRAG_DOUBLE_ARRAYS];

@@ -77,6 +77,7 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
         row->w[c] = flying ? p->w[3 * i + c] : p->w_start[3 * i + c];
     }
     row->d = p->d[i];
+    row->temperature = p->temperature[i];
 }
 
 /* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate

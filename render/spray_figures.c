@@ -658,6 +658,7 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     SC_CHECK(status, impact_figures(req, &s, out), done);
     SC_CHECK(status, metrics_figure(req, &s, out), done);
     SC_CHECK(status, thickness_figure(req, &s, out), done);
+    SC_CHECK(status, render_nozzle_figure(req, out), done);
     SC_CHECK(status, deposit_picture(req, renderer, &s, out), done);
     SC_CHECK(status, plume_pictures(req, renderer, &s, out), done);
     log_info("render: spray figures from %s", s.path);

@@ -1,0 +1,200 @@
+/* The de Laval nozzle (dem/nozzle.h): the area-Mach relation and the isentropic exit state against their closed
+ * forms (Anderson, Modern Compressible Flow, Eqs. 3.28-3.31 and 5.20) to 1e-6, Henderson's drag coefficient in
+ * its Stokes and free-molecular limits, the CVODE particle exit state against a fine classical RK4 integration of
+ * the same equations, and the normal shock inside the divergent part refused with its numbers. */
+#include <math.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "dem/dem.h"
+#include "tests/check.h"
+#include "tests/spray_fixture.h"
+
+/* Area ratios of M = 4 and M = 0.5 at gamma = 1.4, and M = 2 at gamma = 5/3, in closed form:
+ * A/A* = (1/M) [(2/(g+1)) (1 + (g-1)/2 M^2)]^((g+1)/(2(g-1))): (1/4) 3.5^3, 2 (0.875)^3, (1/2) 1.75^2. */
+static void test_area_mach(void)
+{
+    CHECK_CLOSE(dem_nozzle_area_ratio(4.0, 1.4), 10.71875, 1e-14, 0, "A/A*(M = 4)");
+    CHECK_CLOSE(dem_nozzle_mach(10.71875, 1.4, 1), 4.0, 1e-12, 0, "M(A/A* = 10.71875), supersonic");
+    CHECK_CLOSE(dem_nozzle_mach(1.33984375, 1.4, 0), 0.5, 1e-12, 0, "M(A/A* = 1.33984375), subsonic");
+    CHECK_CLOSE(dem_nozzle_mach(1.53125, 5.0 / 3.0, 1), 2.0, 1e-12, 0, "M(A/A* = 1.53125), helium");
+    CHECK_CLOSE(dem_nozzle_mach(1.0, 1.4, 1), 1.0, 0, 0, "the throat");
+    /* round trip over both branches */
+    for (double ratio = 1.001; ratio < 200; ratio *= 1.7) {
+        CHECK_CLOSE(dem_nozzle_area_ratio(dem_nozzle_mach(ratio, 1.4, 1), 1.4), ratio, 1e-12, 0, "round trip sup");
+        CHECK_CLOSE(dem_nozzle_area_ratio(dem_nozzle_mach(ratio, 1.4, 0), 1.4), ratio, 1e-12, 0, "round trip sub");
+    }
+}
+
+/* The item 6 nozzle (N2, 6.55 MPa, 698.15 K, 2 mm throat, 30 + 140 mm) with the exit diameter of A/A* = 10.71875. */
+static struct dem_nozzle test_nozzle(double exit_diameter)
+{
+    struct dem_nozzle n = {.enabled = 1, .gas = DEM_NOZZLE_N2};
+    n.properties = *dem_nozzle_gas_properties(DEM_NOZZLE_N2);
+    n.stagnation_pressure = 6.55e6, n.stagnation_temperature = 698.15;
+    n.throat_diameter = 2e-3, n.exit_diameter = exit_diameter, n.inlet_diameter = 6e-3;
+    n.convergent_length = 0.03, n.divergent_length = 0.14;
+    n.ambient_pressure = 101325.0;
+    n.particle_density = 2700.0, n.particle_specific_heat = 896.0, n.particle_temperature = 293.15;
+    return n;
+}
+
+static void test_exit_state(void)
+{
+    struct dem_nozzle n = test_nozzle(2e-3 * sqrt(10.71875));
+    CHECK(dem_nozzle_solve(&n, 10e-6, 50e-6) == SC_OK, "solve: %s", sc_error_message());
+    double r = 296.80, t_exit = 698.15 / 4.2; /* T0/T = 1 + 0.2 M^2 = 4.2 */
+    CHECK_CLOSE(n.exit.mach, 4.0, 1e-6, 0, "exit Mach");
+    CHECK_CLOSE(n.exit.temperature, t_exit, 1e-6, 0, "exit temperature (K)");
+    CHECK_CLOSE(n.exit.velocity, 4.0 * sqrt(1.4 * r * t_exit), 1e-6, 0, "exit velocity (m/s)");
+    CHECK_CLOSE(n.exit.pressure, 6.55e6 * pow(4.2, -3.5), 1e-6, 0, "exit pressure (Pa)");
+    CHECK_CLOSE(n.exit.density, n.exit.pressure / (r * t_exit), 1e-6, 0, "exit density (kg/m3)");
+    /* the throat: M = 1, T* = 2 T0 / (g + 1) */
+    struct dem_nozzle_station throat;
+    dem_nozzle_station_at(&n, 0.03, &throat);
+    CHECK_CLOSE(throat.mach, 1.0, 1e-12, 0, "throat Mach");
+    CHECK_CLOSE(throat.temperature, 698.15 / 1.2, 1e-12, 0, "throat temperature");
+    /* the table: bigger particles are slower at the exit, and every one slower than the gas */
+    for (int k = 1; k < DEM_NOZZLE_TABLE_ROWS; k++)
+        CHECK(n.table_velocity[k] < n.table_velocity[k - 1], "exit speed falls with the diameter (row %d)", k);
+    CHECK(n.table_velocity[0] < n.exit.velocity && n.table_velocity[0] > 300, "10 um exit speed %g m/s",
+          n.table_velocity[0]);
+}
+
+/* Stokes: Re -> 0 at M -> 0 gives C_D Re / 24 -> 1 (the pressure term adds 4.5 Re / 24); the free-molecular
+ * sphere with diffuse reflection (Schaaf & Chambre 1958) at S = M sqrt(g/2) = 4.18 and Tw = T: C_D = 2 + 2/S^2 -
+ * 1/(2 S^4) + 2 sqrt(pi)/(3 S) = 2.395 (the exponential and erf corrections below 1e-7), which Henderson's fit meets
+ * to 1.3 %. */
+static void test_drag_limits(void)
+{
+    double re = 1e-3;
+    CHECK_CLOSE(dem_nozzle_drag_coefficient(re, 1e-9, 1.0, 1.4) * re / 24.0, 1.0, 2e-4, 0, "Stokes limit");
+    double s = 5.0 * sqrt(0.7), s2 = s * s;
+    double free_molecular = 2.0 + 2.0 / s2 - 0.5 / (s2 * s2) + 2.0 * sqrt(M_PI) / (3.0 * s);
+    CHECK_CLOSE(dem_nozzle_drag_coefficient(1e-9, 5.0, 1.0, 1.4), free_molecular, 0.02, 0, "free-molecular limit");
+    /* continuum, supersonic: about 0.9 + 0.34/M^2 at high Re */
+    CHECK_CLOSE(dem_nozzle_drag_coefficient(1e9, 2.0, 1.0, 1.4), 0.9 + 0.34 / 4.0, 1e-3, 0, "continuum M = 2");
+    /* continuity of the interpolation at M = 1 and 1.75 */
+    CHECK_CLOSE(dem_nozzle_drag_coefficient(500, 1.0 + 1e-12, 1.0, 1.4),
+                dem_nozzle_drag_coefficient(500, 1.0, 1.0, 1.4), 1e-9, 0, "C_D continuous at M = 1");
+    CHECK_CLOSE(dem_nozzle_drag_coefficient(500, 1.75 - 1e-12, 1.0, 1.4),
+                dem_nozzle_drag_coefficient(500, 1.75, 1.0, 1.4), 1e-9, 0, "C_D continuous at M = 1.75");
+}
+
+/* Classical RK4 in x with a fixed step of h, the throat on a step boundary. */
+static void rk4_leg(const struct dem_nozzle *n, double d, double x0, double x1, int steps, double y[3])
+{
+    double h = (x1 - x0) / steps;
+    for (int k = 0; k < steps; k++) {
+        double x = x0 + k * h, k1[3], k2[3], k3[3], k4[3], t[3];
+        dem_nozzle_particle_rates(n, d, x, y, k1);
+        for (int c = 0; c < 3; c++)
+            t[c] = y[c] + 0.5 * h * k1[c];
+        dem_nozzle_particle_rates(n, d, x + 0.5 * h, t, k2);
+        for (int c = 0; c < 3; c++)
+            t[c] = y[c] + 0.5 * h * k2[c];
+        dem_nozzle_particle_rates(n, d, x + 0.5 * h, t, k3);
+        for (int c = 0; c < 3; c++)
+            t[c] = y[c] + h * k3[c];
+        dem_nozzle_particle_rates(n, d, x + h, t, k4);
+        for (int c = 0; c < 3; c++)
+            y[c] += h / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
+    }
+}
+
+/* RK4 with 6000 + 28000 steps and with half of them agree to ~1e-9 (fourth order: the error of the finer one is
+ * 1/15 of their difference), so the reference is good to far better than the 1e-6 asked of CVODE. */
+static void test_particle_against_rk4(void)
+{
+    struct dem_nozzle n = test_nozzle(6.3e-3);
+    const double diameters[] = {5e-6, 25e-6, 60e-6};
+    for (size_t i = 0; i < sizeof diameters / sizeof *diameters; i++) {
+        double d = diameters[i], fine[3], coarse[3], out[3];
+        struct dem_nozzle_station inlet;
+        dem_nozzle_station_at(&n, 0.0, &inlet);
+        for (int pass = 0; pass < 2; pass++) {
+            double *y = pass ? coarse : fine;
+            y[0] = inlet.velocity, y[1] = n.particle_temperature, y[2] = 0.0;
+            int scale = pass ? 1 : 2;
+            rk4_leg(&n, d, 0.0, 0.03, 3000 * scale, y);
+            rk4_leg(&n, d, 0.03, 0.17, 14000 * scale, y);
+        }
+        CHECK(fabs(fine[0] - coarse[0]) < 1e-7 * fine[0], "RK4 converged: %.12g vs %.12g", fine[0], coarse[0]);
+        CHECK(dem_nozzle_particle_exit(&n, d, out) == SC_OK, "CVODE: %s", sc_error_message());
+        CHECK_CLOSE(out[0], fine[0], 1e-6, 0, "exit velocity against RK4 (m/s)");
+        CHECK_CLOSE(out[1], fine[1], 1e-6, 0, "exit temperature against RK4 (K)");
+        CHECK_CLOSE(out[2], fine[2], 1e-6, 0, "residence time against RK4 (s)");
+        printf("  d = %g um: exit %.9g m/s, %.9g K after %.6g s (RK4 %.9g m/s, %.9g K)\n", d * 1e6, out[0], out[1],
+               out[2], fine[0], fine[1]);
+    }
+}
+
+static void test_shock_inside(void)
+{
+    struct dem_nozzle n = test_nozzle(6.3e-3);
+    n.stagnation_pressure = 2e5;
+    CHECK(dem_nozzle_solve(&n, 10e-6, 50e-6) == SC_EINPUT, "a shock inside the nozzle is refused");
+    const char *message = sc_error_message();
+    CHECK(strstr(message, "normal shock") && strstr(message, "101325"), "message with the numbers: %s", message);
+    n.stagnation_pressure = 2e6; /* over-expanded, the shock outside: accepted */
+    CHECK(dem_nozzle_solve(&n, 10e-6, 50e-6) == SC_OK, "over-expanded is fine: %s", sc_error_message());
+}
+
+/* The spray stage with [nozzle]: every hand-off row carries the speed and temperature of the nozzle's table at its
+ * diameter (no gas drag after the exit: jet model none), and the jet's constants follow the exit state unless given
+ * in [jet]. */
+static const char *nozzle_case = "[run]\nseed = 3\n"
+                                 "[spray]\ndt = 1e-6\nt_end = 4e-5\nfeed_count = 5\nfeed_every = 5\n"
+                                 "max_injected = 20\nnozzle_radius = 0.00315\ndomain_radius = 0.02\n"
+                                 "handoff_height = 0.003\n"
+                                 "[powder]\ndistribution = weibull\nmedian_diameter = 30e-6\nshape = 4\n"
+                                 "d_min = 15e-6\nd_max = 45e-6\ndensity = 2700\nspecific_heat = 896\n"
+                                 "[target]\nstandoff = 0.01\n"
+                                 "[nozzle]\nstagnation_pressure = 6.55e6\nstagnation_temperature = 698.15\n"
+                                 "throat_diameter = 2e-3\nexit_diameter = 6.3e-3\nconvergent_length = 0.03\n"
+                                 "divergent_length = 0.14\n"
+                                 "[jet]\nmodel = none\nC1 = 123\n"
+                                 "[deposition]\nrule = none\n";
+
+static void test_spray_release(void)
+{
+    struct fixture f;
+    if (fixture_open(&f, nozzle_case, NULL) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    const struct dem_nozzle *n = f.cfg.nozzle;
+    CHECK(n && n->enabled, "[nozzle] read");
+    if (!n) {
+        fixture_close(&f);
+        return;
+    }
+    CHECK_CLOSE(f.cfg.gas.core_length, 6.3e-3 * (4.2 + 1.1 * n->exit.mach * n->exit.mach), 1e-12, 0, "core length");
+    CHECK_CLOSE(f.cfg.gas.c1, 123.0, 0, 0, "C1 given in [jet] wins");
+    CHECK_CLOSE(f.cfg.gas.density, n->exit.density, 0, 0, "gas density of the exit");
+    CHECK_CLOSE(f.cfg.gas.gas_temperature, n->exit.temperature, 0, 0, "gas temperature of the exit");
+    fixture_steps(&f, 40);
+    size_t count;
+    const struct dem_handoff *h = dem_handoffs(f.solver, &count);
+    CHECK(count >= 15, "%zu hand-off rows", count);
+    for (size_t k = 0; k < count; k++) {
+        double speed, temperature;
+        dem_nozzle_lookup(n, h[k].d, &speed, &temperature);
+        CHECK_CLOSE(sqrt(h[k].v[0] * h[k].v[0] + h[k].v[1] * h[k].v[1] + h[k].v[2] * h[k].v[2]), speed, 1e-12, 0,
+                    "release speed of the table");
+        CHECK_CLOSE(h[k].temperature, temperature, 0, 0, "temperature of the table");
+        CHECK(temperature > 400 && temperature < 520, "heated in the nozzle: %g K", temperature);
+    }
+    fixture_close(&f);
+}
+
+int main(void)
+{
+    RUN(test_area_mach);
+    RUN(test_exit_state);
+    RUN(test_drag_limits);
+    RUN(test_particle_against_rk4);
+    RUN(test_shock_inside);
+    RUN(test_spray_release);
+    return check_finish();
+}
