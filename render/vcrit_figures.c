@@ -17,10 +17,13 @@ static const double tang_vcrit[] = {824, 809, 791, 776, 761};
 struct search_runs {
     size_t count, capacity;
     double *d, *v, *cor; /* um, m/s, - (NaN when the file has no cor) */
-    int *bonded;
+    int *verdict;        /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5) */
 };
 
-static int add_run(struct search_runs *r, double d, double v, int bonded, double cor)
+#define RUN_BONDED    1
+#define RUN_UNSETTLED 2
+
+static int add_run(struct search_runs *r, double d, double v, int verdict, double cor)
 {
     if (r->count == r->capacity) {
         size_t capacity = r->capacity ? 2 * r->capacity : 64;
@@ -30,9 +33,9 @@ static int add_run(struct search_runs *r, double d, double v, int bonded, double
         double *v2 = realloc(r->v, capacity * sizeof *v2);
         if (v2)
             r->v = v2;
-        int *b2 = realloc(r->bonded, capacity * sizeof *b2);
+        int *b2 = realloc(r->verdict, capacity * sizeof *b2);
         if (b2)
-            r->bonded = b2;
+            r->verdict = b2;
         double *c2 = realloc(r->cor, capacity * sizeof *c2);
         if (c2)
             r->cor = c2;
@@ -40,7 +43,7 @@ static int add_run(struct search_runs *r, double d, double v, int bonded, double
             SC_FAIL_OOM(capacity * (sizeof *d2 + sizeof *v2 + sizeof *b2 + sizeof *c2), "the critical-velocity runs");
         r->capacity = capacity;
     }
-    r->d[r->count] = d, r->v[r->count] = v, r->cor[r->count] = cor, r->bonded[r->count++] = bonded;
+    r->d[r->count] = d, r->v[r->count] = v, r->cor[r->count] = cor, r->verdict[r->count++] = verdict;
     return SC_OK;
 }
 
@@ -50,21 +53,23 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     struct search_runs *runs = data;
     hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
     double d;
-    struct render_array v, bonded, cor;
-    memset(&v, 0, sizeof v), memset(&bonded, 0, sizeof bonded), memset(&cor, 0, sizeof cor);
+    struct render_array v, verdict, cor;
+    memset(&v, 0, sizeof v), memset(&verdict, 0, sizeof verdict), memset(&cor, 0, sizeof cor);
     if (g < 0)
         return -1;
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &d), done);
     SC_CHECK(status, render_read_array(g, "vcrit.h5", "velocity", &v), done);
-    SC_CHECK(status, render_read_array(g, "vcrit.h5", "bonded", &bonded), done);
+    /* the verdicts with the unsettled runs told apart; files before settled verdicts have only bonded (0/1) */
+    SC_CHECK(status, render_read_array(g, "vcrit.h5", h5_exists(g, "verdict") ? "verdict" : "bonded", &verdict), done);
     if (h5_exists(g, "cor")) /* files of versions before CoR have none */
         SC_CHECK(status, render_read_array(g, "vcrit.h5", "cor", &cor), done);
-    for (size_t i = 0; i < v.count && i < bonded.count; i++)
+    for (size_t i = 0; i < v.count && i < verdict.count; i++)
         SC_CHECK(status,
-                 add_run(runs, d * 1e6, v.values[i], bonded.values[i] == 1, i < cor.count ? cor.values[i] : NAN), done);
+                 add_run(runs, d * 1e6, v.values[i], (int)verdict.values[i], i < cor.count ? cor.values[i] : NAN),
+                 done);
 done:
-    render_array_free(&v), render_array_free(&bonded), render_array_free(&cor);
+    render_array_free(&v), render_array_free(&verdict), render_array_free(&cor);
     H5Gclose(g);
     return status == SC_OK ? 0 : -1;
 }
@@ -85,16 +90,18 @@ static int read_search(hid_t file, const char *path, struct search_runs *runs)
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
                       const struct search_runs *runs, struct render_output *out)
 {
-    size_t n = d->count, m = runs->count, nb = 0, nr = 0;
-    double *buffer = malloc((n + 4 * m + 1) * sizeof *buffer);
+    size_t n = d->count, m = runs->count, nb = 0, nr = 0, nu = 0;
+    double *buffer = malloc((n + 6 * m + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL_OOM((n + 4 * m + 1) * sizeof *buffer, "the critical-velocity figure");
-    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m;
+        SC_FAIL_OOM((n + 6 * m + 1) * sizeof *buffer, "the critical-velocity figure");
+    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m;
     for (size_t i = 0; i < n; i++)
         d_um[i] = d->values[i] * 1e6;
-    for (size_t i = 0; i < m; i++) {
-        if (runs->bonded[i])
+    for (size_t i = 0; i < m; i++) { /* an unsettled run is neither bonded nor rebounded: a series of its own */
+        if (runs->verdict[i] == RUN_BONDED)
             bd[nb] = runs->d[i], bv[nb++] = runs->v[i];
+        else if (runs->verdict[i] == RUN_UNSETTLED)
+            ud[nu] = runs->d[i], uv[nu++] = runs->v[i];
         else
             rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
     }
@@ -104,6 +111,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
         {"Tang (2021) Table 5.4", RENDER_OPEN_MARKERS, 5, tang_diameter_um, tang_vcrit, 0, 1},
         {"runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
         {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
+        {"runs: unsettled", RENDER_OPEN_MARKERS, nu, ud, uv, 0, 3},
     };
     struct render_plot plot = render_plot_start(req->cfg, 1);
     plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter",
@@ -114,7 +122,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            NAN,
                                            NAN,
                                            0,
-                                           5,
+                                           6,
                                            series};
     int status;
     SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
@@ -170,6 +178,6 @@ done:
     if (file >= 0)
         H5Fclose(file);
     render_array_free(&d), render_array_free(&v);
-    free(runs.d), free(runs.v), free(runs.bonded), free(runs.cor);
+    free(runs.d), free(runs.v), free(runs.verdict), free(runs.cor);
     return status;
 }
