@@ -323,7 +323,7 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
             r->points_max = fmax(r->points_max, (double)points);
         }
         if (h5_attr_read_double(stats, "t_end", &t_end) == SC_OK)
-            r->t_impact = t_end;
+            r->t_impact = fmax(r->t_impact, t_end); /* the longest run (runs end once settled) */
         H5Gclose(stats);
     }
     r->runs++;
@@ -463,8 +463,9 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         if (t.unsettled)
             fprintf(f, "%s%zu unsettled: the verdict still changing at the end", sep, t.unsettled), sep = ", ";
         fprintf(f,
-                "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s at t = %s ns "
-                "(<code>[impact] pbcp_threshold, vrest_threshold</code>).</li>\n",
+                "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s once the verdict has settled "
+                "(<code>[impact] pbcp_threshold, vrest_threshold, settle_*</code>); a run ends when every verdict "
+                "in it has settled or at <code>[impact] t_end</code> (the longest lasted %s ns).</li>\n",
                 sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
                 given(r->t_impact * 1e9).s);
         if (t.compared > 0)
