@@ -129,6 +129,10 @@ struct dem_config {
     double alpha_adh, critical_velocity;
     size_t table_count; /* v_crit(d) table, diameters ascending */
     double *table_diameter, *table_velocity;
+    /* the deposition efficiency's classes (dem/efficiency.c): size classes over the run's size range, and
+     * first-impact angle classes of this width (rad) from the target normal */
+    long de_size_classes;
+    double de_angle_class_width;
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -156,6 +160,13 @@ struct dem_handoff {
     int64_t particle_id;
     double x[3], v[3], w[3];
     double d;
+};
+
+/* One row per particle that left the domain (spray.h5:/escapes). */
+struct dem_escape {
+    double t; /* s, the end of the step in which it left */
+    int64_t particle_id;
+    double d, m;
 };
 
 /* Accounting and solver statistics. */
@@ -222,11 +233,39 @@ struct dem_metrics {
 };
 struct dem_metrics dem_compute_metrics(const struct dem_solver *s);
 
+/* The deposition efficiency by mass (dem/efficiency.c, docs/physics.md "Deposition efficiency"): of all the
+ * particles sprayed (injected), the mass deposited over the mass sprayed, and its split into classes of
+ * diameter and of the angle of a particle's first impact (its first contact with the target or a fixed
+ * particle) to the target normal.  A class holds its bounds, the mass and number sprayed into it and deposited
+ * from it, and de = deposited / sprayed mass (0 where nothing was sprayed).  The size classes add up to the
+ * whole; the angle classes add up to the particles that had an impact, the rest is `unimpacted` (still in
+ * flight, or escaped without touching), none of which is deposited. */
+struct dem_de_class {
+    double lo, hi; /* m (size) or rad (angle) */
+    double sprayed_mass, deposited_mass, de;
+    int64_t sprayed_count, deposited_count;
+};
+struct dem_deposition_efficiency {
+    double sprayed_mass, deposited_mass, de; /* kg, kg, - */
+    int64_t sprayed_count, deposited_count;
+    double unimpacted_mass; /* kg sprayed without an impact */
+    int64_t unimpacted_count;
+    double mean_impact_speed, mean_impact_normal_speed; /* m/s: mean |v| and v_z of the first impacts */
+    size_t size_count, angle_count;
+    struct dem_de_class *by_size, *by_angle;
+};
+/* SC_EIO (out of memory) or SC_OK; free with dem_deposition_efficiency_free. */
+int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_efficiency *de);
+void dem_deposition_efficiency_free(struct dem_deposition_efficiency *de);
+/* The group /deposition_efficiency of spray.h5 (written by dem_write_output) into an open file or group. */
+int dem_deposition_efficiency_write(const struct dem_deposition_efficiency *de, hid_t loc);
+
 /* Checkpoint: everything the next step needs, into an open group (X_checkpoint_write, as every module names it). */
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group);
 /* Restore into a solver created from the same configuration. */
 int dem_checkpoint_read(struct dem_solver *s, hid_t group);
-/* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats) into an open file. */
+/* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats, /escapes, /deposition_efficiency)
+ * into an open file. */
 int dem_write_output(const struct dem_solver *s, hid_t file);
 
 /* The particles at one time: spray.h5 /snapshots/NNNNNN (docs/files.md).  The spray stage takes one every
