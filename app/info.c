@@ -105,6 +105,64 @@ static double *read_column(hid_t loc, const char *name, size_t n)
     return values;
 }
 
+/* spray.h5 /deposition_efficiency/GROUP: one line per class, or on one line (`brief`) the DE of each. */
+static void print_de_classes(hid_t file, const char *group, const char *bound, double scale, int brief, FILE *out)
+{
+    char path[128];
+    size_t n;
+    snprintf(path, sizeof path, "deposition_efficiency/%s/de", group);
+    if (h5_dataset_size(file, path, &n) != SC_OK || n == 0)
+        return;
+    const char *names[] = {"lo", "hi", "sprayed_mass", "deposited_mass", "de", "sprayed_count"};
+    double *column[6];
+    for (int k = 0; k < 6; k++) {
+        snprintf(path, sizeof path, "deposition_efficiency/%s/%s", group, names[k]);
+        column[k] = read_column(file, path, n);
+    }
+    if (column[0] && column[1] && column[2] && column[3] && column[4] && column[5]) {
+        fprintf(out, brief ? "        DE by %s:" : "  by %s:\n", bound);
+        for (size_t i = 0; i < n; i++) {
+            if (brief && column[5][i] > 0)
+                fprintf(out, " %.3g-%.3g %.3f;", scale * column[0][i], scale * column[1][i], column[4][i]);
+            else if (!brief)
+                fprintf(out, "    %9.4g - %-9.4g sprayed %-10.4g kg (%4.0f)  deposited %-10.4g kg  DE %.4f\n",
+                        scale * column[0][i], scale * column[1][i], column[2][i], column[5][i], column[3][i],
+                        column[4][i]);
+        }
+        if (brief)
+            fputc('\n', out);
+    }
+    for (int k = 0; k < 6; k++)
+        free(column[k]);
+}
+
+static double de_value(hid_t file, const char *name)
+{
+    char path[128];
+    double value = NAN;
+    snprintf(path, sizeof path, "deposition_efficiency/%s", name);
+    h5_read_doubles(file, path, &value, 1);
+    return value;
+}
+
+/* spray.h5 /deposition_efficiency: the headline DE by mass and its classes. */
+static void print_deposition_efficiency(hid_t file, int brief, FILE *out)
+{
+    if (!h5_exists(file, "deposition_efficiency"))
+        return;
+    fprintf(out,
+            brief ? "        deposition efficiency (mass) %.4f: %.4g of %.4g kg sprayed; first impacts at %.4g m/s "
+                    "(normal %.4g m/s) on average\n"
+                  : "deposition efficiency (mass): %.6f (%.6g of %.6g kg sprayed); first impacts at %.6g m/s "
+                    "(normal %.6g m/s) on average\n",
+            de_value(file, "de"), de_value(file, "deposited_mass"), de_value(file, "sprayed_mass"),
+            de_value(file, "mean_impact_speed"), de_value(file, "mean_impact_normal_speed"));
+    print_de_classes(file, "by_size", "size (um)", 1e6, brief, out);
+    print_de_classes(file, "by_angle", "first-impact angle (degree)", 1.0, brief, out);
+    if (!brief)
+        fprintf(out, "  sprayed without an impact: %.6g kg\n", de_value(file, "unimpacted_mass"));
+}
+
 /* impact.h5: counts, snapshots and the per-body summary. */
 static void print_impact_results(hid_t file, FILE *out)
 {
@@ -288,6 +346,7 @@ static int info_file(const char *path, FILE *out)
                         (long long)counters[0], (long long)counters[1], (long long)counters[2], (long long)counters[3]);
         }
         print_last_metrics(file, out);
+        print_deposition_efficiency(file, 0, out);
     }
     H5Fclose(file);
     sc_error_clear();
@@ -444,6 +503,7 @@ void info_headline(const char *run_dir, FILE *out)
         fprintf(out, "spray:  deposit fraction %.3f (%.0f of %.0f particles deposited), max deposit thickness %.3g m\n",
                 last_value(file, "metrics/deposit_fraction"), last_value(file, "metrics/deposited"),
                 last_value(file, "metrics/injected"), last_value(file, "metrics/max_thickness"));
+        print_deposition_efficiency(file, 1, out);
         H5Fclose(file);
     }
     snprintf(path, sizeof path, "%s/impact.h5", run_dir);

@@ -92,6 +92,39 @@ static int is_deposited(const struct dem_particles *p, int64_t id)
     return lo < p->count && p->id[lo] == id && p->state[lo] == DEM_DEPOSITED;
 }
 
+static int compare_ids(const void *a, const void *b)
+{
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int has_impact(const int64_t *sorted, size_t count, int64_t id)
+{
+    return bsearch(&id, sorted, count, sizeof *sorted, compare_ids) != NULL;
+}
+
+/* The mass and number sprayed without an impact (still in flight, or escaped without touching): summed over
+ * those particles rather than taken as a difference, so that none gives exactly 0. */
+static int sum_unimpacted(const struct dem_solver *s, struct dem_deposition_efficiency *de)
+{
+    size_t count = 0;
+    int64_t *ids = malloc((s->impact_count ? s->impact_count : 1) * sizeof *ids);
+    if (!ids)
+        SC_FAIL_OOM(s->impact_count * sizeof *ids, "the ids of the first impacts");
+    for (size_t r = 0; r < s->impact_count; r++)
+        if (s->impacts[r].contact_index == 0)
+            ids[count++] = s->impacts[r].particle_id;
+    qsort(ids, count, sizeof *ids, compare_ids);
+    for (size_t i = 0; i < s->p.count; i++)
+        if (!has_impact(ids, count, s->p.id[i]))
+            de->unimpacted_mass += s->p.m[i], de->unimpacted_count++;
+    for (size_t k = 0; k < s->escape_count; k++)
+        if (!has_impact(ids, count, s->escapes[k].particle_id))
+            de->unimpacted_mass += s->escapes[k].m, de->unimpacted_count++;
+    free(ids);
+    return SC_OK;
+}
+
 /* The angle of an impact velocity to the target normal (the spray axis; the target faces -z). */
 static double impact_angle(const double v[3])
 {
@@ -107,7 +140,7 @@ static void split_by_angle(const struct dem_solver *s, struct dem_deposition_eff
         de->by_angle[k].lo = width * (double)k;
         de->by_angle[k].hi = fmin(width * (double)(k + 1), 0.5 * M_PI);
     }
-    double impacted_mass = 0, speed_sum = 0, normal_sum = 0;
+    double speed_sum = 0, normal_sum = 0;
     int64_t impacted = 0;
     for (size_t r = 0; r < s->impact_count; r++) {
         const struct dem_impact *row = &s->impacts[r];
@@ -118,13 +151,10 @@ static void split_by_angle(const struct dem_solver *s, struct dem_deposition_eff
         add_sprayed(c, row->m);
         if (is_deposited(&s->p, row->particle_id))
             add_deposited(c, row->m);
-        impacted_mass += row->m;
         impacted++;
         speed_sum += sqrt(row->v_in[0] * row->v_in[0] + row->v_in[1] * row->v_in[1] + row->v_in[2] * row->v_in[2]);
         normal_sum += row->v_in[2];
     }
-    de->unimpacted_mass = de->sprayed_mass - impacted_mass;
-    de->unimpacted_count = de->sprayed_count - impacted;
     de->mean_impact_speed = impacted ? speed_sum / (double)impacted : 0.0;
     de->mean_impact_normal_speed = impacted ? normal_sum / (double)impacted : 0.0;
 }
@@ -150,6 +180,11 @@ int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_
     }
     de->de = de->sprayed_mass > 0 ? de->deposited_mass / de->sprayed_mass : 0.0;
     split_by_angle(s, de);
+    int status = sum_unimpacted(s, de);
+    if (status != SC_OK) {
+        dem_deposition_efficiency_free(de);
+        SC_TRY(status);
+    }
     finish_classes(de->by_size, de->size_count);
     finish_classes(de->by_angle, de->angle_count);
     return SC_OK;
