@@ -1,8 +1,8 @@
 /* The deposition efficiency (DE) of a spray run by mass, and its split by particle size and by the angle of the
  * first impact (docs/physics.md, "Deposition efficiency").  DE is the coating engineer's figure: the mass that
- * stays on the substrate over the mass of powder fed (Assadi et al. 2003 and the cold-spray literature define
- * it so), not the count fraction N_dep/N_inj of Mukherjee & Zohdi Section 5.2, which weighs a 10 um particle as
- * much as a 30 um one.  Computed from the solver's state at the end: the particles still held (flying,
+ * stays on the substrate over the mass of powder fed (what a weighed substrate and powder feeder measure), not
+ * the count fraction N_dep/N_inj of Mukherjee & Zohdi Section 5.2, which weighs a 10 um particle as much as a
+ * 30 um one (27 times its mass).  Computed from the solver's state at the end: the particles still held (flying,
  * deposited, resting), the escaped ones (s->escapes) and the first contacts of /impacts. */
 #include <math.h>
 #include <stdlib.h>
