@@ -4,7 +4,8 @@
 # values of each run's own spray.h5, and the runs differ; the run of one grid point equals a `spraycoat spray` of a
 # case file with those values written in it (the sweep sets the keys as the file would); a second sweep runs
 # nothing; after a run's spray.h5 is removed, only that run is made again and the map is the same; `resume`
-# continues a sweep; bad [sweep] keys and values are refused with exit status 2 before the run directory is made.
+# continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
+# [sweep] keys and values are refused with exit status 2 before the run directory is made.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
 # sets it).  Needs h5dump.
 set -u
@@ -24,7 +25,15 @@ if [ ! -x "$BIN" ] || [ ! -r "$TABLE" ] || ! command -v h5dump >/dev/null 2>&1; 
     exit 1
 fi
 T=$(mktemp -d) || exit 1
-trap 'rm -rf "$T"' EXIT
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
 trap 'exit 1' HUP INT TERM
 
 # write_case FILE C1 RELEASE_MAX [SWEEP_LINES]: the demo's spray, shortened
@@ -177,3 +186,26 @@ bad values_without_key "[sweep]
 x_key = jet.C1
 x_values = 250
 y_values = 1, 2" "\[sweep\] y_key"
+
+# 6. a sweep stopped by SIGTERM in a run (after a checkpoint) exits 143 and `resume` finishes it with the same map
+sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/term.ini"
+"$BIN" sweep "$T/term.ini" -o "$T/term" >"$T/log_term" 2>&1 &
+bg=$!
+i=0
+while [ "$i" -lt 1500 ] && ! ls "$T"/term/runs/*/checkpoints/spray_*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
+    sleep 0.02
+    i=$((i + 1))
+done
+kill -TERM "$bg" 2>/dev/null
+wait "$bg"
+term=$?
+bg=""
+"$BIN" resume "$T/term" >"$T/log_term_resume" 2>&1
+resumed=$?
+values "$T/term/sweep.h5" /de >"$T/map_de_term" 2>/dev/null
+if [ $term -eq 143 ] && [ $resumed -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_term" &&
+    grep -q "spray: resuming from .*runs/x[01]_y[01]/checkpoints/spray_" "$T/log_term_resume"; then
+    pass sweep_interrupted_and_resumed
+else
+    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term")"
+fi
