@@ -203,8 +203,10 @@ static int validate_run(struct sweep *sw, int i, int j)
     SC_TRY(run_case(sw, i, j, &run));
     axis_numbers(&sw->x, run, i);
     axis_numbers(&sw->y, run, j);
-    char dir[4200];
-    run_name(i, j, dir + snprintf(dir, sizeof dir, "%s/", sw->run_dir ? sw->run_dir : "."), 64);
+    char dir[4200], name[64];
+    run_name(i, j, name, sizeof name);
+    snprintf(dir, sizeof dir, "%s/%s", sw->run_dir ? sw->run_dir : ".", name);
+    /* with the run directory: its checkpoints (if any) must be this run's case */
     const struct stage_context ctx = {.c = run, .run_dir = sw->run_dir ? dir : NULL};
     int status = spray_stage_validate(&ctx);
     case_free(run);
