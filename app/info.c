@@ -308,6 +308,25 @@ static void print_couple_results(hid_t file, FILE *out)
     free(d), free(t), free(v), free(vs), free(x), free(run), free(steps);
 }
 
+/* sweep.h5: the map of DE and mean impact speed, one line per run (app/sweep_stage.c). */
+static void print_sweep_results(hid_t file, FILE *out)
+{
+    char keys[2][160] = {"", ""}, labels[2][4096] = {"", ""};
+    h5_attr_read_string(file, "x_key", keys[0], sizeof keys[0]);
+    h5_attr_read_string(file, "y_key", keys[1], sizeof keys[1]);
+    h5_attr_read_string(file, "x_labels", labels[0], sizeof labels[0]);
+    h5_attr_read_string(file, "y_labels", labels[1], sizeof labels[1]);
+    size_t nx = 0, ny = 0, n = 0;
+    h5_dataset_size(file, "x_values", &nx);
+    h5_dataset_size(file, "y_values", &ny);
+    h5_dataset_size(file, "de", &n);
+    double *de = read_column(file, "de", n), *speed = read_column(file, "mean_impact_speed", n);
+    fprintf(out, "sweep over %s (%s) and %s (%s):\n", keys[0], labels[0], keys[1][0] ? keys[1] : "-", labels[1]);
+    for (size_t k = 0; de && speed && n == nx * ny && k < n; k++)
+        fprintf(out, "  runs/x%zu_y%zu  DE %.4f  mean impact speed %.4g m/s\n", k % nx, k / nx, de[k], speed[k]);
+    free(de), free(speed);
+}
+
 static int info_file(const char *path, FILE *out)
 {
     hid_t file;
@@ -331,6 +350,8 @@ static int info_file(const char *path, FILE *out)
         print_vcrit_results(file, out);
     } else if (strcmp(stage, "calibrate") == 0) {
         print_calibrate_results(file, out);
+    } else if (strcmp(stage, "sweep") == 0) {
+        print_sweep_results(file, out);
     } else {
         if (h5_exists(file, "stats")) {
             hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
@@ -425,8 +446,8 @@ static void print_render_state(const char *run_dir, const char *stages, FILE *ou
 
 int info_print(const char *target, FILE *out)
 {
-    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate"};
-    enum { STAGES = 5, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
+    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
+    enum { STAGES = 6, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
