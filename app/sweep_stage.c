@@ -197,12 +197,10 @@ static void axis_numbers(struct sweep_axis *axis, const struct case_file *run, i
                                                   : case_real(run, axis->section, axis->key);
 }
 
-static int validate_run(struct sweep *sw, int i, int j)
+static int validate_run(const struct sweep *sw, int i, int j)
 {
     struct case_file *run;
     SC_TRY(run_case(sw, i, j, &run));
-    axis_numbers(&sw->x, run, i);
-    axis_numbers(&sw->y, run, j);
     char dir[4200], name[64];
     run_name(i, j, name, sizeof name);
     snprintf(dir, sizeof dir, "%s/%s", sw->run_dir ? sw->run_dir : ".", name);
@@ -211,6 +209,24 @@ static int validate_run(struct sweep *sw, int i, int j)
     int status = spray_stage_validate(&ctx);
     case_free(run);
     SC_TRY(status);
+    return SC_OK;
+}
+
+/* The axes' values in SI, from the cases of the runs of the first row and column. */
+static int fill_numbers(struct sweep *sw)
+{
+    for (int i = 0; i < sw->x.count; i++) {
+        struct case_file *run;
+        SC_TRY(run_case(sw, i, 0, &run));
+        axis_numbers(&sw->x, run, i);
+        case_free(run);
+    }
+    for (int j = 0; j < sw->y.count; j++) {
+        struct case_file *run;
+        SC_TRY(run_case(sw, 0, j, &run));
+        axis_numbers(&sw->y, run, j);
+        case_free(run);
+    }
     return SC_OK;
 }
 
@@ -314,8 +330,9 @@ static void log_map(const struct sweep *sw, const struct sweep_map *map)
         }
 }
 
-static int write_map(const struct sweep *sw, uint64_t hash)
+static int write_map(struct sweep *sw, uint64_t hash)
 {
+    SC_TRY(fill_numbers(sw));
     size_t n = (size_t)sw->x.count * (size_t)sw->y.count;
     struct sweep_map map = {.sw = sw};
     map.de = calloc(4 * n, sizeof *map.de);

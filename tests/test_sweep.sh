@@ -1,7 +1,7 @@
 #!/bin/sh
 # `spraycoat sweep` on a tiny case (2 x 2 spray runs of 300 steps, 200 particles each: a few seconds here):
 # sweep.h5's maps of the deposition efficiency (DE by mass) and the mean impact speed hold, entry for entry, the
-# values of each run's own spray.h5, and the runs differ; the run of one grid point equals a `spraycoat spray` of a
+# values of each run's own spray.h5, and the runs differ; its axes hold the values in SI (0.7 km/s is 700); the run of one grid point equals a `spraycoat spray` of a
 # case file with those values written in it (the sweep sets the keys as the file would); a second sweep runs
 # nothing; after a run's spray.h5 is removed, only that run is made again and the map is the same; `resume`
 # continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
@@ -83,7 +83,7 @@ SWEEP="[sweep]
 x_key = jet.C1
 x_values = 250, 350
 y_key = spray.release_speed_max
-y_values = 700 m/s, 900"
+y_values = 0.7 km/s, 900"
 write_case "$T/sweep.ini" 320 800 "$SWEEP"
 R=$T/run
 "$BIN" sweep "$T/sweep.ini" -o "$R" >"$T/log1" 2>&1
@@ -110,6 +110,10 @@ else
     elif ! cmp -s "$T/map_speed" "$T/runs_speed"; then
         map_ok=0
         reason="map speed $(tr '\n' ' ' <"$T/map_speed") != runs $(tr '\n' ' ' <"$T/runs_speed")"
+    elif [ "$(values "$R/sweep.h5" /x_values | tr '\n' ' ')" != "250 350 " ] ||
+        [ "$(values "$R/sweep.h5" /y_values | tr '\n' ' ')" != "700 900 " ]; then
+        map_ok=0
+        reason="axes $(values "$R/sweep.h5" /x_values | tr '\n' ' ') and $(values "$R/sweep.h5" /y_values | tr '\n' ' '), expected 250 350 and 700 900 (0.7 km/s in SI)"
     elif [ "$(sort -u "$T/map_de" | wc -l)" -lt 4 ]; then
         map_ok=0
         reason="the four runs give DEs $(tr '\n' ' ' <"$T/map_de"): the keys did not change the runs"
