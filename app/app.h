@@ -50,6 +50,8 @@ struct stage_context {
 /* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
  * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
 uint64_t stage_hash(const struct stage_context *ctx, const char *stage);
+/* 1 when the results of `stage` ("spray") depend on the keys of `section` (the sections its hash covers). */
+int stage_has_section(const char *stage, const char *section);
 /* 1 when RUN_DIR/couple.h5 exists and was made by this case's couple stage. */
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
@@ -173,6 +175,13 @@ int vcrit_runs_parse_list(const struct case_file *c, const char *section, const 
 extern const struct cfg_key calibrate_case_keys[];
 int calibrate_stage_validate(const struct stage_context *ctx);
 int calibrate_stage_run(const struct stage_context *ctx);
+
+/* `spraycoat sweep` ([sweep], app/sweep_stage.c): the spray stage over a grid of two case keys, each run in
+ * RUN_DIR/runs/xI_yJ (restartable like `spraycoat spray`; shared among MPI ranks), and RUN_DIR/sweep.h5 with the
+ * maps of the deposition efficiency and the mean impact speed. */
+extern const struct cfg_key sweep_case_keys[];
+int sweep_stage_validate(const struct stage_context *ctx);
+int sweep_stage_run(const struct stage_context *ctx);
 
 /* The couple stage ([couple]): sample spray.h5's impacts, fly them through the gas layer in front of the target
  * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when

@@ -105,6 +105,64 @@ static double *read_column(hid_t loc, const char *name, size_t n)
     return values;
 }
 
+/* spray.h5 /deposition_efficiency/GROUP: one line per class, or on one line (`brief`) the DE of each. */
+static void print_de_classes(hid_t file, const char *group, const char *bound, double scale, int brief, FILE *out)
+{
+    char path[128];
+    size_t n;
+    snprintf(path, sizeof path, "deposition_efficiency/%s/de", group);
+    if (h5_dataset_size(file, path, &n) != SC_OK || n == 0)
+        return;
+    const char *names[] = {"lo", "hi", "sprayed_mass", "deposited_mass", "de", "sprayed_count"};
+    double *column[6];
+    for (int k = 0; k < 6; k++) {
+        snprintf(path, sizeof path, "deposition_efficiency/%s/%s", group, names[k]);
+        column[k] = read_column(file, path, n);
+    }
+    if (column[0] && column[1] && column[2] && column[3] && column[4] && column[5]) {
+        fprintf(out, brief ? "        DE by %s:" : "  by %s:\n", bound);
+        for (size_t i = 0; i < n; i++) {
+            if (brief && column[5][i] > 0)
+                fprintf(out, " %.3g-%.3g %.3f;", scale * column[0][i], scale * column[1][i], column[4][i]);
+            else if (!brief)
+                fprintf(out, "    %9.4g - %-9.4g sprayed %-10.4g kg (%4.0f)  deposited %-10.4g kg  DE %.4f\n",
+                        scale * column[0][i], scale * column[1][i], column[2][i], column[5][i], column[3][i],
+                        column[4][i]);
+        }
+        if (brief)
+            fputc('\n', out);
+    }
+    for (int k = 0; k < 6; k++)
+        free(column[k]);
+}
+
+static double de_value(hid_t file, const char *name)
+{
+    char path[128];
+    double value = NAN;
+    snprintf(path, sizeof path, "deposition_efficiency/%s", name);
+    h5_read_doubles(file, path, &value, 1);
+    return value;
+}
+
+/* spray.h5 /deposition_efficiency: the headline DE by mass and its classes. */
+static void print_deposition_efficiency(hid_t file, int brief, FILE *out)
+{
+    if (!h5_exists(file, "deposition_efficiency"))
+        return;
+    fprintf(out,
+            brief ? "        deposition efficiency (mass) %.4f: %.4g of %.4g kg sprayed; first impacts at %.4g m/s "
+                    "(normal %.4g m/s) on average\n"
+                  : "deposition efficiency (mass): %.6f (%.6g of %.6g kg sprayed); first impacts at %.6g m/s "
+                    "(normal %.6g m/s) on average\n",
+            de_value(file, "de"), de_value(file, "deposited_mass"), de_value(file, "sprayed_mass"),
+            de_value(file, "mean_impact_speed"), de_value(file, "mean_impact_normal_speed"));
+    print_de_classes(file, "by_size", "size (um)", 1e6, brief, out);
+    print_de_classes(file, "by_angle", "first-impact angle (degree)", 1.0, brief, out);
+    if (!brief)
+        fprintf(out, "  sprayed without an impact: %.6g kg\n", de_value(file, "unimpacted_mass"));
+}
+
 /* impact.h5: counts, snapshots and the per-body summary. */
 static void print_impact_results(hid_t file, FILE *out)
 {
@@ -250,6 +308,25 @@ static void print_couple_results(hid_t file, FILE *out)
     free(d), free(t), free(v), free(vs), free(x), free(run), free(steps);
 }
 
+/* sweep.h5: the map of DE and mean impact speed, one line per run (app/sweep_stage.c). */
+static void print_sweep_results(hid_t file, FILE *out)
+{
+    char keys[2][160] = {"", ""}, labels[2][4096] = {"", ""};
+    h5_attr_read_string(file, "x_key", keys[0], sizeof keys[0]);
+    h5_attr_read_string(file, "y_key", keys[1], sizeof keys[1]);
+    h5_attr_read_string(file, "x_labels", labels[0], sizeof labels[0]);
+    h5_attr_read_string(file, "y_labels", labels[1], sizeof labels[1]);
+    size_t nx = 0, ny = 0, n = 0;
+    h5_dataset_size(file, "x_values", &nx);
+    h5_dataset_size(file, "y_values", &ny);
+    h5_dataset_size(file, "de", &n);
+    double *de = read_column(file, "de", n), *speed = read_column(file, "mean_impact_speed", n);
+    fprintf(out, "sweep over %s (%s) and %s (%s):\n", keys[0], labels[0], keys[1][0] ? keys[1] : "-", labels[1]);
+    for (size_t k = 0; de && speed && n == nx * ny && k < n; k++)
+        fprintf(out, "  runs/x%zu_y%zu  DE %.4f  mean impact speed %.4g m/s\n", k % nx, k / nx, de[k], speed[k]);
+    free(de), free(speed);
+}
+
 static int info_file(const char *path, FILE *out)
 {
     hid_t file;
@@ -273,6 +350,8 @@ static int info_file(const char *path, FILE *out)
         print_vcrit_results(file, out);
     } else if (strcmp(stage, "calibrate") == 0) {
         print_calibrate_results(file, out);
+    } else if (strcmp(stage, "sweep") == 0) {
+        print_sweep_results(file, out);
     } else {
         if (h5_exists(file, "stats")) {
             hid_t stats = H5Gopen2(file, "stats", H5P_DEFAULT);
@@ -288,6 +367,7 @@ static int info_file(const char *path, FILE *out)
                         (long long)counters[0], (long long)counters[1], (long long)counters[2], (long long)counters[3]);
         }
         print_last_metrics(file, out);
+        print_deposition_efficiency(file, 0, out);
     }
     H5Fclose(file);
     sc_error_clear();
@@ -366,8 +446,8 @@ static void print_render_state(const char *run_dir, const char *stages, FILE *ou
 
 int info_print(const char *target, FILE *out)
 {
-    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate"};
-    enum { STAGES = 5, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
+    static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
+    enum { STAGES = 6, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
@@ -444,6 +524,7 @@ void info_headline(const char *run_dir, FILE *out)
         fprintf(out, "spray:  deposit fraction %.3f (%.0f of %.0f particles deposited), max deposit thickness %.3g m\n",
                 last_value(file, "metrics/deposit_fraction"), last_value(file, "metrics/deposited"),
                 last_value(file, "metrics/injected"), last_value(file, "metrics/max_thickness"));
+        print_deposition_efficiency(file, 1, out);
         H5Fclose(file);
     }
     snprintf(path, sizeof path, "%s/impact.h5", run_dir);

@@ -36,6 +36,8 @@ static const char usage[] =
     "  spraycoat run CASE.ini [-o RUN_DIR] [--stages LIST]\n"
     "                                           the pipeline spray,couple,impact,render (couple and impact\n"
     "                                           when the case has [couple] or [impact]); LIST picks stages\n"
+    "  spraycoat sweep CASE.ini [-o RUN_DIR]    the spray over a grid of two case keys ([sweep]): maps of\n"
+    "                                           the deposition efficiency and the impact speed\n"
     "  spraycoat resume RUN_DIR                 continue an interrupted run (the stages of the command\n"
     "                                           that made RUN_DIR) from its newest checkpoint\n"
     "  spraycoat info RUN_DIR|FILE.h5           what a run or file holds: stage, step, time, metrics\n"
@@ -90,6 +92,12 @@ static const struct command_help command_helps[] = {
      "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"
      "--every N (overrides [render] every): films as PNG frames of every Nth snapshot and the last, the plume\n"
      "from spray.h5 in figures/film_plume/ and each impact run in figures/film_impact*/; 0: none.\n"},
+    {"sweep", "spraycoat sweep CASE.ini [-o RUN_DIR] [--threads N]",
+     "The spray stage for every combination of the values of two case keys ([sweep] x_key, x_values, y_key,\n"
+     "y_values; keys of the spray's sections, each value checked like the case file's), each run in\n"
+     "RUN_DIR/runs/xI_yJ (a finished run is not run again, an interrupted one resumes from its checkpoint; shared\n"
+     "among MPI ranks), then RUN_DIR/sweep.h5 with the deposition efficiency (by mass) and the mean impact speed\n"
+     "over the grid, and the render stage's figure of it (figures/sweep_de.png).\n"},
     {"info", "spraycoat info RUN_DIR|FILE.h5",
      "What a run directory or an HDF5 file of spraycoat holds: stages, steps, times, metrics, and whether a\n"
      "process is running in the directory now.\n"},
@@ -228,6 +236,8 @@ static int command_check(const struct options *opt)
         SC_CHECK(status, vcrit_stage_validate(&ctx), done);
     if (app_case_section_given(c, "calibrate"))
         SC_CHECK(status, calibrate_stage_validate(&ctx), done);
+    if (app_case_section_given(c, "sweep"))
+        SC_CHECK(status, sweep_stage_validate(&ctx), done);
     case_print(c, stdout);
     printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
 done:
@@ -260,6 +270,7 @@ static const struct stage stages[] = {
     {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf", 1},
     {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit_cor.csv, vcrit.h5", 1},
     {"calibrate", calibrate_stage_validate, calibrate_stage_run, "calibrate.csv, calibrate.h5", 1},
+    {"sweep", sweep_stage_validate, sweep_stage_run, "runs/, sweep.h5", 1},
     {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0},
 };
 
@@ -340,13 +351,14 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     const struct stage *chosen[8];
     int count = 0;
     if (list[strspn(list, ", ")] == '\0')
-        SC_FAIL(SC_EINPUT, "no stage to run ('%s'; allowed: spray, couple, impact, vcrit, calibrate, render)", list);
+        SC_FAIL(SC_EINPUT, "no stage to run ('%s'; allowed: spray, couple, impact, vcrit, calibrate, sweep, render)",
+                list);
     for (const char *p = list; *p;) {
         size_t length = strcspn(p, ",");
         const struct stage *stage = find_stage(p, length);
         if (!stage || count == 8)
             SC_FAIL(SC_EINPUT,
-                    "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, calibrate, render)",
+                    "unknown stage '%.*s' in '%s' (allowed: spray, couple, impact, vcrit, calibrate, sweep, render)",
                     (int)length, p, list);
         int repeated = 0;
         for (int i = 0; i < count; i++)
@@ -477,8 +489,8 @@ static const char *command_word(int argc, char **argv)
 /* The commands that run OpenMP loops; the others (check, info, keys, help) are not worth a second start. */
 static int computes(const char *command)
 {
-    static const char *const computing[] = {"run",    "resume", "spray",     "couple",
-                                            "impact", "vcrit",  "calibrate", "render"};
+    static const char *const computing[] = {"run",   "resume",    "spray",  "couple", "impact",
+                                            "vcrit", "calibrate", "render", "sweep"};
     for (size_t i = 0; command && i < sizeof computing / sizeof computing[0]; i++)
         if (strcmp(command, computing[i]) == 0)
             return 1;
@@ -558,6 +570,8 @@ static int dispatch(const struct options *opt)
         return command_run(opt, command, 0);
     if (strcmp(command, "calibrate") == 0)
         return command_run(opt, "calibrate,render", 0);
+    if (strcmp(command, "sweep") == 0)
+        return command_run(opt, "sweep,render", 0);
     if (strcmp(command, "resume") == 0)
         return command_resume(opt);
     if (strcmp(command, "info") == 0)

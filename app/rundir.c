@@ -19,9 +19,9 @@
 #include "mpm/mpm.h"
 #include "render/render.h"
 
-const struct cfg_key *const spraycoat_registry[] = {
-    run_case_keys,   dem_case_keys,       couple_case_keys, mpm_case_keys,
-    vcrit_case_keys, calibrate_case_keys, render_case_keys, NULL};
+const struct cfg_key *const spraycoat_registry[] = {run_case_keys,    dem_case_keys,   couple_case_keys,
+                                                    mpm_case_keys,    vcrit_case_keys, calibrate_case_keys,
+                                                    render_case_keys, sweep_case_keys, NULL};
 
 static int make_directories(const char *path)
 {
@@ -214,7 +214,21 @@ uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
         return case_hash_sections(c, vcrit_sections);
     if (strcmp(stage, "calibrate") == 0)
         return case_hash_sections(c, calibrate_sections);
+    if (strcmp(stage, "sweep") == 0) { /* the spray's keys and [sweep]: follows spray_sections as it grows */
+        static const char *const sweep_only[] = {"sweep", NULL};
+        return case_hash_sections(c, spray_sections) * 1099511628211ULL ^ case_hash_sections(c, sweep_only);
+    }
     return case_hash(c);
+}
+
+int stage_has_section(const char *stage, const char *section)
+{
+    if (strcmp(stage, "spray") != 0)
+        return 0;
+    for (int k = 0; spray_sections[k]; k++)
+        if (strcmp(spray_sections[k], section) == 0)
+            return 1;
+    return 0;
 }
 
 /* Whether the root attribute case_hash of the open file is one this case's `stage` writes (the impact stage's of

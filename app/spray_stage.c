@@ -1,5 +1,6 @@
 /* The spray stage driver: checkpoints, resume, signals, progress and RUN_DIR/spray.h5. */
 #include <errno.h>
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -212,11 +213,39 @@ static void log_timing(const struct spray_run *run)
              (long long)t.grid_repairs, (long long)run->loop_steps);
 }
 
+/* The DE by mass (spray.h5 /deposition_efficiency) and its classes, as the closing lines of the stage. */
+static void log_de_classes(const char *what, const struct dem_de_class *classes, size_t count, double scale)
+{
+    char text[2048];
+    size_t used = 0;
+    for (size_t k = 0; k < count && used < sizeof text - 64; k++)
+        if (classes[k].sprayed_count > 0)
+            used += (size_t)snprintf(text + used, sizeof text - used, " %.3g-%.3g: %.3f (%lld);", scale * classes[k].lo,
+                                     scale * classes[k].hi, classes[k].de, (long long)classes[k].sprayed_count);
+    log_info("spray: DE by %s (particles sprayed):%s", what, used ? text : " none");
+}
+
+static void log_deposition_efficiency(const struct spray_run *run)
+{
+    struct dem_deposition_efficiency de;
+    if (dem_deposition_efficiency(run->solver, &de) != SC_OK) {
+        sc_error_clear();
+        return;
+    }
+    log_info("spray: deposition efficiency (mass) %.4f: %.4g of %.4g kg sprayed deposited (%lld of %lld particles); "
+             "first impacts at %.4g m/s (normal %.4g m/s) on average",
+             de.de, de.deposited_mass, de.sprayed_mass, (long long)de.deposited_count, (long long)de.sprayed_count,
+             de.mean_impact_speed, de.mean_impact_normal_speed);
+    log_de_classes("size (um)", de.by_size, de.size_count, 1e6);
+    log_de_classes("first-impact angle (degree)", de.by_angle, de.angle_count, 180.0 / M_PI);
+    dem_deposition_efficiency_free(&de);
+}
+
 static void log_summary(const struct spray_run *run)
 {
     struct dem_metrics m = dem_compute_metrics(run->solver);
     struct dem_counts c = dem_get_counts(run->solver);
-    log_info("spray: t = %.6g s: injected %lld, deposited %lld (deposition efficiency %.4f), resting %lld, escaped "
+    log_info("spray: t = %.6g s: injected %lld, deposited %lld (deposit fraction by count %.4f), resting %lld, escaped "
              "%lld, in flight %lld",
              m.t, (long long)m.injected, (long long)m.deposited, m.deposit_fraction, (long long)m.resting,
              (long long)m.escaped, (long long)m.in_flight);
@@ -238,6 +267,7 @@ static void log_summary(const struct spray_run *run)
                  (long long)c.trapped);
     log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m", m.volume_fraction,
              m.mean_spread, m.scatter, m.max_thickness);
+    log_deposition_efficiency(run);
     log_timing(run);
 }
 

@@ -18,10 +18,10 @@
 
 #include "core/config.h"
 
-#define DEM_FORMAT "spraycoat-spray"
-#define DEM_FORMAT_VERSION                                                                                             \
-    4 /* 3: impacts carry contact_index; resting particles (state 2) and their count;                                  \
-       4: particles, impacts and hand-offs carry the temperature; /nozzle */
+/* 3: impacts carry contact_index; resting particles (state 2) and their count; 4: particles, impacts and hand-offs
+ * carry the temperature, /nozzle; /escapes and /deposition_efficiency, the escaped particles in the checkpoints */
+#define DEM_FORMAT         "spraycoat-spray"
+#define DEM_FORMAT_VERSION 4
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
@@ -138,6 +138,10 @@ struct dem_config {
     double powder_temperature;   /* K: the particles' temperature at release without [nozzle] */
     double powder_specific_heat; /* J/(kg K) */
     struct dem_nozzle *nozzle;   /* NULL without [nozzle]; owned by the config (dem_config_free) */
+    /* the deposition efficiency's classes (dem/efficiency.c): size classes over the run's size range, and
+     * first-impact angle classes of this width (rad) from the target normal */
+    long de_size_classes;
+    double de_angle_class_width;
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -167,6 +171,13 @@ struct dem_handoff {
     double x[3], v[3], w[3];
     double d;
     double temperature; /* K: the particle's temperature (constant after the nozzle exit) */
+};
+
+/* One row per particle that left the domain (spray.h5:/escapes). */
+struct dem_escape {
+    double t; /* s, the end of the step in which it left */
+    int64_t particle_id;
+    double d, m;
 };
 
 /* Accounting and solver statistics. */
@@ -233,11 +244,39 @@ struct dem_metrics {
 };
 struct dem_metrics dem_compute_metrics(const struct dem_solver *s);
 
+/* The deposition efficiency by mass (dem/efficiency.c, docs/physics.md "Deposition efficiency"): of all the
+ * particles sprayed (injected), the mass deposited over the mass sprayed, and its split into classes of
+ * diameter and of the angle of a particle's first impact (its first contact with the target or a fixed
+ * particle) to the target normal.  A class holds its bounds, the mass and number sprayed into it and deposited
+ * from it, and de = deposited / sprayed mass (0 where nothing was sprayed).  The size classes add up to the
+ * whole; the angle classes add up to the particles that had an impact, the rest is `unimpacted` (still in
+ * flight, or escaped without touching), none of which is deposited. */
+struct dem_de_class {
+    double lo, hi; /* m (size) or rad (angle) */
+    double sprayed_mass, deposited_mass, de;
+    int64_t sprayed_count, deposited_count;
+};
+struct dem_deposition_efficiency {
+    double sprayed_mass, deposited_mass, de; /* kg, kg, - */
+    int64_t sprayed_count, deposited_count;
+    double unimpacted_mass; /* kg sprayed without an impact */
+    int64_t unimpacted_count;
+    double mean_impact_speed, mean_impact_normal_speed; /* m/s: mean |v| and v_z of the first impacts */
+    size_t size_count, angle_count;
+    struct dem_de_class *by_size, *by_angle;
+};
+/* SC_EIO (out of memory) or SC_OK; free with dem_deposition_efficiency_free. */
+int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_efficiency *de);
+void dem_deposition_efficiency_free(struct dem_deposition_efficiency *de);
+/* The group /deposition_efficiency of spray.h5 (written by dem_write_output) into an open file or group. */
+int dem_deposition_efficiency_write(const struct dem_deposition_efficiency *de, hid_t loc);
+
 /* Checkpoint: everything the next step needs, into an open group (X_checkpoint_write, as every module names it). */
 int dem_checkpoint_write(const struct dem_solver *s, hid_t group);
 /* Restore into a solver created from the same configuration. */
 int dem_checkpoint_read(struct dem_solver *s, hid_t group);
-/* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats) into an open file. */
+/* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats, /escapes, /deposition_efficiency)
+ * into an open file. */
 int dem_write_output(const struct dem_solver *s, hid_t file);
 
 /* The particles at one time: spray.h5 /snapshots/NNNNNN (docs/files.md).  The spray stage takes one every

@@ -194,6 +194,10 @@ struct dem_solver {
     size_t handoff_count, handoff_capacity;
     struct dem_metrics *metrics;
     size_t metric_count, metric_capacity;
+    /* the particles that left the domain, in order of escape (spray.h5 /escapes; the sprayed mass of
+     * dem/efficiency.c) */
+    struct dem_escape *escapes;
+    size_t escape_count, escape_capacity;
 };
 
 /* The particles that no longer move: deposited or resting. */

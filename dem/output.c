@@ -159,6 +159,32 @@ done:
     return status;
 }
 
+static int write_escapes(hid_t file, const struct dem_solver *s)
+{
+    hid_t g;
+    SC_TRY(h5_create_group(file, "escapes", &g));
+    int status = SC_OK;
+    const struct dem_escape *r = s->escapes;
+    size_t n = s->escape_count;
+    COLUMN(g, r, n, struct dem_escape, t, 1, "s", 0);
+    COLUMN(g, r, n, struct dem_escape, particle_id, 1, "", 1);
+    COLUMN(g, r, n, struct dem_escape, d, 1, "m", 0);
+    COLUMN(g, r, n, struct dem_escape, m, 1, "kg", 0);
+done:
+    H5Gclose(g);
+    return status;
+}
+
+static int write_deposition_efficiency(hid_t file, const struct dem_solver *s)
+{
+    struct dem_deposition_efficiency de;
+    SC_TRY(dem_deposition_efficiency(s, &de));
+    int status = dem_deposition_efficiency_write(&de, file);
+    dem_deposition_efficiency_free(&de);
+    SC_TRY(status);
+    return SC_OK;
+}
+
 static int write_metrics(hid_t file, const struct dem_solver *s)
 {
     hid_t g;
@@ -311,6 +337,8 @@ int dem_write_output(const struct dem_solver *s, hid_t file)
     SC_TRY(write_handoffs(file, s));
     SC_TRY(write_metrics(file, s));
     SC_TRY(write_stats(file, s));
+    SC_TRY(write_escapes(file, s));
+    SC_TRY(write_deposition_efficiency(file, s));
     return SC_OK;
 }
 
@@ -405,6 +433,7 @@ int dem_checkpoint_write(const struct dem_solver *s, hid_t group)
     SC_TRY(h5_write_bytes(group, "impacts", s->impact_count * sizeof *s->impacts, s->impacts, 1));
     SC_TRY(h5_write_bytes(group, "handoffs", s->handoff_count * sizeof *s->handoffs, s->handoffs, 1));
     SC_TRY(h5_write_bytes(group, "metrics", s->metric_count * sizeof *s->metrics, s->metrics, 1));
+    SC_TRY(h5_write_bytes(group, "escapes", s->escape_count * sizeof *s->escapes, s->escapes, 1));
     return SC_OK;
 }
 
@@ -481,6 +510,8 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group)
                         sizeof *s->handoffs));
     SC_TRY(read_records(group, "metrics", (void **)&s->metrics, &s->metric_count, &s->metric_capacity,
                         sizeof *s->metrics));
+    SC_TRY(read_records(group, "escapes", (void **)&s->escapes, &s->escape_count, &s->escape_capacity,
+                        sizeof *s->escapes));
     SC_TRY(dem_check_accounting(s));
     return SC_OK;
 }

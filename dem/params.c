@@ -121,6 +121,12 @@ const struct cfg_key dem_case_keys[] = {
     {"nozzle", "divergent_length", CFG_REAL, "m", NULL, 0, 10, 1, NULL, "length of the conical divergent part"},
     {"nozzle", "ambient_pressure", CFG_REAL, "Pa", "101325", 0, 1e9, 0, NULL,
      "pressure of the room the nozzle sprays into (checks the exit for a shock inside the nozzle)"},
+    {"deposition", "size_classes", CFG_INT, "-", "8", 1, 1000, 0, NULL,
+     "classes of equal width over the run's diameters ([powder] d_min to d_max, else the smallest to the largest "
+     "sprayed) of the deposition efficiency's split by size (spray.h5 /deposition_efficiency/by_size)"},
+    {"deposition", "angle_class_width", CFG_REAL, "degree", "10", 0, 90, 1, NULL,
+     "width of the classes of the first impact's angle to the target normal of the deposition efficiency's "
+     "split by angle (spray.h5 /deposition_efficiency/by_angle)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -368,6 +374,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
 static int load_deposition(const struct case_file *c, struct dem_config *cfg)
 {
     cfg->alpha_adh = case_real(c, "deposition", "alpha_adh");
+    cfg->de_size_classes = case_int(c, "deposition", "size_classes");
+    cfg->de_angle_class_width = case_real(c, "deposition", "angle_class_width") * M_PI / 180.0;
     cfg->rule = case_is(c, "deposition", "rule", "adhesion")            ? DEM_DEPOSIT_ADHESION
                 : case_is(c, "deposition", "rule", "critical_velocity") ? DEM_DEPOSIT_CRITICAL_VELOCITY
                 : case_is(c, "deposition", "rule", "table")             ? DEM_DEPOSIT_TABLE

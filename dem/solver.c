@@ -49,6 +49,7 @@ void dem_destroy(struct dem_solver *s)
     free(s->handoffs);
     free(s->metrics);
     free(s->contacts_of);
+    free(s->escapes);
     free(s);
 }
 
@@ -80,6 +81,17 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
     row->temperature = p->temperature[i];
 }
 
+/* Particle i leaves the domain: its mass stays in the sprayed mass of the deposition efficiency
+ * (dem/efficiency.c), which it no longer finds among the particles. */
+static void record_escape(struct dem_solver *s, size_t i)
+{
+    struct dem_escape *row = dem_grow((void **)&s->escapes, &s->escape_count, &s->escape_capacity, sizeof *row);
+    row->t = (double)(s->step + 1) * s->cfg.dt;
+    row->particle_id = s->p.id[i];
+    row->d = s->p.d[i];
+    row->m = s->p.m[i];
+}
+
 /* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate
  * found at a boundary (s->at_boundary, in index order; every other particle is inside and stays).  The
  * escaped ones are listed in index order and removed together. */
@@ -105,6 +117,7 @@ static void apply_boundaries(struct dem_solver *s)
             if (!removed)
                 removed = dem_realloc_or_die(NULL, (s->at_boundary_count - k) * sizeof *removed);
             removed[removed_count++] = i;
+            record_escape(s, i);
         }
     }
     if (removed_count) {

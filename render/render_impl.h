@@ -98,6 +98,8 @@ int render_vcrit_figures(const struct render_request *req, struct render_output 
 int render_calibrate_figures(const struct render_request *req, struct render_output *out);
 /* RUN_DIR/spray.h5 /nozzle: the particles' exit velocity and temperature vs diameter (nothing without /nozzle). */
 int render_nozzle_figure(const struct render_request *req, struct render_output *out);
+/* RUN_DIR/sweep.h5: the map of the deposition efficiency over the swept keys (figures/sweep_de.png). */
+int render_sweep_figures(const struct render_request *req, struct render_output *out);
 /* The first contact of each particle in spray.h5 /impacts (t and particle_id of m rows): its row with the smallest
  * t, into rows[] (m entries of room) in order of particle id; returns the count, (size_t)-1 when out of memory. */
 size_t render_first_contacts(const double *t, const double *particle_id, size_t m, size_t *rows);

@@ -185,6 +185,8 @@ struct report_data {
     struct body_row *rows;
     size_t row_count, row_capacity;
     double points_min, points_max, t_impact;
+    /* spray.h5 /deposition_efficiency (NAN: none) */
+    double de, de_sprayed_mass, de_deposited_mass;
 };
 
 static double last(hid_t file, const char *name)
@@ -214,6 +216,9 @@ static void read_spray(hid_t file, struct report_data *r)
     r->spread = last(file, "metrics/mean_spread");
     r->scatter = last(file, "metrics/scatter");
     r->max_thickness = last(file, "metrics/max_thickness");
+    r->de = last(file, "deposition_efficiency/de");
+    r->de_sprayed_mass = last(file, "deposition_efficiency/sprayed_mass");
+    r->de_deposited_mass = last(file, "deposition_efficiency/deposited_mass");
     struct render_array x = {0}, d = {0}, state = {0};
     if (render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/d", &d) == SC_OK &&
@@ -449,6 +454,11 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         fprintf(f,
                 "</code>); %lld still in flight or resting unbonded on the target at t = %s ms, %lld escaped.</li>\n",
                 (long long)r->in_flight, given(r->t_spray * 1e3).s, (long long)r->escaped);
+        if (isfinite(r->de))
+            fprintf(f,
+                    "<li><b>Deposition efficiency %s %%</b> by mass: %s µg deposited of %s µg sprayed (by size "
+                    "class and first-impact angle in figure spray_de).</li>\n",
+                    num(100 * r->de, 3).s, num(r->de_deposited_mass * 1e9, 3).s, num(r->de_sprayed_mass * 1e9, 3).s);
     }
     struct tally t = tally(r, vrest_threshold);
     if (r->impact && r->row_count > 0) {
@@ -640,6 +650,7 @@ static void spray_table(FILE *f, const struct report_data *r)
         {"particles still in flight or resting unbonded at the end", (double)r->in_flight, "-", 0},
         {"particles escaped (left the domain)", (double)r->escaped, "-", 0},
         {"deposit fraction (deposited / injected)", 100 * r->deposit_fraction, "%", 3},
+        {"deposition efficiency (deposited / sprayed mass)", 100 * r->de, "%", 3},
         {"volume fraction (deposited volume within [target] deposit_radius over a disc D_median thick)",
          100 * r->volume_fraction, "%", 3},
         {"mean distance of the deposited particles from the target centre", r->spread * 1e3, "mm", 3},

@@ -138,6 +138,8 @@ static int draw_all(const struct render_request *req, struct render_output *out)
         SC_CHECK(status, render_vcrit_figures(req, out), done);
     if (exists(req->run_dir, "calibrate.h5"))
         SC_CHECK(status, render_calibrate_figures(req, out), done);
+    if (exists(req->run_dir, "sweep.h5"))
+        SC_CHECK(status, render_sweep_figures(req, out), done);
 done:
     render_renderer_destroy(renderer);
     return status;
@@ -147,10 +149,10 @@ int render_run_dir(const struct render_request *req, struct render_output *out)
 {
     memset(out, 0, sizeof *out);
     if (!exists(req->run_dir, "spray.h5") && !exists(req->run_dir, "impact.h5") && !exists(req->run_dir, "vcrit.h5") &&
-        !exists(req->run_dir, "calibrate.h5"))
+        !exists(req->run_dir, "calibrate.h5") && !exists(req->run_dir, "sweep.h5"))
         SC_FAIL(SC_EIO,
-                "render: %s holds no output to draw (spray.h5, impact.h5, vcrit.h5 or calibrate.h5); run a "
-                "stage first",
+                "render: %s holds no output to draw (spray.h5, impact.h5, vcrit.h5, calibrate.h5 or sweep.h5); run "
+                "a stage first",
                 req->run_dir);
     char dir[4200];
     render_figures_dir(req->run_dir, dir, sizeof dir);

@@ -644,6 +644,69 @@ done:
     return status;
 }
 
+/* The DE classes of one group of spray.h5 /deposition_efficiency: bars at [lo, hi) (scaled) of height DE. */
+static int read_de_classes(hid_t file, const char *group, double scale, struct render_array *lo,
+                           struct render_array *hi, struct render_array *de)
+{
+    char name[96];
+    snprintf(name, sizeof name, "deposition_efficiency/%s/lo", group);
+    SC_TRY(render_read_array(file, "spray.h5", name, lo));
+    snprintf(name, sizeof name, "deposition_efficiency/%s/hi", group);
+    SC_TRY(render_read_array(file, "spray.h5", name, hi));
+    snprintf(name, sizeof name, "deposition_efficiency/%s/de", group);
+    SC_TRY(render_read_array(file, "spray.h5", name, de));
+    if (lo->count != de->count || hi->count != de->count || de->count == 0)
+        SC_FAIL(SC_EIO, "render: spray.h5 /deposition_efficiency/%s: lo, hi and de of different lengths", group);
+    for (size_t k = 0; k < lo->count; k++)
+        lo->values[k] *= scale, hi->values[k] *= scale;
+    return SC_OK;
+}
+
+/* The deposition efficiency by mass (dem/efficiency.c) by size class and by first-impact angle, side by side. */
+static int de_figure(const struct render_request *req, const char *path, struct render_output *out)
+{
+    hid_t file;
+    SC_TRY(render_open(path, &file));
+    if (!h5_exists(file, "deposition_efficiency")) { /* a spray.h5 of an earlier version */
+        H5Fclose(file);
+        return SC_OK;
+    }
+    struct render_array lo[2], hi[2], de[2];
+    memset(lo, 0, sizeof lo), memset(hi, 0, sizeof hi), memset(de, 0, sizeof de);
+    int status;
+    SC_CHECK(status, read_de_classes(file, "by_size", 1e6, &lo[0], &hi[0], &de[0]), done);
+    SC_CHECK(status, read_de_classes(file, "by_angle", 1.0, &lo[1], &hi[1], &de[1]), done);
+    struct render_series bars[2];
+    for (int g = 0; g < 2; g++)
+        bars[g] = (struct render_series){NULL,          RENDER_BARS,  de[g].count,
+                                         lo[g].values,  de[g].values, hi[g].values[0] - lo[g].values[0],
+                                         g == 0 ? 2 : 4};
+    struct render_plot plot = render_plot_start(req->cfg, 2);
+    plot.panels[0] = (struct render_panel){
+        "DE by particle size", "diameter d (µm)", "deposition efficiency (mass)", NAN, NAN, 0, 1, 1, 1, &bars[0]};
+    plot.panels[1] = (struct render_panel){"DE by first-impact angle",
+                                           "angle to the target normal (degree)",
+                                           "deposition efficiency (mass)",
+                                           0,
+                                           90,
+                                           0,
+                                           1,
+                                           1,
+                                           1,
+                                           &bars[1]};
+    SC_CHECK(status,
+             render_plot_publish(req->run_dir, out, "spray_de", "spray",
+                                 "Deposition efficiency (deposited / sprayed mass) by size class and by the angle of "
+                                 "the first impact",
+                                 &plot),
+             done);
+done:
+    H5Fclose(file);
+    for (int g = 0; g < 2; g++)
+        render_array_free(&lo[g]), render_array_free(&hi[g]), render_array_free(&de[g]);
+    return status;
+}
+
 int render_spray_figures(const struct render_request *req, struct render_renderer **renderer, struct render_output *out)
 {
     struct spray_data s;
@@ -659,6 +722,7 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     SC_CHECK(status, metrics_figure(req, &s, out), done);
     SC_CHECK(status, thickness_figure(req, &s, out), done);
     SC_CHECK(status, render_nozzle_figure(req, out), done);
+    SC_CHECK(status, de_figure(req, s.path, out), done);
     SC_CHECK(status, deposit_picture(req, renderer, &s, out), done);
     SC_CHECK(status, plume_pictures(req, renderer, &s, out), done);
     log_info("render: spray figures from %s", s.path);

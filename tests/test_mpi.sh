@@ -4,7 +4,8 @@
 #   the pipeline (spray and couple on rank 0, the four impact runs shared out),
 #   a pipeline stopped by SIGTERM during the impact runs and resumed under mpirun,
 #   a vcrit search (the two diameters shared out, the bisections replayed by rank 0),
-#   a bonding calibration (the runs shared out, the fit by rank 0).
+#   a bonding calibration (the runs shared out, the fit by rank 0),
+#   a sweep (the spray runs shared out, the map by rank 0).
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 MPI_BIN=${SPRAYCOAT_MPI_BIN:-}
@@ -139,4 +140,23 @@ if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/calibrate_one/calibrate.cs
 else
     fail mpi_calibrate_same_as_one_process "exit $one / $two; $(diff "$T/calibrate_one/calibrate_outcomes.csv" \
         "$T/calibrate_two/calibrate_outcomes.csv" | head -n 4 | tr '\n' ' ')"
+fi
+
+# ---- a sweep (its four spray runs shared out, the map by rank 0) ----------------------------------------------
+sed -e 's/^max_injected = 1500/max_injected = 200/' -e 's/^t_end = 8e-4/t_end = 3e-4/' "$CASE0" >"$T/sweep.ini"
+printf '[sweep]\nx_key = jet.C1\nx_values = 250,350\ny_key = spray.release_speed_max\ny_values = 700,900\n' \
+    >>"$T/sweep.ini"
+"$BIN" sweep "$T/sweep.ini" -o "$T/sweep_one" >"$T/sweep_one.log" 2>&1
+one=$?
+$MPIRUN "$MPI_BIN" sweep "$T/sweep.ini" -o "$T/sweep_two" >"$T/sweep_two.log" 2>&1
+two=$?
+same_runs=1
+for run in x0_y0 x1_y0 x0_y1 x1_y1; do
+    same_h5 "$T/sweep_one/runs/$run/spray.h5" "$T/sweep_two/runs/$run/spray.h5" || same_runs=0
+done
+if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && [ $same_runs -eq 1 ] &&
+    same_h5 "$T/sweep_one/sweep.h5" "$T/sweep_two/sweep.h5" && grep -q '\[rank 1\] info: sweep: run' "$T/sweep_two.log"; then
+    pass mpi_sweep_same_as_one_process
+else
+    fail mpi_sweep_same_as_one_process "exit $one / $two; same runs $same_runs; $why $(grep -c '\[rank 1\] info: sweep: run' "$T/sweep_two.log") runs on rank 1"
 fi

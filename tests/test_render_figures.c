@@ -347,8 +347,8 @@ static void test_every_figure_of_a_run(void)
     struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
     struct render_output out;
     CHECK(render_run_dir(&req, &out) == SC_OK, "render: %s", sc_error_message());
-    /* spray 8, per impact run 3 plots + 3 views, vcrit 2 (v_crit(d) and CoR(v)) */
-    CHECK(out.count == 8 + 2 * 6 + 2, "%d figures", out.count);
+    /* spray 9 (with the DE by size and angle), per impact run 3 plots + 3 views, vcrit 2 (v_crit(d) and CoR(v)) */
+    CHECK(out.count == 9 + 2 * 6 + 2, "%d figures", out.count);
     /* the spray's snapshots: one every 500 of 3000 steps, the last at the end; the plume film every 2nd and the
      * last: 0 2 4 5 */
     int64_t spray_snapshots = count_spray_snapshots(f.dir);

@@ -47,6 +47,7 @@ app_prefixes() {
         couple_stage) echo "couple_stage_ couple_stage_read_bodies couple_stage_bodies_free" ;;
         vcrit_stage) echo "vcrit_stage_ vcrit_case_keys vcrit_runs_ vcrit_verdict_name" ;;
         calibrate_stage) echo "calibrate_stage_ calibrate_case_keys" ;;
+        sweep_stage) echo "sweep_stage_ sweep_case_keys" ;;
         *_stage) echo "$1_" ;;
         *) echo "" ;;
     esac

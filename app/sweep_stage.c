@@ -1,0 +1,395 @@
+/* `spraycoat sweep` ([sweep]): the spray stage over a grid of two case keys, e.g. the jet's C1 against the release
+ * speed, and the map of the deposition efficiency (DE by mass, dem/efficiency.c) and the mean impact speed over it
+ * (RUN_DIR/sweep.h5; the figure is the render stage's).  Each combination is a spray run of its own in
+ * RUN_DIR/runs/xI_yJ, made and resumed as `spraycoat spray` makes them: a finished run is not run again, an
+ * interrupted one resumes from its checkpoint.  Under MPI the runs are shared among the ranks like the impact runs
+ * of a pipeline (core/parallel.h); rank 0 gathers the map. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "app/app.h"
+
+#define STAGE                "sweep"
+#define SWEEP_FORMAT         "spraycoat-sweep"
+#define SWEEP_FORMAT_VERSION 1
+#define SWEEP_MAX_VALUES     32
+/* each run holds its directory's lock (an open descriptor) until the process ends: a bound under the usual 1024 */
+#define SWEEP_MAX_RUNS 256
+
+const struct cfg_key sweep_case_keys[] = {
+    {"sweep", "x_key", CFG_STRING, "", NULL, 0, 0, 0, NULL,
+     "the first case key to vary, as SECTION.KEY (e.g. jet.C1): a key of the spray stage's sections that changes "
+     "results"},
+    {"sweep", "x_values", CFG_STRING, "", NULL, 0, 0, 0, NULL,
+     "its values, comma-separated, each written as in the case file (a unit may follow: 300 m/s) and checked "
+     "like it"},
+    {"sweep", "y_key", CFG_STRING, "", NULL, 0, 0, 0, NULL, "the second case key to vary (none: a single row)"},
+    {"sweep", "y_values", CFG_STRING, "", NULL, 0, 0, 0, NULL, "its values, comma-separated, as x_values"},
+    {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
+};
+
+struct sweep_axis {
+    char section[64], key[64]; /* section "" : no key (one value) */
+    int count;
+    char values[SWEEP_MAX_VALUES][64];
+    double numbers[SWEEP_MAX_VALUES]; /* the values in SI (NAN for a word) */
+    const char *unit;
+};
+
+struct sweep {
+    const struct case_file *c;
+    const char *run_dir;
+    struct sweep_axis x, y;
+};
+
+/* ---- the keys of [sweep] ---- */
+
+static const struct cfg_key *registered_key(const char *section, const char *key)
+{
+    for (int t = 0; spraycoat_registry[t]; t++)
+        for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
+            if (strcmp(k->section, section) == 0 && strcmp(k->key, key) == 0)
+                return k;
+    return NULL;
+}
+
+/* SECTION.KEY of [sweep] name: a registered key of the spray stage that changes its results. */
+static int parse_key(const struct case_file *c, const char *name, struct sweep_axis *axis)
+{
+    const char *text = case_text(c, "sweep", name);
+    const char *dot = strchr(text, '.');
+    if (!dot || dot == text || !dot[1] || (size_t)(dot - text) >= sizeof axis->section ||
+        strlen(dot + 1) >= sizeof axis->key)
+        return case_invalid(c, "sweep", name, "not SECTION.KEY; allowed: a case key such as jet.C1");
+    snprintf(axis->section, sizeof axis->section, "%.*s", (int)(dot - text), text);
+    snprintf(axis->key, sizeof axis->key, "%s", dot + 1);
+    const struct cfg_key *k = registered_key(axis->section, axis->key);
+    if (!k)
+        return case_invalid(c, "sweep", name, "[%s] %s is not a case key (spraycoat keys lists them)", axis->section,
+                            axis->key);
+    if (!stage_has_section("spray", axis->section) || (k->flags & CFG_NOT_HASHED))
+        return case_invalid(c, "sweep", name,
+                            "[%s] %s does not change the spray's results; allowed: a key of the spray stage's "
+                            "sections (docs/architecture.md) that does",
+                            axis->section, axis->key);
+    axis->unit = k->unit;
+    return SC_OK;
+}
+
+/* The comma-separated values of [sweep] name, as text (each checked when set on a run's case). */
+static int parse_values(const struct case_file *c, const char *name, struct sweep_axis *axis)
+{
+    const char *text = case_text(c, "sweep", name);
+    axis->count = 0;
+    for (const char *p = text; *p;) {
+        size_t length = strcspn(p, ",");
+        const char *start = p, *end = p + length;
+        while (start < end && (*start == ' ' || *start == '\t'))
+            start++;
+        while (end > start && (end[-1] == ' ' || end[-1] == '\t'))
+            end--;
+        if (end == start)
+            return case_invalid(c, "sweep", name, "an empty value; allowed: comma-separated values");
+        if (axis->count == SWEEP_MAX_VALUES || (size_t)(end - start) >= sizeof axis->values[0])
+            return case_invalid(c, "sweep", name, "more than %d values, or one longer than %zu characters",
+                                SWEEP_MAX_VALUES, sizeof axis->values[0] - 1);
+        snprintf(axis->values[axis->count++], sizeof axis->values[0], "%.*s", (int)(end - start), start);
+        p += length + (p[length] == ',');
+    }
+    if (axis->count == 0)
+        return case_invalid(c, "sweep", name, "no value given");
+    return SC_OK;
+}
+
+static int load_axis(const struct case_file *c, const char *key_name, const char *values_name, struct sweep_axis *axis)
+{
+    memset(axis, 0, sizeof *axis);
+    if (!case_has(c, "sweep", key_name)) {
+        if (case_has(c, "sweep", values_name))
+            return case_require(c, "sweep", key_name, "[sweep] values are given");
+        axis->count = 1; /* no key: one run along this axis */
+        axis->numbers[0] = NAN;
+        return SC_OK;
+    }
+    SC_TRY(parse_key(c, key_name, axis));
+    if (!case_has(c, "sweep", values_name))
+        return case_require(c, "sweep", values_name, "[sweep] a key to vary is given");
+    return parse_values(c, values_name, axis);
+}
+
+static int load_sweep(const struct stage_context *ctx, struct sweep *sw)
+{
+    memset(sw, 0, sizeof *sw);
+    sw->c = ctx->c;
+    sw->run_dir = ctx->run_dir;
+    if (!case_has(ctx->c, "sweep", "x_key"))
+        return case_require(ctx->c, "sweep", "x_key", "spraycoat sweep");
+    SC_TRY(load_axis(ctx->c, "x_key", "x_values", &sw->x));
+    SC_TRY(load_axis(ctx->c, "y_key", "y_values", &sw->y));
+    if (sw->y.section[0] && strcmp(sw->x.section, sw->y.section) == 0 && strcmp(sw->x.key, sw->y.key) == 0)
+        return case_invalid(ctx->c, "sweep", "y_key", "the same key as x_key");
+    if (sw->x.count * sw->y.count > SWEEP_MAX_RUNS)
+        return case_invalid(ctx->c, "sweep", "x_values", "%d x %d runs; allowed: at most %d", sw->x.count, sw->y.count,
+                            SWEEP_MAX_RUNS);
+    return SC_OK;
+}
+
+/* ---- one run of the grid ---- */
+
+static void run_name(int i, int j, char *out, size_t size)
+{
+    snprintf(out, size, "runs/x%d_y%d", i, j);
+}
+
+/* "[jet] C1 = 300, [spray] release_speed_max = 700" */
+static void describe_run(const struct sweep *sw, int i, int j, char *out, size_t size)
+{
+    int used = snprintf(out, size, "[%s] %s = %s", sw->x.section, sw->x.key, sw->x.values[i]);
+    if (sw->y.section[0] && used > 0 && (size_t)used < size)
+        snprintf(out + used, size - (size_t)used, ", [%s] %s = %s", sw->y.section, sw->y.key, sw->y.values[j]);
+}
+
+/* One value on a run's case, validated exactly like a value of the file; the origin names the [sweep] key. */
+static int set_value(struct case_file *run, const struct sweep_axis *axis, int index, const char *values_name)
+{
+    if (!axis->section[0])
+        return SC_OK;
+    char origin[96];
+    snprintf(origin, sizeof origin, "[sweep] %s value %d", values_name, index + 1);
+    return case_set(run, axis->section, axis->key, axis->values[index], origin);
+}
+
+/* The case of run (i, j): the sweep's case file with the two values set (and the command line's --threads). */
+static int run_case(const struct sweep *sw, int i, int j, struct case_file **out)
+{
+    struct case_file *run;
+    SC_TRY(case_load(case_file_path(sw->c), spraycoat_registry, &run));
+    char threads[32];
+    snprintf(threads, sizeof threads, "%ld", case_int(sw->c, "run", "threads"));
+    int status = case_set(run, "run", "threads", threads, "command line --threads");
+    if (status == SC_OK)
+        status = set_value(run, &sw->x, i, "x_values");
+    if (status == SC_OK)
+        status = set_value(run, &sw->y, j, "y_values");
+    if (status != SC_OK) {
+        case_free(run);
+        SC_TRY(status);
+    }
+    *out = run;
+    return SC_OK;
+}
+
+/* The values in SI where the key is a number (the run's case converts them: "300 mm" is 0.3). */
+static void axis_numbers(struct sweep_axis *axis, const struct case_file *run, int index)
+{
+    const struct cfg_key *k = axis->section[0] ? registered_key(axis->section, axis->key) : NULL;
+    if (!k || !(k->type == CFG_REAL || k->type == CFG_INT) ||
+        (k->choices && case_is(run, axis->section, axis->key, "auto")))
+        axis->numbers[index] = NAN;
+    else
+        axis->numbers[index] = k->type == CFG_INT ? (double)case_int(run, axis->section, axis->key)
+                                                  : case_real(run, axis->section, axis->key);
+}
+
+static int validate_run(const struct sweep *sw, int i, int j)
+{
+    struct case_file *run;
+    SC_TRY(run_case(sw, i, j, &run));
+    char dir[4200], name[64];
+    run_name(i, j, name, sizeof name);
+    snprintf(dir, sizeof dir, "%s/%s", sw->run_dir ? sw->run_dir : ".", name);
+    /* with the run directory: its checkpoints (if any) must be this run's case */
+    const struct stage_context ctx = {.c = run, .run_dir = sw->run_dir ? dir : NULL};
+    int status = spray_stage_validate(&ctx);
+    case_free(run);
+    SC_TRY(status);
+    return SC_OK;
+}
+
+/* The axes' values in SI, from the cases of the runs of the first row and column. */
+static int fill_numbers(struct sweep *sw)
+{
+    for (int i = 0; i < sw->x.count; i++) {
+        struct case_file *run;
+        SC_TRY(run_case(sw, i, 0, &run));
+        axis_numbers(&sw->x, run, i);
+        case_free(run);
+    }
+    for (int j = 0; j < sw->y.count; j++) {
+        struct case_file *run;
+        SC_TRY(run_case(sw, 0, j, &run));
+        axis_numbers(&sw->y, run, j);
+        case_free(run);
+    }
+    return SC_OK;
+}
+
+/* Run (or resume, or skip when done) the spray of run t = j nx + i in RUN_DIR/runs/xI_yJ. */
+static int spray_run(const struct sweep *sw, int64_t t)
+{
+    int i = (int)(t % sw->x.count), j = (int)(t / sw->x.count);
+    char dir[4200], name[64];
+    run_name(i, j, name, sizeof name);
+    snprintf(dir, sizeof dir, "%s/%s", sw->run_dir, name);
+    struct case_file *run;
+    SC_TRY(run_case(sw, i, j, &run));
+    char where[256];
+    describe_run(sw, i, j, where, sizeof where);
+    log_info("sweep: run %lld of %d, %s: %s", (long long)t + 1, sw->x.count * sw->y.count, name, where);
+    const struct stage_context ctx = {.c = run, .run_dir = dir};
+    int status;
+    SC_CHECK(status, run_dir_prepare(dir, run), done);
+    SC_CHECK(status, run_dir_write_stages(dir, "spray"), done);
+    SC_CHECK(status, spray_stage_validate(&ctx), done);
+    SC_CHECK(status, spray_stage_run(&ctx), done);
+done:
+    case_free(run);
+    return status;
+}
+
+/* ---- the map ---- */
+
+struct sweep_map {
+    const struct sweep *sw;
+    double *de, *speed, *normal_speed, *deposit_fraction; /* ny x nx, row j = y value j */
+};
+
+static int read_run(const struct sweep *sw, int i, int j, struct sweep_map *map)
+{
+    char path[4300], name[64];
+    run_name(i, j, name, sizeof name);
+    snprintf(path, sizeof path, "%s/%s/spray.h5", sw->run_dir, name);
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    size_t k = (size_t)j * (size_t)sw->x.count + (size_t)i, n = 0;
+    int status;
+    SC_CHECK(status, h5_read_doubles(file, "deposition_efficiency/de", &map->de[k], 1), done);
+    SC_CHECK(status, h5_read_doubles(file, "deposition_efficiency/mean_impact_speed", &map->speed[k], 1), done);
+    SC_CHECK(status, h5_read_doubles(file, "deposition_efficiency/mean_impact_normal_speed", &map->normal_speed[k], 1),
+             done);
+    SC_CHECK(status, h5_dataset_size(file, "metrics/deposit_fraction", &n), done);
+    map->deposit_fraction[k] = NAN;
+    if (n > 0) {
+        double *column = malloc(n * sizeof *column);
+        if (!column)
+            SC_FAIL_OOM_AT(status, done, n * sizeof *column, "the deposit fractions");
+        status = h5_read_doubles(file, "metrics/deposit_fraction", column, n);
+        map->deposit_fraction[k] = column[n - 1];
+        free(column);
+    }
+done:
+    H5Fclose(file);
+    return status;
+}
+
+static int write_axis(hid_t file, const char *prefix, const struct sweep_axis *axis)
+{
+    char name[32], key[160], labels[SWEEP_MAX_VALUES * 66] = "";
+    hsize_t dims[1] = {(hsize_t)axis->count};
+    snprintf(name, sizeof name, "%s_values", prefix);
+    SC_TRY(h5_write_doubles(file, name, 1, dims, axis->numbers, axis->unit ? axis->unit : "", 0));
+    size_t used = 0;
+    for (int k = 0; k < axis->count; k++)
+        used += (size_t)snprintf(labels + used, sizeof labels - used, "%s%s", k ? "," : "", axis->values[k]);
+    snprintf(name, sizeof name, "%s_labels", prefix);
+    SC_TRY(h5_attr_write_string(file, name, labels));
+    snprintf(key, sizeof key, "%s%s%s", axis->section, axis->section[0] ? "." : "", axis->key);
+    snprintf(name, sizeof name, "%s_key", prefix);
+    SC_TRY(h5_attr_write_string(file, name, key));
+    return SC_OK;
+}
+
+static int map_contents(void *owner, hid_t file)
+{
+    const struct sweep_map *map = owner;
+    const struct sweep *sw = map->sw;
+    hsize_t dims[2] = {(hsize_t)sw->y.count, (hsize_t)sw->x.count};
+    SC_TRY(write_axis(file, "x", &sw->x));
+    SC_TRY(write_axis(file, "y", &sw->y));
+    SC_TRY(h5_write_doubles(file, "de", 2, dims, map->de, "-", 0));
+    SC_TRY(h5_write_doubles(file, "mean_impact_speed", 2, dims, map->speed, "m/s", 0));
+    SC_TRY(h5_write_doubles(file, "mean_impact_normal_speed", 2, dims, map->normal_speed, "m/s", 0));
+    SC_TRY(h5_write_doubles(file, "deposit_fraction", 2, dims, map->deposit_fraction, "-", 0));
+    return SC_OK;
+}
+
+static void log_map(const struct sweep *sw, const struct sweep_map *map)
+{
+    for (int j = 0; j < sw->y.count; j++)
+        for (int i = 0; i < sw->x.count; i++) {
+            char where[256];
+            describe_run(sw, i, j, where, sizeof where);
+            size_t k = (size_t)j * (size_t)sw->x.count + (size_t)i;
+            log_info("sweep: %s: DE %.4f, mean impact speed %.4g m/s", where, map->de[k], map->speed[k]);
+        }
+}
+
+static int write_map(struct sweep *sw, uint64_t hash)
+{
+    SC_TRY(fill_numbers(sw));
+    size_t n = (size_t)sw->x.count * (size_t)sw->y.count;
+    struct sweep_map map = {.sw = sw};
+    map.de = calloc(4 * n, sizeof *map.de);
+    if (!map.de)
+        SC_FAIL_OOM(4 * n * sizeof *map.de, "the sweep's map");
+    map.speed = map.de + n, map.normal_speed = map.de + 2 * n, map.deposit_fraction = map.de + 3 * n;
+    int status = SC_OK;
+    for (int j = 0; j < sw->y.count; j++)
+        for (int i = 0; i < sw->x.count; i++)
+            SC_CHECK(status, read_run(sw, i, j, &map), done);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/sweep.h5", sw->run_dir);
+    SC_CHECK(status,
+             stage_write_output(path, SWEEP_FORMAT, SWEEP_FORMAT_VERSION, STAGE, hash, sw->c, map_contents, &map),
+             done);
+    log_info("sweep: wrote %s (%d x %d runs)", path, sw->x.count, sw->y.count);
+    log_map(sw, &map);
+done:
+    free(map.de);
+    return status;
+}
+
+int sweep_stage_validate(const struct stage_context *ctx)
+{
+    struct sweep sw;
+    SC_TRY(load_sweep(ctx, &sw));
+    for (int j = 0; j < sw.y.count; j++)
+        for (int i = 0; i < sw.x.count; i++)
+            SC_TRY(validate_run(&sw, i, j));
+    return SC_OK;
+}
+
+int sweep_stage_run(const struct stage_context *ctx)
+{
+    struct sweep sw;
+    SC_TRY(load_sweep(ctx, &sw));
+    uint64_t hash = stage_hash(ctx, STAGE);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/sweep.h5", ctx->run_dir);
+    struct run_settings settings;
+    int up_to_date = parallel_rank() == 0 ? stage_begin(STAGE, path, hash, ctx->c, &settings) : 0;
+    /* every rank learns rank 0's finding (as a status: the one value parallel.h shares) */
+    if (parallel_share_status(up_to_date ? SC_EIO : SC_OK) != SC_OK)
+        return SC_OK;
+    int64_t runs = (int64_t)sw.x.count * sw.y.count;
+    if (parallel_rank() == 0)
+        log_info("sweep: %lld spray runs in %s/runs over %d process%s", (long long)runs, ctx->run_dir, parallel_size(),
+                 parallel_size() > 1 ? "es" : "");
+    int status = SC_OK;
+    /* every rank takes part in the task counter even after a failure (no early return) */
+    parallel_tasks_begin();
+    for (int64_t t; status == SC_OK && (t = parallel_task_next()) < runs;)
+        if ((status = spray_run(&sw, t)) != SC_OK)
+            sc_error_trace(__FILE__, __LINE__);
+    parallel_tasks_end();
+    status = parallel_max_status(status);
+    if (status == SC_OK && parallel_rank() == 0)
+        status = write_map(&sw, hash);
+    return status;
+}

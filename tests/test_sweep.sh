@@ -1,0 +1,215 @@
+#!/bin/sh
+# `spraycoat sweep` on a tiny case (2 x 2 spray runs of 300 steps, 200 particles each: a few seconds here):
+# sweep.h5's maps of the deposition efficiency (DE by mass) and the mean impact speed hold, entry for entry, the
+# values of each run's own spray.h5, and the runs differ; its axes hold the values in SI (0.7 km/s is 700); the run of one grid point equals a `spraycoat spray` of a
+# case file with those values written in it (the sweep sets the keys as the file would); a second sweep runs
+# nothing; after a run's spray.h5 is removed, only that run is made again and the map is the same; `resume`
+# continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
+# [sweep] keys and values are refused with exit status 2 before the run directory is made.
+# Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
+# sets it).  Needs h5dump.
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+TABLE=$(pwd)/cases/vcrit_al_calibration_grid.csv
+
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1 ($2)"; }
+
+if [ ! -x "$BIN" ] || [ ! -r "$TABLE" ] || ! command -v h5dump >/dev/null 2>&1; then
+    echo "FAIL sweep (no $BIN, $TABLE or h5dump; run from the repository root after make)"
+    exit 1
+fi
+T=$(mktemp -d) || exit 1
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
+trap 'exit 1' HUP INT TERM
+
+# write_case FILE C1 RELEASE_MAX [SWEEP_LINES]: the demo's spray, shortened
+write_case() {
+    cat >"$1" <<EOF
+[run]
+seed = 7
+[spray]
+dt = 1e-6
+t_end = 0.3e-3
+feed_count = 10
+feed_every = 5
+max_injected = 200
+nozzle_radius = 0.003
+release_speed_min = 600
+release_speed_max = $3
+release_cone = 1
+domain_radius = 0.02
+handoff_height = 0.003
+metrics_every = 50
+[powder]
+distribution = weibull
+median_diameter = 20e-6
+shape = 3.5
+d_min = 10e-6
+d_max = 30e-6
+density = 2700
+[target]
+standoff = 0.03
+deposit_radius = 0.004
+[jet]
+C1 = $2
+C3 = 40
+virtual_origin = 0.05
+core_length = 0.002
+[deposition]
+rule = table
+table = $TABLE
+$4
+EOF
+}
+
+# values FILE DATASET: every value of a dataset, one a line, as %.17g
+values() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2>/dev/null | awk '/^ *DATA \{/{on=1; next} on && /\}/{exit} on {gsub(/[ ,]/, ""); print}'; }
+
+SWEEP="[sweep]
+x_key = jet.C1
+x_values = 250, 350
+y_key = spray.release_speed_max
+y_values = 0.7 km/s, 900"
+write_case "$T/sweep.ini" 320 800 "$SWEEP"
+R=$T/run
+"$BIN" sweep "$T/sweep.ini" -o "$R" >"$T/log1" 2>&1
+status=$?
+
+# 1. the map against each run's own spray.h5 (row j = y value j, column i = x value i)
+map_ok=1
+reason=""
+if [ $status -ne 0 ] || [ ! -r "$R/sweep.h5" ]; then
+    map_ok=0
+    reason="exit $status: $(tail -n 3 "$T/log1")"
+else
+    values "$R/sweep.h5" /de >"$T/map_de"
+    values "$R/sweep.h5" /mean_impact_speed >"$T/map_speed"
+    : >"$T/runs_de"
+    : >"$T/runs_speed"
+    for run in x0_y0 x1_y0 x0_y1 x1_y1; do
+        values "$R/runs/$run/spray.h5" /deposition_efficiency/de >>"$T/runs_de"
+        values "$R/runs/$run/spray.h5" /deposition_efficiency/mean_impact_speed >>"$T/runs_speed"
+    done
+    if [ "$(wc -l <"$T/map_de")" -ne 4 ] || ! cmp -s "$T/map_de" "$T/runs_de"; then
+        map_ok=0
+        reason="map DE $(tr '\n' ' ' <"$T/map_de") != runs $(tr '\n' ' ' <"$T/runs_de")"
+    elif ! cmp -s "$T/map_speed" "$T/runs_speed"; then
+        map_ok=0
+        reason="map speed $(tr '\n' ' ' <"$T/map_speed") != runs $(tr '\n' ' ' <"$T/runs_speed")"
+    elif [ "$(values "$R/sweep.h5" /x_values | tr '\n' ' ')" != "250 350 " ] ||
+        [ "$(values "$R/sweep.h5" /y_values | tr '\n' ' ')" != "700 900 " ]; then
+        map_ok=0
+        reason="axes $(values "$R/sweep.h5" /x_values | tr '\n' ' ') and $(values "$R/sweep.h5" /y_values | tr '\n' ' '), expected 250 350 and 700 900 (0.7 km/s in SI)"
+    elif [ "$(sort -u "$T/map_de" | wc -l)" -lt 4 ]; then
+        map_ok=0
+        reason="the four runs give DEs $(tr '\n' ' ' <"$T/map_de"): the keys did not change the runs"
+    fi
+fi
+[ $map_ok = 1 ] && pass sweep_map_is_the_runs || fail sweep_map_is_the_runs "$reason"
+
+# 2. grid point (1, 1) is the spray of a case file with C1 = 350 and release_speed_max = 900
+write_case "$T/point.ini" 350 900 ""
+"$BIN" spray "$T/point.ini" -o "$T/point" >"$T/log_point" 2>&1
+point=$(values "$T/point/spray.h5" /deposition_efficiency/de)
+swept=$(sed -n 4p "$T/map_de" 2>/dev/null)
+if [ -n "$point" ] && [ "$point" = "$swept" ]; then
+    pass sweep_point_is_a_spray_run
+else
+    fail sweep_point_is_a_spray_run "spray of the case file: DE '$point'; the sweep's entry: '$swept'"
+fi
+
+# 3. nothing twice: a second sweep runs nothing; a removed run is made again, alone, with the same map
+"$BIN" sweep "$T/sweep.ini" -o "$R" >"$T/log2" 2>&1
+again=$?
+rm -f "$R/runs/x0_y1/spray.h5" "$R/sweep.h5"
+"$BIN" sweep "$T/sweep.ini" -o "$R" >"$T/log3" 2>&1
+redo=$?
+values "$R/sweep.h5" /de >"$T/map_de3" 2>/dev/null
+made=$(grep -c "spray: wrote" "$T/log3")
+if [ $again -eq 0 ] && ! grep -q "spray: wrote\|sweep: run " "$T/log2" && grep -q "up to date" "$T/log2" &&
+    [ $redo -eq 0 ] && [ "$made" -eq 1 ] && grep -q "spray: wrote .*x0_y1/spray.h5" "$T/log3" &&
+    cmp -s "$T/map_de" "$T/map_de3"; then
+    pass sweep_restart
+else
+    fail sweep_restart "second sweep exit $again, $(grep -c 'spray: wrote' "$T/log2") runs made; after removing one: exit $redo, $made runs made, map $(tr '\n' ' ' <"$T/map_de3")"
+fi
+
+# 4. resume continues a sweep (stages: sweep,render), here with nothing left to do
+rm -f "$R/sweep.h5"
+"$BIN" resume "$R" >"$T/log4" 2>&1
+resumed=$?
+if [ $resumed -eq 0 ] && grep -q "stages sweep" "$T/log4" && [ -r "$R/sweep.h5" ] &&
+    ! grep -q "spray: wrote" "$T/log4"; then
+    pass sweep_resume
+else
+    fail sweep_resume "exit $resumed: $(tail -n 2 "$T/log4")"
+fi
+
+# 5. bad [sweep] keys and values: exit 2 naming the key, nothing written
+bad() { # bad NAME SWEEP_LINES EXPECTED_TEXT
+    write_case "$T/bad.ini" 320 800 "$2"
+    "$BIN" sweep "$T/bad.ini" -o "$T/bad_run" >"$T/log_bad" 2>&1
+    code=$?
+    if [ $code -eq 2 ] && grep -q "$3" "$T/log_bad" && [ ! -e "$T/bad_run" ]; then
+        pass "sweep_refuses_$1"
+    else
+        fail "sweep_refuses_$1" "exit $code, run directory $([ -e "$T/bad_run" ] && echo made || echo absent): $(tail -n 1 "$T/log_bad")"
+    fi
+    rm -rf "$T/bad_run"
+}
+bad unknown_key "[sweep]
+x_key = jet.C9
+x_values = 1, 2" "\[sweep\] x_key.*not a case key"
+bad key_without_effect "[sweep]
+x_key = run.threads
+x_values = 1, 2" "\[sweep\] x_key.*does not change"
+bad key_of_another_stage "[sweep]
+x_key = impact.grid
+x_values = 1e-6, 2e-6" "\[sweep\] x_key.*does not change"
+bad bad_value "[sweep]
+x_key = jet.C1
+x_values = 250, fast" "x_values value 2.*\[jet\] C1"
+bad value_out_of_range "[sweep]
+x_key = spray.release_speed_max
+x_values = 700, 2e5" "x_values value 2.*\[spray\] release_speed_max"
+bad values_without_key "[sweep]
+x_key = jet.C1
+x_values = 250
+y_values = 1, 2" "\[sweep\] y_key"
+
+# 6. a sweep stopped by SIGTERM in a run (after a checkpoint) exits 143 and `resume` finishes it with the same map
+sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/term.ini"
+"$BIN" sweep "$T/term.ini" -o "$T/term" >"$T/log_term" 2>&1 &
+bg=$!
+i=0
+while [ "$i" -lt 1500 ] && ! ls "$T"/term/runs/*/checkpoints/spray_*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
+    sleep 0.02
+    i=$((i + 1))
+done
+kill -TERM "$bg" 2>/dev/null
+wait "$bg"
+term=$?
+bg=""
+"$BIN" resume "$T/term" >"$T/log_term_resume" 2>&1
+resumed=$?
+values "$T/term/sweep.h5" /de >"$T/map_de_term" 2>/dev/null
+if [ $term -eq 143 ] && [ $resumed -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_term" &&
+    grep -q "spray: resuming from .*runs/x[01]_y[01]/checkpoints/spray_" "$T/log_term_resume"; then
+    pass sweep_interrupted_and_resumed
+else
+    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term")"
+fi
