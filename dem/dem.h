@@ -75,7 +75,9 @@ struct dem_gas_field {
 /* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the
  * free jet's half-width (sech^2 = 1/2) at the wall, at most wall_z, and the free jet's profile at the top of the
  * wall region.  Only the Bickley jet has a width and so a wall region; for the other models (or a factor 0) H = 0,
- * the free field up to the wall. */
+ * the free field up to the wall.  With bow_shock auto, where the free jet reaches the wall region supersonic
+ * (gas_temperature, gas_gamma, gas_constant), a normal shock stands at the standoff Delta = 0.82 b rho1/rho2 and
+ * the wall region is the compressed layer below it, H = Delta. */
 void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z);
 
 /* Gas velocity u[3] at position x[3] (DEM_JET_NONE: still gas, zero).  Public with dem_gas_drag_force: the couple stage
