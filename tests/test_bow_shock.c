@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 
+/* A white-box test: includes the module-private header dem/gas.h (dem_normal_shock; tests/test_symbols.sh). */
 #include "core/error.h"
 #include "coupling/coupling.h"
 #include "dem/gas.h"
