@@ -205,6 +205,28 @@ static void test_layer(void)
           density_below / density_above);
 }
 
+/* Mass: in the layer rho2 u equals rho1 times the subsonic wall region's velocity with H = Delta (the field
+ * whose volume flux tests/test_wall_jet.c balances), everywhere in the layer. */
+static void test_layer_mass_flux(void)
+{
+    struct dem_gas_field gas = jet(0, DEM_BOW_SHOCK_AUTO), subsonic = gas;
+    double b = half_width_at_wall(&gas);
+    subsonic.bow_shock = DEM_BOW_SHOCK_NONE;
+    subsonic.stagnation_factor = gas.shock_standoff / b;
+    dem_gas_set_wall(&subsonic, gas.wall_z);
+    CHECK_CLOSE(subsonic.stagnation_height, gas.shock_standoff, 1e-14, 0.0, "the subsonic region of height Delta");
+    double worst = 0.0, scale = gas.density * subsonic.wall_axis_speed;
+    for (int i = 0; i <= 200; i++)
+        for (int j = 0; j < 50; j++) {
+            double r = 10.0 * b * i / 200.0, z = gas.wall_z - gas.shock_standoff * j / 50.0, u[3], w[3];
+            velocity_at(&gas, r, z, u);
+            velocity_at(&subsonic, r, z, w);
+            for (int k = 0; k < 3; k++)
+                worst = fmax(worst, fabs(gas.shock_density_ratio * gas.density * u[k] - gas.density * w[k]));
+        }
+    CHECK(worst < 1e-12 * scale, "rho2 u - rho1 u_subsonic: largest %g kg/(m2 s) of %g", worst, scale);
+}
+
 /* ---- a fine and a coarse Al particle on the axis through the layer ------------------------------------------ */
 
 struct axis_gas {
@@ -333,6 +355,7 @@ int main(void)
     RUN(test_shock_placement);
     RUN(test_subsonic_unchanged);
     RUN(test_layer);
+    RUN(test_layer_mass_flux);
     RUN(test_fine_particle_slows);
     RUN(test_flight_through_layer);
     return check_finish();
