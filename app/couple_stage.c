@@ -259,6 +259,9 @@ static int setup_layer(struct couple_work *w, const struct dem_config *spray)
     log_info("couple: the spray's gas, wall region %.4g m deep (axial speed %.4g m/s at its top); hand-off plane "
              "%.4g m before the target",
              layer->gas.stagnation_height, layer->gas.wall_axis_speed, spray->handoff_height);
+    if (layer->gas.shock_standoff > 0.0)
+        log_info("couple: the wall region is the layer behind a bow shock at Mach %.3g (rho2/rho1 = %.3g)",
+                 layer->gas.shock_mach, layer->gas.shock_density_ratio);
     return SC_OK;
 }
 

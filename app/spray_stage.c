@@ -277,6 +277,12 @@ static int run_stage(struct spray_run *run)
     run->snapshot_steps = dem_snapshot_steps(&run->cfg);
     log_info("spray: %lld steps of %.3g s to t_end = %.6g s on %d threads", (long long)dem_total_steps(run->solver),
              run->cfg.dt, run->cfg.t_end, omp_get_max_threads());
+    const struct dem_gas_field *gas = &run->cfg.gas;
+    if (gas->shock_standoff > 0.0) /* docs/physics.md "The bow shock at the target" */
+        log_info("spray: the jet arrives at Mach %.3g: a bow shock %.3g m before the target, behind it rho2/rho1 = "
+                 "%.3g, u2/u1 = %.3g, T2/T1 = %.3g",
+                 gas->shock_mach, gas->shock_standoff, gas->shock_density_ratio, gas->shock_velocity_ratio,
+                 gas->shock_temperature_ratio);
     SC_TRY(time_loop(run));
     SC_TRY(dem_check_accounting(run->solver));
     /* the index first: spray.h5 marks the stage done, so everything else must exist before it */

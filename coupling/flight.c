@@ -1,6 +1,7 @@
 /* The last flight of a sprayed particle, from the hand-off plane to the wall: m dv/dt = F_drag(v, u) with
  * Mukherjee & Zohdi's drag, Eqs. 24-25, in the spray's own gas field, the jet impinging on the target (dem/,
- * dem_gas_velocity: the free jet above the wall region, the stagnation flow and the radial wall jet in it),
+ * dem_gas_velocity: the free jet above the wall region, the stagnation flow and the radial wall jet in it, below a
+ * bow shock the compressed layer, whose density the drag takes: dem_gas_drag_force_at),
  * integrated with CVODE (BDF, Newton, dense linear solver); the flight ends at the wall (root finding) or at a time
  * limit. */
 #include "coupling/coupling.h"
@@ -49,7 +50,7 @@ static int flight_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void *data)
     double *rate = N_VGetArrayPointer(ydot);
     double u[3], force[3];
     dem_gas_velocity(&p->layer->gas, state, u);
-    dem_gas_drag_force(&p->layer->gas, p->diameter, state + 3, u, force);
+    dem_gas_drag_force_at(&p->layer->gas, p->diameter, state, state + 3, u, force);
     for (int k = 0; k < 3; k++) {
         rate[k] = state[3 + k];
         rate[3 + k] = force[k] / p->mass;

@@ -40,6 +40,8 @@ enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1, DEM_RESTED = 2 };
 enum dem_jet_model { DEM_JET_BICKLEY, DEM_JET_UNIFORM, DEM_JET_NONE };
 enum dem_drag_law { DEM_DRAG_HAIDER_LEVENSPIEL, DEM_DRAG_STOKES };
 
+/* [jet] bow_shock: none, or a normal shock in front of the target where the free jet arrives supersonic. */
+enum dem_bow_shock { DEM_BOW_SHOCK_NONE, DEM_BOW_SHOCK_AUTO };
 struct dem_gas_field {
     enum dem_jet_model model;
     enum dem_drag_law drag;
@@ -62,12 +64,22 @@ struct dem_gas_field {
     double gas_temperature;           /* K */
     double gas_gamma;
     double gas_constant; /* J/(kg K) */
+    /* The bow shock in front of the target (docs/physics.md "The bow shock at the target"): placed by
+     * dem_gas_set_wall; shock_standoff 0 (a zeroed struct, bow_shock none, a subsonic jet) is no shock. */
+    enum dem_bow_shock bow_shock;   /* [jet] bow_shock */
+    double shock_mach;              /* M1: the free jet's axial Mach number on the axis at the shock */
+    double shock_standoff;          /* m, Delta: the shock stands at wall_z - Delta, the top of the wall region */
+    double shock_velocity_ratio;    /* u2/u1 = rho1/rho2 of the normal shock at M1 */
+    double shock_density_ratio;     /* rho2/rho1: the gas density in the layer below the shock, over `density` */
+    double shock_temperature_ratio; /* T2/T1 */
 };
 
 /* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the
  * free jet's half-width (sech^2 = 1/2) at the wall, at most wall_z, and the free jet's profile at the top of the
  * wall region.  Only the Bickley jet has a width and so a wall region; for the other models (or a factor 0) H = 0,
- * the free field up to the wall. */
+ * the free field up to the wall.  With bow_shock auto, where the free jet reaches the wall region supersonic
+ * (gas_temperature, gas_gamma, gas_constant), a normal shock stands at the standoff Delta = 0.82 b rho1/rho2 and
+ * the wall region is the compressed layer below it, H = Delta. */
 void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z);
 
 /* Gas velocity u[3] at position x[3] (DEM_JET_NONE: still gas, zero).  Public with dem_gas_drag_force: the couple stage
@@ -78,6 +90,11 @@ void dem_gas_velocity(const struct dem_gas_field *gas, const double x[3], double
  * DEM_JET_NONE means no gas at all: zero force. */
 void dem_gas_drag_force(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
                         double f[3]);
+
+/* The same at position x[3], in the gas there: below a bow shock the layer's density (docs/physics.md "The bow
+ * shock at the target"), elsewhere `density`.  The spray's integrator and the couple stage's flight use this. */
+void dem_gas_drag_force_at(const struct dem_gas_field *gas, double diameter, const double x[3], const double v[3],
+                           const double u[3], double f[3]);
 
 /* Elastic-plastic constants of a powder or target material.  E and nu follow from the shear and bulk moduli. */
 struct dem_material {

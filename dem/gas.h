@@ -11,6 +11,13 @@
 /* Haider & Levenspiel sphere drag, Eq. (25). */
 double dem_drag_coefficient_haider_levenspiel(double reynolds);
 
+/* A normal shock at upstream Mach number M1 > 1 in a perfect gas of heat-capacity ratio gamma: the downstream
+ * Mach number and the ratios downstream/upstream of pressure, density, temperature and velocity. */
+struct dem_normal_shock {
+    double mach_after, pressure_ratio, density_ratio, temperature_ratio, velocity_ratio;
+};
+struct dem_normal_shock dem_normal_shock(double gamma, double mach);
+
 /* Momentum response time m / |dF/dv| (s) of a sphere of diameter d and density rho at slip speed `slip`;
  * the integrator sub-cycles particles whose response time is shorter than its step.  INFINITY for DEM_JET_NONE. */
 double dem_gas_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip);

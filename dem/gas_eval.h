@@ -105,9 +105,36 @@ FM_INLINE void gas_eval_wall(const struct dem_gas_field *gas, const double pos[3
     double outflow_over_r = slope * gas->wall_outflow_scale * gas_eval_disc_flux(xi, tanh_xi, q) * inverse_r2;
     outflow_over_r = fm_select(r2 > 0.0, outflow_over_r, 0.0);
     double ux = g * jet[0] + outflow_over_r * pos[0], uy = g * jet[1] + outflow_over_r * pos[1];
-    u[0] = fm_select(in_region, ux, jet[0]);
-    u[1] = fm_select(in_region, uy, jet[1]);
-    u[2] = fm_select(in_region, g * jet[2], jet[2]);
+    /* below a bow shock (whose standoff is then H) the layer's velocities are u2/u1 times these: the mass flux
+     * rho u of the subsonic region, carried at the compressed density rho2 = rho1 u1/u2 (a factor 1: the same bits) */
+    double layer = fm_select(gas->shock_standoff > 0.0, gas->shock_velocity_ratio, 1.0);
+    u[0] = fm_select(in_region, layer * ux, jet[0]);
+    u[1] = fm_select(in_region, layer * uy, jet[1]);
+    u[2] = fm_select(in_region, layer * (g * jet[2]), jet[2]);
+}
+
+/* The gas's density and kinematic viscosity at a point. */
+struct gas_local {
+    double density;             /* kg/m3 */
+    double kinematic_viscosity; /* m2/s */
+};
+
+/* The free jet's: [jet] gas_density and gas_viscosity. */
+FM_INLINE struct gas_local gas_eval_free(const struct dem_gas_field *gas)
+{
+    struct gas_local local = {gas->density, gas->kinematic_viscosity};
+    return local;
+}
+
+/* At pos: in the layer below a bow shock (the wall region, whose top is the shock) the density rho2 =
+ * shock_density_ratio rho1 and, the dynamic viscosity held at the free jet's, nu2 = nu1 / shock_density_ratio;
+ * elsewhere the free jet's (the same bits). */
+FM_INLINE struct gas_local gas_eval_local(const struct dem_gas_field *gas, const double pos[3])
+{
+    int in_layer = (pos[2] > gas->wall_z - gas->stagnation_height) & (gas->shock_standoff > 0.0);
+    double compression = fm_select(in_layer, gas->shock_density_ratio, 1.0);
+    struct gas_local local = {compression * gas->density, gas->kinematic_viscosity / compression};
+    return local;
 }
 
 /* Gas velocity u[3] at pos[3] for DEM_JET_BICKLEY (with its wall region) and DEM_JET_UNIFORM (DEM_JET_NONE:
@@ -130,32 +157,51 @@ FM_INLINE double gas_eval_reynolds_power(double reynolds)
 
 /* C_D * slip (m/s) for slip > 0, given Re and Re^0.6459: 24 nu / d in place of 24 / Re * slip, so that the
  * Stokes part needs no division by the slip. */
-FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct dem_gas_field *gas, double diameter, double slip,
-                                                      double reynolds, double reynolds_power)
+FM_INLINE double gas_eval_drag_coefficient_times_slip_in(const struct dem_gas_field *gas, struct gas_local local,
+                                                         double diameter, double slip, double reynolds,
+                                                         double reynolds_power)
 {
-    double stokes_part = 24.0 * gas->kinematic_viscosity / diameter;
+    double stokes_part = 24.0 * local.kinematic_viscosity / diameter;
     double haider_levenspiel = stokes_part * (1.0 + HL_STOKES_CORRECTION * reynolds_power) +
                                HL_NEWTON_COEFFICIENT * slip * reynolds / (reynolds + HL_NEWTON_REYNOLDS);
     return fm_select(gas->drag == DEM_DRAG_STOKES, stokes_part, haider_levenspiel);
 }
 
+FM_INLINE double gas_eval_drag_coefficient_times_slip(const struct dem_gas_field *gas, double diameter, double slip,
+                                                      double reynolds, double reynolds_power)
+{
+    return gas_eval_drag_coefficient_times_slip_in(gas, gas_eval_free(gas), diameter, slip, reynolds, reynolds_power);
+}
+
+FM_INLINE double gas_eval_reynolds_in(struct gas_local local, double diameter, double slip)
+{
+    return diameter * slip / local.kinematic_viscosity;
+}
+
 FM_INLINE double gas_eval_reynolds(const struct dem_gas_field *gas, double diameter, double slip)
 {
-    return diameter * slip / gas->kinematic_viscosity;
+    return gas_eval_reynolds_in(gas_eval_free(gas), diameter, slip);
 }
 
 /* Eq. (24): F = 1/2 rho_f (pi R^2) C_D(Re) |u - v| (u - v), Re = d |u - v| / nu_f, with the slip and Re^0.6459
- * already known.  No slip: no drag (and no 0/0 in Re). */
-FM_INLINE void gas_eval_drag_from_slip(const struct dem_gas_field *gas, double diameter, const double relative[3],
-                                       double slip, double reynolds_power, double f[3])
+ * already known, in the gas state `local`.  No slip: no drag (and no 0/0 in Re). */
+FM_INLINE void gas_eval_drag_from_slip_in(const struct dem_gas_field *gas, struct gas_local local, double diameter,
+                                          const double relative[3], double slip, double reynolds_power, double f[3])
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
-    double reynolds = gas_eval_reynolds(gas, diameter, slip);
-    double factor = 0.5 * gas->density * frontal_area *
-                    gas_eval_drag_coefficient_times_slip(gas, diameter, slip, reynolds, reynolds_power);
+    double reynolds = gas_eval_reynolds_in(local, diameter, slip);
+    double factor = 0.5 * local.density * frontal_area *
+                    gas_eval_drag_coefficient_times_slip_in(gas, local, diameter, slip, reynolds, reynolds_power);
     factor = fm_select((slip > 0.0) & (gas->model != DEM_JET_NONE), factor, 0.0);
     for (int k = 0; k < 3; k++)
         f[k] = factor * relative[k];
+}
+
+/* The same in the free jet's gas. */
+FM_INLINE void gas_eval_drag_from_slip(const struct dem_gas_field *gas, double diameter, const double relative[3],
+                                       double slip, double reynolds_power, double f[3])
+{
+    gas_eval_drag_from_slip_in(gas, gas_eval_free(gas), diameter, relative, slip, reynolds_power, f);
 }
 
 FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double relative[3])
@@ -165,14 +211,21 @@ FM_INLINE double gas_eval_slip(const double v[3], const double u[3], double rela
     return sqrt(relative[0] * relative[0] + relative[1] * relative[1] + relative[2] * relative[2]);
 }
 
-/* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] (Eq. 24). */
-FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
-                             double f[3])
+/* Drag force f[3] on a sphere of diameter d at v[3] in gas at u[3] in the gas state `local` (Eq. 24). */
+FM_INLINE void gas_eval_drag_in(const struct dem_gas_field *gas, struct gas_local local, double diameter,
+                                const double v[3], const double u[3], double f[3])
 {
     double relative[3];
     double slip = gas_eval_slip(v, u, relative);
-    double power = gas_eval_reynolds_power(gas_eval_reynolds(gas, diameter, slip));
-    gas_eval_drag_from_slip(gas, diameter, relative, slip, power, f);
+    double power = gas_eval_reynolds_power(gas_eval_reynolds_in(local, diameter, slip));
+    gas_eval_drag_from_slip_in(gas, local, diameter, relative, slip, power, f);
+}
+
+/* The same in the free jet's gas. */
+FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, const double v[3], const double u[3],
+                             double f[3])
+{
+    gas_eval_drag_in(gas, gas_eval_free(gas), diameter, v, u, f);
 }
 
 /* dF/ds of the drag magnitude F(s) = 1/2 rho_f A C_D(Re(s)) s^2, A = pi d^2/4, Re = d s / nu.
@@ -182,12 +235,12 @@ FM_INLINE void gas_eval_drag(const struct dem_gas_field *gas, double diameter, c
  * and multiplying by s (= Re nu / d) removes the 1/Re: every term stays finite as s -> 0, where
  * dF/ds -> 1/2 rho_f A 24 nu / d = 3 pi mu d, the Stokes value.  Stokes alone: dF/ds = 3 pi mu d.
  * reynolds_power is Re^b at this slip (any value when slip is 0). */
-FM_INLINE double gas_eval_drag_slope(const struct dem_gas_field *gas, double diameter, double slip,
-                                     double reynolds_power)
+FM_INLINE double gas_eval_drag_slope_in(const struct dem_gas_field *gas, struct gas_local local, double diameter,
+                                        double slip, double reynolds_power)
 {
     double frontal_area = 0.25 * GAS_PI * diameter * diameter;
-    double stokes_part = 24.0 * gas->kinematic_viscosity / diameter; /* 24/Re * s */
-    double reynolds = gas_eval_reynolds(gas, diameter, slip);
+    double stokes_part = 24.0 * local.kinematic_viscosity / diameter; /* 24/Re * s */
+    double reynolds = gas_eval_reynolds_in(local, diameter, slip);
     double newton_denominator = reynolds + HL_NEWTON_REYNOLDS;
     double haider_levenspiel =
         stokes_part + (stokes_part * HL_STOKES_CORRECTION * (1.0 + HL_STOKES_EXPONENT) * reynolds_power +
@@ -195,18 +248,32 @@ FM_INLINE double gas_eval_drag_slope(const struct dem_gas_field *gas, double dia
                            (newton_denominator * newton_denominator));
     int haider_levenspiel_law = (gas->drag == DEM_DRAG_HAIDER_LEVENSPIEL) & (slip > 0.0);
     double bracket_times_slip = fm_select(haider_levenspiel_law, haider_levenspiel, stokes_part);
-    return 0.5 * gas->density * frontal_area * bracket_times_slip;
+    return 0.5 * local.density * frontal_area * bracket_times_slip;
 }
 
-/* m / |dF/dv| (s), INFINITY for DEM_JET_NONE or no gas density: see dem_gas_response_time. */
-FM_INLINE double gas_eval_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip,
-                                        double reynolds_power)
+FM_INLINE double gas_eval_drag_slope(const struct dem_gas_field *gas, double diameter, double slip,
+                                     double reynolds_power)
 {
-    double slope = gas_eval_drag_slope(gas, diameter, slip, reynolds_power);
+    return gas_eval_drag_slope_in(gas, gas_eval_free(gas), diameter, slip, reynolds_power);
+}
+
+/* m / |dF/dv| (s) in the gas state `local`, INFINITY for DEM_JET_NONE or no gas density: see
+ * dem_gas_response_time. */
+FM_INLINE double gas_eval_response_time_in(const struct dem_gas_field *gas, struct gas_local local, double density,
+                                           double diameter, double slip, double reynolds_power)
+{
+    double slope = gas_eval_drag_slope_in(gas, local, diameter, slip, reynolds_power);
     double mass = density * GAS_PI * diameter * diameter * diameter / 6.0;
     int no_drag = (gas->model == DEM_JET_NONE) | !(slope > 0.0); /* bitwise: no branch, so loops vectorise */
     double response_time = mass / slope;
     return fm_select(no_drag, INFINITY, response_time);
+}
+
+/* The same in the free jet's gas. */
+FM_INLINE double gas_eval_response_time(const struct dem_gas_field *gas, double density, double diameter, double slip,
+                                        double reynolds_power)
+{
+    return gas_eval_response_time_in(gas, gas_eval_free(gas), density, diameter, slip, reynolds_power);
 }
 
 #endif

@@ -135,9 +135,10 @@ FM_INLINE void drag_and_slip(const struct dem_gas_field *gas, double d, const do
 {
     double u[3], relative[3];
     gas_eval_velocity(gas, x, u);
+    struct gas_local local = gas_eval_local(gas, x); /* the bow shock's layer compresses the gas */
     *slip = gas_eval_slip(v, u, relative);
-    *reynolds_power = gas_eval_reynolds_power(gas_eval_reynolds(gas, d, *slip));
-    gas_eval_drag_from_slip(gas, d, relative, *slip, *reynolds_power, f);
+    *reynolds_power = gas_eval_reynolds_power(gas_eval_reynolds_in(local, d, *slip));
+    gas_eval_drag_from_slip_in(gas, local, d, relative, *slip, *reynolds_power, f);
 }
 
 /* Where a step ended: whether the force there is known, and if so the force, slip and Re^0.6459. */
@@ -257,7 +258,8 @@ static void integrate_rest_of_step(const struct dem_solver *s, struct dem_partic
     } else if (h > 0.0) {
         double force[3], slip, power;
         drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
-        int64_t substeps = substeps_over(h, gas_eval_response_time(&cfg->gas, cfg->powder.density, d, slip, power));
+        int64_t substeps = substeps_over(
+            h, gas_eval_response_time_in(&cfg->gas, gas_eval_local(&cfg->gas, x), cfg->powder.density, d, slip, power));
         for (int64_t k = 0; k < substeps; k++) {
             if (k > 0 && end.force_known)
                 memcpy(force, end.force, sizeof force);
@@ -385,7 +387,8 @@ static void integrate_particle_reference(const struct dem_config *cfg, struct de
             drag->forces[dem_drag_slot(step, 0)][c][i] = force_start[c];
     }
     /* 2. sub-cycled, or 3-4. one phi-step of dt */
-    double tau = gas_eval_response_time(&cfg->gas, cfg->powder.density, d, slip, power);
+    double tau =
+        gas_eval_response_time_in(&cfg->gas, gas_eval_local(&cfg->gas, x), cfg->powder.density, d, slip, power);
     struct step_end end = {.force_known = 0};
     if (!(tau >= 2.0 * cfg->dt)) {
         integrate_subcycled(cfg, d, m, tau, force_start, x, v, count);
@@ -517,8 +520,12 @@ FM_INLINE void start_forces_with(const struct dem_config *cfg, struct block *res
             lane_put(b->force_start, l, force);
         }
     }
-    for (int l = 0; l < BLOCK; l++)
-        b->tau[l] = gas_eval_response_time(&gas, density, b->d[l], b->slip[l], b->reynolds_power[l]);
+    for (int l = 0; l < BLOCK; l++) {
+        double x[3];
+        lane_get(b->x, l, x);
+        b->tau[l] = gas_eval_response_time_in(&gas, gas_eval_local(&gas, x), density, b->d[l], b->slip[l],
+                                              b->reynolds_power[l]);
+    }
 }
 
 /* The usual gas, the jet with Haider-Levenspiel drag, is given to the loops below as constants: the selects on

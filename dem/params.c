@@ -92,6 +92,16 @@ const struct cfg_key dem_case_keys[] = {
      "model = bickley: height of the wall region in front of the target, in half-widths of the free jet at the "
      "target (1.5: the impingement region of 0.14 of the nozzle-to-plate distance, Beltaos & Rajaratnam 1974, "
      "over a round jet's half-width of 0.094 of it); 0: the free jet up to the target"},
+    {"jet", "gas_temperature", CFG_REAL, "K", "293.15", 0, 1e4, CFG_MIN_EXCLUSIVE, NULL,
+     "static temperature of the jet gas, the same throughout the free jet (isobaric at gas_density); sets the sound "
+     "speed of bow_shock"},
+    {"jet", "gas_gamma", CFG_REAL, "-", "1.4", 1, 2, CFG_MIN_EXCLUSIVE, NULL,
+     "ratio of specific heats of the jet gas (1.4: air, N2; 5/3: He)"},
+    {"jet", "gas_constant", CFG_REAL, "J/(kg K)", "287.05", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
+     "specific gas constant of the jet gas (287.05: air; 296.8: N2; 2077.1: He)"},
+    {"jet", "bow_shock", CFG_CHOICE, "", "auto", 0, 0, 0, "auto|none",
+     "auto: where the free jet arrives supersonic on the axis, a normal shock stands in front of the target "
+     "(standoff 0.82 b rho1/rho2, Lobb 1964) over a compressed layer; none: the subsonic wall region always"},
     /* [deposition] */
     {"deposition", "rule", CFG_CHOICE, "", "adhesion", 0, 0, 0, "adhesion|critical_velocity|table|none",
      "adhesion: stick below the Eq. 34 speed; critical_velocity/table: stick at or above v_crit (cold "
@@ -240,6 +250,10 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->density = case_real(c, "jet", "gas_density");
     gas->kinematic_viscosity = case_real(c, "jet", "gas_viscosity");
     gas->stagnation_factor = case_real(c, "jet", "stagnation_height");
+    gas->gas_temperature = case_real(c, "jet", "gas_temperature");
+    gas->gas_gamma = case_real(c, "jet", "gas_gamma");
+    gas->gas_constant = case_real(c, "jet", "gas_constant");
+    gas->bow_shock = case_is(c, "jet", "bow_shock", "none") ? DEM_BOW_SHOCK_NONE : DEM_BOW_SHOCK_AUTO;
     dem_gas_set_wall(gas, cfg->standoff);
 }
 
@@ -433,11 +447,13 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
         gas->density = e->density;
     if (!case_is_given(c, "jet", "gas_viscosity"))
         gas->kinematic_viscosity = dem_nozzle_viscosity(&n->properties, e->temperature) / e->density;
-    /* the static exit state; [jet] gas_temperature, gas_gamma and gas_constant (the bow shock's keys) are to win
-     * over these when given, as the keys above do */
-    gas->gas_temperature = e->temperature;
-    gas->gas_gamma = n->properties.gamma;
-    gas->gas_constant = n->properties.gas_constant;
+    /* the static exit state, for the bow shock (docs/physics.md "The bow shock at the target") */
+    if (!case_is_given(c, "jet", "gas_temperature"))
+        gas->gas_temperature = e->temperature;
+    if (!case_is_given(c, "jet", "gas_gamma"))
+        gas->gas_gamma = n->properties.gamma;
+    if (!case_is_given(c, "jet", "gas_constant"))
+        gas->gas_constant = n->properties.gas_constant;
 }
 
 /* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc
