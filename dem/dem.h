@@ -129,6 +129,11 @@ struct dem_config {
     double alpha_adh, critical_velocity;
     size_t table_count; /* v_crit(d) table, diameters ascending */
     double *table_diameter, *table_velocity;
+    /* v_crit(d, T) (a table with temperatures, docs/files.md "v_crit tables"): table_temperature_count > 0
+     * temperatures (K) ascending; table_velocity then holds table_count x table_temperature_count values, the
+     * temperatures of one diameter side by side.  0: the 1-D table v_crit(d). */
+    size_t table_temperature_count;
+    double *table_temperature;
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -139,6 +144,10 @@ extern const struct cfg_key dem_case_keys[];
 int dem_config_load(const struct case_file *c, struct dem_config *cfg);
 void dem_config_free(struct dem_config *cfg);
 
+/* v_crit (m/s) of the table rule at diameter d (m) and particle temperature T (K): linear in d (1-D table) or
+ * bilinear in d and T (2-D table), clamped to the table's first and last diameter and temperature. */
+double dem_vcrit_lookup(const struct dem_config *cfg, double d, double T);
+
 /* One row per contact of a particle with the target or a deposited particle (spray.h5:/impacts). */
 struct dem_impact {
     double t;
@@ -148,6 +157,7 @@ struct dem_impact {
     int64_t outcome;       /* enum dem_outcome */
     int64_t partner;       /* -1 the target, else the deposited (or resting) particle's id */
     int64_t contact_index; /* the particle's contacts with the target or fixed particles before this one */
+    double temperature;    /* K: the particle's temperature (constant after the nozzle exit) */
 };
 
 /* One row per crossing of the hand-off plane z = standoff - handoff_height (spray.h5:/handoff). */
@@ -156,6 +166,7 @@ struct dem_handoff {
     int64_t particle_id;
     double x[3], v[3], w[3];
     double d;
+    double temperature; /* K: the particle's temperature (constant after the nozzle exit) */
 };
 
 /* Accounting and solver statistics. */
