@@ -187,6 +187,7 @@ struct couple_bodies {
     size_t runs, count;
     size_t *first;                 /* runs + 1 */
     double *d, *center, *velocity; /* count, 3 count, 3 count (impact frame) */
+    double *temperature;           /* count, K; NULL: a couple.h5 without /seeds/temperature (T_initial) */
 };
 int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
 void couple_stage_bodies_free(struct couple_bodies *bodies);

@@ -400,6 +400,25 @@ int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diam
     return SC_OK;
 }
 
+int mpm_config_set_particle_temperatures(struct mpm_config *cfg, int count, const double *temperature)
+{
+    if (count > cfg->body_count)
+        SC_FAIL(SC_EINPUT, "impact: %d particle temperatures for %d bodies", count, cfg->body_count);
+    for (int k = 0; k < count; k++) {
+        struct mpm_body *b = &cfg->bodies[cfg->body_count - count + k];
+        const struct mpm_material *m = &cfg->materials[b->material];
+        double T = temperature[k];
+        /* the MTS shear modulus (Eq. 2.6) must stay positive, as load_material checks it at T_initial */
+        if (!(T > 0.0 && T <= 1e5) || !(mpm_mts_shear_modulus(m, T) > 0.0))
+            SC_FAIL(SC_EINPUT,
+                    "impact: particle %d: temperature %g K; allowed: above 0 K, at most 1e5 K, with a positive "
+                    "shear modulus G0 - D/(exp(T0/T)-1) of its material",
+                    k, T);
+        b->temperature = T;
+    }
+    return SC_OK;
+}
+
 int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle)
 {
     /* touching the substrate's top: the thesis starts its runs at first contact (Section 5.2.1) */
