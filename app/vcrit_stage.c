@@ -2,13 +2,13 @@
  * [vcrit] temperatures, from single-particle MPM impacts (Tang Section 5.2.2), for the spray stage's
  * `[deposition] rule = table`.
  *
- * Per diameter (per pair of diameter and temperature): one run at v_low (must rebound) and one at v_high (must bond), then bisection of the bracket
- * until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known to bond.  Each run goes
- * to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity
- * thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled).
- * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
- * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
- * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
+ * Per diameter (per pair of diameter and temperature): one run at v_low (must rebound) and one at v_high (must bond),
+ * then bisection of the bracket until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known
+ * to bond.  Each run goes to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and
+ * restitution velocity thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled). Every finished
+ * run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the recorded runs of the
+ * same case instead of running them again, so an interruption loses at most the run that was going on.  The outputs are
+ * RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
  *
  * Under MPI the searches are shared out (a rank takes the next one not yet taken, core/parallel.h) and rank
  * k > 0 records its runs in RUN_DIR/vcrit_runs_rankK.csv.  When all are done, rank 0 reads every record and
@@ -202,12 +202,6 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
                             "scales a deformable substrate, but [impact] substrate = "
                             "rigid; allowed: 0 with a rigid substrate");
     /* every run's set-up must be possible before the first one starts */
-    for (int j = 0; j < v->temperature_count; j++) {
-        struct mpm_config cfg;
-        if (make_config(v, v->diameters[0], v->temperatures[j], v->v_high, &cfg) != SC_OK)
-            return case_invalid(c, "vcrit", "temperatures", "%s", sc_error_message());
-        mpm_config_free(&cfg);
-    }
     for (int i = 0; i < v->count; i++) {
         struct mpm_config cfg;
         SC_TRY(make_config(v, v->diameters[i], 0.0, v->v_high, &cfg));
@@ -226,6 +220,13 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
                                 "gives a substrate of %g m for d = %g m; allowed: "
                                 "two point spacings (%g m) to 1 m",
                                 substrate_d, v->diameters[i], 2.0 * spacing);
+    }
+    /* the set-up is possible at diameter 0 (checked above): a failure now is the temperature's */
+    for (int j = 0; j < v->temperature_count; j++) {
+        struct mpm_config cfg;
+        if (make_config(v, v->diameters[0], v->temperatures[j], v->v_high, &cfg) != SC_OK)
+            return case_invalid(c, "vcrit", "temperatures", "%s", sc_error_message());
+        mpm_config_free(&cfg);
     }
     return SC_OK;
 }
@@ -335,11 +336,11 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
         struct vcrit_run_record x = {0};
         long long steps;
         char rest;
-        int read = fields == 10 ? sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld,%lf %c", &x.diameter, &x.velocity,
-                                         &x.Gc, &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps,
-                                         &x.temperature, &rest)
-                                : sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity,
-                                         &x.Gc, &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest);
+        int read = fields == 10
+                       ? sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld,%lf %c", &x.diameter, &x.velocity, &x.Gc,
+                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &x.temperature, &rest)
+                       : sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity, &x.Gc,
+                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest);
         if (read != fields) {
             log_warn("%s: %s: unreadable line '%.60s'; the runs from there on will be done again", r->name, path, line);
             break;
@@ -900,8 +901,8 @@ static int run_search(struct vcrit_search *v, struct vcrit_result *results)
     if (parallel_rank() == 0)
         log_info("vcrit: %d diameters x %d temperatures, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d "
                  "threads x %d process%s",
-                 v->count, v->temperature_count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(), parallel_size(),
-                 parallel_size() > 1 ? "es" : "");
+                 v->count, v->temperature_count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(),
+                 parallel_size(), parallel_size() > 1 ? "es" : "");
     int status = parallel_max_status(search_shared(v, results));
     if (status == SC_OK && parallel_rank() == 0)
         status = replay_and_write(v, results, start);

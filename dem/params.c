@@ -341,7 +341,8 @@ static int csv_has_temperature(const char *path)
         text += strspn(text, " \t");
         if (*text == '#' || *text == '\n' || *text == '\r' || *text == '\0')
             continue;
-        for (char *save = NULL, *field = strtok_r(text, ",\r\n", &save); field; field = strtok_r(NULL, ",\r\n", &save)) {
+        for (char *save = NULL, *field = strtok_r(text, ",\r\n", &save); field;
+             field = strtok_r(NULL, ",\r\n", &save)) {
             field += strspn(field, " \t");
             size_t len = strcspn(field, " \t");
             found |= len == 11 && strncmp(field, "temperature", 11) == 0;
@@ -420,8 +421,8 @@ static int table_grid(const struct case_file *c, const char *path, const struct 
         const double *row = rows->numbers + 3 * i;
         size_t cell = index_of(cfg->table_diameter, nd, row[0]) * nt + index_of(cfg->table_temperature, nt, row[1]);
         if (!isnan(cfg->table_velocity[cell]))
-            return case_invalid(c, "deposition", "table", "%s: row %zu: d = %g m, T = %g K is given twice", path,
-                                i + 1, row[0], row[1]);
+            return case_invalid(c, "deposition", "table", "%s: row %zu: d = %g m, T = %g K is given twice", path, i + 1,
+                                row[0], row[1]);
         cfg->table_velocity[cell] = row[2];
     }
     return SC_OK;

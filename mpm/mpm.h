@@ -39,9 +39,9 @@ enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
 struct mpm_body {
     enum mpm_shape shape;
     double center[3], velocity[3];
-    double d, h;   /* diameter (or box side) and height (cylinder, box) */
-    int material;  /* index into mpm_config.materials */
-    int substrate; /* 1 for the substrate body */
+    double d, h;        /* diameter (or box side) and height (cylinder, box) */
+    int material;       /* index into mpm_config.materials */
+    int substrate;      /* 1 for the substrate body */
     double temperature; /* K, the body's points at the start; 0: the material's T_initial (issue 26: a sprayed
                            particle arrives at its temperature from the spray) */
 };

@@ -698,10 +698,9 @@ void mpm_point_state_init_at(const struct mpm_material *m, double T, struct mpm_
     double Tm = mpm_scg_melt_temperature(m, m->density);
     state->melted = T < Tm ? 0.0 : 1.0;
     state->plastic_increment = 0.0; /* no return yet: no first guess from one */
-    state->yield_stress = m->strength == MPM_STRENGTH_PTW
-                              ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, T, Tm, m->density,
-                                                    mpm_mts_shear_modulus(m, T))
-                              : 0.0;
+    state->yield_stress = m->strength == MPM_STRENGTH_PTW ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, T, Tm,
+                                                                                m->density, mpm_mts_shear_modulus(m, T))
+                                                          : 0.0;
 }
 
 /* sqrt((K + 4/3 G(T_initial)) / rho0). */

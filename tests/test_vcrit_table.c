@@ -140,8 +140,7 @@ static void test_incomplete_grid(void)
     const char *missing = "diameter,temperature,v_crit\n2e-5,300,700\n2e-5,500,650\n4e-5,300,500\n";
     int status = load_table("vcrit.csv", missing, 0, &cfg);
     CHECK(status == SC_EINPUT, "a missing pair refused (status %d)", status);
-    CHECK(strstr(sc_error_message(), "table") && strstr(sc_error_message(), "grid"), "message: %s",
-          sc_error_message());
+    CHECK(strstr(sc_error_message(), "table") && strstr(sc_error_message(), "grid"), "message: %s", sc_error_message());
     const char *twice = "diameter,temperature,v_crit\n2e-5,300,700\n2e-5,300,650\n4e-5,300,500\n4e-5,500,500\n";
     status = load_table("vcrit.csv", twice, 0, &cfg);
     CHECK(status == SC_EINPUT, "a pair given twice refused (status %d)", status);

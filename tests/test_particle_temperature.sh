@@ -1,0 +1,151 @@
+#!/bin/sh
+# The particle temperature from the spray to the impact, and v_crit over temperature (issue 26 item 3; docs/physics.md
+# "Particle temperature at impact"):
+#   - the couple stage carries spray.h5 /impacts/temperature into couple.h5 /seeds/temperature (a fixture: the small
+#     pipeline's spray.h5 with a dataset /impacts/temperature = 300 + particle_id mod 100 K added by h5import/h5copy);
+#   - the impact stage starts every point of a seeded particle at its seed's temperature and the substrate at its
+#     T_initial (impact.h5 /run_NNNN/snapshots/000000/T at t = 0);
+#   - a spray.h5 without the dataset (written before the spray carried it): the seeds at the particle material's
+#     T_initial (298 K), said in the log;
+#   - `spraycoat vcrit` with [vcrit] temperatures over two temperatures (one 8 um diameter, 10 ns runs): vcrit.csv with
+#     a temperature column and a row per pair, vcrit.h5 /temperature and the 1 x 2 /grid/v_crit, both read back by
+#     the spray stage's table rule (`spraycoat check`).
+# Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.  Needs h5dump, h5import,
+# h5copy.  About 10 s on one core.
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+CASE=tests/fixtures/pipeline_small.ini
+BASE=tests/bad_cases/valid_base.ini
+
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1 ($2)"; }
+
+for tool in h5dump h5import h5copy; do
+    if ! command -v "$tool" >/dev/null 2>&1; then
+        echo "FAIL particle_temperature ($tool not found: install hdf5-tools)"
+        exit 1
+    fi
+done
+if [ ! -x "$BIN" ] || [ ! -r "$CASE" ] || [ ! -r "$BASE" ]; then
+    echo "FAIL particle_temperature (no $BIN, $CASE or $BASE; run from the repository root after make)"
+    exit 1
+fi
+T=$(mktemp -d) || exit 1
+trap 'rm -rf "$T"' EXIT
+trap 'exit 1' HUP INT TERM
+. tests/pipeline_lib.sh
+
+if ! "$BIN" run "$CASE" --stages spray -o "$T/run" >"$T/spray.log" 2>&1; then
+    echo "FAIL particle_temperature (the spray stage failed: $(tail -n 3 "$T/spray.log" | tr '\n' ' '))"
+    exit 1
+fi
+cp -r "$T/run" "$T/old"
+
+# ---- 1. spray.h5 /impacts/temperature -> couple.h5 /seeds/temperature --------------------------------------------
+if h5dump -d /impacts/temperature "$T/run/spray.h5" >/dev/null 2>&1; then
+    echo "  note: spray.h5 has /impacts/temperature already (the spray writes it): replaced by the fixture's"
+    rm -rf "$T/run" && cp -r "$T/old" "$T/run"
+fi
+values "$T/run/spray.h5" /impacts/particle_id | awk '{ print 300 + $1 % 100 }' >"$T/temperature.txt"
+rows=$(wc -l <"$T/temperature.txt" | tr -d ' ')
+printf 'PATH temperature\nINPUT-CLASS TEXTFP\nRANK 1\nDIMENSION-SIZES %s\nOUTPUT-CLASS FP\nOUTPUT-SIZE 64\nOUTPUT-ARCHITECTURE IEEE\nOUTPUT-BYTE-ORDER LE\n' \
+    "$rows" >"$T/import.conf"
+if ! h5import "$T/temperature.txt" -c "$T/import.conf" -o "$T/temperature.h5" >/dev/null 2>&1 ||
+    ! h5copy -i "$T/temperature.h5" -o "$T/run/spray.h5" -s /temperature -d /impacts/temperature >/dev/null 2>&1; then
+    echo "FAIL particle_temperature (cannot add /impacts/temperature to spray.h5 with h5import and h5copy)"
+    exit 1
+fi
+if ! "$BIN" run "$CASE" --stages couple,impact -o "$T/run" >"$T/couple.log" 2>&1; then
+    echo "FAIL particle_temperature (couple and impact failed: $(tail -n 3 "$T/couple.log" | tr '\n' ' '))"
+    exit 1
+fi
+values "$T/run/couple.h5" /seeds/particle_id >"$T/ids"
+values "$T/run/couple.h5" /seeds/temperature >"$T/seed_t"
+bad=$(paste "$T/ids" "$T/seed_t" | awk 'NF != 2 || $2 != 300 + $1 % 100 { print "particle " $1 ": " $2 " K" } END { if (NR != 4) print NR " seeds" }')
+if [ -z "$bad" ] && [ -s "$T/seed_t" ]; then
+    pass couple_carries_temperature
+else
+    fail couple_carries_temperature "expected 300 + particle_id mod 100 K: ${bad:-no /seeds/temperature}"
+fi
+
+# ---- 2. the impact stage starts the particle's points at its seed's temperature ---------------------------------
+why=""
+for r in 0 1 2 3; do
+    expected=$(sed -n "$((r + 1))p" "$T/seed_t")
+    values "$T/run/impact.h5" "/run_000$r/snapshots/000000/body" >"$T/body"
+    values "$T/run/impact.h5" "/run_000$r/snapshots/000000/T" >"$T/points_t"
+    [ -s "$T/points_t" ] || why="$why run $r: no snapshot 000000/T;"
+    why="$why$(paste "$T/body" "$T/points_t" | awk -v p="$expected" -v r="$r" '
+        $1 == 0 && $2 != 298 { bad++ } $1 == 1 && $2 != p { bad++ } $1 == 1 { n++ }
+        END { if (bad || !n) printf " run %d: %d of the points not at 298 K (substrate) or %s K (particle, %d points);", r, bad, p, n }')"
+done
+if [ -z "$why" ]; then pass impact_starts_at_seed_temperature; else fail impact_starts_at_seed_temperature "$why"; fi
+
+# ---- 3. an older spray.h5 without /impacts/temperature: T_initial, said once ----------------------------------------
+if "$BIN" run "$CASE" --stages couple -o "$T/old" >"$T/old.log" 2>&1 &&
+    [ "$(values "$T/old/couple.h5" /seeds/temperature | grep -c '^298$')" -eq 4 ] &&
+    [ "$(grep -c 'no /impacts/temperature' "$T/old.log")" -eq 1 ]; then
+    pass couple_older_spray_t_initial
+else
+    fail couple_older_spray_t_initial "$(values "$T/old/couple.h5" /seeds/temperature | tr '\n' ' ') $(tail -n 2 "$T/old.log" | tr '\n' ' ')"
+fi
+
+# ---- 4. vcrit over two temperatures ----------------------------------------------------------------------------
+cat >"$T/vcrit.ini" <<EOF
+; tiny vcrit search over temperature: far too coarse for physics, quick (as tests/test_vcrit.sh)
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_diameter = 20e-6
+substrate_height = 6e-6
+t_end = 10e-9
+settle_window = 2e-9
+settle_vcom = 1e4
+settle_pbcp = 1
+vrest_filter = 1e4
+
+[material.aluminium]
+
+[vcrit]
+diameters = 8e-6
+temperatures = 600,300
+v_low = 200
+v_high = 1200
+tolerance = 400
+EOF
+RUN=$T/vcrit
+why=""
+if "$BIN" vcrit "$T/vcrit.ini" -o "$RUN" >"$T/vcrit.log" 2>&1; then
+    [ "$(head -n 1 "$RUN/vcrit.csv")" = "diameter,temperature,v_crit,pbcp,v_rest,runs" ] ||
+        why="$why vcrit.csv header '$(head -n 1 "$RUN/vcrit.csv")';"
+    # one row per temperature, ascending, at 8 um: a v_crit in the bracket or a '#' line with the reason
+    rows=$(sed 1d "$RUN/vcrit.csv" | awk -F, '
+        /^#/ { sub(/^# /, ""); if ($3 != "nan") print "bad"; else print $1 "," $2; next }
+        { if (!($3 + 0 >= 200 && $3 + 0 <= 1200)) print "bad"; else print $1 "," $2 }' | tr '\n' ' ')
+    [ "$rows" = "8e-06,300 8e-06,600 " ] || why="$why rows '$rows', expected 8e-06,300 and 8e-06,600;"
+    grid=$(h5dump -H -d /grid/v_crit "$RUN/vcrit.h5" 2>/dev/null | grep -c 'SIMPLE { ( 1, 2 )')
+    [ "$grid" -eq 1 ] || why="$why no 1 x 2 /grid/v_crit in vcrit.h5;"
+    [ "$(values "$RUN/vcrit.h5" /grid/temperature | tr '\n' ' ')" = "300 600 " ] || why="$why /grid/temperature;"
+    if [ "$(grep -c '^[0-9]' "$RUN/vcrit.csv")" -eq 2 ]; then
+        for file in vcrit.csv vcrit.h5; do
+            sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $RUN/$file|" "$BASE" >"$T/spray.ini"
+            "$BIN" check "$T/spray.ini" >"$T/check.log" 2>&1 ||
+                why="$why the spray cannot read $file: $(grep '^spraycoat:' "$T/check.log" | head -n 1);"
+        done
+    else
+        echo "  note: a pair was not bracketed; the 2-D table is incomplete and not read back"
+    fi
+else
+    why="spraycoat vcrit exited with status $?: $(tail -n 3 "$T/vcrit.log" | tr '\n' ' ')"
+fi
+sed 's/^/  /' "$RUN/vcrit.csv" 2>/dev/null
+if [ -z "$why" ]; then pass vcrit_over_temperature; else fail vcrit_over_temperature "$why"; fi
+exit 0
