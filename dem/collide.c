@@ -150,12 +150,14 @@ double dem_vcrit_lookup(const struct dem_config *cfg, double d, double T)
 }
 
 /* MERGE POINT (issue 26, helper nozzle): the table rule takes the particle's temperature from the DEM particle
- * storage once the spray carries one; until then every particle is at the [powder] default, 293.15 K. */
+ * storage once the spray carries one (resolve_fixed passes it to sticks); until then every particle is at the
+ * [powder] default, 293.15 K. */
 #define TABLE_PARTICLE_TEMPERATURE 293.15
 
-/* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact. */
-static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double r_eff, double gamma_partner,
-                  double yield)
+/* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact; temperature
+ * (K) is the particle's (the table rule's v_crit(d, T)). */
+static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double temperature, double r_eff,
+                  double gamma_partner, double yield)
 {
     switch (cfg->rule) {
     case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
@@ -164,7 +166,7 @@ static int sticks(const struct dem_config *cfg, double vn, double mass, double d
     case DEM_DEPOSIT_CRITICAL_VELOCITY: /* cold spray: bonding at and above v_crit */
         return vn >= cfg->critical_velocity;
     case DEM_DEPOSIT_TABLE:
-        return vn >= dem_vcrit_lookup(cfg, d, TABLE_PARTICLE_TEMPERATURE);
+        return vn >= dem_vcrit_lookup(cfg, d, temperature);
     case DEM_DEPOSIT_NONE:
         break;
     }
@@ -383,7 +385,8 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
-    int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
+    int stuck =
+        sticks(cfg, outcome.vn, p->m[i], p->d[i], TABLE_PARTICLE_TEMPERATURE, r_eff, obstacle->surface_energy, yield);
     if (!stuck && cfg->rule == DEM_DEPOSIT_ADHESION)
         adhesion_slowed_rebound(&sphere, n, outcome.vn,
                                 dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy,
