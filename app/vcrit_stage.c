@@ -466,8 +466,11 @@ static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, st
     struct vcrit_run run = {NULL};
     int status;
     char label[160], note[4400];
-    snprintf(label, sizeof label, "%s d = %.4g um, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
-             out->diameter * 1e6, out->velocity, out->Gc, out->Gc_rate);
+    char T[40] = "";
+    if (out->temperature > 0.0)
+        snprintf(T, sizeof T, ", T = %.6g K", out->temperature);
+    snprintf(label, sizeof label, "%s d = %.4g um%s, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
+             out->diameter * 1e6, T, out->velocity, out->Gc, out->Gc_rate);
     snprintf(note, sizeof note,
              "the %zu finished runs are recorded in %s/%s_runs.csv: continue with `spraycoat "
              "resume %s`",
@@ -503,9 +506,12 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
     SC_TRY(add_record(r, run));
     SC_TRY(save_records(r));
     r->new_runs++;
-    log_info("%s: d = %.4g um at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld "
-             "steps, %.1f s)",
-             r->name, run->diameter * 1e6, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
+    char T[40] = "";
+    if (run->temperature > 0.0)
+        snprintf(T, sizeof T, ", T = %.6g K,", run->temperature);
+    log_info("%s: d = %.4g um%s at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; "
+             "%lld steps, %.1f s)",
+             r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
              100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps, log_elapsed() - start);
     return SC_OK;
 }
