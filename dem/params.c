@@ -325,34 +325,6 @@ done:
     return SC_OK;
 }
 
-/* 1 when the header line of the CSV at `path` names a column `temperature` (the first line that is neither blank nor
- * a '#' comment, as core/csv.c reads it); an unreadable file gives 0 and csv_read then says what is wrong. */
-static int csv_has_temperature(const char *path)
-{
-    FILE *file;
-    char why[512], line[4096];
-    if (csv_input_fopen(path, &file, why, sizeof why) != 0)
-        return 0;
-    int found = 0;
-    while (fgets(line, sizeof line, file)) {
-        char *text = line;
-        if (strncmp(text, "\xEF\xBB\xBF", 3) == 0)
-            text += 3;
-        text += strspn(text, " \t");
-        if (*text == '#' || *text == '\n' || *text == '\r' || *text == '\0')
-            continue;
-        for (char *save = NULL, *field = strtok_r(text, ",\r\n", &save); field;
-             field = strtok_r(NULL, ",\r\n", &save)) {
-            field += strspn(field, " \t");
-            size_t len = strcspn(field, " \t");
-            found |= len == 11 && strncmp(field, "temperature", 11) == 0;
-        }
-        break;
-    }
-    fclose(file);
-    return found;
-}
-
 static int read_table_csv(const struct case_file *c, const char *path, struct vcrit_rows *rows)
 {
     /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at
@@ -362,7 +334,7 @@ static int read_table_csv(const struct case_file *c, const char *path, struct vc
     static const struct csv_column three[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
                                               {"temperature", CSV_NUMBER, 0, 1e5, 1, "K", NULL},
                                               {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
-    rows->width = csv_has_temperature(path) ? 3 : 2;
+    rows->width = csv_header_has(path, "temperature") ? 3 : 2;
     return read_csv_columns(c, "deposition", "table", path, rows->width == 3 ? three : two, rows->width,
                             CSV_OTHER_COLUMNS, &rows->numbers, &rows->count);
 }

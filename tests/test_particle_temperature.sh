@@ -9,7 +9,8 @@
 #     T_initial (298 K), said in the log;
 #   - `spraycoat vcrit` with [vcrit] temperatures over two temperatures (one 8 um diameter, 10 ns runs): vcrit.csv with
 #     a temperature column and a row per pair, vcrit.h5 /temperature and the 1 x 2 /grid/v_crit, both read back by
-#     the spray stage's table rule (`spraycoat check`).
+#     the spray stage's table rule (`spraycoat check`);
+#   - an [impact] bodies CSV with a temperature column: each body's points start at its row's temperature.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.  Needs h5dump, h5import,
 # h5copy.  About 10 s on one core.
 set -u
@@ -148,4 +149,23 @@ else
 fi
 sed 's/^/  /' "$RUN/vcrit.csv" 2>/dev/null
 if [ -z "$why" ]; then pass vcrit_over_temperature; else fail vcrit_over_temperature "$why"; fi
+
+# ---- 5. an [impact] bodies CSV with a temperature column: each body starts at its own -----------------------------
+mkdir -p "$T/bodies"
+printf 'shape,x,y,z,vx,vy,vz,d,h,material,temperature\nsphere,0,0,4e-6,0,0,-600,8e-6,0,aluminium,520\nsphere,6e-6,0,14e-6,0,0,-600,8e-6,0,aluminium,410.5\n' \
+    >"$T/bodies/bodies.csv"
+printf '[run]\nthreads = 1\n[impact]\ngrid = 2e-6\nspacing = 1e-6\nsubstrate = cylinder\nsubstrate_diameter = 24e-6\nsubstrate_height = 6e-6\nbodies = bodies.csv\nt_end = 1e-9\nsnapshot_every = 1e-9\n[material.aluminium]\n' \
+    >"$T/bodies/case.ini"
+if "$BIN" impact "$T/bodies/case.ini" -o "$T/bodies/run" >"$T/bodies.log" 2>&1; then
+    values "$T/bodies/run/impact.h5" /snapshots/000000/body >"$T/body"
+    values "$T/bodies/run/impact.h5" /snapshots/000000/T >"$T/points_t"
+    got=$(paste "$T/body" "$T/points_t" | LC_ALL=C sort -u | tr '\t\n' ': ')
+    if [ "$got" = "0:298 1:520 2:410.5 " ]; then
+        pass bodies_csv_temperature
+    else
+        fail bodies_csv_temperature "body:T at t = 0 '$got', expected 0:298 1:520 2:410.5"
+    fi
+else
+    fail bodies_csv_temperature "spraycoat impact failed: $(tail -n 2 "$T/bodies.log" | tr '\n' ' ')"
+fi
 exit 0
