@@ -12,7 +12,7 @@
 #     the spray stage's table rule (`spraycoat check`);
 #   - an [impact] bodies CSV with a temperature column: each body's points start at its row's temperature.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.  Needs h5dump, h5import,
-# h5copy.  About 10 s on one core.
+# h5copy, h5diff.  About 10 s on one core.
 set -u
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -26,7 +26,7 @@ BASE=tests/bad_cases/valid_base.ini
 pass() { echo "PASS $1"; }
 fail() { echo "FAIL $1 ($2)"; }
 
-for tool in h5dump h5import h5copy; do
+for tool in h5dump h5import h5copy h5diff; do
     if ! command -v "$tool" >/dev/null 2>&1; then
         echo "FAIL particle_temperature ($tool not found: install hdf5-tools)"
         exit 1
@@ -135,6 +135,12 @@ if "$BIN" vcrit "$T/vcrit.ini" -o "$RUN" >"$T/vcrit.log" 2>&1; then
     grid=$(h5dump -H -d /grid/v_crit "$RUN/vcrit.h5" 2>/dev/null | grep -c 'SIMPLE { ( 1, 2 )')
     [ "$grid" -eq 1 ] || why="$why no 1 x 2 /grid/v_crit in vcrit.h5;"
     [ "$(values "$RUN/vcrit.h5" /grid/temperature | tr '\n' ' ')" = "300 600 " ] || why="$why /grid/temperature;"
+    # the particle started at its temperature: the runs at 300 K and 600 K are not the same bits (a search that
+    # ignored the temperature would repeat the same runs)
+    if h5diff -d 0 "$RUN/vcrit.h5" "$RUN/vcrit.h5" /search/000/v_rest /search/001/v_rest >/dev/null 2>&1 &&
+        h5diff -d 0 "$RUN/vcrit.h5" "$RUN/vcrit.h5" /search/000/pbcp /search/001/pbcp >/dev/null 2>&1; then
+        why="$why the runs at 300 K and 600 K are identical;"
+    fi
     if [ "$(grep -c '^[0-9]' "$RUN/vcrit.csv")" -eq 2 ]; then
         for file in vcrit.csv vcrit.h5; do
             sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $RUN/$file|" "$BASE" >"$T/spray.ini"
