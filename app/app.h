@@ -139,13 +139,15 @@ int vcrit_stage_run(const struct stage_context *ctx);
 
 /* ---- single-particle impact runs recorded for restart (app/vcrit_stage.c), shared by vcrit and calibrate -------
  * Every finished run goes into RUN_DIR/NAME_runs.csv (rank 0; NAME_runs_rankK.csv on rank K), rewritten atomically;
- * a run already recorded for the case (same diameter, speed, Gc and Gc_rate) is taken from there, not repeated. */
+ * a run already recorded for the case (same diameter, speed, Gc, Gc_rate and temperature) is taken from there, not
+ * repeated. */
 enum vcrit_verdict { VCRIT_REBOUNDED = 0, VCRIT_BONDED = 1, VCRIT_UNSETTLED = 2 };
 struct vcrit_run_record {
     double diameter, velocity, Gc, Gc_rate; /* m, m/s, J/m2, J/m2/s: what identifies the run */
     int verdict;                            /* enum vcrit_verdict, from mpm_verdicts */
     double pbcp, v_rest, cor;               /* cor: rebound over impact speed, both along the substrate normal */
     int64_t steps;
+    double temperature; /* K, the particle's at the start (identifies the run too); 0: its material's T_initial */
 };
 struct vcrit_runs {
     const char *run_dir, *name; /* name: "vcrit", "calibrate" */
@@ -196,6 +198,7 @@ struct couple_bodies {
     size_t runs, count;
     size_t *first;                 /* runs + 1 */
     double *d, *center, *velocity; /* count, 3 count, 3 count (impact frame) */
+    double *temperature;           /* count, K; NULL: a couple.h5 without /seeds/temperature (T_initial) */
 };
 int couple_stage_read_bodies(const struct stage_context *ctx, struct couple_bodies *bodies);
 void couple_stage_bodies_free(struct couple_bodies *bodies);

@@ -108,6 +108,7 @@ static int read_impacts(hid_t file, struct spray_rows *rows)
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, d, 1), done);
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, m, 1), done);
     SC_CHECK(status, READ_ID(g, n, r, struct dem_impact, partner), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, temperature, 1), done);
 done:
     H5Gclose(g);
     return status;
@@ -214,6 +215,7 @@ static int find_candidates(struct couple_work *w)
         memcpy(c->v, row->v_in, sizeof c->v);
         c->d = row->d;
         c->m = row->m;
+        c->temperature = row->temperature;
     }
     free(order);
     return SC_OK;
@@ -302,6 +304,7 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         memcpy(seed->v_wall, f->v, sizeof seed->v_wall);
         seed->d = w->candidates[k].d;
         seed->m = w->candidates[k].m;
+        seed->temperature = w->candidates[k].temperature;
         seed->run = (int64_t)(slot / (size_t)w->cfg.bodies_per_run);
         return SC_OK;
     }
@@ -399,6 +402,7 @@ static int write_seed_columns(hid_t g, const struct couple_work *w)
     COLUMN_VEC("x_wall", s[i].x_wall, "m")
     COLUMN_VEC("v_wall", s[i].v_wall, "m/s")
     COLUMN_VEC("v_spray", w->candidates[s[i].candidate].v, "m/s")
+    COLUMN_REAL("temperature", s[i].temperature, "K")
 done:
     free(ints);
     free(reals);
@@ -567,6 +571,7 @@ void couple_stage_bodies_free(struct couple_bodies *b)
     free(b->d);
     free(b->center);
     free(b->velocity);
+    free(b->temperature);
     memset(b, 0, sizeof *b);
 }
 
@@ -582,6 +587,12 @@ static int read_body_columns(hid_t g, struct couple_bodies *b, int64_t *run)
     SC_TRY(h5_read_doubles(g, "d", b->d, n));
     SC_TRY(h5_read_doubles(g, "x", b->center, 3 * n));
     SC_TRY(h5_read_doubles(g, "v", b->velocity, 3 * n));
+    if (!h5_exists(g, "temperature"))
+        return SC_OK; /* a couple.h5 from before the seeds carried it: the material's T_initial */
+    b->temperature = malloc(at_least_one(n) * sizeof *b->temperature);
+    if (!b->temperature)
+        SC_FAIL_OOM(at_least_one(n) * sizeof *b->temperature, "the seeds of couple.h5");
+    SC_TRY(h5_read_doubles(g, "temperature", b->temperature, n));
     return SC_OK;
 }
 
@@ -603,6 +614,11 @@ static int check_body_rows(const struct couple_bodies *b, const int64_t *run, co
                         "%s: /seeds/%s row %zu (a body of run %04lld) is not finite; the file is damaged or "
                         "was written wrong: rerun the couple stage",
                         path, isfinite(x[k]) ? "v" : "x", i, (long long)run[i]);
+        if (b->temperature && !(isfinite(b->temperature[i]) && b->temperature[i] > 0.0))
+            SC_FAIL(SC_EIO,
+                    "%s: /seeds/temperature row %zu (a body of run %04lld) is %g, not a temperature > 0 K; the file "
+                    "is damaged or was written wrong: rerun the couple stage",
+                    path, i, (long long)run[i], b->temperature[i]);
     }
     return SC_OK;
 }

@@ -582,6 +582,8 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
              mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
                                     bodies->velocity + 3 * first),
              done);
+    if (bodies->temperature)
+        SC_CHECK(status, mpm_config_set_particle_temperatures(&run.cfg, (int)count, bodies->temperature + first), done);
     SC_CHECK(status, run_stage(&run), done);
 done:
     mpm_destroy(run.solver);

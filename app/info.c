@@ -214,6 +214,19 @@ static void print_calibrate_results(hid_t file, FILE *out)
         print_attribute(file, names[k], out);
 }
 
+/* vcrit.h5 of a search over temperature ([vcrit] temperatures): the temperature of each of the n rows above. */
+static void print_vcrit_temperatures(hid_t file, size_t n, FILE *out)
+{
+    if (!h5_exists(file, "temperature"))
+        return;
+    double *T = read_column(file, "temperature", n);
+    fprintf(out, "  temperatures (K) of the rows above:");
+    for (size_t i = 0; T && i < n; i++)
+        fprintf(out, " %.6g", T[i]);
+    fputc('\n', out);
+    free(T);
+}
+
 /* vcrit.h5: the table and the diameters without a bracket. */
 static void print_vcrit_results(hid_t file, FILE *out)
 {
@@ -234,6 +247,7 @@ static void print_vcrit_results(hid_t file, FILE *out)
         }
         for (int k = 0; k < 5; k++)
             free(column[k]);
+        print_vcrit_temperatures(file, n, out);
     }
     for (int i = 0; i < 1000; i++) {
         char name[32], result[256];
@@ -243,8 +257,13 @@ static void print_vcrit_results(hid_t file, FILE *out)
         hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
         double d = NAN;
         if (group >= 0 && h5_attr_read_string(group, "result", result, sizeof result) == SC_OK &&
-            strcmp(result, "bracketed") != 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK)
-            fprintf(out, "  d = %.4g m: %s\n", d, result);
+            strcmp(result, "bracketed") != 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK) {
+            double T = NAN;
+            if (h5_attr_read_double(group, "temperature", &T) == SC_OK)
+                fprintf(out, "  d = %.4g m, T = %.4g K: %s\n", d, T, result);
+            else
+                fprintf(out, "  d = %.4g m: %s\n", d, result);
+        }
         if (group >= 0)
             H5Gclose(group);
     }

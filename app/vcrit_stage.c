@@ -1,15 +1,16 @@
-/* `spraycoat vcrit`: the critical impact velocity v_crit(d) from single-particle MPM impacts (Tang Section
- * 5.2.2), for the spray stage's `[deposition] rule = table`.
+/* `spraycoat vcrit`: the critical impact velocity v_crit(d), or v_crit(d, T) over the particle temperatures of
+ * [vcrit] temperatures, from single-particle MPM impacts (Tang Section 5.2.2), for the spray stage's
+ * `[deposition] rule = table`.
  *
- * Per diameter: one run at v_low (must rebound) and one at v_high (must bond), then bisection of the bracket
- * until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known to bond.  Each run goes
- * to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity
- * thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled).
- * Every finished run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the
- * recorded runs of the same case instead of running them again, so an interruption loses at most the run that
- * was going on.  The outputs are RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
+ * Per diameter (per pair of diameter and temperature): one run at v_low (must rebound) and one at v_high (must bond),
+ * then bisection of the bracket until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known
+ * to bond.  Each run goes to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and
+ * restitution velocity thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled). Every finished
+ * run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the recorded runs of the
+ * same case instead of running them again, so an interruption loses at most the run that was going on.  The outputs are
+ * RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
  *
- * Under MPI the diameters are shared out (a rank takes the next diameter not yet taken, core/parallel.h) and rank
+ * Under MPI the searches are shared out (a rank takes the next one not yet taken, core/parallel.h) and rank
  * k > 0 records its runs in RUN_DIR/vcrit_runs_rankK.csv.  When all are done, rank 0 reads every record and
  * replays each bisection from them (no run is repeated): the outputs are those of one process, whatever the
  * number of ranks, also after a resume with another number of ranks. */
@@ -36,6 +37,7 @@
 #define VCRIT_FORMAT_VERSION 1
 #define MAX_DIAMETERS        256
 #define MAX_COR_OFFSETS      32
+#define MAX_TEMPERATURES     64
 
 const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
@@ -53,11 +55,15 @@ const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "cor_below", CFG_STRING, "m/s", NULL, 0, 0, 0, NULL,
      "comma-separated speed differences (each > 0): after the bisection, one more run per diameter at v_crit minus "
      "each, for the coefficient of restitution against impact speed (RUN_DIR/vcrit_cor.csv); not given: none"},
+    {"vcrit", "temperatures", CFG_STRING, "K", NULL, 0, 0, 0, NULL,
+     "comma-separated particle temperatures at impact (each > 0 and <= 1e5 K, all different): one search per "
+     "(diameter, temperature), the table v_crit(d, T); not given: the [impact] material's T_initial only, the "
+     "table v_crit(d)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
 struct vcrit_result {
-    double diameter, v_crit, pbcp, v_rest;
+    double diameter, temperature, v_crit, pbcp, v_rest; /* temperature 0: the material's T_initial */
     int runs;
     struct vcrit_run_record *records; /* the runs of this diameter in the order of the search, then the CoR runs */
     char note[200];                   /* "" when bracketed and converged */
@@ -74,7 +80,23 @@ struct vcrit_search {
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
     int cor_count;
     struct vcrit_runs runs; /* every finished run (also those of an earlier, interrupted process) */
+    /* [vcrit] temperatures, ascending; without the key one entry 0: the particle at its material's T_initial */
+    double temperatures[MAX_TEMPERATURES];
+    int temperature_count;
+    int over_temperature; /* 1 with [vcrit] temperatures: the outputs have a temperature column */
 };
+
+/* The searches are the pairs (diameter i, temperature j), pair i * temperature_count + j. */
+static int pair_count(const struct vcrit_search *v)
+{
+    return v->count * v->temperature_count;
+}
+
+static void set_pair(const struct vcrit_search *v, int pair, struct vcrit_result *result)
+{
+    result->diameter = v->diameters[pair / v->temperature_count];
+    result->temperature = v->temperatures[pair % v->temperature_count];
+}
 
 static int compare_doubles(const void *a, const void *b)
 {
@@ -121,8 +143,27 @@ static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
     return SC_OK;
 }
 
-/* The impact configuration of one run: [impact] with one sphere of diameter d at `speed`. */
-static int make_config(const struct vcrit_search *v, double d, double speed, struct mpm_config *cfg)
+static int parse_temperatures(const struct case_file *c, struct vcrit_search *v)
+{
+    v->over_temperature = case_has(c, "vcrit", "temperatures");
+    v->temperature_count = 1;
+    v->temperatures[0] = 0.0;
+    if (!v->over_temperature)
+        return SC_OK;
+    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "temperatures", 1e5, v->temperatures, MAX_TEMPERATURES,
+                                 &v->temperature_count));
+    if (v->temperature_count == 0)
+        return case_invalid(c, "vcrit", "temperatures", "no temperature given");
+    qsort(v->temperatures, (size_t)v->temperature_count, sizeof v->temperatures[0], compare_doubles);
+    for (int i = 1; i < v->temperature_count; i++)
+        if (v->temperatures[i] == v->temperatures[i - 1])
+            return case_invalid(c, "vcrit", "temperatures", "%g K is given twice", v->temperatures[i]);
+    return SC_OK;
+}
+
+/* The impact configuration of one run: [impact] with one sphere of diameter d at `speed`, at temperature T (K; 0:
+ * its material's T_initial). */
+static int make_config(const struct vcrit_search *v, double d, double T, double speed, struct mpm_config *cfg)
 {
     SC_TRY(mpm_config_load(v->c, cfg));
     if (v->scale > 0)
@@ -130,6 +171,8 @@ static int make_config(const struct vcrit_search *v, double d, double speed, str
             if (cfg->bodies[b].substrate)
                 cfg->bodies[b].d = v->scale * d;
     int status = mpm_config_single_particle(cfg, d, speed, v->angle);
+    if (status == SC_OK && T > 0.0)
+        status = mpm_config_set_particle_temperatures(cfg, 1, &T);
     if (status != SC_OK)
         mpm_config_free(cfg);
     return status;
@@ -138,6 +181,7 @@ static int make_config(const struct vcrit_search *v, double d, double speed, str
 static int load_settings(const struct case_file *c, struct vcrit_search *v)
 {
     SC_TRY(parse_diameters(c, v));
+    SC_TRY(parse_temperatures(c, v));
     v->cor_count = 0;
     if (case_has(c, "vcrit", "cor_below"))
         SC_TRY(vcrit_runs_parse_list(c, "vcrit", "cor_below", 1e5, v->cor_offsets, MAX_COR_OFFSETS, &v->cor_count));
@@ -160,7 +204,7 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     /* every run's set-up must be possible before the first one starts */
     for (int i = 0; i < v->count; i++) {
         struct mpm_config cfg;
-        SC_TRY(make_config(v, v->diameters[i], v->v_high, &cfg));
+        SC_TRY(make_config(v, v->diameters[i], 0.0, v->v_high, &cfg));
         double spacing = cfg.spacing, substrate_d = INFINITY;
         for (int b = 0; b < cfg.body_count; b++)
             if (cfg.bodies[b].substrate)
@@ -176,6 +220,13 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
                                 "gives a substrate of %g m for d = %g m; allowed: "
                                 "two point spacings (%g m) to 1 m",
                                 substrate_d, v->diameters[i], 2.0 * spacing);
+    }
+    /* the set-up is possible at diameter 0 (checked above): a failure now is the temperature's */
+    for (int j = 0; j < v->temperature_count; j++) {
+        struct mpm_config cfg;
+        if (make_config(v, v->diameters[0], v->temperatures[j], v->v_high, &cfg) != SC_OK)
+            return case_invalid(c, "vcrit", "temperatures", "%s", sc_error_message());
+        mpm_config_free(&cfg);
     }
     return SC_OK;
 }
@@ -226,7 +277,10 @@ static void records_title(const struct vcrit_runs *r, char *out, size_t size)
     snprintf(out, size, "# spraycoat %s runs of case %016llx\n", r->name, (unsigned long long)r->case_hash);
 }
 
-#define RECORDS_HEADER "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
+/* The header of the records; files written before the runs carried a temperature have the older one (their runs at
+ * the material's T_initial, temperature 0). */
+#define RECORDS_HEADER     "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature\n"
+#define RECORDS_HEADER_OLD "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
 
 static int save_records(const struct vcrit_runs *r)
 {
@@ -238,11 +292,11 @@ static int save_records(const struct vcrit_runs *r)
     fprintf(out.stream, "%s%s", title, RECORDS_HEADER);
     for (size_t i = 0; i < r->count; i++) {
         const struct vcrit_run_record *x = &r->done[i];
-        char a[32], b[32], c[32], d[32], e[32], f[32], g[32];
-        fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld\n", exact(x->diameter, a, sizeof a),
+        char a[32], b[32], c[32], d[32], e[32], f[32], g[32], h[32];
+        fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld,%s\n", exact(x->diameter, a, sizeof a),
                 exact(x->velocity, b, sizeof b), exact(x->Gc, c, sizeof c), exact(x->Gc_rate, d, sizeof d), x->verdict,
                 exact(x->pbcp, e, sizeof e), exact(x->v_rest, f, sizeof f), exact(x->cor, g, sizeof g),
-                (long long)x->steps);
+                (long long)x->steps, exact(x->temperature, h, sizeof h));
     }
     return atomic_publish(&out);
 }
@@ -270,7 +324,8 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
         return SC_OK;
     records_title(r, title, sizeof title);
     int ok = fgets(line, sizeof line, file) && strcmp(line, title) == 0 && fgets(line, sizeof line, file) &&
-             strcmp(line, RECORDS_HEADER) == 0;
+             (strcmp(line, RECORDS_HEADER) == 0 || strcmp(line, RECORDS_HEADER_OLD) == 0);
+    int fields = strcmp(line, RECORDS_HEADER) == 0 ? 10 : 9;
     if (!ok) {
         fclose(file);
         log_info("%s: %s belongs to another case or version; its runs are not used", r->name, path);
@@ -278,11 +333,15 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
     }
     int status = SC_OK;
     while (fgets(line, sizeof line, file)) {
-        struct vcrit_run_record x;
+        struct vcrit_run_record x = {0};
         long long steps;
         char rest;
-        if (sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity, &x.Gc, &x.Gc_rate,
-                   &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest) != 9) {
+        int read = fields == 10
+                       ? sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld,%lf %c", &x.diameter, &x.velocity, &x.Gc,
+                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &x.temperature, &rest)
+                       : sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity, &x.Gc,
+                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest);
+        if (read != fields) {
             log_warn("%s: %s: unreadable line '%.60s'; the runs from there on will be done again", r->name, path, line);
             break;
         }
@@ -343,7 +402,7 @@ static const struct vcrit_run_record *find_record(const struct vcrit_runs *r, co
     for (size_t i = 0; i < r->count; i++) {
         const struct vcrit_run_record *x = &r->done[i];
         if (x->diameter == key->diameter && x->velocity == key->velocity && x->Gc == key->Gc &&
-            x->Gc_rate == key->Gc_rate)
+            x->Gc_rate == key->Gc_rate && x->temperature == key->temperature)
             return x;
     }
     return NULL;
@@ -407,8 +466,11 @@ static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, st
     struct vcrit_run run = {NULL};
     int status;
     char label[160], note[4400];
-    snprintf(label, sizeof label, "%s d = %.4g um, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
-             out->diameter * 1e6, out->velocity, out->Gc, out->Gc_rate);
+    char T[40] = "";
+    if (out->temperature > 0.0)
+        snprintf(T, sizeof T, ", T = %.6g K", out->temperature);
+    snprintf(label, sizeof label, "%s d = %.4g um%s, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
+             out->diameter * 1e6, T, out->velocity, out->Gc, out->Gc_rate);
     snprintf(note, sizeof note,
              "the %zu finished runs are recorded in %s/%s_runs.csv: continue with `spraycoat "
              "resume %s`",
@@ -444,9 +506,12 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
     SC_TRY(add_record(r, run));
     SC_TRY(save_records(r));
     r->new_runs++;
-    log_info("%s: d = %.4g um at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld "
-             "steps, %.1f s)",
-             r->name, run->diameter * 1e6, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
+    char T[40] = "";
+    if (run->temperature > 0.0)
+        snprintf(T, sizeof T, ", T = %.6g K,", run->temperature);
+    log_info("%s: d = %.4g um%s at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; "
+             "%lld steps, %.1f s)",
+             r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
              100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps, log_elapsed() - start);
     return SC_OK;
 }
@@ -457,14 +522,25 @@ static int outcome(struct vcrit_search *v, struct vcrit_result *result, double s
     struct vcrit_run_record r = {.diameter = result->diameter,
                                  .velocity = speed,
                                  .Gc = case_real(v->c, "impact", "Gc"),
-                                 .Gc_rate = case_real(v->c, "impact", "Gc_rate")};
+                                 .Gc_rate = case_real(v->c, "impact", "Gc_rate"),
+                                 .temperature = result->temperature};
     struct mpm_config cfg;
-    SC_TRY(make_config(v, r.diameter, speed, &cfg));
+    SC_TRY(make_config(v, r.diameter, r.temperature, speed, &cfg));
     int status = vcrit_runs_outcome(&v->runs, &cfg, &r);
     mpm_config_free(&cfg);
     SC_TRY(status);
     result->records[result->runs++] = r;
     return SC_OK;
+}
+
+/* "d = 8e-06 m" or, with a temperature, "d = 8e-06 m, T = 600 K": which search a log line is about. */
+static const char *pair_name(const struct vcrit_result *r, char *out, size_t size)
+{
+    if (r->temperature > 0.0)
+        snprintf(out, size, "d = %g m, T = %g K", r->diameter, r->temperature);
+    else
+        snprintf(out, size, "d = %g m", r->diameter);
+    return out;
 }
 
 /* An unsettled run (its verdict still changing at t_end, mpm/verdict.c) counts as not bonded: v_crit is the
@@ -480,9 +556,9 @@ static void note_unsettled(struct vcrit_result *result)
     size_t used = strlen(result->note);
     snprintf(result->note + used, sizeof result->note - used, "%s%d unsettled run%s counted as not bonded",
              used ? "; " : "", unsettled, unsettled > 1 ? "s" : "");
-    log_warn("vcrit: d = %g m: %d of %d runs unsettled at t_end, counted as not bonded (a longer t_end may lower "
-             "v_crit)",
-             result->diameter, unsettled, result->runs);
+    char name[96];
+    log_warn("vcrit: %s: %d of %d runs unsettled at t_end, counted as not bonded (a longer t_end may lower v_crit)",
+             pair_name(result, name, sizeof name), unsettled, result->runs);
 }
 
 /* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond. */
@@ -505,7 +581,8 @@ static int cor_runs(struct vcrit_search *v, struct vcrit_result *result)
     return SC_OK;
 }
 
-static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
+/* The bisection of one (diameter, temperature) pair. */
+static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
 {
     result->v_crit = result->pbcp = result->v_rest = NAN;
     size_t capacity = (size_t)(v->max_runs + v->cor_count);
@@ -542,8 +619,9 @@ static int search_diameter(struct vcrit_search *v, struct vcrit_result *result)
     result->v_rest = best.v_rest;
     if (high - low > v->tolerance) {
         snprintf(result->note, sizeof result->note, "max_runs reached: bonds at %g m/s, rebounds at %g m/s", high, low);
-        log_warn("vcrit: d = %g m: %s (the bracket is wider than tolerance = %g m/s)", result->diameter, result->note,
-                 v->tolerance);
+        char name[96];
+        log_warn("vcrit: %s: %s (the bracket is wider than tolerance = %g m/s)", pair_name(result, name, sizeof name),
+                 result->note, v->tolerance);
     }
     note_unsettled(result);
     return cor_runs(v, result);
@@ -556,19 +634,23 @@ static int bracketed(const struct vcrit_result *r)
     return isfinite(r->v_crit);
 }
 
-/* vcrit.csv: the table of the spray stage's rule = table.  Diameters without a bracket are '#' comment lines
- * (with NaN and the reason): the table reader skips them, so the file stays usable as it is. */
+/* vcrit.csv: the table of the spray stage's rule = table, v_crit(d) or, with [vcrit] temperatures, v_crit(d, T) with
+ * a temperature column after the diameter.  Searches without a bracket are '#' comment lines (with NaN and the
+ * reason): the table reader skips them, so a 1-D table stays usable as it is (a 2-D one then misses a pair of its
+ * grid, which the reader refuses, saying so). */
 static int write_csv(const struct vcrit_search *v, const struct vcrit_result *results)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.csv", v->run_dir);
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
-    fprintf(out.stream, "diameter,v_crit,pbcp,v_rest,runs\n");
-    for (int i = 0; i < v->count; i++) {
+    fprintf(out.stream, "%s\n",
+            v->over_temperature ? "diameter,temperature,v_crit,pbcp,v_rest,runs" : "diameter,v_crit,pbcp,v_rest,runs");
+    for (int i = 0; i < pair_count(v); i++) {
         const struct vcrit_result *r = &results[i];
-        char a[32], b[32], c[32], d[32];
-        fprintf(out.stream, "%s%s,%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
+        char a[32], b[32], c[32], d[32], t[32];
+        fprintf(out.stream, "%s%s,%s%s%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
+                v->over_temperature ? exact(r->temperature, t, sizeof t) : "", v->over_temperature ? "," : "",
                 exact(r->v_crit, b, sizeof b), exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), r->runs);
         if (bracketed(r))
             fputc('\n', out.stream);
@@ -583,19 +665,21 @@ static int compare_runs(const void *a, const void *b)
     const struct vcrit_run_record *x = a, *y = b;
     if (x->diameter != y->diameter)
         return (x->diameter > y->diameter) - (x->diameter < y->diameter);
+    if (x->temperature != y->temperature)
+        return (x->temperature > y->temperature) - (x->temperature < y->temperature);
     return (x->velocity > y->velocity) - (x->velocity < y->velocity);
 }
 
-/* vcrit_cor.csv: every run of every diameter (bisection and cor_below), by diameter and speed: the coefficient of
- * restitution against impact speed. */
+/* vcrit_cor.csv: every run of every search (bisection and cor_below), by diameter (temperature) and speed: the
+ * coefficient of restitution against impact speed. */
 static int write_cor_csv(const struct vcrit_search *v, const struct vcrit_result *results)
 {
     size_t n = 0;
-    for (int i = 0; i < v->count; i++)
+    for (int i = 0; i < pair_count(v); i++)
         n += (size_t)results[i].runs;
     struct vcrit_run_record *all;
     SC_TRY(sc_calloc(&all, n, sizeof *all, "the runs of the vcrit search"));
-    for (int i = 0, k = 0; i < v->count; i++)
+    for (int i = 0, k = 0; i < pair_count(v); i++)
         for (int j = 0; j < results[i].runs; j++)
             all[k++] = results[i].records[j];
     qsort(all, n, sizeof *all, compare_runs);
@@ -604,10 +688,13 @@ static int write_cor_csv(const struct vcrit_search *v, const struct vcrit_result
     struct atomic_file out;
     int status;
     SC_CHECK(status, atomic_open(path, &out), done);
-    fprintf(out.stream, "diameter,velocity,verdict,cor,pbcp,v_rest\n");
+    fprintf(out.stream, "%s\n",
+            v->over_temperature ? "diameter,temperature,velocity,verdict,cor,pbcp,v_rest"
+                                : "diameter,velocity,verdict,cor,pbcp,v_rest");
     for (size_t k = 0; k < n; k++) {
-        char a[32], b[32], c[32], d[32], e[32];
-        fprintf(out.stream, "%s,%s,%s,%s,%s,%s\n", exact(all[k].diameter, a, sizeof a),
+        char a[32], b[32], c[32], d[32], e[32], t[32];
+        fprintf(out.stream, "%s,%s%s%s,%s,%s,%s,%s\n", exact(all[k].diameter, a, sizeof a),
+                v->over_temperature ? exact(all[k].temperature, t, sizeof t) : "", v->over_temperature ? "," : "",
                 exact(all[k].velocity, b, sizeof b), vcrit_verdict_name(all[k].verdict), exact(all[k].cor, c, sizeof c),
                 exact(all[k].pbcp, d, sizeof d), exact(all[k].v_rest, e, sizeof e));
     }
@@ -648,6 +735,8 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
     SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, values + 3 * n, "-", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "verdict", 1, dims, integers + 2 * n, "-", 0), done);
     SC_CHECK(status, h5_attr_write_double(group, "diameter", r->diameter), done);
+    if (r->temperature > 0.0)
+        SC_CHECK(status, h5_attr_write_double(group, "temperature", r->temperature), done);
     SC_CHECK(status, h5_attr_write_double(group, "v_crit", r->v_crit), done);
     SC_CHECK(status, h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed"), done);
 done:
@@ -657,38 +746,67 @@ done:
     return status;
 }
 
-/* vcrit.h5: /diameter, /v_crit, /pbcp, /v_rest, /runs for the diameters with a v_crit (ascending: the table of
- * rule = table), and /runs/NNN per requested diameter with every run. */
+/* /grid: the table v_crit(d, T) as a grid, /grid/diameter (nd), /grid/temperature (nt), /grid/v_crit (nd x nt, NaN
+ * where the search found no bracket). */
+static int write_grid(const struct vcrit_search *v, const struct vcrit_result *results, hid_t file)
+{
+    size_t nd = (size_t)v->count, nt = (size_t)v->temperature_count;
+    double *grid = malloc(nd * nt * sizeof *grid);
+    if (!grid)
+        SC_FAIL_OOM(nd * nt * sizeof *grid, "the vcrit grid");
+    for (size_t p = 0; p < nd * nt; p++)
+        grid[p] = results[p].v_crit;
+    hid_t group;
+    int status;
+    SC_CHECK(status, h5_create_group(file, "grid", &group), out);
+    hsize_t dims_d[1] = {nd}, dims_t[1] = {nt}, dims[2] = {nd, nt};
+    SC_CHECK(status, h5_write_doubles(group, "diameter", 1, dims_d, v->diameters, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "temperature", 1, dims_t, v->temperatures, "K", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "v_crit", 2, dims, grid, "m/s", 0), done);
+done:
+    H5Gclose(group);
+out:
+    free(grid);
+    return status;
+}
+
+/* vcrit.h5: /diameter, /v_crit, /pbcp, /v_rest, /runs for the searches with a v_crit (by diameter, then temperature:
+ * the table of rule = table), with [vcrit] temperatures also /temperature and /grid; and /search/NNN per search with
+ * every run. */
 static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_result *results, hid_t file)
 {
-    double *columns = calloc(4 * (size_t)v->count + 1, sizeof *columns);
-    int64_t *runs = calloc((size_t)v->count + 1, sizeof *runs);
+    size_t m = (size_t)pair_count(v);
+    double *columns = calloc(5 * m + 1, sizeof *columns);
+    int64_t *runs = calloc(m + 1, sizeof *runs);
     hid_t group = H5I_INVALID_HID;
     int status = SC_OK;
     if (!columns || !runs)
-        SC_FAIL_OOM_AT(status, done,
-                       (4 * (size_t)v->count + 1) * sizeof *columns + ((size_t)v->count + 1) * sizeof *runs,
-                       "the vcrit table");
-    size_t n = 0, m = (size_t)v->count;
-    for (int i = 0; i < v->count; i++) {
+        SC_FAIL_OOM_AT(status, done, (5 * m + 1) * sizeof *columns + (m + 1) * sizeof *runs, "the vcrit table");
+    size_t n = 0;
+    for (size_t i = 0; i < m; i++) {
         if (!bracketed(&results[i]))
             continue;
         columns[n] = results[i].diameter;
         columns[m + n] = results[i].v_crit;
         columns[2 * m + n] = results[i].pbcp;
         columns[3 * m + n] = results[i].v_rest;
+        columns[4 * m + n] = results[i].temperature;
         runs[n] = results[i].runs;
         n++;
     }
     hsize_t dims[1] = {n};
     SC_CHECK(status, h5_write_doubles(file, "diameter", 1, dims, columns, "m", 0), done);
+    if (v->over_temperature)
+        SC_CHECK(status, h5_write_doubles(file, "temperature", 1, dims, columns + 4 * m, "K", 0), done);
     SC_CHECK(status, h5_write_doubles(file, "v_crit", 1, dims, columns + m, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(file, "pbcp", 1, dims, columns + 2 * m, "-", 0), done);
     SC_CHECK(status, h5_write_doubles(file, "v_rest", 1, dims, columns + 3 * m, "m/s", 0), done);
     SC_CHECK(status, h5_write_int64s(file, "runs", 1, dims, runs, "-", 0), done);
+    if (v->over_temperature)
+        SC_CHECK(status, write_grid(v, results, file), done);
     SC_CHECK(status, h5_create_group(file, "search", &group), done);
-    for (int i = 0; i < v->count; i++)
-        SC_CHECK(status, write_runs_group(group, i, &results[i]), done);
+    for (size_t i = 0; i < m; i++)
+        SC_CHECK(status, write_runs_group(group, (int)i, &results[i]), done);
 done:
     free(columns);
     free(runs);
@@ -719,10 +837,13 @@ static int write_h5(const struct vcrit_search *v, const struct vcrit_result *res
 
 static void log_table(const struct vcrit_search *v, const struct vcrit_result *results)
 {
-    log_info("vcrit: %-12s %-10s %-8s %-10s %-5s", "diameter/um", "v_crit", "PBCP/%", "v_rest", "runs");
-    for (int i = 0; i < v->count; i++) {
+    log_info("vcrit: %-12s %-8s %-10s %-8s %-10s %-5s", "diameter/um", "T/K", "v_crit", "PBCP/%", "v_rest", "runs");
+    for (int i = 0; i < pair_count(v); i++) {
         const struct vcrit_result *r = &results[i];
-        log_info("vcrit: %-12.4g %-10.6g %-8.3g %-10.3g %-5d %s", r->diameter * 1e6, r->v_crit, 100 * r->pbcp,
+        char T[32] = "T_initial";
+        if (r->temperature > 0.0)
+            snprintf(T, sizeof T, "%g", r->temperature);
+        log_info("vcrit: %-12.4g %-8s %-10.6g %-8.3g %-10.3g %-5d %s", r->diameter * 1e6, T, r->v_crit, 100 * r->pbcp,
                  r->v_rest, r->runs, r->note);
     }
 }
@@ -738,7 +859,7 @@ static void free_records(struct vcrit_result *results, int count)
     }
 }
 
-/* Every rank takes the next diameter not yet taken and bisects it. */
+/* Every rank takes the next (diameter, temperature) pair not yet taken and bisects it. */
 static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
 {
     int status = vcrit_runs_load(&v->runs);
@@ -748,24 +869,24 @@ static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
         log_info("vcrit: %zu runs recorded in %s are reused", v->runs.count, v->run_dir);
     /* every rank takes part in the task counter even after a failure here (no early return) */
     parallel_tasks_begin();
-    for (int64_t i; status == SC_OK && (i = parallel_task_next()) < v->count;) {
-        results[i].diameter = v->diameters[i];
-        if ((status = search_diameter(v, &results[i])) != SC_OK)
+    for (int64_t i; status == SC_OK && (i = parallel_task_next()) < pair_count(v);) {
+        set_pair(v, (int)i, &results[i]);
+        if ((status = search_pair(v, &results[i])) != SC_OK)
             sc_error_trace(__FILE__, __LINE__);
     }
     parallel_tasks_end();
-    free_records(results, v->count);
+    free_records(results, pair_count(v));
     return status;
 }
 
-/* Rank 0, once every diameter is done: the bisections again from all ranks' records, then the outputs. */
+/* Rank 0, once every pair is done: the bisections again from all ranks' records, then the outputs. */
 static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results, double start)
 {
     int64_t runs = v->runs.new_runs;
     SC_TRY(vcrit_runs_load(&v->runs));
-    for (int i = 0; i < v->count; i++) {
-        results[i].diameter = v->diameters[i];
-        SC_TRY(search_diameter(v, &results[i]));
+    for (int i = 0; i < pair_count(v); i++) {
+        set_pair(v, i, &results[i]);
+        SC_TRY(search_pair(v, &results[i]));
     }
     if (v->runs.new_runs != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
@@ -784,10 +905,10 @@ static int run_search(struct vcrit_search *v, struct vcrit_result *results)
 {
     double start = log_elapsed();
     if (parallel_rank() == 0)
-        log_info("vcrit: %d diameters, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d threads x %d "
-                 "process%s",
-                 v->count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(), parallel_size(),
-                 parallel_size() > 1 ? "es" : "");
+        log_info("vcrit: %d diameters x %d temperatures, %g to %g m/s, tolerance %g m/s, at most %d runs each, on %d "
+                 "threads x %d process%s",
+                 v->count, v->temperature_count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(),
+                 parallel_size(), parallel_size() > 1 ? "es" : "");
     int status = parallel_max_status(search_shared(v, results));
     if (status == SC_OK && parallel_rank() == 0)
         status = replay_and_write(v, results, start);
@@ -820,11 +941,11 @@ int vcrit_stage_run(const struct stage_context *ctx)
         omp_set_num_threads(settings.threads);
     struct vcrit_result *results = NULL;
     int status;
-    SC_CHECK(status, sc_calloc(&results, (size_t)v.count, sizeof *results, "the vcrit results"), done);
+    SC_CHECK(status, sc_calloc(&results, (size_t)pair_count(&v), sizeof *results, "the vcrit results"), done);
     SC_CHECK(status, run_search(&v, results), done);
 done:
     if (results)
-        free_records(results, v.count);
+        free_records(results, pair_count(&v));
     free(results);
     vcrit_runs_free(&v.runs);
     return status;

@@ -386,3 +386,27 @@ void csv_free(struct csv_table *t)
     int columns = t->columns;
     *t = (struct csv_table){.columns = columns};
 }
+
+int csv_header_has(const char *path, const char *name)
+{
+    char message[512];
+    FILE *file;
+    if (csv_input_fopen(path, &file, message, sizeof message) != 0)
+        return 0;
+    struct reader r = {.path = path, .message = message, .size = sizeof message};
+    char *buffer = NULL;
+    size_t buffer_size = 0;
+    int status = SC_OK, found = 0;
+    for (char *line; (line = next_line(&r, file, &buffer, &buffer_size, &status));) {
+        if (skipped(line))
+            continue;
+        if (split(&r, line) == SC_OK)
+            for (int k = 0; k < r.field_count; k++)
+                found |= strcmp(r.fields[k], name) == 0;
+        break;
+    }
+    free(buffer);
+    free(r.fields);
+    fclose(file);
+    return found;
+}

@@ -51,4 +51,9 @@ int csv_read(const char *path, const struct csv_column *columns, int column_coun
              char *message, size_t size);
 void csv_free(struct csv_table *t);
 
+/* 1 when the header line of the CSV at `path` (its first line neither blank nor a '#' comment, as csv_read reads it)
+ * names the column `name`, else 0 (also when the file cannot be read: csv_read then says why).  For a column that
+ * a table may have or leave out: the temperature of a v_crit table or of an impact bodies file. */
+int csv_header_has(const char *path, const char *name);
+
 #endif

@@ -49,6 +49,7 @@ int couple_config_load(const struct case_file *c, struct couple_config *cfg);
 struct couple_candidate {
     int64_t impact_row, particle_id;
     double t, x[3], v[3], d, m; /* the spray's first contact */
+    double temperature;         /* K, the particle's at that contact (spray.h5 /impacts/temperature) */
 };
 
 /* The strata of the sampling rule: every seed slot k (0 <= k < N) draws from stratum slot_stratum[k], whose
@@ -74,6 +75,7 @@ struct couple_seed {
     double t_wall, x_wall[3], v_wall[3], d, m;
     int64_t run, body;
     double center[3], velocity[3]; /* impact frame */
+    double temperature;            /* K, the particle's (its candidate's): the body starts at it */
 };
 
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */

@@ -111,24 +111,48 @@ void dem_detect_contacts(struct dem_solver *s)
 
 /* ---------------------------------------------------------------- deposition rules */
 
-static double vcrit_from_table(const struct dem_config *cfg, double d)
+/* Where x falls among n ascending values: the interval [*lo, *lo + 1] and the fraction f in it, clamped to the
+ * ends (f 0 at or below the first value, the last interval with f 1 at or above the last; one value: f 0). */
+static void bracket(const double *values, size_t n, double x, size_t *lo, double *f)
 {
-    const double *dd = cfg->table_diameter, *vv = cfg->table_velocity;
-    size_t n = cfg->table_count;
-    if (d <= dd[0])
-        return vv[0];
-    if (d >= dd[n - 1])
-        return vv[n - 1];
+    *lo = 0;
+    *f = 0.0;
+    if (n < 2 || !(x > values[0]))
+        return;
+    if (x >= values[n - 1]) {
+        *lo = n - 2;
+        *f = 1.0;
+        return;
+    }
     size_t hi = 1;
-    while (dd[hi] < d)
+    while (values[hi] < x)
         hi++;
-    double f = (d - dd[hi - 1]) / (dd[hi] - dd[hi - 1]);
-    return vv[hi - 1] + f * (vv[hi] - vv[hi - 1]);
+    *lo = hi - 1;
+    *f = (x - values[hi - 1]) / (values[hi] - values[hi - 1]);
 }
 
-/* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact. */
-static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double r_eff, double gamma_partner,
-                  double yield)
+/* Linear in d along the table's diameters, and in T along its temperatures when it has them (bilinear); clamped at
+ * the table's ends: v_crit outside the searched range is not extrapolated (docs/physics.md "v_crit(d, T)"). */
+double dem_vcrit_lookup(const struct dem_config *cfg, double d, double T)
+{
+    size_t i, j, nt = cfg->table_temperature_count;
+    double fd, ft;
+    bracket(cfg->table_diameter, cfg->table_count, d, &i, &fd);
+    const double *v = cfg->table_velocity;
+    size_t i1 = cfg->table_count > 1 ? i + 1 : i;
+    if (nt == 0)
+        return (1.0 - fd) * v[i] + fd * v[i1];
+    bracket(cfg->table_temperature, nt, T, &j, &ft);
+    size_t j1 = nt > 1 ? j + 1 : j;
+    double at_lo = (1.0 - ft) * v[i * nt + j] + ft * v[i * nt + j1];
+    double at_hi = (1.0 - ft) * v[i1 * nt + j] + ft * v[i1 * nt + j1];
+    return (1.0 - fd) * at_lo + fd * at_hi;
+}
+
+/* Does a particle arriving at normal speed vn stick?  r_eff, gamma_partner, yield describe the contact; temperature
+ * (K) is the particle's (the table rule's v_crit(d, T)). */
+static int sticks(const struct dem_config *cfg, double vn, double mass, double d, double temperature, double r_eff,
+                  double gamma_partner, double yield)
 {
     switch (cfg->rule) {
     case DEM_DEPOSIT_ADHESION: /* Eq. 34 with alpha_ADH: an upper bound on the impact speed */
@@ -137,7 +161,7 @@ static int sticks(const struct dem_config *cfg, double vn, double mass, double d
     case DEM_DEPOSIT_CRITICAL_VELOCITY: /* cold spray: bonding at and above v_crit */
         return vn >= cfg->critical_velocity;
     case DEM_DEPOSIT_TABLE:
-        return vn >= vcrit_from_table(cfg, d);
+        return vn >= dem_vcrit_lookup(cfg, d, temperature);
     case DEM_DEPOSIT_NONE:
         break;
     }
@@ -357,7 +381,7 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
-    int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], r_eff, obstacle->surface_energy, yield);
+    int stuck = sticks(cfg, outcome.vn, p->m[i], p->d[i], p->temperature[i], r_eff, obstacle->surface_energy, yield);
     if (!stuck && cfg->rule == DEM_DEPOSIT_ADHESION)
         adhesion_slowed_rebound(&sphere, n, outcome.vn,
                                 dem_contact_adhesion_capture_speed(cfg->alpha_adh, cfg->powder.surface_energy,

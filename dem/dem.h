@@ -159,6 +159,11 @@ struct dem_config {
      * first-impact angle classes of this width (rad) from the target normal */
     long de_size_classes;
     double de_angle_class_width;
+    /* v_crit(d, T) (a table with temperatures, docs/files.md "v_crit tables"): table_temperature_count > 0
+     * temperatures (K) ascending; table_velocity then holds table_count x table_temperature_count values, the
+     * temperatures of one diameter side by side.  0: the 1-D table v_crit(d). */
+    size_t table_temperature_count;
+    double *table_temperature;
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -168,6 +173,10 @@ extern const struct cfg_key dem_case_keys[];
  * exists.  SC_EINPUT with a FILE:LINE: [section] key message on anything wrong. */
 int dem_config_load(const struct case_file *c, struct dem_config *cfg);
 void dem_config_free(struct dem_config *cfg);
+
+/* v_crit (m/s) of the table rule at diameter d (m) and particle temperature T (K): linear in d (1-D table) or
+ * bilinear in d and T (2-D table), clamped to the table's first and last diameter and temperature. */
+double dem_vcrit_lookup(const struct dem_config *cfg, double d, double T);
 
 /* One row per contact of a particle with the target or a deposited particle (spray.h5:/impacts). */
 struct dem_impact {

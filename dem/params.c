@@ -110,8 +110,8 @@ const struct cfg_key dem_case_keys[] = {
     {"deposition", "critical_velocity", CFG_REAL, "m/s", NULL, 0, 1e5, 1, NULL,
      "normal impact speed at and above which a particle sticks, rule = critical_velocity"},
     {"deposition", "table", CFG_PATH, "", NULL, 0, 0, 0, NULL,
-     "v_crit(d) table (CSV with columns diameter,v_crit, or HDF5 with datasets diameter, v_crit: the "
-     "output of `spraycoat vcrit`), rule = table"},
+     "v_crit(d) or v_crit(d, T) table (CSV with columns diameter,v_crit and optionally temperature, or HDF5 with "
+     "datasets diameter, v_crit and optionally temperature: the output of `spraycoat vcrit`), rule = table"},
     /* [powder]: the particles' temperature (docs/physics.md "Nozzle") */
     {"powder", "temperature", CFG_REAL, "K", "293.15", 0, 5000, 1, NULL,
      "particles' temperature at release without [nozzle] (with it: at the nozzle inlet)"},
@@ -315,74 +315,174 @@ static int load_particles_file(const struct case_file *c, struct dem_config *cfg
     return SC_OK;
 }
 
-static int read_table_h5(const struct case_file *c, const char *path, struct dem_config *cfg)
+/* The rows (diameter, [temperature,] v_crit) of a v_crit table, `width` 2 or 3 numbers each. */
+struct vcrit_rows {
+    size_t count;
+    int width;
+    double *numbers;
+};
+
+/* HDF5 (`spraycoat vcrit`'s vcrit.h5): datasets /diameter and /v_crit of equal length, and /temperature of that
+ * length too when it is there (a table over diameter and temperature). */
+static int read_table_h5(const struct case_file *c, const char *path, struct vcrit_rows *rows)
 {
     hid_t file;
     if (h5_open_read(path, &file) != SC_OK)
         return case_invalid(c, "deposition", "table", "%s", sc_error_message());
-    size_t n = 0, n2 = 0;
+    size_t n = 0, n2 = 0, n3 = 0;
+    double *column = NULL;
     int status, out_of_memory = 0;
+    rows->width = h5_exists(file, "temperature") ? 3 : 2;
     SC_CHECK(status, h5_dataset_size(file, "diameter", &n), done);
     SC_CHECK(status, h5_dataset_size(file, "v_crit", &n2), done);
-    if (n == 0 || n != n2) {
+    if (rows->width == 3)
+        SC_CHECK(status, h5_dataset_size(file, "temperature", &n3), done);
+    if (n == 0 || n != n2 || (rows->width == 3 && n3 != n)) {
         status = SC_EINPUT;
         goto done;
     }
-    cfg->table_diameter = malloc(n * sizeof(double));
-    cfg->table_velocity = malloc(n * sizeof(double));
-    if (!cfg->table_diameter || !cfg->table_velocity) {
+    rows->numbers = malloc(n * (size_t)rows->width * sizeof(double));
+    column = malloc(n * sizeof(double));
+    if (!rows->numbers || !column) {
         out_of_memory = 1;
-        SC_FAIL_OOM_AT(status, done, 2 * n * sizeof(double), "the deposition table");
+        SC_FAIL_OOM_AT(status, done, 4 * n * sizeof(double), "the deposition table");
     }
-    cfg->table_count = n;
-    SC_CHECK(status, h5_read_doubles(file, "diameter", cfg->table_diameter, n), done);
-    SC_CHECK(status, h5_read_doubles(file, "v_crit", cfg->table_velocity, n), done);
+    rows->count = n;
+    static const char *const names2[] = {"diameter", "v_crit"}, *const names3[] = {"diameter", "temperature", "v_crit"};
+    for (int k = 0; k < rows->width; k++) {
+        SC_CHECK(status, h5_read_doubles(file, rows->width == 3 ? names3[k] : names2[k], column, n), done);
+        for (size_t i = 0; i < n; i++)
+            rows->numbers[(size_t)rows->width * i + (size_t)k] = column[i];
+    }
 done:
+    free(column);
     H5Fclose(file);
     if (status != SC_OK && !out_of_memory)
         return case_invalid(c, "deposition", "table",
-                            "%s: needs datasets /diameter and /v_crit of equal, non-zero length", path);
+                            "%s: needs datasets /diameter and /v_crit (and /temperature, when given) of equal, "
+                            "non-zero length",
+                            path);
     SC_TRY(status);
+    return SC_OK;
+}
+
+static int read_table_csv(const struct case_file *c, const char *path, struct vcrit_rows *rows)
+{
+    /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at
+     * most 1e5 m/s), temperature as [material.NAME] T_initial (above 0 K, at most 1e5 K) */
+    static const struct csv_column two[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+                                            {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
+    static const struct csv_column three[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
+                                              {"temperature", CSV_NUMBER, 0, 1e5, 1, "K", NULL},
+                                              {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
+    rows->width = csv_header_has(path, "temperature") ? 3 : 2;
+    return read_csv_columns(c, "deposition", "table", path, rows->width == 3 ? three : two, rows->width,
+                            CSV_OTHER_COLUMNS, &rows->numbers, &rows->count);
+}
+
+static int compare_doubles(const void *pa, const void *pb)
+{
+    double a = *(const double *)pa, b = *(const double *)pb;
+    return (a > b) - (a < b);
+}
+
+/* The distinct values of column `k` of the rows, ascending, into out (rows->count long); their number. */
+static size_t distinct_values(const struct vcrit_rows *rows, int k, double *out)
+{
+    for (size_t i = 0; i < rows->count; i++)
+        out[i] = rows->numbers[(size_t)rows->width * i + (size_t)k];
+    qsort(out, rows->count, sizeof *out, compare_doubles);
+    size_t n = 0;
+    for (size_t i = 0; i < rows->count; i++)
+        if (n == 0 || out[i] != out[n - 1])
+            out[n++] = out[i];
+    return n;
+}
+
+static size_t index_of(const double *values, size_t n, double x)
+{
+    size_t i = 0;
+    while (i < n && values[i] != x)
+        i++;
+    return i;
+}
+
+/* 2-D: the rows must fill the grid of their distinct diameters x distinct temperatures, every cell exactly once. */
+static int table_grid(const struct case_file *c, const char *path, const struct vcrit_rows *rows,
+                      struct dem_config *cfg)
+{
+    size_t n = rows->count;
+    cfg->table_diameter = malloc(n * sizeof(double));
+    cfg->table_temperature = malloc(n * sizeof(double));
+    if (!cfg->table_diameter || !cfg->table_temperature)
+        SC_FAIL_OOM(2 * n * sizeof(double), "the deposition table");
+    size_t nd = distinct_values(rows, 0, cfg->table_diameter), nt = distinct_values(rows, 1, cfg->table_temperature);
+    cfg->table_count = nd;
+    cfg->table_temperature_count = nt;
+    if (nd * nt != n)
+        return case_invalid(c, "deposition", "table",
+                            "%s: %zu rows do not fill the grid of its %zu diameters x %zu temperatures (a table "
+                            "v_crit(d, T) needs every pair once; `spraycoat vcrit` leaves out a pair it could "
+                            "not bracket)",
+                            path, n, nd, nt);
+    cfg->table_velocity = malloc(n * sizeof(double));
+    if (!cfg->table_velocity)
+        SC_FAIL_OOM(n * sizeof(double), "the deposition table");
+    for (size_t i = 0; i < n; i++)
+        cfg->table_velocity[i] = NAN;
+    for (size_t i = 0; i < n; i++) {
+        const double *row = rows->numbers + 3 * i;
+        size_t cell = index_of(cfg->table_diameter, nd, row[0]) * nt + index_of(cfg->table_temperature, nt, row[1]);
+        if (!isnan(cfg->table_velocity[cell]))
+            return case_invalid(c, "deposition", "table", "%s: row %zu: d = %g m, T = %g K is given twice", path, i + 1,
+                                row[0], row[1]);
+        cfg->table_velocity[cell] = row[2];
+    }
+    return SC_OK;
+}
+
+static int table_line(const struct case_file *c, const char *path, const struct vcrit_rows *rows,
+                      struct dem_config *cfg)
+{
+    size_t n = rows->count;
+    cfg->table_diameter = malloc(n * sizeof(double));
+    cfg->table_velocity = malloc(n * sizeof(double));
+    if (!cfg->table_diameter || !cfg->table_velocity)
+        SC_FAIL_OOM(2 * n * sizeof(double), "the deposition table");
+    cfg->table_count = n;
+    for (size_t i = 0; i < n; i++) {
+        cfg->table_diameter[i] = rows->numbers[2 * i];
+        cfg->table_velocity[i] = rows->numbers[2 * i + 1];
+    }
+    for (size_t i = 1; i < n; i++)
+        if (!(cfg->table_diameter[i] > cfg->table_diameter[i - 1]))
+            return case_invalid(c, "deposition", "table", "%s: row %zu: diameters must be strictly increasing", path,
+                                i + 1);
     return SC_OK;
 }
 
 static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
 {
-    /* diameter as [powder] d_max (1 nm to 1 m, as the particles CSV's d), v_crit as [deposition] critical_velocity (at
-     * most 1e5 m/s) */
-    static const struct csv_column columns[] = {{"diameter", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
-                                                {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
     char path[4096];
     if (!case_has(c, "deposition", "table"))
         return case_require(c, "deposition", "table", "rule = table");
     SC_TRY(case_path(c, "deposition", "table", path, sizeof path));
     size_t len = strlen(path);
-    if (len > 3 && strcmp(path + len - 3, ".h5") == 0) {
-        SC_TRY(read_table_h5(c, path, cfg));
-    } else {
-        double *rows = NULL;
-        SC_TRY(
-            read_csv_columns(c, "deposition", "table", path, columns, 2, CSV_OTHER_COLUMNS, &rows, &cfg->table_count));
-        cfg->table_diameter = malloc(cfg->table_count * sizeof(double));
-        cfg->table_velocity = malloc(cfg->table_count * sizeof(double));
-        if (!cfg->table_diameter || !cfg->table_velocity) {
-            free(rows);
-            SC_FAIL_OOM(2 * cfg->table_count * sizeof(double), "the deposition table");
-        }
-        for (size_t i = 0; i < cfg->table_count; i++) {
-            cfg->table_diameter[i] = rows[2 * i];
-            cfg->table_velocity[i] = rows[2 * i + 1];
-        }
-        free(rows);
+    struct vcrit_rows rows = {0};
+    int h5 = len > 3 && strcmp(path + len - 3, ".h5") == 0;
+    SC_TRY(h5 ? read_table_h5(c, path, &rows) : read_table_csv(c, path, &rows));
+    /* the HDF5 datasets are not range-checked by a CSV reader */
+    int status = SC_OK;
+    for (size_t i = 0; i < rows.count && status == SC_OK; i++) {
+        const double *row = rows.numbers + (size_t)rows.width * i;
+        if (!(row[0] > 0) || !(row[rows.width - 1] > 0) || (rows.width == 3 && !(row[1] > 0)))
+            status = case_invalid(c, "deposition", "table", "%s: row %zu: diameter, temperature and v_crit must be > 0",
+                                  path, i + 1);
     }
-    for (size_t i = 0; i < cfg->table_count; i++) {
-        if (!(cfg->table_diameter[i] > 0) || !(cfg->table_velocity[i] > 0) ||
-            (i > 0 && !(cfg->table_diameter[i] > cfg->table_diameter[i - 1])))
-            return case_invalid(c, "deposition", "table",
-                                "%s: row %zu: diameters must be positive and strictly increasing, v_crit > 0", path,
-                                i + 1);
-    }
-    return SC_OK;
+    if (status == SC_OK)
+        status = rows.width == 3 ? table_grid(c, path, &rows, cfg) : table_line(c, path, &rows, cfg);
+    free(rows.numbers);
+    return status;
 }
 
 static int load_deposition(const struct case_file *c, struct dem_config *cfg)
@@ -578,6 +678,7 @@ void dem_config_free(struct dem_config *cfg)
     free(cfg->table_velocity);
     free(cfg->nozzle);
     cfg->nozzle = NULL;
-    cfg->file_particles = cfg->table_diameter = cfg->table_velocity = NULL;
-    cfg->file_particle_count = cfg->table_count = 0;
+    free(cfg->table_temperature);
+    cfg->file_particles = cfg->table_diameter = cfg->table_velocity = cfg->table_temperature = NULL;
+    cfg->file_particle_count = cfg->table_count = cfg->table_temperature_count = 0;
 }

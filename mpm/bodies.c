@@ -321,7 +321,10 @@ static void fill_points(const struct mpm_config *cfg, int body, const struct poi
     /* the same initial state for every point of the body: set up once (its PTW flow stress, evaluated per point,
      * cost more than half a time step of the small impact case) */
     struct mpm_point_state initial;
-    mpm_point_state_init(m, &initial);
+    if (b->temperature > 0.0)
+        mpm_point_state_init_at(m, b->temperature, &initial);
+    else
+        mpm_point_state_init(m, &initial);
     for (size_t i = 0; i < count; i++) {
         size_t q = offset + i;
         memcpy(p->x + 3 * q, seeds[i].x, sizeof seeds[i].x);

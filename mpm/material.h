@@ -201,6 +201,8 @@ void mpm_stress_finish_block(const struct mpm_stress_block *b);
 
 /* Initial state of a point of material m at rest (stress 0, T = T_initial, rho = rho0). */
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state);
+/* The same at temperature T (K): a particle that arrives from the spray at its own temperature. */
+void mpm_point_state_init_at(const struct mpm_material *m, double T, struct mpm_point_state *state);
 
 /* Longitudinal elastic wave speed sqrt((K + 4 G / 3) / rho0) at T_initial (m/s). */
 double mpm_material_wave_speed(const struct mpm_material *m);

@@ -39,9 +39,11 @@ enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
 struct mpm_body {
     enum mpm_shape shape;
     double center[3], velocity[3];
-    double d, h;   /* diameter (or box side) and height (cylinder, box) */
-    int material;  /* index into mpm_config.materials */
-    int substrate; /* 1 for the substrate body */
+    double d, h;        /* diameter (or box side) and height (cylinder, box) */
+    int material;       /* index into mpm_config.materials */
+    int substrate;      /* 1 for the substrate body */
+    double temperature; /* K, the body's points at the start; 0: the material's T_initial (issue 26: a sprayed
+                           particle arrives at its temperature from the spray) */
 };
 
 /* A material's constants (PTW strength, MTS shear modulus, Mie-Grueneisen EOS, SCG melt, heating): defined with
@@ -91,6 +93,11 @@ void mpm_config_free(struct mpm_config *cfg);
 /* Replace the bodies by one sphere of `diameter` moving at `speed` (m/s) at `angle` (rad from the normal)
  * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */
 int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle);
+
+/* Start the last `count` bodies (the particles of mpm_config_set_spheres or mpm_config_single_particle) at the
+ * temperatures temperature[k] (K) instead of their material's T_initial.  SC_EINPUT for a temperature <= 0, above
+ * 1e5 K or where the material's shear modulus is not positive. */
+int mpm_config_set_particle_temperatures(struct mpm_config *cfg, int count, const double *temperature);
 
 /* Replace the particles by `count` spheres of the particle material: diameters d[k], centres center[3k..3k+2]
  * (z above the substrate's top) and velocities velocity[3k..3k+2] (the seeds of the couple stage). */

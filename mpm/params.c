@@ -34,8 +34,9 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "shape_functions", CFG_CHOICE, "", "linear", 0, 0, 0, "linear|ugimp",
      "linear: trilinear (Eq. 3.20); ugimp: uniform GIMP (Bardenhagen & Kober 2004), less cell-crossing noise"},
     {"impact", "bodies", CFG_PATH, "", NULL, 0, 0, 0, NULL,
-     "CSV with header shape,x,y,z,vx,vy,vz,d,h,material (shape sphere|cylinder|box; x,y,z the centre; d the "
-     "diameter or box side, h the height); replaces diameter/velocity/angle"},
+     "CSV with header shape,x,y,z,vx,vy,vz,d,h,material and optionally temperature (shape sphere|cylinder|box; "
+     "x,y,z the centre; d the diameter or box side, h the height; temperature in K, the body's start instead of its "
+     "material's T_initial); replaces diameter/velocity/angle"},
     {"impact", "diameter", CFG_REAL, "m", "14e-6", 0, 1, 1, NULL, "single particle: diameter"},
     {"impact", "velocity", CFG_REAL, "m/s", "810", 0, 1e5, 0, NULL, "single particle: impact speed"},
     {"impact", "angle", CFG_REAL, "degree", "0", 0, 89, 0, NULL,
@@ -304,7 +305,16 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 /* The bodies CSV's columns, with the ranges of the [impact] keys they stand for (positions and sizes as
  * substrate_diameter and diameter: at most 1 m, and d at least 1 nm; velocities as velocity: at most 1e5 m/s).  The
  * order is the order of the fields of struct mpm_body's set-up below; a file may list the columns in any order. */
-enum { BODY_SHAPE, BODY_X, BODY_VX = BODY_X + 3, BODY_D = BODY_VX + 3, BODY_H, BODY_MATERIAL, BODY_COLUMNS };
+enum {
+    BODY_SHAPE,
+    BODY_X,
+    BODY_VX = BODY_X + 3,
+    BODY_D = BODY_VX + 3,
+    BODY_H,
+    BODY_MATERIAL,
+    BODY_TEMPERATURE,
+    BODY_COLUMNS
+};
 static const struct csv_column body_columns[BODY_COLUMNS] = {
     {"shape", CSV_WORD, 0, 0, 0, NULL, "sphere|cylinder|box"},
     {"x", CSV_NUMBER, -1, 1, 0, "m", NULL},
@@ -316,13 +326,16 @@ static const struct csv_column body_columns[BODY_COLUMNS] = {
     {"d", CSV_NUMBER, 1e-9, 1, 0, "m", NULL},
     {"h", CSV_NUMBER, 0, 1, 0, "m", NULL},
     {"material", CSV_NAME, 0, 0, 0, NULL, NULL},
+    /* optional (last): the body's points start at this temperature instead of its material's T_initial (range as
+     * T_initial's) */
+    {"temperature", CSV_NUMBER, 0, 1e5, 1, "K", NULL},
 };
 
 static int parse_body_row(const struct case_file *c, const char *path, const struct csv_table *table, size_t row,
                           struct mpm_config *cfg, struct mpm_body *body)
 {
     static const enum mpm_shape shapes[] = {MPM_SPHERE, MPM_CYLINDER, MPM_BOX};
-    const double *values = table->numbers + row * BODY_COLUMNS;
+    const double *values = table->numbers + row * (size_t)table->columns;
     long line = table->lines[row];
     body->shape = shapes[(int)values[BODY_SHAPE]];
     memcpy(body->center, values + BODY_X, sizeof body->center);
@@ -335,7 +348,19 @@ static int parse_body_row(const struct case_file *c, const char *path, const str
     if (body->center[2] - (body->shape == MPM_SPHERE ? 0.5 * body->d : 0.5 * body->h) < cfg->substrate_top - 1e-12)
         return case_invalid(c, "impact", "bodies", "%s:%ld: the body reaches below the substrate's top z = 0", path,
                             line);
-    return material_index(c, "bodies", table->names[row * BODY_COLUMNS + BODY_MATERIAL], cfg, &body->material);
+    SC_TRY(
+        material_index(c, "bodies", table->names[row * (size_t)table->columns + BODY_MATERIAL], cfg, &body->material));
+    if (table->columns < BODY_COLUMNS)
+        return SC_OK; /* no temperature column: the material's T_initial */
+    double T = values[BODY_TEMPERATURE];
+    /* the MTS shear modulus (Eq. 2.6) must stay positive, as load_material checks it at T_initial */
+    if (!(mpm_mts_shear_modulus(&cfg->materials[body->material], T) > 0.0))
+        return case_invalid(c, "impact", "bodies",
+                            "%s:%ld: temperature = %g K: the shear modulus G0 - D/(exp(T0/T)-1) of the body's "
+                            "material is not positive there; allowed: a lower temperature",
+                            path, line, T);
+    body->temperature = T;
+    return SC_OK;
 }
 
 static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
@@ -343,7 +368,8 @@ static int load_bodies_file(const struct case_file *c, struct mpm_config *cfg)
     char path[4096], message[1024];
     SC_TRY(case_path(c, "impact", "bodies", path, sizeof path));
     struct csv_table table;
-    if (csv_read(path, body_columns, BODY_COLUMNS, 0, &table, message, sizeof message) != SC_OK)
+    int columns = csv_header_has(path, "temperature") ? BODY_COLUMNS : BODY_COLUMNS - 1;
+    if (csv_read(path, body_columns, columns, 0, &table, message, sizeof message) != SC_OK)
         return case_invalid(c, "impact", "bodies", "%s", message);
     int status = SC_OK;
     if (table.rows > (size_t)INT_MAX / 2)
@@ -396,6 +422,25 @@ int mpm_config_set_spheres(struct mpm_config *cfg, int count, const double *diam
         }
         body.center[2] += cfg->substrate_top;
         SC_TRY(add_body(cfg, &body));
+    }
+    return SC_OK;
+}
+
+int mpm_config_set_particle_temperatures(struct mpm_config *cfg, int count, const double *temperature)
+{
+    if (count > cfg->body_count)
+        SC_FAIL(SC_EINPUT, "impact: %d particle temperatures for %d bodies", count, cfg->body_count);
+    for (int k = 0; k < count; k++) {
+        struct mpm_body *b = &cfg->bodies[cfg->body_count - count + k];
+        const struct mpm_material *m = &cfg->materials[b->material];
+        double T = temperature[k];
+        /* the MTS shear modulus (Eq. 2.6) must stay positive, as load_material checks it at T_initial */
+        if (!(T > 0.0 && T <= 1e5) || !(mpm_mts_shear_modulus(m, T) > 0.0))
+            SC_FAIL(SC_EINPUT,
+                    "impact: particle %d: temperature %g K; allowed: above 0 K, at most 1e5 K, with a positive "
+                    "shear modulus G0 - D/(exp(T0/T)-1) of its material",
+                    k, T);
+        b->temperature = T;
     }
     return SC_OK;
 }

@@ -39,6 +39,13 @@ static void body_constants(struct mpm_solver *s)
         s->body_dashpot[2 * b] = cfg->absorbing ? m->density * vp * area : 0.0;
         s->body_dashpot[2 * b + 1] = cfg->absorbing ? m->density * vs * area : 0.0;
         s->wave_speed_max = fmax(s->wave_speed_max, mpm_material_wave_speed(m));
+        /* a body that starts colder than T_initial (a particle from the spray) is stiffer, G(T) of Eq. 2.6 falling
+         * with T: its wave speed bounds the step too */
+        double T0 = cfg->bodies[b].temperature;
+        if (T0 > 0.0 && T0 < m->T_initial) {
+            double G0 = mpm_mts_shear_modulus(m, T0);
+            s->wave_speed_max = fmax(s->wave_speed_max, sqrt((m->bulk_modulus + 4.0 * G0 / 3.0) / m->density));
+        }
         const double *v = cfg->bodies[b].velocity;
         s->body_speed[b] = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     }

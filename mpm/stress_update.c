@@ -682,21 +682,25 @@ void mpm_material_prepare(const struct mpm_material *m, struct mpm_material_cons
 
 void mpm_point_state_init(const struct mpm_material *m, struct mpm_point_state *state)
 {
+    mpm_point_state_init_at(m, m->T_initial, state);
+}
+
+void mpm_point_state_init_at(const struct mpm_material *m, double T, struct mpm_point_state *state)
+{
     for (int k = 0; k < 6; k++)
         state->stress[k] = 0.0;
     state->pressure = 0.0;
     state->viscosity = 0.0;
     state->eps_p = 0.0;
-    state->T = m->T_initial;
+    state->T = T;
     state->energy = 0.0;
     state->rho = m->density;
     double Tm = mpm_scg_melt_temperature(m, m->density);
-    state->melted = m->T_initial < Tm ? 0.0 : 1.0;
+    state->melted = T < Tm ? 0.0 : 1.0;
     state->plastic_increment = 0.0; /* no return yet: no first guess from one */
-    state->yield_stress = m->strength == MPM_STRENGTH_PTW
-                              ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, m->T_initial, Tm, m->density,
-                                                    mpm_mts_shear_modulus(m, m->T_initial))
-                              : 0.0;
+    state->yield_stress = m->strength == MPM_STRENGTH_PTW ? mpm_ptw_flow_stress(m, 0.0, m->rate_floor, T, Tm,
+                                                                                m->density, mpm_mts_shear_modulus(m, T))
+                                                          : 0.0;
 }
 
 /* sqrt((K + 4/3 G(T_initial)) / rho0). */
