@@ -77,6 +77,7 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
         row->w[c] = flying ? p->w[3 * i + c] : p->w_start[3 * i + c];
     }
     row->d = p->d[i];
+    dem_path_position(&s->cfg.path, row->t, row->axis);
 }
 
 /* Hand-off crossings, the target plane as a hard limit, escape: of the moving particles that dem_integrate
@@ -144,6 +145,12 @@ int dem_step(struct dem_solver *s)
 {
     struct dem_timing *timing = &s->timing;
     double mark = omp_get_wtime();
+    /* the nozzle, and with it the jet's axis, where the path has it at the step's start: the jet is quasi-steady
+     * (docs/physics.md "A traversing nozzle") */
+    double nozzle[2];
+    dem_path_position(&s->cfg.path, (double)s->step * s->cfg.dt, nozzle);
+    s->cfg.gas.axis_x = nozzle[0];
+    s->cfg.gas.axis_y = nozzle[1];
     dem_inject(s);
     time_phase(&timing->injection, &mark);
     SC_TRY(dem_collide(s));
