@@ -270,6 +270,7 @@ struct dem_deposit {
     size_t nx, ny;
     double x0, y0, cell; /* the centre of cell (0, 0) and the cells' side (m) */
     double packing;
+    const char *pattern; /* [path] pattern: "none", "line", "raster", "file" */
     double *height;      /* ny rows of nx (row j at y0 + j cell), m */
     double volume, mass; /* of the deposited particles (m3, kg) */
     /* patterns line and raster: the height across the track (y), averaged over the cells whose centres lie in the

@@ -199,6 +199,8 @@ static int map_fill(const struct dem_solver *s, struct dem_deposit *deposit)
     deposit->x0 = lo[0] - 0.5 * deposit->cell;
     deposit->y0 = lo[1] - 0.5 * deposit->cell;
     deposit->packing = s->cfg.path.packing;
+    static const char *const patterns[] = {"none", "line", "raster", "file"};
+    deposit->pattern = patterns[s->cfg.path.pattern];
     size_t bytes = deposit->nx * deposit->ny * sizeof(double);
     deposit->height = calloc(deposit->nx * deposit->ny, sizeof(double));
     if (!deposit->height)
@@ -306,6 +308,7 @@ static int write_group(const struct dem_deposit *deposit, hid_t g)
     SC_CHECK(status, h5_write_doubles(g, "y", 1, y_dims, y, "m", 0), done);
     SC_CHECK(status, h5_attr_write_double(g, "cell", deposit->cell), done);
     SC_CHECK(status, h5_attr_write_double(g, "packing", deposit->packing), done);
+    SC_CHECK(status, h5_attr_write_string(g, "pattern", deposit->pattern), done);
     SC_CHECK(status, h5_attr_write_double(g, "volume", deposit->volume), done);
     SC_CHECK(status, h5_attr_write_double(g, "mass", deposit->mass), done);
     if (deposit->profile_count) {

@@ -167,8 +167,16 @@ static int profile_figure(const struct render_request *req, const struct deposit
 
 int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out)
 {
-    if (!h5_exists(file, "deposit"))
-        return SC_OK; /* a spray.h5 of an older version */
+    char pattern[16] = "none";
+    if (h5_exists(file, "deposit")) {
+        hid_t g = H5Gopen2(file, "deposit", H5P_DEFAULT);
+        if (g >= 0 && h5_attr_read_string(g, "pattern", pattern, sizeof pattern) != SC_OK)
+            sc_error_clear();
+        if (g >= 0)
+            H5Gclose(g);
+    }
+    if (strcmp(pattern, "none") == 0)
+        return SC_OK; /* a fixed nozzle (spray_thickness has its radial profile), or a spray.h5 without /deposit */
     struct deposit_data d;
     memset(&d, 0, sizeof d);
     int status;
