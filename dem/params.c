@@ -395,12 +395,14 @@ static int load_waypoints(const struct case_file *c, struct dem_path *path)
     SC_TRY(case_path(c, "path", "waypoints", file, sizeof file));
     SC_TRY(read_csv_columns(c, "path", "waypoints", file, columns, 3, 0, &path->waypoints, &path->waypoint_count));
     if (path->waypoints[0] != 0.0)
-        return case_invalid(c, "path", "waypoints", "%s: row 1: t = %g s; allowed: the first waypoint at t = 0", file,
-                            path->waypoints[0]);
+        return case_invalid(c, "path", "waypoints", "%s: data row 1: t = %g s; allowed: the first waypoint at t = 0",
+                            file, path->waypoints[0]);
     for (size_t i = 1; i < path->waypoint_count; i++)
         if (!(path->waypoints[3 * i] > path->waypoints[3 * (i - 1)]))
-            return case_invalid(c, "path", "waypoints", "%s: row %zu: t = %g s not after the row before (%g s)", file,
-                                i + 1, path->waypoints[3 * i], path->waypoints[3 * (i - 1)]);
+            return case_invalid(
+                c, "path", "waypoints",
+                "%s: data row %zu: t = %g s not after the row before (%g s); allowed: t strictly ascending", file,
+                i + 1, path->waypoints[3 * i], path->waypoints[3 * (i - 1)]);
     return SC_OK;
 }
 
