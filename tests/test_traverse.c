@@ -120,6 +120,8 @@ struct track {
     double particle_mass; /* of the deposited particles, from the solver's particle views */
     int64_t deposited, injected;
     size_t in_band; /* deposited particles whose centres lie in the middle half of the pass and in the band */
+    size_t handoffs, handoff_axis_wrong; /* hand-off rows, and those whose axis is not the path's at their time */
+    double handoff_axis_x_max;
 };
 
 /* One spray run along a 10 mm line starting at (0, START_Y), `passes` times at 10 m/s, injecting 4 particles a
@@ -148,6 +150,13 @@ static struct track run_track(int passes, int seed, double packing)
         t.ok = 1;
         struct dem_counts c = dem_get_counts(f.solver);
         t.deposited = c.deposited, t.injected = c.injected;
+        const struct dem_handoff *h = dem_handoffs(f.solver, &t.handoffs);
+        for (size_t k = 0; k < t.handoffs; k++) {
+            double xy[2];
+            dem_path_position(&f.cfg.path, h[k].t, xy);
+            t.handoff_axis_wrong += !(h[k].axis[0] == xy[0] && h[k].axis[1] == xy[1]);
+            t.handoff_axis_x_max = fmax(t.handoff_axis_x_max, h[k].axis[0]);
+        }
         for (size_t i = 0; i < dem_particle_count(f.solver); i++) {
             struct dem_particle_view p = dem_particle(f.solver, i);
             if (p.state != DEM_DEPOSITED)
@@ -177,6 +186,10 @@ static void test_deposit_mass(void)
            volume * 8900, t.particle_mass, d->nx, d->ny, d->cell);
     CHECK_CLOSE(volume * 8900, t.particle_mass, 1e-12, 0, "map mass against the deposited particles' mass");
     CHECK_CLOSE(t.particle_mass, expected, 1e-12, 0, "the deposited particles' mass against their count");
+    /* the couple stage centres each flight's jet on the hand-off row's axis: the nozzle's position at its time */
+    CHECK(t.handoffs >= (size_t)t.deposited && t.handoff_axis_wrong == 0 && t.handoff_axis_x_max > 9e-3,
+          "%zu hand-offs, %zu with an axis off the path, the farthest at x = %g m", t.handoffs, t.handoff_axis_wrong,
+          t.handoff_axis_x_max);
     dem_deposit_free(&t.deposit);
 }
 
