@@ -147,7 +147,8 @@ static int profile_figure(const struct render_request *req, const struct deposit
     struct render_series series[2] = {{"profile (middle half of the pass)", RENDER_BARS, n, left, h, cell * 1e3, 2},
                                       {fit_label, RENDER_LINE, FIT_POINTS, fy, fh, 0, 1}};
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Track thickness profile across the track",
+    plot.panels[0] = (struct render_panel){d->has_fit ? "Track thickness profile across the track"
+                                                      : "Coating thickness profile across the passes",
                                            "y across the track (mm)",
                                            "thickness (µm)",
                                            NAN,
