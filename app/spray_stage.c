@@ -225,7 +225,8 @@ static int deposit_summary(const struct spray_run *run)
 {
     struct dem_deposit d;
     SC_TRY(dem_deposit_build(run->solver, &d));
-    int status = write_deposit_xdmf(run, &d);
+    /* a fixed nozzle's deposit is spray_thickness's radial profile: no index file for it */
+    int status = run->cfg.path.pattern == DEM_PATH_NONE ? SC_OK : write_deposit_xdmf(run, &d);
     if (d.profile_count)
         log_info("spray: deposit: mean thickness %.4g m over the band y in [%.4g, %.4g] m (height map of %zu x %zu "
                  "cells of %.3g m, packing %.3g)",

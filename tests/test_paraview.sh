@@ -10,6 +10,8 @@
 # Surface and Points representations draw nothing), the time steps are the snapshots (values and count), and
 # the point arrays are the group's datasets other than x.  spray.xdmf is the time series of spray.h5
 # /snapshots/NNNNNN (snapshot_every), or the final /particles without time when the run took no snapshots.
+# deposit.xdmf of a traversing spray (cases/traverse_demo.ini) is the height map /deposit/height: one node a
+# cell, (ny - 1)(nx - 1) quads between them, the one array `height`, no time.
 #
 # Without ParaView's Python prints SKIP and the reason.  VisIt is not packaged in Debian 12 (no test).
 # `tests/test_paraview.sh RUN_DIR...` checks those run folders instead of making new ones.
@@ -65,7 +67,11 @@ else
         echo "FAIL paraview_pipeline_run ($(tail -n 3 "$T/pipeline.log" | tr '\n' ' '))"
         exit 1
     fi
-    dirs="$T/impact $T/removing $T/pipeline"
+    if ! "$BIN" spray cases/traverse_demo.ini -o "$T/traverse" >"$T/traverse.log" 2>&1; then
+        echo "FAIL paraview_traverse_run ($(tail -n 3 "$T/traverse.log" | tr '\n' ' '))"
+        exit 1
+    fi
+    dirs="$T/impact $T/removing $T/pipeline $T/traverse"
 fi
 
 cat >"$T/check.py" <<'EOF'
@@ -87,9 +93,26 @@ def attribute_t(h5, group):
     m = re.search(r"\(0\): (\S+)", out)
     return float(m.group(1)) if m else None
 
+def deposit_shape(h5):
+    """(ny, nx) of spray.h5:/deposit/height."""
+    out = subprocess.run(["h5ls", h5 + "/deposit/height"], capture_output=True, text=True, check=True).stdout
+    m = re.search(r"Dataset \{(\d+), (\d+)\}", out)
+    return int(m.group(1)), int(m.group(2))
+
+def expected_cells(xdmf, points):
+    """Cells ParaView must make: one vertex a point, but for deposit.xdmf (a mesh of quads between the nodes)."""
+    folder, name = os.path.split(xdmf)
+    if name != "deposit.xdmf":
+        return points
+    ny, nx = deposit_shape(os.path.join(folder, "spray.h5"))
+    return (ny - 1) * (nx - 1)
+
 def expected(xdmf):
     """[(time or None, points, array names)] from the HDF5 file the XDMF file indexes."""
     folder, name = os.path.split(xdmf)
+    if name == "deposit.xdmf":  # the height map: one node a cell of /deposit/height, no time
+        ny, nx = deposit_shape(os.path.join(folder, "spray.h5"))
+        return [(None, ny * nx, ["height"])]
     h5 = os.path.join(folder, "spray.h5" if name == "spray.xdmf" else "impact.h5")
     sets = datasets(h5)
     m = re.match(r"impact_run_(\d+)\.xdmf$", name)
@@ -151,8 +174,8 @@ for folder in sys.argv[1:]:
                 got_names = sorted(reader.PointData.keys())
                 if got_points != points:
                     problems.append("step %d: %d points, the HDF5 file %d" % (k, got_points, points))
-                if got_cells != points:
-                    problems.append("step %d: %d cells, %d points" % (k, got_cells, points))
+                if got_cells != expected_cells(xdmf, points):
+                    problems.append("step %d: %d cells, expected %d" % (k, got_cells, expected_cells(xdmf, points)))
                 if got_names != names:
                     problems.append("step %d: arrays %s, the HDF5 datasets %s" % (k, got_names, names))
             report(not problems, tag, "; ".join(problems[:4]))
