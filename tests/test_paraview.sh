@@ -107,6 +107,22 @@ def expected_cells(xdmf, points):
     ny, nx = deposit_shape(os.path.join(folder, "spray.h5"))
     return (ny - 1) * (nx - 1)
 
+def values(h5, dataset):
+    """Every number of a 1-D dataset."""
+    out = subprocess.run(["h5dump", "-d", dataset, "-m", "%.17g", h5], capture_output=True, text=True).stdout
+    data = out.split("DATA {", 1)[1].split("}", 1)[0]
+    return [float(v) for v in re.findall(r"(?<=[\s,:])(-?[0-9][0-9.eE+-]*)(?=,|\s|$)", re.sub(r"\(\d+\):", ":", data))]
+
+def deposit_bounds_problem(xdmf, bounds):
+    """deposit.xdmf must lie in the target plane with x and y those of /deposit/x and /deposit/y (a 2-D mesh went
+    to ParaView's y-z plane)."""
+    h5 = os.path.join(os.path.dirname(xdmf), "spray.h5")
+    x, y = values(h5, "/deposit/x"), values(h5, "/deposit/y")
+    want = (x[0], x[-1], y[0], y[-1])
+    if any(abs(g - w) > 1e-9 * max(1.0, abs(w)) for g, w in zip(bounds[:4], want)) or bounds[4] != bounds[5]:
+        return "bounds %s, expected x %g..%g, y %g..%g in one z plane" % (bounds, *want)
+    return None
+
 def expected(xdmf):
     """[(time or None, points, array names)] from the HDF5 file the XDMF file indexes."""
     folder, name = os.path.split(xdmf)
@@ -116,7 +132,7 @@ def expected(xdmf):
     h5 = os.path.join(folder, "spray.h5" if name == "spray.xdmf" else "impact.h5")
     sets = datasets(h5)
     m = re.match(r"impact_run_(\d+)\.xdmf$", name)
-    if name == "spray.xdmf" and not any(p.startswith("/snapshots/") for p in sets):
+    if name == "spray.xdmf" and not any(re.match(r"/snapshots/\d{6}/", p) for p in sets):
         # snapshot_every = 0: the final particles, no time
         names = sorted(p.split("/")[-1] for p in sets if p.startswith("/particles/") and p != "/particles/x")
         return [(None, sets["/particles/x"], names)]
@@ -176,6 +192,10 @@ for folder in sys.argv[1:]:
                     problems.append("step %d: %d points, the HDF5 file %d" % (k, got_points, points))
                 if got_cells != expected_cells(xdmf, points):
                     problems.append("step %d: %d cells, expected %d" % (k, got_cells, expected_cells(xdmf, points)))
+                if os.path.basename(xdmf) == "deposit.xdmf":
+                    problem = deposit_bounds_problem(xdmf, info.GetBounds())
+                    if problem:
+                        problems.append(problem)
                 if got_names != names:
                     problems.append("step %d: arrays %s, the HDF5 datasets %s" % (k, got_names, names))
             report(not problems, tag, "; ".join(problems[:4]))
