@@ -18,8 +18,10 @@
 
 #include "core/config.h"
 
-#define DEM_FORMAT         "spraycoat-spray"
-#define DEM_FORMAT_VERSION 3 /* 3: impacts carry contact_index; resting particles (state 2) and their count */
+#define DEM_FORMAT "spraycoat-spray"
+/* 4: hand-offs carry the jet's axis (records and checkpoints), /deposit; 3: impacts carry contact_index, resting
+ * particles (state 2) and their count */
+#define DEM_FORMAT_VERSION 4
 
 enum dem_injection { DEM_INJECT_STREAM, DEM_INJECT_FILE };
 enum dem_deposition_rule { DEM_DEPOSIT_ADHESION, DEM_DEPOSIT_CRITICAL_VELOCITY, DEM_DEPOSIT_TABLE, DEM_DEPOSIT_NONE };
