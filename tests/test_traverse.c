@@ -124,11 +124,11 @@ struct track {
     double handoff_axis_x_max;
 };
 
-/* One spray run along a 10 mm line starting at (0, START_Y), `passes` times at 10 m/s, injecting 4 particles a
- * step for as long as the path takes; t_end leaves the last ones 0.4 ms to land. */
-static struct track run_track(int passes, int seed, double packing)
+/* One spray run (mono 50 um, no gas, all sticking, 4 particles a step of 2 us from a 1 mm nozzle) along `path` (the
+ * [path] section's lines), injecting for `duration` and then letting the last ones land for 0.4 ms.  in_band counts
+ * the deposited centres with x in [x_lo, x_hi] and y in the deposit's band. */
+static struct track run_path(const char *path, double duration, int seed, double packing, double x_lo, double x_hi)
 {
-    double duration = passes * 1e-3;
     long steps = (long)(duration / 2e-6 + 0.5);
     char ini[2048];
     snprintf(ini, sizeof ini,
@@ -140,9 +140,8 @@ static struct track run_track(int passes, int seed, double packing)
              "[target]\nstandoff = 0.005\n"
              "[jet]\nmodel = none\n"
              "[deposition]\nrule = critical_velocity\ncritical_velocity = 1\n"
-             "[path]\npattern = line\ntraverse_speed = 10\nstart_x = 0\nstart_y = %g\npass_length = 0.01\n"
-             "passes = %d\nmap_cell = 1e-4\npacking = %g\n",
-             seed, duration + 4e-4, 4 * steps, START_Y, passes, packing);
+             "[path]\n%smap_cell = 1e-4\npacking = %g\n",
+             seed, duration + 4e-4, 4 * steps, path, packing);
     struct fixture f;
     struct track t = {0};
     if (fixture_open(&f, ini, NULL) == SC_OK && fixture_steps(&f, dem_total_steps(f.solver)) == SC_OK &&
@@ -162,14 +161,24 @@ static struct track run_track(int passes, int seed, double packing)
             if (p.state != DEM_DEPOSITED)
                 continue;
             t.particle_mass += p.m;
-            t.in_band +=
-                p.x[0] >= 2.5e-3 && p.x[0] <= 7.5e-3 && p.x[1] >= t.deposit.band_lo && p.x[1] <= t.deposit.band_hi;
+            t.in_band += p.x[0] >= x_lo && p.x[0] <= x_hi && p.x[1] >= t.deposit.band_lo && p.x[1] <= t.deposit.band_hi;
         }
     } else {
         printf("  spray run failed: %s\n", sc_error_message());
     }
     fixture_close(&f);
     return t;
+}
+
+/* A 10 mm line from (0, START_Y) at 10 m/s, `passes` times. */
+static struct track run_track(int passes, int seed, double packing)
+{
+    char path[256];
+    snprintf(path, sizeof path,
+             "pattern = line\ntraverse_speed = 10\nstart_x = 0\nstart_y = %g\npass_length = 0.01\n"
+             "passes = %d\n",
+             START_Y, passes);
+    return run_path(path, passes * 1e-3, seed, packing, 2.5e-3, 7.5e-3);
 }
 
 /* The map's mass, sum of height * cell area * packing * density, is the deposited particles' mass. */
@@ -236,6 +245,41 @@ static void test_two_passes(void)
     dem_deposit_free(&two.deposit);
 }
 
+/* A raster's coating: where every pass within the nozzle's reach of a point exists (y from R above the first pass
+ * to R below the last), the thickness is the volume fed per time over the traverse speed and the step over,
+ * h = (dN/dt) (pi d^3 / 6) / (v s), independently of the track's shape (the passes' profiles summed at spacing s).
+ * 13 passes of 3 mm, 0.25 mm apart, at 10 m/s: h = 2e6/s x 6.545e-14 m3 / (10 m/s x 2.5e-4 m) = 52.4 um.  The
+ * profile's mean over the middle half of the pass and y in [1, 2] mm must match within 3 counting errors (as
+ * test_two_passes: 1/sqrt(N) of the particles in that region). */
+static void test_raster_thickness(void)
+{
+    const double speed = 10, step_over = 2.5e-4, pass = 3e-3, radius = 1e-3;
+    const int passes = 13;
+    char path[256];
+    snprintf(path, sizeof path,
+             "pattern = raster\ntraverse_speed = %g\nstart_x = 0\nstart_y = 0\npass_length = %g\nstep_over = %g\n"
+             "passes = %d\n",
+             speed, pass, step_over, passes);
+    double duration = (passes * pass + (passes - 1) * step_over) / speed;
+    struct track t = run_path(path, duration, 4, 1.0, 0.25 * pass, 0.75 * pass);
+    const struct dem_deposit *d = &t.deposit;
+    double y_lo = radius, y_hi = (passes - 1) * step_over - radius, sum = 0.0;
+    size_t rows = 0;
+    for (size_t j = 0; j < d->profile_count; j++)
+        if (d->profile_y[j] >= y_lo && d->profile_y[j] <= y_hi)
+            sum += d->profile_height[j], rows++;
+    double mean = rows ? sum / (double)rows : NAN, volume = M_PI * pow(50e-6, 3) / 6;
+    double expected = (4 / 2e-6) * volume / (speed * step_over);
+    double count = expected * (0.5 * pass) * (y_hi - y_lo) / volume; /* particles in the region */
+    double error = expected / sqrt(count);
+    printf("  raster: mean thickness %.4g m over y in [%g, %g] m (%zu rows), expected (dN/dt) V / (v s) = %.4g m "
+           "+- %.2g (%.0f particles); over the whole band %.4g m\n",
+           mean, y_lo, y_hi, rows, expected, error, count, d->mean_thickness);
+    CHECK(t.ok && rows >= 5 && fabs(mean - expected) < 3 * error, "raster thickness %g, expected %g +- %g", mean,
+          expected, 3 * error);
+    dem_deposit_free(&t.deposit);
+}
+
 int main(void)
 {
     RUN(test_line_and_raster_positions);
@@ -245,5 +289,6 @@ int main(void)
     RUN(test_deposit_mass);
     RUN(test_profile_symmetric);
     RUN(test_two_passes);
+    RUN(test_raster_thickness);
     return check_finish();
 }
