@@ -130,6 +130,7 @@ static int read_handoffs(hid_t file, struct spray_rows *rows)
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, x, 3), done);
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, v, 3), done);
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, d, 1), done);
+    SC_CHECK(status, READ_FIELD(g, n, r, struct dem_handoff, axis, 2), done);
 done:
     H5Gclose(g);
     return status;
@@ -274,6 +275,9 @@ static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_
     const struct couple_candidate *c = &w->candidates[k];
     double density = c->m / (M_PI * c->d * c->d * c->d / 6.0);
     size_t i = w->flight_count;
+    /* the jet's axis where the nozzle was at the hand-off: quasi-steady over the flight's ~0.1 ms */
+    w->layer.gas.axis_x = h->axis[0];
+    w->layer.gas.axis_y = h->axis[1];
     SC_TRY(couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]));
     w->flight_candidate[i] = k;
     w->flight_count++;

@@ -184,11 +184,12 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
 /* The sections each stage's results depend on: a stage's inputs are its own keys and everything upstream of it.
  * The impact stage of a pipeline case (one with [couple]) takes its bodies from couple.h5. */
 static const char *const spray_sections[] = {"run", "spray",      "powder", "target", "contact",
-                                             "jet", "deposition", "nozzle", NULL};
-static const char *const couple_sections[] = {"run", "spray",      "powder", "target", "contact",
-                                              "jet", "deposition", "nozzle", "couple", NULL};
-static const char *const pipeline_impact_sections[] = {"run",        "spray",  "powder", "target", "contact",    "jet",
-                                                       "deposition", "nozzle", "couple", "impact", "material.*", NULL};
+                                             "jet", "deposition", "nozzle", "path",   NULL};
+static const char *const couple_sections[] = {"run",        "spray",  "powder", "target", "contact", "jet",
+                                              "deposition", "nozzle", "path",   "couple", NULL};
+static const char *const pipeline_impact_sections[] = {"run",    "spray",      "powder", "target", "contact",
+                                                       "jet",    "deposition", "nozzle", "path",   "couple",
+                                                       "impact", "material.*", NULL};
 static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
 static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
 static const char *const calibrate_sections[] = {"run", "impact", "material.*", "calibrate", NULL};

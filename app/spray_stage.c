@@ -194,6 +194,53 @@ static int write_xdmf(const struct spray_run *run)
     return atomic_publish(&out);
 }
 
+/* RUN_DIR/deposit.xdmf: the height map spray.h5:/deposit/height on a co-rectilinear mesh one node thick in the target
+ * plane z = standoff, whose nodes are the cells' centres (ParaView: the Surface representation coloured by height, or
+ * Warp By Scalar for the relief).  A 2DCoRectMesh would do, but ParaView's readers lay it in the y-z plane. */
+static int write_deposit_xdmf(const struct spray_run *run, const struct dem_deposit *d)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/deposit.xdmf", run->ctx->run_dir);
+    struct atomic_file out;
+    SC_TRY(atomic_open(path, &out));
+    fprintf(
+        out.stream,
+        "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+        "  <Grid Name=\"deposit\" GridType=\"Uniform\">\n"
+        "   <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"1 %zu %zu\"/>\n"
+        "   <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+        "    <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">%.17g %.17g "
+        "%.17g</DataItem>\n"
+        "    <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">1 %.17g %.17g</DataItem>\n"
+        "   </Geometry>\n"
+        "   <Attribute Name=\"height\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+        "    <DataItem Dimensions=\"1 %zu %zu\" NumberType=\"Float\" Precision=\"8\" "
+        "Format=\"HDF\">spray.h5:/deposit/height</DataItem>\n"
+        "   </Attribute>\n  </Grid>\n </Domain>\n</Xdmf>\n",
+        d->ny, d->nx, run->cfg.standoff, d->y0, d->x0, d->cell, d->cell, d->ny, d->nx);
+    return atomic_publish(&out);
+}
+
+/* The deposit's index file and its figures in the log: the track's mean thickness and Gaussian fit. */
+static int deposit_summary(const struct spray_run *run)
+{
+    struct dem_deposit d;
+    SC_TRY(dem_deposit_build(run->solver, &d));
+    /* a fixed nozzle's deposit is spray_thickness's radial profile: no index file for it */
+    int status = run->cfg.path.pattern == DEM_PATH_NONE ? SC_OK : write_deposit_xdmf(run, &d);
+    if (d.profile_count)
+        log_info("spray: deposit: mean thickness %.4g m over the band y in [%.4g, %.4g] m (height map of %zu x %zu "
+                 "cells of %.3g m, packing %.3g)",
+                 d.mean_thickness, d.band_lo, d.band_hi, d.nx, d.ny, d.cell, d.packing);
+    if (d.has_fit)
+        log_info("spray: track profile: Gaussian fit amplitude %.4g +- %.2g m, width (sigma) %.4g +- %.2g m, centre "
+                 "y = %.5g +- %.2g m",
+                 d.fit.amplitude, d.fit.amplitude_error, d.fit.width, d.fit.width_error, d.fit.centre,
+                 d.fit.centre_error);
+    dem_deposit_free(&d);
+    return status;
+}
+
 /* Where the time loop's wall time went, by phase of the step (dem_get_timing), and its rate. */
 static void log_timing(const struct spray_run *run)
 {
@@ -287,6 +334,7 @@ static int run_stage(struct spray_run *run)
     SC_TRY(dem_check_accounting(run->solver));
     /* the index first: spray.h5 marks the stage done, so everything else must exist before it */
     SC_TRY(write_xdmf(run));
+    SC_TRY(deposit_summary(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints would only stop a changed case from running here */
     SC_TRY(h5_checkpoint_remove_all(run->ctx->run_dir, STAGE));

@@ -19,7 +19,8 @@
 #include "core/config.h"
 
 /* 3: impacts carry contact_index; resting particles (state 2) and their count; 4: particles, impacts and hand-offs
- * carry the temperature, /nozzle; /escapes and /deposition_efficiency, the escaped particles in the checkpoints */
+ * carry the temperature, /nozzle; /escapes and /deposition_efficiency, the escaped particles in the checkpoints;
+ * hand-offs carry the jet's axis (records and checkpoints), /deposit */
 #define DEM_FORMAT         "spraycoat-spray"
 #define DEM_FORMAT_VERSION 4
 
@@ -72,6 +73,7 @@ struct dem_gas_field {
     double shock_velocity_ratio;    /* u2/u1 = rho1/rho2 of the normal shock at M1 */
     double shock_density_ratio;     /* rho2/rho1: the gas density in the layer below the shock, over `density` */
     double shock_temperature_ratio; /* T2/T1 */
+    double axis_x, axis_y;          /* m: the jet's axis (the nozzle's position), set every step by the path */
 };
 
 /* Place the wall of the impinging jet at z = wall_z: the stagnation height H = stagnation_factor b(wall_z), b the
@@ -122,6 +124,27 @@ struct dem_contact_law {
     double friction_regularization; /* epsilon of Eq. (11), m/s */
 };
 
+/* [path]: the nozzle's motion in its exit plane (dem/path.c, docs/physics.md "A traversing nozzle"); the jet's
+ * axis and the injection disc follow it. */
+enum dem_path_pattern { DEM_PATH_NONE, DEM_PATH_LINE, DEM_PATH_RASTER, DEM_PATH_FILE };
+struct dem_path {
+    enum dem_path_pattern pattern;
+    double traverse_speed;   /* m/s */
+    double start_x, start_y; /* m: where the first pass starts */
+    double pass_length;      /* m: each pass runs along x */
+    double step_over;        /* m: raster: +y between passes */
+    long passes;             /* line: over the same line, back and forth; raster: rows */
+    size_t waypoint_count;   /* pattern = file: rows (t, x, y), t ascending from 0 */
+    double *waypoints;       /* owned by the configuration */
+    double map_cell;         /* m: the height map's cell side */
+    double packing;          /* volume fraction of the deposit: height = particle volume / (cell area packing) */
+};
+
+/* The nozzle's (x, y) at time t (m); none: the origin. */
+void dem_path_position(const struct dem_path *path, double t, double xy[2]);
+/* The time the path takes (s); none: 0. */
+double dem_path_duration(const struct dem_path *path);
+
 struct dem_config {
     uint32_t seed;
     int threads; /* 0: all cores */
@@ -164,6 +187,7 @@ struct dem_config {
      * temperatures of one diameter side by side.  0: the 1-D table v_crit(d). */
     size_t table_temperature_count;
     double *table_temperature;
+    struct dem_path path; /* [path] */
 };
 
 /* The keys of [spray] [powder] [target] [contact] [jet] [deposition] (NULL-key terminated). */
@@ -197,6 +221,7 @@ struct dem_handoff {
     double x[3], v[3], w[3];
     double d;
     double temperature; /* K: the particle's temperature (constant after the nozzle exit) */
+    double axis[2]; /* m: the jet's axis (the nozzle's x, y) at t, where the couple stage's flight centres the jet */
 };
 
 /* One row per particle that left the domain (spray.h5:/escapes). */
@@ -304,6 +329,39 @@ int dem_checkpoint_read(struct dem_solver *s, hid_t group);
 /* The spray.h5 contents (/particles, /impacts, /handoff, /metrics, /stats, /escapes, /deposition_efficiency)
  * into an open file. */
 int dem_write_output(const struct dem_solver *s, hid_t file);
+
+/* The deposit as a height map on the target (dem/deposit.c, spray.h5 /deposit, docs/physics.md "The deposit as a
+ * height map"): each deposited particle's volume goes to the square cell under its centre; height = volume /
+ * (cell area * packing). */
+struct dem_gaussian {
+    double amplitude, centre, width; /* h(y) = amplitude exp(-(y - centre)^2 / (2 width^2)): width is sigma (m) */
+    double amplitude_error, centre_error, width_error; /* standard errors from the residuals (least squares) */
+    double rms;                                        /* root mean square residual (m) */
+    int iterations;
+};
+/* Least-squares fit of the Gaussian to n >= 4 points (y_i, h_i) by Levenberg-Marquardt from the moments of h.
+ * SC_OK, or SC_ESIM when the points hold no peak (all h <= 0) or the fit does not converge. */
+int dem_gaussian_fit(const double *y, const double *h, size_t n, struct dem_gaussian *fit);
+
+struct dem_deposit {
+    size_t nx, ny;
+    double x0, y0, cell; /* the centre of cell (0, 0) and the cells' side (m) */
+    double packing;
+    const char *pattern; /* [path] pattern: "none", "line", "raster", "file" */
+    double *height;      /* ny rows of nx (row j at y0 + j cell), m */
+    double volume, mass; /* of the deposited particles (m3, kg) */
+    /* patterns line and raster: the height across the track (y), averaged over the cells whose centres lie in the
+     * middle half of the pass length (x); the mean of it over the band the nozzle disc swept; its Gaussian fit */
+    size_t profile_count;
+    double *profile_y, *profile_height;
+    double band_lo, band_hi, mean_thickness;
+    int has_fit; /* pattern line and the fit converged */
+    struct dem_gaussian fit;
+};
+int dem_deposit_build(const struct dem_solver *s, struct dem_deposit *deposit);
+void dem_deposit_free(struct dem_deposit *deposit);
+/* The group /deposit of spray.h5 (docs/files.md). */
+int dem_deposit_write(const struct dem_deposit *deposit, hid_t file);
 
 /* The particles at one time: spray.h5 /snapshots/NNNNNN (docs/files.md).  The spray stage takes one every
  * snapshot_every of simulated time and at the end, keeps them in memory and in its checkpoints (a resumed run

@@ -333,7 +333,8 @@ static inline int dem_escapes(const struct dem_solver *s, uint32_t i)
 {
     const double *x = s->p.x + 3 * i;
     const double escape_radius2 = s->cfg.domain_radius * s->cfg.domain_radius;
-    int outside = x[0] * x[0] + x[1] * x[1] > escape_radius2;
+    double dx = x[0] - s->cfg.gas.axis_x, dy = x[1] - s->cfg.gas.axis_y; /* from the jet's axis, which moves */
+    int outside = dx * dx + dy * dy > escape_radius2;
     int behind_nozzle = x[2] < 0.0 && s->p.v[3 * i + 2] < 0.0;
     return outside || behind_nozzle;
 }

@@ -142,7 +142,9 @@ FM_INLINE struct gas_local gas_eval_local(const struct dem_gas_field *gas, const
 FM_INLINE void gas_eval_velocity(const struct dem_gas_field *gas, const double pos[3], double u[3])
 {
     double jet[3];
-    gas_eval_wall(gas, pos, jet);
+    /* in the jet's frame: its axis is at the nozzle's (x, y), which a [path] moves */
+    const double local[3] = {pos[0] - gas->axis_x, pos[1] - gas->axis_y, pos[2]};
+    gas_eval_wall(gas, local, jet);
     int bickley = gas->model == DEM_JET_BICKLEY, uniform = gas->model == DEM_JET_UNIFORM;
     u[0] = fm_select(bickley, jet[0], 0.0);
     u[1] = fm_select(bickley, jet[1], 0.0);

@@ -71,8 +71,8 @@ static int place_in_disc(const struct dem_solver *s, int64_t id, double d, const
         double u[2];
         rng_uniform2(s->cfg.seed, RNG_STREAM_INJECT_POSITION, (uint64_t)id, attempt, 0, u);
         double r = usable_radius * sqrt(u[0]), angle = 2.0 * M_PI * u[1];
-        x[0] = r * cos(angle);
-        x[1] = r * sin(angle);
+        x[0] = s->cfg.gas.axis_x + r * cos(angle); /* the disc's centre: the nozzle's position now (dem_step) */
+        x[1] = s->cfg.gas.axis_y + r * sin(angle);
         x[2] = 0.0;
         if (!overlaps(&s->p, near, near_count, x, d))
             return 1;

@@ -980,7 +980,7 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
     const double escape_radius2 = cfg->domain_radius * cfg->domain_radius;
     uint8_t at_boundary[BLOCK];
     for (int l = 0; l < BLOCK; l++) {
-        double x = b->x[0][l], y = b->x[1][l], z = b->x[2][l];
+        double x = b->x[0][l] - cfg->gas.axis_x, y = b->x[1][l] - cfg->gas.axis_y, z = b->x[2][l];
         int crossed_handoff = (b->x0[2][l] < plane) & (z >= plane);
         int beyond_target = z > standoff - 0.5 * b->d[l];
         int escapes = (x * x + y * y > escape_radius2) | ((z < 0.0) & (b->v[2][l] < 0.0));

@@ -153,6 +153,7 @@ static int write_handoffs(hid_t file, const struct dem_solver *s)
     COLUMN(g, r, n, struct dem_handoff, w, 3, "rad/s", 0);
     COLUMN(g, r, n, struct dem_handoff, d, 1, "m", 0);
     COLUMN(g, r, n, struct dem_handoff, temperature, 1, "K", 0);
+    COLUMN(g, r, n, struct dem_handoff, axis, 2, "m", 0);
     SC_CHECK(status, h5_attr_write_double(g, "plane_z", s->cfg.standoff - s->cfg.handoff_height), done);
 done:
     H5Gclose(g);
@@ -339,6 +340,11 @@ int dem_write_output(const struct dem_solver *s, hid_t file)
     SC_TRY(write_stats(file, s));
     SC_TRY(write_escapes(file, s));
     SC_TRY(write_deposition_efficiency(file, s));
+    struct dem_deposit deposit;
+    SC_TRY(dem_deposit_build(s, &deposit));
+    int status = dem_deposit_write(&deposit, file);
+    dem_deposit_free(&deposit);
+    SC_TRY(status);
     return SC_OK;
 }
 

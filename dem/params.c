@@ -137,6 +137,26 @@ const struct cfg_key dem_case_keys[] = {
     {"deposition", "angle_class_width", CFG_REAL, "degree", "10", 0, 90, 1, NULL,
      "width of the classes of the first impact's angle to the target normal of the deposition efficiency's "
      "split by angle (spray.h5 /deposition_efficiency/by_angle)"},
+    /* [path] */
+    {"path", "pattern", CFG_CHOICE, "", "none", 0, 0, 0, "none|line|raster|file",
+     "the nozzle's motion: none (fixed at the origin), line (passes back and forth along +x), raster (passes along x "
+     "step_over apart in +y), file (waypoints)"},
+    {"path", "traverse_speed", CFG_REAL, "m/s", "0.2", 0, 100, 1, NULL,
+     "nozzle speed along the path, pattern = line or raster (far below the gas speed: the jet is quasi-steady)"},
+    {"path", "start_x", CFG_REAL, "m", "0", -100, 100, 0, NULL, "x where the first pass starts"},
+    {"path", "start_y", CFG_REAL, "m", "0", -100, 100, 0, NULL, "y where the first pass starts"},
+    {"path", "pass_length", CFG_REAL, "m", "0.02", 0, 100, 1, NULL, "length of a pass along x"},
+    {"path", "step_over", CFG_REAL, "m", "0.002", 0, 100, 0, NULL, "pattern = raster: distance in +y between passes"},
+    {"path", "passes", CFG_INT, "-", "1", 1, 1e6, 0, NULL,
+     "number of passes (line: over the same line, back and forth; raster: rows)"},
+    {"path", "waypoints", CFG_PATH, "", NULL, 0, 0, 0, NULL,
+     "pattern = file: CSV with header t,x,y (SI), t ascending from 0; the nozzle moves linearly between them"},
+    {"path", "map_cell", CFG_REAL, "m", "auto", 0, 1, 1, "auto",
+     "side of the cells of the deposit's height map (spray.h5 /deposit); auto: the larger of nozzle_radius / 8 "
+     "and the median diameter"},
+    {"path", "packing", CFG_REAL, "-", "1", 0, 1, 1, NULL,
+     "volume fraction of the deposit: height = particle volume / (cell area packing); 1: the volume-equivalent "
+     "thickness of a dense coating"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -635,6 +655,57 @@ static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
     return nozzle_release(c, cfg);
 }
 
+/* [path] waypoints: t ascending (strictly) from 0. */
+static int load_waypoints(const struct case_file *c, struct dem_path *path)
+{
+    static const struct csv_column columns[] = {
+        {"t", CSV_NUMBER, 0, 1e4, 0, "s", NULL},
+        {"x", CSV_NUMBER, -100, 100, 0, "m", NULL},
+        {"y", CSV_NUMBER, -100, 100, 0, "m", NULL},
+    };
+    if (!case_has(c, "path", "waypoints"))
+        return case_require(c, "path", "waypoints", "pattern = file");
+    char file[4096];
+    SC_TRY(case_path(c, "path", "waypoints", file, sizeof file));
+    SC_TRY(read_csv_columns(c, "path", "waypoints", file, columns, 3, 0, &path->waypoints, &path->waypoint_count));
+    if (path->waypoints[0] != 0.0)
+        return case_invalid(c, "path", "waypoints", "%s: data row 1: t = %g s; allowed: the first waypoint at t = 0",
+                            file, path->waypoints[0]);
+    for (size_t i = 1; i < path->waypoint_count; i++)
+        if (!(path->waypoints[3 * i] > path->waypoints[3 * (i - 1)]))
+            return case_invalid(
+                c, "path", "waypoints",
+                "%s: data row %zu: t = %g s not after the row before (%g s); allowed: t strictly ascending", file,
+                i + 1, path->waypoints[3 * i], path->waypoints[3 * (i - 1)]);
+    return SC_OK;
+}
+
+static int load_path(const struct case_file *c, struct dem_config *cfg)
+{
+    struct dem_path *path = &cfg->path;
+    path->pattern = case_is(c, "path", "pattern", "line")     ? DEM_PATH_LINE
+                    : case_is(c, "path", "pattern", "raster") ? DEM_PATH_RASTER
+                    : case_is(c, "path", "pattern", "file")   ? DEM_PATH_FILE
+                                                              : DEM_PATH_NONE;
+    path->traverse_speed = case_real(c, "path", "traverse_speed");
+    path->start_x = case_real(c, "path", "start_x");
+    path->start_y = case_real(c, "path", "start_y");
+    path->pass_length = case_real(c, "path", "pass_length");
+    path->step_over = case_real(c, "path", "step_over");
+    path->passes = case_int(c, "path", "passes");
+    path->packing = case_real(c, "path", "packing");
+    path->map_cell = case_is(c, "path", "map_cell", "auto") ? fmax(cfg->nozzle_radius / 8.0, cfg->sizes.median_diameter)
+                                                            : case_real(c, "path", "map_cell");
+    if (path->pattern == DEM_PATH_FILE)
+        SC_TRY(load_waypoints(c, path));
+    if (path->pattern == DEM_PATH_RASTER && path->passes > 1 && !(path->step_over > 0.0))
+        return case_invalid(c, "path", "step_over",
+                            "0 m with %ld passes: the passes would lie on each other (use "
+                            "pattern = line for that)",
+                            path->passes);
+    return SC_OK;
+}
+
 static int load_all(const struct case_file *c, struct dem_config *cfg)
 {
     struct run_settings run;
@@ -658,6 +729,7 @@ static int load_all(const struct case_file *c, struct dem_config *cfg)
     }
     SC_TRY(load_deposition(c, cfg));
     SC_TRY(load_nozzle(c, cfg));
+    SC_TRY(load_path(c, cfg));
     return SC_OK;
 }
 
@@ -681,4 +753,7 @@ void dem_config_free(struct dem_config *cfg)
     free(cfg->table_temperature);
     cfg->file_particles = cfg->table_diameter = cfg->table_velocity = cfg->table_temperature = NULL;
     cfg->file_particle_count = cfg->table_count = cfg->table_temperature_count = 0;
+    free(cfg->path.waypoints);
+    cfg->path.waypoints = NULL;
+    cfg->path.waypoint_count = 0;
 }

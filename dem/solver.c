@@ -79,6 +79,7 @@ static void record_handoff(struct dem_solver *s, size_t i, double plane)
     }
     row->d = p->d[i];
     row->temperature = p->temperature[i];
+    dem_path_position(&s->cfg.path, row->t, row->axis);
 }
 
 /* Particle i leaves the domain: its mass stays in the sprayed mass of the deposition efficiency
@@ -158,6 +159,12 @@ int dem_step(struct dem_solver *s)
 {
     struct dem_timing *timing = &s->timing;
     double mark = omp_get_wtime();
+    /* the nozzle, and with it the jet's axis, where the path has it at the step's start: the jet is quasi-steady
+     * (docs/physics.md "A traversing nozzle") */
+    double nozzle[2];
+    dem_path_position(&s->cfg.path, (double)s->step * s->cfg.dt, nozzle);
+    s->cfg.gas.axis_x = nozzle[0];
+    s->cfg.gas.axis_y = nozzle[1];
     dem_inject(s);
     time_phase(&timing->injection, &mark);
     SC_TRY(dem_collide(s));

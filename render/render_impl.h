@@ -110,6 +110,9 @@ size_t render_first_contacts(const double *t, const double *particle_id, size_t 
  * phi is 1/phi thicker).  Returns bins, or 0 when nothing is deposited. */
 int render_thickness_profile(const double *x, const double *d, const double *state, size_t n, int bins, double *r_left,
                              double *thickness, double *width);
+/* spray.h5 /deposit (open as `file`, named `path` in messages): the height map picture and, for a line or raster
+ * path, the track's profile with its fit (render/deposit_figures.c); nothing for a fixed nozzle (pattern none). */
+int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 

@@ -715,6 +715,8 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     hid_t file;
     SC_TRY(render_open(s.path, &file));
     int status = spray_data_read(file, &s);
+    if (status == SC_OK)
+        status = render_deposit_figures(req, file, s.path, out);
     H5Fclose(file);
     SC_CHECK(status, status, done); /* the read's status, the file closed */
     SC_CHECK(status, diameter_figure(req, &s, out), done);

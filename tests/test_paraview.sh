@@ -10,6 +10,8 @@
 # Surface and Points representations draw nothing), the time steps are the snapshots (values and count), and
 # the point arrays are the group's datasets other than x.  spray.xdmf is the time series of spray.h5
 # /snapshots/NNNNNN (snapshot_every), or the final /particles without time when the run took no snapshots.
+# deposit.xdmf of a traversing spray (cases/traverse_demo.ini) is the height map /deposit/height: one node a
+# cell, (ny - 1)(nx - 1) quads between them, the one array `height`, no time.
 #
 # Without ParaView's Python prints SKIP and the reason.  VisIt is not packaged in Debian 12 (no test).
 # `tests/test_paraview.sh RUN_DIR...` checks those run folders instead of making new ones.
@@ -65,7 +67,11 @@ else
         echo "FAIL paraview_pipeline_run ($(tail -n 3 "$T/pipeline.log" | tr '\n' ' '))"
         exit 1
     fi
-    dirs="$T/impact $T/removing $T/pipeline"
+    if ! "$BIN" spray cases/traverse_demo.ini -o "$T/traverse" >"$T/traverse.log" 2>&1; then
+        echo "FAIL paraview_traverse_run ($(tail -n 3 "$T/traverse.log" | tr '\n' ' '))"
+        exit 1
+    fi
+    dirs="$T/impact $T/removing $T/pipeline $T/traverse"
 fi
 
 cat >"$T/check.py" <<'EOF'
@@ -87,13 +93,46 @@ def attribute_t(h5, group):
     m = re.search(r"\(0\): (\S+)", out)
     return float(m.group(1)) if m else None
 
+def deposit_shape(h5):
+    """(ny, nx) of spray.h5:/deposit/height."""
+    out = subprocess.run(["h5ls", h5 + "/deposit/height"], capture_output=True, text=True, check=True).stdout
+    m = re.search(r"Dataset \{(\d+), (\d+)\}", out)
+    return int(m.group(1)), int(m.group(2))
+
+def expected_cells(xdmf, points):
+    """Cells ParaView must make: one vertex a point, but for deposit.xdmf (a mesh of quads between the nodes)."""
+    folder, name = os.path.split(xdmf)
+    if name != "deposit.xdmf":
+        return points
+    ny, nx = deposit_shape(os.path.join(folder, "spray.h5"))
+    return (ny - 1) * (nx - 1)
+
+def values(h5, dataset):
+    """Every number of a 1-D dataset."""
+    out = subprocess.run(["h5dump", "-d", dataset, "-m", "%.17g", h5], capture_output=True, text=True).stdout
+    data = out.split("DATA {", 1)[1].split("}", 1)[0]
+    return [float(v) for v in re.findall(r"(?<=[\s,:])(-?[0-9][0-9.eE+-]*)(?=,|\s|$)", re.sub(r"\(\d+\):", ":", data))]
+
+def deposit_bounds_problem(xdmf, bounds):
+    """deposit.xdmf must lie in the target plane with x and y those of /deposit/x and /deposit/y (a 2-D mesh went
+    to ParaView's y-z plane)."""
+    h5 = os.path.join(os.path.dirname(xdmf), "spray.h5")
+    x, y = values(h5, "/deposit/x"), values(h5, "/deposit/y")
+    want = (x[0], x[-1], y[0], y[-1])
+    if any(abs(g - w) > 1e-9 * max(1.0, abs(w)) for g, w in zip(bounds[:4], want)) or bounds[4] != bounds[5]:
+        return "bounds %s, expected x %g..%g, y %g..%g in one z plane" % (bounds, *want)
+    return None
+
 def expected(xdmf):
     """[(time or None, points, array names)] from the HDF5 file the XDMF file indexes."""
     folder, name = os.path.split(xdmf)
+    if name == "deposit.xdmf":  # the height map: one node a cell of /deposit/height, no time
+        ny, nx = deposit_shape(os.path.join(folder, "spray.h5"))
+        return [(None, ny * nx, ["height"])]
     h5 = os.path.join(folder, "spray.h5" if name == "spray.xdmf" else "impact.h5")
     sets = datasets(h5)
     m = re.match(r"impact_run_(\d+)\.xdmf$", name)
-    if name == "spray.xdmf" and not any(p.startswith("/snapshots/") for p in sets):
+    if name == "spray.xdmf" and not any(re.match(r"/snapshots/\d{6}/", p) for p in sets):
         # snapshot_every = 0: the final particles, no time
         names = sorted(p.split("/")[-1] for p in sets if p.startswith("/particles/") and p != "/particles/x")
         return [(None, sets["/particles/x"], names)]
@@ -151,8 +190,12 @@ for folder in sys.argv[1:]:
                 got_names = sorted(reader.PointData.keys())
                 if got_points != points:
                     problems.append("step %d: %d points, the HDF5 file %d" % (k, got_points, points))
-                if got_cells != points:
-                    problems.append("step %d: %d cells, %d points" % (k, got_cells, points))
+                if got_cells != expected_cells(xdmf, points):
+                    problems.append("step %d: %d cells, expected %d" % (k, got_cells, expected_cells(xdmf, points)))
+                if os.path.basename(xdmf) == "deposit.xdmf":
+                    problem = deposit_bounds_problem(xdmf, info.GetBounds())
+                    if problem:
+                        problems.append(problem)
                 if got_names != names:
                     problems.append("step %d: arrays %s, the HDF5 datasets %s" % (k, got_names, names))
             report(not problems, tag, "; ".join(problems[:4]))
