@@ -125,7 +125,7 @@ static int write_output(struct spray_run *run)
     return SC_OK;
 }
 
-/* The fields of a particle grid in spray.h5 at `where`: v, d, id, state (and w, m for /particles). */
+/* The fields of a particle grid in spray.h5 at `where`: v, d, id, state (and w, m, temperature for /particles). */
 static void xdmf_particle_fields(FILE *file, const char *indent, size_t n, const char *where, int final)
 {
     xdmf_geometry(file, indent, n, where);
@@ -133,8 +133,10 @@ static void xdmf_particle_fields(FILE *file, const char *indent, size_t n, const
     if (final)
         xdmf_attribute(file, indent, "w", XDMF_VECTOR, n, where);
     xdmf_attribute(file, indent, "d", XDMF_SCALAR, n, where);
-    if (final)
+    if (final) {
         xdmf_attribute(file, indent, "m", XDMF_SCALAR, n, where);
+        xdmf_attribute(file, indent, "temperature", XDMF_SCALAR, n, where);
+    }
     xdmf_attribute(file, indent, "id", XDMF_INTEGER, n, where);
     xdmf_attribute(file, indent, "state", XDMF_INTEGER, n, where);
 }
