@@ -73,6 +73,8 @@ struct mpm_gpu_step_out {
 
 /* 1 in a build with the GPU step. */
 int mpm_gpu_built(void);
+/* 0 when a device this build runs on is there, else -1 with the reason in mpm_gpu_message(). */
+int mpm_gpu_probe(void);
 /* Make the device state for `setup` on the first device; 0, or -1 with the reason in mpm_gpu_message() (no
  * device, no memory). */
 int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **out);

@@ -7,6 +7,10 @@ int mpm_gpu_built(void)
 {
     return 0;
 }
+int mpm_gpu_probe(void)
+{
+    return -1;
+}
 int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **out)
 {
     (void)setup;

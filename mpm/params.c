@@ -248,8 +248,8 @@ static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
     return add_body(cfg, &body);
 }
 
-/* [run] device = gpu: a build with the GPU step (make CUDA=1), which has trilinear shape functions only.  Whether a
- * device is there is asked when the solver is made (mpm_create). */
+/* [run] device = gpu: a build with the GPU step (make CUDA=1), a device it runs on, and trilinear shape functions
+ * (the GPU step has no others). */
 static int load_device(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->device = case_is(c, "run", "device", "gpu") ? MPM_DEVICE_GPU : MPM_DEVICE_CPU;
@@ -259,6 +259,8 @@ static int load_device(const struct case_file *c, struct mpm_config *cfg)
         return case_invalid(c, "run", "device",
                             "this spraycoat was built without the GPU step; allowed: cpu, or gpu with a build of "
                             "make CUDA=1 (docs/gpu.md)");
+    if (mpm_gpu_probe() != 0)
+        return case_invalid(c, "run", "device", "%s", mpm_gpu_message());
     if (cfg->shape_function != MPM_LINEAR)
         return case_invalid(c, "run", "device",
                             "the GPU step has trilinear shape functions only; allowed: cpu, or gpu with [impact] "

@@ -29,6 +29,7 @@
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "mpm/bonding_law.h"
@@ -769,23 +770,37 @@ static int copy_tables(struct mpm_gpu *g, const struct mpm_gpu_setup *setup)
     return 0;
 }
 
-static int choose_device(struct mpm_gpu *g)
+/* The device of this process, if there is one this build runs on; its description into name.  Under mpirun (or
+ * srun) the processes of a node take the node's devices in turn, by their local rank: one rank per GPU
+ * (CUDA_VISIBLE_DEVICES narrows the choice as usual). */
+static int choose_device(char *name, size_t size)
 {
     int count = 0;
     cudaError_t status = cudaGetDeviceCount(&count);
     if (status != cudaSuccess || count == 0)
         return fail("no CUDA device found (%s); allowed: cpu on this machine",
                     status != cudaSuccess ? cudaGetErrorString(status) : "none present");
+    const char *local = getenv("OMPI_COMM_WORLD_LOCAL_RANK");
+    if (!local)
+        local = getenv("SLURM_LOCALID");
+    int device = local ? atoi(local) % count : 0;
+    device = device < 0 ? 0 : device;
     cudaDeviceProp prop;
-    CU(cudaSetDevice(0));
-    CU(cudaGetDeviceProperties(&prop, 0));
+    CU(cudaSetDevice(device));
+    CU(cudaGetDeviceProperties(&prop, device));
     if (prop.major < 9)
-        return fail("device 0, %s, has compute capability %d.%d; this build's step is for sm_90 or later (make "
-                    "CUDA=1 CUDA_ARCH=sm_%d%d)",
-                    prop.name, prop.major, prop.minor, prop.major, prop.minor);
-    snprintf(g->name, sizeof g->name, "GPU 0: %s, %.0f GiB, compute capability %d.%d", prop.name,
+        return fail("device %d, %s, has compute capability %d.%d; this build's step is for sm_90 or later (make "
+                    "CUDA=1 CUDA_ARCH=sm_%d%d); allowed: cpu on this machine",
+                    device, prop.name, prop.major, prop.minor, prop.major, prop.minor);
+    snprintf(name, size, "GPU %d of %d: %s, %.0f GiB, compute capability %d.%d", device, count, prop.name,
              (double)prop.totalGlobalMem / (1 << 30), prop.major, prop.minor);
     return 0;
+}
+
+extern "C" int mpm_gpu_probe(void)
+{
+    char name[320];
+    return choose_device(name, sizeof name);
 }
 
 extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **out)
@@ -808,7 +823,7 @@ extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **
         free(g);
         return fail("%zu points and %zu nodes: the GPU step indexes both with 32 bits", setup->points, nodes);
     }
-    if (choose_device(g) != 0 || copy_tables(g, setup) != 0 || allocate(g) != 0) {
+    if (choose_device(g->name, sizeof g->name) != 0 || copy_tables(g, setup) != 0 || allocate(g) != 0) {
         mpm_gpu_close(g);
         return -1;
     }
