@@ -2,6 +2,17 @@
 # Sources are discovered by folder: add a .c file to core/, dem/, mpm/, render/, coupling/ or app/ and it is built;
 # add tests/test_NAME.c and it becomes a test program; tests/test_NAME.sh is a shell test.
 
+# `make CUDA=1`: the impact stage's step on an NVIDIA GPU as well (mpm/cuda/*.cu, nvcc, FP64, CUDA_ARCH), in
+# build-cuda/ by default; `[run] device = gpu` or `--device gpu` picks it at run time (docs/gpu.md).  Without
+# CUDA=1 nothing of it is built and mpm/gpu_stub.c answers that the build has no GPU step.
+CUDA      ?= 0
+NVCC      ?= $(or $(shell command -v nvcc 2>/dev/null),/usr/local/cuda/bin/nvcc)
+CUDA_ARCH ?= sm_90
+ifeq ($(CUDA),1)
+BUILD     ?= build-cuda
+CPPFLAGS  += -DSPRAYCOAT_CUDA
+endif
+
 # `make MPI=1`: the OpenMPI build (mpicc, HDF5's OpenMPI flavour, SPRAYCOAT_MPI), in build-mpi/ by default.
 MPI      ?= 0
 ifeq ($(MPI),1)
@@ -34,6 +45,16 @@ LDFLAGS  += -fopenmp
 
 LIB_SRC  := $(wildcard core/*.c dem/*.c mpm/*.c render/*.c coupling/*.c) $(filter-out app/main.c,$(wildcard app/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
+# --fmad=false: no fused multiply-adds, as -ffp-contract=off on the host (docs/gpu.md, "Bits"); static cudart: the
+# binary needs only the driver (libcuda) where it runs.
+ifeq ($(CUDA),1)
+CUDA_HOME := $(patsubst %/bin/nvcc,%,$(NVCC))
+CUDA_SRC  := $(wildcard mpm/cuda/*.cu)
+LIB_OBJ   += $(CUDA_SRC:%.cu=$(BUILD)/%.o)
+NVCCFLAGS := -std=c++17 -O3 -g -arch=$(CUDA_ARCH) --fmad=false -Werror all-warnings -Xcompiler -Wall,-Wextra \
+             -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
+LDLIBS    += -L$(CUDA_HOME)/lib64 -lcudart_static -lrt -lpthread -lstdc++
+endif
 MAIN_OBJ := $(BUILD)/app/main.o
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
@@ -105,7 +126,7 @@ endif
 
 # The build record of every output's /code group (core/version.c): the flags every file is compiled with
 # (CPPFLAGS without its -I paths, CFLAGS) and the per-file additions of the program.
-BUILD_FLAGS := $(strip $(filter-out -I%,$(CPPFLAGS)) $(CFLAGS))
+BUILD_FLAGS := $(strip $(filter-out -I%,$(CPPFLAGS)) $(CFLAGS))$(if $(filter 1,$(CUDA)), | nvcc $(NVCCFLAGS))
 FILE_FLAGS  := dem/integrate.c: $(INTEGRATE_CFLAGS); mpm/stress_update.c: $(STRESS_UPDATE_CFLAGS)$(ISA_FILE_FLAGS)
 # TEXT as the contents of a C string literal inside a shell word in single quotes
 c_string = $(subst ','\'',$(subst ",\",$(subst \,\\,$(1))))
@@ -113,6 +134,10 @@ c_string = $(subst ','\'',$(subst ",\",$(subst \,\\,$(1))))
 $(BUILD)/%.o: %.c $(BUILD)/flags.stamp
 	@mkdir -p $(dir $@)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/mpm/cuda/%.o: mpm/cuda/%.cu $(BUILD)/flags.stamp
+	@mkdir -p $(dir $@)
+	$(NVCC) $(filter -I% -D%,$(CPPFLAGS)) $(NVCCFLAGS) -MMD -MP -c $< -o $@
 
 # Only core/version.c sees the version and the flags; it is rebuilt when `git describe` changes, and every
 # object is rebuilt when the compiler or the flags change (so that /code tells how each object was built).
@@ -214,7 +239,7 @@ format-check:
 	@clang-format --dry-run -Werror $(C_FILES) && echo "format-check: $(words $(C_FILES)) C files formatted"
 
 clean:
-	rm -rf build build-asan build-bench build-mpi build-fuzz
+	rm -rf build build-asan build-bench build-mpi build-fuzz build-cuda
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
 -include $(shell find $(FUZZ_BUILD) -name '*.d' 2>/dev/null)

@@ -47,6 +47,7 @@ static const char usage[] =
     "options:\n"
     "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
     "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+    "  --device D      where the impact step runs: cpu or gpu (overrides [run] device; gpu: make CUDA=1)\n"
     "  --stages LIST   run: comma-separated stages to run (spray,couple,impact,render)\n"
     "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n"
     "exit status: 0 done, 1 simulation failed, 2 bad command line or case file, 3 I/O error,\n"
@@ -108,6 +109,8 @@ static const struct command_help command_helps[] = {
 static const char command_options[] = "options:\n"
                                       "  -o RUN_DIR      run directory (default runs/CASE_NAME)\n"
                                       "  --threads N     OpenMP threads (overrides [run] threads; 0 = all cores)\n"
+                                      "  --device D      where the impact step runs: cpu or gpu (overrides [run] "
+                                      "device)\n"
                                       "  -v, --verbose   debug messages;  -q, --quiet   warnings and errors only\n";
 
 /* The help of `name` on stdout; SC_EINPUT for an unknown command. */
@@ -134,7 +137,8 @@ struct options {
     const char *run_dir;
     const char *threads;
     const char *stages;
-    const char *every; /* render: --every N */
+    const char *every;  /* render: --every N */
+    const char *device; /* --device cpu|gpu */
 };
 
 static int parse_arguments(int argc, char **argv, struct options *opt)
@@ -142,7 +146,7 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         if (strcmp(arg, "-o") == 0 || strcmp(arg, "--threads") == 0 || strcmp(arg, "--stages") == 0 ||
-            strcmp(arg, "--every") == 0) {
+            strcmp(arg, "--every") == 0 || strcmp(arg, "--device") == 0) {
             if (i + 1 >= argc)
                 SC_FAIL(SC_EINPUT, "option %s needs a value", arg);
             if (arg[1] == 'o')
@@ -151,6 +155,8 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
                 opt->threads = argv[++i];
             else if (strcmp(arg, "--every") == 0)
                 opt->every = argv[++i];
+            else if (strcmp(arg, "--device") == 0)
+                opt->device = argv[++i];
             else
                 opt->stages = argv[++i];
         } else if (strcmp(arg, "-v") == 0 || strcmp(arg, "--verbose") == 0) {
@@ -205,8 +211,10 @@ static int load_case(const char *path, const struct options *opt, struct case_fi
         loaded = report_every_error(every_error);
     free(every_error);
     SC_TRY(loaded);
-    if (opt->threads || opt->every) {
+    if (opt->threads || opt->every || opt->device) {
         int status = opt->threads ? case_set(*c, "run", "threads", opt->threads, "command line --threads") : SC_OK;
+        if (status == SC_OK && opt->device)
+            status = case_set(*c, "run", "device", opt->device, "command line --device");
         if (status == SC_OK && opt->every)
             status = case_set(*c, "render", "every", opt->every, "command line --every");
         if (status != SC_OK) {
@@ -478,7 +486,8 @@ static int command_resume(const struct options *opt)
 static const char *command_word(int argc, char **argv)
 {
     for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "-o") == 0 || strcmp(argv[i], "--threads") == 0 || strcmp(argv[i], "--stages") == 0)
+        if (strcmp(argv[i], "-o") == 0 || strcmp(argv[i], "--threads") == 0 || strcmp(argv[i], "--stages") == 0 ||
+            strcmp(argv[i], "--device") == 0)
             i++;
         else if (argv[i][0] != '-')
             return argv[i];

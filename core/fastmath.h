@@ -18,8 +18,15 @@
 #include <string.h>
 
 /* Inlined whatever the compiler's size limits: the loops over particles that call these vectorise only when
- * nothing in them is a call. */
+ * nothing in them is a call.  Under nvcc (make CUDA=1, mpm/cuda/) for the host and the device alike: the GPU's
+ * stress update calls the very functions of the CPU's (SC_HD marks the others it shares, docs/gpu.md). */
+#ifdef __CUDACC__
+#define SC_HD     __host__ __device__
+#define FM_INLINE static __host__ __device__ __forceinline__
+#else
+#define SC_HD
 #define FM_INLINE static inline __attribute__((always_inline))
+#endif
 
 /* ln 2 split so that n * FM_LN2_HI is exact for |n| < 2^11 (fdlibm's split). */
 #define FM_LN2_HI 6.93147180369123816490e-01

@@ -26,7 +26,11 @@ FM_INLINE double fm_expm1(double x)
 
 /* The loops over coefficients unrolled: a loop left inside the caller's loop over lanes keeps that from being
  * vectorised (gcc unrolls only short loops by itself). */
-#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__CUDA_ARCH__)
+#define FM_UNROLL _Pragma("unroll")
+#elif defined(__CUDACC__) /* nvcc's host pass: its front end knows no GCC pragma, and the CPU never runs it */
+#define FM_UNROLL
+#elif defined(__GNUC__) && !defined(__clang__)
 #define FM_UNROLL _Pragma("GCC unroll 32")
 #else
 #define FM_UNROLL
@@ -43,35 +47,47 @@ FM_INLINE double fm_expm1(double x)
 
 /* 2/sqrt(pi) (-1)^n / (n! (2n + 1)), n = 0..16: the Maclaurin series of erf in x^2 (remainder below 1e-18 of
  * erf(x) at |x| < 0.75). */
-static const double fm_erf_series[FM_ERF_SERIES_TERMS] = {
-    1.1283791670955126,     -0.37612638903183754,    0.11283791670955126,    -0.026866170645131252,
-    0.0052239776254421879,  -0.00085483270234508522, 0.00012055332981789664, -1.492565035840625e-05,
-    1.6462114365889246e-06, -1.6365844691234924e-07, 1.4807192815879218e-08, -1.2290555301717926e-09,
-    9.4227590646504113e-11, -6.7113668551641105e-12, 4.4632242632864775e-13, -2.7835162072109212e-14,
-    1.6342614095367152e-15,
-};
+#define FM_ERF_SERIES_VALUES                                                                                           \
+    1.1283791670955126, -0.37612638903183754, 0.11283791670955126, -0.026866170645131252, 0.0052239776254421879,       \
+        -0.00085483270234508522, 0.00012055332981789664, -1.492565035840625e-05, 1.6462114365889246e-06,               \
+        -1.6365844691234924e-07, 1.4807192815879218e-08, -1.2290555301717926e-09, 9.4227590646504113e-11,              \
+        -6.7113668551641105e-12, 4.4632242632864775e-13, -2.7835162072109212e-14, 1.6342614095367152e-15
+static const double fm_erf_series[FM_ERF_SERIES_TERMS] = {FM_ERF_SERIES_VALUES};
+#ifdef __CUDACC__ /* the device pass reads its own copy (a __device__ array is not the host's) */
+static __device__ const double fm_erf_series_device[FM_ERF_SERIES_TERMS] = {FM_ERF_SERIES_VALUES};
+#endif
 
 /* Chebyshev coefficients (the first halved) of g(y) = e^(t^2) erfc(t) (1 + 2 t), y = (t - 2)/(t + 2), over
  * t in [0.75, 6] (Weideman's map: g is smooth and slowly varying in y). */
-static const double fm_erf_chebyshev[FM_ERF_CHEBYSHEV_TERMS] = {
-    1.2560913329761065,      -0.034887012263731865,   -0.019036297344327845,   0.0042725941695178713,
-    -0.00033829425069461594, -1.0024443962655238e-05, 3.0415530737095114e-06,  7.1944874445971363e-08,
-    -2.9640945364839411e-08, -1.6037027964280193e-09, 2.781292245124245e-10,   3.4641419940917295e-11,
-    -1.384612910437788e-12,  -5.7435024618246455e-13, -2.8174077654208318e-14, 6.0764110756950096e-15,
-    4.2500725161431774e-16,  -6.5052130349130266e-19,
-};
+#define FM_ERF_CHEBYSHEV_VALUES                                                                                        \
+    1.2560913329761065, -0.034887012263731865, -0.019036297344327845, 0.0042725941695178713, -0.00033829425069461594,  \
+        -1.0024443962655238e-05, 3.0415530737095114e-06, 7.1944874445971363e-08, -2.9640945364839411e-08,              \
+        -1.6037027964280193e-09, 2.781292245124245e-10, 3.4641419940917295e-11, -1.384612910437788e-12,                \
+        -5.7435024618246455e-13, -2.8174077654208318e-14, 6.0764110756950096e-15, 4.2500725161431774e-16,              \
+        -6.5052130349130266e-19
+static const double fm_erf_chebyshev[FM_ERF_CHEBYSHEV_TERMS] = {FM_ERF_CHEBYSHEV_VALUES};
+#ifdef __CUDACC__ /* the device pass reads its own copy (a __device__ array is not the host's) */
+static __device__ const double fm_erf_chebyshev_device[FM_ERF_CHEBYSHEV_TERMS] = {FM_ERF_CHEBYSHEV_VALUES};
+#endif
 
 /* erf(x), given gauss = fm_exp(-x * x) (the caller usually needs it too: d erf/dx = 2/sqrt(pi) e^(-x^2)).
  * |x| < 0.75: x times the Maclaurin series in x^2.  |x| >= 0.75: 1 - erfc(|x|) with the sign of x, erfc(t) =
  * e^(-t^2) g(y) / (1 + 2 t); t is held at 6 in g, where erfc < 2e-17 no longer changes the result.  Both are
  * evaluated and one is selected. */
+#ifdef __CUDA_ARCH__
+#define FM_ERF_SERIES    fm_erf_series_device
+#define FM_ERF_CHEBYSHEV fm_erf_chebyshev_device
+#else
+#define FM_ERF_SERIES    fm_erf_series
+#define FM_ERF_CHEBYSHEV fm_erf_chebyshev
+#endif
 FM_INLINE double fm_erf_from_gauss(double x, double gauss)
 {
     double x2 = x * x;
-    double series = fm_erf_series[FM_ERF_SERIES_TERMS - 1];
+    double series = FM_ERF_SERIES[FM_ERF_SERIES_TERMS - 1];
     FM_UNROLL
     for (int k = FM_ERF_SERIES_TERMS - 2; k >= 0; k--)
-        series = series * x2 + fm_erf_series[k];
+        series = series * x2 + FM_ERF_SERIES[k];
     double near_zero = x * series;
 
     uint64_t sign = fm_to_bits(x) & 0x8000000000000000ull;
@@ -84,11 +100,11 @@ FM_INLINE double fm_erf_from_gauss(double x, double gauss)
     double b1 = 0.0, b2 = 0.0;
     FM_UNROLL
     for (int k = FM_ERF_CHEBYSHEV_TERMS - 1; k >= 1; k--) {
-        double b0 = fm_erf_chebyshev[k] + two_z * b1 - b2;
+        double b0 = FM_ERF_CHEBYSHEV[k] + two_z * b1 - b2;
         b2 = b1;
         b1 = b0;
     }
-    double g = fm_erf_chebyshev[0] + z * b1 - b2;
+    double g = FM_ERF_CHEBYSHEV[0] + z * b1 - b2;
     double erfc = gauss * g / (1.0 + 2.0 * t_held);
     double tail = fm_from_bits(fm_to_bits(1.0 - erfc) | sign);
     return fm_select(t < FM_ERF_SPLIT, near_zero, tail);

@@ -9,6 +9,8 @@ const struct cfg_key run_case_keys[] = {
     {"run", "checkpoint_steps", CFG_INT, "-", "0", 0, 2147483647, CFG_NOT_HASHED, NULL,
      "steps between checkpoints, 0 = off"},
     {"run", "keep_checkpoints", CFG_INT, "-", "3", 1, 1000, CFG_NOT_HASHED, NULL, "newest checkpoints kept per stage"},
+    {"run", "device", CFG_CHOICE, "", "cpu", 0, 0, CFG_NOT_HASHED, "cpu|gpu",
+     "where the impact step runs: cpu, or gpu (an NVIDIA GPU in FP64; a build with make CUDA=1, docs/gpu.md)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -19,4 +21,5 @@ void run_settings_load(const struct case_file *c, struct run_settings *run)
     run->checkpoint_wall = case_real(c, "run", "checkpoint_wall");
     run->checkpoint_steps = case_int(c, "run", "checkpoint_steps");
     run->keep_checkpoints = (int)case_int(c, "run", "keep_checkpoints");
+    run->gpu = case_is(c, "run", "device", "gpu");
 }

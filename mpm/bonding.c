@@ -3,8 +3,7 @@
  * parameter D_bond of a surface point in contact
  * with another body grows with its plastic deformation; nodes where the bodies' average D_bond reaches 1 stick
  * the bodies together, also while they separate (contact.c).  D_bond never decreases. */
-#include <math.h>
-
+#include "mpm/bonding_law.h"
 #include "mpm/mpm_impl.h"
 
 /* The rate factor of Eqs. 4.4 and 4.16b, 1 - ln r for the rate ratio r, held at or above `floor`.  As printed,
@@ -14,36 +13,21 @@
  * continuous, increasing in r, and at most the increment over (critical value x floor). */
 double mpm_bonding_rate_factor(double r, double floor)
 {
-    double factor = 1.0 - log(r);
-    return factor > floor ? factor : floor; /* r = 0: +inf, dD = 0 */
+    return bonding_rate_factor(r, floor);
 }
 
 /* Energy model, Eqs. 4.16-4.17: dG_s = sigma_vm d eps_p DCell (DCell regularises the energy to the bonding
- * band's width), G_bond = G_c (1 - ln(dG_s / (dG_c/dt dt))) held at or above bonding_floor G_c, dD = dG_s / G_bond. */
-static double energy_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt)
-{
-    double dG = von_mises * eps_p_increment * cfg->grid;
-    if (!(dG > 0.0))
-        return 0.0;
-    return dG / (cfg->Gc * mpm_bonding_rate_factor(dG / (cfg->Gc_rate * dt), cfg->bonding_floor));
-}
-
-/* Strain model, Eqs. 4.3-4.5: dD = d eps_s / eps_bond, eps_bond = eps_c (1 - ln(eps_s_dot / eps_c_dot)) held at or
+ * band's width), G_bond = G_c (1 - ln(dG_s / (dG_c/dt dt))) held at or above bonding_floor G_c, dD = dG_s / G_bond.
+ * Strain model, Eqs. 4.3-4.5: dD = d eps_s / eps_bond, eps_bond = eps_c (1 - ln(eps_s_dot / eps_c_dot)) held at or
  * above bonding_floor eps_c.  The shear plastic strain increment is taken as the effective plastic strain
  * increment: with J2 plasticity the plastic flow is purely deviatoric (shear), and the thesis takes its magnitude,
- * not its direction. */
-static double strain_increment(const struct mpm_config *cfg, double eps_p_increment, double dt)
-{
-    if (!(eps_p_increment > 0.0))
-        return 0.0;
-    return eps_p_increment /
-           (cfg->eps_c * mpm_bonding_rate_factor(eps_p_increment / dt / cfg->eps_rate_c, cfg->bonding_floor));
-}
-
+ * not its direction.  (The laws in mpm/bonding_law.h, shared with the GPU step.) */
 double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt)
 {
-    return cfg->bonding == MPM_BONDING_ENERGY ? energy_increment(cfg, eps_p_increment, von_mises, dt)
-                                              : strain_increment(cfg, eps_p_increment, dt);
+    return cfg->bonding == MPM_BONDING_ENERGY
+               ? bonding_energy_increment(eps_p_increment, von_mises, dt, cfg->grid, cfg->Gc, cfg->Gc_rate,
+                                          cfg->bonding_floor)
+               : bonding_strain_increment(eps_p_increment, dt, cfg->eps_c, cfg->eps_rate_c, cfg->bonding_floor);
 }
 
 /* A surface point in contact with a bonding model on (bonding_update in mpm_impl.h). */

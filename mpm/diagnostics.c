@@ -230,6 +230,7 @@ void mpm_book_absorbed_energy(struct mpm_solver *s)
 
 int mpm_series_record(struct mpm_solver *s)
 {
+    SC_TRY(mpm_gpu_sync(s)); /* the points from the device ([run] device = gpu) */
     int nb = s->cfg.body_count;
     size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
     if (s->series_rows == s->series_capacity) {

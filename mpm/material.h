@@ -12,7 +12,10 @@
 #ifndef SPRAYCOAT_MPM_MATERIAL_H
 #define SPRAYCOAT_MPM_MATERIAL_H
 
-#include "mpm/mpm.h" /* struct mpm_bulk_viscosity */
+#include <math.h>
+
+#include "core/fastmath.h" /* SC_HD: the inline functions below run on the GPU too (mpm/cuda/) */
+#include "mpm/mpm.h"       /* struct mpm_bulk_viscosity */
 
 enum mpm_strength { MPM_STRENGTH_PTW, MPM_STRENGTH_ELASTIC };
 
@@ -58,12 +61,21 @@ struct ptw_flow {
 /* ---- melt.c ---- */
 /* SCG melt temperature (K) at density rho: Tm0 exp(2a(1 - 1/eta)) eta^(2(gamma0 - a - 1/3)), eta = rho/rho0. */
 double mpm_scg_melt_temperature(const struct mpm_material *m, double rho);
+/* Its body (melt.c has the notes), inline for the stress update on the host and the device. */
+SC_HD static inline double scg_melt_temperature(const struct mpm_material *m, double rho)
+{
+    if (!(rho > 0.0))
+        return 0.0;
+    double eta = rho / m->density;
+    double exponent = 2.0 * (m->eos_gamma0 - m->melt_a - 1.0 / 3.0);
+    return m->melt_T0 * exp(2.0 * m->melt_a * (1.0 - 1.0 / eta)) * pow(eta, exponent);
+}
 
 /* ---- eos.c ---- */
 /* The linear-in-energy form p = A(mu) + B(mu) E, E the internal energy per initial volume (J/m3),
  * mu = rho/rho0 - 1.  Compression and tension branches continuous in p and dp/dmu at mu = 0.  A and B (the
  * coefficients of mpm/eos.c) inline: the stress update evaluates them for every point and step. */
-static inline void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B)
+SC_HD static inline void eos_coefficients(const struct mpm_material *m, double rho, double *A, double *B)
 {
     double mu = rho / m->density - 1.0;
     double c1 = m->density * m->eos_c0 * m->eos_c0;

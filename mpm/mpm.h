@@ -82,7 +82,9 @@ struct mpm_config {
     int absorbing;           /* viscous absorbing boundaries on the substrate's bottom and sides */
     int fixed_bottom;        /* nodes at and below the substrate's bottom face cannot move vertically */
     double substrate_bottom; /* z of that face */
+    int device;              /* [run] device: MPM_DEVICE_CPU, or MPM_DEVICE_GPU (mpm/cuda/, docs/gpu.md) */
 };
+enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
 
 /* The keys of [impact] and [material.NAME] (NULL-key terminated). */
 extern const struct cfg_key mpm_case_keys[];

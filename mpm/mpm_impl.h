@@ -163,6 +163,7 @@ struct mpm_solver {
     /* scratch for diagnostics */
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
+    struct mpm_gpu *gpu; /* [run] device = gpu: the points on the device (mpm/gpu.h), else NULL */
 };
 
 #define SERIES_FIXED 4 /* t, energy_total, energy_absorbed, energy_removed */
@@ -369,5 +370,15 @@ void mpm_verdict_replay(struct mpm_solver *s);
 int mpm_series_record(struct mpm_solver *s);
 /* Work of the absorbing boundaries this step, on the start momenta (after mpm_contact_nodal_update). */
 void mpm_book_absorbed_energy(struct mpm_solver *s);
+
+/* gpu.c: the step on the GPU ([run] device = gpu; mpm/gpu.h).  attach makes the device state after set-up, reload
+ * copies the host's points to it (after a checkpoint), sync brings the host's copy up to date when it is older
+ * (before the host reads the points: series, snapshots, checkpoints, diagnostics; a no-op on the CPU). */
+struct mpm_gpu;
+int mpm_gpu_attach(struct mpm_solver *s);
+void mpm_gpu_detach(struct mpm_solver *s);
+int mpm_gpu_reload(struct mpm_solver *s);
+int mpm_gpu_sync(const struct mpm_solver *s);
+int mpm_gpu_step(struct mpm_solver *s);
 
 #endif

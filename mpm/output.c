@@ -74,6 +74,7 @@ static void gather(const struct mpm_points *p, enum field f, double *out)
 
 int mpm_write_snapshot(const struct mpm_solver *s, hid_t group)
 {
+    SC_TRY(mpm_gpu_sync(s)); /* the points from the device ([run] device = gpu) */
     static const struct {
         const char *name;
         enum field field;
@@ -312,6 +313,7 @@ static int write_point_bytes(hid_t g, const char *name, const struct mpm_points 
 
 int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
 {
+    SC_TRY(mpm_gpu_sync(s)); /* the points from the device ([run] device = gpu) */
     const struct mpm_points *p = &s->points;
     double scalars[CHECKPOINT_DOUBLES] = {s->t,
                                           s->dt,
@@ -390,6 +392,6 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     s->step = integers[0], s->snapshot_count = integers[1], s->snapshot_pending = (int)integers[2];
     s->removed_points = integers[3], s->point_updates = integers[4], s->contact_node_steps = integers[5];
     s->bonded_node_steps = integers[6];
-    mpm_verdict_replay(s); /* derived from the series read back */
-    return SC_OK;
+    mpm_verdict_replay(s);    /* derived from the series read back */
+    return mpm_gpu_reload(s); /* a checkpoint of either device, onto the GPU ([run] device = gpu) */
 }

@@ -9,6 +9,7 @@
 #include "core/csv.h"
 #include "core/error.h"
 #include "mpm/mpm.h"
+#include "mpm/gpu.h"
 #include "mpm/mpm_impl.h"
 
 #define MAT "material.*"
@@ -248,6 +249,26 @@ static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
     return add_body(cfg, &body);
 }
 
+/* [run] device = gpu: a build with the GPU step (make CUDA=1), a device it runs on, and trilinear shape functions
+ * (the GPU step has no others). */
+static int load_device(const struct case_file *c, struct mpm_config *cfg)
+{
+    cfg->device = case_is(c, "run", "device", "gpu") ? MPM_DEVICE_GPU : MPM_DEVICE_CPU;
+    if (cfg->device == MPM_DEVICE_CPU)
+        return SC_OK;
+    if (!mpm_gpu_built())
+        return case_invalid(c, "run", "device",
+                            "this spraycoat was built without the GPU step; allowed: cpu, or gpu with a build of "
+                            "make CUDA=1 (docs/gpu.md)");
+    if (mpm_gpu_probe() != 0)
+        return case_invalid(c, "run", "device", "%s", mpm_gpu_message());
+    if (cfg->shape_function != MPM_LINEAR)
+        return case_invalid(c, "run", "device",
+                            "the GPU step has trilinear shape functions only; allowed: cpu, or gpu with [impact] "
+                            "shape_functions = linear");
+    return SC_OK;
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -299,6 +320,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                             "more than 16 points per cell edge (DCell = %g m); allowed: "
                             "spacing >= DCell/16",
                             cfg->grid);
+    SC_TRY(load_device(c, cfg));
     return SC_OK;
 }
 

@@ -113,6 +113,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->snapshot_pending = 1;
     SC_TRY(mpm_series_record(s));
     SC_TRY(mpm_verdict_create(s));
+    if (cfg->device == MPM_DEVICE_GPU)
+        SC_TRY(mpm_gpu_attach(s));
     return SC_OK;
 }
 
@@ -139,6 +141,7 @@ void mpm_destroy(struct mpm_solver *s)
 {
     if (!s)
         return;
+    mpm_gpu_detach(s);
     mpm_points_free(&s->points);
     mpm_grid_free(&s->grid);
     mpm_config_free(&s->cfg);
@@ -717,6 +720,10 @@ static int advance_clocks(struct mpm_solver *s)
 
 int mpm_step(struct mpm_solver *s)
 {
+    if (s->gpu) { /* the same step on the device (mpm/gpu.c), the clocks here */
+        SC_TRY(mpm_gpu_step(s));
+        return advance_clocks(s);
+    }
     choose_time_step(s);
     mpm_grid_bin_points(s);
     if (s->step % REORDER_EVERY == 0) {

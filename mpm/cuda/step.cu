@@ -1,0 +1,993 @@
+/* The impact step on an NVIDIA GPU in FP64 (make CUDA=1; docs/gpu.md): thesis Section 3.4 steps 1-12 as
+ * mpm/solver.c does them, trilinear shape functions, with the points on the device for the whole run.
+ *
+ *   bin        each active point's stencil base node and fractions (Eq. 3.20), its key body * nodes + base node
+ *   sort       the point indices by key, a stable radix sort (CUB): within a cell the points stay in id order
+ *   ranges     each cell's run of sorted points
+ *   gather     particle-to-grid as a segmented reduction: a thread per node of a body's layer sums, in a fixed
+ *              order (the 8 cells whose stencils hold the node, then their points by id), mass, momentum, forces
+ *              (Eqs. 3.23-3.27), the volume gradient, the first mass moment and the bond sums (Eq. 4.6); no atomics,
+ *              so the same bits run to run
+ *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (the port of contact.c:
+ *              the same decisions, impulses and flags, a thread per node, its layers in order)
+ *   book       the dashpots' work (mpm_book_absorbed_energy)
+ *   g2p        grid-to-points (Eq. 3.32, FLIP/PIC), the escapes and the largest speed
+ *   musl       the re-projected momenta (Eq. 3.33, the gather again), corrected as contact.c does (step 8)
+ *   update     velocity gradient (Eq. 3.35), volume (Eq. 3.36), the stress update of mpm/stress_point.h (PTW return,
+ *              EOS energy update, heating, melt, viscosity) and the bonding increment of mpm/bonding_law.h: the
+ *              CPU's own functions, compiled for the device
+ *   remove     points that left the grid box
+ * Sums over points (removed energy, absorbed work) and the maxima are CUB reductions: a fixed tree for a given
+ * size, the same bits run to run.  They differ from the CPU's sums in order (docs/gpu.md, "Bits"). */
+#define STRESS_LANES 1
+
+#include <cuda_runtime.h>
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mpm/bonding_law.h"
+#include "mpm/gpu.h"
+#include "mpm/stress_point.h"
+
+/* ---- errors ---- */
+
+static char gpu_message[512];
+
+static int fail(const char *fmt, ...)
+{
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(gpu_message, sizeof gpu_message, fmt, args);
+    va_end(args);
+    return -1;
+}
+
+#define CU(call)                                                                                                       \
+    do {                                                                                                               \
+        cudaError_t cu_status = (call);                                                                                \
+        if (cu_status != cudaSuccess)                                                                                  \
+            return fail("%s: %s (%s:%d)", #call, cudaGetErrorString(cu_status), __FILE__, __LINE__);                   \
+    } while (0)
+
+/* ---- the device state ---- */
+
+/* contact.c's pair states, the values of the contact flags */
+enum { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
+
+struct mpm_gpu {
+    struct mpm_gpu_setup s; /* its material, constants, body_material and body_dashpot on the device */
+    char name[320];
+    size_t n, nodes, cells; /* points, nodes of a layer, layer entries (bodies x nodes) */
+    size_t row, plane;
+    int key_bits;
+    int64_t removed_total;
+    int host_stale;
+    /* points, id order */
+    double *x, *x_next, *v, *mass, *volume0, *volume, *d_bond, *plastic_work, *normal;
+    struct mpm_point_state *state;
+    int32_t *body;
+    uint8_t *flags;
+    /* binning */
+    unsigned long long *key, *key_sorted;
+    uint32_t *order, *order_sorted, *cell_start, *cell_end;
+    uint32_t *base;   /* stencil base node of each active point */
+    double *fraction; /* 3 per point: x/h - base */
+    /* the grid, per layer entry (vectors 3 per entry) */
+    double *gmass, *momentum, *momentum_new, *force, *gradient, *moment, *bond_sum, *bond_weight, *velocity;
+    uint8_t *contact, *wall_held;
+    /* reductions: per point or per node inputs, and the results */
+    double *point_a, *point_b, *point_c;
+    long long *point_id, *point_id2;
+    int *point_count, *node_contacts, *node_bonds;
+    double *result;       /* 5: vmax2, absorbed, removed mass, removed energy, spare */
+    long long *result_id; /* 2: nonfinite, failed */
+    int *result_int;      /* 3: removed, contacts, bonds */
+    void *temp;
+    size_t temp_bytes;
+};
+
+/* ---- device helpers ---- */
+
+#define THREADS 256
+static unsigned blocks_for(size_t count)
+{
+    return (unsigned)((count + THREADS - 1) / THREADS);
+}
+
+/* grid_contains of mpm_impl.h: 1 < (x - origin) / h < n - 2 in every direction, from the least offsets. */
+__device__ static int contains(const struct mpm_gpu_setup *s, const double x[3])
+{
+    for (int d = 0; d < 3; d++) {
+        double offset = x[d] - s->origin[d];
+        if (!(offset >= s->inside_from[d] && offset < s->inside_to[d]))
+            return 0;
+    }
+    return 1;
+}
+
+/* boundary_dashpot_force of mpm_impl.h (Eqs. 3.45-3.46, a = b = 1). */
+__device__ static void dashpot_force(const struct mpm_gpu *g, size_t q, double f[3])
+{
+    const double *v = g->v + 3 * q, *coef = g->s.body_dashpot + 2 * g->body[q];
+    f[0] = f[1] = f[2] = 0.0;
+    if (g->flags[q] & GPU_POINT_BOTTOM) {
+        f[0] -= coef[1] * v[0];
+        f[1] -= coef[1] * v[1];
+        f[2] -= coef[0] * v[2];
+    }
+    if (g->flags[q] & GPU_POINT_SIDE) {
+        const double *n = g->normal + 3 * q;
+        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+        for (int d = 0; d < 3; d++)
+            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
+    }
+}
+
+/* The trilinear weights and derivatives of point q: w[d][0] = 1 - f, w[d][1] = f, g = -+1/h (grid_point_stencil). */
+__device__ static void point_weights(const struct mpm_gpu *g, size_t q, double w[3][2], double dw[3][2])
+{
+    for (int d = 0; d < 3; d++) {
+        double f = g->fraction[3 * q + d];
+        w[d][0] = 1.0 - f, w[d][1] = f;
+        dw[d][0] = -g->s.inv_h, dw[d][1] = g->s.inv_h;
+    }
+}
+
+/* ---- bin, sort, ranges ---- */
+
+/* linear_cell of grid.c: base = floor((x - origin) / h), fraction the rest; inactive points sort last. */
+__global__ static void bin_kernel(struct mpm_gpu g)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    g.order[q] = (uint32_t)q;
+    g.key[q] = g.cells;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE))
+        return;
+    int base[3];
+    for (int d = 0; d < 3; d++) {
+        double xi = (g.x[3 * q + d] - g.s.origin[d]) / g.s.h;
+        double cell = floor(xi);
+        g.fraction[3 * q + d] = xi - cell;
+        base[d] = (int)cell;
+    }
+    size_t node = (size_t)base[0] + g.row * (size_t)base[1] + g.plane * (size_t)base[2];
+    g.base[q] = (uint32_t)node;
+    g.key[q] = (unsigned long long)g.body[q] * g.nodes + node;
+}
+
+__global__ static void range_kernel(struct mpm_gpu g)
+{
+    size_t i = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (i >= g.n)
+        return;
+    unsigned long long k = g.key_sorted[i];
+    if (k >= g.cells)
+        return;
+    if (i == 0 || g.key_sorted[i - 1] != k)
+        g.cell_start[k] = (uint32_t)i;
+    if (i + 1 == g.n || g.key_sorted[i + 1] != k)
+        g.cell_end[k] = (uint32_t)(i + 1);
+}
+
+/* ---- particle-to-grid as a gather ---- */
+
+/* Node I = layer entry (layer, node): the cells whose stencils hold it are node - a - b row - c plane, a, b, c in
+ * {0, 1}; their points add with the weights of stencil node (a, b, c), as scatter_all_width does. */
+__global__ static void gather_kernel(struct mpm_gpu g, int momentum_only)
+{
+    size_t I = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (I >= g.cells)
+        return;
+    size_t layer = I / g.nodes, node = I % g.nodes;
+    int idx[3] = {(int)(node % g.row), (int)((node / g.row) % (size_t)g.s.n[1]), (int)(node / g.plane)};
+    double mass = 0.0, mom[3] = {0, 0, 0}, force[3] = {0, 0, 0}, grad[3] = {0, 0, 0}, moment[3] = {0, 0, 0};
+    double bond_sum = 0.0, bond_weight = 0.0;
+    for (int c = 0; c < 2; c++)
+        for (int b = 0; b < 2; b++)
+            for (int a = 0; a < 2; a++) {
+                if (idx[0] < a || idx[1] < b || idx[2] < c)
+                    continue;
+                size_t cell = layer * g.nodes + node - (size_t)a - (size_t)b * g.row - (size_t)c * g.plane;
+                uint32_t end = g.cell_end[cell];
+                for (uint32_t k = g.cell_start[cell]; k < end; k++) {
+                    size_t q = g.order_sorted[k];
+                    double w[3][2], dw[3][2];
+                    point_weights(&g, q, w, dw);
+                    double m = g.mass[q];
+                    const double *v = g.v + 3 * q;
+                    double wyz = w[1][b] * w[2][c], N = w[0][a] * wyz;
+                    if (momentum_only) { /* step 8: (m v_i) N */
+                        for (int d = 0; d < 3; d++)
+                            mom[d] += (m * v[d]) * N;
+                        continue;
+                    }
+                    double V = g.volume[q], sig[6], fext[3];
+                    const struct mpm_point_state *ps = &g.state[q];
+                    for (int e = 0; e < 6; e++)
+                        sig[e] = e < 3 ? ps->stress[e] - ps->viscosity : ps->stress[e];
+                    fext[0] = fext[1] = fext[2] = 0.0;
+                    if (g.flags[q] & (GPU_POINT_BOTTOM | GPU_POINT_SIDE))
+                        dashpot_force(&g, q, fext);
+                    double dN[3] = {dw[0][a] * wyz, w[0][a] * dw[1][b] * w[2][c], w[0][a] * w[1][b] * dw[2][c]};
+                    double col0[3] = {sig[0], sig[5], sig[4]}, col1[3] = {sig[5], sig[1], sig[3]};
+                    double col2[3] = {sig[4], sig[3], sig[2]};
+                    mass += m * N;
+                    for (int d = 0; d < 3; d++) {
+                        mom[d] += (m * v[d]) * N;
+                        force[d] += -V * ((col0[d] * dN[0] + col1[d] * dN[1]) + col2[d] * dN[2]) + N * fext[d];
+                        grad[d] += V * dN[d];
+                        moment[d] += (m * g.x[3 * q + d]) * N;
+                    }
+                    if (g.flags[q] & GPU_POINT_SURFACE) {
+                        bond_sum += g.d_bond[q] * N;
+                        bond_weight += N;
+                    }
+                }
+            }
+    if (momentum_only) {
+        for (int d = 0; d < 3; d++)
+            g.momentum_new[3 * I + d] = mom[d];
+        return;
+    }
+    g.gmass[I] = mass;
+    for (int d = 0; d < 3; d++) {
+        g.momentum[3 * I + d] = mom[d];
+        g.force[3 * I + d] = force[d];
+        g.gradient[3 * I + d] = grad[d];
+        g.moment[3 * I + d] = g.s.moments ? moment[d] : 0.0;
+    }
+    g.bond_sum[I] = bond_sum;
+    g.bond_weight[I] = bond_weight;
+    g.contact[I] = 0;
+}
+
+/* ---- the nodal update and contact: contact.c, a thread per node ---- */
+
+__device__ static double norm3(const double *a)
+{
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+}
+
+__device__ static double nodal_bond(const struct mpm_gpu *g, size_t I)
+{
+    return g->bond_weight[I] > 0.0 ? g->bond_sum[I] / g->bond_weight[I] : 0.0;
+}
+
+__device__ static int contact_normal(const struct mpm_gpu *g, size_t Ia, size_t Ib, double n[3])
+{
+    const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
+    double la = norm3(ga), lb = norm3(gb);
+    if (la == 0.0 && lb == 0.0)
+        return -1;
+    for (int d = 0; d < 3; d++)
+        n[d] = la >= lb ? ga[d] / la : -gb[d] / lb;
+    return 0;
+}
+
+__device__ static int pair_bonded(const struct mpm_gpu *g, size_t Ia, size_t Ib)
+{
+    return g->s.bonding != MPM_BONDING_NONE && 0.5 * (nodal_bond(g, Ia) + nodal_bond(g, Ib)) >= 1.0;
+}
+
+__device__ static double approach_rate(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
+                                       const double n[3])
+{
+    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
+    double approach = 0.0; /* Eq. 3.29 divided by ma mb */
+    for (int d = 0; d < 3; d++)
+        approach += (pa[d] / g->gmass[Ia] - pb[d] / g->gmass[Ib]) * n[d];
+    return approach;
+}
+
+__device__ static int pair_decide(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3])
+{
+    if (pair_bonded(g, Ia, Ib))
+        return PAIR_BONDED;
+    return approach_rate(g, Ia, Ib, mom, n) > 0.0 ? PAIR_CONTACT : PAIR_FREE;
+}
+
+__device__ static int surfaces_meet(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
+{
+    const double *xa = g->moment + 3 * Ia, *xb = g->moment + 3 * Ib;
+    double separation = 0.0;
+    for (int d = 0; d < 3; d++)
+        separation += (xb[d] / g->gmass[Ib] - xa[d] / g->gmass[Ia]) * n[d];
+    return separation <= g->s.contact_gap * g->s.h;
+}
+
+__device__ static int pair_decide_once(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
+                                       const double n[3])
+{
+    if (approach_rate(g, Ia, Ib, mom, n) <= 0.0)
+        return pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_FREE;
+    return surfaces_meet(g, Ia, Ib, n) ? PAIR_CONTACT : PAIR_FREE;
+}
+
+__device__ static void pair_impulse(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3],
+                                    int state, double J[3])
+{
+    double ma = g->gmass[Ia], mb = g->gmass[Ib];
+    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
+    for (int d = 0; d < 3; d++) /* Eq. 3.31 times dt */
+        J[d] = (ma * pb[d] - mb * pa[d]) / (ma + mb);
+    if (state == PAIR_BONDED || g->s.contact == MPM_CONTACT_STICK)
+        return;
+    double Jn = J[0] * n[0] + J[1] * n[1] + J[2] * n[2], Jt[3];
+    for (int d = 0; d < 3; d++)
+        Jt[d] = J[d] - Jn * n[d];
+    double Jt_norm = norm3(Jt), scale = 0.0;
+    if (g->s.contact == MPM_CONTACT_FRICTION && Jt_norm > 0.0)
+        scale = fmin(1.0, g->s.friction * fabs(Jn) / Jt_norm);
+    for (int d = 0; d < 3; d++)
+        J[d] = Jn * n[d] + scale * Jt[d];
+}
+
+__device__ static void apply_impulse(double *mom, size_t Ia, size_t Ib, const double J[3])
+{
+    for (int d = 0; d < 3; d++) {
+        mom[3 * Ia + d] += J[d];
+        mom[3 * Ib + d] -= J[d];
+    }
+}
+
+__device__ static int heavy(const struct mpm_gpu *g, size_t I)
+{
+    return g->gmass[I] > g->s.mass_cutoff;
+}
+
+__device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
+{
+    int touched = 0, once = g->s.contact_scheme == MPM_CONTACT_ONCE;
+    *bonded = 0;
+    for (int a = 0; a < g->s.bodies; a++) {
+        size_t Ia = (size_t)a * g->nodes + node;
+        if (!heavy(g, Ia))
+            continue;
+        for (int b = a + 1; b < g->s.bodies; b++) {
+            size_t Ib = (size_t)b * g->nodes + node;
+            double n[3], J[3];
+            if (!heavy(g, Ib) || contact_normal(g, Ia, Ib, n) != 0)
+                continue;
+            int state = once ? pair_decide_once(g, Ia, Ib, end, n) : pair_decide(g, Ia, Ib, end, n);
+            if (state == PAIR_FREE) {
+                if (once && surfaces_meet(g, Ia, Ib, n)) {
+                    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+                    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+                }
+                continue;
+            }
+            pair_impulse(g, Ia, Ib, end, n, state, J);
+            apply_impulse(end, Ia, Ib, J);
+            if (start) {
+                pair_impulse(g, Ia, Ib, start, n, state, J);
+                apply_impulse(start, Ia, Ib, J);
+            }
+            g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
+            touched = 1;
+            *bonded |= state == PAIR_BONDED;
+        }
+    }
+    return touched;
+}
+
+__device__ static void reproject_node(const struct mpm_gpu *g, size_t node, double *mom)
+{
+    for (int a = 0; a < g->s.bodies; a++) {
+        size_t Ia = (size_t)a * g->nodes + node;
+        if (!heavy(g, Ia) || !g->contact[Ia])
+            continue;
+        for (int b = a + 1; b < g->s.bodies; b++) {
+            size_t Ib = (size_t)b * g->nodes + node;
+            double n[3], J[3];
+            if (!heavy(g, Ib) || !g->contact[Ib] || contact_normal(g, Ia, Ib, n) != 0)
+                continue;
+            if (g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+                continue;
+            int state = pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
+            if (g->s.contact_scheme == MPM_CONTACT_ONCE)
+                state = g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+            pair_impulse(g, Ia, Ib, mom, n, state, J);
+            apply_impulse(mom, Ia, Ib, J);
+        }
+    }
+}
+
+__device__ static int below_wall(const struct mpm_gpu *g, int k)
+{
+    return g->s.origin[2] + (double)k * g->s.h <= g->s.substrate_top + 1e-9 * g->s.h;
+}
+
+__device__ static int wall_meets(const struct mpm_gpu *g, size_t I)
+{
+    if (!g->s.moments)
+        return 1;
+    return g->moment[3 * I + 2] / g->gmass[I] - g->s.substrate_top <= 0.5 * g->s.contact_gap * g->s.h;
+}
+
+__device__ static void fixed_bottom(const struct mpm_gpu *g, size_t node, int k, double *mom)
+{
+    double z = g->s.origin[2] + (double)k * g->s.h;
+    if (z > g->s.substrate_bottom + 1e-9 * g->s.h)
+        return;
+    for (int l = 0; l < g->s.bodies; l++)
+        mom[3 * ((size_t)l * g->nodes + node) + 2] = 0.0;
+}
+
+__device__ static int bodies_at(const struct mpm_gpu *g, size_t node)
+{
+    int count = 0;
+    for (int l = 0; l < g->s.bodies; l++)
+        count += heavy(g, (size_t)l * g->nodes + node);
+    return count;
+}
+
+/* Steps 3-6 at each node (nodal_update and mpm_contact_nodal_update of contact.c). */
+__global__ static void nodal_kernel(struct mpm_gpu g, double dt)
+{
+    size_t node = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (node >= g.nodes)
+        return;
+    int k = (int)(node / g.plane);
+    for (int l = 0; l < g.s.bodies; l++) { /* Eq. 3.28 */
+        size_t I = (size_t)l * g.nodes + node;
+        int h = heavy(&g, I);
+        for (int d = 0; d < 3; d++)
+            g.momentum_new[3 * I + d] = h ? g.momentum[3 * I + d] + g.force[3 * I + d] * dt : 0.0;
+    }
+    if (g.s.rigid_wall) {
+        int at_wall = below_wall(&g, k);
+        for (int l = 0; l < g.s.bodies; l++) {
+            size_t I = (size_t)l * g.nodes + node;
+            int held = at_wall && g.momentum_new[3 * I + 2] < 0.0 && wall_meets(&g, I);
+            g.wall_held[I] = (uint8_t)held;
+            if (held)
+                g.momentum_new[3 * I + 2] = g.momentum[3 * I + 2] = 0.0;
+        }
+    } else if (g.s.fixed_bottom) {
+        fixed_bottom(&g, node, k, g.momentum_new);
+    }
+    int bonded = 0, touched = 0;
+    double *start = g.s.contact_scheme != MPM_CONTACT_THESIS ? g.momentum : NULL;
+    if (g.s.bodies > 1 && bodies_at(&g, node) > 1)
+        touched = resolve_node(&g, node, start, g.momentum_new, &bonded);
+    g.node_contacts[node] = touched;
+    g.node_bonds[node] = touched && bonded;
+}
+
+/* Step 8's correction of the re-projected momenta (correct_node of contact.c). */
+__global__ static void correct_kernel(struct mpm_gpu g)
+{
+    size_t node = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (node >= g.nodes)
+        return;
+    int k = (int)(node / g.plane);
+    double *mom = g.momentum_new;
+    for (int l = 0; l < g.s.bodies; l++) {
+        size_t I = (size_t)l * g.nodes + node;
+        if (!heavy(&g, I))
+            mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
+    }
+    if (g.s.rigid_wall) {
+        for (int l = 0; l < g.s.bodies; l++) {
+            size_t I = (size_t)l * g.nodes + node;
+            if (g.wall_held[I])
+                mom[3 * I + 2] = 0.0;
+        }
+    } else if (g.s.fixed_bottom) {
+        fixed_bottom(&g, node, k, mom);
+    }
+    if (g.s.bodies < 2 || bodies_at(&g, node) < 2)
+        return;
+    int bonded;
+    if (g.s.contact_scheme != MPM_CONTACT_THESIS)
+        reproject_node(&g, node, mom);
+    else
+        resolve_node(&g, node, NULL, mom, &bonded);
+}
+
+/* The re-projected nodal velocities (Eq. 3.34) and the contact flags of heavy nodes (nodal_velocities). */
+__global__ static void velocity_kernel(struct mpm_gpu g)
+{
+    size_t I = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (I >= g.cells)
+        return;
+    int h = heavy(&g, I);
+    for (int d = 0; d < 3; d++)
+        g.velocity[3 * I + d] = h ? g.momentum_new[3 * I + d] / g.gmass[I] : 0.0;
+    g.contact[I] = h ? g.contact[I] : 0;
+}
+
+/* ---- points ---- */
+
+__device__ static size_t stencil_entry(const struct mpm_gpu *g, size_t q, int a, int b, int c)
+{
+    return (size_t)g->body[q] * g->nodes + g->base[q] + (size_t)a + (size_t)b * g->row + (size_t)c * g->plane;
+}
+
+/* The dashpots' work over the step at the start momenta (mpm_book_absorbed_energy, grid_velocity_at). */
+__global__ static void book_kernel(struct mpm_gpu g, double dt)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    g.point_a[q] = 0.0;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE) || !(g.flags[q] & (GPU_POINT_BOTTOM | GPU_POINT_SIDE)))
+        return;
+    double f[3], w[3][2], dw[3][2], v[3] = {0, 0, 0};
+    dashpot_force(&g, q, f);
+    point_weights(&g, q, w, dw);
+    for (int c = 0; c < 2; c++)
+        for (int b = 0; b < 2; b++)
+            for (int a = 0; a < 2; a++) {
+                double N = w[0][a] * w[1][b] * w[2][c];
+                size_t I = stencil_entry(&g, q, a, b, c);
+                if (N == 0.0 || !heavy(&g, I))
+                    continue;
+                for (int d = 0; d < 3; d++)
+                    v[d] += N * g.momentum[3 * I + d] / g.gmass[I];
+            }
+    g.point_a[q] = (f[0] * v[0] + f[1] * v[1] + f[2] * v[2]) * dt;
+}
+
+/* Step 7 (point_from_grid_width, point_velocity_position) and what scan_escapes finds: point_a the squared speed of
+ * a point that stays, point_id its id if its position or velocity is not finite. */
+__global__ static void g2p_kernel(struct mpm_gpu g, double dt)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    double *x = g.x + 3 * q, *xn = g.x_next + 3 * q, *v = g.v + 3 * q;
+    g.point_a[q] = 0.0;
+    g.point_id[q] = LLONG_MAX;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE)) {
+        xn[0] = x[0], xn[1] = x[1], xn[2] = x[2];
+        return;
+    }
+    double w[3][2], dw[3][2], dv[3] = {0, 0, 0}, vnew[3] = {0, 0, 0};
+    point_weights(&g, q, w, dw);
+    for (int c = 0; c < 2; c++)
+        for (int b = 0; b < 2; b++)
+            for (int a = 0; a < 2; a++) {
+                double N = w[0][a] * w[1][b] * w[2][c];
+                size_t I = stencil_entry(&g, q, a, b, c);
+                if (!heavy(&g, I))
+                    continue;
+                double wN = N / g.gmass[I];
+                for (int d = 0; d < 3; d++) {
+                    dv[d] += wN * (g.momentum_new[3 * I + d] - g.momentum[3 * I + d]);
+                    vnew[d] += wN * g.momentum_new[3 * I + d];
+                }
+            }
+    double flip = g.s.flip;
+    for (int d = 0; d < 3; d++) {
+        v[d] = flip == 1.0 ? v[d] + dv[d] : flip * (v[d] + dv[d]) + (1.0 - flip) * vnew[d];
+        xn[d] = x[d] + dt * vnew[d];
+    }
+    if (!isfinite(xn[0] + xn[1] + xn[2] + v[0] + v[1] + v[2]))
+        g.point_id[q] = (long long)q;
+    else if (contains(&g.s, xn))
+        g.point_a[q] = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+}
+
+/* Steps 9-11 for one point (update_block, point_increments, finish_point, bonding_update of solver.c): point_id its
+ * id where the update failed. */
+__global__ static void update_kernel(struct mpm_gpu g, double dt, double log_dt)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    g.point_id2[q] = LLONG_MAX;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE))
+        return;
+    double w[3][2], dw[3][2], L[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    int contact = 0;
+    point_weights(&g, q, w, dw);
+    for (int c = 0; c < 2; c++)
+        for (int b = 0; b < 2; b++)
+            for (int a = 0; a < 2; a++) {
+                size_t I = stencil_entry(&g, q, a, b, c);
+                double dN[3] = {(dw[0][a] * w[1][b]) * w[2][c], (w[0][a] * dw[1][b]) * w[2][c],
+                                (w[0][a] * w[1][b]) * dw[2][c]};
+                for (int i = 0; i < 3; i++)
+                    for (int j = 0; j < 3; j++)
+                        L[i][j] += g.velocity[3 * I + i] * dN[j];
+                contact |= (w[0][a] * w[1][b] * w[2][c] > 0.0) & (g.contact[I] != 0);
+            }
+    contact = contact && (g.flags[q] & GPU_POINT_SURFACE);
+    double de[6], dspin[3];
+    double exx = L[0][0] * dt, eyy = L[1][1] * dt, ezz = L[2][2] * dt;
+    de[0] = exx, de[1] = eyy, de[2] = ezz;
+    de[3] = 0.5 * (L[1][2] + L[2][1]) * dt, de[4] = 0.5 * (L[0][2] + L[2][0]) * dt;
+    de[5] = 0.5 * (L[0][1] + L[1][0]) * dt;
+    dspin[0] = 0.5 * (L[1][2] - L[2][1]) * dt, dspin[1] = 0.5 * (L[0][2] - L[2][0]) * dt;
+    dspin[2] = 0.5 * (L[0][1] - L[1][0]) * dt;
+    double volume_old = g.volume[q], volume_new = volume_old * (1.0 + exx + eyy + ezz);
+    if (!(volume_new > 0.0)) {
+        g.point_id2[q] = (long long)q;
+        return;
+    }
+    int material = g.s.body_material[g.body[q]];
+    const struct mpm_material *m = &g.s.material[material];
+    const struct mpm_material_constants *mc = &g.s.constants[material];
+    struct mpm_point_state *state = &g.state[q];
+    double T = state->T;
+    double G = fm_select(T == m->T_initial, mc->G_initial, mts_lane_shear_modulus(m, T));
+    struct mpm_stress_work work;
+    struct mpm_update_result result;
+    if (stress_begin(m, mc, de, dspin, G, dt, log_dt, g.volume0[q], volume_new, state, &work))
+        stress_return_one(m, &work.ret);
+    if (stress_finish(m, mc, &g.s.viscosity, dt, g.volume0[q], volume_old, volume_new, &work, state, &result) != 0) {
+        g.point_id2[q] = (long long)q;
+        return;
+    }
+    g.volume[q] = volume_new;
+    g.plastic_work[q] += result.plastic_work;
+    if (contact)
+        g.flags[q] |= GPU_POINT_CONTACT;
+    else
+        g.flags[q] &= (uint8_t)~GPU_POINT_CONTACT;
+    if (g.s.bonding != MPM_BONDING_NONE && contact)
+        g.d_bond[q] +=
+            g.s.bonding == MPM_BONDING_ENERGY
+                ? bonding_energy_increment(result.eps_p_increment, result.von_mises, dt, g.s.h, g.s.Gc, g.s.Gc_rate,
+                                           g.s.bonding_floor)
+                : bonding_strain_increment(result.eps_p_increment, dt, g.s.eps_c, g.s.eps_rate_c, g.s.bonding_floor);
+}
+
+/* remove_escaped of solver.c: the points whose stencil left the grid (x already the new positions). */
+__global__ static void remove_kernel(struct mpm_gpu g)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    g.point_b[q] = g.point_c[q] = 0.0;
+    g.point_count[q] = 0;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE) || contains(&g.s, g.x + 3 * q))
+        return;
+    const double *v = g.v + 3 * q;
+    g.flags[q] &= (uint8_t)~GPU_POINT_ACTIVE;
+    g.point_count[q] = 1;
+    g.point_b[q] = g.mass[q];
+    g.point_c[q] = 0.5 * g.mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + g.state[q].energy;
+}
+
+/* ---- host side ---- */
+
+extern "C" int mpm_gpu_built(void)
+{
+    return 1;
+}
+
+extern "C" const char *mpm_gpu_message(void)
+{
+    return gpu_message;
+}
+
+extern "C" const char *mpm_gpu_name(const struct mpm_gpu *g)
+{
+    return g ? g->name : "no GPU";
+}
+
+extern "C" int mpm_gpu_host_stale(const struct mpm_gpu *g)
+{
+    return g && g->host_stale;
+}
+
+template <typename T> static int device_array(T **p, size_t count)
+{
+    CU(cudaMalloc((void **)p, (count ? count : 1) * sizeof(T)));
+    return 0;
+}
+
+template <typename T> static int copy_in(T *device, const T *host, size_t count)
+{
+    CU(cudaMemcpy(device, host, count * sizeof(T), cudaMemcpyHostToDevice));
+    return 0;
+}
+
+template <typename T> static int copy_out(T *host, const T *device, size_t count)
+{
+    CU(cudaMemcpy(host, device, count * sizeof(T), cudaMemcpyDeviceToHost));
+    return 0;
+}
+
+#define TRY(call)                                                                                                      \
+    do {                                                                                                               \
+        if ((call) != 0)                                                                                               \
+            return -1;                                                                                                 \
+    } while (0)
+
+/* The largest temporary storage any of the step's CUB calls asks for. */
+static int reserve_temp(struct mpm_gpu *g)
+{
+    size_t bytes = 0, need = 0;
+    int n = (int)g->n, nodes = (int)g->nodes;
+    CU(cub::DeviceRadixSort::SortPairs(NULL, need, g->key, g->key_sorted, g->order, g->order_sorted, n, 0,
+                                       g->key_bits));
+    bytes = need > bytes ? need : bytes;
+    CU(cub::DeviceReduce::Max(NULL, need, g->point_a, g->result, n));
+    bytes = need > bytes ? need : bytes;
+    CU(cub::DeviceReduce::Sum(NULL, need, g->point_a, g->result, n));
+    bytes = need > bytes ? need : bytes;
+    CU(cub::DeviceReduce::Min(NULL, need, g->point_id, g->result_id, n));
+    bytes = need > bytes ? need : bytes;
+    CU(cub::DeviceReduce::Sum(NULL, need, g->point_count, g->result_int, n));
+    bytes = need > bytes ? need : bytes;
+    CU(cub::DeviceReduce::Sum(NULL, need, g->node_contacts, g->result_int, nodes));
+    bytes = need > bytes ? need : bytes;
+    g->temp_bytes = bytes;
+    return device_array((char **)&g->temp, bytes);
+}
+
+static int allocate(struct mpm_gpu *g)
+{
+    size_t n = g->n, cells = g->cells;
+    TRY(device_array(&g->x, 3 * n) || device_array(&g->x_next, 3 * n) || device_array(&g->v, 3 * n));
+    TRY(device_array(&g->mass, n) || device_array(&g->volume0, n) || device_array(&g->volume, n));
+    TRY(device_array(&g->d_bond, n) || device_array(&g->plastic_work, n) || device_array(&g->normal, 3 * n));
+    TRY(device_array(&g->state, n) || device_array(&g->body, n) || device_array(&g->flags, n));
+    TRY(device_array(&g->key, n) || device_array(&g->key_sorted, n) || device_array(&g->order, n));
+    TRY(device_array(&g->order_sorted, n) || device_array(&g->base, n) || device_array(&g->fraction, 3 * n));
+    TRY(device_array(&g->cell_start, cells) || device_array(&g->cell_end, cells));
+    TRY(device_array(&g->gmass, cells) || device_array(&g->momentum, 3 * cells));
+    TRY(device_array(&g->momentum_new, 3 * cells) || device_array(&g->force, 3 * cells));
+    TRY(device_array(&g->gradient, 3 * cells) || device_array(&g->moment, 3 * cells));
+    TRY(device_array(&g->bond_sum, cells) || device_array(&g->bond_weight, cells));
+    TRY(device_array(&g->velocity, 3 * cells) || device_array(&g->contact, cells));
+    TRY(device_array(&g->wall_held, cells));
+    CU(cudaMemset(g->wall_held, 0, cells));
+    TRY(device_array(&g->point_a, n) || device_array(&g->point_b, n) || device_array(&g->point_c, n));
+    TRY(device_array(&g->point_id, n) || device_array(&g->point_id2, n) || device_array(&g->point_count, n));
+    TRY(device_array(&g->node_contacts, g->nodes) || device_array(&g->node_bonds, g->nodes));
+    TRY(device_array(&g->result, 5) || device_array(&g->result_id, 2) || device_array(&g->result_int, 3));
+    return reserve_temp(g);
+}
+
+/* The setup's tables onto the device (the struct keeps their device copies). */
+static int copy_tables(struct mpm_gpu *g, const struct mpm_gpu_setup *setup)
+{
+    struct mpm_material *material;
+    struct mpm_material_constants *constants;
+    int *body_material;
+    double *body_dashpot;
+    TRY(device_array(&material, (size_t)setup->materials) || device_array(&constants, (size_t)setup->materials));
+    TRY(device_array(&body_material, (size_t)setup->bodies) || device_array(&body_dashpot, 2 * (size_t)setup->bodies));
+    g->s.material = material, g->s.constants = constants;
+    g->s.body_material = body_material, g->s.body_dashpot = body_dashpot;
+    TRY(copy_in(material, setup->material, (size_t)setup->materials));
+    TRY(copy_in(constants, setup->constants, (size_t)setup->materials));
+    TRY(copy_in(body_material, setup->body_material, (size_t)setup->bodies));
+    TRY(copy_in(body_dashpot, setup->body_dashpot, 2 * (size_t)setup->bodies));
+    return 0;
+}
+
+/* The device of this process, if there is one this build runs on; its description into name.  Under mpirun (or
+ * srun) the processes of a node take the node's devices in turn, by their local rank: one rank per GPU
+ * (CUDA_VISIBLE_DEVICES narrows the choice as usual). */
+static int choose_device(char *name, size_t size)
+{
+    int count = 0;
+    cudaError_t status = cudaGetDeviceCount(&count);
+    if (status != cudaSuccess || count == 0)
+        return fail("no CUDA device found (%s); allowed: cpu on this machine",
+                    status != cudaSuccess ? cudaGetErrorString(status) : "none present");
+    const char *local = getenv("OMPI_COMM_WORLD_LOCAL_RANK");
+    if (!local)
+        local = getenv("SLURM_LOCALID");
+    int device = local ? atoi(local) % count : 0;
+    device = device < 0 ? 0 : device;
+    cudaDeviceProp prop;
+    CU(cudaSetDevice(device));
+    CU(cudaGetDeviceProperties(&prop, device));
+    if (prop.major < 9)
+        return fail("device %d, %s, has compute capability %d.%d; this build's step is for sm_90 or later (make "
+                    "CUDA=1 CUDA_ARCH=sm_%d%d); allowed: cpu on this machine",
+                    device, prop.name, prop.major, prop.minor, prop.major, prop.minor);
+    snprintf(name, size, "GPU %d of %d: %s, %.0f GiB, compute capability %d.%d", device, count, prop.name,
+             (double)prop.totalGlobalMem / (1 << 30), prop.major, prop.minor);
+    return 0;
+}
+
+extern "C" int mpm_gpu_probe(void)
+{
+    char name[320];
+    return choose_device(name, sizeof name);
+}
+
+extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **out)
+{
+    *out = NULL;
+    struct mpm_gpu *g = (struct mpm_gpu *)calloc(1, sizeof *g);
+    if (!g)
+        return fail("out of memory for the GPU state");
+    g->s = *setup;
+    g->n = setup->points;
+    g->row = (size_t)setup->n[0];
+    g->plane = g->row * (size_t)setup->n[1];
+    g->nodes = g->plane * (size_t)setup->n[2];
+    g->cells = g->nodes * (size_t)setup->bodies;
+    g->key_bits = 1;
+    while (g->key_bits < 64 && (g->cells >> g->key_bits) != 0) /* keys up to cells (inactive) */
+        g->key_bits++;
+    if (g->n >= UINT32_MAX || g->nodes >= UINT32_MAX) {
+        size_t nodes = g->nodes;
+        free(g);
+        return fail("%zu points and %zu nodes: the GPU step indexes both with 32 bits", setup->points, nodes);
+    }
+    if (choose_device(g->name, sizeof g->name) != 0 || copy_tables(g, setup) != 0 || allocate(g) != 0) {
+        mpm_gpu_close(g);
+        return -1;
+    }
+    *out = g;
+    return 0;
+}
+
+extern "C" void mpm_gpu_close(struct mpm_gpu *g)
+{
+    if (!g)
+        return;
+    void *arrays[] = {g->x,
+                      g->x_next,
+                      g->v,
+                      g->mass,
+                      g->volume0,
+                      g->volume,
+                      g->d_bond,
+                      g->plastic_work,
+                      g->normal,
+                      g->state,
+                      g->body,
+                      g->flags,
+                      g->key,
+                      g->key_sorted,
+                      g->order,
+                      g->order_sorted,
+                      g->base,
+                      g->fraction,
+                      g->cell_start,
+                      g->cell_end,
+                      g->gmass,
+                      g->momentum,
+                      g->momentum_new,
+                      g->force,
+                      g->gradient,
+                      g->moment,
+                      g->bond_sum,
+                      g->bond_weight,
+                      g->velocity,
+                      g->contact,
+                      g->wall_held,
+                      g->point_a,
+                      g->point_b,
+                      g->point_c,
+                      g->point_id,
+                      g->point_id2,
+                      g->point_count,
+                      g->node_contacts,
+                      g->node_bonds,
+                      g->result,
+                      g->result_id,
+                      g->result_int,
+                      g->temp,
+                      (void *)g->s.material,
+                      (void *)g->s.constants,
+                      (void *)g->s.body_material,
+                      (void *)g->s.body_dashpot};
+    for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
+        if (arrays[i])
+            cudaFree(arrays[i]);
+    free(g);
+}
+
+extern "C" int mpm_gpu_upload(struct mpm_gpu *g, const struct mpm_gpu_points *p)
+{
+    size_t n = g->n;
+    TRY(copy_in(g->x, p->x, 3 * n) || copy_in(g->v, p->v, 3 * n) || copy_in(g->mass, p->mass, n));
+    TRY(copy_in(g->volume0, p->volume0, n) || copy_in(g->volume, p->volume, n) || copy_in(g->d_bond, p->d_bond, n));
+    TRY(copy_in(g->plastic_work, p->plastic_work, n) || copy_in(g->normal, p->normal, 3 * n));
+    TRY(copy_in(g->state, p->state, n) || copy_in(g->body, p->body, n) || copy_in(g->flags, p->flags, n));
+    int64_t active = 0;
+    for (size_t q = 0; q < n; q++)
+        active += (p->flags[q] & GPU_POINT_ACTIVE) != 0;
+    g->removed_total = (int64_t)n - active;
+    g->host_stale = 0;
+    return 0;
+}
+
+extern "C" int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *p)
+{
+    size_t n = g->n; /* mass, volume0, normal and body never change */
+    TRY(copy_out(p->x, g->x, 3 * n) || copy_out(p->v, g->v, 3 * n) || copy_out(p->volume, g->volume, n));
+    TRY(copy_out(p->d_bond, g->d_bond, n) || copy_out(p->plastic_work, g->plastic_work, n));
+    TRY(copy_out(p->state, g->state, n) || copy_out(p->flags, g->flags, n));
+    g->host_stale = 0;
+    return 0;
+}
+
+/* Sort the active points by cell and find each cell's run (bin, sort, ranges). */
+static int bin_and_sort(struct mpm_gpu *g)
+{
+    unsigned pb = blocks_for(g->n);
+    bin_kernel<<<pb, THREADS>>>(*g);
+    CU(cudaGetLastError());
+    size_t bytes = g->temp_bytes;
+    CU(cub::DeviceRadixSort::SortPairs(g->temp, bytes, g->key, g->key_sorted, g->order, g->order_sorted, (int)g->n, 0,
+                                       g->key_bits));
+    CU(cudaMemset(g->cell_start, 0, g->cells * sizeof *g->cell_start));
+    CU(cudaMemset(g->cell_end, 0, g->cells * sizeof *g->cell_end));
+    range_kernel<<<pb, THREADS>>>(*g);
+    CU(cudaGetLastError());
+    return 0;
+}
+
+/* The step's reductions into out (copied back once). */
+static int reduce(struct mpm_gpu *g, struct mpm_gpu_step_out *out)
+{
+    size_t bytes = g->temp_bytes;
+    int n = (int)g->n, nodes = (int)g->nodes;
+    double result[5];
+    long long result_id[2];
+    int result_int[3];
+    /* point_a: the dashpots' work was summed before g2p reused it (step_points) */
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->point_b, g->result + 2, n));
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->point_c, g->result + 3, n));
+    CU(cub::DeviceReduce::Min(g->temp, bytes, g->point_id2, g->result_id + 1, n));
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->point_count, g->result_int, n));
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->node_contacts, g->result_int + 1, nodes));
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->node_bonds, g->result_int + 2, nodes));
+    CU(cudaMemcpy(result, g->result, sizeof result, cudaMemcpyDeviceToHost));
+    CU(cudaMemcpy(result_id, g->result_id, sizeof result_id, cudaMemcpyDeviceToHost));
+    CU(cudaMemcpy(result_int, g->result_int, sizeof result_int, cudaMemcpyDeviceToHost));
+    out->vmax2 = result[0];
+    out->absorbed_work = result[1];
+    out->removed_mass = result[2];
+    out->removed_energy = result[3];
+    out->nonfinite_id = result_id[0] == LLONG_MAX ? -1 : (long)result_id[0];
+    out->failed_id = result_id[1] == LLONG_MAX ? -1 : (long)result_id[1];
+    out->removed = result_int[0];
+    out->contact_nodes = result_int[1];
+    out->bonded_nodes = result_int[2];
+    return 0;
+}
+
+extern "C" int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_step_out *out)
+{
+    memset(out, 0, sizeof *out);
+    unsigned pb = blocks_for(g->n), nb = blocks_for(g->nodes), cb = blocks_for(g->cells);
+    size_t bytes = g->temp_bytes;
+    int n = (int)g->n;
+    double log_dt = dt > 0.0 ? log(dt) : 0.0;
+    out->active = (int64_t)g->n - g->removed_total;
+    g->host_stale = 1;
+    TRY(bin_and_sort(g));
+    gather_kernel<<<cb, THREADS>>>(*g, 0); /* steps 1-2 */
+    nodal_kernel<<<nb, THREADS>>>(*g, dt); /* steps 3-6 */
+    book_kernel<<<pb, THREADS>>>(*g, dt);
+    CU(cudaGetLastError());
+    CU(cub::DeviceReduce::Sum(g->temp, bytes, g->point_a, g->result + 1, n));
+    g2p_kernel<<<pb, THREADS>>>(*g, dt); /* step 7 */
+    CU(cudaGetLastError());
+    CU(cub::DeviceReduce::Max(g->temp, bytes, g->point_a, g->result, n));
+    CU(cub::DeviceReduce::Min(g->temp, bytes, g->point_id, g->result_id, n));
+    gather_kernel<<<cb, THREADS>>>(*g, 1); /* step 8, MUSL */
+    correct_kernel<<<nb, THREADS>>>(*g);
+    velocity_kernel<<<cb, THREADS>>>(*g);
+    update_kernel<<<pb, THREADS>>>(*g, dt, log_dt); /* steps 9-11 */
+    CU(cudaGetLastError());
+    double *swap = g->x;
+    g->x = g->x_next, g->x_next = swap;
+    remove_kernel<<<pb, THREADS>>>(*g); /* step 12 */
+    CU(cudaGetLastError());
+    TRY(reduce(g, out));
+    g->removed_total += out->removed;
+    return 0;
+}
