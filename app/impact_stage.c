@@ -373,6 +373,13 @@ static int write_output(struct impact_run *run)
     return SC_OK;
 }
 
+/* Body b's v_rest as its verdict is judged (the window mean), or `now` while it has no judgement. */
+static double judged_or(const struct mpm_solver *s, int b, double now)
+{
+    double v_rest = mpm_verdict_vrest(s, b);
+    return isnan(v_rest) ? now : v_rest;
+}
+
 static void log_summary(struct impact_run *run)
 {
     int nb = mpm_body_count(run->solver);
@@ -389,9 +396,11 @@ static void log_summary(struct impact_run *run)
         char settled[64] = "not settled by the end of the run";
         if (bonded[b] != MPM_VERDICT_UNSETTLED)
             snprintf(settled, sizeof settled, "settled at %.4g ns", 1e9 * mpm_verdict_settled_at(run->solver, b));
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, v_rest %.3g m/s, v_com_z %.3g m/s",
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, v_rest %.3g m/s (window mean), v_com_z "
+                 "%.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
-                 mpm_verdict_name(bonded[b]), settled, 100.0 * d->body[b].pbcp, d->body[b].v_rest, d->body[b].v_com[2]);
+                 mpm_verdict_name(bonded[b]), settled, 100.0 * d->body[b].pbcp,
+                 judged_or(run->solver, b, d->body[b].v_rest), d->body[b].v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);

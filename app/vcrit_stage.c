@@ -453,9 +453,12 @@ static int record_outcome(struct mpm_solver *s, const struct mpm_config *cfg, st
     double normal_speed = -cfg->bodies[cfg->body_count - 1].velocity[2];
     int v = verdicts[nb - 1];
     out->verdict = v == 1 ? VCRIT_BONDED : v == 0 ? VCRIT_REBOUNDED : VCRIT_UNSETTLED;
+    /* v_rest and the rebound speed: the means over the judging window (mpm_verdict_vrest), the last row's values
+     * while the particle has no judgement */
+    double v_rest = mpm_verdict_vrest(s, nb - 1), v_com_z = mpm_verdict_vcom_z(s, nb - 1);
     out->pbcp = particle->pbcp;
-    out->v_rest = particle->v_rest;
-    out->cor = normal_speed > 0 ? particle->v_com[2] / normal_speed : NAN;
+    out->v_rest = isnan(v_rest) ? particle->v_rest : v_rest;
+    out->cor = normal_speed > 0 ? (isnan(v_com_z) ? particle->v_com[2] : v_com_z) / normal_speed : NAN;
     out->steps = mpm_get_counts(s).step;
     free(verdicts);
     return SC_OK;

@@ -156,8 +156,9 @@ struct mpm_diagnostics {
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
 
 /* Verdict per body (Tang Section 5.2.1; mpm/verdict.c, docs/physics.md "Settled verdicts"): judged at every
- * series row, bonded when PBCP >= pbcp_threshold and v_rest <= vrest_threshold; settled once that judgement, v_com
- * (within settle_vcom) and PBCP (within settle_pbcp) have held over the last settle_window.  out has body_count
+ * series row on the means of v_rest and v_com over the window that ends there: bonded when PBCP >= pbcp_threshold and
+ * the mean v_rest <= vrest_threshold; settled once that judgement, the mean v_com (within settle_vcom) and PBCP
+ * (within settle_pbcp) have held over the last settle_window.  out has body_count
  * entries: the settled judgement, MPM_VERDICT_UNSETTLED while it is not settled (also when v_rest has no value),
  * MPM_VERDICT_SUBSTRATE for the substrate. */
 enum mpm_verdict {
@@ -172,6 +173,11 @@ const char *mpm_verdict_name(int verdict);
 /* The time at which body b's verdict settled (the end of the first window over which it held, and has held
  * since); NaN while unsettled and for the substrate. */
 double mpm_verdict_settled_at(const struct mpm_solver *s, int body);
+/* The means over the judging window that body b's last judgement was made on (docs/physics.md, "Settled
+ * verdicts"): the restitution velocity v_rest and the centre-of-mass velocity along z (m/s); NaN while the body has
+ * no judgement and for the substrate. */
+double mpm_verdict_vrest(const struct mpm_solver *s, int body);
+double mpm_verdict_vcom_z(const struct mpm_solver *s, int body);
 /* 1 when every body but the substrate is settled (the run ends then with stop_when_settled = yes). */
 int mpm_all_settled(const struct mpm_solver *s);
 

@@ -156,9 +156,11 @@ struct mpm_solver {
     size_t series_rows, series_capacity;
     double *series;
     /* verdicts (verdict.c), judged at every series row: per body the time its verdict settled (NaN: not
-     * settled) and the last row's judgement (1 bonded); whether every particle is settled */
+     * settled), the last row's judgement (1 bonded) and the window means it was made on (NaN: none yet);
+     * whether every particle is settled */
     double *settled_at;
     int *bonded_now;
+    double *judged_vrest, *judged_vcom_z;
     int all_settled;
     /* scratch for diagnostics */
     struct mpm_diagnostics diagnostics;

@@ -203,7 +203,8 @@ static int write_summary(struct mpm_solver *s, hid_t group)
         diameter[b] = s->cfg.bodies[b].d;
         v_impact[b] = s->body_speed[b];
         pbcp[b] = d->body[b].pbcp;
-        v_rest[b] = d->body[b].v_rest;
+        /* the window mean the verdict is judged on; the last row's value while there is none */
+        v_rest[b] = isnan(mpm_verdict_vrest(s, b)) ? d->body[b].v_rest : mpm_verdict_vrest(s, b);
         cor[b] = v_impact[b] > 0 ? v_rest[b] / v_impact[b] : NAN; /* restitution ratio */
         t_settled[b] = mpm_verdict_settled_at(s, b);
         verdicts[b] = verdict[b];

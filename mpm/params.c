@@ -73,10 +73,12 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "vrest_threshold", CFG_REAL, "m/s", "5", 0, 1e4, 0, NULL,
      "bonded verdict needs the restitution velocity at most this (Tang: 0.6 at 80-100 ns; docs/physics.md)"},
     {"impact", "settle_window", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL,
-     "a verdict is settled when PBCP, v_rest and v_com have kept it over this last stretch of time (docs/physics.md, "
+     "each row is judged on the means of v_rest and v_com over this window, and a verdict is settled when PBCP and "
+     "those means have kept it over this last stretch of time (docs/physics.md, "
      "\"Settled verdicts\"); at least 4 series_every"},
     {"impact", "settle_vcom", CFG_REAL, "m/s", "0.5", 0, 1e4, 0, NULL,
-     "settled: each component of the body's centre-of-mass velocity moved by at most this over settle_window"},
+     "settled: each component of the body's window-mean centre-of-mass velocity moved by at most this over "
+     "settle_window"},
     {"impact", "settle_pbcp", CFG_REAL, "-", "0.005", 0, 1, 0, NULL,
      "settled: PBCP moved by at most this over settle_window"},
     {"impact", "stop_when_settled", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",

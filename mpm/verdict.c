@@ -1,11 +1,16 @@
 /* Settled verdicts (issue 22, item 3; Tang Section 5.2.1 judges bonded/rebounded once the impact reached steady
- * state, about 50-60 ns in Section 4.3.3): a body's verdict counts only once it has stopped changing.  At every
- * series row (series_every) each particle is judged on that row's PBCP and v_rest (bonded: PBCP >= pbcp_threshold
- * and v_rest <= vrest_threshold); its verdict is settled at a row when over the window [t - W, t] (W:
- * settle_window, or two wave transits across the body, body_window) every row has a v_rest (some point slower
- * than vrest_filter), the body does not move towards the substrate (v_com_z >= -settle_vcom), the judgement is
- * the same, v_com moved by at most settle_vcom in every component and PBCP by at most settle_pbcp.  The run stops
- * once every particle is settled (stop_when_settled) and otherwise at t_end; a body not settled then is
+ * state, about 50-60 ns in Section 4.3.3): a body's verdict counts only once it has stopped changing.
+ *
+ * A held particle does not come to rest: it rings on the substrate with a period of 10-15 ns (a 30 um Al particle at
+ * 770 m/s on the 2 um grid: v_com_z swings by +-1 m/s at 80 ns and +-0.4 m/s at 100 ns), above Tang's 0.6 m/s v_rest
+ * threshold, so a judgement on one row's v_rest flips with the phase of the ringing and never settles.  Each row is
+ * therefore judged on the means of v_rest and v_com over the window W that ends at it (W: settle_window, or two wave
+ * transits across the body, body_window): bonded when PBCP >= pbcp_threshold and the mean v_rest <= vrest_threshold.
+ * A row has no judgement while some row of its window has no v_rest (no point slower than vrest_filter).  A verdict
+ * is settled at a row when over the window ending there every row has a judgement, the same one, the mean v_com_z
+ * is >= -settle_vcom (a body still landing is not judged), each component of the mean v_com moved by at most
+ * settle_vcom and PBCP by at most settle_pbcp.  A steady motion thus settles two windows after it set in.  The run
+ * stops once every particle is settled (stop_when_settled) and otherwise at t_end; a body not settled then is
  * `unsettled`, never rebounded.  Everything here is derived from the recorded series, so a run read back from a
  * checkpoint replays it. */
 #include <math.h>
@@ -25,12 +30,6 @@ static const double *series_row(const struct mpm_solver *s, size_t row)
 static const double *body_columns(const struct mpm_solver *s, size_t row, int body)
 {
     return series_row(s, row) + SERIES_FIXED + (size_t)body * SERIES_PER_BODY;
-}
-
-/* Bonded at one row: Eq. 5.1's PBCP and the restitution velocity against the thresholds (Section 5.2.1). */
-static int bonded_at(const struct mpm_config *cfg, const double *columns)
-{
-    return columns[COLUMN_PBCP] >= cfg->pbcp_threshold && columns[COLUMN_VREST] <= cfg->vrest_threshold;
 }
 
 /* Body b's window: settle_window, or two longitudinal wave transits across the body (its largest size over its
@@ -55,22 +54,52 @@ static long window_start(const struct mpm_solver *s, size_t row, double window)
     return -1;
 }
 
-/* Whether body b's verdict is settled over the window of rows first .. row. */
-static int settled_over(const struct mpm_solver *s, long first, size_t row, int b)
+/* The judgement of one row: the means over the window that ends at it, and bonded or not. */
+struct judgement {
+    double vcom[3], vrest, pbcp;
+    int bonded;
+};
+
+/* Body b's judgement at `row` (Section 5.2.1's PBCP and v_rest thresholds on the window means); 0 when the row
+ * has none (the series is shorter than the window, or a row of the window has no v_rest). */
+static int judge(const struct mpm_solver *s, size_t row, int b, double window, struct judgement *out)
 {
-    const struct mpm_config *cfg = &s->cfg;
-    const double *last = body_columns(s, row, b);
-    double lo[4], hi[4]; /* v_com x, y, z and PBCP */
-    for (int k = 0; k < 4; k++)
-        lo[k] = hi[k] = k < 3 ? last[COLUMN_VCOM + k] : last[COLUMN_PBCP];
-    int verdict = bonded_at(cfg, last);
+    long first = window_start(s, row, window);
+    if (first < 0)
+        return 0;
+    double sum[4] = {0.0, 0.0, 0.0, 0.0};
     for (long j = first; j <= (long)row; j++) {
         const double *c = body_columns(s, (size_t)j, b);
+        if (isnan(c[COLUMN_VREST]))
+            return 0;
+        for (int k = 0; k < 3; k++)
+            sum[k] += c[COLUMN_VCOM + k];
+        sum[3] += c[COLUMN_VREST];
+    }
+    double rows = (double)((long)row - first + 1);
+    for (int k = 0; k < 3; k++)
+        out->vcom[k] = sum[k] / rows;
+    out->vrest = sum[3] / rows;
+    out->pbcp = body_columns(s, row, b)[COLUMN_PBCP];
+    out->bonded = out->pbcp >= s->cfg.pbcp_threshold && out->vrest <= s->cfg.vrest_threshold;
+    return 1;
+}
+
+/* Whether body b's verdict `last` (its judgement at `row`) is settled over the window of rows first .. row. */
+static int settled_over(const struct mpm_solver *s, long first, size_t row, int b, double window,
+                        const struct judgement *last)
+{
+    const struct mpm_config *cfg = &s->cfg;
+    double lo[4], hi[4]; /* mean v_com x, y, z and PBCP */
+    for (int k = 0; k < 4; k++)
+        lo[k] = hi[k] = k < 3 ? last->vcom[k] : last->pbcp;
+    for (long j = first; j <= (long)row; j++) {
+        struct judgement at;
         /* a body still moving towards the substrate is in flight (or still landing), whatever it reads */
-        if (isnan(c[COLUMN_VREST]) || bonded_at(cfg, c) != verdict || c[COLUMN_VCOM + 2] < -cfg->settle_vcom)
+        if (!judge(s, (size_t)j, b, window, &at) || at.bonded != last->bonded || at.vcom[2] < -cfg->settle_vcom)
             return 0;
         for (int k = 0; k < 4; k++) {
-            double value = k < 3 ? c[COLUMN_VCOM + k] : c[COLUMN_PBCP];
+            double value = k < 3 ? at.vcom[k] : at.pbcp;
             lo[k] = fmin(lo[k], value), hi[k] = fmax(hi[k], value);
         }
     }
@@ -78,24 +107,33 @@ static int settled_over(const struct mpm_solver *s, long first, size_t row, int 
     return vcom_range <= cfg->settle_vcom && hi[3] - lo[3] <= cfg->settle_pbcp;
 }
 
+/* Body b's judgement and whether it is settled after series row `row` was recorded. */
+static int judge_body(struct mpm_solver *s, size_t row, int b)
+{
+    double window = body_window(s, b);
+    struct judgement now;
+    int judged = judge(s, row, b, window, &now);
+    long first = judged ? window_start(s, row, window) : -1;
+    int settled = first >= 0 && settled_over(s, first, row, b, window, &now);
+    s->bonded_now[b] = judged && now.bonded;
+    s->judged_vrest[b] = judged ? now.vrest : NAN;
+    s->judged_vcom_z[b] = judged ? now.vcom[2] : NAN;
+    if (!settled)
+        s->settled_at[b] = NAN;
+    else if (isnan(s->settled_at[b]))
+        s->settled_at[b] = series_row(s, row)[0];
+    return settled;
+}
+
 /* The judgement after series row `row` was recorded. */
 static void judge_row(struct mpm_solver *s, size_t row)
 {
-    double t = series_row(s, row)[0];
     int particles = 0, settled = 0;
     for (int b = 0; b < s->cfg.body_count; b++) {
         if (s->cfg.bodies[b].substrate)
             continue;
         particles++;
-        long first = window_start(s, row, body_window(s, b));
-        if (first >= 0 && settled_over(s, first, row, b)) {
-            if (isnan(s->settled_at[b]))
-                s->settled_at[b] = t;
-            settled++;
-        } else {
-            s->settled_at[b] = NAN;
-        }
-        s->bonded_now[b] = bonded_at(&s->cfg, body_columns(s, row, b));
+        settled += judge_body(s, row, b);
     }
     s->all_settled = particles > 0 && settled == particles;
 }
@@ -105,8 +143,10 @@ int mpm_verdict_create(struct mpm_solver *s)
     size_t n = (size_t)s->cfg.body_count;
     s->settled_at = malloc(n * sizeof *s->settled_at);
     s->bonded_now = calloc(n, sizeof *s->bonded_now);
-    if (!s->settled_at || !s->bonded_now)
-        SC_FAIL_OOM(n * (sizeof *s->settled_at + sizeof *s->bonded_now), "the verdicts of the bodies");
+    s->judged_vrest = malloc(n * sizeof *s->judged_vrest);
+    s->judged_vcom_z = malloc(n * sizeof *s->judged_vcom_z);
+    if (!s->settled_at || !s->bonded_now || !s->judged_vrest || !s->judged_vcom_z)
+        SC_FAIL_OOM(n * (3 * sizeof(double) + sizeof *s->bonded_now), "the verdicts of the bodies");
     mpm_verdict_replay(s);
     return SC_OK;
 }
@@ -115,6 +155,8 @@ void mpm_verdict_free(struct mpm_solver *s)
 {
     free(s->settled_at);
     free(s->bonded_now);
+    free(s->judged_vrest);
+    free(s->judged_vcom_z);
 }
 
 void mpm_verdict_record(struct mpm_solver *s)
@@ -126,7 +168,7 @@ void mpm_verdict_record(struct mpm_solver *s)
 void mpm_verdict_replay(struct mpm_solver *s)
 {
     for (int b = 0; b < s->cfg.body_count; b++)
-        s->settled_at[b] = NAN, s->bonded_now[b] = 0;
+        s->settled_at[b] = s->judged_vrest[b] = s->judged_vcom_z[b] = NAN, s->bonded_now[b] = 0;
     s->all_settled = 0;
     for (size_t row = 0; row < s->series_rows; row++)
         judge_row(s, row);
@@ -140,6 +182,16 @@ int mpm_all_settled(const struct mpm_solver *s)
 double mpm_verdict_settled_at(const struct mpm_solver *s, int body)
 {
     return s->cfg.bodies[body].substrate ? NAN : s->settled_at[body];
+}
+
+double mpm_verdict_vrest(const struct mpm_solver *s, int body)
+{
+    return s->cfg.bodies[body].substrate ? NAN : s->judged_vrest[body];
+}
+
+double mpm_verdict_vcom_z(const struct mpm_solver *s, int body)
+{
+    return s->cfg.bodies[body].substrate ? NAN : s->judged_vcom_z[body];
 }
 
 void mpm_verdicts(struct mpm_solver *s, int *verdict)

@@ -1,8 +1,8 @@
-/* Settled verdicts (mpm/verdict.c; issue 22, item 3): a verdict counts only once PBCP, v_rest and v_com have held
- * it over the settling window; a transient rebound is `unsettled`, never `rebounded`; a body without v_rest is
- * never rebounded; the run ends once every particle is settled.  The judging is tested on series rows written
- * into a small solver (the shapes of the issue's 14 um run at 750 m/s), the end of a run on an elastic sphere
- * bouncing off a rigid wall. */
+/* Settled verdicts (mpm/verdict.c; issue 22, item 3): each row is judged on the means of v_rest and v_com over the
+ * window that ends there, and a verdict counts only once PBCP and those means have held it over the settling window; a
+ * transient rebound is `unsettled`, never `rebounded`; a body without v_rest is never rebounded; the run ends once
+ * every particle is settled.  The judging is tested on series rows written into a small solver (the shapes of the
+ * issue's 14 um run at 750 m/s), the end of a run on an elastic sphere bouncing off a rigid wall. */
 #include <math.h>
 
 #include "check.h"
@@ -73,14 +73,19 @@ static void test_transient_rebound_is_unsettled(void)
     impact_fixture_close(&f);
     CHECK(judged(&f, 1, shapes, 80e-9) == 0, "set-up");
     CHECK(verdict_of(&f, 0) == MPM_VERDICT_BONDED, "at 80 ns: %s", mpm_verdict_name(verdict_of(&f, 0)));
-    /* settled once v(t - 10 ns) - v(t) <= 0.5 m/s: v(t - 10 ns) (1 - exp(-10/6)) = 0.5, on the next row */
-    double t = 40e-9 + 10e-9 + 6e-9 * log(30.0 * (1.0 - exp(-10.0 / 6.0)) / 0.5);
+    /* Judged on the mean of the 21 rows of the 10 ns window: once the window lies past 40 ns, m(t) = 30 S
+     * exp(-(t - 40 ns)/6 ns) with S = (1/21) sum_i exp(i 0.5/6), i = 0 .. 20.  Settled once the means of the 10 ns
+     * before moved by at most 0.5 m/s: m(t - 10 ns) - m(t) = m(t) (exp(10/6) - 1) <= 0.5, on the next row (79.05 ns,
+     * so both windows lie past 40 ns) */
+    double S = (exp(21.0 * 0.5 / 6.0) - 1.0) / (exp(0.5 / 6.0) - 1.0) / 21.0;
+    double t = 40e-9 + 6e-9 * log(30.0 * S * (exp(10.0 / 6.0) - 1.0) / 0.5);
     CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), ceil(t / ROW_DT) * ROW_DT, 0.0, 1e-13, "settled at (s)");
     CHECK(mpm_all_settled(f.solver), "every particle settled at 80 ns");
     impact_fixture_close(&f);
 }
 
-/* Leaving at a steady 20 m/s: rebounded, settled one window after it left (20 ns). */
+/* Leaving at a steady 20 m/s from 20 ns: rebounded.  Its window mean is 20 m/s from 30 ns and within 0.5 m/s of it
+ * from 29.5 ns (20 - 8/21 m/s: one row of the window at 12 m/s), so it is settled one window later, at 39.5 ns. */
 static void flies_off(double t, double *v, double *pbcp, double *v_rest)
 {
     *v = t < 20e-9 ? -300.0 + 320.0 * t / 20e-9 : 20.0;
@@ -125,8 +130,48 @@ static void test_steady_rebound(void)
     history shapes[1] = {flies_off};
     CHECK(judged(&f, 1, shapes, 50e-9) == 0, "set-up");
     CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED, "steady 20 m/s: %s", mpm_verdict_name(verdict_of(&f, 0)));
-    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), 30e-9, 0.0, 1e-13, "settled at (s)");
+    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), 39.5e-9, 0.0, 1e-13, "settled at (s)");
     impact_fixture_close(&f);
+}
+
+/* Held, and ringing on the substrate as a 30 um particle does (period 13 ns, here 8 m/s decaying over 20 ns, around
+ * 0 after landing at 40 ns; the 5 m/s threshold stands for Tang's 0.6 m/s): one row's v_rest is above the threshold
+ * until 9.4 ns after landing (8 exp(-x/20 ns) = 5), and the row values over the last window swing by about
+ * 16 exp(-(x - 10 ns)/20 ns) m/s, above 0.5 m/s until x = 79 ns: a verdict on row values would not settle by 100 ns.
+ * The 10 ns window mean keeps only sin(pi 10/13)/(pi 10/13) = 0.27 of the swing, so the means over the last window
+ * swing by 0.27 times that, 0.5 m/s at x = 53 ns: bonded, settled at about 93 ns. */
+static void rings_held(double t, double *v, double *pbcp, double *v_rest)
+{
+    const double pi = 3.14159265358979323846;
+    double x = t - 40e-9;
+    *v = t < 40e-9 ? -750.0 + 750.0 * t / 40e-9 : 8.0 * exp(-x / 20e-9) * sin(2.0 * pi * x / 13e-9);
+    *pbcp = 0.3;
+    *v_rest = t < 5e-9 ? NAN : *v;
+}
+
+/* The same ringing around a steady rebound at 20 m/s: rebounded. */
+static void rings_leaving(double t, double *v, double *pbcp, double *v_rest)
+{
+    rings_held(t, v, pbcp, v_rest);
+    if (t >= 40e-9)
+        *v += 20.0, *v_rest += 20.0, *pbcp = 0.01;
+}
+
+static void test_ringing_settles(void)
+{
+    const history shapes[2] = {rings_held, rings_leaving};
+    const int expected[2] = {MPM_VERDICT_BONDED, MPM_VERDICT_REBOUNDED};
+    for (int k = 0; k < 2; k++) {
+        struct impact_fixture f;
+        CHECK(judged(&f, 1, &shapes[k], 100e-9) == 0, "set-up");
+        double t_settled = mpm_verdict_settled_at(f.solver, 0);
+        printf("  ringing %s: %s, settled at %.4g ns\n", k ? "while leaving" : "while held",
+               mpm_verdict_name(verdict_of(&f, 0)), t_settled * 1e9);
+        CHECK(verdict_of(&f, 0) == expected[k], "ringing %d: %s", k, mpm_verdict_name(verdict_of(&f, 0)));
+        CHECK(t_settled > 88e-9 && t_settled < 97e-9, "ringing %d: settled at %g s, when its mean steadied", k,
+              t_settled);
+        impact_fixture_close(&f);
+    }
 }
 
 static void test_unsettled_cases(void)
@@ -183,6 +228,7 @@ int main(void)
 {
     RUN(test_transient_rebound_is_unsettled);
     RUN(test_steady_rebound);
+    RUN(test_ringing_settles);
     RUN(test_unsettled_cases);
     RUN(test_every_body_settles);
     RUN(test_run_ends_when_settled);
