@@ -130,7 +130,8 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     d->energy_absorbed = s->energy_absorbed;
     d->energy_removed = s->energy_removed;
     d->energy_initial = s->energy_initial;
-    d->energy_total = s->energy_absorbed + s->energy_removed;
+    d->energy_stored = mpm_boundary_spring_energy(s);
+    d->energy_total = s->energy_absorbed + s->energy_removed + d->energy_stored;
     for (int b = 0; b < nb; b++) {
         finish_body(&sums[b], &d->body[b]);
         d->energy_total += d->body[b].kinetic_energy + d->body[b].internal_energy;

@@ -359,7 +359,8 @@ void mpm_grid_bin_points(struct mpm_solver *s)
 }
 
 /* Point q's stress less its bulk viscosity (xx, yy, zz, yz, xz, xy) and its external force (the absorbing
- * boundary's dashpot, Eqs. 3.45-3.46): what particle-to-grid spreads over its nodes with Eqs. 3.25-3.26. */
+ * boundary's dashpot, Eqs. 3.45-3.46, and spring where on): what particle-to-grid spreads over its nodes with
+ * Eqs. 3.25-3.26. */
 static inline void point_force_terms(const struct mpm_solver *s, size_t q, double sig[6], double fext[3])
 {
     const struct mpm_point_state *ps = &s->points.state[q];
@@ -368,7 +369,7 @@ static inline void point_force_terms(const struct mpm_solver *s, size_t q, doubl
         sig[k] = k < 3 ? ps->stress[k] - qv : ps->stress[k];
     fext[0] = fext[1] = fext[2] = 0.0;
     if (s->points.flags[q] & (POINT_BOTTOM | POINT_SIDE))
-        boundary_dashpot_force(s, q, fext);
+        boundary_force(s, q, fext);
 }
 
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient

@@ -83,6 +83,11 @@ struct mpm_config {
     int fixed_bottom;        /* nodes at and below the substrate's bottom face cannot move vertically */
     double substrate_bottom; /* z of that face */
     int device;              /* [run] device: MPM_DEVICE_CPU, or MPM_DEVICE_GPU (mpm/cuda/, docs/gpu.md) */
+    /* viscous-spring boundary (substrate_bottom = spring, substrate_sides = spring; docs/physics.md "Substrate
+     * bottom"): besides its dashpot, a spring alpha G / R per unit area on each such boundary face of a point,
+     * pulling the point back to its set-up position; R the distance from the substrate's top centre to the face */
+    int spring_bottom, spring_sides;
+    double spring_alpha_normal, spring_alpha_tangential;
 };
 enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
 
@@ -150,8 +155,10 @@ struct mpm_diagnostics {
     double t;
     int body_count;
     struct mpm_body_diagnostics *body; /* owned by the solver; valid until the next call */
-    double energy_total; /* kinetic + internal + absorbed by boundaries + carried away by removed points */
+    double energy_total; /* kinetic + internal + absorbed by boundaries + carried away by removed points + stored
+                            in the boundary springs */
     double energy_absorbed, energy_removed, energy_initial;
+    double energy_stored; /* elastic energy held by the boundary springs (spring_bottom, spring_sides); in the total */
 };
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
 

@@ -166,6 +166,12 @@ struct mpm_solver {
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
     struct mpm_gpu *gpu; /* [run] device = gpu: the points on the device (mpm/gpu.h), else NULL */
+    /* viscous-spring boundary (cfg spring_bottom, spring_sides), else NULL: per body k A of the bottom's normal and
+     * tangential and the sides' normal and tangential springs (4 doubles); per point id its index into
+     * boundary_points; per boundary point the spring's anchor, the point's set-up position (3 doubles) */
+    double *body_spring;
+    uint32_t *boundary_rank;
+    double *boundary_anchor;
 };
 
 #define SERIES_FIXED 4 /* t, energy_total, energy_absorbed, energy_removed */
@@ -341,6 +347,47 @@ static inline void boundary_dashpot_force(const struct mpm_solver *s, size_t q, 
             f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
     }
 }
+
+/* The viscous-spring boundary's spring on a point (Deeks & Randolph 1994; docs/physics.md "Substrate bottom"),
+ * added to f: -k A u per boundary face, u the point's displacement from its anchor, normal and tangential parts
+ * with their own k.  Only where s->boundary_rank is set (springs on) and for listed boundary points. */
+static inline void boundary_spring_vector(const struct mpm_solver *s, size_t q, const double u[3], double f[3])
+{
+    const struct mpm_points *p = &s->points;
+    const double *k = s->body_spring + 4 * p->body[q];
+    if (p->flags[q] & POINT_BOTTOM) {
+        f[0] -= k[1] * u[0];
+        f[1] -= k[1] * u[1];
+        f[2] -= k[0] * u[2];
+    }
+    if (p->flags[q] & POINT_SIDE) {
+        const double *n = p->normal + 3 * q;
+        double un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
+        for (int d = 0; d < 3; d++)
+            f[d] -= k[2] * un * n[d] + k[3] * (u[d] - un * n[d]);
+    }
+}
+static inline void boundary_displacement(const struct mpm_solver *s, size_t q, double u[3])
+{
+    const double *x = s->points.x + 3 * q, *x0 = s->boundary_anchor + 3 * (size_t)s->boundary_rank[s->points.id[q]];
+    u[0] = x[0] - x0[0], u[1] = x[1] - x0[1], u[2] = x[2] - x0[2];
+}
+/* The whole boundary force on a boundary point: dashpot, and spring where the springs are on. */
+static inline void boundary_force(const struct mpm_solver *s, size_t q, double f[3])
+{
+    boundary_dashpot_force(s, q, f);
+    if (s->boundary_rank) {
+        double u[3];
+        boundary_displacement(s, q, u);
+        boundary_spring_vector(s, q, u, f);
+    }
+}
+
+/* solver.c: list the points flagged POINT_BOTTOM or POINT_SIDE now (by id, in any storage order) as the boundary
+ * points, and with springs on anchor each at its present position (mpm_create calls it at set-up; a white-box test
+ * may call it again after changing flags).  The elastic energy the springs hold (in energy_total). */
+int mpm_list_boundary_points(struct mpm_solver *s);
+double mpm_boundary_spring_energy(const struct mpm_solver *s);
 
 /* contact.c: nodal update, contact and bond forces, rigid wall (steps 3-6, 8). */
 void mpm_contact_nodal_update(struct mpm_solver *s);

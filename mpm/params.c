@@ -93,10 +93,17 @@ const struct cfg_key mpm_case_keys[] = {
      "linear coefficient c_l of the artificial bulk viscosity (0 = off)"},
     {"impact", "bulk_viscosity_quadratic", CFG_REAL, "-", "1.5", 0, 100, 0, NULL,
      "quadratic coefficient c_q of the artificial bulk viscosity (0 = off)"},
-    {"impact", "substrate_bottom", CFG_CHOICE, "", "fixed", 0, 0, 0, "fixed|free",
-     "fixed: the grid holds the substrate's bottom face vertically (Tang Section 4.3.3); free: only the dashpots"},
+    {"impact", "substrate_bottom", CFG_CHOICE, "", "fixed", 0, 0, 0, "fixed|free|spring",
+     "fixed: the grid holds the substrate's bottom face vertically (Tang Section 4.3.3); free: only the dashpots; "
+     "spring: dashpots and springs (viscous-spring boundary, Deeks & Randolph 1994)"},
     {"impact", "absorbing", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",
      "viscous absorbing boundaries (Eqs. 3.45-3.46) on the substrate's bottom and sides"},
+    {"impact", "substrate_sides", CFG_CHOICE, "", "dashpot", 0, 0, 0, "dashpot|spring",
+     "dashpot: the sides absorb only (Tang Section 3.5.5); spring: dashpots and springs with R = substrate radius"},
+    {"impact", "spring_alpha_normal", CFG_REAL, "-", "2", 0, 1e6, 0, NULL,
+     "viscous-spring boundary: normal spring alpha_N G / R per unit area (2: spherical P wave, Liu et al. 2006)"},
+    {"impact", "spring_alpha_tangential", CFG_REAL, "-", "1", 0, 1e6, 0, NULL,
+     "viscous-spring boundary: tangential spring alpha_T G / R per unit area (1: spherical S wave)"},
     /* [material.NAME]: defaults are Tang's Al (Table 2.1; docs/physics.md erratum on the atomic mass) */
     {MAT, "density", CFG_REAL, "kg/m3", "2700", 0, 1e5, 1, NULL, "rho0"},
     {MAT, "strength", CFG_CHOICE, "", "ptw", 0, 0, 0, "ptw|elastic", "deviatoric model: PTW, or elastic (no yield)"},
@@ -241,6 +248,14 @@ static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
     };
     body.center[2] = -0.5 * body.h;
     cfg->fixed_bottom = case_is(c, "impact", "substrate_bottom", "fixed");
+    cfg->spring_bottom = case_is(c, "impact", "substrate_bottom", "spring");
+    cfg->spring_sides = case_is(c, "impact", "substrate_sides", "spring");
+    cfg->spring_alpha_normal = case_real(c, "impact", "spring_alpha_normal");
+    cfg->spring_alpha_tangential = case_real(c, "impact", "spring_alpha_tangential");
+    if (cfg->device == MPM_DEVICE_GPU && (cfg->spring_bottom || cfg->spring_sides))
+        return case_invalid(c, "impact", cfg->spring_bottom ? "substrate_bottom" : "substrate_sides",
+                            "the GPU step has no boundary springs; allowed: fixed or free (substrate_bottom), "
+                            "dashpot (substrate_sides), or [run] device = cpu");
     cfg->substrate_bottom = -body.h;
     SC_TRY(material_index(c, "substrate_material", case_text(c, "impact", "substrate_material"), cfg, &body.material));
     if (body.d < 2.0 * cfg->spacing || body.h < 2.0 * cfg->spacing)

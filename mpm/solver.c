@@ -25,6 +25,29 @@ static int copy_config(const struct mpm_config *from, struct mpm_config *to)
     return SC_OK;
 }
 
+/* Spring coefficients k A of a boundary point of the substrate (the viscous-spring boundary of Deeks & Randolph
+ * 1994, in the 3-D form of Liu et al. 2006): k = alpha G / R per unit area, alpha_N normal and alpha_T tangential
+ * to the face, R the distance from the impact point (the substrate's top centre) to the face: the substrate's
+ * height for the bottom, its radius (half its side) for the sides.  docs/physics.md "Substrate bottom". */
+static void body_springs(struct mpm_solver *s, int b, double G, double area)
+{
+    const struct mpm_config *cfg = &s->cfg;
+    const struct mpm_body *body = &cfg->bodies[b];
+    double *k = s->body_spring + 4 * b;
+    k[0] = k[1] = k[2] = k[3] = 0.0;
+    if (!body->substrate)
+        return;
+    double per_R = G * area; /* k A R */
+    if (cfg->spring_bottom) {
+        k[0] = cfg->spring_alpha_normal * per_R / body->h;
+        k[1] = cfg->spring_alpha_tangential * per_R / body->h;
+    }
+    if (cfg->spring_sides) {
+        k[2] = cfg->spring_alpha_normal * per_R / (0.5 * body->d);
+        k[3] = cfg->spring_alpha_tangential * per_R / (0.5 * body->d);
+    }
+}
+
 /* Dashpot coefficients of a boundary point (Eqs. 3.45-3.46 with a = b = 1): rho0 V A with the face area
  * A = dp^2 of a lattice point. */
 static void body_constants(struct mpm_solver *s)
@@ -48,6 +71,8 @@ static void body_constants(struct mpm_solver *s)
         }
         const double *v = cfg->bodies[b].velocity;
         s->body_speed[b] = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        if (s->body_spring)
+            body_springs(s, b, G, area);
     }
 }
 
@@ -65,24 +90,60 @@ static double kinetic_energy_total(const struct mpm_points *p)
 }
 
 /* The absorbing-boundary points (their flags are set once, at set-up): the energy they absorb is booked every
- * step without scanning all points.  Called before any reordering: the list holds ids. */
-static int list_boundary_points(struct mpm_solver *s)
+ * step without scanning all points.  The list holds ids, ascending; with springs on, each point's rank in it and
+ * its anchor (present position). */
+int mpm_list_boundary_points(struct mpm_solver *s)
 {
     const struct mpm_points *p = &s->points;
+    free(s->boundary_points), free(s->boundary_work), free(s->boundary_rank), free(s->boundary_anchor);
+    s->boundary_rank = NULL, s->boundary_anchor = NULL;
     s->boundary_count = 0;
     for (size_t q = 0; q < p->count; q++)
         s->boundary_count += (p->flags[q] & (POINT_BOTTOM | POINT_SIDE)) != 0;
-    s->boundary_points = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_points);
-    s->boundary_work = malloc((s->boundary_count ? s->boundary_count : 1) * sizeof *s->boundary_work);
+    size_t n = s->boundary_count ? s->boundary_count : 1;
+    s->boundary_points = malloc(n * sizeof *s->boundary_points);
+    s->boundary_work = malloc(n * sizeof *s->boundary_work);
     if (!s->boundary_points || !s->boundary_work)
-        SC_FAIL_OOM((s->boundary_count ? s->boundary_count : 1) *
-                        (sizeof *s->boundary_points + sizeof *s->boundary_work),
-                    "the absorbing-boundary points");
+        SC_FAIL_OOM(n * (sizeof *s->boundary_points + sizeof *s->boundary_work), "the absorbing-boundary points");
+    int springs = s->cfg.spring_bottom || s->cfg.spring_sides;
+    if (springs) {
+        s->boundary_rank = calloc(p->count ? p->count : 1, sizeof *s->boundary_rank);
+        s->boundary_anchor = malloc(3 * n * sizeof *s->boundary_anchor);
+        if (!s->boundary_rank || !s->boundary_anchor)
+            SC_FAIL_OOM(p->count * sizeof *s->boundary_rank + 3 * n * sizeof *s->boundary_anchor,
+                        "the boundary springs' anchors");
+    }
     size_t k = 0;
-    for (size_t q = 0; q < p->count; q++)
-        if (p->flags[q] & (POINT_BOTTOM | POINT_SIDE))
-            s->boundary_points[k++] = q;
+    for (size_t i = 0; i < p->count; i++) {
+        size_t q = p->slot[i]; /* by id */
+        if (!(p->flags[q] & (POINT_BOTTOM | POINT_SIDE)))
+            continue;
+        if (springs) {
+            s->boundary_rank[i] = (uint32_t)k;
+            memcpy(s->boundary_anchor + 3 * k, p->x + 3 * q, 3 * sizeof *s->boundary_anchor);
+        }
+        s->boundary_points[k++] = i;
+    }
     return SC_OK;
+}
+
+/* Sum over the boundary points of 1/2 u . K u = -1/2 u . f_spring(u), by id. */
+double mpm_boundary_spring_energy(const struct mpm_solver *s)
+{
+    if (!s->boundary_rank)
+        return 0.0;
+    const struct mpm_points *p = &s->points;
+    double sum = 0.0;
+    for (size_t k = 0; k < s->boundary_count; k++) {
+        size_t q = p->slot[s->boundary_points[k]];
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        double u[3], f[3] = {0.0, 0.0, 0.0};
+        boundary_displacement(s, q, u);
+        boundary_spring_vector(s, q, u, f);
+        sum -= 0.5 * (u[0] * f[0] + u[1] * f[1] + u[2] * f[2]);
+    }
+    return sum;
 }
 
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
@@ -96,6 +157,11 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
     s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
     s->body_diagnostics = calloc((size_t)cfg->body_count, sizeof *s->body_diagnostics);
+    if (cfg->spring_bottom || cfg->spring_sides) {
+        s->body_spring = calloc(4 * (size_t)cfg->body_count, sizeof *s->body_spring);
+        if (!s->body_spring)
+            SC_FAIL_OOM(4 * (size_t)cfg->body_count * sizeof *s->body_spring, "the boundary springs");
+    }
     s->material_constants = calloc((size_t)cfg->material_count, sizeof *s->material_constants);
     if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics || !s->material_constants)
         SC_FAIL_OOM((size_t)cfg->body_count * (3 * sizeof *s->body_speed + sizeof *s->body_diagnostics) +
@@ -106,7 +172,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     body_constants(s);
     SC_TRY(mpm_points_create(&s->cfg, &s->points));
     SC_TRY(mpm_grid_create(&s->cfg, &s->points, &s->grid));
-    SC_TRY(list_boundary_points(s));
+    SC_TRY(mpm_list_boundary_points(s));
     s->energy_initial = kinetic_energy_total(&s->points);
     s->next_series = cfg->series_every;
     s->next_snapshot = cfg->snapshot_every;
@@ -151,6 +217,9 @@ void mpm_destroy(struct mpm_solver *s)
     free(s->material_constants);
     free(s->boundary_points);
     free(s->boundary_work);
+    free(s->body_spring);
+    free(s->boundary_rank);
+    free(s->boundary_anchor);
     balance_free(&s->update_balance);
     free(s->series);
     mpm_verdict_free(s);
