@@ -92,6 +92,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     if (!s)
         SC_FAIL_OOM(sizeof *s, "the impact solver");
     SC_TRY(copy_config(cfg, &s->cfg));
+    if (cfg->transfer == MPM_TRANSFER_APIC)
+        s->cfg.flip = 0.0; /* APIC's point velocity is the grid velocity at the point: PIC (solver.c, "apic") */
     s->lp = 0.5 * cfg->spacing;
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
     s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
@@ -113,6 +115,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->snapshot_pending = 1;
     SC_TRY(mpm_series_record(s));
     SC_TRY(mpm_verdict_create(s));
+    if (cfg->device == MPM_DEVICE_GPU && cfg->transfer == MPM_TRANSFER_APIC)
+        SC_FAIL(SC_EINPUT, "impact: transfer = apic is not in the GPU step; use device = cpu or transfer = flip");
     if (cfg->device == MPM_DEVICE_GPU)
         SC_TRY(mpm_gpu_attach(s));
     return SC_OK;
@@ -474,6 +478,12 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
 {
     double L[3][3], dt = s->dt, *de = b->strain[k], *dw = b->spin[k];
     b->contact[k] = velocity_gradient(s, q, L);
+    /* transfer = apic: C_p is the velocity gradient at the point of the MUSL re-projected, contact-corrected nodal
+     * velocities (those of the strain rate), not Jiang et al.'s B_p D_p^-1 of the updated ones: with trilinear
+     * weights D_p is singular where a point barely reaches a node, whose updated velocity takes dt f_I / m_I, and
+     * that C_p made a free elastic sphere blow up within 100 steps (docs/physics.md, "Transfers") */
+    if (s->points.affine)
+        memcpy(s->points.affine + 9 * q, L, sizeof L);
     /* the trace from locals: gcc stores de[0..3] as one vector, and reading them back one by one stalled on
      * store forwarding (a seventh of update_block's samples) */
     double exx = L[0][0] * dt, eyy = L[1][1] * dt, ezz = L[2][2] * dt;
