@@ -457,15 +457,22 @@ static void scatter_all(struct mpm_solver *s, size_t q)
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    int apic = s->points.affine != NULL;
-    if (apic && st.width == 2)
-        scatter_all_width(s, q, &st, 2, 1);
-    else if (apic)
-        scatter_all_width(s, q, &st, st.width, 1);
-    else if (st.width == 2)
+    if (st.width == 2)
         scatter_all_width(s, q, &st, 2, 0);
     else
         scatter_all_width(s, q, &st, st.width, 0);
+}
+
+/* scatter_all with the affine momentum (transfer = apic): a function of its own, so that FLIP's transfers are
+ * compiled (and inlined) as before. */
+static void scatter_all_apic(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_all_width(s, q, &st, 2, 1);
+    else
+        scatter_all_width(s, q, &st, st.width, 1);
 }
 
 /* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
@@ -506,15 +513,20 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
 {
     struct stencil st;
     grid_point_stencil(s, q, &st);
-    int apic = s->points.affine != NULL;
-    if (apic && st.width == 2)
-        scatter_momentum_width(s, q, &st, 2, 1);
-    else if (apic)
-        scatter_momentum_width(s, q, &st, st.width, 1);
-    else if (st.width == 2)
+    if (st.width == 2)
         scatter_momentum_width(s, q, &st, 2, 0);
     else
         scatter_momentum_width(s, q, &st, st.width, 0);
+}
+
+static void scatter_momentum_apic(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_momentum_width(s, q, &st, 2, 1);
+    else
+        scatter_momentum_width(s, q, &st, st.width, 1);
 }
 
 /* Points are visited in block order, and stored in that order only as of the last mpm_points_reorder: fetch the
@@ -722,13 +734,32 @@ static void scatter_momentum_runs(struct mpm_solver *s, size_t k, size_t end)
 
 enum transfer { TRANSFER_ALL, TRANSFER_MOMENTUM };
 
+/* The points of one block in order, transfer = apic (no runs: the affine term differs from point to point). */
+static void scatter_block_apic(struct mpm_solver *s, size_t block, enum transfer transfer)
+{
+    const struct mpm_grid *g = &s->grid;
+    size_t end = g->block_start[block + 1];
+    for (size_t k = g->block_start[block]; k < end; k++) {
+        if (k + PREFETCH_AHEAD < end)
+            prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
+        if (transfer == TRANSFER_ALL)
+            scatter_all_apic(s, g->block_points[k]);
+        else
+            scatter_momentum_apic(s, g->block_points[k]);
+    }
+}
+
 /* The points of one block in order; the transfer is chosen by value, not through a function pointer, so that
  * both scatters are direct calls the compiler can inline. */
 static void scatter_block(struct mpm_solver *s, size_t block, enum transfer transfer)
 {
     const struct mpm_grid *g = &s->grid;
     size_t end = g->block_start[block + 1];
-    if (TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR && !s->points.affine) { /* apic: point by point */
+    if (s->points.affine) { /* transfer = apic: point by point */
+        scatter_block_apic(s, block, transfer);
+        return;
+    }
+    if (TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR) {
         if (transfer == TRANSFER_ALL)
             scatter_all_runs(s, g->block_start[block], end);
         else

@@ -478,12 +478,6 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
 {
     double L[3][3], dt = s->dt, *de = b->strain[k], *dw = b->spin[k];
     b->contact[k] = velocity_gradient(s, q, L);
-    /* transfer = apic: C_p is the velocity gradient at the point of the MUSL re-projected, contact-corrected nodal
-     * velocities (those of the strain rate), not Jiang et al.'s B_p D_p^-1 of the updated ones: with trilinear
-     * weights D_p is singular where a point barely reaches a node, whose updated velocity takes dt f_I / m_I, and
-     * that C_p made a free elastic sphere blow up within 100 steps (docs/physics.md, "Transfers") */
-    if (s->points.affine)
-        memcpy(s->points.affine + 9 * q, L, sizeof L);
     /* the trace from locals: gcc stores de[0..3] as one vector, and reading them back one by one stalled on
      * store forwarding (a seventh of update_block's samples) */
     double exx = L[0][0] * dt, eyy = L[1][1] * dt, ezz = L[2][2] * dt;
@@ -495,6 +489,28 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
     double volume_new = s->points.volume[q] * (1.0 + exx + eyy + ezz);
     b->volume_new[k] = volume_new;
     return volume_new > 0.0 ? 0 : -1;
+}
+
+/* transfer = apic: C_p is the velocity gradient L at the point of the MUSL re-projected, contact-corrected nodal
+ * velocities (those of the strain rate), not Jiang et al.'s B_p D_p^-1 of the updated ones: with trilinear weights
+ * D_p is singular where a point barely reaches a node, whose updated velocity takes dt f_I / m_I, and that C_p made
+ * a free elastic sphere blow up within 100 steps (docs/physics.md, "Transfers").  L back from the block's strain
+ * and spin increments (point_increments), once per block: FLIP's update has no test per point. */
+static void store_affine(struct mpm_solver *s, long q0, const struct point_block *b, int count)
+{
+    if (!(s->dt > 0.0))
+        return;
+    double inv_dt = 1.0 / s->dt;
+    for (int k = 0; k < count; k++) {
+        if (!b->updating[k])
+            continue;
+        const double *de = b->strain[k], *dw = b->spin[k];
+        double *C = s->points.affine + 9 * (q0 + k);
+        C[0] = de[0] * inv_dt, C[4] = de[1] * inv_dt, C[8] = de[2] * inv_dt;
+        C[5] = (de[3] + dw[0]) * inv_dt, C[7] = (de[3] - dw[0]) * inv_dt; /* L_yz, L_zy */
+        C[2] = (de[4] + dw[1]) * inv_dt, C[6] = (de[4] - dw[1]) * inv_dt; /* L_xz, L_zx */
+        C[1] = (de[5] + dw[2]) * inv_dt, C[3] = (de[5] - dw[2]) * inv_dt; /* L_xy, L_yx */
+    }
 }
 
 /* The stress update's view of the block of points q0 .. q0 + count - 1 (mpm_stress_begin_block). */
@@ -611,6 +627,8 @@ static long update_block(struct mpm_solver *s, long q0, int count, long next_cou
             note_failure(&s->points, q, &bad);
         }
     }
+    if (s->points.affine)
+        store_affine(s, q0, &b, count);
     mpm_stress_begin_block(&stress);
     block_returns(s, &b, count);
     mpm_stress_finish_block(&stress);
