@@ -194,6 +194,26 @@ static void test_threads_identical_apic(void)
     impact_fixture_close(&two);
 }
 
+static int write_checkpoint(const struct mpm_solver *s, const char *path)
+{
+    hid_t file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    hid_t group = H5Gcreate2(file, "impact", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    int status = mpm_checkpoint_write(s, group);
+    H5Gclose(group);
+    H5Fclose(file);
+    return status;
+}
+
+static int read_checkpoint(struct mpm_solver *s, const char *path)
+{
+    hid_t file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    hid_t group = H5Gopen2(file, "impact", H5P_DEFAULT);
+    int status = mpm_checkpoint_read(s, group);
+    H5Gclose(group);
+    H5Fclose(file);
+    return status;
+}
+
 /* Write a checkpoint at 0.5 ns, read it into a fresh solver, run both on to 1 ns: the same bits. */
 static void test_checkpoint_resume_apic(void)
 {
@@ -207,19 +227,8 @@ static void test_checkpoint_resume_apic(void)
         return;
     }
     snprintf(path, sizeof path, "%s/checkpoint.h5", a.dir);
-    hid_t file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-    hid_t group = H5Gcreate2(file, "impact", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    CHECK(mpm_checkpoint_write(a.solver, group) == SC_OK, "checkpoint written");
-    H5Gclose(group);
-    H5Fclose(file);
-    ok = impact(2, &b, 1e-9, 0) == SC_OK;
-    if (ok) {
-        file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-        group = H5Gopen2(file, "impact", H5P_DEFAULT);
-        ok = mpm_checkpoint_read(b.solver, group) == SC_OK;
-        H5Gclose(group);
-        H5Fclose(file);
-    }
+    CHECK(write_checkpoint(a.solver, path) == SC_OK, "checkpoint written");
+    ok = impact(2, &b, 1e-9, 0) == SC_OK && read_checkpoint(b.solver, path) == SC_OK;
     CHECK(ok, "checkpoint read back");
     if (ok) {
         a.solver->cfg.t_end = 1e-9;
@@ -229,6 +238,39 @@ static void test_checkpoint_resume_apic(void)
     }
     impact_fixture_close(&b);
     impact_fixture_close(&a);
+}
+
+/* A free sphere after one step with `transfer_keys`. */
+static int sphere_after_one_step(const char *transfer_keys, struct impact_fixture *f)
+{
+    char ini[1024];
+    snprintf(ini, sizeof ini, FREE_SPHERE "%s\n" ELASTIC_MATERIAL, transfer_keys);
+    int status = impact_fixture_open(f, ini, SPHERE_ROW);
+    return status == SC_OK ? mpm_step(f->solver) : status;
+}
+
+/* A flip run's checkpoint (no affine matrices: the layout of before) is refused by an apic solver with a message
+ * that says so, and an apic checkpoint loads into a flip solver (which has no use for C_p). */
+static void test_checkpoint_across_transfers(void)
+{
+    struct impact_fixture flip, apic;
+    char flip_path[96], apic_path[96];
+    int ok = sphere_after_one_step("", &flip) == SC_OK && sphere_after_one_step("transfer = apic", &apic) == SC_OK;
+    CHECK(ok, "set-up");
+    if (ok) {
+        snprintf(flip_path, sizeof flip_path, "%s/flip.h5", flip.dir);
+        snprintf(apic_path, sizeof apic_path, "%s/apic.h5", apic.dir);
+        ok = write_checkpoint(flip.solver, flip_path) == SC_OK && write_checkpoint(apic.solver, apic_path) == SC_OK;
+        CHECK(ok, "checkpoints written");
+    }
+    if (ok) {
+        int status = read_checkpoint(apic.solver, flip_path);
+        CHECK(status == SC_EINPUT && strstr(sc_error_message(), "affine"), "apic reading flip's checkpoint: %d, %s",
+              status, sc_error_message());
+        CHECK(read_checkpoint(flip.solver, apic_path) == SC_OK, "flip reads apic's checkpoint");
+    }
+    impact_fixture_close(&flip);
+    impact_fixture_close(&apic);
 }
 
 /* flip with apic, and apic on the GPU, are refused (exit 2 from the program). */
@@ -247,6 +289,7 @@ int main(void)
     RUN(test_angular_momentum);
     RUN(test_threads_identical_apic);
     RUN(test_checkpoint_resume_apic);
+    RUN(test_checkpoint_across_transfers);
     RUN(test_keys_refused);
     return check_finish();
 }
