@@ -356,6 +356,11 @@ int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
     }
     SC_CHECK(status, check_overlaps(cfg, seeds, counts), done);
     SC_CHECK(status, allocate(points, total), done);
+    if (cfg->transfer == MPM_TRANSFER_APIC) { /* C_p = 0: every body starts in uniform motion */
+        points->affine = mpm_calloc_lines(9 * (total ? total : 1), sizeof *points->affine);
+        if (!points->affine)
+            SC_FAIL_OOM_AT(status, done, 9 * total * sizeof *points->affine, "the points' affine matrices");
+    }
     mpm_points_order_reset(points);
     size_t offset = 0;
     for (int b = 0; b < cfg->body_count; offset += counts[b], b++)
@@ -386,5 +391,6 @@ void mpm_points_free(struct mpm_points *p)
     free(p->flags);
     free(p->id);
     free(p->slot);
+    free(p->affine);
     memset(p, 0, sizeof *p);
 }

@@ -372,9 +372,32 @@ static inline void point_force_terms(const struct mpm_solver *s, size_t q, doubl
         boundary_force(s, q, fext);
 }
 
+/* transfer = apic (Jiang et al. 2015, Section 5): a point adds m_p N_I (v_p + C_p (x_I - x_p)) to node I's momentum,
+ * which reproduces an affine velocity field at the nodes exactly.  The columns of m_p C_p in lanes, so that the
+ * affine term is col0 dx_0 + col1 dx_1 + col2 dx_2 as a vector. */
+static inline void affine_columns(const struct mpm_points *p, size_t q, double m, vec3pad col[3])
+{
+    const double *C = p->affine + 9 * q;
+    for (int j = 0; j < 3; j++)
+        col[j] = (vec3pad){m * C[j], m * C[3 + j], m * C[6 + j], m * C[6 + j]};
+}
+
+/* The offsets x_I - x_p of a stencil's nodes per direction: -f h and (1 - f) h for trilinear weights (width 2,
+ * f = w[d][1]), from the base node for uGIMP. */
+STENCIL_INLINE void stencil_offsets(const struct mpm_grid *g, const double x[3], const struct stencil *st, int width,
+                                    double dx[3][3])
+{
+    for (int d = 0; d < 3; d++)
+        for (int a = 0; a < width; a++)
+            dx[d][a] = width == 2 ? (a == 0 ? -st->w[d][1] * g->h : st->w[d][0] * g->h)
+                                  : g->origin[d] + (double)(st->base[d] + a) * g->h - x[d];
+}
+
 /* Steps 1-2: mass (Eq. 3.23), momentum (3.24), internal (3.25) and external (3.26) force, the volume gradient
- * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point. */
-STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
+ * for the contact normals (Section 3.5.4) and the bond sums of Eq. 4.6, for one point; apic (a literal 0 or 1 of
+ * the caller, so that FLIP's copy has no trace of it) adds the affine momentum. */
+STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width,
+                                      int apic)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
@@ -393,6 +416,12 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
     vec3pad mv = {m * v[0], m * v[1], m * v[2], 0.0}, fextv = {fext[0], fext[1], fext[2], fext[2]};
     vec3pad col0 = {sxx, sxy, sxz, sxz}, col1 = {sxy, syy, syz, syz}, col2 = {sxz, syz, szz, szz};
     size_t layer = (size_t)p->body[q] * g->nodes;
+    vec3pad mC[3];
+    double dx[3][3];
+    if (apic) {
+        affine_columns(p, q, m, mC);
+        stencil_offsets(g, x, st, width, dx);
+    }
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
@@ -408,6 +437,8 @@ STENCIL_INLINE void scatter_all_width(struct mpm_solver *s, size_t q, const stru
                 size_t I = layer + stencil_node(g, st, a, b, c);
                 g->mass[I] += m * N;
                 vec3pad momentum = mv * N, gradient = V * dN;
+                if (apic)
+                    momentum = (mv + ((mC[0] * dx[0][a] + mC[1] * dx[1][b]) + mC[2] * dx[2][c])) * N;
                 vec3pad force = -V * ((col0 * dN0 + col1 * dN1) + col2 * dN2) + N * fextv;
                 node_add(g->momentum, I, &momentum);
                 node_add(g->force, I, &force);
@@ -428,14 +459,27 @@ static void scatter_all(struct mpm_solver *s, size_t q)
     struct stencil st;
     grid_point_stencil(s, q, &st);
     if (st.width == 2)
-        scatter_all_width(s, q, &st, 2);
+        scatter_all_width(s, q, &st, 2, 0);
     else
-        scatter_all_width(s, q, &st, st.width);
+        scatter_all_width(s, q, &st, st.width, 0);
+}
+
+/* scatter_all with the affine momentum (transfer = apic): a function of its own, so that FLIP's transfers are
+ * compiled (and inlined) as before. */
+static void scatter_all_apic(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_all_width(s, q, &st, 2, 1);
+    else
+        scatter_all_width(s, q, &st, st.width, 1);
 }
 
 /* Step 8 (MUSL): the momentum of the updated point velocities, Eq. 3.33, with N^k: the stencil at the step's
  * start positions. */
-STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width)
+STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const struct stencil *stencil, int width,
+                                           int apic)
 {
     struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
@@ -444,6 +488,12 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
     const double *v = p->v + 3 * q;
     vec3pad mv = {m * v[0], m * v[1], m * v[2], 0.0}; /* (m v_i) N as before, in lanes (mpm_impl.h) */
     size_t layer = (size_t)p->body[q] * g->nodes;
+    vec3pad mC[3];
+    double dx[3][3];
+    if (apic) { /* the new C_p about the step's start position, the stencil's */
+        affine_columns(p, q, m, mC);
+        stencil_offsets(g, p->x + 3 * q, st, width, dx);
+    }
     for (int c = 0; c < width; c++)
         for (int b = 0; b < width; b++)
             for (int a = 0; a < width; a++) {
@@ -454,6 +504,8 @@ STENCIL_INLINE void scatter_momentum_width(struct mpm_solver *s, size_t q, const
                 if (width != 2 && N == 0.0)
                     continue;
                 vec3pad momentum = mv * N;
+                if (apic)
+                    momentum = (mv + ((mC[0] * dx[0][a] + mC[1] * dx[1][b]) + mC[2] * dx[2][c])) * N;
                 node_add(g->momentum_new, stencil_node(g, st, a, b, c) + layer, &momentum);
             }
 }
@@ -463,9 +515,19 @@ static void scatter_momentum(struct mpm_solver *s, size_t q)
     struct stencil st;
     grid_point_stencil(s, q, &st);
     if (st.width == 2)
-        scatter_momentum_width(s, q, &st, 2);
+        scatter_momentum_width(s, q, &st, 2, 0);
     else
-        scatter_momentum_width(s, q, &st, st.width);
+        scatter_momentum_width(s, q, &st, st.width, 0);
+}
+
+static void scatter_momentum_apic(struct mpm_solver *s, size_t q)
+{
+    struct stencil st;
+    grid_point_stencil(s, q, &st);
+    if (st.width == 2)
+        scatter_momentum_width(s, q, &st, 2, 1);
+    else
+        scatter_momentum_width(s, q, &st, st.width, 1);
 }
 
 /* Points are visited in block order, and stored in that order only as of the last mpm_points_reorder: fetch the
@@ -673,12 +735,31 @@ static void scatter_momentum_runs(struct mpm_solver *s, size_t k, size_t end)
 
 enum transfer { TRANSFER_ALL, TRANSFER_MOMENTUM };
 
+/* The points of one block in order, transfer = apic (no runs: the affine term differs from point to point). */
+static void scatter_block_apic(struct mpm_solver *s, size_t block, enum transfer transfer)
+{
+    const struct mpm_grid *g = &s->grid;
+    size_t end = g->block_start[block + 1];
+    for (size_t k = g->block_start[block]; k < end; k++) {
+        if (k + PREFETCH_AHEAD < end)
+            prefetch_point(s, g->block_points[k + PREFETCH_AHEAD]);
+        if (transfer == TRANSFER_ALL)
+            scatter_all_apic(s, g->block_points[k]);
+        else
+            scatter_momentum_apic(s, g->block_points[k]);
+    }
+}
+
 /* The points of one block in order; the transfer is chosen by value, not through a function pointer, so that
  * both scatters are direct calls the compiler can inline. */
 static void scatter_block(struct mpm_solver *s, size_t block, enum transfer transfer)
 {
     const struct mpm_grid *g = &s->grid;
     size_t end = g->block_start[block + 1];
+    if (s->points.affine) { /* transfer = apic: point by point */
+        scatter_block_apic(s, block, transfer);
+        return;
+    }
     if (TRILINEAR_RUNS && s->cfg.shape_function == MPM_LINEAR) {
         if (transfer == TRANSFER_ALL)
             scatter_all_runs(s, g->block_start[block], end);

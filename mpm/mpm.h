@@ -33,6 +33,9 @@ enum mpm_contact_law { MPM_CONTACT_STICK, MPM_CONTACT_FRICTIONLESS, MPM_CONTACT_
  * updated and re-projected momenta */
 enum mpm_contact_scheme { MPM_CONTACT_THESIS, MPM_CONTACT_CONSISTENT, MPM_CONTACT_ONCE };
 enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
+/* flip: the points take the grid's velocity change (Eq. 3.32, blended with PIC by `flip`); apic: the affine
+ * particle-in-cell transfer of Jiang et al. (2015), the grid velocity at the point and an affine matrix per point */
+enum mpm_transfer { MPM_TRANSFER_FLIP, MPM_TRANSFER_APIC };
 
 /* A body: its points fill the shape on a lattice of spacing dp.  center is the centre of the sphere, of the
  * cylinder (axis along z) or of the box (d x d x h). */
@@ -88,6 +91,8 @@ struct mpm_config {
      * pulling the point back to its set-up position; R the distance from the substrate's top centre to the face */
     int spring_bottom, spring_sides;
     double spring_alpha_normal, spring_alpha_tangential;
+    /* [impact] transfer: grid-to-point transfer (solver.c) */
+    enum mpm_transfer transfer;
 };
 enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
 

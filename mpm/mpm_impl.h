@@ -35,6 +35,7 @@ struct mpm_points {
     struct mpm_point_state *state;
     int32_t *body;
     uint8_t *flags;
+    double *affine; /* 9 per point: APIC's C_p, row-major (transfer = apic; NULL with flip) */
 };
 
 /* Shape-function stencil of one point: width nodes per direction from base. */

@@ -349,6 +349,9 @@ int mpm_checkpoint_write(const struct mpm_solver *s, hid_t g)
     SC_TRY(write_point_bytes(g, "state", p, p->state, sizeof *p->state));
     SC_TRY(write_point_bytes(g, "body", p, p->body, sizeof *p->body));
     SC_TRY(write_point_bytes(g, "flags", p, p->flags, sizeof *p->flags));
+    /* transfer = apic: C_p (9 a point, row-major); a flip run's checkpoint has no such dataset, as before */
+    if (p->affine)
+        SC_TRY(write_point_doubles(g, "affine", p, p->affine, 9, "1/s"));
     return SC_OK;
 }
 
@@ -386,6 +389,12 @@ int mpm_checkpoint_read(struct mpm_solver *s, hid_t g)
     SC_TRY(h5_read_bytes(g, "state", p->state, n * sizeof *p->state));
     SC_TRY(h5_read_bytes(g, "body", p->body, n * sizeof *p->body));
     SC_TRY(h5_read_bytes(g, "flags", p->flags, n * sizeof *p->flags));
+    if (p->affine) {
+        if (!h5_exists(g, "affine"))
+            SC_FAIL(SC_EINPUT, "impact checkpoint: no affine matrices (written with transfer = flip); resume it with "
+                               "transfer = flip, or start the apic run again");
+        SC_TRY(h5_read_doubles(g, "affine", p->affine, 9 * n));
+    }
     mpm_points_order_reset(p); /* the file holds the points in id order */
     s->t = scalars[0], s->dt = scalars[1], s->next_series = scalars[2], s->next_snapshot = scalars[3];
     s->removed_mass = scalars[4], s->energy_absorbed = scalars[5], s->energy_removed = scalars[6];

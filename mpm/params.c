@@ -104,6 +104,9 @@ const struct cfg_key mpm_case_keys[] = {
      "viscous-spring boundary: normal spring alpha_N G / R per unit area (2: spherical P wave, Liu et al. 2006)"},
     {"impact", "spring_alpha_tangential", CFG_REAL, "-", "1", 0, 1e6, 0, NULL,
      "viscous-spring boundary: tangential spring alpha_T G / R per unit area (1: spherical S wave)"},
+    {"impact", "transfer", CFG_CHOICE, "", "flip", 0, 0, 0, "flip|apic",
+     "grid-to-point transfer: flip (Eq. 3.32, blended with PIC by `flip`) or apic (affine particle-in-cell, Jiang "
+     "et al. 2015: the grid velocity at the point and its gradient; not with `flip` nor on the GPU)"},
     /* [material.NAME]: defaults are Tang's Al (Table 2.1; docs/physics.md erratum on the atomic mass) */
     {MAT, "density", CFG_REAL, "kg/m3", "2700", 0, 1e5, 1, NULL, "rho0"},
     {MAT, "strength", CFG_CHOICE, "", "ptw", 0, 0, 0, "ptw|elastic", "deviatoric model: PTW, or elastic (no yield)"},
@@ -286,6 +289,23 @@ static int load_device(const struct case_file *c, struct mpm_config *cfg)
     return SC_OK;
 }
 
+/* [impact] transfer, after the device: apic has no FLIP share to blend, and the GPU step is FLIP's only. */
+static int load_transfer(const struct case_file *c, struct mpm_config *cfg)
+{
+    cfg->transfer = case_is(c, "impact", "transfer", "apic") ? MPM_TRANSFER_APIC : MPM_TRANSFER_FLIP;
+    if (cfg->transfer == MPM_TRANSFER_FLIP)
+        return SC_OK;
+    if (case_is_given(c, "impact", "flip"))
+        return case_invalid(c, "impact", "flip",
+                            "given with transfer = apic, which has no FLIP share to blend; allowed: leave flip out, "
+                            "or transfer = flip");
+    if (cfg->device == MPM_DEVICE_GPU)
+        return case_invalid(c, "impact", "transfer",
+                            "apic is not in the GPU step; allowed: flip with [run] device = gpu, or apic with "
+                            "device = cpu");
+    return SC_OK;
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -338,6 +358,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                             "spacing >= DCell/16",
                             cfg->grid);
     SC_TRY(load_device(c, cfg));
+    SC_TRY(load_transfer(c, cfg));
     return SC_OK;
 }
 

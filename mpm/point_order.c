@@ -67,6 +67,8 @@ static NO_GATHERS void permute(struct mpm_points *p, const uint32_t *from)
         permute_bytes(p->body, sizeof *p->body, 0, sizeof *p->body, from, n, scratch);
         permute_bytes(p->flags, sizeof *p->flags, 0, sizeof *p->flags, from, n, scratch);
         permute_bytes(p->id, sizeof *p->id, 0, sizeof *p->id, from, n, scratch);
+        for (size_t offset = 0; p->affine && offset < 9 * sizeof *p->affine; offset += STATE_PART)
+            permute_bytes(p->affine, 9 * sizeof *p->affine, offset, STATE_PART, from, n, scratch);
     }
 }
 

@@ -153,6 +153,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     if (!s)
         SC_FAIL_OOM(sizeof *s, "the impact solver");
     SC_TRY(copy_config(cfg, &s->cfg));
+    if (cfg->transfer == MPM_TRANSFER_APIC)
+        s->cfg.flip = 0.0; /* APIC's point velocity is the grid velocity at the point: PIC (solver.c, "apic") */
     s->lp = 0.5 * cfg->spacing;
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
     s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
@@ -179,6 +181,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->snapshot_pending = 1;
     SC_TRY(mpm_series_record(s));
     SC_TRY(mpm_verdict_create(s));
+    if (cfg->device == MPM_DEVICE_GPU && cfg->transfer == MPM_TRANSFER_APIC)
+        SC_FAIL(SC_EINPUT, "impact: transfer = apic is not in the GPU step; use device = cpu or transfer = flip");
     if (cfg->device == MPM_DEVICE_GPU)
         SC_TRY(mpm_gpu_attach(s));
     return SC_OK;
@@ -556,6 +560,28 @@ static int point_increments(const struct mpm_solver *s, size_t q, struct point_b
     return volume_new > 0.0 ? 0 : -1;
 }
 
+/* transfer = apic: C_p is the velocity gradient L at the point of the MUSL re-projected, contact-corrected nodal
+ * velocities (those of the strain rate), not Jiang et al.'s B_p D_p^-1 of the updated ones: with trilinear weights
+ * D_p is singular where a point barely reaches a node, whose updated velocity takes dt f_I / m_I, and that C_p made
+ * a free elastic sphere blow up within 100 steps (docs/physics.md, "Transfers").  L back from the block's strain
+ * and spin increments (point_increments), once per block: FLIP's update has no test per point. */
+static void store_affine(struct mpm_solver *s, long q0, const struct point_block *b, int count)
+{
+    if (!(s->dt > 0.0))
+        return;
+    double inv_dt = 1.0 / s->dt;
+    for (int k = 0; k < count; k++) {
+        if (!b->updating[k])
+            continue;
+        const double *de = b->strain[k], *dw = b->spin[k];
+        double *C = s->points.affine + 9 * (q0 + k);
+        C[0] = de[0] * inv_dt, C[4] = de[1] * inv_dt, C[8] = de[2] * inv_dt;
+        C[5] = (de[3] + dw[0]) * inv_dt, C[7] = (de[3] - dw[0]) * inv_dt; /* L_yz, L_zy */
+        C[2] = (de[4] + dw[1]) * inv_dt, C[6] = (de[4] - dw[1]) * inv_dt; /* L_xz, L_zx */
+        C[1] = (de[5] + dw[2]) * inv_dt, C[3] = (de[5] - dw[2]) * inv_dt; /* L_xy, L_yx */
+    }
+}
+
 /* The stress update's view of the block of points q0 .. q0 + count - 1 (mpm_stress_begin_block). */
 static struct mpm_stress_block stress_block(const struct mpm_solver *s, long q0, int count, double log_dt,
                                             struct point_block *b)
@@ -670,6 +696,8 @@ static long update_block(struct mpm_solver *s, long q0, int count, long next_cou
             note_failure(&s->points, q, &bad);
         }
     }
+    if (s->points.affine)
+        store_affine(s, q0, &b, count);
     mpm_stress_begin_block(&stress);
     block_returns(s, &b, count);
     mpm_stress_finish_block(&stress);
