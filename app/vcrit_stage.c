@@ -554,7 +554,8 @@ static void note_unsettled(struct vcrit_result *result)
     int unsettled = 0;
     for (int k = 0; k < result->runs; k++)
         unsettled += result->records[k].verdict == VCRIT_UNSETTLED;
-    if (unsettled == 0)
+    /* a search replayed from its records (after the runs, or under MPI) notes its unsettled runs once */
+    if (unsettled == 0 || strstr(result->note, "counted as not bonded"))
         return;
     size_t used = strlen(result->note);
     snprintf(result->note + used, sizeof result->note - used, "%s%d unsettled run%s counted as not bonded",
