@@ -4,28 +4,27 @@
  * D_bond >= 1, Eqs. 4.6-4.7), equal and opposite nodal impulses bring them to a common velocity (sticking,
  * Eq. 3.31), to a common normal velocity (frictionless), or limit the tangential part by Coulomb's law.
  *
- * contact_scheme = once (not the default: see the end of this comment) takes one decision per node and step, on
- * the updated momenta: in contact where the bodies approach along the normal (Eq. 3.29) and their surfaces meet, i.e.
- * the separation of the bodies' nodal centres of mass along the normal is at most contact_gap cells (Nairn's
- * position-based contact detection: Lemiale et al. 2010, Nairn 2013); bonded pairs stick only while separating (Tang
- * 2021, Section 4.1.1: the bond resists separation; an approaching bonded pair is in ordinary contact).  The decision
- * is applied alike to the start momenta (the FLIP reference of the points' velocity change), the updated momenta (the
- * points' motion) and the MUSL re-projected momenta (the strain rate): Nairn et al. 2020 correct twice, after
- * particle-to-grid and after the update, to get the acceleration the points receive.  Two elastic spheres keep their
- * energy within 2 % and start touching when their surfaces meet (tests/test_mpm_contact.c). The rigid wall takes the
- * same decision with the wall as the second body.  docs/physics.md, "Contact".
+ * contact_scheme = once (the default) corrects twice per node and step, as Nairn, Hammerquist & Smith (2020) do:
+ * first on the start momenta of particle-to-grid, then on the updated momenta computed from the corrected start
+ * ones (end = start' + f dt).  Each correction puts a pair in contact where it approaches along the normal
+ * (Eq. 3.29) in those momenta and its surfaces meet, i.e. the separation of the bodies' nodal centres of mass along
+ * the normal is at most contact_gap cells (Nairn's position-based contact detection: Lemiale et al. 2010, Nairn
+ * 2013); the second also bonds pairs that separate with nodal D_bond >= 1 (Tang 2021, Section 4.1.1: the bond
+ * resists separation; an approaching bonded pair is in ordinary contact).  The points' FLIP velocity change is
+ * end'' - start': the second correction (the contact force of the step) reaches them, the first (the approach that
+ * particle-to-grid rebuilds from the points each step) does not, so it is not dissipated every step.  The MUSL
+ * re-projected momenta (the strain rate) are projected as the second correction decided.  Two elastic spheres keep
+ * their energy within 2 % and start touching when their surfaces meet (tests/test_mpm_contact.c).  Deciding the
+ * second correction on start + f dt instead (one decision for both, before this) let the approach kept in the
+ * points hold a particle on the substrate without any bond.  The rigid wall (rigid_wall_hold) keeps that single
+ * decision, with the wall as the second body.  docs/physics.md, "Contact".
  *
  * contact_scheme = thesis decides and projects on the updated momenta, and decides and projects again on the
  * MUSL re-projected momenta: every step it hands the points the perfectly inelastic collision of the two
  * fields' start velocities, and the re-projection may decide otherwise than the update (two elastic spheres
- * lose 10 % of their energy).  contact_scheme = consistent is once without the gap test, with bonded nodes
- * sticking also while approaching: contact starts up to a cell before the surfaces meet.
- *
- * thesis stays the default because once and consistent project the start momenta: the impulse that stops the
- * two fields' approach never reaches the point velocities, whose hidden momentum then holds a particle on the
- * substrate without any bond (a 14 um Al particle at 700 m/s: -1.5 m/s of point momentum over its mass at rest,
- * PBCP 0).  Leaving the start momenta unprojected removes it but loses 13 % in the elastic two-sphere test
- * (docs/physics.md, "Why once is not the default"). */
+ * lose 10 % of their energy).  contact_scheme = consistent takes one decision on start + f dt for the start,
+ * updated and re-projected momenta, without the gap test, with bonded nodes sticking also while approaching:
+ * contact starts up to a cell before the surfaces meet. */
 #include <math.h>
 #include <string.h>
 
@@ -145,9 +144,29 @@ static void apply_impulse(double *mom, size_t Ia, size_t Ib, const double J[3])
     }
 }
 
-/* Contact and bond impulses at node `node`: decided on the momenta `end` and applied to them and, unless NULL,
- * to the start momenta `start`; the pair's bodies are flagged (g->contact) for the re-projection and the
- * bonding model.  Returns whether any pair interacted; *bonded whether one was bonded. */
+/* contact_scheme = once, the first of its two corrections (Nairn, Hammerquist & Smith 2020): on the start momenta,
+ * where the pair approaches in them and the surfaces meet.  The updated momenta take the same impulse, as if
+ * they had been computed from the corrected start momenta (end = start' + f dt).  The pair is marked touching
+ * (for the bonding model) unless the second correction decides more.  Returns whether it projected. */
+static int first_correction(struct mpm_solver *s, size_t Ia, size_t Ib, double *start, double *end, const double n[3])
+{
+    struct mpm_grid *g = &s->grid;
+    double J[3];
+    if (pair_decide_once(s, Ia, Ib, start, n) != PAIR_CONTACT)
+        return 0;
+    pair_impulse(s, Ia, Ib, start, n, PAIR_CONTACT, J);
+    apply_impulse(start, Ia, Ib, J);
+    apply_impulse(end, Ia, Ib, J);
+    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+    return 1;
+}
+
+/* Contact and bond impulses at node `node`, decided on the momenta `end` and applied to them.  The start momenta
+ * `start` (unless NULL): consistent applies the same impulse to them; once corrects them first on their own
+ * decision (first_correction), so that the decision on `end` is the one of start' + f dt.  The pair's bodies are
+ * flagged (g->contact) for the re-projection and the bonding model.  Returns whether any pair interacted;
+ * *bonded whether one was bonded. */
 static int resolve_node(struct mpm_solver *s, size_t node, double *start, double *end, int *bonded)
 {
     struct mpm_grid *g = &s->grid;
@@ -162,10 +181,12 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
             double n[3], J[3];
             if (!(g->mass[Ib] > g->mass_cutoff) || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            enum pair_state state = s->cfg.contact_scheme == MPM_CONTACT_ONCE ? pair_decide_once(s, Ia, Ib, end, n)
-                                                                              : pair_decide(s, Ia, Ib, end, n);
+            int once = s->cfg.contact_scheme == MPM_CONTACT_ONCE;
+            if (once && start)
+                touched |= first_correction(s, Ia, Ib, start, end, n);
+            enum pair_state state = once ? pair_decide_once(s, Ia, Ib, end, n) : pair_decide(s, Ia, Ib, end, n);
             if (state == PAIR_FREE) {
-                if (s->cfg.contact_scheme == MPM_CONTACT_ONCE && surfaces_meet(s, Ia, Ib, n)) {
+                if (once && surfaces_meet(s, Ia, Ib, n)) {
                     g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
                     g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
                 }
@@ -173,7 +194,7 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
             }
             pair_impulse(s, Ia, Ib, end, n, state, J);
             apply_impulse(end, Ia, Ib, J);
-            if (start) {
+            if (start && !once) {
                 pair_impulse(s, Ia, Ib, start, n, state, J);
                 apply_impulse(start, Ia, Ib, J);
             }

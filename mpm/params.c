@@ -45,11 +45,12 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact", CFG_CHOICE, "", "frictionless", 0, 0, 0, "stick|frictionless|friction",
      "contact at nodes where bodies approach (Eqs. 3.29, 3.31): stick, frictionless (thesis), Coulomb friction"},
     {"impact", "friction", CFG_REAL, "-", "0.2", 0, 10, 0, NULL, "Coulomb coefficient, contact = friction"},
-    {"impact", "contact_scheme", CFG_CHOICE, "", "thesis", 0, 0, 0, "thesis|once|consistent",
-     "once: one decision per node and step (approach and surfaces within contact_gap; bonds only while "
-     "separating) for the start, updated and re-projected momenta; thesis: the contact of the updated and of the "
-     "re-projected momenta decided apart (dissipates energy); consistent: once without the gap test, bonded "
-     "nodes sticking also while approaching (docs/physics.md, \"Contact\")"},
+    {"impact", "contact_scheme", CFG_CHOICE, "", "once", 0, 0, 0, "once|thesis|consistent",
+     "once: two corrections a step, on the start momenta and on the updated ones computed from them (Nairn et "
+     "al. 2020: contact where approaching with the surfaces within contact_gap; bonds only while separating); "
+     "thesis: the contact of the updated and of the re-projected momenta decided apart (dissipates energy); "
+     "consistent: one decision for all momenta, no gap test, bonded nodes sticking also while approaching "
+     "(docs/physics.md, \"Contact\")"},
     {"impact", "contact_gap", CFG_REAL, "-", "0.8", 0, 2, 0, NULL,
      "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this many cells "
      "apart along the normal (Nairn's position-based detection; 0.75-0.86 for touching surfaces, 2 points a cell)"},
@@ -57,7 +58,7 @@ const struct cfg_key mpm_case_keys[] = {
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
      "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none"},
-    {"impact", "Gc", CFG_REAL, "J/m2", "1500", 0, 1e9, 1, NULL,
+    {"impact", "Gc", CFG_REAL, "J/m2", "720", 0, 1e9, 1, NULL,
      "critical surface adhesion energy G_c, Eq. 4.16b (default from the sweep in docs/physics.md, \"Bonding "
      "calibration\")"},
     {"impact", "Gc_rate", CFG_REAL, "J/m2/s", "2e11", 0, 1e30, 1, NULL,
@@ -70,8 +71,8 @@ const struct cfg_key mpm_case_keys[] = {
      "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
     {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
      "bonded verdict needs PBCP (Eq. 5.1) at least this"},
-    {"impact", "vrest_threshold", CFG_REAL, "m/s", "5", 0, 1e4, 0, NULL,
-     "bonded verdict needs the restitution velocity at most this (Tang: 0.6 at 80-100 ns; docs/physics.md)"},
+    {"impact", "vrest_threshold", CFG_REAL, "m/s", "0.6", 0, 1e4, 0, NULL,
+     "bonded verdict needs the (window-mean) restitution velocity at most this (Tang Section 5.2.1: 0.6 m/s)"},
     {"impact", "settle_window", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL,
      "each row is judged on the means of v_rest and v_com over this window, and a verdict is settled when PBCP and "
      "those means have kept it over this last stretch of time (docs/physics.md, "

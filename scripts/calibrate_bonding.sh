@@ -1,7 +1,8 @@
 #!/bin/sh
 # Bonding-parameter sweep (issue: impact stage, "Bonding parameters"): for each (Gc, Gc_rate) pair, single Al
 # particle impacts at the experimental bracket of Tang Section 4.1.2 -- 14 um at 750 and 810 m/s, 30 um at 710
-# and 770 m/s -- on the calibration grid (2.0 um / 0.667 um, 40 ns), with the verdict of the impact stage.
+# and 770 m/s -- on the calibration grid (2.0 um / 0.667 um, up to 100 ns: each run ends once its verdict settled),
+# with the verdict of the impact stage and every other [impact] key at its default.
 # A pair is calibrated when the 14 um particle bonds at 810 and not at 750, and the 30 um one at 770 and not
 # at 710.  One CSV row per run on stdout.
 #   usage: scripts/calibrate_bonding.sh BUILD "Gc1 Gc2 ..." "rate1 rate2 ..."
@@ -24,7 +25,7 @@ spacing = 0.667e-6
 diameter = $1
 velocity = $2
 substrate_diameter = $3
-t_end = 40e-9
+t_end = 100e-9
 snapshot_every = 1
 Gc = $gc
 Gc_rate = $rate

@@ -434,11 +434,9 @@ static void test_threads_identical_ugimp(void)
     threads_identical("ugimp");
 }
 
-/* contact_scheme = once (its nodal centres of mass for the gap test, the touching and bonded pair states, the
- * flags of the re-projection) gives the same bits on 1 and 2 threads: the impact of threads_identical to 4 ns
- * with a small G_c, so that bonds form and act while separating.  The energy bound of threads_identical is not
- * asserted here: with once this impact ends 0.28 % above its start energy on either thread count (docs/physics.md,
- * "Why once is not the default"). */
+/* contact_scheme = once (its nodal centres of mass for the gap test, the two corrections, the touching and bonded
+ * pair states, the flags of the re-projection) gives the same bits on 1 and 2 threads with bonds acting: the
+ * impact of threads_identical to 4 ns with a small G_c, so that bonds form and act while separating. */
 static void test_threads_identical_once(void)
 {
     const char *once = "contact_scheme = once\nGc = 20\nGc_rate = 1e12";

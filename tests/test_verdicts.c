@@ -16,11 +16,12 @@
 typedef void (*history)(double t, double *v_com_z, double *pbcp, double *v_rest);
 
 /* A solver with `bodies` small spheres over a rigid wall (defaults: settle_window 10 ns, settle_vcom 0.5 m/s,
- * settle_pbcp 0.005, pbcp_threshold 0.05, vrest_threshold 5 m/s); its series replaced by rows every ROW_DT up to
- * t_last, body k following shapes[k]. */
+ * settle_pbcp 0.005, pbcp_threshold 0.05; vrest_threshold set to 5 m/s, the scale the shapes below were drawn for,
+ * not the default 0.6 m/s); its series replaced by rows every ROW_DT up to t_last, body k following shapes[k]. */
 static int judged(struct impact_fixture *f, int bodies, const history *shapes, double t_last)
 {
-    const char *ini = "[impact]\nsubstrate = rigid\ngrid = 2e-6\nspacing = 1e-6\n[material.aluminium]\n";
+    const char *ini = "[impact]\nsubstrate = rigid\ngrid = 2e-6\nspacing = 1e-6\nvrest_threshold = 5\n"
+                      "[material.aluminium]\n";
     char rows[256] = "";
     for (int k = 0; k < bodies; k++)
         snprintf(rows + strlen(rows), sizeof rows - strlen(rows), "sphere,%g,0,3e-6,0,0,-100,4e-6,0,aluminium\n",

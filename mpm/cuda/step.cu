@@ -344,6 +344,21 @@ __device__ static int heavy(const struct mpm_gpu *g, size_t I)
     return g->gmass[I] > g->s.mass_cutoff;
 }
 
+/* contact_scheme = once, its first correction on the start momenta (contact.c first_correction). */
+__device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, double *start, double *end,
+                                       const double n[3])
+{
+    double J[3];
+    if (pair_decide_once(g, Ia, Ib, start, n) != PAIR_CONTACT)
+        return 0;
+    pair_impulse(g, Ia, Ib, start, n, PAIR_CONTACT, J);
+    apply_impulse(start, Ia, Ib, J);
+    apply_impulse(end, Ia, Ib, J);
+    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+    return 1;
+}
+
 __device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
 {
     int touched = 0, once = g->s.contact_scheme == MPM_CONTACT_ONCE;
@@ -357,6 +372,8 @@ __device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double 
             double n[3], J[3];
             if (!heavy(g, Ib) || contact_normal(g, Ia, Ib, n) != 0)
                 continue;
+            if (once && start)
+                touched |= first_correction(g, Ia, Ib, start, end, n);
             int state = once ? pair_decide_once(g, Ia, Ib, end, n) : pair_decide(g, Ia, Ib, end, n);
             if (state == PAIR_FREE) {
                 if (once && surfaces_meet(g, Ia, Ib, n)) {
@@ -367,7 +384,7 @@ __device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double 
             }
             pair_impulse(g, Ia, Ib, end, n, state, J);
             apply_impulse(end, Ia, Ib, J);
-            if (start) {
+            if (start && !once) {
                 pair_impulse(g, Ia, Ib, start, n, state, J);
                 apply_impulse(start, Ia, Ib, J);
             }
