@@ -380,6 +380,17 @@ static double judged_or(const struct mpm_solver *s, int b, double now)
     return isnan(v_rest) ? now : v_rest;
 }
 
+/* The verdict as the report words it (render/report.c): a settled "rebounded" body whose v_rest is within
+ * vrest_threshold is at rest on the substrate, held by bonds too few to count (PBCP below pbcp_threshold, Tang
+ * Sec. 5.1's "not bonded sufficiently"), so it is named that way, not "rebounded". */
+static const char *verdict_words(const struct impact_run *run, int verdict, double v_rest, char *out, size_t size)
+{
+    if (verdict != MPM_VERDICT_REBOUNDED || !(v_rest <= run->cfg.vrest_threshold))
+        return mpm_verdict_name(verdict);
+    snprintf(out, size, "not bonded: at rest, PBCP < %.3g %%", 100.0 * run->cfg.pbcp_threshold);
+    return out;
+}
+
 static void log_summary(struct impact_run *run)
 {
     int nb = mpm_body_count(run->solver);
@@ -396,11 +407,13 @@ static void log_summary(struct impact_run *run)
         char settled[64] = "not settled by the end of the run";
         if (bonded[b] != MPM_VERDICT_UNSETTLED)
             snprintf(settled, sizeof settled, "settled at %.4g ns", 1e9 * mpm_verdict_settled_at(run->solver, b));
+        double v_rest = judged_or(run->solver, b, d->body[b].v_rest);
+        char words[64];
         log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, v_rest %.3g m/s (window mean), v_com_z "
                  "%.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
-                 mpm_verdict_name(bonded[b]), settled, 100.0 * d->body[b].pbcp,
-                 judged_or(run->solver, b, d->body[b].v_rest), d->body[b].v_com[2]);
+                 verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * d->body[b].pbcp, v_rest,
+                 d->body[b].v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);
