@@ -163,6 +163,18 @@ static void print_deposition_efficiency(hid_t file, int brief, FILE *out)
         fprintf(out, "  sprayed without an impact: %.6g kg\n", de_value(file, "unimpacted_mass"));
 }
 
+/* The verdict thresholds stored with /summary (mpm/output.c); left as they are where the file has none. */
+static void summary_thresholds(hid_t file, double *pbcp_threshold, double *vrest_threshold)
+{
+    hid_t summary = H5Gopen2(file, "summary", H5P_DEFAULT);
+    if (summary < 0)
+        return;
+    if (h5_attr_read_double(summary, "pbcp_threshold", pbcp_threshold) != SC_OK ||
+        h5_attr_read_double(summary, "vrest_threshold", vrest_threshold) != SC_OK)
+        *pbcp_threshold = *vrest_threshold = NAN;
+    H5Gclose(summary);
+}
+
 /* impact.h5: counts, snapshots and the per-body summary. */
 static void print_impact_results(hid_t file, FILE *out)
 {
@@ -189,18 +201,28 @@ static void print_impact_results(hid_t file, FILE *out)
     double *column[7];
     for (int k = 0; k < 7; k++)
         column[k] = read_column(file, names[k], n);
+    double pbcp_threshold = NAN, vrest_threshold = NAN; /* absent in files written before they were stored */
+    summary_thresholds(file, &pbcp_threshold, &vrest_threshold);
     fprintf(out, "summary (per body):\n  %-5s %-10s %-12s %-12s %-10s %-9s %-12s %-8s\n", "body", "kind", "d (m)",
             "v_impact", "verdict", "PBCP %", "v_rest (m/s)", "CoR");
+    int held = 0;
     for (size_t b = 0; b < n; b++) {
         double value[7];
         for (int k = 0; k < 7; k++)
             value[k] = column[k] ? column[k][b] : NAN;
         int substrate = value[6] == 1.0;
+        const char *verdict = substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]);
+        if (!substrate && value[2] == MPM_VERDICT_REBOUNDED && value[4] <= vrest_threshold)
+            verdict = "held", held = 1;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
-                substrate ? "substrate" : "particle", value[0], value[1],
-                substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]), 100.0 * value[3], value[4],
+                substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], value[4],
                 value[5]);
     }
+    if (held)
+        fprintf(out,
+                "  held: not bonded, at rest (v_rest <= %g m/s) but PBCP under %g %% (docs/physics.md, \"Held but "
+                "not bonded\")\n",
+                vrest_threshold, 100.0 * pbcp_threshold);
     for (int k = 0; k < 7; k++)
         free(column[k]);
 }

@@ -224,6 +224,9 @@ static int write_summary(struct mpm_solver *s, hid_t group)
     SC_CHECK(status, h5_write_doubles(group, "v_rest", 1, dims, v_rest, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, cor, "-", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0), done);
+    /* the thresholds the verdicts were judged with: a reader tells "at rest but too few bonds" from "left" */
+    SC_CHECK(status, h5_attr_write_double(group, "pbcp_threshold", s->cfg.pbcp_threshold), done);
+    SC_CHECK(status, h5_attr_write_double(group, "vrest_threshold", s->cfg.vrest_threshold), done);
 done:
     free(values), free(integers), free(verdict);
     return status;

@@ -193,11 +193,47 @@ fi
 
 # ---- 6. info on a finished run shows the per-body summary --------------------------------------------------------
 if "$BIN" info "$RUN" >"$T/info.log" 2>&1 && grep -q 'stage impact: done' "$T/info.log" &&
-    grep -q 'summary (per body)' "$T/info.log" && grep -Eq 'particle .*(bonded|rebounded|unsettled)' "$T/info.log" &&
+    grep -q 'summary (per body)' "$T/info.log" && grep -Eq 'particle .*(bonded|rebounded|held|unsettled)' "$T/info.log" &&
     "$BIN" info "$RUN/impact.h5" >"$T/info2.log" 2>&1 && grep -q 'summary (per body)' "$T/info2.log"; then
     pass impact_stage_info
 else
     fail impact_stage_info "$(head -c 400 "$T/info.log" | tr '\n' ' ')"
+fi
+
+# ---- 6b. the summary stores its verdict thresholds; info calls a particle at rest without enough bonds "held" -----
+# A tiny run whose verdict settles within its 10 ns (the settling keys of tests/test_vcrit.sh) and can never be
+# bonded (PBCP must reach 100 %), judged against a v_rest threshold no motion exceeds: a settled "rebounded" at rest.
+cat >"$T/held.ini" <<EOF
+[run]
+threads = 1
+[impact]
+grid = 2e-6
+spacing = 1e-6
+diameter = 8e-6
+velocity = 200
+substrate_diameter = 20e-6
+substrate_height = 6e-6
+t_end = 10e-9
+snapshot_every = 1
+settle_window = 2e-9
+settle_vcom = 1e4
+settle_pbcp = 1
+vrest_filter = 1e4
+pbcp_threshold = 1
+vrest_threshold = 1e4
+[material.aluminium]
+EOF
+summary_attribute() { h5dump -a "/summary/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+if "$BIN" impact "$T/held.ini" -o "$T/held" -q >"$T/held.log" 2>&1 && "$BIN" info "$T/held" >"$T/held_info.log" 2>&1; then
+    why=""
+    [ "$(summary_attribute "$T/held/impact.h5" pbcp_threshold)" = 1 ] || why="$why /summary pbcp_threshold is not 1;"
+    [ "$(summary_attribute "$T/held/impact.h5" vrest_threshold)" = 10000 ] || why="$why /summary vrest_threshold is not 10000;"
+    grep -Eq '^ +1 +particle .* held ' "$T/held_info.log" || why="$why info does not call the particle held;"
+    grep -q 'held: not bonded, at rest (v_rest <= 10000 m/s) but PBCP under 100 %' "$T/held_info.log" ||
+        why="$why no legend for held;"
+    if [ -z "$why" ]; then pass impact_stage_info_held; else fail impact_stage_info_held "$why $(tail -n 3 "$T/held_info.log" | tr '\n' ' ')"; fi
+else
+    fail impact_stage_info_held "$(tail -n 3 "$T/held.log" | tr '\n' ' ')"
 fi
 
 # ---- 7. SIGKILL mid-run (after some checkpoints, at a moment that is not a checkpoint), then resume ------------
