@@ -385,7 +385,7 @@ static double judged_or(const struct mpm_solver *s, int b, double now)
  * Sec. 5.1's "not bonded sufficiently"), so it is named that way, not "rebounded". */
 static const char *verdict_words(const struct impact_run *run, int verdict, double v_rest, char *out, size_t size)
 {
-    if (verdict != MPM_VERDICT_REBOUNDED || !(v_rest <= run->cfg.vrest_threshold))
+    if (!mpm_verdict_held(verdict, v_rest, run->cfg.vrest_threshold))
         return mpm_verdict_name(verdict);
     snprintf(out, size, "not bonded: at rest, PBCP < %.3g %%", 100.0 * run->cfg.pbcp_threshold);
     return out;

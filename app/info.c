@@ -212,7 +212,7 @@ static void print_impact_results(hid_t file, FILE *out)
             value[k] = column[k] ? column[k][b] : NAN;
         int substrate = value[6] == 1.0;
         const char *verdict = substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]);
-        if (!substrate && value[2] == MPM_VERDICT_REBOUNDED && value[4] <= vrest_threshold)
+        if (!substrate && mpm_verdict_held((int)value[2], value[4], vrest_threshold))
             verdict = "held", held = 1;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], value[4],

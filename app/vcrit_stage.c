@@ -514,7 +514,11 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
         snprintf(T, sizeof T, ", T = %.6g K,", run->temperature);
     log_info("%s: d = %.4g um%s at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; "
              "%lld steps, %.1f s)",
-             r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate, vcrit_verdict_name(run->verdict),
+             r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate,
+             run->verdict == VCRIT_REBOUNDED &&
+                     mpm_verdict_held(MPM_VERDICT_REBOUNDED, run->v_rest, cfg->vrest_threshold)
+                 ? "held, not bonded"
+                 : vcrit_verdict_name(run->verdict),
              100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps, log_elapsed() - start);
     return SC_OK;
 }

@@ -182,6 +182,9 @@ enum mpm_verdict {
 void mpm_verdicts(struct mpm_solver *s, int *verdict);
 /* "bonded", "rebounded", "unsettled" or "-" (the substrate). */
 const char *mpm_verdict_name(int verdict);
+/* 1 when a settled "rebounded" body with restitution velocity v_rest is at rest on the substrate, held by too few
+ * bonded points to count (docs/physics.md, "Held but not bonded"): not bonded, but not leaving either. */
+int mpm_verdict_held(int verdict, double v_rest, double vrest_threshold);
 /* The time at which body b's verdict settled (the end of the first window over which it held, and has held
  * since); NaN while unsettled and for the substrate. */
 double mpm_verdict_settled_at(const struct mpm_solver *s, int body);

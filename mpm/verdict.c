@@ -203,6 +203,11 @@ void mpm_verdicts(struct mpm_solver *s, int *verdict)
                                                 : MPM_VERDICT_REBOUNDED;
 }
 
+int mpm_verdict_held(int verdict, double v_rest, double vrest_threshold)
+{
+    return verdict == MPM_VERDICT_REBOUNDED && v_rest <= vrest_threshold;
+}
+
 const char *mpm_verdict_name(int verdict)
 {
     switch (verdict) {
