@@ -76,6 +76,7 @@ struct vcrit_search {
     double diameters[MAX_DIAMETERS];
     int count;
     double v_low, v_high, tolerance, scale, angle;
+    double vrest_threshold; /* [impact] vrest_threshold: below it a rebounded particle is "held" */
     int max_runs;
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
     int cor_count;
@@ -206,6 +207,7 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
         struct mpm_config cfg;
         SC_TRY(make_config(v, v->diameters[i], 0.0, v->v_high, &cfg));
         double spacing = cfg.spacing, substrate_d = INFINITY;
+        v->vrest_threshold = cfg.vrest_threshold;
         for (int b = 0; b < cfg.body_count; b++)
             if (cfg.bodies[b].substrate)
                 substrate_d = cfg.bodies[b].d;
@@ -248,6 +250,15 @@ static const char *exact(double value, char *out, size_t size)
 const char *vcrit_verdict_name(int verdict)
 {
     return verdict == VCRIT_BONDED ? "bonded" : verdict == VCRIT_REBOUNDED ? "rebounded" : "unsettled";
+}
+
+/* The verdict of a finished run in words: "held" for a rebounded particle at rest on the substrate (v_rest below
+ * the threshold) that too few bonds hold to count as bonded (mpm.h mpm_verdict_held). */
+static const char *run_verdict_word(const struct vcrit_run_record *run, double vrest_threshold)
+{
+    if (run->verdict == VCRIT_REBOUNDED && mpm_verdict_held(MPM_VERDICT_REBOUNDED, run->v_rest, vrest_threshold))
+        return "held";
+    return vcrit_verdict_name(run->verdict);
 }
 
 /* This rank's record file. */
@@ -515,11 +526,8 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
     log_info("%s: d = %.4g um%s at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; "
              "%lld steps, %.1f s)",
              r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate,
-             run->verdict == VCRIT_REBOUNDED &&
-                     mpm_verdict_held(MPM_VERDICT_REBOUNDED, run->v_rest, cfg->vrest_threshold)
-                 ? "held, not bonded"
-                 : vcrit_verdict_name(run->verdict),
-             100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps, log_elapsed() - start);
+             run_verdict_word(run, cfg->vrest_threshold), 100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps,
+             log_elapsed() - start);
     return SC_OK;
 }
 
@@ -703,8 +711,8 @@ static int write_cor_csv(const struct vcrit_search *v, const struct vcrit_result
         char a[32], b[32], c[32], d[32], e[32], t[32];
         fprintf(out.stream, "%s,%s%s%s,%s,%s,%s,%s\n", exact(all[k].diameter, a, sizeof a),
                 v->over_temperature ? exact(all[k].temperature, t, sizeof t) : "", v->over_temperature ? "," : "",
-                exact(all[k].velocity, b, sizeof b), vcrit_verdict_name(all[k].verdict), exact(all[k].cor, c, sizeof c),
-                exact(all[k].pbcp, d, sizeof d), exact(all[k].v_rest, e, sizeof e));
+                exact(all[k].velocity, b, sizeof b), run_verdict_word(&all[k], v->vrest_threshold),
+                exact(all[k].cor, c, sizeof c), exact(all[k].pbcp, d, sizeof d), exact(all[k].v_rest, e, sizeof e));
     }
     SC_CHECK(status, atomic_publish(&out), done);
 done:

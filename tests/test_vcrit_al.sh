@@ -2,8 +2,8 @@
 # The shipped v_crit(d) table of `make validate` (VALIDATE_ONLY=vcrit_al): cases/vcrit_al.csv has the header of
 # vcrit.csv, a bracketed row (no '#' line) for each of 14, 22, 30 and 45 um at least, v_crit within [v_low,
 # v_high] of cases/vcrit_al.ini and falling with d as the thesis's does (Tang Table 5.4: 824, 791, 761 m/s at 14,
-# 22, 30 um); cases/vcrit_al_cor.csv has one row per run with a verdict word and a finite CoR, every diameter of
-# the table among its rows.  Prints SKIP while the files do not exist yet (the study takes about 2.5 hours here).
+# 22, 30 um); cases/vcrit_al_cor.csv has one row per run with a verdict word that agrees with the row's PBCP and
+# v_rest and the case's thresholds and a finite CoR, every diameter of the table among its rows.  Prints SKIP while the files do not exist yet (the study takes about 2.5 hours here).
 # Also checks the checker: a table that rises with d is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -50,10 +50,15 @@ if [ -z "$why" ]; then echo "PASS vcrit_al_table"; else echo "FAIL vcrit_al_tabl
 
 why=""
 [ -r "$cor" ] || why="no $cor;"
-[ -z "$why" ] && why=$(awk -F, -v table="$table" '
+[ -z "$why" ] && why=$(awk -F, -v table="$table" -v pbcp_min="$(ini_value pbcp_threshold)" \
+    -v vrest_max="$(ini_value vrest_threshold)" '
     BEGIN { while ((getline line < table) > 0) if (line !~ /^(#|diameter)/) { split(line, f, ","); d[f[1] + 0] = 1 } }
     NR == 1 { if ($0 != "diameter,velocity,verdict,cor,pbcp,v_rest") print "header \"" $0 "\""; next }
-    $3 !~ /^(bonded|rebounded|unsettled)$/ || $4 == "" || $4 ~ /nan/ { print "line " NR ": " $0 }
+    $3 !~ /^(bonded|rebounded|held|unsettled)$/ || $4 == "" || $4 ~ /nan/ { print "line " NR ": " $0 }
+    # the verdict word agrees with the PBCP and v_rest of its row and the thresholds of the case (mpm/verdict.c)
+    $3 == "bonded" && !($5 >= pbcp_min && $6 <= vrest_max) { print "bonded with these numbers, line " NR ": " $0 }
+    $3 == "held" && !($5 < pbcp_min && $6 <= vrest_max) { print "held with these numbers, line " NR ": " $0 }
+    $3 == "rebounded" && !($6 > vrest_max) { print "rebounded at rest, line " NR ": " $0 }
     { seen[$1 + 0] = 1 }
     END { for (x in d) if (!seen[x]) print "no runs of d = " x }' "$cor" | head -n 5 | tr '\n' ';')
 if [ -z "$why" ]; then echo "PASS vcrit_al_cor"; else echo "FAIL vcrit_al_cor ($why)"; fi
