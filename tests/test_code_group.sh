@@ -50,7 +50,7 @@ check() {
 
 awk '/^\[/ { section = $0 } section == "[spray]" && /^t_end = / { $0 = "t_end = 2e-4" } { print }' \
     cases/demo.ini >"$T/spray.ini"
-cp cases/vcrit_al_calibration_grid.csv "$T/" # the demo's v_crit(d) table, a path relative to the case
+cp cases/vcrit_al.csv "$T/" # the demo's v_crit(d) table, a path relative to the case
 "$BIN" spray "$T/spray.ini" -o "$T/spray" >"$T/spray.log" 2>&1 ||
     fail code_group_spray "the spray failed: $(tail -n 2 "$T/spray.log" | tr '\n' ' ')"
 check code_group_spray "$T/spray/spray.h5"

@@ -76,5 +76,5 @@ sed 's/^t_end = .*/t_end = 4e-9/' cases/impact_demo.ini >"$T/impact.ini"
 same_outputs isa_levels_impact impact impact.h5 "$T/impact.ini"
 awk '/^\[/ { section = $0 } section == "[spray]" && /^t_end = / { $0 = "t_end = 6e-4" } { print }' \
     cases/demo.ini >"$T/spray.ini"
-cp cases/vcrit_al_calibration_grid.csv "$T/" # the demo's v_crit(d) table, a path relative to the case
+cp cases/vcrit_al.csv "$T/" # the demo's v_crit(d) table, a path relative to the case
 same_outputs isa_levels_spray spray spray.h5 "$T/spray.ini"

@@ -15,7 +15,7 @@ fail() { echo "FAIL $1: $2"; }
 # a spray of 2e-4 s (a fraction of a second)
 awk '/^\[/ { section = $0 } section == "[spray]" && /^t_end = / { $0 = "t_end = 2e-4" } { print }' \
     cases/demo.ini >"$tmp/short.ini"
-cp cases/vcrit_al_calibration_grid.csv "$tmp/"
+cp cases/vcrit_al.csv "$tmp/"
 
 # spray NAME [VAR=VALUE...]: a short spray with 2 threads under `env VAR=VALUE`, libgomp's report on stderr
 spray() {

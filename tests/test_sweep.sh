@@ -15,7 +15,7 @@ case $BIN in
 /*) ;;
 */*) BIN=$(pwd)/$BIN ;;
 esac
-TABLE=$(pwd)/cases/vcrit_al_calibration_grid.csv
+TABLE=$(pwd)/cases/vcrit_al.csv
 
 pass() { echo "PASS $1"; }
 fail() { echo "FAIL $1 ($2)"; }

@@ -3,7 +3,8 @@
 # vcrit.csv, a bracketed row (no '#' line) for each of 14, 22, 30 and 45 um at least, v_crit within [v_low,
 # v_high] of cases/vcrit_al.ini and falling with d as the thesis's does (Tang Table 5.4: 824, 791, 761 m/s at 14,
 # 22, 30 um); cases/vcrit_al_cor.csv has one row per run with a verdict word that agrees with the row's PBCP and
-# v_rest and the case's thresholds and a finite CoR, every diameter of the table among its rows.  Prints SKIP while the files do not exist yet (the study takes about 2.5 hours here).
+# v_rest and the case's thresholds and a finite CoR, every diameter of the table among its rows.  Prints SKIP
+# while the files do not exist (the study takes about 2 hours here).
 # Also checks the checker: a table that rises with d is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
