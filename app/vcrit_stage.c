@@ -6,9 +6,10 @@
  * then bisection of the bracket until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known
  * to bond.  Each run goes to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and
  * restitution velocity thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled). Every finished
- * run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically); a restarted search reuses the recorded runs of the
- * same case instead of running them again, so an interruption loses at most the run that was going on.  The outputs are
- * RUN_DIR/vcrit.csv and RUN_DIR/vcrit.h5.
+ * run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically, kept with the outputs); a restarted search reuses
+ * the recorded runs of the same impact set-up (runs_hash) instead of running them again, so an interruption loses at
+ * most the run that was going on, and a search extended to more diameters or a finer tolerance runs only what is
+ * new.  The outputs are RUN_DIR/vcrit.csv, vcrit_cor.csv and vcrit.h5.
  *
  * Under MPI the searches are shared out (a rank takes the next one not yet taken, core/parallel.h) and rank
  * k > 0 records its runs in RUN_DIR/vcrit_runs_rankK.csv.  When all are done, rank 0 reads every record and
@@ -882,7 +883,7 @@ static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
     if (status != SC_OK)
         sc_error_trace(__FILE__, __LINE__);
     else if (v->runs.count > 0)
-        log_info("vcrit: %zu runs recorded in %s are reused", v->runs.count, v->run_dir);
+        log_info("vcrit: %zu runs recorded in %s are reused where the search meets them", v->runs.count, v->run_dir);
     /* every rank takes part in the task counter even after a failure here (no early return) */
     parallel_tasks_begin();
     for (int64_t i; status == SC_OK && (i = parallel_task_next()) < pair_count(v);) {
@@ -912,7 +913,6 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
     SC_TRY(write_h5(v, results));
     log_info("vcrit: wrote %s/vcrit.csv, vcrit_cor.csv and vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
              (long long)v->runs.new_runs, log_elapsed() - start);
-    SC_TRY(vcrit_runs_remove(&v->runs));
     log_table(v, results);
     return SC_OK;
 }
@@ -938,12 +938,26 @@ int vcrit_stage_validate(const struct stage_context *ctx)
     return load_settings(ctx->c, &v);
 }
 
+/* What one run's outcome depends on besides its diameter, speed and temperature: [run], [impact], the materials and
+ * the substrate's scale and the impact angle of [vcrit].  The search's own keys (diameters, temperatures, v_low,
+ * v_high, tolerance, max_runs, cor_below) are left out, so that a search widened, refined or extended to more sizes
+ * reuses the runs it shares with the one before (the record is kept with the outputs). */
+static uint64_t runs_hash(const struct vcrit_search *v)
+{
+    static const char *const run_sections[] = {"run", "impact", "material.*", NULL};
+    uint64_t hash = case_hash_sections(v->c, run_sections);
+    const double run_keys[2] = {v->scale, v->angle};
+    const unsigned char *bytes = (const unsigned char *)run_keys;
+    for (size_t i = 0; i < sizeof run_keys; i++) /* FNV-1a, continued over the two values' bits */
+        hash = (hash ^ bytes[i]) * 1099511628211ULL;
+    return hash;
+}
+
 int vcrit_stage_run(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
     const char *run_dir = ctx->run_dir;
     struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(ctx, STAGE)};
-    v.runs = (struct vcrit_runs){.run_dir = run_dir, .name = STAGE, .case_hash = v.case_hash};
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
     if (run_dir_output_current(path, v.case_hash)) {
@@ -951,6 +965,7 @@ int vcrit_stage_run(const struct stage_context *ctx)
         return SC_OK;
     }
     SC_TRY(load_settings(c, &v));
+    v.runs = (struct vcrit_runs){.run_dir = run_dir, .name = STAGE, .case_hash = runs_hash(&v)};
     struct run_settings settings;
     run_settings_load(c, &settings);
     if (settings.threads > 0)

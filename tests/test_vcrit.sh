@@ -3,7 +3,8 @@
 # vcrit.csv and vcrit.h5 exist; each v_crit lies in [v_low, v_high], or the diameter is a '#' line with NaN and
 # the reason; a spray case with `[deposition] rule = table` naming vcrit.csv or vcrit.h5 passes `spraycoat
 # check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
-# a search whose bracket fails reports 'not bracketed'.  Prints "PASS name" / "FAIL name (reason)".
+# a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
+# of the diameters reuses it (runs nothing), one on another substrate does not.  Prints "PASS name" / "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
 
@@ -72,7 +73,11 @@ if "$BIN" vcrit "$CASE" -o "$RUN" >"$T/ref.log" 2>&1; then
     why=""
     [ -s "$RUN/vcrit.csv" ] || why="$why no vcrit.csv;"
     [ -s "$RUN/vcrit.h5" ] || why="$why no vcrit.h5;"
-    [ -e "$RUN/vcrit_runs.csv" ] && why="$why vcrit_runs.csv left behind;"
+    # the record of the runs is kept with the outputs, one line per run of the table's `runs` column
+    recorded=$(grep -c '^[0-9]' "$RUN/vcrit_runs.csv" 2>/dev/null)
+    counted=$(awk -F, 'NR > 1 && !/^#/ { n += $NF } END { print n + 0 }' "$RUN/vcrit.csv")
+    [ "${recorded:-0}" -gt 0 ] && [ "$recorded" -eq "$counted" ] ||
+        why="$why vcrit_runs.csv has ${recorded:-no} runs, vcrit.csv counts $counted;"
     [ "$(head -n 1 "$RUN/vcrit.csv")" = "diameter,v_crit,pbcp,v_rest,runs" ] || why="$why header is not diameter,v_crit,pbcp,v_rest,runs;"
     rows=$(sed 1d "$RUN/vcrit.csv" | wc -l | tr -d ' ')
     [ "$rows" -eq 2 ] || why="$why $rows rows for 2 diameters;"
@@ -132,7 +137,28 @@ cmp -s "$RUN/vcrit.csv" "$RUN2/vcrit.csv" || why="$why vcrit.csv differs from th
 h5diff -d 0 "$RUN/vcrit.h5" "$RUN2/vcrit.h5" /search /search >/dev/null 2>&1 || why="$why vcrit.h5:/search differs;"
 if [ -z "$why" ]; then pass vcrit_sigterm_resume; else fail vcrit_sigterm_resume "$why"; fi
 
-# ---- 4. no bracket: v_high too low to bond -----------------------------------------------------------------------
+# ---- 4. the kept record: a search over one of the diameters reuses its runs (none run again, the same row); a
+# search on another substrate does not ------------------------------------------------------------------------------
+RUN5=$T/again
+cp -r "$RUN" "$RUN5"
+sed 's/^diameters = .*/diameters = 10e-6/' "$CASE" >"$T/one.ini"
+why=""
+if "$BIN" vcrit "$T/one.ini" -o "$RUN5" >"$T/one.log" 2>&1; then
+    grep -q '(0 runs in this process' "$T/one.log" || why="$why the search over 10 um ran again:$(grep -o '([0-9]* runs in this process' "$T/one.log");"
+    [ "$(grep '^1e-05,' "$RUN5/vcrit.csv")" = "$(grep '^1e-05,' "$RUN/vcrit.csv")" ] ||
+        why="$why the 10 um row differs: $(grep '^1e-05,' "$RUN5/vcrit.csv");"
+else
+    why="$why the search over 10 um failed: $(tail -n 2 "$T/one.log" | tr '\n' ' ');"
+fi
+sed 's/^substrate_height = .*/substrate_height = 8e-6/' "$T/one.ini" >"$T/other.ini"
+if "$BIN" vcrit "$T/other.ini" -o "$RUN5" >"$T/other.log" 2>&1; then
+    grep -q '(0 runs in this process' "$T/other.log" && why="$why the runs of another substrate were reused;"
+else
+    why="$why the search on another substrate failed: $(tail -n 2 "$T/other.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "$why"; fi
+
+# ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
 if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
     [ "$(grep -c '^# .*,nan,.*not bracketed: rebounds still at v_high' "$T/nob/vcrit.csv")" -eq 2 ] &&
