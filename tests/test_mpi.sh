@@ -96,9 +96,15 @@ EOF
 one=$?
 $MPIRUN "$MPI_BIN" vcrit "$T/vcrit.ini" -o "$T/vcrit_two" >"$T/vcrit_two.log" 2>&1
 two=$?
+# the records are kept: rank 0's and rank 1's files hold together exactly the runs that vcrit.csv counts
+why=""
+recorded=$(cat "$T"/vcrit_two/vcrit_runs*.csv 2>/dev/null | grep -c '^[0-9]')
+counted=$(awk -F, 'NR > 1 && !/^#/ { n += $NF } END { print n + 0 }' "$T/vcrit_two/vcrit.csv" 2>/dev/null)
+[ -s "$T/vcrit_two/vcrit_runs_rank1.csv" ] && [ "$recorded" -eq "${counted:-0}" ] ||
+    why="the ranks' records hold $recorded runs, vcrit.csv counts $counted;"
 if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/vcrit_one/vcrit.csv" "$T/vcrit_two/vcrit.csv" &&
     same_h5 "$T/vcrit_one/vcrit.h5" "$T/vcrit_two/vcrit.h5" && grep -q '\[rank 1\] info: vcrit' "$T/vcrit_two.log" &&
-    [ -z "$(ls "$T"/vcrit_two/vcrit_runs*.csv 2>/dev/null)" ]; then
+    [ -z "$why" ]; then
     pass mpi_vcrit_same_as_one_process
 else
     fail mpi_vcrit_same_as_one_process "exit $one / $two; $why $(diff "$T/vcrit_one/vcrit.csv" "$T/vcrit_two/vcrit.csv" | head -n 4 | tr '\n' ' ')"
