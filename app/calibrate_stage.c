@@ -1,12 +1,15 @@
 /* `spraycoat calibrate`: the bonding calibration of Tang (2021), Sections 4.1.2 and 5.1.
  *
- * Over a grid of the energy model's parameters (Gc, Gc_rate), single-particle impacts of each size of
+ * Over a grid of the bonding model's two parameters (energy: Gc, Gc_rate; strain: eps_c, eps_rate_c; the record's
+ * fields Gc and Gc_rate hold them), single-particle impacts of each size of
  * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, measured by
  * Hassani-Gangaraj et al. 2018, the thesis's [9]; substrates 30 and 50 um across).  Each run is classified by the
  * impact stage's verdict (mpm_verdicts): bonded (1) or rebounded (0); a verdict that has not settled is neither, left
  * out of the fit and counted.  Per size, a second-order logistic regression of the outcomes on the scaled parameters
  * (Eqs. 4.10-4.14, core/logistic.h) gives the bonding boundary h = 0.5 (Z = 0); the intersection of the first two
- * sizes' boundaries is the calibrated (Gc, Gc_rate): the pair at which both sizes just bond at their critical velocity.
+ * sizes' boundaries is the calibrated pair: the parameters at which both sizes just bond at their critical velocity.
+ * With reference_diameter each size's run is [impact] scaled to its diameter (mpm_config_scale_lengths): the same
+ * cells per diameter for both sizes.
  *
  * Runs are recorded and shared among MPI ranks exactly as vcrit's (struct vcrit_runs, RUN_DIR/calibrate_runs.csv):
  * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, and rank 0
@@ -54,18 +57,45 @@ const struct cfg_key calibrate_case_keys[] = {
      "highest Gc_rate of the grid (>= Gc_rate_min)"},
     {"calibrate", "Gc_rate_count", CFG_INT, "-", "6", 1, 100, 0, NULL,
      "Gc_rate values, evenly spaced from Gc_rate_min to Gc_rate_max"},
+    {"calibrate", "eps_c_min", CFG_REAL, "-", "0.1", 0, 1e3, CFG_MIN_EXCLUSIVE, NULL,
+     "lowest eps_c of the grid ([impact] bonding = strain)"},
+    {"calibrate", "eps_c_max", CFG_REAL, "-", "0.6", 0, 1e3, CFG_MIN_EXCLUSIVE, NULL,
+     "highest eps_c of the grid (>= eps_c_min)"},
+    {"calibrate", "eps_c_count", CFG_INT, "-", "6", 1, 100, 0, NULL,
+     "eps_c values, evenly spaced from eps_c_min to eps_c_max"},
+    {"calibrate", "eps_rate_c_min", CFG_REAL, "1/s", "2e8", 0, 1e20, CFG_MIN_EXCLUSIVE, NULL,
+     "lowest eps_rate_c of the grid ([impact] bonding = strain)"},
+    {"calibrate", "eps_rate_c_max", CFG_REAL, "1/s", "5e9", 0, 1e20, CFG_MIN_EXCLUSIVE, NULL,
+     "highest eps_rate_c of the grid (>= eps_rate_c_min)"},
+    {"calibrate", "eps_rate_c_count", CFG_INT, "-", "6", 1, 100, 0, NULL,
+     "eps_rate_c values, evenly spaced from eps_rate_c_min to eps_rate_c_max"},
+    {"calibrate", "rate_axis", CFG_CHOICE, "", "linear", 0, 0, 0, "linear|log",
+     "spacing of the second parameter's values (Gc_rate, eps_rate_c) and the scale the fit sees it on: linear, or "
+     "log (even in its logarithm: the rate enters the bonding laws as ln(rate / critical rate), Eqs. 4.4, 4.16b)"},
+    {"calibrate", "reference_diameter", CFG_REAL, "m", "0", 0, 1, 0, NULL,
+     "0: every run on the grid and substrate_diameters of [impact]; > 0: [impact] describes a particle of this "
+     "diameter and each size's run is it scaled by d / reference_diameter (grid, spacing, substrate, times: the same "
+     "cells per diameter, docs/physics.md \"Resolution in cells per diameter\"); substrate_diameters is then not "
+     "used"},
     {"calibrate", "ridge", CFG_REAL, "-", "1e-3", 0, 1e6, 0, NULL,
      "ridge term lambda of the logistic fit in the scaled parameters (0: plain maximum likelihood, which has no "
      "finite solution when the outcomes are separable, as a deterministic grid's often are)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
+/* The two parameters a bonding model is calibrated in: the critical value and the critical rate (Eqs. 4.4, 4.16b). */
+struct bonding_axes {
+    const char *model, *name[2], *unit[2];
+};
+static const struct bonding_axes energy_axes = {"energy", {"Gc", "Gc_rate"}, {"J/m2", "J/m2/s"}};
+static const struct bonding_axes strain_axes = {"strain", {"eps_c", "eps_rate_c"}, {"-", "1/s"}};
+
 struct calibrate_size {
     double diameter, velocity, substrate;
     int counts[3];           /* rebounded, bonded, unsettled (enum vcrit_verdict) */
     struct logistic_fit fit; /* valid when fitted */
     int fitted;
-    double *boundary; /* Gc then Gc_rate: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
+    double *boundary; /* first then second parameter: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
     size_t boundary_count;
     char note[200]; /* "" when fitted */
 };
@@ -75,11 +105,14 @@ struct calibrate {
     const char *run_dir;
     uint64_t case_hash;
     int size_count, gc_count, rate_count;
+    const struct bonding_axes *axes; /* gc_*: its first parameter, rate_*: its second */
     double gc_min, gc_max, rate_min, rate_max, ridge, angle;
+    double reference; /* [calibrate] reference_diameter: 0, or the diameter [impact]'s lengths are for */
+    int rate_log;     /* [calibrate] rate_axis = log: the second parameter's axis in its logarithm */
     struct calibrate_size sizes[MAX_SIZES];
     struct vcrit_runs runs;
     struct vcrit_run_record *outcomes;   /* one per task, in task order */
-    double crossings[2 * MAX_CROSSINGS]; /* (Gc, Gc_rate) pairs, the chosen first */
+    double crossings[2 * MAX_CROSSINGS]; /* parameter pairs, the chosen first */
     int crossing_count;
 };
 
@@ -96,42 +129,54 @@ static int parse_sizes(const struct case_file *c, struct calibrate *k)
         return case_invalid(c, STAGE, "diameters", "no diameter given");
     if (nv != nd)
         return case_invalid(c, STAGE, "velocities", "%d speeds for %d diameters; allowed: one per diameter", nv, nd);
-    if (ns != nd)
+    if (ns != nd && !(case_real(c, STAGE, "reference_diameter") > 0))
         return case_invalid(c, STAGE, "substrate_diameters", "%d values for %d diameters; allowed: one per diameter",
                             ns, nd);
     k->size_count = nd;
     for (int i = 0; i < nd; i++)
-        k->sizes[i] = (struct calibrate_size){.diameter = d[i], .velocity = v[i], .substrate = s[i]};
+        k->sizes[i] = (struct calibrate_size){.diameter = d[i], .velocity = v[i], .substrate = i < ns ? s[i] : NAN};
+    return SC_OK;
+}
+
+/* [calibrate] NAME_suffix of the axis's parameter NAME. */
+static const char *axis_key(const struct bonding_axes *axes, int axis, const char *suffix, char *key, size_t size)
+{
+    snprintf(key, size, "%s_%s", axes->name[axis], suffix);
+    return key;
+}
+
+static int load_axis(const struct case_file *c, const struct bonding_axes *axes, int axis, double *min, double *max,
+                     int *count)
+{
+    char key_min[32], key_max[32], key_count[32];
+    const char *name = axes->name[axis], *unit = axes->unit[axis];
+    *min = case_real(c, STAGE, axis_key(axes, axis, "min", key_min, sizeof key_min));
+    *max = case_real(c, STAGE, axis_key(axes, axis, "max", key_max, sizeof key_max));
+    *count = (int)case_int(c, STAGE, axis_key(axes, axis, "count", key_count, sizeof key_count));
+    if (*max < *min)
+        return case_invalid(c, STAGE, key_max, "below %s = %g %s", key_min, *min, unit);
+    if ((*count > 1) != (*max > *min))
+        return case_invalid(c, STAGE, key_count,
+                            "%d values between %g and %g %s; allowed: 1 when %s_min = %s_max, else at least 2", *count,
+                            *min, *max, unit, name, name);
     return SC_OK;
 }
 
 static int load_grid(const struct case_file *c, struct calibrate *k)
 {
-    k->gc_min = case_real(c, STAGE, "Gc_min");
-    k->gc_max = case_real(c, STAGE, "Gc_max");
-    k->gc_count = (int)case_int(c, STAGE, "Gc_count");
-    k->rate_min = case_real(c, STAGE, "Gc_rate_min");
-    k->rate_max = case_real(c, STAGE, "Gc_rate_max");
-    k->rate_count = (int)case_int(c, STAGE, "Gc_rate_count");
-    k->ridge = case_real(c, STAGE, "ridge");
-    if (k->gc_max < k->gc_min)
-        return case_invalid(c, STAGE, "Gc_max", "below Gc_min = %g J/m2", k->gc_min);
-    if (k->rate_max < k->rate_min)
-        return case_invalid(c, STAGE, "Gc_rate_max", "below Gc_rate_min = %g J/m2/s", k->rate_min);
-    if ((k->gc_count > 1) != (k->gc_max > k->gc_min))
-        return case_invalid(c, STAGE, "Gc_count",
-                            "%d values between %g and %g J/m2; allowed: 1 when Gc_min = Gc_max, "
-                            "else at least 2",
-                            k->gc_count, k->gc_min, k->gc_max);
-    if ((k->rate_count > 1) != (k->rate_max > k->rate_min))
-        return case_invalid(c, STAGE, "Gc_rate_count",
-                            "%d values between %g and %g J/m2/s; allowed: 1 when Gc_rate_min = Gc_rate_max, else at "
-                            "least 2",
-                            k->rate_count, k->rate_min, k->rate_max);
-    if (!case_is(c, "impact", "bonding", "energy"))
+    if (case_is(c, "impact", "bonding", "none"))
         return case_invalid(c, "impact", "bonding",
-                            "is not energy: calibrate varies the energy model's Gc and "
-                            "Gc_rate; allowed: energy");
+                            "is none: calibrate varies a bonding model's parameters; allowed: energy, strain");
+    k->axes = case_is(c, "impact", "bonding", "strain") ? &strain_axes : &energy_axes;
+    SC_TRY(load_axis(c, k->axes, 0, &k->gc_min, &k->gc_max, &k->gc_count));
+    SC_TRY(load_axis(c, k->axes, 1, &k->rate_min, &k->rate_max, &k->rate_count));
+    k->ridge = case_real(c, STAGE, "ridge");
+    k->reference = case_real(c, STAGE, "reference_diameter");
+    k->rate_log = case_is(c, STAGE, "rate_axis", "log");
+    if (k->reference > 0 && case_is_given(c, STAGE, "substrate_diameters"))
+        return case_invalid(c, STAGE, "substrate_diameters",
+                            "is not used with reference_diameter (each substrate is [impact]'s, scaled); remove one "
+                            "of the two");
     return SC_OK;
 }
 
@@ -145,7 +190,27 @@ static double grid_value(double min, double max, int count, int i)
     return count > 1 ? min + (max - min) * i / (count - 1.0) : min;
 }
 
-/* Task t: size t / (Gc_count Gc_rate_count), then Gc, then Gc_rate. */
+/* The second parameter's axis: linear, or in its logarithm (rate_axis = log). */
+static double axis_in(const struct calibrate *k, double value)
+{
+    return k->rate_log ? log(value) : value;
+}
+
+static double axis_out(const struct calibrate *k, double value)
+{
+    return k->rate_log ? exp(value) : value;
+}
+
+static double rate_value(const struct calibrate *k, int i)
+{
+    if (!k->rate_log || i == 0)
+        return grid_value(k->rate_min, k->rate_max, k->rate_count, i); /* the ends exactly as given */
+    if (i == k->rate_count - 1)
+        return k->rate_max;
+    return axis_out(k, grid_value(axis_in(k, k->rate_min), axis_in(k, k->rate_max), k->rate_count, i));
+}
+
+/* Task t: size t / (count of the first parameter x count of the second), then the first, then the second. */
 static struct vcrit_run_record task_run(const struct calibrate *k, int t)
 {
     int per_size = k->gc_count * k->rate_count, i = t / per_size, g = (t % per_size) / k->rate_count,
@@ -153,21 +218,29 @@ static struct vcrit_run_record task_run(const struct calibrate *k, int t)
     return (struct vcrit_run_record){.diameter = k->sizes[i].diameter,
                                      .velocity = k->sizes[i].velocity,
                                      .Gc = grid_value(k->gc_min, k->gc_max, k->gc_count, g),
-                                     .Gc_rate = grid_value(k->rate_min, k->rate_max, k->rate_count, r)};
+                                     .Gc_rate = rate_value(k, r)};
 }
 
-/* The impact set-up of task t: [impact] with one sphere of the size at its speed, the size's substrate diameter
- * (a deformable substrate) and the task's Gc and Gc_rate. */
+/* The impact set-up of task t: [impact] (scaled to the size with reference_diameter, else with the size's substrate
+ * diameter) with one sphere of the size at its speed and the task's two bonding parameters. */
 static int make_config(const struct calibrate *k, int t, struct mpm_config *cfg)
 {
     struct vcrit_run_record run = task_run(k, t);
     const struct calibrate_size *size = &k->sizes[t / (k->gc_count * k->rate_count)];
     SC_TRY(mpm_config_load(k->c, cfg));
-    for (int b = 0; b < cfg->body_count; b++)
-        if (cfg->bodies[b].substrate)
-            cfg->bodies[b].d = size->substrate;
-    cfg->Gc = run.Gc;
-    cfg->Gc_rate = run.Gc_rate;
+    if (k->reference > 0)
+        mpm_config_scale_lengths(cfg, size->diameter / k->reference);
+    else
+        for (int b = 0; b < cfg->body_count; b++)
+            if (cfg->bodies[b].substrate)
+                cfg->bodies[b].d = size->substrate;
+    if (k->axes == &strain_axes) {
+        cfg->eps_c = run.Gc;
+        cfg->eps_rate_c = run.Gc_rate;
+    } else {
+        cfg->Gc = run.Gc;
+        cfg->Gc_rate = run.Gc_rate;
+    }
     int status = mpm_config_single_particle(cfg, run.diameter, run.velocity, k->angle);
     if (status != SC_OK)
         mpm_config_free(cfg);
@@ -187,6 +260,9 @@ static int load_settings(const struct case_file *c, struct calibrate *k)
         struct mpm_config cfg;
         SC_TRY(make_config(k, i * k->gc_count * k->rate_count, &cfg));
         double spacing = cfg.spacing;
+        for (int b = 0; b < cfg.body_count; b++)
+            if (cfg.bodies[b].substrate)
+                k->sizes[i].substrate = cfg.bodies[b].d; /* scaled with reference_diameter */
         mpm_config_free(&cfg);
         if (k->sizes[i].diameter < 2.0 * spacing)
             return case_invalid(c, STAGE, "diameters", "%g m is less than two point spacings ([impact] spacing = %g m)",
@@ -239,6 +315,17 @@ static double unscaled(double x, double min, double max)
     return max > min ? min + x * (max - min) : min;
 }
 
+/* The second parameter scaled to [0, 1] over the grid on its axis, and back. */
+static double rate_scaled(const struct calibrate *k, double value)
+{
+    return scaled(axis_in(k, value), axis_in(k, k->rate_min), axis_in(k, k->rate_max));
+}
+
+static double rate_unscaled(const struct calibrate *k, double x)
+{
+    return axis_out(k, unscaled(x, axis_in(k, k->rate_min), axis_in(k, k->rate_max)));
+}
+
 /* A point of the boundary Z(x1, x2) = 0 in [0, 1]^2: branch b = 2 axis + sign.  axis 0: x1 = t and x2 the root
  * (sign 0: -, 1: +) of the quadratic in x2; axis 1: x2 = t and x1 the root.  Both, so that a boundary steep in
  * either direction is found.  0 when there is no root in [0, 1]. */
@@ -264,7 +351,8 @@ static int boundary_point(const double *theta, int b, double t, double *x1, doub
     return 1;
 }
 
-/* The boundary h = 0.5 of a fitted size in Gc and Gc_rate: the four branches over the grid, a NaN gap after each. */
+/* The boundary h = 0.5 of a fitted size in the two parameters: the four branches over the grid, a NaN gap after
+ * each. */
 static int sample_boundary(const struct calibrate *k, struct calibrate_size *size)
 {
     size_t n = BRANCHES * (BOUNDARY_SAMPLES + 1);
@@ -276,7 +364,7 @@ static int sample_boundary(const struct calibrate *k, struct calibrate_size *siz
             double x1, x2;
             int on = boundary_point(size->fit.theta, b, i / (BOUNDARY_SAMPLES - 1.0), &x1, &x2);
             gc[at] = on ? unscaled(x1, k->gc_min, k->gc_max) : NAN;
-            rate[at] = on ? unscaled(x2, k->rate_min, k->rate_max) : NAN;
+            rate[at] = on ? rate_unscaled(k, x2) : NAN;
         }
         gc[(size_t)b * (BOUNDARY_SAMPLES + 1) + BOUNDARY_SAMPLES] = NAN;
         rate[(size_t)b * (BOUNDARY_SAMPLES + 1) + BOUNDARY_SAMPLES] = NAN;
@@ -295,8 +383,7 @@ static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_s
         size->counts[verdict]++;
         if (verdict == VCRIT_UNSETTLED)
             continue;
-        logistic_quadratic_terms(scaled(r->Gc, k->gc_min, k->gc_max), scaled(r->Gc_rate, k->rate_min, k->rate_max),
-                                 X + 6 * m);
+        logistic_quadratic_terms(scaled(r->Gc, k->gc_min, k->gc_max), rate_scaled(k, r->Gc_rate), X + 6 * m);
         y[m++] = verdict == VCRIT_BONDED;
     }
     if (size->counts[VCRIT_BONDED] == 0 || size->counts[VCRIT_REBOUNDED] == 0) {
@@ -340,10 +427,10 @@ static double z_along(const struct calibrate_size *a, const struct calibrate_siz
  * find the same points. */
 static void add_crossing(struct calibrate *k, double x1, double x2)
 {
-    double gc = unscaled(x1, k->gc_min, k->gc_max), rate = unscaled(x2, k->rate_min, k->rate_max);
+    double gc = unscaled(x1, k->gc_min, k->gc_max), rate = rate_unscaled(k, x2);
     for (int i = 0; i < k->crossing_count; i++)
         if (fabs(scaled(k->crossings[2 * i], k->gc_min, k->gc_max) - x1) < 1e-3 &&
-            fabs(scaled(k->crossings[2 * i + 1], k->rate_min, k->rate_max) - x2) < 1e-3)
+            fabs(rate_scaled(k, k->crossings[2 * i + 1]) - x2) < 1e-3)
             return;
     if (k->crossing_count == MAX_CROSSINGS)
         return;
@@ -383,7 +470,7 @@ static void choose_crossing(struct calibrate *k)
     double best_distance = INFINITY;
     for (int i = 0; i < k->crossing_count; i++) {
         double dx = scaled(k->crossings[2 * i], k->gc_min, k->gc_max) - 0.5,
-               dy = scaled(k->crossings[2 * i + 1], k->rate_min, k->rate_max) - 0.5;
+               dy = rate_scaled(k, k->crossings[2 * i + 1]) - 0.5;
         if (dx * dx + dy * dy < best_distance)
             best = i, best_distance = dx * dx + dy * dy;
     }
@@ -413,7 +500,7 @@ static int write_csvs(const struct calibrate *k)
     struct atomic_file out;
     snprintf(path, sizeof path, "%s/calibrate_outcomes.csv", k->run_dir);
     SC_TRY(atomic_open(path, &out));
-    fprintf(out.stream, "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor\n");
+    fprintf(out.stream, "diameter,velocity,%s,%s,verdict,pbcp,v_rest,cor\n", k->axes->name[0], k->axes->name[1]);
     for (int t = 0; t < task_count(k); t++) {
         const struct vcrit_run_record *r = &k->outcomes[t];
         fprintf(out.stream, "%.17g,%.17g,%.17g,%.17g,%s,%.17g,%.17g,%.17g\n", r->diameter, r->velocity, r->Gc,
@@ -422,7 +509,7 @@ static int write_csvs(const struct calibrate *k)
     SC_TRY(atomic_publish(&out));
     snprintf(path, sizeof path, "%s/calibrate.csv", k->run_dir);
     SC_TRY(atomic_open(path, &out));
-    fprintf(out.stream, "Gc,Gc_rate,calibrated\n");
+    fprintf(out.stream, "%s,%s,calibrated\n", k->axes->name[0], k->axes->name[1]);
     for (int i = 0; i < k->crossing_count; i++)
         fprintf(out.stream, "%.17g,%.17g,%d\n", k->crossings[2 * i], k->crossings[2 * i + 1], i == 0);
     if (k->crossing_count == 0)
@@ -450,8 +537,8 @@ static int write_runs(const struct calibrate *k, hid_t file)
             values[(size_t)j * n + t] = row[j];
         verdicts[t] = r->verdict;
     }
-    static const char *const names[] = {"diameter", "velocity", "Gc", "Gc_rate", "pbcp", "v_rest", "cor"};
-    static const char *const units[] = {"m", "m/s", "J/m2", "J/m2/s", "-", "m/s", "-"};
+    const char *const names[] = {"diameter", "velocity", k->axes->name[0], k->axes->name[1], "pbcp", "v_rest", "cor"};
+    const char *const units[] = {"m", "m/s", k->axes->unit[0], k->axes->unit[1], "-", "m/s", "-"};
     hsize_t dims[1] = {n};
     SC_CHECK(status, h5_create_group(file, "runs", &group), done);
     for (int j = 0; j < 7; j++)
@@ -485,9 +572,12 @@ static int write_size(const struct calibrate *k, hid_t parent, int index)
         SC_CHECK(status, h5_write_doubles(group, "theta", 1, six, s->fit.theta, "-", 0), done);
         SC_CHECK(status, h5_write_doubles(group, "theta_se", 1, six, s->fit.se, "-", 0), done);
         SC_CHECK(status, h5_attr_write_double(group, "cost", s->fit.cost), done);
-        SC_CHECK(status, h5_write_doubles(group, "boundary_Gc", 1, n, s->boundary, "J/m2", 0), done);
-        SC_CHECK(status,
-                 h5_write_doubles(group, "boundary_Gc_rate", 1, n, s->boundary + s->boundary_count, "J/m2/s", 0), done);
+        char name0[40], name1[40];
+        snprintf(name0, sizeof name0, "boundary_%s", k->axes->name[0]);
+        snprintf(name1, sizeof name1, "boundary_%s", k->axes->name[1]);
+        SC_CHECK(status, h5_write_doubles(group, name0, 1, n, s->boundary, k->axes->unit[0], 0), done);
+        SC_CHECK(status, h5_write_doubles(group, name1, 1, n, s->boundary + s->boundary_count, k->axes->unit[1], 0),
+                 done);
     }
 done:
     H5Gclose(group);
@@ -500,12 +590,21 @@ static int output_contents(void *owner, hid_t file)
     const struct calibrate *k = owner;
     double none = NAN;
     const double *best = k->crossing_count ? k->crossings : NULL;
-    SC_TRY(h5_attr_write_double(file, "Gc", best ? best[0] : none));
-    SC_TRY(h5_attr_write_double(file, "Gc_rate", best ? best[1] : none));
-    static const char *const grid[] = {"Gc_min", "Gc_max", "Gc_rate_min", "Gc_rate_max", "ridge"};
-    double values[] = {k->gc_min, k->gc_max, k->rate_min, k->rate_max, k->ridge};
-    for (int i = 0; i < 5; i++)
+    const struct bonding_axes *a = k->axes;
+    SC_TRY(h5_attr_write_string(file, "bonding", a->model));
+    SC_TRY(h5_attr_write_double(file, a->name[0], best ? best[0] : none));
+    SC_TRY(h5_attr_write_double(file, a->name[1], best ? best[1] : none));
+    char grid[4][32];
+    axis_key(a, 0, "min", grid[0], sizeof grid[0]);
+    axis_key(a, 0, "max", grid[1], sizeof grid[1]);
+    axis_key(a, 1, "min", grid[2], sizeof grid[2]);
+    axis_key(a, 1, "max", grid[3], sizeof grid[3]);
+    double values[] = {k->gc_min, k->gc_max, k->rate_min, k->rate_max};
+    for (int i = 0; i < 4; i++)
         SC_TRY(h5_attr_write_double(file, grid[i], values[i]));
+    SC_TRY(h5_attr_write_double(file, "ridge", k->ridge));
+    SC_TRY(h5_attr_write_double(file, "reference_diameter", k->reference));
+    SC_TRY(h5_attr_write_string(file, "rate_axis", k->rate_log ? "log" : "linear"));
     SC_TRY(write_runs(k, file));
     hid_t group;
     SC_TRY(h5_create_group(file, "size", &group));
@@ -518,8 +617,11 @@ static int output_contents(void *owner, hid_t file)
     for (int i = 0; i < k->crossing_count; i++)
         gc[i] = k->crossings[2 * i], rate[i] = k->crossings[2 * i + 1];
     hsize_t dims[1] = {(hsize_t)k->crossing_count};
-    SC_TRY(h5_write_doubles(file, "intersection_Gc", 1, dims, gc, "J/m2", 0));
-    return h5_write_doubles(file, "intersection_Gc_rate", 1, dims, rate, "J/m2/s", 0);
+    char name0[40], name1[40];
+    snprintf(name0, sizeof name0, "intersection_%s", a->name[0]);
+    snprintf(name1, sizeof name1, "intersection_%s", a->name[1]);
+    SC_TRY(h5_write_doubles(file, name0, 1, dims, gc, a->unit[0], 0));
+    return h5_write_doubles(file, name1, 1, dims, rate, a->unit[1], 0);
 }
 
 static void log_results(const struct calibrate *k)
@@ -531,8 +633,9 @@ static void log_results(const struct calibrate *k)
                  s->note[0] ? "; " : "", s->note);
     }
     if (k->crossing_count)
-        log_info("calibrate: calibrated Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s (%d intersection%s)", k->crossings[0],
-                 k->crossings[1], k->crossing_count, k->crossing_count > 1 ? "s" : "");
+        log_info("calibrate: calibrated %s = %.6g %s, %s = %.6g %s (%d intersection%s)", k->axes->name[0],
+                 k->crossings[0], k->axes->unit[0], k->axes->name[1], k->crossings[1], k->axes->unit[1],
+                 k->crossing_count, k->crossing_count > 1 ? "s" : "");
     else
         log_warn("calibrate: the bonding boundaries do not intersect in the grid: no calibrated pair");
 }
@@ -565,9 +668,9 @@ static int calibrate_all(struct calibrate *k)
 {
     double start = log_elapsed();
     if (parallel_rank() == 0)
-        log_info("calibrate: %d sizes x %d Gc x %d Gc_rate = %d runs, on %d threads x %d process%s", k->size_count,
-                 k->gc_count, k->rate_count, task_count(k), omp_get_max_threads(), parallel_size(),
-                 parallel_size() > 1 ? "es" : "");
+        log_info("calibrate: %d sizes x %d %s x %d %s = %d runs, on %d threads x %d process%s", k->size_count,
+                 k->gc_count, k->axes->name[0], k->rate_count, k->axes->name[1], task_count(k), omp_get_max_threads(),
+                 parallel_size(), parallel_size() > 1 ? "es" : "");
     int status = parallel_max_status(runs_shared(k));
     if (status == SC_OK && parallel_rank() == 0)
         status = fit_and_write(k, start);

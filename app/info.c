@@ -231,9 +231,18 @@ static void print_impact_results(hid_t file, FILE *out)
 static void print_calibrate_results(hid_t file, FILE *out)
 {
     fprintf(out, "calibration:\n");
-    static const char *const names[] = {"Gc", "Gc_rate", "Gc_min", "Gc_max", "Gc_rate_min", "Gc_rate_max"};
+    /* the bonding model's two parameters: energy's unless the file names another (files before strain calibrations
+     * have no "bonding") */
+    static const char *const energy[] = {"Gc", "Gc_rate", "Gc_min", "Gc_max", "Gc_rate_min", "Gc_rate_max"};
+    static const char *const strain[] = {"eps_c",     "eps_rate_c",     "eps_c_min",
+                                         "eps_c_max", "eps_rate_c_min", "eps_rate_c_max"};
+    char model[32] = "energy";
+    print_attribute(file, "bonding", out);
+    h5_attr_read_string(file, "bonding", model, sizeof model);
+    const char *const *names = strcmp(model, "strain") == 0 ? strain : energy;
     for (int k = 0; k < 6; k++)
         print_attribute(file, names[k], out);
+    print_attribute(file, "reference_diameter", out);
 }
 
 /* vcrit.h5 of a search over temperature ([vcrit] temperatures): the temperature of each of the n rows above. */

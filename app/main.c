@@ -27,8 +27,9 @@ static const char usage[] =
     "                                           like spray)\n"
     "  spraycoat vcrit CASE.ini [-o RUN_DIR]    critical velocity vs diameter from MPM impacts ([vcrit])\n"
     "  spraycoat calibrate CASE.ini [-o RUN_DIR]\n"
-    "                                           bonding calibration: logistic boundaries of (Gc, Gc_rate)\n"
-    "                                           from MPM impacts of two sizes ([calibrate]), then figures\n"
+    "                                           bonding calibration: logistic boundaries of the bonding\n"
+    "                                           model's two parameters from MPM impacts of two sizes\n"
+    "                                           ([calibrate]), then figures\n"
     "  spraycoat render CASE.ini [-o RUN_DIR]   figures (RUN_DIR/figures/) and RUN_DIR/report.html from the\n"
     "                                           outputs RUN_DIR holds ([render])\n"
     "  spraycoat couple CASE.ini [-o RUN_DIR]   sample the spray's impacts, fly them through the gas layer\n"
@@ -84,7 +85,9 @@ static const struct command_help command_helps[] = {
      "RUN_DIR/vcrit.csv and vcrit.h5.  Runs are shared among MPI ranks in the MPI build.\n"},
     {"calibrate", "spraycoat calibrate CASE.ini [-o RUN_DIR] [--threads N]",
      "The bonding calibration of Tang (2021) Sections 4.1.2 and 5.1 ([calibrate]): single-particle MPM impacts of\n"
-     "each size at its experimental critical velocity over a grid of Gc and Gc_rate, each classified bonded or\n"
+     "each size at its experimental critical velocity over a grid of the bonding model's two parameters (energy:\n"
+     "Gc, Gc_rate; strain: eps_c, eps_rate_c; with reference_diameter each size's set-up scaled to its diameter),\n"
+     "each classified bonded or\n"
      "rebounded by the impact verdict (unsettled runs are counted and left out), a second-order logistic\n"
      "regression per size (Eqs. 4.10-4.14), the bonding boundaries h = 0.5 and their intersection, the calibrated\n"
      "pair.  Writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv, calibrate.h5, then the figures and report of\n"

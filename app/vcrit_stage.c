@@ -53,6 +53,10 @@ const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
      "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
      "about 2)"},
+    {"vcrit", "reference_diameter", CFG_REAL, "m", "0", 0, 1, 0, NULL,
+     "0: every run on the grid of [impact]; > 0: [impact] describes a particle of this diameter, and a run of diameter "
+     "d has its grid, spacing, substrate, box_margin and times scaled by d / reference_diameter (the same cells per "
+     "diameter for every size, docs/physics.md \"Resolution in cells per diameter\")"},
     {"vcrit", "cor_below", CFG_STRING, "m/s", NULL, 0, 0, 0, NULL,
      "comma-separated speed differences (each > 0): after the bisection, one more run per diameter at v_crit minus "
      "each, for the coefficient of restitution against impact speed (RUN_DIR/vcrit_cor.csv); not given: none"},
@@ -77,6 +81,7 @@ struct vcrit_search {
     double diameters[MAX_DIAMETERS];
     int count;
     double v_low, v_high, tolerance, scale, angle;
+    double reference;       /* [vcrit] reference_diameter: 0, or the diameter [impact]'s lengths are for */
     double vrest_threshold; /* [impact] vrest_threshold: below it a rebounded particle is "held" */
     int max_runs;
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
@@ -168,6 +173,8 @@ static int parse_temperatures(const struct case_file *c, struct vcrit_search *v)
 static int make_config(const struct vcrit_search *v, double d, double T, double speed, struct mpm_config *cfg)
 {
     SC_TRY(mpm_config_load(v->c, cfg));
+    if (v->reference > 0)
+        mpm_config_scale_lengths(cfg, d / v->reference);
     if (v->scale > 0)
         for (int b = 0; b < cfg->body_count; b++)
             if (cfg->bodies[b].substrate)
@@ -192,6 +199,7 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     v->tolerance = case_real(c, "vcrit", "tolerance");
     v->max_runs = (int)case_int(c, "vcrit", "max_runs");
     v->scale = case_real(c, "vcrit", "substrate_scale");
+    v->reference = case_real(c, "vcrit", "reference_diameter");
     v->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
     if (!(v->v_low < v->v_high))
         return case_invalid(c, "vcrit", "v_low", "not below v_high = %g m/s", v->v_high);
@@ -476,16 +484,28 @@ static int record_outcome(struct mpm_solver *s, const struct mpm_config *cfg, st
     return SC_OK;
 }
 
+/* "Gc 720 J/m2, Gc_rate 2e+11 J/m2/s", "eps_c 2, eps_rate_c 1e+07 1/s" or "no bonding": the run's bonding law. */
+static const char *bonding_text(const struct mpm_config *cfg, char *text, size_t size)
+{
+    if (cfg->bonding == MPM_BONDING_ENERGY)
+        snprintf(text, size, "Gc %.6g J/m2, Gc_rate %.6g J/m2/s", cfg->Gc, cfg->Gc_rate);
+    else if (cfg->bonding == MPM_BONDING_STRAIN)
+        snprintf(text, size, "eps_c %.6g, eps_rate_c %.6g 1/s", cfg->eps_c, cfg->eps_rate_c);
+    else
+        snprintf(text, size, "no bonding");
+    return text;
+}
+
 static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *out)
 {
     struct vcrit_run run = {NULL};
     int status;
-    char label[160], note[4400];
+    char label[200], note[4400], model[80];
     char T[40] = "";
     if (out->temperature > 0.0)
         snprintf(T, sizeof T, ", T = %.6g K", out->temperature);
-    snprintf(label, sizeof label, "%s d = %.4g um%s, %.6g m/s, Gc = %.6g J/m2, Gc_rate = %.6g J/m2/s", r->name,
-             out->diameter * 1e6, T, out->velocity, out->Gc, out->Gc_rate);
+    snprintf(label, sizeof label, "%s d = %.4g um%s, %.6g m/s, %s", r->name, out->diameter * 1e6, T, out->velocity,
+             bonding_text(cfg, model, sizeof model));
     snprintf(note, sizeof note,
              "the %zu finished runs are recorded in %s/%s_runs.csv: continue with `spraycoat "
              "resume %s`",
@@ -524,9 +544,9 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
     char T[40] = "";
     if (run->temperature > 0.0)
         snprintf(T, sizeof T, ", T = %.6g K,", run->temperature);
-    log_info("%s: d = %.4g um%s at %.6g m/s (Gc %.6g, Gc_rate %.6g): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; "
-             "%lld steps, %.1f s)",
-             r->name, run->diameter * 1e6, T, run->velocity, run->Gc, run->Gc_rate,
+    char model[80];
+    log_info("%s: d = %.4g um%s at %.6g m/s (%s): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld steps, %.1f s)",
+             r->name, run->diameter * 1e6, T, run->velocity, bonding_text(cfg, model, sizeof model),
              run_verdict_word(run, cfg->vrest_threshold), 100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps,
              log_elapsed() - start);
     return SC_OK;
@@ -939,16 +959,19 @@ int vcrit_stage_validate(const struct stage_context *ctx)
 }
 
 /* What one run's outcome depends on besides its diameter, speed and temperature: [run], [impact], the materials and
- * the substrate's scale and the impact angle of [vcrit].  The search's own keys (diameters, temperatures, v_low,
- * v_high, tolerance, max_runs, cor_below) are left out, so that a search widened, refined or extended to more sizes
- * reuses the runs it shares with the one before (the record is kept with the outputs). */
+ * the substrate's scale, the impact angle and the reference diameter (when set) of [vcrit].  The search's own keys
+ * (diameters, temperatures, v_low, v_high, tolerance, max_runs, cor_below) are left out, so that a search widened,
+ * refined or extended to more sizes reuses the runs it shares with the one before (the record is kept with the
+ * outputs). */
 static uint64_t runs_hash(const struct vcrit_search *v)
 {
     static const char *const run_sections[] = {"run", "impact", "material.*", NULL};
     uint64_t hash = case_hash_sections(v->c, run_sections);
-    const double run_keys[2] = {v->scale, v->angle};
+    const double run_keys[3] = {v->scale, v->angle, v->reference};
+    /* the reference only when set: records made before the key existed keep their hash */
+    size_t bytes_hashed = (v->reference > 0 ? 3 : 2) * sizeof run_keys[0];
     const unsigned char *bytes = (const unsigned char *)run_keys;
-    for (size_t i = 0; i < sizeof run_keys; i++) /* FNV-1a, continued over the two values' bits */
+    for (size_t i = 0; i < bytes_hashed; i++) /* FNV-1a, continued over the values' bits */
         hash = (hash ^ bytes[i]) * 1099511628211ULL;
     return hash;
 }

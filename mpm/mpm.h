@@ -106,6 +106,10 @@ void mpm_config_free(struct mpm_config *cfg);
  * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */
 int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle);
 
+/* Multiply every length and time of the set-up (grid, spacing, box_margin, bodies, t_end, settle_window,
+ * series_every, snapshot_every) by `factor` > 0: the same impact at another scale, with the same cells per body. */
+void mpm_config_scale_lengths(struct mpm_config *cfg, double factor);
+
 /* Start the last `count` bodies (the particles of mpm_config_set_spheres or mpm_config_single_particle) at the
  * temperatures temperature[k] (K) instead of their material's T_initial.  SC_EINPUT for a temperature <= 0, above
  * 1e5 K or where the material's shear modulus is not positive. */

@@ -1,6 +1,7 @@
-/* The calibration figures (RUN_DIR/calibrate.h5, app/calibrate_stage.c): per size the outcomes over the (Gc,
- * Gc_rate) grid with the bonding boundary h = 0.5 (Tang 2021 Fig. 4.4 a, b), and both boundaries with their
- * intersection, the calibrated pair (Fig. 4.4 c, Fig. 5.1). */
+/* The calibration figures (RUN_DIR/calibrate.h5, app/calibrate_stage.c): per size the outcomes over the grid of the
+ * bonding model's two parameters (energy: Gc, Gc_rate; strain: eps_c, eps_rate_c) with the bonding boundary h = 0.5
+ * (Tang 2021 Fig. 4.4 a, b), and both boundaries with their intersection, the calibrated pair (Fig. 4.4 c, Fig. 5.1).
+ */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -11,8 +12,25 @@
 #include "core/log.h"
 #include "render/render_impl.h"
 
-#define RATE_UNIT 1e11 /* Gc_rate is drawn in 1e11 J/m2/s */
-#define MAX_SIZES 2    /* the figures show the first two sizes: the two of the calibration */
+#define MAX_SIZES 2 /* the figures show the first two sizes: the two of the calibration */
+
+/* A model's two parameters: their names in calibrate.h5, axis labels, and the unit the second is drawn in. */
+struct calibrate_axes {
+    const char *model, *name[2], *label[2], *log_label; /* log_label: the second's, rate_axis = log */
+    double rate_unit;
+};
+static const struct calibrate_axes model_axes[] = {
+    {"energy",
+     {"Gc", "Gc_rate"},
+     {"critical adhesion energy Gc (J/m²)", "critical adhesion energy rate Gc_rate (10^11 J/m²/s)"},
+     "log10 of the critical adhesion energy rate Gc_rate in J/m²/s",
+     1e11},
+    {"strain",
+     {"eps_c", "eps_rate_c"},
+     {"critical bonding strain eps_c", "critical bonding strain rate eps_rate_c (10^9 1/s)"},
+     "log10 of the critical bonding strain rate eps_rate_c in 1/s",
+     1e9},
+};
 
 struct calibrate_data {
     struct render_array d, gc, rate, verdict; /* /runs */
@@ -20,7 +38,16 @@ struct calibrate_data {
     struct render_array cross_gc, cross_rate;
     double diameter[MAX_SIZES], velocity[MAX_SIZES];
     int sizes;
+    const struct calibrate_axes *axes;
+    int rate_log;           /* rate_axis = log: the second parameter drawn as its log10 */
+    const char *rate_label; /* the second parameter's axis label */
 };
+
+/* A value of the second parameter as drawn. */
+static double rate_drawn(const struct calibrate_data *c, double value)
+{
+    return c->rate_log ? log10(value) : value / c->axes->rate_unit;
+}
 
 static void data_free(struct calibrate_data *c)
 {
@@ -42,11 +69,14 @@ static int read_size(hid_t file, const char *path, int i, struct calibrate_data 
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &c->diameter[i]), done);
     SC_CHECK(status, h5_attr_read_double(g, "velocity", &c->velocity[i]), done);
-    if (h5_exists(g, "boundary_Gc")) {
-        SC_CHECK(status, render_read_array(g, path, "boundary_Gc", &c->boundary_gc[i]), done);
-        SC_CHECK(status, render_read_array(g, path, "boundary_Gc_rate", &c->boundary_rate[i]), done);
+    char first[48], second[48];
+    snprintf(first, sizeof first, "boundary_%s", c->axes->name[0]);
+    snprintf(second, sizeof second, "boundary_%s", c->axes->name[1]);
+    if (h5_exists(g, first)) {
+        SC_CHECK(status, render_read_array(g, path, first, &c->boundary_gc[i]), done);
+        SC_CHECK(status, render_read_array(g, path, second, &c->boundary_rate[i]), done);
         for (size_t k = 0; k < c->boundary_rate[i].count; k++)
-            c->boundary_rate[i].values[k] /= RATE_UNIT;
+            c->boundary_rate[i].values[k] = rate_drawn(c, c->boundary_rate[i].values[k]);
     }
     c->sizes = i + 1;
 done:
@@ -58,21 +88,39 @@ static int read_data(const char *path, struct calibrate_data *c)
 {
     hid_t file;
     SC_TRY(render_open(path, &file));
-    int status;
+    int status = SC_OK;
+    char model[32] = "energy", name[4][48]; /* files written before strain calibrations have no "bonding" */
+    if (H5Aexists(file, "bonding") > 0)
+        SC_CHECK(status, h5_attr_read_string(file, "bonding", model, sizeof model), done);
+    c->axes = NULL;
+    for (size_t i = 0; i < sizeof model_axes / sizeof model_axes[0]; i++)
+        if (strcmp(model, model_axes[i].model) == 0)
+            c->axes = &model_axes[i];
+    if (!c->axes)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: unknown bonding model \"%s\"", path, model);
+    char axis[16] = "linear";
+    if (H5Aexists(file, "rate_axis") > 0)
+        SC_CHECK(status, h5_attr_read_string(file, "rate_axis", axis, sizeof axis), done);
+    c->rate_log = strcmp(axis, "log") == 0;
+    c->rate_label = c->rate_log ? c->axes->log_label : c->axes->label[1];
+    snprintf(name[0], sizeof name[0], "runs/%s", c->axes->name[0]);
+    snprintf(name[1], sizeof name[1], "runs/%s", c->axes->name[1]);
+    snprintf(name[2], sizeof name[2], "intersection_%s", c->axes->name[0]);
+    snprintf(name[3], sizeof name[3], "intersection_%s", c->axes->name[1]);
     SC_CHECK(status, render_read_array(file, path, "runs/diameter", &c->d), done);
-    SC_CHECK(status, render_read_array(file, path, "runs/Gc", &c->gc), done);
-    SC_CHECK(status, render_read_array(file, path, "runs/Gc_rate", &c->rate), done);
+    SC_CHECK(status, render_read_array(file, path, name[0], &c->gc), done);
+    SC_CHECK(status, render_read_array(file, path, name[1], &c->rate), done);
     SC_CHECK(status, render_read_array(file, path, "runs/verdict", &c->verdict), done);
-    SC_CHECK(status, render_read_array(file, path, "intersection_Gc", &c->cross_gc), done);
-    SC_CHECK(status, render_read_array(file, path, "intersection_Gc_rate", &c->cross_rate), done);
+    SC_CHECK(status, render_read_array(file, path, name[2], &c->cross_gc), done);
+    SC_CHECK(status, render_read_array(file, path, name[3], &c->cross_rate), done);
     for (int i = 0; i < MAX_SIZES; i++)
         SC_CHECK(status, read_size(file, path, i, c), done);
     if (c->gc.count != c->d.count || c->rate.count != c->d.count || c->verdict.count != c->d.count)
         SC_FAIL_AT(status, done, SC_EIO, "render: %s: the datasets of /runs have different lengths", path);
     for (size_t k = 0; k < c->rate.count; k++)
-        c->rate.values[k] /= RATE_UNIT;
+        c->rate.values[k] = rate_drawn(c, c->rate.values[k]);
     for (size_t k = 0; k < c->cross_rate.count; k++)
-        c->cross_rate.values[k] /= RATE_UNIT;
+        c->cross_rate.values[k] = rate_drawn(c, c->cross_rate.values[k]);
 done:
     H5Fclose(file);
     return status;
@@ -87,9 +135,6 @@ static size_t select_runs(const struct calibrate_data *c, int i, int v, double *
             x[n] = c->gc.values[k], y[n++] = c->rate.values[k];
     return n;
 }
-
-static const char *const rate_label = "critical adhesion energy rate Gc_rate (10^11 J/m²/s)";
-static const char *const gc_label = "critical adhesion energy Gc (J/m²)";
 
 /* Fig. 4.4 a, b: per size the bonded, rebounded and unsettled runs and the fitted boundary. */
 static int sizes_plot(const struct render_request *req, const struct calibrate_data *c, struct render_output *out)
@@ -117,7 +162,8 @@ static int sizes_plot(const struct render_request *req, const struct calibrate_d
                                               0,
                                               0};
         snprintf(titles[i], sizeof titles[i], "%.3g µm at %.4g m/s", c->diameter[i] * 1e6, c->velocity[i]);
-        plot.panels[i] = (struct render_panel){titles[i], gc_label, rate_label, NAN, NAN, NAN, NAN, 0, 4, series[i]};
+        plot.panels[i] =
+            (struct render_panel){titles[i], c->axes->label[0], c->rate_label, NAN, NAN, NAN, NAN, 0, 4, series[i]};
     }
     int status = render_plot_publish(req->run_dir, out, "calibrate_sizes", "calibrate",
                                      "Calibration outcomes and bonding boundaries", &plot);
@@ -145,8 +191,16 @@ static int boundaries_plot(const struct render_request *req, const struct calibr
                                          0,
                                          5};
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){
-        "Bonding boundaries and the calibrated parameters", gc_label, rate_label, NAN, NAN, NAN, NAN, 0, n, series};
+    plot.panels[0] = (struct render_panel){"Bonding boundaries and the calibrated parameters",
+                                           c->axes->label[0],
+                                           c->rate_label,
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           0,
+                                           n,
+                                           series};
     return render_plot_publish(req->run_dir, out, "calibrate", "calibrate", plot.panels[0].title, &plot);
 }
 

@@ -16,12 +16,15 @@ static const double tang_vcrit[] = {824, 809, 791, 776, 761};
 
 struct search_runs {
     size_t count, capacity;
-    double *d, *v, *cor; /* um, m/s, - (NaN when the file has no cor) */
-    int *verdict;        /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5) */
+    double *d, *v, *cor;    /* um, m/s, - (NaN when the file has no cor) */
+    int *verdict;           /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5), 3 held */
+    double vrest_threshold; /* [impact] vrest_threshold: a rebounded run slower than it is held */
 };
 
+#define RUN_REBOUNDED 0
 #define RUN_BONDED    1
 #define RUN_UNSETTLED 2
+#define RUN_HELD      3 /* rebounded by the verdict but at rest: too few bonded points (mpm_verdict_held) */
 
 static int add_run(struct search_runs *r, double d, double v, int verdict, double cor)
 {
@@ -53,8 +56,9 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     struct search_runs *runs = data;
     hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
     double d;
-    struct render_array v, verdict, cor;
+    struct render_array v, verdict, cor, v_rest;
     memset(&v, 0, sizeof v), memset(&verdict, 0, sizeof verdict), memset(&cor, 0, sizeof cor);
+    memset(&v_rest, 0, sizeof v_rest);
     if (g < 0)
         return -1;
     int status;
@@ -64,12 +68,16 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     SC_CHECK(status, render_read_array(g, "vcrit.h5", h5_exists(g, "verdict") ? "verdict" : "bonded", &verdict), done);
     if (h5_exists(g, "cor")) /* files of versions before CoR have none */
         SC_CHECK(status, render_read_array(g, "vcrit.h5", "cor", &cor), done);
-    for (size_t i = 0; i < v.count && i < verdict.count; i++)
-        SC_CHECK(status,
-                 add_run(runs, d * 1e6, v.values[i], (int)verdict.values[i], i < cor.count ? cor.values[i] : NAN),
-                 done);
+    if (h5_exists(g, "v_rest"))
+        SC_CHECK(status, render_read_array(g, "vcrit.h5", "v_rest", &v_rest), done);
+    for (size_t i = 0; i < v.count && i < verdict.count; i++) {
+        int run = (int)verdict.values[i];
+        if (run == RUN_REBOUNDED && i < v_rest.count && v_rest.values[i] <= runs->vrest_threshold)
+            run = RUN_HELD;
+        SC_CHECK(status, add_run(runs, d * 1e6, v.values[i], run, i < cor.count ? cor.values[i] : NAN), done);
+    }
 done:
-    render_array_free(&v), render_array_free(&verdict), render_array_free(&cor);
+    render_array_free(&v), render_array_free(&verdict), render_array_free(&cor), render_array_free(&v_rest);
     H5Gclose(g);
     return status == SC_OK ? 0 : -1;
 }
@@ -90,11 +98,12 @@ static int read_search(hid_t file, const char *path, struct search_runs *runs)
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
                       const struct search_runs *runs, struct render_output *out)
 {
-    size_t n = d->count, m = runs->count, nb = 0, nr = 0, nu = 0;
-    double *buffer = malloc((n + 6 * m + 1) * sizeof *buffer);
+    size_t n = d->count, m = runs->count, nb = 0, nr = 0, nu = 0, nh = 0;
+    double *buffer = malloc((n + 8 * m + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL_OOM((n + 6 * m + 1) * sizeof *buffer, "the critical-velocity figure");
-    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m;
+        SC_FAIL_OOM((n + 8 * m + 1) * sizeof *buffer, "the critical-velocity figure");
+    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m,
+           *hd = uv + m, *hv = hd + m;
     for (size_t i = 0; i < n; i++)
         d_um[i] = d->values[i] * 1e6;
     for (size_t i = 0; i < m; i++) { /* an unsettled run is neither bonded nor rebounded: a series of its own */
@@ -102,6 +111,8 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
             bd[nb] = runs->d[i], bv[nb++] = runs->v[i];
         else if (runs->verdict[i] == RUN_UNSETTLED)
             ud[nu] = runs->d[i], uv[nu++] = runs->v[i];
+        else if (runs->verdict[i] == RUN_HELD)
+            hd[nh] = runs->d[i], hv[nh++] = runs->v[i];
         else
             rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
     }
@@ -112,6 +123,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
         {"runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
         {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
         {"runs: unsettled", RENDER_OPEN_MARKERS, nu, ud, uv, 0, 3},
+        {"runs: held (at rest, too little bonded)", RENDER_OPEN_MARKERS, nh, hd, hv, 0, 4},
     };
     struct render_plot plot = render_plot_start(req->cfg, 1);
     plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter",
@@ -122,7 +134,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            NAN,
                                            NAN,
                                            0,
-                                           6,
+                                           7,
                                            series};
     int status;
     SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
@@ -162,6 +174,7 @@ int render_vcrit_figures(const struct render_request *req, struct render_output 
     SC_TRY(render_open(path, &file));
     struct render_array d, v;
     struct search_runs runs = {0};
+    runs.vrest_threshold = case_real(req->c, "impact", "vrest_threshold");
     memset(&d, 0, sizeof d), memset(&v, 0, sizeof v);
     int status;
     SC_CHECK(status, render_read_array(file, path, "diameter", &d), done);

@@ -9,9 +9,10 @@
 #      30 um rebounds at 710 and bonds at 770.
 #   3. Fuzzing (`make fuzz`): the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/)
 #      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
-#   4. The resolution study (Tang Table 4.2; docs/validation.md "Resolution study"): `spraycoat calibrate
-#      cases/calibrate_al.ini` and `spraycoat vcrit` of 14, 22 and 30 um (cases/vcrit_al.ini, the shipped
-#      calibration) at three grids DCell/dp: coarse 2.0/1.0, medium 1.5/0.5, fine 1.0/0.35 um.  Parts
+#   4. The resolution study (Tang Table 4.2; docs/validation.md "Resolution study") of the strain model:
+#      `spraycoat calibrate cases/calibrate_al.ini` and `spraycoat vcrit` of 14, 22 and 30 um
+#      (cases/vcrit_al_strain.ini) at three resolutions in cells per diameter, 7, 10 and 15 (the 14 um grids
+#      DCell/dp 2.0/0.667, 1.4/0.467 and 0.933/0.311 um, scaled with the diameter).  Parts
 #      calibrate_coarse|calibrate_medium|calibrate_fine and vcrit_coarse|vcrit_medium|vcrit_fine, each into
 #      runs/validate_PART (restartable: run the same part again, or `spraycoat resume runs/validate_PART`).  A
 #      calibration part fails when the two bonding boundaries do not intersect in the grid, a vcrit part when v_crit
@@ -83,12 +84,13 @@ validate_fuzz() {
     echo "validate: fuzzing: no crash"
 }
 
-# The grid DCell/dp (m) of a resolution: coarse, medium, fine.
+# The grid DCell/dp (m) of a resolution for the 14 um reference particle (the cases scale it to every size with
+# reference_diameter): coarse 7 cells across (the calibration's), medium 10, fine 15; points a third of a cell apart.
 grid_of() {
     case $1 in
-        coarse) echo "2e-6 1e-6" ;;
-        medium) echo "1.5e-6 0.5e-6" ;;
-        fine) echo "1e-6 0.35e-6" ;;
+        coarse) echo "2e-6 0.667e-6" ;;
+        medium) echo "1.4e-6 0.4667e-6" ;;
+        fine) echo "0.9333e-6 0.3111e-6" ;;
     esac
 }
 
@@ -105,7 +107,7 @@ run_study() {
     run=runs/validate_$1_$2
     mkdir -p runs
     resolution_case "$3" "$2" "$run.ini" "$4"
-    echo "validate: spraycoat $1 at the $2 grid ($(grid_of "$2") m) into $run (hours: docs/validation.md)"
+    echo "validate: spraycoat $1 at the $2 resolution (14 um: $(grid_of "$2") m) into $run (hours: docs/validation.md)"
     "$bin" "$1" "$run.ini" -o "$run" && return 0
     fail_part "spraycoat $1 at the $2 grid"
     return 1
@@ -120,9 +122,9 @@ validate_calibrate() {
     run_study calibrate "$1" cases/calibrate_al.ini "" || return 0
     cat "$run/calibrate.csv"
     if grep -q ',1$' "$run/calibrate.csv"; then
-        echo "validate: calibration at the $1 grid: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2) (Gc, Gc_rate)"
+        echo "validate: calibration at the $1 resolution: $(head -n 1 "$run/calibrate.csv" | cut -d, -f1,2) = $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2)"
     else
-        fail_part "calibration at the $1 grid: the bonding boundaries of 14 and 30 um do not intersect"
+        fail_part "calibration at the $1 resolution: the bonding boundaries of 14 and 30 um do not intersect"
     fi
 }
 
@@ -133,12 +135,12 @@ vcrit_falls() {
 }
 
 validate_vcrit() {
-    run_study vcrit "$1" cases/vcrit_al.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d" || return 0
+    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d" || return 0
     cat "$run/vcrit.csv"
     if vcrit_falls "$run/vcrit.csv"; then
-        echo "validate: v_crit of 14, 22 and 30 um at the $1 grid falls with d"
+        echo "validate: v_crit of 14, 22 and 30 um at the $1 resolution falls with d"
     else
-        fail_part "v_crit at the $1 grid does not fall with d (Tang Table 5.4: 824, 791, 761 m/s)"
+        fail_part "v_crit at the $1 resolution does not fall with d (Tang Table 5.4: 824, 791, 761 m/s)"
     fi
 }
 

@@ -11,7 +11,10 @@
 #      Gc_rate = 1.367e11 J/m2/s, within 0.06 of the scaled grid (half a grid step of 0.1, plus the fit's
 #      curvature);
 #   `spraycoat info` reports the stage done and the calibrated Gc;
-#   3. a case with fewer speeds than diameters is refused (exit 2, naming the key).
+#   3. a case with fewer speeds than diameters is refused (exit 2, naming the key);
+#   4. a strain-model calibration with reference_diameter and rate_axis = log names its outputs by eps_c and
+#      eps_rate_c, runs the log-spaced rates, scales the second size's substrate, draws its figures; given together
+#      with substrate_diameters, reference_diameter is refused (exit 2).
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
 
@@ -49,6 +52,7 @@ grid = 2e-6
 spacing = 1e-6
 substrate_height = 6e-6
 t_end = 4e-9
+bonding = energy
 
 [material.aluminium]
 
@@ -128,6 +132,43 @@ if grep -q '^stage calibrate: done' "$T/info.log" && awk -v g="$gc" 'BEGIN { exi
     pass calibrate_info
 else
     fail calibrate_info "info printed: $(grep -E 'calibrate|Gc' "$T/info.log" | tr '\n' ' ')"
+fi
+
+# ---- 4. the strain model with reference_diameter and rate_axis = log: its parameters name the outputs and the runs,
+# each size's set-up is [impact] scaled to it, the rates are spaced evenly in their logarithm --------------------------------------------------------------------------------------
+sed -e '/^bonding = /d' -e 's/^t_end = .*/t_end = 4e-9\nbonding = strain\nsubstrate_diameter = 20e-6/' -e '/^substrate_diameters/d' \
+    -e 's/^diameters = .*/diameters = 8e-6,16e-6\nreference_diameter = 8e-6/' -e '/^Gc/d' "$T/tiny.ini" >"$T/strain.ini"
+printf 'eps_c_min = 0.2\neps_c_max = 0.4\neps_c_count = 2\neps_rate_c_min = 1e8\neps_rate_c_max = 1e10\neps_rate_c_count = 3\nrate_axis = log\n' \
+    >>"$T/strain.ini"
+why=""
+if "$BIN" calibrate "$T/strain.ini" -o "$T/strain" >"$T/strain.log" 2>&1; then
+    head -n 1 "$T/strain/calibrate.csv" | grep -q '^eps_c,eps_rate_c,calibrated$' || why="$why calibrate.csv header;"
+    head -n 1 "$T/strain/calibrate_outcomes.csv" | grep -q '^diameter,velocity,eps_c,eps_rate_c,verdict,' ||
+        why="$why calibrate_outcomes.csv header;"
+    # the runs' values of eps_c and eps_rate_c are the grid's, eps_rate_c evenly spaced in its logarithm
+    bad=$(sed 1d "$T/strain/calibrate_outcomes.csv" |
+        awk -F, '!(($3 == 0.2 || $3 == 0.4) && ($4 == 1e8 || ($4 > 0.999999e9 && $4 < 1.000001e9) || $4 == 1e10))')
+    [ -z "$bad" ] || why="$why runs off the grid: $bad;"
+    for f in figures/calibrate.png figures/calibrate_sizes.png; do [ -s "$T/strain/$f" ] || why="$why no $f;"; done
+    "$BIN" info "$T/strain" 2>&1 | grep -q '^  bonding  *strain' || why="$why info does not name the strain model;"
+    # the 16 um size's substrate is [impact]'s (20 um) scaled by 16 / 8
+    sub=$(h5dump -a /size/001/substrate_diameter "$T/strain/calibrate.h5" 2>/dev/null | awk '/\(0\):/ { print $2 }')
+    awk -v s="${sub:-0}" 'BEGIN { exit !(s > 3.9999e-05 && s < 4.0001e-05) }' ||
+        why="$why the 16 um substrate is ${sub:-missing} m, expected 4e-05;"
+    sizes=$(awk -F, 'NR > 1 { print $1 }' "$T/strain/calibrate_outcomes.csv" | sort -u | wc -l)
+    [ "$sizes" -eq 2 ] || why="$why $sizes sizes in the outcomes;"
+else
+    why="exit $?: $(tail -n 2 "$T/strain.log" | tr '\n' ' ')"
+fi
+if [ -z "$why" ]; then pass calibrate_strain_reference_diameter; else fail calibrate_strain_reference_diameter "$why"; fi
+# substrate_diameters and reference_diameter together: refused, naming the key
+sed 's/^reference_diameter = .*/reference_diameter = 8e-6\nsubstrate_diameters = 20e-6,24e-6/' "$T/strain.ini" >"$T/both.ini"
+"$BIN" calibrate "$T/both.ini" -o "$T/both" >"$T/both.log" 2>&1
+status=$?
+if [ "$status" -eq 2 ] && grep -q 'substrate_diameters.*reference_diameter' "$T/both.log"; then
+    pass calibrate_reference_without_substrates
+else
+    fail calibrate_reference_without_substrates "exit $status: $(tail -n 1 "$T/both.log")"
 fi
 
 # ---- 3. a speed per diameter ---------------------------------------------------------------------------------------

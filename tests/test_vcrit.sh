@@ -4,7 +4,8 @@
 # the reason; a spray case with `[deposition] rule = table` naming vcrit.csv or vcrit.h5 passes `spraycoat
 # check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
-# of the diameters reuses it (runs nothing), one on another substrate does not.  Prints "PASS name" / "FAIL name (reason)".
+# of the diameters reuses it (runs nothing), one on another substrate does not; with reference_diameter a particle
+# twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
 
@@ -48,6 +49,8 @@ spacing = 1e-6
 substrate_diameter = 20e-6
 substrate_height = 6e-6
 t_end = 10e-9
+; the energy model's Gc 720 J/m2 bonds within 10 ns (the shipped strain calibration needs 50 ns)
+bonding = energy
 ; verdicts settle within 10 ns (mpm/verdict.c; physics needs 50-60 ns): a short window, any v_com and PBCP
 ; drift, and v_rest over all points (at 10 ns a fast particle has hardly a point under the 60 m/s filter)
 settle_window = 2e-9
@@ -166,5 +169,31 @@ if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
     pass vcrit_not_bracketed
 else
     fail vcrit_not_bracketed "$(tr '\n' ' ' <"$T/nob/vcrit.csv" 2>/dev/null) $(tail -n 2 "$T/nob.log" | tr '\n' ' ')"
+fi
+# ---- 6. reference_diameter: every run is [impact] scaled to its diameter.  With PTW's rate dependence removed and
+# a rate-free strain bonding law, a particle twice the size on a grid twice as coarse is the same impact (geometric
+# similarity, tests/test_similarity.c): the two diameters' searches must make the same runs with the same outcomes
+sed -e '/^bonding = /d' -e 's/^diameters = .*/diameters = 8e-6,16e-6\nreference_diameter = 8e-6/' \
+    -e 's/^t_end = .*/t_end = 10e-9\nbonding = strain\neps_c = 0.4\neps_rate_c = 1e5/' \
+    -e 's/^\[material.aluminium\]$/[material.aluminium]\nptw_kappa = 0\nptw_y2 = 0\nptw_beta = 0/' "$CASE" >"$T/similar.ini"
+why=""
+if "$BIN" vcrit "$T/similar.ini" -o "$T/similar" >"$T/similar.log" 2>&1; then
+    # the records without their first column (diameter), per diameter, in the order of the search
+    small=$(grep '^8e-06,' "$T/similar/vcrit_runs.csv" | cut -d, -f2-)
+    large=$(grep '^1.6e-05,' "$T/similar/vcrit_runs.csv" | cut -d, -f2-)
+    [ -n "$small" ] || why="$why no runs of 8 um recorded;"
+    [ "$small" = "$large" ] || why="$why the runs differ: 8 um [$(echo $small)] 16 um [$(echo $large)];"
+    [ "$(grep '^8e-06,' "$T/similar/vcrit.csv" | cut -d, -f2-)" = "$(grep '^1.6e-05,' "$T/similar/vcrit.csv" | cut -d, -f2-)" ] ||
+        why="$why the rows differ: $(sed 1d "$T/similar/vcrit.csv" | tr '\n' ' ');"
+else
+    why="$why the search failed: $(tail -n 2 "$T/similar.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_reference_diameter_similar; else fail vcrit_reference_diameter_similar "$why"; fi
+sed 's/^reference_diameter = .*/reference_diameter = 0/' >"$T/unscaled.ini"
+if "$BIN" vcrit "$T/unscaled.ini" -o "$T/unscaled" >"$T/unscaled.log" 2>&1 &&
+    [ "$(grep '^8e-06,' "$T/unscaled/vcrit_runs.csv" | cut -d, -f2-)" = "$(grep '^1.6e-05,' "$T/unscaled/vcrit_runs.csv" | cut -d, -f2-)" ]; then
+    fail vcrit_reference_diameter_matters "without reference_diameter the two sizes gave the same runs too: the check above cannot fail"
+else
+    pass vcrit_reference_diameter_matters
 fi
 exit 0
