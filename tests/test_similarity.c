@@ -13,9 +13,10 @@
 #include "check.h"
 #include "impact_fixture.h"
 
-#define CASE                                                                                                            \
-    "[impact]\ngrid = 2e-6\nspacing = 1e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\nsubstrate_height = "        \
-    "8e-6\nt_end = %g\nstop_when_settled = no\nvelocity = %g\nbonding = strain\neps_c = 0.4\neps_rate_c = 1e5\n[material.aluminium]\n%s"
+#define CASE                                                                                                           \
+    "[impact]\ngrid = 2e-6\nspacing = 1e-6\ndiameter = 10e-6\nsubstrate_diameter = 20e-6\nsubstrate_height = "         \
+    "8e-6\nt_end = %g\nstop_when_settled = no\nvelocity = %g\nbonding = strain\neps_c = 0.4\neps_rate_c = "            \
+    "1e5\n[material.aluminium]\n%s"
 
 /* PTW without its rate dependence: no thermal activation (kappa), constant medium- and high-rate terms (y2, beta) */
 #define RATE_FREE "ptw_kappa = 0\nptw_y2 = 0\nptw_beta = 0\n"
@@ -49,14 +50,9 @@ static int run_scaled(double velocity, double t_end, double factor, const char *
         struct mpm_counts n = mpm_get_counts(f.solver);
         const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
         const struct mpm_body_diagnostics *p = &d->body[1];
-        *out = (struct state){n.step,
-                              n.points,
-                              n.t,
-                              p->v_com[2],
-                              p->kinetic_energy / p->mass,
-                              p->internal_energy / p->mass,
-                              p->pbcp,
-                              p->mean_eps_p};
+        *out = (struct state){
+            n.step,  n.points,     n.t, p->v_com[2], p->kinetic_energy / p->mass, p->internal_energy / p->mass,
+            p->pbcp, p->mean_eps_p};
         printf("  x%g at %g m/s: %lld steps, %lld points, t %.6g ns, v_com_z %.9g m/s, ke/m %.9g J/kg, eps_p %.6g\n",
                factor, velocity, (long long)n.step, (long long)n.points, 1e9 * n.t, p->v_com[2], out->ke_per_mass,
                p->mean_eps_p);
@@ -108,8 +104,9 @@ static void test_elastic_impact_is_scale_free(void)
 static void test_plastic_impact_differs_by_the_rate_only(void)
 {
     struct state a, b, rate_a, rate_b;
-    if (run_scaled(700.0, 20e-9, 1.0, RATE_FREE, &a) != SC_OK || run_scaled(700.0, 20e-9, 2.0, RATE_FREE, &b) != SC_OK ||
-        run_scaled(700.0, 20e-9, 1.0, "", &rate_a) != SC_OK || run_scaled(700.0, 20e-9, 2.0, "", &rate_b) != SC_OK) {
+    if (run_scaled(700.0, 20e-9, 1.0, RATE_FREE, &a) != SC_OK ||
+        run_scaled(700.0, 20e-9, 2.0, RATE_FREE, &b) != SC_OK || run_scaled(700.0, 20e-9, 1.0, "", &rate_a) != SC_OK ||
+        run_scaled(700.0, 20e-9, 2.0, "", &rate_b) != SC_OK) {
         CHECK(0, "the four runs complete");
         return;
     }
