@@ -5,20 +5,22 @@
 # and on a fraction of the thesis-grade 14 um impact, and prints one table.  Written to finish in under 8 minutes
 # on an H200 (the CPU reference run, 2 threads of 16 cores, is the longest part: about a minute).
 #   usage: scripts/gpu_check.sh [BUILD]           (default build-cuda)
-# Tolerances of the comparison (FP64 on both; the sums of particle-to-grid and the reductions run in another
-# order on the GPU, and libm's exp/log/pow differ from CUDA's by an ulp, so the runs separate from round-off and
-# the gap grows with plastic flow; docs/gpu.md, "Bits"): over the points of the last snapshot,
-#   x:        max |dx| <= 1e-3 grid cell            v:        max |dv| <= 1e-3 impact speed
-#   T:        max |dT| <= 1 K                       pressure, von_mises: max |d| <= 1e-3 of the largest |value|
-#   eps_p:    max |d| <= 1e-3                       D_bond:   max |d| <= 1e-3 (and the same points bonded, D >= 1)
-# and the same verdict for every body.  Exit 0 when all hold.  Needs h5dump and h5diff (hdf5-tools) and awk.
-# GPU_CHECK_DEVICE=cpu runs the "gpu" side on the CPU and GPU_CHECK_PARTS=1 only the comparison: a dry run of the
-# script itself on a machine without a GPU (every comparison then holds exactly).
+# BUILD may be the kit of scripts/gpu_kit.sh (a folder with the binary, the HDF5 tools and lib/): on the lent device
+# machine, which cannot build spraycoat, `scripts/gpu_check.sh build-gpu-kit` with the kit carried.
+# Parts (GPU_CHECK_PARTS, default "0 1 2 3"): 0 compute-sanitizer's memcheck on a tiny impact (where installed);
+# 1 the comparison with the CPU, run to run, and settled verdicts; 2 the PUPS table; 3 an Nsight Compute profile of
+# one step's kernels at 1e6 points (where ncu is installed; the kernels' time, DRAM and SM throughput).
 set -u
 gpu=${GPU_CHECK_DEVICE:-gpu}
-parts=${GPU_CHECK_PARTS:-1 2}
+parts=${GPU_CHECK_PARTS:-0 1 2 3}
 build=${1:-build-cuda}
 bin="$build/spraycoat"
+if [ -d "$build/lib" ]; then # a kit of scripts/gpu_kit.sh: its libraries and HDF5 tools
+    LD_LIBRARY_PATH="$build/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    PATH="$build:$PATH:/usr/local/cuda/bin"
+    export LD_LIBRARY_PATH PATH
+fi
+want() { case " $parts " in *" $1 "*) return 0 ;; esac; return 1; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 jobs=$(nproc 2>/dev/null || echo 4)
@@ -43,7 +45,7 @@ impact_case() {
     shift 4
     {
         printf '[run]\ncheckpoint_wall = 0\n[impact]\ngrid = %s\nspacing = %s\nt_end = %s\n' "$grid" "$spacing" "$t_end"
-        printf 'snapshot_every = %s\nseries_every = %s\n' "$t_end" "$(awk -v t="$t_end" 'BEGIN { print t / 8 }')"
+        printf 'snapshot_every = %s\nseries_every = %s\n' "$t_end" "$(awk -v t="$t_end" 'BEGIN { print t < 8e-9 ? t / 8 : 1e-9 }')"
         for line in "$@"; do printf '%s\n' "$line"; done
         printf '[material.aluminium]\n'
     } > "$work/$name.ini"
@@ -69,7 +71,7 @@ run() {
 
 # dataset FILE PATH: the values, one a line
 dataset() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2>/dev/null | awk '/DATA \{/ { on = 1; next } /\}/ { on = 0 } on' |
-    tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+]*\) *$/\1/p'; }
+    tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+][-0-9.eEinfa+]*\) *$/\1/p'; }
 
 # compare NAME FIELD TOLERANCE SCALE: max |cpu - gpu| over the last snapshot <= TOLERANCE * SCALE (SCALE "max": the
 # largest |value| of the CPU's field)
@@ -88,59 +90,117 @@ compare() {
 
 verdicts() { dataset "$1/impact.h5" /summary/verdict | tr '\n' ' '; }
 
-echo
-echo "## 1. The same small impact on the CPU and the GPU"
-echo
-impact_case small 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
-    "substrate_height = 8e-6" "bonding = energy"
-run small cpu 0 && run small gpu 1 || { echo "FAIL gpu_check: the small impact did not run"; exit 1; }
-echo "| field     | result | points    | max diff   | tolerance  |"
-echo "| --------- | ------ | --------- | ---------- | ---------- |"
-compare small x 1e-3 1e-6
-compare small v 1e-3 810
-compare small T 1 1
-compare small pressure 1e-3 max
-compare small von_mises 1e-3 max
-compare small eps_p 1e-3 1
-compare small D_bond 1e-3 1
-cv=$(verdicts "$work/small.cpu") gv=$(verdicts "$work/small.gpu")
-if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
-# run to run: the GPU twice, the same bits (h5diff: every dataset, the timing attributes aside)
-run small gpu 1 && mv "$work/small.gpu" "$work/small.gpu1" && run small gpu 1
-if h5diff -q "$work/small.gpu1/impact.h5" "$work/small.gpu/impact.h5" /snapshots /snapshots > /dev/null 2>&1; then
-    echo "| repeat    | PASS   | two GPU runs give the same snapshots |"
-else
-    echo "| repeat    | FAIL   | two GPU runs differ |"
-    failed=1
+# 0. compute-sanitizer's memcheck on a tiny impact: out-of-bounds or misaligned accesses, leaks on the device
+if want 0 && [ "$gpu" = gpu ] && command -v compute-sanitizer > /dev/null 2>&1; then
+    echo
+    echo "## 0. compute-sanitizer memcheck, 4 um on a 1.0/0.5 um grid, 0.3 ns"
+    echo
+    impact_case tiny 1e-6 0.5e-6 0.3e-9 "diameter = 4e-6" "velocity = 800" "substrate_diameter = 10e-6" \
+        "substrate_height = 4e-6" "bonding = energy"
+    compute-sanitizer --tool memcheck --leak-check full --print-limit 20 "$bin" impact "$work/tiny.ini" \
+        -o "$work/tiny.san" --device gpu > "$work/sanitizer.log" 2>&1
+    status=$?
+    tail -4 "$work/sanitizer.log"
+    if [ "$status" = 0 ] && grep -q "ERROR SUMMARY: 0 errors" "$work/sanitizer.log"; then
+        echo "PASS sanitizer"
+    else
+        sed -n '1,60p' "$work/sanitizer.log"
+        echo "FAIL sanitizer (exit status $status)"
+        failed=1
+    fi
 fi
 
-case " $parts " in *" 2 "*) ;; *)
-    [ "$failed" = 0 ] && echo "PASS gpu_check" || echo "FAIL gpu_check"
-    exit "$failed" ;;
-esac
+if want 1; then
+    echo
+    echo "## 1. The same small impact on the CPU and the GPU"
+    echo
+    impact_case small 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
+        "substrate_height = 8e-6" "bonding = energy"
+    run small cpu 0 && run small gpu 1 || { echo "FAIL gpu_check: the small impact did not run"; exit 1; }
+    echo "| field     | result | points    | max diff   | tolerance  |"
+    echo "| --------- | ------ | --------- | ---------- | ---------- |"
+    compare small x 1e-3 1e-6
+    compare small v 1e-3 810
+    compare small T 1 1
+    compare small pressure 1e-3 max
+    compare small von_mises 1e-3 max
+    compare small eps_p 1e-3 1
+    compare small D_bond 1e-3 1
+    cv=$(verdicts "$work/small.cpu") gv=$(verdicts "$work/small.gpu")
+    if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
+    # run to run: the GPU twice, the same bits (h5diff: every dataset, the timing attributes aside)
+    run small gpu 1 && mv "$work/small.gpu" "$work/small.gpu1" && run small gpu 1
+    if h5diff -q "$work/small.gpu1/impact.h5" "$work/small.gpu/impact.h5" /snapshots /snapshots > /dev/null 2>&1; then
+        echo "| repeat    | PASS   | two GPU runs give the same snapshots |"
+    else
+        echo "| repeat    | FAIL   | two GPU runs differ |"
+        failed=1
+fi
+
+# settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
+# runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree
 echo
-echo "## 2. Point updates per second"
-echo
-echo "| case                                   | device | points    | steps | PUPS       | loop s | GPU/CPU |"
-echo "| -------------------------------------- | ------ | --------- | ----- | ---------- | ------ | ------- |"
-row() { # label name device [cpu pups]
-    read -r pups points steps loop < "$work/$2.$3.pups"
-    ratio=${4:+$(awk -v a="$pups" -v b="$4" 'BEGIN { printf "%.0f", a / b }')}
-    printf '| %-38s | %-6s | %9s | %5s | %10s | %6s | %7s |\n' "$1" "$3" "$points" "$steps" "$pups" "$loop" "${ratio:--}"
-}
-row "small, 8 um, 1.0/0.5, 4 ns" small cpu
-read -r cpu_pups _ < "$work/small.cpu.pups"
-row "small, 8 um, 1.0/0.5, 4 ns" small gpu "$cpu_pups"
-# ~1e6 points: 14 um on a 30 x 10 um cylinder, grid 0.7 um, spacing 0.2 um (bench_impact.sh's large case)
-impact_case m1 0.7e-6 0.2e-6 2e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
-run m1 gpu 1 && row "14 um, 0.7/0.2 (1e6 points), 2 ns" m1 gpu "$cpu_pups"
-# ~1e7 points: the same at spacing 0.0875 um (grid 0.35 um)
-impact_case m10 0.35e-6 0.0875e-6 0.3e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
-run m10 gpu 1 && row "14 um, 0.35/0.0875 (1e7 points), 0.3 ns" m10 gpu "$cpu_pups"
-# the thesis-grade case (cases/tang2021_single_14um.ini: grid 0.7 um, spacing 0.175 um), its first 5 of 60 ns (a twelfth)
-impact_case thesis 0.7e-6 0.175e-6 5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6" "bonding = energy"
-run thesis gpu 1 && row "thesis 14 um, 0.7/0.175, 5 of 60 ns" thesis gpu "$cpu_pups"
-echo
-echo "GPU/CPU: the GPU's PUPS over the small case's CPU PUPS ($(nproc) cores); $(($(date +%s) - start)) s in all"
+echo "| speed | device | verdict | settled at ns | PBCP      | v_rest m/s |"
+echo "| ----- | ------ | ------- | ------------- | --------- | ---------- |"
+summary() { # DIR: verdict t_settled pbcp v_rest of body 1
+    for f in verdict t_settled pbcp v_rest; do dataset "$1/impact.h5" /summary/$f | sed -n 2p; done | tr '\n' ' '; }
+for speed in 600 950; do
+    impact_case "settle$speed" 1e-6 0.5e-6 100e-9 "diameter = 8e-6" "velocity = $speed" \
+        "substrate_diameter = 20e-6" "substrate_height = 8e-6" "bonding = energy"
+    run "settle$speed" cpu 0 && run "settle$speed" gpu 1 || { echo "FAIL gpu_check: settle$speed did not run"; exit 1; }
+    for device in cpu gpu; do
+        set -- $(summary "$work/settle$speed.$device")
+        printf '| %5s | %-6s | %7s | %13.2f | %9.4f | %10.3f |\n' "$speed" "$device" "$1" "$(awk -v t="$2" 'BEGIN { print t * 1e9 }')" "$3" "$4"
+        eval "verdict_$device=$1"
+    done
+    [ "$verdict_cpu" = "$verdict_gpu" ] || { echo "| verdict $speed m/s: FAIL, cpu $verdict_cpu gpu $verdict_gpu |"; failed=1; }
+done
+
+fi
+if want 2; then
+    echo
+    echo "## 2. Point updates per second"
+    echo
+    echo "| case                                   | device | points    | steps | PUPS       | loop s | GPU/CPU |"
+    echo "| -------------------------------------- | ------ | --------- | ----- | ---------- | ------ | ------- |"
+    row() { # label name device [cpu pups]
+        read -r pups points steps loop < "$work/$2.$3.pups"
+        ratio=${4:+$(awk -v a="$pups" -v b="$4" 'BEGIN { printf "%.0f", a / b }')}
+        printf '| %-38s | %-6s | %9s | %5s | %10s | %6s | %7s |\n' "$1" "$3" "$points" "$steps" "$pups" "$loop" "${ratio:--}"
+    }
+    row "small, 8 um, 1.0/0.5, 4 ns" small cpu
+    read -r cpu_pups _ < "$work/small.cpu.pups"
+    row "small, 8 um, 1.0/0.5, 4 ns" small gpu "$cpu_pups"
+    # ~1e6 points: 14 um on a 30 x 10 um cylinder, grid 0.7 um, spacing 0.2 um (bench_impact.sh's large case)
+    impact_case m1 0.7e-6 0.2e-6 2e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
+    run m1 cpu 0 && row "14 um, 0.7/0.2 (1e6 points), 2 ns" m1 cpu
+    read -r m1_cpu_pups _ < "$work/m1.cpu.pups"
+    run m1 gpu 1 && row "14 um, 0.7/0.2 (1e6 points), 2 ns" m1 gpu "$m1_cpu_pups"
+    # ~1e7 points: the same at spacing 0.0875 um (grid 0.35 um)
+    impact_case m10 0.35e-6 0.0875e-6 0.3e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
+    run m10 gpu 1 && row "14 um, 0.35/0.0875 (1e7 points), 0.3 ns" m10 gpu "$m1_cpu_pups"
+    # the thesis-grade case (cases/tang2021_single_14um.ini: grid 0.7 um, spacing 0.175 um), its first 5 of 60 ns (a twelfth)
+    impact_case thesis 0.7e-6 0.175e-6 5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6" "bonding = energy"
+    run thesis gpu 1 && row "thesis 14 um, 0.7/0.175, 5 of 60 ns" thesis gpu "$m1_cpu_pups"
+    echo
+    echo "GPU/CPU: the GPU's PUPS over the CPU's on the same case (small) or the 1e6-point case (the larger ones), CPU on all $(nproc) cores; $(($(date +%s) - start)) s in all"
+fi
+
+# 3. Nsight Compute on one step's kernels (after 20 steps) of the 1e6-point case: time, DRAM and SM throughput
+ncu=$(command -v ncu || ls /opt/nvidia/nsight-compute/*/ncu 2> /dev/null | head -n 1)
+if want 3 && [ "$gpu" = gpu ] && [ -n "$ncu" ]; then
+    echo
+    echo "## 3. Nsight Compute, 14 um at 0.7/0.2 um (1e6 points), the kernels of one step"
+    echo
+    impact_case prof 0.7e-6 0.2e-6 0.5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
+    "$ncu" --clock-control none --launch-skip 600 --launch-count 30 --section SpeedOfLight --section Occupancy \
+        "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu > "$work/ncu.log" 2>&1 ||
+        { tail -20 "$work/ncu.log"; echo "ncu failed"; }
+    [ -n "${OUT:-}" ] && cp "$work/ncu.log" "$OUT/ncu.log"
+    awk '/^  [A-Za-z_].*\(/ { name = $1 } /Duration/ { t = $NF " " $(NF-1) } /DRAM Throughput/ { dram = $NF }
+         /Compute \(SM\) Throughput/ { sm = $NF; printf "| %-40s | %12s | DRAM %6s %% | SM %6s %% |\n", substr(name, 1, 40), t, dram, sm }' \
+        "$work/ncu.log"
+fi
+
 [ "$failed" = 0 ] && echo "PASS gpu_check" || echo "FAIL gpu_check"
 exit "$failed"
