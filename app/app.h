@@ -164,8 +164,6 @@ int vcrit_runs_load(struct vcrit_runs *r);
 /* The outcome of *run (diameter, velocity, Gc, Gc_rate set; cfg the impact set-up of exactly that run): from the
  * records, or an MPM run to cfg->t_end through the stage loop, then recorded. */
 int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *run);
-/* Remove every rank's record file (once the stage's output is written). */
-int vcrit_runs_remove(const struct vcrit_runs *r);
 void vcrit_runs_free(struct vcrit_runs *r);
 /* A comma-separated list of numbers, each > 0 and <= max, from [section] key into out[capacity]; *count may be 0. */
 int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, double *out,

@@ -12,7 +12,8 @@
  * cells per diameter for both sizes.
  *
  * Runs are recorded and shared among MPI ranks exactly as vcrit's (struct vcrit_runs, RUN_DIR/calibrate_runs.csv):
- * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, and rank 0
+ * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, a refined
+ * grid run into the same RUN_DIR reuses the runs it shares (runs_hash: the record is kept), and rank 0
  * fits and writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (docs/files.md). */
 #include <math.h>
 #include <omp.h>
@@ -659,7 +660,6 @@ static int fit_and_write(struct calibrate *k, double start)
     log_info("calibrate: wrote %s/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (%lld runs in this "
              "process, %.1f s)",
              k->run_dir, (long long)k->runs.new_runs, log_elapsed() - start);
-    SC_TRY(vcrit_runs_remove(&k->runs));
     log_results(k);
     return SC_OK;
 }
@@ -683,16 +683,34 @@ int calibrate_stage_validate(const struct stage_context *ctx)
     return load_settings(ctx->c, &k);
 }
 
+/* What one run's outcome depends on besides its diameter, speed and the two parameters: [run], [impact], the
+ * materials, and the reference diameter, or without one each size's substrate.  The grid's own keys (the parameters'
+ * ranges and counts, ridge, rate_axis, velocities) are left out, so that a grid refined, widened or moved reuses the
+ * runs it shares with the one before (the record is kept with the outputs), as vcrit's does. */
+static uint64_t runs_hash(const struct calibrate *k)
+{
+    static const char *const run_sections[] = {"run", "impact", "material.*", NULL};
+    uint64_t hash = case_hash_sections(k->c, run_sections);
+    double keys[1 + 2 * MAX_SIZES] = {k->reference};
+    size_t count = 1;
+    for (int i = 0; k->reference <= 0 && i < k->size_count; i++)
+        keys[count++] = k->sizes[i].diameter, keys[count++] = k->sizes[i].substrate;
+    const unsigned char *bytes = (const unsigned char *)keys;
+    for (size_t i = 0; i < count * sizeof keys[0]; i++) /* FNV-1a, continued over the values' bits */
+        hash = (hash ^ bytes[i]) * 1099511628211ULL;
+    return hash;
+}
+
 int calibrate_stage_run(const struct stage_context *ctx)
 {
     struct calibrate k = {.c = ctx->c, .run_dir = ctx->run_dir, .case_hash = stage_hash(ctx, STAGE)};
-    k.runs = (struct vcrit_runs){.run_dir = ctx->run_dir, .name = STAGE, .case_hash = k.case_hash};
     char path[4096];
     snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
     struct run_settings settings;
     if (stage_begin(STAGE, path, k.case_hash, ctx->c, &settings))
         return SC_OK;
     SC_TRY(load_settings(ctx->c, &k));
+    k.runs = (struct vcrit_runs){.run_dir = ctx->run_dir, .name = STAGE, .case_hash = runs_hash(&k)};
     int status;
     SC_CHECK(status, sc_calloc(&k.outcomes, (size_t)task_count(&k), sizeof *k.outcomes, "the calibration runs"), done);
     SC_CHECK(status, calibrate_all(&k), done);

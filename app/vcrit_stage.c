@@ -393,23 +393,6 @@ done:
     return status;
 }
 
-int vcrit_runs_remove(const struct vcrit_runs *r)
-{
-    DIR *dir = opendir(r->run_dir);
-    if (!dir)
-        SC_FAIL(SC_EIO, "cannot read folder %s: %s", r->run_dir, strerror(errno));
-    int status = SC_OK;
-    struct dirent *entry;
-    while ((entry = readdir(dir))) {
-        char path[4400];
-        snprintf(path, sizeof path, "%s/%s", r->run_dir, entry->d_name);
-        if (is_records_file(r, entry->d_name) && unlink(path) != 0 && errno != ENOENT && status == SC_OK)
-            status = sc_error_set(SC_EIO, __FILE__, __LINE__, "cannot remove %s: %s", path, strerror(errno));
-    }
-    closedir(dir);
-    return status;
-}
-
 void vcrit_runs_free(struct vcrit_runs *r)
 {
     free(r->done);
@@ -417,12 +400,20 @@ void vcrit_runs_free(struct vcrit_runs *r)
     r->count = r->capacity = 0;
 }
 
+/* Equal up to round-off: a grid value computed as min + (max - min) i / (n - 1) on a refined grid is the same
+ * parameter as on the coarser one but may differ in its last bits. */
+static int same_value(double a, double b)
+{
+    return a == b || fabs(a - b) <= 1e-12 * fmax(fabs(a), fabs(b));
+}
+
 static const struct vcrit_run_record *find_record(const struct vcrit_runs *r, const struct vcrit_run_record *key)
 {
     for (size_t i = 0; i < r->count; i++) {
         const struct vcrit_run_record *x = &r->done[i];
-        if (x->diameter == key->diameter && x->velocity == key->velocity && x->Gc == key->Gc &&
-            x->Gc_rate == key->Gc_rate && x->temperature == key->temperature)
+        if (same_value(x->diameter, key->diameter) && same_value(x->velocity, key->velocity) &&
+            same_value(x->Gc, key->Gc) && same_value(x->Gc_rate, key->Gc_rate) &&
+            same_value(x->temperature, key->temperature))
             return x;
     }
     return NULL;

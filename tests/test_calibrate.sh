@@ -2,7 +2,8 @@
 # `spraycoat calibrate` (app/calibrate_stage.c):
 #   1. a tiny calibration (8 and 10 um on a 2 um grid, 2 x 2 parameter pairs, 4 ns per run: seconds) writes
 #      calibrate.csv, calibrate_outcomes.csv (one row per run, a verdict word each), calibrate.h5 and the two
-#      figures, and removes its record file;
+#      figures, and keeps its record file; the grid refined to 3 x 3 into the same run directory makes only the
+#      10 runs the record does not hold;
 #   2. the fit, boundaries and intersection from known outcomes: an 11 x 11 grid is started, stopped by SIGTERM
 #      (exit 143) after its first run, and its record file replaced by synthetic outcomes (bonded below the lines
 #      x1 + 2 x2 = 1.35 for the first size and x1 - x2 = 0.25 for the second, in the grid scaled to [0, 1], five
@@ -79,8 +80,20 @@ done
 rows=$(grep -cE '^[0-9.e+-]+,[0-9.e+-]+,[0-9.e+-]+,[0-9.e+-]+,(bonded|rebounded|unsettled),' "$T/tiny/calibrate_outcomes.csv" 2>/dev/null)
 [ "${rows:-0}" -eq 8 ] || why="$why $rows outcome rows, expected 8;"
 head -n 1 "$T/tiny/calibrate.csv" 2>/dev/null | grep -q '^Gc,Gc_rate,calibrated$' || why="$why calibrate.csv header;"
-[ -e "$T/tiny/calibrate_runs.csv" ] && why="$why calibrate_runs.csv left behind;"
+[ "$(grep -c '^[0-9]' "$T/tiny/calibrate_runs.csv" 2>/dev/null)" = 8 ] || why="$why the record of the 8 runs not kept;"
 if [ -z "$why" ]; then pass calibrate_outputs; else fail calibrate_outputs "$why"; fi
+
+# the grid refined to 3 x 3 into the same run directory: the 4 corner pairs of each size are the record's, so only
+# 10 of the 18 runs are made (the record's hash leaves out the grid's own keys)
+write_case "$T/finer.ini" 3 "900,850"
+"$BIN" calibrate "$T/finer.ini" -o "$T/tiny" >"$T/finer.log" 2>&1
+status=$?
+if [ "$status" -eq 0 ] && grep -q '(10 runs in this process' "$T/finer.log" &&
+    [ "$(grep -c '^[0-9]' "$T/tiny/calibrate_runs.csv")" = 18 ]; then
+    pass calibrate_refined_grid_reuses_runs
+else
+    fail calibrate_refined_grid_reuses_runs "exit $status: $(grep -E 'runs in this process|reused|error' "$T/finer.log" | tr '\n' ' ')"
+fi
 
 # ---- 2. known outcomes through the record file: the fit, the boundaries, the intersection --------------------------
 write_case "$T/grid.ini" 11 "900,850"
