@@ -16,7 +16,8 @@ parts=${GPU_CHECK_PARTS:-0 1 2 3}
 build=${1:-build-cuda}
 bin="$build/spraycoat"
 if [ -d "$build/lib" ]; then # a kit of scripts/gpu_kit.sh: its libraries and HDF5 tools
-    LD_LIBRARY_PATH="$build/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    # after the kit's: the driver's libcuda where the machine mounts it (cudart finds it through the loader's path)
+    LD_LIBRARY_PATH="$build/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}:/usr/local/nvidia/lib64:/usr/local/nvidia/lib"
     PATH="$build:$PATH:/usr/local/cuda/bin"
     export LD_LIBRARY_PATH PATH
 fi
@@ -38,6 +39,10 @@ if [ "$gpu" = gpu ] && ! "$bin" --version 2>/dev/null | grep -q -- "-DSPRAYCOAT_
     }
 fi
 command -v nvidia-smi > /dev/null 2>&1 && nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader >&2
+if [ "$gpu" = gpu ]; then # what the first device run needs to know if cudart finds no driver
+    ldconfig -p 2> /dev/null | grep -m 1 'libcuda\.so\.1' >&2 || note "libcuda.so.1 is not in the loader's cache"
+    "$bin" --version 2>&1 | head -n 2 >&2
+fi
 
 # case NAME GRID SPACING T_END [extra lines]
 impact_case() {
