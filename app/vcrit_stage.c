@@ -960,11 +960,7 @@ static uint64_t runs_hash(const struct vcrit_search *v)
     uint64_t hash = case_hash_sections(v->c, run_sections);
     const double run_keys[3] = {v->scale, v->angle, v->reference};
     /* the reference only when set: records made before the key existed keep their hash */
-    size_t bytes_hashed = (v->reference > 0 ? 3 : 2) * sizeof run_keys[0];
-    const unsigned char *bytes = (const unsigned char *)run_keys;
-    for (size_t i = 0; i < bytes_hashed; i++) /* FNV-1a, continued over the values' bits */
-        hash = (hash ^ bytes[i]) * 1099511628211ULL;
-    return hash;
+    return hash_continue(hash, run_keys, (v->reference > 0 ? 3 : 2) * sizeof run_keys[0]);
 }
 
 int vcrit_stage_run(const struct stage_context *ctx)

@@ -1585,6 +1585,14 @@ static uint64_t fnv1a(uint64_t hash, const char *text)
     return hash;
 }
 
+uint64_t hash_continue(uint64_t hash, const void *bytes, size_t size)
+{
+    const unsigned char *b = bytes;
+    for (size_t i = 0; i < size; i++)
+        hash = (hash ^ b[i]) * 0x100000001b3ULL;
+    return hash;
+}
+
 /* FNV-1a over the bytes of a file; an unreadable file adds nothing (the stage reports it). */
 static uint64_t fnv1a_file(uint64_t hash, const char *path)
 {
