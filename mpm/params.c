@@ -65,11 +65,12 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "Gc_rate", CFG_REAL, "J/m2/s", "2e11", 0, 1e30, 1, NULL,
      "critical adhesion energy rate dG_c/dt, Eq. 4.16b (default from the sweep in docs/physics.md; not the printed "
      "value)"},
-    {"impact", "eps_c", CFG_REAL, "-", "1.985", 0, 1e3, 1, NULL,
-     "critical bonding strain, Eq. 4.4 (default: spraycoat calibrate at 7 cells per diameter, cases/calibrate_al.ini, "
-     "docs/physics.md \"Bonding calibration\")"},
-    {"impact", "eps_rate_c", CFG_REAL, "1/s", "1e7", 0, 1e20, 1, NULL,
-     "critical bonding strain rate, Eq. 4.4 (calibrated with eps_c)"},
+    {"impact", "eps_c", CFG_REAL, "-", "2.624", 0, 1e3, 1, NULL,
+     "critical bonding strain, Eq. 4.4 (default: spraycoat calibrate at 10 grid cells per particle diameter, "
+     "1.4/0.467 um for 14 um; at 7 cells 1.985: the calibration depends on the resolution, docs/physics.md \"The "
+     "strain model at 10 cells per diameter\")"},
+    {"impact", "eps_rate_c", CFG_REAL, "1/s", "3.5e6", 0, 1e20, 1, NULL,
+     "critical bonding strain rate, Eq. 4.4 (calibrated with eps_c at 10 cells per diameter; 1e7 at 7 cells)"},
     {"impact", "bonding_floor", CFG_REAL, "-", "0.5", 0, 1, 1, NULL,
      "smallest G_bond/G_c (energy model) and eps_bond/eps_c (strain model) at high rates: keeps dD bounded and "
      "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},

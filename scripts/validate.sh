@@ -10,8 +10,9 @@
 #   3. Fuzzing (`make fuzz`): the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/)
 #      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
 #   4. The resolution study (Tang Table 4.2; docs/validation.md "Resolution study") of the strain model:
-#      `spraycoat calibrate cases/calibrate_al.ini` and `spraycoat vcrit` of 14, 22 and 30 um
-#      (cases/vcrit_al_strain.ini) at three resolutions in cells per diameter, 7, 10 and 15 (the 14 um grids
+#      `spraycoat calibrate cases/calibrate_al.ini` (each resolution over its own eps_c window: calibrate_window)
+#      and `spraycoat vcrit` of 14, 22 and 30 um (cases/vcrit_al_strain.ini with that resolution's calibrated pair:
+#      calibrated_pair) at three resolutions in cells per diameter, 7, 10 and 15 (the 14 um grids
 #      DCell/dp 2.0/0.667, 1.4/0.467 and 0.933/0.311 um, scaled with the diameter).  Parts
 #      calibrate_coarse|calibrate_medium|calibrate_fine and vcrit_coarse|vcrit_medium|vcrit_fine, each into
 #      runs/validate_PART (restartable: run the same part again, or `spraycoat resume runs/validate_PART`).  A
@@ -118,8 +119,35 @@ fail_part() {
     failed=1
 }
 
+# The strain model's calibrated eps_c grows with the resolution (docs/physics.md "The strain model at 10 cells per
+# diameter": 1.985 at 7 cells across, 2.624 at 10), so each resolution searches its own window: coarse the case's
+# (eps_c 1.95-2.25, eps_rate_c 1e5-1e7), medium eps_c 2.3-2.8 and eps_rate_c 1e6-1e8 (where its boundaries cross),
+# fine a wider window extrapolated from the two (not yet run).
+calibrate_window() {
+    case $1 in
+        coarse) echo "" ;;
+        medium) echo "s/^eps_c_min = .*/eps_c_min = 2.3/;s/^eps_c_max = .*/eps_c_max = 2.8/;s/^eps_rate_c_min = .*/eps_rate_c_min = 1e6/;s/^eps_rate_c_max = .*/eps_rate_c_max = 1e8/;s/^eps_rate_c_count = .*/eps_rate_c_count = 5/" ;;
+        fine) echo "s/^eps_c_min = .*/eps_c_min = 2.8/;s/^eps_c_max = .*/eps_c_max = 3.8/;s/^eps_rate_c_min = .*/eps_rate_c_min = 1e6/;s/^eps_rate_c_max = .*/eps_rate_c_max = 1e8/;s/^eps_rate_c_count = .*/eps_rate_c_count = 5/" ;;
+    esac
+}
+
+# The (eps_c, eps_rate_c) a vcrit part runs with: its resolution's calibration when runs/validate_calibrate_R has
+# one, else the pair measured here (coarse 1.985/1e7, medium 2.624/3.5e6: docs/validation.md); fine has none.
+calibrated_pair() {
+    csv=runs/validate_calibrate_$1/calibrate.csv
+    if [ -s "$csv" ] && grep -q ',1$' "$csv"; then
+        grep ',1$' "$csv" | cut -d, -f1,2 | tr ',' ' '
+        return 0
+    fi
+    case $1 in
+        coarse) echo "1.985 1e7" ;;
+        medium) echo "2.624 3.5e6" ;;
+        *) return 1 ;;
+    esac
+}
+
 validate_calibrate() {
-    run_study calibrate "$1" cases/calibrate_al.ini "" || return 0
+    run_study calibrate "$1" cases/calibrate_al.ini "$(calibrate_window "$1")" || return 0
     cat "$run/calibrate.csv"
     if grep -q ',1$' "$run/calibrate.csv"; then
         echo "validate: calibration at the $1 resolution: $(head -n 1 "$run/calibrate.csv" | cut -d, -f1,2) = $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1,2)"
@@ -135,7 +163,13 @@ vcrit_falls() {
 }
 
 validate_vcrit() {
-    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d" || return 0
+    if ! pair=$(calibrated_pair "$1"); then
+        fail_part "vcrit at the $1 resolution: no calibrated (eps_c, eps_rate_c) for it; run calibrate_$1 first"
+        return 0
+    fi
+    set -- "$1" $pair
+    echo "validate: vcrit at the $1 resolution with eps_c = $2, eps_rate_c = $3"
+    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d;s/^eps_c = .*/eps_c = $2/;s/^eps_rate_c = .*/eps_rate_c = $3/" || return 0
     cat "$run/vcrit.csv"
     if vcrit_falls "$run/vcrit.csv"; then
         echo "validate: v_crit of 14, 22 and 30 um at the $1 resolution falls with d"
