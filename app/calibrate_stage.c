@@ -695,7 +695,7 @@ static uint64_t runs_hash(const struct calibrate *k)
     size_t count = 1;
     for (int i = 0; k->reference <= 0 && i < k->size_count; i++)
         keys[count++] = k->sizes[i].diameter, keys[count++] = k->sizes[i].substrate;
-    return hash_continue(hash, keys, count * sizeof keys[0]);
+    return case_hash_continue(hash, keys, count * sizeof keys[0]);
 }
 
 int calibrate_stage_run(const struct stage_context *ctx)

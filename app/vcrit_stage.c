@@ -960,7 +960,7 @@ static uint64_t runs_hash(const struct vcrit_search *v)
     uint64_t hash = case_hash_sections(v->c, run_sections);
     const double run_keys[3] = {v->scale, v->angle, v->reference};
     /* the reference only when set: records made before the key existed keep their hash */
-    return hash_continue(hash, run_keys, (v->reference > 0 ? 3 : 2) * sizeof run_keys[0]);
+    return case_hash_continue(hash, run_keys, (v->reference > 0 ? 3 : 2) * sizeof run_keys[0]);
 }
 
 int vcrit_stage_run(const struct stage_context *ctx)

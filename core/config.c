@@ -1585,7 +1585,7 @@ static uint64_t fnv1a(uint64_t hash, const char *text)
     return hash;
 }
 
-uint64_t hash_continue(uint64_t hash, const void *bytes, size_t size)
+uint64_t case_hash_continue(uint64_t hash, const void *bytes, size_t size)
 {
     const unsigned char *b = bytes;
     for (size_t i = 0; i < size; i++)

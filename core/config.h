@@ -100,7 +100,7 @@ uint64_t case_hash(const struct case_file *c);
  * stage's key does not rerun an earlier stage. */
 uint64_t case_hash_sections(const struct case_file *c, const char *const *sections);
 /* A hash continued (FNV-1a) over `size` raw bytes: a stage's own values (doubles) added to a case hash. */
-uint64_t hash_continue(uint64_t hash, const void *bytes, size_t size);
+uint64_t case_hash_continue(uint64_t hash, const void *bytes, size_t size);
 /* Write the resolved case (every key with a value) as INI to `path` (atomically: tmp, fsync, rename).
  * CFG_PATH values are written as absolute paths, so that the copy (in a run folder) names the same files;
  * loading the copy gives the same case_hash().  Errors: SC_EIO with strerror. */
