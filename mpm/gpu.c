@@ -60,6 +60,7 @@ int mpm_gpu_attach(struct mpm_solver *s)
         .flip = cfg->flip,
         .friction = cfg->friction,
         .contact_gap = cfg->contact_gap,
+        .bond_gap = cfg->bond_gap,
         .substrate_top = cfg->substrate_top,
         .substrate_bottom = cfg->substrate_bottom,
         .contact = (int)cfg->contact,

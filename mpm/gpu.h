@@ -39,7 +39,7 @@ struct mpm_gpu_setup {
     double mass_cutoff;
     int moments; /* the first mass moments are summed (contact_scheme = once with several layers, or the wall) */
     /* numerics (mpm_config) */
-    double flip, friction, contact_gap, substrate_top, substrate_bottom;
+    double flip, friction, contact_gap, bond_gap, substrate_top, substrate_bottom;
     int contact, contact_scheme, rigid_wall, fixed_bottom, bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c, bonding_floor;
     struct mpm_bulk_viscosity viscosity;

@@ -72,6 +72,7 @@ struct mpm_config {
     enum mpm_contact_law contact;
     enum mpm_contact_scheme contact_scheme;
     double contact_gap; /* contact_scheme = once: largest separation of touching bodies' nodal centres, cells */
+    double bond_gap;    /* contact_scheme = once: largest separation of a bonded pair's nodal centres, cells; 0: any */
     double flip;        /* FLIP share of the points' new velocity, the rest PIC (Eq. 3.32 is flip = 1) */
     double friction;
     enum mpm_bonding bonding;

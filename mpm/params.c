@@ -54,6 +54,11 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact_gap", CFG_REAL, "-", "0.8", 0, 2, 0, NULL,
      "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this many cells "
      "apart along the normal (Nairn's position-based detection; 0.75-0.86 for touching surfaces, 2 points a cell)"},
+    {"impact", "bond_gap", CFG_REAL, "-", "0.9", 0, 2, 0, NULL,
+     "contact_scheme = once: a bonded pair holds at a node only while its nodal centres of mass lie at most this "
+     "many cells apart along the normal, the test of contact_gap (a bond joins surfaces that meet and does not "
+     "reach across a gap); 0: wherever both bodies have mass, as Tang 2021 Section 4.1.1 (docs/physics.md, "
+     "\"Contact\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
@@ -327,6 +332,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                           : case_is(c, "impact", "contact_scheme", "thesis")   ? MPM_CONTACT_THESIS
                                                                                : MPM_CONTACT_ONCE;
     cfg->contact_gap = case_real(c, "impact", "contact_gap");
+    cfg->bond_gap = case_real(c, "impact", "bond_gap");
     cfg->flip = case_real(c, "impact", "flip");
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN

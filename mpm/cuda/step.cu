@@ -295,20 +295,33 @@ __device__ static int pair_decide(const struct mpm_gpu *g, size_t Ia, size_t Ib,
     return approach_rate(g, Ia, Ib, mom, n) > 0.0 ? PAIR_CONTACT : PAIR_FREE;
 }
 
-__device__ static int surfaces_meet(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
+__device__ static double pair_separation(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
 {
     const double *xa = g->moment + 3 * Ia, *xb = g->moment + 3 * Ib;
     double separation = 0.0;
     for (int d = 0; d < 3; d++)
         separation += (xb[d] / g->gmass[Ib] - xa[d] / g->gmass[Ia]) * n[d];
-    return separation <= g->s.contact_gap * g->s.h;
+    return separation;
+}
+
+__device__ static int surfaces_meet(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
+{
+    return pair_separation(g, Ia, Ib, n) <= g->s.contact_gap * g->s.h;
+}
+
+/* contact.c bond_holds */
+__device__ static int bond_holds(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
+{
+    if (!pair_bonded(g, Ia, Ib))
+        return 0;
+    return g->s.bond_gap == 0.0 || pair_separation(g, Ia, Ib, n) <= g->s.bond_gap * g->s.h;
 }
 
 __device__ static int pair_decide_once(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
                                        const double n[3])
 {
     if (approach_rate(g, Ia, Ib, mom, n) <= 0.0)
-        return pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_FREE;
+        return bond_holds(g, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
     return surfaces_meet(g, Ia, Ib, n) ? PAIR_CONTACT : PAIR_FREE;
 }
 
