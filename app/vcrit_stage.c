@@ -589,6 +589,38 @@ static void note_unsettled(struct vcrit_result *result)
              pair_name(result, name, sizeof name), unsettled, result->runs);
 }
 
+/* The bisection assumes that the outcome is monotone in the speed (rebounds below v_crit, bonds above).  Its own
+ * runs cannot show otherwise (each lies inside the bracket of the ones before), but the runs at other speeds can (the
+ * CoR runs below v_crit, records of earlier searches): a settled bond below v_crit or a settled rebound above it
+ * means the threshold is not sharp at this resolution (PBCP near pbcp_threshold is not monotone in the speed,
+ * docs/validation.md), and the note and the log say so with the farthest such speeds. */
+static void note_not_monotone(struct vcrit_result *result)
+{
+    double bonded_below = INFINITY, rebounded_above = -INFINITY;
+    for (int k = 0; k < result->runs; k++) {
+        const struct vcrit_run_record *r = &result->records[k];
+        if (r->verdict == VCRIT_BONDED && r->velocity < result->v_crit)
+            bonded_below = fmin(bonded_below, r->velocity);
+        if (r->verdict == VCRIT_REBOUNDED && r->velocity > result->v_crit)
+            rebounded_above = fmax(rebounded_above, r->velocity);
+    }
+    if (!isfinite(result->v_crit) || (isinf(bonded_below) && isinf(rebounded_above)) ||
+        strstr(result->note, "not monotone"))
+        return;
+    size_t used = strlen(result->note);
+    char what[120] = "";
+    if (isfinite(bonded_below))
+        snprintf(what, sizeof what, "bonds at %g m/s", bonded_below);
+    if (isfinite(rebounded_above))
+        snprintf(what + strlen(what), sizeof what - strlen(what), "%snot bonded at %g m/s", what[0] ? ", " : "",
+                 rebounded_above);
+    snprintf(result->note + used, sizeof result->note - used, "%snot monotone in speed: %s (v_crit %g m/s)",
+             used ? "; " : "", what, result->v_crit);
+    char name[96];
+    log_warn("vcrit: %s: the outcome is not monotone in the speed: %s against v_crit = %g m/s from the bisection",
+             pair_name(result, name, sizeof name), what, result->v_crit);
+}
+
 /* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond. */
 static int is_bonded(const struct vcrit_run_record *r)
 {
@@ -652,7 +684,9 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
                  result->note, v->tolerance);
     }
     note_unsettled(result);
-    return cor_runs(v, result);
+    SC_TRY(cor_runs(v, result));
+    note_not_monotone(result);
+    return SC_OK;
 }
 
 /* ---- outputs --------------------------------------------------------------------------------------------------- */

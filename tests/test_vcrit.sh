@@ -4,8 +4,9 @@
 # the reason; a spray case with `[deposition] rule = table` naming vcrit.csv or vcrit.h5 passes `spraycoat
 # check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
-# of the diameters reuses it (runs nothing), one on another substrate does not; with reference_diameter a particle
-# twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
+# of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
+# v_crit is reported as "not monotone"; with reference_diameter a particle twice the size on a scaled set-up makes
+# the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
 
@@ -160,6 +161,31 @@ else
     why="$why the search on another substrate failed: $(tail -n 2 "$T/other.log" | tr '\n' ' ');"
 fi
 if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "$why"; fi
+
+# ---- 4b. an outcome that is not monotone in the speed is reported: a CoR run below v_crit (cor_below) recorded as
+# bonded makes the replayed search say "not monotone" in its log, vcrit.h5 and `spraycoat info` ---------------------
+RUN6=$T/mono
+cp -r "$RUN" "$RUN6"
+{ cat "$T/one.ini"; echo "cor_below = 100"; } >"$T/mono.ini"
+why=""
+if "$BIN" vcrit "$T/mono.ini" -o "$RUN6" >"$T/mono1.log" 2>&1; then
+    grep -q 'not monotone' "$T/mono1.log" && why="$why a monotone search was reported not monotone;"
+    v_cor=$(awk -F, '/^1e-05,/ { print $2 - 100 }' "$RUN6/vcrit.csv")
+    # the CoR run's record: verdict (column 5) 1 = bonded
+    awk -F, -v OFS=, -v v="$v_cor" '$1 + 0 == 1e-5 && $2 + 0 == v + 0 { $5 = 1 } { print }' \
+        "$RUN6/vcrit_runs.csv" >"$T/runs.csv" && mv "$T/runs.csv" "$RUN6/vcrit_runs.csv"
+    rm -f "$RUN6/vcrit.h5" # else the stage is up to date with the case and replays nothing
+    if "$BIN" vcrit "$T/mono.ini" -o "$RUN6" >"$T/mono2.log" 2>&1; then
+        grep -q '(0 runs in this process' "$T/mono2.log" || why="$why the replay ran again;"
+        grep -q "not monotone in the speed: bonds at $v_cor m/s" "$T/mono2.log" || why="$why no warning in the log;"
+        "$BIN" info "$RUN6" 2>&1 | grep -q "not monotone in speed: bonds at $v_cor m/s" || why="$why not in spraycoat info;"
+    else
+        why="$why the replay failed: $(tail -n 2 "$T/mono2.log" | tr '\n' ' ');"
+    fi
+else
+    why="$why the search with cor_below failed: $(tail -n 2 "$T/mono1.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_not_monotone_reported; else fail vcrit_not_monotone_reported "$why"; fi
 
 # ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
