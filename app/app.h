@@ -159,6 +159,18 @@ struct vcrit_runs {
 struct mpm_config;
 /* "bonded", "rebounded", "unsettled". */
 const char *vcrit_verdict_name(int verdict);
+/* What a search counts as the particle's success ([vcrit] outcome, [calibrate] outcome): bonded (the verdict, PBCP
+ * and v_rest: Tang Section 5.2.1), or adhered (bonded, or held: at rest on the substrate once settled, so the
+ * particle does not leave, which is what a single-particle impact experiment observes). */
+enum vcrit_outcome { VCRIT_OUTCOME_BONDED = 0, VCRIT_OUTCOME_ADHERED = 1 };
+/* The key's doc and the choice from it ([section] outcome). */
+#define VCRIT_OUTCOME_DOC                                                                                              \
+    "what counts as success: bonded (PBCP >= pbcp_threshold and v_rest <= vrest_threshold, Tang Section 5.2.1) or "    \
+    "adhered (bonded, or held: at rest on the substrate, v_rest <= vrest_threshold, with fewer bonds; what a "         \
+    "single-particle impact experiment sees, docs/physics.md \"Held but not bonded\")"
+int vcrit_outcome_of(const struct case_file *c, const char *section);
+/* 1 when the run is a success under `outcome` (enum vcrit_outcome), 0 when not, -1 when its verdict is unsettled. */
+int vcrit_run_succeeds(const struct vcrit_run_record *run, int outcome, double vrest_threshold);
 /* The records of every rank's file for this case (others ignored). */
 int vcrit_runs_load(struct vcrit_runs *r);
 /* The outcome of *run (diameter, velocity, Gc, Gc_rate set; cfg the impact set-up of exactly that run): from the

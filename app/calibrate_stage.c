@@ -81,6 +81,8 @@ const struct cfg_key calibrate_case_keys[] = {
     {"calibrate", "ridge", CFG_REAL, "-", "1e-3", 0, 1e6, 0, NULL,
      "ridge term lambda of the logistic fit in the scaled parameters (0: plain maximum likelihood, which has no "
      "finite solution when the outcomes are separable, as a deterministic grid's often are)"},
+    {"calibrate", "outcome", CFG_CHOICE, "", "bonded", 0, 0, 0, "bonded|adhered",
+     "each run is classified by this outcome (y = 1) or not; " VCRIT_OUTCOME_DOC},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -108,8 +110,10 @@ struct calibrate {
     int size_count, gc_count, rate_count;
     const struct bonding_axes *axes; /* gc_*: its first parameter, rate_*: its second */
     double gc_min, gc_max, rate_min, rate_max, ridge, angle;
-    double reference; /* [calibrate] reference_diameter: 0, or the diameter [impact]'s lengths are for */
-    int rate_log;     /* [calibrate] rate_axis = log: the second parameter's axis in its logarithm */
+    double reference;       /* [calibrate] reference_diameter: 0, or the diameter [impact]'s lengths are for */
+    int rate_log;           /* [calibrate] rate_axis = log: the second parameter's axis in its logarithm */
+    int outcome;            /* [calibrate] outcome (enum vcrit_outcome): what counts as y = 1 */
+    double vrest_threshold; /* [impact] vrest_threshold: at rest on the substrate (held) within it */
     struct calibrate_size sizes[MAX_SIZES];
     struct vcrit_runs runs;
     struct vcrit_run_record *outcomes;   /* one per task, in task order */
@@ -172,6 +176,8 @@ static int load_grid(const struct case_file *c, struct calibrate *k)
     SC_TRY(load_axis(c, k->axes, 0, &k->gc_min, &k->gc_max, &k->gc_count));
     SC_TRY(load_axis(c, k->axes, 1, &k->rate_min, &k->rate_max, &k->rate_count));
     k->ridge = case_real(c, STAGE, "ridge");
+    k->outcome = vcrit_outcome_of(c, STAGE);
+    k->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     k->reference = case_real(c, STAGE, "reference_diameter");
     k->rate_log = case_is(c, STAGE, "rate_axis", "log");
     if (k->reference > 0 && case_is_given(c, STAGE, "substrate_diameters"))
@@ -380,7 +386,8 @@ static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_s
     int per_size = k->gc_count * k->rate_count, m = 0;
     for (int t = index * per_size; t < (index + 1) * per_size; t++) {
         const struct vcrit_run_record *r = &k->outcomes[t];
-        int verdict = r->verdict == VCRIT_BONDED || r->verdict == VCRIT_REBOUNDED ? r->verdict : VCRIT_UNSETTLED;
+        int success = vcrit_run_succeeds(r, k->outcome, k->vrest_threshold);
+        int verdict = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED; /* counted as */
         size->counts[verdict]++;
         if (verdict == VCRIT_UNSETTLED)
             continue;
@@ -606,6 +613,7 @@ static int output_contents(void *owner, hid_t file)
     SC_TRY(h5_attr_write_double(file, "ridge", k->ridge));
     SC_TRY(h5_attr_write_double(file, "reference_diameter", k->reference));
     SC_TRY(h5_attr_write_string(file, "rate_axis", k->rate_log ? "log" : "linear"));
+    SC_TRY(h5_attr_write_string(file, "outcome", k->outcome == VCRIT_OUTCOME_ADHERED ? "adhered" : "bonded"));
     SC_TRY(write_runs(k, file));
     hid_t group;
     SC_TRY(h5_create_group(file, "size", &group));
@@ -629,9 +637,9 @@ static void log_results(const struct calibrate *k)
 {
     for (int i = 0; i < k->size_count; i++) {
         const struct calibrate_size *s = &k->sizes[i];
-        log_info("calibrate: d = %.4g um at %g m/s: %d bonded, %d rebounded, %d unsettled%s%s", s->diameter * 1e6,
-                 s->velocity, s->counts[VCRIT_BONDED], s->counts[VCRIT_REBOUNDED], s->counts[VCRIT_UNSETTLED],
-                 s->note[0] ? "; " : "", s->note);
+        log_info("calibrate: d = %.4g um at %g m/s: %d %s, %d not, %d unsettled%s%s", s->diameter * 1e6, s->velocity,
+                 s->counts[VCRIT_BONDED], k->outcome == VCRIT_OUTCOME_ADHERED ? "adhered" : "bonded",
+                 s->counts[VCRIT_REBOUNDED], s->counts[VCRIT_UNSETTLED], s->note[0] ? "; " : "", s->note);
     }
     if (k->crossing_count)
         log_info("calibrate: calibrated %s = %.6g %s, %s = %.6g %s (%d intersection%s)", k->axes->name[0],

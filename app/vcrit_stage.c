@@ -50,6 +50,9 @@ const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "tolerance", CFG_REAL, "m/s", "10", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
      "bisection stops when the bracket [rebounds, bonds] is at most this wide"},
     {"vcrit", "max_runs", CFG_INT, "-", "20", 2, 1000, 0, NULL, "most MPM runs per diameter (the two ends included)"},
+    {"vcrit", "outcome", CFG_CHOICE, "", "bonded", 0, 0, 0, "bonded|adhered",
+     "v_crit is the lowest speed of this "
+     "outcome; " VCRIT_OUTCOME_DOC},
     {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
      "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
      "about 2)"},
@@ -83,6 +86,7 @@ struct vcrit_search {
     double v_low, v_high, tolerance, scale, angle;
     double reference;       /* [vcrit] reference_diameter: 0, or the diameter [impact]'s lengths are for */
     double vrest_threshold; /* [impact] vrest_threshold: below it a rebounded particle is "held" */
+    int outcome;            /* [vcrit] outcome (enum vcrit_outcome): what v_crit is the threshold of */
     int max_runs;
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
     int cor_count;
@@ -198,6 +202,7 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     v->v_high = case_real(c, "vcrit", "v_high");
     v->tolerance = case_real(c, "vcrit", "tolerance");
     v->max_runs = (int)case_int(c, "vcrit", "max_runs");
+    v->outcome = vcrit_outcome_of(c, "vcrit");
     v->scale = case_real(c, "vcrit", "substrate_scale");
     v->reference = case_real(c, "vcrit", "reference_diameter");
     v->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
@@ -268,6 +273,20 @@ static const char *run_verdict_word(const struct vcrit_run_record *run, double v
     if (run->verdict == VCRIT_REBOUNDED && mpm_verdict_held(MPM_VERDICT_REBOUNDED, run->v_rest, vrest_threshold))
         return "held";
     return vcrit_verdict_name(run->verdict);
+}
+
+int vcrit_outcome_of(const struct case_file *c, const char *section)
+{
+    return case_is(c, section, "outcome", "adhered") ? VCRIT_OUTCOME_ADHERED : VCRIT_OUTCOME_BONDED;
+}
+
+int vcrit_run_succeeds(const struct vcrit_run_record *run, int outcome, double vrest_threshold)
+{
+    if (run->verdict != VCRIT_BONDED && run->verdict != VCRIT_REBOUNDED)
+        return -1;
+    if (run->verdict == VCRIT_BONDED)
+        return 1;
+    return outcome == VCRIT_OUTCOME_ADHERED && run->v_rest <= vrest_threshold;
 }
 
 /* This rank's record file. */
@@ -589,19 +608,28 @@ static void note_unsettled(struct vcrit_result *result)
              pair_name(result, name, sizeof name), unsettled, result->runs);
 }
 
+/* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond (or,
+ * with outcome = adhered, to stay on the substrate). */
+static int is_bonded(const struct vcrit_search *v, const struct vcrit_run_record *r)
+{
+    return vcrit_run_succeeds(r, v->outcome, v->vrest_threshold) == 1;
+}
+
 /* The bisection assumes that the outcome is monotone in the speed (rebounds below v_crit, bonds above).  Its own
  * runs cannot show otherwise (each lies inside the bracket of the ones before), but the runs at other speeds can (the
  * CoR runs below v_crit, records of earlier searches): a settled bond below v_crit or a settled rebound above it
  * means the threshold is not sharp at this resolution (PBCP near pbcp_threshold is not monotone in the speed,
- * docs/validation.md), and the note and the log say so with the farthest such speeds. */
-static void note_not_monotone(struct vcrit_result *result)
+ * docs/validation.md), and the note and the log say so with the farthest such speeds ("bonds" and "not bonded"
+ * meaning the search's outcome). */
+static void note_not_monotone(const struct vcrit_search *v, struct vcrit_result *result)
 {
     double bonded_below = INFINITY, rebounded_above = -INFINITY;
     for (int k = 0; k < result->runs; k++) {
         const struct vcrit_run_record *r = &result->records[k];
-        if (r->verdict == VCRIT_BONDED && r->velocity < result->v_crit)
+        int success = vcrit_run_succeeds(r, v->outcome, v->vrest_threshold);
+        if (success == 1 && r->velocity < result->v_crit)
             bonded_below = fmin(bonded_below, r->velocity);
-        if (r->verdict == VCRIT_REBOUNDED && r->velocity > result->v_crit)
+        if (success == 0 && r->velocity > result->v_crit)
             rebounded_above = fmax(rebounded_above, r->velocity);
     }
     if (!isfinite(result->v_crit) || (isinf(bonded_below) && isinf(rebounded_above)) ||
@@ -619,12 +647,6 @@ static void note_not_monotone(struct vcrit_result *result)
     char name[96];
     log_warn("vcrit: %s: the outcome is not monotone in the speed: %s against v_crit = %g m/s from the bisection",
              pair_name(result, name, sizeof name), what, result->v_crit);
-}
-
-/* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond. */
-static int is_bonded(const struct vcrit_run_record *r)
-{
-    return r->verdict == VCRIT_BONDED;
 }
 
 /* Runs below v_crit for the coefficient of restitution against impact speed ([vcrit] cor_below). */
@@ -650,13 +672,13 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     if (!result->records)
         SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
-    if (is_bonded(&result->records[0])) {
+    if (is_bonded(v, &result->records[0])) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
         note_unsettled(result);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
-    if (!is_bonded(&result->records[1])) {
+    if (!is_bonded(v, &result->records[1])) {
         snprintf(result->note, sizeof result->note, "not bracketed: %s still at v_high = %g m/s",
                  result->records[1].verdict == VCRIT_UNSETTLED ? "unsettled" : "rebounds", v->v_high);
         note_unsettled(result);
@@ -667,7 +689,7 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     while (high - low > v->tolerance && result->runs < v->max_runs) {
         SC_TRY(outcome(v, result, 0.5 * (low + high)));
         const struct vcrit_run_record *r = &result->records[result->runs - 1];
-        if (is_bonded(r)) {
+        if (is_bonded(v, r)) {
             high = r->velocity;
             best = *r;
         } else {
@@ -685,7 +707,7 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     }
     note_unsettled(result);
     SC_TRY(cor_runs(v, result));
-    note_not_monotone(result);
+    note_not_monotone(v, result);
     return SC_OK;
 }
 
@@ -766,7 +788,7 @@ done:
     return status;
 }
 
-static int write_runs_group(hid_t parent, int index, const struct vcrit_result *r)
+static int write_runs_group(const struct vcrit_search *v, hid_t parent, int index, const struct vcrit_result *r)
 {
     char name[32];
     snprintf(name, sizeof name, "%03d", index);
@@ -784,7 +806,7 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
         values[n + k] = r->records[k].pbcp;
         values[2 * n + k] = r->records[k].v_rest;
         values[3 * n + k] = r->records[k].cor;
-        integers[k] = is_bonded(&r->records[k]);
+        integers[k] = is_bonded(v, &r->records[k]);
         integers[n + k] = r->records[k].steps;
         integers[2 * n + k] = r->records[k].verdict;
     }
@@ -801,6 +823,9 @@ static int write_runs_group(hid_t parent, int index, const struct vcrit_result *
         SC_CHECK(status, h5_attr_write_double(group, "temperature", r->temperature), done);
     SC_CHECK(status, h5_attr_write_double(group, "v_crit", r->v_crit), done);
     SC_CHECK(status, h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed"), done);
+    /* what `bonded` and v_crit count: bonded, or adhered (bonded or held) */
+    SC_CHECK(status, h5_attr_write_string(group, "outcome", v->outcome == VCRIT_OUTCOME_ADHERED ? "adhered" : "bonded"),
+             done);
 done:
     free(values);
     free(integers);
@@ -868,7 +893,7 @@ static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_re
         SC_CHECK(status, write_grid(v, results, file), done);
     SC_CHECK(status, h5_create_group(file, "search", &group), done);
     for (size_t i = 0; i < m; i++)
-        SC_CHECK(status, write_runs_group(group, (int)i, &results[i]), done);
+        SC_CHECK(status, write_runs_group(v, group, (int)i, &results[i]), done);
 done:
     free(columns);
     free(runs);
@@ -970,6 +995,9 @@ static int run_search(struct vcrit_search *v, struct vcrit_result *results)
                  "threads x %d process%s",
                  v->count, v->temperature_count, v->v_low, v->v_high, v->tolerance, v->max_runs, omp_get_max_threads(),
                  parallel_size(), parallel_size() > 1 ? "es" : "");
+    if (parallel_rank() == 0 && v->outcome == VCRIT_OUTCOME_ADHERED)
+        log_info("vcrit: outcome = adhered: v_crit is the lowest speed at which the particle stays on the substrate "
+                 "(bonded, or held at rest with PBCP under the threshold)");
     int status = parallel_max_status(search_shared(v, results));
     if (status == SC_OK && parallel_rank() == 0)
         status = replay_and_write(v, results, start);

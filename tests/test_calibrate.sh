@@ -11,6 +11,8 @@
 #      the intersection of the two boundaries near the lines' (x1, x2) = (0.617, 0.367), i.e. Gc = 717 J/m2 and
 #      Gc_rate = 1.367e11 J/m2/s, within 0.06 of the scaled grid (half a grid step of 0.1, plus the fit's
 #      curvature);
+#      with [calibrate] outcome = adhered, held runs (at rest, too few bonds) count as y = 1 and move the
+#      intersection where the synthetic held band puts it;
 #   `spraycoat info` reports the stage done and the calibrated Gc;
 #   3. a case with fewer speeds than diameters is refused (exit 2, naming the key);
 #   4. a strain-model calibration with reference_diameter and rate_axis = log names its outputs by eps_c and
@@ -137,6 +139,37 @@ echo "$best" | awk -F, '{ x1 = ($1 - 100) / 1000; x2 = ($2 - 1e11) / 1e11
     exit !(NF == 3 && (x1 - 0.6167) ^ 2 < 0.06 ^ 2 && (x2 - 0.3667) ^ 2 < 0.06 ^ 2) }' ||
     why="$why calibrated pair '$best', expected near Gc = 717, Gc_rate = 1.367e11;"
 if [ -z "$why" ]; then pass calibrate_known_outcomes; else fail calibrate_known_outcomes "$why"; fi
+# 2b. [calibrate] outcome = adhered counts held runs (rebounded, at rest: v_rest <= vrest_threshold) as y = 1: the
+# first size's records bonded below x1 + 2 x2 = 1.35 and held up to x1 + 2 x2 = 1.75 (the rest leave at 20 m/s), the
+# second's bonded below x1 - x2 = 0.25; with outcome = adhered the boundaries meet near (0.75, 0.5), Gc = 850 J/m2
+# and Gc_rate = 1.5e11 J/m2/s (the records reused: the outcome is not part of their hash)
+awk -v title="$title" 'BEGIN {
+    print title
+    print "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps"
+    split("8e-06 1e-05", d, " "); split("900 850", v, " ")
+    for (s = 1; s <= 2; s++)
+        for (g = 0; g <= 10; g++)
+            for (r = 0; r <= 10; r++) {
+                gc = 100 + (1100 - 100) * g / 10.0; rate = 1e11 + (2e11 - 1e11) * r / 10.0
+                x1 = g / 10.0; x2 = r / 10.0
+                bonded = s == 1 ? x1 + 2 * x2 < 1.35 : x1 - x2 < 0.25
+                held = s == 1 && !bonded && x1 + 2 * x2 < 1.75
+                printf "%s,%s,%.17g,%.17g,%d,0,%g,0,1\n", d[s], v[s], gc, rate, bonded, held ? 0.1 : 20
+            }
+}' >"$T/records.csv"
+RUN_ADHERED=$T/grid_adhered
+cp -r "$RUN" "$RUN_ADHERED"
+mv "$T/records.csv" "$RUN_ADHERED/calibrate_runs.csv"
+{ cat "$T/grid.ini"; echo "outcome = adhered"; } >"$T/adhered.ini"
+why=""
+"$BIN" calibrate "$T/adhered.ini" -o "$RUN_ADHERED" >"$T/adhered.log" 2>&1 || why="exit $?: $(tail -n 2 "$T/adhered.log" | tr '\n' ' ');"
+grep -q '(0 runs in this process' "$T/adhered.log" || why="$why the records were not reused;"
+best=$(grep ',1$' "$RUN_ADHERED/calibrate.csv" 2>/dev/null)
+echo "$best" | awk -F, '{ x1 = ($1 - 100) / 1000; x2 = ($2 - 1e11) / 1e11
+    exit !(NF == 3 && (x1 - 0.75) ^ 2 < 0.06 ^ 2 && (x2 - 0.5) ^ 2 < 0.06 ^ 2) }' ||
+    why="$why calibrated pair '$best', expected near Gc = 850, Gc_rate = 1.5e11;"
+h5dump -a /outcome "$RUN_ADHERED/calibrate.h5" 2>/dev/null | grep -q '"adhered"' || why="$why calibrate.h5 does not say adhered;"
+if [ -z "$why" ]; then pass calibrate_outcome_adhered; else fail calibrate_outcome_adhered "$why"; fi
 
 # `spraycoat info` lists the calibrate stage as done and prints the calibrated pair of calibrate.h5
 "$BIN" info "$RUN" >"$T/info.log" 2>&1

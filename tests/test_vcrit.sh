@@ -5,8 +5,8 @@
 # check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
 # of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
-# v_crit is reported as "not monotone"; with reference_diameter a particle twice the size on a scaled set-up makes
-# the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
+# v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; with
+# reference_diameter a particle twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
 
@@ -186,6 +186,33 @@ else
     why="$why the search with cor_below failed: $(tail -n 2 "$T/mono1.log" | tr '\n' ' ');"
 fi
 if [ -z "$why" ]; then pass vcrit_not_monotone_reported; else fail vcrit_not_monotone_reported "$why"; fi
+
+# ---- 4c. outcome = adhered counts a held particle (at rest on the substrate, too few bonds) as a success: the
+# recorded run at 700 m/s (rebounded in the tiny case) rewritten as held (v_rest 0.1 m/s) gives v_crit <= 700 with
+# outcome = adhered, while outcome = bonded replays the recorded search unchanged (the 10 um row as before) --------
+RUN7=$T/adhered
+cp -r "$RUN" "$RUN7"
+rm -f "$RUN7/vcrit.h5"
+# (the tiny case's 10 ns runs end with the particle still moving in, v_rest < 0: every rebound is made to leave at
+# 20 m/s, but the one at 700 m/s)
+awk -F, -v OFS=, '$1 + 0 == 1e-5 && $5 == 0 { $7 = $2 + 0 == 700 ? 0.1 : 20 } { print }' "$RUN/vcrit_runs.csv" \
+    >"$RUN7/vcrit_runs.csv"
+why=""
+if grep -q '^1e-05,700,' "$RUN7/vcrit_runs.csv" && "$BIN" vcrit "$T/one.ini" -o "$RUN7" >"$T/bonded.log" 2>&1; then
+    [ "$(grep '^1e-05,' "$RUN7/vcrit.csv")" = "$(grep '^1e-05,' "$RUN/vcrit.csv")" ] ||
+        why="$why outcome = bonded moved the row: $(grep '^1e-05,' "$RUN7/vcrit.csv");"
+    { cat "$T/one.ini"; echo "outcome = adhered"; } >"$T/adhered.ini"
+    if "$BIN" vcrit "$T/adhered.ini" -o "$RUN7" >"$T/adhered.log" 2>&1; then
+        v=$(awk -F, '/^1e-05,/ { print $2 }' "$RUN7/vcrit.csv")
+        awk -v v="$v" 'BEGIN { exit !(v + 0 > 0 && v + 0 <= 700) }' || why="$why outcome = adhered gives v_crit '$v', expected <= 700;"
+        h5dump -a /search/000/outcome "$RUN7/vcrit.h5" 2>/dev/null | grep -q '"adhered"' || why="$why vcrit.h5 does not say adhered;"
+    else
+        why="$why outcome = adhered failed: $(tail -n 2 "$T/adhered.log" | tr '\n' ' ');"
+    fi
+else
+    why="$why no 700 m/s record or the replay failed: $(tail -n 2 "$T/bonded.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_outcome_adhered; else fail vcrit_outcome_adhered "$why"; fi
 
 # ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
