@@ -4,12 +4,12 @@
  * fields Gc and Gc_rate hold them), single-particle impacts of each size of
  * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, measured by
  * Hassani-Gangaraj et al. 2018, the thesis's [9]; substrates 30 and 50 um across).  Each run is classified by the
- * impact stage's verdict (mpm_verdicts): bonded (1) or rebounded (0); a verdict that has not settled is neither, left
- * out of the fit and counted.  Per size, a second-order logistic regression of the outcomes on the scaled parameters
- * (Eqs. 4.10-4.14, core/logistic.h) gives the bonding boundary h = 0.5 (Z = 0); the intersection of the first two
- * sizes' boundaries is the calibrated pair: the parameters at which both sizes just bond at their critical velocity.
- * With reference_diameter each size's run is [impact] scaled to its diameter (mpm_config_scale_lengths): the same
- * cells per diameter for both sizes.
+ * impact stage's verdict (mpm_verdicts): bonded (1) or rebounded (0), or with [calibrate] outcome = adhered bonded or
+ * held (1) or left (0); a verdict that has not settled is neither, left out of the fit and counted.  Per size, a
+ * second-order logistic regression of the outcomes on the scaled parameters (Eqs. 4.10-4.14, core/logistic.h) gives the
+ * bonding boundary h = 0.5 (Z = 0); the intersection of the first two sizes' boundaries is the calibrated pair: the
+ * parameters at which both sizes just bond at their critical velocity. With reference_diameter each size's run is
+ * [impact] scaled to its diameter (mpm_config_scale_lengths): the same cells per diameter for both sizes.
  *
  * Runs are recorded and shared among MPI ranks exactly as vcrit's (struct vcrit_runs, RUN_DIR/calibrate_runs.csv):
  * an interrupted calibration continues with `spraycoat resume RUN_DIR` without repeating a finished run, a refined
@@ -95,7 +95,7 @@ static const struct bonding_axes strain_axes = {"strain", {"eps_c", "eps_rate_c"
 
 struct calibrate_size {
     double diameter, velocity, substrate;
-    int counts[3];           /* rebounded, bonded, unsettled (enum vcrit_verdict) */
+    int counts[3];           /* as the fit counted the runs (enum vcrit_verdict): not, the outcome, unsettled */
     struct logistic_fit fit; /* valid when fitted */
     int fitted;
     double *boundary; /* first then second parameter: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
@@ -110,10 +110,10 @@ struct calibrate {
     int size_count, gc_count, rate_count;
     const struct bonding_axes *axes; /* gc_*: its first parameter, rate_*: its second */
     double gc_min, gc_max, rate_min, rate_max, ridge, angle;
-    double reference;       /* [calibrate] reference_diameter: 0, or the diameter [impact]'s lengths are for */
-    int rate_log;           /* [calibrate] rate_axis = log: the second parameter's axis in its logarithm */
-    int outcome;            /* [calibrate] outcome (enum vcrit_outcome): what counts as y = 1 */
-    double vrest_threshold; /* [impact] vrest_threshold: at rest on the substrate (held) within it */
+    double reference;           /* [calibrate] reference_diameter: 0, or the diameter [impact]'s lengths are for */
+    int rate_log;               /* [calibrate] rate_axis = log: the second parameter's axis in its logarithm */
+    enum vcrit_outcome outcome; /* [calibrate] outcome: what counts as y = 1 */
+    double vrest_threshold;     /* [impact] vrest_threshold: at rest on the substrate (held) within it */
     struct calibrate_size sizes[MAX_SIZES];
     struct vcrit_runs runs;
     struct vcrit_run_record *outcomes;   /* one per task, in task order */
@@ -395,8 +395,10 @@ static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_s
         y[m++] = verdict == VCRIT_BONDED;
     }
     if (size->counts[VCRIT_BONDED] == 0 || size->counts[VCRIT_REBOUNDED] == 0) {
-        snprintf(size->note, sizeof size->note, "no boundary in the grid: %d bonded, %d rebounded, %d unsettled",
-                 size->counts[VCRIT_BONDED], size->counts[VCRIT_REBOUNDED], size->counts[VCRIT_UNSETTLED]);
+        int adhered = k->outcome == VCRIT_OUTCOME_ADHERED;
+        snprintf(size->note, sizeof size->note, "no boundary in the grid: %d %s, %d %s, %d unsettled",
+                 size->counts[VCRIT_BONDED], adhered ? "adhered" : "bonded", size->counts[VCRIT_REBOUNDED],
+                 adhered ? "left" : "rebounded", size->counts[VCRIT_UNSETTLED]);
         return SC_OK;
     }
     if (logistic_fit(X, y, (size_t)m, 6, k->ridge, &size->fit) != SC_OK) {
@@ -532,9 +534,9 @@ static int write_runs(const struct calibrate *k, hid_t file)
 {
     size_t n = (size_t)task_count(k);
     double *values;
-    int64_t *verdicts;
+    int64_t *verdicts; /* the runs' verdicts, then as the fit counted them (outcome) */
     SC_TRY(sc_calloc(&values, 7 * n, sizeof *values, "the calibration runs"));
-    int status = sc_calloc(&verdicts, n, sizeof *verdicts, "the calibration verdicts");
+    int status = sc_calloc(&verdicts, 2 * n, sizeof *verdicts, "the calibration verdicts");
     hid_t group = H5I_INVALID_HID;
     if (status != SC_OK)
         goto done;
@@ -544,6 +546,8 @@ static int write_runs(const struct calibrate *k, hid_t file)
         for (int j = 0; j < 7; j++)
             values[(size_t)j * n + t] = row[j];
         verdicts[t] = r->verdict;
+        int success = vcrit_run_succeeds(r, k->outcome, k->vrest_threshold);
+        verdicts[n + t] = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED;
     }
     const char *const names[] = {"diameter", "velocity", k->axes->name[0], k->axes->name[1], "pbcp", "v_rest", "cor"};
     const char *const units[] = {"m", "m/s", k->axes->unit[0], k->axes->unit[1], "-", "m/s", "-"};
@@ -552,6 +556,7 @@ static int write_runs(const struct calibrate *k, hid_t file)
     for (int j = 0; j < 7; j++)
         SC_CHECK(status, h5_write_doubles(group, names[j], 1, dims, values + (size_t)j * n, units[j], 0), done);
     SC_CHECK(status, h5_write_int64s(group, "verdict", 1, dims, verdicts, "-", 0), done);
+    SC_CHECK(status, h5_write_int64s(group, "counted", 1, dims, verdicts + n, "-", 0), done);
 done:
     free(values);
     free(verdicts);
@@ -637,9 +642,10 @@ static void log_results(const struct calibrate *k)
 {
     for (int i = 0; i < k->size_count; i++) {
         const struct calibrate_size *s = &k->sizes[i];
-        log_info("calibrate: d = %.4g um at %g m/s: %d %s, %d not, %d unsettled%s%s", s->diameter * 1e6, s->velocity,
-                 s->counts[VCRIT_BONDED], k->outcome == VCRIT_OUTCOME_ADHERED ? "adhered" : "bonded",
-                 s->counts[VCRIT_REBOUNDED], s->counts[VCRIT_UNSETTLED], s->note[0] ? "; " : "", s->note);
+        int adhered = k->outcome == VCRIT_OUTCOME_ADHERED;
+        log_info("calibrate: d = %.4g um at %g m/s: %d %s, %d %s, %d unsettled%s%s", s->diameter * 1e6, s->velocity,
+                 s->counts[VCRIT_BONDED], adhered ? "adhered" : "bonded", s->counts[VCRIT_REBOUNDED],
+                 adhered ? "left" : "rebounded", s->counts[VCRIT_UNSETTLED], s->note[0] ? "; " : "", s->note);
     }
     if (k->crossing_count)
         log_info("calibrate: calibrated %s = %.6g %s, %s = %.6g %s (%d intersection%s)", k->axes->name[0],

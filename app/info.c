@@ -243,6 +243,7 @@ static void print_calibrate_results(hid_t file, FILE *out)
     for (int k = 0; k < 6; k++)
         print_attribute(file, names[k], out);
     print_attribute(file, "reference_diameter", out);
+    print_attribute(file, "outcome", out); /* what the fit counted: bonded, or adhered (bonded or held) */
 }
 
 /* vcrit.h5 of a search over temperature ([vcrit] temperatures): the temperature of each of the n rows above. */
@@ -267,8 +268,15 @@ static void print_vcrit_results(hid_t file, FILE *out)
         double *column[5];
         for (int k = 0; k < 5; k++)
             column[k] = read_column(file, names[k], n);
-        fprintf(out, "critical velocity (%zu diameters bracketed):\n  %-12s %-10s %-9s %-12s %-5s\n", n, "d (m)",
-                "v_crit", "PBCP %", "v_rest (m/s)", "runs");
+        char outcome[16] = "bonded"; /* what v_crit is the threshold of ([vcrit] outcome; older files: bonded) */
+        hid_t first = h5_exists(file, "search/000") ? H5Gopen2(file, "search/000", H5P_DEFAULT) : H5I_INVALID_HID;
+        if (first >= 0) {
+            h5_attr_read_string(first, "outcome", outcome, sizeof outcome);
+            H5Gclose(first);
+        }
+        fprintf(out, "critical velocity, lowest speed %s (%zu diameters bracketed):\n  %-12s %-10s %-9s %-12s %-5s\n",
+                strcmp(outcome, "adhered") == 0 ? "that adheres (bonded or held)" : "that bonds", n, "d (m)", "v_crit",
+                "PBCP %", "v_rest (m/s)", "runs");
         for (size_t i = 0; i < n; i++) {
             double value[5];
             for (int k = 0; k < 5; k++)

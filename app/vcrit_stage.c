@@ -51,8 +51,7 @@ const struct cfg_key vcrit_case_keys[] = {
      "bisection stops when the bracket [rebounds, bonds] is at most this wide"},
     {"vcrit", "max_runs", CFG_INT, "-", "20", 2, 1000, 0, NULL, "most MPM runs per diameter (the two ends included)"},
     {"vcrit", "outcome", CFG_CHOICE, "", "bonded", 0, 0, 0, "bonded|adhered",
-     "v_crit is the lowest speed of this "
-     "outcome; " VCRIT_OUTCOME_DOC},
+     "v_crit is the lowest speed of this outcome; " VCRIT_OUTCOME_DOC},
     {"vcrit", "substrate_scale", CFG_REAL, "-", "0", 0, 1000, 0, NULL,
      "0: the substrate of [impact]; > 0: substrate diameter = this times the particle diameter (Tang Table 5.3: "
      "about 2)"},
@@ -84,9 +83,9 @@ struct vcrit_search {
     double diameters[MAX_DIAMETERS];
     int count;
     double v_low, v_high, tolerance, scale, angle;
-    double reference;       /* [vcrit] reference_diameter: 0, or the diameter [impact]'s lengths are for */
-    double vrest_threshold; /* [impact] vrest_threshold: below it a rebounded particle is "held" */
-    int outcome;            /* [vcrit] outcome (enum vcrit_outcome): what v_crit is the threshold of */
+    double reference;           /* [vcrit] reference_diameter: 0, or the diameter [impact]'s lengths are for */
+    double vrest_threshold;     /* [impact] vrest_threshold: below it a rebounded particle is "held" */
+    enum vcrit_outcome outcome; /* [vcrit] outcome: what v_crit is the threshold of */
     int max_runs;
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
     int cor_count;
@@ -275,18 +274,18 @@ static const char *run_verdict_word(const struct vcrit_run_record *run, double v
     return vcrit_verdict_name(run->verdict);
 }
 
-int vcrit_outcome_of(const struct case_file *c, const char *section)
+enum vcrit_outcome vcrit_outcome_of(const struct case_file *c, const char *section)
 {
     return case_is(c, section, "outcome", "adhered") ? VCRIT_OUTCOME_ADHERED : VCRIT_OUTCOME_BONDED;
 }
 
-int vcrit_run_succeeds(const struct vcrit_run_record *run, int outcome, double vrest_threshold)
+int vcrit_run_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold)
 {
     if (run->verdict != VCRIT_BONDED && run->verdict != VCRIT_REBOUNDED)
         return -1;
     if (run->verdict == VCRIT_BONDED)
         return 1;
-    return outcome == VCRIT_OUTCOME_ADHERED && run->v_rest <= vrest_threshold;
+    return outcome == VCRIT_OUTCOME_ADHERED && mpm_verdict_held(MPM_VERDICT_REBOUNDED, run->v_rest, vrest_threshold);
 }
 
 /* This rank's record file. */
@@ -610,38 +609,56 @@ static void note_unsettled(struct vcrit_result *result)
 
 /* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond (or,
  * with outcome = adhered, to stay on the substrate). */
-static int is_bonded(const struct vcrit_search *v, const struct vcrit_run_record *r)
+static int counts_as_success(const struct vcrit_search *v, const struct vcrit_run_record *r)
 {
     return vcrit_run_succeeds(r, v->outcome, v->vrest_threshold) == 1;
 }
 
-/* The bisection assumes that the outcome is monotone in the speed (rebounds below v_crit, bonds above).  Its own
- * runs cannot show otherwise (each lies inside the bracket of the ones before), but the runs at other speeds can (the
- * CoR runs below v_crit, records of earlier searches): a settled bond below v_crit or a settled rebound above it
- * means the threshold is not sharp at this resolution (PBCP near pbcp_threshold is not monotone in the speed,
- * docs/validation.md), and the note and the log say so with the farthest such speeds ("bonds" and "not bonded"
- * meaning the search's outcome). */
+/* The speeds of pair `key`'s settled runs among n records that contradict v_crit: the lowest success below it
+ * and the highest failure above it (INFINITY / -INFINITY when none). */
+static void contradicting_runs(const struct vcrit_search *v, const struct vcrit_run_record *key, double v_crit,
+                               const struct vcrit_run_record *records, size_t n, double *success_below,
+                               double *failure_above)
+{
+    for (size_t k = 0; k < n; k++) {
+        const struct vcrit_run_record *r = &records[k];
+        if (!same_value(r->diameter, key->diameter) || !same_value(r->temperature, key->temperature) ||
+            !same_value(r->Gc, key->Gc) || !same_value(r->Gc_rate, key->Gc_rate))
+            continue;
+        int success = vcrit_run_succeeds(r, v->outcome, v->vrest_threshold);
+        if (success == 1 && r->velocity < v_crit)
+            *success_below = fmin(*success_below, r->velocity);
+        if (success == 0 && r->velocity > v_crit)
+            *failure_above = fmax(*failure_above, r->velocity);
+    }
+}
+
+/* The bisection assumes that the outcome is monotone in the speed (failures below v_crit, successes above).  Its
+ * own runs cannot show otherwise (each lies inside the bracket of the ones before), but runs at other speeds can:
+ * the CoR runs below v_crit, and the runs of the same pair that earlier searches recorded in the run directory
+ * (another bracket or tolerance).  A settled success below v_crit or a settled failure above it means the threshold
+ * is not sharp at this resolution (PBCP near pbcp_threshold is not monotone in the speed, docs/validation.md), and
+ * the note and the log say so with the farthest such speeds. */
 static void note_not_monotone(const struct vcrit_search *v, struct vcrit_result *result)
 {
-    double bonded_below = INFINITY, rebounded_above = -INFINITY;
-    for (int k = 0; k < result->runs; k++) {
-        const struct vcrit_run_record *r = &result->records[k];
-        int success = vcrit_run_succeeds(r, v->outcome, v->vrest_threshold);
-        if (success == 1 && r->velocity < result->v_crit)
-            bonded_below = fmin(bonded_below, r->velocity);
-        if (success == 0 && r->velocity > result->v_crit)
-            rebounded_above = fmax(rebounded_above, r->velocity);
+    double success_below = INFINITY, failure_above = -INFINITY;
+    if (result->runs > 0 && isfinite(result->v_crit)) {
+        contradicting_runs(v, &result->records[0], result->v_crit, result->records, (size_t)result->runs,
+                           &success_below, &failure_above);
+        contradicting_runs(v, &result->records[0], result->v_crit, v->runs.done, v->runs.count, &success_below,
+                           &failure_above);
     }
-    if (!isfinite(result->v_crit) || (isinf(bonded_below) && isinf(rebounded_above)) ||
+    if (!isfinite(result->v_crit) || (isinf(success_below) && isinf(failure_above)) ||
         strstr(result->note, "not monotone"))
         return;
+    int adhered = v->outcome == VCRIT_OUTCOME_ADHERED;
     size_t used = strlen(result->note);
     char what[120] = "";
-    if (isfinite(bonded_below))
-        snprintf(what, sizeof what, "bonds at %g m/s", bonded_below);
-    if (isfinite(rebounded_above))
-        snprintf(what + strlen(what), sizeof what - strlen(what), "%snot bonded at %g m/s", what[0] ? ", " : "",
-                 rebounded_above);
+    if (isfinite(success_below))
+        snprintf(what, sizeof what, "%s at %g m/s", adhered ? "adheres" : "bonds", success_below);
+    if (isfinite(failure_above))
+        snprintf(what + strlen(what), sizeof what - strlen(what), "%s%s at %g m/s", what[0] ? ", " : "",
+                 adhered ? "leaves" : "not bonded", failure_above);
     snprintf(result->note + used, sizeof result->note - used, "%snot monotone in speed: %s (v_crit %g m/s)",
              used ? "; " : "", what, result->v_crit);
     char name[96];
@@ -672,13 +689,13 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     if (!result->records)
         SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
-    if (is_bonded(v, &result->records[0])) {
+    if (counts_as_success(v, &result->records[0])) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
         note_unsettled(result);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
-    if (!is_bonded(v, &result->records[1])) {
+    if (!counts_as_success(v, &result->records[1])) {
         snprintf(result->note, sizeof result->note, "not bracketed: %s still at v_high = %g m/s",
                  result->records[1].verdict == VCRIT_UNSETTLED ? "unsettled" : "rebounds", v->v_high);
         note_unsettled(result);
@@ -689,7 +706,7 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     while (high - low > v->tolerance && result->runs < v->max_runs) {
         SC_TRY(outcome(v, result, 0.5 * (low + high)));
         const struct vcrit_run_record *r = &result->records[result->runs - 1];
-        if (is_bonded(v, r)) {
+        if (counts_as_success(v, r)) {
             high = r->velocity;
             best = *r;
         } else {
@@ -806,7 +823,7 @@ static int write_runs_group(const struct vcrit_search *v, hid_t parent, int inde
         values[n + k] = r->records[k].pbcp;
         values[2 * n + k] = r->records[k].v_rest;
         values[3 * n + k] = r->records[k].cor;
-        integers[k] = is_bonded(v, &r->records[k]);
+        integers[k] = counts_as_success(v, &r->records[k]);
         integers[n + k] = r->records[k].steps;
         integers[2 * n + k] = r->records[k].verdict;
     }

@@ -9,8 +9,9 @@
  * ones (end = start' + f dt).  Each correction puts a pair in contact where it approaches along the normal
  * (Eq. 3.29) in those momenta and its surfaces meet, i.e. the separation of the bodies' nodal centres of mass along
  * the normal is at most contact_gap cells (Nairn's position-based contact detection: Lemiale et al. 2010, Nairn
- * 2013); the second also bonds pairs that separate with nodal D_bond >= 1 (Tang 2021, Section 4.1.1: the bond
- * resists separation; an approaching bonded pair is in ordinary contact).  The points' FLIP velocity change is
+ * 2013); the second also bonds pairs that separate with nodal D_bond >= 1 while their surfaces still meet (Tang
+ * 2021, Section 4.1.1: the bond resists separation; an approaching bonded pair is in ordinary contact; bond_gap: a
+ * bond does not reach across a gap).  The points' FLIP velocity change is
  * end'' - start': the second correction (the contact force of the step) reaches them, the first (the approach that
  * particle-to-grid rebuilds from the points each step) does not, so it is not dissipated every step.  The MUSL
  * re-projected momenta (the strain rate) are projected as the second correction decided.  Two elastic spheres keep
@@ -107,7 +108,7 @@ static int surfaces_meet(const struct mpm_solver *s, size_t Ia, size_t Ib, const
 /* Whether a bonded pair holds at the node (contact_scheme = once): bonded (Eq. 4.7) and, unless bond_gap is 0,
  * its surfaces still meet (separation at most bond_gap cells).  Without that test a bond pulls wherever both
  * bodies have mass at a node, up to a cell across a gap: a 14 um particle leaving the substrate at 20 m/s with
- * PBCP 1 % was pulled back over 150 ns by nodes it no longer touched and never settled (docs/physics.md,
+ * PBCP 1.4 % was pulled back over 130 ns by nodes it no longer touched and never settled (docs/physics.md,
  * "Contact"). */
 static int bond_holds(const struct mpm_solver *s, size_t Ia, size_t Ib, const double n[3])
 {

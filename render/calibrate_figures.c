@@ -33,7 +33,8 @@ static const struct calibrate_axes model_axes[] = {
 };
 
 struct calibrate_data {
-    struct render_array d, gc, rate, verdict; /* /runs */
+    struct render_array d, gc, rate, verdict; /* /runs; verdict as the fit counted it (1 success, 0 not, 2 unsettled) */
+    int adhered;                              /* [calibrate] outcome = adhered: held runs counted as successes */
     struct render_array boundary_gc[MAX_SIZES], boundary_rate[MAX_SIZES];
     struct render_array cross_gc, cross_rate;
     double diameter[MAX_SIZES], velocity[MAX_SIZES];
@@ -110,7 +111,15 @@ static int read_data(const char *path, struct calibrate_data *c)
     SC_CHECK(status, render_read_array(file, path, "runs/diameter", &c->d), done);
     SC_CHECK(status, render_read_array(file, path, name[0], &c->gc), done);
     SC_CHECK(status, render_read_array(file, path, name[1], &c->rate), done);
-    SC_CHECK(status, render_read_array(file, path, "runs/verdict", &c->verdict), done);
+    /* as the fit counted them ([calibrate] outcome); files written before it have the verdicts only */
+    SC_CHECK(
+        status,
+        render_read_array(file, path, h5_exists(file, "runs/counted") ? "runs/counted" : "runs/verdict", &c->verdict),
+        done);
+    char outcome[16] = "bonded";
+    if (H5Aexists(file, "outcome") > 0)
+        SC_CHECK(status, h5_attr_read_string(file, "outcome", outcome, sizeof outcome), done);
+    c->adhered = strcmp(outcome, "adhered") == 0;
     SC_CHECK(status, render_read_array(file, path, name[2], &c->cross_gc), done);
     SC_CHECK(status, render_read_array(file, path, name[3], &c->cross_rate), done);
     for (int i = 0; i < MAX_SIZES; i++)
@@ -139,7 +148,9 @@ static size_t select_runs(const struct calibrate_data *c, int i, int v, double *
 /* Fig. 4.4 a, b: per size the bonded, rebounded and unsettled runs and the fitted boundary. */
 static int sizes_plot(const struct render_request *req, const struct calibrate_data *c, struct render_output *out)
 {
-    static const char *const labels[] = {"rebounded", "bonded", "unsettled"};
+    static const char *const bonded_labels[] = {"rebounded", "bonded", "unsettled"};
+    static const char *const adhered_labels[] = {"left", "adhered (bonded or held)", "unsettled"};
+    const char *const *labels = c->adhered ? adhered_labels : bonded_labels;
     static const enum render_series_kind kinds[] = {RENDER_OPEN_MARKERS, RENDER_MARKERS, RENDER_OPEN_MARKERS};
     static const int colours[] = {6, 2, 4};
     size_t m = c->d.count, bytes = (6 * m * (size_t)c->sizes + 1) * sizeof(double);

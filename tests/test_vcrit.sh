@@ -163,7 +163,8 @@ fi
 if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "$why"; fi
 
 # ---- 4b. an outcome that is not monotone in the speed is reported: a CoR run below v_crit (cor_below) recorded as
-# bonded makes the replayed search say "not monotone" in its log, vcrit.h5 and `spraycoat info` ---------------------
+# bonded, and a rebound above v_crit recorded by an earlier search, make the replayed search say "not monotone" in
+# its log, vcrit.h5 and `spraycoat info` ------------------------------------------------------------------------------
 RUN6=$T/mono
 cp -r "$RUN" "$RUN6"
 { cat "$T/one.ini"; echo "cor_below = 100"; } >"$T/mono.ini"
@@ -172,13 +173,17 @@ if "$BIN" vcrit "$T/mono.ini" -o "$RUN6" >"$T/mono1.log" 2>&1; then
     grep -q 'not monotone' "$T/mono1.log" && why="$why a monotone search was reported not monotone;"
     v_cor=$(awk -F, '/^1e-05,/ { print $2 - 100 }' "$RUN6/vcrit.csv")
     # the CoR run's record: verdict (column 5) 1 = bonded
-    awk -F, -v OFS=, -v v="$v_cor" '$1 + 0 == 1e-5 && $2 + 0 == v + 0 { $5 = 1 } { print }' \
+    # and a rebound at 900 m/s that an earlier search recorded (the bisection never visits it)
+    awk -F, -v OFS=, -v v="$v_cor" '$1 + 0 == 1e-5 && $2 + 0 == v + 0 { $5 = 1 } { print }
+        $1 + 0 == 1e-5 && $2 + 0 == v + 0 { $2 = 900; $5 = 0; $7 = 20; print }' \
         "$RUN6/vcrit_runs.csv" >"$T/runs.csv" && mv "$T/runs.csv" "$RUN6/vcrit_runs.csv"
     rm -f "$RUN6/vcrit.h5" # else the stage is up to date with the case and replays nothing
     if "$BIN" vcrit "$T/mono.ini" -o "$RUN6" >"$T/mono2.log" 2>&1; then
         grep -q '(0 runs in this process' "$T/mono2.log" || why="$why the replay ran again;"
-        grep -q "not monotone in the speed: bonds at $v_cor m/s" "$T/mono2.log" || why="$why no warning in the log;"
-        "$BIN" info "$RUN6" 2>&1 | grep -q "not monotone in speed: bonds at $v_cor m/s" || why="$why not in spraycoat info;"
+        grep -q "not monotone in the speed: bonds at $v_cor m/s, not bonded at 900 m/s" "$T/mono2.log" ||
+            why="$why no warning in the log;"
+        "$BIN" info "$RUN6" 2>&1 | grep -q "not monotone in speed: bonds at $v_cor m/s, not bonded at 900 m/s" ||
+            why="$why not in spraycoat info;"
     else
         why="$why the replay failed: $(tail -n 2 "$T/mono2.log" | tr '\n' ' ');"
     fi
@@ -188,7 +193,7 @@ fi
 if [ -z "$why" ]; then pass vcrit_not_monotone_reported; else fail vcrit_not_monotone_reported "$why"; fi
 
 # ---- 4c. outcome = adhered counts a held particle (at rest on the substrate, too few bonds) as a success: the
-# recorded run at 700 m/s (rebounded in the tiny case) rewritten as held (v_rest 0.1 m/s) gives v_crit <= 700 with
+# recorded run at 700 m/s (rebounded in the tiny case) rewritten as held (v_rest 0.1 m/s) gives v_crit = 700 with
 # outcome = adhered, while outcome = bonded replays the recorded search unchanged (the 10 um row as before) --------
 RUN7=$T/adhered
 cp -r "$RUN" "$RUN7"
@@ -201,10 +206,12 @@ why=""
 if grep -q '^1e-05,700,' "$RUN7/vcrit_runs.csv" && "$BIN" vcrit "$T/one.ini" -o "$RUN7" >"$T/bonded.log" 2>&1; then
     [ "$(grep '^1e-05,' "$RUN7/vcrit.csv")" = "$(grep '^1e-05,' "$RUN/vcrit.csv")" ] ||
         why="$why outcome = bonded moved the row: $(grep '^1e-05,' "$RUN7/vcrit.csv");"
-    { cat "$T/one.ini"; echo "outcome = adhered"; } >"$T/adhered.ini"
+    # tolerance 500: the bisection stops once 700 m/s counts ([200, 700]), so v_crit is exactly 700 (the tiny case's
+    # own runs below it would count as held too)
+    { sed 's/^tolerance = .*/tolerance = 500/' "$T/one.ini"; echo "outcome = adhered"; } >"$T/adhered.ini"
     if "$BIN" vcrit "$T/adhered.ini" -o "$RUN7" >"$T/adhered.log" 2>&1; then
         v=$(awk -F, '/^1e-05,/ { print $2 }' "$RUN7/vcrit.csv")
-        awk -v v="$v" 'BEGIN { exit !(v + 0 > 0 && v + 0 <= 700) }' || why="$why outcome = adhered gives v_crit '$v', expected <= 700;"
+        [ "$v" = 700 ] || why="$why outcome = adhered gives v_crit '$v', expected 700;"
         h5dump -a /search/000/outcome "$RUN7/vcrit.h5" 2>/dev/null | grep -q '"adhered"' || why="$why vcrit.h5 does not say adhered;"
     else
         why="$why outcome = adhered failed: $(tail -n 2 "$T/adhered.log" | tr '\n' ' ');"
