@@ -115,8 +115,12 @@ bg=""
 why=""
 [ "$status" -eq 143 ] || why="exit status $status after SIGTERM, expected 143;"
 title=$(head -n 1 "$RUN/calibrate_runs.csv" 2>/dev/null)
-# the grid values as the stage computes them: min + (max - min) i / (count - 1), printed exactly
-awk -v title="$title" 'BEGIN {
+# synthetic_records TITLE HELD_EDGE UNSETTLED: the 242 records of the 11 x 11 grid, bonded below x1 + 2 x2 = 1.35
+# (first size) and x1 - x2 = 0.25 (second); the first size's rebounds below x1 + 2 x2 = HELD_EDGE held (v_rest 0.1
+# m/s), the others leaving at 20 m/s; with UNSETTLED 1 five runs of the second size unsettled.  The grid values as
+# the stage computes them: min + (max - min) i / (count - 1), printed exactly.
+synthetic_records() {
+    awk -v title="$1" -v held_edge="$2" -v unsettled="$3" 'BEGIN {
     print title
     print "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps"
     split("8e-06 1e-05", d, " "); split("900 850", v, " ")
@@ -126,10 +130,13 @@ awk -v title="$title" 'BEGIN {
                 gc = 100 + (1100 - 100) * g / 10.0; rate = 1e11 + (2e11 - 1e11) * r / 10.0
                 x1 = g / 10.0; x2 = r / 10.0
                 bonded = s == 1 ? x1 + 2 * x2 < 1.35 : x1 - x2 < 0.25
-                verdict = (s == 2 && g == 0 && r < 5) ? 2 : bonded
-                printf "%s,%s,%.17g,%.17g,%d,0,0,0,1\n", d[s], v[s], gc, rate, verdict
+                held = s == 1 && !bonded && x1 + 2 * x2 < held_edge
+                verdict = (unsettled && s == 2 && g == 0 && r < 5) ? 2 : bonded
+                printf "%s,%s,%.17g,%.17g,%d,0,%g,0,1\n", d[s], v[s], gc, rate, verdict, held ? 0.1 : 20
             }
-}' >"$T/records.csv"
+    }'
+}
+synthetic_records "$title" 0 1 >"$T/records.csv"
 mv "$T/records.csv" "$RUN/calibrate_runs.csv"
 "$BIN" resume "$RUN" >"$T/resume.log" 2>&1 || why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
 grep -q '242 runs recorded' "$T/resume.log" || why="$why the 242 records were not reused;"
@@ -143,20 +150,7 @@ if [ -z "$why" ]; then pass calibrate_known_outcomes; else fail calibrate_known_
 # first size's records bonded below x1 + 2 x2 = 1.35 and held up to x1 + 2 x2 = 1.75 (the rest leave at 20 m/s), the
 # second's bonded below x1 - x2 = 0.25; with outcome = adhered the boundaries meet near (0.75, 0.5), Gc = 850 J/m2
 # and Gc_rate = 1.5e11 J/m2/s (the records reused: the outcome is not part of their hash)
-awk -v title="$title" 'BEGIN {
-    print title
-    print "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps"
-    split("8e-06 1e-05", d, " "); split("900 850", v, " ")
-    for (s = 1; s <= 2; s++)
-        for (g = 0; g <= 10; g++)
-            for (r = 0; r <= 10; r++) {
-                gc = 100 + (1100 - 100) * g / 10.0; rate = 1e11 + (2e11 - 1e11) * r / 10.0
-                x1 = g / 10.0; x2 = r / 10.0
-                bonded = s == 1 ? x1 + 2 * x2 < 1.35 : x1 - x2 < 0.25
-                held = s == 1 && !bonded && x1 + 2 * x2 < 1.75
-                printf "%s,%s,%.17g,%.17g,%d,0,%g,0,1\n", d[s], v[s], gc, rate, bonded, held ? 0.1 : 20
-            }
-}' >"$T/records.csv"
+synthetic_records "$title" 1.75 0 >"$T/records.csv"
 RUN_ADHERED=$T/grid_adhered
 cp -r "$RUN" "$RUN_ADHERED"
 mv "$T/records.csv" "$RUN_ADHERED/calibrate_runs.csv"
