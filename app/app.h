@@ -168,9 +168,9 @@ enum vcrit_outcome { VCRIT_OUTCOME_BONDED = 0, VCRIT_OUTCOME_ADHERED = 1 };
     "what counts as success: bonded (PBCP >= pbcp_threshold and v_rest <= vrest_threshold, Tang Section 5.2.1) or "    \
     "adhered (bonded, or held: at rest on the substrate, v_rest <= vrest_threshold, with fewer bonds; what a "         \
     "single-particle impact experiment sees, docs/physics.md \"Held but not bonded\")"
-enum vcrit_outcome vcrit_outcome_of(const struct case_file *c, const char *section);
+enum vcrit_outcome vcrit_runs_outcome_of(const struct case_file *c, const char *section);
 /* 1 when the run is a success under `outcome`, 0 when not, -1 when its verdict is unsettled. */
-int vcrit_run_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold);
+int vcrit_runs_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold);
 /* The records of every rank's file for this case (others ignored). */
 int vcrit_runs_load(struct vcrit_runs *r);
 /* The outcome of *run (diameter, velocity, Gc, Gc_rate set; cfg the impact set-up of exactly that run): from the

@@ -176,7 +176,7 @@ static int load_grid(const struct case_file *c, struct calibrate *k)
     SC_TRY(load_axis(c, k->axes, 0, &k->gc_min, &k->gc_max, &k->gc_count));
     SC_TRY(load_axis(c, k->axes, 1, &k->rate_min, &k->rate_max, &k->rate_count));
     k->ridge = case_real(c, STAGE, "ridge");
-    k->outcome = vcrit_outcome_of(c, STAGE);
+    k->outcome = vcrit_runs_outcome_of(c, STAGE);
     k->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     k->reference = case_real(c, STAGE, "reference_diameter");
     k->rate_log = case_is(c, STAGE, "rate_axis", "log");
@@ -386,7 +386,7 @@ static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_s
     int per_size = k->gc_count * k->rate_count, m = 0;
     for (int t = index * per_size; t < (index + 1) * per_size; t++) {
         const struct vcrit_run_record *r = &k->outcomes[t];
-        int success = vcrit_run_succeeds(r, k->outcome, k->vrest_threshold);
+        int success = vcrit_runs_succeeds(r, k->outcome, k->vrest_threshold);
         int verdict = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED; /* counted as */
         size->counts[verdict]++;
         if (verdict == VCRIT_UNSETTLED)
@@ -546,7 +546,7 @@ static int write_runs(const struct calibrate *k, hid_t file)
         for (int j = 0; j < 7; j++)
             values[(size_t)j * n + t] = row[j];
         verdicts[t] = r->verdict;
-        int success = vcrit_run_succeeds(r, k->outcome, k->vrest_threshold);
+        int success = vcrit_runs_succeeds(r, k->outcome, k->vrest_threshold);
         verdicts[n + t] = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED;
     }
     const char *const names[] = {"diameter", "velocity", k->axes->name[0], k->axes->name[1], "pbcp", "v_rest", "cor"};

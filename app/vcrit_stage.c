@@ -201,7 +201,7 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     v->v_high = case_real(c, "vcrit", "v_high");
     v->tolerance = case_real(c, "vcrit", "tolerance");
     v->max_runs = (int)case_int(c, "vcrit", "max_runs");
-    v->outcome = vcrit_outcome_of(c, "vcrit");
+    v->outcome = vcrit_runs_outcome_of(c, "vcrit");
     v->scale = case_real(c, "vcrit", "substrate_scale");
     v->reference = case_real(c, "vcrit", "reference_diameter");
     v->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
@@ -274,12 +274,12 @@ static const char *run_verdict_word(const struct vcrit_run_record *run, double v
     return vcrit_verdict_name(run->verdict);
 }
 
-enum vcrit_outcome vcrit_outcome_of(const struct case_file *c, const char *section)
+enum vcrit_outcome vcrit_runs_outcome_of(const struct case_file *c, const char *section)
 {
     return case_is(c, section, "outcome", "adhered") ? VCRIT_OUTCOME_ADHERED : VCRIT_OUTCOME_BONDED;
 }
 
-int vcrit_run_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold)
+int vcrit_runs_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold)
 {
     if (run->verdict != VCRIT_BONDED && run->verdict != VCRIT_REBOUNDED)
         return -1;
@@ -611,7 +611,7 @@ static void note_unsettled(struct vcrit_result *result)
  * with outcome = adhered, to stay on the substrate). */
 static int counts_as_success(const struct vcrit_search *v, const struct vcrit_run_record *r)
 {
-    return vcrit_run_succeeds(r, v->outcome, v->vrest_threshold) == 1;
+    return vcrit_runs_succeeds(r, v->outcome, v->vrest_threshold) == 1;
 }
 
 /* The speeds of pair `key`'s settled runs among n records that contradict v_crit: the lowest success below it
@@ -625,7 +625,7 @@ static void contradicting_runs(const struct vcrit_search *v, const struct vcrit_
         if (!same_value(r->diameter, key->diameter) || !same_value(r->temperature, key->temperature) ||
             !same_value(r->Gc, key->Gc) || !same_value(r->Gc_rate, key->Gc_rate))
             continue;
-        int success = vcrit_run_succeeds(r, v->outcome, v->vrest_threshold);
+        int success = vcrit_runs_succeeds(r, v->outcome, v->vrest_threshold);
         if (success == 1 && r->velocity < v_crit)
             *success_below = fmin(*success_below, r->velocity);
         if (success == 0 && r->velocity > v_crit)
