@@ -54,6 +54,11 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "contact_gap", CFG_REAL, "-", "0.8", 0, 2, 0, NULL,
      "contact_scheme = once: bodies touch at a node where their nodal centres of mass lie at most this many cells "
      "apart along the normal (Nairn's position-based detection; 0.75-0.86 for touching surfaces, 2 points a cell)"},
+    {"impact", "contact_approach", CFG_CHOICE, "", "both", 0, 0, 0, "both|common",
+     "contact_scheme = once: a pair is in contact at a node where it approaches along the common normal and, with "
+     "both, also along each body's own normal (its volume gradient; Bardenhagen et al. 2000's test, for both bodies): "
+     "where a body's corner meets the other's face the common normal is the corner's, and sliding or leaving "
+     "along the face counts as an approach with common alone (docs/physics.md, \"Contact\")"},
     {"impact", "bond_gap", CFG_REAL, "-", "0.9", 0, 2, 0, NULL,
      "contact_scheme = once: a bonded pair holds at a node only while its nodal centres of mass lie at most this "
      "many cells apart along the normal, the test of contact_gap (a bond joins surfaces that meet and does not "
@@ -333,6 +338,8 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                                                                                : MPM_CONTACT_ONCE;
     cfg->contact_gap = case_real(c, "impact", "contact_gap");
     cfg->bond_gap = case_real(c, "impact", "bond_gap");
+    cfg->contact_approach =
+        case_is(c, "impact", "contact_approach", "common") ? MPM_APPROACH_COMMON : MPM_APPROACH_BOTH;
     cfg->flip = case_real(c, "impact", "flip");
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN

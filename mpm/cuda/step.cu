@@ -317,10 +317,28 @@ __device__ static int bond_holds(const struct mpm_gpu *g, size_t Ia, size_t Ib, 
     return g->s.bond_gap == 0.0 || pair_separation(g, Ia, Ib, n) <= g->s.bond_gap * g->s.h;
 }
 
+/* contact.c approaching */
+__device__ static int approaching(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3])
+{
+    const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
+    double along_common = 0.0, along_a = 0.0, along_b = 0.0;
+    for (int d = 0; d < 3; d++) {
+        double dv = mom[3 * Ia + d] / g->gmass[Ia] - mom[3 * Ib + d] / g->gmass[Ib];
+        along_common += dv * n[d];
+        along_a += dv * ga[d];
+        along_b -= dv * gb[d];
+    }
+    if (!(along_common > 0.0))
+        return 0;
+    if (g->s.contact_approach == MPM_APPROACH_COMMON)
+        return 1;
+    return (along_a > 0.0 || norm3(ga) == 0.0) && (along_b > 0.0 || norm3(gb) == 0.0);
+}
+
 __device__ static int pair_decide_once(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
                                        const double n[3])
 {
-    if (approach_rate(g, Ia, Ib, mom, n) <= 0.0)
+    if (!approaching(g, Ia, Ib, mom, n))
         return bond_holds(g, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
     return surfaces_meet(g, Ia, Ib, n) ? PAIR_CONTACT : PAIR_FREE;
 }
