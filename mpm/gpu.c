@@ -66,6 +66,7 @@ int mpm_gpu_attach(struct mpm_solver *s)
         .contact = (int)cfg->contact,
         .contact_scheme = (int)cfg->contact_scheme,
         .contact_approach = (int)cfg->contact_approach,
+        .bond_growth = (int)cfg->bond_growth,
         .rigid_wall = cfg->substrate == MPM_SUBSTRATE_RIGID,
         .fixed_bottom = cfg->fixed_bottom,
         .bonding = (int)cfg->bonding,

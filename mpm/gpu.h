@@ -40,7 +40,7 @@ struct mpm_gpu_setup {
     int moments; /* the first mass moments are summed (contact_scheme = once with several layers, or the wall) */
     /* numerics (mpm_config) */
     double flip, friction, contact_gap, bond_gap, substrate_top, substrate_bottom;
-    int contact, contact_scheme, contact_approach, rigid_wall, fixed_bottom, bonding;
+    int contact, contact_scheme, contact_approach, bond_growth, rigid_wall, fixed_bottom, bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c, bonding_floor;
     struct mpm_bulk_viscosity viscosity;
     const struct mpm_material *material;            /* materials */

@@ -72,7 +72,7 @@ int mpm_grid_stencil(const struct mpm_grid *g, enum mpm_shape_function kind, dou
 #define GRID_BYTES_PER_NODE_LAYER                                                                                      \
     (sizeof *((struct mpm_grid *)0)->mass + 18 * sizeof *((struct mpm_grid *)0)->momentum +                            \
      sizeof *((struct mpm_grid *)0)->bond_sum + sizeof *((struct mpm_grid *)0)->bond_weight +                          \
-     sizeof *((struct mpm_grid *)0)->contact + sizeof *((struct mpm_grid *)0)->wall_held)
+     2 * sizeof *((struct mpm_grid *)0)->contact + sizeof *((struct mpm_grid *)0)->wall_held)
 
 static int alloc_layers(struct mpm_grid *g)
 {
@@ -88,9 +88,11 @@ static int alloc_layers(struct mpm_grid *g)
     g->bond_sum = mpm_calloc_lines(n, sizeof *g->bond_sum);
     g->bond_weight = mpm_calloc_lines(n, sizeof *g->bond_weight);
     g->contact = mpm_calloc_lines(n, sizeof *g->contact);
+    g->bond_contact = mpm_calloc_lines(n, sizeof *g->bond_contact);
     g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
-    if (!g->mass || !g->momentum || !g->momentum_new || !g->force || !g->gradient || !g->moment || !g->velocity ||
-        !g->bond_sum || !g->bond_weight || !g->contact || !g->wall_held)
+    g->body_velocity = mpm_calloc_lines(3 * (size_t)g->layers, sizeof *g->body_velocity);
+    if (!g->body_velocity || !g->bond_contact || !g->mass || !g->momentum || !g->momentum_new || !g->force ||
+        !g->gradient || !g->moment || !g->velocity || !g->bond_sum || !g->bond_weight || !g->contact || !g->wall_held)
         SC_FAIL_OOM(n * GRID_BYTES_PER_NODE_LAYER + 3 * sizeof *g->momentum, "the grid (nodes x bodies)");
     return SC_OK;
 }
@@ -228,7 +230,9 @@ void mpm_grid_free(struct mpm_grid *g)
     free(g->bond_sum);
     free(g->bond_weight);
     free(g->contact);
+    free(g->bond_contact);
     free(g->wall_held);
+    free(g->body_velocity);
     for (int kind = 0; kind < 2; kind++)
         for (int colour = 0; colour < 8; colour++)
             balance_free(&g->colour_balance[kind][colour]);
@@ -854,6 +858,7 @@ void mpm_grid_transfer_all(struct mpm_solver *s)
         clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
         clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
         clear_box(g, held, g->contact, sizeof *g->contact);
+        clear_box(g, held, g->bond_contact, sizeof *g->bond_contact);
         clear_box(g, held, g->wall_held, sizeof *g->wall_held);
     }
     g->held = g->box;

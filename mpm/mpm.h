@@ -34,6 +34,9 @@ enum mpm_contact_law { MPM_CONTACT_STICK, MPM_CONTACT_FRICTIONLESS, MPM_CONTACT_
 enum mpm_contact_scheme { MPM_CONTACT_THESIS, MPM_CONTACT_CONSISTENT, MPM_CONTACT_ONCE };
 /* contact_scheme = once: where a pair counts as approaching (mpm/contact.c approaching) */
 enum mpm_contact_approach { MPM_APPROACH_BOTH, MPM_APPROACH_COMMON };
+/* contact_scheme = once: where a pair's surface points count as in contact for the bonding model (mpm/contact.c
+ * bonds_grow): at its nodes only while the two bodies' centres of mass approach along the node's normal, or at all */
+enum mpm_bond_growth { MPM_GROWTH_APPROACH, MPM_GROWTH_CONTACT };
 enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
 /* flip: the points take the grid's velocity change (Eq. 3.32, blended with PIC by `flip`); apic: the affine
  * particle-in-cell transfer of Jiang et al. (2015), the grid velocity at the point and an affine matrix per point */
@@ -75,6 +78,7 @@ struct mpm_config {
     enum mpm_contact_scheme contact_scheme;
     double contact_gap; /* contact_scheme = once: largest separation of touching bodies' nodal centres, cells */
     enum mpm_contact_approach contact_approach; /* contact_scheme = once: along which normals a pair approaches */
+    enum mpm_bond_growth bond_growth;           /* contact_scheme = once: where a pair's nodes count for D_bond */
     double bond_gap; /* contact_scheme = once: largest separation of a bonded pair's nodal centres, cells; 0: any */
     double flip;     /* FLIP share of the points' new velocity, the rest PIC (Eq. 3.32 is flip = 1) */
     double friction;

@@ -96,7 +96,9 @@ struct mpm_grid {
     double *velocity;               /* per layer, 3 per node: momentum_new / mass after the re-projection */
     double *bond_sum, *bond_weight; /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;               /* per layer: 1 where a contact or bond force acted this step */
+    uint8_t *bond_contact;          /* per layer: 1 where the node's surface points count for D_bond (contact.c) */
     uint8_t *wall_held;             /* per layer, substrate = rigid: 1 where the wall held the node this step */
+    double *body_velocity;          /* 3 per layer: the body's centre-of-mass velocity this step (contact.c) */
     /* The nodes of this step's stencils lie in `box` (all layers; mpm_grid_bin_points): the nodal loops run over it
      * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
      * of the fields' last step, the only nodes that mpm_grid_transfer_all has to clear (the whole grid at first). */

@@ -59,6 +59,11 @@ const struct cfg_key mpm_case_keys[] = {
      "both, also along each body's own normal (its volume gradient; Bardenhagen et al. 2000's test, for both bodies): "
      "where a body's corner meets the other's face the common normal is the corner's, and sliding or leaving "
      "along the face counts as an approach with common alone (docs/physics.md, \"Contact\")"},
+    {"impact", "bond_growth", CFG_CHOICE, "", "approach", 0, 0, 0, "approach|contact",
+     "contact_scheme = once: where a pair only touches or is bonded (no contact impulse), its nodes' surface points "
+     "count as in contact for the bonding model only while the two bodies' centres of mass approach along the "
+     "node's normal (approach: bonds form during the impact, not after a particle has turned; pressed nodes always "
+     "count), or always (contact; docs/physics.md, \"Bonds form during the impact\")"},
     {"impact", "bond_gap", CFG_REAL, "-", "0.9", 0, 2, 0, NULL,
      "contact_scheme = once: a bonded pair holds at a node only while its nodal centres of mass lie at most this "
      "many cells apart along the normal, the test of contact_gap (a bond joins surfaces that meet and does not "
@@ -340,6 +345,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->bond_gap = case_real(c, "impact", "bond_gap");
     cfg->contact_approach =
         case_is(c, "impact", "contact_approach", "common") ? MPM_APPROACH_COMMON : MPM_APPROACH_BOTH;
+    cfg->bond_growth = case_is(c, "impact", "bond_growth", "contact") ? MPM_GROWTH_CONTACT : MPM_GROWTH_APPROACH;
     cfg->flip = case_real(c, "impact", "flip");
     cfg->friction = case_real(c, "impact", "friction");
     cfg->bonding = case_is(c, "impact", "bonding", "strain") ? MPM_BONDING_STRAIN

@@ -501,8 +501,8 @@ STENCIL_INLINE void velocity_gradient_width(const struct mpm_solver *s, size_t q
             L[i][j] = row[i][j];
 }
 
-/* Whether the point's own body is in contact at one of its nodes: a heavy contact node (nodal_velocities) with
- * N > 0. */
+/* Whether the point's own body is in contact at one of its nodes for the bonding model: a heavy contact node
+ * (nodal_velocities) with N > 0 whose pair counts for D_bond (bond_contact, contact.c bonds_grow). */
 static int stencil_in_contact(const struct mpm_solver *s, size_t q, const struct stencil *st)
 {
     const struct mpm_grid *g = &s->grid;
@@ -512,7 +512,8 @@ static int stencil_in_contact(const struct mpm_solver *s, size_t q, const struct
         for (int b = 0; b < st->width; b++)
             for (int a = 0; a < st->width; a++)
                 contact |= (st->w[0][a] * st->w[1][b] * st->w[2][c] > 0.0) &
-                           (g->contact[layer + stencil_node(g, st, a, b, c)] != 0);
+                           (g->contact[layer + stencil_node(g, st, a, b, c)] != 0) &
+                           (g->bond_contact[layer + stencil_node(g, st, a, b, c)] != 0);
     return contact;
 }
 

@@ -169,7 +169,7 @@ validate_vcrit() {
     fi
     set -- "$1" $pair
     echo "validate: vcrit at the $1 resolution with eps_c = $2, eps_rate_c = $3"
-    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d;/^bond_gap/d;/^contact_approach/d;s/^eps_c = .*/eps_c = $2/;s/^eps_rate_c = .*/eps_rate_c = $3/" || return 0
+    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d;/^bond_gap/d;/^contact_approach/d;/^bond_growth/d;s/^eps_c = .*/eps_c = $2/;s/^eps_rate_c = .*/eps_rate_c = $3/" || return 0
     cat "$run/vcrit.csv"
     if vcrit_falls "$run/vcrit.csv"; then
         echo "validate: v_crit of 14, 22 and 30 um at the $1 resolution falls with d"

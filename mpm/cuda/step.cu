@@ -8,6 +8,7 @@
  *              order (the 8 cells whose stencils hold the node, then their points by id), mass, momentum, forces
  *              (Eqs. 3.23-3.27), the volume gradient, the first mass moment and the bond sums (Eq. 4.6); no atomics,
  *              so the same bits run to run
+ *   bodies     each body's centre-of-mass velocity (bond_growth = approach), two passes without atomics
  *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (the port of contact.c:
  *              the same decisions, impulses and flags, a thread per node, its layers in order)
  *   book       the dashpots' work (mpm_book_absorbed_energy)
@@ -81,7 +82,9 @@ struct mpm_gpu {
     double *fraction; /* 3 per point: x/h - base */
     /* the grid, per layer entry (vectors 3 per entry) */
     double *gmass, *momentum, *momentum_new, *force, *gradient, *moment, *bond_sum, *bond_weight, *velocity;
-    uint8_t *contact, *wall_held;
+    uint8_t *contact, *bond_contact, *wall_held;
+    double *body_partial;  /* BODY_BLOCKS x 4 per body: partial sums of mass and momentum (body_partial_kernel) */
+    double *body_velocity; /* 3 per body: its centre-of-mass velocity this step (contact.c body_velocities) */
     /* reductions: per point or per node inputs, and the results */
     double *point_a, *point_b, *point_c;
     long long *point_id, *point_id2;
@@ -248,6 +251,7 @@ __global__ static void gather_kernel(struct mpm_gpu g, int momentum_only)
     g.bond_sum[I] = bond_sum;
     g.bond_weight[I] = bond_weight;
     g.contact[I] = 0;
+    g.bond_contact[I] = 0;
 }
 
 /* ---- the nodal update and contact: contact.c, a thread per node ---- */
@@ -375,6 +379,33 @@ __device__ static int heavy(const struct mpm_gpu *g, size_t I)
     return g->gmass[I] > g->s.mass_cutoff;
 }
 
+/* contact.c bonds_grow */
+__device__ static int bonds_grow(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
+{
+    if (g->s.bond_growth == MPM_GROWTH_CONTACT || g->s.contact_scheme != MPM_CONTACT_ONCE)
+        return 1;
+    const double *va = g->body_velocity + 3 * (Ia / g->nodes), *vb = g->body_velocity + 3 * (Ib / g->nodes);
+    double approach = 0.0;
+    for (int d = 0; d < 3; d++)
+        approach += (va[d] - vb[d]) * n[d];
+    return approach > 0.0;
+}
+
+/* contact.c mark_bond_contact */
+__device__ static void mark_bond_contact(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], int pressed)
+{
+    if (pressed || bonds_grow(g, Ia, Ib, n))
+        g->bond_contact[Ia] = g->bond_contact[Ib] = 1;
+}
+
+/* contact.c mark_touching */
+__device__ static void mark_touching(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], int pressed)
+{
+    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
+    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+    mark_bond_contact(g, Ia, Ib, n, pressed);
+}
+
 /* contact_scheme = once, its first correction on the start momenta (contact.c first_correction). */
 __device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, double *start, double *end,
                                        const double n[3])
@@ -385,8 +416,7 @@ __device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_
     pair_impulse(g, Ia, Ib, start, n, PAIR_CONTACT, J);
     apply_impulse(start, Ia, Ib, J);
     apply_impulse(end, Ia, Ib, J);
-    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
-    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+    mark_touching(g, Ia, Ib, n, 1);
     return 1;
 }
 
@@ -407,10 +437,8 @@ __device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double 
                 touched |= first_correction(g, Ia, Ib, start, end, n);
             int state = once ? pair_decide_once(g, Ia, Ib, end, n) : pair_decide(g, Ia, Ib, end, n);
             if (state == PAIR_FREE) {
-                if (once && surfaces_meet(g, Ia, Ib, n)) {
-                    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
-                    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
-                }
+                if (once && surfaces_meet(g, Ia, Ib, n))
+                    mark_touching(g, Ia, Ib, n, 0);
                 continue;
             }
             pair_impulse(g, Ia, Ib, end, n, state, J);
@@ -420,6 +448,7 @@ __device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double 
                 apply_impulse(start, Ia, Ib, J);
             }
             g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
+            mark_bond_contact(g, Ia, Ib, n, state == PAIR_CONTACT);
             touched = 1;
             *bonded |= state == PAIR_BONDED;
         }
@@ -476,6 +505,49 @@ __device__ static int bodies_at(const struct mpm_gpu *g, size_t node)
     for (int l = 0; l < g->s.bodies; l++)
         count += heavy(g, (size_t)l * g->nodes + node);
     return count;
+}
+
+/* Each body's centre of mass velocity (contact.c body_velocities), in two passes without atomics, so the same bits
+ * run to run: BODY_BLOCKS blocks per body each sum a fixed stride of the layer's nodes and reduce them in a fixed
+ * tree; then a thread per body adds the blocks' sums in order. */
+#define BODY_BLOCKS 64
+__global__ static void body_partial_kernel(struct mpm_gpu g)
+{
+    __shared__ double sum[4][THREADS];
+    size_t layer = (size_t)blockIdx.y * g.nodes;
+    double local[4] = {0.0, 0.0, 0.0, 0.0};
+    for (size_t node = blockIdx.x * (size_t)THREADS + threadIdx.x; node < g.nodes;
+         node += (size_t)BODY_BLOCKS * THREADS) {
+        size_t I = layer + node;
+        local[0] += g.gmass[I];
+        for (int d = 0; d < 3; d++)
+            local[1 + d] += g.momentum[3 * I + d];
+    }
+    for (int c = 0; c < 4; c++)
+        sum[c][threadIdx.x] = local[c];
+    __syncthreads();
+    for (int half = THREADS / 2; half > 0; half /= 2) {
+        if ((int)threadIdx.x < half)
+            for (int c = 0; c < 4; c++)
+                sum[c][threadIdx.x] += sum[c][threadIdx.x + half];
+        __syncthreads();
+    }
+    if (threadIdx.x == 0)
+        for (int c = 0; c < 4; c++)
+            g.body_partial[4 * ((size_t)blockIdx.y * BODY_BLOCKS + blockIdx.x) + c] = sum[c][0];
+}
+
+__global__ static void body_velocity_kernel(struct mpm_gpu g)
+{
+    int body = blockIdx.x * blockDim.x + threadIdx.x;
+    if (body >= g.s.bodies)
+        return;
+    double total[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int block = 0; block < BODY_BLOCKS; block++)
+        for (int c = 0; c < 4; c++)
+            total[c] += g.body_partial[4 * ((size_t)body * BODY_BLOCKS + block) + c];
+    for (int d = 0; d < 3; d++)
+        g.body_velocity[3 * body + d] = total[0] > 0.0 ? total[1 + d] / total[0] : 0.0;
 }
 
 /* Steps 3-6 at each node (nodal_update and mpm_contact_nodal_update of contact.c). */
@@ -648,7 +720,7 @@ __global__ static void update_kernel(struct mpm_gpu g, double dt, double log_dt)
                 for (int i = 0; i < 3; i++)
                     for (int j = 0; j < 3; j++)
                         L[i][j] += g.velocity[3 * I + i] * dN[j];
-                contact |= (w[0][a] * w[1][b] * w[2][c] > 0.0) & (g.contact[I] != 0);
+                contact |= (w[0][a] * w[1][b] * w[2][c] > 0.0) & (g.contact[I] != 0) & (g.bond_contact[I] != 0);
             }
     contact = contact && (g.flags[q] & GPU_POINT_SURFACE);
     double de[6], dspin[3];
@@ -791,7 +863,9 @@ static int allocate(struct mpm_gpu *g)
     TRY(device_array(&g->gradient, 3 * cells) || device_array(&g->moment, 3 * cells));
     TRY(device_array(&g->bond_sum, cells) || device_array(&g->bond_weight, cells));
     TRY(device_array(&g->velocity, 3 * cells) || device_array(&g->contact, cells));
-    TRY(device_array(&g->wall_held, cells));
+    TRY(device_array(&g->bond_contact, cells));
+    TRY(device_array(&g->wall_held, cells) || device_array(&g->body_velocity, 3 * (size_t)g->s.bodies));
+    TRY(device_array(&g->body_partial, 4 * BODY_BLOCKS * (size_t)g->s.bodies));
     CU(cudaMemset(g->wall_held, 0, cells));
     TRY(device_array(&g->point_a, n) || device_array(&g->point_b, n) || device_array(&g->point_c, n));
     TRY(device_array(&g->point_id, n) || device_array(&g->point_id2, n) || device_array(&g->point_count, n));
@@ -913,7 +987,10 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       g->bond_weight,
                       g->velocity,
                       g->contact,
+                      g->bond_contact,
                       g->wall_held,
+                      g->body_partial,
+                      g->body_velocity,
                       g->point_a,
                       g->point_b,
                       g->point_c,
@@ -1018,6 +1095,10 @@ extern "C" int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_
     g->host_stale = 1;
     TRY(bin_and_sort(g));
     gather_kernel<<<cb, THREADS>>>(*g, 0); /* steps 1-2 */
+    if (g->s.bond_growth == MPM_GROWTH_APPROACH && g->s.contact_scheme == MPM_CONTACT_ONCE && g->s.bodies > 1) {
+        body_partial_kernel<<<dim3(BODY_BLOCKS, (unsigned)g->s.bodies), THREADS>>>(*g);
+        body_velocity_kernel<<<blocks_for((size_t)g->s.bodies), THREADS>>>(*g);
+    }
     nodal_kernel<<<nb, THREADS>>>(*g, dt); /* steps 3-6 */
     book_kernel<<<pb, THREADS>>>(*g, dt);
     CU(cudaGetLastError());
