@@ -82,7 +82,8 @@ const struct cfg_key mpm_case_keys[] = {
      "value)"},
     {"impact", "eps_c", CFG_REAL, "-", "2.624", 0, 1e3, 1, NULL,
      "critical bonding strain, Eq. 4.4 (default: spraycoat calibrate at 10 grid cells per particle diameter, "
-     "1.4/0.467 um for 14 um, with contact_approach = common; with both it finds no pair; at 7 cells 1.985: "
+     "1.4/0.467 um for 14 um, with contact_approach = common and bond_growth = contact; with the current defaults it "
+     "finds no pair; at 7 cells 1.985: "
      "the calibration depends on the resolution, docs/physics.md \"The strain model at 10 cells per diameter\")"},
     {"impact", "eps_rate_c", CFG_REAL, "1/s", "3.5e6", 0, 1e20, 1, NULL,
      "critical bonding strain rate, Eq. 4.4 (calibrated with eps_c at 10 cells per diameter; 1e7 at 7 cells)"},
