@@ -61,8 +61,8 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
 
 /* How a pair of bodies interacts at a node this step, the value stored in g->contact: the re-projection projects
  * CONTACT and BONDED pairs again; TOUCHING (contact_scheme = once: surfaces met, no impulse as the pair is not
- * approaching) marks the node for the bonding model only, whose surface points in contact (x_p in S, Section
- * 4.1.1) are those of nodes with any state but FREE. */
+ * approaching) is there for the bonding model only, whose surface points in contact (x_p in S, Section 4.1.1) are
+ * those of nodes with any state but FREE and with g->bond_contact set (mark_bond_contact). */
 enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
 
 static int pair_bonded(const struct mpm_solver *s, size_t Ia, size_t Ib)
