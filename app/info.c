@@ -268,15 +268,22 @@ static void print_vcrit_results(hid_t file, FILE *out)
         double *column[5];
         for (int k = 0; k < 5; k++)
             column[k] = read_column(file, names[k], n);
-        char outcome[16] = "bonded"; /* what v_crit is the threshold of ([vcrit] outcome; older files: bonded) */
+        char outcome[16] = "bonded";   /* what v_crit is the threshold of ([vcrit] outcome; older files: bonded) */
+        char method[16] = "bisection"; /* how ([vcrit] method; older files: bisection) */
         hid_t first = h5_exists(file, "search/000") ? H5Gopen2(file, "search/000", H5P_DEFAULT) : H5I_INVALID_HID;
         if (first >= 0) {
             h5_attr_read_string(first, "outcome", outcome, sizeof outcome);
+            h5_attr_read_string(first, "method", method, sizeof method);
             H5Gclose(first);
         }
-        fprintf(out, "critical velocity, lowest speed %s (%zu diameters bracketed):\n  %-12s %-10s %-9s %-12s %-5s\n",
-                strcmp(outcome, "adhered") == 0 ? "that adheres (bonded or held)" : "that bonds", n, "d (m)", "v_crit",
-                "PBCP %", "v_rest (m/s)", "runs");
+        const char *what = strcmp(outcome, "adhered") == 0 ? "adheres (bonded or held)" : "bonds";
+        char how[96];
+        if (strcmp(method, "logistic") == 0)
+            snprintf(how, sizeof how, "speed at which a particle %s with probability 0.5 (logistic fit)", what);
+        else
+            snprintf(how, sizeof how, "lowest speed at which a particle %s", what);
+        fprintf(out, "critical velocity, %s (%zu diameters bracketed):\n  %-12s %-10s %-9s %-12s %-5s\n", how, n,
+                "d (m)", "v_crit", "PBCP %", "v_rest (m/s)", "runs");
         for (size_t i = 0; i < n; i++) {
             double value[5];
             for (int k = 0; k < 5; k++)

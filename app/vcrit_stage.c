@@ -4,12 +4,16 @@
  *
  * Per diameter (per pair of diameter and temperature): one run at v_low (must rebound) and one at v_high (must bond),
  * then bisection of the bracket until it is at most `tolerance` wide; v_crit is the upper end, the lowest speed known
- * to bond.  Each run goes to [impact] t_end (or until its verdict settled) and is judged by mpm_verdicts (PBCP and
- * restitution velocity thresholds of [impact]); an unsettled run counts as not bonded (note_unsettled). Every finished
- * run is recorded in RUN_DIR/vcrit_runs.csv (rewritten atomically, kept with the outputs); a restarted search reuses
- * the recorded runs of the same impact set-up (runs_hash) instead of running them again, so an interruption loses at
- * most the run that was going on, and a search extended to more diameters or a finer tolerance runs only what is
- * new.  The outputs are RUN_DIR/vcrit.csv, vcrit_cor.csv and vcrit.h5.
+ * to bond.  With `method = logistic` the bisection only finds the transition: sweep_count runs on each side of its
+ * v_crit, sweep_step apart, follow, and v_crit is the speed of 50 % success of a first-order logistic fit (Tang
+ * Eq. 4.12 in one variable, core/logistic.h) to every settled run of the search, an estimate that does not assume
+ * the outcome monotone in the speed, which near v_crit it is not (docs/validation.md).  Each run goes to [impact] t_end
+ * (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]);
+ * an unsettled run counts as not bonded (note_unsettled). Every finished run is recorded in RUN_DIR/vcrit_runs.csv
+ * (rewritten atomically, kept with the outputs); a restarted search reuses the recorded runs of the same impact set-up
+ * (runs_hash) instead of running them again, so an interruption loses at most the run that was going on, and a search
+ * extended to more diameters or a finer tolerance runs only what is new.  The outputs are RUN_DIR/vcrit.csv,
+ * vcrit_cor.csv and vcrit.h5.
  *
  * Under MPI the searches are shared out (a rank takes the next one not yet taken, core/parallel.h) and rank
  * k > 0 records its runs in RUN_DIR/vcrit_runs_rankK.csv.  When all are done, rank 0 reads every record and
@@ -28,6 +32,7 @@
 #include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/logistic.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
 #include "app/app.h"
@@ -62,6 +67,16 @@ const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "cor_below", CFG_STRING, "m/s", NULL, 0, 0, 0, NULL,
      "comma-separated speed differences (each > 0): after the bisection, one more run per diameter at v_crit minus "
      "each, for the coefficient of restitution against impact speed (RUN_DIR/vcrit_cor.csv); not given: none"},
+    {"vcrit", "method", CFG_CHOICE, "", "bisection", 0, 0, 0, "bisection|logistic",
+     "bisection: v_crit is the lowest speed seen to succeed at the end of the bisection; logistic: after the "
+     "bisection, sweep_count more runs on each side of its v_crit, sweep_step apart, and v_crit is the speed of 50 % "
+     "success of a first-order logistic fit (Tang Eq. 4.12 in the speed) to every settled run of the search: robust "
+     "where the outcome is not monotone in the speed (docs/physics.md \"v_crit by logistic regression\")"},
+    {"vcrit", "sweep_step", CFG_REAL, "m/s", "10", 0, 1e4, CFG_MIN_EXCLUSIVE, NULL,
+     "method = logistic: the spacing of the sweep's speeds around the bisection's v_crit"},
+    {"vcrit", "sweep_count", CFG_INT, "-", "4", 1, 100, 0, NULL,
+     "method = logistic: sweep runs on each side of the bisection's v_crit (at most 2 x this many runs more per "
+     "diameter)"},
     {"vcrit", "temperatures", CFG_STRING, "K", NULL, 0, 0, 0, NULL,
      "comma-separated particle temperatures at impact (each > 0 and <= 1e5 K, all different): one search per "
      "(diameter, temperature), the table v_crit(d, T); not given: the [impact] material's T_initial only, the "
@@ -71,6 +86,8 @@ const struct cfg_key vcrit_case_keys[] = {
 
 struct vcrit_result {
     double diameter, temperature, v_crit, pbcp, v_rest; /* temperature 0: the material's T_initial */
+    double v_bisection;                                 /* the bisection's v_crit (= v_crit with method = bisection) */
+    struct logistic_threshold fit;                      /* method = logistic: the fit (fit.x50 = v_crit) */
     int runs;
     struct vcrit_run_record *records; /* the runs of this diameter in the order of the search, then the CoR runs */
     char note[200];                   /* "" when bracketed and converged */
@@ -87,6 +104,9 @@ struct vcrit_search {
     double vrest_threshold;     /* [impact] vrest_threshold: below it a rebounded particle is "held" */
     enum vcrit_outcome outcome; /* [vcrit] outcome: what v_crit is the threshold of */
     int max_runs;
+    int logistic;                        /* [vcrit] method = logistic */
+    double sweep_step;                   /* m/s */
+    int sweep_count;                     /* sweep runs on each side of the bisection's v_crit */
     double cor_offsets[MAX_COR_OFFSETS]; /* extra runs at v_crit minus these, for CoR(v) */
     int cor_count;
     struct vcrit_runs runs; /* every finished run (also those of an earlier, interrupted process) */
@@ -201,6 +221,9 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     v->v_high = case_real(c, "vcrit", "v_high");
     v->tolerance = case_real(c, "vcrit", "tolerance");
     v->max_runs = (int)case_int(c, "vcrit", "max_runs");
+    v->logistic = case_is(c, "vcrit", "method", "logistic");
+    v->sweep_step = case_real(c, "vcrit", "sweep_step");
+    v->sweep_count = (int)case_int(c, "vcrit", "sweep_count");
     v->outcome = vcrit_runs_outcome_of(c, "vcrit");
     v->scale = case_real(c, "vcrit", "substrate_scale");
     v->reference = case_real(c, "vcrit", "reference_diameter");
@@ -666,25 +689,86 @@ static void note_not_monotone(const struct vcrit_search *v, struct vcrit_result 
              pair_name(result, name, sizeof name), what, result->v_crit);
 }
 
+static int speed_known(const struct vcrit_result *result, double speed)
+{
+    for (int i = 0; i < result->runs; i++)
+        if (result->records[i].velocity == speed)
+            return 1;
+    return 0;
+}
+
 /* Runs below v_crit for the coefficient of restitution against impact speed ([vcrit] cor_below). */
 static int cor_runs(struct vcrit_search *v, struct vcrit_result *result)
 {
     for (int k = 0; k < v->cor_count; k++) {
         double speed = result->v_crit - v->cor_offsets[k];
-        int known = 0;
-        for (int i = 0; i < result->runs; i++)
-            known |= result->records[i].velocity == speed;
-        if (speed > 0 && !known)
+        if (speed > 0 && !speed_known(result, speed))
             SC_TRY(outcome(v, result, speed));
     }
     return SC_OK;
 }
 
+/* method = logistic: sweep_count runs on each side of the bisection's v_crit, sweep_step apart (a speed the
+ * bisection already ran is not repeated). */
+static int sweep_runs(struct vcrit_search *v, struct vcrit_result *result)
+{
+    for (int k = -v->sweep_count; k <= v->sweep_count; k++) {
+        double speed = result->v_bisection + k * v->sweep_step;
+        if (k != 0 && speed > 0 && !speed_known(result, speed))
+            SC_TRY(outcome(v, result, speed));
+    }
+    return SC_OK;
+}
+
+/* method = logistic: v_crit is the speed of 50 % success of the first-order logistic fit to every settled run of the
+ * search (core/logistic.h; unsettled runs are left out, note_unsettled counts them); PBCP and v_rest are those of
+ * the slowest success at or above it. */
+static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *result)
+{
+    double *speeds = NULL;
+    int *successes = NULL, status;
+    size_t m = 0, n = (size_t)result->runs + 1;
+    SC_CHECK(status, sc_calloc(&speeds, n, sizeof *speeds, "the speeds of a vcrit fit"), done);
+    SC_CHECK(status, sc_calloc(&successes, n, sizeof *successes, "the outcomes of a vcrit fit"), done);
+    for (int k = 0; k < result->runs; k++) {
+        int success = vcrit_runs_succeeds(&result->records[k], v->outcome, v->vrest_threshold);
+        if (success >= 0) {
+            speeds[m] = result->records[k].velocity;
+            successes[m++] = success;
+        }
+    }
+    SC_CHECK(status, logistic_threshold_fit(speeds, successes, m, result->v_bisection, v->sweep_step, &result->fit),
+             done);
+    result->v_crit = result->fit.x50;
+    result->pbcp = result->v_rest = NAN;
+    double slowest = INFINITY;
+    for (int k = 0; k < result->runs; k++) {
+        const struct vcrit_run_record *r = &result->records[k];
+        if (counts_as_success(v, r) && r->velocity >= result->v_crit && r->velocity < slowest) {
+            slowest = r->velocity;
+            result->pbcp = r->pbcp;
+            result->v_rest = r->v_rest;
+        }
+    }
+    size_t used = strlen(result->note);
+    int noted = strstr(result->note, "logistic") != NULL; /* a replayed search noted it the first time */
+    if (!noted && !result->fit.rising)
+        snprintf(result->note + used, sizeof result->note - used,
+                 "%sno logistic threshold: the outcome does not rise with the speed", used ? "; " : "");
+    else if (!noted && !result->fit.separable)
+        snprintf(result->note + used, sizeof result->note - used,
+                 "%snot monotone in speed: logistic 10-90 %% width %.3g m/s", used ? "; " : "", result->fit.width);
+done:
+    free(speeds);
+    free(successes);
+    return status;
+}
+
 /* The bisection of one (diameter, temperature) pair. */
 static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
 {
-    result->v_crit = result->pbcp = result->v_rest = NAN;
-    size_t capacity = (size_t)(v->max_runs + v->cor_count);
+    result->v_crit = result->v_bisection = result->pbcp = result->v_rest = NAN;
+    size_t capacity = (size_t)(v->max_runs + v->cor_count + (v->logistic ? 2 * v->sweep_count : 0));
     result->records = calloc(capacity, sizeof *result->records);
     if (!result->records)
         SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
@@ -713,7 +797,7 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
             low = r->velocity;
         }
     }
-    result->v_crit = high;
+    result->v_crit = result->v_bisection = high;
     result->pbcp = best.pbcp;
     result->v_rest = best.v_rest;
     if (high - low > v->tolerance) {
@@ -722,9 +806,15 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
         log_warn("vcrit: %s: %s (the bracket is wider than tolerance = %g m/s)", pair_name(result, name, sizeof name),
                  result->note, v->tolerance);
     }
+    if (v->logistic) {
+        SC_TRY(sweep_runs(v, result));
+        SC_TRY(fit_threshold(v, result));
+    }
     note_unsettled(result);
-    SC_TRY(cor_runs(v, result));
-    note_not_monotone(v, result);
+    if (isfinite(result->v_crit))
+        SC_TRY(cor_runs(v, result));
+    if (!v->logistic)
+        note_not_monotone(v, result);
     return SC_OK;
 }
 
@@ -745,14 +835,18 @@ static int write_csv(const struct vcrit_search *v, const struct vcrit_result *re
     snprintf(path, sizeof path, "%s/vcrit.csv", v->run_dir);
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
-    fprintf(out.stream, "%s\n",
-            v->over_temperature ? "diameter,temperature,v_crit,pbcp,v_rest,runs" : "diameter,v_crit,pbcp,v_rest,runs");
+    fprintf(out.stream, "%s%s\n",
+            v->over_temperature ? "diameter,temperature,v_crit,pbcp,v_rest,runs" : "diameter,v_crit,pbcp,v_rest,runs",
+            v->logistic ? ",v_crit_se,width,v_bisection" : "");
     for (int i = 0; i < pair_count(v); i++) {
         const struct vcrit_result *r = &results[i];
         char a[32], b[32], c[32], d[32], t[32];
         fprintf(out.stream, "%s%s,%s%s%s,%s,%s,%d", bracketed(r) ? "" : "# ", exact(r->diameter, a, sizeof a),
                 v->over_temperature ? exact(r->temperature, t, sizeof t) : "", v->over_temperature ? "," : "",
                 exact(r->v_crit, b, sizeof b), exact(r->pbcp, c, sizeof c), exact(r->v_rest, d, sizeof d), r->runs);
+        if (v->logistic)
+            fprintf(out.stream, ",%s,%s,%s", exact(r->fit.se, a, sizeof a), exact(r->fit.width, b, sizeof b),
+                    exact(r->v_bisection, c, sizeof c));
         if (bracketed(r))
             fputc('\n', out.stream);
         else
@@ -839,6 +933,12 @@ static int write_runs_group(const struct vcrit_search *v, hid_t parent, int inde
     if (r->temperature > 0.0)
         SC_CHECK(status, h5_attr_write_double(group, "temperature", r->temperature), done);
     SC_CHECK(status, h5_attr_write_double(group, "v_crit", r->v_crit), done);
+    SC_CHECK(status, h5_attr_write_string(group, "method", v->logistic ? "logistic" : "bisection"), done);
+    if (v->logistic) {
+        SC_CHECK(status, h5_attr_write_double(group, "v_bisection", r->v_bisection), done);
+        SC_CHECK(status, h5_attr_write_double(group, "v_crit_se", r->fit.se), done);
+        SC_CHECK(status, h5_attr_write_double(group, "width", r->fit.width), done);
+    }
     SC_CHECK(status, h5_attr_write_string(group, "result", r->note[0] ? r->note : "bracketed"), done);
     /* what `bonded` and v_crit count: bonded, or adhered (bonded or held) */
     SC_CHECK(status, h5_attr_write_string(group, "outcome", v->outcome == VCRIT_OUTCOME_ADHERED ? "adhered" : "bonded"),
@@ -949,6 +1049,11 @@ static void log_table(const struct vcrit_search *v, const struct vcrit_result *r
             snprintf(T, sizeof T, "%g", r->temperature);
         log_info("vcrit: %-12.4g %-8s %-10.6g %-8.3g %-10.3g %-5d %s", r->diameter * 1e6, T, r->v_crit, 100 * r->pbcp,
                  r->v_rest, r->runs, r->note);
+        if (v->logistic && isfinite(r->v_crit))
+            log_info("vcrit: %-12s logistic fit: v_crit %.5g +- %.2g m/s (1 s.e.), 10-90 %% width %.3g m/s, "
+                     "bisection %.6g m/s%s",
+                     "", r->v_crit, r->fit.se, r->fit.width, r->v_bisection,
+                     r->fit.separable ? " (outcomes separable: the middle of the gap)" : "");
     }
 }
 

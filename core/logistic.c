@@ -2,6 +2,7 @@
 #include "core/logistic.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/error.h"
@@ -146,6 +147,8 @@ static int standard_errors(const double *X, const int *y, size_t m, int p, doubl
     if (cholesky(H, p) != 0) {
         for (int j = 0; j < p; j++)
             fit->se[j] = INFINITY;
+        for (int j = 0; j < p * p; j++)
+            fit->covariance[j] = INFINITY;
         return SC_OK;
     }
     for (int j = 0; j < p; j++) {
@@ -153,6 +156,8 @@ static int standard_errors(const double *X, const int *y, size_t m, int p, doubl
         e[j] = 1.0;
         cholesky_solve(H, p, e, column);
         fit->se[j] = sqrt(column[j]);
+        for (int k = 0; k < p; k++)
+            fit->covariance[k * p + j] = column[k];
     }
     return SC_OK;
 }
@@ -184,4 +189,57 @@ int logistic_fit(const double *X, const int *y, size_t m, int p, double lambda, 
     /* separated data: the likelihood tends to 1 while theta runs away; the Newton steps never shrink */
     fit->separable = !fit->converged && fit->cost < 1e-6;
     return standard_errors(X, y, m, p, lambda, fit);
+}
+
+/* The highest failure and the lowest success among the outcomes (-INFINITY / INFINITY when there is none). */
+static void outcome_ranges(const double *x, const int *y, size_t m, double *highest_failure, double *lowest_success)
+{
+    *highest_failure = -INFINITY;
+    *lowest_success = INFINITY;
+    for (size_t i = 0; i < m; i++) {
+        if (y[i])
+            *lowest_success = fmin(*lowest_success, x[i]);
+        else
+            *highest_failure = fmax(*highest_failure, x[i]);
+    }
+}
+
+int logistic_threshold_fit(const double *x, const int *y, size_t m, double center, double scale,
+                           struct logistic_threshold *out)
+{
+    memset(out, 0, sizeof *out);
+    out->x50 = out->se = out->width = NAN;
+    if (!(scale > 0) || !isfinite(center))
+        SC_FAIL(SC_EINPUT, "logistic threshold: center %g, scale %g; allowed: finite center, scale > 0", center, scale);
+    double highest_failure, lowest_success;
+    outcome_ranges(x, y, m, &highest_failure, &lowest_success);
+    if (isinf(highest_failure) || isinf(lowest_success))
+        return SC_OK;
+    out->rising = 1;
+    if (highest_failure <= lowest_success) {
+        out->separable = 1;
+        out->x50 = 0.5 * (highest_failure + lowest_success);
+        return SC_OK;
+    }
+    double *X = malloc(2 * m * sizeof *X);
+    if (!X)
+        SC_FAIL_OOM(2 * m * sizeof *X, "the logistic threshold fit");
+    for (size_t i = 0; i < m; i++) {
+        X[2 * i] = 1.0;
+        X[2 * i + 1] = (x[i] - center) / scale;
+    }
+    int status = logistic_fit(X, y, m, 2, 0.0, &out->fit);
+    free(X);
+    SC_TRY(status);
+    const double *theta = out->fit.theta, *cov = out->fit.covariance;
+    if (!(theta[1] > 0)) {
+        out->rising = 0;
+        return SC_OK;
+    }
+    out->x50 = center - scale * theta[0] / theta[1];
+    /* delta method: the gradient of x50 in (theta_0, theta_1) */
+    double g0 = -scale / theta[1], g1 = scale * theta[0] / (theta[1] * theta[1]);
+    out->se = sqrt(g0 * g0 * cov[0] + 2 * g0 * g1 * cov[1] + g1 * g1 * cov[3]);
+    out->width = 2 * log(9.0) * scale / theta[1];
+    return SC_OK;
 }

@@ -21,14 +21,33 @@ struct logistic_fit {
     int terms;                        /* p: the number of coefficients */
     double theta[LOGISTIC_MAX_TERMS]; /* the fit */
     double se[LOGISTIC_MAX_TERMS];    /* standard errors: sqrt of the diagonal of the inverse Hessian */
-    double cost;                      /* J of Eq. 4.13 at theta (without the ridge term) */
-    int iterations, converged;        /* converged: the Newton step fell below 1e-10 (relative) */
-    int separable;                    /* 1 when, without a ridge term, |theta| grew without bound */
+    double covariance[LOGISTIC_MAX_TERMS * LOGISTIC_MAX_TERMS]; /* the inverse Hessian (p x p, row-major) */
+    double cost;                                                /* J of Eq. 4.13 at theta (without the ridge term) */
+    int iterations, converged; /* converged: the Newton step fell below 1e-10 (relative) */
+    int separable;             /* 1 when, without a ridge term, |theta| grew without bound */
 };
 
 /* Fit y[i] in {0, 1} (i < m) against the rows X[i p .. i p + p - 1] (p <= LOGISTIC_MAX_TERMS, the first column
  * normally 1) with ridge parameter lambda >= 0 (not applied to the first coefficient).  SC_EINPUT when m < 1 or p
  * is out of range; SC_ESIM when the Hessian is singular (a column that is zero or repeats another). */
 int logistic_fit(const double *X, const int *y, size_t m, int p, double lambda, struct logistic_fit *fit);
+
+/* The speed (or any one variable x) at which success and failure are equally likely, h = 0.5 of the first-order
+ * model h = sigma(theta_0 + theta_1 (x - center) / scale) (Eq. 4.12 with one variable, scale > 0 only conditions
+ * the fit):
+ * - outcomes that overlap (a failure above a success): the maximum-likelihood fit, x50 = center - scale theta_0 /
+ *   theta_1, its standard error by the delta method from the inverse Hessian, and width = the x span from h = 0.1
+ *   to 0.9 (2 ln 9 scale / theta_1);
+ * - separable outcomes (every failure at or below every success): no finite fit exists; x50 is the midpoint of the
+ *   gap between the highest failure and the lowest success, which is where the ridge-regularised fit's boundary
+ *   tends as the ridge term vanishes (Rosset, Zhu & Hastie 2003: the maximum-margin separator); se and width NaN.
+ * x50 is NaN (rising = 0) when one outcome is missing or the fit falls with x (theta_1 <= 0). */
+struct logistic_threshold {
+    double x50, se, width;
+    int separable, rising;
+    struct logistic_fit fit; /* the fit, when not separable */
+};
+int logistic_threshold_fit(const double *x, const int *y, size_t m, double center, double scale,
+                           struct logistic_threshold *out);
 
 #endif

@@ -136,6 +136,65 @@ static void test_refuses_bad_arguments(void)
     CHECK(logistic_fit(X, y, 1, 6, -1, &fit) != 0, "negative lambda accepted");
 }
 
+/* The threshold of a first-order fit in one variable (logistic_threshold_fit), on outcomes whose maximum-likelihood
+ * fit is known in closed form: 1 of 4 successes at 800 and 3 of 4 at 810 are fitted exactly (the model is
+ * saturated), logit h = -ln 3 and +ln 3, so x50 = 805, the 10-90 % width is 2 ln 9 / (2 ln 3 / 10) = 20, and the
+ * delta-method standard error from the inverse Hessian (weights 4 h (1 - h) = 3/4 at both speeds) is
+ * 10 / (ln 3 sqrt 6) = 3.716. */
+static void test_threshold_closed_form(void)
+{
+    const double x[8] = {800, 800, 800, 800, 810, 810, 810, 810};
+    const int y[8] = {1, 0, 0, 0, 1, 1, 0, 1};
+    struct logistic_threshold t;
+    CHECK(logistic_threshold_fit(x, y, 8, 790, 10, &t) == 0, "fit failed");
+    CHECK(t.rising && !t.separable, "rising %d separable %d", t.rising, t.separable);
+    CHECK_CLOSE(t.x50, 805.0, 1e-9, 0, "x50");
+    CHECK_CLOSE(t.width, 20.0, 1e-8, 0, "10-90 % width");
+    CHECK_CLOSE(t.se, 10.0 / (log(3.0) * sqrt(6.0)), 1e-7, 0, "standard error of x50 (delta method)");
+}
+
+/* 20,000 outcomes at speeds uniform in 700-900 m/s from h = sigma((v - 780) / 8): the fitted threshold within 3 of
+ * its standard errors of 780 (the standard error itself under 1 m/s: the check can miss), the width within 5 % of
+ * 2 ln 9 x 8 = 35.2 m/s. */
+static void test_threshold_recovered(void)
+{
+    enum { N = 20000 };
+    double *x = malloc(N * sizeof *x);
+    int *y = malloc(N * sizeof *y);
+    uint64_t state = 20261205u;
+    for (size_t i = 0; i < N; i++) {
+        x[i] = 700 + 200 * uniform(&state);
+        y[i] = uniform(&state) < 1.0 / (1.0 + exp(-(x[i] - 780) / 8));
+    }
+    struct logistic_threshold t;
+    CHECK(logistic_threshold_fit(x, y, N, 800, 10, &t) == 0, "fit failed");
+    CHECK(fabs(t.x50 - 780) < 3 * t.se && t.se < 1.0, "x50 = %.3f +- %.3f, true 780", t.x50, t.se);
+    CHECK_CLOSE(t.width, 2 * log(9.0) * 8, 0.05, 0, "width");
+    free(x);
+    free(y);
+}
+
+/* Separable outcomes have no finite fit: x50 is the middle of the gap between the highest failure and the lowest
+ * success; a tie at one speed puts it there.  Outcomes that fall with x, or all of one kind, have no threshold. */
+static void test_threshold_separable_and_none(void)
+{
+    const double x[6] = {500, 700, 780, 790, 850, 1200};
+    const int y[6] = {0, 0, 0, 1, 1, 1}, tie[6] = {0, 0, 1, 0, 1, 1}, falling[6] = {1, 1, 1, 0, 1, 0},
+              none[6] = {0, 0, 0, 0, 0, 0};
+    const double x_tie[6] = {500, 700, 780, 780, 850, 1200};
+    struct logistic_threshold t;
+    CHECK(logistic_threshold_fit(x, y, 6, 800, 10, &t) == 0 && t.separable, "separable not found");
+    CHECK_CLOSE(t.x50, 785.0, 1e-12, 0, "x50 of separable outcomes");
+    CHECK(isnan(t.se) && isnan(t.width), "se %g width %g of separable outcomes", t.se, t.width);
+    CHECK(logistic_threshold_fit(x_tie, tie, 6, 800, 10, &t) == 0 && t.separable, "tie not separable");
+    CHECK_CLOSE(t.x50, 780.0, 1e-12, 0, "x50 at a tie");
+    CHECK(logistic_threshold_fit(x, falling, 6, 800, 10, &t) == 0, "falling fit failed");
+    CHECK(!t.rising && isnan(t.x50), "falling outcomes: rising %d x50 %g", t.rising, t.x50);
+    CHECK(logistic_threshold_fit(x, none, 6, 800, 10, &t) == 0, "one-sided fit failed");
+    CHECK(!t.rising && isnan(t.x50), "no success: rising %d x50 %g", t.rising, t.x50);
+    CHECK(logistic_threshold_fit(x, y, 6, 800, 0, &t) != 0, "scale 0 accepted");
+}
+
 int main(void)
 {
     RUN(test_small_data_set_against_statsmodels);
@@ -143,5 +202,8 @@ int main(void)
     RUN(test_known_coefficients_recovered);
     RUN(test_separable_grid);
     RUN(test_refuses_bad_arguments);
+    RUN(test_threshold_closed_form);
+    RUN(test_threshold_recovered);
+    RUN(test_threshold_separable_and_none);
     return check_finish();
 }

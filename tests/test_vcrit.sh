@@ -5,8 +5,10 @@
 # check`; a search stopped by SIGTERM (exit 143) and resumed reuses the recorded runs and writes the same table;
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
 # of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
-# v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; with
-# reference_diameter a particle twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" / "FAIL name (reason)".
+# v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
+# adds its sweep and gives the 50 % point of an independent logistic fit to the runs; with reference_diameter a
+# particle twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" /
+# "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
 
@@ -221,6 +223,79 @@ else
 fi
 if [ -z "$why" ]; then pass vcrit_outcome_adhered; else fail vcrit_outcome_adhered "$why"; fi
 
+# ---- 4d. method = logistic: the bisection's runs (reused from the record), sweep_count runs on each side of its
+# v_crit sweep_step apart, and v_crit = the 50 % point of a first-order logistic fit to every settled run of the
+# search, checked against an independent fit (python3, Newton on the unscaled speed) of the runs in vcrit_cor.csv:
+# once as the search ran, once after a sweep run above v_crit is rewritten as rebounded (outcomes that overlap:
+# the maximum-likelihood fit rather than the middle of the gap).  The table with its extra columns is readable -----
+RUN8=$T/logistic
+cp -r "$RUN" "$RUN8"
+rm -f "$RUN8/vcrit.h5"
+{ cat "$CASE"; printf 'method = logistic\nsweep_step = 25\nsweep_count = 3\n'; } >"$T/logistic.ini"
+# refit D: the settled runs of diameter D in vcrit_cor.csv (bonded = 1); prints the fitted v_crit and its kind
+refit() {
+    python3 - "$1" "$2" <<'PY'
+import csv, math, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if float(r["diameter"]) == float(sys.argv[2])]
+v = [float(r["velocity"]) for r in rows if r["verdict"] != "unsettled"]
+y = [1 if r["verdict"] == "bonded" else 0 for r in rows if r["verdict"] != "unsettled"]
+fail, succ = max(x for x, o in zip(v, y) if not o), min(x for x, o in zip(v, y) if o)
+if fail <= succ:
+    print("%.12g separable" % (0.5 * (fail + succ)))
+    sys.exit(0)
+a = b = 0.0
+for _ in range(200):
+    g0 = g1 = h00 = h01 = h11 = 0.0
+    for x, o in zip(v, y):
+        p = 1 / (1 + math.exp(-(a + b * x)))
+        w = p * (1 - p)
+        g0, g1 = g0 + p - o, g1 + (p - o) * x
+        h00, h01, h11 = h00 + w, h01 + w * x, h11 + w * x * x
+    det = h00 * h11 - h01 * h01
+    a, b = a - (h11 * g0 - h01 * g1) / det, b - (h00 * g1 - h01 * g0) / det
+print("%.12g overlapping" % (-a / b))
+PY
+}
+# compare D: vcrit.csv's v_crit of diameter D against refit; prints what differs
+compare() {
+    got=$(awk -F, -v d="$1" 'NR > 1 && $1 + 0 == d + 0 { print $2 }' "$RUN8/vcrit.csv")
+    want=$(refit "$RUN8/vcrit_cor.csv" "$1")
+    awk -v g="$got" -v w="${want% *}" 'BEGIN { exit !(g != "" && (g - w) ^ 2 <= (1e-6 * w) ^ 2) }' ||
+        echo "d = $1: v_crit $got, refit $want;"
+}
+why=""
+if "$BIN" vcrit "$T/logistic.ini" -o "$RUN8" >"$T/logistic1.log" 2>&1; then
+    head -n 1 "$RUN8/vcrit.csv" | grep -q ',v_crit_se,width,v_bisection$' || why="$why header $(head -n 1 "$RUN8/vcrit.csv");"
+    grep -q "runs recorded in $RUN8 are reused" "$T/logistic1.log" || why="$why the bisection's runs were not reused;"
+    for d in 8e-06 1e-05; do
+        vb=$(awk -F, -v d="$d" 'NR > 1 && $1 + 0 == d + 0 { print $8 }' "$RUN8/vcrit.csv")
+        for k in -3 -2 -1 1 2 3; do
+            awk -F, -v d="$d" -v v="$vb" -v k="$k" '$1 + 0 == d + 0 && $2 + 0 == v + 25 * k { found = 1 }
+                END { exit !found }' "$RUN8/vcrit_cor.csv" || why="$why d = $d: no sweep run at $vb + $k x 25 m/s;"
+        done
+        why="$why$(compare "$d")"
+    done
+    sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $RUN8/vcrit.csv|" "$BASE" >"$T/spray8.ini"
+    "$BIN" check "$T/spray8.ini" >"$T/check8.log" 2>&1 || why="$why table unreadable: $(head -n 1 "$T/check8.log");"
+    # the highest bonded sweep run of 8 um recorded as rebounded instead, then the same search replayed
+    vb=$(awk -F, 'NR > 1 && $1 + 0 == 8e-6 { print $8 }' "$RUN8/vcrit.csv")
+    awk -F, -v OFS=, -v v="$vb" '$1 + 0 == 8e-6 && $2 + 0 == v + 75 { $5 = 0 } { print }' "$RUN8/vcrit_runs.csv" \
+        >"$T/runs8.csv" && mv "$T/runs8.csv" "$RUN8/vcrit_runs.csv"
+    rm -f "$RUN8/vcrit.h5"
+    if "$BIN" vcrit "$T/logistic.ini" -o "$RUN8" >"$T/logistic2.log" 2>&1; then
+        grep -q '(0 runs in this process' "$T/logistic2.log" || why="$why the replay ran again;"
+        why="$why$(compare 8e-06)"
+        [ "$(refit "$RUN8/vcrit_cor.csv" 8e-06 | cut -d' ' -f2)" = overlapping ] ||
+            why="$why the rewritten outcomes do not overlap: $(refit "$RUN8/vcrit_cor.csv" 8e-06);"
+        grep -q 'not monotone in speed: logistic 10-90 % width' "$T/logistic2.log" || why="$why no width in the log;"
+    else
+        why="$why the replay failed: $(tail -n 2 "$T/logistic2.log" | tr '\n' ' ');"
+    fi
+else
+    why="$why the search failed: $(tail -n 2 "$T/logistic1.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_logistic_fit; else fail vcrit_logistic_fit "$why"; fi
+
 # ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
 if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
@@ -249,7 +324,7 @@ else
     why="$why the search failed: $(tail -n 2 "$T/similar.log" | tr '\n' ' ');"
 fi
 if [ -z "$why" ]; then pass vcrit_reference_diameter_similar; else fail vcrit_reference_diameter_similar "$why"; fi
-sed 's/^reference_diameter = .*/reference_diameter = 0/' >"$T/unscaled.ini"
+sed 's/^reference_diameter = .*/reference_diameter = 0/' "$T/similar.ini" >"$T/unscaled.ini"
 if "$BIN" vcrit "$T/unscaled.ini" -o "$T/unscaled" >"$T/unscaled.log" 2>&1 &&
     [ "$(grep '^8e-06,' "$T/unscaled/vcrit_runs.csv" | cut -d, -f2-)" = "$(grep '^1.6e-05,' "$T/unscaled/vcrit_runs.csv" | cut -d, -f2-)" ]; then
     fail vcrit_reference_diameter_matters "without reference_diameter the two sizes gave the same runs too: the check above cannot fail"
