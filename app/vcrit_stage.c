@@ -768,6 +768,7 @@ done:
 static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
 {
     result->v_crit = result->v_bisection = result->pbcp = result->v_rest = NAN;
+    result->fit = (struct logistic_threshold){.x50 = NAN, .se = NAN, .width = NAN};
     size_t capacity = (size_t)(v->max_runs + v->cor_count + (v->logistic ? 2 * v->sweep_count : 0));
     result->records = calloc(capacity, sizeof *result->records);
     if (!result->records)

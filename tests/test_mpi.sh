@@ -3,7 +3,8 @@
 # gives the same files as one process for
 #   the pipeline (spray and couple on rank 0, the four impact runs shared out),
 #   a pipeline stopped by SIGTERM during the impact runs and resumed under mpirun,
-#   a vcrit search (the two diameters shared out, the bisections replayed by rank 0),
+#   a vcrit search with method = logistic (the two diameters shared out, the bisections, sweeps and fits
+#   replayed by rank 0),
 #   a bonding calibration (the runs shared out, the fit by rank 0, the ranks' records kept: 8 runs together),
 #   a sweep (the spray runs shared out, the map by rank 0).
 set -u
@@ -94,6 +95,10 @@ diameters = 10e-6,8e-6
 v_low = 200
 v_high = 1200
 tolerance = 200
+; the bisection, its sweep and the logistic fit, all replayed by rank 0 from both ranks' records
+method = logistic
+sweep_step = 50
+sweep_count = 2
 EOF
 "$BIN" vcrit "$T/vcrit.ini" -o "$T/vcrit_one" >"$T/vcrit_one.log" 2>&1
 one=$?
