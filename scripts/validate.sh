@@ -11,13 +11,14 @@
 #      for FUZZ_SECONDS (600) each; any crash fails.  Needs clang (scripts/bootstrap installs it).
 #   4. The resolution study (Tang Table 4.2; docs/validation.md "Resolution study") of the strain model:
 #      `spraycoat calibrate cases/calibrate_al.ini` (each resolution over its own eps_c window: calibrate_window)
-#      and `spraycoat vcrit` of 14, 22 and 30 um (cases/vcrit_al_strain.ini with that resolution's calibrated pair:
-#      calibrated_pair) at three resolutions in cells per diameter, 7, 10 and 15 (the 14 um grids
-#      DCell/dp 2.0/0.667, 1.4/0.467 and 0.933/0.311 um, scaled with the diameter).  Parts
-#      calibrate_coarse|calibrate_medium|calibrate_fine and vcrit_coarse|vcrit_medium|vcrit_fine, each into
-#      runs/validate_PART (restartable: run the same part again, or `spraycoat resume runs/validate_PART`).  A
-#      calibration part fails when the two bonding boundaries do not intersect in the grid, a vcrit part when v_crit
-#      does not fall with d (Tang Table 5.4).  Hours on the 2 cores here: docs/validation.md.
+#      and `spraycoat vcrit` of 14, 22 and 30 um (cases/vcrit_al_strain.ini with that resolution's calibrated pair,
+#      calibrated_pair, and `method = logistic`: docs/physics.md "v_crit by logistic regression") at three
+#      resolutions in cells per diameter, 7, 10 and 15 (the 14 um grids DCell/dp 2.0/0.667, 1.4/0.467 and
+#      0.933/0.311 um, scaled with the diameter).  Parts calibrate_coarse|calibrate_medium|calibrate_fine and
+#      vcrit_coarse|vcrit_medium|vcrit_fine, each into runs/validate_PART (restartable: run the same part again, or
+#      `spraycoat resume runs/validate_PART`).  A calibration part fails when the two bonding boundaries do not
+#      intersect in the grid, a vcrit part when v_crit does not fall with d (Tang Table 5.4).  Hours on the 2 cores
+#      here: docs/validation.md.
 #   5. v_crit(d) from 10 to 45 um with the shipped calibration and CoR(v) below it (cases/vcrit_al.ini, part
 #      vcrit_al): copies the results to cases/vcrit_al.csv, cases/vcrit_al_cor.csv and the figures to
 #      cases/vcrit_al.png and cases/vcrit_al_cor.png (tests/test_vcrit_al.sh checks the tables).
@@ -132,7 +133,8 @@ calibrate_window() {
 }
 
 # The (eps_c, eps_rate_c) a vcrit part runs with: its resolution's calibration when runs/validate_calibrate_R has
-# one, else the pair measured here (coarse 1.985/1e7, medium 2.624/3.5e6: docs/validation.md); fine has none.
+# one, else the pair measured here (coarse 1.985/1e7; medium 2.523/3.67e6, the keys' defaults, fitted to the measured
+# v_crit: docs/physics.md "The strain model at 10 cells per diameter"); fine has none.
 calibrated_pair() {
     csv=runs/validate_calibrate_$1/calibrate.csv
     if [ -s "$csv" ] && grep -q ',1$' "$csv"; then
@@ -141,7 +143,7 @@ calibrated_pair() {
     fi
     case $1 in
         coarse) echo "1.985 1e7" ;;
-        medium) echo "2.624 3.5e6" ;;
+        medium) echo "2.523 3.67e6" ;;
         *) return 1 ;;
     esac
 }
@@ -169,7 +171,7 @@ validate_vcrit() {
     fi
     set -- "$1" $pair
     echo "validate: vcrit at the $1 resolution with eps_c = $2, eps_rate_c = $3"
-    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d;/^bond_gap/d;/^contact_approach/d;/^bond_growth/d;s/^eps_c = .*/eps_c = $2/;s/^eps_rate_c = .*/eps_rate_c = $3/" || return 0
+    run_study vcrit "$1" cases/vcrit_al_strain.ini "s/^diameters = .*/diameters = 14e-6,22e-6,30e-6/;/^cor_below/d;/^bond_gap/d;/^contact_approach/d;/^bond_growth/d;s/^eps_c = .*/eps_c = $2/;s/^eps_rate_c = .*/eps_rate_c = $3/;s/^max_runs = .*/&\nmethod = logistic/" || return 0
     cat "$run/vcrit.csv"
     if vcrit_falls "$run/vcrit.csv"; then
         echo "validate: v_crit of 14, 22 and 30 um at the $1 resolution falls with d"

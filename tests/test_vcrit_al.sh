@@ -5,6 +5,8 @@
 # 22, 30 um); cases/vcrit_al_cor.csv has one row per run with a verdict word that agrees with the row's PBCP and
 # v_rest and the case's thresholds and a finite CoR, every diameter of the table among its rows.  Prints SKIP
 # while the files do not exist (the study takes about 2 hours here).
+# The same for the strain model's table at 10 cells per diameter, cases/vcrit_al_strain_10cells.csv (method =
+# logistic: its header has the fit's columns too; each v_crit within [v_low, v_high] of its own case).
 # Also checks the checker: a table that rises with d is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -12,16 +14,17 @@ table=cases/vcrit_al.csv
 cor=cases/vcrit_al_cor.csv
 
 # The search range of the case, [v_low, v_high]: a v_crit outside it was not found by the search.
-ini_value() { sed -n "s/^$1 *= *//p" cases/vcrit_al.ini; }
+ini_value() { sed -n "s/^$1 *= *//p" "${2:-cases/vcrit_al.ini}"; }
 v_low=$(ini_value v_low)
 v_high=$(ini_value v_high)
+header=diameter,v_crit,pbcp,v_rest,runs
 
 # check_table FILE: empty output when FILE is a valid table falling with d; else the reason.
 check_table() {
-    awk -F, -v v_low="$v_low" -v v_high="$v_high" '
-        NR == 1 { if ($0 != "diameter,v_crit,pbcp,v_rest,runs") { print "header \"" $0 "\""; bad = 1 }; next }
+    awk -F, -v v_low="$v_low" -v v_high="$v_high" -v header="$header" '
+        NR == 1 { if ($0 != header) { print "header \"" $0 "\""; bad = 1 }; next }
         /^#/ { print "unbracketed: " $0; bad = 1; next }
-        NF != 5 { print "line " NR ": " NF " fields"; bad = 1; next }
+        NF != split(header, names, ",") { print "line " NR ": " NF " fields"; bad = 1; next }
         {
             if ($2 < v_low || $2 > v_high) { print "v_crit " $2 " outside [" v_low ", " v_high "] at d = " $1; bad = 1 }
             if (n && !($1 > last_d)) { print "diameters not ascending at " $1; bad = 1 }
@@ -63,4 +66,13 @@ why=""
     { seen[$1 + 0] = 1 }
     END { for (x in d) if (!seen[x]) print "no runs of d = " x }' "$cor" | head -n 5 | tr '\n' ';')
 if [ -z "$why" ]; then echo "PASS vcrit_al_cor"; else echo "FAIL vcrit_al_cor ($why)"; fi
+
+# the strain model's table at 10 cells per diameter, v_crit by logistic regression
+ini=cases/vcrit_al_strain_10cells.ini
+v_low=$(ini_value v_low "$ini")
+v_high=$(ini_value v_high "$ini")
+header=diameter,v_crit,pbcp,v_rest,runs,v_crit_se,width,v_bisection
+why=$(check_table cases/vcrit_al_strain_10cells.csv | head -n 5 | tr '\n' ';')
+[ "$(ini_value method "$ini")" = logistic ] || why="$why $ini is not method = logistic;"
+if [ -z "$why" ]; then echo "PASS vcrit_al_strain_10cells_table"; else echo "FAIL vcrit_al_strain_10cells_table ($why)"; fi
 exit 0
