@@ -5,8 +5,8 @@
 # 22, 30 um); cases/vcrit_al_cor.csv has one row per run with a verdict word that agrees with the row's PBCP and
 # v_rest and the case's thresholds and a finite CoR, every diameter of the table among its rows.  Prints SKIP
 # while the files do not exist (the study takes about 2 hours here).
-# The same for the strain model's table at 10 cells per diameter, cases/vcrit_al_strain_10cells.csv (method =
-# logistic: its header has the fit's columns too; each v_crit within [v_low, v_high] of its own case).
+# The same for the strain model's table at 10 cells per diameter, cases/vcrit_al_strain_10cells.csv and _cor.csv
+# (method = logistic: its header has the fit's columns too; each v_crit within [v_low, v_high] of its own case).
 # Also checks the checker: a table that rises with d is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -52,10 +52,11 @@ fi
 why=$(check_table "$table" | head -n 5 | tr '\n' ';')
 if [ -z "$why" ]; then echo "PASS vcrit_al_table"; else echo "FAIL vcrit_al_table ($why)"; fi
 
-why=""
-[ -r "$cor" ] || why="no $cor;"
-[ -z "$why" ] && why=$(awk -F, -v table="$table" -v pbcp_min="$(ini_value pbcp_threshold)" \
-    -v vrest_max="$(ini_value vrest_threshold)" '
+# check_cor TABLE COR INI: empty output when COR holds the runs of every diameter of TABLE, each with a verdict word
+# that agrees with its PBCP and v_rest and the thresholds of INI; else the reason.
+check_cor() {
+    [ -r "$2" ] || { echo "no $2"; return; }
+    awk -F, -v table="$1" -v pbcp_min="$(ini_value pbcp_threshold "$3")" -v vrest_max="$(ini_value vrest_threshold "$3")" '
     BEGIN { while ((getline line < table) > 0) if (line !~ /^(#|diameter)/) { split(line, f, ","); d[f[1] + 0] = 1 } }
     NR == 1 { if ($0 != "diameter,velocity,verdict,cor,pbcp,v_rest") print "header \"" $0 "\""; next }
     $3 !~ /^(bonded|rebounded|held|unsettled)$/ || $4 == "" || $4 ~ /nan/ { print "line " NR ": " $0 }
@@ -64,7 +65,9 @@ why=""
     $3 == "held" && !($5 < pbcp_min && $6 <= vrest_max) { print "held with these numbers, line " NR ": " $0 }
     $3 == "rebounded" && !($6 > vrest_max) { print "rebounded at rest, line " NR ": " $0 }
     { seen[$1 + 0] = 1 }
-    END { for (x in d) if (!seen[x]) print "no runs of d = " x }' "$cor" | head -n 5 | tr '\n' ';')
+    END { for (x in d) if (!seen[x]) print "no runs of d = " x }' "$2"
+}
+why=$(check_cor "$table" "$cor" cases/vcrit_al.ini | head -n 5 | tr '\n' ';')
 if [ -z "$why" ]; then echo "PASS vcrit_al_cor"; else echo "FAIL vcrit_al_cor ($why)"; fi
 
 # the strain model's table at 10 cells per diameter, v_crit by logistic regression
@@ -75,4 +78,6 @@ header=diameter,v_crit,pbcp,v_rest,runs,v_crit_se,width,v_bisection
 why=$(check_table cases/vcrit_al_strain_10cells.csv | head -n 5 | tr '\n' ';')
 [ "$(ini_value method "$ini")" = logistic ] || why="$why $ini is not method = logistic;"
 if [ -z "$why" ]; then echo "PASS vcrit_al_strain_10cells_table"; else echo "FAIL vcrit_al_strain_10cells_table ($why)"; fi
+why=$(check_cor cases/vcrit_al_strain_10cells.csv cases/vcrit_al_strain_10cells_cor.csv "$ini" | head -n 5 | tr '\n' ';')
+if [ -z "$why" ]; then echo "PASS vcrit_al_strain_10cells_cor"; else echo "FAIL vcrit_al_strain_10cells_cor ($why)"; fi
 exit 0
