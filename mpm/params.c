@@ -71,8 +71,9 @@ const struct cfg_key mpm_case_keys[] = {
      "\"Contact\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
-    {"impact", "bonding", CFG_CHOICE, "", "energy", 0, 0, 0, "energy|strain|none",
-     "bonding model: energy (Eqs. 4.16-4.17), strain (Eqs. 4.3-4.5), none (docs/physics.md \"Bonding "
+    {"impact", "bonding", CFG_CHOICE, "", "strain", 0, 0, 0, "energy|strain|none",
+     "bonding model: strain (Eqs. 4.3-4.5; its default eps_c, eps_rate_c belong to 10 grid cells across the "
+     "particle), energy (Eqs. 4.16-4.17; its default Gc, Gc_rate to 2.0/0.667 um), none (docs/physics.md \"Bonding "
      "calibration\")"},
     {"impact", "Gc", CFG_REAL, "J/m2", "720", 0, 1e9, 1, NULL,
      "critical surface adhesion energy G_c, Eq. 4.16b (default from the sweep in docs/physics.md, \"Bonding "

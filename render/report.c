@@ -392,9 +392,18 @@ static void report_free(struct report_data *r)
 
 /* ---- the page ---------------------------------------------------------------------------------------------- */
 
-/* The resolution the default [impact] Gc, Gc_rate were calibrated on (docs/physics.md, "Bonding calibration",
- * cases/bonding_calibration_al.csv): change it with them. */
-#define CALIBRATION_RESOLUTION "grid cells of 2.0 µm with points 0.667 µm apart"
+/* The resolution the defaults of the case's bonding model were calibrated on (docs/physics.md, "Bonding
+ * calibration"): change it with them.  NULL: no bonding model. */
+static const char *calibration_resolution(const struct case_file *c)
+{
+    const char *model = case_text(c, "impact", "bonding");
+    if (strcmp(model, "strain") == 0) /* eps_c, eps_rate_c: "The strain model at 10 cells per diameter" */
+        return "10 grid cells across the particle's diameter with points a third of a cell apart (1.4/0.467 µm for "
+               "14 µm)";
+    if (strcmp(model, "energy") == 0) /* Gc, Gc_rate: cases/bonding_calibration_al.csv */
+        return "grid cells of 2.0 µm with points 0.667 µm apart";
+    return NULL;
+}
 
 enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };
 static enum verdict verdict(const struct body_row *row, double vrest_threshold)
@@ -530,15 +539,21 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                 "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
                 "(<code>[impact] grid, spacing</code>)",
                 given(case_real(c, "impact", "grid") * 1e6).s, given(spacing * 1e6).s);
+        double grid = case_real(c, "impact", "grid");
         if (r->row_count > 0)
-            fprintf(f, ": %s points across a particle's diameter",
+            fprintf(f, ": %s grid cells and %s points across a particle's diameter",
+                    span(num(t.d_min / grid, 2), num(t.d_max / grid, 2)).s,
                     span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
         if (r->points_max >= r->points_min)
             fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
-        fprintf(f,
-                ". The shipped bonding parameters belong to %s (docs/physics.md, \"Bonding calibration\"): on "
-                "another grid the verdicts are not calibrated.</li>\n",
-                CALIBRATION_RESOLUTION);
+        const char *calibrated = calibration_resolution(c);
+        if (calibrated)
+            fprintf(f,
+                    ". The shipped parameters of the bonding model (<code>[impact] bonding = %s</code>) belong to %s "
+                    "(docs/physics.md, \"Bonding calibration\"): at another resolution the verdicts are not "
+                    "calibrated",
+                    case_text(c, "impact", "bonding"), calibrated);
+        fprintf(f, ".</li>\n");
     }
     fprintf(f, "</ul>\n");
     const struct render_figure *profile = render_output_find(out, "spray_thickness");

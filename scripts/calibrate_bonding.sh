@@ -27,6 +27,7 @@ velocity = $2
 substrate_diameter = $3
 t_end = 100e-9
 snapshot_every = 1
+bonding = energy
 Gc = $gc
 Gc_rate = $rate
 [material.aluminium]

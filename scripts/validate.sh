@@ -51,7 +51,7 @@ impact_default() {
 validate_bonding() {
     gc=$(impact_default Gc)
     rate=$(impact_default Gc_rate)
-    echo "validate: bonding calibration with the shipped defaults Gc = $gc J/m2, Gc_rate = $rate J/m2/s (4 impacts, minutes)"
+    echo "validate: bonding calibration with the energy model's defaults Gc = $gc J/m2, Gc_rate = $rate J/m2/s (4 impacts, minutes)"
     table=$(mktemp)
     "$(dirname "$0")/calibrate_bonding.sh" "$build" "$gc" "$rate" | tee "$table"
     # expected verdicts: diameter,velocity,bonded

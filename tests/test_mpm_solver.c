@@ -400,12 +400,15 @@ static int run_small_impact(int threads, const char *shape_functions, double t_e
 }
 
 /* 1 and 2 threads give the same bits (fixed-order particle-to-grid transfer), with both kinds of shape
- * functions. */
+ * functions.  The energy model's defaults bond points from 2.5 ns on; without bonds (bonding = none or the
+ * strain model's defaults, which bond nothing here in 8 ns) the total energy of this coarse impact runs up to
+ * 0.26 % above its start during contact and ends 0.02 % above it, so the check below holds with the bonds'
+ * dissipation only. */
 static void threads_identical(const char *shape_functions)
 {
     struct impact_fixture one, two;
-    int ok = run_small_impact(1, shape_functions, 8e-9, "", &one) == SC_OK &&
-             run_small_impact(2, shape_functions, 8e-9, "", &two) == SC_OK;
+    int ok = run_small_impact(1, shape_functions, 8e-9, "bonding = energy", &one) == SC_OK &&
+             run_small_impact(2, shape_functions, 8e-9, "bonding = energy", &two) == SC_OK;
     omp_set_num_threads(omp_get_num_procs());
     CHECK(ok, "runs");
     if (ok) {
@@ -439,7 +442,7 @@ static void test_threads_identical_ugimp(void)
  * impact of threads_identical to 4 ns with a small G_c, so that bonds form and act while separating. */
 static void test_threads_identical_once(void)
 {
-    const char *once = "contact_scheme = once\nGc = 20\nGc_rate = 1e12";
+    const char *once = "contact_scheme = once\nbonding = energy\nGc = 20\nGc_rate = 1e12";
     struct impact_fixture one, two;
     int ok = run_small_impact(1, "linear", 4e-9, once, &one) == SC_OK &&
              run_small_impact(2, "linear", 4e-9, once, &two) == SC_OK;

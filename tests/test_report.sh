@@ -101,6 +101,15 @@ if not head:
 for word in ("deposit fraction", "bonded", "pbcp", "v_rest", "thickness", "couple", "grid", "spacing"):
     if word not in head:
         fails.append("the headline does not say '%s'" % word)
+# the resolution the bonding model's shipped parameters belong to, next to the run's (issue 22, item 9)
+import re
+model = re.search(r"bonding = (\w+)", head)
+belongs = {"strain": "10 grid cells across", "energy": "2.0 µm with points 0.667 µm"}
+if not model or model.group(1) not in belongs:
+    fails.append("the headline does not name the bonding model ([impact] bonding = ...)")
+elif belongs[model.group(1)] not in head or "belong to" not in head:
+    fails.append("the headline does not say the %s model's parameters belong to %s" % (model.group(1),
+                 belongs[model.group(1)]))
 if p.rows == 0:
     fails.append("the results table (id=impact-results) has no body rows")
 elif p.rows != bodies:
