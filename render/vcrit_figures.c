@@ -13,12 +13,18 @@
 /* Tang (2021), Table 5.4: predicted critical velocities of Al on Al (grid 1.5/0.5). */
 static const double tang_diameter_um[] = {14, 18, 22, 26, 30};
 static const double tang_vcrit[] = {824, 809, 791, 776, 761};
+/* Hassani-Gangaraj et al. (2018), LIPIT of Al on Al, +-2 % (docs/references.md): measured critical velocities. */
+static const double measured_diameter_um[] = {14, 30};
+static const double measured_vcrit[] = {810, 770};
 
 struct search_runs {
     size_t count, capacity;
     double *d, *v, *cor;    /* um, m/s, - (NaN when the file has no cor) */
     int *verdict;           /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5), 3 held */
     double vrest_threshold; /* [impact] vrest_threshold: a rebounded run slower than it is held */
+    /* error bars of logistic fits: per search, (d, v_crit - se), (d, v_crit + se), (NaN, NaN): a line with gaps */
+    size_t bar_count, bar_capacity;
+    double *bar_x, *bar_y;
 };
 
 #define RUN_REBOUNDED 0
@@ -50,6 +56,33 @@ static int add_run(struct search_runs *r, double d, double v, int verdict, doubl
     return SC_OK;
 }
 
+/* The +-1 standard error bar of a search's logistic v_crit (attributes v_crit, v_crit_se; none for a bisection or
+ * a separable fit, whose se is not finite and positive). */
+static int add_error_bar(struct search_runs *r, hid_t group, double d_um)
+{
+    double v, se;
+    if (H5Aexists(group, "v_crit_se") <= 0 || h5_attr_read_double(group, "v_crit_se", &se) != SC_OK ||
+        h5_attr_read_double(group, "v_crit", &v) != SC_OK || !(se > 0 && isfinite(se) && isfinite(v)))
+        return SC_OK;
+    if (r->bar_count + 3 > r->bar_capacity) {
+        size_t capacity = r->bar_capacity ? 2 * r->bar_capacity : 48;
+        double *x = realloc(r->bar_x, capacity * sizeof *x);
+        if (x)
+            r->bar_x = x;
+        double *y = realloc(r->bar_y, capacity * sizeof *y);
+        if (y)
+            r->bar_y = y;
+        if (!x || !y)
+            SC_FAIL_OOM(2 * capacity * sizeof *x, "the error bars of the critical-velocity figure");
+        r->bar_capacity = capacity;
+    }
+    const double x[3] = {d_um, d_um, NAN}, y[3] = {v - se, v + se, NAN};
+    memcpy(r->bar_x + r->bar_count, x, sizeof x);
+    memcpy(r->bar_y + r->bar_count, y, sizeof y);
+    r->bar_count += 3;
+    return SC_OK;
+}
+
 static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t *info, void *data)
 {
     (void)info;
@@ -63,6 +96,7 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
         return -1;
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &d), done);
+    SC_CHECK(status, add_error_bar(runs, g, d * 1e6), done);
     SC_CHECK(status, render_read_array(g, "vcrit.h5", "velocity", &v), done);
     /* the verdicts with the unsettled runs told apart; files before settled verdicts have only bonded (0/1) */
     SC_CHECK(status, render_read_array(g, "vcrit.h5", h5_exists(g, "verdict") ? "verdict" : "bonded", &verdict), done);
@@ -95,6 +129,20 @@ static int read_search(hid_t file, const char *path, struct search_runs *runs)
     return SC_OK;
 }
 
+/* The top of the v_crit axis: 1.2 times the data's range above it, so that the legend in the top corner (up to 9
+ * rows, about 40 % of the frame's height) covers no point. */
+static double legend_headroom(const struct render_array *v, const struct search_runs *runs)
+{
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < v->count; i++)
+        lo = fmin(lo, v->values[i]), hi = fmax(hi, v->values[i]);
+    for (size_t i = 0; i < runs->count; i++)
+        lo = fmin(lo, runs->v[i]), hi = fmax(hi, runs->v[i]);
+    for (size_t i = 0; i < sizeof tang_vcrit / sizeof tang_vcrit[0]; i++)
+        lo = fmin(lo, tang_vcrit[i]), hi = fmax(hi, tang_vcrit[i]);
+    return hi > lo ? hi + 1.2 * (hi - lo) : NAN;
+}
+
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
                       const struct search_runs *runs, struct render_output *out)
 {
@@ -116,14 +164,18 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
         else
             rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
     }
+    /* the runs first, so that the curve, its error bars and the published points are drawn over them */
     struct render_series series[] = {
-        {"v_crit (this run)", RENDER_LINE, n, d_um, v->values, 0, 0},
-        {NULL, RENDER_MARKERS, n, d_um, v->values, 0, 0},
-        {"Tang (2021) Table 5.4", RENDER_OPEN_MARKERS, 5, tang_diameter_um, tang_vcrit, 0, 1},
         {"runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
         {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
         {"runs: unsettled", RENDER_OPEN_MARKERS, nu, ud, uv, 0, 3},
         {"runs: held (at rest, too little bonded)", RENDER_OPEN_MARKERS, nh, hd, hv, 0, 4},
+        {"v_crit (this run)", RENDER_LINE, n, d_um, v->values, 0, 0},
+        {NULL, RENDER_MARKERS, n, d_um, v->values, 0, 0},
+        {runs->bar_count ? "v_crit ± standard error (logistic fit)" : NULL, RENDER_LINE, runs->bar_count, runs->bar_x,
+         runs->bar_y, 0, 6},
+        {"Tang (2021) Table 5.4", RENDER_OPEN_MARKERS, 5, tang_diameter_um, tang_vcrit, 0, 1},
+        {"measured, Al on Al (Hassani-Gangaraj 2018)", RENDER_MARKERS, 2, measured_diameter_um, measured_vcrit, 0, 5},
     };
     struct render_plot plot = render_plot_start(req->cfg, 1);
     plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter",
@@ -134,8 +186,9 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            NAN,
                                            NAN,
                                            0,
-                                           7,
+                                           9,
                                            series};
+    plot.panels[0].ymax = legend_headroom(v, runs);
     int status;
     SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
 done:
@@ -191,6 +244,6 @@ done:
     if (file >= 0)
         H5Fclose(file);
     render_array_free(&d), render_array_free(&v);
-    free(runs.d), free(runs.v), free(runs.verdict), free(runs.cor);
+    free(runs.d), free(runs.v), free(runs.verdict), free(runs.cor), free(runs.bar_x), free(runs.bar_y);
     return status;
 }
