@@ -187,6 +187,11 @@ int vcrit_runs_parse_list(const struct case_file *c, const char *section, const 
 extern const struct cfg_key calibrate_case_keys[];
 int calibrate_stage_validate(const struct stage_context *ctx);
 int calibrate_stage_run(const struct stage_context *ctx);
+/* [calibrate] method = vcrit (app/calibrate_vcrit.c): the bonding model's first parameter fitted so that the
+ * critical velocities of `spraycoat vcrit` searches meet the measured ones; called by the calibrate stage after
+ * its up-to-date check, with its case hash. */
+int calibrate_vcrit_validate(const struct stage_context *ctx);
+int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash);
 
 /* `spraycoat sweep` ([sweep], app/sweep_stage.c): the spray stage over a grid of two case keys, each run in
  * RUN_DIR/runs/xI_yJ (restartable like `spraycoat spray`; shared among MPI ranks), and RUN_DIR/sweep.h5 with the

@@ -83,6 +83,15 @@ const struct cfg_key calibrate_case_keys[] = {
      "finite solution when the outcomes are separable, as a deterministic grid's often are)"},
     {"calibrate", "outcome", CFG_CHOICE, "", "bonded", 0, 0, 0, "bonded|adhered",
      "each run is classified by this outcome (y = 1) or not; " VCRIT_OUTCOME_DOC},
+    {"calibrate", "method", CFG_CHOICE, "", "boundaries", 0, 0, 0, "boundaries|vcrit",
+     "boundaries: Tang's calibration, the intersection of the sizes' bonding boundaries over the grid of both "
+     "parameters; vcrit: the first parameter (Gc or eps_c, between its _min and _max) at which the critical "
+     "velocities of `spraycoat vcrit` searches of the diameters meet velocities on average, the second kept at its "
+     "[impact] value ([vcrit] keys for the searches; docs/physics.md \"Calibrated on v_crit\")"},
+    {"calibrate", "fit_tolerance", CFG_REAL, "m/s", "5", 0, 1e4, CFG_MIN_EXCLUSIVE, NULL,
+     "method = vcrit: the mean of v_crit - velocity over the sizes accepted as zero"},
+    {"calibrate", "fit_evaluations", CFG_INT, "-", "8", 3, 50, 0, NULL,
+     "method = vcrit: at most this many v_crit searches (the two ends of the range first, then false position)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -693,6 +702,8 @@ static int calibrate_all(struct calibrate *k)
 
 int calibrate_stage_validate(const struct stage_context *ctx)
 {
+    if (case_is(ctx->c, STAGE, "method", "vcrit"))
+        return calibrate_vcrit_validate(ctx);
     struct calibrate k = {.c = ctx->c};
     return load_settings(ctx->c, &k);
 }
@@ -720,6 +731,8 @@ int calibrate_stage_run(const struct stage_context *ctx)
     struct run_settings settings;
     if (stage_begin(STAGE, path, k.case_hash, ctx->c, &settings))
         return SC_OK;
+    if (case_is(ctx->c, STAGE, "method", "vcrit"))
+        return calibrate_vcrit_run(ctx, k.case_hash);
     SC_TRY(load_settings(ctx->c, &k));
     k.runs = (struct vcrit_runs){.run_dir = ctx->run_dir, .name = STAGE, .case_hash = runs_hash(&k)};
     int status;

@@ -244,6 +244,9 @@ static void print_calibrate_results(hid_t file, FILE *out)
         print_attribute(file, names[k], out);
     print_attribute(file, "reference_diameter", out);
     print_attribute(file, "outcome", out); /* what the fit counted: bonded, or adhered (bonded or held) */
+    print_attribute(file, "method", out);  /* vcrit: the first parameter fitted to measured v_crit */
+    print_attribute(file, "fit_tolerance", out);
+    print_attribute(file, "result", out);
 }
 
 /* vcrit.h5 of a search over temperature ([vcrit] temperatures): the temperature of each of the n rows above. */

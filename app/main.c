@@ -29,7 +29,8 @@ static const char usage[] =
     "  spraycoat calibrate CASE.ini [-o RUN_DIR]\n"
     "                                           bonding calibration: logistic boundaries of the bonding\n"
     "                                           model's two parameters from MPM impacts of two sizes\n"
-    "                                           ([calibrate]), then figures\n"
+    "                                           ([calibrate]), or (method = vcrit) the first fitted to\n"
+    "                                           measured critical velocities, then figures\n"
     "  spraycoat render CASE.ini [-o RUN_DIR]   figures (RUN_DIR/figures/) and RUN_DIR/report.html from the\n"
     "                                           outputs RUN_DIR holds ([render])\n"
     "  spraycoat couple CASE.ini [-o RUN_DIR]   sample the spray's impacts, fly them through the gas layer\n"
@@ -91,7 +92,11 @@ static const struct command_help command_helps[] = {
      "rebounded by the impact verdict (unsettled runs are counted and left out), a second-order logistic\n"
      "regression per size (Eqs. 4.10-4.14), the bonding boundaries h = 0.5 and their intersection, the calibrated\n"
      "pair.  Writes RUN_DIR/calibrate.csv, calibrate_outcomes.csv, calibrate.h5, then the figures and report of\n"
-     "the render stage.  Runs are shared among MPI ranks; `spraycoat resume RUN_DIR` reuses finished runs.\n"},
+     "the render stage.  Runs are shared among MPI ranks; `spraycoat resume RUN_DIR` reuses finished runs.\n"
+     "With [calibrate] method = vcrit instead: the model's first parameter such that the critical velocities of\n"
+     "`spraycoat vcrit` searches of the diameters ([vcrit] keys, one run directory RUN_DIR/vcrit_NN per search)\n"
+     "meet [calibrate] velocities on average within fit_tolerance (false position from the parameter's _min and\n"
+     "_max); writes RUN_DIR/calibrate.csv, calibrate_vcrit.csv and calibrate.h5.\n"},
     {"render", "spraycoat render CASE.ini [-o RUN_DIR] [--every N]",
      "Figures (RUN_DIR/figures/) and RUN_DIR/report.html from the outputs RUN_DIR holds ([render]).\n"
      "--every N (overrides [render] every): films as PNG frames of every Nth snapshot and the last, the plume\n"

@@ -193,6 +193,8 @@ static const char *const pipeline_impact_sections[] = {"run",    "spray",      "
 static const char *const impact_sections[] = {"run", "impact", "material.*", NULL};
 static const char *const vcrit_sections[] = {"run", "impact", "material.*", "vcrit", NULL};
 static const char *const calibrate_sections[] = {"run", "impact", "material.*", "calibrate", NULL};
+/* [calibrate] method = vcrit: its searches are of [vcrit] too */
+static const char *const calibrate_vcrit_sections[] = {"run", "impact", "material.*", "calibrate", "vcrit", NULL};
 
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
 {
@@ -214,7 +216,8 @@ uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
     if (strcmp(stage, "vcrit") == 0)
         return case_hash_sections(c, vcrit_sections);
     if (strcmp(stage, "calibrate") == 0)
-        return case_hash_sections(c, calibrate_sections);
+        return case_hash_sections(c, case_is(c, "calibrate", "method", "vcrit") ? calibrate_vcrit_sections
+                                                                                : calibrate_sections);
     if (strcmp(stage, "sweep") == 0) { /* the spray's keys and [sweep]: follows spray_sections as it grows */
         static const char *const sweep_only[] = {"sweep", NULL};
         return case_hash_sections(c, spray_sections) * 1099511628211ULL ^ case_hash_sections(c, sweep_only);

@@ -215,10 +215,84 @@ static int boundaries_plot(const struct render_request *req, const struct calibr
     return render_plot_publish(req->run_dir, out, "calibrate", "calibrate", plot.panels[0].title, &plot);
 }
 
+/* [calibrate] method = vcrit (app/calibrate_vcrit.c): each size's v_crit against the fitted parameter, one marker
+ * per search, with its measured target as a line across, and the calibrated value as a line up. */
+#define FIT_SIZES 8
+static int vcrit_fit_plot(const struct render_request *req, hid_t file, const char *path, struct render_output *out)
+{
+    struct render_array d, target, p, v;
+    memset(&d, 0, sizeof d), memset(&target, 0, sizeof target), memset(&p, 0, sizeof p), memset(&v, 0, sizeof v);
+    char name[32] = "parameter", label[96];
+    double calibrated = NAN;
+    int status;
+    hid_t g = H5Gopen2(file, "vcrit_fit", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "render: %s has no group vcrit_fit (not a complete spraycoat output?)", path);
+    SC_CHECK(status, render_read_array(g, path, "diameter", &d), done);
+    SC_CHECK(status, render_read_array(g, path, "target", &target), done);
+    SC_CHECK(status, render_read_array(g, path, "parameter", &p), done);
+    SC_CHECK(status, render_read_array(g, path, "v_crit", &v), done);
+    h5_attr_read_string(g, "parameter_name", name, sizeof name);
+    h5_attr_read_double(file, name, &calibrated);
+    size_t n = d.count < FIT_SIZES ? d.count : FIT_SIZES, m = p.count;
+    if (v.count != n * m || target.count != d.count)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: /vcrit_fit sizes do not agree", path);
+    double vs[FIT_SIZES][64], lx[FIT_SIZES][2], ly[FIT_SIZES][2], px[2] = {calibrated, calibrated}, py[2];
+    char labels[FIT_SIZES][48];
+    struct render_series series[2 * FIT_SIZES + 1];
+    double lo = INFINITY, hi = -INFINITY, pmin = INFINITY, pmax = -INFINITY;
+    for (size_t k = 0; k < m; k++)
+        pmin = fmin(pmin, p.values[k]), pmax = fmax(pmax, p.values[k]);
+    size_t shown = m < 64 ? m : 64;
+    for (size_t i = 0; i < n; i++) {
+        for (size_t k = 0; k < shown; k++)
+            vs[i][k] = v.values[k * d.count + i], lo = fmin(lo, vs[i][k]), hi = fmax(hi, vs[i][k]);
+        lx[i][0] = pmin, lx[i][1] = pmax, ly[i][0] = ly[i][1] = target.values[i];
+        lo = fmin(lo, target.values[i]), hi = fmax(hi, target.values[i]);
+        snprintf(labels[i], sizeof labels[i], "%.3g µm (dashed: measured)", d.values[i] * 1e6);
+        series[2 * i] = (struct render_series){labels[i], RENDER_MARKERS, shown, p.values, vs[i], 0, (int)i % 8};
+        series[2 * i + 1] = (struct render_series){NULL, RENDER_DASHED, 2, lx[i], ly[i], 0, (int)i % 8};
+    }
+    py[0] = lo, py[1] = hi;
+    series[2 * n] = (struct render_series){
+        isfinite(calibrated) ? "calibrated" : NULL, RENDER_LINE, isfinite(calibrated) ? 2u : 0u, px, py, 0, 6};
+    snprintf(label, sizeof label, "%s ([impact] bonding parameter)", name);
+    struct render_plot plot = render_plot_start(req->cfg, 1);
+    plot.panels[0] = (struct render_panel){"Critical velocity of each search vs the fitted parameter",
+                                           label,
+                                           "critical velocity v_crit (m/s)",
+                                           NAN,
+                                           NAN,
+                                           NAN,
+                                           hi + (hi - lo),
+                                           0,
+                                           2 * (int)n + 1,
+                                           series};
+    SC_CHECK(status,
+             render_plot_publish(req->run_dir, out, "calibrate_vcrit", "calibrate", plot.panels[0].title, &plot), done);
+done:
+    H5Gclose(g);
+    render_array_free(&d), render_array_free(&target), render_array_free(&p), render_array_free(&v);
+    return status;
+}
+
 int render_calibrate_figures(const struct render_request *req, struct render_output *out)
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/calibrate.h5", req->run_dir);
+    char method[32] = "boundaries";
+    hid_t file;
+    SC_TRY(render_open(path, &file));
+    if (H5Aexists(file, "method") > 0)
+        h5_attr_read_string(file, "method", method, sizeof method);
+    if (strcmp(method, "vcrit") == 0) {
+        int fit_status = vcrit_fit_plot(req, file, path, out);
+        H5Fclose(file);
+        if (fit_status == SC_OK)
+            log_info("render: calibration figure from %s", path);
+        return fit_status;
+    }
+    H5Fclose(file);
     struct calibrate_data c;
     memset(&c, 0, sizeof c);
     int status;

@@ -22,7 +22,11 @@
 #   5. v_crit(d) from 10 to 45 um with the shipped calibration and CoR(v) below it (cases/vcrit_al.ini, part
 #      vcrit_al): copies the results to cases/vcrit_al.csv, cases/vcrit_al_cor.csv and the figures to
 #      cases/vcrit_al.png and cases/vcrit_al_cor.png (tests/test_vcrit_al.sh checks the tables).
-# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|vcrit_al runs one of them.
+#   6. The strain model's eps_c fitted to the measured v_crit of 14 and 30 um at 10 cells per diameter (`spraycoat
+#      calibrate cases/calibrate_vcrit_al.ini`, method = vcrit; part calibrate_vcrit, into
+#      runs/validate_calibrate_vcrit): fails without a calibrated value or when the keys' default eps_c differs from
+#      it by more than the fit's tolerance resolves.
+# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit|vcrit_al runs one of them.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -199,20 +203,50 @@ validate_vcrit_al() {
     fi
 }
 
+# The strain model's eps_c fitted to the measured v_crit of 14 and 30 um at 10 cells per diameter (`spraycoat
+# calibrate` with method = vcrit): a calibrated value, and the keys' default within what the fit's tolerance
+# resolves in eps_c (fit_tolerance over the slope of the mean residual between the range's two ends).
+validate_calibrate_vcrit() {
+    run=runs/validate_calibrate_vcrit
+    mkdir -p runs
+    echo "validate: eps_c fitted to the measured v_crit (cases/calibrate_vcrit_al.ini) into $run (an hour or two)"
+    if ! "$bin" calibrate cases/calibrate_vcrit_al.ini -o "$run"; then
+        fail_part "spraycoat calibrate cases/calibrate_vcrit_al.ini"
+        return 0
+    fi
+    cat "$run/calibrate_vcrit.csv" "$run/calibrate.csv"
+    calibrated=$(awk -F, 'NR == 2 && $3 == 1 { print $1 }' "$run/calibrate.csv")
+    if [ -z "$calibrated" ]; then
+        fail_part "no calibrated eps_c: $(tail -n 1 "$run/calibrate.csv")"
+        return 0
+    fi
+    default=$(impact_default eps_c)
+    tolerance=$(sed -n 's/^fit_tolerance *= *//p' cases/calibrate_vcrit_al.ini)
+    if awk -F, -v c="$calibrated" -v d="$default" -v tol="$tolerance" '
+        $1 == 1 { p1 = $2; r1 = $7 } $1 == 2 { p2 = $2; r2 = $7 }
+        END { width = tol * (p2 - p1) / (r2 - r1); printf "validate: the slope gives %.4g of eps_c for %g m/s\n", width, tol
+              exit !(width > 0 && (c - d) ^ 2 <= width ^ 2) }' "$run/calibrate_vcrit.csv"; then
+        echo "validate: calibrated eps_c = $calibrated, the keys' default $default agrees within the tolerance"
+    else
+        fail_part "calibrated eps_c = $calibrated: the keys' default $default differs by more than the tolerance resolves"
+    fi
+}
+
 case $only in
     all)
         validate_table1; validate_bonding; validate_fuzz
         for r in coarse medium fine; do validate_calibrate $r; validate_vcrit $r; done
-        validate_vcrit_al ;;
+        validate_calibrate_vcrit; validate_vcrit_al ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
     calibrate_coarse | calibrate_medium | calibrate_fine) validate_calibrate "${only#calibrate_}" ;;
     vcrit_coarse | vcrit_medium | vcrit_fine) validate_vcrit "${only#vcrit_}" ;;
     vcrit_al) validate_vcrit_al ;;
+    calibrate_vcrit) validate_calibrate_vcrit ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
-            "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine or vcrit_al, not '$only'" >&2
+            "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit or vcrit_al, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then

@@ -6,6 +6,7 @@
 #   a vcrit search with method = logistic (the two diameters shared out, the bisections, sweeps and fits
 #   replayed by rank 0),
 #   a bonding calibration (the runs shared out, the fit by rank 0, the ranks' records kept: 8 runs together),
+#   a calibration on v_crit (method = vcrit: each search's runs shared out, every rank follows the iteration),
 #   a sweep (the spray runs shared out, the map by rank 0).
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -155,6 +156,36 @@ if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && cmp -s "$T/calibrate_one/calibrate.cs
 else
     fail mpi_calibrate_same_as_one_process "exit $one / $two; $(diff "$T/calibrate_one/calibrate_outcomes.csv" \
         "$T/calibrate_two/calibrate_outcomes.csv" | head -n 4 | tr '\n' ' ')"
+fi
+
+# ---- a calibration on v_crit (each search's runs shared out, every rank follows the iteration) -------------------
+sed -e '/^\[vcrit\]/,$d' "$T/vcrit.ini" >"$T/calibrate_vcrit.ini"
+cat >>"$T/calibrate_vcrit.ini" <<EOF
+[vcrit]
+v_low = 200
+v_high = 1200
+tolerance = 50
+
+[calibrate]
+method = vcrit
+diameters = 10e-6,8e-6
+velocities = 850,800
+Gc_min = 300
+Gc_max = 1500
+fit_tolerance = 25
+EOF
+"$BIN" calibrate "$T/calibrate_vcrit.ini" -o "$T/calibrate_vcrit_one" >"$T/calibrate_vcrit_one.log" 2>&1
+one=$?
+$MPIRUN "$MPI_BIN" calibrate "$T/calibrate_vcrit.ini" -o "$T/calibrate_vcrit_two" >"$T/calibrate_vcrit_two.log" 2>&1
+two=$?
+if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && grep -q ',1$' "$T/calibrate_vcrit_one/calibrate.csv" &&
+    cmp -s "$T/calibrate_vcrit_one/calibrate.csv" "$T/calibrate_vcrit_two/calibrate.csv" &&
+    cmp -s "$T/calibrate_vcrit_one/calibrate_vcrit.csv" "$T/calibrate_vcrit_two/calibrate_vcrit.csv" &&
+    grep -q '\[rank 1\] info: vcrit' "$T/calibrate_vcrit_two.log"; then
+    pass mpi_calibrate_vcrit_same_as_one_process
+else
+    fail mpi_calibrate_vcrit_same_as_one_process "exit $one / $two; $(diff "$T/calibrate_vcrit_one/calibrate_vcrit.csv" \
+        "$T/calibrate_vcrit_two/calibrate_vcrit.csv" 2>&1 | head -n 4 | tr '\n' ' ') $(tail -n 2 "$T/calibrate_vcrit_two.log")"
 fi
 
 # ---- a sweep (its four spray runs shared out, the map by rank 0) ----------------------------------------------

@@ -29,6 +29,7 @@ core_prefixes() {
         memory) echo "memory_" ;;
         parallel) echo "parallel_" ;;
         rng) echo "rng_" ;;
+        root) echo "root_" ;;
         run_keys) echo "run_" ;;
         units) echo "units_" ;;
         version) echo "spraycoat_version spraycoat_build_info" ;;
@@ -47,6 +48,7 @@ app_prefixes() {
         couple_stage) echo "couple_stage_ couple_stage_read_bodies couple_stage_bodies_free" ;;
         vcrit_stage) echo "vcrit_stage_ vcrit_case_keys vcrit_runs_ vcrit_verdict_name" ;;
         calibrate_stage) echo "calibrate_stage_ calibrate_case_keys" ;;
+        calibrate_vcrit) echo "calibrate_vcrit_" ;;
         sweep_stage) echo "sweep_stage_ sweep_case_keys" ;;
         *_stage) echo "$1_" ;;
         *) echo "" ;;

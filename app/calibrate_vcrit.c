@@ -1,0 +1,308 @@
+/* `spraycoat calibrate` with [calibrate] method = vcrit: the bonding model's first parameter (energy: Gc, strain:
+ * eps_c) such that the critical velocities `spraycoat vcrit` predicts meet measured ones (docs/physics.md,
+ * "Calibrated on v_crit").
+ *
+ * Tang's calibration (the other method, app/calibrate_stage.c) asks that two sizes just bond at their measured
+ * critical velocities at one pair of parameters; with the current contact rules no such pair exists, while v_crit of
+ * both sizes moves with the first parameter at one rate and keeps the measured difference.  So here the second
+ * parameter stays at its [impact] value and the first p is chosen so that the mean of v_crit(d_i; p) - target_i over
+ * the sizes is zero: the least-squares p when every size's v_crit moves with p at the same rate.  Each value of p is
+ * a whole `spraycoat vcrit` search of the [calibrate] diameters (the [vcrit] keys for everything else; a search by
+ * logistic regression is the one whose v_crit is not decided by a single noisy run) in RUN_DIR/vcrit_NN, and p
+ * follows the Illinois false position (core/root.h) from the two ends [calibrate] <p>_min and <p>_max until the
+ * mean residual is within fit_tolerance or fit_evaluations searches are spent.  Every search is restartable and
+ * shared among MPI ranks as `spraycoat vcrit` is; after an interruption the iteration replays from their outputs.
+ * Writes RUN_DIR/calibrate_vcrit.csv (each search's v_crit), calibrate.csv and calibrate.h5 (docs/files.md). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/atomic.h"
+#include "core/error.h"
+#include "core/h5io.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/root.h"
+#include "core/run_keys.h"
+#include "app/app.h"
+
+#define STAGE            "calibrate"
+#define FORMAT           "spraycoat-calibrate"
+#define FORMAT_VERSION   1
+#define MAX_SIZES        8
+#define MAX_EVALUATIONS  50
+#define VCRIT_DIR_FORMAT "%s/vcrit_%02d"
+
+struct vcrit_fit {
+    const struct stage_context *ctx;
+    uint64_t case_hash;
+    const char *name[2], *unit[2]; /* the model's two parameters: the fitted one, the one kept */
+    double kept;                   /* the second parameter's [impact] value */
+    double lo, hi, tolerance;      /* the first parameter's range, the mean residual accepted (m/s) */
+    int size_count, max_evaluations;
+    double diameter[MAX_SIZES], target[MAX_SIZES];
+    int count; /* searches done */
+    double p[MAX_EVALUATIONS], v[MAX_EVALUATIONS][MAX_SIZES], residual[MAX_EVALUATIONS];
+    double calibrated; /* NaN unless a search met the tolerance */
+    char note[240];    /* why there is no calibrated value */
+};
+
+static int load(const struct stage_context *ctx, struct vcrit_fit *f)
+{
+    const struct case_file *c = ctx->c;
+    int strain = case_is(c, "impact", "bonding", "strain");
+    if (case_is(c, "impact", "bonding", "none"))
+        return case_invalid(c, "impact", "bonding", "is none: calibrate fits a bonding model; allowed: energy, strain");
+    f->name[0] = strain ? "eps_c" : "Gc", f->name[1] = strain ? "eps_rate_c" : "Gc_rate";
+    f->unit[0] = strain ? "-" : "J/m2", f->unit[1] = strain ? "1/s" : "J/m2/s";
+    f->kept = case_real(c, "impact", f->name[1]);
+    char key_min[32], key_max[32];
+    snprintf(key_min, sizeof key_min, "%s_min", f->name[0]);
+    snprintf(key_max, sizeof key_max, "%s_max", f->name[0]);
+    f->lo = case_real(c, STAGE, key_min), f->hi = case_real(c, STAGE, key_max);
+    if (!(f->hi > f->lo))
+        return case_invalid(c, STAGE, key_max, "%g is not above %s = %g: method = vcrit searches between the two",
+                            f->hi, key_min, f->lo);
+    f->tolerance = case_real(c, STAGE, "fit_tolerance");
+    f->max_evaluations = (int)case_int(c, STAGE, "fit_evaluations");
+    int targets;
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, f->diameter, MAX_SIZES, &f->size_count));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, f->target, MAX_SIZES, &targets));
+    if (f->size_count == 0)
+        return case_invalid(c, STAGE, "diameters", "no diameter given");
+    if (targets != f->size_count)
+        return case_invalid(c, STAGE, "velocities",
+                            "%d speeds for %d diameters; allowed: one measured critical velocity per diameter", targets,
+                            f->size_count);
+    if (case_is_given(c, "vcrit", "temperatures"))
+        return case_invalid(c, "vcrit", "temperatures",
+                            "is given: method = vcrit fits v_crit(d) at the material's T_initial; remove it");
+    if (case_is_given(c, "vcrit", "diameters"))
+        return case_invalid(c, "vcrit", "diameters",
+                            "is given: with [calibrate] method = vcrit the searches are of [calibrate] diameters; "
+                            "remove it");
+    return SC_OK;
+}
+
+/* The case of the search at p: the case file with [impact] <name> = p, [vcrit] diameters = [calibrate]'s and the
+ * command line's thread count. */
+static int search_case(const struct vcrit_fit *f, double p, struct case_file **out)
+{
+    const struct case_file *c = f->ctx->c;
+    struct case_file *run;
+    SC_TRY(case_load(case_file_path(c), spraycoat_registry, &run));
+    char value[64], threads[32];
+    snprintf(value, sizeof value, "%.17g", p);
+    snprintf(threads, sizeof threads, "%ld", case_int(c, "run", "threads"));
+    int status = case_set(run, "impact", f->name[0], value, "[calibrate] method = vcrit");
+    if (status == SC_OK)
+        status = case_set(run, "vcrit", "diameters", case_text(c, STAGE, "diameters"), "[calibrate] diameters");
+    if (status == SC_OK)
+        status = case_set(run, "run", "threads", threads, "command line --threads");
+    if (status != SC_OK) {
+        case_free(run);
+        SC_TRY(status);
+    }
+    *out = run;
+    return SC_OK;
+}
+
+/* v_crit of every size from DIR/vcrit.h5, matched by diameter. */
+static int read_search(const struct vcrit_fit *f, const char *dir, double p, double *v)
+{
+    char path[4300];
+    snprintf(path, sizeof path, "%s/vcrit.h5", dir);
+    hid_t file;
+    SC_TRY(h5_open_read(path, &file));
+    size_t n = 0;
+    double d[MAX_SIZES], vc[MAX_SIZES];
+    int status;
+    SC_CHECK(status, h5_dataset_size(file, "diameter", &n), done);
+    if (n != (size_t)f->size_count)
+        SC_FAIL_AT(status, done, SC_EIO, "calibrate: %s has %zu diameters, the calibration %d", path, n,
+                   f->size_count);
+    SC_CHECK(status, h5_read_doubles(file, "diameter", d, n), done);
+    SC_CHECK(status, h5_read_doubles(file, "v_crit", vc, n), done);
+    for (int i = 0; i < f->size_count; i++) {
+        v[i] = NAN;
+        for (size_t j = 0; j < n; j++)
+            if (fabs(d[j] - f->diameter[i]) <= 1e-12 * f->diameter[i])
+                v[i] = vc[j];
+        if (!isfinite(v[i]))
+            SC_FAIL_AT(status, done, SC_ESIM,
+                       "calibrate: at %s = %.6g the critical velocity of d = %g m was not found in [vcrit] v_low to "
+                       "v_high (%s/vcrit.csv says why): widen that range",
+                       f->name[0], p, f->diameter[i], dir);
+    }
+done:
+    H5Fclose(file);
+    return status;
+}
+
+/* Search k at p (or its output, when an earlier process finished it): the sizes' v_crit and the mean residual. */
+static int evaluate(struct vcrit_fit *f, double p)
+{
+    int k = f->count;
+    if (k >= MAX_EVALUATIONS)
+        SC_FAIL(SC_ESIM, "calibrate: more than %d searches", MAX_EVALUATIONS);
+    char dir[4200];
+    snprintf(dir, sizeof dir, VCRIT_DIR_FORMAT, f->ctx->run_dir, k % 100 + 1);
+    struct case_file *run;
+    SC_TRY(search_case(f, p, &run));
+    const struct stage_context ctx = {.c = run, .run_dir = dir};
+    if (parallel_rank() == 0)
+        log_info("calibrate: search %d of at most %d, %s = %.6g %s, in %s", k + 1, f->max_evaluations, f->name[0], p,
+                 f->unit[0], dir);
+    int status = parallel_rank() == 0 ? run_dir_prepare(dir, run) : SC_OK;
+    if (status == SC_OK && parallel_rank() == 0)
+        status = run_dir_write_stages(dir, "vcrit");
+    status = parallel_share_status(status);
+    if (status == SC_OK)
+        status = vcrit_stage_validate(&ctx);
+    if (status == SC_OK)
+        status = vcrit_stage_run(&ctx);
+    case_free(run);
+    SC_TRY(parallel_share_status(status));
+    parallel_barrier(); /* rank 0 wrote vcrit.h5 */
+    SC_TRY(read_search(f, dir, p, f->v[k]));
+    double sum = 0;
+    for (int i = 0; i < f->size_count; i++)
+        sum += f->v[k][i] - f->target[i];
+    f->p[k] = p, f->residual[k] = sum / f->size_count, f->count++;
+    if (parallel_rank() == 0)
+        log_info("calibrate: %s = %.6g: mean v_crit - target %+.3g m/s (tolerance %g)", f->name[0], p,
+                 f->residual[k], f->tolerance);
+    return SC_OK;
+}
+
+static int within(const struct vcrit_fit *f, int k)
+{
+    return fabs(f->residual[k]) <= f->tolerance;
+}
+
+/* The iteration: the two ends, then false position until a mean residual is within the tolerance. */
+static int fit(struct vcrit_fit *f)
+{
+    f->calibrated = NAN;
+    SC_TRY(evaluate(f, f->lo));
+    SC_TRY(evaluate(f, f->hi));
+    for (int k = 0; k < 2; k++)
+        if (within(f, k)) {
+            f->calibrated = f->p[k];
+            return SC_OK;
+        }
+    if (f->residual[0] * f->residual[1] > 0) {
+        snprintf(f->note, sizeof f->note,
+                 "the mean residual has one sign over %s %g to %g (%+.3g and %+.3g m/s): widen the range", f->name[0],
+                 f->lo, f->hi, f->residual[0], f->residual[1]);
+        return SC_OK;
+    }
+    struct root_bracket b;
+    SC_TRY(root_bracket_start(&b, f->lo, f->residual[0], f->hi, f->residual[1]));
+    while (f->count < f->max_evaluations) {
+        SC_TRY(evaluate(f, root_bracket_next(&b)));
+        int k = f->count - 1;
+        if (within(f, k)) {
+            f->calibrated = f->p[k];
+            return SC_OK;
+        }
+        root_bracket_update(&b, f->p[k], f->residual[k]);
+    }
+    snprintf(f->note, sizeof f->note,
+             "no search of %d met the tolerance %g m/s; the root lies in %s %.6g to %.6g (raise fit_evaluations or "
+             "fit_tolerance)",
+             f->count, f->tolerance, f->name[0], b.lo, b.hi);
+    return SC_OK;
+}
+
+/* calibrate_vcrit.csv: every search's v_crit per size; calibrate.csv: the calibrated pair (the format of the
+ * other method's). */
+static int write_csvs(const struct vcrit_fit *f)
+{
+    char path[4200];
+    struct atomic_file out;
+    snprintf(path, sizeof path, "%s/calibrate_vcrit.csv", f->ctx->run_dir);
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "search,%s,%s,diameter,v_crit,target,mean_residual\n", f->name[0], f->name[1]);
+    for (int k = 0; k < f->count; k++)
+        for (int i = 0; i < f->size_count; i++)
+            fprintf(out.stream, "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", k + 1, f->p[k], f->kept, f->diameter[i],
+                    f->v[k][i], f->target[i], f->residual[k]);
+    SC_TRY(atomic_publish(&out));
+    snprintf(path, sizeof path, "%s/calibrate.csv", f->ctx->run_dir);
+    SC_TRY(atomic_open(path, &out));
+    fprintf(out.stream, "%s,%s,calibrated\n", f->name[0], f->name[1]);
+    if (isfinite(f->calibrated))
+        fprintf(out.stream, "%.17g,%.17g,1\n", f->calibrated, f->kept);
+    else
+        fprintf(out.stream, "# no calibrated value: %s\n", f->note);
+    return atomic_publish(&out);
+}
+
+/* calibrate.h5 (docs/files.md): method "vcrit", the pair, the range and /vcrit_fit with every search. */
+static int output_contents(void *owner, hid_t file)
+{
+    const struct vcrit_fit *f = owner;
+    char key[40];
+    SC_TRY(h5_attr_write_string(file, "method", "vcrit"));
+    SC_TRY(h5_attr_write_string(file, "bonding", strcmp(f->name[0], "eps_c") == 0 ? "strain" : "energy"));
+    SC_TRY(h5_attr_write_double(file, f->name[0], f->calibrated));
+    SC_TRY(h5_attr_write_double(file, f->name[1], f->kept));
+    snprintf(key, sizeof key, "%s_min", f->name[0]);
+    SC_TRY(h5_attr_write_double(file, key, f->lo));
+    snprintf(key, sizeof key, "%s_max", f->name[0]);
+    SC_TRY(h5_attr_write_double(file, key, f->hi));
+    SC_TRY(h5_attr_write_double(file, "fit_tolerance", f->tolerance));
+    SC_TRY(h5_attr_write_string(file, "result", isfinite(f->calibrated) ? "calibrated" : f->note));
+    hid_t group;
+    SC_TRY(h5_create_group(file, "vcrit_fit", &group));
+    double v[MAX_EVALUATIONS * MAX_SIZES];
+    for (int k = 0; k < f->count; k++)
+        for (int i = 0; i < f->size_count; i++)
+            v[k * f->size_count + i] = f->v[k][i];
+    hsize_t sizes[1] = {(hsize_t)f->size_count}, searches[1] = {(hsize_t)f->count},
+            both[2] = {(hsize_t)f->count, (hsize_t)f->size_count};
+    int status;
+    SC_CHECK(status, h5_write_doubles(group, "diameter", 1, sizes, f->diameter, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "target", 1, sizes, f->target, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "parameter", 1, searches, f->p, f->unit[0], 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "mean_residual", 1, searches, f->residual, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "v_crit", 2, both, v, "m/s", 0), done);
+    SC_CHECK(status, h5_attr_write_string(group, "parameter_name", f->name[0]), done);
+done:
+    H5Gclose(group);
+    return status;
+}
+
+int calibrate_vcrit_validate(const struct stage_context *ctx)
+{
+    struct vcrit_fit f = {.ctx = ctx};
+    SC_TRY(load(ctx, &f));
+    struct case_file *run;
+    SC_TRY(search_case(&f, f.lo, &run)); /* the searches' [vcrit] and [impact] */
+    const struct stage_context search = {.c = run};
+    int status = vcrit_stage_validate(&search);
+    case_free(run);
+    return status;
+}
+
+int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash)
+{
+    struct vcrit_fit f = {.ctx = ctx, .case_hash = case_hash};
+    SC_TRY(load(ctx, &f));
+    double start = log_elapsed();
+    SC_TRY(fit(&f));
+    if (parallel_rank() != 0)
+        return SC_OK;
+    SC_TRY(write_csvs(&f));
+    char path[4200];
+    snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
+    SC_TRY(stage_write_output(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, &f));
+    if (isfinite(f.calibrated))
+        log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s kept) after %d searches, %.1f s", f.name[0],
+                 f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.count, log_elapsed() - start);
+    else
+        log_warn("calibrate: no calibrated %s: %s", f.name[0], f.note);
+    return SC_OK;
+}

@@ -1,0 +1,156 @@
+#!/bin/sh
+# `spraycoat calibrate` with [calibrate] method = vcrit (app/calibrate_vcrit.c) on a tiny case (8 and 10 um on a
+# 2 um grid, 10 ns per run, v_crit to 25 m/s: about 3 s a search here):
+#   1. the energy model's Gc between 300 and 1500 J/m2 so that v_crit of 10 and 8 um meets 850 and 800 m/s on
+#      average within 15 m/s: calibrate.csv has the calibrated Gc inside the range with Gc_rate kept,
+#      calibrate_vcrit.csv every search (the ends first, its last search the calibrated Gc with |mean residual|
+#      <= 15), calibrate.h5 says method vcrit and the figure exists; and an independent `spraycoat vcrit` of the
+#      case with that Gc written into [impact] gives v_crit whose mean residual (computed here) is within 15 m/s;
+#   2. with its outputs removed, the calibration runs again from the searches' outputs: the same calibrate.csv and
+#      no impact run;
+#   3. a range whose ends give residuals of one sign gives no calibrated value and says so (exit 0);
+#   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key).
+# Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
+set -u
+
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+case $BIN in
+/*) ;;
+*/*) BIN=$(pwd)/$BIN ;;
+esac
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1 ($2)"; }
+if [ ! -x "$BIN" ] || ! command -v h5dump >/dev/null 2>&1; then
+    echo "FAIL calibrate_vcrit (no $BIN or h5dump; run from the repository root after make)"
+    exit 1
+fi
+T=$(mktemp -d) || exit 1
+trap 'rm -rf "$T"' EXIT
+trap 'exit 1' HUP INT TERM
+
+TOL=15
+impact_section() { # impact_section [EXTRA LINE]
+    cat <<EOF
+[run]
+threads = 1
+
+[impact]
+grid = 2e-6
+spacing = 1e-6
+substrate_diameter = 20e-6
+substrate_height = 6e-6
+t_end = 10e-9
+bonding = energy
+$1
+; verdicts settle within 10 ns (as tests/test_vcrit.sh's tiny case): far too coarse for physics, quick
+settle_window = 2e-9
+settle_vcom = 1e4
+settle_pbcp = 1
+vrest_filter = 1e4
+
+[material.aluminium]
+
+[vcrit]
+v_low = 200
+v_high = 1200
+tolerance = 25
+EOF
+}
+write_case() { # write_case FILE GC_MIN GC_MAX
+    {
+        impact_section ""
+        cat <<EOF
+
+[calibrate]
+method = vcrit
+diameters = 10e-6,8e-6
+velocities = 850,800
+Gc_min = $2
+Gc_max = $3
+fit_tolerance = $TOL
+EOF
+    } >"$1"
+}
+
+# ---- 1. the calibration and an independent check of its value ----------------------------------------------------
+write_case "$T/cal.ini" 300 1500
+RUN=$T/cal
+if ! "$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/cal.log" 2>&1; then
+    fail calibrate_vcrit_fit "exit status $?: $(tail -n 3 "$T/cal.log")"
+    exit 0
+fi
+gc=$(awk -F, 'NR == 2 && $3 == 1 { print $1 }' "$RUN/calibrate.csv")
+why=""
+[ "$(head -n 1 "$RUN/calibrate.csv")" = "Gc,Gc_rate,calibrated" ] || why="$why calibrate.csv header;"
+[ -n "$gc" ] || why="$why no calibrated row in calibrate.csv: $(tail -n 1 "$RUN/calibrate.csv");"
+if [ -n "$gc" ]; then
+    awk -v g="$gc" 'BEGIN { exit !(g > 300 && g < 1500) }' || why="$why Gc $gc outside 300-1500;"
+    awk -F, 'NR == 2 { exit !($2 == 2e11) }' "$RUN/calibrate.csv" || why="$why Gc_rate not kept at 2e11;"
+    # the searches: the ends first; the last one at the calibrated Gc, within the tolerance
+    awk -F, -v g="$gc" -v tol="$TOL" '
+        NR == 1 { next }
+        $1 == 1 && $2 != 300 { print "search 1 not at Gc_min"; bad = 1 }
+        $1 == 2 && $2 != 1500 { print "search 2 not at Gc_max"; bad = 1 }
+        { last = $1; p[$1] = $2; r[$1] = $7 }
+        END {
+            if (p[last] != g) print "the last search at Gc " p[last] ", calibrated " g
+            if (r[last] > tol || r[last] < -tol) print "the last search misses by " r[last] " m/s"
+        }' "$RUN/calibrate_vcrit.csv" >"$T/searches"
+    [ -s "$T/searches" ] && why="$why $(tr '\n' ';' <"$T/searches")"
+fi
+h5dump -a /method "$RUN/calibrate.h5" 2>/dev/null | grep -q '"vcrit"' || why="$why calibrate.h5 has no method vcrit;"
+[ -s "$RUN/figures/calibrate_vcrit.png" ] || why="$why no figures/calibrate_vcrit.png;"
+if [ -z "$why" ]; then pass calibrate_vcrit_fit; else fail calibrate_vcrit_fit "$why"; fi
+
+if [ -n "$gc" ]; then
+    # the calibrated Gc in a plain v_crit search of the two sizes, and the mean residual computed here
+    {
+        impact_section "Gc = $gc"
+        echo "diameters = 10e-6,8e-6"
+    } >"$T/check.ini"
+    if "$BIN" vcrit "$T/check.ini" -o "$T/check" >"$T/check.log" 2>&1; then
+        residual=$(awk -F, 'NR > 1 && !/^#/ { t = ($1 + 0 == 1e-5) ? 850 : 800; s += $2 - t; n++ }
+                            END { if (n == 2) printf "%.6g", s / n }' "$T/check/vcrit.csv")
+        if [ -n "$residual" ] && awk -v r="$residual" -v tol="$TOL" 'BEGIN { exit !(r <= tol && r >= -tol) }'; then
+            pass calibrate_vcrit_meets_targets
+        else
+            fail calibrate_vcrit_meets_targets "v_crit with Gc $gc misses the targets by '$residual' m/s on average"
+        fi
+    else
+        fail calibrate_vcrit_meets_targets "the check search failed: $(tail -n 2 "$T/check.log")"
+    fi
+fi
+
+# ---- 2. replayed from the searches' outputs ------------------------------------------------------------------------
+cp "$RUN/calibrate.csv" "$T/first.csv"
+rm -f "$RUN/calibrate.csv" "$RUN/calibrate.h5" "$RUN/calibrate_vcrit.csv"
+if "$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/again.log" 2>&1 && cmp -s "$T/first.csv" "$RUN/calibrate.csv"; then
+    if grep -q 'vcrit: d = .* m/s .*: \(bonded\|rebounded\|unsettled\)' "$T/again.log"; then
+        fail calibrate_vcrit_replay "impact runs made again: $(grep -m 1 'vcrit: d = ' "$T/again.log")"
+    else
+        pass calibrate_vcrit_replay
+    fi
+else
+    fail calibrate_vcrit_replay "another calibrate.csv or a failure: $(tail -n 2 "$T/again.log")"
+fi
+
+# ---- 3. no root in the range ---------------------------------------------------------------------------------------
+write_case "$T/high.ini" 1400 1500
+if "$BIN" calibrate "$T/high.ini" -o "$T/high" >"$T/high.log" 2>&1 &&
+    grep -q '^# no calibrated value: the mean residual has one sign' "$T/high/calibrate.csv" &&
+    ! grep -q ',1$' "$T/high/calibrate.csv" && grep -q 'no calibrated Gc' "$T/high.log"; then
+    pass calibrate_vcrit_no_root
+else
+    fail calibrate_vcrit_no_root "$(tail -n 2 "$T/high/calibrate.csv" 2>/dev/null) $(tail -n 1 "$T/high.log")"
+fi
+
+# ---- 4. the searches' diameters in two places ----------------------------------------------------------------------
+sed 's/^tolerance = 25$/tolerance = 25\ndiameters = 10e-6/' "$T/cal.ini" >"$T/twice.ini"
+"$BIN" calibrate "$T/twice.ini" -o "$T/twice" >"$T/twice.log" 2>&1
+status=$?
+if [ "$status" -eq 2 ] && grep -q '\[vcrit\] diameters' "$T/twice.log" && [ ! -e "$T/twice/calibrate.csv" ]; then
+    pass calibrate_vcrit_refuses_two_diameter_lists
+else
+    fail calibrate_vcrit_refuses_two_diameter_lists "exit $status: $(tail -n 1 "$T/twice.log")"
+fi
+exit 0
