@@ -120,8 +120,7 @@ static int read_search(const struct vcrit_fit *f, const char *dir, double p, dou
     int status;
     SC_CHECK(status, h5_dataset_size(file, "diameter", &n), done);
     if (n != (size_t)f->size_count)
-        SC_FAIL_AT(status, done, SC_EIO, "calibrate: %s has %zu diameters, the calibration %d", path, n,
-                   f->size_count);
+        SC_FAIL_AT(status, done, SC_EIO, "calibrate: %s has %zu diameters, the calibration %d", path, n, f->size_count);
     SC_CHECK(status, h5_read_doubles(file, "diameter", d, n), done);
     SC_CHECK(status, h5_read_doubles(file, "v_crit", vc, n), done);
     for (int i = 0; i < f->size_count; i++) {
@@ -171,8 +170,8 @@ static int evaluate(struct vcrit_fit *f, double p)
         sum += f->v[k][i] - f->target[i];
     f->p[k] = p, f->residual[k] = sum / f->size_count, f->count++;
     if (parallel_rank() == 0)
-        log_info("calibrate: %s = %.6g: mean v_crit - target %+.3g m/s (tolerance %g)", f->name[0], p,
-                 f->residual[k], f->tolerance);
+        log_info("calibrate: %s = %.6g: mean v_crit - target %+.3g m/s (tolerance %g)", f->name[0], p, f->residual[k],
+                 f->tolerance);
     return SC_OK;
 }
 
