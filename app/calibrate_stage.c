@@ -90,6 +90,9 @@ const struct cfg_key calibrate_case_keys[] = {
      "[impact] value ([vcrit] keys for the searches; docs/physics.md \"Calibrated on v_crit\")"},
     {"calibrate", "fit_tolerance", CFG_REAL, "m/s", "5", 0, 1e4, CFG_MIN_EXCLUSIVE, NULL,
      "method = vcrit: the mean of v_crit - velocity over the sizes accepted as zero"},
+    {"calibrate", "fit_bracket", CFG_REAL, "-", "0.005", 0, 1, CFG_MIN_EXCLUSIVE, NULL,
+     "method = vcrit: a bracket of the parameter narrower than this fraction of its middle ends the search there "
+     "(the mean residual jumps across zero: single verdicts near v_crit are discrete); its middle is the value"},
     {"calibrate", "fit_evaluations", CFG_INT, "-", "8", 3, 50, 0, NULL,
      "method = vcrit: at most this many v_crit searches (the two ends of the range first, then false position)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},

@@ -10,9 +10,11 @@
  * a whole `spraycoat vcrit` search of the [calibrate] diameters (the [vcrit] keys for everything else; a search by
  * logistic regression is the one whose v_crit is not decided by a single noisy run) in RUN_DIR/vcrit_NN, and p
  * follows the Illinois false position (core/root.h) from the two ends [calibrate] <p>_min and <p>_max until the
- * mean residual is within fit_tolerance or fit_evaluations searches are spent.  Every search is restartable and
- * shared among MPI ranks as `spraycoat vcrit` is; after an interruption the iteration replays from their outputs.
- * Writes RUN_DIR/calibrate_vcrit.csv (each search's v_crit), calibrate.csv and calibrate.h5 (docs/files.md). */
+ * mean residual is within fit_tolerance, or the bracket is narrower than fit_bracket of its middle (the residual
+ * jumps across zero there: its middle is the value), or fit_evaluations searches are spent.  Every search is
+ * restartable and shared among MPI ranks as `spraycoat vcrit` is; after an interruption the iteration replays from
+ * their outputs. Writes RUN_DIR/calibrate_vcrit.csv (each search's v_crit), calibrate.csv and calibrate.h5
+ * (docs/files.md). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -40,12 +42,13 @@ struct vcrit_fit {
     const char *name[2], *unit[2]; /* the model's two parameters: the fitted one, the one kept */
     double kept;                   /* the second parameter's [impact] value */
     double lo, hi, tolerance;      /* the first parameter's range, the mean residual accepted (m/s) */
+    double bracket_tolerance;      /* a bracket this narrow relative to its middle ends the iteration */
     int size_count, max_evaluations;
     double diameter[MAX_SIZES], target[MAX_SIZES];
     int count; /* searches done */
     double p[MAX_EVALUATIONS], v[MAX_EVALUATIONS][MAX_SIZES], residual[MAX_EVALUATIONS];
-    double calibrated; /* NaN unless a search met the tolerance */
-    char note[240];    /* why there is no calibrated value */
+    double calibrated; /* NaN unless a search met the tolerance or the bracket closed */
+    char note[240];    /* how the value was found ("" when a search met the tolerance), or why there is none */
 };
 
 static int load(const struct stage_context *ctx, struct vcrit_fit *f)
@@ -66,6 +69,7 @@ static int load(const struct stage_context *ctx, struct vcrit_fit *f)
                             f->hi, key_min, f->lo);
     f->tolerance = case_real(c, STAGE, "fit_tolerance");
     f->max_evaluations = (int)case_int(c, STAGE, "fit_evaluations");
+    f->bracket_tolerance = case_real(c, STAGE, "fit_bracket");
     int targets;
     SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, f->diameter, MAX_SIZES, &f->size_count));
     SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, f->target, MAX_SIZES, &targets));
@@ -207,6 +211,15 @@ static int fit(struct vcrit_fit *f)
             return SC_OK;
         }
         root_bracket_update(&b, f->p[k], f->residual[k]);
+        if (b.hi - b.lo <= f->bracket_tolerance * 0.5 * fabs(b.lo + b.hi)) {
+            /* the mean residual jumps across zero (single verdicts near v_crit are discrete): its place is found */
+            f->calibrated = 0.5 * (b.lo + b.hi);
+            snprintf(f->note, sizeof f->note,
+                     "the middle of the bracket %s %.6g to %.6g, narrower than fit_bracket, across which the mean "
+                     "residual changes sign",
+                     f->name[0], b.lo, b.hi);
+            return SC_OK;
+        }
     }
     snprintf(f->note, sizeof f->note,
              "no search of %d met the tolerance %g m/s; the root lies in %s %.6g to %.6g (raise fit_evaluations or "
@@ -234,7 +247,9 @@ static int write_csvs(const struct vcrit_fit *f)
     fprintf(out.stream, "%s,%s,calibrated\n", f->name[0], f->name[1]);
     if (isfinite(f->calibrated))
         fprintf(out.stream, "%.17g,%.17g,1\n", f->calibrated, f->kept);
-    else
+    if (isfinite(f->calibrated) && f->note[0])
+        fprintf(out.stream, "# %s\n", f->note);
+    else if (!isfinite(f->calibrated))
         fprintf(out.stream, "# no calibrated value: %s\n", f->note);
     return atomic_publish(&out);
 }
@@ -253,7 +268,7 @@ static int output_contents(void *owner, hid_t file)
     snprintf(key, sizeof key, "%s_max", f->name[0]);
     SC_TRY(h5_attr_write_double(file, key, f->hi));
     SC_TRY(h5_attr_write_double(file, "fit_tolerance", f->tolerance));
-    SC_TRY(h5_attr_write_string(file, "result", isfinite(f->calibrated) ? "calibrated" : f->note));
+    SC_TRY(h5_attr_write_string(file, "result", f->note[0] ? f->note : "calibrated"));
     hid_t group;
     SC_TRY(h5_create_group(file, "vcrit_fit", &group));
     double v[MAX_EVALUATIONS * MAX_SIZES];
@@ -299,8 +314,9 @@ int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash)
     snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
     SC_TRY(stage_write_output(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, &f));
     if (isfinite(f.calibrated))
-        log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s kept) after %d searches, %.1f s", f.name[0],
-                 f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.count, log_elapsed() - start);
+        log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s kept) after %d searches, %.1f s%s%s", f.name[0],
+                 f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.count, log_elapsed() - start,
+                 f.note[0] ? ": " : "", f.note);
     else
         log_warn("calibrate: no calibrated %s: %s", f.name[0], f.note);
     return SC_OK;

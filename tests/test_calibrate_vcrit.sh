@@ -9,7 +9,9 @@
 #   2. with its outputs removed, the calibration runs again from the searches' outputs: the same calibrate.csv and
 #      no impact run;
 #   3. a range whose ends give residuals of one sign gives no calibrated value and says so (exit 0);
-#   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key).
+#   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key);
+#   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
+#      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
 
@@ -152,5 +154,28 @@ if [ "$status" -eq 2 ] && grep -q '\[vcrit\] diameters' "$T/twice.log" && [ ! -e
     pass calibrate_vcrit_refuses_two_diameter_lists
 else
     fail calibrate_vcrit_refuses_two_diameter_lists "exit $status: $(tail -n 1 "$T/twice.log")"
+fi
+# ---- 5. a tolerance finer than the residual's jumps: the bracket closes ----------------------------------------------
+# v_crit lies on the bisection's lattice (200 + 1000 k / 64 m/s), so the mean residual against 851 and 801 m/s is
+# -1 + 7.8125 j m/s and no search meets 0.5 m/s; the iteration ends when the bracket is narrower than 2 % of its
+# middle, and that middle is the value: the searches just below and above it have residuals of opposite signs.
+sed -e 's/^fit_tolerance = .*/fit_tolerance = 0.5\nfit_bracket = 0.02/' -e 's/^velocities = .*/velocities = 851,801/' \
+    "$T/cal.ini" >"$T/bracket.ini"
+if "$BIN" calibrate "$T/bracket.ini" -o "$T/bracket" >"$T/bracket.log" 2>&1; then
+    c=$(awk -F, 'NR == 2 && $3 == 1 { print $1 }' "$T/bracket/calibrate.csv")
+    why=$(awk -F, -v c="${c:-nan}" 'NR > 1 {
+            if ($2 < c && (lo == "" || $2 > lo)) { lo = $2; rlo = $7 }
+            if ($2 > c && (hi == "" || $2 < hi)) { hi = $2; rhi = $7 } }
+        END {
+            if (c == "nan") { print "no calibrated row"; exit }
+            if (lo == "" || hi == "") { print "no search on each side of " c; exit }
+            if (!(rlo < 0 && rhi > 0)) print "residuals " rlo " at " lo " and " rhi " at " hi " do not change sign"
+            if (hi - lo > 0.02 * c) print "the bracket " lo " to " hi " is wider than 2 % of " c
+            m = (lo + hi) / 2; if ((c - m) ^ 2 > (1e-9 * c) ^ 2) print c " is not the middle of " lo " to " hi
+        }' "$T/bracket/calibrate_vcrit.csv")
+    grep -q '^# the middle of the bracket' "$T/bracket/calibrate.csv" || why="$why no note of the bracket;"
+    if [ -z "$why" ]; then pass calibrate_vcrit_bracket_closes; else fail calibrate_vcrit_bracket_closes "$why"; fi
+else
+    fail calibrate_vcrit_bracket_closes "exit status: $(tail -n 2 "$T/bracket.log")"
 fi
 exit 0
