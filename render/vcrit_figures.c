@@ -32,24 +32,25 @@ struct search_runs {
 #define RUN_UNSETTLED 2
 #define RUN_HELD      3 /* rebounded by the verdict but at rest: too few bonded points (mpm_verdict_held) */
 
+/* *array resized to capacity doubles; 0 (the array as it was) when memory ran out. */
+static int grow(double **array, size_t capacity)
+{
+    double *resized = realloc(*array, capacity * sizeof *resized);
+    if (resized)
+        *array = resized;
+    return resized != NULL;
+}
+
 static int add_run(struct search_runs *r, double d, double v, int verdict, double cor)
 {
     if (r->count == r->capacity) {
         size_t capacity = r->capacity ? 2 * r->capacity : 64;
-        double *d2 = realloc(r->d, capacity * sizeof *d2);
-        if (d2)
-            r->d = d2;
-        double *v2 = realloc(r->v, capacity * sizeof *v2);
-        if (v2)
-            r->v = v2;
+        int grown = grow(&r->d, capacity) & grow(&r->v, capacity) & grow(&r->cor, capacity);
         int *b2 = realloc(r->verdict, capacity * sizeof *b2);
         if (b2)
             r->verdict = b2;
-        double *c2 = realloc(r->cor, capacity * sizeof *c2);
-        if (c2)
-            r->cor = c2;
-        if (!d2 || !v2 || !b2 || !c2)
-            SC_FAIL_OOM(capacity * (sizeof *d2 + sizeof *v2 + sizeof *b2 + sizeof *c2), "the critical-velocity runs");
+        if (!grown || !b2)
+            SC_FAIL_OOM(capacity * (3 * sizeof(double) + sizeof *b2), "the critical-velocity runs");
         r->capacity = capacity;
     }
     r->d[r->count] = d, r->v[r->count] = v, r->cor[r->count] = cor, r->verdict[r->count++] = verdict;
@@ -66,14 +67,8 @@ static int add_error_bar(struct search_runs *r, hid_t group, double d_um)
         return SC_OK;
     if (r->bar_count + 3 > r->bar_capacity) {
         size_t capacity = r->bar_capacity ? 2 * r->bar_capacity : 48;
-        double *x = realloc(r->bar_x, capacity * sizeof *x);
-        if (x)
-            r->bar_x = x;
-        double *y = realloc(r->bar_y, capacity * sizeof *y);
-        if (y)
-            r->bar_y = y;
-        if (!x || !y)
-            SC_FAIL_OOM(2 * capacity * sizeof *x, "the error bars of the critical-velocity figure");
+        if (!(grow(&r->bar_x, capacity) & grow(&r->bar_y, capacity)))
+            SC_FAIL_OOM(2 * capacity * sizeof(double), "the error bars of the critical-velocity figure");
         r->bar_capacity = capacity;
     }
     const double x[3] = {d_um, d_um, NAN}, y[3] = {v - se, v + se, NAN};
