@@ -11,7 +11,9 @@
 #   3. a range whose ends give residuals of one sign gives no calibrated value and says so (exit 0);
 #   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key);
 #   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
-#      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign.
+#      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign;
+#   6. a search in which a size is not bracketed (it bonds already at v_low) stops the calibration with a message
+#      naming the parameter, the size and the search's vcrit.csv, and leaves no calibrated value.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
 
@@ -79,7 +81,19 @@ write_case "$T/cal.ini" 300 1500
 RUN=$T/cal
 if ! "$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/cal.log" 2>&1; then
     fail calibrate_vcrit_fit "exit status $?: $(tail -n 3 "$T/cal.log")"
-    exit 0
+    
+# ---- 6. a size not bracketed in a search -----------------------------------------------------------------------------
+sed -e 's/^v_low = .*/v_low = 1100/' "$T/cal.ini" >"$T/unbracketed.ini"
+"$BIN" calibrate "$T/unbracketed.ini" -o "$T/unbracketed" >"$T/unbracketed.log" 2>&1
+status=$?
+if [ "$status" -ne 0 ] && grep -q 'at Gc = 300 the critical velocity of d = .* was not found in \[vcrit\] v_low to v_high' \
+    "$T/unbracketed.log" && grep -q 'not bracketed' "$T/unbracketed/vcrit_01/vcrit.csv" &&
+    ! grep -q ',1$' "$T/unbracketed/calibrate.csv" 2>/dev/null; then
+    pass calibrate_vcrit_unbracketed_size
+else
+    fail calibrate_vcrit_unbracketed_size "exit $status: $(tail -n 1 "$T/unbracketed.log")"
+fi
+exit 0
 fi
 gc=$(awk -F, 'NR == 2 && $3 == 1 { print $1 }' "$RUN/calibrate.csv")
 why=""
@@ -177,5 +191,17 @@ if "$BIN" calibrate "$T/bracket.ini" -o "$T/bracket" >"$T/bracket.log" 2>&1; the
     if [ -z "$why" ]; then pass calibrate_vcrit_bracket_closes; else fail calibrate_vcrit_bracket_closes "$why"; fi
 else
     fail calibrate_vcrit_bracket_closes "exit status: $(tail -n 2 "$T/bracket.log")"
+fi
+
+# ---- 6. a size not bracketed in a search -----------------------------------------------------------------------------
+sed -e 's/^v_low = .*/v_low = 1100/' "$T/cal.ini" >"$T/unbracketed.ini"
+"$BIN" calibrate "$T/unbracketed.ini" -o "$T/unbracketed" >"$T/unbracketed.log" 2>&1
+status=$?
+if [ "$status" -ne 0 ] && grep -q 'at Gc = 300 the critical velocity of d = .* was not found in \[vcrit\] v_low to v_high' \
+    "$T/unbracketed.log" && grep -q 'not bracketed' "$T/unbracketed/vcrit_01/vcrit.csv" &&
+    ! grep -q ',1$' "$T/unbracketed/calibrate.csv" 2>/dev/null; then
+    pass calibrate_vcrit_unbracketed_size
+else
+    fail calibrate_vcrit_unbracketed_size "exit $status: $(tail -n 1 "$T/unbracketed.log")"
 fi
 exit 0
