@@ -188,7 +188,8 @@ run: deps
 	$(BIN) run cases/demo.ini -o runs/demo
 
 # VALIDATE_ONLY=PART runs one part of scripts/validate.sh: table1, bonding, fuzz, calibrate_coarse,
-# calibrate_medium, calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, vcrit_al
+# calibrate_medium, calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse,
+# calibrate_vcrit_fine, vcrit_al
 # (docs/validation.md).
 validate: deps
 	$(MAKE) all

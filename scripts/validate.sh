@@ -26,7 +26,10 @@
 #      calibrate cases/calibrate_vcrit_al.ini`, method = vcrit; part calibrate_vcrit, into
 #      runs/validate_calibrate_vcrit): fails without a calibrated value or when the keys' default eps_c differs from
 #      it by more than the fit's tolerance resolves.
-# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit|vcrit_al runs one of them.
+#   7. The same fit at 7 and 15 cells per diameter (parts calibrate_vcrit_coarse, calibrate_vcrit_fine, into
+#      runs/validate_calibrate_vcrit_R): v_crit by bisection to 10 m/s, each resolution over its own eps_c range;
+#      how the calibrated eps_c moves with the resolution (docs/validation.md "The resolution study").
+# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al runs one.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -107,10 +110,10 @@ resolution_case() {
     sed -e "s/^grid = .*/grid = $1/" -e "s/^spacing = .*/spacing = $2/" -e "${more:-s/^//}" "$base" >"$out"
 }
 
-# run_study COMMAND RESOLUTION BASE SED: `spraycoat COMMAND` of BASE (edited by SED) at the resolution's grid into
-# run=runs/validate_COMMAND_RESOLUTION; fails (and says so) when the command fails.
+# run_study COMMAND RESOLUTION BASE SED [PART]: `spraycoat COMMAND` of BASE (edited by SED) at the resolution's grid
+# into run=runs/validate_PART (default COMMAND_RESOLUTION); fails (and says so) when the command fails.
 run_study() {
-    run=runs/validate_$1_$2
+    run=runs/validate_${5:-$1_$2}
     mkdir -p runs
     resolution_case "$3" "$2" "$run.ini" "$4"
     echo "validate: spraycoat $1 at the $2 resolution (14 um: $(grid_of "$2") m) into $run (hours: docs/validation.md)"
@@ -137,18 +140,20 @@ calibrate_window() {
 }
 
 # The (eps_c, eps_rate_c) a vcrit part runs with: its resolution's calibration when runs/validate_calibrate_R has
-# one, else the pair measured here (coarse 1.985/1e7; medium 2.523/3.67e6, the keys' defaults, fitted to the measured
-# v_crit: docs/physics.md "The strain model at 10 cells per diameter"); fine has none.
+# one, else its fit to the measured v_crit when runs/validate_calibrate_vcrit_R has one, else the pair measured here
+# (coarse 1.985/1e7; medium 2.523/3.67e6, the keys' defaults; fine 3.15/3.67e6, the fit to v_crit at 15 cells:
+# docs/validation.md "The fit to v_crit at three resolutions").
 calibrated_pair() {
-    csv=runs/validate_calibrate_$1/calibrate.csv
-    if [ -s "$csv" ] && grep -q ',1$' "$csv"; then
-        grep ',1$' "$csv" | cut -d, -f1,2 | tr ',' ' '
-        return 0
-    fi
+    for csv in runs/validate_calibrate_$1/calibrate.csv runs/validate_calibrate_vcrit_$1/calibrate.csv; do
+        if [ -s "$csv" ] && grep -q ',1$' "$csv"; then
+            grep ',1$' "$csv" | cut -d, -f1,2 | tr ',' ' '
+            return 0
+        fi
+    done
     case $1 in
         coarse) echo "1.985 1e7" ;;
         medium) echo "2.523 3.67e6" ;;
-        *) return 1 ;;
+        fine) echo "3.15 3.67e6" ;;
     esac
 }
 
@@ -232,11 +237,35 @@ validate_calibrate_vcrit() {
     fi
 }
 
+# The fit of eps_c to the measured v_crit at another resolution (coarse, fine): cases/calibrate_vcrit_al.ini on
+# that grid, v_crit by bisection to 10 m/s (a third of the logistic searches' runs), over an eps_c range that holds
+# the root there (coarse 1.7-2.3 from 550 m/s up, where 1.7 gives v_crit below 650; fine 2.75-3.15, on the 10-cell
+# slope from v_crit(14 um) = 700 m/s at 15 cells with 2.523).
+calibrate_vcrit_window() {
+    method="s/^method = logistic/method = bisection/;s/^tolerance = .*/tolerance = 10/"
+    case $1 in
+        coarse) printf '%s\n' "$method;s/^v_low = .*/v_low = 550/;s/^eps_c_min = .*/eps_c_min = 1.7/;s/^eps_c_max = .*/eps_c_max = 2.3/;s/^fit_tolerance = .*/&\nfit_evaluations = 10/" ;;
+        fine) printf '%s\n' "$method;s/^eps_c_min = .*/eps_c_min = 2.75/;s/^eps_c_max = .*/eps_c_max = 3.15/" ;;
+    esac
+}
+
+validate_calibrate_vcrit_resolution() {
+    run_study calibrate "$1" cases/calibrate_vcrit_al.ini "$(calibrate_vcrit_window "$1")" "calibrate_vcrit_$1" ||
+        return 0
+    cat "$run/calibrate_vcrit.csv" "$run/calibrate.csv"
+    if grep -q ',1$' "$run/calibrate.csv"; then
+        echo "validate: eps_c fitted to the measured v_crit at the $1 resolution: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1)"
+    else
+        fail_part "no eps_c fitted to the measured v_crit at the $1 resolution: $(tail -n 1 "$run/calibrate.csv")"
+    fi
+}
+
 case $only in
     all)
         validate_table1; validate_bonding; validate_fuzz
         for r in coarse medium fine; do validate_calibrate $r; validate_vcrit $r; done
-        validate_calibrate_vcrit; validate_vcrit_al ;;
+        validate_calibrate_vcrit; validate_calibrate_vcrit_resolution coarse; validate_calibrate_vcrit_resolution fine
+        validate_vcrit_al ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
@@ -244,9 +273,11 @@ case $only in
     vcrit_coarse | vcrit_medium | vcrit_fine) validate_vcrit "${only#vcrit_}" ;;
     vcrit_al) validate_vcrit_al ;;
     calibrate_vcrit) validate_calibrate_vcrit ;;
+    calibrate_vcrit_coarse | calibrate_vcrit_fine) validate_calibrate_vcrit_resolution "${only#calibrate_vcrit_}" ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
-            "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit or vcrit_al, not '$only'" >&2
+            "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse," \
+            "calibrate_vcrit_fine or vcrit_al, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then
