@@ -239,8 +239,8 @@ validate_calibrate_vcrit() {
 
 # The fit of eps_c to the measured v_crit at another resolution (coarse, fine): cases/calibrate_vcrit_al.ini on
 # that grid, v_crit by bisection to 10 m/s (a third of the logistic searches' runs), over an eps_c range that holds
-# the root there (coarse 1.7-2.3, v_crit from 550 m/s up: 1.7 gives 688 m/s for both sizes; fine 2.75-3.15, on the 10-cell
-# slope from v_crit(14 um) = 700 m/s at 15 cells with 2.523).
+# the root there (coarse 1.7-2.3, v_crit from 550 m/s up: 1.7 gives 688 m/s for both sizes; fine 2.75-3.15, on
+# the 10-cell slope from v_crit(14 um) = 700 m/s at 15 cells with 2.523).
 calibrate_vcrit_window() {
     method="s/^method = logistic/method = bisection/;s/^tolerance = .*/tolerance = 10/"
     case $1 in
