@@ -28,8 +28,12 @@
 #      it by more than the fit's tolerance resolves.
 #   7. The same fit at 7 and 15 cells per diameter (parts calibrate_vcrit_coarse, calibrate_vcrit_fine, into
 #      runs/validate_calibrate_vcrit_R): v_crit by bisection to 10 m/s, each resolution over its own eps_c range;
-#      how the calibrated eps_c moves with the resolution (docs/validation.md "The resolution study").
-# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al runs one.
+#      how the calibrated eps_c moves with the resolution (docs/validation.md "The resolution study"); the fine
+#      part copies its searches to cases/calibrate_vcrit_al_15cells.csv and .png.
+#   8. v_crit(d) and CoR(v) as in 5 with the fit at 15 cells per diameter (cases/vcrit_al_15cells.ini, eps_c 3.15,
+#      part vcrit_al_fine, about 2.5 hours): cases/vcrit_al_15cells.csv, _cor.csv, .png and _cor.png.
+# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]
+# runs one.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -189,22 +193,25 @@ validate_vcrit() {
     fi
 }
 
+# validate_vcrit_al [NAME]: `spraycoat vcrit cases/NAME.ini` (default vcrit_al, the shipped calibration at 10 cells
+# across; vcrit_al_15cells: the fit at 15) into runs/validate_PART, its tables and figures copied to cases/NAME*.
 validate_vcrit_al() {
-    run=runs/validate_vcrit_al
-    echo "validate: v_crit(d) of 10 to 45 um and CoR(v) with the shipped calibration into $run (hours: docs/validation.md)"
-    if ! "$bin" vcrit cases/vcrit_al.ini -o "$run" || ! "$bin" render cases/vcrit_al.ini -o "$run"; then
-        fail_part "spraycoat vcrit cases/vcrit_al.ini"
+    name=${1:-vcrit_al}
+    run=runs/validate_${2:-vcrit_al}
+    echo "validate: v_crit(d) of 10 to 45 um and CoR(v) of cases/$name.ini into $run (hours: docs/validation.md)"
+    if ! "$bin" vcrit "cases/$name.ini" -o "$run" || ! "$bin" render "cases/$name.ini" -o "$run"; then
+        fail_part "spraycoat vcrit cases/$name.ini"
         return 0
     fi
-    cp "$run/vcrit.csv" cases/vcrit_al.csv
-    cp "$run/vcrit_cor.csv" cases/vcrit_al_cor.csv
-    cp "$run/figures/vcrit.png" cases/vcrit_al.png
-    cp "$run/figures/vcrit_cor.png" cases/vcrit_al_cor.png
-    cat cases/vcrit_al.csv
-    if vcrit_falls cases/vcrit_al.csv; then
-        echo "validate: cases/vcrit_al.csv, vcrit_al_cor.csv and their figures written; v_crit falls with d"
+    cp "$run/vcrit.csv" "cases/$name.csv"
+    cp "$run/vcrit_cor.csv" "cases/${name}_cor.csv"
+    cp "$run/figures/vcrit.png" "cases/$name.png"
+    cp "$run/figures/vcrit_cor.png" "cases/${name}_cor.png"
+    cat "cases/$name.csv"
+    if vcrit_falls "cases/$name.csv"; then
+        echo "validate: cases/$name.csv, ${name}_cor.csv and their figures written; v_crit falls with d"
     else
-        fail_part "v_crit(d) of cases/vcrit_al.csv does not fall with d"
+        fail_part "v_crit(d) of cases/$name.csv does not fall with d"
     fi
 }
 
@@ -255,6 +262,10 @@ validate_calibrate_vcrit_resolution() {
     cat "$run/calibrate_vcrit.csv" "$run/calibrate.csv"
     if grep -q ',1$' "$run/calibrate.csv"; then
         echo "validate: eps_c fitted to the measured v_crit at the $1 resolution: $(grep ',1$' "$run/calibrate.csv" | cut -d, -f1)"
+        if [ "$1" = fine ]; then # the calibration of cases/vcrit_al_15cells.ini
+            cp "$run/calibrate_vcrit.csv" cases/calibrate_vcrit_al_15cells.csv
+            cp "$run/figures/calibrate_vcrit.png" cases/calibrate_vcrit_al_15cells.png
+        fi
     else
         fail_part "no eps_c fitted to the measured v_crit at the $1 resolution: $(tail -n 1 "$run/calibrate.csv")"
     fi
@@ -265,19 +276,20 @@ case $only in
         validate_table1; validate_bonding; validate_fuzz
         for r in coarse medium fine; do validate_calibrate $r; validate_vcrit $r; done
         validate_calibrate_vcrit; validate_calibrate_vcrit_resolution coarse; validate_calibrate_vcrit_resolution fine
-        validate_vcrit_al ;;
+        validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
     calibrate_coarse | calibrate_medium | calibrate_fine) validate_calibrate "${only#calibrate_}" ;;
     vcrit_coarse | vcrit_medium | vcrit_fine) validate_vcrit "${only#vcrit_}" ;;
     vcrit_al) validate_vcrit_al ;;
+    vcrit_al_fine) validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
     calibrate_vcrit) validate_calibrate_vcrit ;;
     calibrate_vcrit_coarse | calibrate_vcrit_fine) validate_calibrate_vcrit_resolution "${only#calibrate_vcrit_}" ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
             "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse," \
-            "calibrate_vcrit_fine or vcrit_al, not '$only'" >&2
+            "calibrate_vcrit_fine, vcrit_al or vcrit_al_fine, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then

@@ -6,7 +6,8 @@
 # word that agrees with the row's PBCP and v_rest and the case's thresholds and a finite CoR, every diameter of the
 # table among its rows; and cases/vcrit_al.ini uses the shipped calibration: the defaults of bonding, eps_c and
 # eps_rate_c (docs/keys.md, which test_keys_doc keeps current).  Prints SKIP while the table does not exist.
-# The same checks for the energy model's table, cases/vcrit_al_energy.csv and _cor.csv (bisection).
+# The same checks for the energy model's table, cases/vcrit_al_energy.csv and _cor.csv (bisection), and for the
+# 15-cell calibration's, cases/vcrit_al_15cells.csv (with the case's grid and eps_c checked against its fit).
 # Also checks the checker: a table that rises with d is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -97,4 +98,32 @@ for key in bonding eps_c eps_rate_c; do
 done
 if [ -z "$why" ]; then echo "PASS vcrit_al_shipped_calibration"; else echo "FAIL vcrit_al_shipped_calibration ($why)"; fi
 check_case vcrit_al_energy diameter,v_crit,pbcp,v_rest,runs
+
+# The finest grid's calibration (cases/vcrit_al_15cells.ini): the table and CoR checks, and the case is what its
+# name and comments say: the strain model with the default eps_rate_c, 15 grid cells per reference_diameter, and
+# the eps_c of the search of cases/calibrate_vcrit_al_15cells.csv (`make validate VALIDATE_ONLY=calibrate_vcrit_fine`)
+# whose mean residual is the smallest, within fit_tolerance of cases/calibrate_vcrit_al.ini.
+check_case vcrit_al_15cells diameter,v_crit,pbcp,v_rest,runs,v_crit_se,width,v_bisection
+# check_fine_case INI SEARCHES: empty output when INI is the 15-cell calibration of SEARCHES; else the reason.
+check_fine_case() {
+    [ "$(ini_value bonding "$1")" = strain ] || echo "bonding is not strain;"
+    [ "$(ini_value method "$1")" = logistic ] || echo "method is not logistic;"
+    awk -v g="$(ini_value grid "$1")" -v d="$(ini_value reference_diameter "$1")" \
+        'BEGIN { exit !(g > 0 && (d / g - 15) ^ 2 <= 0.01 ^ 2) }' || echo "grid is not 15 cells per reference_diameter;"
+    awk -v a="$(ini_value eps_rate_c "$1")" -v b="$(key_default eps_rate_c)" \
+        'BEGIN { exit !(a != "" && (a - b) ^ 2 <= (1e-3 * b) ^ 2) }' || echo "eps_rate_c is not the default;"
+    awk -F, -v eps="$(ini_value eps_c "$1")" -v tol="$(ini_value fit_tolerance cases/calibrate_vcrit_al.ini)" '
+        NR == 1 { next }
+        { r = $7 < 0 ? -$7 : $7; if (best == "" || r < best) { best = r; best_eps = $2 } }
+        END { if (best == "" || best > tol) print "no search within " tol " m/s;"
+              else if ((eps - best_eps) ^ 2 > (1e-9 * best_eps) ^ 2) print "eps_c " eps ", best search " best_eps ";" }' "$2"
+}
+why=$(check_fine_case cases/vcrit_al_15cells.ini cases/calibrate_vcrit_al_15cells.csv | tr '\n' ' ')
+if [ -z "$why" ]; then echo "PASS vcrit_al_15cells_calibration"; else echo "FAIL vcrit_al_15cells_calibration ($why)"; fi
+# ...and the check itself: the 10-cell case is not the 15-cell calibration
+if check_fine_case cases/vcrit_al.ini cases/calibrate_vcrit_al_15cells.csv | tr '\n' ' ' | grep -q 'grid is not 15.*eps_c 2.523'; then
+    echo "PASS vcrit_al_15cells_checker_refuses_10cells"
+else
+    echo "FAIL vcrit_al_15cells_checker_refuses_10cells (cases/vcrit_al.ini passed as the 15-cell calibration)"
+fi
 exit 0
