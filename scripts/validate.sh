@@ -134,12 +134,12 @@ fail_part() {
 # The strain model's calibrated eps_c grows with the resolution (docs/physics.md "The strain model at 10 cells per
 # diameter": 1.985 at 7 cells across, 2.624 at 10), so each resolution searches its own window: coarse the case's
 # (eps_c 1.95-2.25, eps_rate_c 1e5-1e7), medium eps_c 2.3-2.8 and eps_rate_c 1e6-1e8 (where its boundaries cross),
-# fine a wider window extrapolated from the two (not yet run).
+# fine eps_c 2.95-3.35 (5) x eps_rate_c 1e6-1e8 (3), around the fit to the measured v_crit at 15 cells (3.15).
 calibrate_window() {
     case $1 in
         coarse) echo "" ;;
         medium) echo "s/^eps_c_min = .*/eps_c_min = 2.3/;s/^eps_c_max = .*/eps_c_max = 2.8/;s/^eps_rate_c_min = .*/eps_rate_c_min = 1e6/;s/^eps_rate_c_max = .*/eps_rate_c_max = 1e8/;s/^eps_rate_c_count = .*/eps_rate_c_count = 5/" ;;
-        fine) echo "s/^eps_c_min = .*/eps_c_min = 2.8/;s/^eps_c_max = .*/eps_c_max = 3.8/;s/^eps_rate_c_min = .*/eps_rate_c_min = 1e6/;s/^eps_rate_c_max = .*/eps_rate_c_max = 1e8/;s/^eps_rate_c_count = .*/eps_rate_c_count = 5/" ;;
+        fine) echo "s/^eps_c_min = .*/eps_c_min = 2.95/;s/^eps_c_max = .*/eps_c_max = 3.35/;s/^eps_c_count = .*/eps_c_count = 5/;s/^eps_rate_c_min = .*/eps_rate_c_min = 1e6/;s/^eps_rate_c_max = .*/eps_rate_c_max = 1e8/;s/^eps_rate_c_count = .*/eps_rate_c_count = 3/" ;;
     esac
 }
 
