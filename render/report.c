@@ -405,6 +405,30 @@ static const char *calibration_resolution(const struct case_file *c)
     return NULL;
 }
 
+/* Whose bonding parameters the run used, and the resolution the shipped ones belong to: a case that sets its own
+ * (e.g. cases/vcrit_al_15cells.ini, fitted at 15 cells across) is told so rather than that the defaults apply. */
+static void calibration_sentence(FILE *f, const struct case_file *c)
+{
+    const char *calibrated = calibration_resolution(c);
+    if (!calibrated)
+        return;
+    const char *model = case_text(c, "impact", "bonding");
+    int strain = strcmp(model, "strain") == 0;
+    const char *key = strain ? "eps_c" : "Gc", *rate_key = strain ? "eps_rate_c" : "Gc_rate";
+    fprintf(f, ". The ");
+    if (case_is_given(c, "impact", key) || case_is_given(c, "impact", rate_key))
+        fprintf(f,
+                "case sets the bonding model's parameters (<code>[impact] bonding = %s</code>, %s = %s, %s = %s); "
+                "the shipped ones",
+                model, key, given(case_real(c, "impact", key)).s, rate_key, given(case_real(c, "impact", rate_key)).s);
+    else
+        fprintf(f, "shipped parameters of the bonding model (<code>[impact] bonding = %s</code>)", model);
+    fprintf(f,
+            " belong to %s (docs/physics.md, \"Bonding calibration\"): at another resolution the verdicts are not "
+            "calibrated",
+            calibrated);
+}
+
 enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };
 static enum verdict verdict(const struct body_row *row, double vrest_threshold)
 {
@@ -546,13 +570,7 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                     span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
         if (r->points_max >= r->points_min)
             fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
-        const char *calibrated = calibration_resolution(c);
-        if (calibrated)
-            fprintf(f,
-                    ". The shipped parameters of the bonding model (<code>[impact] bonding = %s</code>) belong to %s "
-                    "(docs/physics.md, \"Bonding calibration\"): at another resolution the verdicts are not "
-                    "calibrated",
-                    case_text(c, "impact", "bonding"), calibrated);
+        calibration_sentence(f, c);
         fprintf(f, ".</li>\n");
     }
     fprintf(f, "</ul>\n");

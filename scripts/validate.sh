@@ -193,11 +193,12 @@ validate_vcrit() {
     fi
 }
 
-# validate_vcrit_al [NAME]: `spraycoat vcrit cases/NAME.ini` (default vcrit_al, the shipped calibration at 10 cells
-# across; vcrit_al_15cells: the fit at 15) into runs/validate_PART, its tables and figures copied to cases/NAME*.
+# validate_vcrit_al [NAME PART]: `spraycoat vcrit cases/NAME.ini` (default vcrit_al, the shipped calibration at 10
+# cells across; vcrit_al_15cells: the fit at 15) into runs/validate_PART (default NAME), its tables and figures
+# copied to cases/NAME*.
 validate_vcrit_al() {
     name=${1:-vcrit_al}
-    run=runs/validate_${2:-vcrit_al}
+    run=runs/validate_${2:-$name}
     echo "validate: v_crit(d) of 10 to 45 um and CoR(v) of cases/$name.ini into $run (hours: docs/validation.md)"
     if ! "$bin" vcrit "cases/$name.ini" -o "$run" || ! "$bin" render "cases/$name.ini" -o "$run"; then
         fail_part "spraycoat vcrit cases/$name.ini"

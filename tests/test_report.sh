@@ -158,3 +158,19 @@ else
             "$(tail -c 300 "$T/chromium_err")"
     fi
 fi
+
+# ---- a case that sets its own bonding parameters is told so, next to the resolution the shipped ones belong to ----
+sed 's/^\[impact\]$/[impact]\neps_c = 2.6/' "$T/case.ini" >"$T/own.ini"
+if ! grep -q '^eps_c = 2.6$' "$T/own.ini"; then
+    echo "FAIL report_own_bonding_parameters: the fixture has no [impact] section to set eps_c in"
+elif ! "$bin" run "$T/own.ini" -o "$T/own" -q >"$T/own_out" 2>&1; then
+    echo "FAIL report_own_bonding_parameters: the pipeline failed: $(tail -c 400 "$T/own_out")"
+else
+    own=$(tr '\n' ' ' <"$T/own/report.html")
+    if printf '%s' "$own" | grep -q "case sets the bonding model's parameters (<code>\[impact\] bonding = strain</code>, eps_c = 2.6, eps_rate_c = 3.67e+06); the shipped ones belong to 10 grid cells across" &&
+        ! grep -q "case sets the bonding model" "$page"; then
+        echo "PASS report_own_bonding_parameters"
+    else
+        echo "FAIL report_own_bonding_parameters: the headline of a case with eps_c = 2.6 (or of the default case) misstates whose parameters the run used: $(printf '%s' "$own" | grep -o 'Resolution: [^<]*.\{0,400\}' | head -c 500)"
+    fi
+fi

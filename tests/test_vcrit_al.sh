@@ -106,6 +106,7 @@ check_case vcrit_al_energy diameter,v_crit,pbcp,v_rest,runs
 check_case vcrit_al_15cells diameter,v_crit,pbcp,v_rest,runs,v_crit_se,width,v_bisection
 # check_fine_case INI SEARCHES: empty output when INI is the 15-cell calibration of SEARCHES; else the reason.
 check_fine_case() {
+    [ -r "$2" ] || { echo "no $2;"; return; }
     [ "$(ini_value bonding "$1")" = strain ] || echo "bonding is not strain;"
     [ "$(ini_value method "$1")" = logistic ] || echo "method is not logistic;"
     awk -v g="$(ini_value grid "$1")" -v d="$(ini_value reference_diameter "$1")" \
@@ -113,7 +114,7 @@ check_fine_case() {
     awk -v a="$(ini_value eps_rate_c "$1")" -v b="$(key_default eps_rate_c)" \
         'BEGIN { exit !(a != "" && (a - b) ^ 2 <= (1e-3 * b) ^ 2) }' || echo "eps_rate_c is not the default;"
     awk -F, -v eps="$(ini_value eps_c "$1")" -v tol="$(ini_value fit_tolerance cases/calibrate_vcrit_al.ini)" '
-        NR == 1 { next }
+        NR == 1 || $7 !~ /^[-+]?[0-9]/ { next }
         { r = $7 < 0 ? -$7 : $7; if (best == "" || r < best) { best = r; best_eps = $2 } }
         END { if (best == "" || best > tol) print "no search within " tol " m/s;"
               else if ((eps - best_eps) ^ 2 > (1e-9 * best_eps) ^ 2) print "eps_c " eps ", best search " best_eps ";" }' "$2"
