@@ -35,6 +35,7 @@ struct mpm_material {
     /* SCG melt: melt_T0 (K) at rho0, melt_a the first-order volume correction of gamma */
     double melt_T0, melt_a;
     double specific_heat;  /* J/(kg K) */
+    double conductivity;   /* W/(m K), [impact] conduction = on */
     double taylor_quinney; /* fraction of plastic work turned into heat */
     double T_initial;      /* K */
     double bulk_modulus;   /* Pa, for wave speeds (time step, absorbing boundaries): rho0 c0^2 by default */

@@ -101,6 +101,7 @@ struct mpm_config {
     double spring_alpha_normal, spring_alpha_tangential;
     /* [impact] transfer: grid-to-point transfer (solver.c) */
     enum mpm_transfer transfer;
+    int conduction; /* [impact] conduction = on: heat conduction inside each body (conduction.c) */
 };
 enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
 

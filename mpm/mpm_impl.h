@@ -127,6 +127,7 @@ struct mpm_solver {
     struct mpm_config cfg;
     struct mpm_points points;
     struct mpm_grid grid;
+    struct mpm_conduction *conduction;                 /* [impact] conduction = on (conduction.c), else NULL */
     double wave_speed_max;                             /* largest longitudinal wave speed of the materials */
     struct mpm_material_constants *material_constants; /* one per material, for the stress update */
     double lp;                                         /* uGIMP half-width of a point's domain, dp/2 */
@@ -410,6 +411,16 @@ static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_i
     if (s->cfg.bonding != MPM_BONDING_NONE && (s->points.flags[p] & POINT_CONTACT))
         mpm_bonding_grow(s, p, eps_p_increment, von_mises);
 }
+
+/* conduction.c: heat conduction inside each body ([impact] conduction = on): the exchange's state, made by create
+ * (nothing when off), the heat of every multiple of its interval that the time crossed from t_before to t_after
+ * exchanged (advance), and one exchange over dt (exposed for the tests). */
+struct mpm_conduction;
+int mpm_conduction_create(struct mpm_solver *s);
+void mpm_conduction_free(struct mpm_solver *s);
+double mpm_conduction_interval(const struct mpm_solver *s);
+void mpm_conduction_exchange(struct mpm_solver *s, double dt);
+void mpm_conduction_advance(struct mpm_solver *s, double t_before, double t_after);
 
 /* verdict.c: the verdict state made from the series recorded so far (mpm_verdict_replay), judged again after
  * each new series row (mpm_verdict_record). */

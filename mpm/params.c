@@ -69,6 +69,9 @@ const struct cfg_key mpm_case_keys[] = {
      "many cells apart along the normal, the test of contact_gap (a bond joins surfaces that meet and does not "
      "reach across a gap); 0: wherever both bodies have mass, as Tang 2021 Section 4.1.1 (docs/physics.md, "
      "\"Contact\")"},
+    {"impact", "conduction", CFG_CHOICE, "", "off", 0, 0, 0, "off|on",
+     "heat conduction inside each body (Fourier's law with the materials' conductivity; off: adiabatic, as Tang 2021 "
+     "Eq. 3.44): gives the interface's shear band its physical width (docs/physics.md \"Heat conduction\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "strain", 0, 0, 0, "energy|strain|none",
@@ -158,6 +161,8 @@ const struct cfg_key mpm_case_keys[] = {
     {MAT, "melt_T0", CFG_REAL, "K", "933", 0, 1e5, 1, NULL, "SCG melt temperature at rho0, Eq. 2.9 (pure Al)"},
     {MAT, "melt_a", CFG_REAL, "-", "1.5", 0, 10, 0, NULL, "SCG volume correction a, Eq. 2.9 (Steinberg)"},
     {MAT, "specific_heat", CFG_REAL, "J/(kg K)", "900", 0, 1e6, 1, NULL, "C_p of Eq. 3.44"},
+    {MAT, "conductivity", CFG_REAL, "W/(m K)", "167", 0, 1e4, 0, NULL,
+     "thermal conductivity k for [impact] conduction = on (Al 6061-T6 at room temperature, ASM Handbook Vol. 2)"},
     {MAT, "taylor_quinney", CFG_REAL, "-", "0.9", 0, 1, 0, NULL, "fraction of plastic work turned into heat"},
     {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL, "initial temperature"},
     {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.499, CFG_MIN_EXCLUSIVE, NULL,
@@ -209,6 +214,7 @@ static int load_material(const struct case_file *c, const char *key, const char 
     m->melt_T0 = case_real(c, section, "melt_T0");
     m->melt_a = case_real(c, section, "melt_a");
     m->specific_heat = case_real(c, section, "specific_heat");
+    m->conductivity = case_real(c, section, "conductivity");
     m->taylor_quinney = case_real(c, section, "taylor_quinney");
     m->T_initial = case_real(c, section, "T_initial");
     if (case_has(c, section, "bulk_modulus") && case_has(c, section, "poisson"))
@@ -388,6 +394,10 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                             cfg->grid);
     SC_TRY(load_device(c, cfg));
     SC_TRY(load_transfer(c, cfg));
+    cfg->conduction = case_is(c, "impact", "conduction", "on");
+    if (cfg->conduction && cfg->device == MPM_DEVICE_GPU)
+        return case_invalid(c, "impact", "conduction",
+                            "on is not in the GPU step; allowed: off with [run] device = gpu, or on with device = cpu");
     return SC_OK;
 }
 

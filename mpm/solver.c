@@ -175,6 +175,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     SC_TRY(mpm_points_create(&s->cfg, &s->points));
     SC_TRY(mpm_grid_create(&s->cfg, &s->points, &s->grid));
     SC_TRY(mpm_list_boundary_points(s));
+    SC_TRY(mpm_conduction_create(s));
     s->energy_initial = kinetic_energy_total(&s->points);
     s->next_series = cfg->series_every;
     s->next_snapshot = cfg->snapshot_every;
@@ -212,6 +213,7 @@ void mpm_destroy(struct mpm_solver *s)
     if (!s)
         return;
     mpm_gpu_detach(s);
+    mpm_conduction_free(s);
     mpm_points_free(&s->points);
     mpm_grid_free(&s->grid);
     mpm_config_free(&s->cfg);
@@ -840,6 +842,7 @@ int mpm_step(struct mpm_solver *s)
     s->points.x = s->points.x_next;
     s->points.x_next = swap;
     s->t += s->dt;
+    mpm_conduction_advance(s, s->t - s->dt, s->t);
     s->step++;
     s->point_updates += (int64_t)s->points.count - s->removed_points;
     SC_TRY(remove_escaped(s));

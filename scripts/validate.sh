@@ -32,8 +32,10 @@
 #      part copies its searches to cases/calibrate_vcrit_al_15cells.csv and .png.
 #   8. v_crit(d) and CoR(v) as in 5 with the fit at 15 cells per diameter (cases/vcrit_al_15cells.ini, eps_c 3.15,
 #      part vcrit_al_fine, about 2.5 hours): cases/vcrit_al_15cells.csv, _cor.csv, .png and _cor.png.
-# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]
-# runs one.
+#   9. The interface's plastic strain and temperature against the resolution, adiabatic and with conduction (part
+#      interface_strain, about 25 minutes; docs/physics.md "Why the calibration moves with the grid").
+# VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]|
+# interface_strain runs one.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -272,12 +274,62 @@ validate_calibrate_vcrit_resolution() {
     fi
 }
 
+# The interface's plastic strain and temperature against the resolution (docs/physics.md "Why the calibration moves
+# with the grid"): cases/interface_strain.ini at INTERFACE_CELLS cells across (default 7 10 15 20 25 30, about 19
+# minutes on 2 cores, 30 cells 10 of them), adiabatic, and at 7-20 cells with conduction = on (about 5 minutes).
+# Fails unless the adiabatic 95th percentile of the interface's strain rises with the cells, its rise per unit of
+# ln(cells) over the last refinement is under half the steepest before (the strain levels off), and with conduction
+# the hottest particle point rises from 7 to 20 cells by under a quarter of the adiabatic rise.  Needs python3-h5py
+# (scripts/bootstrap --analysis).
+interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCell = 14 um / CELLS, dp = DCell / 3)
+    awk -v c="$1" 'BEGIN { printf "s/^grid = .*/grid = %.6g/;s/^spacing = .*/spacing = %.6g/", 14e-6 / c, 14e-6 / c / 3 }'
+    printf ';s/^conduction = .*/conduction = %s/\n' "$2"
+}
+
+validate_interface_strain() {
+    dir=${VALIDATE_DIR:-runs/validate_interface_strain}
+    mkdir -p "$dir"
+    if ! python3 -c 'import h5py, numpy' 2>/dev/null; then
+        fail_part "interface_strain needs python3-h5py and numpy: scripts/bootstrap --analysis"
+        return 0
+    fi
+    runs=""
+    for mode in off on; do
+        for cells in ${INTERFACE_CELLS:-7 10 15 20 25 30}; do
+            [ "$mode" = on ] && [ "$cells" -gt 20 ] && continue
+            name="${cells}cells_conduction_$mode"
+            sed "$(interface_case "$cells" "$mode")" cases/interface_strain.ini >"$dir/$name.ini"
+            echo "validate: interface_strain: $name"
+            "$bin" impact "$dir/$name.ini" -o "$dir/$name" >"$dir/$name.log" 2>&1 || {
+                fail_part "interface_strain: $name failed: $(tail -n 2 "$dir/$name.log")"
+                return 0
+            }
+            runs="$runs $name=$dir/$name"
+        done
+    done
+    # shellcheck disable=SC2086 # one LABEL=DIR word per run, no blanks
+    python3 scripts/interface_strain.py 4 $runs | tee "$dir/interface_strain.csv"
+    if awk -F, 'NR > 1 { split($1, a, "cells"); c = a[1] + 0
+                  if ($1 ~ /_off$/) { n++; cell[n] = c; q[n] = $6; hot_off[c] = $8 } else hot_on[c] = $8 }
+        END { ok = n >= 4
+              for (i = 2; i <= n; i++) { ok = ok && q[i] > q[i - 1]; rate[i] = (q[i] - q[i - 1]) / log(cell[i] / cell[i - 1]) }
+              for (i = 2; i < n; i++) steepest = rate[i] > steepest ? rate[i] : steepest
+              printf "validate: interface_strain: rise of the 95th percentile per unit of ln(cells): last %.3f, steepest before %.3f\n", rate[n], steepest
+              ok = ok && rate[n] < 0.5 * steepest
+              ok = ok && (7 in hot_on) && (20 in hot_on) && (hot_on[20] - hot_on[7]) < 0.25 * (hot_off[20] - hot_off[7])
+              exit !ok }' "$dir/interface_strain.csv"; then
+        echo "validate: interface_strain: the strain levels off with the cells, conduction bounds the temperature"
+    else
+        fail_part "interface_strain: the interface's strain or temperature does not behave as docs/physics.md says"
+    fi
+}
+
 case $only in
     all)
         validate_table1; validate_bonding; validate_fuzz
         for r in coarse medium fine; do validate_calibrate $r; validate_vcrit $r; done
         validate_calibrate_vcrit; validate_calibrate_vcrit_resolution coarse; validate_calibrate_vcrit_resolution fine
-        validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
+        validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine; validate_interface_strain ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
@@ -285,12 +337,13 @@ case $only in
     vcrit_coarse | vcrit_medium | vcrit_fine) validate_vcrit "${only#vcrit_}" ;;
     vcrit_al) validate_vcrit_al ;;
     vcrit_al_fine) validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
+    interface_strain) validate_interface_strain ;;
     calibrate_vcrit) validate_calibrate_vcrit ;;
     calibrate_vcrit_coarse | calibrate_vcrit_fine) validate_calibrate_vcrit_resolution "${only#calibrate_vcrit_}" ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
             "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse," \
-            "calibrate_vcrit_fine, vcrit_al or vcrit_al_fine, not '$only'" >&2
+            "calibrate_vcrit_fine, vcrit_al, vcrit_al_fine or interface_strain, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then

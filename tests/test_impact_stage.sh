@@ -5,7 +5,8 @@
 # /stats, and impact.xdmf naming only datasets that exist; 1 and 2 threads give identical datasets; a run
 # stopped by SIGTERM (exit 143, after a checkpoint) or killed by SIGKILL and then continued with
 # `spraycoat resume` ends with datasets identical to an uninterrupted run's; `info` shows a checkpoint and the
-# results; a second `impact` of the same case does nothing.
+# results; a second `impact` of the same case does nothing; with `conduction = on` (heat exchanged whenever the
+# time crosses a multiple of its interval) a SIGTERM and resume end identically too.
 #
 # "Identical": h5diff -d 0 of /snapshots, /series, /summary and /stats (groups compared object by object with
 # their attributes; the root attributes `created` and `program_version` are left out, since Debian's h5diff 1.10
@@ -281,4 +282,31 @@ if "$BIN" resume "$RUN" >"$T/resume3.log" 2>&1 && same_results "$REF" "$RUN"; th
 else
     fail impact_stage_early_kill_resume "${why:-resume failed: $(tail -n 2 "$T/resume3.log" | tr '\n' ' ')}"
 fi
+
+# ---- 9. conduction = on: its exchanges are decided by the time alone, so a SIGTERM and resume end identically --
+CONDUCTION=$T/conduction.ini
+sed 's/^\[impact\]$/[impact]\nconduction = on/' "$CASE" >"$CONDUCTION"
+problem=""
+"$BIN" impact "$CONDUCTION" -o "$T/cref" --threads 1 >"$T/cref.log" 2>&1 || problem="the uninterrupted run failed;"
+grep -q 'heat conduction within' "$T/cref.log" || problem="$problem the log does not say conduction is on;"
+same_results "$REF" "$T/cref" && problem="$problem the results equal the adiabatic run's;"
+why=$problem
+RUN=$T/cterm
+"$BIN" impact "$CONDUCTION" -o "$RUN" --threads 1 >"$T/cterm.log" 2>&1 &
+bg=$!
+if [ -z "$why" ] && wait_for_checkpoints "$RUN" 2; then
+    kill -TERM "$bg"
+    wait "$bg" 2>/dev/null
+    bg=""
+    if ! "$BIN" resume "$RUN" >"$T/cresume.log" 2>&1 || ! grep -q 'resuming from' "$T/cresume.log"; then
+        why="resume did not finish from a checkpoint: $(tail -n 2 "$T/cresume.log" | tr '\n' ' ')"
+    elif ! same_results "$T/cref" "$RUN"; then
+        why="after resume: $why"
+    fi
+else
+    wait "$bg" 2>/dev/null
+    bg=""
+    why="${why:-the run ended before its second checkpoint}"
+fi
+if [ -z "$why" ]; then pass impact_stage_conduction_resume; else fail impact_stage_conduction_resume "$why"; fi
 exit 0

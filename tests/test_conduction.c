@@ -1,0 +1,157 @@
+/* Heat conduction inside the bodies ([impact] conduction = on, mpm/conduction.c) against the heat equation.
+ *
+ * A Gaussian hot spot, dT = A exp(-r^2 / (2 s0^2)), in the middle of an Al block (k 167 W/(m K), rho 2700 kg/m3,
+ * c_p 900 J/(kg K): kappa = 6.87e-5 m2/s) spreads in free space as
+ *     dT(centre, t) = A (s0^2 / (s0^2 + 2 kappa t))^(3/2),   variance per axis s^2(t) = s0^2 + 2 kappa t
+ * (the fundamental solution convolved with the Gaussian).  The variance's growth is what the scheme must get right
+ * in the interior to rounding (its kernel is normalised to the lattice's second moment: the discrete Laplacian of
+ * x^2 is exactly 2); only the block's faces, 8 um from the centre, where the excess is 1e-4 of A, can move it, so
+ * the bound is 0.5 %.  The centre value carries the kernel's O((eps / s)^2) error (eps = 0.8 um, s 1.5-2.1 um):
+ * measured within 1 % of the formula, the bound 3 %.  The heat is conserved body by body (pair exchanges are
+ * antisymmetric) to rounding, none crosses into a touching body of another temperature, and no temperature leaves
+ * the range of the start (the step keeps each new temperature a weighted mean of the old ones).  Through the solver
+ * (mpm_step, the block at rest) the exchanges happen on schedule: the variance grows by 2 kappa t over the time
+ * stepped. */
+#include <math.h>
+
+#include "check.h"
+#include "impact_fixture.h"
+/* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
+#include "mpm/mpm_impl.h"
+
+static const double kappa = 167.0 / (2700.0 * 900.0), s0 = 1.5e-6, amplitude = 100.0, T_block = 298.0;
+static const double T_particle = 600.0;
+
+/* The block, 16 um a side on 1.2/0.4 um, and a 2 um particle at rest touching its top, both at T_block. */
+static int open_block(struct impact_fixture *f, double t_end)
+{
+    char ini[640];
+    snprintf(ini, sizeof ini,
+             "[impact]\nsubstrate = box\nsubstrate_diameter = 16e-6\nsubstrate_height = 16e-6\ngrid = 1.2e-6\n"
+             "spacing = 0.4e-6\nbonding = none\nconduction = on\nabsorbing = no\nstop_when_settled = no\n"
+             "t_end = %g\nbox_margin = 2.4e-6\n[material.aluminium]\n",
+             t_end);
+    return impact_fixture_open(f, ini, "sphere,0,0,1.0e-6,0,0,0,2e-6,0,aluminium\n");
+}
+
+/* Sets the hot spot on the block (body 0) around its point nearest the block's centre, and the particle (body 1)
+ * to T_particle; returns that point's slot. */
+static size_t heat_block(struct mpm_points *p, double centre[3])
+{
+    size_t nearest = 0;
+    double best = INFINITY;
+    for (size_t q = 0; q < p->count; q++) {
+        const double *x = p->x + 3 * q;
+        double r2 = x[0] * x[0] + x[1] * x[1] + (x[2] + 8e-6) * (x[2] + 8e-6);
+        if (p->body[q] == 0 && r2 < best)
+            best = r2, nearest = q;
+    }
+    for (int d = 0; d < 3; d++)
+        centre[d] = p->x[3 * nearest + d];
+    for (size_t q = 0; q < p->count; q++) {
+        const double *x = p->x + 3 * q;
+        double r2 = 0.0;
+        for (int d = 0; d < 3; d++)
+            r2 += (x[d] - centre[d]) * (x[d] - centre[d]);
+        p->state[q].T = p->body[q] == 0 ? T_block + amplitude * exp(-r2 / (2.0 * s0 * s0)) : T_particle;
+    }
+    return nearest;
+}
+
+struct heat_moments {
+    double heat[2];   /* sum m c T of each body, J */
+    double variance;  /* mean over the axes of the block's excess-weighted variance about the centre, m^2 */
+    double low, high; /* the block's temperature range, K */
+};
+
+static struct heat_moments moments(const struct mpm_points *p, const double centre[3])
+{
+    struct heat_moments m = {{0.0, 0.0}, 0.0, INFINITY, -INFINITY};
+    double excess = 0.0, second = 0.0;
+    for (size_t q = 0; q < p->count; q++) {
+        double T = p->state[q].T;
+        m.heat[p->body[q]] += p->mass[q] * 900.0 * T;
+        if (p->body[q] != 0)
+            continue;
+        double r2 = 0.0;
+        for (int d = 0; d < 3; d++)
+            r2 += (p->x[3 * q + d] - centre[d]) * (p->x[3 * q + d] - centre[d]);
+        excess += p->mass[q] * (T - T_block);
+        second += p->mass[q] * (T - T_block) * r2;
+        m.low = fmin(m.low, T), m.high = fmax(m.high, T);
+    }
+    m.variance = second / excess / 3.0;
+    return m;
+}
+
+/* Exchanges alone (no mechanics) until 2 kappa t = s0^2: the centre at 2^(-3/2) of its excess. */
+static void test_hot_spot(void)
+{
+    struct impact_fixture f;
+    if (open_block(&f, 1e-9) != SC_OK) {
+        CHECK(0, "block set up");
+        return;
+    }
+    struct mpm_points *p = &f.solver->points;
+    double centre[3];
+    size_t middle = heat_block(p, centre);
+    struct heat_moments start = moments(p, centre);
+    double interval = mpm_conduction_interval(f.solver), t_total = s0 * s0 / (2.0 * kappa);
+    int exchanges = (int)ceil(t_total / interval);
+    double dt = t_total / exchanges;
+    CHECK(dt <= interval && exchanges >= 20, "%d exchanges of %g s (interval %g s)", exchanges, dt, interval);
+    for (int k = 0; k < exchanges; k++)
+        mpm_conduction_exchange(f.solver, dt);
+    struct heat_moments end = moments(p, centre);
+    printf("  variance %.6g -> %.6g m2 (2 kappa t = %.6g); centre excess %.6g K (formula %.6g)\n", start.variance,
+           end.variance, 2.0 * kappa * t_total, p->state[middle].T - T_block, amplitude * pow(2.0, -1.5));
+    CHECK_CLOSE(end.variance - start.variance, 2.0 * kappa * t_total, 5e-3, 0.0, "variance growth 2 kappa t");
+    CHECK_CLOSE(p->state[middle].T - T_block, amplitude * pow(2.0, -1.5), 0.03, 0.0, "centre excess");
+    CHECK_CLOSE(end.heat[0], start.heat[0], 1e-13, 0.0, "block's heat conserved");
+    CHECK_CLOSE(end.heat[1], start.heat[1], 1e-13, 0.0, "particle's heat: none crossed the contact");
+    CHECK(end.low >= T_block - 1e-9 && end.high <= start.high, "block's range [%.9g, %.9g] within [%g, %.9g]",
+          end.low, end.high, T_block, start.high);
+    impact_fixture_close(&f);
+}
+
+/* Through mpm_step: the variance grows by 2 kappa t over the time stepped. */
+static void test_through_the_solver(void)
+{
+    struct impact_fixture f;
+    double t_end = 3e-9;
+    if (open_block(&f, t_end) != SC_OK) {
+        CHECK(0, "block set up");
+        return;
+    }
+    struct mpm_points *p = &f.solver->points;
+    double centre[3];
+    heat_block(p, centre);
+    struct heat_moments start = moments(p, centre);
+    CHECK(impact_fixture_run(&f) == SC_OK, "run");
+    double interval = mpm_conduction_interval(f.solver), t = mpm_get_counts(f.solver).t;
+    double exchanged = floor(t / interval) * interval;
+    struct heat_moments end = moments(p, centre);
+    printf("  t = %.4g s, %g exchanges of %.4g s: variance %.6g -> %.6g m2 (2 kappa t = %.6g)\n", t,
+           floor(t / interval), interval, start.variance, end.variance, 2.0 * kappa * exchanged);
+    CHECK(exchanged > 0.8 * t_end, "exchanged %g s of %g s", exchanged, t);
+    CHECK_CLOSE(end.variance - start.variance, 2.0 * kappa * exchanged, 0.01, 0.0, "variance growth 2 kappa t");
+    impact_fixture_close(&f);
+}
+
+/* A case that does not ask for conduction runs adiabatic, as the thesis's (Eq. 3.44). */
+static void test_default_off(void)
+{
+    struct impact_fixture f;
+    CHECK(impact_fixture_open(&f, "[impact]\ngrid = 2e-6\nspacing = 1e-6\n[material.aluminium]\n", NULL) == SC_OK,
+          "default case");
+    CHECK(f.solver && f.solver->conduction == NULL && !f.cfg.conduction, "conduction off by default (adiabatic)");
+    impact_fixture_close(&f);
+}
+
+int main(void)
+{
+    RUN(test_hot_spot);
+    RUN(test_through_the_solver);
+    RUN(test_default_off);
+    return check_finish();
+}
