@@ -29,12 +29,12 @@
 #define KERNEL_RADIUS 2.0 /* eps / spacing */
 
 struct mpm_conduction {
-    double eps, eps2;  /* kernel radius and its square, m */
-    double laplacian;  /* 6 / M2, 1/m^5 */
-    double interval;   /* dt_heat, s */
-    double cell;       /* cell-list edge (= eps), m */
-    double origin[3];  /* cell-list origin: the grid's */
-    int n[3];          /* cells per direction */
+    double eps, eps2; /* kernel radius and its square, m */
+    double laplacian; /* 6 / M2, 1/m^5 */
+    double interval;  /* dt_heat, s */
+    double cell;      /* cell-list edge (= eps), m */
+    double origin[3]; /* cell-list origin: the grid's */
+    int n[3];         /* cells per direction */
     size_t cells;
     size_t *cell_start; /* cells + 1 */
     size_t *cell_points;
@@ -186,8 +186,8 @@ static double exchange_sum(const struct mpm_conduction *c, const struct mpm_poin
                     if (o == q || p->body[o] != p->body[q])
                         continue;
                     const double *y = p->x + 3 * o;
-                    double r2 = (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) +
-                                (y[2] - x[2]) * (y[2] - x[2]);
+                    double r2 =
+                        (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) + (y[2] - x[2]) * (y[2] - x[2]);
                     if (r2 < c->eps2)
                         sum += p->volume0[o] * (p->state[o].T - T) * kernel(r2 / c->eps2);
                 }

@@ -109,8 +109,8 @@ static void test_hot_spot(void)
     CHECK_CLOSE(p->state[middle].T - T_block, amplitude * pow(2.0, -1.5), 0.03, 0.0, "centre excess");
     CHECK_CLOSE(end.heat[0], start.heat[0], 1e-13, 0.0, "block's heat conserved");
     CHECK_CLOSE(end.heat[1], start.heat[1], 1e-13, 0.0, "particle's heat: none crossed the contact");
-    CHECK(end.low >= T_block - 1e-9 && end.high <= start.high, "block's range [%.9g, %.9g] within [%g, %.9g]",
-          end.low, end.high, T_block, start.high);
+    CHECK(end.low >= T_block - 1e-9 && end.high <= start.high, "block's range [%.9g, %.9g] within [%g, %.9g]", end.low,
+          end.high, T_block, start.high);
     impact_fixture_close(&f);
 }
 
