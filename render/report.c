@@ -427,6 +427,9 @@ static void calibration_sentence(FILE *f, const struct case_file *c)
             " belong to %s (docs/physics.md, \"Bonding calibration\"): at another resolution the verdicts are not "
             "calibrated",
             calibrated);
+    if (case_is(c, "impact", "conduction", "on")) /* every shipped calibration was made adiabatic */
+        fprintf(f, "; the impacts ran with heat conduction (<code>[impact] conduction = on</code>), the calibration "
+                   "without it (docs/physics.md, \"Heat conduction\")");
 }
 
 enum verdict { BONDED, REBOUNDED, STUCK, UNSETTLED };

@@ -160,7 +160,8 @@ else
 fi
 
 # ---- a case that sets its own bonding parameters is told so, next to the resolution the shipped ones belong to ----
-sed 's/^\[impact\]$/[impact]\neps_c = 2.6/' "$T/case.ini" >"$T/own.ini"
+# (and one that runs its impacts with heat conduction is told that the calibration was made without it)
+sed 's/^\[impact\]$/[impact]\neps_c = 2.6\nconduction = on/' "$T/case.ini" >"$T/own.ini"
 if ! grep -q '^eps_c = 2.6$' "$T/own.ini"; then
     echo "FAIL report_own_bonding_parameters: the fixture has no [impact] section to set eps_c in"
 elif ! "$bin" run "$T/own.ini" -o "$T/own" -q >"$T/own_out" 2>&1; then
@@ -172,5 +173,11 @@ else
         echo "PASS report_own_bonding_parameters"
     else
         echo "FAIL report_own_bonding_parameters: the headline of a case with eps_c = 2.6 (or of the default case) misstates whose parameters the run used: $(printf '%s' "$own" | grep -o 'Resolution: [^<]*.\{0,400\}' | head -c 500)"
+    fi
+    if printf '%s' "$own" | grep -q 'the impacts ran with heat conduction (<code>\[impact\] conduction = on</code>), the calibration without it' &&
+        ! grep -q 'heat conduction' "$page"; then
+        echo "PASS report_conduction_named"
+    else
+        echo "FAIL report_conduction_named: the headline of a case with conduction = on (or of the default case) misstates it: $(printf '%s' "$own" | grep -o 'Resolution: [^<]*.\{0,500\}' | head -c 600)"
     fi
 fi
