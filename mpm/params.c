@@ -71,7 +71,8 @@ const struct cfg_key mpm_case_keys[] = {
      "\"Contact\")"},
     {"impact", "conduction", CFG_CHOICE, "", "off", 0, 0, 0, "off|on",
      "heat conduction inside each body (Fourier's law with the materials' conductivity; off: adiabatic, as Tang 2021 "
-     "Eq. 3.44): gives the interface's shear band its physical width (docs/physics.md \"Heat conduction\")"},
+     "Eq. 3.44, the shipped calibrations' assumption): holds the interface's temperature, which adiabatic grows with "
+     "every refinement of the grid (docs/physics.md \"Heat conduction\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "strain", 0, 0, 0, "energy|strain|none",
@@ -555,8 +556,9 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
 /* Geometric similarity (docs/physics.md "Resolution in cells per diameter"): every length and time of the set-up
  * times `factor`.  Without a length scale in the response (rate-independent, adiabatic) the scaled impact is the same
  * solution in x/d and t v/d, on a grid with the same cells per particle; what stays of the size is the rate
- * dependence of strength and bonding.  The spring boundaries' stiffness alpha G / R follows R, the dashpots need
- * nothing. */
+ * dependence of strength and bonding, and with conduction = on the diffusion length sqrt(kappa t), a physical length
+ * (the conduction's kernel scales with the spacing, its diffusivity does not).  The spring boundaries' stiffness alpha
+ * G / R follows R, the dashpots need nothing. */
 void mpm_config_scale_lengths(struct mpm_config *cfg, double factor)
 {
     cfg->grid *= factor;

@@ -184,6 +184,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     SC_TRY(mpm_verdict_create(s));
     if (cfg->device == MPM_DEVICE_GPU && cfg->transfer == MPM_TRANSFER_APIC)
         SC_FAIL(SC_EINPUT, "impact: transfer = apic is not in the GPU step; use device = cpu or transfer = flip");
+    if (cfg->device == MPM_DEVICE_GPU && cfg->conduction)
+        SC_FAIL(SC_EINPUT, "impact: conduction = on is not in the GPU step; use device = cpu or conduction = off");
     if (cfg->device == MPM_DEVICE_GPU)
         SC_TRY(mpm_gpu_attach(s));
     return SC_OK;
@@ -841,11 +843,12 @@ int mpm_step(struct mpm_solver *s)
     double *swap = s->points.x;
     s->points.x = s->points.x_next;
     s->points.x_next = swap;
+    double t_before = s->t;
     s->t += s->dt;
-    mpm_conduction_advance(s, s->t - s->dt, s->t);
     s->step++;
     s->point_updates += (int64_t)s->points.count - s->removed_points;
     SC_TRY(remove_escaped(s));
+    mpm_conduction_advance(s, t_before, s->t); /* among the points that stay, positions finite */
     SC_TRY(advance_clocks(s));
     return SC_OK;
 }

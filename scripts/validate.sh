@@ -275,12 +275,12 @@ validate_calibrate_vcrit_resolution() {
 }
 
 # The interface's plastic strain and temperature against the resolution (docs/physics.md "Why the calibration moves
-# with the grid"): cases/interface_strain.ini at INTERFACE_CELLS cells across (default 7 10 15 20 25 30, about 19
-# minutes on 2 cores, 30 cells 10 of them), adiabatic, and at 7-20 cells with conduction = on (about 5 minutes).
-# Fails unless the adiabatic 95th percentile of the interface's strain rises with the cells, its rise per unit of
-# ln(cells) over the last refinement is under half the steepest before (the strain levels off), and with conduction
-# the hottest particle point rises from 7 to 20 cells by under a quarter of the adiabatic rise.  Needs python3-h5py
-# (scripts/bootstrap --analysis).
+# with the grid"): cases/interface_strain.ini at INTERFACE_CELLS cells across (integers, ascending; default 7 10 15
+# 20 25 30, about 19 minutes on 2 cores, 30 cells 10 of them), adiabatic, and at 7-20 cells with conduction = on
+# (about 5 minutes).  Fails unless the adiabatic 95th percentile of the interface's strain rises with the cells, its
+# rise per unit of ln(cells) over the last refinement is under half the steepest before (the strain levels off), and
+# with conduction the hottest particle point rises from 7 to 20 cells by under a quarter of the adiabatic rise.
+# Needs python3-h5py (scripts/bootstrap --analysis).
 interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCell = 14 um / CELLS, dp = DCell / 3)
     awk -v c="$1" 'BEGIN { printf "s/^grid = .*/grid = %.6g/;s/^spacing = .*/spacing = %.6g/", 14e-6 / c, 14e-6 / c / 3 }'
     printf ';s/^conduction = .*/conduction = %s/\n' "$2"
@@ -308,11 +308,17 @@ validate_interface_strain() {
         done
     done
     # shellcheck disable=SC2086 # one LABEL=DIR word per run, no blanks
-    python3 scripts/interface_strain.py 4 $runs | tee "$dir/interface_strain.csv"
+    if ! python3 scripts/interface_strain.py 4 $runs >"$dir/interface_strain.csv"; then
+        fail_part "interface_strain: scripts/interface_strain.py could not read the runs' 20 ns snapshots"
+        return 0
+    fi
+    cat "$dir/interface_strain.csv"
     if awk -F, 'NR > 1 { split($1, a, "cells"); c = a[1] + 0
                   if ($1 ~ /_off$/) { n++; cell[n] = c; q[n] = $6; hot_off[c] = $8 } else hot_on[c] = $8 }
         END { ok = n >= 4
-              for (i = 2; i <= n; i++) { ok = ok && q[i] > q[i - 1]; rate[i] = (q[i] - q[i - 1]) / log(cell[i] / cell[i - 1]) }
+              for (i = 2; i <= n; i++) { # INTERFACE_CELLS ascending
+                  if (cell[i] <= cell[i - 1]) { print "validate: interface_strain: INTERFACE_CELLS must ascend"; exit 1 }
+                  ok = ok && q[i] > q[i - 1]; rate[i] = (q[i] - q[i - 1]) / log(cell[i] / cell[i - 1]) }
               for (i = 2; i < n; i++) steepest = rate[i] > steepest ? rate[i] : steepest
               printf "validate: interface_strain: rise of the 95th percentile per unit of ln(cells): last %.3f, steepest before %.3f\n", rate[n], steepest
               ok = ok && rate[n] < 0.5 * steepest
