@@ -289,7 +289,14 @@ interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCe
 validate_interface_strain() {
     dir=${VALIDATE_DIR:-runs/validate_interface_strain}
     mkdir -p "$dir"
-    if ! python3 -c 'import h5py, numpy' 2>/dev/null; then
+    py="" # the first Python with h5py: Debian's, also where another python3 comes first in PATH
+    for candidate in python3 /usr/bin/python3; do
+        if "$candidate" -c 'import h5py, numpy' 2>/dev/null; then
+            py=$candidate
+            break
+        fi
+    done
+    if [ -z "$py" ]; then
         fail_part "interface_strain needs python3-h5py and numpy: scripts/bootstrap --analysis"
         return 0
     fi
@@ -308,7 +315,7 @@ validate_interface_strain() {
         done
     done
     # shellcheck disable=SC2086 # one LABEL=DIR word per run, no blanks
-    if ! python3 scripts/interface_strain.py 4 $runs >"$dir/interface_strain.csv"; then
+    if ! "$py" scripts/interface_strain.py 4 $runs >"$dir/interface_strain.csv"; then
         fail_part "interface_strain: scripts/interface_strain.py could not read the runs' 20 ns snapshots"
         return 0
     fi
