@@ -196,29 +196,30 @@ static double exchange_sum(const struct mpm_conduction *c, const struct mpm_poin
     return sum;
 }
 
-/* One exchange over dt on the cell list built for the points' current positions. */
+static const struct mpm_material *material_of(const struct mpm_solver *s, size_t q)
+{
+    return &s->cfg.materials[s->cfg.bodies[s->points.body[q]].material];
+}
+
+/* One exchange over dt on the cell list built for the points' current positions: every point's heat from the
+ * temperatures before the exchange, then the temperatures and energies (two passes: a point's sum must not see
+ * a neighbour already updated). */
 static void exchange(struct mpm_solver *s, double dt)
 {
     struct mpm_conduction *c = s->conduction;
     struct mpm_points *p = &s->points;
     long count = (long)p->count;
 #pragma omp parallel for schedule(static)
-    for (long i = 0; i < count; i++) {
-        size_t q = (size_t)i;
-        if (c->point_cell[q] == SIZE_MAX)
-            continue;
-        const struct mpm_material *m = &s->cfg.materials[s->cfg.bodies[p->body[q]].material];
-        c->heat[q] = dt * m->conductivity * c->laplacian * p->volume0[q] * exchange_sum(c, p, q);
-    }
+    for (long i = 0; i < count; i++)
+        if (c->point_cell[i] != SIZE_MAX)
+            c->heat[i] = dt * material_of(s, (size_t)i)->conductivity * c->laplacian * p->volume0[i] *
+                         exchange_sum(c, p, (size_t)i);
 #pragma omp parallel for schedule(static)
-    for (long i = 0; i < count; i++) {
-        size_t q = (size_t)i;
-        if (c->point_cell[q] == SIZE_MAX)
-            continue;
-        const struct mpm_material *m = &s->cfg.materials[s->cfg.bodies[p->body[q]].material];
-        p->state[q].T += c->heat[q] / (p->mass[q] * m->specific_heat);
-        p->state[q].energy += c->heat[q];
-    }
+    for (long i = 0; i < count; i++)
+        if (c->point_cell[i] != SIZE_MAX) {
+            p->state[i].T += c->heat[i] / (p->mass[i] * material_of(s, (size_t)i)->specific_heat);
+            p->state[i].energy += c->heat[i];
+        }
 }
 
 void mpm_conduction_exchange(struct mpm_solver *s, double dt)
