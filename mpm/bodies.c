@@ -1,6 +1,7 @@
 /* Material points filling the bodies on a cubic lattice of spacing dp (thesis Section 3.4: DCell/dp), with
  * the surface points of the bonding model and the boundary points of the absorbing boundaries marked at set-up. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -89,8 +90,34 @@ static void classify(const struct mpm_body *b, double dp, double tol, struct poi
         seed->normal[k] /= norm;
 }
 
-static int seed_body(const struct mpm_body *b, double dp, struct point_seed **seeds, size_t *count, size_t *capacity)
+/* Whether a lattice position lies on the modelled side of the mirror planes ([impact] symmetry): the lattice of a
+ * body centred on a plane has no point on it (offsets (i + 1/2) dp), and its points on the other side are the
+ * mirror images of those kept. */
+static int modelled(const int mirror[2], const double x[3])
 {
+    return (!mirror[0] || x[0] > 0.0) && (!mirror[1] || x[1] > 0.0);
+}
+
+int mpm_mirror_check(const struct mpm_config *cfg, char *why, size_t size)
+{
+    static const char axis[2] = {'x', 'y'};
+    for (int b = 0; b < cfg->body_count; b++)
+        for (int d = 0; d < 2; d++) {
+            const struct mpm_body *body = &cfg->bodies[b];
+            if (!cfg->mirror[d] || (body->center[d] == 0.0 && body->velocity[d] == 0.0))
+                continue;
+            snprintf(why, size,
+                     "body %d is centred at %c = %g m moving at v_%c = %g m/s, not on the mirror plane %c = 0", b,
+                     axis[d], body->center[d], axis[d], body->velocity[d], axis[d]);
+            return -1;
+        }
+    return 0;
+}
+
+static int seed_body(const struct mpm_config *cfg, int body, struct point_seed **seeds, size_t *count, size_t *capacity)
+{
+    const struct mpm_body *b = &cfg->bodies[body];
+    double dp = cfg->spacing;
     long lo[3], hi[3];
     lattice_range(b, dp, lo, hi);
     double tol = 1e-9 * dp;
@@ -99,7 +126,7 @@ static int seed_body(const struct mpm_body *b, double dp, struct point_seed **se
             for (long i = lo[0]; i <= hi[0]; i++) {
                 struct point_seed seed = {0};
                 lattice_position(b, dp, i, j, k, seed.x);
-                if (!inside(b, seed.x, tol))
+                if (!inside(b, seed.x, tol) || !modelled(cfg->mirror, seed.x))
                     continue;
                 classify(b, dp, tol, &seed);
                 if (*count == *capacity) {
@@ -346,9 +373,12 @@ int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
     int status;
     SC_CHECK(status, sc_calloc(&seeds, (size_t)cfg->body_count, sizeof *seeds, "the bodies' seeds"), done);
     SC_CHECK(status, sc_calloc(&counts, (size_t)cfg->body_count, sizeof *counts, "the bodies' seeds"), done);
+    char why[256];
+    if (mpm_mirror_check(cfg, why, sizeof why) != 0)
+        SC_FAIL_AT(status, done, SC_EINPUT, "impact: symmetry: %s", why);
     for (int b = 0; b < cfg->body_count; b++) {
         size_t capacity = 0;
-        SC_CHECK(status, seed_body(&cfg->bodies[b], cfg->spacing, &seeds[b], &counts[b], &capacity), done);
+        SC_CHECK(status, seed_body(cfg, b, &seeds[b], &counts[b], &capacity), done);
         if (counts[b] == 0)
             SC_FAIL_AT(status, done, SC_EINPUT, "impact: body %d holds no material point at spacing %g m", b,
                        cfg->spacing);

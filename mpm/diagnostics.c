@@ -75,21 +75,24 @@ static void add_point(const struct mpm_solver *s, size_t q, struct body_sums *b)
     b->bonded += p->d_bond[q] >= 1.0;
 }
 
-static void finish_body(const struct body_sums *b, struct mpm_body_diagnostics *out)
+/* The whole body's from its modelled part's sums ([impact] symmetry, `copies` of it): the extensive sums times the
+ * copies (no point lies on a mirror plane), means as they are, no centre-of-mass motion across a mirror plane. */
+static void finish_body(const struct mpm_config *cfg, const struct body_sums *b, struct mpm_body_diagnostics *out)
 {
-    out->mass = b->mass;
-    out->kinetic_energy = b->ke;
-    out->internal_energy = b->internal;
-    out->plastic_work = b->plastic_work;
+    double copies = mpm_mirror_copies(cfg);
+    out->mass = copies * b->mass;
+    out->kinetic_energy = copies * b->ke;
+    out->internal_energy = copies * b->internal;
+    out->plastic_work = copies * b->plastic_work;
     out->mean_eps_p = b->mass > 0 ? b->eps_p_mass / b->mass : 0.0;
     out->plastic_energy_density = b->volume0 > 0 ? b->plastic_work / b->volume0 : 0.0;
     for (int d = 0; d < 3; d++)
-        out->v_com[d] = b->mass > 0 ? b->momentum[d] / b->mass : 0.0;
+        out->v_com[d] = b->mass > 0 && !(d < 2 && cfg->mirror[d]) ? b->momentum[d] / b->mass : 0.0;
     out->pbcp = b->contacted > 0 ? (double)b->bonded / (double)b->contacted : 0.0;
     out->v_rest = b->slow > 0 ? b->slow_vz / (double)b->slow : NAN;
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
-    out->contacted_points = b->contacted;
-    out->bonded_points = b->bonded;
+    out->contacted_points = (int64_t)copies * b->contacted;
+    out->bonded_points = (int64_t)copies * b->bonded;
 }
 
 /* The points are summed by id, scattered over the storage after a reordering (point_order.c): the fields of the
@@ -127,13 +130,14 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     d->t = s->t;
     d->body_count = nb;
     d->body = s->body_diagnostics;
-    d->energy_absorbed = s->energy_absorbed;
-    d->energy_removed = s->energy_removed;
-    d->energy_initial = s->energy_initial;
-    d->energy_stored = mpm_boundary_spring_energy(s);
-    d->energy_total = s->energy_absorbed + s->energy_removed + d->energy_stored;
+    double copies = mpm_mirror_copies(&s->cfg);
+    d->energy_absorbed = copies * s->energy_absorbed;
+    d->energy_removed = copies * s->energy_removed;
+    d->energy_initial = copies * s->energy_initial;
+    d->energy_stored = copies * mpm_boundary_spring_energy(s);
+    d->energy_total = d->energy_absorbed + d->energy_removed + d->energy_stored;
     for (int b = 0; b < nb; b++) {
-        finish_body(&sums[b], &d->body[b]);
+        finish_body(&s->cfg, &sums[b], &d->body[b]);
         d->energy_total += d->body[b].kinetic_energy + d->body[b].internal_energy;
     }
     free(sums);

@@ -177,6 +177,8 @@ static int grid_box(const struct mpm_config *cfg, const double lo[3], const doub
     }
     g->row = (size_t)g->n[0];
     g->plane = g->row * (size_t)g->n[1];
+    for (int d = 0; d < 2; d++) /* origin is a whole number of cells: the plane 0 is a node plane */
+        g->mirror_plane[d] = lround(-g->origin[d] / g->h);
     if (g->nodes > (size_t)1 << 31)
         SC_FAIL(SC_EINPUT,
                 "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "

@@ -102,6 +102,10 @@ struct mpm_config {
     /* [impact] transfer: grid-to-point transfer (solver.c) */
     enum mpm_transfer transfer;
     int conduction; /* [impact] conduction = on: heat conduction inside each body (conduction.c) */
+    /* [impact] symmetry: the node planes x = 0 (mirror[0]) and y = 0 (mirror[1]) are mirror planes; only the
+     * points on their positive side are modelled (bodies.c, contact.c, diagnostics.c; docs/physics.md "Mirror
+     * symmetry") */
+    int mirror[2];
 };
 enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
 
@@ -114,6 +118,11 @@ void mpm_config_free(struct mpm_config *cfg);
 /* Replace the bodies by one sphere of `diameter` moving at `speed` (m/s) at `angle` (rad from the normal)
  * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */
 int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double speed, double angle);
+
+/* How many copies of the modelled part the mirror planes make of the whole set-up: 1, 2 (symmetry = half) or 4
+ * (quarter).  Diagnostics, series and summaries are of the whole bodies; snapshots, checkpoints and stats/ of the
+ * modelled part. */
+int mpm_mirror_copies(const struct mpm_config *cfg);
 
 /* Multiply every length and time of the set-up (grid, spacing, box_margin, bodies, t_end, settle_window,
  * series_every, snapshot_every) by `factor` > 0: the same impact at another scale, with the same cells per body. */

@@ -99,6 +99,7 @@ struct mpm_grid {
     uint8_t *bond_contact;          /* per layer: 1 where the node's surface points count for D_bond (contact.c) */
     uint8_t *wall_held;             /* per layer, substrate = rigid: 1 where the wall held the node this step */
     double *body_velocity;          /* 3 per layer: the body's centre-of-mass velocity this step (contact.c) */
+    long mirror_plane[2];           /* [impact] symmetry: the x and y node indices of the planes x = 0, y = 0 */
     /* The nodes of this step's stencils lie in `box` (all layers; mpm_grid_bin_points): the nodal loops run over it
      * alone, which leaves every nodal field 0 outside it, as a loop over the whole grid would; `held` is the box
      * of the fields' last step, the only nodes that mpm_grid_transfer_all has to clear (the whole grid at first). */
@@ -185,6 +186,9 @@ struct mpm_solver {
 
 /* bodies.c */
 int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points);
+/* 0 when every body is centred on the mirror planes ([impact] symmetry) with no velocity across them, else -1 and
+ * the first that is not in why. */
+int mpm_mirror_check(const struct mpm_config *cfg, char *why, size_t size);
 void mpm_points_free(struct mpm_points *points);
 
 /* point_order.c */

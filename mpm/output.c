@@ -236,6 +236,8 @@ static int write_stats(const struct mpm_solver *s, hid_t group)
 {
     SC_TRY(h5_attr_write_int64(group, "steps", s->step));
     SC_TRY(h5_attr_write_int64(group, "points", (int64_t)s->points.count));
+    /* the stats are of the modelled part: the whole set-up is this many copies of it ([impact] symmetry) */
+    SC_TRY(h5_attr_write_int64(group, "mirror_copies", mpm_mirror_copies(&s->cfg)));
     SC_TRY(h5_attr_write_int64(group, "point_updates", s->point_updates));
     SC_TRY(h5_attr_write_int64(group, "removed_points", s->removed_points));
     SC_TRY(h5_attr_write_double(group, "removed_mass", s->removed_mass));

@@ -73,6 +73,11 @@ const struct cfg_key mpm_case_keys[] = {
      "heat conduction inside each body (Fourier's law with the materials' conductivity; off: adiabatic, as Tang 2021 "
      "Eq. 3.44, the shipped calibrations' assumption): holds the interface's temperature, which adiabatic grows with "
      "every refinement of the grid (docs/physics.md \"Heat conduction\")"},
+    {"impact", "symmetry", CFG_CHOICE, "", "none", 0, 0, 0, "none|half|quarter",
+     "mirror planes through the particle's centre, which model only the part of the set-up on their positive side "
+     "with the same result: half: y = 0 (the oblique velocity lies in it), a run of half the points; quarter: x = 0 "
+     "and y = 0, a quarter of the points, normal impacts only; every body centred on the planes and not moving "
+     "across them; linear shape functions, the CPU step and conduction = off (docs/physics.md \"Mirror symmetry\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "strain", 0, 0, 0, "energy|strain|none",
@@ -338,6 +343,32 @@ static int load_transfer(const struct case_file *c, struct mpm_config *cfg)
     return SC_OK;
 }
 
+/* [impact] symmetry, after the shape functions, the device and conduction: the mirror planes' nodal condition
+ * (contact.c mirror_node) is exact for trilinear weights only, whose points on one side reach no node on the
+ * other; the GPU step and the conduction's neighbour search have no mirror images. */
+static int load_symmetry(const struct case_file *c, struct mpm_config *cfg)
+{
+    cfg->mirror[1] = !case_is(c, "impact", "symmetry", "none");
+    cfg->mirror[0] = case_is(c, "impact", "symmetry", "quarter");
+    if (!cfg->mirror[1])
+        return SC_OK;
+    const char *why = cfg->shape_function != MPM_LINEAR ? "shape_functions = ugimp reach across the planes"
+                      : cfg->device == MPM_DEVICE_GPU   ? "the GPU step has no mirror planes"
+                      : cfg->conduction                 ? "conduction = on has no mirror images of its neighbours"
+                                                        : NULL;
+    if (why)
+        return case_invalid(c, "impact", "symmetry",
+                            "%s; allowed: none, or half|quarter with shape_functions = linear, [run] device = cpu "
+                            "and conduction = off",
+                            why);
+    return SC_OK;
+}
+
+int mpm_mirror_copies(const struct mpm_config *cfg)
+{
+    return 1 << (cfg->mirror[0] + cfg->mirror[1]);
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -399,7 +430,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     if (cfg->conduction && cfg->device == MPM_DEVICE_GPU)
         return case_invalid(c, "impact", "conduction",
                             "on is not in the GPU step; allowed: off with [run] device = gpu, or on with device = cpu");
-    return SC_OK;
+    return load_symmetry(c, cfg);
 }
 
 /* The bodies CSV's columns, with the ranges of the [impact] keys they stand for (positions and sizes as
@@ -580,6 +611,18 @@ void mpm_config_scale_lengths(struct mpm_config *cfg, double factor)
     cfg->snapshot_every *= factor;
 }
 
+/* The bodies of the case against its mirror planes (mpm_mirror_check), named with the file and line of symmetry. */
+static int check_mirrored_bodies(const struct case_file *c, const struct mpm_config *cfg)
+{
+    char why[256];
+    if (mpm_mirror_check(cfg, why, sizeof why) == 0)
+        return SC_OK;
+    return case_invalid(c, "impact", "symmetry",
+                        "%s; allowed: none, or half|quarter with every body centred on its "
+                        "planes and not moving across them (quarter: angle = 0)",
+                        why);
+}
+
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
@@ -589,6 +632,7 @@ int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
     SC_CHECK(status, case_has(c, "impact", "bodies") ? load_bodies_file(c, cfg) : load_single_particle(c, cfg), done);
     /* every material the case names is checked, also one used by no body */
     SC_CHECK(status, material_index(c, "material", case_text(c, "impact", "material"), cfg, &unused), done);
+    SC_CHECK(status, check_mirrored_bodies(c, cfg), done);
 done:
     if (status != SC_OK)
         mpm_config_free(cfg);

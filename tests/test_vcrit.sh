@@ -172,7 +172,7 @@ cp -r "$RUN" "$RUN6"
 { cat "$T/one.ini"; echo "cor_below = 100"; } >"$T/mono.ini"
 why=""
 if "$BIN" vcrit "$T/mono.ini" -o "$RUN6" >"$T/mono1.log" 2>&1; then
-    grep -q 'not monotone' "$T/mono1.log" && why="$why a monotone search was reported not monotone;"
+    grep -q "not monotone" "$T/mono1.log" && why="$why a monotone search was reported not monotone: $(grep "not monotone" "$T/mono1.log"; grep -h "^1e-05" "$RUN6/vcrit_runs.csv" | cut -d, -f1-7 | tr "\n" " ");"
     v_cor=$(awk -F, '/^1e-05,/ { print $2 - 100 }' "$RUN6/vcrit.csv")
     # the CoR run's record: verdict (column 5) 1 = bonded
     # and a rebound at 900 m/s that an earlier search recorded (the bisection never visits it)
