@@ -147,7 +147,7 @@ calibrate_window() {
 
 # The (eps_c, eps_rate_c) a vcrit part runs with: its resolution's calibration when runs/validate_calibrate_R has
 # one, else its fit to the measured v_crit when runs/validate_calibrate_vcrit_R has one, else the pair measured here
-# (coarse 1.985/1e7; medium 2.523/3.67e6, the keys' defaults; fine 3.15/3.67e6, the fit to v_crit at 15 cells:
+# (coarse 1.985/1e7; medium 2.451/3.67e6, the keys' defaults; fine 3.15/3.67e6, the fit to v_crit at 15 cells:
 # docs/validation.md "The fit to v_crit at three resolutions").
 calibrated_pair() {
     for csv in runs/validate_calibrate_$1/calibrate.csv runs/validate_calibrate_vcrit_$1/calibrate.csv; do
@@ -158,7 +158,7 @@ calibrated_pair() {
     done
     case $1 in
         coarse) echo "1.985 1e7" ;;
-        medium) echo "2.523 3.67e6" ;;
+        medium) echo "2.4511749498609836 3.67e6" ;;
         fine) echo "3.15 3.67e6" ;;
     esac
 }
@@ -276,14 +276,17 @@ validate_calibrate_vcrit_resolution() {
 
 # The interface's plastic strain and temperature against the resolution (docs/physics.md "Why the calibration moves
 # with the grid"): cases/interface_strain.ini at INTERFACE_CELLS cells across (integers, ascending; default 7 10 15
-# 20 25 30, about 19 minutes on 2 cores, 30 cells 10 of them), adiabatic, and at 7-20 cells with conduction = on
+# 20 25 30 35 40), adiabatic and modelled as a quarter (TIME), and at 7-20 cells with conduction = on, whole
 # (about 5 minutes).  Fails unless the adiabatic 95th percentile of the interface's strain rises with the cells, its
 # rise per unit of ln(cells) over the last refinement is under half the steepest before (the strain levels off), and
 # with conduction the hottest particle point rises from 7 to 20 cells by under a quarter of the adiabatic rise.
 # Needs python3-h5py (scripts/bootstrap --analysis).
-interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCell = 14 um / CELLS, dp = DCell / 3)
+interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCell = 14 um / CELLS, dp = DCell / 3),
+    # adiabatic as a quarter (symmetry = quarter, the whole impact's fields), with conduction whole (no mirror images)
     awk -v c="$1" 'BEGIN { printf "s/^grid = .*/grid = %.6g/;s/^spacing = .*/spacing = %.6g/", 14e-6 / c, 14e-6 / c / 3 }'
-    printf ';s/^conduction = .*/conduction = %s/\n' "$2"
+    symmetry=quarter
+    [ "$2" = on ] && symmetry=none
+    printf ';s/^conduction = .*/conduction = %s\\nsymmetry = %s/\n' "$2" "$symmetry"
 }
 
 validate_interface_strain() {
@@ -302,7 +305,7 @@ validate_interface_strain() {
     fi
     runs=""
     for mode in off on; do
-        for cells in ${INTERFACE_CELLS:-7 10 15 20 25 30}; do
+        for cells in ${INTERFACE_CELLS:-7 10 15 20 25 30 35 40}; do
             [ "$mode" = on ] && [ "$cells" -gt 20 ] && continue
             name="${cells}cells_conduction_$mode"
             sed "$(interface_case "$cells" "$mode")" cases/interface_strain.ini >"$dir/$name.ini"

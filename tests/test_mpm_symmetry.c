@@ -39,8 +39,8 @@ static int run_case(const char *extra, struct outcome *out)
                                 .pbcp = b->pbcp,
                                 .v_rest = b->v_rest};
         printf("  %-40s %7lld points: v_com (%.3g, %.3g, %.8g) m/s, KE %.8g J, W_p %.8g J, PBCP %.4g\n", extra,
-               (long long)out->points, out->v_com[0], out->v_com[1], out->v_com[2], out->kinetic,
-               out->plastic_work, out->pbcp);
+               (long long)out->points, out->v_com[0], out->v_com[1], out->v_com[2], out->kinetic, out->plastic_work,
+               out->pbcp);
     }
     impact_fixture_close(&f);
     return status;
