@@ -529,6 +529,12 @@ int impact_stage_validate(const struct stage_context *ctx)
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
     int status = SC_OK;
+    if (ctx->impact_from_seeds && !case_is(c, "impact", "symmetry", "none")) {
+        status = case_invalid(c, "impact", "symmetry",
+                              "the couple stage's particles arrive off the axis, not on mirror planes; allowed: none "
+                              "in a pipeline, half|quarter for `spraycoat impact`, `vcrit` and `calibrate`");
+        goto done;
+    }
     if (!ctx->impact_from_seeds) {
         SC_CHECK(status, check_sphere_overlap(c, &cfg), done);
         /* the whole set-up (every body seeded with its points, overlaps of any shapes, bodies that hold no point),

@@ -69,6 +69,7 @@ static void print_last_metrics(hid_t file, FILE *out)
 static const char *const impact_stats[] = {"steps",
                                            "t_end",
                                            "points",
+                                           "mirror_copies",
                                            "point_updates",
                                            "removed_points",
                                            "removed_mass",

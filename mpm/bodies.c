@@ -206,6 +206,9 @@ void mpm_bodies_bounds(const struct mpm_config *cfg, double lo[3], double hi[3])
             hi[k] = fmax(hi[k], box.hi[k]);
         }
     }
+    for (int k = 0; k < 2; k++) /* the modelled side of a mirror plane ([impact] symmetry) */
+        if (cfg->mirror[k])
+            lo[k] = fmax(lo[k], 0.0);
 }
 
 static int boxes_meet(const struct body_box *a, const struct body_box *b)

@@ -263,21 +263,26 @@ static int first_correction(struct mpm_solver *s, size_t Ia, size_t Ib, double *
 
 /* The second decision of contact_scheme = once where the first correction put the pair in contact: the surfaces
  * met and the pair approached in the start momenta (along every normal, `approaching`), which now share their normal
- * velocity (all of it, stick), so the updated momenta start' + f dt approach or separate as the nodal forces f push
- * them: the pair stays in contact unless (f_a / m_a - f_b / m_b) . n < 0, and holds where it is bonded if that
- * separates it.  Deciding on the difference of the updated momenta themselves, as before, left the decision to the
- * rounding of velocities near 800 m/s wherever the forces hardly act: at the first touch, with the bodies
- * stress-free and f = 0, whether the contact started at all (a 14 um particle passed 0.17 cells into the substrate
- * before it did, in one of two runs whose grids differed by 1e-8), and on the axis of a normal impact which side
- * of it (the particle's v_x reached 1 m/s); with this test the two runs agree to 6 digits and the impact stays
- * mirror-symmetric to rounding (docs/physics.md, "Contact").  The sliding of a pair along a body's own normal
- * (contact_approach = both) is judged on the start momenta, by the first correction. */
-static enum pair_state decide_after_correction(const struct mpm_solver *s, size_t Ia, size_t Ib, const double n[3])
+ * velocity (all of it, stick).  The updated momenta then approach or separate only as they changed from those
+ * start momenta: by the nodal forces (end = start' + f dt), and by what else acted on `end` alone at this node (the
+ * rigid wall's hold, the fixed bottom, another pair's impulse where three bodies meet).  So the pair stays in contact
+ * unless ((end_a - start'_a) / m_a - (end_b - start'_b) / m_b) . n < 0, and holds where it is bonded if that
+ * separates it.  Deciding on the updated momenta themselves, as before, left the decision to the rounding of
+ * velocities near 800 m/s wherever nothing acts: at the first touch, with the bodies stress-free and f = 0 (where
+ * end and start' are the same bits and the change is exactly 0), whether the contact started at all (a 14 um particle
+ * passed 0.17 cells into the substrate before it did, in one of two runs whose grids differed by 1e-8), and on the
+ * axis of a normal impact which side of it (the particle's v_x reached 1 m/s); with this test the two runs agree to 6
+ * digits and the impact stays mirror-symmetric to rounding (docs/physics.md, "Contact").  The sliding of a pair
+ * along a body's own normal (contact_approach = both) is judged on the start momenta, by the first correction. */
+static enum pair_state decide_after_correction(const struct mpm_solver *s, size_t Ia, size_t Ib, const double *start,
+                                               const double *end, const double n[3])
 {
     const struct mpm_grid *g = &s->grid;
     double along = 0.0;
     for (int d = 0; d < 3; d++)
-        along += (g->force[3 * Ia + d] / g->mass[Ia] - g->force[3 * Ib + d] / g->mass[Ib]) * n[d];
+        along += ((end[3 * Ia + d] - start[3 * Ia + d]) / g->mass[Ia] -
+                  (end[3 * Ib + d] - start[3 * Ib + d]) / g->mass[Ib]) *
+                 n[d];
     if (!(along < 0.0))
         return PAIR_CONTACT;
     return bond_holds(s, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
@@ -305,7 +310,7 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
             int once = s->cfg.contact_scheme == MPM_CONTACT_ONCE;
             int corrected = once && start && first_correction(s, Ia, Ib, start, end, n);
             touched |= corrected;
-            enum pair_state state = corrected ? decide_after_correction(s, Ia, Ib, n)
+            enum pair_state state = corrected ? decide_after_correction(s, Ia, Ib, start, end, n)
                                     : once    ? pair_decide_once(s, Ia, Ib, end, n)
                                               : pair_decide(s, Ia, Ib, end, n);
             if (state == PAIR_FREE) {
