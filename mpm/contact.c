@@ -7,12 +7,13 @@
  * contact_scheme = once (the default) corrects twice per node and step, as Nairn, Hammerquist & Smith (2020) do:
  * first on the start momenta of particle-to-grid, then on the updated momenta computed from the corrected start
  * ones (end = start' + f dt).  Each correction puts a pair in contact where it approaches along the normal
- * (Eq. 3.29) in those momenta and its surfaces meet, i.e. the separation of the bodies' nodal centres of mass along
- * the normal is at most contact_gap cells (Nairn's position-based contact detection: Lemiale et al. 2010, Nairn
- * 2013); the second also bonds pairs that separate with nodal D_bond >= 1 while their surfaces still meet (Tang
- * 2021, Section 4.1.1: the bond resists separation; an approaching bonded pair is in ordinary contact; bond_gap: a
- * bond does not reach across a gap).  The points' FLIP velocity change is
- * end'' - start': the second correction (the contact force of the step) reaches them, the first (the approach that
+ * (Eq. 3.29) in those momenta and its surfaces meet (where the first projected, the second keeps the contact unless
+ * the updated momenta's change from the corrected start ones separates the pair: decide_after_correction), i.e. the
+ * separation of the bodies' nodal centres of mass along the normal is at most contact_gap cells (Nairn's position-based
+ * contact detection: Lemiale et al. 2010, Nairn 2013); the second also bonds pairs that separate with nodal D_bond >= 1
+ * while their surfaces still meet (Tang 2021, Section 4.1.1: the bond resists separation; an approaching bonded pair is
+ * in ordinary contact; bond_gap: a bond does not reach across a gap).  The points' FLIP velocity change is end'' -
+ * start': the second correction (the contact force of the step) reaches them, the first (the approach that
  * particle-to-grid rebuilds from the points each step) does not, so it is not dissipated every step.  The MUSL
  * re-projected momenta (the strain rate) are projected as the second correction decided.  Two elastic spheres keep
  * their energy within 2 % and start touching when their surfaces meet (tests/test_mpm_contact.c).  Deciding the
@@ -290,7 +291,8 @@ static enum pair_state decide_after_correction(const struct mpm_solver *s, size_
 
 /* Contact and bond impulses at node `node`, decided on the momenta `end` and applied to them.  The start momenta
  * `start` (unless NULL): consistent applies the same impulse to them; once corrects them first on their own
- * decision (first_correction), so that the decision on `end` is the one of start' + f dt.  The pair's bodies are
+ * decision (first_correction), and where it projected decides on how `end` changed from the corrected start
+ * momenta (decide_after_correction).  The pair's bodies are
  * flagged (g->contact) for the re-projection and the bonding model.  Returns whether any pair interacted;
  * *bonded whether one was bonded. */
 static int resolve_node(struct mpm_solver *s, size_t node, double *start, double *end, int *bonded)
