@@ -95,6 +95,17 @@ const struct cfg_key calibrate_case_keys[] = {
      "(the mean residual jumps across zero: single verdicts near v_crit are discrete); its middle is the value"},
     {"calibrate", "fit_evaluations", CFG_INT, "-", "8", 3, 50, 0, NULL,
      "method = vcrit: at most this many v_crit searches (the two ends of the range first, then false position)"},
+    {"calibrate", "rate", CFG_CHOICE, "", "kept", 0, 0, 0, "kept|fitted",
+     "method = vcrit: kept: the second parameter (Gc_rate, eps_rate_c) stays at its [impact] value; fitted: it is "
+     "fitted too, between its _min and _max (false position in its logarithm), so that v_crit of the first diameter "
+     "minus that of the last meets the difference of their velocities within fit_spread_tolerance, the first "
+     "parameter fitted anew at each of its values (docs/physics.md \"Calibrated on v_crit\")"},
+    {"calibrate", "fit_spread_tolerance", CFG_REAL, "m/s", "10", 0, 1e4, CFG_MIN_EXCLUSIVE, NULL,
+     "method = vcrit, rate = fitted: the spread residual, (v_crit of the first diameter - of the last) - (their "
+     "velocities' difference), accepted as zero"},
+    {"calibrate", "fit_rate_evaluations", CFG_INT, "-", "6", 2, 12, 0, NULL,
+     "method = vcrit, rate = fitted: at most this many fits of the first parameter (the ends of the second's range "
+     "first, then false position); with fit_evaluations searches each at most 100 searches in all"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 

@@ -33,23 +33,60 @@
 #define FORMAT           "spraycoat-calibrate"
 #define FORMAT_VERSION   1
 #define MAX_SIZES        8
-#define MAX_EVALUATIONS  50
+#define MAX_EVALUATIONS  100
+#define MAX_RATE_FITS    12
 #define VCRIT_DIR_FORMAT "%s/vcrit_%02d"
 
 struct vcrit_fit {
     const struct stage_context *ctx;
     uint64_t case_hash;
     const char *name[2], *unit[2]; /* the model's two parameters: the fitted one, the one kept */
-    double kept;                   /* the second parameter's [impact] value */
+    double kept;                   /* the second parameter: its [impact] value, or the value being tried */
     double lo, hi, tolerance;      /* the first parameter's range, the mean residual accepted (m/s) */
     double bracket_tolerance;      /* a bracket this narrow relative to its middle ends the iteration */
     int size_count, max_evaluations;
     double diameter[MAX_SIZES], target[MAX_SIZES];
     int count; /* searches done */
-    double p[MAX_EVALUATIONS], v[MAX_EVALUATIONS][MAX_SIZES], residual[MAX_EVALUATIONS];
+    double p[MAX_EVALUATIONS], rate[MAX_EVALUATIONS], v[MAX_EVALUATIONS][MAX_SIZES], residual[MAX_EVALUATIONS];
     double calibrated; /* NaN unless a search met the tolerance or the bracket closed */
     char note[240];    /* how the value was found ("" when a search met the tolerance), or why there is none */
+    /* [calibrate] rate = fitted: the second parameter too, between rate_lo and rate_hi (false position in its
+     * logarithm) so that the spread v_crit(first size) - v_crit(last size) meets that of the targets */
+    int fit_rate, max_rate_fits;
+    double rate_lo, rate_hi, spread_tolerance;
+    int rate_fits;                        /* first-parameter fits done, one per value of the second */
+    int best[MAX_RATE_FITS];              /* each fit's search nearest the targets on average */
+    double fitted[MAX_RATE_FITS];         /* each fit's value of the first parameter (NaN: none found) */
+    double fit_rate_value[MAX_RATE_FITS]; /* the second parameter of each fit */
+    double slope; /* mean residual per unit of the first parameter, from the first fit's ends (m/s per unit) */
+    double spread_residual[MAX_RATE_FITS];
 };
+
+/* [calibrate] rate = fitted: the second parameter's range (<name>_min, <name>_max) and the most fits of the first. */
+static int load_rate(const struct case_file *c, struct vcrit_fit *f)
+{
+    f->fit_rate = case_is(c, STAGE, "rate", "fitted");
+    if (!f->fit_rate)
+        return SC_OK;
+    if (f->size_count < 2)
+        return case_invalid(c, STAGE, "rate",
+                            "is fitted with one diameter: the spread of v_crit over the sizes needs two at least");
+    char key_min[32], key_max[32];
+    snprintf(key_min, sizeof key_min, "%s_min", f->name[1]);
+    snprintf(key_max, sizeof key_max, "%s_max", f->name[1]);
+    f->rate_lo = case_real(c, STAGE, key_min), f->rate_hi = case_real(c, STAGE, key_max);
+    if (!(f->rate_hi > f->rate_lo))
+        return case_invalid(c, STAGE, key_max, "%g is not above %s = %g: rate = fitted searches between the two",
+                            f->rate_hi, key_min, f->rate_lo);
+    f->max_rate_fits = (int)case_int(c, STAGE, "fit_rate_evaluations");
+    f->spread_tolerance = case_real(c, STAGE, "fit_spread_tolerance");
+    if ((long)f->max_rate_fits * f->max_evaluations > MAX_EVALUATIONS)
+        return case_invalid(c, STAGE, "fit_rate_evaluations",
+                            "%d fits of at most fit_evaluations = %d searches each exceed the %d searches a "
+                            "calibration can hold; lower either",
+                            f->max_rate_fits, f->max_evaluations, MAX_EVALUATIONS);
+    return SC_OK;
+}
 
 static int load(const struct stage_context *ctx, struct vcrit_fit *f)
 {
@@ -79,6 +116,7 @@ static int load(const struct stage_context *ctx, struct vcrit_fit *f)
         return case_invalid(c, STAGE, "velocities",
                             "%d speeds for %d diameters; allowed: one measured critical velocity per diameter", targets,
                             f->size_count);
+    SC_TRY(load_rate(c, f));
     if (case_is_given(c, "vcrit", "temperatures"))
         return case_invalid(c, "vcrit", "temperatures",
                             "is given: method = vcrit fits v_crit(d) at the material's T_initial; remove it");
@@ -100,6 +138,9 @@ static int search_case(const struct vcrit_fit *f, double p, struct case_file **o
     snprintf(value, sizeof value, "%.17g", p);
     snprintf(threads, sizeof threads, "%ld", case_int(c, "run", "threads"));
     int status = case_set(run, "impact", f->name[0], value, "[calibrate] method = vcrit");
+    snprintf(value, sizeof value, "%.17g", f->kept);
+    if (status == SC_OK && f->fit_rate)
+        status = case_set(run, "impact", f->name[1], value, "[calibrate] rate = fitted");
     if (status == SC_OK)
         status = case_set(run, "vcrit", "diameters", case_text(c, STAGE, "diameters"), "[calibrate] diameters");
     if (status == SC_OK)
@@ -157,8 +198,8 @@ static int evaluate(struct vcrit_fit *f, double p)
     SC_TRY(search_case(f, p, &run));
     const struct stage_context ctx = {.c = run, .run_dir = dir};
     if (parallel_rank() == 0)
-        log_info("calibrate: search %d of at most %d, %s = %.6g %s, in %s", k + 1, f->max_evaluations, f->name[0], p,
-                 f->unit[0], dir);
+        log_info("calibrate: search %d, %s = %.6g %s (%s = %.6g %s), in %s", k + 1, f->name[0], p, f->unit[0],
+                 f->name[1], f->kept, f->unit[1], dir);
     int status = parallel_rank() == 0 ? run_dir_prepare(dir, run) : SC_OK;
     if (status == SC_OK && parallel_rank() == 0)
         status = run_dir_write_stages(dir, "vcrit");
@@ -174,7 +215,7 @@ static int evaluate(struct vcrit_fit *f, double p)
     double sum = 0;
     for (int i = 0; i < f->size_count; i++)
         sum += f->v[k][i] - f->target[i];
-    f->p[k] = p, f->residual[k] = sum / f->size_count, f->count++;
+    f->p[k] = p, f->rate[k] = f->kept, f->residual[k] = sum / f->size_count, f->count++;
     if (parallel_rank() == 0)
         log_info("calibrate: %s = %.6g: mean v_crit - target %+.3g m/s (tolerance %g)", f->name[0], p, f->residual[k],
                  f->tolerance);
@@ -186,26 +227,30 @@ static int within(const struct vcrit_fit *f, int k)
     return fabs(f->residual[k]) <= f->tolerance;
 }
 
-/* The iteration: the two ends, then false position until a mean residual is within the tolerance. */
-static int fit(struct vcrit_fit *f)
+/* The search of the fit that began with search `first` whose mean residual is smallest. */
+static int nearest_search(const struct vcrit_fit *f, int first)
 {
-    f->calibrated = NAN;
-    SC_TRY(evaluate(f, f->lo));
-    SC_TRY(evaluate(f, f->hi));
-    for (int k = 0; k < 2; k++)
-        if (within(f, k)) {
-            f->calibrated = f->p[k];
-            return SC_OK;
-        }
-    if (f->residual[0] * f->residual[1] > 0) {
+    int best = first;
+    for (int k = first + 1; k < f->count; k++)
+        if (fabs(f->residual[k]) < fabs(f->residual[best]))
+            best = k;
+    return best;
+}
+
+/* The fit of the first parameter that began with search `first`, from two of its searches at x0 < x1 with residuals
+ * r0, r1: false position until a mean residual is within the tolerance.  f->calibrated is NaN where none is found
+ * (f->note says why). */
+static int refine(struct vcrit_fit *f, int first, double x0, double r0, double x1, double r1)
+{
+    if (r0 * r1 > 0) {
         snprintf(f->note, sizeof f->note,
                  "the mean residual has one sign over %s %g to %g (%+.3g and %+.3g m/s): widen the range", f->name[0],
-                 f->lo, f->hi, f->residual[0], f->residual[1]);
+                 x0, x1, r0, r1);
         return SC_OK;
     }
     struct root_bracket b;
-    SC_TRY(root_bracket_start(&b, f->lo, f->residual[0], f->hi, f->residual[1]));
-    while (f->count < f->max_evaluations) {
+    SC_TRY(root_bracket_start(&b, x0, r0, x1, r1));
+    while (f->count - first < f->max_evaluations) {
         SC_TRY(evaluate(f, root_bracket_next(&b)));
         int k = f->count - 1;
         if (within(f, k)) {
@@ -226,8 +271,162 @@ static int fit(struct vcrit_fit *f)
     snprintf(f->note, sizeof f->note,
              "no search of %d met the tolerance %g m/s; the root lies in %s %.6g to %.6g (raise fit_evaluations or "
              "fit_tolerance)",
-             f->count, f->tolerance, f->name[0], b.lo, b.hi);
+             f->count - first, f->tolerance, f->name[0], b.lo, b.hi);
     return SC_OK;
+}
+
+/* Search k, and whether it met the tolerance (then it is the value). */
+static int evaluate_and_accept(struct vcrit_fit *f, double p, int *accepted)
+{
+    SC_TRY(evaluate(f, p));
+    *accepted = within(f, f->count - 1);
+    if (*accepted)
+        f->calibrated = p;
+    return SC_OK;
+}
+
+/* The first parameter at the second's current value (f->kept) from the range's two ends.  Their secant slope, the
+ * change of the mean residual per unit of the parameter, is kept for the fits that start near a value (below). */
+static int fit_first(struct vcrit_fit *f)
+{
+    int first = f->count, accepted;
+    f->calibrated = NAN, f->note[0] = '\0';
+    SC_TRY(evaluate_and_accept(f, f->lo, &accepted));
+    if (accepted)
+        return SC_OK;
+    SC_TRY(evaluate_and_accept(f, f->hi, &accepted));
+    if (accepted)
+        return SC_OK;
+    f->slope = (f->residual[first + 1] - f->residual[first]) / (f->hi - f->lo);
+    return refine(f, first, f->lo, f->residual[first], f->hi, f->residual[first + 1]);
+}
+
+/* The first parameter at the second's current value, starting from `guess` (the value fitted at a nearby value of
+ * the second): then one secant step with f->slope, and the range's end on that side only where the two do not
+ * bracket the root.  Two searches where the guess is near, against three or more from the ends. */
+static int fit_first_near(struct vcrit_fit *f, double guess)
+{
+    int first = f->count, accepted;
+    f->calibrated = NAN, f->note[0] = '\0';
+    SC_TRY(evaluate_and_accept(f, guess, &accepted));
+    if (accepted)
+        return SC_OK;
+    double r0 = f->residual[first];
+    double step = fmin(fmax(guess - r0 / f->slope, f->lo), f->hi);
+    if (step == guess) /* the guess is at the end the step points beyond: try the other */
+        step = guess == f->lo ? f->hi : f->lo;
+    SC_TRY(evaluate_and_accept(f, step, &accepted));
+    if (accepted)
+        return SC_OK;
+    double r1 = f->residual[first + 1];
+    if (r0 * r1 > 0) { /* not yet bracketed: the end beyond the step */
+        double end = step < guess ? f->lo : f->hi;
+        if (end != step) {
+            guess = step, r0 = r1, step = end;
+            SC_TRY(evaluate_and_accept(f, step, &accepted));
+            if (accepted)
+                return SC_OK;
+            r1 = f->residual[f->count - 1];
+        }
+    }
+    return guess < step ? refine(f, first, guess, r0, step, r1) : refine(f, first, step, r1, guess, r0);
+}
+
+/* The earlier fit with a value whose second parameter is nearest `rate` in its logarithm; -1 where none. */
+static int nearest_fit(const struct vcrit_fit *f, double rate)
+{
+    int near = -1;
+    for (int j = 0; j < f->rate_fits; j++)
+        if (isfinite(f->fitted[j]) &&
+            (near < 0 || fabs(log(f->fit_rate_value[j] / rate)) < fabs(log(f->fit_rate_value[near] / rate))))
+            near = j;
+    return near;
+}
+
+/* rate = fitted: the first parameter fitted at the second = rate, and the spread residual of its nearest search,
+ * (v_crit of the first size - v_crit of the last) - (their targets' difference).  NaN where the fit found none. */
+static int fit_at_rate(struct vcrit_fit *f, double rate, double *spread_residual)
+{
+    int j = f->rate_fits, first = f->count, last = f->size_count - 1;
+    f->kept = rate;
+    if (parallel_rank() == 0)
+        log_info("calibrate: fit %d of at most %d of %s at %s = %.6g %s", j + 1, f->max_rate_fits, f->name[0],
+                 f->name[1], rate, f->unit[1]);
+    int near = nearest_fit(f, rate);
+    if (near >= 0 && isfinite(f->slope) && f->slope != 0)
+        SC_TRY(fit_first_near(f, f->fitted[near]));
+    else
+        SC_TRY(fit_first(f));
+    int k = nearest_search(f, first);
+    f->best[j] = k, f->fitted[j] = f->calibrated, f->fit_rate_value[j] = rate, f->rate_fits++;
+    *spread_residual = isfinite(f->calibrated) ? (f->v[k][0] - f->v[k][last]) - (f->target[0] - f->target[last]) : NAN;
+    f->spread_residual[j] = *spread_residual;
+    if (parallel_rank() == 0 && isfinite(f->calibrated))
+        log_info("calibrate: %s = %.6g %s: %s = %.6g, spread residual %+.3g m/s (tolerance %g)", f->name[1], rate,
+                 f->unit[1], f->name[0], f->calibrated, *spread_residual, f->spread_tolerance);
+    return SC_OK;
+}
+
+/* A fit of the first parameter failed: the note says at which value of the second. */
+static void note_failed_fit(struct vcrit_fit *f)
+{
+    char why[sizeof f->note];
+    snprintf(why, sizeof why, "%s", f->note);
+    snprintf(f->note, sizeof f->note, "at %s = %.6g: %.200s", f->name[1], f->kept, why);
+}
+
+/* rate = fitted: false position in ln(rate) on the spread residual, each value a fit of the first parameter. */
+static int fit_both(struct vcrit_fit *f)
+{
+    double end[2] = {f->rate_lo, f->rate_hi}, s[2];
+    for (int j = 0; j < 2; j++) {
+        SC_TRY(fit_at_rate(f, end[j], &s[j]));
+        if (!isfinite(s[j])) {
+            note_failed_fit(f);
+            return SC_OK;
+        }
+        if (fabs(s[j]) <= f->spread_tolerance)
+            return SC_OK;
+    }
+    f->calibrated = NAN;
+    if (s[0] * s[1] > 0) {
+        snprintf(f->note, sizeof f->note,
+                 "the spread residual has one sign over %s %g to %g (%+.3g and %+.3g m/s): widen the range", f->name[1],
+                 f->rate_lo, f->rate_hi, s[0], s[1]);
+        return SC_OK;
+    }
+    struct root_bracket b;
+    SC_TRY(root_bracket_start(&b, log(end[0]), s[0], log(end[1]), s[1]));
+    while (f->rate_fits < f->max_rate_fits) {
+        double next = root_bracket_next(&b), spread;
+        SC_TRY(fit_at_rate(f, exp(next), &spread));
+        if (!isfinite(spread)) {
+            note_failed_fit(f);
+            return SC_OK;
+        }
+        if (fabs(spread) <= f->spread_tolerance)
+            return SC_OK;
+        root_bracket_update(&b, next, spread);
+        if (exp(b.hi) - exp(b.lo) <= f->bracket_tolerance * 0.5 * (exp(b.lo) + exp(b.hi))) {
+            /* the spread jumps across zero: the last fit, inside a bracket this narrow, is the pair */
+            snprintf(f->note, sizeof f->note,
+                     "the last fit, inside the bracket %s %.6g to %.6g, narrower than fit_bracket, across which the "
+                     "spread residual changes sign",
+                     f->name[1], exp(b.lo), exp(b.hi));
+            return SC_OK;
+        }
+    }
+    f->calibrated = NAN;
+    snprintf(f->note, sizeof f->note,
+             "no fit of %d met the spread tolerance %g m/s; the root lies in %s %.6g to %.6g (raise "
+             "fit_rate_evaluations or fit_spread_tolerance)",
+             f->rate_fits, f->spread_tolerance, f->name[1], exp(b.lo), exp(b.hi));
+    return SC_OK;
+}
+
+static int fit(struct vcrit_fit *f)
+{
+    return f->fit_rate ? fit_both(f) : fit_first(f);
 }
 
 /* calibrate_vcrit.csv: every search's v_crit per size; calibrate.csv: the calibrated pair (the format of the
@@ -241,7 +440,7 @@ static int write_csvs(const struct vcrit_fit *f)
     fprintf(out.stream, "search,%s,%s,diameter,v_crit,target,mean_residual\n", f->name[0], f->name[1]);
     for (int k = 0; k < f->count; k++)
         for (int i = 0; i < f->size_count; i++)
-            fprintf(out.stream, "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", k + 1, f->p[k], f->kept, f->diameter[i],
+            fprintf(out.stream, "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", k + 1, f->p[k], f->rate[k], f->diameter[i],
                     f->v[k][i], f->target[i], f->residual[k]);
     SC_TRY(atomic_publish(&out));
     snprintf(path, sizeof path, "%s/calibrate.csv", f->ctx->run_dir);
@@ -270,6 +469,14 @@ static int output_contents(void *owner, hid_t file)
     snprintf(key, sizeof key, "%s_max", f->name[0]);
     SC_TRY(h5_attr_write_double(file, key, f->hi));
     SC_TRY(h5_attr_write_double(file, "fit_tolerance", f->tolerance));
+    SC_TRY(h5_attr_write_string(file, "rate", f->fit_rate ? "fitted" : "kept"));
+    if (f->fit_rate) {
+        snprintf(key, sizeof key, "%s_min", f->name[1]);
+        SC_TRY(h5_attr_write_double(file, key, f->rate_lo));
+        snprintf(key, sizeof key, "%s_max", f->name[1]);
+        SC_TRY(h5_attr_write_double(file, key, f->rate_hi));
+        SC_TRY(h5_attr_write_double(file, "fit_spread_tolerance", f->spread_tolerance));
+    }
     SC_TRY(h5_attr_write_string(file, "result", f->note[0] ? f->note : "calibrated"));
     hid_t group;
     SC_TRY(h5_create_group(file, "vcrit_fit", &group));
@@ -283,6 +490,7 @@ static int output_contents(void *owner, hid_t file)
     SC_CHECK(status, h5_write_doubles(group, "diameter", 1, sizes, f->diameter, "m", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "target", 1, sizes, f->target, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "parameter", 1, searches, f->p, f->unit[0], 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "second_parameter", 1, searches, f->rate, f->unit[1], 0), done);
     SC_CHECK(status, h5_write_doubles(group, "mean_residual", 1, searches, f->residual, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "v_crit", 2, both, v, "m/s", 0), done);
     SC_CHECK(status, h5_attr_write_string(group, "parameter_name", f->name[0]), done);
@@ -316,9 +524,9 @@ int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash)
     snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
     SC_TRY(stage_write_output(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, &f));
     if (isfinite(f.calibrated))
-        log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s kept) after %d searches, %.1f s%s%s", f.name[0],
-                 f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.count, log_elapsed() - start,
-                 f.note[0] ? ": " : "", f.note);
+        log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s %s) after %d searches, %.1f s%s%s", f.name[0],
+                 f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.fit_rate ? "fitted" : "kept", f.count,
+                 log_elapsed() - start, f.note[0] ? ": " : "", f.note);
     else
         log_warn("calibrate: no calibrated %s: %s", f.name[0], f.note);
     return SC_OK;

@@ -13,7 +13,14 @@
 #   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
 #      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign;
 #   6. a search in which a size is not bracketed (it bonds already at v_low) stops the calibration with a message
-#      naming the parameter, the size and the search's vcrit.csv, and leaves no calibrated value.
+#      naming the parameter, the size and the search's vcrit.csv, and leaves no calibrated value;
+#   7. rate = fitted (Gc_rate between 2e10 and 1e11 J/m2/s, targets 700 and 725 m/s for 10 and 8 um, spread
+#      tolerance 8 m/s): a calibrated pair strictly inside the rate's range (found by false position, not at an end),
+#      the first search at both ranges' low ends, every search's Gc_rate in the range, searches at one Gc with
+#      different Gc_rate giving different v_crit (the rate reaches the runs), and an independent `spraycoat vcrit`
+#      with both values written into [impact] meeting the targets on average within 15 m/s and their difference
+#      within 8 m/s (both computed here); with targets 700 and 760 m/s, whose spread no rate in the range meets,
+#      no calibrated value and a note that the spread residual has one sign.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
 
@@ -191,5 +198,56 @@ if [ "$status" -ne 0 ] && grep -q 'at Gc = 300 the critical velocity of d = .* w
     pass calibrate_vcrit_unbracketed_size
 else
     fail calibrate_vcrit_unbracketed_size "exit $status: $(tail -n 1 "$T/unbracketed.log")"
+fi
+
+# ---- 7. the second parameter fitted too ------------------------------------------------------------------------------
+sed -e 's/^velocities = .*/velocities = 700,725/' -e 's/^Gc_min = .*/Gc_min = 1000/' -e 's/^Gc_max = .*/Gc_max = 1600/' \
+    -e 's/^fit_tolerance = .*/fit_tolerance = 15\nrate = fitted\nGc_rate_min = 2e10\nGc_rate_max = 1e11\nfit_spread_tolerance = 8/' \
+    "$T/cal.ini" >"$T/rate.ini"
+if "$BIN" calibrate "$T/rate.ini" -o "$T/rate" >"$T/rate.log" 2>&1; then
+    pair=$(awk -F, 'NR == 2 && $3 == 1 { print $1, $2 }' "$T/rate/calibrate.csv")
+    gc=${pair% *} rate=${pair#* }
+    why=$(awk -F, -v g="${gc:-nan}" -v r="${rate:-nan}" '
+        NR == 1 { next }
+        $1 == 1 && !($2 == 1000 && $3 == 2e10) { print "search 1 at Gc " $2 ", Gc_rate " $3 }
+        $3 < 2e10 || $3 > 1e11 { print "search " $1 " at Gc_rate " $3 " outside the range" }
+        { key = $2 "," $4; if (key in v && rate_of[key] != $3 && v[key] != $5) moved = 1; v[key] = $5; rate_of[key] = $3 }
+        $2 == g && $3 == r { found = 1 }
+        END {
+            if (g == "nan") { print "no calibrated row"; exit }
+            if (!(r > 2e10 && r < 1e11)) print "Gc_rate " r " not strictly inside 2e10-1e11"
+            if (!(g >= 1000 && g <= 1600)) print "Gc " g " outside 1000-1600"
+            if (!found) print "no search at the calibrated pair"
+            if (!moved) print "no Gc searched at two Gc_rate with different v_crit"
+        }' "$T/rate/calibrate_vcrit.csv" | tr '\n' ';')
+    if [ -n "$gc" ]; then
+        {
+            impact_section "Gc = $gc
+Gc_rate = $rate"
+            echo "diameters = 10e-6,8e-6"
+        } >"$T/rate_check.ini"
+        if "$BIN" vcrit "$T/rate_check.ini" -o "$T/rate_check" >"$T/rate_check.log" 2>&1; then
+            why="$why$(awk -F, 'NR > 1 && !/^#/ { if ($1 + 0 == 1e-5) a = $2; else b = $2; n++ }
+                END {
+                    if (n != 2) { print "the check has " n " sizes"; exit }
+                    m = (a - 700 + b - 725) / 2; s = (a - b) - (700 - 725)
+                    if (m > 15 || m < -15) print "mean residual " m " m/s"
+                    if (s > 8 || s < -8) print "spread residual " s " m/s"
+                }' "$T/rate_check/vcrit.csv" | tr '\n' ';')"
+        else
+            why="$why the check search failed: $(tail -n 1 "$T/rate_check.log")"
+        fi
+    fi
+    if [ -z "$why" ]; then pass calibrate_vcrit_rate_fitted; else fail calibrate_vcrit_rate_fitted "$why"; fi
+else
+    fail calibrate_vcrit_rate_fitted "exit status: $(tail -n 2 "$T/rate.log")"
+fi
+sed -e 's/^velocities = .*/velocities = 700,760/' "$T/rate.ini" >"$T/rate_none.ini"
+if "$BIN" calibrate "$T/rate_none.ini" -o "$T/rate_none" >"$T/rate_none.log" 2>&1 &&
+    grep -q '^# no calibrated value: the spread residual has one sign over Gc_rate' "$T/rate_none/calibrate.csv" &&
+    ! grep -q ',1$' "$T/rate_none/calibrate.csv"; then
+    pass calibrate_vcrit_rate_no_root
+else
+    fail calibrate_vcrit_rate_no_root "$(tail -n 1 "$T/rate_none/calibrate.csv" 2>/dev/null) $(tail -n 1 "$T/rate_none.log")"
 fi
 exit 0
