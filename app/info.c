@@ -247,6 +247,8 @@ static void print_calibrate_results(hid_t file, FILE *out)
     print_attribute(file, "outcome", out); /* what the fit counted: bonded, or adhered (bonded or held) */
     print_attribute(file, "method", out);  /* vcrit: the first parameter fitted to measured v_crit */
     print_attribute(file, "fit_tolerance", out);
+    print_attribute(file, "rate", out); /* method = vcrit: the second parameter kept or fitted too */
+    print_attribute(file, "fit_spread_tolerance", out);
     print_attribute(file, "result", out);
 }
 

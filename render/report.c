@@ -397,7 +397,7 @@ static void report_free(struct report_data *r)
 static const char *calibration_resolution(const struct case_file *c)
 {
     const char *model = case_text(c, "impact", "bonding");
-    if (strcmp(model, "strain") == 0) /* eps_c, eps_rate_c: "The calibration with the force-decided contact" */
+    if (strcmp(model, "strain") == 0) /* eps_c, eps_rate_c: docs/physics.md, the calibration with them both fitted */
         return "10 grid cells across the particle's diameter with points a third of a cell apart (1.4/0.467 µm for "
                "14 µm; the fit at 15 cells across, eps_c = 3.15 with the contact before its second decision was taken "
                "on the forces, is cases/vcrit_al_15cells.ini)";

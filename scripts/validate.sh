@@ -24,8 +24,9 @@
 #      cases/vcrit_al.png and cases/vcrit_al_cor.png (tests/test_vcrit_al.sh checks the tables).
 #   6. The strain model's eps_c fitted to the measured v_crit of 14 and 30 um at 10 cells per diameter (`spraycoat
 #      calibrate cases/calibrate_vcrit_al.ini`, method = vcrit; part calibrate_vcrit, into
-#      runs/validate_calibrate_vcrit): fails without a calibrated value or when the keys' default eps_c differs from
-#      it by more than the fit's tolerance resolves.
+#      runs/validate_calibrate_vcrit; eps_rate_c fitted too, from the low end of its range): fails without a
+#      calibrated pair, when the keys' default eps_c differs from it by more than the fit's tolerance resolves or
+#      the default eps_rate_c is not the fitted one; copies the searches to cases/calibrate_vcrit_al.csv and .png.
 #   7. The same fit at 7 and 15 cells per diameter (parts calibrate_vcrit_coarse, calibrate_vcrit_fine, into
 #      runs/validate_calibrate_vcrit_R): v_crit by bisection to 10 m/s, each resolution over its own eps_c range;
 #      how the calibrated eps_c moves with the resolution (docs/validation.md "The resolution study"); the fine
@@ -147,7 +148,7 @@ calibrate_window() {
 
 # The (eps_c, eps_rate_c) a vcrit part runs with: its resolution's calibration when runs/validate_calibrate_R has
 # one, else its fit to the measured v_crit when runs/validate_calibrate_vcrit_R has one, else the pair measured here
-# (coarse 1.985/1e7; medium 2.451/3.67e6, the keys' defaults; fine 3.15/3.67e6, the fit to v_crit at 15 cells:
+# (coarse 1.985/1e7; medium 2.468/1e5, the keys' defaults; fine 3.15/3.67e6, the fit to v_crit at 15 cells:
 # docs/validation.md "The fit to v_crit at three resolutions").
 calibrated_pair() {
     for csv in runs/validate_calibrate_$1/calibrate.csv runs/validate_calibrate_vcrit_$1/calibrate.csv; do
@@ -158,7 +159,7 @@ calibrated_pair() {
     done
     case $1 in
         coarse) echo "1.985 1e7" ;;
-        medium) echo "2.4511749498609836 3.67e6" ;;
+        medium) echo "2.4680778017283251 1e5" ;;
         fine) echo "3.15 3.67e6" ;;
     esac
 }
@@ -245,14 +246,24 @@ validate_calibrate_vcrit() {
     else
         fail_part "calibrated eps_c = $calibrated: the keys' default $default differs by more than the tolerance resolves"
     fi
+    rate=$(awk -F, 'NR == 2 && $3 == 1 { print $2 }' "$run/calibrate.csv")
+    default=$(impact_default eps_rate_c)
+    if awk -v a="$rate" -v b="$default" 'BEGIN { exit !((a - b) ^ 2 <= (1e-9 * b) ^ 2) }'; then
+        echo "validate: calibrated eps_rate_c = $rate, the keys' default"
+        cp "$run/calibrate_vcrit.csv" cases/calibrate_vcrit_al.csv
+        cp "$run/figures/calibrate_vcrit.png" cases/calibrate_vcrit_al.png
+    else
+        fail_part "calibrated eps_rate_c = $rate: the keys' default is $default"
+    fi
 }
 
 # The fit of eps_c to the measured v_crit at another resolution (coarse, fine): cases/calibrate_vcrit_al.ini on
 # that grid, v_crit by bisection to 10 m/s (a third of the logistic searches' runs), over an eps_c range that holds
 # the root there (coarse 1.7-2.3, v_crit from 550 m/s up: 1.7 gives 688 m/s for both sizes; fine 2.75-3.15, on
-# the 10-cell slope from v_crit(14 um) = 700 m/s at 15 cells with 2.523).
+# the 10-cell slope from v_crit(14 um) = 700 m/s at 15 cells with 2.523), eps_rate_c kept at the keys' default (the
+# 10-cell fit's, 1e5 1/s: the rate term out of play).
 calibrate_vcrit_window() {
-    method="s/^method = logistic/method = bisection/;s/^tolerance = .*/tolerance = 10/"
+    method="s/^method = logistic/method = bisection/;s/^tolerance = .*/tolerance = 10/;s/^rate = fitted/rate = kept/"
     case $1 in
         coarse) printf '%s\n' "$method;s/^v_low = .*/v_low = 550/;s/^eps_c_min = .*/eps_c_min = 1.7/;s/^eps_c_max = .*/eps_c_max = 2.3/;s/^fit_tolerance = .*/&\nfit_evaluations = 10/" ;;
         fine) printf '%s\n' "$method;s/^eps_c_min = .*/eps_c_min = 2.75/;s/^eps_c_max = .*/eps_c_max = 3.15/" ;;

@@ -1,10 +1,11 @@
 /* The shipped Al bonding parameters (docs/physics.md, "Bonding calibration") on the grids they belong to, settled
  * verdicts (mpm/verdict.c).
  *
- * The default strain model (eps_c 2.451, eps_rate_c 3.67e6 1/s) at 10 cells across the particle, 1.4/0.467 um
+ * The default strain model (eps_c 2.468, eps_rate_c 1e5 1/s) at 10 cells across the particle, 1.4/0.467 um
  * for 14 um, where its v_crit by logistic regression is 797.5 m/s (cases/vcrit_al.csv; measured 810 m/s,
- * Hassani-Gangaraj et al. 2018): a 14 um particle rebounds at 730 m/s and bonds at 820 m/s, runs of the calibration's
- * search (leaves at 19.0 m/s with PBCP 0.006; bonds with PBCP 0.144).  Modelled as a quarter (symmetry = quarter:
+ * Hassani-Gangaraj et al. 2018): a 14 um particle rebounds at 730 m/s and bonds at 820 m/s (leaves at 19.0 m/s with
+ * PBCP 0.006; bonds with PBCP 0.149; with eps_c 2.451 and eps_rate_c 3.67e6, the pair before: the same verdicts,
+ * PBCP 0.006 and 0.144).  Modelled as a quarter (symmetry = quarter:
  * the whole impact's verdict, docs/physics.md "Mirror symmetry").  With the contact before its second decision was
  * taken on the forces, the default was 2.523; with 2.523 and the current contact the 14 um particle at 840 m/s is
  * held with PBCP 0.037.
