@@ -55,7 +55,6 @@ struct vcrit_fit {
     int fit_rate, max_rate_fits;
     double rate_lo, rate_hi, spread_tolerance;
     int rate_fits;                        /* first-parameter fits done, one per value of the second */
-    int best[MAX_RATE_FITS];              /* each fit's search nearest the targets on average */
     double fitted[MAX_RATE_FITS];         /* each fit's value of the first parameter (NaN: none found) */
     double fit_rate_value[MAX_RATE_FITS]; /* the second parameter of each fit */
     double slope; /* mean residual per unit of the first parameter, from the first fit's ends (m/s per unit) */
@@ -358,7 +357,7 @@ static int fit_at_rate(struct vcrit_fit *f, double rate, double *spread_residual
     else
         SC_TRY(fit_first(f));
     int k = nearest_search(f, first);
-    f->best[j] = k, f->fitted[j] = f->calibrated, f->fit_rate_value[j] = rate, f->rate_fits++;
+    f->fitted[j] = f->calibrated, f->fit_rate_value[j] = rate, f->rate_fits++;
     *spread_residual = isfinite(f->calibrated) ? (f->v[k][0] - f->v[k][last]) - (f->target[0] - f->target[last]) : NAN;
     f->spread_residual[j] = *spread_residual;
     if (parallel_rank() == 0 && isfinite(f->calibrated))
@@ -494,6 +493,13 @@ static int output_contents(void *owner, hid_t file)
     SC_CHECK(status, h5_write_doubles(group, "mean_residual", 1, searches, f->residual, "m/s", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "v_crit", 2, both, v, "m/s", 0), done);
     SC_CHECK(status, h5_attr_write_string(group, "parameter_name", f->name[0]), done);
+    if (f->fit_rate) { /* each fit of the first parameter: its second, its value (NaN: none) and spread residual */
+        hsize_t fits[1] = {(hsize_t)f->rate_fits};
+        SC_CHECK(status, h5_write_doubles(group, "fit_second_parameter", 1, fits, f->fit_rate_value, f->unit[1], 0),
+                 done);
+        SC_CHECK(status, h5_write_doubles(group, "fit_first_parameter", 1, fits, f->fitted, f->unit[0], 0), done);
+        SC_CHECK(status, h5_write_doubles(group, "spread_residual", 1, fits, f->spread_residual, "m/s", 0), done);
+    }
 done:
     H5Gclose(group);
     return status;
