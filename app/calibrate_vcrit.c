@@ -61,6 +61,19 @@ struct vcrit_fit {
     double spread_residual[MAX_RATE_FITS];
 };
 
+/* [calibrate] <name>_min and <name>_max, the range `who` searches. */
+static int load_range(const struct case_file *c, const char *name, const char *who, double *lo, double *hi)
+{
+    char key_min[32], key_max[32];
+    snprintf(key_min, sizeof key_min, "%s_min", name);
+    snprintf(key_max, sizeof key_max, "%s_max", name);
+    *lo = case_real(c, STAGE, key_min), *hi = case_real(c, STAGE, key_max);
+    if (!(*hi > *lo))
+        return case_invalid(c, STAGE, key_max, "%g is not above %s = %g: %s searches between the two", *hi, key_min,
+                            *lo, who);
+    return SC_OK;
+}
+
 /* [calibrate] rate = fitted: the second parameter's range (<name>_min, <name>_max) and the most fits of the first. */
 static int load_rate(const struct case_file *c, struct vcrit_fit *f)
 {
@@ -70,13 +83,7 @@ static int load_rate(const struct case_file *c, struct vcrit_fit *f)
     if (f->size_count < 2)
         return case_invalid(c, STAGE, "rate",
                             "is fitted with one diameter: the spread of v_crit over the sizes needs two at least");
-    char key_min[32], key_max[32];
-    snprintf(key_min, sizeof key_min, "%s_min", f->name[1]);
-    snprintf(key_max, sizeof key_max, "%s_max", f->name[1]);
-    f->rate_lo = case_real(c, STAGE, key_min), f->rate_hi = case_real(c, STAGE, key_max);
-    if (!(f->rate_hi > f->rate_lo))
-        return case_invalid(c, STAGE, key_max, "%g is not above %s = %g: rate = fitted searches between the two",
-                            f->rate_hi, key_min, f->rate_lo);
+    SC_TRY(load_range(c, f->name[1], "rate = fitted", &f->rate_lo, &f->rate_hi));
     f->max_rate_fits = (int)case_int(c, STAGE, "fit_rate_evaluations");
     f->spread_tolerance = case_real(c, STAGE, "fit_spread_tolerance");
     if ((long)f->max_rate_fits * f->max_evaluations > MAX_EVALUATIONS)
@@ -96,13 +103,7 @@ static int load(const struct stage_context *ctx, struct vcrit_fit *f)
     f->name[0] = strain ? "eps_c" : "Gc", f->name[1] = strain ? "eps_rate_c" : "Gc_rate";
     f->unit[0] = strain ? "-" : "J/m2", f->unit[1] = strain ? "1/s" : "J/m2/s";
     f->kept = case_real(c, "impact", f->name[1]);
-    char key_min[32], key_max[32];
-    snprintf(key_min, sizeof key_min, "%s_min", f->name[0]);
-    snprintf(key_max, sizeof key_max, "%s_max", f->name[0]);
-    f->lo = case_real(c, STAGE, key_min), f->hi = case_real(c, STAGE, key_max);
-    if (!(f->hi > f->lo))
-        return case_invalid(c, STAGE, key_max, "%g is not above %s = %g: method = vcrit searches between the two",
-                            f->hi, key_min, f->lo);
+    SC_TRY(load_range(c, f->name[0], "method = vcrit", &f->lo, &f->hi));
     f->tolerance = case_real(c, STAGE, "fit_tolerance");
     f->max_evaluations = (int)case_int(c, STAGE, "fit_evaluations");
     f->bracket_tolerance = case_real(c, STAGE, "fit_bracket");
