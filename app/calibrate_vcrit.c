@@ -193,7 +193,7 @@ static int evaluate(struct vcrit_fit *f, double p)
     if (k >= MAX_EVALUATIONS)
         SC_FAIL(SC_ESIM, "calibrate: more than %d searches", MAX_EVALUATIONS);
     char dir[4200];
-    snprintf(dir, sizeof dir, VCRIT_DIR_FORMAT, f->ctx->run_dir, k % 100 + 1);
+    snprintf(dir, sizeof dir, VCRIT_DIR_FORMAT, f->ctx->run_dir, k + 1);
     struct case_file *run;
     SC_TRY(search_case(f, p, &run));
     const struct stage_context ctx = {.c = run, .run_dir = dir};
@@ -295,15 +295,50 @@ static int fit_first(struct vcrit_fit *f)
     if (accepted)
         return SC_OK;
     SC_TRY(evaluate_and_accept(f, f->hi, &accepted));
+    f->slope = (f->residual[first + 1] - f->residual[first]) / (f->hi - f->lo);
     if (accepted)
         return SC_OK;
-    f->slope = (f->residual[first + 1] - f->residual[first]) / (f->hi - f->lo);
     return refine(f, first, f->lo, f->residual[first], f->hi, f->residual[first + 1]);
 }
 
+/* Among the searches of the fit that began with search `first`, two neighbours in the parameter whose mean
+ * residuals differ in sign (or one is zero): 1 and their values, lowest such pair first; 0 where there is none. */
+static int sign_change(const struct vcrit_fit *f, int first, double *x0, double *r0, double *x1, double *r1)
+{
+    int found = 0;
+    for (int i = first; i < f->count; i++) {
+        int next = -1; /* the search with the next larger parameter */
+        for (int k = first; k < f->count; k++)
+            if (f->p[k] > f->p[i] && (next < 0 || f->p[k] < f->p[next]))
+                next = k;
+        if (next >= 0 && f->residual[i] * f->residual[next] <= 0 && (!found || f->p[i] < *x0)) {
+            *x0 = f->p[i], *r0 = f->residual[i], *x1 = f->p[next], *r1 = f->residual[next];
+            found = 1;
+        }
+    }
+    return found;
+}
+
+/* The mean residual of the search at p of the fit that began with search `first`; NaN where there is none. */
+static double residual_at(const struct vcrit_fit *f, int first, double p)
+{
+    for (int k = first; k < f->count; k++)
+        if (f->p[k] == p)
+            return f->residual[k];
+    return NAN;
+}
+
+/* The search at p unless the fit that began with search `first` has made it already. */
+static int evaluate_new(struct vcrit_fit *f, int first, double p, int *accepted)
+{
+    *accepted = 0;
+    return isnan(residual_at(f, first, p)) ? evaluate_and_accept(f, p, accepted) : SC_OK;
+}
+
 /* The first parameter at the second's current value, starting from `guess` (the value fitted at a nearby value of
- * the second): then one secant step with f->slope, and the range's end on that side only where the two do not
- * bracket the root.  Two searches where the guess is near, against three or more from the ends. */
+ * the second): then one secant step with f->slope toward the root, then, until two searches bracket it, the
+ * range's end beyond the step and the other end.  Two searches where the guess is near, against three or more
+ * from the ends. */
 static int fit_first_near(struct vcrit_fit *f, double guess)
 {
     int first = f->count, accepted;
@@ -311,25 +346,24 @@ static int fit_first_near(struct vcrit_fit *f, double guess)
     SC_TRY(evaluate_and_accept(f, guess, &accepted));
     if (accepted)
         return SC_OK;
-    double r0 = f->residual[first];
-    double step = fmin(fmax(guess - r0 / f->slope, f->lo), f->hi);
-    if (step == guess) /* the guess is at the end the step points beyond: try the other */
-        step = guess == f->lo ? f->hi : f->lo;
+    double r = f->residual[first];
+    double toward = r * f->slope > 0 ? f->lo : f->hi; /* the end the root lies toward on the slope */
+    double step = fmin(fmax(guess - r / f->slope, f->lo), f->hi);
+    if (step == guess) /* a step too small to move, or the guess at the end the root lies beyond */
+        step = toward != guess ? toward : (toward == f->lo ? f->hi : f->lo);
     SC_TRY(evaluate_and_accept(f, step, &accepted));
     if (accepted)
         return SC_OK;
-    double r1 = f->residual[first + 1];
-    if (r0 * r1 > 0) { /* not yet bracketed: the end beyond the step */
-        double end = step < guess ? f->lo : f->hi;
-        if (end != step) {
-            guess = step, r0 = r1, step = end;
-            SC_TRY(evaluate_and_accept(f, step, &accepted));
-            if (accepted)
-                return SC_OK;
-            r1 = f->residual[f->count - 1];
-        }
+    double beyond = step < guess ? f->lo : f->hi, ends[2] = {beyond, beyond == f->lo ? f->hi : f->lo};
+    double x0, r0, x1, r1;
+    for (int e = 0; e < 2 && !sign_change(f, first, &x0, &r0, &x1, &r1); e++) {
+        SC_TRY(evaluate_new(f, first, ends[e], &accepted));
+        if (accepted)
+            return SC_OK;
     }
-    return guess < step ? refine(f, first, guess, r0, step, r1) : refine(f, first, step, r1, guess, r0);
+    if (!sign_change(f, first, &x0, &r0, &x1, &r1)) /* both ends searched, one sign: refine says so */
+        return refine(f, first, f->lo, residual_at(f, first, f->lo), f->hi, residual_at(f, first, f->hi));
+    return refine(f, first, x0, r0, x1, r1);
 }
 
 /* The earlier fit with a value whose second parameter is nearest `rate` in its logarithm; -1 where none. */
@@ -375,6 +409,16 @@ static void note_failed_fit(struct vcrit_fit *f)
     snprintf(f->note, sizeof f->note, "at %s = %.6g: %.200s", f->name[1], f->kept, why);
 }
 
+/* The fit whose spread residual is smallest in magnitude (one was found: every fit so far had a value). */
+static int nearest_spread(const struct vcrit_fit *f)
+{
+    int best = 0;
+    for (int j = 1; j < f->rate_fits; j++)
+        if (fabs(f->spread_residual[j]) < fabs(f->spread_residual[best]))
+            best = j;
+    return best;
+}
+
 /* rate = fitted: false position in ln(rate) on the spread residual, each value a fit of the first parameter. */
 static int fit_both(struct vcrit_fit *f)
 {
@@ -408,11 +452,13 @@ static int fit_both(struct vcrit_fit *f)
             return SC_OK;
         root_bracket_update(&b, next, spread);
         if (exp(b.hi) - exp(b.lo) <= f->bracket_tolerance * 0.5 * (exp(b.lo) + exp(b.hi))) {
-            /* the spread jumps across zero: the last fit, inside a bracket this narrow, is the pair */
+            /* the spread jumps across zero: of the fits made, the one whose spread is nearest is the pair */
+            int j = nearest_spread(f);
+            f->kept = f->fit_rate_value[j], f->calibrated = f->fitted[j];
             snprintf(f->note, sizeof f->note,
-                     "the last fit, inside the bracket %s %.6g to %.6g, narrower than fit_bracket, across which the "
-                     "spread residual changes sign",
-                     f->name[1], exp(b.lo), exp(b.hi));
+                     "the fit of smallest spread residual (%+.3g m/s); the bracket %s %.6g to %.6g, across which it "
+                     "changes sign, is narrower than fit_bracket",
+                     f->spread_residual[j], f->name[1], exp(b.lo), exp(b.hi));
             return SC_OK;
         }
     }
@@ -463,7 +509,8 @@ static int output_contents(void *owner, hid_t file)
     SC_TRY(h5_attr_write_string(file, "method", "vcrit"));
     SC_TRY(h5_attr_write_string(file, "bonding", strcmp(f->name[0], "eps_c") == 0 ? "strain" : "energy"));
     SC_TRY(h5_attr_write_double(file, f->name[0], f->calibrated));
-    SC_TRY(h5_attr_write_double(file, f->name[1], f->kept));
+    /* with rate = fitted and no pair, the rate last tried is not a result */
+    SC_TRY(h5_attr_write_double(file, f->name[1], f->fit_rate && !isfinite(f->calibrated) ? NAN : f->kept));
     snprintf(key, sizeof key, "%s_min", f->name[0]);
     SC_TRY(h5_attr_write_double(file, key, f->lo));
     snprintf(key, sizeof key, "%s_max", f->name[0]);

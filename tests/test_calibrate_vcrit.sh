@@ -19,8 +19,9 @@
 #      the first search at both ranges' low ends, every search's Gc_rate in the range, searches at one Gc with
 #      different Gc_rate giving different v_crit (the rate reaches the runs), and an independent `spraycoat vcrit`
 #      with both values written into [impact] meeting the targets on average within 15 m/s and their difference
-#      within 8 m/s (both computed here); with targets 700 and 760 m/s, whose spread no rate in the range meets,
-#      no calibrated value and a note that the spread residual has one sign.
+#      within 8 m/s (both computed here); the second fit starting at the value the first fitted; the same pair
+#      replayed from the searches' outputs without an impact run; with targets 700 and 760 m/s, whose spread no
+#      rate in the range meets, no calibrated value and a note that the spread residual has one sign.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
 
@@ -212,6 +213,9 @@ if "$BIN" calibrate "$T/rate.ini" -o "$T/rate" >"$T/rate.log" 2>&1; then
         $1 == 1 && !($2 == 1000 && $3 == 2e10) { print "search 1 at Gc " $2 ", Gc_rate " $3 }
         $3 < 2e10 || $3 > 1e11 { print "search " $1 " at Gc_rate " $3 " outside the range" }
         { key = $2 "," $4; if (key in v && rate_of[key] != $3 && v[key] != $5) moved = 1; v[key] = $5; rate_of[key] = $3 }
+        # the second fit starts at the value the first fitted (its last search), not at an end of the range
+        $3 == 2e10 { first_fit = $2 }
+        $3 != 2e10 && second_start == "" { second_start = $2 }
         $2 == g && $3 == r { found = 1 }
         END {
             if (g == "nan") { print "no calibrated row"; exit }
@@ -219,6 +223,7 @@ if "$BIN" calibrate "$T/rate.ini" -o "$T/rate" >"$T/rate.log" 2>&1; then
             if (!(g >= 1000 && g <= 1600)) print "Gc " g " outside 1000-1600"
             if (!found) print "no search at the calibrated pair"
             if (!moved) print "no Gc searched at two Gc_rate with different v_crit"
+            if (second_start != first_fit) print "the second fit starts at Gc " second_start ", the first fitted " first_fit
         }' "$T/rate/calibrate_vcrit.csv" | tr '\n' ';')
     if [ -n "$gc" ]; then
         {
@@ -241,6 +246,15 @@ Gc_rate = $rate"
     if [ -z "$why" ]; then pass calibrate_vcrit_rate_fitted; else fail calibrate_vcrit_rate_fitted "$why"; fi
 else
     fail calibrate_vcrit_rate_fitted "exit status: $(tail -n 2 "$T/rate.log")"
+fi
+# replayed from the searches' outputs, as in 2
+cp "$T/rate/calibrate.csv" "$T/rate_first.csv"
+rm -f "$T/rate/calibrate.csv" "$T/rate/calibrate.h5" "$T/rate/calibrate_vcrit.csv"
+if "$BIN" calibrate "$T/rate.ini" -o "$T/rate" >"$T/rate_again.log" 2>&1 && cmp -s "$T/rate_first.csv" "$T/rate/calibrate.csv" &&
+    ! grep -q 'vcrit: d = .* m/s .*: \(bonded\|rebounded\|unsettled\)' "$T/rate_again.log"; then
+    pass calibrate_vcrit_rate_replay
+else
+    fail calibrate_vcrit_rate_replay "another calibrate.csv, impact runs made again or a failure: $(tail -n 1 "$T/rate_again.log")"
 fi
 sed -e 's/^velocities = .*/velocities = 700,760/' "$T/rate.ini" >"$T/rate_none.ini"
 if "$BIN" calibrate "$T/rate_none.ini" -o "$T/rate_none" >"$T/rate_none.log" 2>&1 &&
