@@ -281,6 +281,9 @@ static int load_settings(const struct case_file *c, struct calibrate *k)
 {
     SC_TRY(parse_sizes(c, k));
     SC_TRY(load_grid(c, k));
+    if (case_is(c, STAGE, "rate", "fitted")) /* method = boundaries spans the second parameter in its grid */
+        return case_invalid(c, STAGE, "rate",
+                            "only method = vcrit fits the rate; allowed with method = boundaries: kept");
     k->angle = case_real(c, "impact", "angle") * M_PI / 180.0;
     if (case_has(c, "impact", "bodies"))
         return case_invalid(c, "impact", "bodies",

@@ -210,6 +210,16 @@ if [ "$status" -eq 2 ] && grep -q 'substrate_diameters.*reference_diameter' "$T/
 else
     fail calibrate_reference_without_substrates "exit $status: $(tail -n 1 "$T/both.log")"
 fi
+# rate = fitted belongs to method = vcrit: with the boundaries' grid it is refused, naming file, line and key
+printf 'rate = fitted\n' | sed '/^\[calibrate\]/r /dev/stdin' "$T/strain.ini" >"$T/rate.ini"
+"$BIN" calibrate "$T/rate.ini" -o "$T/rate" >"$T/rate.log" 2>&1
+status=$?
+if [ "$status" -eq 2 ] && grep -q 'rate.ini:[0-9]*: \[calibrate\] rate = fitted: .*method = vcrit' "$T/rate.log" &&
+    [ ! -e "$T/rate/case.ini" ]; then
+    pass calibrate_rate_fitted_needs_vcrit
+else
+    fail calibrate_rate_fitted_needs_vcrit "exit $status: $(tail -n 1 "$T/rate.log")"
+fi
 
 # ---- 3. a speed per diameter ---------------------------------------------------------------------------------------
 write_case "$T/bad.ini" 2 "900"
