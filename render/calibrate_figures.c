@@ -215,50 +215,127 @@ static int boundaries_plot(const struct render_request *req, const struct calibr
     return render_plot_publish(req->run_dir, out, "calibrate", "calibrate", plot.panels[0].title, &plot);
 }
 
+/* [calibrate] method = vcrit, rate = fitted: each fit of the first parameter's spread residual, (v_crit of the first
+ * size - of the last) - (their targets' difference), against the second parameter on a log scale, with the
+ * tolerance band and the calibrated rate. */
+#define FIT_SEARCHES 64
+struct spread_panel {
+    struct render_array rate, residual;
+    double x[FIT_SEARCHES], y[FIT_SEARCHES], band_x[2], band_lo[2], band_hi[2], cal_x[2], cal_y[2];
+    struct render_series series[4];
+    char xlabel[96];
+};
+
+static int spread_panel_read(hid_t file, hid_t g, const char *path, const struct calibrate_axes *axes,
+                             struct spread_panel *s, struct render_panel *panel)
+{
+    SC_TRY(render_read_array(g, path, "fit_second_parameter", &s->rate));
+    SC_TRY(render_read_array(g, path, "spread_residual", &s->residual));
+    if (s->rate.count != s->residual.count)
+        SC_FAIL(SC_EIO, "render: %s: /vcrit_fit fit sizes do not agree", path);
+    double tolerance = NAN, calibrated = NAN, lo = INFINITY, hi = -INFINITY;
+    h5_attr_read_double(file, "fit_spread_tolerance", &tolerance);
+    h5_attr_read_double(file, axes->name[1], &calibrated);
+    size_t n = s->rate.count < FIT_SEARCHES ? s->rate.count : FIT_SEARCHES;
+    for (size_t k = 0; k < n; k++) {
+        s->x[k] = s->rate.values[k] > 0 ? log10(s->rate.values[k]) : NAN, s->y[k] = s->residual.values[k];
+        if (isfinite(s->x[k]))
+            lo = fmin(lo, s->x[k]), hi = fmax(hi, s->x[k]);
+    }
+    s->band_x[0] = lo - 0.1, s->band_x[1] = hi + 0.1;
+    s->band_lo[0] = s->band_lo[1] = -tolerance, s->band_hi[0] = s->band_hi[1] = tolerance;
+    int have_cal = isfinite(calibrated) && calibrated > 0;
+    s->cal_x[0] = s->cal_x[1] = have_cal ? log10(calibrated) : NAN;
+    s->cal_y[0] = -3 * tolerance, s->cal_y[1] = 3 * tolerance;
+    s->series[0] = (struct render_series){"each fit of the first parameter", RENDER_MARKERS, n, s->x, s->y, 0, 0};
+    s->series[1] = (struct render_series){"fit_spread_tolerance", RENDER_DASHED, 2, s->band_x, s->band_lo, 0, 7};
+    s->series[2] = (struct render_series){NULL, RENDER_DASHED, 2, s->band_x, s->band_hi, 0, 7};
+    s->series[3] = (struct render_series){
+        have_cal ? "calibrated" : NULL, RENDER_LINE, have_cal ? 2u : 0u, s->cal_x, s->cal_y, 0, 6};
+    snprintf(s->xlabel, sizeof s->xlabel, "%s", axes->log_label);
+    *panel = (struct render_panel){"Spread residual of each fit vs the second parameter",
+                                   s->xlabel,
+                                   "spread residual (m/s)",
+                                   NAN,
+                                   NAN,
+                                   NAN,
+                                   NAN,
+                                   1,
+                                   4,
+                                   s->series};
+    return SC_OK;
+}
+
+static const struct calibrate_axes *axes_of_file(hid_t file)
+{
+    char bonding[32] = "strain";
+    h5_attr_read_string(file, "bonding", bonding, sizeof bonding);
+    return strcmp(bonding, "energy") == 0 ? &model_axes[0] : &model_axes[1];
+}
+
 /* [calibrate] method = vcrit (app/calibrate_vcrit.c): each size's v_crit against the fitted parameter, one marker
- * per search, with its measured target as a line across, and the calibrated value as a line up. */
+ * per search (open: a search at another second parameter than the calibrated one, rate = fitted), with its measured
+ * target as a line across, and the calibrated value as a line up; with rate = fitted a second panel of the fits'
+ * spread residuals. */
 #define FIT_SIZES 8
 static int vcrit_fit_plot(const struct render_request *req, hid_t file, const char *path, struct render_output *out)
 {
-    struct render_array d, target, p, v;
+    struct render_array d, target, p, v, second;
     memset(&d, 0, sizeof d), memset(&target, 0, sizeof target), memset(&p, 0, sizeof p), memset(&v, 0, sizeof v);
-    char name[32] = "parameter", label[96];
-    double calibrated = NAN;
+    memset(&second, 0, sizeof second);
+    struct spread_panel spread;
+    memset(&spread, 0, sizeof spread);
+    char name[32] = "parameter", label[96], rate[16] = "kept";
+    double calibrated = NAN, calibrated_rate = NAN;
     int status;
     hid_t g = H5Gopen2(file, "vcrit_fit", H5P_DEFAULT);
     if (g < 0)
         SC_FAIL(SC_EIO, "render: %s has no group vcrit_fit (not a complete spraycoat output?)", path);
+    const struct calibrate_axes *axes = axes_of_file(file);
     SC_CHECK(status, render_read_array(g, path, "diameter", &d), done);
     SC_CHECK(status, render_read_array(g, path, "target", &target), done);
     SC_CHECK(status, render_read_array(g, path, "parameter", &p), done);
     SC_CHECK(status, render_read_array(g, path, "v_crit", &v), done);
     h5_attr_read_string(g, "parameter_name", name, sizeof name);
     h5_attr_read_double(file, name, &calibrated);
+    h5_attr_read_string(file, "rate", rate, sizeof rate);
+    int fitted_rate = strcmp(rate, "fitted") == 0;
+    if (fitted_rate) {
+        SC_CHECK(status, render_read_array(g, path, "second_parameter", &second), done);
+        h5_attr_read_double(file, axes->name[1], &calibrated_rate);
+    }
     size_t n = d.count < FIT_SIZES ? d.count : FIT_SIZES, m = p.count;
-    if (v.count != n * m || target.count != d.count)
+    if (v.count != n * m || target.count != d.count || (fitted_rate && second.count != m))
         SC_FAIL_AT(status, done, SC_EIO, "render: %s: /vcrit_fit sizes do not agree", path);
-    double vs[FIT_SIZES][64], lx[FIT_SIZES][2], ly[FIT_SIZES][2], px[2] = {calibrated, calibrated}, py[2];
+    double at[FIT_SIZES][FIT_SEARCHES], other[FIT_SIZES][FIT_SEARCHES], lx[FIT_SIZES][2], ly[FIT_SIZES][2];
+    double px[2] = {calibrated, calibrated}, py[2];
     char labels[FIT_SIZES][48];
-    struct render_series series[2 * FIT_SIZES + 1];
+    struct render_series series[3 * FIT_SIZES + 1];
     double lo = INFINITY, hi = -INFINITY, pmin = INFINITY, pmax = -INFINITY;
     for (size_t k = 0; k < m; k++)
         pmin = fmin(pmin, p.values[k]), pmax = fmax(pmax, p.values[k]);
-    size_t shown = m < 64 ? m : 64;
+    size_t shown = m < FIT_SEARCHES ? m : FIT_SEARCHES;
     for (size_t i = 0; i < n; i++) {
-        for (size_t k = 0; k < shown; k++)
-            vs[i][k] = v.values[k * d.count + i], lo = fmin(lo, vs[i][k]), hi = fmax(hi, vs[i][k]);
+        for (size_t k = 0; k < shown; k++) {
+            double vk = v.values[k * d.count + i];
+            int at_calibrated = !fitted_rate || second.values[k] == calibrated_rate;
+            at[i][k] = at_calibrated ? vk : NAN, other[i][k] = at_calibrated ? NAN : vk;
+            lo = fmin(lo, vk), hi = fmax(hi, vk);
+        }
         lx[i][0] = pmin, lx[i][1] = pmax, ly[i][0] = ly[i][1] = target.values[i];
         lo = fmin(lo, target.values[i]), hi = fmax(hi, target.values[i]);
         snprintf(labels[i], sizeof labels[i], "%.3g µm (dashed: measured)", d.values[i] * 1e6);
-        series[2 * i] = (struct render_series){labels[i], RENDER_MARKERS, shown, p.values, vs[i], 0, (int)i % 8};
-        series[2 * i + 1] = (struct render_series){NULL, RENDER_DASHED, 2, lx[i], ly[i], 0, (int)i % 8};
+        series[3 * i] = (struct render_series){labels[i], RENDER_MARKERS, shown, p.values, at[i], 0, (int)i % 8};
+        series[3 * i + 1] = (struct render_series){NULL, RENDER_OPEN_MARKERS, shown, p.values, other[i], 0, (int)i % 8};
+        series[3 * i + 2] = (struct render_series){NULL, RENDER_DASHED, 2, lx[i], ly[i], 0, (int)i % 8};
     }
     py[0] = lo, py[1] = hi;
-    series[2 * n] = (struct render_series){
+    series[3 * n] = (struct render_series){
         isfinite(calibrated) ? "calibrated" : NULL, RENDER_LINE, isfinite(calibrated) ? 2u : 0u, px, py, 0, 6};
     snprintf(label, sizeof label, "%s ([impact] bonding parameter)", name);
-    struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Critical velocity of each search vs the fitted parameter",
+    struct render_plot plot = render_plot_start(req->cfg, fitted_rate ? 2 : 1);
+    plot.panels[0] = (struct render_panel){fitted_rate ? "v_crit of each search (open: at another rate)"
+                                                       : "Critical velocity of each search vs the fitted parameter",
                                            label,
                                            "critical velocity v_crit (m/s)",
                                            NAN,
@@ -266,13 +343,16 @@ static int vcrit_fit_plot(const struct render_request *req, hid_t file, const ch
                                            NAN,
                                            hi + (hi - lo),
                                            0,
-                                           2 * (int)n + 1,
+                                           3 * (int)n + 1,
                                            series};
+    if (fitted_rate)
+        SC_CHECK(status, spread_panel_read(file, g, path, axes, &spread, &plot.panels[1]), done);
     SC_CHECK(status,
              render_plot_publish(req->run_dir, out, "calibrate_vcrit", "calibrate", plot.panels[0].title, &plot), done);
 done:
     H5Gclose(g);
     render_array_free(&d), render_array_free(&target), render_array_free(&p), render_array_free(&v);
+    render_array_free(&second), render_array_free(&spread.rate), render_array_free(&spread.residual);
     return status;
 }
 
