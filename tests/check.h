@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 static int check_test_failures;
 static int check_total_failed;
@@ -41,6 +42,9 @@ static void check_report(int ok, const char *file, int line, const char *fmt, ..
 static void check_run(const char *name, void (*test)(void)) __attribute__((unused));
 static void check_run(const char *name, void (*test)(void))
 {
+    const char *only = getenv("CHECK_ONLY"); /* run only the tests whose name contains it (when debugging one) */
+    if (only && *only && !strstr(name, only))
+        return;
     check_test_failures = 0;
     test();
     if (check_test_failures == 0) {
