@@ -34,7 +34,7 @@
 #      fit to v_crit at three resolutions"); the fine part copies its searches to
 #      cases/calibrate_vcrit_al_15cells.csv and .png.  Coarse about a minute, fine about 20.
 #   8. v_crit(d) and CoR(v) as in 5 with the fit at 15 cells per diameter (cases/vcrit_al_15cells.ini, eps_c 3.036,
-#      part vcrit_al_fine, about an hour): cases/vcrit_al_15cells.csv, _cor.csv, .png and _cor.png.
+#      part vcrit_al_fine, about 35 minutes): cases/vcrit_al_15cells.csv, _cor.csv, .png and _cor.png.
 #   9. The interface's plastic strain and temperature against the resolution, adiabatic and with conduction (part
 #      interface_strain, about 25 minutes; docs/physics.md "Why the calibration moves with the grid").
 # VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]|
