@@ -218,7 +218,7 @@ static int boundaries_plot(const struct render_request *req, const struct calibr
 /* [calibrate] method = vcrit, rate = fitted: each fit of the first parameter's spread residual, (v_crit of the first
  * size - of the last) - (their targets' difference), against the second parameter on a log scale, with the
  * tolerance band and the calibrated rate. */
-#define FIT_SEARCHES 64
+#define FIT_SEARCHES 100 /* app/calibrate_vcrit.c MAX_EVALUATIONS */
 struct spread_panel {
     struct render_array rate, residual;
     double x[FIT_SEARCHES], y[FIT_SEARCHES], band_x[2], band_lo[2], band_hi[2], cal_x[2], cal_y[2];
@@ -318,7 +318,7 @@ static int vcrit_fit_plot(const struct render_request *req, hid_t file, const ch
     for (size_t i = 0; i < n; i++) {
         for (size_t k = 0; k < shown; k++) {
             double vk = v.values[k * d.count + i];
-            int at_calibrated = !fitted_rate || second.values[k] == calibrated_rate;
+            int at_calibrated = !fitted_rate || !isfinite(calibrated_rate) || second.values[k] == calibrated_rate;
             at[i][k] = at_calibrated ? vk : NAN, other[i][k] = at_calibrated ? NAN : vk;
             lo = fmin(lo, vk), hi = fmax(hi, vk);
         }

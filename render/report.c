@@ -399,8 +399,7 @@ static const char *calibration_resolution(const struct case_file *c)
     const char *model = case_text(c, "impact", "bonding");
     if (strcmp(model, "strain") == 0) /* eps_c, eps_rate_c: docs/physics.md, the calibration with them both fitted */
         return "10 grid cells across the particle's diameter with points a third of a cell apart (1.4/0.467 µm for "
-               "14 µm; the fit at 15 cells across, eps_c = 3.15 with the contact before its second decision was taken "
-               "on the forces, is cases/vcrit_al_15cells.ini)";
+               "14 µm; the fit at 15 cells across, eps_c = 3.036, is cases/vcrit_al_15cells.ini)";
     if (strcmp(model, "energy") == 0) /* Gc, Gc_rate: cases/bonding_calibration_al.csv */
         return "grid cells of 2.0 µm with points 0.667 µm apart";
     return NULL;

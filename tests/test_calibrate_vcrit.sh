@@ -243,6 +243,8 @@ Gc_rate = $rate"
             why="$why the check search failed: $(tail -n 1 "$T/rate_check.log")"
         fi
     fi
+    # the figure with its panel of the fits' spread residuals (render/calibrate_figures.c)
+    [ -s "$T/rate/figures/calibrate_vcrit.png" ] || why="$why no figures/calibrate_vcrit.png;"
     if [ -z "$why" ]; then pass calibrate_vcrit_rate_fitted; else fail calibrate_vcrit_rate_fitted "$why"; fi
 else
     fail calibrate_vcrit_rate_fitted "exit status: $(tail -n 2 "$T/rate.log")"
