@@ -1,5 +1,7 @@
 /* The critical-velocity figures (RUN_DIR/vcrit.h5): v_crit vs diameter, every run of the search, and the thesis's
- * predictions for comparison; the coefficient of restitution against impact speed per diameter (every run). */
+ * predictions for comparison; the coefficient of restitution against impact speed per diameter (every run).  A
+ * table over diameter and temperature ([vcrit] temperatures) gets a v_crit curve per temperature, and its CoR
+ * figure two panels, the coldest and the hottest temperature. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,6 +22,7 @@ static const double measured_vcrit[] = {810, 770};
 struct search_runs {
     size_t count, capacity;
     double *d, *v, *cor;    /* um, m/s, - (NaN when the file has no cor) */
+    double *T;              /* K, the search's temperature (0: the material's T_initial, a table without them) */
     int *verdict;           /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5), 3 held */
     double vrest_threshold; /* [impact] vrest_threshold: a rebounded run slower than it is held */
     /* error bars of logistic fits: per search, (d, v_crit - se), (d, v_crit + se), (NaN, NaN): a line with gaps */
@@ -41,19 +44,20 @@ static int grow(double **array, size_t capacity)
     return resized != NULL;
 }
 
-static int add_run(struct search_runs *r, double d, double v, int verdict, double cor)
+static int add_run(struct search_runs *r, double d, double T, double v, int verdict, double cor)
 {
     if (r->count == r->capacity) {
         size_t capacity = r->capacity ? 2 * r->capacity : 64;
-        int grown = grow(&r->d, capacity) & grow(&r->v, capacity) & grow(&r->cor, capacity);
+        int grown = grow(&r->d, capacity) & grow(&r->T, capacity) & grow(&r->v, capacity) & grow(&r->cor, capacity);
         int *b2 = realloc(r->verdict, capacity * sizeof *b2);
         if (b2)
             r->verdict = b2;
         if (!grown || !b2)
-            SC_FAIL_OOM(capacity * (3 * sizeof(double) + sizeof *b2), "the critical-velocity runs");
+            SC_FAIL_OOM(capacity * (4 * sizeof(double) + sizeof *b2), "the critical-velocity runs");
         r->capacity = capacity;
     }
-    r->d[r->count] = d, r->v[r->count] = v, r->cor[r->count] = cor, r->verdict[r->count++] = verdict;
+    r->d[r->count] = d, r->T[r->count] = T, r->v[r->count] = v, r->cor[r->count] = cor;
+    r->verdict[r->count++] = verdict;
     return SC_OK;
 }
 
@@ -83,7 +87,7 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
     (void)info;
     struct search_runs *runs = data;
     hid_t g = H5Gopen2(parent, name, H5P_DEFAULT);
-    double d;
+    double d, T = 0.0;
     struct render_array v, verdict, cor, v_rest;
     memset(&v, 0, sizeof v), memset(&verdict, 0, sizeof verdict), memset(&cor, 0, sizeof cor);
     memset(&v_rest, 0, sizeof v_rest);
@@ -91,6 +95,8 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
         return -1;
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &d), done);
+    if (H5Aexists(g, "temperature") > 0)
+        SC_CHECK(status, h5_attr_read_double(g, "temperature", &T), done);
     SC_CHECK(status, add_error_bar(runs, g, d * 1e6), done);
     SC_CHECK(status, render_read_array(g, "vcrit.h5", "velocity", &v), done);
     /* the verdicts with the unsettled runs told apart; files before settled verdicts have only bonded (0/1) */
@@ -103,7 +109,7 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
         int run = (int)verdict.values[i];
         if (run == RUN_REBOUNDED && i < v_rest.count && v_rest.values[i] <= runs->vrest_threshold)
             run = RUN_HELD;
-        SC_CHECK(status, add_run(runs, d * 1e6, v.values[i], run, i < cor.count ? cor.values[i] : NAN), done);
+        SC_CHECK(status, add_run(runs, d * 1e6, T, v.values[i], run, i < cor.count ? cor.values[i] : NAN), done);
     }
 done:
     render_array_free(&v), render_array_free(&verdict), render_array_free(&cor), render_array_free(&v_rest);
@@ -124,9 +130,9 @@ static int read_search(hid_t file, const char *path, struct search_runs *runs)
     return SC_OK;
 }
 
-/* The top of the v_crit axis: 1.2 times the data's range above it, so that the legend in the top corner (up to 9
- * rows, about 40 % of the frame's height) covers no point. */
-static double legend_headroom(const struct render_array *v, const struct search_runs *runs)
+/* The top of the v_crit axis: the data's range above it, times 1.2 for a legend of up to 9 rows (about 40 % of the
+ * frame's height) and in proportion for more, so that the legend in the top corner covers no point. */
+static double legend_headroom(const struct render_array *v, const struct search_runs *runs, int legend_rows)
 {
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < v->count; i++)
@@ -135,20 +141,74 @@ static double legend_headroom(const struct render_array *v, const struct search_
         lo = fmin(lo, runs->v[i]), hi = fmax(hi, runs->v[i]);
     for (size_t i = 0; i < sizeof tang_vcrit / sizeof tang_vcrit[0]; i++)
         lo = fmin(lo, tang_vcrit[i]), hi = fmax(hi, tang_vcrit[i]);
-    return hi > lo ? hi + 1.2 * (hi - lo) : NAN;
+    double scale = 1.2 * fmax(1.0, legend_rows / 9.0);
+    return hi > lo ? hi + scale * (hi - lo) : NAN;
 }
 
+/* The v_crit curves: one, or one per temperature of a table over (d, T) (its rows by diameter, then temperature),
+ * each with its diameters in um and its values, in ascending temperature. */
+#define MAX_CURVES 8
+struct vcrit_curves {
+    int count;
+    double temperature[MAX_CURVES];
+    size_t length[MAX_CURVES];
+    char label[MAX_CURVES][40];
+    double *d_um[MAX_CURVES], *v[MAX_CURVES];
+};
+
+/* Split the table's rows into curves (`t` with no values: one curve); `buffer` holds 2 d->count doubles.  The
+ * temperatures beyond MAX_CURVES are left out of the figure (warned), not of the table. */
+static void split_curves(const struct render_array *d, const struct render_array *v, const struct render_array *t,
+                         double *buffer, struct vcrit_curves *c)
+{
+    size_t n = d->count, used = 0;
+    memset(c, 0, sizeof *c);
+    for (size_t i = 0; i < n; i++) {
+        double T = t->count == n ? t->values[i] : 0.0;
+        int k = 0;
+        while (k < c->count && c->temperature[k] != T)
+            k++;
+        if (k == c->count) {
+            if (c->count == MAX_CURVES) {
+                log_warn("render: vcrit figure: more than %d temperatures, %g K left out", MAX_CURVES, T);
+                continue;
+            }
+            c->temperature[c->count++] = T;
+        }
+    }
+    for (int a = 1; a < c->count; a++) /* ascending temperature */
+        for (int b = a; b > 0 && c->temperature[b] < c->temperature[b - 1]; b--) {
+            double swap = c->temperature[b];
+            c->temperature[b] = c->temperature[b - 1], c->temperature[b - 1] = swap;
+        }
+    for (int k = 0; k < c->count; k++) {
+        c->d_um[k] = buffer + used, c->v[k] = buffer + n + used;
+        for (size_t i = 0; i < n; i++)
+            if ((t->count == n ? t->values[i] : 0.0) == c->temperature[k]) {
+                c->d_um[k][c->length[k]] = d->values[i] * 1e6, c->v[k][c->length[k]++] = v->values[i];
+            }
+        used += c->length[k];
+        if (t->count == n)
+            snprintf(c->label[k], sizeof c->label[k], "v_crit at %.0f K (this run)", c->temperature[k]);
+        else
+            snprintf(c->label[k], sizeof c->label[k], "v_crit (this run)");
+    }
+}
+
+/* Colours of the curves (palette indices), chosen apart from the runs' markers where there are few. */
+static const int curve_colour[MAX_CURVES] = {0, 7, 1, 5, 3, 4, 2, 6};
+
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
-                      const struct search_runs *runs, struct render_output *out)
+                      const struct render_array *t, const struct search_runs *runs, struct render_output *out)
 {
     size_t n = d->count, m = runs->count, nb = 0, nr = 0, nu = 0, nh = 0;
-    double *buffer = malloc((n + 8 * m + 1) * sizeof *buffer);
+    double *buffer = malloc((2 * n + 8 * m + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL_OOM((n + 8 * m + 1) * sizeof *buffer, "the critical-velocity figure");
-    double *d_um = buffer, *bd = buffer + n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m,
-           *hd = uv + m, *hv = hd + m;
-    for (size_t i = 0; i < n; i++)
-        d_um[i] = d->values[i] * 1e6;
+        SC_FAIL_OOM((2 * n + 8 * m + 1) * sizeof *buffer, "the critical-velocity figure");
+    double *bd = buffer + 2 * n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m, *hd = uv + m,
+           *hv = hd + m;
+    struct vcrit_curves curves;
+    split_curves(d, v, t, buffer, &curves);
     for (size_t i = 0; i < m; i++) { /* an unsettled run is neither bonded nor rebounded: a series of its own */
         if (runs->verdict[i] == RUN_BONDED)
             bd[nb] = runs->d[i], bv[nb++] = runs->v[i];
@@ -159,21 +219,42 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
         else
             rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
     }
-    /* the runs first, so that the curve, its error bars and the published points are drawn over them */
-    struct render_series series[] = {
-        {"runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
+    int many = curves.count > 1;
+    /* the runs first, so that the curves, their error bars and the published points are drawn over them */
+    struct render_series series[7 + 2 * MAX_CURVES] = {
+        {many ? "runs (every temperature): bonded" : "runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
         {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
         {"runs: unsettled", RENDER_OPEN_MARKERS, nu, ud, uv, 0, 3},
         {"runs: held (at rest, too little bonded)", RENDER_OPEN_MARKERS, nh, hd, hv, 0, 4},
-        {"v_crit (this run)", RENDER_LINE, n, d_um, v->values, 0, 0},
-        {NULL, RENDER_MARKERS, n, d_um, v->values, 0, 0},
-        {runs->bar_count ? "v_crit ± standard error (logistic fit)" : NULL, RENDER_LINE, runs->bar_count, runs->bar_x,
-         runs->bar_y, 0, 6},
-        {"Tang (2021) Table 5.4", RENDER_OPEN_MARKERS, 5, tang_diameter_um, tang_vcrit, 0, 1},
-        {"measured, Al on Al (Hassani-Gangaraj 2018)", RENDER_MARKERS, 2, measured_diameter_um, measured_vcrit, 0, 5},
     };
+    int count = 4;
+    for (int k = 0; k < curves.count; k++) {
+        int colour = many ? curve_colour[k] : 0;
+        series[count++] = (struct render_series){
+            curves.label[k], k % 2 ? RENDER_DASHED : RENDER_LINE, curves.length[k], curves.d_um[k], curves.v[k], 0,
+            colour};
+        series[count++] =
+            (struct render_series){NULL, RENDER_MARKERS, curves.length[k], curves.d_um[k], curves.v[k], 0, colour};
+    }
+    series[count++] = (struct render_series){runs->bar_count ? "v_crit ± standard error (logistic fit)" : NULL,
+                                             RENDER_LINE,
+                                             runs->bar_count,
+                                             runs->bar_x,
+                                             runs->bar_y,
+                                             0,
+                                             6};
+    series[count++] = (struct render_series){many ? "Tang (2021) Table 5.4, room temperature" : "Tang (2021) Table 5.4",
+                                             RENDER_OPEN_MARKERS,
+                                             5,
+                                             tang_diameter_um,
+                                             tang_vcrit,
+                                             0,
+                                             1};
+    series[count++] = (struct render_series){
+        "measured, Al on Al (Hassani-Gangaraj 2018)", RENDER_MARKERS, 2, measured_diameter_um, measured_vcrit, 0, 5};
     struct render_plot plot = render_plot_start(req->cfg, 1);
-    plot.panels[0] = (struct render_panel){"Critical velocity vs particle diameter",
+    plot.panels[0] = (struct render_panel){many ? "Critical velocity vs particle diameter and temperature"
+                                                : "Critical velocity vs particle diameter",
                                            "diameter d (µm)",
                                            "critical velocity v_crit (m/s)",
                                            NAN,
@@ -181,9 +262,9 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            NAN,
                                            NAN,
                                            0,
-                                           9,
+                                           count,
                                            series};
-    plot.panels[0].ymax = legend_headroom(v, runs);
+    plot.panels[0].ymax = legend_headroom(v, runs, 8 + curves.count);
     int status;
     SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
 done:
@@ -191,27 +272,63 @@ done:
     return status;
 }
 
-/* CoR against impact speed: one marker series per diameter (the runs of a diameter are consecutive). */
+/* CoR against impact speed: one marker series per diameter, of the runs at temperature T (runs of a search are
+ * consecutive, the searches by diameter).  x and y hold runs->count values; returns the number of series. */
 #define COR_DIAMETERS 16
-static int cor_plot(const struct render_request *req, const struct search_runs *runs, struct render_output *out)
+static int cor_series(const struct search_runs *runs, double T, double *x, double *y,
+                      struct render_series series[COR_DIAMETERS], char labels[COR_DIAMETERS][32])
 {
-    struct render_series series[COR_DIAMETERS];
-    char labels[COR_DIAMETERS][32];
     int n = 0;
+    size_t used = 0;
     for (size_t i = 0; i < runs->count && n < COR_DIAMETERS;) {
-        size_t j = i;
-        while (j < runs->count && runs->d[j] == runs->d[i])
-            j++;
-        snprintf(labels[n], sizeof labels[n], "%.3g µm", runs->d[i]);
-        series[n] = (struct render_series){labels[n], RENDER_MARKERS, j - i, runs->v + i, runs->cor + i, 0, n % 8};
-        n++;
+        size_t j = i, first = used;
+        for (; j < runs->count && runs->d[j] == runs->d[i]; j++)
+            if (runs->T[j] == T)
+                x[used] = runs->v[j], y[used++] = runs->cor[j];
+        if (used > first) {
+            snprintf(labels[n], sizeof labels[n], "%.3g µm", runs->d[i]);
+            series[n] = (struct render_series){labels[n], RENDER_MARKERS, used - first, x + first, y + first, 0, n % 8};
+            n++;
+        }
         i = j;
     }
-    struct render_plot plot = render_plot_start(req->cfg, 1);
+    return n;
+}
+
+/* The CoR figure: one panel, or with temperatures two, the coldest and the hottest (vcrit_cor.csv has them all). */
+static int cor_plot(const struct render_request *req, const struct search_runs *runs, struct render_output *out)
+{
+    double cold = INFINITY, hot = -INFINITY;
+    for (size_t i = 0; i < runs->count; i++)
+        cold = fmin(cold, runs->T[i]), hot = fmax(hot, runs->T[i]);
+    int panels = runs->count && hot > cold ? 2 : 1;
+    double *buffer = malloc((4 * runs->count + 1) * sizeof *buffer);
+    if (!buffer)
+        SC_FAIL_OOM((4 * runs->count + 1) * sizeof *buffer, "the CoR figure");
+    struct render_series series[2][COR_DIAMETERS];
+    char labels[2][COR_DIAMETERS][32], titles[2][80];
+    struct render_plot plot = render_plot_start(req->cfg, panels);
     const char *title = "Coefficient of restitution vs impact speed";
-    plot.panels[0] = (struct render_panel){
-        title, "impact speed (m/s)", "coefficient of restitution (normal)", NAN, NAN, NAN, NAN, 1, n, series};
-    return render_plot_publish(req->run_dir, out, "vcrit_cor", "vcrit", plot.panels[0].title, &plot);
+    for (int p = 0; p < panels; p++) {
+        double T = p ? hot : cold;
+        double *x = buffer + 2 * (size_t)p * runs->count, *y = x + runs->count;
+        int n = runs->count ? cor_series(runs, T, x, y, series[p], labels[p]) : 0;
+        if (panels == 2)
+            snprintf(titles[p], sizeof titles[p], "CoR vs impact speed, particles at %.0f K", T);
+        plot.panels[p] = (struct render_panel){panels == 2 ? titles[p] : title,
+                                               "impact speed (m/s)",
+                                               "coefficient of restitution (normal)",
+                                               NAN,
+                                               NAN,
+                                               NAN,
+                                               NAN,
+                                               1,
+                                               n,
+                                               series[p]};
+    }
+    int status = render_plot_publish(req->run_dir, out, "vcrit_cor", "vcrit", title, &plot);
+    free(buffer);
+    return status;
 }
 
 int render_vcrit_figures(const struct render_request *req, struct render_output *out)
@@ -220,25 +337,30 @@ int render_vcrit_figures(const struct render_request *req, struct render_output 
     snprintf(path, sizeof path, "%s/vcrit.h5", req->run_dir);
     hid_t file;
     SC_TRY(render_open(path, &file));
-    struct render_array d, v;
+    struct render_array d, v, t;
     struct search_runs runs = {0};
     runs.vrest_threshold = case_real(req->c, "impact", "vrest_threshold");
-    memset(&d, 0, sizeof d), memset(&v, 0, sizeof v);
+    memset(&d, 0, sizeof d), memset(&v, 0, sizeof v), memset(&t, 0, sizeof t);
     int status;
     SC_CHECK(status, render_read_array(file, path, "diameter", &d), done);
     SC_CHECK(status, render_read_array(file, path, "v_crit", &v), done);
     if (v.count != d.count)
         SC_FAIL_AT(status, done, SC_EIO, "render: %s: /diameter and /v_crit of different lengths", path);
+    if (h5_exists(file, "temperature")) { /* a table over (d, T) */
+        SC_CHECK(status, render_read_array(file, path, "temperature", &t), done);
+        if (t.count != d.count)
+            SC_FAIL_AT(status, done, SC_EIO, "render: %s: /diameter and /temperature of different lengths", path);
+    }
     SC_CHECK(status, read_search(file, path, &runs), done);
     H5Fclose(file);
     file = H5I_INVALID_HID;
-    SC_CHECK(status, vcrit_plot(req, &d, &v, &runs, out), done);
+    SC_CHECK(status, vcrit_plot(req, &d, &v, &t, &runs, out), done);
     SC_CHECK(status, cor_plot(req, &runs, out), done);
     log_info("render: vcrit figures from %s", path);
 done:
     if (file >= 0)
         H5Fclose(file);
-    render_array_free(&d), render_array_free(&v);
-    free(runs.d), free(runs.v), free(runs.verdict), free(runs.cor), free(runs.bar_x), free(runs.bar_y);
+    render_array_free(&d), render_array_free(&v), render_array_free(&t);
+    free(runs.d), free(runs.T), free(runs.v), free(runs.verdict), free(runs.cor), free(runs.bar_x), free(runs.bar_y);
     return status;
 }

@@ -38,8 +38,12 @@
 #      part vcrit_al_fine, about 35 minutes): cases/vcrit_al_15cells.csv, _cor.csv, .png and _cor.png.
 #   9. The interface's plastic strain and temperature against the resolution, adiabatic and with conduction (part
 #      interface_strain, about 25 minutes; docs/physics.md "Why the calibration moves with the grid").
+#  10. v_crit(d, T) of 10 to 45 um at 298 to 600 K with the shipped calibration (cases/vcrit_al_temperature.ini,
+#      part vcrit_al_temperature, about 40 minutes): cases/vcrit_al_temperature.csv, _cor.csv, .png and _cor.png,
+#      the table the Al6061 cases read; fails unless v_crit falls with T at every d (thermal softening), which the
+#      shipped calibration's does not (it rises from 500 to 600 K; docs/physics.md "The model's v_crit(d, T)").
 # VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]|
-# interface_strain runs one.
+# interface_strain|vcrit_al_temperature runs one.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -225,6 +229,36 @@ validate_vcrit_al() {
     fi
 }
 
+# v_crit(d, T) with the shipped calibration (cases/vcrit_al_temperature.ini) into runs/validate_vcrit_al_temperature,
+# its tables and figures copied to cases/vcrit_al_temperature*; tests/test_vcrit_al.sh checks the table.
+validate_vcrit_al_temperature() {
+    name=vcrit_al_temperature
+    run=runs/validate_$name
+    echo "validate: v_crit(d, T) of cases/$name.ini into $run (about 40 minutes)"
+    if ! "$bin" vcrit "cases/$name.ini" -o "$run" || ! "$bin" render "cases/$name.ini" -o "$run"; then
+        fail_part "spraycoat vcrit cases/$name.ini"
+        return 0
+    fi
+    cp "$run/vcrit.csv" "cases/$name.csv"
+    cp "$run/vcrit_cor.csv" "cases/${name}_cor.csv"
+    cp "$run/figures/vcrit.png" "cases/$name.png"
+    cp "$run/figures/vcrit_cor.png" "cases/${name}_cor.png"
+    cat "cases/$name.csv"
+    table=$(sh tests/test_vcrit_al.sh | grep "_temperature_table")
+    rising=$(sh tests/test_vcrit_al.sh --temperature-falls | sed -n 's/^d = /  d = /p')
+    echo "validate: $table"
+    case $table in
+        PASS*) ;;
+        *) fail_part "v_crit(d, T) of cases/$name.csv is not a complete table of the case: $table"; return 0 ;;
+    esac
+    if [ -z "$rising" ]; then
+        echo "validate: cases/$name.csv, ${name}_cor.csv and their figures written; v_crit falls with T at every d"
+    else
+        printf 'validate: v_crit does not fall as the particle temperature rises:\n%s\n' "$rising"
+        fail_part "v_crit(d, T) does not fall with T at every d (thermal softening; docs/physics.md \"The model's v_crit(d, T)\")"
+    fi
+}
+
 # The strain model's eps_c fitted to the measured v_crit of 14 and 30 um at 10 cells per diameter (`spraycoat
 # calibrate` with method = vcrit): a calibrated value, and the keys' default within what the fit's tolerance
 # resolves in eps_c (fit_tolerance over the slope of the mean residual between the range's two ends).
@@ -364,7 +398,8 @@ case $only in
         for r in coarse medium fine; do validate_calibrate $r; done
         validate_calibrate_vcrit; validate_calibrate_vcrit_resolution coarse; validate_calibrate_vcrit_resolution fine
         validate_vcrit coarse
-        validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine; validate_interface_strain ;;
+        validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine; validate_interface_strain
+        validate_vcrit_al_temperature ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
@@ -373,12 +408,13 @@ case $only in
     vcrit_al) validate_vcrit_al ;;
     vcrit_al_fine) validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
     interface_strain) validate_interface_strain ;;
+    vcrit_al_temperature) validate_vcrit_al_temperature ;;
     calibrate_vcrit) validate_calibrate_vcrit ;;
     calibrate_vcrit_coarse | calibrate_vcrit_fine) validate_calibrate_vcrit_resolution "${only#calibrate_vcrit_}" ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
             "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse," \
-            "calibrate_vcrit_fine, vcrit_al, vcrit_al_fine or interface_strain, not '$only'" >&2
+            "calibrate_vcrit_fine, vcrit_al, vcrit_al_fine, interface_strain or vcrit_al_temperature, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then

@@ -8,7 +8,8 @@
 # eps_rate_c (docs/keys.md, which test_keys_doc keeps current).  Prints SKIP while the table does not exist.
 # The same checks for the energy model's table, cases/vcrit_al_energy.csv and _cor.csv (bisection), and for the
 # 15-cell calibration's, cases/vcrit_al_15cells.csv (with the case's grid and eps_c checked against its fit).
-# Also checks the checker: a table that rises with d is refused.
+# And v_crit(d, T), cases/vcrit_al_temperature.csv: every pair bracketed (whether it falls with T: scripts/validate.sh).
+# Also checks the checkers: a table that rises with d, or with T, is refused.
 set -u
 cd "$(dirname "$0")/.." || exit 1
 table=cases/vcrit_al.csv
@@ -127,5 +128,69 @@ if check_fine_case cases/vcrit_al.ini cases/calibrate_vcrit_al_15cells.csv | tr 
     echo "PASS vcrit_al_15cells_checker_refuses_10cells"
 else
     echo "FAIL vcrit_al_15cells_checker_refuses_10cells (cases/vcrit_al.ini passed as the 15-cell calibration)"
+fi
+
+# v_crit(d, T) (cases/vcrit_al_temperature.ini, `make validate VALIDATE_ONLY=vcrit_al_temperature`): the case is
+# cases/vcrit_al.ini's set-up and shipped calibration ([impact] the same line for line) over [vcrit] temperatures;
+# its table has a bracketed row for every diameter and temperature of the case, ascending, v_crit within
+# [v_low, v_high].  Whether v_crit falls as the particle's temperature rises (thermal softening: Assadi et al. 2003,
+# Schmidt et al. 2006) is the physics the validate part checks, and fails: the model's v_crit rises from 500 to 600 K
+# (docs/physics.md "The model's v_crit(d, T)"); `temperature_falls` is that check, run here on the checker's own
+# cases only.
+# check_temperature_table FILE INI: empty output when FILE is such a table of INI; else the reason.
+check_temperature_table() {
+    awk -F, -v v_low="$(ini_value v_low "$2")" -v v_high="$(ini_value v_high "$2")" \
+        -v ds="$(ini_value diameters "$2")" -v ts="$(ini_value temperatures "$2")" '
+        BEGIN { nd = split(ds, want_d, ","); nt = split(ts, want_t, ",") }
+        NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i
+                  if (!col["diameter"] || !col["temperature"] || !col["v_crit"]) { print "header \"" $0 "\""; exit } ; next }
+        /^#/ { print "unbracketed: " $0; next }
+        {
+            d = $col["diameter"] + 0; t = $col["temperature"] + 0; v = $col["v_crit"] + 0
+            if (v < v_low || v > v_high) print "v_crit " v " outside [" v_low ", " v_high "] at d = " d ", T = " t
+            if (d == last_d && !(t > last_t)) print "temperatures not ascending at d = " d
+            seen[d, t] = 1; last_d = d; last_t = t
+        }
+        END { for (i = 1; i <= nd; i++) for (j = 1; j <= nt; j++)
+                  if (!((want_d[i] + 0, want_t[j] + 0) in seen)) print "no row for d = " want_d[i] ", T = " want_t[j] }' "$1"
+}
+# temperature_falls FILE: empty output when v_crit falls with T at every diameter of the table FILE; else where not.
+temperature_falls() {
+    awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
+        /^#/ { next }
+        { d = $col["diameter"] + 0; t = $col["temperature"] + 0; v = $col["v_crit"] + 0
+          if (d == last_d && !(v < last_v)) print "d = " d ": " last_v " m/s at " last_t " K, " v " at " t " K"
+          last_d = d; last_t = t; last_v = v }' "$1"
+}
+# impact_section INI: the [impact] section's key lines, comments and blank lines left out
+impact_section() { awk '/^\[/ { on = ($0 == "[impact]") } on && !/^[;[]/ && NF' "$1"; }
+hot=cases/vcrit_al_temperature
+if [ ! -e "$hot.csv" ]; then
+    echo "SKIP vcrit_al_temperature_table: $hot.csv does not exist yet (make validate writes it)"
+else
+    why=$(check_temperature_table "$hot.csv" "$hot.ini" | head -n 5 | tr '\n' ';')
+    [ "$(impact_section "$hot.ini")" = "$(impact_section cases/vcrit_al.ini)" ] ||
+        why="$why [impact] of $hot.ini is not that of cases/vcrit_al.ini;"
+    if [ -z "$why" ]; then echo "PASS vcrit_al_temperature_table"; else echo "FAIL vcrit_al_temperature_table ($why)"; fi
+fi
+# ...and the checkers: a table with a pair missing is refused; one rising from 400 to 500 K at 14 um does not fall
+# with T, one falling at every step does
+hotter=$(mktemp) || exit 1
+trap 'rm -f "$rising" "$hotter"' EXIT
+printf 'diameter,temperature,v_crit,pbcp,v_rest,runs\n1.4e-05,298,800,0.1,0,8\n1.4e-05,400,780,0.1,0,8\n1.4e-05,500,790,0.1,0,8\n' >"$hotter"
+if check_temperature_table "$hotter" "$hot.ini" | grep -q 'no row for d = 10e-6, T = 298' &&
+    [ -n "$(temperature_falls "$hotter")" ]; then
+    echo "PASS vcrit_al_temperature_checker_refuses"
+else
+    echo "FAIL vcrit_al_temperature_checker_refuses (a table with missing pairs, or rising from 400 to 500 K, passed)"
+fi
+printf 'diameter,temperature,v_crit,pbcp,v_rest,runs\n1.4e-05,298,800,0.1,0,8\n1.4e-05,400,780,0.1,0,8\n3e-05,298,770,0.1,0,8\n3e-05,400,760,0.1,0,8\n' >"$hotter"
+if [ -z "$(temperature_falls "$hotter")" ]; then
+    echo "PASS vcrit_al_temperature_checker_accepts_falling"
+else
+    echo "FAIL vcrit_al_temperature_checker_accepts_falling ($(temperature_falls "$hotter" | tr '\n' ';'))"
+fi
+if [ "${1:-}" = --temperature-falls ]; then # scripts/validate.sh: the physics check of the shipped table
+    temperature_falls "$hot.csv"
 fi
 exit 0
