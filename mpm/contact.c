@@ -21,6 +21,10 @@
  * points hold a particle on the substrate without any bond.  The rigid wall (rigid_wall_hold) keeps that single
  * decision, with the wall as the second body.  docs/physics.md, "Contact".
  *
+ * Where three or more bodies meet at a node (once), the pairs are swept until their impulses vanish, each contact's
+ * summed impulse held to pushing (resolve_bodies, reproject_bodies; docs/physics.md "Three or more bodies at a
+ * node"); one sweep in layer order favoured the body listed first.
+ *
  * contact_scheme = thesis decides and projects on the updated momenta, and decides and projects again on the
  * MUSL re-projected momenta: every step it hands the points the perfectly inelastic collision of the two
  * fields' start velocities, and the re-projection may decide otherwise than the update (two elastic spheres
@@ -413,28 +417,42 @@ static void only_push(const double sum[3], const double n[3], double J[3])
         J[d] = -sum[d];
 }
 
-/* A pair already in contact or bonded at this node, projected again on momenta other pairs have changed since:
- * the start momenta where its first correction projected, and the end momenta as its state says; a pair in contact
- * only as far as its summed impulses still push.  Returns the size of the impulses applied. */
-static double project_again(struct mpm_solver *s, struct node_pair *p, double *start, double *end)
+/* The start half of project_again: the first correction projected again on the start momenta (and the end
+ * momenta take the same impulse), held to pushing.  Returns the size of the impulse. */
+static double correct_start_again(struct mpm_solver *s, struct node_pair *p, double *start, double *end)
 {
-    double J[3], moved = 0.0;
-    if (p->corrected) {
-        pair_impulse(s, p->Ia, p->Ib, start, p->n, PAIR_CONTACT, J);
-        only_push(p->start_impulse, p->n, J);
-        apply_impulse(start, p->Ia, p->Ib, J);
-        apply_impulse(end, p->Ia, p->Ib, J);
-        add3(p->start_impulse, J);
-        moved += norm3(J);
+    double J[3];
+    pair_impulse(s, p->Ia, p->Ib, start, p->n, PAIR_CONTACT, J);
+    only_push(p->start_impulse, p->n, J);
+    apply_impulse(start, p->Ia, p->Ib, J);
+    apply_impulse(end, p->Ia, p->Ib, J);
+    add3(p->start_impulse, J);
+    return norm3(J);
+}
+
+/* A pair that an earlier sweep of this node-step corrected or put in contact or bonded, projected again on momenta
+ * other pairs have changed since: the start momenta where its first correction projected (correct_start_again);
+ * a pair corrected but left free is decided again on how the end momenta changed from the corrected start ones
+ * (decide_after_correction), as at a node of two bodies; the end momenta as its state says.  Each correction's
+ * impulse summed over the sweeps is held to pushing where the pair is in contact (only_push; a bond may pull), as
+ * at a node of two bodies, where the second correction is made only while the forces press the pair together.
+ * Returns the size of the impulses applied; *bonded is set where the pair is bonded. */
+static double project_again(struct mpm_solver *s, struct node_pair *p, double *start, double *end, int *bonded)
+{
+    double J[3], moved = p->corrected ? correct_start_again(s, p, start, end) : 0.0;
+    if (p->state == PAIR_FREE) {
+        p->state = decide_after_correction(s, p->Ia, p->Ib, start, end, p->n);
+        if (p->state == PAIR_FREE)
+            return moved;
+        s->grid.contact[p->Ia] = s->grid.contact[p->Ib] = (uint8_t)p->state;
+        mark_bond_contact(s, p->Ia, p->Ib, p->n, p->state == PAIR_CONTACT);
     }
     pair_impulse(s, p->Ia, p->Ib, end, p->n, p->state, J);
-    if (p->state == PAIR_CONTACT) {
-        double sum[3] = {p->start_impulse[0], p->start_impulse[1], p->start_impulse[2]};
-        add3(sum, p->end_impulse);
-        only_push(sum, p->n, J);
-    }
+    if (p->state == PAIR_CONTACT)
+        only_push(p->end_impulse, p->n, J);
     apply_impulse(end, p->Ia, p->Ib, J);
     add3(p->end_impulse, J);
+    *bonded |= p->state == PAIR_BONDED;
     return moved + norm3(J);
 }
 
@@ -447,15 +465,15 @@ static double node_momentum(const struct mpm_grid *g, size_t node, const double 
     return sum;
 }
 
-/* contact_scheme = once where three or more bodies meet at the node.  One sweep in layer order would favour the
- * body listed first: each pair's impulse changes the momenta the next pair is decided on, and a pair decided early
- * is not revisited (two elastic boxes side by side on an elastic block left at 12.61 and 12.28 m/s, and swapped
- * with the bodies' rows).  So the sweeps repeat until their impulses vanish, as projected Gauss-Seidel does for
- * rigid-body contact (the nonlinear Gauss-Seidel of Jean's non-smooth contact dynamics, Jean 1999): a pair not yet
- * in contact is decided afresh (resolve_pair), one in contact or bonded is projected again (project_again) with its
- * summed impulse held to pushing.  The limit is the contact problem's solution, where every pair in contact moves
- * with a common normal velocity (all of it, stick) and pushes, whatever the order (docs/physics.md "Three or more
- * bodies at a node"). */
+/* contact_scheme = once where three or more bodies meet at the node.  One sweep in layer order favours the body
+ * listed first: each pair's impulse changes the momenta the next pair is decided on, and a pair decided early is
+ * not revisited (two elastic boxes side by side on an elastic block left at 12.61 and 12.28 m/s, and at 12.15 and
+ * 12.59 with the bodies' rows swapped).  So the sweeps repeat until their impulses vanish, as the nonlinear
+ * Gauss-Seidel of non-smooth contact dynamics does (Jean 1999): a pair not yet corrected or in contact is decided
+ * afresh (resolve_pair); one that is, is projected again (project_again) with each correction's summed impulse held
+ * to pushing.  The limit is the node's contact problem solved: every pair in contact moves with a common normal
+ * velocity (all of it, stick) and pushes, whatever the order (docs/physics.md "Three or more bodies at a node").
+ * MAX_SWEEPS ends a node whose decisions keep changing without a message (none did in the tests). */
 static int resolve_bodies(struct mpm_solver *s, size_t node, double *start, double *end, int *bonded)
 {
     struct node_pair pairs[MAX_NODE_PAIRS];
@@ -466,14 +484,14 @@ static int resolve_bodies(struct mpm_solver *s, size_t node, double *start, doub
         double moved = 0.0;
         for (int i = 0; i < count; i++) {
             struct node_pair *p = pairs + i;
-            if (p->state != PAIR_FREE) {
-                moved += project_again(s, p, start, end);
+            if (p->state != PAIR_FREE || p->corrected) {
+                moved += project_again(s, p, start, end, bonded);
                 continue;
             }
             double Js[3], Je[3];
             int corrected;
             p->state = resolve_pair(s, p->Ia, p->Ib, p->n, start, end, &corrected, Js, Je);
-            p->corrected |= corrected;
+            p->corrected = corrected;
             add3(p->start_impulse, Js);
             add3(p->end_impulse, Je);
             moved += norm3(Js) + norm3(Je);
@@ -497,15 +515,25 @@ static int resolve_node(struct mpm_solver *s, size_t node, double *start, double
     return sweep_pairs(s, node, start, end, bonded);
 }
 
-/* contact_scheme = consistent or once, the MUSL re-projected momenta: the pairs in contact in this step's nodal
- * update (both bodies flagged) are projected again without a new test, so that the strain rate is that of the
- * motion the points made; once projects a pair as it was decided (bonded or in contact).  (With three or more bodies at
- * a node, a pair whose bodies both touched a third body there is projected too.)  One sweep over the node's pairs;
- * returns the size of the impulses applied. */
-static double reproject_sweep(const struct mpm_solver *s, size_t node, double *mom)
+/* How the re-projection treats the pair (Ia, Ib): as the nodal update decided it where both bodies were flagged
+ * there (PAIR_BONDED or PAIR_CONTACT), PAIR_FREE (no impulse) where either was not or only touched. */
+static enum pair_state reprojected_state(const struct mpm_solver *s, size_t Ia, size_t Ib)
 {
     const struct mpm_grid *g = &s->grid;
-    double moved = 0.0;
+    if (!g->contact[Ia] || !g->contact[Ib] || g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+        return PAIR_FREE;
+    if (s->cfg.contact_scheme == MPM_CONTACT_ONCE)
+        return g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+    return pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
+}
+
+/* contact_scheme = consistent or once, the MUSL re-projected momenta: the pairs in contact in this step's nodal
+ * update (both bodies flagged) are projected again without a new test, so that the strain rate is that of the
+ * motion the points made; once projects a pair as it was decided (bonded or in contact).  One sweep over the node's
+ * pairs, as at a node of two bodies. */
+static void reproject_sweep(const struct mpm_solver *s, size_t node, double *mom)
+{
+    const struct mpm_grid *g = &s->grid;
     for (int a = 0; a < g->layers; a++) {
         size_t Ia = (size_t)a * g->nodes + node;
         if (!(g->mass[Ia] > g->mass_cutoff) || !g->contact[Ia])
@@ -515,30 +543,56 @@ static double reproject_sweep(const struct mpm_solver *s, size_t node, double *m
             double n[3], J[3];
             if (!(g->mass[Ib] > g->mass_cutoff) || !g->contact[Ib] || mpm_contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            if (g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+            enum pair_state state = reprojected_state(s, Ia, Ib);
+            if (state == PAIR_FREE)
                 continue; /* no impulse this step */
-            enum pair_state state = pair_bonded(s, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
-            if (s->cfg.contact_scheme == MPM_CONTACT_ONCE)
-                state = g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
             pair_impulse(s, Ia, Ib, mom, n, state, J);
             apply_impulse(mom, Ia, Ib, J);
-            moved += norm3(J);
         }
     }
-    return moved;
 }
 
-/* The re-projection at a node.  Where three or more bodies meet (contact_scheme = once) its sweeps repeat until
- * their impulses vanish, as the nodal update's do (resolve_bodies): the projections onto the pairs' common normal
- * velocities then converge to the projection onto all of them at once, in the kinetic-energy metric, whatever the
- * order (alternating projections, von Neumann). */
+/* The re-projection where three or more bodies meet (contact_scheme = once).  The contact flags are the bodies',
+ * not the pairs': two bodies that each touched a third are both flagged, in contact with each other or not.  So
+ * only the flagged pairs whose surfaces meet (surfaces_meet) take part, and they are swept until the impulses
+ * vanish with each pair's summed impulse held to pushing where it is in contact, as in the nodal update
+ * (resolve_bodies): no order enters, and no pair that the update left apart is tied together. */
+static void reproject_bodies(const struct mpm_solver *s, size_t node, double *mom)
+{
+    struct node_pair pairs[MAX_NODE_PAIRS];
+    int count = node_pairs(&s->grid, node, pairs), kept = 0;
+    if (count < 0) {
+        reproject_sweep(s, node, mom);
+        return;
+    }
+    for (int i = 0; i < count; i++) {
+        struct node_pair p = pairs[i];
+        p.state = reprojected_state(s, p.Ia, p.Ib);
+        if (p.state != PAIR_FREE && surfaces_meet(s, p.Ia, p.Ib, p.n))
+            pairs[kept++] = p;
+    }
+    for (int k = 0; k < MAX_SWEEPS; k++) {
+        double moved = 0.0, J[3];
+        for (int i = 0; i < kept; i++) {
+            struct node_pair *p = pairs + i;
+            pair_impulse(s, p->Ia, p->Ib, mom, p->n, p->state, J);
+            if (p->state == PAIR_CONTACT)
+                only_push(p->end_impulse, p->n, J);
+            apply_impulse(mom, p->Ia, p->Ib, J);
+            add3(p->end_impulse, J);
+            moved += norm3(J);
+        }
+        if (!(moved > SWEEP_TOLERANCE * node_momentum(&s->grid, node, mom)))
+            break;
+    }
+}
+
 static void reproject_node(const struct mpm_solver *s, size_t node, double *mom)
 {
-    const struct mpm_grid *g = &s->grid;
-    int sweeps = s->cfg.contact_scheme == MPM_CONTACT_ONCE && bodies_at(g, node) > 2 ? MAX_SWEEPS : 1;
-    for (int k = 0; k < sweeps; k++)
-        if (!(reproject_sweep(s, node, mom) > SWEEP_TOLERANCE * node_momentum(g, node, mom)))
-            break;
+    if (s->cfg.contact_scheme == MPM_CONTACT_ONCE && bodies_at(&s->grid, node) > 2)
+        reproject_bodies(s, node, mom);
+    else
+        reproject_sweep(s, node, mom);
 }
 
 /* A rigid frictionless wall at the substrate's top, z = substrate_top.  A node at or below it whose updated

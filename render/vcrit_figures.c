@@ -170,7 +170,7 @@ static void split_curves(const struct render_array *d, const struct render_array
             k++;
         if (k == c->count) {
             if (c->count == MAX_CURVES) {
-                log_warn("render: vcrit figure: more than %d temperatures, %g K left out", MAX_CURVES, T);
+                log_warn("render: vcrit figure: more than %d temperatures, the row at %g K left out", MAX_CURVES, T);
                 continue;
             }
             c->temperature[c->count++] = T;
@@ -195,8 +195,9 @@ static void split_curves(const struct render_array *d, const struct render_array
     }
 }
 
-/* Colours of the curves (palette indices), chosen apart from the runs' markers where there are few. */
-static const int curve_colour[MAX_CURVES] = {0, 7, 1, 5, 3, 4, 2, 6};
+/* Colours of the curves (palette indices), odd ones dashed: blue for the two coldest, vermilion for the next two;
+ * the runs' markers are green, black, pink and orange. */
+static const int curve_colour[MAX_CURVES] = {0, 0, 1, 1, 7, 7, 3, 3};
 
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
                       const struct render_array *t, const struct search_runs *runs, struct render_output *out)

@@ -262,6 +262,8 @@ static int boxes_on_a_block(const char *rows, double left[3], double right[3])
                       "substrate_material = elastic\nsubstrate_diameter = 0.024\nsubstrate_height = 0.006\n"
                       "material = elastic\ngrid = 1e-3\nspacing = 0.5e-3\nt_end = 40e-6\ncfl = 0.2\nbonding = none\n"
                       "bulk_viscosity_linear = 0\nbulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
+    for (int d = 0; d < 3; d++)
+        left[d] = right[d] = NAN; /* a box that ends on the other side fails the checks */
     if (impact_fixture_open(&f, ini, rows) != SC_OK)
         return -1;
     int status = impact_fixture_run(&f);
@@ -283,8 +285,8 @@ static int boxes_on_a_block(const char *rows, double left[3], double right[3])
  * the two boxes on the block, listed left-right and right-left, leave with the same velocities within 0.5 % of
  * the impact speed (20 m/s), and as mirror images of each other.  Resolving the node's pairs one after the other,
  * once, the box listed first left at 12.61 m/s and the other at 12.28 (and 12.59, 12.15 listed the other way);
- * with the sweeps repeated until their impulses vanish, 12.38-12.41 m/s each (docs/physics.md "Three or more
- * bodies at a node"). */
+ * with the sweeps repeated until their impulses vanish, 12.39-12.49 m/s in either order (docs/physics.md "Three or
+ * more bodies at a node"). */
 static void test_three_bodies_in_any_order(void)
 {
     const char *box_left = "box,-0.004,0,0.0025,0,0,-20,0.008,0.004,elastic\n";

@@ -7,7 +7,7 @@
 #     T_initial (impact.h5 /run_NNNN/snapshots/000000/T at t = 0);
 #   - `spraycoat vcrit` with [vcrit] temperatures over two temperatures (one 8 um diameter, 10 ns runs): vcrit.csv with
 #     a temperature column and a row per pair, vcrit.h5 /temperature and the 1 x 2 /grid/v_crit, both read back by
-#     the spray stage's table rule (`spraycoat check`);
+#     the spray stage's table rule (`spraycoat check`), and its figures rendered (vcrit.png, vcrit_cor.png);
 #   - an [impact] bodies CSV with a temperature column: each body's points start at its row's temperature.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.  Needs h5dump and h5diff.  About 10 s on one core.
 set -u
@@ -121,6 +121,12 @@ if "$BIN" vcrit "$T/vcrit.ini" -o "$RUN" >"$T/vcrit.log" 2>&1; then
         done
     else
         echo "  note: a pair was not bracketed; the 2-D table is incomplete and not read back"
+    fi
+    # the figures of a table over (d, T): a v_crit curve per temperature, CoR in two panels (render/vcrit_figures.c)
+    if ! "$BIN" render "$T/vcrit.ini" -o "$RUN" >"$T/render.log" 2>&1; then
+        why="$why spraycoat render of the 2-D table failed: $(tail -n 1 "$T/render.log");"
+    elif [ ! -s "$RUN/figures/vcrit.png" ] || [ ! -s "$RUN/figures/vcrit_cor.png" ]; then
+        why="$why no vcrit.png or vcrit_cor.png;"
     fi
 else
     why="spraycoat vcrit exited with status $?: $(tail -n 3 "$T/vcrit.log" | tr '\n' ' ')"

@@ -172,6 +172,14 @@ else
     [ "$(impact_section "$hot.ini")" = "$(impact_section cases/vcrit_al.ini)" ] ||
         why="$why [impact] of $hot.ini is not that of cases/vcrit_al.ini;"
     if [ -z "$why" ]; then echo "PASS vcrit_al_temperature_table"; else echo "FAIL vcrit_al_temperature_table ($why)"; fi
+    # its CoR file: check_cor's checks on the rows with the temperature column (the second) left out
+    without_t=$(mktemp) || exit 1
+    cut -d, -f1,3- "${hot}_cor.csv" >"$without_t" 2>/dev/null
+    [ "$(head -n 1 "${hot}_cor.csv" | cut -d, -f2)" = temperature ] || echo "no temperature column" >>"$without_t.why"
+    cut -d, -f1,3- "$hot.csv" | sed '1s/.*/diameter,v_crit/' >"$without_t.table"
+    why=$(cat "$without_t.why" 2>/dev/null; check_cor "$without_t.table" "$without_t" "$hot.ini" | head -n 5 | tr '\n' ';')
+    rm -f "$without_t" "$without_t.why" "$without_t.table"
+    if [ -z "$why" ]; then echo "PASS vcrit_al_temperature_cor"; else echo "FAIL vcrit_al_temperature_cor ($why)"; fi
 fi
 # ...and the checkers: a table with a pair missing is refused; one rising from 400 to 500 K at 14 um does not fall
 # with T, one falling at every step does
