@@ -336,26 +336,36 @@ static enum pair_state resolve_pair(struct mpm_solver *s, size_t Ia, size_t Ib, 
     return state;
 }
 
+/* The pairs at a node in layer order: the next pair (a, b), b > a, after (*a, *b) (start from 0, 0) whose bodies both
+ * have mass at the node and whose contact normal n is defined; 0 when none is left. */
+static int next_pair(const struct mpm_grid *g, size_t node, int *a, int *b, double n[3])
+{
+    for (; *a < g->layers; (*a)++, *b = *a) {
+        size_t Ia = (size_t)*a * g->nodes + node;
+        if (!(g->mass[Ia] > g->mass_cutoff))
+            continue;
+        while (++*b < g->layers) {
+            size_t Ib = (size_t)*b * g->nodes + node;
+            if (g->mass[Ib] > g->mass_cutoff && mpm_contact_normal(g, Ia, Ib, n) == 0)
+                return 1;
+        }
+    }
+    return 0;
+}
+
 /* Every pair at the node once, one after the other in layer order (resolve_pair).  Returns whether any pair
  * interacted; *bonded whether one was bonded. */
 static int sweep_pairs(struct mpm_solver *s, size_t node, double *start, double *end, int *bonded)
 {
-    struct mpm_grid *g = &s->grid;
+    const struct mpm_grid *g = &s->grid;
     int touched = 0;
-    for (int a = 0; a < g->layers; a++) {
-        size_t Ia = (size_t)a * g->nodes + node;
-        if (!(g->mass[Ia] > g->mass_cutoff))
-            continue;
-        for (int b = a + 1; b < g->layers; b++) {
-            size_t Ib = (size_t)b * g->nodes + node;
-            double n[3], Js[3], Je[3];
-            int corrected;
-            if (!(g->mass[Ib] > g->mass_cutoff) || mpm_contact_normal(g, Ia, Ib, n) != 0)
-                continue;
-            enum pair_state state = resolve_pair(s, Ia, Ib, n, start, end, &corrected, Js, Je);
-            touched |= corrected || state != PAIR_FREE;
-            *bonded |= state == PAIR_BONDED;
-        }
+    double n[3], Js[3], Je[3];
+    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n);) {
+        int corrected;
+        size_t Ia = (size_t)a * g->nodes + node, Ib = (size_t)b * g->nodes + node;
+        enum pair_state state = resolve_pair(s, Ia, Ib, n, start, end, &corrected, Js, Je);
+        touched |= corrected || state != PAIR_FREE;
+        *bonded |= state == PAIR_BONDED;
     }
     return touched;
 }
@@ -382,21 +392,13 @@ struct node_pair {
 static int node_pairs(const struct mpm_grid *g, size_t node, struct node_pair *pairs)
 {
     int count = 0;
-    for (int a = 0; a < g->layers; a++) {
-        size_t Ia = (size_t)a * g->nodes + node;
-        if (!(g->mass[Ia] > g->mass_cutoff))
-            continue;
-        for (int b = a + 1; b < g->layers; b++) {
-            size_t Ib = (size_t)b * g->nodes + node;
-            double n[3];
-            if (!(g->mass[Ib] > g->mass_cutoff) || mpm_contact_normal(g, Ia, Ib, n) != 0)
-                continue;
-            if (count == MAX_NODE_PAIRS)
-                return -1;
-            pairs[count] = (struct node_pair){.Ia = Ia, .Ib = Ib, .state = PAIR_FREE};
-            memcpy(pairs[count].n, n, sizeof n);
-            count++;
-        }
+    double n[3];
+    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n); count++) {
+        if (count == MAX_NODE_PAIRS)
+            return -1;
+        pairs[count] = (struct node_pair){
+            .Ia = (size_t)a * g->nodes + node, .Ib = (size_t)b * g->nodes + node, .state = PAIR_FREE};
+        memcpy(pairs[count].n, n, sizeof n);
     }
     return count;
 }
