@@ -3,6 +3,8 @@
  * parameter D_bond of a surface point in contact
  * with another body grows with its plastic deformation; nodes where the bodies' average D_bond reaches 1 stick
  * the bodies together, also while they separate (contact.c).  D_bond never decreases. */
+#include <math.h>
+
 #include "mpm/bonding_law.h"
 #include "mpm/mpm_impl.h"
 
@@ -22,16 +24,36 @@ double mpm_bonding_rate_factor(double r, double floor)
  * above bonding_floor eps_c.  The shear plastic strain increment is taken as the effective plastic strain
  * increment: with J2 plasticity the plastic flow is purely deviatoric (shear), and the thesis takes its magnitude,
  * not its direction.  (The laws in mpm/bonding_law.h, shared with the GPU step.) */
-double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt)
+double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt,
+                             double scale)
 {
     return cfg->bonding == MPM_BONDING_ENERGY
-               ? bonding_energy_increment(eps_p_increment, von_mises, dt, cfg->grid, cfg->Gc, cfg->Gc_rate,
+               ? bonding_energy_increment(eps_p_increment, von_mises, dt, cfg->grid, cfg->Gc * scale, cfg->Gc_rate,
                                           cfg->bonding_floor)
-               : bonding_strain_increment(eps_p_increment, dt, cfg->eps_c, cfg->eps_rate_c, cfg->bonding_floor);
+               : bonding_strain_increment(eps_p_increment, dt, cfg->eps_c * scale, cfg->eps_rate_c, cfg->bonding_floor);
+}
+
+/* A particle that arrives preheated needs less of the plastic work that heats its interface towards the
+ * instability bonding needs: the thermal term F2 c_p (Tm - Ti) of Schmidt et al. 2006's critical velocity (after
+ * Assadi et al. 2003) falls in proportion to the heat still wanting to the melt.  The calibrated eps_c or G_c
+ * belongs to bonding_T_reference; a body starting at T0 takes it times that share of the heat, (Tm - T0) /
+ * (Tm - T_ref), with Tm the SCG melt at rho0 (Eq. 2.9).  The rate term is left as calibrated.  A body at the
+ * reference temperature gets exactly 1 (the calibration's runs unchanged, bit for bit). */
+double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b)
+{
+    const struct mpm_body *body = &cfg->bodies[b];
+    const struct mpm_material *m = &cfg->materials[body->material];
+    double T0 = body->temperature > 0.0 ? body->temperature : m->T_initial;
+    if (cfg->bonding_preheat == MPM_PREHEAT_NONE || T0 == cfg->bonding_T_reference)
+        return 1.0;
+    double Tm = mpm_scg_melt_temperature(m, m->density);
+    double share = fmax((Tm - T0) / (Tm - cfg->bonding_T_reference), 0.0);
+    return fmax(pow(share, cfg->bonding_preheat_exponent), MPM_PREHEAT_SCALE_MIN);
 }
 
 /* A surface point in contact with a bonding model on (bonding_update in mpm_impl.h). */
 void mpm_bonding_grow(struct mpm_solver *s, size_t q, double eps_p_increment, double von_mises)
 {
-    s->points.d_bond[q] += mpm_bonding_increment(&s->cfg, eps_p_increment, von_mises, s->dt);
+    double scale = s->body_bond_scale[s->points.body[q]];
+    s->points.d_bond[q] += mpm_bonding_increment(&s->cfg, eps_p_increment, von_mises, s->dt, scale);
 }

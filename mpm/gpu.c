@@ -80,6 +80,7 @@ int mpm_gpu_attach(struct mpm_solver *s)
         .constants = s->material_constants,
         .body_material = body_material,
         .body_dashpot = s->body_dashpot,
+        .body_bond_scale = s->body_bond_scale,
     };
     for (int d = 0; d < 3; d++) {
         setup.origin[d] = g->origin[d];

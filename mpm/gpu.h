@@ -47,6 +47,7 @@ struct mpm_gpu_setup {
     const struct mpm_material_constants *constants; /* materials */
     const int *body_material;                       /* bodies */
     const double *body_dashpot;                     /* 2 per body (Eq. 3.46) */
+    const double *body_bond_scale;                  /* bodies: the critical value's factor (bonding_preheat) */
 };
 
 /* The host's point arrays, in id order (struct mpm_points). */

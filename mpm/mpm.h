@@ -38,6 +38,8 @@ enum mpm_contact_approach { MPM_APPROACH_BOTH, MPM_APPROACH_COMMON };
  * bonds_grow): at its nodes only while the two bodies' centres of mass approach along the node's normal, or at all */
 enum mpm_bond_growth { MPM_GROWTH_APPROACH, MPM_GROWTH_CONTACT };
 enum mpm_bonding { MPM_BONDING_ENERGY, MPM_BONDING_STRAIN, MPM_BONDING_NONE };
+/* [impact] bonding_preheat: how a body's start temperature scales the critical value of the bonding model */
+enum mpm_bonding_preheat { MPM_PREHEAT_NONE, MPM_PREHEAT_MELT_HEAT };
 /* flip: the points take the grid's velocity change (Eq. 3.32, blended with PIC by `flip`); apic: the affine
  * particle-in-cell transfer of Jiang et al. (2015), the grid velocity at the point and an affine matrix per point */
 enum mpm_transfer { MPM_TRANSFER_FLIP, MPM_TRANSFER_APIC };
@@ -84,7 +86,10 @@ struct mpm_config {
     double friction;
     enum mpm_bonding bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c;
-    double bonding_floor; /* smallest G_bond / G_c and eps_bond / eps_c (bonding.c) */
+    double bonding_floor;                     /* smallest G_bond / G_c and eps_bond / eps_c (bonding.c) */
+    enum mpm_bonding_preheat bonding_preheat; /* melt_heat: eps_c, G_c of a body times its melt-heat ratio */
+    double bonding_T_reference;               /* K, the temperature eps_c and G_c were calibrated at */
+    double bonding_preheat_exponent;          /* n of the melt-heat share's power */
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double settle_window, settle_vcom, settle_pbcp; /* settled verdicts (verdict.c) */
     int stop_when_settled;                          /* end the run once every verdict settled */

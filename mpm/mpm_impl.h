@@ -153,6 +153,7 @@ struct mpm_solver {
     /* bodies: initial speed and whether each is the substrate */
     double *body_speed;
     double *body_dashpot;    /* 2 per body: rho0 Vp A and rho0 Vs A of a boundary point (Eq. 3.46) */
+    double *body_bond_scale; /* per body: the factor of eps_c or G_c for its start temperature (bonding_preheat) */
     size_t *boundary_points; /* ids of the points flagged POINT_BOTTOM or POINT_SIDE at set-up, ascending */
     size_t boundary_count;
     double *boundary_work;         /* per boundary point: the dashpot's work of the step (mpm_book_absorbed_energy) */
@@ -408,7 +409,12 @@ int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[
 void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises);
 /* The increment of D_bond for a plastic strain increment at a von Mises stress over a step dt (the model of cfg;
  * exposed for the tests), and the bounded rate factor max(1 - ln r, floor) of Eqs. 4.4 and 4.16b. */
-double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt);
+double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt,
+                             double scale);
+/* The factor of eps_c or G_c for body b of cfg at its start temperature T0 (bonding_preheat = melt_heat):
+ * (Tm - T0) / (Tm - bonding_T_reference), at least MPM_PREHEAT_SCALE_MIN; 1 with bonding_preheat = none. */
+#define MPM_PREHEAT_SCALE_MIN 0.01
+double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b);
 double mpm_bonding_rate_factor(double r, double floor);
 static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)
 {

@@ -102,6 +102,19 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "bonding_floor", CFG_REAL, "-", "0.5", 0, 1, 1, NULL,
      "smallest G_bond/G_c (energy model) and eps_bond/eps_c (strain model) at high rates: keeps dD bounded and "
      "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
+    {"impact", "bonding_preheat", CFG_CHOICE, "", "melt_heat", 0, 0, 0, "melt_heat|none",
+     "melt_heat: a body that starts at T0 (a particle heated in the nozzle) has eps_c (strain model) or G_c (energy "
+     "model) times (Tm - T0) / (Tm - bonding_T_reference), the share left of the heat that brings its material to "
+     "the SCG melt Tm (Eq. 2.9 at rho0), as the thermal term of Schmidt et al. 2006's critical velocity; none: the "
+     "calibrated value at every temperature (docs/physics.md \"Bonding of a heated particle\")"},
+    {"impact", "bonding_preheat_exponent", CFG_REAL, "-", "0.5", 0, 10, 0, NULL,
+     "n of bonding_preheat = melt_heat: the critical value times ((Tm - T0) / (Tm - bonding_T_reference))^n; 0.5: "
+     "v_crit of the strain model grows as eps_c (the calibration's runs), so that it falls as the square root of "
+     "the melt-heat share, as Schmidt et al. 2006's critical velocity (docs/physics.md \"Bonding of a heated "
+     "particle\")"},
+    {"impact", "bonding_T_reference", CFG_REAL, "K", "298", 0, 1e5, 1, NULL,
+     "the temperature eps_c and G_c were calibrated at (the shipped calibration: particle and substrate at 298 K); "
+     "below every material's melt temperature"},
     {"impact", "pbcp_threshold", CFG_REAL, "-", "0.05", 0, 1, 0, NULL,
      "bonded verdict needs PBCP (Eq. 5.1) at least this"},
     {"impact", "vrest_threshold", CFG_REAL, "m/s", "0.6", 0, 1e4, 0, NULL,
@@ -398,6 +411,9 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->eps_c = case_real(c, "impact", "eps_c");
     cfg->eps_rate_c = case_real(c, "impact", "eps_rate_c");
     cfg->bonding_floor = case_real(c, "impact", "bonding_floor");
+    cfg->bonding_preheat = case_is(c, "impact", "bonding_preheat", "none") ? MPM_PREHEAT_NONE : MPM_PREHEAT_MELT_HEAT;
+    cfg->bonding_T_reference = case_real(c, "impact", "bonding_T_reference");
+    cfg->bonding_preheat_exponent = case_real(c, "impact", "bonding_preheat_exponent");
     cfg->pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
     cfg->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     cfg->vrest_filter = case_real(c, "impact", "vrest_filter");
@@ -612,6 +628,22 @@ void mpm_config_scale_lengths(struct mpm_config *cfg, double factor)
 }
 
 /* The bodies of the case against its mirror planes (mpm_mirror_check), named with the file and line of symmetry. */
+/* bonding_preheat = melt_heat divides by Tm - bonding_T_reference: the reference must lie below every melt. */
+static int check_bonding_reference(const struct case_file *c, const struct mpm_config *cfg)
+{
+    if (cfg->bonding_preheat == MPM_PREHEAT_NONE || cfg->bonding == MPM_BONDING_NONE)
+        return SC_OK;
+    for (int k = 0; k < cfg->material_count; k++) {
+        double Tm = mpm_scg_melt_temperature(&cfg->materials[k], cfg->materials[k].density);
+        if (!(cfg->bonding_T_reference < Tm))
+            return case_invalid(c, "impact", "bonding_T_reference",
+                                "%g K is not below the melt temperature %g K of a material; allowed: 0 to %g K "
+                                "(or bonding_preheat = none)",
+                                cfg->bonding_T_reference, Tm, Tm);
+    }
+    return SC_OK;
+}
+
 static int check_mirrored_bodies(const struct case_file *c, const struct mpm_config *cfg)
 {
     char why[256];
@@ -632,6 +664,7 @@ int mpm_config_load(const struct case_file *c, struct mpm_config *cfg)
     SC_CHECK(status, case_has(c, "impact", "bodies") ? load_bodies_file(c, cfg) : load_single_particle(c, cfg), done);
     /* every material the case names is checked, also one used by no body */
     SC_CHECK(status, material_index(c, "material", case_text(c, "impact", "material"), cfg, &unused), done);
+    SC_CHECK(status, check_bonding_reference(c, cfg), done);
     SC_CHECK(status, check_mirrored_bodies(c, cfg), done);
 done:
     if (status != SC_OK)

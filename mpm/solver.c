@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "mpm/mpm_impl.h"
 
 static int copy_config(const struct mpm_config *from, struct mpm_config *to)
@@ -71,6 +72,12 @@ static void body_constants(struct mpm_solver *s)
         }
         const double *v = cfg->bodies[b].velocity;
         s->body_speed[b] = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        s->body_bond_scale[b] = mpm_bonding_preheat_scale(cfg, b);
+        if (s->body_bond_scale[b] != 1.0 && cfg->bonding != MPM_BONDING_NONE)
+            log_info("impact: body %d starts at %g K: its %s is %.4g of the calibrated (bonding_preheat = "
+                     "melt_heat)",
+                     b, T0 > 0.0 ? T0 : m->T_initial, cfg->bonding == MPM_BONDING_STRAIN ? "eps_c" : "G_c",
+                     s->body_bond_scale[b]);
         if (s->body_spring)
             body_springs(s, b, G, area);
     }
@@ -158,6 +165,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     s->lp = 0.5 * cfg->spacing;
     s->body_speed = calloc((size_t)cfg->body_count, sizeof *s->body_speed);
     s->body_dashpot = calloc(2 * (size_t)cfg->body_count, sizeof *s->body_dashpot);
+    s->body_bond_scale = calloc((size_t)cfg->body_count, sizeof *s->body_bond_scale);
     s->body_diagnostics = calloc((size_t)cfg->body_count, sizeof *s->body_diagnostics);
     if (cfg->spring_bottom || cfg->spring_sides) {
         s->body_spring = calloc(4 * (size_t)cfg->body_count, sizeof *s->body_spring);
@@ -165,8 +173,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
             SC_FAIL_OOM(4 * (size_t)cfg->body_count * sizeof *s->body_spring, "the boundary springs");
     }
     s->material_constants = calloc((size_t)cfg->material_count, sizeof *s->material_constants);
-    if (!s->body_speed || !s->body_dashpot || !s->body_diagnostics || !s->material_constants)
-        SC_FAIL_OOM((size_t)cfg->body_count * (3 * sizeof *s->body_speed + sizeof *s->body_diagnostics) +
+    if (!s->body_speed || !s->body_dashpot || !s->body_bond_scale || !s->body_diagnostics || !s->material_constants)
+        SC_FAIL_OOM((size_t)cfg->body_count * (4 * sizeof *s->body_speed + sizeof *s->body_diagnostics) +
                         (size_t)cfg->material_count * sizeof *s->material_constants,
                     "the impact bodies' constants");
     for (int m = 0; m < cfg->material_count; m++)
@@ -221,6 +229,7 @@ void mpm_destroy(struct mpm_solver *s)
     mpm_config_free(&s->cfg);
     free(s->body_speed);
     free(s->body_dashpot);
+    free(s->body_bond_scale);
     free(s->body_diagnostics);
     free(s->material_constants);
     free(s->boundary_points);

@@ -21,9 +21,13 @@ struct impact_fixture {
     struct mpm_solver *solver;
 };
 
-/* rows: bodies as "shape,x,y,z,vx,vy,vz,d,h,material\n" lines (NULL: the single particle of [impact]). */
-static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows) __attribute__((unused));
-static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows)
+/* rows: bodies as "shape,x,y,z,vx,vy,vz,d,h,material\n" lines (NULL: the single particle of [impact]);
+ * particle_temperature (K): the last body (the particle) starts at it, as a seed from the spray (0: its material's
+ * T_initial). */
+static int impact_fixture_open_at(struct impact_fixture *f, const char *ini, const char *rows,
+                                  double particle_temperature) __attribute__((unused));
+static int impact_fixture_open_at(struct impact_fixture *f, const char *ini, const char *rows,
+                                  double particle_temperature)
 {
     static const struct cfg_key *const registry[] = {run_case_keys, mpm_case_keys, NULL};
     memset(f, 0, sizeof *f);
@@ -33,11 +37,19 @@ static int impact_fixture_open(struct impact_fixture *f, const char *ini, const 
     int status = case_fixture_load(f->dir, registry, &f->c);
     if (status == SC_OK)
         status = mpm_config_load(f->c, &f->cfg);
+    if (status == SC_OK && particle_temperature > 0.0)
+        status = mpm_config_set_particle_temperatures(&f->cfg, 1, &particle_temperature);
     if (status == SC_OK)
         status = mpm_create(&f->cfg, &f->solver);
     if (status != SC_OK)
         printf("  fixture: %s\n", sc_error_message());
     return status;
+}
+
+static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows) __attribute__((unused));
+static int impact_fixture_open(struct impact_fixture *f, const char *ini, const char *rows)
+{
+    return impact_fixture_open_at(f, ini, rows, 0.0);
 }
 
 static void impact_fixture_close(struct impact_fixture *f) __attribute__((unused));

@@ -55,7 +55,7 @@ static void sweep(enum mpm_bonding model)
     int increasing = 1, bounded = 1, compared = 0;
     for (int k = 0; k < SWEEP; k++) {
         double r = pow(10.0, -6.0 + 12.0 * k / (SWEEP - 1)), deps = increment_for(&cfg, r);
-        double dD = mpm_bonding_increment(&cfg, deps, sigma_vm, dt);
+        double dD = mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 1.0);
         if (!(dD >= previous) || !isfinite(dD)) {
             if (increasing)
                 printf("  r = %.6g: dD = %.6g after %.6g\n", r, dD, previous);
@@ -78,8 +78,8 @@ static void sweep(enum mpm_bonding model)
     CHECK(worst_equal <= 1e-14, "equal to the printed law for 1 - ln r >= floor: worst relative difference %.3g",
           worst_equal);
     /* the jetting points the printed law gave nothing (r > e) now bond fastest: more than just below e */
-    double below = mpm_bonding_increment(&cfg, increment_for(&cfg, 0.99 * M_E), sigma_vm, dt);
-    double above = mpm_bonding_increment(&cfg, increment_for(&cfg, 10.0 * M_E), sigma_vm, dt);
+    double below = mpm_bonding_increment(&cfg, increment_for(&cfg, 0.99 * M_E), sigma_vm, dt, 1.0);
+    double above = mpm_bonding_increment(&cfg, increment_for(&cfg, 10.0 * M_E), sigma_vm, dt, 1.0);
     CHECK(above > below && below > 0, "r = 10e: dD %.4g > r = 0.99e: dD %.4g > 0", above, below);
 }
 
@@ -99,13 +99,43 @@ static void test_floor_one(void)
     struct mpm_config cfg = law(MPM_BONDING_ENERGY);
     cfg.bonding_floor = 1.0;
     double deps = increment_for(&cfg, 50.0);
-    CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt), sigma_vm * deps * cfg.grid / cfg.Gc, 1e-15, 0.0,
+    CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 1.0), sigma_vm * deps * cfg.grid / cfg.Gc, 1e-15, 0.0,
                 "dD at r = 50 with floor 1");
-    CHECK(mpm_bonding_increment(&cfg, 0.0, sigma_vm, dt) == 0.0, "no plastic increment: dD = 0");
+    CHECK(mpm_bonding_increment(&cfg, 0.0, sigma_vm, dt, 1.0) == 0.0, "no plastic increment: dD = 0");
+}
+
+/* bonding_preheat = melt_heat: a body at T0 has the critical value times ((Tm - T0) / (Tm - T_ref))^n, Tm the SCG
+ * melt at rho0 (Eq. 2.9: melt_T0 there); exactly 1 at the reference, 1 with none, the floor at and above melt. */
+static void test_preheat_scale(void)
+{
+    struct mpm_material al = {
+        .density = 2700.0, .melt_T0 = 933.0, .melt_a = 1.5, .eos_gamma0 = 2.0, .T_initial = 298.0};
+    struct mpm_body body[4] = {
+        {.temperature = 500.0}, {.temperature = 0.0}, {.temperature = 298.0}, {.temperature = 950.0}};
+    struct mpm_config cfg = law(MPM_BONDING_STRAIN);
+    cfg.materials = &al, cfg.material_count = 1, cfg.bodies = body, cfg.body_count = 4;
+    cfg.bonding_preheat = MPM_PREHEAT_MELT_HEAT, cfg.bonding_T_reference = 298.0, cfg.bonding_preheat_exponent = 0.5;
+    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 0), sqrt(433.0 / 635.0), 1e-15, 0.0, "500 K: sqrt(433/635)");
+    CHECK(mpm_bonding_preheat_scale(&cfg, 1) == 1.0, "a body at its material's T_initial = the reference: exactly 1");
+    CHECK(mpm_bonding_preheat_scale(&cfg, 2) == 1.0, "a body at the reference temperature: exactly 1");
+    CHECK(mpm_bonding_preheat_scale(&cfg, 3) == MPM_PREHEAT_SCALE_MIN, "above melt: the floor");
+    cfg.bonding_preheat_exponent = 1.0;
+    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 0), 433.0 / 635.0, 1e-15, 0.0, "exponent 1: 433/635");
+    cfg.bonding_T_reference = 400.0;
+    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 1), (933.0 - 298.0) / (933.0 - 400.0), 1e-15, 0.0,
+                "a body colder than the reference: above 1, (933 - 298) / (933 - 400)");
+    /* the solver's increment divides by the scaled critical value */
+    double deps = increment_for(&cfg, 50.0);
+    CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 0.5),
+                2.0 * mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 1.0), 1e-15, 0.0,
+                "half the critical strain: twice the increment");
+    cfg.bonding_preheat = MPM_PREHEAT_NONE;
+    CHECK(mpm_bonding_preheat_scale(&cfg, 0) == 1.0, "bonding_preheat = none: 1 at 500 K");
 }
 
 int main(void)
 {
+    RUN(test_preheat_scale);
     RUN(test_energy_law);
     RUN(test_strain_law);
     RUN(test_floor_one);

@@ -21,17 +21,17 @@
 #include "check.h"
 #include "impact_fixture.h"
 
-/* bonding: the [impact] lines of the model and its grid */
-static int verdict_at(const char *bonding, double velocity, double *pbcp, double *v_rest)
+/* bonding: the [impact] lines of the model and its grid; temperature: the particle's start (0: 298 K) */
+static int verdict_hot(const char *bonding, double velocity, double temperature, double *pbcp, double *v_rest)
 {
     struct impact_fixture f;
-    char ini[512];
+    char ini[640];
     snprintf(ini, sizeof ini,
              "[impact]\n%s\ndiameter = 14e-6\nsubstrate_diameter = 30e-6\nsubstrate_height = 10e-6\nvelocity = "
              "%g\n[material.aluminium]\n",
              bonding, velocity);
     int bonded[2] = {-2, -2};
-    if (impact_fixture_open(&f, ini, NULL) == SC_OK && impact_fixture_run(&f) == SC_OK) {
+    if (impact_fixture_open_at(&f, ini, NULL, temperature) == SC_OK && impact_fixture_run(&f) == SC_OK) {
         mpm_verdicts(f.solver, bonded);
         const struct mpm_diagnostics *d = mpm_compute_diagnostics(f.solver);
         *pbcp = d->body[1].pbcp;
@@ -41,6 +41,11 @@ static int verdict_at(const char *bonding, double velocity, double *pbcp, double
     }
     impact_fixture_close(&f);
     return bonded[1];
+}
+
+static int verdict_at(const char *bonding, double velocity, double *pbcp, double *v_rest)
+{
+    return verdict_hot(bonding, velocity, 0.0, pbcp, v_rest);
 }
 
 /* the keys' defaults of bonding, eps_c and eps_rate_c, on the grid they were calibrated on */
@@ -73,6 +78,24 @@ static void test_strain_bonds_at_820(void)
     bonds(strain_10_cells, 820.0);
 }
 
+/* A particle heated to 500 K in the nozzle (bonding_preheat = melt_heat, the default): eps_c times
+ * sqrt((933 - 500) / (933 - 298)) = 0.826.  At 775 m/s it bonds (PBCP 0.31); with the calibrated eps_c at every
+ * temperature (none) the same particle rebounds (PBCP 0.08), as it did before the factor existed (v_crit(14 um,
+ * 500 K) was 802 m/s then: 773 and 776 m/s rebounded with PBCP 0.077 and 0.088, 786 m/s bonded). */
+static const char strain_10_cells_no_preheat[] =
+    "grid = 1.4e-6\nspacing = 0.4667e-6\nt_end = 200e-9\nsymmetry = quarter\nbonding_preheat = none";
+
+static void test_strain_preheated_bonds_at_775(void)
+{
+    double pbcp = 0, v_rest = 0;
+    int verdict = verdict_hot(strain_10_cells, 775.0, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 1, "a 14 um particle at 500 K and 775 m/s bonds with melt_heat (PBCP %.3g, v_rest %.3g m/s)", pbcp,
+          v_rest);
+    verdict = verdict_hot(strain_10_cells_no_preheat, 775.0, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 0, "...and rebounds with bonding_preheat = none (PBCP %.3g, v_rest %.3g m/s)", pbcp, v_rest);
+    CHECK(v_rest > 0.6, "it leaves the substrate: v_rest %.3g m/s", v_rest);
+}
+
 static void test_energy_rebounds_at_700(void)
 {
     rebounds(energy_7_cells, 700.0);
@@ -92,6 +115,7 @@ int main(void)
     }
     RUN(test_strain_rebounds_at_730);
     RUN(test_strain_bonds_at_820);
+    RUN(test_strain_preheated_bonds_at_775);
     RUN(test_energy_rebounds_at_700);
     RUN(test_energy_bonds_at_900);
     return check_finish();

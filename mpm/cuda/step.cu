@@ -755,12 +755,14 @@ __global__ static void update_kernel(struct mpm_gpu g, double dt, double log_dt)
         g.flags[q] |= GPU_POINT_CONTACT;
     else
         g.flags[q] &= (uint8_t)~GPU_POINT_CONTACT;
-    if (g.s.bonding != MPM_BONDING_NONE && contact)
-        g.d_bond[q] +=
-            g.s.bonding == MPM_BONDING_ENERGY
-                ? bonding_energy_increment(result.eps_p_increment, result.von_mises, dt, g.s.h, g.s.Gc, g.s.Gc_rate,
-                                           g.s.bonding_floor)
-                : bonding_strain_increment(result.eps_p_increment, dt, g.s.eps_c, g.s.eps_rate_c, g.s.bonding_floor);
+    if (g.s.bonding != MPM_BONDING_NONE && contact) {
+        double scale = g.s.body_bond_scale[g.body[q]]; /* mpm_bonding_grow */
+        g.d_bond[q] += g.s.bonding == MPM_BONDING_ENERGY
+                           ? bonding_energy_increment(result.eps_p_increment, result.von_mises, dt, g.s.h,
+                                                      g.s.Gc * scale, g.s.Gc_rate, g.s.bonding_floor)
+                           : bonding_strain_increment(result.eps_p_increment, dt, g.s.eps_c * scale, g.s.eps_rate_c,
+                                                      g.s.bonding_floor);
+    }
 }
 
 /* remove_escaped of solver.c: the points whose stencil left the grid (x already the new positions). */
@@ -880,15 +882,17 @@ static int copy_tables(struct mpm_gpu *g, const struct mpm_gpu_setup *setup)
     struct mpm_material *material;
     struct mpm_material_constants *constants;
     int *body_material;
-    double *body_dashpot;
+    double *body_dashpot, *body_bond_scale;
     TRY(device_array(&material, (size_t)setup->materials) || device_array(&constants, (size_t)setup->materials));
-    TRY(device_array(&body_material, (size_t)setup->bodies) || device_array(&body_dashpot, 2 * (size_t)setup->bodies));
+    TRY(device_array(&body_material, (size_t)setup->bodies) || device_array(&body_dashpot, 2 * (size_t)setup->bodies) ||
+        device_array(&body_bond_scale, (size_t)setup->bodies));
     g->s.material = material, g->s.constants = constants;
-    g->s.body_material = body_material, g->s.body_dashpot = body_dashpot;
+    g->s.body_material = body_material, g->s.body_dashpot = body_dashpot, g->s.body_bond_scale = body_bond_scale;
     TRY(copy_in(material, setup->material, (size_t)setup->materials));
     TRY(copy_in(constants, setup->constants, (size_t)setup->materials));
     TRY(copy_in(body_material, setup->body_material, (size_t)setup->bodies));
     TRY(copy_in(body_dashpot, setup->body_dashpot, 2 * (size_t)setup->bodies));
+    TRY(copy_in(body_bond_scale, setup->body_bond_scale, (size_t)setup->bodies));
     return 0;
 }
 
@@ -1006,7 +1010,8 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       (void *)g->s.material,
                       (void *)g->s.constants,
                       (void *)g->s.body_material,
-                      (void *)g->s.body_dashpot};
+                      (void *)g->s.body_dashpot,
+                      (void *)g->s.body_bond_scale};
     for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
         if (arrays[i])
             cudaFree(arrays[i]);
