@@ -199,35 +199,51 @@ static void split_curves(const struct render_array *d, const struct render_array
  * the runs' markers are green, black, pink and orange. */
 static const int curve_colour[MAX_CURVES] = {0, 0, 1, 1, 7, 7, 3, 3};
 
+/* The runs as four marker series by verdict (an unsettled run is neither bonded nor rebounded: a series of its
+ * own); `xy` holds 2 runs->count doubles per series.  A verdict no run has is left out of the legend. */
+static void run_series(const struct search_runs *runs, int many, double *xy, struct render_series series[4])
+{
+    static const int verdict[4] = {RUN_BONDED, -1, RUN_UNSETTLED, RUN_HELD};
+    static const char *const label[4] = {"runs: bonded", "runs: rebounded", "runs: unsettled",
+                                         "runs: held (at rest, too little bonded)"};
+    static const int colour[4] = {2, 6, 3, 4};
+    size_t m = runs->count;
+    for (int k = 0; k < 4; k++) {
+        double *x = xy + 2 * (size_t)k * m, *y = x + m;
+        size_t n = 0;
+        for (size_t i = 0; i < m; i++) {
+            int v = runs->verdict[i];
+            int rebounded = v != RUN_BONDED && v != RUN_UNSETTLED && v != RUN_HELD;
+            if (k == 1 ? rebounded : v == verdict[k])
+                x[n] = runs->d[i], y[n++] = runs->v[i];
+        }
+        const char *text = k == 0 && many ? "runs (every temperature): bonded" : label[k];
+        series[k] =
+            (struct render_series){n ? text : NULL, k ? RENDER_OPEN_MARKERS : RENDER_MARKERS, n, x, y, 0, colour[k]};
+    }
+}
+
+static int legend_rows(const struct render_series *series, int count)
+{
+    int rows = 0;
+    for (int k = 0; k < count; k++)
+        rows += series[k].label != NULL;
+    return rows;
+}
+
 static int vcrit_plot(const struct render_request *req, const struct render_array *d, const struct render_array *v,
                       const struct render_array *t, const struct search_runs *runs, struct render_output *out)
 {
-    size_t n = d->count, m = runs->count, nb = 0, nr = 0, nu = 0, nh = 0;
+    size_t n = d->count, m = runs->count;
     double *buffer = malloc((2 * n + 8 * m + 1) * sizeof *buffer);
     if (!buffer)
         SC_FAIL_OOM((2 * n + 8 * m + 1) * sizeof *buffer, "the critical-velocity figure");
-    double *bd = buffer + 2 * n, *bv = bd + m, *rd = bv + m, *rv = rd + m, *ud = rv + m, *uv = ud + m, *hd = uv + m,
-           *hv = hd + m;
     struct vcrit_curves curves;
     split_curves(d, v, t, buffer, &curves);
-    for (size_t i = 0; i < m; i++) { /* an unsettled run is neither bonded nor rebounded: a series of its own */
-        if (runs->verdict[i] == RUN_BONDED)
-            bd[nb] = runs->d[i], bv[nb++] = runs->v[i];
-        else if (runs->verdict[i] == RUN_UNSETTLED)
-            ud[nu] = runs->d[i], uv[nu++] = runs->v[i];
-        else if (runs->verdict[i] == RUN_HELD)
-            hd[nh] = runs->d[i], hv[nh++] = runs->v[i];
-        else
-            rd[nr] = runs->d[i], rv[nr++] = runs->v[i];
-    }
     int many = curves.count > 1;
     /* the runs first, so that the curves, their error bars and the published points are drawn over them */
-    struct render_series series[7 + 2 * MAX_CURVES] = {
-        {many ? "runs (every temperature): bonded" : "runs: bonded", RENDER_MARKERS, nb, bd, bv, 0, 2},
-        {"runs: rebounded", RENDER_OPEN_MARKERS, nr, rd, rv, 0, 6},
-        {"runs: unsettled", RENDER_OPEN_MARKERS, nu, ud, uv, 0, 3},
-        {"runs: held (at rest, too little bonded)", RENDER_OPEN_MARKERS, nh, hd, hv, 0, 4},
-    };
+    struct render_series series[7 + 2 * MAX_CURVES];
+    run_series(runs, many, buffer + 2 * n, series);
     int count = 4;
     for (int k = 0; k < curves.count; k++) {
         int colour = many ? curve_colour[k] : 0;
@@ -265,7 +281,7 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                                            0,
                                            count,
                                            series};
-    plot.panels[0].ymax = legend_headroom(v, runs, 8 + curves.count);
+    plot.panels[0].ymax = legend_headroom(v, runs, legend_rows(series, count));
     int status;
     SC_CHECK(status, render_plot_publish(req->run_dir, out, "vcrit", "vcrit", plot.panels[0].title, &plot), done);
 done:

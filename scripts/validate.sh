@@ -245,6 +245,7 @@ validate_vcrit_al_temperature() {
     checks=$(sh tests/test_vcrit_al.sh --temperature-falls || true)
     table=$(printf '%s\n' "$checks" | grep "_temperature_table" || true)
     rising=$(printf '%s\n' "$checks" | sed -n 's/^d = /  d = /p')
+    schmidt=$(printf '%s\n' "$checks" | sed -n 's/^schmidt: /  /p')
     echo "validate: $table"
     case $table in
         PASS*) ;;
@@ -255,6 +256,10 @@ validate_vcrit_al_temperature() {
     else
         printf 'validate: v_crit does not fall as the particle temperature rises:\n%s\n' "$rising"
         fail_part "v_crit(d, T) does not fall with T at every d (thermal softening; docs/physics.md \"The model's v_crit(d, T)\")"
+    fi
+    printf 'validate: v_crit(T) / v_crit(298 K) against Schmidt et al. 2006, sqrt((933 - T) / (933 - 298)):\n%s\n' "$schmidt"
+    if printf '%s\n' "$schmidt" | grep -q OUTSIDE; then
+        fail_part "v_crit(d, T) / v_crit(d, 298 K) differs from Schmidt et al.'s ratio by more than 0.05 (OUTSIDE above)"
     fi
 }
 

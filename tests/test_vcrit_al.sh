@@ -162,6 +162,20 @@ temperature_falls() {
           if (d == last_d && !(v < last_v)) print "d = " d ": " last_v " m/s at " last_t " K, " v " at " t " K"
           last_d = d; last_t = t; last_v = v }' "$1"
 }
+# schmidt_gaps FILE: for every row above a diameter's first (coldest) temperature T0, the model's v_crit(T) /
+# v_crit(T0) against Schmidt et al. 2006's sqrt((Tm - T) / (Tm - T0)), Tm = 933 K (pure Al: the material's melt_T0).
+# Both terms of their critical velocity fall in proportion to Tm - T, so the ratio has no fitted constant in it.
+# One line per row, "d = D, T = T: model R, Schmidt S, gap G", with " OUTSIDE" where |G| > SCHMIDT_TOLERANCE.
+SCHMIDT_TOLERANCE=0.05
+schmidt_gaps() {
+    awk -F, -v tol="$SCHMIDT_TOLERANCE" 'NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
+        /^#/ { next }
+        { d = $col["diameter"] + 0; t = $col["temperature"] + 0; v = $col["v_crit"] + 0
+          if (d != last_d) { t0 = t; v0 = v; last_d = d; next }
+          model = v / v0; schmidt = sqrt((933 - t) / (933 - t0)); gap = model - schmidt
+          printf "d = %g, T = %g: model %.3f, Schmidt %.3f, gap %+.3f%s\n", d, t, model, schmidt, gap,
+                 (gap > tol || gap < -tol) ? " OUTSIDE" : "" }' "$1"
+}
 # impact_section INI: the [impact] section's key lines, comments and blank lines left out
 impact_section() { awk '/^\[/ { on = ($0 == "[impact]") } on && !/^[;[]/ && NF' "$1"; }
 hot=cases/vcrit_al_temperature
@@ -198,7 +212,17 @@ if [ -z "$(temperature_falls "$hotter")" ]; then
 else
     echo "FAIL vcrit_al_temperature_checker_accepts_falling ($(temperature_falls "$hotter" | tr '\n' ';'))"
 fi
-if [ "${1:-}" = --temperature-falls ]; then # scripts/validate.sh: the physics check of the shipped table
+# a table falling as Schmidt's ratio (800 x 0.9162 at 400 K) is inside; one falling by 10 % more is outside
+printf 'diameter,temperature,v_crit,pbcp,v_rest,runs\n1.4e-05,298,800,0.1,0,8\n1.4e-05,400,733,0.1,0,8\n3e-05,298,770,0.1,0,8\n3e-05,400,628,0.1,0,8\n' >"$hotter"
+gaps=$(schmidt_gaps "$hotter")
+if [ "$(printf '%s\n' "$gaps" | grep -c OUTSIDE)" = 1 ] && printf '%s\n' "$gaps" | grep -q 'd = 3e-05, T = 400.*OUTSIDE' &&
+    printf '%s\n' "$gaps" | grep -q 'd = 1.4e-05, T = 400: model 0.916, Schmidt 0.916'; then
+    echo "PASS vcrit_al_temperature_schmidt_checker"
+else
+    echo "FAIL vcrit_al_temperature_schmidt_checker ($(printf '%s' "$gaps" | tr '\n' ';'))"
+fi
+if [ "${1:-}" = --temperature-falls ]; then # scripts/validate.sh: the physics checks of the shipped table
     temperature_falls "$hot.csv"
+    schmidt_gaps "$hot.csv" | sed 's/^/schmidt: /'
 fi
 exit 0
