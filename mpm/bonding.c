@@ -34,11 +34,12 @@ double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_incremen
 }
 
 /* A particle that arrives preheated needs less of the plastic work that heats its interface towards the
- * instability bonding needs: the thermal term F2 c_p (Tm - Ti) of Schmidt et al. 2006's critical velocity (after
- * Assadi et al. 2003) falls in proportion to the heat still wanting to the melt.  The calibrated eps_c or G_c
- * belongs to bonding_T_reference; a body starting at T0 takes it times that share of the heat, (Tm - T0) /
- * (Tm - T_ref), with Tm the SCG melt at rho0 (Eq. 2.9).  The rate term is left as calibrated.  A body at the
- * reference temperature gets exactly 1 (the calibration's runs unchanged, bit for bit). */
+ * instability bonding needs: both terms of Schmidt et al. 2006's critical velocity (after Assadi et al. 2003) fall
+ * in proportion to Tm - T, the heat still needed to reach the melt, so v_crit(T) / v_crit(T_ref) = ((Tm - T) /
+ * (Tm - T_ref))^(1/2).  The calibrated eps_c or G_c belongs to bonding_T_reference; a body starting at T0 takes it
+ * times that share of the heat to the power n (bonding_preheat_exponent; 0.5: the strain model's v_crit grows as
+ * eps_c), with Tm the SCG melt at rho0 (Eq. 2.9).  The rate term is left as calibrated.  A body at the reference
+ * temperature gets exactly 1 (the calibration's runs unchanged, bit for bit). */
 double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b)
 {
     const struct mpm_body *body = &cfg->bodies[b];
