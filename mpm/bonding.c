@@ -45,7 +45,7 @@ double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b)
     const struct mpm_body *body = &cfg->bodies[b];
     const struct mpm_material *m = &cfg->materials[body->material];
     double T0 = body->temperature > 0.0 ? body->temperature : m->T_initial;
-    if (cfg->bonding_preheat == MPM_PREHEAT_NONE || T0 == cfg->bonding_T_reference)
+    if (cfg->bonding == MPM_BONDING_NONE || cfg->bonding_preheat == MPM_PREHEAT_NONE || T0 == cfg->bonding_T_reference)
         return 1.0;
     double Tm = mpm_scg_melt_temperature(m, m->density);
     double share = fmax((Tm - T0) / (Tm - cfg->bonding_T_reference), 0.0);

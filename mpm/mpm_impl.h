@@ -412,7 +412,8 @@ void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, do
 double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt,
                              double scale);
 /* The factor of eps_c or G_c for body b of cfg at its start temperature T0 (bonding_preheat = melt_heat):
- * (Tm - T0) / (Tm - bonding_T_reference), at least MPM_PREHEAT_SCALE_MIN; 1 with bonding_preheat = none. */
+ * ((Tm - T0) / (Tm - bonding_T_reference))^bonding_preheat_exponent, at least MPM_PREHEAT_SCALE_MIN; 1 with
+ * bonding_preheat = none or bonding = none. */
 #define MPM_PREHEAT_SCALE_MIN 0.01
 double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b);
 double mpm_bonding_rate_factor(double r, double floor);

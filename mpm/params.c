@@ -104,9 +104,10 @@ const struct cfg_key mpm_case_keys[] = {
      "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
     {"impact", "bonding_preheat", CFG_CHOICE, "", "melt_heat", 0, 0, 0, "melt_heat|none",
      "melt_heat: a body that starts at T0 (a particle heated in the nozzle) has eps_c (strain model) or G_c (energy "
-     "model) times (Tm - T0) / (Tm - bonding_T_reference), the share left of the heat that brings its material to "
-     "the SCG melt Tm (Eq. 2.9 at rho0), as the thermal term of Schmidt et al. 2006's critical velocity; none: the "
-     "calibrated value at every temperature (docs/physics.md \"Bonding of a heated particle\")"},
+     "model) times ((Tm - T0) / (Tm - bonding_T_reference))^n, n = bonding_preheat_exponent: the share left of the "
+     "heat that brings its material to the SCG melt Tm (Eq. 2.9 at rho0), in which both terms of Schmidt et al. "
+     "2006's critical velocity fall; none: the calibrated value at every temperature (docs/physics.md \"Bonding of "
+     "a heated particle\")"},
     {"impact", "bonding_preheat_exponent", CFG_REAL, "-", "0.5", 0, 10, 0, NULL,
      "n of bonding_preheat = melt_heat: the critical value times ((Tm - T0) / (Tm - bonding_T_reference))^n; 0.5: "
      "v_crit of the strain model grows as eps_c (the calibration's runs), so that it falls as the square root of "
@@ -627,7 +628,6 @@ void mpm_config_scale_lengths(struct mpm_config *cfg, double factor)
     cfg->snapshot_every *= factor;
 }
 
-/* The bodies of the case against its mirror planes (mpm_mirror_check), named with the file and line of symmetry. */
 /* bonding_preheat = melt_heat divides by Tm - bonding_T_reference: the reference must lie below every melt. */
 static int check_bonding_reference(const struct case_file *c, const struct mpm_config *cfg)
 {
@@ -636,14 +636,16 @@ static int check_bonding_reference(const struct case_file *c, const struct mpm_c
     for (int k = 0; k < cfg->material_count; k++) {
         double Tm = mpm_scg_melt_temperature(&cfg->materials[k], cfg->materials[k].density);
         if (!(cfg->bonding_T_reference < Tm))
-            return case_invalid(c, "impact", "bonding_T_reference",
-                                "%g K is not below the melt temperature %g K of a material; allowed: 0 to %g K "
-                                "(or bonding_preheat = none)",
-                                cfg->bonding_T_reference, Tm, Tm);
+            return case_invalid(
+                c, "impact", "bonding_T_reference",
+                "%g K is not below the melt temperature %g K of a material; allowed: above 0 and below %g K "
+                "(or bonding_preheat = none)",
+                cfg->bonding_T_reference, Tm, Tm);
     }
     return SC_OK;
 }
 
+/* The bodies of the case against its mirror planes (mpm_mirror_check), named with the file and line of symmetry. */
 static int check_mirrored_bodies(const struct case_file *c, const struct mpm_config *cfg)
 {
     char why[256];

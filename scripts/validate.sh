@@ -259,7 +259,9 @@ validate_vcrit_al_temperature() {
         fail_part "v_crit(d, T) does not fall with T at every d (thermal softening; docs/physics.md \"The model's v_crit(d, T)\")"
     fi
     printf 'validate: v_crit(T) / v_crit(298 K) against Schmidt et al. 2006, sqrt((933 - T) / (933 - 298)):\n%s\n' "$schmidt"
-    if printf '%s\n' "$schmidt" | grep -q OUTSIDE; then
+    if [ -z "$schmidt" ]; then
+        fail_part "no v_crit(T) / v_crit(298 K) ratios from tests/test_vcrit_al.sh --temperature-falls (the Schmidt check)"
+    elif printf '%s\n' "$schmidt" | grep -q OUTSIDE; then
         fail_part "v_crit(d, T) / v_crit(d, 298 K) differs from Schmidt et al.'s ratio by more than 0.05 (OUTSIDE above)"
     fi
 }

@@ -129,7 +129,9 @@ static void test_preheat_scale(void)
     CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 0.5),
                 2.0 * mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 1.0), 1e-15, 0.0,
                 "half the critical strain: twice the increment");
-    cfg.bonding_preheat = MPM_PREHEAT_NONE;
+    cfg.bonding = MPM_BONDING_NONE;
+    CHECK(mpm_bonding_preheat_scale(&cfg, 0) == 1.0, "bonding = none: 1 at 500 K (nothing to scale)");
+    cfg.bonding = MPM_BONDING_STRAIN, cfg.bonding_preheat = MPM_PREHEAT_NONE;
     CHECK(mpm_bonding_preheat_scale(&cfg, 0) == 1.0, "bonding_preheat = none: 1 at 500 K");
 }
 

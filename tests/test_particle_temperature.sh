@@ -68,6 +68,17 @@ for r in 0 1 2 3; do
 done
 if [ -z "$why" ]; then pass impact_starts_at_seed_temperature; else fail impact_starts_at_seed_temperature "$why"; fi
 
+# ---- 2b. ...and its bonding model's critical strain scaled by the melt-heat factor (bonding_preheat = melt_heat,
+# the default): sqrt((933 - 345) / (933 - 298)) = 0.96228 for the particle, exactly 1 for the substrate at 298 K
+why=""
+for r in 0 1 2 3; do
+    values "$T/run/impact.h5" "/run_000$r/summary/bonding_scale" >"$T/scale"
+    why="$why$(awk -v r="$r" 'NR == 1 && $1 != 1 { printf " run %d: substrate %s;", r, $1 }
+        NR == 2 { d = $1 - sqrt(588 / 635); if (d > 1e-12 || d < -1e-12) printf " run %d: particle %s;", r, $1 }
+        END { if (NR != 2) printf " run %d: %d bodies;", r, NR }' "$T/scale")"
+done
+if [ -z "$why" ]; then pass impact_bonding_scale; else fail impact_bonding_scale "$why"; fi
+
 # ---- 4. vcrit over two temperatures ----------------------------------------------------------------------------
 cat >"$T/vcrit.ini" <<EOF
 ; tiny vcrit search over temperature: far too coarse for physics, quick (as tests/test_vcrit.sh)

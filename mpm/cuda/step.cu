@@ -63,7 +63,7 @@ static int fail(const char *fmt, ...)
 enum { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
 
 struct mpm_gpu {
-    struct mpm_gpu_setup s; /* its material, constants, body_material and body_dashpot on the device */
+    struct mpm_gpu_setup s; /* its material, constants and body tables (copy_tables) on the device */
     char name[320];
     size_t n, nodes, cells; /* points, nodes of a layer, layer entries (bodies x nodes) */
     size_t row, plane;
@@ -876,18 +876,24 @@ static int allocate(struct mpm_gpu *g)
     return reserve_temp(g);
 }
 
-/* The setup's tables onto the device (the struct keeps their device copies). */
+/* The setup's tables onto the device (the struct keeps their device copies, each as soon as it is allocated, so
+ * that mpm_gpu_close frees what a failure left). */
 static int copy_tables(struct mpm_gpu *g, const struct mpm_gpu_setup *setup)
 {
     struct mpm_material *material;
     struct mpm_material_constants *constants;
     int *body_material;
     double *body_dashpot, *body_bond_scale;
-    TRY(device_array(&material, (size_t)setup->materials) || device_array(&constants, (size_t)setup->materials));
-    TRY(device_array(&body_material, (size_t)setup->bodies) || device_array(&body_dashpot, 2 * (size_t)setup->bodies) ||
-        device_array(&body_bond_scale, (size_t)setup->bodies));
-    g->s.material = material, g->s.constants = constants;
-    g->s.body_material = body_material, g->s.body_dashpot = body_dashpot, g->s.body_bond_scale = body_bond_scale;
+    TRY(device_array(&material, (size_t)setup->materials));
+    g->s.material = material;
+    TRY(device_array(&constants, (size_t)setup->materials));
+    g->s.constants = constants;
+    TRY(device_array(&body_material, (size_t)setup->bodies));
+    g->s.body_material = body_material;
+    TRY(device_array(&body_dashpot, 2 * (size_t)setup->bodies));
+    g->s.body_dashpot = body_dashpot;
+    TRY(device_array(&body_bond_scale, (size_t)setup->bodies));
+    g->s.body_bond_scale = body_bond_scale;
     TRY(copy_in(material, setup->material, (size_t)setup->materials));
     TRY(copy_in(constants, setup->constants, (size_t)setup->materials));
     TRY(copy_in(body_material, setup->body_material, (size_t)setup->bodies));
@@ -936,6 +942,10 @@ extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **
     if (!g)
         return fail("out of memory for the GPU state");
     g->s = *setup;
+    /* the tables' device copies replace these (copy_tables); until then none, so that a failed open frees nothing
+     * of the host's */
+    g->s.material = NULL, g->s.constants = NULL, g->s.body_material = NULL, g->s.body_dashpot = NULL;
+    g->s.body_bond_scale = NULL;
     g->n = setup->points;
     g->row = (size_t)setup->n[0];
     g->plane = g->row * (size_t)setup->n[1];
