@@ -576,6 +576,93 @@ static void test_bonds_grow_only_during_impact(void)
     impact_fixture_close(&f);
 }
 
+static double norm3(const double v[3])
+{
+    return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
+/* One node's fields for test_contact_only_pushes: body l's mass m, velocity v[l], volume gradient grad[l] and nodal
+ * centre of mass at[l] (in cells from the node). */
+static void set_node_body(struct mpm_grid *g, size_t node, int l, double m, const double v[3], const double grad[3],
+                          const double at[3], const double node_x[3])
+{
+    size_t I = (size_t)l * g->nodes + node;
+    g->mass[I] = m;
+    for (int d = 0; d < 3; d++) {
+        g->momentum[3 * I + d] = m * v[d];
+        g->force[3 * I + d] = 0.0;
+        g->gradient[3 * I + d] = grad[d];
+        g->moment[3 * I + d] = m * (node_x[d] + at[d] * g->h);
+    }
+    g->bond_sum[I] = g->bond_weight[I] = 0.0;
+    g->contact[I] = g->bond_contact[I] = g->wall_held[I] = 0;
+}
+
+/* Contact only pushes where three bodies meet at a node (contact_scheme = once, frictionless; the clamp of the
+ * sweeps, contact.c only_push).  A white-box test of the nodal update at a single node: body A comes down at u onto
+ * body B at rest below it (normal -z), and body C, below and beside A (normal (1, 0, -1)/sqrt 2 from A into C),
+ * comes up at it at 4u.  The first sweep presses A onto B (B takes -u/2); then C throws A up and away from B.
+ * Holding A and B to a common normal velocity from then on would take a pull larger than the push they exchanged,
+ * dragging B up after the leaving A; with the summed impulse held to pushing the pair lets go and B keeps the
+ * velocity it came with (0, to rounding), while A and C end with a common normal velocity and A leaves B.  C's
+ * centre of mass is beyond contact_gap from B's (1.0 cell along their normal), so B and C do not touch. */
+static void test_contact_only_pushes(void)
+{
+    struct impact_fixture f;
+    const char *ini = "[impact]\nstop_when_settled = no\ncontact_scheme = once\ncontact = frictionless\n"
+                      "substrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\nt_end = 1e-6\n"
+                      "bonding = none\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
+    const char *rows = "sphere,-0.006,0,0.01,0,0,0,0.004,0,elastic\nsphere,0,0,0.01,0,0,0,0.004,0,elastic\n"
+                       "sphere,0.006,0,0.01,0,0,0,0.004,0,elastic\n";
+    if (impact_fixture_open(&f, ini, rows) != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    struct mpm_solver *s = f.solver;
+    struct mpm_grid *g = &s->grid;
+    CHECK(g->layers == 3 && g->moments, "three body layers with nodal centres of mass (%d layers)", g->layers);
+    if (g->layers != 3 || !g->moments) {
+        impact_fixture_close(&f);
+        return;
+    }
+    int at[3] = {g->n[0] / 2, g->n[1] / 2, g->n[2] - 3};
+    size_t node = (size_t)at[0] + g->row * (size_t)at[1] + g->plane * (size_t)at[2];
+    double node_x[3], u = 10.0, m = 1e-6, r2 = sqrt(0.5);
+    for (int d = 0; d < 3; d++)
+        node_x[d] = g->origin[d] + at[d] * g->h;
+    CHECK(node_x[2] > s->cfg.substrate_top + 2.0 * g->h, "the node lies above the wall (z = %g m)", node_x[2]);
+    const double v[3][3] = {{0.0, 0.0, -u}, {0.0, 0.0, 0.0}, {-4.0 * u, 0.0, 4.0 * u}};
+    const double grad[3][3] = {{0.0, 0.0, -1.0}, {0.0, 0.0, 0.5}, {-2.0, 0.0, 2.0}};
+    const double x_at[3][3] = {{0.0, 0.0, 0.2}, {0.0, 0.0, -0.2}, {0.7 * r2, 0.0, 0.2 - 0.7 * r2}};
+    for (int l = 0; l < 3; l++)
+        set_node_body(g, node, l, m, v[l], grad[l], x_at[l], node_x);
+    for (int d = 0; d < 3; d++)
+        g->box.lo[d] = g->box.hi[d] = at[d];
+    mpm_contact_nodal_update(s);
+    const double n_ab[3] = {0.0, 0.0, -1.0}, n_ac[3] = {r2, 0.0, -r2};
+    const double *fields[2] = {g->momentum, g->momentum_new};
+    for (int k = 0; k < 2; k++) {
+        const double *p = fields[k];
+        double va[3], vb[3], vc[3], total[3], ab = 0.0, ac = 0.0;
+        for (int d = 0; d < 3; d++) {
+            va[d] = p[3 * node + d] / m;
+            vb[d] = p[3 * (g->nodes + node) + d] / m;
+            vc[d] = p[3 * (2 * g->nodes + node) + d] / m;
+            total[d] = va[d] + vb[d] + vc[d] - v[0][d] - v[1][d] - v[2][d];
+            ab += (va[d] - vb[d]) * n_ab[d];
+            ac += (va[d] - vc[d]) * n_ac[d];
+        }
+        printf("  %s momenta: A (%.4g, %.4g, %.4g), B (%.3g, %.3g, %.3g), C (%.4g, %.4g, %.4g) m/s; A-B approach "
+               "%.4g, A-C %.3g m/s\n",
+               k ? "updated" : "start", va[0], va[1], va[2], vb[0], vb[1], vb[2], vc[0], vc[1], vc[2], ab, ac);
+        CHECK(norm3(vb) <= 1e-12 * u, "B was pulled after the leaving A: v_B = (%g, %g, %g) m/s", vb[0], vb[1], vb[2]);
+        CHECK(ab < -0.1 * u, "A does not leave B (approach %g m/s)", ab);
+        CHECK(fabs(ac) <= 1e-9 * u, "A and C do not share their normal velocity (approach %g m/s)", ac);
+        CHECK(norm3(total) <= 1e-12 * u, "momentum changed by (%g, %g, %g) m/s x m", total[0], total[1], total[2]);
+    }
+    impact_fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_two_elastic_spheres);
@@ -584,6 +671,7 @@ int main(void)
     RUN(test_block_slides_without_friction);
     RUN(test_three_bodies_at_a_node);
     RUN(test_three_bodies_in_any_order);
+    RUN(test_contact_only_pushes);
     RUN(test_bonds_hold_while_separating);
     RUN(test_bonds_do_not_reach_across_a_gap);
     RUN(test_velocity_estimator_noise);
