@@ -412,9 +412,11 @@ void mpm_bonding_grow(struct mpm_solver *s, size_t p, double eps_p_increment, do
 double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_increment, double von_mises, double dt,
                              double scale);
 /* The factor of eps_c or G_c for body b of cfg at its start temperature T0 (bonding_preheat = melt_heat):
- * ((Tm - T0) / (Tm - bonding_T_reference))^bonding_preheat_exponent, at least MPM_PREHEAT_SCALE_MIN; 1 with
- * bonding_preheat = none or bonding = none. */
+ * q / (2 - q), q = ((Tm - T0) / (Tm - bonding_T_reference))^bonding_preheat_exponent, the factor whose harmonic
+ * mean with a body at the reference (Eq. 4.7's average of the two bodies' D_bond) is q; held within
+ * [MPM_PREHEAT_SCALE_MIN, MPM_PREHEAT_SCALE_MAX]; 1 with bonding_preheat = none or bonding = none. */
 #define MPM_PREHEAT_SCALE_MIN 0.01
+#define MPM_PREHEAT_SCALE_MAX 100.0
 double mpm_bonding_preheat_scale(const struct mpm_config *cfg, int b);
 double mpm_bonding_rate_factor(double r, double floor);
 static inline void bonding_update(struct mpm_solver *s, size_t p, double eps_p_increment, double von_mises)

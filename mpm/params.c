@@ -104,15 +104,16 @@ const struct cfg_key mpm_case_keys[] = {
      "monotone in the rate; the printed law where 1 - ln(rate ratio) is at least this (docs/physics.md)"},
     {"impact", "bonding_preheat", CFG_CHOICE, "", "melt_heat", 0, 0, 0, "melt_heat|none",
      "melt_heat: a body that starts at T0 (a particle heated in the nozzle) has eps_c (strain model) or G_c (energy "
-     "model) times ((Tm - T0) / (Tm - bonding_T_reference))^n, n = bonding_preheat_exponent: the share left of the "
-     "heat that brings its material to the SCG melt Tm (Eq. 2.9 at rho0), in which both terms of Schmidt et al. "
-     "2006's critical velocity fall; none: the calibrated value at every temperature (docs/physics.md \"Bonding of "
-     "a heated particle\")"},
+     "model) times q / (2 - q), q = ((Tm - T0) / (Tm - bonding_T_reference))^n, n = bonding_preheat_exponent: the "
+     "factor whose mean with a body at the reference (Eq. 4.7 averages the two bodies' D_bond) is q, q the share "
+     "left of the heat that brings its material to the SCG melt Tm (Eq. 2.9 at rho0) to the power n, in which both "
+     "terms of Schmidt et al. 2006's critical velocity fall; none: the calibrated value at every temperature "
+     "(docs/physics.md \"Bonding of a heated particle\")"},
     {"impact", "bonding_preheat_exponent", CFG_REAL, "-", "0.5", 0, 10, 0, NULL,
-     "n of bonding_preheat = melt_heat: the critical value times ((Tm - T0) / (Tm - bonding_T_reference))^n; 0.5: "
-     "v_crit of the strain model grows as eps_c (the calibration's runs), so that it falls as the square root of "
-     "the melt-heat share, as Schmidt et al. 2006's critical velocity (docs/physics.md \"Bonding of a heated "
-     "particle\")"},
+     "n of bonding_preheat = melt_heat: the pair's critical value falls as ((Tm - T0) / (Tm - "
+     "bonding_T_reference))^n; 0.5: v_crit of the strain model grows as eps_c (the calibration's runs), so that it "
+     "falls as the square root of the melt-heat share, as Schmidt et al. 2006's critical velocity (docs/physics.md "
+     "\"Bonding of a heated particle\")"},
     {"impact", "bonding_T_reference", CFG_REAL, "K", "298", 0, 1e5, 1, NULL,
      "the temperature eps_c and G_c were calibrated at (the shipped calibration: particle and substrate at 298 K); "
      "below every material's melt temperature"},

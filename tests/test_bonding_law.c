@@ -104,8 +104,16 @@ static void test_floor_one(void)
     CHECK(mpm_bonding_increment(&cfg, 0.0, sigma_vm, dt, 1.0) == 0.0, "no plastic increment: dD = 0");
 }
 
-/* bonding_preheat = melt_heat: a body at T0 has the critical value times ((Tm - T0) / (Tm - T_ref))^n, Tm the SCG
- * melt at rho0 (Eq. 2.9: melt_T0 there); exactly 1 at the reference, 1 with none, the floor at and above melt. */
+/* The factor of bonding_preheat = melt_heat from its q, the share of the melt heat to the power n: q / (2 - q). */
+static double preheat_factor(double q)
+{
+    return q / (2.0 - q);
+}
+
+/* bonding_preheat = melt_heat: a body at T0 has the critical value times y = q / (2 - q), q = ((Tm - T0) / (Tm -
+ * T_ref))^n, Tm the SCG melt at rho0 (Eq. 2.9: melt_T0 there), so that the harmonic mean 2 y / (1 + y) with a body at
+ * the reference (Eq. 4.7's average) is q; exactly 1 at the reference, 1 with none, the floor at and above melt, the
+ * ceiling where no factor reaches q. */
 static void test_preheat_scale(void)
 {
     struct mpm_material al = {
@@ -115,15 +123,21 @@ static void test_preheat_scale(void)
     struct mpm_config cfg = law(MPM_BONDING_STRAIN);
     cfg.materials = &al, cfg.material_count = 1, cfg.bodies = body, cfg.body_count = 4;
     cfg.bonding_preheat = MPM_PREHEAT_MELT_HEAT, cfg.bonding_T_reference = 298.0, cfg.bonding_preheat_exponent = 0.5;
-    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 0), sqrt(433.0 / 635.0), 1e-15, 0.0, "500 K: sqrt(433/635)");
+    double y = mpm_bonding_preheat_scale(&cfg, 0), q = sqrt(433.0 / 635.0);
+    CHECK_CLOSE(y, preheat_factor(q), 1e-15, 0.0, "500 K: q / (2 - q), q = sqrt(433/635)");
+    CHECK_CLOSE(2.0 * y / (1.0 + y), q, 1e-15, 0.0, "500 K: the mean with a body at the reference is q");
     CHECK(mpm_bonding_preheat_scale(&cfg, 1) == 1.0, "a body at its material's T_initial = the reference: exactly 1");
     CHECK(mpm_bonding_preheat_scale(&cfg, 2) == 1.0, "a body at the reference temperature: exactly 1");
     CHECK(mpm_bonding_preheat_scale(&cfg, 3) == MPM_PREHEAT_SCALE_MIN, "above melt: the floor");
     cfg.bonding_preheat_exponent = 1.0;
-    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 0), 433.0 / 635.0, 1e-15, 0.0, "exponent 1: 433/635");
+    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 0), preheat_factor(433.0 / 635.0), 1e-15, 0.0,
+                "exponent 1: q = 433/635");
     cfg.bonding_T_reference = 400.0;
-    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 1), (933.0 - 298.0) / (933.0 - 400.0), 1e-15, 0.0,
-                "a body colder than the reference: above 1, (933 - 298) / (933 - 400)");
+    CHECK_CLOSE(mpm_bonding_preheat_scale(&cfg, 1), preheat_factor((933.0 - 298.0) / (933.0 - 400.0)), 1e-15, 0.0,
+                "a body colder than the reference: above 1, q = (933 - 298) / (933 - 400)");
+    cfg.bonding_T_reference = 800.0;
+    CHECK(mpm_bonding_preheat_scale(&cfg, 1) == MPM_PREHEAT_SCALE_MAX,
+          "q = 635/133 beyond 2 (no factor of its own reaches it): the ceiling");
     /* the solver's increment divides by the scaled critical value */
     double deps = increment_for(&cfg, 50.0);
     CHECK_CLOSE(mpm_bonding_increment(&cfg, deps, sigma_vm, dt, 0.5),

@@ -78,8 +78,9 @@ static void test_strain_bonds_at_820(void)
     bonds(strain_10_cells, 820.0);
 }
 
-/* A particle heated to 500 K in the nozzle (bonding_preheat = melt_heat, the default): eps_c times
- * sqrt((933 - 500) / (933 - 298)) = 0.826.  At 775 m/s it bonds (PBCP 0.31); with the calibrated eps_c at every
+/* A particle heated to 500 K in the nozzle (bonding_preheat = melt_heat, the default): eps_c times q / (2 - q) =
+ * 0.703, q = sqrt((933 - 500) / (933 - 298)) = 0.826.  At 775 m/s it bonds (PBCP 0.39; 0.31 with the factor q
+ * itself, before the average of Eq. 4.7 was accounted for); with the calibrated eps_c at every
  * temperature (none) the same particle rebounds (PBCP 0.105, leaving at 20 m/s), as it did before the factor existed
  * (v_crit(14 um, 500 K) was 802 m/s then: 773 and 776 m/s rebounded with PBCP 0.077 and 0.088, 786 m/s bonded). */
 static const char strain_10_cells_no_preheat[] =

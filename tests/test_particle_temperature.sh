@@ -69,12 +69,13 @@ done
 if [ -z "$why" ]; then pass impact_starts_at_seed_temperature; else fail impact_starts_at_seed_temperature "$why"; fi
 
 # ---- 2b. ...and its bonding model's critical strain scaled by the melt-heat factor (bonding_preheat = melt_heat,
-# the default): sqrt((933 - 345) / (933 - 298)) = 0.96228 for the particle, exactly 1 for the substrate at 298 K
+# the default): q / (2 - q), q = sqrt((933 - 345) / (933 - 298)) = 0.96228, so 0.92731 for the particle (its mean
+# with the substrate's is q), exactly 1 for the substrate at 298 K
 why=""
 for r in 0 1 2 3; do
     values "$T/run/impact.h5" "/run_000$r/summary/bonding_scale" >"$T/scale"
     why="$why$(awk -v r="$r" 'NR == 1 && $1 != 1 { printf " run %d: substrate %s;", r, $1 }
-        NR == 2 { d = $1 - sqrt(588 / 635); if (d > 1e-12 || d < -1e-12) printf " run %d: particle %s;", r, $1 }
+        NR == 2 { q = sqrt(588 / 635); d = $1 - q / (2 - q); if (d > 1e-12 || d < -1e-12) printf " run %d: particle %s;", r, $1 }
         END { if (NR != 2) printf " run %d: %d bodies;", r, NR }' "$T/scale")"
 done
 if [ -z "$why" ]; then pass impact_bonding_scale; else fail impact_bonding_scale "$why"; fi
@@ -119,11 +120,14 @@ if "$BIN" vcrit "$T/vcrit.ini" -o "$RUN" >"$T/vcrit.log" 2>&1; then
     [ "$grid" -eq 1 ] || why="$why no 1 x 2 /grid/v_crit in vcrit.h5;"
     [ "$(values "$RUN/vcrit.h5" /grid/temperature | tr '\n' ' ')" = "300 600 " ] || why="$why /grid/temperature;"
     # the particle started at its temperature: the runs at 300 K and 600 K are not the same bits (a search that
-    # ignored the temperature would repeat the same runs)
-    if h5diff -d 0 "$RUN/vcrit.h5" "$RUN/vcrit.h5" /search/000/v_rest /search/001/v_rest >/dev/null 2>&1 &&
-        h5diff -d 0 "$RUN/vcrit.h5" "$RUN/vcrit.h5" /search/000/pbcp /search/001/pbcp >/dev/null 2>&1; then
-        why="$why the runs at 300 K and 600 K are identical;"
-    fi
+    # ignored the temperature would repeat the same runs).  Compared as text: h5diff calls datasets of different
+    # lengths (searches of different run counts) "not comparable" and exits 0, as for equal ones.
+    same=1
+    for field in v_rest pbcp; do
+        [ "$(values "$RUN/vcrit.h5" /search/000/$field)" = "$(values "$RUN/vcrit.h5" /search/001/$field)" ] || same=0
+    done
+    [ -n "$(values "$RUN/vcrit.h5" /search/000/v_rest)" ] || why="$why no /search/000/v_rest in vcrit.h5;"
+    [ "$same" -eq 0 ] || why="$why the runs at 300 K and 600 K are identical;"
     if [ "$(grep -c '^[0-9]' "$RUN/vcrit.csv")" -eq 2 ]; then
         for file in vcrit.csv vcrit.h5; do
             sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $RUN/$file|" "$BASE" >"$T/spray.ini"
