@@ -87,7 +87,7 @@ struct mpm_config {
     enum mpm_bonding bonding;
     double Gc, Gc_rate, eps_c, eps_rate_c;
     double bonding_floor;                     /* smallest G_bond / G_c and eps_bond / eps_c (bonding.c) */
-    enum mpm_bonding_preheat bonding_preheat; /* melt_heat: eps_c, G_c of a body times its melt-heat ratio */
+    enum mpm_bonding_preheat bonding_preheat; /* melt_heat: eps_c, G_c of a body times its melt-heat factor */
     double bonding_T_reference;               /* K, the temperature eps_c and G_c were calibrated at */
     double bonding_preheat_exponent;          /* n of the melt-heat share's power */
     double pbcp_threshold, vrest_threshold, vrest_filter;

@@ -605,13 +605,15 @@ static void set_node_body(struct mpm_grid *g, size_t node, int l, double m, cons
  * Holding A and B to a common normal velocity from then on would take a pull larger than the push they exchanged,
  * dragging B up after the leaving A; with the summed impulse held to pushing the pair lets go and B keeps the
  * velocity it came with (0, to rounding), while A and C end with a common normal velocity and A leaves B.  C's
- * centre of mass is beyond contact_gap from B's (1.0 cell along their normal), so B and C do not touch. */
+ * nodal centre of mass is 0.98 cells from B's along their normal, beyond contact_gap (0.8), and B does not approach
+ * C along its own normal (contact_approach = both): B and C do not touch. */
 static void test_contact_only_pushes(void)
 {
     struct impact_fixture f;
-    const char *ini = "[impact]\nstop_when_settled = no\ncontact_scheme = once\ncontact = frictionless\n"
-                      "substrate = rigid\nmaterial = elastic\ngrid = 1e-3\nspacing = 0.5e-3\nt_end = 1e-6\n"
-                      "bonding = none\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
+    const char *ini =
+        "[impact]\nstop_when_settled = no\ncontact_scheme = once\ncontact = frictionless\n"
+        "contact_approach = both\ncontact_gap = 0.8\nsubstrate = rigid\nmaterial = elastic\n"
+        "grid = 1e-3\nspacing = 0.5e-3\nt_end = 1e-6\nbonding = none\nbox_margin = 3e-3\n" ELASTIC_MATERIAL;
     const char *rows = "sphere,-0.006,0,0.01,0,0,0,0.004,0,elastic\nsphere,0,0,0.01,0,0,0,0.004,0,elastic\n"
                        "sphere,0.006,0,0.01,0,0,0,0.004,0,elastic\n";
     if (impact_fixture_open(&f, ini, rows) != SC_OK) {
@@ -633,7 +635,7 @@ static void test_contact_only_pushes(void)
     CHECK(node_x[2] > s->cfg.substrate_top + 2.0 * g->h, "the node lies above the wall (z = %g m)", node_x[2]);
     const double v[3][3] = {{0.0, 0.0, -u}, {0.0, 0.0, 0.0}, {-4.0 * u, 0.0, 4.0 * u}};
     const double grad[3][3] = {{0.0, 0.0, -1.0}, {0.0, 0.0, 0.5}, {-2.0, 0.0, 2.0}};
-    const double x_at[3][3] = {{0.0, 0.0, 0.2}, {0.0, 0.0, -0.2}, {0.7 * r2, 0.0, 0.2 - 0.7 * r2}};
+    const double x_at[3][3] = {{0.0, 0.0, 0.2}, {-0.8, 0.0, -0.2}, {0.7 * r2, 0.0, 0.2 - 0.7 * r2}};
     for (int l = 0; l < 3; l++)
         set_node_body(g, node, l, m, v[l], grad[l], x_at[l], node_x);
     for (int d = 0; d < 3; d++)

@@ -106,26 +106,37 @@ fi
 # ---- 4. the restart guarantee -----------------------------------------------------------------------------------
 # on a longer variant of the case (spray steps of 0.25 us, impact runs of 32 ns; about 2.5 s here): the fixture's
 # whole run takes 0.2 s on a fast machine, where a poll could miss a spray checkpoint's lifetime (CI: "0 kills")
-sed -e 's/^dt = 1e-6/dt = 2.5e-7/' -e 's/^t_end = 4e-9/t_end = 32e-9/' "$CASE0" >"$T/long.ini"
+sed -e 's/^dt = 1e-6$/dt = 2.5e-7/' -e 's/^t_end = 4e-9$/t_end = 32e-9/' "$CASE0" >"$T/long.ini"
+if [ "$(grep -c -e '^dt = 2.5e-7$' -e '^t_end = 32e-9$' "$T/long.ini")" -ne 2 ]; then
+    fail pipeline_restart_identical "$CASE0 no longer has the lines 'dt = 1e-6' and 't_end = 4e-9' the long variant edits"
+    exit 1
+fi
 LONG_REF=$T/long_ref
-"$BIN" run "$T/long.ini" --stages "$STAGES" -o "$LONG_REF" >"$T/long_ref.log" 2>&1 ||
-    echo "note: the uninterrupted long run failed: $(tail -n 1 "$T/long_ref.log")"
+if ! "$BIN" run "$T/long.ini" --stages "$STAGES" -o "$LONG_REF" >"$T/long_ref.log" 2>&1; then
+    fail pipeline_restart_identical "the uninterrupted long run failed: $(tail -n 2 "$T/long_ref.log" | tr '\n' ' ')"
+    exit 1
+fi
 KILLED=$T/killed
 start_bg() {
     "$BIN" "$@" >>"$T/killed.log" 2>&1 &
     bg=$!
 }
-# wait_for PATTERN: poll (at most 60 s) until a file matching the shell pattern exists; 1 if the run ended first
+# wait_for PATTERN: poll (6000 times, 10 ms apart) until a file matching the shell pattern exists; 1 if the run
+# ended first (`missed` says so), 2 if it is still running after the polls
 wait_for() {
     i=0
     while [ "$i" -lt 6000 ]; do
         # shellcheck disable=SC2086
         ls $1 >/dev/null 2>&1 && return 0
-        kill -0 "$bg" 2>/dev/null || return 1
+        if ! kill -0 "$bg" 2>/dev/null; then
+            missed="the run ended before $(basename "$1") was seen;"
+            return 1
+        fi
         sleep 0.01
         i=$((i + 1))
     done
-    return 1
+    missed="no $(basename "$1") after 6000 polls;"
+    return 2
 }
 kill_now() {
     kill -9 "$bg" 2>/dev/null
@@ -142,10 +153,7 @@ for moment in "$KILLED/checkpoints/spray_*.h5" "$KILLED/spray.h5" "$KILLED/check
     if [ "$moment" = random ]; then
         sleep "0.$(awk 'BEGIN { srand(); printf "%d", 1 + rand() * 8 }')"
     else
-        if ! wait_for "$moment"; then
-            missed="the run ended before $(basename "$moment") was seen;"
-            break
-        fi
+        wait_for "$moment" || break
     fi
     kill_now
     kills=$((kills + 1))
