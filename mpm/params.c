@@ -109,11 +109,11 @@ const struct cfg_key mpm_case_keys[] = {
      "left of the heat that brings its material to the SCG melt Tm (Eq. 2.9 at rho0) to the power n, in which both "
      "terms of Schmidt et al. 2006's critical velocity fall; none: the calibrated value at every temperature "
      "(docs/physics.md \"Bonding of a heated particle\")"},
-    {"impact", "bonding_preheat_exponent", CFG_REAL, "-", "0.5", 0, 10, 0, NULL,
+    {"impact", "bonding_preheat_exponent", CFG_REAL, "-", "auto", 0, 10, 0, "auto",
      "n of bonding_preheat = melt_heat: the pair's critical value falls as ((Tm - T0) / (Tm - "
-     "bonding_T_reference))^n; 0.5: v_crit of the strain model grows as eps_c (the calibration's runs), so that it "
-     "falls as the square root of the melt-heat share, as Schmidt et al. 2006's critical velocity (docs/physics.md "
-     "\"Bonding of a heated particle\")"},
+     "bonding_T_reference))^n; auto: 0.5 with bonding = strain (its v_crit grows as eps_c^1.02), 1 with bonding = "
+     "energy (as G_c^0.54), so that v_crit falls as the square root of the melt-heat share, as Schmidt et al. "
+     "2006's critical velocity (docs/physics.md \"Bonding of a heated particle\")"},
     {"impact", "bonding_T_reference", CFG_REAL, "K", "298", 0, 1e5, 1, NULL,
      "the temperature eps_c and G_c were calibrated at (the shipped calibration: particle and substrate at 298 K); "
      "below every material's melt temperature"},
@@ -384,6 +384,19 @@ int mpm_mirror_copies(const struct mpm_config *cfg)
     return 1 << (cfg->mirror[0] + cfg->mirror[1]);
 }
 
+/* bonding_preheat_exponent = auto: the n that makes the pair's v_crit fall as the square root of the melt-heat share
+ * (Schmidt et al. 2006), n = 0.5 / a for a v_crit that grows as (critical value)^a: a = 1.02 for the strain model
+ * (eps_c 2.3 and 2.8: 757.5 and 926.4 m/s, cases/calibrate_vcrit_al.csv), a = 0.54 for the energy model (G_c 480 to
+ * 936 J/m2: 650 to 917 m/s at 14 um, docs/physics.md "Bonding of a heated particle"), rounded to 0.5 and 1. */
+#define PREHEAT_EXPONENT_STRAIN 0.5
+#define PREHEAT_EXPONENT_ENERGY 1.0
+static double preheat_exponent(const struct case_file *c, enum mpm_bonding bonding)
+{
+    if (!case_is(c, "impact", "bonding_preheat_exponent", "auto"))
+        return case_real(c, "impact", "bonding_preheat_exponent");
+    return bonding == MPM_BONDING_ENERGY ? PREHEAT_EXPONENT_ENERGY : PREHEAT_EXPONENT_STRAIN;
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -415,7 +428,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->bonding_floor = case_real(c, "impact", "bonding_floor");
     cfg->bonding_preheat = case_is(c, "impact", "bonding_preheat", "none") ? MPM_PREHEAT_NONE : MPM_PREHEAT_MELT_HEAT;
     cfg->bonding_T_reference = case_real(c, "impact", "bonding_T_reference");
-    cfg->bonding_preheat_exponent = case_real(c, "impact", "bonding_preheat_exponent");
+    cfg->bonding_preheat_exponent = preheat_exponent(c, cfg->bonding);
     cfg->pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
     cfg->vrest_threshold = case_real(c, "impact", "vrest_threshold");
     cfg->vrest_filter = case_real(c, "impact", "vrest_filter");

@@ -97,6 +97,43 @@ static void test_strain_preheated_bonds_at_775(void)
     CHECK(v_rest > 0.6, "it leaves the substrate: v_rest %.3g m/s", v_rest);
 }
 
+/* bonding_preheat_exponent = auto: n = 0.5 with the strain model, 1 with the energy model (its v_crit grows as
+ * G_c^0.54: docs/physics.md "Bonding of a heated particle"); a value given is kept. */
+static double exponent_of(const char *impact_lines)
+{
+    struct impact_fixture f;
+    char ini[320];
+    snprintf(ini, sizeof ini, "[impact]\n%s\ndiameter = 14e-6\n[material.aluminium]\n", impact_lines);
+    double n = impact_fixture_open(&f, ini, NULL) == SC_OK ? f.cfg.bonding_preheat_exponent : NAN;
+    impact_fixture_close(&f);
+    return n;
+}
+
+static void test_preheat_exponent_auto(void)
+{
+    CHECK(exponent_of("bonding = strain") == 0.5, "strain: n = 0.5");
+    CHECK(exponent_of("bonding = energy") == 1.0, "energy: n = 1");
+    CHECK(exponent_of("bonding = energy\nbonding_preheat_exponent = 0.7") == 0.7, "a given n is kept");
+}
+
+/* The energy model's factor at 500 K with n = 1 (auto): G_c times q / (2 - q), q = (933 - 500) / (933 - 298).  A 14 um
+ * particle at 690 m/s in the quarter model on the energy model's grid bonds; with n = 0.5 it rebounds (its v_crit
+ * 725 m/s in a bisection to 5 m/s, 669 m/s with n = 1; 763 m/s at 298 K). */
+static const char energy_quarter[] = "bonding = energy\ngrid = 2e-6\nspacing = 0.667e-6\nt_end = 200e-9\nsymmetry = "
+                                     "quarter";
+static const char energy_quarter_half[] = "bonding = energy\ngrid = 2e-6\nspacing = 0.667e-6\nt_end = 200e-9\n"
+                                          "symmetry = quarter\nbonding_preheat_exponent = 0.5";
+
+static void test_energy_preheated_bonds_at_690(void)
+{
+    double pbcp = 0, v_rest = 0;
+    int verdict = verdict_hot(energy_quarter, 690.0, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 1, "a 14 um particle at 500 K and 690 m/s bonds with n = 1 (PBCP %.3g, v_rest %.3g m/s)", pbcp,
+          v_rest);
+    verdict = verdict_hot(energy_quarter_half, 690.0, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 0, "...and rebounds with n = 0.5 (PBCP %.3g, v_rest %.3g m/s)", pbcp, v_rest);
+}
+
 static void test_energy_rebounds_at_700(void)
 {
     rebounds(energy_7_cells, 700.0);
@@ -117,6 +154,8 @@ int main(void)
     RUN(test_strain_rebounds_at_730);
     RUN(test_strain_bonds_at_820);
     RUN(test_strain_preheated_bonds_at_775);
+    RUN(test_preheat_exponent_auto);
+    RUN(test_energy_preheated_bonds_at_690);
     RUN(test_energy_rebounds_at_700);
     RUN(test_energy_bonds_at_900);
     return check_finish();
