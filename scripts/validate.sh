@@ -39,10 +39,10 @@
 #   9. The interface's plastic strain and temperature against the resolution, adiabatic and with conduction (part
 #      interface_strain, about 25 minutes; docs/physics.md "Why the calibration moves with the grid").
 #  10. v_crit(d, T) of 10 to 45 um at 298 to 600 K with the shipped calibration (cases/vcrit_al_temperature.ini,
-#      part vcrit_al_temperature, about 50 minutes): cases/vcrit_al_temperature.csv, _cor.csv, .png and _cor.png,
+#      part vcrit_al_temperature, about 55 minutes): cases/vcrit_al_temperature.csv, _cor.csv, .png and _cor.png,
 #      the table the Al6061 cases read; fails unless v_crit falls with T at every d (thermal softening) and
 #      v_crit(T) / v_crit(298 K) lies within 0.05 of Schmidt et al.'s sqrt((933 - T) / (933 - 298)), which the
-#      model's does not for fine or hot particles (docs/physics.md "The model's v_crit(d, T)").
+#      model's does not for coarse particles at 500-600 K (docs/physics.md "The model's v_crit(d, T)").
 # VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine]|vcrit_al[_fine]|
 # interface_strain|vcrit_al_temperature runs one.
 set -eu
