@@ -86,15 +86,22 @@ static void test_strain_bonds_at_820(void)
 static const char strain_10_cells_no_preheat[] =
     "grid = 1.4e-6\nspacing = 0.4667e-6\nt_end = 200e-9\nsymmetry = quarter\nbonding_preheat = none";
 
-static void test_strain_preheated_bonds_at_775(void)
+/* A 14 um particle at 500 K and `velocity` bonds with the [impact] lines `with` and rebounds, leaving the substrate,
+ * with `without` (`what`: the difference, for the messages). */
+static void bonds_hot_only_with(const char *with, const char *without, const char *what, double velocity)
 {
     double pbcp = 0, v_rest = 0;
-    int verdict = verdict_hot(strain_10_cells, 775.0, 500.0, &pbcp, &v_rest);
-    CHECK(verdict == 1, "a 14 um particle at 500 K and 775 m/s bonds with melt_heat (PBCP %.3g, v_rest %.3g m/s)", pbcp,
+    int verdict = verdict_hot(with, velocity, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 1, "a 14 um particle at 500 K and %g m/s bonds (PBCP %.3g, v_rest %.3g m/s)", velocity, pbcp,
           v_rest);
-    verdict = verdict_hot(strain_10_cells_no_preheat, 775.0, 500.0, &pbcp, &v_rest);
-    CHECK(verdict == 0, "...and rebounds with bonding_preheat = none (PBCP %.3g, v_rest %.3g m/s)", pbcp, v_rest);
+    verdict = verdict_hot(without, velocity, 500.0, &pbcp, &v_rest);
+    CHECK(verdict == 0, "...and rebounds with %s (PBCP %.3g, v_rest %.3g m/s)", what, pbcp, v_rest);
     CHECK(v_rest > 0.6, "it leaves the substrate: v_rest %.3g m/s", v_rest);
+}
+
+static void test_strain_preheated_bonds_at_775(void)
+{
+    bonds_hot_only_with(strain_10_cells, strain_10_cells_no_preheat, "bonding_preheat = none", 775.0);
 }
 
 /* bonding_preheat_exponent = auto: n = 0.5 with the strain model, 1 with the energy model (its v_crit grows as
@@ -126,12 +133,7 @@ static const char energy_quarter_half[] = "bonding = energy\ngrid = 2e-6\nspacin
 
 static void test_energy_preheated_bonds_at_690(void)
 {
-    double pbcp = 0, v_rest = 0;
-    int verdict = verdict_hot(energy_quarter, 690.0, 500.0, &pbcp, &v_rest);
-    CHECK(verdict == 1, "a 14 um particle at 500 K and 690 m/s bonds with n = 1 (PBCP %.3g, v_rest %.3g m/s)", pbcp,
-          v_rest);
-    verdict = verdict_hot(energy_quarter_half, 690.0, 500.0, &pbcp, &v_rest);
-    CHECK(verdict == 0, "...and rebounds with n = 0.5 (PBCP %.3g, v_rest %.3g m/s)", pbcp, v_rest);
+    bonds_hot_only_with(energy_quarter, energy_quarter_half, "n = 0.5", 690.0);
 }
 
 static void test_energy_rebounds_at_700(void)
