@@ -38,7 +38,8 @@ double mpm_bonding_increment(const struct mpm_config *cfg, double eps_p_incremen
  * in proportion to Tm - T, the heat still needed to reach the melt, so v_crit(T) / v_crit(T_ref) = ((Tm - T) /
  * (Tm - T_ref))^(1/2), with the substrate at room temperature.  The calibrated eps_c or G_c belongs to
  * bonding_T_reference, and the model's v_crit grows as eps_c^1.02 where both bodies' eps_c change (the
- * calibration's runs): so the pair's critical value should fall as share^n, n = bonding_preheat_exponent = 0.5,
+ * calibration's runs): so the pair's critical value should fall as share^n, n = bonding_preheat_exponent (auto:
+ * 0.5 for the strain model, 1 for the energy model, whose v_crit grows as G_c^0.54; params.c preheat_exponent),
  * with Tm the SCG melt at rho0 (Eq. 2.9).  But a node bonds where the average of the two bodies' D_bond reaches 1
  * (Eq. 4.7): for equal strains on both sides a body with factor y against one at the reference bonds at the
  * harmonic mean 2 y / (1 + y) of the critical values, so the body takes y = q / (2 - q), q = share^n, whose mean
