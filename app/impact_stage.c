@@ -409,11 +409,13 @@ static void log_summary(struct impact_run *run)
             snprintf(settled, sizeof settled, "settled at %.4g ns", 1e9 * mpm_verdict_settled_at(run->solver, b));
         double v_rest = judged_or(run->solver, b, d->body[b].v_rest);
         char words[64];
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, v_rest %.3g m/s (window mean), v_com_z "
-                 "%.3g m/s",
+        const struct mpm_body_diagnostics *x = &d->body[b];
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, bonded at %lld of the %lld nodes where "
+                 "it meets a body now (%.1f %%), v_rest %.3g m/s (window mean), v_com_z %.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
-                 verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * d->body[b].pbcp, v_rest,
-                 d->body[b].v_com[2]);
+                 verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * x->pbcp,
+                 (long long)x->bonded_nodes, (long long)x->interface_nodes, 100.0 * x->bonded_interface, v_rest,
+                 x->v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);

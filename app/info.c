@@ -197,34 +197,36 @@ static void print_impact_results(hid_t file, FILE *out)
     size_t n;
     if (h5_dataset_size(file, "summary/bonded", &n) != SC_OK || n == 0)
         return;
-    static const char *const names[] = {"summary/diameter", "summary/v_impact", "summary/verdict",  "summary/pbcp",
-                                        "summary/v_rest",   "summary/cor",      "summary/substrate"};
-    double *column[7];
-    for (int k = 0; k < 7; k++)
+    /* summary/bonded_interface: files of format version 2 on (n/a before) */
+    static const char *const names[] = {"summary/diameter",  "summary/v_impact",        "summary/verdict",
+                                        "summary/pbcp",      "summary/v_rest",          "summary/cor",
+                                        "summary/substrate", "summary/bonded_interface"};
+    double *column[8];
+    for (int k = 0; k < 8; k++)
         column[k] = read_column(file, names[k], n);
     double pbcp_threshold = NAN, vrest_threshold = NAN; /* absent in files written before they were stored */
     summary_thresholds(file, &pbcp_threshold, &vrest_threshold);
-    fprintf(out, "summary (per body):\n  %-5s %-10s %-12s %-12s %-10s %-9s %-12s %-8s\n", "body", "kind", "d (m)",
-            "v_impact", "verdict", "PBCP %", "v_rest (m/s)", "CoR");
+    fprintf(out, "summary (per body):\n  %-5s %-10s %-12s %-12s %-10s %-9s %-18s %-12s %-8s\n", "body", "kind", "d (m)",
+            "v_impact", "verdict", "PBCP %", "bonded interface %", "v_rest (m/s)", "CoR");
     int held = 0;
     for (size_t b = 0; b < n; b++) {
-        double value[7];
-        for (int k = 0; k < 7; k++)
+        double value[8];
+        for (int k = 0; k < 8; k++)
             value[k] = column[k] ? column[k][b] : NAN;
         int substrate = value[6] == 1.0;
         const char *verdict = substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]);
         if (!substrate && mpm_verdict_held((int)value[2], value[4], vrest_threshold))
             verdict = "held", held = 1;
-        fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-12.4g %-8.3g\n", b,
-                substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], value[4],
-                value[5]);
+        fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-18.3g %-12.4g %-8.3g\n", b,
+                substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], 100.0 * value[7],
+                value[4], value[5]);
     }
     if (held)
         fprintf(out,
                 "  held: not bonded, at rest (v_rest <= %g m/s) but PBCP under %g %% (docs/physics.md, \"Held but "
                 "not bonded\")\n",
                 vrest_threshold, 100.0 * pbcp_threshold);
-    for (int k = 0; k < 7; k++)
+    for (int k = 0; k < 8; k++)
         free(column[k]);
 }
 

@@ -725,6 +725,44 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
     s->bonded_node_steps += bonds;
 }
 
+/* The pairs that meet at one node this step (both flagged in g->contact: in contact, bonded or touching) added to
+ * their bodies' interface counts, and those bonded by Eq. 4.7 (pair_bonded) to their bonded counts. */
+static void count_interface_pairs(const struct mpm_solver *s, size_t node, int64_t *interface, int64_t *bonded)
+{
+    const struct mpm_grid *g = &s->grid;
+    int a = 0, b = 0;
+    double n[3];
+    while (next_pair(g, node, &a, &b, n)) {
+        size_t Ia = (size_t)a * g->nodes + node, Ib = (size_t)b * g->nodes + node;
+        if (!g->contact[Ia] || !g->contact[Ib])
+            continue;
+        int held = pair_bonded(s, Ia, Ib);
+        interface[a]++, interface[b]++;
+        bonded[a] += held, bonded[b] += held;
+    }
+}
+
+/* Over the nodes of this step's stencils, after the step (g->contact and the nodal D_bond are this step's). */
+void mpm_contact_interface_nodes(const struct mpm_solver *s, int64_t *interface, int64_t *bonded)
+{
+    const struct mpm_grid *g = &s->grid;
+    int nb = s->cfg.body_count;
+    for (int b = 0; b < nb; b++)
+        interface[b] = bonded[b] = 0;
+    if (g->layers < 2)
+        return;
+    long rows = (long)box_rows(&g->box);
+    size_t length = box_row_length(&g->box);
+#pragma omp parallel for schedule(static) reduction(+ : interface[:nb], bonded[:nb])
+    for (long r = 0; r < rows; r++) {
+        int k;
+        size_t first = box_row_start(g, &g->box, (size_t)r, &k);
+        for (size_t node = first; node < first + length; node++)
+            if (bodies_at(g, node) > 1)
+                count_interface_pairs(s, node, interface, bonded);
+    }
+}
+
 /* The re-projected momenta at one node (in z plane k). */
 static void correct_node(struct mpm_solver *s, size_t node, int k, double *mom)
 {

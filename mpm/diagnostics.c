@@ -14,7 +14,7 @@
 struct body_sums {
     double mass, volume0, ke, internal, plastic_work, eps_p_mass, momentum[3];
     double slow_vz, d_bond_surface;
-    int64_t slow, surface, contacted, bonded;
+    int64_t slow, surface, contacted, bonded, interface_nodes, bonded_nodes;
 };
 
 /* The velocity of the grid at point q: the last step's re-projected, contact-corrected nodal velocities of its
@@ -93,6 +93,9 @@ static void finish_body(const struct mpm_config *cfg, const struct body_sums *b,
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
     out->contacted_points = (int64_t)copies * b->contacted;
     out->bonded_points = (int64_t)copies * b->bonded;
+    out->interface_nodes = (int64_t)copies * b->interface_nodes;
+    out->bonded_nodes = (int64_t)copies * b->bonded_nodes;
+    out->bonded_interface = b->interface_nodes > 0 ? (double)b->bonded_nodes / (double)b->interface_nodes : 0.0;
 }
 
 /* The points are summed by id, scattered over the storage after a reordering (point_order.c): the fields of the
@@ -116,8 +119,13 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
     struct body_sums *sums = calloc((size_t)nb, sizeof *sums);
-    if (!sums) /* it returns the diagnostics, not a status */
-        SC_DIE_OOM((size_t)nb * sizeof *sums, "the diagnostics of the bodies");
+    int64_t *nodes = calloc(2 * (size_t)nb, sizeof *nodes);
+    if (!sums || !nodes) /* it returns the diagnostics, not a status */
+        SC_DIE_OOM((size_t)nb * (sizeof *sums + 2 * sizeof *nodes), "the diagnostics of the bodies");
+    mpm_contact_interface_nodes(s, nodes, nodes + nb);
+    for (int b = 0; b < nb; b++)
+        sums[b].interface_nodes = nodes[b], sums[b].bonded_nodes = nodes[nb + b];
+    free(nodes);
     const struct mpm_points *p = &s->points;
     for (size_t i = 0; i < p->count; i++) {
         if (i + DIAGNOSTICS_AHEAD < p->count)
@@ -267,7 +275,9 @@ int mpm_series_record(struct mpm_solver *s)
                                           x->v_rest,
                                           x->mean_d_bond,
                                           (double)x->contacted_points,
-                                          (double)x->bonded_points};
+                                          (double)x->bonded_points,
+                                          (double)x->interface_nodes,
+                                          (double)x->bonded_nodes};
         memcpy(r, values, sizeof values);
     }
     return SC_OK;

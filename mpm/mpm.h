@@ -21,7 +21,7 @@
 #include "core/config.h"
 
 #define MPM_FORMAT         "spraycoat-impact"
-#define MPM_FORMAT_VERSION 1
+#define MPM_FORMAT_VERSION 2
 
 enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
 enum mpm_substrate { MPM_SUBSTRATE_CYLINDER, MPM_SUBSTRATE_BOX, MPM_SUBSTRATE_RIGID };
@@ -182,6 +182,11 @@ struct mpm_body_diagnostics {
     double v_rest;      /* mean v_z of points slower than vrest_filter (m/s, + away from the substrate) */
     double mean_d_bond; /* over surface points */
     int64_t contacted_points, bonded_points;
+    /* the nodes where it meets another body now (one count per pair at a node) and, of those, the nodes where the
+     * pair is bonded by Eq. 4.7 (the mean of both bodies' nodal D_bond at least 1): its bonded interface; PBCP counts
+     * its own points whose D_bond ever reached 1, so a particle that has left keeps its PBCP and bonds at no node */
+    int64_t interface_nodes, bonded_nodes;
+    double bonded_interface; /* bonded_nodes / interface_nodes (0 when it meets nothing) */
 };
 struct mpm_diagnostics {
     double t;

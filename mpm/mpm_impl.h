@@ -182,8 +182,8 @@ struct mpm_solver {
 
 #define SERIES_FIXED 4 /* t, energy_total, energy_absorbed, energy_removed */
 #define SERIES_PER_BODY                                                                                                \
-    13 /* v_com[3], ke, internal, plastic_work, mean_eps_p, ped, pbcp, v_rest, mean_d_bond,                            \
-          contacted, bonded */
+    15 /* v_com[3], ke, internal, plastic_work, mean_eps_p, ped, pbcp, v_rest, mean_d_bond,                            \
+          contacted, bonded, interface_nodes, bonded_nodes */
 
 /* bodies.c */
 int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points);
@@ -401,6 +401,10 @@ double mpm_boundary_spring_energy(const struct mpm_solver *s);
 /* contact.c: nodal update, contact and bond forces, rigid wall (steps 3-6, 8). */
 void mpm_contact_nodal_update(struct mpm_solver *s);
 void mpm_contact_correct_momentum(struct mpm_solver *s, double *momentum, int count_nodes);
+/* Each body's interface nodes now (after a step): nodes where it meets another body (the pair in contact, bonded
+ * or touching), one count per pair, and of those the nodes where the pair is bonded by Eq. 4.7 (the mean of the two
+ * bodies' nodal D_bond at least 1).  interface and bonded have body_count entries. */
+void mpm_contact_interface_nodes(const struct mpm_solver *s, int64_t *interface, int64_t *bonded);
 /* Contact normal between the bodies of layer entries Ia and Ib (same node), from a into b; -1 if undefined. */
 int mpm_contact_normal(const struct mpm_grid *g, size_t Ia, size_t Ib, double n[3]);
 

@@ -153,6 +153,8 @@ static int write_series(const struct mpm_solver *s, hid_t group)
         {"mean_d_bond", 10, "-"},
         {"contacted_points", 11, "-"},
         {"bonded_points", 12, "-"},
+        {"interface_nodes", 13, "-"},
+        {"bonded_nodes", 14, "-"},
     };
     size_t nt = s->series_rows, nb = (size_t)s->cfg.body_count, width = SERIES_FIXED + nb * SERIES_PER_BODY;
     double *buffer = malloc((3 * nt * nb + 1) * sizeof *buffer);
@@ -187,17 +189,18 @@ done:
 static int write_summary(struct mpm_solver *s, hid_t group)
 {
     int nb = s->cfg.body_count;
-    double *values = calloc((size_t)nb * 7, sizeof *values);
+    double *values = calloc((size_t)nb * 8, sizeof *values);
     int64_t *integers = calloc((size_t)nb * 4, sizeof *integers);
     int *verdict = calloc((size_t)nb, sizeof *verdict);
     int status = SC_OK;
     if (!values || !integers || !verdict)
-        SC_FAIL_OOM_AT(status, done, (size_t)nb * (7 * sizeof *values + 4 * sizeof *integers + sizeof *verdict),
+        SC_FAIL_OOM_AT(status, done, (size_t)nb * (8 * sizeof *values + 4 * sizeof *integers + sizeof *verdict),
                        "the impact summary");
     mpm_verdicts(s, verdict);
     const struct mpm_diagnostics *d = &s->diagnostics;
     double *diameter = values, *v_impact = values + nb, *pbcp = values + 2 * nb, *v_rest = values + 3 * nb,
-           *cor = values + 4 * nb, *t_settled = values + 5 * nb, *bonding_scale = values + 6 * nb;
+           *cor = values + 4 * nb, *t_settled = values + 5 * nb, *bonding_scale = values + 6 * nb,
+           *bonded_interface = values + 7 * nb;
     int64_t *bonded = integers, *substrate = integers + nb, *verdicts = integers + 2 * nb, *settled = integers + 3 * nb;
     for (int b = 0; b < nb; b++) {
         diameter[b] = s->cfg.bodies[b].d;
@@ -213,6 +216,7 @@ static int write_summary(struct mpm_solver *s, hid_t group)
         settled[b] = !isnan(t_settled[b]);
         substrate[b] = s->cfg.bodies[b].substrate;
         bonding_scale[b] = s->body_bond_scale[b];
+        bonded_interface[b] = d->body[b].bonded_interface;
     }
     hsize_t dims[1] = {(hsize_t)nb};
     SC_CHECK(status, h5_write_doubles(group, "diameter", 1, dims, diameter, "m", 0), done);
@@ -226,6 +230,7 @@ static int write_summary(struct mpm_solver *s, hid_t group)
     SC_CHECK(status, h5_write_doubles(group, "cor", 1, dims, cor, "-", 0), done);
     SC_CHECK(status, h5_write_int64s(group, "substrate", 1, dims, substrate, "-", 0), done);
     SC_CHECK(status, h5_write_doubles(group, "bonding_scale", 1, dims, bonding_scale, "-", 0), done);
+    SC_CHECK(status, h5_write_doubles(group, "bonded_interface", 1, dims, bonded_interface, "-", 0), done);
     /* the thresholds the verdicts were judged with: a reader tells "at rest but too few bonds" from "left" */
     SC_CHECK(status, h5_attr_write_double(group, "pbcp_threshold", s->cfg.pbcp_threshold), done);
     SC_CHECK(status, h5_attr_write_double(group, "vrest_threshold", s->cfg.vrest_threshold), done);

@@ -161,7 +161,8 @@ struct body_row {
     size_t body;     /* index in impact.h5 (0-based, the substrate included) */
     size_t particle; /* its index among the run's particle bodies (the couple's /seeds body) */
     double d, v, bonded, pbcp, v_rest, cor;
-    int seed; /* its row of couple.h5 /seeds, -1 when none */
+    double bonded_interface; /* share of its interface nodes bonded at the end (NAN: a file without it) */
+    int seed;                /* its row of couple.h5 /seeds, -1 when none */
 };
 
 struct seed_row {
@@ -289,6 +290,10 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
     int ok = 1;
     for (int k = 0; k < 6; k++)
         ok = render_read_array(loc, "impact.h5", names[k], &a[k]) == SC_OK && ok && a[k].count == a[0].count;
+    /* summary/bonded_interface: in files of format version 2 on */
+    struct render_array interface = {0};
+    if (ok && h5_exists(loc, "summary/bonded_interface"))
+        render_read_array(loc, "impact.h5", "summary/bonded_interface", &interface);
     size_t particle = 0;
     for (size_t b = 0; ok && b < a[0].count; b++) {
         if (a[2].values[b] < 0)
@@ -310,6 +315,7 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
                                  a[3].values[b],
                                  a[4].values[b],
                                  a[5].values[b],
+                                 interface.count == a[0].count ? interface.values[b] : NAN,
                                  -1};
         for (size_t s = 0; s < r->seed_count; s++) /* the same particle: same run, place and diameter */
             if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle &&
@@ -319,6 +325,7 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
     }
     for (int k = 0; k < 6; k++)
         render_array_free(&a[k]);
+    render_array_free(&interface);
     int64_t points;
     double t_end;
     hid_t stats = h5_exists(loc, "stats") ? H5Gopen2(loc, "stats", H5P_DEFAULT) : H5I_INVALID_HID;
@@ -605,12 +612,17 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
             "changing at the "
             "run's end, or no v_rest: no point slow enough to measure it). <i>Spray said</i>: the outcome of the "
             "particle's first contact in the spray "
-            "stage; highlighted rows: the spray and the MPM run disagree.</p>\n",
+            "stage; highlighted rows: the spray and the MPM run disagree. PBCP (Tang Eq. 5.1) counts the "
+            "particle's surface points whose D_bond ever reached 1; <i>bonded interface</i> is the share of the "
+            "grid nodes where the particle meets the substrate at the run's end whose pair is bonded there (the "
+            "mean of both bodies' D_bond at least 1, Eq. 4.7): a particle that has left keeps its PBCP but bonds "
+            "at no node.</p>\n",
             given(100 * pbcp_threshold).s, given(vrest_threshold).s, given(vrest_threshold).s,
             given(vrest_threshold).s);
     fprintf(f, "<table id=\"impact-results\"><tr><th>run</th><th>body</th><th>diameter (µm)</th>"
                "<th>points across d</th><th>impact speed (m/s)</th><th>verdict</th><th>spray said</th>"
-               "<th>PBCP (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th></tr>\n");
+               "<th>PBCP (%%)</th><th>bonded interface (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th>"
+               "</tr>\n");
     char low_pbcp[96];
     snprintf(low_pbcp, sizeof low_pbcp, "not bonded (PBCP < %s %%)", given(100 * pbcp_threshold).s);
     const char *const words[] = {"bonded", "rebounded", low_pbcp, "unsettled"};
@@ -632,6 +644,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
         cell(f, "td", words[v]);
         cell(f, "td", said);
         number_cell_digits(f, 100 * row->pbcp, 3);
+        number_cell_digits(f, 100 * row->bonded_interface, 3);
         number_cell_digits(f, row->v_rest, 3);
         number_cell_digits(f, row->cor, 2);
         fprintf(f, "</tr>\n");

@@ -356,8 +356,9 @@ static void test_bonds_hold_while_separating(void)
 }
 
 /* The spheres of test_bonds_hold_while_separating, every surface point bonded, a cell apart and separating at
- * 2 x 1 m/s, run for 20 us with `bond_gap` (NULL: its default): the left and right spheres' v_com at the end. */
-static int separating_bonded_spheres(const char *bond_gap, double v[2])
+ * 2 x 1 m/s, run for 20 us with `bond_gap` (NULL: its default): the left and right spheres' v_com at the end, and
+ * the left one's diagnostics. */
+static int separating_bonded_spheres(const char *bond_gap, double v[2], struct mpm_body_diagnostics *left)
 {
     struct impact_fixture f;
     char ini[1024];
@@ -380,6 +381,7 @@ static int separating_bonded_spheres(const char *bond_gap, double v[2])
     const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
     v[0] = d->body[0].v_com[0];
     v[1] = d->body[1].v_com[0];
+    *left = d->body[0];
     printf("  bonded spheres a cell apart, bond_gap = %s: v_com %.4g, %.4g m/s after 20 us (from -1, 1); %lld bonded "
            "node-steps\n",
            bond_gap ? bond_gap : "default", v[0], v[1], (long long)mpm_get_counts(s).bonded_node_steps);
@@ -396,7 +398,8 @@ static int separating_bonded_spheres(const char *bond_gap, double v[2])
 static void test_bonds_do_not_reach_across_a_gap(void)
 {
     double v[2], tang[2];
-    if (separating_bonded_spheres(NULL, v) != 0 || separating_bonded_spheres("0", tang) != 0) {
+    struct mpm_body_diagnostics apart, held;
+    if (separating_bonded_spheres(NULL, v, &apart) != 0 || separating_bonded_spheres("0", tang, &held) != 0) {
         CHECK(0, "set-up or run");
         return;
     }
@@ -404,6 +407,84 @@ static void test_bonds_do_not_reach_across_a_gap(void)
     CHECK_CLOSE(v[1], 1.0, 0.01, 0.0, "right sphere's speed (m/s)");
     CHECK(tang[0] > 0.0 && tang[1] < 0.0, "with bond_gap = 0 the bonds turn the spheres round: v_com %g, %g m/s",
           tang[0], tang[1]);
+    /* the bonded interface: none where the spheres stay apart, though every point of theirs is bonded (PBCP 1) */
+    printf("  bonded interface: %lld of %lld nodes apart (PBCP %g), %lld of %lld with bond_gap = 0\n",
+           (long long)apart.bonded_nodes, (long long)apart.interface_nodes, apart.pbcp, (long long)held.bonded_nodes,
+           (long long)held.interface_nodes);
+    CHECK(apart.interface_nodes == 0 && apart.bonded_nodes == 0 && apart.pbcp == 1.0,
+          "spheres a cell apart meet at %lld nodes, %lld bonded (PBCP %g)", (long long)apart.interface_nodes,
+          (long long)apart.bonded_nodes, apart.pbcp);
+    CHECK(held.bonded_nodes > 0 && held.bonded_nodes == held.interface_nodes, "bond_gap = 0: %lld of %lld nodes bonded",
+          (long long)held.bonded_nodes, (long long)held.interface_nodes);
+}
+
+/* Which surface points of the two meeting spheres start bonded (D_bond = 1; the rest 0). */
+enum bonded_points { BOTH_BONDED, LEFT_BONDED, UPPER_HALVES_BONDED };
+
+/* Two elastic spheres 8 mm across, a cell apart and closing at 2 x 20 m/s, run for t_end (bonding = energy: an
+ * elastic material does no plastic work, so D_bond stays as set); out: both bodies' diagnostics at the end. */
+static int meeting_spheres(enum bonded_points which, double t_end, struct mpm_body_diagnostics out[2])
+{
+    struct impact_fixture f;
+    char ini[1024];
+    snprintf(ini, sizeof ini,
+             "[impact]\nstop_when_settled = no\ncontact_scheme = once\nsubstrate = rigid\nmaterial = elastic\n"
+             "grid = 1e-3\nspacing = 0.5e-3\nt_end = %g\ncfl = 0.2\nbonding = energy\nbulk_viscosity_linear = 0\n"
+             "bulk_viscosity_quadratic = 0\nbox_margin = 3e-3\n" ELASTIC_MATERIAL,
+             t_end);
+    const char *rows = "sphere,-0.0045,0,0.03,20,0,0,0.008,0,elastic\nsphere,0.0045,0,0.03,-20,0,0,0.008,0,elastic\n";
+    if (impact_fixture_open(&f, ini, rows) != SC_OK)
+        return -1;
+    struct mpm_solver *s = f.solver;
+    struct mpm_points *p = &s->points;
+    for (size_t q = 0; q < p->count; q++) {
+        int bonded = which == BOTH_BONDED || (which == LEFT_BONDED && p->body[q] == 0) ||
+                     (which == UPPER_HALVES_BONDED && p->x[3 * q + 1] > 0.0);
+        p->d_bond[q] = (p->flags[q] & POINT_SURFACE) && bonded ? 1.0 : 0.0;
+    }
+    int status = 0;
+    while (status == 0 && !mpm_finished(s))
+        status = mpm_step(s) == SC_OK ? 0 : -1;
+    const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
+    out[0] = d->body[0], out[1] = d->body[1];
+    impact_fixture_close(&f);
+    return status;
+}
+
+/* The bonded interface (mpm_body_diagnostics: the nodes where a body meets another and, of those, where the pair is
+ * bonded by Eq. 4.7, the mean of the two bodies' nodal D_bond at least 1), on two spheres pressed together for
+ * 30 us (they meet after about 20 us): every surface point bonded on both sides, every interface node is bonded;
+ * one side bonded, none (the mean is 1/2), though that side's PBCP is 1; both upper halves (y > 0) bonded, fewer
+ * than half (a node within a cell of y = 0 averages points of both halves).  Both bodies count the same nodes. */
+static void test_bonded_interface(void)
+{
+    struct mpm_body_diagnostics both[2], left[2], upper[2];
+    if (meeting_spheres(BOTH_BONDED, 30e-6, both) != 0 || meeting_spheres(LEFT_BONDED, 30e-6, left) != 0 ||
+        meeting_spheres(UPPER_HALVES_BONDED, 30e-6, upper) != 0) {
+        CHECK(0, "set-up or run");
+        return;
+    }
+    const struct mpm_body_diagnostics *runs[3] = {both, left, upper};
+    const char *names[3] = {"both bonded", "left bonded", "upper halves bonded"};
+    for (int k = 0; k < 3; k++) {
+        const struct mpm_body_diagnostics *x = runs[k];
+        printf("  %s: %lld of %lld interface nodes bonded (%.3f), PBCP %.3f and %.3f\n", names[k],
+               (long long)x[0].bonded_nodes, (long long)x[0].interface_nodes, x[0].bonded_interface, x[0].pbcp,
+               x[1].pbcp);
+        CHECK(x[0].interface_nodes >= 8, "%s: the spheres meet at %lld nodes", names[k],
+              (long long)x[0].interface_nodes);
+        CHECK(x[0].interface_nodes == x[1].interface_nodes && x[0].bonded_nodes == x[1].bonded_nodes,
+              "%s: the bodies count different nodes (%lld/%lld and %lld/%lld)", names[k], (long long)x[0].bonded_nodes,
+              (long long)x[0].interface_nodes, (long long)x[1].bonded_nodes, (long long)x[1].interface_nodes);
+    }
+    CHECK(both[0].bonded_nodes == both[0].interface_nodes && both[0].bonded_interface == 1.0,
+          "both bonded: %lld of %lld nodes bonded", (long long)both[0].bonded_nodes,
+          (long long)both[0].interface_nodes);
+    CHECK(left[0].bonded_nodes == 0 && left[0].bonded_interface == 0.0 && left[0].pbcp == 1.0,
+          "one side bonded: %lld nodes bonded (the mean D_bond is 1/2), its PBCP %g", (long long)left[0].bonded_nodes,
+          left[0].pbcp);
+    CHECK(upper[0].bonded_interface > 0.0 && upper[0].bonded_interface < 0.5,
+          "upper halves bonded: a share of %g bonded, not in (0, 1/2)", upper[0].bonded_interface);
 }
 
 /* Gaussian numbers from a fixed sequence (Box-Muller on a 64-bit LCG). */
@@ -676,6 +757,7 @@ int main(void)
     RUN(test_contact_only_pushes);
     RUN(test_bonds_hold_while_separating);
     RUN(test_bonds_do_not_reach_across_a_gap);
+    RUN(test_bonded_interface);
     RUN(test_velocity_estimator_noise);
     RUN(test_plastic_rebound_leaves);
     RUN(test_bonds_grow_only_during_impact);

@@ -114,11 +114,19 @@ if p.rows == 0:
     fails.append("the results table (id=impact-results) has no body rows")
 elif p.rows != bodies:
     fails.append("the results table has %d body rows, impact.h5 %d particle bodies" % (p.rows, bodies))
-# columns: run, body, diameter, points across d, speed, verdict, spray said, PBCP, v_rest, CoR
+# columns: run, body, diameter, points across d, speed, verdict, spray said, PBCP, bonded interface, v_rest, CoR
+def percent(text):
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if 0.0 <= value <= 100.0 else None
 for row in p.cells:
-    if len(row) != 10:
-        fails.append("a body row has %d cells, not 10: %s" % (len(row), row))
-    elif row[8].strip() == "n/a" and row[5].strip() == "rebounded":
+    if len(row) != 11:
+        fails.append("a body row has %d cells, not 11: %s" % (len(row), row))
+    elif percent(row[7].strip()) is None or percent(row[8].strip()) is None:
+        fails.append("a body row's PBCP or bonded interface is not a percentage: %s" % row)
+    elif row[9].strip() == "n/a" and row[5].strip() == "rebounded":
         fails.append("a body without v_rest is called rebounded: %s" % row)
     elif row[1].strip() == "0":
         fails.append("the substrate (body 0) has a row: %s" % row)
