@@ -410,12 +410,16 @@ static void log_summary(struct impact_run *run)
         double v_rest = judged_or(run->solver, b, d->body[b].v_rest);
         char words[64];
         const struct mpm_body_diagnostics *x = &d->body[b];
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, bonded at %lld of the %lld nodes where "
-                 "it meets a body now (%.1f %%), v_rest %.3g m/s (window mean), v_com_z %.3g m/s",
+        char interface[96] = "bonded interface not counted on the GPU";
+        if (x->interface_nodes >= 0)
+            snprintf(interface, sizeof interface,
+                     "bonded at %lld of the %lld nodes where it meets a body now (%.1f %%)", (long long)x->bonded_nodes,
+                     (long long)x->interface_nodes, 100.0 * x->bonded_interface);
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, %s, v_rest %.3g m/s (window mean), "
+                 "v_com_z %.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
-                 verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * x->pbcp,
-                 (long long)x->bonded_nodes, (long long)x->interface_nodes, 100.0 * x->bonded_interface, v_rest,
-                 x->v_com[2]);
+                 verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * x->pbcp, interface,
+                 v_rest, x->v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);

@@ -93,9 +93,11 @@ static void finish_body(const struct mpm_config *cfg, const struct body_sums *b,
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
     out->contacted_points = (int64_t)copies * b->contacted;
     out->bonded_points = (int64_t)copies * b->bonded;
-    out->interface_nodes = (int64_t)copies * b->interface_nodes;
-    out->bonded_nodes = (int64_t)copies * b->bonded_nodes;
-    out->bonded_interface = b->interface_nodes > 0 ? (double)b->bonded_nodes / (double)b->interface_nodes : 0.0;
+    out->interface_nodes = b->interface_nodes < 0 ? -1 : (int64_t)copies * b->interface_nodes;
+    out->bonded_nodes = b->bonded_nodes < 0 ? -1 : (int64_t)copies * b->bonded_nodes;
+    out->bonded_interface = b->interface_nodes < 0   ? NAN
+                            : b->interface_nodes > 0 ? (double)b->bonded_nodes / (double)b->interface_nodes
+                                                     : 0.0;
 }
 
 /* The points are summed by id, scattered over the storage after a reordering (point_order.c): the fields of the
@@ -122,7 +124,12 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     int64_t *nodes = calloc(2 * (size_t)nb, sizeof *nodes);
     if (!sums || !nodes) /* it returns the diagnostics, not a status */
         SC_DIE_OOM((size_t)nb * (sizeof *sums + 2 * sizeof *nodes), "the diagnostics of the bodies");
-    mpm_contact_interface_nodes(s, nodes, nodes + nb);
+    /* the grid's contact state lives on the device with [run] device = gpu (the host copy is stale): -1, unknown */
+    if (s->gpu)
+        for (int b = 0; b < 2 * nb; b++)
+            nodes[b] = -1;
+    else
+        mpm_contact_interface_nodes(s, nodes, nodes + nb);
     for (int b = 0; b < nb; b++)
         sums[b].interface_nodes = nodes[b], sums[b].bonded_nodes = nodes[nb + b];
     free(nodes);
