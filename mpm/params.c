@@ -90,11 +90,12 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "Gc_rate", CFG_REAL, "J/m2/s", "2e11", 0, 1e30, 1, NULL,
      "critical adhesion energy rate dG_c/dt, Eq. 4.16b (default from the sweep in docs/physics.md; not the printed "
      "value)"},
-    {"impact", "eps_c", CFG_REAL, "-", "2.4680778017283251", 0, 1e3, 1, NULL,
-     "critical bonding strain, Eq. 4.4 (default, 2.468: at 10 grid cells per particle diameter, 1.4/0.467 um for 14 "
-     "um, the value whose v_crit by logistic regression meets the measured 810 and 770 m/s of 14 and 30 um on average "
-     "within 10 m/s, and their difference within 10 m/s, with eps_rate_c 1e5, cases/calibrate_vcrit_al.ini; it "
-     "belongs to its grid: docs/physics.md \"Bonding calibration\")"},
+    {"impact", "eps_c", CFG_REAL, "-", "auto", 0, 1e3, 1, "auto",
+     "critical bonding strain, Eq. 4.4; auto: the calibration for the case's heat transport at 10 grid cells per "
+     "particle diameter (1.4/0.467 um for 14 um), the value whose v_crit by logistic regression meets the measured "
+     "810 and 770 m/s of 14 and 30 um on average within 10 m/s, and their difference within 10 m/s, with eps_rate_c "
+     "1e5: 2.468 adiabatic (conduction = off, cases/calibrate_vcrit_al.ini), 2.506 with conduction = on "
+     "(cases/calibrate_vcrit_al_conduction.ini); it belongs to its grid: docs/physics.md \"Bonding calibration\""},
     {"impact", "eps_rate_c", CFG_REAL, "1/s", "1e5", 0, 1e20, 1, NULL,
      "critical bonding strain rate, Eq. 4.4 (the 10-cell calibration's, the low end of its range: the rate term out "
      "of play wherever bonding happens, eps_bond = bonding_floor eps_c above e^0.5 eps_rate_c; docs/physics.md "
@@ -397,6 +398,18 @@ static double preheat_exponent(const struct case_file *c, enum mpm_bonding bondi
     return bonding == MPM_BONDING_ENERGY ? PREHEAT_EXPONENT_ENERGY : PREHEAT_EXPONENT_STRAIN;
 }
 
+/* eps_c = auto: the strain model's 10-cell calibration for the case's heat transport (docs/physics.md "Bonding
+ * calibration"): adiabatic, cases/calibrate_vcrit_al.csv; with conduction = on, cases/calibrate_vcrit_al_conduction.csv
+ * (the whole model: v_crit 797.5 and 767.5 m/s of 14 and 30 um against the adiabatic fit's 797.5 and 762.5). */
+#define EPS_C_ADIABATIC  2.4680778017283251
+#define EPS_C_CONDUCTION 2.5060015761506595
+static double eps_c(const struct case_file *c)
+{
+    if (!case_is(c, "impact", "eps_c", "auto"))
+        return case_real(c, "impact", "eps_c");
+    return case_is(c, "impact", "conduction", "on") ? EPS_C_CONDUCTION : EPS_C_ADIABATIC;
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -423,7 +436,7 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
                                                              : MPM_BONDING_ENERGY;
     cfg->Gc = case_real(c, "impact", "Gc");
     cfg->Gc_rate = case_real(c, "impact", "Gc_rate");
-    cfg->eps_c = case_real(c, "impact", "eps_c");
+    cfg->eps_c = eps_c(c);
     cfg->eps_rate_c = case_real(c, "impact", "eps_rate_c");
     cfg->bonding_floor = case_real(c, "impact", "bonding_floor");
     cfg->bonding_preheat = case_is(c, "impact", "bonding_preheat", "none") ? MPM_PREHEAT_NONE : MPM_PREHEAT_MELT_HEAT;

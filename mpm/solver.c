@@ -180,6 +180,8 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     for (int m = 0; m < cfg->material_count; m++)
         mpm_material_prepare(&s->cfg.materials[m], &s->material_constants[m]);
     body_constants(s);
+    if (cfg->bonding == MPM_BONDING_STRAIN) /* eps_c = auto resolves by conduction: say which value runs */
+        log_info("impact: strain bonding model, eps_c %.6g, eps_rate_c %.6g 1/s", cfg->eps_c, cfg->eps_rate_c);
     SC_TRY(mpm_points_create(&s->cfg, &s->points));
     SC_TRY(mpm_grid_create(&s->cfg, &s->points, &s->grid));
     SC_TRY(mpm_list_boundary_points(s));

@@ -423,18 +423,25 @@ static void calibration_sentence(FILE *f, const struct case_file *c)
     int strain = strcmp(model, "strain") == 0;
     const char *key = strain ? "eps_c" : "Gc", *rate_key = strain ? "eps_rate_c" : "Gc_rate";
     fprintf(f, ". The ");
-    if (case_is_given(c, "impact", key) || case_is_given(c, "impact", rate_key))
+    int own =
+        (case_is_given(c, "impact", key) && !case_is(c, "impact", key, "auto")) || case_is_given(c, "impact", rate_key);
+    if (own)
         fprintf(f,
                 "case sets the bonding model's parameters (<code>[impact] bonding = %s</code>, %s = %s, %s = %s); "
                 "the shipped ones",
-                model, key, given(case_real(c, "impact", key)).s, rate_key, given(case_real(c, "impact", rate_key)).s);
+                model, key, case_is(c, "impact", key, "auto") ? "auto" : given(case_real(c, "impact", key)).s, rate_key,
+                given(case_real(c, "impact", rate_key)).s);
     else
         fprintf(f, "shipped parameters of the bonding model (<code>[impact] bonding = %s</code>)", model);
     fprintf(f,
             " belong to %s (docs/physics.md, \"Bonding calibration\"): at another resolution the verdicts are not "
             "calibrated",
             calibrated);
-    if (case_is(c, "impact", "conduction", "on")) /* every shipped calibration was made adiabatic */
+    /* eps_c = auto takes the strain model's calibration with conduction (mpm/params.c); every other was adiabatic */
+    if (case_is(c, "impact", "conduction", "on") && strain && !own)
+        fprintf(f, "; with heat conduction (<code>[impact] conduction = on</code>) the strain model's calibration "
+                   "made with it, eps_c = 2.506 (cases/calibrate_vcrit_al_conduction.ini)");
+    else if (case_is(c, "impact", "conduction", "on"))
         fprintf(f, "; the impacts ran with heat conduction (<code>[impact] conduction = on</code>), the calibration "
                    "without it (docs/physics.md, \"Heat conduction\")");
 }

@@ -16,6 +16,8 @@
  * forces): the 700 m/s particle leaves at 25.8 m/s with PBCP 0.066, settled at 41.0 ns; the 900 m/s one bonds with
  * PBCP 0.258, settled at 50.0 ns (with the second decision on the updated momenta: 21.2 m/s and PBCP 0.043; PBCP
  * 0.139).  With once's former single decision both were held without a bond (PBCP 0). */
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "check.h"
@@ -123,6 +125,48 @@ static void test_preheat_exponent_auto(void)
     CHECK(exponent_of("bonding = energy\nbonding_preheat_exponent = 0.7") == 0.7, "a given n is kept");
 }
 
+/* The eps_c of the search of a calibration record (calibrate_vcrit.csv: search, eps_c, eps_rate_c, diameter, v_crit,
+ * target, mean_residual) whose mean residual is the smallest: the calibrated value; NAN when unreadable. */
+static double calibrated_eps_c(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    double best = NAN, best_residual = INFINITY, eps, residual;
+    char line[512];
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "%*d,%lf,%*f,%*f,%*f,%*f,%lf", &eps, &residual) == 2 && fabs(residual) < best_residual)
+            best = eps, best_residual = fabs(residual);
+    if (f)
+        fclose(f);
+    return best;
+}
+
+static double eps_c_of(const char *impact_lines)
+{
+    struct impact_fixture f;
+    char ini[320];
+    snprintf(ini, sizeof ini, "[impact]\n%s\ndiameter = 14e-6\n[material.aluminium]\n", impact_lines);
+    double eps_c = impact_fixture_open(&f, ini, NULL) == SC_OK ? f.cfg.eps_c : NAN;
+    impact_fixture_close(&f);
+    return eps_c;
+}
+
+/* eps_c = auto (the default) is the calibration of the case's heat transport, the very value the calibration
+ * records hold: adiabatic, cases/calibrate_vcrit_al.csv; with conduction = on, cases/calibrate_vcrit_al_conduction.csv
+ * (the whole model); a value given is kept. */
+static void test_eps_c_auto(void)
+{
+    double adiabatic = calibrated_eps_c("cases/calibrate_vcrit_al.csv");
+    double conduction = calibrated_eps_c("cases/calibrate_vcrit_al_conduction.csv");
+    printf("  calibrated eps_c: %.17g adiabatic, %.17g with conduction\n", adiabatic, conduction);
+    CHECK(eps_c_of("bonding = strain") == adiabatic, "adiabatic: eps_c %.17g, calibrated %.17g",
+          eps_c_of("bonding = strain"), adiabatic);
+    CHECK(eps_c_of("bonding = strain\nconduction = on") == conduction, "conduction: eps_c %.17g, calibrated %.17g",
+          eps_c_of("bonding = strain\nconduction = on"), conduction);
+    CHECK(eps_c_of("eps_c = auto\nconduction = on") == conduction, "eps_c = auto typed: %.17g",
+          eps_c_of("eps_c = auto\nconduction = on"));
+    CHECK(eps_c_of("eps_c = 2.6\nconduction = on") == 2.6, "a given eps_c is kept");
+}
+
 /* The energy model's factor at 500 K with n = 1 (auto): G_c times q / (2 - q), q = (933 - 500) / (933 - 298).  A 14 um
  * particle at 690 m/s in the quarter model on the energy model's grid bonds; with n = 0.5 it rebounds (its v_crit
  * 725 m/s in a bisection to 5 m/s, 669 m/s with n = 1; 763 m/s at 298 K). */
@@ -149,6 +193,7 @@ static void test_energy_bonds_at_900(void)
 int main(void)
 {
     RUN(test_preheat_exponent_auto); /* the case reader only */
+    RUN(test_eps_c_auto);
     /* full impacts: minutes under the sanitizers, which the other mpm tests already exercise */
     if (getenv("SPRAYCOAT_SANITIZED")) {
         printf("  the impacts skipped in the sanitized build (physics checks only)\n");

@@ -189,3 +189,13 @@ else
         echo "FAIL report_conduction_named: the headline of a case with conduction = on (or of the default case) misstates it: $(printf '%s' "$own" | grep -o 'Resolution: [^<]*.\{0,500\}' | head -c 600)"
     fi
 fi
+# ...and one with conduction = on and the shipped parameters (eps_c = auto) is told it ran the calibration made with it
+sed 's/^\[impact\]$/[impact]\nconduction = on/' "$T/case.ini" >"$T/cond.ini"
+if ! "$bin" run "$T/cond.ini" -o "$T/cond" -q >"$T/cond_out" 2>&1; then
+    echo "FAIL report_conduction_calibration: the pipeline failed: $(tail -c 400 "$T/cond_out")"
+elif tr '\n' ' ' <"$T/cond/report.html" | grep -q "with heat conduction (<code>\[impact\] conduction = on</code>) the strain model's calibration made with it, eps_c = 2.506" &&
+    ! tr '\n' ' ' <"$T/cond/report.html" | grep -q 'the calibration without it'; then
+    echo "PASS report_conduction_calibration"
+else
+    echo "FAIL report_conduction_calibration: a case with conduction = on and eps_c = auto is not told it ran eps_c 2.506: $(tr '\n' ' ' <"$T/cond/report.html" | grep -o 'Resolution: [^<]*.\{0,500\}' | head -c 600)"
+fi

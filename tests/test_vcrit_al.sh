@@ -86,8 +86,15 @@ key_default() { awk -F'|' -v key="\`$1\`" '$2 ~ "^ *" key " *$" { gsub(/ /, "", 
 check_case vcrit_al diameter,v_crit,pbcp,v_rest,runs,v_crit_se,width,v_bisection
 why=""
 [ "$(ini_value method cases/vcrit_al.ini)" = logistic ] || why="cases/vcrit_al.ini is not method = logistic;"
+# best_eps_c SEARCHES: the eps_c of the calibration record's search with the smallest mean residual
+best_eps_c() {
+    awk -F, 'NR > 1 && $7 ~ /^[-+]?[0-9]/ { r = $7 < 0 ? -$7 : $7; if (best == "" || r < best) { best = r; eps = $2 } }
+        END { print eps }' "$1"
+}
 for key in bonding eps_c eps_rate_c; do
     want=$(key_default $key)
+    # eps_c = auto: the adiabatic calibration (conduction = off) of cases/calibrate_vcrit_al.ini, its record's value
+    [ "$key" = eps_c ] && [ "$want" = auto ] && want=$(best_eps_c cases/calibrate_vcrit_al.csv)
     have=$(ini_value $key cases/vcrit_al.ini)
     [ -n "$want" ] || why="$why no default of $key in docs/keys.md;"
     # the same value to the 3 digits of the default
