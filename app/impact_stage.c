@@ -629,7 +629,7 @@ done:
 
 struct run_totals {
     int64_t bodies, bonded, unsettled;
-    double pbcp, v_rest, cor;
+    double pbcp, v_rest, cor, bonded_interface;
 };
 
 /* One run's /summary rows of particles (the substrate left out) added to *total; the run's own means in out[4]. */
@@ -639,16 +639,17 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     SC_TRY(h5_dataset_size(summary, "bonded", &n));
     int64_t *bonded = malloc((n ? n : 1) * sizeof *bonded), *substrate = malloc((n ? n : 1) * sizeof *substrate);
     int64_t *verdict = malloc((n ? n : 1) * sizeof *verdict);
-    double *columns = malloc((n ? 3 * n : 3) * sizeof *columns);
+    double *columns = malloc((n ? 4 * n : 4) * sizeof *columns);
     int status = SC_OK;
     if (!bonded || !substrate || !verdict || !columns)
-        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * (3 * sizeof *bonded + 3 * sizeof *columns), "a run's summary");
+        SC_FAIL_OOM_AT(status, done, (n ? n : 1) * (3 * sizeof *bonded + 4 * sizeof *columns), "a run's summary");
     SC_CHECK(status, h5_read_int64s(summary, "bonded", bonded, n), done);
     SC_CHECK(status, h5_read_int64s(summary, "substrate", substrate, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "pbcp", columns, n), done);
     SC_CHECK(status, h5_read_int64s(summary, "verdict", verdict, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "v_rest", columns + n, n), done);
     SC_CHECK(status, h5_read_doubles(summary, "cor", columns + 2 * n, n), done);
+    SC_CHECK(status, h5_read_doubles(summary, "bonded_interface", columns + 3 * n, n), done);
     struct run_totals run = {0};
     for (size_t i = 0; i < n; i++) {
         if (substrate[i])
@@ -659,6 +660,7 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
         run.pbcp += columns[i];
         run.v_rest += columns[n + i];
         run.cor += columns[2 * n + i];
+        run.bonded_interface += columns[3 * n + i];
     }
     double bodies = run.bodies ? (double)run.bodies : 1.0;
     out[0] = (double)run.bonded / bodies;
@@ -671,6 +673,7 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     total->pbcp += run.pbcp;
     total->v_rest += run.v_rest;
     total->cor += run.cor;
+    total->bonded_interface += run.bonded_interface;
 done:
     free(bonded);
     free(substrate);
@@ -728,10 +731,12 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     SC_CHECK(status, h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
+    SC_CHECK(status, h5_attr_write_double(g, "mean_bonded_interface", total->bonded_interface / bodies), done);
     log_info("impact: %lld of %lld bodies bonded (%.1f %%), %lld unsettled, over %ld runs; mean PBCP %.2f %%, mean "
-             "v_rest %.3g m/s",
+             "bonded interface %.2f %%, mean v_rest %.3g m/s",
              (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies,
-             (long long)total->unsettled, runs, 100.0 * total->pbcp / bodies, total->v_rest / bodies);
+             (long long)total->unsettled, runs, 100.0 * total->pbcp / bodies, 100.0 * total->bonded_interface / bodies,
+             total->v_rest / bodies);
 done:
     free(column);
     H5Gclose(g);

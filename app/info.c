@@ -603,12 +603,13 @@ void info_headline(const char *run_dir, FILE *out)
     snprintf(path, sizeof path, "%s/impact.h5", run_dir);
     hid_t summary;
     if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
-        double fraction = NAN, pbcp = NAN, v_rest = NAN;
+        double fraction = NAN, pbcp = NAN, v_rest = NAN, interface = NAN;
         int64_t bodies = 0, runs = 0, unsettled = -1;
         if (h5_exists(file, "summary") && (summary = H5Gopen2(file, "summary", H5P_DEFAULT)) >= 0) {
             h5_attr_read_double(summary, "bonded_fraction", &fraction);
             h5_attr_read_double(summary, "mean_pbcp", &pbcp);
             h5_attr_read_double(summary, "mean_v_rest", &v_rest);
+            h5_attr_read_double(summary, "mean_bonded_interface", &interface); /* format version 2 on */
             h5_attr_read_int64(summary, "bodies", &bodies);
             h5_attr_read_int64(summary, "runs", &runs);
             h5_attr_read_int64(summary, "unsettled", &unsettled);
@@ -619,7 +620,10 @@ void info_headline(const char *run_dir, FILE *out)
                     (long long)bodies, (long long)runs);
             if (unsettled >= 0) /* a verdict still changing at t_end is neither bonded nor rebounded */
                 fprintf(out, ", %lld unsettled", (long long)unsettled);
-            fprintf(out, "; mean PBCP %.1f %%, mean v_rest %.3g m/s\n", 100.0 * pbcp, v_rest);
+            fprintf(out, "; mean PBCP %.1f %%", 100.0 * pbcp);
+            if (!isnan(interface)) /* PBCP counts points that ever bonded; this, nodes bonded at the end */
+                fprintf(out, ", mean bonded interface %.1f %%", 100.0 * interface);
+            fprintf(out, ", mean v_rest %.3g m/s\n", v_rest);
         }
         H5Fclose(file);
     }

@@ -39,6 +39,29 @@ for g in ${groups:-""}; do
     bodies=$((bodies + n))
 done
 
+# the stage's /summary means over all particle bodies: mean_pbcp and mean_bonded_interface against the runs' rows,
+# on the impact stage run again with eps_c 0.05 (bonds in 3 ns: PBCP and bonded interface between 0 and 1)
+cp -r "$T/run" "$T/means"
+sed 's/^\[impact\]$/[impact]\neps_c = 0.05/' "$T/case.ini" >"$T/means.ini"
+if ! "$bin" run "$T/means.ini" -o "$T/means" --stages impact -q >"$T/means_out" 2>&1; then
+    echo "FAIL impact_summary_means: the impact stage with eps_c 0.05 failed: $(tail -c 300 "$T/means_out")"
+else
+    for field in pbcp bonded_interface; do
+        for g in $groups; do
+            values "$T/means/impact.h5" "$g/summary/substrate" >"$T/sub"
+            values "$T/means/impact.h5" "$g/summary/$field" >"$T/col"
+            paste "$T/sub" "$T/col"
+        done >"$T/rows_$field"
+        mean=$(h5dump -m '%.17g' -a "/summary/mean_$field" "$T/means/impact.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+        if awk -v m="$mean" '$1 == 0 { s += $2; n++; some += $2 > 0 }
+            END { exit !(n == 4 && some > 0 && m != "" && (s / n - m) ^ 2 <= 1e-24) }' "$T/rows_$field"; then
+            echo "PASS impact_summary_mean_$field"
+        else
+            echo "FAIL impact_summary_mean_$field: /summary mean_$field '$mean' is not the mean of the 4 particles' rows, not all 0 ($(tr '\n\t' '; ' <"$T/rows_$field"))"
+        fi
+    done
+fi
+
 python3 - "$page" "$bodies" >"$T/parsed" 2>&1 <<'PY'
 import os, sys
 from html.parser import HTMLParser
