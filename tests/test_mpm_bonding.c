@@ -106,16 +106,25 @@ static void test_strain_preheated_bonds_at_775(void)
     bonds_hot_only_with(strain_10_cells, strain_10_cells_no_preheat, "bonding_preheat = none", 775.0);
 }
 
-/* bonding_preheat_exponent = auto: n = 0.5 with the strain model, 1 with the energy model (its v_crit grows as
- * G_c^0.54: docs/physics.md "Bonding of a heated particle"); a value given is kept. */
-static double exponent_of(const char *impact_lines)
+/* A setting of [impact] as the case reader resolves it, for a 14 um set-up with impact_lines (NAN if refused). */
+enum setting { PREHEAT_EXPONENT, EPS_C };
+static double setting_of(enum setting which, const char *impact_lines)
 {
     struct impact_fixture f;
     char ini[320];
     snprintf(ini, sizeof ini, "[impact]\n%s\ndiameter = 14e-6\n[material.aluminium]\n", impact_lines);
-    double n = impact_fixture_open(&f, ini, NULL) == SC_OK ? f.cfg.bonding_preheat_exponent : NAN;
+    double value = NAN;
+    if (impact_fixture_open(&f, ini, NULL) == SC_OK)
+        value = which == EPS_C ? f.cfg.eps_c : f.cfg.bonding_preheat_exponent;
     impact_fixture_close(&f);
-    return n;
+    return value;
+}
+
+/* bonding_preheat_exponent = auto: n = 0.5 with the strain model, 1 with the energy model (its v_crit grows as
+ * G_c^0.54: docs/physics.md "Bonding of a heated particle"); a value given is kept. */
+static double exponent_of(const char *impact_lines)
+{
+    return setting_of(PREHEAT_EXPONENT, impact_lines);
 }
 
 static void test_preheat_exponent_auto(void)
@@ -142,12 +151,7 @@ static double calibrated_eps_c(const char *path)
 
 static double eps_c_of(const char *impact_lines)
 {
-    struct impact_fixture f;
-    char ini[320];
-    snprintf(ini, sizeof ini, "[impact]\n%s\ndiameter = 14e-6\n[material.aluminium]\n", impact_lines);
-    double eps_c = impact_fixture_open(&f, ini, NULL) == SC_OK ? f.cfg.eps_c : NAN;
-    impact_fixture_close(&f);
-    return eps_c;
+    return setting_of(EPS_C, impact_lines);
 }
 
 /* eps_c = auto (the default) is the calibration of the case's heat transport, the very value the calibration
