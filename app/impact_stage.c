@@ -410,7 +410,7 @@ static void log_summary(struct impact_run *run)
         double v_rest = judged_or(run->solver, b, d->body[b].v_rest);
         char words[64];
         const struct mpm_body_diagnostics *x = &d->body[b];
-        char interface[96] = "bonded interface not counted on the GPU";
+        char interface[96] = "bonded interface not counted (the GPU failed to count it)";
         if (x->interface_nodes >= 0)
             snprintf(interface, sizeof interface,
                      "bonded at %lld of the %lld nodes where it meets a body now (%.1f %%)", (long long)x->bonded_nodes,

@@ -124,10 +124,9 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     int64_t *nodes = calloc(2 * (size_t)nb, sizeof *nodes);
     if (!sums || !nodes) /* it returns the diagnostics, not a status */
         SC_DIE_OOM((size_t)nb * (sizeof *sums + 2 * sizeof *nodes), "the diagnostics of the bodies");
-    /* the grid's contact state lives on the device with [run] device = gpu (the host copy is stale): -1, unknown */
+    /* with [run] device = gpu the grid's contact state lives on the device (the host's grid is not filled) */
     if (s->gpu)
-        for (int b = 0; b < 2 * nb; b++)
-            nodes[b] = -1;
+        mpm_gpu_count_interface(s, nodes, nodes + nb);
     else
         mpm_contact_interface_nodes(s, nodes, nodes + nb);
     for (int b = 0; b < nb; b++)

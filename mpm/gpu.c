@@ -124,6 +124,17 @@ int mpm_gpu_sync(const struct mpm_solver *s)
     return SC_OK;
 }
 
+/* The bodies' interface counts (mpm_contact_interface_nodes) from the device's grid: the host's is not filled on
+ * the GPU.  A device that fails here gives -1 each (not counted) with a warning; the next step reports the fault. */
+void mpm_gpu_count_interface(const struct mpm_solver *s, int64_t *interface, int64_t *bonded)
+{
+    if (mpm_gpu_interface_nodes(s->gpu, interface, bonded) == 0)
+        return;
+    log_warn("impact: counting the interface nodes on the GPU: %s", mpm_gpu_message());
+    for (int b = 0; b < s->cfg.body_count; b++)
+        interface[b] = bonded[b] = -1;
+}
+
 /* The time step of Section 3.4 (choose_time_step of solver.c), from the speeds the last device step found, or from
  * the host's points after set-up or a checkpoint (then up to date). */
 static void gpu_time_step(struct mpm_solver *s)

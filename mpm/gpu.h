@@ -87,6 +87,9 @@ int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *p);
 int mpm_gpu_host_stale(const struct mpm_gpu *g);
 /* One step of length dt on the device (thesis Section 3.4, steps 1-12, as mpm_step). */
 int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_step_out *out);
+/* Each body's interface nodes after the last step and those bonded by Eq. 4.7 (mpm_contact_interface_nodes of
+ * contact.c, on the device's grid); 0 each before the first step.  interface and bonded have `bodies` entries. */
+int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded);
 /* The device's name and memory, for the log. */
 const char *mpm_gpu_name(const struct mpm_gpu *g);
 /* The reason of the last failure. */

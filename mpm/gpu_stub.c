@@ -41,6 +41,11 @@ int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_step_out *o
     (void)g, (void)dt, (void)out;
     return -1;
 }
+int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded)
+{
+    (void)g, (void)interface, (void)bonded;
+    return -1;
+}
 const char *mpm_gpu_name(const struct mpm_gpu *g)
 {
     (void)g;

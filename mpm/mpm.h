@@ -185,7 +185,7 @@ struct mpm_body_diagnostics {
     /* the nodes where it meets another body now (one count per pair at a node) and, of those, the nodes where the
      * pair is bonded by Eq. 4.7 (the mean of both bodies' nodal D_bond at least 1): its bonded interface; PBCP counts
      * its own points whose D_bond ever reached 1, so a particle that has left keeps its PBCP and bonds at no node */
-    int64_t interface_nodes, bonded_nodes; /* -1: not counted ([run] device = gpu) */
+    int64_t interface_nodes, bonded_nodes; /* -1: not counted (the GPU failed to count them) */
     double bonded_interface;               /* bonded_nodes / interface_nodes (0 when it meets nothing, NaN: -1) */
 };
 struct mpm_diagnostics {

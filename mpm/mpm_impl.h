@@ -460,5 +460,7 @@ void mpm_gpu_detach(struct mpm_solver *s);
 int mpm_gpu_reload(struct mpm_solver *s);
 int mpm_gpu_sync(const struct mpm_solver *s);
 int mpm_gpu_step(struct mpm_solver *s);
+/* mpm_contact_interface_nodes on the device's grid; -1 each when the device fails. */
+void mpm_gpu_count_interface(const struct mpm_solver *s, int64_t *interface, int64_t *bonded);
 
 #endif

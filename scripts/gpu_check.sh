@@ -94,6 +94,11 @@ compare() {
 }
 
 verdicts() { dataset "$1/impact.h5" /summary/verdict | tr '\n' ' '; }
+# last_row_sum DIR FIELD: the sum over the bodies of the last row of /series/FIELD
+last_row_sum() {
+    nb=$(dataset "$1/impact.h5" /summary/verdict | wc -l)
+    dataset "$1/impact.h5" "/series/$2" | tail -n "$nb" | awk '{ s += $1 } END { printf "%d", s }'
+}
 
 # 0. compute-sanitizer's memcheck on a tiny impact: out-of-bounds or misaligned accesses, leaks on the device
 if want 0 && [ "$gpu" = gpu ] && command -v compute-sanitizer > /dev/null 2>&1; then
@@ -131,6 +136,17 @@ if want 1; then
     compare small von_mises 1e-3 max
     compare small eps_p 1e-3 1
     compare small D_bond 1e-3 1
+    # the interface nodes of the last series row, all bodies (the GPU counts them on its grid): the runs separate
+    # from round-off, so within 5 % + 2 nodes (a first guess, as the fields' tolerances), and some must be counted
+    ci=$(last_row_sum "$work/small.cpu" interface_nodes) gi=$(last_row_sum "$work/small.gpu" interface_nodes)
+    cb=$(last_row_sum "$work/small.cpu" bonded_nodes) gb=$(last_row_sum "$work/small.gpu" bonded_nodes)
+    if awk -v c="$ci" -v g="$gi" -v cb="$cb" -v gb="$gb" 'function near(a, b) { d = a - b; if (d < 0) d = -d; return d <= 0.05 * a + 2 }
+        BEGIN { exit !(c > 0 && g >= 0 && gb >= 0 && near(c, g) && near(cb, gb)) }'; then
+        echo "| interface | PASS   | cpu $cb of $ci nodes bonded, gpu $gb of $gi |"
+    else
+        echo "| interface | FAIL   | cpu $cb of $ci nodes bonded, gpu $gb of $gi (within 5 % + 2, cpu > 0) |"
+        failed=1
+    fi
     cv=$(verdicts "$work/small.cpu") gv=$(verdicts "$work/small.gpu")
     if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
     # run to run: the GPU twice, the same bits (h5diff: every dataset, the timing attributes aside)
@@ -145,17 +161,17 @@ fi
 # settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
 # runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree
 echo
-echo "| speed | device | verdict | settled at ns | PBCP      | v_rest m/s |"
-echo "| ----- | ------ | ------- | ------------- | --------- | ---------- |"
-summary() { # DIR: verdict t_settled pbcp v_rest of body 1
-    for f in verdict t_settled pbcp v_rest; do dataset "$1/impact.h5" /summary/$f | sed -n 2p; done | tr '\n' ' '; }
+echo "| speed | device | verdict | settled at ns | PBCP      | v_rest m/s | bonded interface |"
+echo "| ----- | ------ | ------- | ------------- | --------- | ---------- | ---------------- |"
+summary() { # DIR: verdict t_settled pbcp v_rest bonded_interface of body 1
+    for f in verdict t_settled pbcp v_rest bonded_interface; do dataset "$1/impact.h5" /summary/$f | sed -n 2p; done | tr '\n' ' '; }
 for speed in 600 950; do
     impact_case "settle$speed" 1e-6 0.5e-6 100e-9 "diameter = 8e-6" "velocity = $speed" \
         "substrate_diameter = 20e-6" "substrate_height = 8e-6" "bonding = energy"
     run "settle$speed" cpu 0 && run "settle$speed" gpu 1 || { echo "FAIL gpu_check: settle$speed did not run"; exit 1; }
     for device in cpu gpu; do
         set -- $(summary "$work/settle$speed.$device")
-        printf '| %5s | %-6s | %7s | %13.2f | %9.4f | %10.3f |\n' "$speed" "$device" "$1" "$(awk -v t="$2" 'BEGIN { print t * 1e9 }')" "$3" "$4"
+        printf '| %5s | %-6s | %7s | %13.2f | %9.4f | %10.3f | %16.4f |\n' "$speed" "$device" "$1" "$(awk -v t="$2" 'BEGIN { print t * 1e9 }')" "$3" "$4" "$5"
         eval "verdict_$device=$1"
     done
     [ "$verdict_cpu" = "$verdict_gpu" ] || { echo "| verdict $speed m/s: FAIL, cpu $verdict_cpu gpu $verdict_gpu |"; failed=1; }

@@ -70,6 +70,7 @@ struct mpm_gpu {
     int key_bits;
     int64_t removed_total;
     int host_stale;
+    int grid_stepped; /* the grid holds a step's state (contact flags, masses): a step ran since the last upload */
     /* points, id order */
     double *x, *x_next, *v, *mass, *volume0, *volume, *d_bond, *plastic_work, *normal;
     struct mpm_point_state *state;
@@ -626,6 +627,30 @@ __global__ static void velocity_kernel(struct mpm_gpu g)
     g.contact[I] = h ? g.contact[I] : 0;
 }
 
+/* Body `body`'s interface nodes now (count_interface_pairs of contact.c, after a step): at each node, the other
+ * bodies it meets (both heavy, a normal, both flagged in g.contact: in contact, bonded or touching), and of those
+ * the pairs bonded by Eq. 4.7.  Summed over the nodes by a CUB reduction of integers: the CPU's counts exactly, given
+ * the same grid state. */
+__global__ static void interface_kernel(struct mpm_gpu g, int body)
+{
+    size_t node = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (node >= g.nodes)
+        return;
+    int meets = 0, bonded = 0;
+    size_t Ia = (size_t)body * g.nodes + node;
+    if (heavy(&g, Ia) && g.contact[Ia])
+        for (int other = 0; other < g.s.bodies; other++) {
+            size_t Ib = (size_t)other * g.nodes + node;
+            double n[3];
+            if (other == body || !heavy(&g, Ib) || !g.contact[Ib] || contact_normal(&g, Ia, Ib, n) != 0)
+                continue;
+            meets++;
+            bonded += pair_bonded(&g, Ia, Ib);
+        }
+    g.node_contacts[node] = meets;
+    g.node_bonds[node] = bonded;
+}
+
 /* ---- points ---- */
 
 __device__ static size_t stencil_entry(const struct mpm_gpu *g, size_t q, int a, int b, int c)
@@ -1040,6 +1065,7 @@ extern "C" int mpm_gpu_upload(struct mpm_gpu *g, const struct mpm_gpu_points *p)
         active += (p->flags[q] & GPU_POINT_ACTIVE) != 0;
     g->removed_total = (int64_t)n - active;
     g->host_stale = 0;
+    g->grid_stepped = 0;
     return 0;
 }
 
@@ -1133,5 +1159,24 @@ extern "C" int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_
     CU(cudaGetLastError());
     TRY(reduce(g, out));
     g->removed_total += out->removed;
+    g->grid_stepped = 1;
+    return 0;
+}
+
+extern "C" int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded)
+{
+    size_t bytes = g->temp_bytes;
+    int nodes = (int)g->nodes, counts[2];
+    for (int b = 0; b < g->s.bodies; b++) {
+        interface[b] = bonded[b] = 0;
+        if (!g->grid_stepped || g->s.bodies < 2) /* no step yet: the CPU's grid is empty then */
+            continue;
+        interface_kernel<<<blocks_for(g->nodes), THREADS>>>(*g, b);
+        CU(cudaGetLastError());
+        CU(cub::DeviceReduce::Sum(g->temp, bytes, g->node_contacts, g->result_int + 1, nodes));
+        CU(cub::DeviceReduce::Sum(g->temp, bytes, g->node_bonds, g->result_int + 2, nodes));
+        CU(cudaMemcpy(counts, g->result_int + 1, sizeof counts, cudaMemcpyDeviceToHost));
+        interface[b] = counts[0], bonded[b] = counts[1];
+    }
     return 0;
 }
