@@ -88,6 +88,10 @@ int mpm_gpu_attach(struct mpm_solver *s)
         setup.inside_to[d] = g->inside_to[d];
         setup.n[d] = g->n[d];
     }
+    for (int d = 0; d < 2; d++) {
+        setup.mirror[d] = cfg->mirror[d];
+        setup.mirror_plane[d] = g->mirror_plane[d];
+    }
     int status = check_id_order(s);
     if (status == SC_OK && mpm_gpu_open(&setup, &s->gpu) != 0)
         status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "[run] device = gpu: %s", mpm_gpu_message());

@@ -41,6 +41,8 @@ struct mpm_gpu_setup {
     /* numerics (mpm_config) */
     double flip, friction, contact_gap, bond_gap, substrate_top, substrate_bottom;
     int contact, contact_scheme, contact_approach, bond_growth, rigid_wall, fixed_bottom, bonding;
+    int mirror[2];        /* [impact] symmetry: the node planes x = 0 (mirror[0]) and y = 0 are mirror planes */
+    long mirror_plane[2]; /* their node indices (mpm_grid mirror_plane) */
     double Gc, Gc_rate, eps_c, eps_rate_c, bonding_floor;
     struct mpm_bulk_viscosity viscosity;
     const struct mpm_material *material;            /* materials */

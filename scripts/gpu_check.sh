@@ -158,6 +158,22 @@ if want 1; then
         failed=1
 fi
 
+# the same impact as a quarter (symmetry = quarter: the mirror planes x = 0 and y = 0 on both devices)
+echo
+echo "The same impact with symmetry = quarter:"
+echo
+impact_case smallq 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
+    "substrate_height = 8e-6" "bonding = energy" "symmetry = quarter"
+run smallq cpu 0 && run smallq gpu 1 || { echo "FAIL gpu_check: the quarter impact did not run"; exit 1; }
+echo "| field     | result | points    | max diff   | tolerance  |"
+echo "| --------- | ------ | --------- | ---------- | ---------- |"
+compare smallq x 1e-3 1e-6
+compare smallq v 1e-3 810
+compare smallq eps_p 1e-3 1
+compare smallq D_bond 1e-3 1
+cv=$(verdicts "$work/smallq.cpu") gv=$(verdicts "$work/smallq.gpu")
+if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
+
 # settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
 # runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree
 echo
@@ -203,6 +219,10 @@ if want 2; then
     # the thesis-grade case (cases/tang2021_single_14um.ini: grid 0.7 um, spacing 0.175 um), its first 5 of 60 ns (a twelfth)
     impact_case thesis 0.7e-6 0.175e-6 5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6" "bonding = energy"
     run thesis gpu 1 && row "thesis 14 um, 0.7/0.175, 5 of 60 ns" thesis gpu "$m1_cpu_pups"
+    # the same as a quarter (symmetry = quarter, as vcrit and calibrate run it): a quarter of the points
+    impact_case thesisq 0.7e-6 0.175e-6 5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6" \
+        "bonding = energy" "symmetry = quarter"
+    run thesisq gpu 1 && row "thesis 14 um quarter, 5 of 60 ns" thesisq gpu "$m1_cpu_pups"
     echo
     echo "GPU/CPU: the GPU's PUPS over the CPU's on the same case (small) or the 1e6-point case (the larger ones), CPU on all $(nproc) cores; $(($(date +%s) - start)) s in all"
 fi

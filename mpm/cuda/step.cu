@@ -547,8 +547,22 @@ __global__ static void body_velocity_kernel(struct mpm_gpu g)
     for (int block = 0; block < BODY_BLOCKS; block++)
         for (int c = 0; c < 4; c++)
             total[c] += g.body_partial[4 * ((size_t)body * BODY_BLOCKS + block) + c];
-    for (int d = 0; d < 3; d++)
-        g.body_velocity[3 * body + d] = total[0] > 0.0 ? total[1 + d] / total[0] : 0.0;
+    for (int d = 0; d < 3; d++) /* the whole body's: none across a mirror plane */
+        g.body_velocity[3 * body + d] = total[0] > 0.0 && !(d < 2 && g.s.mirror[d]) ? total[1 + d] / total[0] : 0.0;
+}
+
+/* [impact] symmetry (contact.c mirror_node): at a node on a mirror plane no vector field has a component across
+ * it (the mirror images' cancel); the rest, halved, gives the whole set-up's velocities, normals and impulses. */
+__device__ static void mirror_node(const struct mpm_gpu *g, size_t node, double *const *fields, int count)
+{
+    long at[2] = {(long)(node % g->row), (long)(node / g->row % (size_t)g->s.n[1])};
+    for (int d = 0; d < 2; d++) {
+        if (!g->s.mirror[d] || at[d] != g->s.mirror_plane[d])
+            continue;
+        for (int l = 0; l < g->s.bodies; l++)
+            for (int f = 0; f < count; f++)
+                fields[f][3 * ((size_t)l * g->nodes + node) + (size_t)d] = 0.0;
+    }
 }
 
 /* Steps 3-6 at each node (nodal_update and mpm_contact_nodal_update of contact.c). */
@@ -558,6 +572,10 @@ __global__ static void nodal_kernel(struct mpm_gpu g, double dt)
     if (node >= g.nodes)
         return;
     int k = (int)(node / g.plane);
+    if (g.s.mirror[0] || g.s.mirror[1]) {
+        double *fields[3] = {g.momentum, g.force, g.gradient};
+        mirror_node(&g, node, fields, 3);
+    }
     for (int l = 0; l < g.s.bodies; l++) { /* Eq. 3.28 */
         size_t I = (size_t)l * g.nodes + node;
         int h = heavy(&g, I);
@@ -597,6 +615,8 @@ __global__ static void correct_kernel(struct mpm_gpu g)
         if (!heavy(&g, I))
             mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
     }
+    if (g.s.mirror[0] || g.s.mirror[1])
+        mirror_node(&g, node, &mom, 1);
     if (g.s.rigid_wall) {
         for (int l = 0; l < g.s.bodies; l++) {
             size_t I = (size_t)l * g.nodes + node;
