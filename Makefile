@@ -189,8 +189,8 @@ run: deps
 
 # VALIDATE_ONLY=PART runs one part of scripts/validate.sh: table1, bonding, fuzz, calibrate_coarse,
 # calibrate_medium, calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse,
-# calibrate_vcrit_fine, calibrate_vcrit_conduction, vcrit_al, vcrit_al_fine, interface_strain
-# (docs/validation.md).
+# calibrate_vcrit_fine, calibrate_vcrit_conduction, vcrit_al, vcrit_al_fine, interface_strain,
+# vcrit_al_temperature, two_particles (docs/validation.md).
 validate: deps
 	$(MAKE) all
 	scripts/validate.sh $(BUILD)

@@ -47,8 +47,15 @@
 #      calibrate_vcrit_conduction, into runs/validate_calibrate_vcrit_conduction, about 30 minutes): fails as part 6,
 #      against the value eps_c = auto takes with conduction = on; copies the searches to
 #      cases/calibrate_vcrit_al_conduction.csv and .png.
+#  12. Two-particle impacts (Tang Section 5.2.2, Table 5.5): the thesis's four cases (cases/tang2021_two_particles*.ini:
+#      two 14 um particles at 810 m/s, the second offset by 0, 2.5, 5 and 7.5 um) at 10 cells per diameter with the
+#      shipped calibration (strain model; 1.4/0.467 um, a quarter at offset 0, a half with an offset; part
+#      two_particles, into runs/validate_two_particles, about 3 minutes).  Prints each particle's verdict, PBCP and
+#      v_rest and the overall PBCP beside Table 5.5; fails unless every verdict settles and the verdicts are the
+#      thesis's: the first particle bonded at every offset, the second bonded at 0 and 2.5 um and rebounded at
+#      7.5 um, which the model's is not (docs/validation.md "Two-particle impacts").
 # VALIDATE_ONLY=table1|bonding|fuzz|calibrate_coarse|...|vcrit_fine|calibrate_vcrit[_coarse|_fine|_conduction]|
-# vcrit_al[_fine]|interface_strain|vcrit_al_temperature runs one.
+# vcrit_al[_fine]|interface_strain|vcrit_al_temperature|two_particles runs one.
 set -eu
 build=${1:-build}
 bin="$build/spraycoat"
@@ -413,6 +420,61 @@ validate_interface_strain() {
     fi
 }
 
+# dataset FILE PATH: a dataset's values, one a line
+dataset() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2>/dev/null | awk '/DATA \{/ { on = 1; next } /\}/ { on = 0 } on' |
+    tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+][-0-9.eEinfa+]*\) *$/\1/p'; }
+
+# The thesis's two-particle case at OFFSET (um) at 10 cells per diameter with the shipped calibration: the keys'
+# strain model (its bonding line dropped), a quarter on the axis, a half with the offset along x, 150 ns at most
+# (the run ends once every verdict settled), the bodies file read from cases/.
+two_particles_case() {
+    name=tang2021_two_particles_offset$1
+    [ "$1" = 0 ] && name=tang2021_two_particles
+    symmetry=half
+    [ "$1" = 0 ] && symmetry=quarter
+    sed -e 's/^grid = .*/grid = 1.4e-6/' -e 's/^spacing = .*/spacing = 0.4667e-6/' -e '/^bonding = /d' \
+        -e "s/^t_end = .*/t_end = 150e-9\nsymmetry = $symmetry/" -e "s|^bodies = |bodies = $PWD/cases/|" "cases/$name.ini"
+}
+
+validate_two_particles() {
+    dir=runs/validate_two_particles
+    mkdir -p "$dir"
+    # Table 5.5 by offset: overall PBCP (%), the top and the bottom particle's filtered v_z (m/s)
+    set -- "0 5.73 2.02 1.24" "2.5 5.47 1.65 0.92" "5 4.71 6.06 0.94" "7.5 3.91 16.24 -0.53"
+    echo "| offset | first: verdict, PBCP, v_rest | second: verdict, PBCP, v_rest | overall PBCP | Table 5.5: PBCP, v_z second, first |"
+    echo "| ------ | ---------------------------- | ----------------------------- | ------------ | ----------------------------------- |"
+    for row in "$@"; do
+        set -- $row
+        offset=$1
+        two_particles_case "$offset" >"$dir/offset$offset.ini"
+        "$bin" impact "$dir/offset$offset.ini" -o "$dir/offset$offset" >"$dir/offset$offset.log" 2>&1 || {
+            fail_part "two_particles: offset $offset um failed: $(tail -n 2 "$dir/offset$offset.log")"
+            return 0
+        }
+        h5="$dir/offset$offset/impact.h5"
+        verdicts=$(dataset "$h5" /summary/verdict | tr '\n' ' ')
+        pbcp=$(dataset "$h5" /summary/pbcp | tr '\n' ' ')
+        vrest=$(dataset "$h5" /summary/v_rest | tr '\n' ' ')
+        overall=$( (dataset "$h5" /series/bonded_points | tail -n 3; dataset "$h5" /series/contacted_points | tail -n 3) |
+            awk '{ v[NR] = $1 } END { printf "%.1f", 100 * (v[1] + v[2] + v[3]) / (v[4] + v[5] + v[6]) }')
+        echo "$verdicts|$pbcp|$vrest|$overall|$row" | awk -F'|' '{ split($1, v, " "); split($2, p, " "); split($3, r, " ")
+            split($5, t, " "); name[0] = "rebounded"; name[1] = "bonded"; name[2] = "unsettled"
+            printf "| %6s | %s, %.1f %%, %.2f m/s | %s, %.1f %%, %.2f m/s | %10s %% | %s %%, %s, %s m/s |\n", t[1],
+                name[v[2]], 100 * p[2], r[2], name[v[3]], 100 * p[3], r[3], $4, t[2], t[3], t[4] }'
+        set -- $verdicts
+        want_top=1
+        [ "$offset" = 7.5 ] && want_top=0
+        if [ "$2" = 2 ] || [ "$3" = 2 ]; then
+            fail_part "two_particles: offset $offset um: a verdict did not settle in 150 ns"
+        fi
+        [ "$2" = 1 ] || fail_part "two_particles: offset $offset um: the first particle is not bonded (Table 5.5: bonded)"
+        if [ "$offset" != 5 ] && [ "$2" != 2 ] && [ "$3" != 2 ] && [ "$3" != "$want_top" ]; then
+            fail_part "two_particles: offset $offset um: the second particle's verdict is $3, Table 5.5's $want_top" \
+                "(1 bonded, 0 rebounded)"
+        fi
+    done
+}
+
 case $only in
     all)
         validate_table1; validate_bonding; validate_fuzz
@@ -421,7 +483,7 @@ case $only in
         validate_calibrate_vcrit calibrate_vcrit_al_conduction calibrate_vcrit_conduction
         validate_vcrit coarse
         validate_vcrit_al; validate_vcrit_al vcrit_al_15cells vcrit_al_fine; validate_interface_strain
-        validate_vcrit_al_temperature ;;
+        validate_vcrit_al_temperature; validate_two_particles ;;
     table1) validate_table1 ;;
     bonding) validate_bonding ;;
     fuzz) validate_fuzz ;;
@@ -431,14 +493,15 @@ case $only in
     vcrit_al_fine) validate_vcrit_al vcrit_al_15cells vcrit_al_fine ;;
     interface_strain) validate_interface_strain ;;
     vcrit_al_temperature) validate_vcrit_al_temperature ;;
+    two_particles) validate_two_particles ;;
     calibrate_vcrit) validate_calibrate_vcrit ;;
     calibrate_vcrit_conduction) validate_calibrate_vcrit calibrate_vcrit_al_conduction calibrate_vcrit_conduction ;;
     calibrate_vcrit_coarse | calibrate_vcrit_fine) validate_calibrate_vcrit_resolution "${only#calibrate_vcrit_}" ;;
     *)
         echo "validate: VALIDATE_ONLY must be table1, bonding, fuzz, calibrate_coarse, calibrate_medium," \
             "calibrate_fine, vcrit_coarse, vcrit_medium, vcrit_fine, calibrate_vcrit, calibrate_vcrit_coarse," \
-            "calibrate_vcrit_fine, calibrate_vcrit_conduction, vcrit_al, vcrit_al_fine, interface_strain or" \
-            "vcrit_al_temperature, not '$only'" >&2
+            "calibrate_vcrit_fine, calibrate_vcrit_conduction, vcrit_al, vcrit_al_fine, interface_strain," \
+            "vcrit_al_temperature or two_particles, not '$only'" >&2
         exit 2 ;;
 esac
 if [ "$failed" -ne 0 ]; then
