@@ -228,14 +228,25 @@ void mpm_conduction_exchange(struct mpm_solver *s, double dt)
     exchange(s, dt);
 }
 
-void mpm_conduction_advance(struct mpm_solver *s, double t_before, double t_after)
+int mpm_conduction_exchanges(const struct mpm_solver *s, double t_before, double t_after)
 {
     if (!s->conduction)
-        return;
+        return 0;
     double interval = s->conduction->interval;
-    double crossed = floor(t_after / interval) - floor(t_before / interval);
-    if (crossed > 0.0) /* the points do not move between the exchanges of one step: one cell list */
+    return (int)(floor(t_after / interval) - floor(t_before / interval));
+}
+
+void mpm_conduction_kernel(const struct mpm_solver *s, double *eps2, double *laplacian)
+{
+    *eps2 = s->conduction ? s->conduction->eps2 : 0.0;
+    *laplacian = s->conduction ? s->conduction->laplacian : 0.0;
+}
+
+void mpm_conduction_advance(struct mpm_solver *s, double t_before, double t_after)
+{
+    int crossed = mpm_conduction_exchanges(s, t_before, t_after);
+    if (crossed > 0) /* the points do not move between the exchanges of one step: one cell list */
         build_cell_list(s->conduction, &s->points);
-    for (double k = 0; k < crossed; k++)
-        exchange(s, interval);
+    for (int k = 0; k < crossed; k++)
+        exchange(s, s->conduction->interval);
 }

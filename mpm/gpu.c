@@ -92,6 +92,7 @@ int mpm_gpu_attach(struct mpm_solver *s)
         setup.mirror[d] = cfg->mirror[d];
         setup.mirror_plane[d] = g->mirror_plane[d];
     }
+    mpm_conduction_kernel(s, &setup.conduction_eps2, &setup.conduction_laplacian);
     int status = check_id_order(s);
     if (status == SC_OK && mpm_gpu_open(&setup, &s->gpu) != 0)
         status = sc_error_set(SC_EINPUT, __FILE__, __LINE__, "[run] device = gpu: %s", mpm_gpu_message());
@@ -175,6 +176,7 @@ int mpm_gpu_step(struct mpm_solver *s)
     s->energy_absorbed -= out.absorbed_work;
     s->contact_node_steps += out.contact_nodes;
     s->bonded_node_steps += out.bonded_nodes;
+    double t_before = s->t;
     s->t += s->dt;
     s->step++;
     s->point_updates += out.active;
@@ -187,6 +189,10 @@ int mpm_gpu_step(struct mpm_solver *s)
     s->energy_removed += out.removed_energy;
     s->vmax2 = out.vmax2;
     s->vmax2_known = 1;
+    int exchanges = mpm_conduction_exchanges(s, t_before, s->t); /* as mpm_step: after the removal */
+    if (exchanges > 0 && mpm_gpu_conduct(s->gpu, mpm_conduction_interval(s), exchanges) != 0)
+        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): the GPU's heat conduction failed: %s", (long long)s->step,
+                s->t, mpm_gpu_message());
     /* the series row and the snapshot of advance_clocks read the host's points */
     int due = s->t >= s->next_series * (1.0 - 1e-12) || s->t >= s->next_snapshot * (1.0 - 1e-12) ||
               s->t >= s->cfg.t_end * (1.0 - 1e-12);

@@ -43,6 +43,8 @@ struct mpm_gpu_setup {
     int contact, contact_scheme, contact_approach, bond_growth, rigid_wall, fixed_bottom, bonding;
     int mirror[2];        /* [impact] symmetry: the node planes x = 0 (mirror[0]) and y = 0 are mirror planes */
     long mirror_plane[2]; /* their node indices (mpm_grid mirror_plane) */
+    /* [impact] conduction = on (conduction.c): the kernel's squared radius (m^2) and 6 / M2 (1/m^5); 0 when off */
+    double conduction_eps2, conduction_laplacian;
     double Gc, Gc_rate, eps_c, eps_rate_c, bonding_floor;
     struct mpm_bulk_viscosity viscosity;
     const struct mpm_material *material;            /* materials */
@@ -89,6 +91,9 @@ int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *p);
 int mpm_gpu_host_stale(const struct mpm_gpu *g);
 /* One step of length dt on the device (thesis Section 3.4, steps 1-12, as mpm_step). */
 int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_step_out *out);
+/* `exchanges` heat exchanges of `interval` each among the points at their current positions (mpm_conduction_advance
+ * of conduction.c), after a step whose time crossed that many multiples of the interval. */
+int mpm_gpu_conduct(struct mpm_gpu *g, double interval, int exchanges);
 /* Each body's interface nodes after the last step and those bonded by Eq. 4.7 (mpm_contact_interface_nodes of
  * contact.c, on the device's grid); 0 each before the first step.  interface and bonded have `bodies` entries. */
 int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded);

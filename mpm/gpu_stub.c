@@ -41,6 +41,11 @@ int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_step_out *o
     (void)g, (void)dt, (void)out;
     return -1;
 }
+int mpm_gpu_conduct(struct mpm_gpu *g, double interval, int exchanges)
+{
+    (void)g, (void)interval, (void)exchanges;
+    return -1;
+}
 int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded)
 {
     (void)g, (void)interface, (void)bonded;

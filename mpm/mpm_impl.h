@@ -438,6 +438,10 @@ void mpm_conduction_free(struct mpm_solver *s);
 double mpm_conduction_interval(const struct mpm_solver *s);
 void mpm_conduction_exchange(struct mpm_solver *s, double dt);
 void mpm_conduction_advance(struct mpm_solver *s, double t_before, double t_after);
+/* How many exchanges a step from t_before to t_after makes (the multiples of the interval it crossed); the kernel's
+ * squared radius (m^2) and the Laplacian's factor 6 / M2 (1/m^5), for the GPU step. */
+int mpm_conduction_exchanges(const struct mpm_solver *s, double t_before, double t_after);
+void mpm_conduction_kernel(const struct mpm_solver *s, double *eps2, double *laplacian);
 
 /* verdict.c: the verdict state made from the series recorded so far (mpm_verdict_replay), judged again after
  * each new series row (mpm_verdict_record). */

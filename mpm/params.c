@@ -470,9 +470,6 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     SC_TRY(load_device(c, cfg));
     SC_TRY(load_transfer(c, cfg));
     cfg->conduction = case_is(c, "impact", "conduction", "on");
-    if (cfg->conduction && cfg->device == MPM_DEVICE_GPU)
-        return case_invalid(c, "impact", "conduction",
-                            "on is not in the GPU step; allowed: off with [run] device = gpu, or on with device = cpu");
     return load_symmetry(c, cfg);
 }
 

@@ -194,8 +194,6 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     SC_TRY(mpm_verdict_create(s));
     if (cfg->device == MPM_DEVICE_GPU && cfg->transfer == MPM_TRANSFER_APIC)
         SC_FAIL(SC_EINPUT, "impact: transfer = apic is not in the GPU step; use device = cpu or transfer = flip");
-    if (cfg->device == MPM_DEVICE_GPU && cfg->conduction)
-        SC_FAIL(SC_EINPUT, "impact: conduction = on is not in the GPU step; use device = cpu or conduction = off");
     if (cfg->device == MPM_DEVICE_GPU)
         SC_TRY(mpm_gpu_attach(s));
     return SC_OK;

@@ -1,8 +1,9 @@
 #!/bin/sh
 # The GPU step checked in one call on a machine with an NVIDIA GPU (sm_90: H100/H200; docs/gpu.md): builds with
 # make CUDA=1 (unless BUILD already holds a spraycoat built so), runs a small impact with --device cpu and --device
-# gpu and compares the last snapshot's fields and the verdicts, then times the GPU step at about 1e6 and 1e7 points
-# and on a fraction of the thesis-grade 14 um impact, and prints one table.  Written to finish in under 8 minutes
+# gpu and compares the last snapshot's fields and the verdicts (also as a quarter and with heat conduction), then
+# times the GPU step at about 1e6 and 1e7 points and on a fraction of the thesis-grade 14 um impact (whole and as a
+# quarter), and prints one table.  Written to finish in under 8 minutes
 # on an H200 (the CPU reference run, 2 threads of 16 cores, is the longest part: about a minute).
 #   usage: scripts/gpu_check.sh [BUILD]           (default build-cuda)
 # BUILD may be the kit of scripts/gpu_kit.sh (a folder with the binary, the HDF5 tools and lib/): on the lent device
@@ -173,6 +174,20 @@ compare smallq eps_p 1e-3 1
 compare smallq D_bond 1e-3 1
 cv=$(verdicts "$work/smallq.cpu") gv=$(verdicts "$work/smallq.gpu")
 if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
+
+# the same impact with heat conduction (conduction = on: heat_kernel on the device, conduction.c on the CPU)
+echo
+echo "The same impact with conduction = on:"
+echo
+impact_case smallc 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
+    "substrate_height = 8e-6" "bonding = energy" "conduction = on"
+run smallc cpu 0 && run smallc gpu 1 || { echo "FAIL gpu_check: the impact with conduction did not run"; exit 1; }
+echo "| field     | result | points    | max diff   | tolerance  |"
+echo "| --------- | ------ | --------- | ---------- | ---------- |"
+compare smallc x 1e-3 1e-6
+compare smallc v 1e-3 810
+compare smallc T 1 1
+compare smallc eps_p 1e-3 1
 
 # settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
 # runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree

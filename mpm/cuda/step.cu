@@ -827,6 +827,64 @@ __global__ static void remove_kernel(struct mpm_gpu g)
     g.point_c[q] = 0.5 * g.mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + g.state[q].energy;
 }
 
+/* ---- heat conduction (conduction.c): after a step whose time crossed multiples of the exchange interval ---- */
+
+/* eta(s) = (1 - s^2)^3 of conduction.c, of s^2 */
+__device__ static double pse_kernel(double r2_over_eps2)
+{
+    double u = 1.0 - r2_over_eps2;
+    return u > 0.0 ? u * u * u : 0.0;
+}
+
+/* Each active point's heat over dt into point_a (exchange of conduction.c): dt k (6 / M2) V0_q times the sum over
+ * the points o of its body within eps of V0_o (T_o - T_q) eta, from the cells of its layer that reach it (the cell
+ * edge is the grid's; eps = 2 spacings), in cell order, their points by id. */
+__global__ static void heat_kernel(struct mpm_gpu g, double dt)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    g.point_a[q] = 0.0;
+    if (!(g.flags[q] & GPU_POINT_ACTIVE))
+        return;
+    double eps2 = g.s.conduction_eps2, T = g.state[q].T, sum = 0.0;
+    int reach = (int)ceil(sqrt(eps2) * g.s.inv_h);
+    size_t layer = (size_t)g.body[q] * g.nodes, home = g.base[q];
+    int i[3] = {(int)(home % g.row), (int)(home / g.row % (size_t)g.s.n[1]), (int)(home / g.plane)};
+    const double *x = g.x + 3 * q;
+    for (int dz = -reach; dz <= reach; dz++)
+        for (int dy = -reach; dy <= reach; dy++)
+            for (int dx = -reach; dx <= reach; dx++) {
+                int j[3] = {i[0] + dx, i[1] + dy, i[2] + dz};
+                if (j[0] < 0 || j[1] < 0 || j[2] < 0 || j[0] >= g.s.n[0] || j[1] >= g.s.n[1] || j[2] >= g.s.n[2])
+                    continue;
+                size_t cell = layer + (size_t)j[0] + g.row * (size_t)j[1] + g.plane * (size_t)j[2];
+                uint32_t end = g.cell_end[cell];
+                for (uint32_t k = g.cell_start[cell]; k < end; k++) {
+                    size_t o = g.order_sorted[k];
+                    const double *y = g.x + 3 * o;
+                    double r2 =
+                        (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) + (y[2] - x[2]) * (y[2] - x[2]);
+                    if (o != q && r2 < eps2)
+                        sum += g.volume0[o] * (g.state[o].T - T) * pse_kernel(r2 / eps2);
+                }
+            }
+    const struct mpm_material *m = &g.s.material[g.s.body_material[g.body[q]]];
+    g.point_a[q] = dt * m->conductivity * g.s.conduction_laplacian * g.volume0[q] * sum;
+}
+
+/* The heat into each active point's temperature and internal energy (after every point's sum: a sum must not see a
+ * neighbour already updated). */
+__global__ static void heat_apply_kernel(struct mpm_gpu g)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n || !(g.flags[q] & GPU_POINT_ACTIVE))
+        return;
+    const struct mpm_material *m = &g.s.material[g.s.body_material[g.body[q]]];
+    g.state[q].T += g.point_a[q] / (g.mass[q] * m->specific_heat);
+    g.state[q].energy += g.point_a[q];
+}
+
 /* ---- host side ---- */
 
 extern "C" int mpm_gpu_built(void)
@@ -1180,6 +1238,19 @@ extern "C" int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_
     TRY(reduce(g, out));
     g->removed_total += out->removed;
     g->grid_stepped = 1;
+    return 0;
+}
+
+extern "C" int mpm_gpu_conduct(struct mpm_gpu *g, double interval, int exchanges)
+{
+    TRY(bin_and_sort(g)); /* the cells of the points' positions after the step (the next step bins them again) */
+    unsigned pb = blocks_for(g->n);
+    for (int k = 0; k < exchanges; k++) {
+        heat_kernel<<<pb, THREADS>>>(*g, interval);
+        heat_apply_kernel<<<pb, THREADS>>>(*g);
+        CU(cudaGetLastError());
+    }
+    g->host_stale = 1;
     return 0;
 }
 
