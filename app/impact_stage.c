@@ -629,6 +629,7 @@ done:
 
 struct run_totals {
     int64_t bodies, bonded, unsettled;
+    int64_t uncalibrated; /* bodies off their bonding calibration's resolution; -1: none judged */
     double pbcp, v_rest, cor, bonded_interface;
 };
 
@@ -674,6 +675,11 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     total->v_rest += run.v_rest;
     total->cor += run.cor;
     total->bonded_interface += run.bonded_interface;
+    int64_t uncalibrated = -1; /* mpm/output.c: bodies judged off their calibration's resolution */
+    if (H5Aexists(summary, "uncalibrated_bodies") > 0)
+        SC_CHECK(status, h5_attr_read_int64(summary, "uncalibrated_bodies", &uncalibrated), done);
+    if (uncalibrated >= 0)
+        total->uncalibrated = (total->uncalibrated > 0 ? total->uncalibrated : 0) + uncalibrated;
 done:
     free(bonded);
     free(substrate);
@@ -732,6 +738,7 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_bonded_interface", total->bonded_interface / bodies), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "uncalibrated_bodies", total->uncalibrated), done);
     log_info("impact: %lld of %lld bodies bonded (%.1f %%), %lld unsettled, over %ld runs; mean PBCP %.2f %%, mean "
              "bonded interface %.2f %%, mean v_rest %.3g m/s",
              (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies,
@@ -755,7 +762,7 @@ static int gathered_contents(void *owner, hid_t file)
     double *means = malloc((size_t)g->runs * 4 * sizeof *means);
     if (!means)
         SC_FAIL_OOM((size_t)g->runs * 4 * sizeof *means, "the means of the runs");
-    struct run_totals total = {0};
+    struct run_totals total = {.uncalibrated = -1};
     int status;
     for (long r = 0; r < g->runs; r++)
         SC_CHECK(status, gather_run(file, g->run_dir, r, &total, means + 4 * r), done);

@@ -329,8 +329,17 @@ static void print_impact_runs(hid_t file, FILE *out)
     hid_t summary = H5Gopen2(file, "summary", H5P_DEFAULT);
     if (summary < 0)
         return;
-    static const char *const overall[] = {"runs",      "bodies",      "bonded",   "bonded_fraction",
-                                          "mean_pbcp", "mean_v_rest", "mean_cor", NULL};
+    static const char *const overall[] = {"runs",
+                                          "bodies",
+                                          "bonded",
+                                          "unsettled",
+                                          "bonded_fraction",
+                                          "mean_pbcp",
+                                          "mean_bonded_interface",
+                                          "mean_v_rest",
+                                          "mean_cor",
+                                          "uncalibrated_bodies",
+                                          NULL};
     fprintf(out, "summary (all runs):\n");
     for (int k = 0; overall[k]; k++)
         print_attribute(summary, overall[k], out);
@@ -604,7 +613,7 @@ void info_headline(const char *run_dir, FILE *out)
     hid_t summary;
     if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
         double fraction = NAN, pbcp = NAN, v_rest = NAN, interface = NAN;
-        int64_t bodies = 0, runs = 0, unsettled = -1;
+        int64_t bodies = 0, runs = 0, unsettled = -1, uncalibrated = -1;
         if (h5_exists(file, "summary") && (summary = H5Gopen2(file, "summary", H5P_DEFAULT)) >= 0) {
             h5_attr_read_double(summary, "bonded_fraction", &fraction);
             h5_attr_read_double(summary, "mean_pbcp", &pbcp);
@@ -613,6 +622,8 @@ void info_headline(const char *run_dir, FILE *out)
             h5_attr_read_int64(summary, "bodies", &bodies);
             h5_attr_read_int64(summary, "runs", &runs);
             h5_attr_read_int64(summary, "unsettled", &unsettled);
+            if (H5Aexists(summary, "uncalibrated_bodies") > 0)
+                h5_attr_read_int64(summary, "uncalibrated_bodies", &uncalibrated);
             H5Gclose(summary);
         }
         if (runs > 0) {
@@ -624,6 +635,11 @@ void info_headline(const char *run_dir, FILE *out)
             if (!isnan(interface)) /* PBCP counts points that ever bonded; this, nodes bonded at the end */
                 fprintf(out, ", mean bonded interface %.1f %%", 100.0 * interface);
             fprintf(out, ", mean v_rest %.3g m/s\n", v_rest);
+            if (uncalibrated > 0) /* mpm_bonding_calibrated_resolution: the verdict means nothing there */
+                fprintf(out,
+                        "        %lld of the %lld bodies ran at a resolution their bonding parameters were not "
+                        "calibrated at: their verdicts are not calibrated (docs/physics.md \"Bonding calibration\")\n",
+                        (long long)uncalibrated, (long long)bodies);
         }
         H5Fclose(file);
     }

@@ -128,6 +128,11 @@ int mpm_config_single_particle(struct mpm_config *cfg, double diameter, double s
  * (quarter).  Diagnostics, series and summaries are of the whole bodies; snapshots, checkpoints and stats/ of the
  * modelled part. */
 int mpm_mirror_copies(const struct mpm_config *cfg);
+/* Whether body b runs at the resolution the shipped parameters of the case's bonding model were calibrated at
+ * (docs/physics.md "Bonding calibration"): the strain model's at 10 cells across the body's diameter, the energy
+ * model's on 2.0 um cells, both with 3 points per cell edge.  1 yes, 0 no (its verdict is not calibrated), -1 not
+ * judged: the substrate, no bonding model, or parameters of the case's own. */
+int mpm_bonding_calibrated_resolution(const struct mpm_config *cfg, int b);
 
 /* Multiply every length and time of the set-up (grid, spacing, box_margin, bodies, t_end, settle_window,
  * series_every, snapshot_every) by `factor` > 0: the same impact at another scale, with the same cells per body. */

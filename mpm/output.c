@@ -186,6 +186,19 @@ done:
     return status;
 }
 
+/* How many bodies run off the resolution their shipped bonding parameters were calibrated at
+ * (mpm_bonding_calibrated_resolution): their verdicts are not calibrated; -1 when no body is judged. */
+static int64_t uncalibrated_bodies(const struct mpm_config *cfg)
+{
+    int64_t judged = 0, off = 0;
+    for (int b = 0; b < cfg->body_count; b++) {
+        int calibrated = mpm_bonding_calibrated_resolution(cfg, b);
+        judged += calibrated >= 0;
+        off += calibrated == 0;
+    }
+    return judged ? off : -1;
+}
+
 static int write_summary(struct mpm_solver *s, hid_t group)
 {
     int nb = s->cfg.body_count;
@@ -234,6 +247,8 @@ static int write_summary(struct mpm_solver *s, hid_t group)
     /* the thresholds the verdicts were judged with: a reader tells "at rest but too few bonds" from "left" */
     SC_CHECK(status, h5_attr_write_double(group, "pbcp_threshold", s->cfg.pbcp_threshold), done);
     SC_CHECK(status, h5_attr_write_double(group, "vrest_threshold", s->cfg.vrest_threshold), done);
+    /* the particles off the resolution their shipped bonding parameters belong to (-1: none judged) */
+    SC_CHECK(status, h5_attr_write_int64(group, "uncalibrated_bodies", uncalibrated_bodies(&s->cfg)), done);
 done:
     free(values), free(integers), free(verdict);
     return status;

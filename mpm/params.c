@@ -409,6 +409,45 @@ static double eps_c(const struct case_file *c)
     return case_is(c, "impact", "conduction", "on") ? EPS_C_CONDUCTION : EPS_C_ADIABATIC;
 }
 
+/* The default of an [impact] key of the table above, as a number. */
+static double impact_default(const char *key)
+{
+    for (const struct cfg_key *k = mpm_case_keys; k->key; k++)
+        if (strcmp(k->section, "impact") == 0 && strcmp(k->key, key) == 0)
+            return strtod(k->default_value, NULL);
+    return NAN;
+}
+
+/* Whether the case's bonding model runs with the shipped calibration's parameters (the keys' defaults, or the same
+ * numbers typed, as cases/vcrit_al.ini does). */
+static int shipped_bonding(const struct mpm_config *cfg)
+{
+    if (cfg->bonding == MPM_BONDING_STRAIN)
+        return (cfg->eps_c == EPS_C_ADIABATIC || cfg->eps_c == EPS_C_CONDUCTION) &&
+               cfg->eps_rate_c == impact_default("eps_rate_c");
+    if (cfg->bonding == MPM_BONDING_ENERGY)
+        return cfg->Gc == impact_default("Gc") && cfg->Gc_rate == impact_default("Gc_rate");
+    return 0;
+}
+
+/* docs/physics.md "Bonding calibration": the strain model's parameters were fitted at 10 cells across the particle
+ * with points a third of a cell apart (cases/calibrate_vcrit_al.ini, the grid scaled with the diameter), the energy
+ * model's on cells of 2.0 um with points 0.667 um apart for every size (cases/bonding_calibration_al.csv). */
+#define CALIBRATED_CELLS_ACROSS 10.0
+#define CALIBRATED_ENERGY_GRID  2.0e-6
+int mpm_bonding_calibrated_resolution(const struct mpm_config *cfg, int b)
+{
+    const struct mpm_body *body = &cfg->bodies[b];
+    if (body->substrate || !shipped_bonding(cfg))
+        return -1;
+    double per_cell = cfg->grid / cfg->spacing; /* points per cell edge: 3 in both calibrations */
+    if (fabs(per_cell - 3.0) > 0.1)
+        return 0;
+    if (cfg->bonding == MPM_BONDING_STRAIN)
+        return fabs(body->d / cfg->grid - CALIBRATED_CELLS_ACROSS) <= 0.05 * CALIBRATED_CELLS_ACROSS;
+    return fabs(cfg->grid - CALIBRATED_ENERGY_GRID) <= 0.01 * CALIBRATED_ENERGY_GRID;
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");

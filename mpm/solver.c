@@ -153,6 +153,21 @@ double mpm_boundary_spring_energy(const struct mpm_solver *s)
     return sum;
 }
 
+/* Each particle whose resolution is not the one the shipped bonding parameters belong to: its verdict is not
+ * calibrated (mpm_bonding_calibrated_resolution; the report and `spraycoat info` say it too). */
+static void warn_uncalibrated_resolution(const struct mpm_config *cfg)
+{
+    int strain = cfg->bonding == MPM_BONDING_STRAIN;
+    for (int b = 0; b < cfg->body_count; b++)
+        if (mpm_bonding_calibrated_resolution(cfg, b) == 0)
+            log_warn("impact: body %d (d = %.4g um) has %.3g grid cells across (DCell %.4g um, %.3g points per cell "
+                     "edge), but the %s model's shipped parameters belong to %s: its verdict is not calibrated here "
+                     "(docs/physics.md \"Bonding calibration\")",
+                     b, 1e6 * cfg->bodies[b].d, cfg->bodies[b].d / cfg->grid, 1e6 * cfg->grid, cfg->grid / cfg->spacing,
+                     strain ? "strain" : "energy",
+                     strain ? "10 cells across with 3 points per cell edge" : "2.0 um cells with 3 points per edge");
+}
+
 int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
 {
     struct mpm_solver *s = calloc(1, sizeof *s);
@@ -182,6 +197,7 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     body_constants(s);
     if (cfg->bonding == MPM_BONDING_STRAIN) /* eps_c = auto resolves by conduction: say which value runs */
         log_info("impact: strain bonding model, eps_c %.6g, eps_rate_c %.6g 1/s", cfg->eps_c, cfg->eps_rate_c);
+    warn_uncalibrated_resolution(cfg);
     SC_TRY(mpm_points_create(&s->cfg, &s->points));
     SC_TRY(mpm_grid_create(&s->cfg, &s->points, &s->grid));
     SC_TRY(mpm_list_boundary_points(s));

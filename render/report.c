@@ -186,6 +186,7 @@ struct report_data {
     struct body_row *rows;
     size_t row_count, row_capacity;
     double points_min, points_max, t_impact;
+    int64_t uncalibrated; /* particles off their bonding calibration's resolution (/summary attribute), -1 unknown */
     /* spray.h5 /deposition_efficiency (NAN: none) */
     double de, de_sprayed_mass, de_deposited_mass;
 };
@@ -361,6 +362,13 @@ static void read_impact(hid_t file, struct report_data *r)
 {
     r->impact = 1;
     r->points_min = INFINITY, r->points_max = -INFINITY, r->t_impact = NAN;
+    r->uncalibrated = -1;
+    hid_t summary = h5_exists(file, "summary") ? H5Gopen2(file, "summary", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (summary >= 0) {
+        if (H5Aexists(summary, "uncalibrated_bodies") > 0)
+            h5_attr_read_int64(summary, "uncalibrated_bodies", &r->uncalibrated);
+        H5Gclose(summary);
+    }
     if (h5_exists(file, "summary/diameter"))
         read_summary(file, -1, r);
     else
@@ -588,6 +596,11 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         if (r->points_max >= r->points_min)
             fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
         calibration_sentence(f, c);
+        if (r->uncalibrated > 0) /* mpm_bonding_calibrated_resolution */
+            fprintf(f,
+                    "; <b>%lld of the %zu particles ran at another resolution: their verdicts below are not "
+                    "calibrated</b>",
+                    (long long)r->uncalibrated, r->row_count);
         fprintf(f, ".</li>\n");
     }
     fprintf(f, "</ul>\n");

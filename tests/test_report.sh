@@ -62,6 +62,21 @@ else
     done
 fi
 
+# particles off the resolution the shipped bonding parameters belong to (2 points per cell edge here, 3 there): the
+# stage counts them, the report and the run's closing summary say their verdicts are not calibrated (`spraycoat info`
+# lists the count); with the case's own
+# eps_c none is judged (-1)
+attr() { h5dump -a "/summary/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+uncalibrated=$(attr "$T/run/impact.h5" uncalibrated_bodies) own=$(attr "$T/means/impact.h5" uncalibrated_bodies)
+if [ "$uncalibrated" = "$bodies" ] && [ "$own" = -1 ] &&
+    grep -q "$bodies of the $bodies particles ran at another resolution: their verdicts below are not calibrated" "$page" &&
+    grep -q "$bodies of the $bodies bodies ran at a resolution their bonding parameters were not calibrated at" "$T/out" &&
+    "$bin" info "$T/run" | grep -q "uncalibrated_bodies  *$bodies\$"; then
+    echo "PASS uncalibrated_resolution_said"
+else
+    echo "FAIL uncalibrated_resolution_said: /summary uncalibrated_bodies '$uncalibrated' of $bodies (own parameters: '$own'), or the report or info does not say it"
+fi
+
 python3 - "$page" "$bodies" >"$T/parsed" 2>&1 <<'PY'
 import os, sys
 from html.parser import HTMLParser
