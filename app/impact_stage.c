@@ -598,6 +598,24 @@ static int run_single(const struct stage_context *ctx, uint64_t hash, const stru
     return status;
 }
 
+/* [couple] reference_diameter: [impact] describes a particle of that diameter, and the run of seed `first` is its
+ * set-up scaled by d / reference_diameter (mpm_config_scale_lengths, as vcrit does it): the same cells across every
+ * particle, the resolution its bonding parameters belong to. */
+static int scale_to_particle(const struct case_file *c, struct mpm_config *cfg, const struct couple_bodies *bodies,
+                             size_t first, size_t count)
+{
+    double reference = case_real(c, "couple", "reference_diameter");
+    if (!(reference > 0))
+        return SC_OK;
+    if (count != 1) /* couple_config_load refuses it; a case changed after the couple stage ran is refused here */
+        SC_FAIL(SC_EINPUT,
+                "[couple] reference_diameter = %g m scales a run to its one particle, but this run has %zu "
+                "bodies; allowed: 0, or bodies_per_run = 1",
+                reference, count);
+    mpm_config_scale_lengths(cfg, bodies->d[first] / reference);
+    return SC_OK;
+}
+
 /* Run `index` of the seeds, unless its file is already there (an earlier, interrupted process finished it). */
 static int run_seeded(const struct stage_context *ctx, uint64_t hash, const struct run_settings *settings,
                       const struct couple_bodies *bodies, long index)
@@ -612,6 +630,7 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
     run.seed_first = first, run.seed_count = count;
     int status;
+    SC_CHECK(status, scale_to_particle(ctx->c, &run.cfg, bodies, first, count), done);
     SC_CHECK(status,
              mpm_config_set_spheres(&run.cfg, (int)count, bodies->d + first, bodies->center + 3 * first,
                                     bodies->velocity + 3 * first),

@@ -255,6 +255,8 @@ static int command_check(const struct options *opt)
         SC_CHECK(status, calibrate_stage_validate(&ctx), done);
     if (app_case_section_given(c, "sweep"))
         SC_CHECK(status, sweep_stage_validate(&ctx), done);
+    if (app_case_section_given(c, "couple"))
+        SC_CHECK(status, couple_stage_validate(&ctx), done);
     case_print(c, stdout);
     printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
 done:

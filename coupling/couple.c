@@ -27,6 +27,11 @@ const struct cfg_key couple_case_keys[] = {
     {"couple", "window_y", CFG_REAL, "m", "0", -1, 1, 0, NULL, "sample = window: y of the window's centre"},
     {"couple", "max_gap", CFG_REAL, "m", "10e-6", 0, 1e-3, 0, NULL,
      "highest start of a later body above the substrate (from arrival-time differences, bounded here)"},
+    {"couple", "reference_diameter", CFG_REAL, "m", "0", 0, 1, 0, NULL,
+     "0: every impact run on the grid and substrate of [impact]; > 0 (bodies_per_run = 1): [impact] describes a "
+     "particle of this diameter, and the run of a particle of diameter d has its grid, spacing, substrate, box_margin "
+     "and times scaled by d / reference_diameter (the same cells per diameter for every size, as [vcrit] "
+     "reference_diameter; docs/physics.md \"Resolution in cells per diameter\")"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
@@ -44,6 +49,12 @@ int couple_config_load(const struct case_file *c, struct couple_config *cfg)
     cfg->window_x = case_real(c, "couple", "window_x");
     cfg->window_y = case_real(c, "couple", "window_y");
     cfg->max_gap = case_real(c, "couple", "max_gap");
+    cfg->reference_diameter = case_real(c, "couple", "reference_diameter");
+    if (cfg->reference_diameter > 0 && cfg->bodies_per_run != 1)
+        return case_invalid(c, "couple", "reference_diameter",
+                            "%g m with bodies_per_run = %ld: a run's set-up is scaled to its one particle; allowed: 0, "
+                            "or bodies_per_run = 1",
+                            cfg->reference_diameter, cfg->bodies_per_run);
     struct run_settings run;
     run_settings_load(c, &run);
     cfg->seed = run.seed;

@@ -38,7 +38,8 @@ struct couple_config {
     long bodies_per_run, runs;
     double rtol, atol;
     double patch_size, window_x, window_y, max_gap; /* m */
-    uint32_t seed;                                  /* [run] seed */
+    double reference_diameter; /* m: > 0, [impact] is a particle of this size, each run scaled to its own */
+    uint32_t seed;             /* [run] seed */
 };
 
 extern const struct cfg_key couple_case_keys[];

@@ -268,6 +268,9 @@ static int write_stats(const struct mpm_solver *s, hid_t group)
     SC_TRY(h5_attr_write_double(group, "energy_initial", s->energy_initial));
     SC_TRY(h5_attr_write_double(group, "t_end", s->t));
     SC_TRY(h5_attr_write_int64(group, "grid_nodes", (int64_t)s->grid.nodes));
+    /* the run's resolution: [impact]'s, or scaled to its particle ([couple] reference_diameter) */
+    SC_TRY(h5_attr_write_double(group, "grid", s->cfg.grid));
+    SC_TRY(h5_attr_write_double(group, "spacing", s->cfg.spacing));
     return SC_OK;
 }
 

@@ -163,6 +163,7 @@ struct body_row {
     double d, v, bonded, pbcp, v_rest, cor;
     double bonded_interface; /* share of its interface nodes bonded at the end (NAN: a file without it) */
     int seed;                /* its row of couple.h5 /seeds, -1 when none */
+    double spacing;          /* m, its run's point spacing (stats; NAN: a file without it, the case's then) */
 };
 
 struct seed_row {
@@ -295,6 +296,13 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
     struct render_array interface = {0};
     if (ok && h5_exists(loc, "summary/bonded_interface"))
         render_read_array(loc, "impact.h5", "summary/bonded_interface", &interface);
+    double spacing = NAN; /* the run's own ([couple] reference_diameter scales it) */
+    hid_t run_stats = h5_exists(loc, "stats") ? H5Gopen2(loc, "stats", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (run_stats >= 0) {
+        if (H5Aexists(run_stats, "spacing") > 0)
+            h5_attr_read_double(run_stats, "spacing", &spacing);
+        H5Gclose(run_stats);
+    }
     size_t particle = 0;
     for (size_t b = 0; ok && b < a[0].count; b++) {
         if (a[2].values[b] < 0)
@@ -317,7 +325,8 @@ static void read_summary(hid_t loc, int run, struct report_data *r)
                                  a[4].values[b],
                                  a[5].values[b],
                                  interface.count == a[0].count ? interface.values[b] : NAN,
-                                 -1};
+                                 -1,
+                                 spacing};
         for (size_t s = 0; s < r->seed_count; s++) /* the same particle: same run, place and diameter */
             if (r->seeds[s].run == (run < 0 ? 0 : run) && r->seeds[s].body == (long)particle &&
                 fabs(r->seeds[s].d - row->d) <= 0.01 * row->d)
@@ -584,12 +593,19 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     }
     if (r->impact) {
         double spacing = case_real(c, "impact", "spacing");
+        double grid = case_real(c, "impact", "grid");
+        double reference =
+            case_has(c, "couple", "reference_diameter") ? case_real(c, "couple", "reference_diameter") : 0.0;
         fprintf(f,
                 "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
                 "(<code>[impact] grid, spacing</code>)",
-                given(case_real(c, "impact", "grid") * 1e6).s, given(spacing * 1e6).s);
-        double grid = case_real(c, "impact", "grid");
-        if (r->row_count > 0)
+                given(grid * 1e6).s, given(spacing * 1e6).s);
+        if (reference > 0) /* each run scaled to its particle (impact_stage.c scale_to_particle) */
+            fprintf(f,
+                    " for a particle of %s µm, scaled with each particle's diameter "
+                    "(<code>[couple] reference_diameter</code>): %s grid cells and %s points across every particle",
+                    given(reference * 1e6).s, num(reference / grid, 3).s, num(reference / spacing, 3).s);
+        else if (r->row_count > 0)
             fprintf(f, ": %s grid cells and %s points across a particle's diameter",
                     span(num(t.d_min / grid, 2), num(t.d_max / grid, 2)).s,
                     span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
@@ -659,7 +675,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
             fprintf(f, "<td>run_%04d</td>", row->run);
         fprintf(f, "<td>%zu</td>", row->body);
         number_cell_digits(f, row->d * 1e6, 3);
-        number_cell_digits(f, row->d / spacing, 2);
+        number_cell_digits(f, row->d / (isnan(row->spacing) ? spacing : row->spacing), 2);
         number_cell_digits(f, row->v, 3);
         cell(f, "td", words[v]);
         cell(f, "td", said);

@@ -130,7 +130,7 @@ while IFS="$tab" read -r file text line command rest; do
     [ -n "${line:-}" ] || line=-
     [ -n "${command:-}" ] || command=spray
     case "$command" in
-    spray | impact | vcrit | calibrate) ;;
+    spray | impact | vcrit | calibrate | run) ;;
     *)
         echo "FAIL bad_case_${file%.ini}: unknown command '$command' in $manifest"
         continue

@@ -103,6 +103,27 @@ else
     fail pipeline_rerun_changed_stage_only "$(grep -E 'up to date|another case' "$T/rerun.log" | tr '\n' ' ')"
 fi
 
+# ---- 3b. [couple] reference_diameter: each run scaled to its particle, 10 cells across with 3 points per edge ------
+# (the resolution of the shipped strain calibration: no particle uncalibrated); the fixture's own runs, 2 points per
+# cell edge, are all uncalibrated
+cp -r "$REF" "$T/scaled"
+sed -e 's/^spacing = 1e-6/spacing = 0.6667e-6/' -e 's/^runs = 4$/runs = 4\nreference_diameter = 20e-6/' "$CASE0" >"$T/scaled.ini"
+attr() { h5dump -m '%.17g' -a "$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+if "$BIN" run "$T/scaled.ini" --stages "$STAGES" -o "$T/scaled" >"$T/scaled.log" 2>&1; then
+    why=""
+    for r in 0000 0001 0002 0003; do
+        d=$(values "$T/scaled/impact.h5" "/run_$r/summary/diameter" | sed -n 2p)
+        grid=$(attr "$T/scaled/impact.h5" "/run_$r/stats/grid") spacing=$(attr "$T/scaled/impact.h5" "/run_$r/stats/spacing")
+        awk -v d="$d" -v g="$grid" -v s="$spacing" 'BEGIN { exit !(d > 0 && (g / d - 0.1) ^ 2 < 1e-18 &&
+            (s / g - 0.6667 / 2) ^ 2 < 1e-18) }' || why="$why run $r: d $d, grid $grid, spacing $spacing;"
+    done
+    scaled=$(attr "$T/scaled/impact.h5" /summary/uncalibrated_bodies) own=$(attr "$REF/impact.h5" /summary/uncalibrated_bodies)
+    [ "$scaled" = 0 ] && [ "$own" = 4 ] || why="$why uncalibrated_bodies $scaled scaled, $own on the fixture's grid;"
+    if [ -z "$why" ]; then pass pipeline_reference_diameter; else fail pipeline_reference_diameter "$why"; fi
+else
+    fail pipeline_reference_diameter "the run failed: $(tail -c 300 "$T/scaled.log")"
+fi
+
 # ---- 4. the restart guarantee -----------------------------------------------------------------------------------
 # on a longer variant of the case (spray steps of 0.25 us, impact runs of 32 ns; about 2.5 s here): the fixture's
 # whole run takes 0.2 s on a fast machine, where a poll could miss a spray checkpoint's lifetime (CI: "0 kills")
