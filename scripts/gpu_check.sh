@@ -95,6 +95,32 @@ compare() {
 }
 
 verdicts() { dataset "$1/impact.h5" /summary/verdict | tr '\n' ' '; }
+same_verdicts() { # NAME: the CPU's and the GPU's verdicts of run NAME, one table row
+    cv=$(verdicts "$work/$1.cpu") gv=$(verdicts "$work/$1.gpu")
+    if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
+}
+
+# variant NAME LINE FIELD...: part 1's small impact with the [impact] LINE added, on both devices: the FIELDs of the
+# last snapshot compared (part 1's tolerances) and the verdicts
+variant() {
+    name=$1 line=$2
+    shift 2
+    printf '\nThe same impact with %s:\n\n' "$line"
+    impact_case "$name" 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
+        "substrate_height = 8e-6" "bonding = energy" "$line"
+    run "$name" cpu 0 && run "$name" gpu 1 || { echo "FAIL gpu_check: the impact with $line did not run"; exit 1; }
+    echo "| field     | result | points    | max diff   | tolerance  |"
+    echo "| --------- | ------ | --------- | ---------- | ---------- |"
+    for field in "$@"; do
+        case $field in
+            x) compare "$name" x 1e-3 1e-6 ;;
+            v) compare "$name" v 1e-3 810 ;;
+            T) compare "$name" T 1 1 ;;
+            *) compare "$name" "$field" 1e-3 1 ;;
+        esac
+    done
+    same_verdicts "$name"
+}
 # last_row_sum DIR FIELD: the sum over the bodies of the last row of /series/FIELD
 last_row_sum() {
     nb=$(dataset "$1/impact.h5" /summary/verdict | wc -l)
@@ -148,8 +174,7 @@ if want 1; then
         echo "| interface | FAIL   | cpu $cb of $ci nodes bonded, gpu $gb of $gi (within 5 % + 2, cpu > 0) |"
         failed=1
     fi
-    cv=$(verdicts "$work/small.cpu") gv=$(verdicts "$work/small.gpu")
-    if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
+    same_verdicts small
     # run to run: the GPU twice, the same bits (h5diff: every dataset, the timing attributes aside)
     run small gpu 1 && mv "$work/small.gpu" "$work/small.gpu1" && run small gpu 1
     if h5diff -q "$work/small.gpu1/impact.h5" "$work/small.gpu/impact.h5" /snapshots /snapshots > /dev/null 2>&1; then
@@ -159,35 +184,10 @@ if want 1; then
         failed=1
 fi
 
-# the same impact as a quarter (symmetry = quarter: the mirror planes x = 0 and y = 0 on both devices)
-echo
-echo "The same impact with symmetry = quarter:"
-echo
-impact_case smallq 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
-    "substrate_height = 8e-6" "bonding = energy" "symmetry = quarter"
-run smallq cpu 0 && run smallq gpu 1 || { echo "FAIL gpu_check: the quarter impact did not run"; exit 1; }
-echo "| field     | result | points    | max diff   | tolerance  |"
-echo "| --------- | ------ | --------- | ---------- | ---------- |"
-compare smallq x 1e-3 1e-6
-compare smallq v 1e-3 810
-compare smallq eps_p 1e-3 1
-compare smallq D_bond 1e-3 1
-cv=$(verdicts "$work/smallq.cpu") gv=$(verdicts "$work/smallq.gpu")
-if [ "$cv" = "$gv" ]; then echo "| verdicts  | PASS   | $cv |"; else echo "| verdicts  | FAIL   | cpu $cv, gpu $gv |"; failed=1; fi
-
-# the same impact with heat conduction (conduction = on: heat_kernel on the device, conduction.c on the CPU)
-echo
-echo "The same impact with conduction = on:"
-echo
-impact_case smallc 1e-6 0.5e-6 4e-9 "diameter = 8e-6" "velocity = 810" "substrate_diameter = 20e-6" \
-    "substrate_height = 8e-6" "bonding = energy" "conduction = on"
-run smallc cpu 0 && run smallc gpu 1 || { echo "FAIL gpu_check: the impact with conduction did not run"; exit 1; }
-echo "| field     | result | points    | max diff   | tolerance  |"
-echo "| --------- | ------ | --------- | ---------- | ---------- |"
-compare smallc x 1e-3 1e-6
-compare smallc v 1e-3 810
-compare smallc T 1 1
-compare smallc eps_p 1e-3 1
+# the same impact as a quarter (the mirror planes x = 0 and y = 0) and with heat conduction (heat_kernel on the
+# device, conduction.c on the CPU)
+variant smallq "symmetry = quarter" x v eps_p D_bond
+variant smallc "conduction = on" x v T eps_p
 
 # settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
 # runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree
