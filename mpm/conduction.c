@@ -167,13 +167,12 @@ static void build_cell_list(struct mpm_conduction *c, const struct mpm_points *p
     c->cell_start[0] = 0;
 }
 
-/* sum_q V0_q (T_q - T_p) eta over the points q of p's body within eps (the 27 cells around p's). */
-static double exchange_sum(const struct mpm_conduction *c, const struct mpm_points *p, size_t q)
+/* sum_o V0_o (T_o - T_q) eta over the points o of q's body within eps of the position x (the 27 cells around x's). */
+static double exchange_sum_at(const struct mpm_conduction *c, const struct mpm_points *p, size_t q, const double x[3])
 {
-    size_t home = c->point_cell[q];
+    size_t home = cell_of(c, x);
     int i[3] = {(int)(home % (size_t)c->n[0]), (int)(home / (size_t)c->n[0] % (size_t)c->n[1]),
                 (int)(home / ((size_t)c->n[0] * (size_t)c->n[1]))};
-    const double *x = p->x + 3 * q;
     double T = p->state[q].T, sum = 0.0;
     for (int dz = -1; dz <= 1; dz++)
         for (int dy = -1; dy <= 1; dy++)
@@ -184,15 +183,37 @@ static double exchange_sum(const struct mpm_conduction *c, const struct mpm_poin
                 size_t cell = (size_t)j[0] + (size_t)c->n[0] * ((size_t)j[1] + (size_t)c->n[1] * (size_t)j[2]);
                 for (size_t k = c->cell_start[cell]; k < c->cell_start[cell + 1]; k++) {
                     size_t o = c->cell_points[k];
-                    if (o == q || p->body[o] != p->body[q])
+                    if (p->body[o] != p->body[q])
                         continue;
                     const double *y = p->x + 3 * o;
                     double r2 =
                         (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) + (y[2] - x[2]) * (y[2] - x[2]);
-                    if (r2 < c->eps2)
+                    if (r2 < c->eps2) /* the point itself (r2 = 0 unmirrored, T_o = T_q mirrored) adds nothing */
                         sum += p->volume0[o] * (p->state[o].T - T) * kernel(r2 / c->eps2);
                 }
             }
+    return sum;
+}
+
+/* q's sum over its neighbours and, with [impact] symmetry, over their mirror images across the planes x = 0 and
+ * y = 0 (the set-up's unmodelled copies, at the same temperatures): the image of o is as far from q as o from q's
+ * image, so each image's sum is the one at q mirrored.  Each pair's heat stays antisymmetric (a reflection keeps
+ * distances), so the modelled part conserves its heat, and none crosses a plane (the whole set-up's symmetry). */
+static double exchange_sum(const struct mpm_conduction *c, const int mirror[2], const struct mpm_points *p, size_t q)
+{
+    const double *x = p->x + 3 * q;
+    double sum = 0.0;
+    for (int image = 0; image < 4; image++) { /* bit d: mirrored across the plane of axis d */
+        double at[3] = {x[0], x[1], x[2]};
+        int reaches = 1;
+        for (int d = 0; d < 2; d++)
+            if (image & (1 << d)) {
+                reaches = reaches && mirror[d] && fabs(x[d]) < c->eps; /* an image farther than eps adds nothing */
+                at[d] = -x[d];
+            }
+        if (reaches)
+            sum += exchange_sum_at(c, p, q, at);
+    }
     return sum;
 }
 
@@ -213,7 +234,7 @@ static void exchange(struct mpm_solver *s, double dt)
     for (long i = 0; i < count; i++)
         if (c->point_cell[i] != SIZE_MAX)
             c->heat[i] = dt * material_of(s, (size_t)i)->conductivity * c->laplacian * p->volume0[i] *
-                         exchange_sum(c, p, (size_t)i);
+                         exchange_sum(c, s->cfg.mirror, p, (size_t)i);
 #pragma omp parallel for schedule(static)
     for (long i = 0; i < count; i++)
         if (c->point_cell[i] != SIZE_MAX) {

@@ -77,8 +77,8 @@ const struct cfg_key mpm_case_keys[] = {
      "mirror planes through the particle's centre, which model only the part of the set-up on their positive side "
      "with the same result: half: y = 0 (the oblique velocity lies in it), a run of half the points; quarter: x = 0 "
      "and y = 0, a quarter of the points, normal impacts only; every body centred on the planes and not moving "
-     "across them; linear shape functions and conduction = off; the CPU or the GPU step (docs/physics.md \"Mirror "
-     "symmetry\")"},
+     "across them; linear shape functions; conduction exchanges heat with the neighbours' mirror images; the CPU or "
+     "the GPU step (docs/physics.md \"Mirror symmetry\")"},
     {"impact", "flip", CFG_REAL, "-", "1", 0, 1, 0, NULL,
      "share of FLIP in the points' new velocity, the rest PIC (grid velocity at the point); 1: Eq. 3.32"},
     {"impact", "bonding", CFG_CHOICE, "", "strain", 0, 0, 0, "energy|strain|none",
@@ -360,22 +360,17 @@ static int load_transfer(const struct case_file *c, struct mpm_config *cfg)
     return SC_OK;
 }
 
-/* [impact] symmetry, after the shape functions and conduction: the mirror planes' nodal condition (contact.c
- * mirror_node, and its port in mpm/cuda/step.cu) is exact for trilinear weights only, whose points on one side reach
- * no node on the other; the conduction's neighbour search has no mirror images. */
+/* [impact] symmetry, after the shape functions: the mirror planes' nodal condition (contact.c mirror_node, and its
+ * port in mpm/cuda/step.cu) is exact for trilinear weights only, whose points on one side reach no node on the
+ * other.  Heat conduction takes the mirror images of the neighbours (conduction.c exchange_sum). */
 static int load_symmetry(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->mirror[1] = !case_is(c, "impact", "symmetry", "none");
     cfg->mirror[0] = case_is(c, "impact", "symmetry", "quarter");
-    if (!cfg->mirror[1])
-        return SC_OK;
-    const char *why = cfg->shape_function != MPM_LINEAR ? "shape_functions = ugimp reach across the planes"
-                      : cfg->conduction                 ? "conduction = on has no mirror images of its neighbours"
-                                                        : NULL;
-    if (why)
+    if (cfg->mirror[1] && cfg->shape_function != MPM_LINEAR)
         return case_invalid(c, "impact", "symmetry",
-                            "%s; allowed: none, or half|quarter with shape_functions = linear and conduction = off",
-                            why);
+                            "shape_functions = ugimp reach across the planes; allowed: none, or half|quarter with "
+                            "shape_functions = linear");
     return SC_OK;
 }
 

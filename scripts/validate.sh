@@ -356,17 +356,16 @@ validate_calibrate_vcrit_resolution() {
 
 # The interface's plastic strain and temperature against the resolution (docs/physics.md "Why the calibration moves
 # with the grid"): cases/interface_strain.ini at INTERFACE_CELLS cells across (integers, ascending; default 7 10 15
-# 20 25 30 35 40), adiabatic and modelled as a quarter (TIME), and at 7-20 cells with conduction = on, whole
-# (about 5 minutes).  Fails unless the adiabatic 95th percentile of the interface's strain rises with the cells, its
-# rise per unit of ln(cells) over the last refinement is under half the steepest before (the strain levels off), and
+# 20 25 30 35 40), adiabatic, and at 7-20 cells with conduction = on, both modelled as a quarter (symmetry =
+# quarter: the whole impact's fields; the conduction exchanges with the mirror images).  Fails unless the adiabatic
+# 95th percentile of the interface's strain rises with the cells, its rise per unit of ln(cells) over the last
+# refinement is under half the steepest before (the strain levels off), and
 # with conduction the hottest particle point rises from 7 to 20 cells by under a quarter of the adiabatic rise.
 # Needs python3-h5py (scripts/bootstrap --analysis).
 interface_case() { # CELLS CONDUCTION: the case at CELLS cells across 14 um (DCell = 14 um / CELLS, dp = DCell / 3),
-    # adiabatic as a quarter (symmetry = quarter, the whole impact's fields), with conduction whole (no mirror images)
+    # as a quarter (symmetry = quarter, the whole impact's fields)
     awk -v c="$1" 'BEGIN { printf "s/^grid = .*/grid = %.6g/;s/^spacing = .*/spacing = %.6g/", 14e-6 / c, 14e-6 / c / 3 }'
-    symmetry=quarter
-    [ "$2" = on ] && symmetry=none
-    printf ';s/^conduction = .*/conduction = %s\\nsymmetry = %s/\n' "$2" "$symmetry"
+    printf ';s/^conduction = .*/conduction = %s\\nsymmetry = quarter/\n' "$2"
 }
 
 validate_interface_strain() {

@@ -14,6 +14,7 @@
  * (mpm_step, the block at rest) the exchanges happen on schedule: the variance grows by 2 kappa t over the time
  * stepped. */
 #include <math.h>
+#include <stdlib.h>
 
 #include "check.h"
 #include "impact_fixture.h"
@@ -24,14 +25,14 @@ static const double kappa = 167.0 / (2700.0 * 900.0), s0 = 1.5e-6, amplitude = 1
 static const double T_particle = 600.0;
 
 /* The block, 16 um a side on 1.2/0.4 um, and a 2 um particle at rest touching its top, both at T_block. */
-static int open_block(struct impact_fixture *f, double t_end)
+static int open_block(struct impact_fixture *f, double t_end, const char *symmetry)
 {
     char ini[640];
     snprintf(ini, sizeof ini,
              "[impact]\nsubstrate = box\nsubstrate_diameter = 16e-6\nsubstrate_height = 16e-6\ngrid = 1.2e-6\n"
              "spacing = 0.4e-6\nbonding = none\nconduction = on\nabsorbing = no\nstop_when_settled = no\n"
-             "t_end = %g\nbox_margin = 2.4e-6\n[material.aluminium]\n",
-             t_end);
+             "t_end = %g\nbox_margin = 2.4e-6\nsymmetry = %s\n[material.aluminium]\n",
+             t_end, symmetry);
     return impact_fixture_open(f, ini, "sphere,0,0,1.0e-6,0,0,0,2e-6,0,aluminium\n");
 }
 
@@ -89,7 +90,7 @@ static struct heat_moments moments(const struct mpm_points *p, const double cent
 static void test_hot_spot(void)
 {
     struct impact_fixture f;
-    if (open_block(&f, 1e-9) != SC_OK) {
+    if (open_block(&f, 1e-9, "none") != SC_OK) {
         CHECK(0, "block set up");
         return;
     }
@@ -120,7 +121,7 @@ static void test_through_the_solver(void)
 {
     struct impact_fixture f;
     double t_end = 3e-9;
-    if (open_block(&f, t_end) != SC_OK) {
+    if (open_block(&f, t_end, "none") != SC_OK) {
         CHECK(0, "block set up");
         return;
     }
@@ -211,6 +212,101 @@ static void test_two_materials_off_lattice(void)
     impact_fixture_close(&f);
 }
 
+/* A lattice point's position in half spacings (the lattice's points lie at odd multiples of them from the planes). */
+struct lattice_key {
+    long i[3];
+    size_t slot;
+};
+
+static int compare_keys(const void *a, const void *b)
+{
+    const long *u = ((const struct lattice_key *)a)->i, *v = ((const struct lattice_key *)b)->i;
+    for (int d = 0; d < 3; d++)
+        if (u[d] != v[d])
+            return u[d] < v[d] ? -1 : 1;
+    return 0;
+}
+
+/* The block's points (body 0) in the quadrant x > 0, y > 0, sorted by position; returns how many. */
+static size_t quadrant_keys(const struct mpm_points *p, struct lattice_key *keys)
+{
+    size_t n = 0;
+    for (size_t q = 0; q < p->count; q++) {
+        const double *x = p->x + 3 * q;
+        if (p->body[q] != 0 || x[0] < 0.0 || x[1] < 0.0)
+            continue;
+        for (int d = 0; d < 3; d++)
+            keys[n].i[d] = lround(x[d] / 0.2e-6);
+        keys[n++].slot = q;
+    }
+    qsort(keys, n, sizeof *keys, compare_keys);
+    return n;
+}
+
+/* [impact] symmetry with conduction: the hot spot centred on the planes x = 0 and y = 0 (its axis through the
+ * block's centre) spreads in the quarter model as in the whole block, point by point: each quarter point's
+ * temperature is its whole twin's to rounding (the sums' order differs), the quarter's heat is conserved, and the
+ * points by the planes (which without the images see only their own side, an adiabatic wall with half a kernel)
+ * are the ones that would tell. */
+static void test_mirror_images(void)
+{
+    struct impact_fixture whole, quarter;
+    if (open_block(&whole, 1e-9, "none") != SC_OK || open_block(&quarter, 1e-9, "quarter") != SC_OK) {
+        CHECK(0, "blocks set up");
+        impact_fixture_close(&whole);
+        return;
+    }
+    struct mpm_points *pw = &whole.solver->points, *pq = &quarter.solver->points;
+    double centre[3];
+    heat_block(pw, centre);
+    centre[0] = centre[1] = 0.0; /* on both planes: the field is mirror-symmetric */
+    double heat0 = 0.0, heat = 0.0;
+    for (int m = 0; m < 2; m++) {
+        struct mpm_points *p = m ? pq : pw;
+        for (size_t q = 0; q < p->count; q++) {
+            const double *x = p->x + 3 * q;
+            double r2 = x[0] * x[0] + x[1] * x[1] + (x[2] - centre[2]) * (x[2] - centre[2]);
+            p->state[q].T = p->body[q] == 0 ? T_block + amplitude * exp(-r2 / (2.0 * s0 * s0)) : T_particle;
+        }
+    }
+    for (size_t q = 0; q < pq->count; q++)
+        heat0 += pq->mass[q] * 900.0 * pq->state[q].T;
+    double dt = mpm_conduction_interval(whole.solver);
+    for (int k = 0; k < 40; k++) {
+        mpm_conduction_exchange(whole.solver, dt);
+        mpm_conduction_exchange(quarter.solver, dt);
+    }
+    for (size_t q = 0; q < pq->count; q++)
+        heat += pq->mass[q] * 900.0 * pq->state[q].T;
+    struct lattice_key *kw = malloc(pw->count * sizeof *kw), *kq = malloc(pq->count * sizeof *kq);
+    size_t nw = quadrant_keys(pw, kw), nq = quadrant_keys(pq, kq);
+    double worst = INFINITY, worst_plane = 0.0, hottest = 0.0;
+    if (nw == nq) {
+        worst = 0.0;
+        for (size_t k = 0; k < nq; k++) {
+            if (compare_keys(&kw[k], &kq[k]) != 0) {
+                worst = INFINITY;
+                break;
+            }
+            double off = fabs(pq->state[kq[k].slot].T - pw->state[kw[k].slot].T) / amplitude;
+            worst = fmax(worst, off);
+            hottest = fmax(hottest, pq->state[kq[k].slot].T - T_block);
+            if (kq[k].i[0] == 1 || kq[k].i[1] == 1)
+                worst_plane = fmax(worst_plane, off);
+        }
+    }
+    free(kw), free(kq);
+    printf("  %zu quarter points against %zu of the whole's quadrant: largest difference %.3g of the amplitude "
+           "(%.3g by the planes); quarter's heat change %.3g, hottest excess %.4g K\n",
+           nq, nw, worst, worst_plane, heat / heat0 - 1.0, hottest);
+    CHECK(nq == nw && nq > 0, "the quarter's block points are the whole's quadrant: %zu and %zu", nq, nw);
+    CHECK(worst < 1e-12, "each quarter point's temperature is its whole twin's: largest difference %.3g of A", worst);
+    CHECK_CLOSE(heat, heat0, 1e-13, 0.0, "quarter's heat conserved");
+    CHECK(hottest < 0.8 * amplitude, "the spot spread: hottest excess %.4g K of %g", hottest, amplitude);
+    impact_fixture_close(&whole);
+    impact_fixture_close(&quarter);
+}
+
 /* A case that does not ask for conduction runs adiabatic, as the thesis's (Eq. 3.44). */
 static void test_default_off(void)
 {
@@ -226,6 +322,7 @@ int main(void)
     RUN(test_hot_spot);
     RUN(test_through_the_solver);
     RUN(test_two_materials_off_lattice);
+    RUN(test_mirror_images);
     RUN(test_default_off);
     return check_finish();
 }

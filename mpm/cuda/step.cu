@@ -836,9 +836,41 @@ __device__ static double pse_kernel(double r2_over_eps2)
     return u > 0.0 ? u * u * u : 0.0;
 }
 
-/* Each active point's heat over dt into point_a (exchange of conduction.c): dt k (6 / M2) V0_q times the sum over
- * the points o of its body within eps of V0_o (T_o - T_q) eta, from the cells of its layer that reach it (the cell
- * edge is the grid's; eps = 2 spacings), in cell order, their points by id. */
+/* The sum over the points o of q's body within eps of the position x of V0_o (T_o - T_q) eta, from the cells of
+ * its layer that reach x (the cell edge is the grid's; eps = 2 spacings; x outside the grid searches from the
+ * nearest cell, which holds every point within eps of it), in cell order, their points by id. */
+__device__ static double heat_sum_at(const struct mpm_gpu *g, size_t q, const double x[3])
+{
+    double eps2 = g->s.conduction_eps2, T = g->state[q].T, sum = 0.0;
+    int reach = (int)ceil(sqrt(eps2) * g->s.inv_h), i[3];
+    for (int d = 0; d < 3; d++) {
+        double cell = floor((x[d] - g->s.origin[d]) / g->s.h);
+        i[d] = cell > 0.0 ? (cell < g->s.n[d] - 1 ? (int)cell : g->s.n[d] - 1) : 0;
+    }
+    size_t layer = (size_t)g->body[q] * g->nodes;
+    for (int dz = -reach; dz <= reach; dz++)
+        for (int dy = -reach; dy <= reach; dy++)
+            for (int dx = -reach; dx <= reach; dx++) {
+                int j[3] = {i[0] + dx, i[1] + dy, i[2] + dz};
+                if (j[0] < 0 || j[1] < 0 || j[2] < 0 || j[0] >= g->s.n[0] || j[1] >= g->s.n[1] || j[2] >= g->s.n[2])
+                    continue;
+                size_t cell = layer + (size_t)j[0] + g->row * (size_t)j[1] + g->plane * (size_t)j[2];
+                uint32_t end = g->cell_end[cell];
+                for (uint32_t k = g->cell_start[cell]; k < end; k++) {
+                    size_t o = g->order_sorted[k];
+                    const double *y = g->x + 3 * o;
+                    double r2 =
+                        (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) + (y[2] - x[2]) * (y[2] - x[2]);
+                    if (r2 < eps2) /* the point itself (r2 = 0 unmirrored, T_o = T_q mirrored) adds nothing */
+                        sum += g->volume0[o] * (g->state[o].T - T) * pse_kernel(r2 / eps2);
+                }
+            }
+    return sum;
+}
+
+/* Each active point's heat over dt into point_a (exchange of conduction.c): dt k (6 / M2) V0_q times its sum, and
+ * with [impact] symmetry its mirror images' (exchange_sum of conduction.c: the sums at q's images within eps of the
+ * planes x = 0, y = 0). */
 __global__ static void heat_kernel(struct mpm_gpu g, double dt)
 {
     size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
@@ -847,28 +879,19 @@ __global__ static void heat_kernel(struct mpm_gpu g, double dt)
     g.point_a[q] = 0.0;
     if (!(g.flags[q] & GPU_POINT_ACTIVE))
         return;
-    double eps2 = g.s.conduction_eps2, T = g.state[q].T, sum = 0.0;
-    int reach = (int)ceil(sqrt(eps2) * g.s.inv_h);
-    size_t layer = (size_t)g.body[q] * g.nodes, home = g.base[q];
-    int i[3] = {(int)(home % g.row), (int)(home / g.row % (size_t)g.s.n[1]), (int)(home / g.plane)};
     const double *x = g.x + 3 * q;
-    for (int dz = -reach; dz <= reach; dz++)
-        for (int dy = -reach; dy <= reach; dy++)
-            for (int dx = -reach; dx <= reach; dx++) {
-                int j[3] = {i[0] + dx, i[1] + dy, i[2] + dz};
-                if (j[0] < 0 || j[1] < 0 || j[2] < 0 || j[0] >= g.s.n[0] || j[1] >= g.s.n[1] || j[2] >= g.s.n[2])
-                    continue;
-                size_t cell = layer + (size_t)j[0] + g.row * (size_t)j[1] + g.plane * (size_t)j[2];
-                uint32_t end = g.cell_end[cell];
-                for (uint32_t k = g.cell_start[cell]; k < end; k++) {
-                    size_t o = g.order_sorted[k];
-                    const double *y = g.x + 3 * o;
-                    double r2 =
-                        (y[0] - x[0]) * (y[0] - x[0]) + (y[1] - x[1]) * (y[1] - x[1]) + (y[2] - x[2]) * (y[2] - x[2]);
-                    if (o != q && r2 < eps2)
-                        sum += g.volume0[o] * (g.state[o].T - T) * pse_kernel(r2 / eps2);
-                }
+    double eps = sqrt(g.s.conduction_eps2), sum = 0.0;
+    for (int image = 0; image < 4; image++) { /* bit d: mirrored across the plane of axis d */
+        double at[3] = {x[0], x[1], x[2]};
+        int reaches = 1;
+        for (int d = 0; d < 2; d++)
+            if (image & (1 << d)) {
+                reaches = reaches && g.s.mirror[d] && fabs(x[d]) < eps;
+                at[d] = -x[d];
             }
+        if (reaches)
+            sum += heat_sum_at(&g, q, at);
+    }
     const struct mpm_material *m = &g.s.material[g.s.body_material[g.body[q]]];
     g.point_a[q] = dt * m->conductivity * g.s.conduction_laplacian * g.volume0[q] * sum;
 }
