@@ -43,8 +43,8 @@
 #      the table the Al6061 cases read; fails unless v_crit falls with T at every d (thermal softening) and
 #      v_crit(T) / v_crit(298 K) lies within 0.05 of Schmidt et al.'s sqrt((933 - T) / (933 - 298)), which the
 #      model's does not for coarse particles at 500-600 K (docs/physics.md "The model's v_crit(d, T)").
-#  11. Part 6's fit with heat conduction (cases/calibrate_vcrit_al_conduction.ini, the whole model; part
-#      calibrate_vcrit_conduction, into runs/validate_calibrate_vcrit_conduction, about 30 minutes): fails as part 6,
+#  11. Part 6's fit with heat conduction (cases/calibrate_vcrit_al_conduction.ini, a quarter model; part
+#      calibrate_vcrit_conduction, into runs/validate_calibrate_vcrit_conduction, about 16 minutes): fails as part 6,
 #      against the value eps_c = auto takes with conduction = on; copies the searches to
 #      cases/calibrate_vcrit_al_conduction.csv and .png.
 #  12. Two-particle impacts (Tang Section 5.2.2, Table 5.5): the thesis's four cases (cases/tang2021_two_particles*.ini:
