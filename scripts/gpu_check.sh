@@ -1,7 +1,7 @@
 #!/bin/sh
 # The GPU step checked in one call on a machine with an NVIDIA GPU (sm_90: H100/H200; docs/gpu.md): builds with
 # make CUDA=1 (unless BUILD already holds a spraycoat built so), runs a small impact with --device cpu and --device
-# gpu and compares the last snapshot's fields and the verdicts (also as a quarter and with heat conduction), then
+# gpu and compares the last snapshot's fields and the verdicts (also as a quarter, with heat conduction and both), then
 # times the GPU step at about 1e6 and 1e7 points and on a fraction of the thesis-grade 14 um impact (whole and as a
 # quarter), and prints one table.  Written to finish in under 8 minutes
 # on an H200 (the CPU reference run, 2 threads of 16 cores, is the longest part: about a minute).
@@ -184,10 +184,12 @@ if want 1; then
         failed=1
 fi
 
-# the same impact as a quarter (the mirror planes x = 0 and y = 0) and with heat conduction (heat_kernel on the
-# device, conduction.c on the CPU)
+# the same impact as a quarter (the mirror planes x = 0 and y = 0), with heat conduction (heat_kernel on the
+# device, conduction.c on the CPU), and both (the conduction's mirror images)
 variant smallq "symmetry = quarter" x v eps_p D_bond
 variant smallc "conduction = on" x v T eps_p
+variant smallqc "symmetry = quarter
+conduction = on" x v T eps_p
 
 # settled verdicts: the same particle to rest on both devices, one rebound (600 m/s) and one bond (950 m/s); the
 # runs separate from round-off, so the summary's numbers are printed, and the verdicts must agree
