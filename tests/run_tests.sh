@@ -14,6 +14,12 @@ export SPRAYCOAT_BIN="$build/spraycoat"
 export SPRAYCOAT_VERIFICATION="${SPRAYCOAT_VERIFICATION:-../shared/verification}"
 jobs=${TEST_JOBS:-$(getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)}
 case $jobs in '' | *[!0-9]* | 0) jobs=1 ;; esac
+# Two OpenMP programs that spin while they wait (libgomp's default) on cores they share slow each other several-fold
+# (a test of 51 s alone took 386 s beside another): with lanes, the tests' threads sleep while they wait, as
+# spraycoat's own on a busy machine (app/main.c).  A policy the caller set is kept.
+if [ "$jobs" -gt 1 ] && [ -z "${OMP_WAIT_POLICY:-}" ]; then
+    export OMP_WAIT_POLICY=passive
+fi
 
 results=$(mktemp -d) || { echo "FAIL run_tests: mktemp -d failed"; exit 1; }
 trap 'rm -rf "$results"' EXIT
