@@ -55,13 +55,22 @@ NVCCFLAGS := -std=c++17 -O3 -g -arch=$(CUDA_ARCH) --fmad=false -Werror all-warni
              -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
 LDLIBS    += -L$(CUDA_HOME)/lib64 -lcudart_static -lrt -lpthread -lstdc++
 endif
+# The GPU step emulated on the CPU (docs/gpu.md, "The emulation"): BUILD/cuda-emu/spraycoat is spraycoat with
+# mpm/cuda/step.cu compiled by the host's C++ compiler against tests/cuda_emu (the CUDA runtime and CUB calls the
+# step makes, on the host: a kernel's threads run one after the other), so that tests/test_gpu_emulated.sh runs the
+# device's code with `device = gpu` and compares it with the CPU step on every machine.  Not in a CUDA=1 build.
+ifneq ($(CUDA),1)
+EMU_BIN   := $(BUILD)/cuda-emu/spraycoat
+EMU_FLAGS := -std=c++17 -ffp-contract=off -Wall -Wextra -Werror -g $(OPT) -D_DEFAULT_SOURCE \
+             -D_POSIX_C_SOURCE=200809L -Itests/cuda_emu
+endif
 MAIN_OBJ := $(BUILD)/app/main.o
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
 
 .PHONY: all test asan bench run validate install clean format format-check deps test-deps fuzz fuzz-build docs FORCE
-all: $(BIN) $(TEST_BIN)
+all: $(BIN) $(TEST_BIN) $(EMU_BIN)
 
 deps:
 	@scripts/bootstrap --mpi
@@ -138,6 +147,22 @@ $(BUILD)/%.o: %.c $(BUILD)/flags.stamp
 $(BUILD)/mpm/cuda/%.o: mpm/cuda/%.cu $(BUILD)/flags.stamp
 	@mkdir -p $(dir $@)
 	$(NVCC) $(filter -I% -D%,$(CPPFLAGS)) $(NVCCFLAGS) -MMD -MP -c $< -o $@
+
+# the emulation: the launches' <<<grid, block>>> become EMU_LAUNCH(kernel, grid, block), the source's only change
+# (a launch on one line); its objects before the library, whose GPU stubs are then not linked
+$(BUILD)/cuda-emu/%.cc: mpm/cuda/%.cu
+	@mkdir -p $(dir $@)
+	{ printf '#line 1 "%s"\n' $<; sed -E 's/([A-Za-z_][A-Za-z0-9_]*)<<<(.*)>>>\(/EMU_LAUNCH(\1, \2)(/' $<; } > $@.tmp
+	@! grep -n '<<<' $@.tmp || { echo "$<: a launch the emulation cannot rewrite (one a line)"; exit 1; }
+	mv $@.tmp $@
+.SECONDARY: $(BUILD)/cuda-emu/step.cc
+$(BUILD)/cuda-emu/step.o: $(BUILD)/cuda-emu/step.cc $(BUILD)/flags.stamp
+	$(CXX) $(filter -I% -D%,$(CPPFLAGS)) $(EMU_FLAGS) -MMD -MP -c $< -o $@
+$(BUILD)/cuda-emu/emu.o: tests/cuda_emu/emu.cc $(BUILD)/flags.stamp
+	@mkdir -p $(dir $@)
+	$(CXX) $(EMU_FLAGS) -MMD -MP -c $< -o $@
+$(EMU_BIN): $(MAIN_OBJ) $(BUILD)/cuda-emu/step.o $(BUILD)/cuda-emu/emu.o $(BUILD)/libspraycoat.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -lstdc++ -o $@
 
 # Only core/version.c sees the version and the flags; it is rebuilt when `git describe` changes, and every
 # object is rebuilt when the compiler or the flags change (so that /code tells how each object was built).

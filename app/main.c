@@ -16,6 +16,7 @@
 #include "core/version.h"
 #include "app/app.h"
 #include "dem/dem.h"
+#include "mpm/mpm.h"
 
 static const char usage[] =
     "usage:\n"
@@ -624,6 +625,7 @@ static void print_version(void)
     for (const struct spraycoat_build_item *item = items; item->name; item++)
         if (strcmp(item->name, "version") != 0)
             printf("  %-12s %s\n", strcmp(item->name, "program_version") == 0 ? "git" : item->name, item->value);
+    printf("  %-12s %s\n", "gpu", mpm_gpu_build());
     printf("  %-12s %s\n", "udunits2", units_database_path());
     char policy[256];
     describe_wait_policy(policy, sizeof policy, 0);

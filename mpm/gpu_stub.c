@@ -56,6 +56,10 @@ const char *mpm_gpu_name(const struct mpm_gpu *g)
     (void)g;
     return "none";
 }
+const char *mpm_gpu_build(void)
+{
+    return "none (built without make CUDA=1)";
+}
 const char *mpm_gpu_message(void)
 {
     return "this spraycoat was built without the GPU step (make CUDA=1)";

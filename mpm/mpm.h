@@ -113,6 +113,15 @@ struct mpm_config {
     int mirror[2];
 };
 enum mpm_device { MPM_DEVICE_CPU, MPM_DEVICE_GPU };
+/* What this build's GPU step is, for --version: the CUDA step (make CUDA=1), its emulation on the CPU (the test
+ * binary BUILD/cuda-emu/spraycoat, docs/gpu.md "The emulation"), or none. */
+#ifdef __cplusplus
+extern "C" { /* mpm/cuda/step.cu defines it */
+#endif
+const char *mpm_gpu_build(void);
+#ifdef __cplusplus
+}
+#endif
 
 /* The keys of [impact] and [material.NAME] (NULL-key terminated). */
 extern const struct cfg_key mpm_case_keys[];

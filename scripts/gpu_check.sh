@@ -31,7 +31,8 @@ failed=0
 
 note() { printf '%s\n' "$*" >&2; }
 
-if [ "$gpu" = gpu ] && ! "$bin" --version 2>/dev/null | grep -q -- "-DSPRAYCOAT_CUDA"; then
+# a binary with the GPU step (make CUDA=1, or the emulation on the CPU of BUILD/cuda-emu: docs/gpu.md) is used as it is
+if [ "$gpu" = gpu ] && ! "$bin" --version 2>/dev/null | grep -q "^  gpu  *CUDA step"; then
     note "building $bin with make CUDA=1 ($jobs jobs)"
     make -j"$jobs" CUDA=1 BUILD="$build" "$bin" > "$work/build.log" 2>&1 || {
         tail -30 "$work/build.log"

@@ -402,16 +402,16 @@ __device__ static void mark_bond_contact(const struct mpm_gpu *g, size_t Ia, siz
 /* contact.c mark_touching */
 __device__ static void mark_touching(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], int pressed)
 {
-    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : PAIR_TOUCHING;
-    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : PAIR_TOUCHING;
+    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : (uint8_t)PAIR_TOUCHING;
+    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : (uint8_t)PAIR_TOUCHING;
     mark_bond_contact(g, Ia, Ib, n, pressed);
 }
 
-/* contact_scheme = once, its first correction on the start momenta (contact.c first_correction). */
+/* contact_scheme = once, its first correction on the start momenta (contact.c first_correction); J the impulse on
+ * body a where it projected. */
 __device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, double *start, double *end,
-                                       const double n[3])
+                                       const double n[3], double J[3])
 {
-    double J[3];
     if (pair_decide_once(g, Ia, Ib, start, n) != PAIR_CONTACT)
         return 0;
     pair_impulse(g, Ia, Ib, start, n, PAIR_CONTACT, J);
@@ -421,44 +421,265 @@ __device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_
     return 1;
 }
 
-__device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
+/* contact.c decide_after_correction: where the first correction projected, the pair stays in contact unless the
+ * updated momenta's change from the corrected start ones separates it. */
+__device__ static int decide_after_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *start,
+                                              const double *end, const double n[3])
 {
-    int touched = 0, once = g->s.contact_scheme == MPM_CONTACT_ONCE;
-    *bonded = 0;
-    for (int a = 0; a < g->s.bodies; a++) {
-        size_t Ia = (size_t)a * g->nodes + node;
+    double along = 0.0;
+    for (int d = 0; d < 3; d++)
+        along += ((end[3 * Ia + d] - start[3 * Ia + d]) / g->gmass[Ia] -
+                  (end[3 * Ib + d] - start[3 * Ib + d]) / g->gmass[Ib]) *
+                 n[d];
+    if (!(along < 0.0))
+        return PAIR_CONTACT;
+    return bond_holds(g, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
+}
+
+/* contact.c resolve_pair: the pair decided on `end` and projected there (once: after its first correction on
+ * `start`); its state; *corrected whether the first correction projected; Js, Je the two corrections' impulses on
+ * body a (0 where none). */
+__device__ static int resolve_pair(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], double *start,
+                                   double *end, int *corrected, double Js[3], double Je[3])
+{
+    int once = g->s.contact_scheme == MPM_CONTACT_ONCE;
+    for (int d = 0; d < 3; d++)
+        Js[d] = Je[d] = 0.0;
+    *corrected = once && start && first_correction(g, Ia, Ib, start, end, n, Js);
+    int state = *corrected ? decide_after_correction(g, Ia, Ib, start, end, n)
+                : once     ? pair_decide_once(g, Ia, Ib, end, n)
+                           : pair_decide(g, Ia, Ib, end, n);
+    if (state == PAIR_FREE) {
+        if (once && surfaces_meet(g, Ia, Ib, n))
+            mark_touching(g, Ia, Ib, n, 0);
+        return PAIR_FREE;
+    }
+    pair_impulse(g, Ia, Ib, end, n, state, Je);
+    apply_impulse(end, Ia, Ib, Je);
+    if (start && !once) {
+        double J[3];
+        pair_impulse(g, Ia, Ib, start, n, state, J);
+        apply_impulse(start, Ia, Ib, J);
+    }
+    g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
+    mark_bond_contact(g, Ia, Ib, n, state == PAIR_CONTACT);
+    return state;
+}
+
+/* contact.c next_pair: the next pair (a, b), b > a, after (*a, *b) (start from 0, 0) with both bodies heavy at the
+ * node and a contact normal; 0 when none is left. */
+__device__ static int next_pair(const struct mpm_gpu *g, size_t node, int *a, int *b, double n[3])
+{
+    for (; *a < g->s.bodies; (*a)++, *b = *a) {
+        size_t Ia = (size_t)*a * g->nodes + node;
         if (!heavy(g, Ia))
             continue;
-        for (int b = a + 1; b < g->s.bodies; b++) {
-            size_t Ib = (size_t)b * g->nodes + node;
-            double n[3], J[3];
-            if (!heavy(g, Ib) || contact_normal(g, Ia, Ib, n) != 0)
-                continue;
-            if (once && start)
-                touched |= first_correction(g, Ia, Ib, start, end, n);
-            int state = once ? pair_decide_once(g, Ia, Ib, end, n) : pair_decide(g, Ia, Ib, end, n);
-            if (state == PAIR_FREE) {
-                if (once && surfaces_meet(g, Ia, Ib, n))
-                    mark_touching(g, Ia, Ib, n, 0);
-                continue;
-            }
-            pair_impulse(g, Ia, Ib, end, n, state, J);
-            apply_impulse(end, Ia, Ib, J);
-            if (start && !once) {
-                pair_impulse(g, Ia, Ib, start, n, state, J);
-                apply_impulse(start, Ia, Ib, J);
-            }
-            g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
-            mark_bond_contact(g, Ia, Ib, n, state == PAIR_CONTACT);
-            touched = 1;
-            *bonded |= state == PAIR_BONDED;
+        while (++*b < g->s.bodies) {
+            size_t Ib = (size_t)*b * g->nodes + node;
+            if (heavy(g, Ib) && contact_normal(g, Ia, Ib, n) == 0)
+                return 1;
         }
+    }
+    return 0;
+}
+
+/* contact.c sweep_pairs: every pair at the node once, in layer order. */
+__device__ static int sweep_pairs(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
+{
+    int touched = 0;
+    double n[3], Js[3], Je[3];
+    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n);) {
+        int corrected;
+        size_t Ia = (size_t)a * g->nodes + node, Ib = (size_t)b * g->nodes + node;
+        int state = resolve_pair(g, Ia, Ib, n, start, end, &corrected, Js, Je);
+        touched |= corrected || state != PAIR_FREE;
+        *bonded |= state == PAIR_BONDED;
     }
     return touched;
 }
 
+/* contact.c struct node_pair and its limits: a pair where three or more bodies meet, its state in this step's
+ * sweeps and the impulses on body a summed over them. */
+struct node_pair {
+    size_t Ia, Ib;
+    double n[3];
+    int state;
+    int corrected;
+    double start_impulse[3], end_impulse[3];
+};
+#define MAX_NODE_PAIRS  66
+#define SWEEP_TOLERANCE 1e-10
+#define MAX_SWEEPS      200
+
+__device__ static int node_pairs(const struct mpm_gpu *g, size_t node, struct node_pair *pairs)
+{
+    int count = 0;
+    double n[3];
+    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n); count++) {
+        if (count == MAX_NODE_PAIRS)
+            return -1;
+        struct node_pair *p = pairs + count;
+        p->Ia = (size_t)a * g->nodes + node, p->Ib = (size_t)b * g->nodes + node;
+        p->state = PAIR_FREE, p->corrected = 0;
+        for (int d = 0; d < 3; d++)
+            p->n[d] = n[d], p->start_impulse[d] = p->end_impulse[d] = 0.0;
+    }
+    return count;
+}
+
+__device__ static void add3(double *sum, const double *v)
+{
+    for (int d = 0; d < 3; d++)
+        sum[d] += v[d];
+}
+
+/* contact.c only_push: a pair in contact only pushes (the summed impulse on a never pulls it towards b). */
+__device__ static void only_push(const double sum[3], const double n[3], double J[3])
+{
+    if (!((sum[0] + J[0]) * n[0] + (sum[1] + J[1]) * n[1] + (sum[2] + J[2]) * n[2] > 0.0))
+        return;
+    for (int d = 0; d < 3; d++)
+        J[d] = -sum[d];
+}
+
+/* contact.c correct_start_again */
+__device__ static double correct_start_again(const struct mpm_gpu *g, struct node_pair *p, double *start, double *end)
+{
+    double J[3];
+    pair_impulse(g, p->Ia, p->Ib, start, p->n, PAIR_CONTACT, J);
+    only_push(p->start_impulse, p->n, J);
+    apply_impulse(start, p->Ia, p->Ib, J);
+    apply_impulse(end, p->Ia, p->Ib, J);
+    add3(p->start_impulse, J);
+    return norm3(J);
+}
+
+/* contact.c project_again */
+__device__ static double project_again(const struct mpm_gpu *g, struct node_pair *p, double *start, double *end,
+                                       int *bonded)
+{
+    double J[3], moved = p->corrected ? correct_start_again(g, p, start, end) : 0.0;
+    if (p->state == PAIR_FREE) {
+        p->state = decide_after_correction(g, p->Ia, p->Ib, start, end, p->n);
+        if (p->state == PAIR_FREE)
+            return moved;
+        g->contact[p->Ia] = g->contact[p->Ib] = (uint8_t)p->state;
+        mark_bond_contact(g, p->Ia, p->Ib, p->n, p->state == PAIR_CONTACT);
+    }
+    pair_impulse(g, p->Ia, p->Ib, end, p->n, p->state, J);
+    if (p->state == PAIR_CONTACT)
+        only_push(p->end_impulse, p->n, J);
+    apply_impulse(end, p->Ia, p->Ib, J);
+    add3(p->end_impulse, J);
+    *bonded |= p->state == PAIR_BONDED;
+    return moved + norm3(J);
+}
+
+/* contact.c node_momentum */
+__device__ static double node_momentum(const struct mpm_gpu *g, size_t node, const double *mom)
+{
+    double sum = 0.0;
+    for (int l = 0; l < g->s.bodies; l++)
+        sum += norm3(mom + 3 * ((size_t)l * g->nodes + node));
+    return sum;
+}
+
+/* contact.c resolve_bodies: three or more bodies at the node (once), the pairs swept until the impulses vanish. */
+__device__ static int resolve_bodies(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
+{
+    struct node_pair pairs[MAX_NODE_PAIRS];
+    int count = node_pairs(g, node, pairs), touched = 0;
+    if (count < 0)
+        return sweep_pairs(g, node, start, end, bonded);
+    for (int k = 0; k < MAX_SWEEPS; k++) {
+        double moved = 0.0;
+        for (int i = 0; i < count; i++) {
+            struct node_pair *p = pairs + i;
+            if (p->state != PAIR_FREE || p->corrected) {
+                moved += project_again(g, p, start, end, bonded);
+                continue;
+            }
+            double Js[3], Je[3];
+            int corrected;
+            p->state = resolve_pair(g, p->Ia, p->Ib, p->n, start, end, &corrected, Js, Je);
+            p->corrected = corrected;
+            add3(p->start_impulse, Js);
+            add3(p->end_impulse, Je);
+            moved += norm3(Js) + norm3(Je);
+            touched |= corrected || p->state != PAIR_FREE;
+            *bonded |= p->state == PAIR_BONDED;
+        }
+        if (!(moved > SWEEP_TOLERANCE * node_momentum(g, node, end)))
+            break;
+    }
+    return touched;
+}
+
+__device__ static int bodies_at(const struct mpm_gpu *g, size_t node)
+{
+    int count = 0;
+    for (int l = 0; l < g->s.bodies; l++)
+        count += heavy(g, (size_t)l * g->nodes + node);
+    return count;
+}
+
+/* contact.c resolve_node */
+__device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
+{
+    *bonded = 0;
+    if (g->s.contact_scheme == MPM_CONTACT_ONCE && start && bodies_at(g, node) > 2)
+        return resolve_bodies(g, node, start, end, bonded);
+    return sweep_pairs(g, node, start, end, bonded);
+}
+
+/* contact.c reprojected_state */
+__device__ static int reprojected_state(const struct mpm_gpu *g, size_t Ia, size_t Ib)
+{
+    if (!g->contact[Ia] || !g->contact[Ib] || g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+        return PAIR_FREE;
+    if (g->s.contact_scheme == MPM_CONTACT_ONCE)
+        return g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+    return pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
+}
+
+/* contact.c reproject_bodies: the flagged pairs whose surfaces meet, swept until the impulses vanish. */
+__device__ static void reproject_bodies(const struct mpm_gpu *g, size_t node, double *mom, int count,
+                                        struct node_pair *pairs)
+{
+    int kept = 0;
+    for (int i = 0; i < count; i++) {
+        struct node_pair p = pairs[i];
+        p.state = reprojected_state(g, p.Ia, p.Ib);
+        if (p.state != PAIR_FREE && surfaces_meet(g, p.Ia, p.Ib, p.n))
+            pairs[kept++] = p;
+    }
+    for (int k = 0; k < MAX_SWEEPS; k++) {
+        double moved = 0.0, J[3];
+        for (int i = 0; i < kept; i++) {
+            struct node_pair *p = pairs + i;
+            pair_impulse(g, p->Ia, p->Ib, mom, p->n, p->state, J);
+            if (p->state == PAIR_CONTACT)
+                only_push(p->end_impulse, p->n, J);
+            apply_impulse(mom, p->Ia, p->Ib, J);
+            add3(p->end_impulse, J);
+            moved += norm3(J);
+        }
+        if (!(moved > SWEEP_TOLERANCE * node_momentum(g, node, mom)))
+            break;
+    }
+}
+
+/* contact.c reproject_sweep and reproject_node */
 __device__ static void reproject_node(const struct mpm_gpu *g, size_t node, double *mom)
 {
+    if (g->s.contact_scheme == MPM_CONTACT_ONCE && bodies_at(g, node) > 2) {
+        struct node_pair pairs[MAX_NODE_PAIRS];
+        int count = node_pairs(g, node, pairs);
+        if (count >= 0) {
+            reproject_bodies(g, node, mom, count, pairs);
+            return;
+        }
+    }
     for (int a = 0; a < g->s.bodies; a++) {
         size_t Ia = (size_t)a * g->nodes + node;
         if (!heavy(g, Ia) || !g->contact[Ia])
@@ -468,11 +689,9 @@ __device__ static void reproject_node(const struct mpm_gpu *g, size_t node, doub
             double n[3], J[3];
             if (!heavy(g, Ib) || !g->contact[Ib] || contact_normal(g, Ia, Ib, n) != 0)
                 continue;
-            if (g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
+            int state = reprojected_state(g, Ia, Ib);
+            if (state == PAIR_FREE)
                 continue;
-            int state = pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
-            if (g->s.contact_scheme == MPM_CONTACT_ONCE)
-                state = g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
             pair_impulse(g, Ia, Ib, mom, n, state, J);
             apply_impulse(mom, Ia, Ib, J);
         }
@@ -498,14 +717,6 @@ __device__ static void fixed_bottom(const struct mpm_gpu *g, size_t node, int k,
         return;
     for (int l = 0; l < g->s.bodies; l++)
         mom[3 * ((size_t)l * g->nodes + node) + 2] = 0.0;
-}
-
-__device__ static int bodies_at(const struct mpm_gpu *g, size_t node)
-{
-    int count = 0;
-    for (int l = 0; l < g->s.bodies; l++)
-        count += heavy(g, (size_t)l * g->nodes + node);
-    return count;
 }
 
 /* Each body's centre of mass velocity (contact.c body_velocities), in two passes without atomics, so the same bits
@@ -913,6 +1124,17 @@ __global__ static void heat_apply_kernel(struct mpm_gpu g)
 extern "C" int mpm_gpu_built(void)
 {
     return 1;
+}
+
+#define GPU_TEXT(x)  #x
+#define GPU_VALUE(x) GPU_TEXT(x)
+extern "C" const char *mpm_gpu_build(void)
+{
+#ifdef __CUDACC__
+    return "CUDA step (nvcc " GPU_VALUE(__CUDACC_VER_MAJOR__) "." GPU_VALUE(__CUDACC_VER_MINOR__) ", FP64)";
+#else
+    return "CUDA step emulated on the CPU (tests/cuda_emu: a check of the device code, not for production runs)";
+#endif
 }
 
 extern "C" const char *mpm_gpu_message(void)

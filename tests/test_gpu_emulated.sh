@@ -1,0 +1,104 @@
+#!/bin/sh
+# The GPU step's own code (mpm/cuda/step.cu) against the CPU step, without a GPU: BUILD/cuda-emu/spraycoat runs
+# the device's kernels on the CPU through tests/cuda_emu (docs/gpu.md, "The emulation"), and each case here runs
+# there with --device cpu and --device gpu; the last snapshot's fields must agree within 1e-7 of their scale.
+# The step was ported from the CPU's (contact.c, grid.c, solver.c, conduction.c): a change made to one and not to
+# the other shows here as a difference of the order of the field, where the two orders of summation (the CPU's
+# scatter, the device's gather) leave 1e-11 of the speed after 110 steps.  The cases cover the paths of the
+# port: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
+# heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
+# (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
+# check (races, the device's memory, timing): scripts/gpu_check.sh on a device.
+set -u
+BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+failed=0
+
+if [ ! -x "$EMU" ]; then
+    echo "FAIL gpu_emulated: $EMU is missing (make builds it with the other programs)"
+    exit 1
+fi
+"$EMU" --version | grep -q "^  gpu  *CUDA step emulated" && echo "PASS gpu_emulated_version" ||
+    { echo "FAIL gpu_emulated_version: $EMU --version does not name the emulated step"; failed=1; }
+
+# case NAME T_END [lines]: the small impact of scripts/gpu_check.sh (8 um at 810 m/s, 1.0/0.5 um), to T_END
+impact_case() {
+    name=$1 t_end=$2
+    shift 2
+    {
+        printf '[run]\ncheckpoint_wall = 0\n[impact]\ngrid = 1e-6\nspacing = 0.5e-6\nt_end = %s\n' "$t_end"
+        printf 'snapshot_every = %s\nseries_every = %s\n' "$t_end" "$t_end"
+        printf 'diameter = 8e-6\nvelocity = 810\nsubstrate_diameter = 20e-6\nsubstrate_height = 8e-6\n'
+        for line in "$@"; do printf '%s\n' "$line"; done
+        printf '[material.aluminium]\n'
+    } > "$T/$name.ini"
+}
+
+# dataset FILE PATH: the values, one a line
+dataset() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2> /dev/null | awk '/DATA \{/ { on = 1; next } /\}/ { on = 0 } on' |
+    tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+][-0-9.eEinfa+]*\) *$/\1/p'; }
+
+# compare NAME FIELD SCALE: the last snapshot's FIELD on both devices, max |cpu - gpu| <= 1e-7 SCALE (SCALE "max":
+# the largest |value| of the CPU's field); a NaN or a missing value fails
+compare() {
+    snap=$(h5ls "$T/$1.cpu/impact.h5/snapshots" 2> /dev/null | awk '$1 ~ /^[0-9]+$/ { print $1 }' | sort | tail -1)
+    dataset "$T/$1.cpu/impact.h5" "/snapshots/$snap/$2" > "$T/a"
+    dataset "$T/$1.gpu/impact.h5" "/snapshots/$snap/$2" > "$T/b"
+    result=$(paste "$T/a" "$T/b" | awk -v scale="$3" '
+        { n++; if (NF < 2) bad = 1; d = $1 - $2; if (d < 0) d = -d; if (d != d) bad = 1; if (d > dmax) dmax = d
+          a = $1 < 0 ? -$1 : $1; if (a > amax) amax = a }
+        END { s = scale == "max" ? amax : scale; ok = n > 0 && !bad && dmax <= 1e-7 * s
+              printf "%s %d values, max |cpu - gpu| %.3g, bound %.3g\n", ok ? "PASS" : "FAIL", n, dmax, 1e-7 * s }')
+    case $result in
+        PASS*) echo "PASS gpu_emulated_$1_$2 (${result#PASS })" ;;
+        *) echo "FAIL gpu_emulated_$1_$2: ${result#FAIL }"; failed=1 ;;
+    esac
+}
+
+# run NAME FIELD...: the case on both devices, then the fields compared
+run() {
+    name=$1
+    shift
+    for device in cpu gpu; do
+        if ! "$EMU" impact "$T/$name.ini" -o "$T/$name.$device" --device "$device" --threads 1 \
+            > "$T/$name.$device.log" 2>&1; then
+            echo "FAIL gpu_emulated_$name: the $device run failed: $(tail -c 400 "$T/$name.$device.log")"
+            failed=1
+            return
+        fi
+    done
+    grep -q "CUDA emulated on the CPU" "$T/$name.gpu.log" ||
+        { echo "FAIL gpu_emulated_$name: the gpu run's log does not name the emulated device"; failed=1; }
+    for field in "$@"; do
+        case $field in
+            x) compare "$name" x 1e-6 ;;
+            v) compare "$name" v 810 ;;
+            T) compare "$name" T 300 ;;
+            eps_p | D_bond) compare "$name" "$field" 1 ;;
+            *) compare "$name" "$field" max ;;
+        esac
+    done
+}
+
+impact_case two_bodies 1.5e-9 "bonding = energy"
+run two_bodies x v T pressure von_mises eps_p D_bond
+
+impact_case quarter_conduction 1.5e-9 "bonding = strain" "symmetry = quarter" "conduction = on"
+run quarter_conduction x v T pressure eps_p D_bond
+
+# two 4 um particles side by side, touching the substrate and each other's neighbourhood: nodes of three bodies
+printf 'shape,x,y,z,vx,vy,vz,d,h,material\nsphere,-2.2e-6,0,2.2e-6,0,0,-700,4e-6,0,aluminium\n' > "$T/pair.csv"
+printf 'sphere,2.2e-6,0,2.2e-6,0,0,-760,4e-6,0,aluminium\n' >> "$T/pair.csv"
+impact_case three_bodies 1.5e-9 "bonding = energy" "substrate_material = aluminium" "bodies = pair.csv"
+sed -i '/^diameter = \|^velocity = /d' "$T/three_bodies.ini"
+run three_bodies x v pressure eps_p D_bond
+
+impact_case thesis_friction 1.5e-9 "bonding = strain" "contact_scheme = thesis" "contact = friction"
+run thesis_friction x v pressure eps_p
+
+impact_case rigid_wall 1.5e-9 "substrate = rigid"
+run rigid_wall x v pressure eps_p
+
+exit "$failed"
