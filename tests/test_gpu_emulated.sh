@@ -8,7 +8,8 @@
 # port: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
 # (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
-# check (races, the device's memory, timing): scripts/gpu_check.sh on a device.
+# check (races, the device's memory, timing): scripts/gpu_check.sh on a device.  Last, a checkpoint written on one
+# device is resumed on the other, both ways.
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
@@ -40,12 +41,13 @@ impact_case() {
 dataset() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2> /dev/null | awk '/DATA \{/ { on = 1; next } /\}/ { on = 0 } on' |
     tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+][-0-9.eEinfa+]*\) *$/\1/p'; }
 
-# compare NAME FIELD SCALE: the last snapshot's FIELD on both devices, max |cpu - gpu| <= 1e-7 SCALE (SCALE "max":
-# the largest |value| of the CPU's field); a NaN or a missing value fails
-compare() {
-    snap=$(h5ls "$T/$1.cpu/impact.h5/snapshots" 2> /dev/null | awk '$1 ~ /^[0-9]+$/ { print $1 }' | sort | tail -1)
-    dataset "$T/$1.cpu/impact.h5" "/snapshots/$snap/$2" > "$T/a"
-    dataset "$T/$1.gpu/impact.h5" "/snapshots/$snap/$2" > "$T/b"
+# compare_runs NAME CPU_DIR OTHER_DIR FIELD SCALE: the last snapshot's FIELD of the two runs, max |cpu - other| <=
+# 1e-7 SCALE (SCALE "max": the largest |value| of the CPU's field); a NaN or a missing value fails
+compare_runs() {
+    snap=$(h5ls "$2/impact.h5/snapshots" 2> /dev/null | awk '$1 ~ /^[0-9]+$/ { print $1 }' | sort | tail -1)
+    dataset "$2/impact.h5" "/snapshots/$snap/$4" > "$T/a"
+    dataset "$3/impact.h5" "/snapshots/$snap/$4" > "$T/b"
+    set -- "$1" "$4" "$5"
     result=$(paste "$T/a" "$T/b" | awk -v scale="$3" '
         { n++; if (NF < 2) bad = 1; d = $1 - $2; if (d < 0) d = -d; if (d != d) bad = 1; if (d > dmax) dmax = d
           a = $1 < 0 ? -$1 : $1; if (a > amax) amax = a }
@@ -55,6 +57,21 @@ compare() {
         PASS*) echo "PASS gpu_emulated_$1_$2 (${result#PASS })" ;;
         *) echo "FAIL gpu_emulated_$1_$2: ${result#FAIL }"; failed=1 ;;
     esac
+}
+
+# compare_fields NAME CPU_DIR OTHER_DIR FIELD...: each FIELD at its scale
+compare_fields() {
+    name=$1 a=$2 b=$3
+    shift 3
+    for field in "$@"; do
+        case $field in
+            x) compare_runs "$name" "$a" "$b" x 1e-6 ;;
+            v) compare_runs "$name" "$a" "$b" v 810 ;;
+            T) compare_runs "$name" "$a" "$b" T 300 ;;
+            eps_p | D_bond) compare_runs "$name" "$a" "$b" "$field" 1 ;;
+            *) compare_runs "$name" "$a" "$b" "$field" max ;;
+        esac
+    done
 }
 
 # run NAME FIELD...: the case on both devices, then the fields compared
@@ -71,15 +88,7 @@ run() {
     done
     grep -q "CUDA emulated on the CPU" "$T/$name.gpu.log" ||
         { echo "FAIL gpu_emulated_$name: the gpu run's log does not name the emulated device"; failed=1; }
-    for field in "$@"; do
-        case $field in
-            x) compare "$name" x 1e-6 ;;
-            v) compare "$name" v 810 ;;
-            T) compare "$name" T 300 ;;
-            eps_p | D_bond) compare "$name" "$field" 1 ;;
-            *) compare "$name" "$field" max ;;
-        esac
-    done
+    compare_fields "$name" "$T/$name.cpu" "$T/$name.gpu" "$@"
 }
 
 impact_case two_bodies 1.5e-9 "bonding = energy"
@@ -100,5 +109,47 @@ run thesis_friction x v pressure eps_p
 
 impact_case rigid_wall 1.5e-9 "substrate = rigid"
 run rigid_wall x v pressure eps_p
+
+# A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the 4 ns impact on FROM, stopped by SIGTERM
+# once it has written its first checkpoint (every 20 steps; exit 143, a checkpoint of the step it stopped at),
+# resumed with `spraycoat resume --device TO`, ends as the uninterrupted CPU run.
+impact_case resume 4e-9 "bonding = energy"
+sed -i 's/^checkpoint_wall = 0$/checkpoint_wall = 0\ncheckpoint_steps = 20/; s/^series_every = .*/series_every = 5e-10/' \
+    "$T/resume.ini"
+resume_across() {
+    from=$1 to=$2 dir="$T/resume.$1_$2"
+    "$EMU" impact "$T/resume.ini" -o "$dir" --device "$from" --threads 1 > "$dir.log" 2>&1 &
+    pid=$!
+    tries=0
+    while ! ls "$dir"/checkpoints/*.h5 > /dev/null 2>&1 && kill -0 "$pid" 2> /dev/null && [ "$tries" -lt 1200 ]; do
+        sleep 0.05
+        tries=$((tries + 1))
+    done
+    kill -TERM "$pid" 2> /dev/null
+    wait "$pid"
+    status=$?
+    if [ "$status" -ne 143 ]; then
+        echo "FAIL gpu_emulated_resume_$1_$2: the $from run ended with status $status, not 143 (stopped after a" \
+            "checkpoint): $(tail -c 300 "$dir.log")"
+        failed=1
+        return
+    fi
+    if ! "$EMU" resume "$dir" --device "$to" --threads 1 > "$dir.resume.log" 2>&1 ||
+        ! grep -q "resuming from .*checkpoints" "$dir.resume.log"; then
+        echo "FAIL gpu_emulated_resume_$1_$2: the resume on $to: $(tail -c 300 "$dir.resume.log")"
+        failed=1
+        return
+    fi
+    [ "$to" = cpu ] || grep -q "CUDA emulated on the CPU" "$dir.resume.log" ||
+        { echo "FAIL gpu_emulated_resume_$1_$2: the resume's log does not name the emulated device"; failed=1; }
+    compare_fields "resume_$1_$2" "$T/resume.cpu" "$dir" x v T pressure eps_p D_bond
+}
+if "$EMU" impact "$T/resume.ini" -o "$T/resume.cpu" --device cpu --threads 1 > "$T/resume.cpu.log" 2>&1; then
+    resume_across gpu cpu
+    resume_across cpu gpu
+else
+    echo "FAIL gpu_emulated_resume: the uninterrupted run failed: $(tail -c 300 "$T/resume.cpu.log")"
+    failed=1
+fi
 
 exit "$failed"
