@@ -34,6 +34,7 @@
 #include <string.h>
 
 #include "mpm/bonding_law.h"
+#include "mpm/contact_node.h"
 #include "mpm/gpu.h"
 #include "mpm/stress_point.h"
 
@@ -59,9 +60,6 @@ static int fail(const char *fmt, ...)
 
 /* ---- the device state ---- */
 
-/* contact.c's pair states, the values of the contact flags */
-enum { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
-
 struct mpm_gpu {
     struct mpm_gpu_setup s; /* its material, constants and body tables (copy_tables) on the device */
     char name[320];
@@ -86,6 +84,7 @@ struct mpm_gpu {
     uint8_t *contact, *bond_contact, *wall_held;
     double *body_partial;  /* BODY_BLOCKS x 4 per body: partial sums of mass and momentum (body_partial_kernel) */
     double *body_velocity; /* 3 per body: its centre-of-mass velocity this step (contact.c body_velocities) */
+    struct contact_nodes contact_grid; /* the grid's arrays above as contact_node.h reads them (set_contact_nodes) */
     /* reductions: per point or per node inputs, and the results */
     double *point_a, *point_b, *point_c;
     long long *point_id, *point_id2;
@@ -255,447 +254,11 @@ __global__ static void gather_kernel(struct mpm_gpu g, int momentum_only)
     g.bond_contact[I] = 0;
 }
 
-/* ---- the nodal update and contact: contact.c, a thread per node ---- */
-
-__device__ static double norm3(const double *a)
-{
-    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-}
-
-__device__ static double nodal_bond(const struct mpm_gpu *g, size_t I)
-{
-    return g->bond_weight[I] > 0.0 ? g->bond_sum[I] / g->bond_weight[I] : 0.0;
-}
-
-__device__ static int contact_normal(const struct mpm_gpu *g, size_t Ia, size_t Ib, double n[3])
-{
-    const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
-    double la = norm3(ga), lb = norm3(gb);
-    if (la == 0.0 && lb == 0.0)
-        return -1;
-    for (int d = 0; d < 3; d++)
-        n[d] = la >= lb ? ga[d] / la : -gb[d] / lb;
-    return 0;
-}
-
-__device__ static int pair_bonded(const struct mpm_gpu *g, size_t Ia, size_t Ib)
-{
-    return g->s.bonding != MPM_BONDING_NONE && 0.5 * (nodal_bond(g, Ia) + nodal_bond(g, Ib)) >= 1.0;
-}
-
-__device__ static double approach_rate(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
-                                       const double n[3])
-{
-    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
-    double approach = 0.0; /* Eq. 3.29 divided by ma mb */
-    for (int d = 0; d < 3; d++)
-        approach += (pa[d] / g->gmass[Ia] - pb[d] / g->gmass[Ib]) * n[d];
-    return approach;
-}
-
-__device__ static int pair_decide(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3])
-{
-    if (pair_bonded(g, Ia, Ib))
-        return PAIR_BONDED;
-    return approach_rate(g, Ia, Ib, mom, n) > 0.0 ? PAIR_CONTACT : PAIR_FREE;
-}
-
-__device__ static double pair_separation(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
-{
-    const double *xa = g->moment + 3 * Ia, *xb = g->moment + 3 * Ib;
-    double separation = 0.0;
-    for (int d = 0; d < 3; d++)
-        separation += (xb[d] / g->gmass[Ib] - xa[d] / g->gmass[Ia]) * n[d];
-    return separation;
-}
-
-__device__ static int surfaces_meet(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
-{
-    return pair_separation(g, Ia, Ib, n) <= g->s.contact_gap * g->s.h;
-}
-
-/* contact.c bond_holds */
-__device__ static int bond_holds(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
-{
-    if (!pair_bonded(g, Ia, Ib))
-        return 0;
-    return g->s.bond_gap == 0.0 || pair_separation(g, Ia, Ib, n) <= g->s.bond_gap * g->s.h;
-}
-
-/* contact.c approaching */
-__device__ static int approaching(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3])
-{
-    const double *ga = g->gradient + 3 * Ia, *gb = g->gradient + 3 * Ib;
-    double along_common = 0.0, along_a = 0.0, along_b = 0.0;
-    for (int d = 0; d < 3; d++) {
-        double dv = mom[3 * Ia + d] / g->gmass[Ia] - mom[3 * Ib + d] / g->gmass[Ib];
-        along_common += dv * n[d];
-        along_a += dv * ga[d];
-        along_b -= dv * gb[d];
-    }
-    if (!(along_common > 0.0))
-        return 0;
-    if (g->s.contact_approach == MPM_APPROACH_COMMON)
-        return 1;
-    return (along_a > 0.0 || norm3(ga) == 0.0) && (along_b > 0.0 || norm3(gb) == 0.0);
-}
-
-__device__ static int pair_decide_once(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom,
-                                       const double n[3])
-{
-    if (!approaching(g, Ia, Ib, mom, n))
-        return bond_holds(g, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
-    return surfaces_meet(g, Ia, Ib, n) ? PAIR_CONTACT : PAIR_FREE;
-}
-
-__device__ static void pair_impulse(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *mom, const double n[3],
-                                    int state, double J[3])
-{
-    double ma = g->gmass[Ia], mb = g->gmass[Ib];
-    const double *pa = mom + 3 * Ia, *pb = mom + 3 * Ib;
-    for (int d = 0; d < 3; d++) /* Eq. 3.31 times dt */
-        J[d] = (ma * pb[d] - mb * pa[d]) / (ma + mb);
-    if (state == PAIR_BONDED || g->s.contact == MPM_CONTACT_STICK)
-        return;
-    double Jn = J[0] * n[0] + J[1] * n[1] + J[2] * n[2], Jt[3];
-    for (int d = 0; d < 3; d++)
-        Jt[d] = J[d] - Jn * n[d];
-    double Jt_norm = norm3(Jt), scale = 0.0;
-    if (g->s.contact == MPM_CONTACT_FRICTION && Jt_norm > 0.0)
-        scale = fmin(1.0, g->s.friction * fabs(Jn) / Jt_norm);
-    for (int d = 0; d < 3; d++)
-        J[d] = Jn * n[d] + scale * Jt[d];
-}
-
-__device__ static void apply_impulse(double *mom, size_t Ia, size_t Ib, const double J[3])
-{
-    for (int d = 0; d < 3; d++) {
-        mom[3 * Ia + d] += J[d];
-        mom[3 * Ib + d] -= J[d];
-    }
-}
+/* ---- the nodal update and contact: contact_node.h, the CPU's functions, a thread per node ---- */
 
 __device__ static int heavy(const struct mpm_gpu *g, size_t I)
 {
     return g->gmass[I] > g->s.mass_cutoff;
-}
-
-/* contact.c bonds_grow */
-__device__ static int bonds_grow(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3])
-{
-    if (g->s.bond_growth == MPM_GROWTH_CONTACT || g->s.contact_scheme != MPM_CONTACT_ONCE)
-        return 1;
-    const double *va = g->body_velocity + 3 * (Ia / g->nodes), *vb = g->body_velocity + 3 * (Ib / g->nodes);
-    double approach = 0.0;
-    for (int d = 0; d < 3; d++)
-        approach += (va[d] - vb[d]) * n[d];
-    return approach > 0.0;
-}
-
-/* contact.c mark_bond_contact */
-__device__ static void mark_bond_contact(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], int pressed)
-{
-    if (pressed || bonds_grow(g, Ia, Ib, n))
-        g->bond_contact[Ia] = g->bond_contact[Ib] = 1;
-}
-
-/* contact.c mark_touching */
-__device__ static void mark_touching(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], int pressed)
-{
-    g->contact[Ia] = g->contact[Ia] ? g->contact[Ia] : (uint8_t)PAIR_TOUCHING;
-    g->contact[Ib] = g->contact[Ib] ? g->contact[Ib] : (uint8_t)PAIR_TOUCHING;
-    mark_bond_contact(g, Ia, Ib, n, pressed);
-}
-
-/* contact_scheme = once, its first correction on the start momenta (contact.c first_correction); J the impulse on
- * body a where it projected. */
-__device__ static int first_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, double *start, double *end,
-                                       const double n[3], double J[3])
-{
-    if (pair_decide_once(g, Ia, Ib, start, n) != PAIR_CONTACT)
-        return 0;
-    pair_impulse(g, Ia, Ib, start, n, PAIR_CONTACT, J);
-    apply_impulse(start, Ia, Ib, J);
-    apply_impulse(end, Ia, Ib, J);
-    mark_touching(g, Ia, Ib, n, 1);
-    return 1;
-}
-
-/* contact.c decide_after_correction: where the first correction projected, the pair stays in contact unless the
- * updated momenta's change from the corrected start ones separates it. */
-__device__ static int decide_after_correction(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double *start,
-                                              const double *end, const double n[3])
-{
-    double along = 0.0;
-    for (int d = 0; d < 3; d++)
-        along += ((end[3 * Ia + d] - start[3 * Ia + d]) / g->gmass[Ia] -
-                  (end[3 * Ib + d] - start[3 * Ib + d]) / g->gmass[Ib]) *
-                 n[d];
-    if (!(along < 0.0))
-        return PAIR_CONTACT;
-    return bond_holds(g, Ia, Ib, n) ? PAIR_BONDED : PAIR_FREE;
-}
-
-/* contact.c resolve_pair: the pair decided on `end` and projected there (once: after its first correction on
- * `start`); its state; *corrected whether the first correction projected; Js, Je the two corrections' impulses on
- * body a (0 where none). */
-__device__ static int resolve_pair(const struct mpm_gpu *g, size_t Ia, size_t Ib, const double n[3], double *start,
-                                   double *end, int *corrected, double Js[3], double Je[3])
-{
-    int once = g->s.contact_scheme == MPM_CONTACT_ONCE;
-    for (int d = 0; d < 3; d++)
-        Js[d] = Je[d] = 0.0;
-    *corrected = once && start && first_correction(g, Ia, Ib, start, end, n, Js);
-    int state = *corrected ? decide_after_correction(g, Ia, Ib, start, end, n)
-                : once     ? pair_decide_once(g, Ia, Ib, end, n)
-                           : pair_decide(g, Ia, Ib, end, n);
-    if (state == PAIR_FREE) {
-        if (once && surfaces_meet(g, Ia, Ib, n))
-            mark_touching(g, Ia, Ib, n, 0);
-        return PAIR_FREE;
-    }
-    pair_impulse(g, Ia, Ib, end, n, state, Je);
-    apply_impulse(end, Ia, Ib, Je);
-    if (start && !once) {
-        double J[3];
-        pair_impulse(g, Ia, Ib, start, n, state, J);
-        apply_impulse(start, Ia, Ib, J);
-    }
-    g->contact[Ia] = g->contact[Ib] = (uint8_t)state;
-    mark_bond_contact(g, Ia, Ib, n, state == PAIR_CONTACT);
-    return state;
-}
-
-/* contact.c next_pair: the next pair (a, b), b > a, after (*a, *b) (start from 0, 0) with both bodies heavy at the
- * node and a contact normal; 0 when none is left. */
-__device__ static int next_pair(const struct mpm_gpu *g, size_t node, int *a, int *b, double n[3])
-{
-    for (; *a < g->s.bodies; (*a)++, *b = *a) {
-        size_t Ia = (size_t)*a * g->nodes + node;
-        if (!heavy(g, Ia))
-            continue;
-        while (++*b < g->s.bodies) {
-            size_t Ib = (size_t)*b * g->nodes + node;
-            if (heavy(g, Ib) && contact_normal(g, Ia, Ib, n) == 0)
-                return 1;
-        }
-    }
-    return 0;
-}
-
-/* contact.c sweep_pairs: every pair at the node once, in layer order. */
-__device__ static int sweep_pairs(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
-{
-    int touched = 0;
-    double n[3], Js[3], Je[3];
-    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n);) {
-        int corrected;
-        size_t Ia = (size_t)a * g->nodes + node, Ib = (size_t)b * g->nodes + node;
-        int state = resolve_pair(g, Ia, Ib, n, start, end, &corrected, Js, Je);
-        touched |= corrected || state != PAIR_FREE;
-        *bonded |= state == PAIR_BONDED;
-    }
-    return touched;
-}
-
-/* contact.c struct node_pair and its limits: a pair where three or more bodies meet, its state in this step's
- * sweeps and the impulses on body a summed over them. */
-struct node_pair {
-    size_t Ia, Ib;
-    double n[3];
-    int state;
-    int corrected;
-    double start_impulse[3], end_impulse[3];
-};
-#define MAX_NODE_PAIRS  66
-#define SWEEP_TOLERANCE 1e-10
-#define MAX_SWEEPS      200
-
-__device__ static int node_pairs(const struct mpm_gpu *g, size_t node, struct node_pair *pairs)
-{
-    int count = 0;
-    double n[3];
-    for (int a = 0, b = 0; next_pair(g, node, &a, &b, n); count++) {
-        if (count == MAX_NODE_PAIRS)
-            return -1;
-        struct node_pair *p = pairs + count;
-        p->Ia = (size_t)a * g->nodes + node, p->Ib = (size_t)b * g->nodes + node;
-        p->state = PAIR_FREE, p->corrected = 0;
-        for (int d = 0; d < 3; d++)
-            p->n[d] = n[d], p->start_impulse[d] = p->end_impulse[d] = 0.0;
-    }
-    return count;
-}
-
-__device__ static void add3(double *sum, const double *v)
-{
-    for (int d = 0; d < 3; d++)
-        sum[d] += v[d];
-}
-
-/* contact.c only_push: a pair in contact only pushes (the summed impulse on a never pulls it towards b). */
-__device__ static void only_push(const double sum[3], const double n[3], double J[3])
-{
-    if (!((sum[0] + J[0]) * n[0] + (sum[1] + J[1]) * n[1] + (sum[2] + J[2]) * n[2] > 0.0))
-        return;
-    for (int d = 0; d < 3; d++)
-        J[d] = -sum[d];
-}
-
-/* contact.c correct_start_again */
-__device__ static double correct_start_again(const struct mpm_gpu *g, struct node_pair *p, double *start, double *end)
-{
-    double J[3];
-    pair_impulse(g, p->Ia, p->Ib, start, p->n, PAIR_CONTACT, J);
-    only_push(p->start_impulse, p->n, J);
-    apply_impulse(start, p->Ia, p->Ib, J);
-    apply_impulse(end, p->Ia, p->Ib, J);
-    add3(p->start_impulse, J);
-    return norm3(J);
-}
-
-/* contact.c project_again */
-__device__ static double project_again(const struct mpm_gpu *g, struct node_pair *p, double *start, double *end,
-                                       int *bonded)
-{
-    double J[3], moved = p->corrected ? correct_start_again(g, p, start, end) : 0.0;
-    if (p->state == PAIR_FREE) {
-        p->state = decide_after_correction(g, p->Ia, p->Ib, start, end, p->n);
-        if (p->state == PAIR_FREE)
-            return moved;
-        g->contact[p->Ia] = g->contact[p->Ib] = (uint8_t)p->state;
-        mark_bond_contact(g, p->Ia, p->Ib, p->n, p->state == PAIR_CONTACT);
-    }
-    pair_impulse(g, p->Ia, p->Ib, end, p->n, p->state, J);
-    if (p->state == PAIR_CONTACT)
-        only_push(p->end_impulse, p->n, J);
-    apply_impulse(end, p->Ia, p->Ib, J);
-    add3(p->end_impulse, J);
-    *bonded |= p->state == PAIR_BONDED;
-    return moved + norm3(J);
-}
-
-/* contact.c node_momentum */
-__device__ static double node_momentum(const struct mpm_gpu *g, size_t node, const double *mom)
-{
-    double sum = 0.0;
-    for (int l = 0; l < g->s.bodies; l++)
-        sum += norm3(mom + 3 * ((size_t)l * g->nodes + node));
-    return sum;
-}
-
-/* contact.c resolve_bodies: three or more bodies at the node (once), the pairs swept until the impulses vanish. */
-__device__ static int resolve_bodies(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
-{
-    struct node_pair pairs[MAX_NODE_PAIRS];
-    int count = node_pairs(g, node, pairs), touched = 0;
-    if (count < 0)
-        return sweep_pairs(g, node, start, end, bonded);
-    for (int k = 0; k < MAX_SWEEPS; k++) {
-        double moved = 0.0;
-        for (int i = 0; i < count; i++) {
-            struct node_pair *p = pairs + i;
-            if (p->state != PAIR_FREE || p->corrected) {
-                moved += project_again(g, p, start, end, bonded);
-                continue;
-            }
-            double Js[3], Je[3];
-            int corrected;
-            p->state = resolve_pair(g, p->Ia, p->Ib, p->n, start, end, &corrected, Js, Je);
-            p->corrected = corrected;
-            add3(p->start_impulse, Js);
-            add3(p->end_impulse, Je);
-            moved += norm3(Js) + norm3(Je);
-            touched |= corrected || p->state != PAIR_FREE;
-            *bonded |= p->state == PAIR_BONDED;
-        }
-        if (!(moved > SWEEP_TOLERANCE * node_momentum(g, node, end)))
-            break;
-    }
-    return touched;
-}
-
-__device__ static int bodies_at(const struct mpm_gpu *g, size_t node)
-{
-    int count = 0;
-    for (int l = 0; l < g->s.bodies; l++)
-        count += heavy(g, (size_t)l * g->nodes + node);
-    return count;
-}
-
-/* contact.c resolve_node */
-__device__ static int resolve_node(const struct mpm_gpu *g, size_t node, double *start, double *end, int *bonded)
-{
-    *bonded = 0;
-    if (g->s.contact_scheme == MPM_CONTACT_ONCE && start && bodies_at(g, node) > 2)
-        return resolve_bodies(g, node, start, end, bonded);
-    return sweep_pairs(g, node, start, end, bonded);
-}
-
-/* contact.c reprojected_state */
-__device__ static int reprojected_state(const struct mpm_gpu *g, size_t Ia, size_t Ib)
-{
-    if (!g->contact[Ia] || !g->contact[Ib] || g->contact[Ia] == PAIR_TOUCHING || g->contact[Ib] == PAIR_TOUCHING)
-        return PAIR_FREE;
-    if (g->s.contact_scheme == MPM_CONTACT_ONCE)
-        return g->contact[Ia] == PAIR_BONDED && g->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
-    return pair_bonded(g, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
-}
-
-/* contact.c reproject_bodies: the flagged pairs whose surfaces meet, swept until the impulses vanish. */
-__device__ static void reproject_bodies(const struct mpm_gpu *g, size_t node, double *mom, int count,
-                                        struct node_pair *pairs)
-{
-    int kept = 0;
-    for (int i = 0; i < count; i++) {
-        struct node_pair p = pairs[i];
-        p.state = reprojected_state(g, p.Ia, p.Ib);
-        if (p.state != PAIR_FREE && surfaces_meet(g, p.Ia, p.Ib, p.n))
-            pairs[kept++] = p;
-    }
-    for (int k = 0; k < MAX_SWEEPS; k++) {
-        double moved = 0.0, J[3];
-        for (int i = 0; i < kept; i++) {
-            struct node_pair *p = pairs + i;
-            pair_impulse(g, p->Ia, p->Ib, mom, p->n, p->state, J);
-            if (p->state == PAIR_CONTACT)
-                only_push(p->end_impulse, p->n, J);
-            apply_impulse(mom, p->Ia, p->Ib, J);
-            add3(p->end_impulse, J);
-            moved += norm3(J);
-        }
-        if (!(moved > SWEEP_TOLERANCE * node_momentum(g, node, mom)))
-            break;
-    }
-}
-
-/* contact.c reproject_sweep and reproject_node */
-__device__ static void reproject_node(const struct mpm_gpu *g, size_t node, double *mom)
-{
-    if (g->s.contact_scheme == MPM_CONTACT_ONCE && bodies_at(g, node) > 2) {
-        struct node_pair pairs[MAX_NODE_PAIRS];
-        int count = node_pairs(g, node, pairs);
-        if (count >= 0) {
-            reproject_bodies(g, node, mom, count, pairs);
-            return;
-        }
-    }
-    for (int a = 0; a < g->s.bodies; a++) {
-        size_t Ia = (size_t)a * g->nodes + node;
-        if (!heavy(g, Ia) || !g->contact[Ia])
-            continue;
-        for (int b = a + 1; b < g->s.bodies; b++) {
-            size_t Ib = (size_t)b * g->nodes + node;
-            double n[3], J[3];
-            if (!heavy(g, Ib) || !g->contact[Ib] || contact_normal(g, Ia, Ib, n) != 0)
-                continue;
-            int state = reprojected_state(g, Ia, Ib);
-            if (state == PAIR_FREE)
-                continue;
-            pair_impulse(g, Ia, Ib, mom, n, state, J);
-            apply_impulse(mom, Ia, Ib, J);
-        }
-    }
 }
 
 __device__ static int below_wall(const struct mpm_gpu *g, int k)
@@ -807,8 +370,8 @@ __global__ static void nodal_kernel(struct mpm_gpu g, double dt)
     }
     int bonded = 0, touched = 0;
     double *start = g.s.contact_scheme != MPM_CONTACT_THESIS ? g.momentum : NULL;
-    if (g.s.bodies > 1 && bodies_at(&g, node) > 1)
-        touched = resolve_node(&g, node, start, g.momentum_new, &bonded);
+    if (g.s.bodies > 1 && bodies_at(&g.contact_grid, node) > 1)
+        touched = resolve_node(&g.contact_grid, node, start, g.momentum_new, &bonded);
     g.node_contacts[node] = touched;
     g.node_bonds[node] = touched && bonded;
 }
@@ -837,13 +400,13 @@ __global__ static void correct_kernel(struct mpm_gpu g)
     } else if (g.s.fixed_bottom) {
         fixed_bottom(&g, node, k, mom);
     }
-    if (g.s.bodies < 2 || bodies_at(&g, node) < 2)
+    if (g.s.bodies < 2 || bodies_at(&g.contact_grid, node) < 2)
         return;
     int bonded;
     if (g.s.contact_scheme != MPM_CONTACT_THESIS)
-        reproject_node(&g, node, mom);
+        reproject_node(&g.contact_grid, node, mom);
     else
-        resolve_node(&g, node, NULL, mom, &bonded);
+        resolve_node(&g.contact_grid, node, NULL, mom, &bonded);
 }
 
 /* The re-projected nodal velocities (Eq. 3.34) and the contact flags of heavy nodes (nodal_velocities). */
@@ -873,10 +436,10 @@ __global__ static void interface_kernel(struct mpm_gpu g, int body)
         for (int other = 0; other < g.s.bodies; other++) {
             size_t Ib = (size_t)other * g.nodes + node;
             double n[3];
-            if (other == body || !heavy(&g, Ib) || !g.contact[Ib] || contact_normal(&g, Ia, Ib, n) != 0)
+            if (other == body || !heavy(&g, Ib) || !g.contact[Ib] || contact_normal(&g.contact_grid, Ia, Ib, n) != 0)
                 continue;
             meets++;
-            bonded += pair_bonded(&g, Ia, Ib);
+            bonded += pair_bonded(&g.contact_grid, Ia, Ib);
         }
     g.node_contacts[node] = meets;
     g.node_bonds[node] = bonded;
@@ -1277,6 +840,21 @@ static int choose_device(char *name, size_t size)
     return 0;
 }
 
+/* The contact's view of the device's grid (contact.c nodes_of): device pointers, read by the kernels from their
+ * copy of the struct. */
+static void set_contact_nodes(struct mpm_gpu *g)
+{
+    struct contact_nodes *c = &g->contact_grid;
+    c->mass = g->gmass, c->gradient = g->gradient, c->moment = g->moment;
+    c->bond_sum = g->bond_sum, c->bond_weight = g->bond_weight, c->body_velocity = g->body_velocity;
+    c->contact = g->contact, c->bond_contact = g->bond_contact;
+    c->nodes = g->nodes, c->layers = g->s.bodies;
+    c->mass_cutoff = g->s.mass_cutoff, c->h = g->s.h;
+    c->bonding = g->s.bonding, c->law = g->s.contact, c->scheme = g->s.contact_scheme;
+    c->approach = g->s.contact_approach, c->growth = g->s.bond_growth;
+    c->friction = g->s.friction, c->contact_gap = g->s.contact_gap, c->bond_gap = g->s.bond_gap;
+}
+
 extern "C" int mpm_gpu_probe(void)
 {
     char name[320];
@@ -1311,6 +889,7 @@ extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **
         mpm_gpu_close(g);
         return -1;
     }
+    set_contact_nodes(g);
     *out = g;
     return 0;
 }
