@@ -26,35 +26,35 @@ struct DeviceReduce {
     template <typename In, typename Out>
     static cudaError_t Max(void *temp, size_t &temp_bytes, In in, Out out, int count, cudaStream_t stream = 0)
     {
-        (void)stream;
-        if (!temp) {
-            temp_bytes = 1;
-            return cudaSuccess;
-        }
         using T = typename std::iterator_traits<In>::value_type;
-        T best = std::numeric_limits<T>::lowest();
-        for (int i = 0; i < count; i++)
-            best = in[i] > best ? in[i] : best;
-        *out = best;
-        return cudaSuccess;
+        return extreme(temp, temp_bytes, in, out, count, stream, std::numeric_limits<T>::lowest(),
+                       [](T a, T b) { return a > b; });
     }
     template <typename In, typename Out>
     static cudaError_t Min(void *temp, size_t &temp_bytes, In in, Out out, int count, cudaStream_t stream = 0)
+    {
+        using T = typename std::iterator_traits<In>::value_type;
+        return extreme(temp, temp_bytes, in, out, count, stream, std::numeric_limits<T>::max(),
+                       [](T a, T b) { return a < b; });
+    }
+
+  private:
+    /* the item `better` than every other, starting from `first` (the identity) */
+    template <typename In, typename Out, typename T, typename Better>
+    static cudaError_t extreme(void *temp, size_t &temp_bytes, In in, Out out, int count, cudaStream_t stream, T first,
+                               Better better)
     {
         (void)stream;
         if (!temp) {
             temp_bytes = 1;
             return cudaSuccess;
         }
-        using T = typename std::iterator_traits<In>::value_type;
-        T best = std::numeric_limits<T>::max();
+        T best = first;
         for (int i = 0; i < count; i++)
-            best = in[i] < best ? in[i] : best;
+            best = better(in[i], best) ? in[i] : best;
         *out = best;
         return cudaSuccess;
     }
-
-  private:
     template <typename In> static typename std::iterator_traits<In>::value_type pairwise(In in, int from, int to)
     {
         using T = typename std::iterator_traits<In>::value_type;
