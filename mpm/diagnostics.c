@@ -26,6 +26,11 @@ struct body_sums {
  * over a cell; its mass-weighted mean is the body's momentum over its mass where all its nodes are heavy. */
 static void smooth_velocity(const struct mpm_solver *s, size_t q, double v[3])
 {
+    if (s->gpu) { /* the device's grid velocity at the point, brought with the points (mpm_gpu_sync) */
+        for (int d = 0; d < 3; d++)
+            v[d] = s->gpu_grid_velocity[3 * q + d];
+        return;
+    }
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     struct stencil st;

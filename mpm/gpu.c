@@ -2,6 +2,8 @@
  * clocks and accounting, and the host's copy of the points brought up to date when the host reads it.  The
  * device's side is mpm/cuda/step.cu (make CUDA=1), or mpm/gpu_stub.c. */
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -26,7 +28,8 @@ static struct mpm_gpu_points host_points(const struct mpm_solver *s)
                                    .normal = p->normal,
                                    .state = p->state,
                                    .body = p->body,
-                                   .flags = p->flags};
+                                   .flags = p->flags,
+                                   .grid_velocity = s->gpu_grid_velocity};
 }
 
 /* The host's arrays must be in id order: a solver on the GPU is never reordered (mpm_step), and both the set-up
@@ -44,6 +47,10 @@ int mpm_gpu_attach(struct mpm_solver *s)
 {
     const struct mpm_config *cfg = &s->cfg;
     const struct mpm_grid *g = &s->grid;
+    size_t grid_velocity_bytes = (3 * s->points.count + 1) * sizeof *s->gpu_grid_velocity;
+    s->gpu_grid_velocity = malloc(grid_velocity_bytes);
+    if (!s->gpu_grid_velocity)
+        SC_FAIL_OOM(grid_velocity_bytes, "the grid velocity at the GPU step's points");
     int *body_material = malloc((size_t)cfg->body_count * sizeof *body_material);
     if (!body_material)
         SC_FAIL_OOM((size_t)cfg->body_count * sizeof *body_material, "the GPU step's bodies");
@@ -106,6 +113,8 @@ void mpm_gpu_detach(struct mpm_solver *s)
 {
     mpm_gpu_close(s->gpu);
     s->gpu = NULL;
+    free(s->gpu_grid_velocity);
+    s->gpu_grid_velocity = NULL;
 }
 
 int mpm_gpu_reload(struct mpm_solver *s)
@@ -116,6 +125,8 @@ int mpm_gpu_reload(struct mpm_solver *s)
     struct mpm_gpu_points p = host_points(s);
     if (mpm_gpu_upload(s->gpu, &p) != 0)
         SC_FAIL(SC_ESIM, "impact: copying the points to the GPU: %s", mpm_gpu_message());
+    /* no step on the device's grid yet: each point's own velocity, as smooth_velocity gives on an empty grid */
+    memcpy(s->gpu_grid_velocity, s->points.v, 3 * s->points.count * sizeof *s->gpu_grid_velocity);
     return SC_OK;
 }
 

@@ -60,6 +60,9 @@ struct mpm_gpu_points {
     struct mpm_point_state *state;
     int32_t *body;
     uint8_t *flags;
+    /* 3 per point, filled by the download only: the last step's grid velocity at the point, as diagnostics.c's
+     * smooth_velocity takes it from the host's grid (the device's grid stays on the device); NULL: not wanted */
+    double *grid_velocity;
 };
 
 /* What one device step found (reduced on the device, in fixed orders: the same bits run to run). */

@@ -172,6 +172,9 @@ struct mpm_solver {
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
     struct mpm_gpu *gpu; /* [run] device = gpu: the points on the device (mpm/gpu.h), else NULL */
+    /* device = gpu: 3 per point, the grid's velocity at each point from the device (mpm_gpu_sync), read by the
+     * diagnostics instead of the host's grid, which the device step does not fill */
+    double *gpu_grid_velocity;
     /* viscous-spring boundary (cfg spring_bottom, spring_sides), else NULL: per body k A of the bottom's normal and
      * tangential and the sides' normal and tangential springs (4 doubles); per point id its index into
      * boundary_points; per boundary point the spring's anchor, the point's set-up position (3 doubles) */

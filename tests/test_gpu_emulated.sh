@@ -30,7 +30,7 @@ impact_case() {
     shift 2
     {
         printf '[run]\ncheckpoint_wall = 0\n[impact]\ngrid = 1e-6\nspacing = 0.5e-6\nt_end = %s\n' "$t_end"
-        printf 'snapshot_every = %s\nseries_every = %s\n' "$t_end" "$t_end"
+        printf 'snapshot_every = %s\nseries_every = %s\n' "$t_end" "$(awk -v t="$t_end" 'BEGIN { print t / 3 }')"
         printf 'diameter = 8e-6\nvelocity = 810\nsubstrate_diameter = 20e-6\nsubstrate_height = 8e-6\n'
         for line in "$@"; do printf '%s\n' "$line"; done
         printf '[material.aluminium]\n'
@@ -41,15 +41,13 @@ impact_case() {
 dataset() { h5dump -d "$2" -y -w 0 -m %.17g "$1" 2> /dev/null | awk '/DATA \{/ { on = 1; next } /\}/ { on = 0 } on' |
     tr ',' '\n' | sed -n 's/^ *\([-0-9.eEinfa+][-0-9.eEinfa+]*\) *$/\1/p'; }
 
-# compare_runs NAME CPU_DIR OTHER_DIR FIELD SCALE: the last snapshot's FIELD of the two runs, max |cpu - other| <=
-# 1e-7 SCALE (SCALE "max": the largest |value| of the CPU's field); a NaN or a missing value fails
-compare_runs() {
-    snap=$(h5ls "$2/impact.h5/snapshots" 2> /dev/null | awk '$1 ~ /^[0-9]+$/ { print $1 }' | sort | tail -1)
-    dataset "$2/impact.h5" "/snapshots/$snap/$4" > "$T/a"
-    dataset "$3/impact.h5" "/snapshots/$snap/$4" > "$T/b"
-    set -- "$1" "$4" "$5"
-    result=$(paste "$T/a" "$T/b" | awk -v scale="$3" '
-        { n++; if (NF < 2) bad = 1; d = $1 - $2; if (d < 0) d = -d; if (d != d) bad = 1; if (d > dmax) dmax = d
+# compare_values NAME LABEL FILE_A FILE_B SCALE: the values of the two files (one a line) pairwise, max |a - b| <=
+# 1e-7 SCALE (SCALE "max": the largest |value| of A); a value missing on one side fails, NaN only where both are
+compare_values() {
+    result=$(paste "$3" "$4" | awk -v scale="$5" '
+        { n++; if (NF < 2) bad = 1
+          if ($1 ~ /nan/ || $2 ~ /nan/) { if (!($1 ~ /nan/ && $2 ~ /nan/)) bad = 1; next }
+          d = $1 - $2; if (d < 0) d = -d; if (d > dmax) dmax = d
           a = $1 < 0 ? -$1 : $1; if (a > amax) amax = a }
         END { s = scale == "max" ? amax : scale; ok = n > 0 && !bad && dmax <= 1e-7 * s
               printf "%s %d values, max |cpu - gpu| %.3g, bound %.3g\n", ok ? "PASS" : "FAIL", n, dmax, 1e-7 * s }')
@@ -57,6 +55,25 @@ compare_runs() {
         PASS*) echo "PASS gpu_emulated_$1_$2 (${result#PASS })" ;;
         *) echo "FAIL gpu_emulated_$1_$2: ${result#FAIL }"; failed=1 ;;
     esac
+}
+
+# compare_runs NAME CPU_DIR OTHER_DIR FIELD SCALE: the last snapshot's FIELD of the two runs (compare_values)
+compare_runs() {
+    snap=$(h5ls "$2/impact.h5/snapshots" 2> /dev/null | awk '$1 ~ /^[0-9]+$/ { print $1 }' | sort | tail -1)
+    dataset "$2/impact.h5" "/snapshots/$snap/$4" > "$T/a"
+    dataset "$3/impact.h5" "/snapshots/$snap/$4" > "$T/b"
+    compare_values "$1" "$4" "$T/a" "$T/b" "$5"
+}
+
+# compare_series NAME CPU_DIR OTHER_DIR: the diagnostics of every series row (docs/physics.md "Diagnostics": the
+# energies, the verdict's v_com and v_rest, PBCP, the interface counts), each within 1e-7 of its largest value
+compare_series() {
+    for field in ke internal_energy plastic_work energy_absorbed v_com v_rest pbcp contacted_points interface_nodes \
+        bonded_nodes; do
+        dataset "$2/impact.h5" "/series/$field" > "$T/a"
+        dataset "$3/impact.h5" "/series/$field" > "$T/b"
+        compare_values "$1" "series_$field" "$T/a" "$T/b" max
+    done
 }
 
 # compare_fields NAME CPU_DIR OTHER_DIR FIELD...: each FIELD at its scale
@@ -89,6 +106,7 @@ run() {
     grep -q "CUDA emulated on the CPU" "$T/$name.gpu.log" ||
         { echo "FAIL gpu_emulated_$name: the gpu run's log does not name the emulated device"; failed=1; }
     compare_fields "$name" "$T/$name.cpu" "$T/$name.gpu" "$@"
+    compare_series "$name" "$T/$name.cpu" "$T/$name.gpu"
 }
 
 impact_case two_bodies 1.5e-9 "bonding = energy"
@@ -143,6 +161,7 @@ resume_across() {
     [ "$to" = cpu ] || grep -q "CUDA emulated on the CPU" "$dir.resume.log" ||
         { echo "FAIL gpu_emulated_resume_$1_$2: the resume's log does not name the emulated device"; failed=1; }
     compare_fields "resume_$1_$2" "$T/resume.cpu" "$dir" x v T pressure eps_p D_bond
+    compare_series "resume_$1_$2" "$T/resume.cpu" "$dir"
 }
 if "$EMU" impact "$T/resume.ini" -o "$T/resume.cpu" --device cpu --threads 1 > "$T/resume.cpu.log" 2>&1; then
     resume_across gpu cpu

@@ -84,6 +84,7 @@ struct mpm_gpu {
     uint8_t *contact, *bond_contact, *wall_held;
     double *body_partial;  /* BODY_BLOCKS x 4 per body: partial sums of mass and momentum (body_partial_kernel) */
     double *body_velocity; /* 3 per body: its centre-of-mass velocity this step (contact.c body_velocities) */
+    double *grid_velocity; /* 3 per point: the grid's velocity at it (grid_velocity_kernel), for the download */
     struct contact_nodes contact_grid; /* the grid's arrays above as contact_node.h reads them (set_contact_nodes) */
     /* reductions: per point or per node inputs, and the results */
     double *point_a, *point_b, *point_c;
@@ -419,6 +420,44 @@ __global__ static void velocity_kernel(struct mpm_gpu g)
     for (int d = 0; d < 3; d++)
         g.velocity[3 * I + d] = h ? g.momentum_new[3 * I + d] / g.gmass[I] : 0.0;
     g.contact[I] = h ? g.contact[I] : 0;
+}
+
+/* diagnostics.c smooth_velocity: the last step's re-projected nodal velocities of the point's body (velocity_kernel)
+ * interpolated to its position now over its heavy nodes, normalised by their weights (mpm_grid_stencil's trilinear
+ * weights, the same operations); its own velocity where it has none: before the first step (after an upload), with
+ * its stencil outside the grid's interior, or without a heavy node. */
+__global__ static void grid_velocity_kernel(struct mpm_gpu g)
+{
+    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (q >= g.n)
+        return;
+    const double *x = g.x + 3 * q;
+    double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0, w[3][2];
+    int base[3], inside = g.grid_stepped;
+    for (int d = 0; d < 3 && inside; d++) {
+        double xi = (x[d] - g.s.origin[d]) / g.s.h;
+        inside = xi > 1.0 && xi < (double)g.s.n[d] - 2.0;
+        double cell = floor(xi), f = xi - cell;
+        base[d] = inside ? (int)cell : 0;
+        w[d][0] = 1.0 - f, w[d][1] = f;
+    }
+    if (inside) {
+        size_t first =
+            (size_t)g.body[q] * g.nodes + (size_t)base[0] + g.row * (size_t)base[1] + g.plane * (size_t)base[2];
+        for (int c = 0; c < 2; c++)
+            for (int b = 0; b < 2; b++)
+                for (int a = 0; a < 2; a++) {
+                    double N = w[0][a] * w[1][b] * w[2][c];
+                    size_t I = first + (size_t)a + (size_t)b * g.row + (size_t)c * g.plane;
+                    if (N == 0.0 || !heavy(&g, I))
+                        continue;
+                    weight += N;
+                    for (int d = 0; d < 3; d++)
+                        sum[d] += N * g.velocity[3 * I + d];
+                }
+    }
+    for (int d = 0; d < 3; d++)
+        g.grid_velocity[3 * q + d] = weight > 0.0 ? sum[d] / weight : g.v[3 * q + d];
 }
 
 /* Body `body`'s interface nodes now (count_interface_pairs of contact.c, after a step): at each node, the other
@@ -781,6 +820,7 @@ static int allocate(struct mpm_gpu *g)
     TRY(device_array(&g->body_partial, 4 * BODY_BLOCKS * (size_t)g->s.bodies));
     CU(cudaMemset(g->wall_held, 0, cells));
     TRY(device_array(&g->point_a, n) || device_array(&g->point_b, n) || device_array(&g->point_c, n));
+    TRY(device_array(&g->grid_velocity, 3 * n));
     TRY(device_array(&g->point_id, n) || device_array(&g->point_id2, n) || device_array(&g->point_count, n));
     TRY(device_array(&g->node_contacts, g->nodes) || device_array(&g->node_bonds, g->nodes));
     TRY(device_array(&g->result, 5) || device_array(&g->result_id, 2) || device_array(&g->result_int, 3));
@@ -932,6 +972,7 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       g->wall_held,
                       g->body_partial,
                       g->body_velocity,
+                      g->grid_velocity,
                       g->point_a,
                       g->point_b,
                       g->point_c,
@@ -977,6 +1018,11 @@ extern "C" int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *
     TRY(copy_out(p->x, g->x, 3 * n) || copy_out(p->v, g->v, 3 * n) || copy_out(p->volume, g->volume, n));
     TRY(copy_out(p->d_bond, g->d_bond, n) || copy_out(p->plastic_work, g->plastic_work, n));
     TRY(copy_out(p->state, g->state, n) || copy_out(p->flags, g->flags, n));
+    if (p->grid_velocity) {
+        grid_velocity_kernel<<<blocks_for(n), THREADS>>>(*g);
+        CU(cudaGetLastError());
+        TRY(copy_out(p->grid_velocity, g->grid_velocity, 3 * n));
+    }
     g->host_stale = 0;
     return 0;
 }
