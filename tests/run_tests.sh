@@ -52,7 +52,8 @@ run_one() {
 # The tests in the order they start: the longest measured first (tests/run_tests.sh's lanes then end together; a
 # name not found here is simply not started early), the rest in name order.
 longest="tests/test_fuzz.sh tests/test_calibrate_vcrit.sh $build/tests/test_mpm_bonding tests/test_mpi.sh
-$build/tests/test_mpm_contact tests/test_pipeline.sh tests/test_restart.sh tests/test_cuda_build.sh"
+$build/tests/test_mpm_contact tests/test_pipeline.sh tests/test_restart.sh tests/test_gpu_emulated.sh
+tests/test_cuda_build.sh"
 list="$results/.list"
 : >"$list"
 for t in $longest "$build"/tests/test_* tests/test_*.sh; do
