@@ -1,11 +1,13 @@
 #!/bin/sh
 # The GPU step's own code (mpm/cuda/step.cu) against the CPU step, without a GPU: BUILD/cuda-emu/spraycoat runs
 # the device's kernels on the CPU through tests/cuda_emu (docs/gpu.md, "The emulation"), and each case here runs
-# there with --device cpu and --device gpu; the last snapshot's fields must agree within 1e-7 of their scale.
-# The step was ported from the CPU's (contact.c, grid.c, solver.c, conduction.c): a change made to one and not to
-# the other shows here as a difference of the order of the field, where the two orders of summation (the CPU's
-# scatter, the device's gather) leave 1e-11 of the speed after 110 steps.  The cases cover the paths of the
-# port: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
+# there with --device cpu and --device gpu; the last snapshot's fields and every series row's diagnostics must agree
+# within 1e-7 of their scale.  The step shares the per-point physics and the nodal contact with the CPU
+# (stress_point.h, bonding_law.h, contact_node.h) and ports the rest (the transfers of grid.c and solver.c,
+# conduction.c, the wall and mirror nodes of contact.c, the diagnostics' grid velocity): a change made to one side
+# and not to the other shows here as a difference of the order of the field, where the two orders of summation
+# (the CPU's scatter, the device's gather) leave 1e-11 of the speed after 110 steps.  The cases cover the step's
+# paths: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
 # (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
 # check (races, the device's memory, timing): scripts/gpu_check.sh on a device.  Last, a checkpoint written on one

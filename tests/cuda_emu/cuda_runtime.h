@@ -1,4 +1,4 @@
-/* CUDA on the CPU, for checking the GPU step where no GPU is (make CUDA=emu; docs/gpu.md, "The emulation").
+/* CUDA on the CPU, for checking the GPU step where no GPU is (BUILD/cuda-emu/spraycoat; docs/gpu.md, "The emulation").
  *
  * The part of the CUDA runtime that mpm/cuda/step.cu uses, in C++17 on the host: device memory is host memory,
  * a kernel launch runs the grid's blocks one after the other and each block's threads one after the other, so a
@@ -7,7 +7,7 @@
  * stop at each barrier until every thread of the block has reached it (found at the kernel's first launch).
  * cudaMalloc fills what it returns with 0xff bytes (every double NaN, every integer -1), so that reading device
  * memory the step never wrote shows.  The <<<grid, block>>> syntax is rewritten to EMU_LAUNCH(kernel, grid, block)
- * by the build (Makefile, CUDA=emu), the only change to the source.
+ * by the build (the Makefile's cuda-emu rules), the only change to the source.
  *
  * What it cannot check: races between threads, the device's memory model, a host pointer used on the device (or a
  * device pointer on the host: here both are host memory), timing.  compute-sanitizer on a device does. */
