@@ -18,6 +18,10 @@ EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 failed=0
+# the cases' length: 110 steps, 290 for the resume; under the sanitizers (make asan), where the emulated step runs
+# ten times slower (742 s for this test), 37 and 110: the same paths, each checked for memory errors
+t_case=1.5e-9 t_resume=4e-9
+[ "${SPRAYCOAT_SANITIZED:-0}" = 1 ] && t_case=0.5e-9 t_resume=1.5e-9
 
 if [ ! -x "$EMU" ]; then
     echo "FAIL gpu_emulated: $EMU is missing (make builds it with the other programs)"
@@ -111,29 +115,29 @@ run() {
     compare_series "$name" "$T/$name.cpu" "$T/$name.gpu"
 }
 
-impact_case two_bodies 1.5e-9 "bonding = energy"
+impact_case two_bodies "$t_case" "bonding = energy"
 run two_bodies x v T pressure von_mises eps_p D_bond
 
-impact_case quarter_conduction 1.5e-9 "bonding = strain" "symmetry = quarter" "conduction = on"
+impact_case quarter_conduction "$t_case" "bonding = strain" "symmetry = quarter" "conduction = on"
 run quarter_conduction x v T pressure eps_p D_bond
 
 # two 4 um particles side by side, touching the substrate and each other's neighbourhood: nodes of three bodies
 printf 'shape,x,y,z,vx,vy,vz,d,h,material\nsphere,-2.2e-6,0,2.2e-6,0,0,-700,4e-6,0,aluminium\n' > "$T/pair.csv"
 printf 'sphere,2.2e-6,0,2.2e-6,0,0,-760,4e-6,0,aluminium\n' >> "$T/pair.csv"
-impact_case three_bodies 1.5e-9 "bonding = energy" "substrate_material = aluminium" "bodies = pair.csv"
+impact_case three_bodies "$t_case" "bonding = energy" "substrate_material = aluminium" "bodies = pair.csv"
 sed -i '/^diameter = \|^velocity = /d' "$T/three_bodies.ini"
 run three_bodies x v pressure eps_p D_bond
 
-impact_case thesis_friction 1.5e-9 "bonding = strain" "contact_scheme = thesis" "contact = friction"
+impact_case thesis_friction "$t_case" "bonding = strain" "contact_scheme = thesis" "contact = friction"
 run thesis_friction x v pressure eps_p
 
-impact_case rigid_wall 1.5e-9 "substrate = rigid"
+impact_case rigid_wall "$t_case" "substrate = rigid"
 run rigid_wall x v pressure eps_p
 
-# A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the 4 ns impact on FROM, stopped by SIGTERM
+# A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the impact (4 ns) on FROM, stopped by SIGTERM
 # once it has written its first checkpoint (every 20 steps; exit 143, a checkpoint of the step it stopped at),
 # resumed with `spraycoat resume --device TO`, ends as the uninterrupted CPU run.
-impact_case resume 4e-9 "bonding = energy"
+impact_case resume "$t_resume" "bonding = energy"
 sed -i 's/^checkpoint_wall = 0$/checkpoint_wall = 0\ncheckpoint_steps = 20/; s/^series_every = .*/series_every = 5e-10/' \
     "$T/resume.ini"
 resume_across() {
