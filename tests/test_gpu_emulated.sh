@@ -6,7 +6,7 @@
 # (stress_point.h, bonding_law.h, contact_node.h) and ports the rest (the transfers of grid.c and solver.c,
 # conduction.c, the wall and mirror nodes of contact.c, the diagnostics' grid velocity): a change made to one side
 # and not to the other shows here as a difference of the order of the field, where the two orders of summation
-# (the CPU's scatter, the device's gather) leave 1e-11 of the speed after 110 steps.  The cases cover the step's
+# (the CPU's scatter, the device's gather) leave 1e-11 of the speed after 100 steps.  The cases cover the step's
 # paths: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
 # (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
@@ -18,10 +18,11 @@ EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 failed=0
-# the cases' length: 110 steps, 290 for the resume; under the sanitizers (make asan), where the emulated step runs
-# ten times slower (742 s for this test), 37 and 110: the same paths, each checked for memory errors
-t_case=1.5e-9 t_resume=4e-9
-[ "${SPRAYCOAT_SANITIZED:-0}" = 1 ] && t_case=0.5e-9 t_resume=1.5e-9
+# the cases' length: 73 steps, 110 for the resume (a difference in any path shows from the first steps of contact);
+# under the sanitizers (make asan), where the emulated step runs ten times slower, 30 and 73: the same paths, each
+# checked for memory errors
+t_case=1e-9 t_resume=1.5e-9
+[ "${SPRAYCOAT_SANITIZED:-0}" = 1 ] && t_case=0.4e-9 t_resume=1e-9
 
 if [ ! -x "$EMU" ]; then
     echo "FAIL gpu_emulated: $EMU is missing (make builds it with the other programs)"
@@ -134,7 +135,7 @@ run thesis_friction x v pressure eps_p
 impact_case rigid_wall "$t_case" "substrate = rigid"
 run rigid_wall x v pressure eps_p
 
-# A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the impact (4 ns) on FROM, stopped by SIGTERM
+# A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the impact on FROM, stopped by SIGTERM
 # once it has written its first checkpoint (every 20 steps; exit 143, a checkpoint of the step it stopped at),
 # resumed with `spraycoat resume --device TO`, ends as the uninterrupted CPU run.
 impact_case resume "$t_resume" "bonding = energy"
