@@ -32,8 +32,9 @@
  * updated and re-projected momenta, without the gap test, with bonded nodes sticking also while approaching:
  * contact starts up to a cell before the surfaces meet.
  *
- * The decisions, impulses and sweeps at one node are mpm/contact_node.h's, shared with the GPU step; this file
- * applies them over the grid, with the rigid wall, the fixed bottom and the mirror planes. */
+ * The nodal update at one node, with the rigid wall, the fixed bottom and the mirror planes, and the contact's
+ * decisions, impulses and sweeps there are mpm/contact_node.h's, shared with the GPU step; this file applies them
+ * over the grid. */
 #include <math.h>
 
 #include "mpm/contact_node.h"
@@ -63,7 +64,21 @@ static struct contact_nodes nodes_of(const struct mpm_solver *s)
                                   .growth = (int)cfg->bond_growth,
                                   .friction = cfg->friction,
                                   .contact_gap = cfg->contact_gap,
-                                  .bond_gap = cfg->bond_gap};
+                                  .bond_gap = cfg->bond_gap,
+                                  .momentum = g->momentum,
+                                  .force = g->force,
+                                  .momentum_new = g->momentum_new,
+                                  .wall_held = g->wall_held,
+                                  .moments = g->moments,
+                                  .row = g->row,
+                                  .plane = g->plane,
+                                  .origin_z = g->origin[2],
+                                  .rigid_wall = cfg->substrate == MPM_SUBSTRATE_RIGID,
+                                  .fixed_bottom = cfg->fixed_bottom,
+                                  .substrate_top = cfg->substrate_top,
+                                  .substrate_bottom = cfg->substrate_bottom,
+                                  .mirror = {cfg->mirror[0], cfg->mirror[1]},
+                                  .mirror_plane = {g->mirror_plane[0], g->mirror_plane[1]}};
 }
 
 /* Contact normal at a node between bodies a and b, from a into b (contact_node.h contact_normal). */
@@ -96,111 +111,6 @@ static void body_velocities(struct mpm_solver *s)
     }
 }
 
-/* A rigid frictionless wall at the substrate's top, z = substrate_top.  A node at or below it whose updated
- * momentum heads into the wall is held there this step: its normal (z) momentum is 0 in the updated momenta
- * (the motion of the points), in the start momenta (the FLIP reference of the points' velocity change) and in
- * the re-projected momenta (the strain rate), the same projection in all three, as contact_scheme = consistent
- * does for a pair of bodies.  Clamping only the updated momenta, and the re-projected ones only where they head
- * into the wall, let the strain rate at a held node follow a motion the points did not make: an elastic sphere
- * dropped onto the wall from 2 um left it 23 % more energetic (at cfl 0.1; the gain grew with dt), against
- * 0.1 % now (tests/test_mpm_solver.c). */
-static int below_wall(const struct mpm_solver *s, int k)
-{
-    const struct mpm_grid *g = &s->grid;
-    return g->origin[2] + (double)k * g->h <= s->cfg.substrate_top + 1e-9 * g->h;
-}
-
-/* contact_scheme = once: whether body layer I's surface meets the wall at its node, the wall taken as a body
- * whose nodal centre of mass lies as far below the wall as the body's lies above it at touching: the body's
- * centre of mass at the node at most contact_gap / 2 cells above the wall (surfaces_meet). */
-static int wall_meets(const struct mpm_solver *s, size_t I)
-{
-    const struct mpm_grid *g = &s->grid;
-    if (!g->moments)
-        return 1;
-    return g->moment[3 * I + 2] / g->mass[I] - s->cfg.substrate_top <= 0.5 * s->cfg.contact_gap * g->h;
-}
-
-/* The nodal update's side of the wall: decide which layers of the node are held, and project. */
-static void rigid_wall_hold(struct mpm_solver *s, size_t node, int k)
-{
-    struct mpm_grid *g = &s->grid;
-    int at_wall = below_wall(s, k);
-    for (int l = 0; l < g->layers; l++) {
-        size_t I = (size_t)l * g->nodes + node;
-        int held = at_wall && g->momentum_new[3 * I + 2] < 0.0 && wall_meets(s, I);
-        g->wall_held[I] = (uint8_t)held;
-        if (held)
-            g->momentum_new[3 * I + 2] = g->momentum[3 * I + 2] = 0.0;
-    }
-}
-
-/* The re-projection's side: the nodes held in this step's update, and only those, are held again. */
-static void rigid_wall_reproject(const struct mpm_solver *s, size_t node, double *mom)
-{
-    const struct mpm_grid *g = &s->grid;
-    for (int l = 0; l < g->layers; l++) {
-        size_t I = (size_t)l * g->nodes + node;
-        if (g->wall_held[I])
-            mom[3 * I + 2] = 0.0;
-    }
-}
-
-/* Tang Section 4.3.3: the substrate's "bottom surface is bound vertically by the computational grid": no
- * vertical nodal velocity at or below its bottom face.  Without it a thin substrate under a large particle is
- * pushed away as a whole and its residual stress makes it creep on the dashpots. */
-static void fixed_bottom(const struct mpm_solver *s, size_t node, int k, double *mom)
-{
-    const struct mpm_grid *g = &s->grid;
-    double z = g->origin[2] + (double)k * g->h;
-    if (z > s->cfg.substrate_bottom + 1e-9 * g->h)
-        return;
-    for (int l = 0; l < g->layers; l++)
-        mom[3 * ((size_t)l * g->nodes + node) + 2] = 0.0;
-}
-
-/* [impact] symmetry: at a node on a mirror plane the whole set-up's fields are those of the modelled side doubled,
- * with no component across the plane (the mirror images' cancel), and with trilinear weights no other node sees the
- * images (mpm/params.c load_symmetry): zeroing the component across the plane of each vector field, and leaving
- * the rest halved, gives the same velocities, normals and impulses (docs/physics.md "Mirror symmetry"). */
-static void mirror_node(const struct mpm_solver *s, size_t node, double *const *fields, int count)
-{
-    const struct mpm_grid *g = &s->grid;
-    size_t at[2] = {node % g->row, node / g->row % (size_t)g->n[1]};
-    for (int d = 0; d < 2; d++) {
-        if (!s->cfg.mirror[d] || (long)at[d] != g->mirror_plane[d])
-            continue;
-        for (int l = 0; l < g->layers; l++)
-            for (int f = 0; f < count; f++)
-                fields[f][3 * ((size_t)l * g->nodes + node) + (size_t)d] = 0.0;
-    }
-}
-
-/* Steps 3-6 at one node (in z plane k): Eq. 3.28, the wall or the fixed bottom, contact and bonds (resolve_node);
- * returns whether a pair interacted, *bonded whether one was bonded. */
-static int nodal_update(struct mpm_solver *s, const struct contact_nodes *c, size_t node, int k, double *start,
-                        int *bonded)
-{
-    struct mpm_grid *g = &s->grid;
-    double dt = s->dt;
-    if (s->cfg.mirror[0] || s->cfg.mirror[1]) {
-        double *fields[3] = {g->momentum, g->force, g->gradient};
-        mirror_node(s, node, fields, 3);
-    }
-    for (int l = 0; l < g->layers; l++) { /* Eq. 3.28 */
-        size_t I = (size_t)l * g->nodes + node;
-        int heavy = g->mass[I] > g->mass_cutoff;
-        for (int d = 0; d < 3; d++)
-            g->momentum_new[3 * I + d] = heavy ? g->momentum[3 * I + d] + g->force[3 * I + d] * dt : 0.0;
-    }
-    if (s->cfg.substrate == MPM_SUBSTRATE_RIGID)
-        rigid_wall_hold(s, node, k);
-    else if (s->cfg.fixed_bottom)
-        fixed_bottom(s, node, k, g->momentum_new);
-    *bonded = 0;
-    return g->layers > 1 && bodies_at(c, node) > 1 && resolve_node(c, node, start, g->momentum_new, bonded);
-}
-
 /* Over the nodes of this step's stencils (g->box): outside them every field is 0, and stays 0. */
 void mpm_contact_nodal_update(struct mpm_solver *s)
 {
@@ -208,7 +118,6 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
     long rows = (long)box_rows(&g->box);
     size_t length = box_row_length(&g->box);
     int64_t contacts = 0, bonds = 0;
-    double *start = s->cfg.contact_scheme != MPM_CONTACT_THESIS ? g->momentum : NULL;
     if (s->cfg.bond_growth == MPM_GROWTH_APPROACH && s->cfg.contact_scheme == MPM_CONTACT_ONCE && g->layers > 1)
         body_velocities(s);
     struct contact_nodes c = nodes_of(s);
@@ -217,7 +126,7 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
         int k, bonded;
         size_t first = box_row_start(g, &g->box, (size_t)r, &k);
         for (size_t node = first; node < first + length; node++)
-            if (nodal_update(s, &c, node, k, start, &bonded)) {
+            if (node_update(&c, node, k, s->dt, &bonded)) {
                 contacts++;
                 bonds += bonded;
             }
@@ -264,30 +173,6 @@ void mpm_contact_interface_nodes(const struct mpm_solver *s, int64_t *interface,
     }
 }
 
-/* The re-projected momenta at one node (in z plane k). */
-static void correct_node(struct mpm_solver *s, const struct contact_nodes *c, size_t node, int k, double *mom)
-{
-    struct mpm_grid *g = &s->grid;
-    for (int l = 0; l < g->layers; l++) {
-        size_t I = (size_t)l * g->nodes + node;
-        if (!(g->mass[I] > g->mass_cutoff))
-            mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
-    }
-    if (s->cfg.mirror[0] || s->cfg.mirror[1])
-        mirror_node(s, node, &mom, 1);
-    if (s->cfg.substrate == MPM_SUBSTRATE_RIGID)
-        rigid_wall_reproject(s, node, mom);
-    else if (s->cfg.fixed_bottom)
-        fixed_bottom(s, node, k, mom);
-    int bonded;
-    if (g->layers < 2 || bodies_at(c, node) < 2)
-        return;
-    if (s->cfg.contact_scheme != MPM_CONTACT_THESIS)
-        reproject_node(c, node, mom);
-    else
-        resolve_node(c, node, NULL, mom, &bonded);
-}
-
 /* Over the nodes of this step's stencils, as mpm_contact_nodal_update. */
 void mpm_contact_correct_momentum(struct mpm_solver *s, double *mom, int count_nodes)
 {
@@ -301,6 +186,6 @@ void mpm_contact_correct_momentum(struct mpm_solver *s, double *mom, int count_n
         int k;
         size_t first = box_row_start(g, &g->box, (size_t)r, &k);
         for (size_t node = first; node < first + length; node++)
-            correct_node(s, &c, node, k, mom);
+            node_correct(&c, node, k, mom);
     }
 }

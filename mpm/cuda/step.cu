@@ -9,8 +9,8 @@
  *              (Eqs. 3.23-3.27), the volume gradient, the first mass moment and the bond sums (Eq. 4.6); no atomics,
  *              so the same bits run to run
  *   bodies     each body's centre-of-mass velocity (bond_growth = approach), two passes without atomics
- *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (the port of contact.c:
- *              the same decisions, impulses and flags, a thread per node, its layers in order)
+ *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (contact_node.h's
+ *              node_update, contact.c's function at each node: a thread per node, its layers in order)
  *   book       the dashpots' work (mpm_book_absorbed_energy)
  *   g2p        grid-to-points (Eq. 3.32, FLIP/PIC), the escapes and the largest speed
  *   musl       the re-projected momenta (Eq. 3.33, the gather again), corrected as contact.c does (step 8)
@@ -257,32 +257,6 @@ __global__ static void gather_kernel(struct mpm_gpu g, int momentum_only)
 
 /* ---- the nodal update and contact: contact_node.h, the CPU's functions, a thread per node ---- */
 
-__device__ static int heavy(const struct mpm_gpu *g, size_t I)
-{
-    return g->gmass[I] > g->s.mass_cutoff;
-}
-
-__device__ static int below_wall(const struct mpm_gpu *g, int k)
-{
-    return g->s.origin[2] + (double)k * g->s.h <= g->s.substrate_top + 1e-9 * g->s.h;
-}
-
-__device__ static int wall_meets(const struct mpm_gpu *g, size_t I)
-{
-    if (!g->s.moments)
-        return 1;
-    return g->moment[3 * I + 2] / g->gmass[I] - g->s.substrate_top <= 0.5 * g->s.contact_gap * g->s.h;
-}
-
-__device__ static void fixed_bottom(const struct mpm_gpu *g, size_t node, int k, double *mom)
-{
-    double z = g->s.origin[2] + (double)k * g->s.h;
-    if (z > g->s.substrate_bottom + 1e-9 * g->s.h)
-        return;
-    for (int l = 0; l < g->s.bodies; l++)
-        mom[3 * ((size_t)l * g->nodes + node) + 2] = 0.0;
-}
-
 /* Each body's centre of mass velocity (contact.c body_velocities), in two passes without atomics, so the same bits
  * run to run: BODY_BLOCKS blocks per body each sum a fixed stride of the layer's nodes and reduce them in a fixed
  * tree; then a thread per body adds the blocks' sums in order. */
@@ -326,88 +300,24 @@ __global__ static void body_velocity_kernel(struct mpm_gpu g)
         g.body_velocity[3 * body + d] = total[0] > 0.0 && !(d < 2 && g.s.mirror[d]) ? total[1 + d] / total[0] : 0.0;
 }
 
-/* [impact] symmetry (contact.c mirror_node): at a node on a mirror plane no vector field has a component across
- * it (the mirror images' cancel); the rest, halved, gives the whole set-up's velocities, normals and impulses. */
-__device__ static void mirror_node(const struct mpm_gpu *g, size_t node, double *const *fields, int count)
-{
-    long at[2] = {(long)(node % g->row), (long)(node / g->row % (size_t)g->s.n[1])};
-    for (int d = 0; d < 2; d++) {
-        if (!g->s.mirror[d] || at[d] != g->s.mirror_plane[d])
-            continue;
-        for (int l = 0; l < g->s.bodies; l++)
-            for (int f = 0; f < count; f++)
-                fields[f][3 * ((size_t)l * g->nodes + node) + (size_t)d] = 0.0;
-    }
-}
-
-/* Steps 3-6 at each node (nodal_update and mpm_contact_nodal_update of contact.c). */
+/* Steps 3-6 at each node (contact_node.h node_update, as contact.c's mpm_contact_nodal_update). */
 __global__ static void nodal_kernel(struct mpm_gpu g, double dt)
 {
     size_t node = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
     if (node >= g.nodes)
         return;
-    int k = (int)(node / g.plane);
-    if (g.s.mirror[0] || g.s.mirror[1]) {
-        double *fields[3] = {g.momentum, g.force, g.gradient};
-        mirror_node(&g, node, fields, 3);
-    }
-    for (int l = 0; l < g.s.bodies; l++) { /* Eq. 3.28 */
-        size_t I = (size_t)l * g.nodes + node;
-        int h = heavy(&g, I);
-        for (int d = 0; d < 3; d++)
-            g.momentum_new[3 * I + d] = h ? g.momentum[3 * I + d] + g.force[3 * I + d] * dt : 0.0;
-    }
-    if (g.s.rigid_wall) {
-        int at_wall = below_wall(&g, k);
-        for (int l = 0; l < g.s.bodies; l++) {
-            size_t I = (size_t)l * g.nodes + node;
-            int held = at_wall && g.momentum_new[3 * I + 2] < 0.0 && wall_meets(&g, I);
-            g.wall_held[I] = (uint8_t)held;
-            if (held)
-                g.momentum_new[3 * I + 2] = g.momentum[3 * I + 2] = 0.0;
-        }
-    } else if (g.s.fixed_bottom) {
-        fixed_bottom(&g, node, k, g.momentum_new);
-    }
-    int bonded = 0, touched = 0;
-    double *start = g.s.contact_scheme != MPM_CONTACT_THESIS ? g.momentum : NULL;
-    if (g.s.bodies > 1 && bodies_at(&g.contact_grid, node) > 1)
-        touched = resolve_node(&g.contact_grid, node, start, g.momentum_new, &bonded);
+    int bonded;
+    int touched = node_update(&g.contact_grid, node, (int)(node / g.plane), dt, &bonded);
     g.node_contacts[node] = touched;
     g.node_bonds[node] = touched && bonded;
 }
 
-/* Step 8's correction of the re-projected momenta (correct_node of contact.c). */
+/* Step 8's correction of the re-projected momenta (contact_node.h node_correct). */
 __global__ static void correct_kernel(struct mpm_gpu g)
 {
     size_t node = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
-    if (node >= g.nodes)
-        return;
-    int k = (int)(node / g.plane);
-    double *mom = g.momentum_new;
-    for (int l = 0; l < g.s.bodies; l++) {
-        size_t I = (size_t)l * g.nodes + node;
-        if (!heavy(&g, I))
-            mom[3 * I] = mom[3 * I + 1] = mom[3 * I + 2] = 0.0;
-    }
-    if (g.s.mirror[0] || g.s.mirror[1])
-        mirror_node(&g, node, &mom, 1);
-    if (g.s.rigid_wall) {
-        for (int l = 0; l < g.s.bodies; l++) {
-            size_t I = (size_t)l * g.nodes + node;
-            if (g.wall_held[I])
-                mom[3 * I + 2] = 0.0;
-        }
-    } else if (g.s.fixed_bottom) {
-        fixed_bottom(&g, node, k, mom);
-    }
-    if (g.s.bodies < 2 || bodies_at(&g.contact_grid, node) < 2)
-        return;
-    int bonded;
-    if (g.s.contact_scheme != MPM_CONTACT_THESIS)
-        reproject_node(&g.contact_grid, node, mom);
-    else
-        resolve_node(&g.contact_grid, node, NULL, mom, &bonded);
+    if (node < g.nodes)
+        node_correct(&g.contact_grid, node, (int)(node / g.plane), g.momentum_new);
 }
 
 /* The re-projected nodal velocities (Eq. 3.34) and the contact flags of heavy nodes (nodal_velocities). */
@@ -416,7 +326,7 @@ __global__ static void velocity_kernel(struct mpm_gpu g)
     size_t I = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
     if (I >= g.cells)
         return;
-    int h = heavy(&g, I);
+    int h = heavy_entry(&g.contact_grid, I);
     for (int d = 0; d < 3; d++)
         g.velocity[3 * I + d] = h ? g.momentum_new[3 * I + d] / g.gmass[I] : 0.0;
     g.contact[I] = h ? g.contact[I] : 0;
@@ -449,7 +359,7 @@ __global__ static void grid_velocity_kernel(struct mpm_gpu g)
                 for (int a = 0; a < 2; a++) {
                     double N = w[0][a] * w[1][b] * w[2][c];
                     size_t I = first + (size_t)a + (size_t)b * g.row + (size_t)c * g.plane;
-                    if (N == 0.0 || !heavy(&g, I))
+                    if (N == 0.0 || !heavy_entry(&g.contact_grid, I))
                         continue;
                     weight += N;
                     for (int d = 0; d < 3; d++)
@@ -470,15 +380,16 @@ __global__ static void interface_kernel(struct mpm_gpu g, int body)
     if (node >= g.nodes)
         return;
     int meets = 0, bonded = 0;
+    const struct contact_nodes *c = &g.contact_grid;
     size_t Ia = (size_t)body * g.nodes + node;
-    if (heavy(&g, Ia) && g.contact[Ia])
+    if (heavy_entry(c, Ia) && g.contact[Ia])
         for (int other = 0; other < g.s.bodies; other++) {
             size_t Ib = (size_t)other * g.nodes + node;
             double n[3];
-            if (other == body || !heavy(&g, Ib) || !g.contact[Ib] || contact_normal(&g.contact_grid, Ia, Ib, n) != 0)
+            if (other == body || !heavy_entry(c, Ib) || !g.contact[Ib] || contact_normal(c, Ia, Ib, n) != 0)
                 continue;
             meets++;
-            bonded += pair_bonded(&g.contact_grid, Ia, Ib);
+            bonded += pair_bonded(c, Ia, Ib);
         }
     g.node_contacts[node] = meets;
     g.node_bonds[node] = bonded;
@@ -508,7 +419,7 @@ __global__ static void book_kernel(struct mpm_gpu g, double dt)
             for (int a = 0; a < 2; a++) {
                 double N = w[0][a] * w[1][b] * w[2][c];
                 size_t I = stencil_entry(&g, q, a, b, c);
-                if (N == 0.0 || !heavy(&g, I))
+                if (N == 0.0 || !heavy_entry(&g.contact_grid, I))
                     continue;
                 for (int d = 0; d < 3; d++)
                     v[d] += N * g.momentum[3 * I + d] / g.gmass[I];
@@ -537,7 +448,7 @@ __global__ static void g2p_kernel(struct mpm_gpu g, double dt)
             for (int a = 0; a < 2; a++) {
                 double N = w[0][a] * w[1][b] * w[2][c];
                 size_t I = stencil_entry(&g, q, a, b, c);
-                if (!heavy(&g, I))
+                if (!heavy_entry(&g.contact_grid, I))
                     continue;
                 double wN = N / g.gmass[I];
                 for (int d = 0; d < 3; d++) {
@@ -893,6 +804,12 @@ static void set_contact_nodes(struct mpm_gpu *g)
     c->bonding = g->s.bonding, c->law = g->s.contact, c->scheme = g->s.contact_scheme;
     c->approach = g->s.contact_approach, c->growth = g->s.bond_growth;
     c->friction = g->s.friction, c->contact_gap = g->s.contact_gap, c->bond_gap = g->s.bond_gap;
+    c->momentum = g->momentum, c->force = g->force, c->momentum_new = g->momentum_new, c->wall_held = g->wall_held;
+    c->moments = g->s.moments, c->row = g->row, c->plane = g->plane, c->origin_z = g->s.origin[2];
+    c->rigid_wall = g->s.rigid_wall, c->fixed_bottom = g->s.fixed_bottom;
+    c->substrate_top = g->s.substrate_top, c->substrate_bottom = g->s.substrate_bottom;
+    for (int d = 0; d < 2; d++)
+        c->mirror[d] = g->s.mirror[d], c->mirror_plane[d] = g->s.mirror_plane[d];
 }
 
 extern "C" int mpm_gpu_probe(void)
