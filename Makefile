@@ -68,6 +68,11 @@ MAIN_OBJ := $(BUILD)/app/main.o
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
+# The builds that test, asan, bench, run and validate start use every core unless the caller gave -j (a plain
+# `make test` built one file at a time: 3 of its 10 minutes on 2 cores); evaluated in the recipe, where MAKEFLAGS
+# holds -j.
+NPROC    := $(shell getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)
+JOBS      = $(if $(findstring -j,$(MAKEFLAGS)),,-j$(NPROC))
 
 .PHONY: all test asan bench run validate install clean format format-check deps test-deps fuzz fuzz-build docs FORCE
 all: $(BIN) $(TEST_BIN) $(EMU_BIN)
@@ -191,13 +196,13 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 # The suite also runs the MPI build (tests/test_mpi.sh compares `mpirun -np 2` with one process); every
 # instruction-set level of the kernels this CPU runs is compared with level 2 (tests/test_native_build.sh).
 test: test-deps format-check
-	$(MAKE) all
-	$(MAKE) MPI=1 BUILD=build-mpi build-mpi/spraycoat
+	$(MAKE) $(JOBS) all
+	$(MAKE) $(JOBS) MPI=1 BUILD=build-mpi build-mpi/spraycoat
 	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.
 asan: deps
-	$(MAKE) BUILD=build-asan OPT='-O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all' \
+	$(MAKE) $(JOBS) BUILD=build-asan OPT='-O1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all' \
 	        LDFLAGS='-fopenmp -fsanitize=address,undefined' all
 	ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan-mesa.supp UBSAN_OPTIONS=print_stacktrace=1 \
 	    SPRAYCOAT_SANITIZED=1 tests/run_tests.sh build-asan
@@ -205,11 +210,11 @@ asan: deps
 # The performance tables, of the build users get: the default build, its kernels at the level this CPU runs
 # (scripts/bench.sh prints which).
 bench: deps
-	$(MAKE) all
+	$(MAKE) $(JOBS) all
 	BENCH_COMMAND='make bench' scripts/bench.sh $(BUILD)
 
 run: deps
-	$(MAKE) $(BIN)
+	$(MAKE) $(JOBS) $(BIN)
 	$(BIN) run cases/demo.ini -o runs/demo
 
 # VALIDATE_ONLY=PART runs one part of scripts/validate.sh: table1, bonding, fuzz, calibrate_coarse,
@@ -217,7 +222,7 @@ run: deps
 # calibrate_vcrit_fine, calibrate_vcrit_conduction, vcrit_al, vcrit_al_fine, interface_strain,
 # vcrit_al_temperature, two_particles (docs/validation.md).
 validate: deps
-	$(MAKE) all
+	$(MAKE) $(JOBS) all
 	scripts/validate.sh $(BUILD)
 
 # `make fuzz`: the libFuzzer harnesses of the case reader and the two CSV readers (tests/fuzz/), built with clang,
