@@ -10,8 +10,9 @@
 # paths: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
 # (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
-# check (races, the device's memory, timing): scripts/gpu_check.sh on a device.  Last, a checkpoint written on one
-# device is resumed on the other, both ways.
+# check (a race that both orders of the threads hide, the device's memory, timing): scripts/gpu_check.sh on a device.
+# Two cases run again with the threads in reverse order (the same bits, or the threads race).  Last, a checkpoint
+# written on one device is resumed on the other, both ways.
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
@@ -134,6 +135,33 @@ run thesis_friction x v pressure eps_p
 
 impact_case rigid_wall "$t_case" "substrate = rigid"
 run rigid_wall x v pressure eps_p
+
+# The step's threads do not race: each writes only its own entries, and reads in a launch only what earlier launches
+# wrote, so its bits cannot depend on the order in which a device runs them.  The emulation runs blocks, threads and
+# the phases between barriers first to last; SPRAYCOAT_CUDA_EMU_ORDER=reverse runs them last to first, and a race
+# (a thread reading an entry that another writes in the same launch) then changes the results.  The cases of the
+# most kernels, run again in reverse: every snapshot and series row the same bits.
+same_bits_reversed() {
+    name=$1 dir="$T/$1.gpu_reversed"
+    if ! SPRAYCOAT_CUDA_EMU_ORDER=reverse "$EMU" impact "$T/$name.ini" -o "$dir" --device gpu --threads 1 \
+        > "$dir.log" 2>&1; then
+        echo "FAIL gpu_emulated_${name}_reversed: the run failed: $(tail -c 400 "$dir.log")"
+        failed=1
+        return
+    fi
+    for group in snapshots series; do
+        if h5diff -r -d 0 "$T/$name.gpu/impact.h5" "$dir/impact.h5" "/$group" "/$group" > "$T/diff" 2>&1; then
+            echo "PASS gpu_emulated_${name}_reversed_$group (the same bits with blocks and threads last to first)"
+        else
+            echo "FAIL gpu_emulated_${name}_reversed_$group: the threads' order changes the results (a race):" \
+                "$(awk '/^dataset:/ { name = $2 } /differences found/ && $1 > 0 { print name, $1 }' "$T/diff" |
+                    head -4 | tr '\n' ' ')"
+            failed=1
+        fi
+    done
+}
+same_bits_reversed quarter_conduction
+same_bits_reversed three_bodies
 
 # A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the impact on FROM, stopped by SIGTERM
 # once it has written its first checkpoint (every 20 steps; exit 143, a checkpoint of the step it stopped at),

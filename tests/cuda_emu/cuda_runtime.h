@@ -9,8 +9,11 @@
  * memory the step never wrote shows.  The <<<grid, block>>> syntax is rewritten to EMU_LAUNCH(kernel, grid, block)
  * by the build (the Makefile's cuda-emu rules), the only change to the source.
  *
- * What it cannot check: races between threads, the device's memory model, a host pointer used on the device (or a
- * device pointer on the host: here both are host memory), timing.  compute-sanitizer on a device does. */
+ * SPRAYCOAT_CUDA_EMU_ORDER=reverse runs blocks, threads and the coroutines between barriers last to first: a race
+ * between threads (one reading what another writes in the same launch) then gives other results, which comparing
+ * the two orders shows.  What it cannot check: a race that both orders happen to hide, the device's memory model, a
+ * host pointer used on the device (or a device pointer on the host: here both are host memory), timing.
+ * compute-sanitizer on a device does. */
 #ifndef SPRAYCOAT_CUDA_EMU_RUNTIME_H
 #define SPRAYCOAT_CUDA_EMU_RUNTIME_H
 

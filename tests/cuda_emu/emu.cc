@@ -219,6 +219,26 @@ void prepare_thread(block_run &r, unsigned t)
 #endif
 }
 
+/* SPRAYCOAT_CUDA_EMU_ORDER=reverse runs the blocks of a launch, the threads of a block and the coroutines between
+ * barriers last to first.  A kernel whose threads race (one reads what another writes in the same launch, or
+ * between the same barriers) then computes otherwise, which comparing the two orders shows (tests/
+ * test_gpu_emulated.sh); a device runs them in no set order.  Any other value, or none: first to last. */
+bool reversed()
+{
+    static int order = -1;
+    if (order < 0) {
+        const char *given = getenv("SPRAYCOAT_CUDA_EMU_ORDER");
+        order = given && strcmp(given, "reverse") == 0;
+    }
+    return order == 1;
+}
+
+/* the i-th of count in the order of the run */
+unsigned long long in_order(unsigned long long i, unsigned long long count)
+{
+    return reversed() ? count - 1 - i : i;
+}
+
 uint3 thread_index(unsigned t, dim3 block)
 {
     return uint3{t % block.x, t / block.x % block.y, t / (block.x * block.y)};
@@ -241,7 +261,8 @@ int run_cooperative(block_run &r, dim3 block)
     cooperative = &r;
     for (unsigned left = count; left > 0;) {
         left = 0;
-        for (unsigned t = 0; t < count; t++) {
+        for (unsigned i = 0; i < count; i++) {
+            unsigned t = (unsigned)in_order(i, count);
             if (r.done[t])
                 continue;
             r.current = t;
@@ -278,21 +299,21 @@ void emu::run_grid(const void *kernel, dim3 grid, dim3 block, thread_body &body)
     }
     gridDim = grid, blockDim = block;
     auto known = uses_barrier.find(kernel);
-    for (unsigned z = 0; z < grid.z; z++)
-        for (unsigned y = 0; y < grid.y; y++)
-            for (unsigned x = 0; x < grid.x; x++) {
-                blockIdx = uint3{x, y, z};
-                if (known == uses_barrier.end() || known->second) {
-                    static block_run r;
-                    r.body = &body;
-                    int barrier = run_cooperative(r, block);
-                    if (known == uses_barrier.end())
-                        known = uses_barrier.emplace(kernel, barrier).first;
-                    continue;
-                }
-                for (unsigned t = 0; t < threads; t++) {
-                    threadIdx = thread_index(t, block);
-                    body.run();
-                }
-            }
+    unsigned long long blocks = (unsigned long long)grid.x * grid.y * grid.z;
+    for (unsigned long long i = 0; i < blocks; i++) {
+        unsigned long long b = in_order(i, blocks);
+        blockIdx = uint3{(unsigned)(b % grid.x), (unsigned)(b / grid.x % grid.y), (unsigned)(b / grid.x / grid.y)};
+        if (known == uses_barrier.end() || known->second) {
+            static block_run r;
+            r.body = &body;
+            int barrier = run_cooperative(r, block);
+            if (known == uses_barrier.end())
+                known = uses_barrier.emplace(kernel, barrier).first;
+            continue;
+        }
+        for (unsigned t = 0; t < threads; t++) {
+            threadIdx = thread_index((unsigned)in_order(t, threads), block);
+            body.run();
+        }
+    }
 }
