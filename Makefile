@@ -197,7 +197,7 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 # instruction-set level of the kernels this CPU runs is compared with level 2 (tests/test_native_build.sh).
 test: test-deps format-check
 	$(MAKE) $(JOBS) all
-	$(MAKE) $(JOBS) MPI=1 BUILD=build-mpi build-mpi/spraycoat
+	$(MAKE) $(JOBS) MPI=1 BUILD=build-mpi build-mpi/spraycoat build-mpi/cuda-emu/spraycoat
 	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.

@@ -206,3 +206,31 @@ if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && [ $same_runs -eq 1 ] &&
 else
     fail mpi_sweep_same_as_one_process "exit $one / $two; same runs $same_runs; $why $(grep -c '\[rank 1\] info: sweep: run' "$T/sweep_two.log") runs on rank 1"
 fi
+
+# ---- one rank per GPU (issue 25: ensembles of impact runs over several GPUs) -----------------------------------
+# The GPU step emulated on the CPU (BUILD/cuda-emu/spraycoat of the MPI build, docs/gpu.md "The emulation") with two
+# devices (SPRAYCOAT_CUDA_EMU_DEVICES=2): under mpirun each rank takes the device of its local rank
+# (OMPI_COMM_WORLD_LOCAL_RANK), rank 0 device 0 and rank 1 device 1, and the pipeline's impact runs shared out over
+# them give the files of one process on one device, bit for bit (the step's bits do not depend on the device).
+why=""
+EMU_ONE="$(dirname "$BIN")/cuda-emu/spraycoat" EMU_MPI="$(dirname "$MPI_BIN")/cuda-emu/spraycoat"
+if [ -x "$EMU_ONE" ] && [ -x "$EMU_MPI" ]; then
+    sed -e 's/^t_end = 4e-9/t_end = 1e-9/' -e 's/^snapshot_every = 2e-9/snapshot_every = 1e-9/' "$CASE0" >"$T/gpu.ini"
+    SPRAYCOAT_CUDA_EMU_DEVICES=2 "$EMU_ONE" run "$T/gpu.ini" --stages "$STAGES" --device gpu -o "$T/gpu_one" \
+        >"$T/gpu_one.log" 2>&1
+    one=$?
+    SPRAYCOAT_CUDA_EMU_DEVICES=2 $MPIRUN "$EMU_MPI" run "$T/gpu.ini" --stages "$STAGES" --device gpu \
+        -o "$T/gpu_two" >"$T/gpu_two.log" 2>&1
+    two=$?
+    on_device() { grep -c "$1 info: impact: the step runs on GPU $2 of 2: CUDA emulated" "$T/gpu_two.log"; }
+    rank0=$(grep -v '\[rank [1-9]' "$T/gpu_two.log" | grep -c "info: impact: the step runs on GPU 0 of 2: CUDA emulated")
+    rank1=$(on_device '\[rank 1\]' 1)
+    if [ "$one" -eq 0 ] && [ "$two" -eq 0 ] && [ "$rank0" -ge 1 ] && [ "$rank1" -ge 1 ] &&
+        [ "$(on_device '\[rank 1\]' 0)" -eq 0 ] && same_run_dir "$T/gpu_one" "$T/gpu_two" spray couple impact; then
+        pass "mpi_one_rank_per_gpu (emulated: $rank0 impact runs on device 0, $rank1 on device 1)"
+    else
+        fail mpi_one_rank_per_gpu "exit $one / $two; runs on device 0 (rank 0) $rank0, on device 1 (rank 1) $rank1; $why $(tail -n 2 "$T/gpu_two.log")"
+    fi
+else
+    fail mpi_one_rank_per_gpu "no $EMU_ONE or $EMU_MPI (make test builds both)"
+fi
