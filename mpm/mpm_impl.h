@@ -9,6 +9,7 @@
 #include <sys/mman.h>
 
 #include "core/balance.h"
+#include "mpm/boundary_point.h"
 #include "mpm/material.h"
 #include "mpm/mpm.h"
 
@@ -213,17 +214,11 @@ void mpm_grid_free(struct mpm_grid *grid);
 int mpm_grid_stencil(const struct mpm_grid *grid, enum mpm_shape_function kind, double lp, const double x[3],
                      struct stencil *st);
 size_t mpm_grid_node(const struct mpm_grid *grid, int i, int j, int k);
-/* Whether mpm_grid_stencil would succeed at x (the point's stencil lies inside the grid): 1 < (x - origin) / h <
- * n - 2 in every direction, decided without the divisions by the least offsets that pass and fail
- * (mpm_grid_create): the same answer for every x.  Inline: grid_to_points asks for every point and step. */
+/* Whether mpm_grid_stencil would succeed at x (the point's stencil lies inside the grid; boundary_point.h
+ * grid_interior).  Inline: grid_to_points asks for every point and step. */
 static inline int grid_contains(const struct mpm_grid *g, const double x[3])
 {
-    for (int d = 0; d < 3; d++) {
-        double offset = x[d] - g->origin[d];
-        if (!(offset >= g->inside_from[d] && offset < g->inside_to[d]))
-            return 0;
-    }
-    return 1;
+    return grid_interior(g->origin, g->inside_from, g->inside_to, x);
 }
 /* The stencil of point q at its position of this step, after mpm_grid_bin_points: trilinear stencils are rebuilt
  * from the cache, with the weights of mpm_grid_stencil (1 - f, f; gradients -1/h, 1/h). */
@@ -343,21 +338,11 @@ void mpm_grid_transfer_momentum(struct mpm_solver *s);
 static inline void boundary_dashpot_force(const struct mpm_solver *s, size_t q, double f[3])
 {
     const struct mpm_points *p = &s->points;
-    const double *v = p->v + 3 * q;
     const double *coef = s->body_dashpot + 2 * p->body[q];
-    f[0] = f[1] = f[2] = 0.0;
-    /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face, a = b = 1 */
-    if (p->flags[q] & POINT_BOTTOM) {
-        f[0] -= coef[1] * v[0];
-        f[1] -= coef[1] * v[1];
-        f[2] -= coef[0] * v[2];
-    }
-    if (p->flags[q] & POINT_SIDE) {
-        const double *n = p->normal + 3 * q;
-        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        for (int d = 0; d < 3; d++)
-            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
-    }
+    int side = (p->flags[q] & POINT_SIDE) != 0;
+    f[0] = f[1] = f[2] = 0.0; /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face */
+    boundary_face_force((p->flags[q] & POINT_BOTTOM) != 0, side, side ? p->normal + 3 * q : NULL, p->v + 3 * q, coef,
+                        coef, f);
 }
 
 /* The viscous-spring boundary's spring on a point (Deeks & Randolph 1994; docs/physics.md "Substrate bottom"),
@@ -367,17 +352,8 @@ static inline void boundary_spring_vector(const struct mpm_solver *s, size_t q, 
 {
     const struct mpm_points *p = &s->points;
     const double *k = s->body_spring + 4 * p->body[q];
-    if (p->flags[q] & POINT_BOTTOM) {
-        f[0] -= k[1] * u[0];
-        f[1] -= k[1] * u[1];
-        f[2] -= k[0] * u[2];
-    }
-    if (p->flags[q] & POINT_SIDE) {
-        const double *n = p->normal + 3 * q;
-        double un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
-        for (int d = 0; d < 3; d++)
-            f[d] -= k[2] * un * n[d] + k[3] * (u[d] - un * n[d]);
-    }
+    int side = (p->flags[q] & POINT_SIDE) != 0;
+    boundary_face_force((p->flags[q] & POINT_BOTTOM) != 0, side, side ? p->normal + 3 * q : NULL, u, k, k + 2, f);
 }
 static inline void boundary_displacement(const struct mpm_solver *s, size_t q, double u[3])
 {

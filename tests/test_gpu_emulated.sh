@@ -2,10 +2,10 @@
 # The GPU step's own code (mpm/cuda/step.cu) against the CPU step, without a GPU: BUILD/cuda-emu/spraycoat runs
 # the device's kernels on the CPU through tests/cuda_emu (docs/gpu.md, "The emulation"), and each case here runs
 # there with --device cpu and --device gpu; the last snapshot's fields and every series row's diagnostics must agree
-# within 1e-7 of their scale.  The step shares the per-point physics and the nodal contact with the CPU
-# (stress_point.h, bonding_law.h) and the nodal update with its contact (contact_node.h) and ports the rest (the
-# transfers of grid.c and solver.c, conduction.c, the diagnostics' grid velocity): a change made to one side
-# and not to the other shows here as a difference of the order of the field, where the two orders of summation
+# within 1e-7 of their scale.  The step shares the per-point physics (stress_point.h, bonding_law.h), the nodal
+# update with its contact (contact_node.h) and the boundary forces (boundary_point.h) with the CPU, and ports the
+# rest (the transfers of grid.c and solver.c, conduction.c, the diagnostics' grid velocity): a change made to one
+# side and not to the other shows here as a difference of the order of the field, where the two orders of summation
 # (the CPU's scatter, the device's gather) leave 1e-11 of the speed after 100 steps.  The cases cover the step's
 # paths: two bodies with the energy model (contact_scheme = once, its two corrections, bonds), a quarter model with
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate

@@ -34,6 +34,7 @@
 #include <string.h>
 
 #include "mpm/bonding_law.h"
+#include "mpm/boundary_point.h"
 #include "mpm/contact_node.h"
 #include "mpm/gpu.h"
 #include "mpm/stress_point.h"
@@ -105,33 +106,20 @@ static unsigned blocks_for(size_t count)
     return (unsigned)((count + THREADS - 1) / THREADS);
 }
 
-/* grid_contains of mpm_impl.h: 1 < (x - origin) / h < n - 2 in every direction, from the least offsets. */
+/* grid_contains of mpm_impl.h (boundary_point.h grid_interior). */
 __device__ static int contains(const struct mpm_gpu_setup *s, const double x[3])
 {
-    for (int d = 0; d < 3; d++) {
-        double offset = x[d] - s->origin[d];
-        if (!(offset >= s->inside_from[d] && offset < s->inside_to[d]))
-            return 0;
-    }
-    return 1;
+    return grid_interior(s->origin, s->inside_from, s->inside_to, x);
 }
 
-/* boundary_dashpot_force of mpm_impl.h (Eqs. 3.45-3.46, a = b = 1). */
+/* boundary_dashpot_force of mpm_impl.h (Eqs. 3.45-3.46, a = b = 1; boundary_point.h boundary_face_force). */
 __device__ static void dashpot_force(const struct mpm_gpu *g, size_t q, double f[3])
 {
-    const double *v = g->v + 3 * q, *coef = g->s.body_dashpot + 2 * g->body[q];
+    const double *coef = g->s.body_dashpot + 2 * g->body[q];
+    int side = (g->flags[q] & GPU_POINT_SIDE) != 0;
     f[0] = f[1] = f[2] = 0.0;
-    if (g->flags[q] & GPU_POINT_BOTTOM) {
-        f[0] -= coef[1] * v[0];
-        f[1] -= coef[1] * v[1];
-        f[2] -= coef[0] * v[2];
-    }
-    if (g->flags[q] & GPU_POINT_SIDE) {
-        const double *n = g->normal + 3 * q;
-        double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        for (int d = 0; d < 3; d++)
-            f[d] -= coef[0] * vn * n[d] + coef[1] * (v[d] - vn * n[d]);
-    }
+    boundary_face_force((g->flags[q] & GPU_POINT_BOTTOM) != 0, side, side ? g->normal + 3 * q : NULL, g->v + 3 * q,
+                        coef, coef, f);
 }
 
 /* The trilinear weights and derivatives of point q: w[d][0] = 1 - f, w[d][1] = f, g = -+1/h (grid_point_stencil). */
