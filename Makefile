@@ -72,7 +72,7 @@ BIN      := $(BUILD)/spraycoat
 # `make test` built one file at a time: 3 of its 10 minutes on 2 cores); evaluated in the recipe, where MAKEFLAGS
 # holds -j.
 NPROC    := $(shell getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)
-JOBS      = $(if $(findstring -j,$(MAKEFLAGS)),,-j$(NPROC))
+JOBS      = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(NPROC))
 
 .PHONY: all test asan bench run validate install clean format format-check deps test-deps fuzz fuzz-build docs FORCE
 all: $(BIN) $(TEST_BIN) $(EMU_BIN)
@@ -197,7 +197,7 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(BUILD)/libspraycoat.a
 # instruction-set level of the kernels this CPU runs is compared with level 2 (tests/test_native_build.sh).
 test: test-deps format-check
 	$(MAKE) $(JOBS) all
-	$(MAKE) $(JOBS) MPI=1 BUILD=build-mpi build-mpi/spraycoat build-mpi/cuda-emu/spraycoat
+	$(MAKE) $(JOBS) MPI=1 BUILD=build-mpi build-mpi/spraycoat $(if $(filter 1,$(CUDA)),,build-mpi/cuda-emu/spraycoat)
 	SPRAYCOAT_MPI_BIN=build-mpi/spraycoat tests/run_tests.sh $(BUILD)
 
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything, then the whole suite.

@@ -360,8 +360,8 @@ static int load_transfer(const struct case_file *c, struct mpm_config *cfg)
     return SC_OK;
 }
 
-/* [impact] symmetry, after the shape functions: the mirror planes' nodal condition (contact.c mirror_node, and its
- * port in mpm/cuda/step.cu) is exact for trilinear weights only, whose points on one side reach no node on the
+/* [impact] symmetry, after the shape functions: the mirror planes' nodal condition (contact_node.h mirror_node, for
+ * the CPU and the GPU step) is exact for trilinear weights only, whose points on one side reach no node on the
  * other.  Heat conduction takes the mirror images of the neighbours (conduction.c exchange_sum). */
 static int load_symmetry(const struct case_file *c, struct mpm_config *cfg)
 {

@@ -9,8 +9,9 @@
  *              (Eqs. 3.23-3.27), the volume gradient, the first mass moment and the bond sums (Eq. 4.6); no atomics,
  *              so the same bits run to run
  *   bodies     each body's centre-of-mass velocity (bond_growth = approach), two passes without atomics
- *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (contact_node.h's
- *              node_update, contact.c's function at each node: a thread per node, its layers in order)
+ *   nodal      Eq. 3.28, the rigid wall or the fixed bottom, multi-body contact and bonds (contact_node.h
+ *              node_update, which contact.c calls at each node of the CPU's grid: a thread per node, its layers in
+ *              order)
  *   book       the dashpots' work (mpm_book_absorbed_energy)
  *   g2p        grid-to-points (Eq. 3.32, FLIP/PIC), the escapes and the largest speed
  *   musl       the re-projected momenta (Eq. 3.33, the gather again), corrected as contact.c does (step 8)
