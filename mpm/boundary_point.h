@@ -11,7 +11,7 @@
  * dashpots, Eq. 3.46 with a = b = 1: c = rho Vp A on the normal part, rho Vs A on the tangential) or its
  * displacement (the viscous-spring boundary's springs, Deeks & Randolph 1994): on the bottom face c_bottom[0] on u's
  * z part and c_bottom[1] on its x and y parts; on a side face, of outward normal n (read only there), c_side[0] on
- * u's part along n and c_side[1] on the rest. */
+ * u's part along n and c_side[1] on the rest.  bottom and side: nonzero for a point on that face. */
 SC_HD static inline void boundary_face_force(int bottom, int side, const double *n, const double u[3],
                                              const double c_bottom[2], const double c_side[2], double f[3])
 {

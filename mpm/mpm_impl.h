@@ -339,9 +339,8 @@ static inline void boundary_dashpot_force(const struct mpm_solver *s, size_t q, 
 {
     const struct mpm_points *p = &s->points;
     const double *coef = s->body_dashpot + 2 * p->body[q];
-    int side = (p->flags[q] & POINT_SIDE) != 0;
     f[0] = f[1] = f[2] = 0.0; /* Eq. 3.46: a primary (normal) and secondary (tangential) dashpot per face */
-    boundary_face_force((p->flags[q] & POINT_BOTTOM) != 0, side, side ? p->normal + 3 * q : NULL, p->v + 3 * q, coef,
+    boundary_face_force(p->flags[q] & POINT_BOTTOM, p->flags[q] & POINT_SIDE, p->normal + 3 * q, p->v + 3 * q, coef,
                         coef, f);
 }
 
@@ -352,8 +351,7 @@ static inline void boundary_spring_vector(const struct mpm_solver *s, size_t q, 
 {
     const struct mpm_points *p = &s->points;
     const double *k = s->body_spring + 4 * p->body[q];
-    int side = (p->flags[q] & POINT_SIDE) != 0;
-    boundary_face_force((p->flags[q] & POINT_BOTTOM) != 0, side, side ? p->normal + 3 * q : NULL, u, k, k + 2, f);
+    boundary_face_force(p->flags[q] & POINT_BOTTOM, p->flags[q] & POINT_SIDE, p->normal + 3 * q, u, k, k + 2, f);
 }
 static inline void boundary_displacement(const struct mpm_solver *s, size_t q, double u[3])
 {

@@ -117,9 +117,8 @@ __device__ static int contains(const struct mpm_gpu_setup *s, const double x[3])
 __device__ static void dashpot_force(const struct mpm_gpu *g, size_t q, double f[3])
 {
     const double *coef = g->s.body_dashpot + 2 * g->body[q];
-    int side = (g->flags[q] & GPU_POINT_SIDE) != 0;
     f[0] = f[1] = f[2] = 0.0;
-    boundary_face_force((g->flags[q] & GPU_POINT_BOTTOM) != 0, side, side ? g->normal + 3 * q : NULL, g->v + 3 * q,
+    boundary_face_force(g->flags[q] & GPU_POINT_BOTTOM, g->flags[q] & GPU_POINT_SIDE, g->normal + 3 * q, g->v + 3 * q,
                         coef, coef, f);
 }
 
