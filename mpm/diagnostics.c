@@ -9,13 +9,9 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "core/log.h"
+#include "mpm/diagnostics_point.h"
 #include "mpm/mpm_impl.h"
-
-struct body_sums {
-    double mass, volume0, ke, internal, plastic_work, eps_p_mass, momentum[3];
-    double slow_vz, d_bond_surface;
-    int64_t slow, surface, contacted, bonded, interface_nodes, bonded_nodes;
-};
 
 /* The velocity of the grid at point q: the last step's re-projected, contact-corrected nodal velocities of its
  * body (g->velocity, those the strain rate is taken from) interpolated to its position, normalised by the
@@ -26,11 +22,6 @@ struct body_sums {
  * over a cell; its mass-weighted mean is the body's momentum over its mass where all its nodes are heavy. */
 static void smooth_velocity(const struct mpm_solver *s, size_t q, double v[3])
 {
-    if (s->gpu) { /* the device's grid velocity at the point, brought with the points (mpm_gpu_sync) */
-        for (int d = 0; d < 3; d++)
-            v[d] = s->gpu_grid_velocity[3 * q + d];
-        return;
-    }
     const struct mpm_grid *g = &s->grid;
     const struct mpm_points *p = &s->points;
     struct stencil st;
@@ -53,40 +44,15 @@ static void smooth_velocity(const struct mpm_solver *s, size_t q, double v[3])
         v[d] = weight > 0.0 ? sum[d] / weight : p->v[3 * q + d];
 }
 
-static void add_point(const struct mpm_solver *s, size_t q, struct body_sums *b)
-{
-    const struct mpm_points *p = &s->points;
-    const double *vp = p->v + 3 * q;
-    double v[3];
-    smooth_velocity(s, q, v);
-    double m = p->mass[q], speed2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    b->mass += m;
-    b->volume0 += p->volume0[q];
-    b->ke += 0.5 * m * (vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2]); /* the energy balance's: the points' */
-    b->internal += p->state[q].energy;
-    b->plastic_work += p->plastic_work[q];
-    b->eps_p_mass += m * p->state[q].eps_p;
-    for (int d = 0; d < 3; d++)
-        b->momentum[d] += m * v[d];
-    if (speed2 < s->cfg.vrest_filter * s->cfg.vrest_filter) {
-        b->slow_vz += v[2];
-        b->slow++;
-    }
-    if (p->flags[q] & POINT_SURFACE) {
-        b->surface++;
-        b->d_bond_surface += p->d_bond[q];
-    }
-    b->contacted += p->d_bond[q] > 0.0;
-    b->bonded += p->d_bond[q] >= 1.0;
-}
-
 /* The whole body's from its modelled part's sums ([impact] symmetry, `copies` of it): the extensive sums times the
- * copies (no point lies on a mirror plane), means as they are, no centre-of-mass motion across a mirror plane. */
-static void finish_body(const struct mpm_config *cfg, const struct body_sums *b, struct mpm_body_diagnostics *out)
+ * copies (no point lies on a mirror plane), means as they are, no centre-of-mass motion across a mirror plane;
+ * interface and bonded: its interface nodes and those bonded (-1: not counted). */
+static void finish_body(const struct mpm_config *cfg, const struct point_sums *b, int64_t interface, int64_t bonded,
+                        struct mpm_body_diagnostics *out)
 {
     double copies = mpm_mirror_copies(cfg);
     out->mass = copies * b->mass;
-    out->kinetic_energy = copies * b->ke;
+    out->kinetic_energy = copies * b->kinetic;
     out->internal_energy = copies * b->internal;
     out->plastic_work = copies * b->plastic_work;
     out->mean_eps_p = b->mass > 0 ? b->eps_p_mass / b->mass : 0.0;
@@ -98,11 +64,9 @@ static void finish_body(const struct mpm_config *cfg, const struct body_sums *b,
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
     out->contacted_points = (int64_t)copies * b->contacted;
     out->bonded_points = (int64_t)copies * b->bonded;
-    out->interface_nodes = b->interface_nodes < 0 ? -1 : (int64_t)copies * b->interface_nodes;
-    out->bonded_nodes = b->bonded_nodes < 0 ? -1 : (int64_t)copies * b->bonded_nodes;
-    out->bonded_interface = b->interface_nodes < 0   ? NAN
-                            : b->interface_nodes > 0 ? (double)b->bonded_nodes / (double)b->interface_nodes
-                                                     : 0.0;
+    out->interface_nodes = interface < 0 ? -1 : (int64_t)copies * interface;
+    out->bonded_nodes = bonded < 0 ? -1 : (int64_t)copies * bonded;
+    out->bonded_interface = interface < 0 ? NAN : interface > 0 ? (double)bonded / (double)interface : 0.0;
 }
 
 /* The points are summed by id, scattered over the storage after a reordering (point_order.c): the fields of the
@@ -122,29 +86,59 @@ static void prefetch_diagnostics_point(const struct mpm_points *p, size_t q)
     __builtin_prefetch(&p->state[q].eps_p);
 }
 
-const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
+/* Each body's sums over its active points, by id (the GPU's: mpm_gpu_body_sums, summed on the device). */
+static int body_sums(const struct mpm_solver *s, struct point_sums *sums)
+{
+    if (s->gpu)
+        return mpm_gpu_body_sums(s, sums);
+    const struct mpm_points *p = &s->points;
+    const struct point_fields fields = {.v = p->v,
+                                        .mass = p->mass,
+                                        .volume0 = p->volume0,
+                                        .plastic_work = p->plastic_work,
+                                        .d_bond = p->d_bond,
+                                        .state = p->state,
+                                        .flags = p->flags,
+                                        .surface_flag = POINT_SURFACE,
+                                        .vrest_filter = s->cfg.vrest_filter};
+    for (size_t i = 0; i < p->count; i++) {
+        if (i + DIAGNOSTICS_AHEAD < p->count)
+            prefetch_diagnostics_point(p, p->slot[i + DIAGNOSTICS_AHEAD]);
+        size_t q = p->slot[i]; /* by id (point_order.c) */
+        if (!(p->flags[q] & POINT_ACTIVE))
+            continue;
+        double v[3];
+        smooth_velocity(s, q, v);
+        point_sums_add(&sums[p->body[q]], &fields, q, v);
+    }
+    return SC_OK;
+}
+
+/* The diagnostics of the bodies now into s->diagnostics.  A fault of the device leaves every body's sums NaN. */
+static int compute_diagnostics(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
-    struct body_sums *sums = calloc((size_t)nb, sizeof *sums);
+    struct point_sums *sums = calloc((size_t)nb, sizeof *sums);
     int64_t *nodes = calloc(2 * (size_t)nb, sizeof *nodes);
-    if (!sums || !nodes) /* it returns the diagnostics, not a status */
+    if (!sums || !nodes) /* mpm_compute_diagnostics returns the diagnostics, not a status */
         SC_DIE_OOM((size_t)nb * (sizeof *sums + 2 * sizeof *nodes), "the diagnostics of the bodies");
     /* with [run] device = gpu the grid's contact state lives on the device (the host's grid is not filled) */
     if (s->gpu)
         mpm_gpu_count_interface(s, nodes, nodes + nb);
     else
         mpm_contact_interface_nodes(s, nodes, nodes + nb);
-    for (int b = 0; b < nb; b++)
-        sums[b].interface_nodes = nodes[b], sums[b].bonded_nodes = nodes[nb + b];
-    free(nodes);
-    const struct mpm_points *p = &s->points;
-    for (size_t i = 0; i < p->count; i++) {
-        if (i + DIAGNOSTICS_AHEAD < p->count)
-            prefetch_diagnostics_point(p, p->slot[i + DIAGNOSTICS_AHEAD]);
-        size_t q = p->slot[i]; /* by id (point_order.c) */
-        if (p->flags[q] & POINT_ACTIVE)
-            add_point(s, q, &sums[p->body[q]]);
-    }
+    int status = body_sums(s, sums);
+    if (status != SC_OK)
+        for (int b = 0; b < nb; b++)
+            sums[b] = (struct point_sums){.mass = NAN,
+                                          .volume0 = NAN,
+                                          .kinetic = NAN,
+                                          .internal = NAN,
+                                          .plastic_work = NAN,
+                                          .eps_p_mass = NAN,
+                                          .momentum = {NAN, NAN, NAN},
+                                          .slow_vz = NAN,
+                                          .slow = 1};
     struct mpm_diagnostics *d = &s->diagnostics;
     d->t = s->t;
     d->body_count = nb;
@@ -156,11 +150,19 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     d->energy_stored = copies * mpm_boundary_spring_energy(s);
     d->energy_total = d->energy_absorbed + d->energy_removed + d->energy_stored;
     for (int b = 0; b < nb; b++) {
-        finish_body(&s->cfg, &sums[b], &d->body[b]);
+        finish_body(&s->cfg, &sums[b], nodes[b], nodes[nb + b], &d->body[b]);
         d->energy_total += d->body[b].kinetic_energy + d->body[b].internal_energy;
     }
+    free(nodes);
     free(sums);
-    return d;
+    return status;
+}
+
+const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
+{
+    if (compute_diagnostics(s) != SC_OK)
+        log_warn("%s (the diagnostics are NaN)", sc_error_message());
+    return &s->diagnostics;
 }
 
 /* The grid's start-of-step velocity of body `layer`'s field at point q, sum_I N_Ip p_I / m_I. */
@@ -254,7 +256,6 @@ void mpm_book_absorbed_energy(struct mpm_solver *s)
 
 int mpm_series_record(struct mpm_solver *s)
 {
-    SC_TRY(mpm_gpu_sync(s)); /* the points from the device ([run] device = gpu) */
     int nb = s->cfg.body_count;
     size_t width = SERIES_FIXED + (size_t)nb * SERIES_PER_BODY;
     if (s->series_rows == s->series_capacity) {
@@ -265,7 +266,8 @@ int mpm_series_record(struct mpm_solver *s)
         s->series = more;
         s->series_capacity = grown;
     }
-    const struct mpm_diagnostics *d = mpm_compute_diagnostics(s);
+    SC_TRY(compute_diagnostics(s)); /* with device = gpu summed there: the points stay on the device */
+    const struct mpm_diagnostics *d = &s->diagnostics;
     double *row = s->series + s->series_rows++ * width;
     row[0] = d->t;
     row[1] = d->energy_total;

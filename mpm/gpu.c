@@ -28,8 +28,7 @@ static struct mpm_gpu_points host_points(const struct mpm_solver *s)
                                    .normal = p->normal,
                                    .state = p->state,
                                    .body = p->body,
-                                   .flags = p->flags,
-                                   .grid_velocity = s->gpu_grid_velocity};
+                                   .flags = p->flags};
 }
 
 /* The host's arrays must be in id order: a solver on the GPU is never reordered (mpm_step), and both the set-up
@@ -47,10 +46,6 @@ int mpm_gpu_attach(struct mpm_solver *s)
 {
     const struct mpm_config *cfg = &s->cfg;
     const struct mpm_grid *g = &s->grid;
-    size_t grid_velocity_bytes = (3 * s->points.count + 1) * sizeof *s->gpu_grid_velocity;
-    s->gpu_grid_velocity = malloc(grid_velocity_bytes);
-    if (!s->gpu_grid_velocity)
-        SC_FAIL_OOM(grid_velocity_bytes, "the grid velocity at the GPU step's points");
     int *body_material = malloc((size_t)cfg->body_count * sizeof *body_material);
     if (!body_material)
         SC_FAIL_OOM((size_t)cfg->body_count * sizeof *body_material, "the GPU step's bodies");
@@ -113,8 +108,6 @@ void mpm_gpu_detach(struct mpm_solver *s)
 {
     mpm_gpu_close(s->gpu);
     s->gpu = NULL;
-    free(s->gpu_grid_velocity);
-    s->gpu_grid_velocity = NULL;
 }
 
 int mpm_gpu_reload(struct mpm_solver *s)
@@ -125,8 +118,6 @@ int mpm_gpu_reload(struct mpm_solver *s)
     struct mpm_gpu_points p = host_points(s);
     if (mpm_gpu_upload(s->gpu, &p) != 0)
         SC_FAIL(SC_ESIM, "impact: copying the points to the GPU: %s", mpm_gpu_message());
-    /* no step on the device's grid yet: each point's own velocity, as smooth_velocity gives on an empty grid */
-    memcpy(s->gpu_grid_velocity, s->points.v, 3 * s->points.count * sizeof *s->gpu_grid_velocity);
     return SC_OK;
 }
 
@@ -149,6 +140,14 @@ void mpm_gpu_count_interface(const struct mpm_solver *s, int64_t *interface, int
     log_warn("impact: counting the interface nodes on the GPU: %s", mpm_gpu_message());
     for (int b = 0; b < s->cfg.body_count; b++)
         interface[b] = bonded[b] = -1;
+}
+
+int mpm_gpu_body_sums(const struct mpm_solver *s, struct point_sums *sums)
+{
+    if (mpm_gpu_point_sums(s->gpu, s->cfg.vrest_filter, sums) != 0)
+        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): summing the diagnostics on the GPU: %s", (long long)s->step,
+                s->t, mpm_gpu_message());
+    return SC_OK;
 }
 
 /* The time step of Section 3.4 (choose_time_step of solver.c), from the speeds the last device step found, or from
@@ -204,8 +203,5 @@ int mpm_gpu_step(struct mpm_solver *s)
     if (exchanges > 0 && mpm_gpu_conduct(s->gpu, mpm_conduction_interval(s), exchanges) != 0)
         SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): the GPU's heat conduction failed: %s", (long long)s->step,
                 s->t, mpm_gpu_message());
-    /* the series row and the snapshot of advance_clocks read the host's points */
-    int due = s->t >= s->next_series * (1.0 - 1e-12) || s->t >= s->next_snapshot * (1.0 - 1e-12) ||
-              s->t >= s->cfg.t_end * (1.0 - 1e-12);
-    return due ? mpm_gpu_sync(s) : SC_OK;
+    return SC_OK; /* the host's points are brought up to date by those who read them (mpm_gpu_sync) */
 }

@@ -2,7 +2,8 @@
  *
  * The points live on the device for the whole run, in set-up (id) order, structure of arrays; the host's arrays
  * (also in id order: a solver on the GPU never reorders them, point_order.c) are brought up to date only when
- * something on the host reads them: a series row, a snapshot, a checkpoint, the diagnostics (mpm_gpu_sync).  This
+ * something on the host reads them: a snapshot, a checkpoint (mpm_gpu_sync); the diagnostics are summed on the
+ * device (mpm_gpu_point_sums).  This
  * header is plain C for both compilers: step.cu does not include mpm_impl.h (whose GNU vector types nvcc's
  * front end need not accept); mpm/gpu.c fills the plain view below from the solver.  Without CUDA=1,
  * mpm/gpu_stub.c defines the functions, and mpm_gpu_built() is 0. */
@@ -12,6 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mpm/diagnostics_point.h"
 #include "mpm/material.h"
 
 #ifdef __cplusplus
@@ -60,9 +62,6 @@ struct mpm_gpu_points {
     struct mpm_point_state *state;
     int32_t *body;
     uint8_t *flags;
-    /* 3 per point, filled by the download only: the last step's grid velocity at the point, as diagnostics.c's
-     * smooth_velocity takes it from the host's grid (the device's grid stays on the device); NULL: not wanted */
-    double *grid_velocity;
 };
 
 /* What one device step found (reduced on the device, in fixed orders: the same bits run to run). */
@@ -100,6 +99,10 @@ int mpm_gpu_conduct(struct mpm_gpu *g, double interval, int exchanges);
 /* Each body's interface nodes after the last step and those bonded by Eq. 4.7 (mpm_contact_interface_nodes of
  * contact.c, on the device's grid); 0 each before the first step.  interface and bonded have `bodies` entries. */
 int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bonded);
+/* Each body's sums over its active points (diagnostics_point.h point_sums_add), with the last step's grid velocity
+ * at each point (diagnostics.c smooth_velocity) and v_rest's filter vrest_filter (m/s), summed on the device in a
+ * fixed order (the same bits run to run); sums has `bodies` entries. */
+int mpm_gpu_point_sums(struct mpm_gpu *g, double vrest_filter, struct point_sums *sums);
 /* The device's name and memory, for the log. */
 const char *mpm_gpu_name(const struct mpm_gpu *g);
 /* The reason of the last failure. */

@@ -51,6 +51,11 @@ int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, int64_t *bond
     (void)g, (void)interface, (void)bonded;
     return -1;
 }
+int mpm_gpu_point_sums(struct mpm_gpu *g, double vrest_filter, struct point_sums *sums)
+{
+    (void)g, (void)vrest_filter, (void)sums;
+    return -1;
+}
 const char *mpm_gpu_name(const struct mpm_gpu *g)
 {
     (void)g;

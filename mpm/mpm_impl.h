@@ -173,9 +173,6 @@ struct mpm_solver {
     struct mpm_diagnostics diagnostics;
     struct mpm_body_diagnostics *body_diagnostics;
     struct mpm_gpu *gpu; /* [run] device = gpu: the points on the device (mpm/gpu.h), else NULL */
-    /* device = gpu: 3 per point, the grid's velocity at each point from the device (mpm_gpu_sync), read by the
-     * diagnostics instead of the host's grid, which the device step does not fill */
-    double *gpu_grid_velocity;
     /* viscous-spring boundary (cfg spring_bottom, spring_sides), else NULL: per body k A of the bottom's normal and
      * tangential and the sides' normal and tangential springs (4 doubles); per point id its index into
      * boundary_points; per boundary point the spring's anchor, the point's set-up position (3 doubles) */
@@ -434,7 +431,8 @@ void mpm_book_absorbed_energy(struct mpm_solver *s);
 
 /* gpu.c: the step on the GPU ([run] device = gpu; mpm/gpu.h).  attach makes the device state after set-up, reload
  * copies the host's points to it (after a checkpoint), sync brings the host's copy up to date when it is older
- * (before the host reads the points: series, snapshots, checkpoints, diagnostics; a no-op on the CPU). */
+ * (before the host reads the points: snapshots and checkpoints; a no-op on the CPU).  The diagnostics are summed
+ * on the device. */
 struct mpm_gpu;
 int mpm_gpu_attach(struct mpm_solver *s);
 void mpm_gpu_detach(struct mpm_solver *s);
@@ -443,5 +441,8 @@ int mpm_gpu_sync(const struct mpm_solver *s);
 int mpm_gpu_step(struct mpm_solver *s);
 /* mpm_contact_interface_nodes on the device's grid; -1 each when the device fails. */
 void mpm_gpu_count_interface(const struct mpm_solver *s, int64_t *interface, int64_t *bonded);
+/* Each body's sums over its active points (diagnostics.c body_sums), summed on the device. */
+struct point_sums;
+int mpm_gpu_body_sums(const struct mpm_solver *s, struct point_sums *sums);
 
 #endif

@@ -20,7 +20,9 @@
  *              CPU's own functions, compiled for the device
  *   remove     points that left the grid box
  * Sums over points (removed energy, absorbed work) and the maxima are CUB reductions: a fixed tree for a given
- * size, the same bits run to run.  They differ from the CPU's sums in order (docs/gpu.md, "Bits"). */
+ * size, the same bits run to run.  They differ from the CPU's sums in order (docs/gpu.md, "Bits").  The diagnostics
+ * (diagnostics_point.h) are each body's sums over its points, in two passes without atomics, when a series row asks
+ * for them: the points come back to the host only for snapshots and checkpoints. */
 #define STRESS_LANES 1
 
 #include <cuda_runtime.h>
@@ -86,7 +88,8 @@ struct mpm_gpu {
     uint8_t *contact, *bond_contact, *wall_held;
     double *body_partial;  /* BODY_BLOCKS x 4 per body: partial sums of mass and momentum (body_partial_kernel) */
     double *body_velocity; /* 3 per body: its centre-of-mass velocity this step (contact.c body_velocities) */
-    double *grid_velocity; /* 3 per point: the grid's velocity at it (grid_velocity_kernel), for the download */
+    struct point_sums *sums_partial;   /* BODY_BLOCKS per body: the diagnostics' partial sums (diagnostics_kernel) */
+    struct point_sums *sums;           /* per body: the diagnostics' sums (diagnostics_body_kernel) */
     struct contact_nodes contact_grid; /* the grid's arrays above as contact_node.h reads them (set_contact_nodes) */
     /* reductions: per point or per node inputs, and the results */
     double *point_a, *point_b, *point_c;
@@ -324,38 +327,74 @@ __global__ static void velocity_kernel(struct mpm_gpu g)
  * interpolated to its position now over its heavy nodes, normalised by their weights (mpm_grid_stencil's trilinear
  * weights, the same operations); its own velocity where it has none: before the first step (after an upload), with
  * its stencil outside the grid's interior, or without a heavy node. */
-__global__ static void grid_velocity_kernel(struct mpm_gpu g)
+__device__ static void grid_velocity_at_point(const struct mpm_gpu *g, size_t q, double v[3])
 {
-    size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
-    if (q >= g.n)
-        return;
-    const double *x = g.x + 3 * q;
+    const double *x = g->x + 3 * q;
     double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0, w[3][2];
-    int base[3], inside = g.grid_stepped;
+    int base[3], inside = g->grid_stepped;
     for (int d = 0; d < 3 && inside; d++) {
-        double xi = (x[d] - g.s.origin[d]) / g.s.h;
-        inside = xi > 1.0 && xi < (double)g.s.n[d] - 2.0;
+        double xi = (x[d] - g->s.origin[d]) / g->s.h;
+        inside = xi > 1.0 && xi < (double)g->s.n[d] - 2.0;
         double cell = floor(xi), f = xi - cell;
         base[d] = inside ? (int)cell : 0;
         w[d][0] = 1.0 - f, w[d][1] = f;
     }
     if (inside) {
         size_t first =
-            (size_t)g.body[q] * g.nodes + (size_t)base[0] + g.row * (size_t)base[1] + g.plane * (size_t)base[2];
+            (size_t)g->body[q] * g->nodes + (size_t)base[0] + g->row * (size_t)base[1] + g->plane * (size_t)base[2];
         for (int c = 0; c < 2; c++)
             for (int b = 0; b < 2; b++)
                 for (int a = 0; a < 2; a++) {
                     double N = w[0][a] * w[1][b] * w[2][c];
-                    size_t I = first + (size_t)a + (size_t)b * g.row + (size_t)c * g.plane;
-                    if (N == 0.0 || !heavy_entry(&g.contact_grid, I))
+                    size_t I = first + (size_t)a + (size_t)b * g->row + (size_t)c * g->plane;
+                    if (N == 0.0 || !heavy_entry(&g->contact_grid, I))
                         continue;
                     weight += N;
                     for (int d = 0; d < 3; d++)
-                        sum[d] += N * g.velocity[3 * I + d];
+                        sum[d] += N * g->velocity[3 * I + d];
                 }
     }
     for (int d = 0; d < 3; d++)
-        g.grid_velocity[3 * q + d] = weight > 0.0 ? sum[d] / weight : g.v[3 * q + d];
+        v[d] = weight > 0.0 ? sum[d] / weight : g->v[3 * q + d];
+}
+
+/* Each body's diagnostics (diagnostics.c body_sums), as body_partial_kernel sums the bodies' momenta: BODY_BLOCKS
+ * blocks per body each add a fixed stride of the points (those of the body that are active), then reduce their
+ * threads' sums in a fixed tree; a thread per body adds the blocks' sums in order. */
+__global__ static void diagnostics_kernel(struct mpm_gpu g, struct point_fields fields)
+{
+    __shared__ struct point_sums sum[THREADS];
+    struct point_sums local;
+    memset(&local, 0, sizeof local);
+    int body = (int)blockIdx.y;
+    for (size_t q = blockIdx.x * (size_t)THREADS + threadIdx.x; q < g.n; q += (size_t)BODY_BLOCKS * THREADS) {
+        if (g.body[q] != body || !(g.flags[q] & GPU_POINT_ACTIVE))
+            continue;
+        double v[3];
+        grid_velocity_at_point(&g, q, v);
+        point_sums_add(&local, &fields, q, v);
+    }
+    sum[threadIdx.x] = local;
+    __syncthreads();
+    for (int half = THREADS / 2; half > 0; half /= 2) {
+        if ((int)threadIdx.x < half)
+            point_sums_merge(&sum[threadIdx.x], &sum[threadIdx.x + half]);
+        __syncthreads();
+    }
+    if (threadIdx.x == 0)
+        g.sums_partial[(size_t)body * BODY_BLOCKS + blockIdx.x] = sum[0];
+}
+
+__global__ static void diagnostics_body_kernel(struct mpm_gpu g)
+{
+    int body = blockIdx.x * blockDim.x + threadIdx.x;
+    if (body >= g.s.bodies)
+        return;
+    struct point_sums total;
+    memset(&total, 0, sizeof total);
+    for (int block = 0; block < BODY_BLOCKS; block++)
+        point_sums_merge(&total, &g.sums_partial[(size_t)body * BODY_BLOCKS + block]);
+    g.sums[body] = total;
 }
 
 /* Body `body`'s interface nodes now (count_interface_pairs of contact.c, after a step): at each node, the other
@@ -719,7 +758,8 @@ static int allocate(struct mpm_gpu *g)
     TRY(device_array(&g->body_partial, 4 * BODY_BLOCKS * (size_t)g->s.bodies));
     CU(cudaMemset(g->wall_held, 0, cells));
     TRY(device_array(&g->point_a, n) || device_array(&g->point_b, n) || device_array(&g->point_c, n));
-    TRY(device_array(&g->grid_velocity, 3 * n));
+    TRY(device_array(&g->sums_partial, BODY_BLOCKS * (size_t)g->s.bodies));
+    TRY(device_array(&g->sums, (size_t)g->s.bodies));
     TRY(device_array(&g->point_id, n) || device_array(&g->point_id2, n) || device_array(&g->point_count, n));
     TRY(device_array(&g->node_contacts, g->nodes) || device_array(&g->node_bonds, g->nodes));
     TRY(device_array(&g->result, 5) || device_array(&g->result_id, 2) || device_array(&g->result_int, 3));
@@ -877,7 +917,8 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       g->wall_held,
                       g->body_partial,
                       g->body_velocity,
-                      g->grid_velocity,
+                      g->sums_partial,
+                      g->sums,
                       g->point_a,
                       g->point_b,
                       g->point_c,
@@ -923,11 +964,6 @@ extern "C" int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *
     TRY(copy_out(p->x, g->x, 3 * n) || copy_out(p->v, g->v, 3 * n) || copy_out(p->volume, g->volume, n));
     TRY(copy_out(p->d_bond, g->d_bond, n) || copy_out(p->plastic_work, g->plastic_work, n));
     TRY(copy_out(p->state, g->state, n) || copy_out(p->flags, g->flags, n));
-    if (p->grid_velocity) {
-        grid_velocity_kernel<<<blocks_for(n), THREADS>>>(*g);
-        CU(cudaGetLastError());
-        TRY(copy_out(p->grid_velocity, g->grid_velocity, 3 * n));
-    }
     g->host_stale = 0;
     return 0;
 }
@@ -1044,5 +1080,16 @@ extern "C" int mpm_gpu_interface_nodes(struct mpm_gpu *g, int64_t *interface, in
         CU(cudaMemcpy(counts, g->result_int + 1, sizeof counts, cudaMemcpyDeviceToHost));
         interface[b] = counts[0], bonded[b] = counts[1];
     }
+    return 0;
+}
+
+extern "C" int mpm_gpu_point_sums(struct mpm_gpu *g, double vrest_filter, struct point_sums *sums)
+{
+    struct point_fields fields = {g->v,     g->mass,  g->volume0,        g->plastic_work, g->d_bond,
+                                  g->state, g->flags, GPU_POINT_SURFACE, vrest_filter};
+    diagnostics_kernel<<<dim3(BODY_BLOCKS, (unsigned)g->s.bodies), THREADS>>>(*g, fields);
+    diagnostics_body_kernel<<<blocks_for((size_t)g->s.bodies), THREADS>>>(*g);
+    CU(cudaGetLastError());
+    TRY(copy_out(sums, g->sums, (size_t)g->s.bodies));
     return 0;
 }
