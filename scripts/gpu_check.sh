@@ -231,6 +231,11 @@ if want 2; then
     run m1 cpu 0 && row "14 um, 0.7/0.2 (1e6 points), 2 ns" m1 cpu
     read -r m1_cpu_pups _ < "$work/m1.cpu.pups"
     run m1 gpu 1 && row "14 um, 0.7/0.2 (1e6 points), 2 ns" m1 gpu "$m1_cpu_pups"
+    # the same without reordering the points in memory by cell (the same bits; docs/gpu.md): what the reordering gains
+    cp "$work/m1.ini" "$work/m1_unordered.ini"
+    export SPRAYCOAT_GPU_REORDER_EVERY=0
+    run m1_unordered gpu 1 && row "the same, points never reordered" m1_unordered gpu "$m1_cpu_pups"
+    unset SPRAYCOAT_GPU_REORDER_EVERY
     # ~1e7 points: the same at spacing 0.0875 um (grid 0.35 um)
     impact_case m10 0.35e-6 0.0875e-6 0.3e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
     run m10 gpu 1 && row "14 um, 0.35/0.0875 (1e7 points), 0.3 ns" m10 gpu "$m1_cpu_pups"

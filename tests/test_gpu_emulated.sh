@@ -11,8 +11,9 @@
 # heat conduction and the strain model (mirror nodes, the heat kernel's images), two particles on the substrate
 # (three bodies at a node: the sweeps), the thesis scheme with friction, the rigid wall.  What the emulation cannot
 # check (a race that both orders of the threads hide, the device's memory, timing): scripts/gpu_check.sh on a device.
-# Two cases run again with the threads in reverse order (the same bits, or the threads race).  Last, a checkpoint
-# written on one device is resumed on the other, both ways.
+# Two cases run again with the threads in reverse order (the same bits, or the threads race), and with the points
+# reordered in memory every step and never (the same bits).  Last, a checkpoint written on one device is resumed on
+# the other, both ways.
 set -u
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
@@ -136,34 +137,47 @@ run thesis_friction x v pressure eps_p
 impact_case rigid_wall "$t_case" "substrate = rigid"
 run rigid_wall x v pressure eps_p
 
-# The step's threads do not race: each writes only its own entries, and reads in a launch only what earlier launches
-# wrote, so its bits cannot depend on the order in which a device runs them.  The emulation runs blocks, threads and
-# the phases between barriers first to last; SPRAYCOAT_CUDA_EMU_ORDER=reverse runs them last to first, and a race
-# (a thread reading an entry that another writes in the same launch) then changes the results.  The cases of the
-# most kernels, run again in reverse: every snapshot and series row the same bits.
-same_bits_reversed() {
-    name=$1 dir="$T/$1.gpu_reversed"
-    if ! SPRAYCOAT_CUDA_EMU_ORDER=reverse "$EMU" impact "$T/$name.ini" -o "$dir" --device gpu --threads 1 \
-        > "$dir.log" 2>&1; then
-        echo "FAIL gpu_emulated_${name}_reversed: the run failed: $(tail -c 400 "$dir.log")"
+# same_bits NAME LABEL SETTING WHAT CAUSE: the case's gpu run again with the environment's SETTING (VAR=VALUE);
+# every snapshot and series row must hold the same values (h5diff -d 0), else CAUSE changes the results.
+same_bits() {
+    name=$1 label=$2 setting=$3 what=$4 cause=$5 dir="$T/$1.gpu_$2"
+    if ! env "$setting" "$EMU" impact "$T/$name.ini" -o "$dir" --device gpu --threads 1 > "$dir.log" 2>&1; then
+        echo "FAIL gpu_emulated_${name}_$label: the run failed: $(tail -c 400 "$dir.log")"
         failed=1
         return
     fi
     for group in snapshots series; do
         h5diff -r -d 0 "$T/$name.gpu/impact.h5" "$dir/impact.h5" "/$group" "/$group" > "$T/diff" 2>&1
         case $? in
-            0) echo "PASS gpu_emulated_${name}_reversed_$group (the same values with blocks and threads last to first)" ;;
-            1) echo "FAIL gpu_emulated_${name}_reversed_$group: the threads' order changes the results (a race):" \
+            0) echo "PASS gpu_emulated_${name}_${label}_$group (the same values $what)" ;;
+            1) echo "FAIL gpu_emulated_${name}_${label}_$group: $cause changes the results:" \
                 "$(awk '/^dataset:/ { name = $2 } /differences found/ && $1 > 0 { print name, $1 }' "$T/diff" |
                     head -4 | tr '\n' ' ')"
                 failed=1 ;;
-            *) echo "FAIL gpu_emulated_${name}_reversed_$group: h5diff could not compare the runs: $(head -c 300 "$T/diff")"
+            *) echo "FAIL gpu_emulated_${name}_${label}_$group: h5diff could not compare the runs: $(head -c 300 "$T/diff")"
                 failed=1 ;;
         esac
     done
 }
-same_bits_reversed quarter_conduction
-same_bits_reversed three_bodies
+
+# The step's threads do not race: each writes only its own entries, and reads in a launch only what earlier launches
+# wrote, so its bits cannot depend on the order in which a device runs them.  The emulation runs blocks, threads and
+# the phases between barriers first to last; SPRAYCOAT_CUDA_EMU_ORDER=reverse runs them last to first, and a race
+# (a thread reading an entry that another writes in the same launch) then changes the results.  The cases of the
+# most kernels, run again in reverse.
+for name in quarter_conduction three_bodies; do
+    same_bits "$name" reversed SPRAYCOAT_CUDA_EMU_ORDER=reverse "with blocks and threads last to first" \
+        "the threads' order (a race)"
+done
+
+# The points' storage order changes no bit (mpm/cuda/step.cu: every sum over points in id order): the runs above
+# reorder the points by cell every 16 steps; the same cases with the points reordered every step, and never.
+for name in quarter_conduction three_bodies; do
+    same_bits "$name" reorder_every_step SPRAYCOAT_GPU_REORDER_EVERY=1 "with the points reordered every step" \
+        "the points' storage order"
+    same_bits "$name" reorder_never SPRAYCOAT_GPU_REORDER_EVERY=0 "with the points never reordered" \
+        "the points' storage order"
+done
 
 # A checkpoint of one device resumed on the other (docs/gpu.md "Use"): the impact on FROM, stopped by SIGTERM
 # once it has written its first checkpoint (every 20 steps; exit 143, a checkpoint of the step it stopped at),

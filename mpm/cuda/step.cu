@@ -2,7 +2,10 @@
  * mpm/solver.c does them, trilinear shape functions, with the points on the device for the whole run.
  *
  *   bin        each active point's stencil base node and fractions (Eq. 3.20), its key body * nodes + base node
- *   sort       the point indices by key, a stable radix sort (CUB): within a cell the points stay in id order
+ *   sort       the point indices by key, a stable radix sort (CUB) of the keys in id order: within a cell the
+ *              points are in id order
+ *   reorder    every REORDER_EVERY steps the points' arrays themselves in that order (cell, then id), so that a
+ *              cell's points lie together in memory; no result depends on the storage order (below)
  *   ranges     each cell's run of sorted points
  *   gather     particle-to-grid as a segmented reduction: a thread per node of a body's layer sums, in a fixed
  *              order (the 8 cells whose stencils hold the node, then their points by id), mass, momentum, forces
@@ -22,7 +25,11 @@
  * Sums over points (removed energy, absorbed work) and the maxima are CUB reductions: a fixed tree for a given
  * size, the same bits run to run.  They differ from the CPU's sums in order (docs/gpu.md, "Bits").  The diagnostics
  * (diagnostics_point.h) are each body's sums over its points, in two passes without atomics, when a series row asks
- * for them: the points come back to the host only for snapshots and checkpoints. */
+ * for them: the points come back to the host only for snapshots and checkpoints.
+ *
+ * The storage order changes no bit: every sum over points runs in id order (the sort's input, the reductions'
+ * inputs written at the point's id, the diagnostics read by id), so a run gives the same bits whether its points
+ * are reordered every step or never (SPRAYCOAT_GPU_REORDER_EVERY, tests/test_gpu_emulated.sh). */
 #define STRESS_LANES 1
 
 #include <cuda_runtime.h>
@@ -73,11 +80,16 @@ struct mpm_gpu {
     int64_t removed_total;
     int host_stale;
     int grid_stepped; /* the grid holds a step's state (contact flags, masses): a step ran since the last upload */
-    /* points, id order */
+    /* points, in storage order: id order after an upload, by cell after a reordering (reorder_points) */
     double *x, *x_next, *v, *mass, *volume0, *volume, *d_bond, *plastic_work, *normal;
     struct mpm_point_state *state;
     int32_t *body;
     uint8_t *flags;
+    uint32_t *id;      /* the id of the point stored at each index */
+    uint32_t *slot;    /* the index at which each id is stored */
+    void *scratch;     /* a point array's size of the largest (state), for the reordering and the download */
+    int reorder_every; /* steps between reorderings, 0 never (SPRAYCOAT_GPU_REORDER_EVERY; REORDER_EVERY) */
+    long steps;        /* steps since the open */
     /* binning */
     unsigned long long *key, *key_sorted;
     uint32_t *order, *order_sorted, *cell_start, *cell_end;
@@ -105,6 +117,9 @@ struct mpm_gpu {
 /* ---- device helpers ---- */
 
 #define THREADS 256
+/* Steps between two reorderings of the points' storage by cell (the CPU's REORDER_EVERY of solver.c): a cell's
+ * points drift into the next cells slowly, and a reordering costs about one pass over the points' arrays. */
+#define REORDER_EVERY 16
 static unsigned blocks_for(size_t count)
 {
     return (unsigned)((count + THREADS - 1) / THREADS);
@@ -137,14 +152,16 @@ __device__ static void point_weights(const struct mpm_gpu *g, size_t q, double w
 
 /* ---- bin, sort, ranges ---- */
 
-/* linear_cell of grid.c: base = floor((x - origin) / h), fraction the rest; inactive points sort last. */
+/* linear_cell of grid.c: base = floor((x - origin) / h), fraction the rest; inactive points sort last.  The keys and
+ * the point indices go to the sort at the points' ids. */
 __global__ static void bin_kernel(struct mpm_gpu g)
 {
     size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
     if (q >= g.n)
         return;
-    g.order[q] = (uint32_t)q;
-    g.key[q] = g.cells;
+    size_t i = g.id[q]; /* the sort's input in id order: its stable sort keeps a cell's points by id */
+    g.order[i] = (uint32_t)q;
+    g.key[i] = g.cells;
     if (!(g.flags[q] & GPU_POINT_ACTIVE))
         return;
     int base[3];
@@ -156,7 +173,7 @@ __global__ static void bin_kernel(struct mpm_gpu g)
     }
     size_t node = (size_t)base[0] + g.row * (size_t)base[1] + g.plane * (size_t)base[2];
     g.base[q] = (uint32_t)node;
-    g.key[q] = (unsigned long long)g.body[q] * g.nodes + node;
+    g.key[i] = (unsigned long long)g.body[q] * g.nodes + node;
 }
 
 __global__ static void range_kernel(struct mpm_gpu g)
@@ -359,7 +376,7 @@ __device__ static void grid_velocity_at_point(const struct mpm_gpu *g, size_t q,
 }
 
 /* Each body's diagnostics (diagnostics.c body_sums), as body_partial_kernel sums the bodies' momenta: BODY_BLOCKS
- * blocks per body each add a fixed stride of the points (those of the body that are active), then reduce their
+ * blocks per body each add a fixed stride of the points' ids (those of the body that are active), then reduce their
  * threads' sums in a fixed tree; a thread per body adds the blocks' sums in order. */
 __global__ static void diagnostics_kernel(struct mpm_gpu g, struct point_fields fields)
 {
@@ -367,7 +384,8 @@ __global__ static void diagnostics_kernel(struct mpm_gpu g, struct point_fields 
     struct point_sums local;
     memset(&local, 0, sizeof local);
     int body = (int)blockIdx.y;
-    for (size_t q = blockIdx.x * (size_t)THREADS + threadIdx.x; q < g.n; q += (size_t)BODY_BLOCKS * THREADS) {
+    for (size_t i = blockIdx.x * (size_t)THREADS + threadIdx.x; i < g.n; i += (size_t)BODY_BLOCKS * THREADS) {
+        size_t q = g.slot[i]; /* by id */
         if (g.body[q] != body || !(g.flags[q] & GPU_POINT_ACTIVE))
             continue;
         double v[3];
@@ -435,7 +453,8 @@ __global__ static void book_kernel(struct mpm_gpu g, double dt)
     size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
     if (q >= g.n)
         return;
-    g.point_a[q] = 0.0;
+    size_t id = g.id[q]; /* summed in id order */
+    g.point_a[id] = 0.0;
     if (!(g.flags[q] & GPU_POINT_ACTIVE) || !(g.flags[q] & (GPU_POINT_BOTTOM | GPU_POINT_SIDE)))
         return;
     double f[3], w[3][2], dw[3][2], v[3] = {0, 0, 0};
@@ -451,7 +470,7 @@ __global__ static void book_kernel(struct mpm_gpu g, double dt)
                 for (int d = 0; d < 3; d++)
                     v[d] += N * g.momentum[3 * I + d] / g.gmass[I];
             }
-    g.point_a[q] = (f[0] * v[0] + f[1] * v[1] + f[2] * v[2]) * dt;
+    g.point_a[id] = (f[0] * v[0] + f[1] * v[1] + f[2] * v[2]) * dt;
 }
 
 /* Step 7 (point_from_grid_width, point_velocity_position) and what scan_escapes finds: point_a the squared speed of
@@ -489,7 +508,7 @@ __global__ static void g2p_kernel(struct mpm_gpu g, double dt)
         xn[d] = x[d] + dt * vnew[d];
     }
     if (!isfinite(xn[0] + xn[1] + xn[2] + v[0] + v[1] + v[2]))
-        g.point_id[q] = (long long)q;
+        g.point_id[q] = (long long)g.id[q];
     else if (contains(&g.s, xn))
         g.point_a[q] = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
 }
@@ -528,7 +547,7 @@ __global__ static void update_kernel(struct mpm_gpu g, double dt, double log_dt)
     dspin[2] = 0.5 * (L[0][1] - L[1][0]) * dt;
     double volume_old = g.volume[q], volume_new = volume_old * (1.0 + exx + eyy + ezz);
     if (!(volume_new > 0.0)) {
-        g.point_id2[q] = (long long)q;
+        g.point_id2[q] = (long long)g.id[q];
         return;
     }
     int material = g.s.body_material[g.body[q]];
@@ -542,7 +561,7 @@ __global__ static void update_kernel(struct mpm_gpu g, double dt, double log_dt)
     if (stress_begin(m, mc, de, dspin, G, dt, log_dt, g.volume0[q], volume_new, state, &work))
         stress_return_one(m, &work.ret);
     if (stress_finish(m, mc, &g.s.viscosity, dt, g.volume0[q], volume_old, volume_new, &work, state, &result) != 0) {
-        g.point_id2[q] = (long long)q;
+        g.point_id2[q] = (long long)g.id[q];
         return;
     }
     g.volume[q] = volume_new;
@@ -567,15 +586,16 @@ __global__ static void remove_kernel(struct mpm_gpu g)
     size_t q = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
     if (q >= g.n)
         return;
-    g.point_b[q] = g.point_c[q] = 0.0;
-    g.point_count[q] = 0;
+    size_t id = g.id[q]; /* summed in id order */
+    g.point_b[id] = g.point_c[id] = 0.0;
+    g.point_count[id] = 0;
     if (!(g.flags[q] & GPU_POINT_ACTIVE) || contains(&g.s, g.x + 3 * q))
         return;
     const double *v = g.v + 3 * q;
     g.flags[q] &= (uint8_t)~GPU_POINT_ACTIVE;
-    g.point_count[q] = 1;
-    g.point_b[q] = g.mass[q];
-    g.point_c[q] = 0.5 * g.mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + g.state[q].energy;
+    g.point_count[id] = 1;
+    g.point_b[id] = g.mass[q];
+    g.point_c[id] = 0.5 * g.mass[q] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + g.state[q].energy;
 }
 
 /* ---- heat conduction (conduction.c): after a step whose time crossed multiples of the exchange interval ---- */
@@ -657,6 +677,46 @@ __global__ static void heat_apply_kernel(struct mpm_gpu g)
     const struct mpm_material *m = &g.s.material[g.s.body_material[g.body[q]]];
     g.state[q].T += g.point_a[q] / (g.mass[q] * m->specific_heat);
     g.state[q].energy += g.point_a[q];
+}
+
+/* ---- the storage order ---- */
+
+/* to[k] = from[index[k]] for k < n, width values a point: a point array in the sorted order (index = order_sorted)
+ * or in id order (index = slot).  One kernel per element type (a launch's kernel is named, not a template). */
+__global__ static void permute_doubles_kernel(double *to, const double *from, const uint32_t *index, size_t n,
+                                              int width)
+{
+    size_t k = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (k >= n)
+        return;
+    size_t q = index[k];
+    for (int j = 0; j < width; j++)
+        to[(size_t)width * k + j] = from[(size_t)width * q + j];
+}
+
+__global__ static void permute_words_kernel(uint32_t *to, const uint32_t *from, const uint32_t *index, size_t n)
+{
+    size_t k = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (k < n)
+        to[k] = from[index[k]];
+}
+
+__global__ static void permute_bytes_kernel(uint8_t *to, const uint8_t *from, const uint32_t *index, size_t n)
+{
+    size_t k = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (k < n)
+        to[k] = from[index[k]];
+}
+
+/* slot = the inverse of id (identity: both the identity, the storage in id order as the host's). */
+__global__ static void slot_kernel(struct mpm_gpu g, int identity)
+{
+    size_t k = blockIdx.x * (size_t)blockDim.x + threadIdx.x;
+    if (k >= g.n)
+        return;
+    if (identity)
+        g.id[k] = (uint32_t)k;
+    g.slot[g.id[k]] = (uint32_t)k;
 }
 
 /* ---- host side ---- */
@@ -745,6 +805,8 @@ static int allocate(struct mpm_gpu *g)
     TRY(device_array(&g->mass, n) || device_array(&g->volume0, n) || device_array(&g->volume, n));
     TRY(device_array(&g->d_bond, n) || device_array(&g->plastic_work, n) || device_array(&g->normal, 3 * n));
     TRY(device_array(&g->state, n) || device_array(&g->body, n) || device_array(&g->flags, n));
+    TRY(device_array(&g->id, n) || device_array(&g->slot, n) ||
+        device_array((struct mpm_point_state **)&g->scratch, n));
     TRY(device_array(&g->key, n) || device_array(&g->key_sorted, n) || device_array(&g->order, n));
     TRY(device_array(&g->order_sorted, n) || device_array(&g->base, n) || device_array(&g->fraction, 3 * n));
     TRY(device_array(&g->cell_start, cells) || device_array(&g->cell_end, cells));
@@ -862,6 +924,8 @@ extern "C" int mpm_gpu_open(const struct mpm_gpu_setup *setup, struct mpm_gpu **
     g->plane = g->row * (size_t)setup->n[1];
     g->nodes = g->plane * (size_t)setup->n[2];
     g->cells = g->nodes * (size_t)setup->bodies;
+    const char *every = getenv("SPRAYCOAT_GPU_REORDER_EVERY"); /* a check's setting: the bits are the same */
+    g->reorder_every = every ? atoi(every) : REORDER_EVERY;
     g->key_bits = 1;
     while (g->key_bits < 64 && (g->cells >> g->key_bits) != 0) /* keys up to cells (inactive) */
         g->key_bits++;
@@ -895,6 +959,9 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       g->state,
                       g->body,
                       g->flags,
+                      g->id,
+                      g->slot,
+                      g->scratch,
                       g->key,
                       g->key_sorted,
                       g->order,
@@ -953,17 +1020,35 @@ extern "C" int mpm_gpu_upload(struct mpm_gpu *g, const struct mpm_gpu_points *p)
     for (size_t q = 0; q < n; q++)
         active += (p->flags[q] & GPU_POINT_ACTIVE) != 0;
     g->removed_total = (int64_t)n - active;
+    slot_kernel<<<blocks_for(n), THREADS>>>(*g, 1); /* the storage in id order, as the host's */
+    CU(cudaGetLastError());
     g->host_stale = 0;
     g->grid_stepped = 0;
     return 0;
 }
 
+/* The point state is its doubles (the permutation copies it as such). */
+#define STATE_DOUBLES ((int)(sizeof(struct mpm_point_state) / sizeof(double)))
+static_assert(sizeof(struct mpm_point_state) == STATE_DOUBLES * sizeof(double), "struct mpm_point_state: doubles");
+
+/* A point array of `width` doubles a point in id order (through the scratch array) onto the host's. */
+static int copy_out_by_id(struct mpm_gpu *g, double *host, const double *device, int width)
+{
+    permute_doubles_kernel<<<blocks_for(g->n), THREADS>>>((double *)g->scratch, device, g->slot, g->n, width);
+    CU(cudaGetLastError());
+    return copy_out(host, (const double *)g->scratch, (size_t)width * g->n);
+}
+
 extern "C" int mpm_gpu_download(struct mpm_gpu *g, const struct mpm_gpu_points *p)
 {
-    size_t n = g->n; /* mass, volume0, normal and body never change */
-    TRY(copy_out(p->x, g->x, 3 * n) || copy_out(p->v, g->v, 3 * n) || copy_out(p->volume, g->volume, n));
-    TRY(copy_out(p->d_bond, g->d_bond, n) || copy_out(p->plastic_work, g->plastic_work, n));
-    TRY(copy_out(p->state, g->state, n) || copy_out(p->flags, g->flags, n));
+    /* mass, volume0, normal and body never change: the host's copies in id order hold */
+    TRY(copy_out_by_id(g, p->x, g->x, 3) || copy_out_by_id(g, p->v, g->v, 3));
+    TRY(copy_out_by_id(g, p->volume, g->volume, 1) || copy_out_by_id(g, p->d_bond, g->d_bond, 1));
+    TRY(copy_out_by_id(g, p->plastic_work, g->plastic_work, 1));
+    TRY(copy_out_by_id(g, (double *)p->state, (const double *)g->state, STATE_DOUBLES));
+    permute_bytes_kernel<<<blocks_for(g->n), THREADS>>>((uint8_t *)g->scratch, g->flags, g->slot, g->n);
+    CU(cudaGetLastError());
+    TRY(copy_out(p->flags, (const uint8_t *)g->scratch, g->n));
     g->host_stale = 0;
     return 0;
 }
@@ -982,6 +1067,41 @@ static int bin_and_sort(struct mpm_gpu *g)
     range_kernel<<<pb, THREADS>>>(*g);
     CU(cudaGetLastError());
     return 0;
+}
+
+/* A point array of `width` doubles a point in the sorted order (through the scratch array). */
+static int reorder_doubles(struct mpm_gpu *g, double *array, int width)
+{
+    permute_doubles_kernel<<<blocks_for(g->n), THREADS>>>((double *)g->scratch, array, g->order_sorted, g->n, width);
+    CU(cudaGetLastError());
+    CU(cudaMemcpy(array, g->scratch, (size_t)width * g->n * sizeof *array, cudaMemcpyDeviceToDevice));
+    return 0;
+}
+
+static int reorder_words(struct mpm_gpu *g, uint32_t *array)
+{
+    permute_words_kernel<<<blocks_for(g->n), THREADS>>>((uint32_t *)g->scratch, array, g->order_sorted, g->n);
+    CU(cudaGetLastError());
+    CU(cudaMemcpy(array, g->scratch, g->n * sizeof *array, cudaMemcpyDeviceToDevice));
+    return 0;
+}
+
+/* The points' arrays in the order of the last sort (by body and cell, a cell's points by id, inactive points last),
+ * so that a cell's points lie together for the gathers and their neighbours' threads read neighbouring nodes; then
+ * binned and sorted again at their new places. */
+static int reorder_points(struct mpm_gpu *g)
+{
+    TRY(reorder_doubles(g, g->x, 3) || reorder_doubles(g, g->v, 3) || reorder_doubles(g, g->mass, 1));
+    TRY(reorder_doubles(g, g->volume0, 1) || reorder_doubles(g, g->volume, 1) || reorder_doubles(g, g->d_bond, 1));
+    TRY(reorder_doubles(g, g->plastic_work, 1) || reorder_doubles(g, g->normal, 3));
+    TRY(reorder_doubles(g, (double *)g->state, STATE_DOUBLES));
+    TRY(reorder_words(g, (uint32_t *)g->body) || reorder_words(g, g->id));
+    permute_bytes_kernel<<<blocks_for(g->n), THREADS>>>((uint8_t *)g->scratch, g->flags, g->order_sorted, g->n);
+    CU(cudaGetLastError());
+    CU(cudaMemcpy(g->flags, g->scratch, g->n, cudaMemcpyDeviceToDevice));
+    slot_kernel<<<blocks_for(g->n), THREADS>>>(*g, 0);
+    CU(cudaGetLastError());
+    return bin_and_sort(g);
 }
 
 /* The step's reductions into out (copied back once). */
@@ -1024,6 +1144,9 @@ extern "C" int mpm_gpu_step_points(struct mpm_gpu *g, double dt, struct mpm_gpu_
     out->active = (int64_t)g->n - g->removed_total;
     g->host_stale = 1;
     TRY(bin_and_sort(g));
+    if (g->reorder_every > 0 && g->steps % g->reorder_every == 0)
+        TRY(reorder_points(g));
+    g->steps++;
     gather_kernel<<<cb, THREADS>>>(*g, 0); /* steps 1-2 */
     if (g->s.bond_growth == MPM_GROWTH_APPROACH && g->s.contact_scheme == MPM_CONTACT_ONCE && g->s.bodies > 1) {
         body_partial_kernel<<<dim3(BODY_BLOCKS, (unsigned)g->s.bodies), THREADS>>>(*g);
