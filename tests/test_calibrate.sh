@@ -20,6 +20,7 @@
 #      with substrate_diameters, reference_diameter is refused (exit 2).
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -102,12 +103,7 @@ write_case "$T/grid.ini" 11 "900,850"
 RUN=$T/grid
 "$BIN" calibrate "$T/grid.ini" -o "$RUN" >"$T/grid.log" 2>&1 &
 bg=$!
-i=0
-while [ "$i" -lt 3000 ] && kill -0 "$bg" 2>/dev/null; do
-    [ "$(grep -c '^[0-9]' "$RUN/calibrate_runs.csv" 2>/dev/null)" -ge 1 ] 2>/dev/null && break
-    sleep 0.02
-    i=$((i + 1))
-done
+wait_until "$bg" 60 rows_at_least "$RUN/calibrate_runs.csv" 1
 kill -TERM "$bg" 2>/dev/null
 wait "$bg" 2>/dev/null
 status=$?

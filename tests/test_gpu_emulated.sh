@@ -15,6 +15,7 @@
 # reordered in memory every step and never (the same bits).  Last, a checkpoint written on one device is resumed on
 # the other, both ways.
 set -u
+. tests/wait_lib.sh
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 EMU="$(dirname "$BIN")/cuda-emu/spraycoat"
 T=$(mktemp -d)
@@ -189,11 +190,7 @@ resume_across() {
     from=$1 to=$2 dir="$T/resume.$1_$2"
     "$EMU" impact "$T/resume.ini" -o "$dir" --device "$from" --threads 1 > "$dir.log" 2>&1 &
     pid=$!
-    tries=0
-    while ! ls "$dir"/checkpoints/*.h5 > /dev/null 2>&1 && kill -0 "$pid" 2> /dev/null && [ "$tries" -lt 1200 ]; do
-        sleep 0.05
-        tries=$((tries + 1))
-    done
+    wait_until "$pid" 60 exists "$dir/checkpoints/*.h5"
     kill -TERM "$pid" 2> /dev/null
     wait "$pid"
     status=$?

@@ -13,6 +13,7 @@
 # cannot skip attributes, and case_hash is compared on its own).
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).  Needs h5ls, h5diff, h5dump.
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -85,15 +86,11 @@ root_attribute() { h5dump -a "/$2" "$1" 2>&1 | grep '(0)'; }
 checkpoint_count() { ls "$1"/checkpoints/impact_*.h5 2>/dev/null | wc -l | tr -d ' '; }
 
 # Poll until RUN_DIR $1 holds at least $2 impact checkpoints (1 when the program ended first or 60 s passed).
+checkpoints_at_least() {
+    [ "$(checkpoint_count "$1")" -ge "$2" ]
+}
 wait_for_checkpoints() {
-    i=0
-    while [ "$i" -lt 1200 ]; do
-        [ "$(checkpoint_count "$1")" -ge "$2" ] && return 0
-        kill -0 "$bg" 2>/dev/null || return 1
-        sleep 0.05
-        i=$((i + 1))
-    done
-    return 1
+    wait_until "$bg" 60 checkpoints_at_least "$1" "$2"
 }
 
 # Runs use one thread except the comparison with two: on a busy 2-core machine the OpenMP barriers of a

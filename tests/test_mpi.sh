@@ -26,6 +26,7 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 1' HUP INT TERM
 . tests/pipeline_lib.sh
+. tests/wait_lib.sh
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 MPIRUN="mpirun -np 2 --oversubscribe"
 pass() { echo "PASS $1"; }
@@ -51,11 +52,7 @@ sed 's/^t_end = 4e-9/t_end = 64e-9/' "$CASE0" >"$T/long.ini"
 "$BIN" run "$T/long.ini" --stages "$STAGES" -o "$T/long_one" >"$T/long_one.log" 2>&1
 $MPIRUN "$MPI_BIN" run "$T/long.ini" --stages "$STAGES" -o "$T/term" >"$T/term.log" 2>&1 &
 bg=$!
-i=0
-while [ "$i" -lt 1200 ] && ! ls "$T"/term/checkpoints/impact_r*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
-    sleep 0.05
-    i=$((i + 1))
-done
+wait_until "$bg" 60 exists "$T/term/checkpoints/impact_r*.h5"
 kill -TERM "$bg" 2>/dev/null
 wait "$bg" 2>/dev/null
 term=$?

@@ -9,6 +9,7 @@
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
 # sets it).  Needs h5dump.
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -197,11 +198,7 @@ y_values = 1, 2" "\[sweep\] y_key"
 sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/term.ini"
 "$BIN" sweep "$T/term.ini" -o "$T/term" >"$T/log_term" 2>&1 &
 bg=$!
-i=0
-while [ "$i" -lt 1500 ] && ! ls "$T"/term/runs/*/checkpoints/spray_*.h5 >/dev/null 2>&1 && kill -0 "$bg" 2>/dev/null; do
-    sleep 0.02
-    i=$((i + 1))
-done
+wait_until "$bg" 30 exists "$T/term/runs/*/checkpoints/spray_*.h5"
 kill -TERM "$bg" 2>/dev/null
 wait "$bg"
 term=$?

@@ -11,6 +11,7 @@
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -120,12 +121,7 @@ fi
 RUN2=$T/term
 "$BIN" vcrit "$CASE" -o "$RUN2" >"$T/term.log" 2>&1 &
 bg=$!
-i=0
-while [ "$i" -lt 1200 ] && kill -0 "$bg" 2>/dev/null; do
-    [ "$(grep -c '^[0-9]' "$RUN2/vcrit_runs.csv" 2>/dev/null)" -ge 2 ] 2>/dev/null && break
-    sleep 0.02
-    i=$((i + 1))
-done
+wait_until "$bg" 24 rows_at_least "$RUN2/vcrit_runs.csv" 2
 kill -TERM "$bg" 2>/dev/null
 wait "$bg" 2>/dev/null
 status=$?
