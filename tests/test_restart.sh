@@ -17,6 +17,7 @@
 # `case` (the resolved case text) equal up to its "; read from:" line and "; default" marks (resolved_case).
 # Debian's h5diff 1.10 cannot skip attributes, hence object by object rather than whole files.
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -104,17 +105,9 @@ wait_bg() {
 checkpoint_count() { ls "$1"/checkpoints/spray_*.h5 2>/dev/null | wc -l | tr -d ' '; }
 newest_checkpoint() { ls "$1"/checkpoints/spray_*.h5 2>/dev/null | LC_ALL=C sort | tail -n 1; }
 
-# Poll until RUN_DIR $1 holds at least $2 checkpoints (0 when the background program ended or 30 s passed).
-wait_for_checkpoints() {
-    i=0
-    while [ "$i" -lt 600 ]; do
-        [ "$(checkpoint_count "$1")" -ge "$2" ] && return 0
-        kill -0 "$bg" 2>/dev/null || return 1
-        sleep 0.05
-        i=$((i + 1))
-    done
-    return 1
-}
+# Poll until RUN_DIR $1 holds at least $2 checkpoints (1 when the background program ended first or 30 s passed).
+checkpoints_at_least() { [ "$(checkpoint_count "$1")" -ge "$2" ]; }
+wait_for_checkpoints() { wait_until "$bg" 30 checkpoints_at_least "$1" "$2"; }
 
 datasets() { h5ls -r "$1" 2>/dev/null | awk '$2 == "Dataset" { print $1 }' | LC_ALL=C sort; }
 
@@ -292,27 +285,10 @@ prepare_resume() {
     fi
 }
 # Poll until file $1 exists (1 when the program ended first or 30 s passed).
-wait_for_file() {
-    i=0
-    while [ "$i" -lt 3000 ]; do
-        [ -e "$1" ] && return 0
-        kill -0 "$bg" 2>/dev/null || return 1
-        sleep 0.01
-        i=$((i + 1))
-    done
-    return 1
-}
+wait_for_file() { wait_until "$bg" 30 test -e "$1"; }
 # Poll until the newest checkpoint of RUN_DIR $1 is no longer $2 (1 when the program ended or 30 s passed).
-wait_for_new_checkpoint() {
-    i=0
-    while [ "$i" -lt 600 ]; do
-        [ "$(newest_checkpoint "$1")" != "$2" ] && return 0
-        kill -0 "$bg" 2>/dev/null || return 1
-        sleep 0.05
-        i=$((i + 1))
-    done
-    return 1
-}
+newest_is_not() { [ "$(newest_checkpoint "$1")" != "$2" ]; }
+wait_for_new_checkpoint() { wait_until "$bg" 30 newest_is_not "$1" "$2"; }
 for delay in $delays; do
     kill_number=$((kill_number + 1))
     if [ "$kill_number" -eq 1 ]; then
