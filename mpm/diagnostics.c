@@ -114,7 +114,29 @@ static int body_sums(const struct mpm_solver *s, struct point_sums *sums)
     return SC_OK;
 }
 
-/* The diagnostics of the bodies now into s->diagnostics.  A fault of the device leaves every body's sums NaN. */
+/* A body whose sums are not known (the device failed): every value NaN, every count -1 (not counted). */
+static void unknown_body(struct mpm_body_diagnostics *out)
+{
+    double unknown = NAN;
+    *out = (struct mpm_body_diagnostics){.mass = unknown,
+                                         .kinetic_energy = unknown,
+                                         .internal_energy = unknown,
+                                         .plastic_work = unknown,
+                                         .mean_eps_p = unknown,
+                                         .plastic_energy_density = unknown,
+                                         .v_com = {unknown, unknown, unknown},
+                                         .pbcp = unknown,
+                                         .v_rest = unknown,
+                                         .mean_d_bond = unknown,
+                                         .contacted_points = -1,
+                                         .bonded_points = -1,
+                                         .interface_nodes = -1,
+                                         .bonded_nodes = -1,
+                                         .bonded_interface = unknown};
+}
+
+/* The diagnostics of the bodies now into s->diagnostics.  A fault of the device leaves every body's values unknown
+ * (unknown_body) and the total energy NaN. */
 static int compute_diagnostics(struct mpm_solver *s)
 {
     int nb = s->cfg.body_count;
@@ -128,17 +150,6 @@ static int compute_diagnostics(struct mpm_solver *s)
     else
         mpm_contact_interface_nodes(s, nodes, nodes + nb);
     int status = body_sums(s, sums);
-    if (status != SC_OK)
-        for (int b = 0; b < nb; b++)
-            sums[b] = (struct point_sums){.mass = NAN,
-                                          .volume0 = NAN,
-                                          .kinetic = NAN,
-                                          .internal = NAN,
-                                          .plastic_work = NAN,
-                                          .eps_p_mass = NAN,
-                                          .momentum = {NAN, NAN, NAN},
-                                          .slow_vz = NAN,
-                                          .slow = 1};
     struct mpm_diagnostics *d = &s->diagnostics;
     d->t = s->t;
     d->body_count = nb;
@@ -150,7 +161,10 @@ static int compute_diagnostics(struct mpm_solver *s)
     d->energy_stored = copies * mpm_boundary_spring_energy(s);
     d->energy_total = d->energy_absorbed + d->energy_removed + d->energy_stored;
     for (int b = 0; b < nb; b++) {
-        finish_body(&s->cfg, &sums[b], nodes[b], nodes[nb + b], &d->body[b]);
+        if (status == SC_OK)
+            finish_body(&s->cfg, &sums[b], nodes[b], nodes[nb + b], &d->body[b]);
+        else
+            unknown_body(&d->body[b]);
         d->energy_total += d->body[b].kinetic_energy + d->body[b].internal_energy;
     }
     free(nodes);
@@ -161,7 +175,7 @@ static int compute_diagnostics(struct mpm_solver *s)
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
 {
     if (compute_diagnostics(s) != SC_OK)
-        log_warn("%s (the diagnostics are NaN)", sc_error_message());
+        log_warn("%s (the bodies' diagnostics are unknown: NaN, counts -1)", sc_error_message());
     return &s->diagnostics;
 }
 

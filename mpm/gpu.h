@@ -1,12 +1,12 @@
 /* Module-private (mpm/): the impact step on an NVIDIA GPU (make CUDA=1; mpm/cuda/step.cu; docs/gpu.md).
  *
- * The points live on the device for the whole run, in set-up (id) order, structure of arrays; the host's arrays
- * (also in id order: a solver on the GPU never reorders them, point_order.c) are brought up to date only when
- * something on the host reads them: a snapshot, a checkpoint (mpm_gpu_sync); the diagnostics are summed on the
- * device (mpm_gpu_point_sums).  This
- * header is plain C for both compilers: step.cu does not include mpm_impl.h (whose GNU vector types nvcc's
- * front end need not accept); mpm/gpu.c fills the plain view below from the solver.  Without CUDA=1,
- * mpm/gpu_stub.c defines the functions, and mpm_gpu_built() is 0. */
+ * The points live on the device for the whole run, structure of arrays, reordered there by cell (step.cu
+ * reorder_points); the host's arrays (in id order: a solver on the GPU never reorders them, point_order.c) are
+ * brought up to date, in id order, only when something on the host reads them: a snapshot, a checkpoint
+ * (mpm_gpu_sync); the diagnostics are summed on the device (mpm_gpu_point_sums).  This header is plain C for both
+ * compilers: step.cu does not include mpm_impl.h (whose GNU vector types nvcc's front end need not accept); mpm/gpu.c
+ * fills the plain view below from the solver.  Without CUDA=1, mpm/gpu_stub.c defines the functions, and
+ * mpm_gpu_built() is 0. */
 #ifndef SPRAYCOAT_MPM_GPU_H
 #define SPRAYCOAT_MPM_GPU_H
 

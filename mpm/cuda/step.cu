@@ -103,7 +103,9 @@ struct mpm_gpu {
     struct point_sums *sums_partial;   /* BODY_BLOCKS per body: the diagnostics' partial sums (diagnostics_kernel) */
     struct point_sums *sums;           /* per body: the diagnostics' sums (diagnostics_body_kernel) */
     struct contact_nodes contact_grid; /* the grid's arrays above as contact_node.h reads them (set_contact_nodes) */
-    /* reductions: per point or per node inputs, and the results */
+    /* reductions: per point or per node inputs, and the results.  The inputs of sums are written at the points' ids
+     * (point_a in book_kernel, point_b, point_c, point_count: summed in id order); those of maxima and minima, and
+     * point_a as the heat of heat_kernel for heat_apply_kernel, at the points' places */
     double *point_a, *point_b, *point_c;
     long long *point_id, *point_id2;
     int *point_count, *node_contacts, *node_bonds;

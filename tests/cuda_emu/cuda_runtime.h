@@ -11,8 +11,10 @@
  *
  * SPRAYCOAT_CUDA_EMU_ORDER=reverse runs blocks, threads and the coroutines between barriers last to first: a race
  * between threads (one reading what another writes in the same launch) then gives other results, which comparing
- * the two orders shows.  What it cannot check: a race that both orders happen to hide, the device's memory model, a
- * host pointer used on the device (or a device pointer on the host: here both are host memory), timing.
+ * the two orders shows.  SPRAYCOAT_CUDA_EMU_FAIL_COPY=BYTES makes every copy of exactly BYTES from the device to the
+ * host fail with cudaErrorLaunchFailure, as a kernel's fault surfaces on a device at the next copy: the step's
+ * handling of a device fault, checked.  What it cannot check: a race that both orders happen to hide, the device's
+ * memory model, a host pointer used on the device (or a device pointer on the host: here both are host memory), timing.
  * compute-sanitizer on a device does. */
 #ifndef SPRAYCOAT_CUDA_EMU_RUNTIME_H
 #define SPRAYCOAT_CUDA_EMU_RUNTIME_H
@@ -33,6 +35,7 @@ typedef enum cudaError {
     cudaErrorMemoryAllocation = 2,
     cudaErrorInvalidConfiguration = 9,
     cudaErrorNoDevice = 100,
+    cudaErrorLaunchFailure = 719,
 } cudaError_t;
 
 enum cudaMemcpyKind {

@@ -38,10 +38,20 @@ cudaError_t cudaFree(void *pointer)
     return cudaSuccess;
 }
 
+/* SPRAYCOAT_CUDA_EMU_FAIL_COPY: the size of the device-to-host copies that fail (cuda_runtime.h), 0 none */
+static size_t failing_copy_bytes(void)
+{
+    const char *given = getenv("SPRAYCOAT_CUDA_EMU_FAIL_COPY");
+    return given ? (size_t)strtoull(given, NULL, 10) : 0;
+}
+
 cudaError_t cudaMemcpy(void *to, const void *from, size_t bytes, enum cudaMemcpyKind kind)
 {
     if (bytes && (!to || !from || (int)kind < 0 || (int)kind > 4))
         return record(cudaErrorInvalidValue);
+    static const size_t failing = failing_copy_bytes();
+    if (failing && bytes == failing && kind == cudaMemcpyDeviceToHost)
+        return record(cudaErrorLaunchFailure);
     if (bytes)
         memmove(to, from, bytes);
     return cudaSuccess;
@@ -106,6 +116,8 @@ const char *cudaGetErrorString(cudaError_t error)
         return "invalid configuration argument";
     case cudaErrorNoDevice:
         return "no CUDA-capable device is detected";
+    case cudaErrorLaunchFailure:
+        return "unspecified launch failure";
     }
     return "unknown error";
 }
