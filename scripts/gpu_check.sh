@@ -258,16 +258,26 @@ if want 2; then
     echo "1e6 points reordered by cell every 16 steps against never: ${order_check:-not run}"
 fi
 
-# 3. Nsight Compute on one step's kernels (after 20 steps) of the 1e6-point case: time, DRAM and SM throughput
+# 3. Nsight Compute on one step's kernels (after 20 steps) of the 1e6-point case, and on one reordering's: time,
+# DRAM and SM throughput
 ncu=$(command -v ncu || ls /opt/nvidia/nsight-compute/*/ncu 2> /dev/null | head -n 1)
 if want 3 && [ "$gpu" = gpu ] && [ -n "$ncu" ]; then
     echo
-    echo "## 3. Nsight Compute, 14 um at 0.7/0.2 um (1e6 points), the kernels of one step"
+    echo "## 3. Nsight Compute, 14 um at 0.7/0.2 um (1e6 points), the kernels of one step and of one reordering"
     echo
     impact_case prof 0.7e-6 0.2e-6 0.5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
-    "$ncu" --clock-control none --launch-skip 600 --launch-count 30 --section SpeedOfLight --section Occupancy \
+    # a step is about 34 launches (the sort's and the reductions' CUB kernels included): 40 from the 21st step on,
+    # without the reordering (its ~20 launches at steps 0 and 16 would shift the window), then the reordering's own
+    # kernels (the second reordering, at step 16: 12 permutations and the slots; the upload's slots and the first
+    # reordering's 13 launches skipped)
+    SPRAYCOAT_GPU_REORDER_EVERY=0 "$ncu" --clock-control none --launch-skip 680 --launch-count 40 \
+        --section SpeedOfLight --section Occupancy \
         "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu > "$work/ncu.log" 2>&1 ||
         { tail -20 "$work/ncu.log"; echo "ncu failed"; }
+    rm -rf "$work/prof"
+    "$ncu" --clock-control none --kernel-name regex:'permute|slot_kernel' --launch-skip 14 --launch-count 13 \
+        --section SpeedOfLight "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu >> "$work/ncu.log" 2>&1 ||
+        { tail -20 "$work/ncu.log"; echo "ncu failed (the reordering's kernels)"; }
     [ -n "${OUT:-}" ] && cp "$work/ncu.log" "$OUT/ncu.log"
     awk '/^  [A-Za-z_].*\(/ { name = $1 } /Duration/ { t = $NF " " $(NF-1) } /DRAM Throughput/ { dram = $NF }
          /Compute \(SM\) Throughput/ { sm = $NF; printf "| %-40s | %12s | DRAM %6s %% | SM %6s %% |\n", substr(name, 1, 40), t, dram, sm }' \
