@@ -121,7 +121,7 @@ int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing)
         if (status != SC_OK) {
             timing->loop = log_elapsed() - start;
             ops->position(ops->owner, &step, &t, &progress); /* how far it got, not where it started */
-            if (!interrupt_status()) /* an interruption said "stopped" already */
+            if (!interrupt_status())                         /* an interruption said "stopped" already */
                 log_progress_stop(&bar, progress);
             return status;
         }
