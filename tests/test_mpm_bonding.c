@@ -50,9 +50,11 @@ static int verdict_at(const char *bonding, double velocity, double *pbcp, double
     return verdict_hot(bonding, velocity, 0.0, pbcp, v_rest);
 }
 
-/* the keys' defaults of bonding, eps_c and eps_rate_c, on the grid they were calibrated on */
+/* the keys' defaults of bonding, eps_c and eps_rate_c, on the grid they were calibrated on; as quarters (the mirror
+ * planes are exact for the trilinear weights: docs/physics.md "Mirror symmetry"), a quarter of the whole's points */
 static const char strain_10_cells[] = "grid = 1.4e-6\nspacing = 0.4667e-6\nt_end = 200e-9\nsymmetry = quarter";
-static const char energy_7_cells[] = "bonding = energy\ngrid = 2e-6\nspacing = 0.667e-6\nt_end = 100e-9";
+static const char energy_7_cells[] =
+    "bonding = energy\ngrid = 2e-6\nspacing = 0.667e-6\nt_end = 100e-9\nsymmetry = quarter";
 
 static void rebounds(const char *bonding, double velocity)
 {
