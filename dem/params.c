@@ -543,10 +543,13 @@ static void nozzle_size_range(const struct dem_config *cfg, double *d_small, dou
 }
 
 /* The free jet from the nozzle's exit state (docs/physics.md "Nozzle"), key by key unless given in [jet]: potential
- * core L = D_e (4.2 + 1.1 M_e^2) (Lau, Morris & Fisher 1979), virtual origin x0 = D_e / (2 S) so that the round
- * jet's half-width b = S (z + x0), S = 0.094 (Pope 2000, Table 5.2), is the nozzle's radius at the exit; C3 makes
- * the Bickley profile's half-width 0.88137 x^(2/3) / C3 equal b at the core's end x_c = L + x0, C1 its axis speed
- * there the exit velocity; gas density and kinematic viscosity of the exit's static state. */
+ * core L = D_e (4.2 + 1.1 M_e^2) (Lau, Morris & Fisher 1979); C3 makes the Bickley profile's half-width
+ * 0.88137 x^(2/3) / C3 at the core's end x_c = L + x0 the exit radius R_e, the width the model's jet then has over
+ * the whole core (it holds the core's end profile there): a jet keeps about the nozzle's width until the lip's
+ * mixing layer, centred near r = R_e, reaches the axis, which ends the core (a round jet's half-width S z, S =
+ * 0.094 (Pope 2000, Table 5.2), is 0.8 R_e at the 4.2 D_e core of a subsonic jet); C1 makes its axis speed there
+ * the exit velocity.  x0 = D_e / (2 S), where a round jet of half-width S (z + x0) has R_e at the exit, sets only
+ * how the jet widens and slows beyond the core.  Gas density and kinematic viscosity of the exit's static state. */
 #define ROUND_JET_SPREADING 0.094
 static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struct dem_gas_field *gas)
 {
@@ -558,7 +561,7 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
         gas->virtual_origin = exit_d / (2.0 * ROUND_JET_SPREADING);
     double x_core = gas->core_length + gas->virtual_origin;
     if (!case_is_given(c, "jet", "C3"))
-        gas->c3 = 0.88137358701954302523 / (ROUND_JET_SPREADING * cbrt(x_core));
+        gas->c3 = 0.88137358701954302523 * pow(x_core, 2.0 / 3.0) / (0.5 * exit_d);
     if (!case_is_given(c, "jet", "C1"))
         gas->c1 = e->velocity * cbrt(x_core);
     if (!case_is_given(c, "jet", "C2"))

@@ -3,10 +3,12 @@
  * its Stokes and free-molecular limits, the CVODE particle exit state against a fine classical RK4 integration of
  * the same equations, and the normal shock inside the divergent part refused with its numbers. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "core/error.h"
 #include "dem/dem.h"
+#include "dem/gas.h"
 #include "tests/check.h"
 #include "tests/spray_fixture.h"
 
@@ -188,6 +190,42 @@ static void test_spray_release(void)
     fixture_close(&f);
 }
 
+/* The jet mapped from the exit state (dem/params.c map_jet): over its potential core it has the nozzle's width (the
+ * free jet's axial speed half the axis's at the exit radius, the axis's the exit velocity), and the bow shock before
+ * a target inside the core stands Lobb's 0.82 R_e rho1/rho2 ahead of it, R_e the exit radius. */
+static void test_jet_from_exit(void)
+{
+    static const char *jet_line = "[jet]\nmodel = none\nC1 = 123\n";
+    char ini[2048];
+    const char *at = strstr(nozzle_case, jet_line);
+    snprintf(ini, sizeof ini, "%.*s%s", (int)(at - nozzle_case), nozzle_case, at + strlen(jet_line));
+    struct fixture f;
+    if (fixture_open(&f, ini, NULL) != SC_OK) {
+        CHECK(0, "fixture: %s", sc_error_message());
+        return;
+    }
+    const struct dem_nozzle *n = f.cfg.nozzle;
+    struct dem_gas_field gas = f.cfg.gas; /* no wall: the free jet everywhere */
+    gas.stagnation_height = gas.shock_standoff = 0.0;
+    double exit_radius = 0.5 * 6.3e-3, u_e = n->exit.velocity, u[3];
+    CHECK(gas.core_length > 0.1, "core %g m", gas.core_length);
+    for (double z = 0.0; z < gas.core_length; z += 0.02) {
+        dem_gas_velocity(&gas, (double[3]){0.0, 0.0, z}, u);
+        CHECK_CLOSE(u[2], u_e, 1e-12, 0, "the axis speed in the core is the exit velocity");
+        dem_gas_velocity(&gas, (double[3]){exit_radius, 0.0, z}, u);
+        CHECK_CLOSE(u[2], 0.5 * u_e, 1e-12, 0, "half of it at the exit radius: the jet keeps the nozzle's width");
+    }
+    dem_gas_set_wall(&gas, 0.04);
+    double a = sqrt(n->properties.gamma * n->properties.gas_constant * n->exit.temperature);
+    struct dem_normal_shock shock = dem_normal_shock(n->properties.gamma, u_e / a);
+    CHECK_CLOSE(gas.shock_mach, u_e / a, 1e-12, 0, "the shock at the exit Mach number");
+    CHECK_CLOSE(gas.shock_standoff, 0.82 * exit_radius * shock.velocity_ratio, 1e-12, 0,
+                "Lobb's standoff with the exit radius");
+    printf("  jet from the exit: u_e %.1f m/s, M %.3f, bow shock %.3f mm before a target at 40 mm\n", u_e, u_e / a,
+           1e3 * gas.shock_standoff);
+    fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_area_mach);
@@ -196,5 +234,6 @@ int main(void)
     RUN(test_particle_against_rk4);
     RUN(test_shock_inside);
     RUN(test_spray_release);
+    RUN(test_jet_from_exit);
     return check_finish();
 }
