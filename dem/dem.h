@@ -39,7 +39,7 @@ enum dem_outcome { DEM_REBOUND = 0, DEM_STUCK = 1, DEM_RESTED = 2 };
 /* The carrier gas.  Coordinates: nozzle exit centre at the origin, spray axis +z; the jet's streamwise coordinate
  * is x = z + virtual_origin and its cross-stream coordinate r = sqrt(x^2 + y^2) of the spray frame. */
 enum dem_jet_model { DEM_JET_BICKLEY, DEM_JET_UNIFORM, DEM_JET_NONE };
-enum dem_drag_law { DEM_DRAG_HAIDER_LEVENSPIEL, DEM_DRAG_STOKES };
+enum dem_drag_law { DEM_DRAG_HAIDER_LEVENSPIEL, DEM_DRAG_STOKES, DEM_DRAG_HENDERSON };
 
 /* [jet] bow_shock: none, or a normal shock in front of the target where the free jet arrives supersonic. */
 enum dem_bow_shock { DEM_BOW_SHOCK_NONE, DEM_BOW_SHOCK_AUTO };

@@ -12,6 +12,7 @@
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include "core/error.h"
+#include "dem/drag_henderson.h"
 
 /* ---------------------------------------------------------------- gases */
 
@@ -118,36 +119,10 @@ void dem_nozzle_station_at(const struct dem_nozzle *n, double x, struct dem_nozz
 
 /* ---------------------------------------------------------------- particle drag and heating */
 
-/* Henderson (1976) below M = 1: continuum and rarefied subsonic flow, S = M sqrt(gamma/2) the molecular speed
- * ratio, Tw/T the sphere's temperature over the gas's. */
-static double henderson_subsonic(double re, double mach, double tr, double gamma)
-{
-    double s = mach * sqrt(0.5 * gamma), root_re = sqrt(re), poly = 0.03 * re + 0.48 * root_re;
-    double m2 = mach * mach, m4 = m2 * m2;
-    double viscous = 24.0 / (re + s * (4.33 + (3.65 - 1.53 * tr) / (1.0 + 0.353 * tr) * exp(-0.247 * re / s)));
-    double pressure = exp(-0.5 * mach / root_re) * ((4.5 + 0.38 * poly) / (1.0 + poly) + 0.1 * m2 + 0.2 * m4 * m4);
-    return viscous + pressure + (1.0 - exp(-mach / re)) * 0.6 * s;
-}
-
-/* Henderson (1976) from M = 1.75: supersonic continuum and rarefied flow. */
-static double henderson_supersonic(double re, double mach, double tr, double gamma)
-{
-    double s = mach * sqrt(0.5 * gamma), s2 = s * s, root = 1.86 * sqrt(mach / re);
-    double bracket = 2.0 + 2.0 / s2 + 1.058 / s * sqrt(tr) - 1.0 / (s2 * s2);
-    return (0.9 + 0.34 / (mach * mach) + root * bracket) / (1.0 + root);
-}
-
-/* Between M = 1 and 1.75 Henderson interpolates linearly in M between the two formulas' values at those ends (at
- * the same Reynolds number). */
+/* Henderson (1976): dem/drag_henderson.h. */
 double dem_nozzle_drag_coefficient(double reynolds, double mach, double temperature_ratio, double gamma)
 {
-    if (mach <= 1.0)
-        return henderson_subsonic(reynolds, mach, temperature_ratio, gamma);
-    if (mach >= 1.75)
-        return henderson_supersonic(reynolds, mach, temperature_ratio, gamma);
-    double at_one = henderson_subsonic(reynolds, 1.0, temperature_ratio, gamma);
-    double at_end = henderson_supersonic(reynolds, 1.75, temperature_ratio, gamma);
-    return at_one + (mach - 1.0) / 0.75 * (at_end - at_one);
+    return henderson_drag_coefficient(reynolds, mach, temperature_ratio, gamma);
 }
 
 /* dv/dx = F / (m v), dT_p/dx = Q / (m c_p v), dt/dx = 1 / v with the drag F = rho C_D (pi d^2/8) |u - v| (u - v)

@@ -75,8 +75,9 @@ const struct cfg_key dem_case_keys[] = {
     /* [jet] */
     {"jet", "model", CFG_CHOICE, "", "bickley", 0, 0, 0, "bickley|uniform|none",
      "gas field: self-similar jet of Eqs. 26-27, uniform stream along +z, or no gas (no drag)"},
-    {"jet", "drag", CFG_CHOICE, "", "haider_levenspiel", 0, 0, 0, "haider_levenspiel|stokes",
-     "drag coefficient: Eq. 25, or Stokes 24/Re"},
+    {"jet", "drag", CFG_CHOICE, "", "auto", 0, 0, 0, "auto|haider_levenspiel|stokes|henderson",
+     "drag coefficient: Eq. 25 (Haider-Levenspiel), Stokes 24/Re, or Henderson (1976) with the slip's Mach number; "
+     "auto: henderson with [nozzle], else haider_levenspiel"},
     {"jet", "C1", CFG_REAL, "m^(4/3)/s", "30", 0, 1e6, 0, NULL, "axial velocity scale, Eq. 26"},
     {"jet", "C2", CFG_REAL, "m^(5/3)/s", NULL, -1e6, 1e6, 0, NULL,
      "entrainment scale, Eq. 27 (default C1/(3 C3): divergence-free)"},
@@ -259,7 +260,9 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->model = case_is(c, "jet", "model", "bickley")   ? DEM_JET_BICKLEY
                  : case_is(c, "jet", "model", "uniform") ? DEM_JET_UNIFORM
                                                          : DEM_JET_NONE;
-    gas->drag = case_is(c, "jet", "drag", "stokes") ? DEM_DRAG_STOKES : DEM_DRAG_HAIDER_LEVENSPIEL;
+    gas->drag = case_is(c, "jet", "drag", "stokes")      ? DEM_DRAG_STOKES
+                : case_is(c, "jet", "drag", "henderson") ? DEM_DRAG_HENDERSON
+                                                         : DEM_DRAG_HAIDER_LEVENSPIEL; /* auto: see map_jet */
     gas->c1 = case_real(c, "jet", "C1");
     gas->c3 = case_real(c, "jet", "C3");
     /* Erratum of Eq. 27 (docs/physics.md): C2 = C1/(3 C3) makes the planar jet divergence-free. */
@@ -549,7 +552,8 @@ static void nozzle_size_range(const struct dem_config *cfg, double *d_small, dou
  * mixing layer, centred near r = R_e, reaches the axis, which ends the core (a round jet's half-width S z, S =
  * 0.094 (Pope 2000, Table 5.2), is 0.8 R_e at the 4.2 D_e core of a subsonic jet); C1 makes its axis speed there
  * the exit velocity.  x0 = D_e / (2 S), where a round jet of half-width S (z + x0) has R_e at the exit, sets only
- * how the jet widens and slows beyond the core.  Gas density and kinematic viscosity of the exit's static state. */
+ * how the jet widens and slows beyond the core.  Gas density and kinematic viscosity of the exit's static state;
+ * drag = auto is Henderson's, the nozzle's. */
 #define ROUND_JET_SPREADING 0.094
 static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struct dem_gas_field *gas)
 {
@@ -571,6 +575,8 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
     if (!case_is_given(c, "jet", "gas_viscosity"))
         gas->kinematic_viscosity = dem_nozzle_viscosity(&n->properties, e->temperature) / e->density;
     /* the static exit state, for the bow shock (docs/physics.md "The bow shock at the target") */
+    if (case_is(c, "jet", "drag", "auto")) /* the nozzle's own law: the slip is near Mach 1 after the exit */
+        gas->drag = DEM_DRAG_HENDERSON;
     if (!case_is_given(c, "jet", "gas_temperature"))
         gas->gas_temperature = e->temperature;
     if (!case_is_given(c, "jet", "gas_gamma"))

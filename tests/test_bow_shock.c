@@ -231,27 +231,32 @@ static void test_layer_mass_flux(void)
 
 struct axis_gas {
     double wall_z, top, u1, ratio, rho, nu, compression;
+    double sound, sound_ratio; /* the free jet's speed of sound and the layer's a2/a1 = sqrt(T2/T1) (Henderson) */
 };
 
 /* The layer's equations on the axis written out here, independently of dem/gas_eval.h: u_z = (u2/u1) U1 eta (2 -
  * eta) below the shock, eta = s/Delta; the free jet's U(z) above; density rho2 and nu2 = nu1 rho1/rho2 below;
- * Haider-Levenspiel drag (Eqs. 24-25). */
+ * Haider-Levenspiel drag (Eqs. 24-25), or with drag = henderson Henderson's C_D (dem_nozzle_drag_coefficient, the
+ * sphere at the gas's temperature) at the slip's Mach number against a1 = sqrt(gamma R T1), sqrt(T2/T1) a1 below. */
 static double axis_acceleration(const struct axis_gas *g, const struct dem_gas_field *gas, double d, double mass,
                                 double z, double v)
 {
-    double u, rho = g->rho, nu = g->nu;
+    double u, rho = g->rho, nu = g->nu, sound = g->sound;
     if (z > g->top) {
         double eta = (g->wall_z - z) / (g->wall_z - g->top);
         u = g->ratio * g->u1 * eta * (2.0 - eta);
         rho *= g->compression;
         nu /= g->compression;
+        sound *= g->sound_ratio;
     } else {
         u = axis_speed(gas, z);
     }
     double slip = fabs(u - v);
     if (slip == 0.0)
         return 0.0;
-    double cd = dem_drag_coefficient_haider_levenspiel(d * slip / nu);
+    double cd = gas->drag == DEM_DRAG_HENDERSON
+                    ? dem_nozzle_drag_coefficient(d * slip / nu, slip / sound, 1.0, gas->gas_gamma)
+                    : dem_drag_coefficient_haider_levenspiel(d * slip / nu);
     return 0.5 * rho * M_PI * d * d / 4.0 * cd * slip * (u - v) / mass;
 }
 
@@ -265,7 +270,9 @@ static double fly_axis(const struct dem_gas_field *gas, int use_dem, double d, d
                          gas->shock_velocity_ratio,
                          gas->density,
                          gas->kinematic_viscosity,
-                         gas->shock_density_ratio};
+                         gas->shock_density_ratio,
+                         sqrt(gas->gas_gamma * gas->gas_constant * gas->gas_temperature),
+                         sqrt(gas->shock_temperature_ratio)};
     g.u1 = axis_speed(gas, g.top);
     double mass = 2700.0 * M_PI * d * d * d / 6.0, h = 2e-10, z = z0, v = v0;
     *v_shock = 0.0;
@@ -349,6 +356,40 @@ static void test_flight_through_layer(void)
     couple_flight_solver_destroy(solver);
 }
 
+/* drag = henderson (the law of a jet from [nozzle]): the same flights through the demo's layer against the layer's
+ * equations with Henderson's C_D at the local Mach number (the layer's speed of sound sqrt(T2/T1) = 1.35 times the
+ * free jet's); the slip there is near Mach 1, where Henderson's C_D exceeds Haider-Levenspiel's, so the fine
+ * particle loses more.  The response time is m over a central difference of the drag. */
+static void test_henderson_layer(void)
+{
+    struct dem_gas_field gas = jet(0, DEM_BOW_SHOCK_AUTO), usual = gas;
+    gas.drag = DEM_DRAG_HENDERSON;
+    const double d[2] = {5e-6, 25e-6}, start[2] = {650.0, 550.0}, z0 = gas.wall_z - 3e-3;
+    for (int k = 0; k < 2; k++) {
+        double at_shock, at_shock_ref, at_shock_usual;
+        double v_wall = fly_axis(&gas, 1, d[k], z0, start[k], &at_shock);
+        double v_ref = fly_axis(&gas, 0, d[k], z0, start[k], &at_shock_ref);
+        double v_usual = fly_axis(&usual, 1, d[k], z0, start[k], &at_shock_usual);
+        CHECK_CLOSE(v_wall, v_ref, 1e-6, 0.0, "Henderson: speed at the wall against the layer's equations");
+        CHECK_CLOSE(at_shock, at_shock_ref, 1e-6, 0.0, "Henderson: speed at the shock");
+        printf("  Henderson, d = %g um: %.1f m/s at the shock, %.1f m/s at the wall (Haider-Levenspiel %.1f, %.1f)\n",
+               d[k] * 1e6, at_shock, v_wall, at_shock_usual, v_usual);
+        if (k == 0)
+            CHECK(at_shock - v_wall > at_shock_usual - v_usual, "the fine particle loses more with Henderson");
+    }
+    const double slips[3] = {0.0, 30.0, 400.0};
+    for (int k = 0; k < 3; k++) {
+        double s = slips[k], step = 1e-3 * fmax(s, 1.0), mass = 2700.0 * M_PI * 125e-18 / 6.0, f[2][3];
+        for (int side = 0; side < 2; side++) {
+            const double x[3] = {0, 0, 0.01}, v[3] = {0, 0, 0};
+            double u[3] = {0, 0, (side ? 1.0 : -1.0) * step + s};
+            dem_gas_drag_force_at(&gas, 5e-6, x, v, u, f[side]);
+        }
+        double slope = (f[1][2] - f[0][2]) / (2.0 * step), tau = dem_gas_response_time(&gas, 2700.0, 5e-6, s);
+        CHECK_CLOSE(tau, mass / slope, 1e-4, 0.0, "Henderson: response time m / (dF/ds)");
+    }
+}
+
 int main(void)
 {
     RUN(test_normal_shock_table);
@@ -358,5 +399,6 @@ int main(void)
     RUN(test_layer_mass_flux);
     RUN(test_fine_particle_slows);
     RUN(test_flight_through_layer);
+    RUN(test_henderson_layer);
     return check_finish();
 }
