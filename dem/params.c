@@ -99,7 +99,7 @@ const struct cfg_key dem_case_keys[] = {
     {"jet", "gas_gamma", CFG_REAL, "-", "1.4", 1, 2, CFG_MIN_EXCLUSIVE, NULL,
      "ratio of specific heats of the jet gas (1.4: air, N2; 5/3: He)"},
     {"jet", "gas_constant", CFG_REAL, "J/(kg K)", "287.05", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
-     "specific gas constant of the jet gas (287.05: air; 296.8: N2; 2077.1: He)"},
+     "specific gas constant of the jet gas (287.05: air; 296.8: N2; 2077.3: He)"},
     {"jet", "bow_shock", CFG_CHOICE, "", "auto", 0, 0, 0, "auto|none",
      "auto: where the free jet arrives supersonic on the axis, a normal shock stands in front of the target "
      "(standoff 0.82 b rho1/rho2, Lobb 1964) over a compressed layer; none: the subsonic wall region always"},
