@@ -64,7 +64,8 @@ struct dem_gas_field {
     double wall_outflow_scale;        /* m/s, U_H / (a_H^2 H): the wall jet's u_r = g' scale F(a_H r) / r */
     double gas_temperature;           /* K */
     double gas_gamma;
-    double gas_constant; /* J/(kg K) */
+    double gas_constant;   /* J/(kg K) */
+    double gas_sutherland; /* K: Sutherland's constant S of the gas, for the viscosity behind a bow shock */
     /* The bow shock in front of the target (docs/physics.md "The bow shock at the target"): placed by
      * dem_gas_set_wall; shock_standoff 0 (a zeroed struct, bow_shock none, a subsonic jet) is no shock. */
     enum dem_bow_shock bow_shock;   /* [jet] bow_shock */
@@ -73,6 +74,7 @@ struct dem_gas_field {
     double shock_velocity_ratio;    /* u2/u1 = rho1/rho2 of the normal shock at M1 */
     double shock_density_ratio;     /* rho2/rho1: the gas density in the layer below the shock, over `density` */
     double shock_temperature_ratio; /* T2/T1 */
+    double shock_viscosity_ratio;   /* mu2/mu1: Sutherland's law at T2 and T1 */
     double axis_x, axis_y;          /* m: the jet's axis (the nozzle's position), set every step by the path */
 };
 

@@ -42,6 +42,12 @@ struct dem_normal_shock dem_normal_shock(double gamma, double mach)
     return shock;
 }
 
+/* mu(T2)/mu(T1) of Sutherland's law mu ~ T^1.5 / (T + S) (dem_nozzle_viscosity's), T2 = ratio T1. */
+static double sutherland_ratio(double ratio, double t1, double s)
+{
+    return ratio * sqrt(ratio) * (t1 + s) / (ratio * t1 + s);
+}
+
 /* The free jet's station (x = z + virtual_origin) whose profile holds at z: the core's end inside the core. */
 static double jet_station(const struct dem_gas_field *gas, double z)
 {
@@ -65,6 +71,7 @@ static void place_bow_shock(struct dem_gas_field *gas, double wall_z, double hal
 {
     gas->shock_mach = gas->shock_standoff = 0.0;
     gas->shock_velocity_ratio = gas->shock_density_ratio = gas->shock_temperature_ratio = 1.0;
+    gas->shock_viscosity_ratio = 1.0;
     double sound_speed = sqrt(gas->gas_gamma * gas->gas_constant * gas->gas_temperature);
     if (gas->bow_shock != DEM_BOW_SHOCK_AUTO || !(sound_speed > 0.0) || !(gas->gas_gamma > 1.0))
         return;
@@ -87,6 +94,7 @@ static void place_bow_shock(struct dem_gas_field *gas, double wall_z, double hal
     gas->shock_velocity_ratio = shock.velocity_ratio;
     gas->shock_density_ratio = shock.density_ratio;
     gas->shock_temperature_ratio = shock.temperature_ratio;
+    gas->shock_viscosity_ratio = sutherland_ratio(shock.temperature_ratio, gas->gas_temperature, gas->gas_sutherland);
 }
 
 void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z)
@@ -96,6 +104,7 @@ void dem_gas_set_wall(struct dem_gas_field *gas, double wall_z)
     gas->inverse_stagnation_height = gas->wall_outflow_scale = 0.0;
     gas->shock_mach = gas->shock_standoff = 0.0;
     gas->shock_velocity_ratio = gas->shock_density_ratio = gas->shock_temperature_ratio = 1.0;
+    gas->shock_viscosity_ratio = 1.0;
     if (gas->model != DEM_JET_BICKLEY || !(gas->stagnation_factor > 0.0))
         return;
     double half_width = HALF_WIDTH_XI * pow(jet_station(gas, wall_z), 2.0 / 3.0) / gas->c3;

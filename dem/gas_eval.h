@@ -129,13 +129,14 @@ FM_INLINE struct gas_local gas_eval_free(const struct dem_gas_field *gas)
 }
 
 /* At pos: in the layer below a bow shock (the wall region, whose top is the shock) the density rho2 =
- * shock_density_ratio rho1 and, the dynamic viscosity held at the free jet's, nu2 = nu1 / shock_density_ratio;
- * elsewhere the free jet's (the same bits). */
+ * shock_density_ratio rho1 and the dynamic viscosity mu2 = shock_viscosity_ratio mu1 (Sutherland's at T2), so nu2 =
+ * nu1 mu2/mu1 / (rho2/rho1); elsewhere the free jet's (the same bits). */
 FM_INLINE struct gas_local gas_eval_local(const struct dem_gas_field *gas, const double pos[3])
 {
     int in_layer = (pos[2] > gas->wall_z - gas->stagnation_height) & (gas->shock_standoff > 0.0);
     double compression = fm_select(in_layer, gas->shock_density_ratio, 1.0);
-    struct gas_local local = {compression * gas->density, gas->kinematic_viscosity / compression,
+    double viscosity = fm_select(in_layer, gas->shock_viscosity_ratio, 1.0);
+    struct gas_local local = {compression * gas->density, gas->kinematic_viscosity * viscosity / compression,
                               fm_select(in_layer, gas->shock_temperature_ratio, 1.0)};
     return local;
 }

@@ -100,6 +100,9 @@ const struct cfg_key dem_case_keys[] = {
      "ratio of specific heats of the jet gas (1.4: air, N2; 5/3: He)"},
     {"jet", "gas_constant", CFG_REAL, "J/(kg K)", "287.05", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
      "specific gas constant of the jet gas (287.05: air; 296.8: N2; 2077.3: He)"},
+    {"jet", "gas_sutherland", CFG_REAL, "K", "111", 0, 1e4, 0, NULL,
+     "Sutherland's constant S of the jet gas (111: air; 107: N2, White, Viscous Fluid Flow, Table 1-2; 79.4: He, "
+     "dem/nozzle.c): the viscosity behind a bow shock, mu2/mu1 = (T2/T1)^1.5 (T1 + S)/(T2 + S)"},
     {"jet", "bow_shock", CFG_CHOICE, "", "auto", 0, 0, 0, "auto|none",
      "auto: where the free jet arrives supersonic on the axis, a normal shock stands in front of the target "
      "(standoff 0.82 b rho1/rho2, Lobb 1964) over a compressed layer; none: the subsonic wall region always"},
@@ -276,6 +279,7 @@ static void load_contact_and_jet(const struct case_file *c, struct dem_config *c
     gas->gas_temperature = case_real(c, "jet", "gas_temperature");
     gas->gas_gamma = case_real(c, "jet", "gas_gamma");
     gas->gas_constant = case_real(c, "jet", "gas_constant");
+    gas->gas_sutherland = case_real(c, "jet", "gas_sutherland");
     gas->bow_shock = case_is(c, "jet", "bow_shock", "none") ? DEM_BOW_SHOCK_NONE : DEM_BOW_SHOCK_AUTO;
     dem_gas_set_wall(gas, cfg->standoff);
 }
@@ -583,6 +587,8 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
         gas->gas_gamma = n->properties.gamma;
     if (!case_is_given(c, "jet", "gas_constant"))
         gas->gas_constant = n->properties.gas_constant;
+    if (!case_is_given(c, "jet", "gas_sutherland"))
+        gas->gas_sutherland = n->properties.sutherland;
 }
 
 /* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc

@@ -221,6 +221,11 @@ static void test_jet_from_exit(void)
     CHECK_CLOSE(gas.shock_standoff, 0.82 * exit_radius * velocity_ratio, 1e-12, 0,
                 "Lobb's standoff with the exit radius, u2/u1 of a normal shock");
     CHECK(gas.drag == DEM_DRAG_HENDERSON, "drag = auto is Henderson's with [nozzle]");
+    CHECK(gas.gas_sutherland == n->properties.sutherland && gas.gas_sutherland == 107.0, "N2's Sutherland constant");
+    double t2 = gas.shock_temperature_ratio * n->exit.temperature;
+    CHECK_CLOSE(gas.shock_viscosity_ratio,
+                dem_nozzle_viscosity(&n->properties, t2) / dem_nozzle_viscosity(&n->properties, n->exit.temperature),
+                1e-12, 0, "the layer's viscosity: the nozzle's law at T2");
     printf("  jet from the exit: u_e %.1f m/s, M %.3f, bow shock %.3f mm before a target at 40 mm\n", u_e, u_e / a,
            1e3 * gas.shock_standoff);
     fixture_close(&f);
