@@ -185,12 +185,12 @@ static int run_case(const struct sweep *sw, int i, int j, struct case_file **out
     return SC_OK;
 }
 
-/* The values in SI where the key is a number (the run's case converts them: "300 mm" is 0.3). */
+/* The values in SI where the key is a number (the run's case converts them: "300 mm" is 0.3); NaN for a word,
+ * whichever words the key has (restitution's is johnson, not auto: asking case_is for "auto" aborted). */
 static void axis_numbers(struct sweep_axis *axis, const struct case_file *run, int index)
 {
     const struct cfg_key *k = axis->section[0] ? registered_key(axis->section, axis->key) : NULL;
-    if (!k || !(k->type == CFG_REAL || k->type == CFG_INT) ||
-        (k->choices && case_is(run, axis->section, axis->key, "auto")))
+    if (!k || !(k->type == CFG_REAL || k->type == CFG_INT) || case_is_word(run, axis->section, axis->key))
         axis->numbers[index] = NAN;
     else
         axis->numbers[index] = k->type == CFG_INT ? (double)case_int(run, axis->section, axis->key)

@@ -1404,6 +1404,14 @@ int case_is(const struct case_file *c, const char *section, const char *key, con
     return slot && slot->text && strcmp(slot->text, word) == 0;
 }
 
+int case_is_word(const struct case_file *c, const char *section, const char *key)
+{
+    const struct slot *slot = lookup(c, section, key, "case_is_word");
+    if (!slot || !slot->text)
+        return 0;
+    return slot->spec->type == CFG_CHOICE || (slot->spec->type == CFG_REAL && slot->value.is_word);
+}
+
 /* `text` as seen from the current folder: relative paths are relative to the case file's folder. */
 static char *resolve_path(const struct case_file *c, const char *text)
 {

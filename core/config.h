@@ -75,6 +75,10 @@ long case_int(const struct case_file *c, const char *section, const char *key);
 const char *case_text(const struct case_file *c, const char *section, const char *key);
 /* 1 if the value is the word `word` (for CFG_CHOICE and CFG_REAL with word alternatives). */
 int case_is(const struct case_file *c, const char *section, const char *key, const char *word);
+/* 1 if the key has a value that is one of its words rather than a number (a CFG_REAL with word alternatives
+ * given as a word, or any CFG_CHOICE value), else 0: lets a caller that handles any key (a sweep's axis) tell
+ * before case_real, without naming the words. */
+int case_is_word(const struct case_file *c, const char *section, const char *key);
 /* The path of a CFG_PATH key, resolved relative to the case file's folder, into out[size]. */
 int case_path(const struct case_file *c, const char *section, const char *key, char *out, size_t size);
 /* Line of the key in the file, 0 if not from the file. */

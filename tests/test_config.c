@@ -112,6 +112,8 @@ static void test_defaults_and_sources(void)
     CHECK(case_line(c, "alpha", "length") == 0, "default has no line");
     CHECK(case_is(c, "alpha", "model", "bickley"), "default model");
     CHECK(case_is(c, "alpha", "restitution", "johnson"), "default restitution word");
+    CHECK(case_is_word(c, "alpha", "restitution"), "the default restitution is a word");
+    CHECK(case_is_word(c, "alpha", "model"), "a choice is a word");
     CHECK(!case_has(c, "alpha", "data"), "data has no default");
     CHECK(!case_has(c, "beta", "steps"), "steps has no default");
     CHECK(!case_has(c, "material.steel", "poisson"), "no [material.steel] in the file");
@@ -253,6 +255,7 @@ static void test_real_or_word(void)
     CHECK(status == SC_OK && c, "number: %s", sc_error_message());
     if (c) {
         CHECK(!case_is(c, "alpha", "restitution", "johnson"), "not the word");
+        CHECK(!case_is_word(c, "alpha", "restitution"), "a number is no word");
         CHECK_CLOSE(case_real(c, "alpha", "restitution"), 0.8, 0, 0, "restitution");
     }
     case_free(c);

@@ -5,7 +5,8 @@
 # case file with those values written in it (the sweep sets the keys as the file would); a second sweep runs
 # nothing; after a run's spray.h5 is removed, only that run is made again and the map is the same; `resume`
 # continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
-# [sweep] keys and values are refused with exit status 2 before the run directory is made.
+# [sweep] keys and values are refused with exit status 2 before the run directory is made; a key that takes a
+# number or a word (contact.restitution: johnson) is swept with a NaN on the axis for the word.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
 # sets it).  Needs h5dump.
 set -u
@@ -211,4 +212,18 @@ if [ $term -eq 143 ] && [ $resumed -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_term
     pass sweep_interrupted_and_resumed
 else
     fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term")"
+fi
+
+# 7. a key that takes a number or a word other than auto ([contact] restitution: a number or johnson): every run
+# finishes and the map is written, the word's axis value NaN (case_is(..., "auto") aborted on it after the runs)
+write_case "$T/rest.ini" 320 800 "[sweep]
+x_key = contact.restitution
+x_values = 0.3, 0.5, johnson"
+"$BIN" sweep "$T/rest.ini" -o "$T/rest" >"$T/log_rest" 2>&1
+rest=$?
+axis=$(values "$T/rest/sweep.h5" /x_values | tr '\n' ' ')
+if [ $rest -eq 0 ] && [ -r "$T/rest/sweep.h5" ] && [ "$axis" = "0.29999999999999999 0.5 nan " ]; then
+    pass sweep_over_a_number_or_word_key
+else
+    fail sweep_over_a_number_or_word_key "exit $rest, x_values '$axis': $(tail -n 2 "$T/log_rest")"
 fi
