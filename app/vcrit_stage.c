@@ -253,7 +253,8 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
                                 "%g m is less than two point spacings ([impact] spacing = "
                                 "%g m)",
                                 v->diameters[i], spacing);
-        if (substrate_d < 2.0 * spacing || substrate_d > 1.0)
+        /* a rigid substrate is no body (substrate_d stays infinite): there is no size to check */
+        if (isfinite(substrate_d) && (substrate_d < 2.0 * spacing || substrate_d > 1.0))
             return case_invalid(c, "vcrit", "substrate_scale",
                                 "gives a substrate of %g m for d = %g m; allowed: "
                                 "two point spacings (%g m) to 1 m",

@@ -7,7 +7,8 @@
 # of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
 # v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
 # adds its sweep and gives the 50 % point of an independent logistic fit to the runs; with reference_diameter a
-# particle twice the size on a scaled set-up makes the same runs (rate-free material).  Prints "PASS name" /
+# particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
+# accepted by `check` and searched.  Prints "PASS name" /
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
@@ -326,5 +327,18 @@ if "$BIN" vcrit "$T/unscaled.ini" -o "$T/unscaled" >"$T/unscaled.log" 2>&1 &&
     fail vcrit_reference_diameter_matters "without reference_diameter the two sizes gave the same runs too: the check above cannot fail"
 else
     pass vcrit_reference_diameter_matters
+fi
+# ---- 7. a rigid substrate (no substrate body, substrate_scale 0 as allowed): `check` passes and the search runs
+# (the substrate's size, infinite without a body, was checked against 1 m and every rigid case refused)
+sed -e '/^substrate_diameter = /d' -e '/^substrate_height = /d' -e 's/^grid = 2e-6$/grid = 2e-6\nsubstrate = rigid/' \
+    -e 's/^diameters = .*/diameters = 8e-6/' "$CASE" >"$T/rigid.ini"
+"$BIN" check "$T/rigid.ini" >"$T/rigid_check.log" 2>&1
+checked=$?
+"$BIN" vcrit "$T/rigid.ini" -o "$T/rigid" >"$T/rigid.log" 2>&1
+searched=$?
+if [ $checked -eq 0 ] && [ $searched -eq 0 ] && [ -r "$T/rigid/vcrit.h5" ] && grep -q '^#* *8e-06,' "$T/rigid/vcrit.csv"; then
+    pass vcrit_rigid_substrate
+else
+    fail vcrit_rigid_substrate "check exit $checked, vcrit exit $searched: $(tail -n 1 "$T/rigid_check.log") $(tail -n 1 "$T/rigid.log")"
 fi
 exit 0
