@@ -57,6 +57,11 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
+/* Remove a stage's output `path` (the file whose case hash says "up to date"), durably (the folder fsynced), before
+ * the stage publishes any other file of its new results: a failure between two files then leaves no output that
+ * declares another case's files (vcrit.csv beside vcrit.h5) up to date, and the next run writes them all again.
+ * Missing is fine; SC_EIO when it cannot be removed. */
+int run_dir_retire_output(const char *path);
 /* The input RUN_DIR/STAGE.h5 a later stage (`reader`: couple, impact, render) reads must have been made by this
  * case's `stage`: SC_EIO naming the file and the stage to rerun when it was made by another case, is not readable,
  * or (with required) is missing.  Exit status 3, not 2: the case file and command line are fine, what is wrong

@@ -692,9 +692,11 @@ static int fit_and_write(struct calibrate *k, double start)
         SC_FAIL(SC_EIO, "calibrate: a run is missing from the records after all ranks finished (a records file "
                         "removed or damaged while the stage ran?)");
     SC_TRY(fit_all(k));
-    SC_TRY(write_csvs(k));
     char path[4096];
     snprintf(path, sizeof path, "%s/calibrate.h5", k->run_dir);
+    /* another case's calibrate.h5 must not outlive the publication of this case's CSVs (app.h) */
+    SC_TRY(run_dir_retire_output(path));
+    SC_TRY(write_csvs(k));
     SC_TRY(stage_write_output(path, CALIBRATE_FORMAT, CALIBRATE_FORMAT_VERSION, STAGE, k->case_hash, k->c,
                               output_contents, k));
     log_info("calibrate: wrote %s/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (%lld runs in this "

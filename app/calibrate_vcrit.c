@@ -573,9 +573,11 @@ int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash)
     SC_TRY(fit(&f));
     if (parallel_rank() != 0)
         return SC_OK;
-    SC_TRY(write_csvs(&f));
     char path[4200];
     snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
+    /* another case's calibrate.h5 must not outlive the publication of this case's CSVs (app.h) */
+    SC_TRY(run_dir_retire_output(path));
+    SC_TRY(write_csvs(&f));
     SC_TRY(stage_write_output(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, &f));
     if (isfinite(f.calibrated))
         log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s %s) after %d searches, %.1f s%s%s", f.name[0],

@@ -484,7 +484,9 @@ static int run_stage(struct impact_run *run)
     run->start_step = counts.step;
     SC_TRY(snapshot_if_due(run));
     SC_TRY(stage_loop_run(&ops, &run->timing));
-    /* the index first: impact.h5 marks the stage done, so everything else must exist before it */
+    /* the index first: impact.h5 marks the stage done, so everything else must exist before it, and another case's
+     * impact.h5 must be gone before this case's index is published (app.h run_dir_retire_output) */
+    SC_TRY(run_dir_retire_output(run->output));
     SC_TRY(write_xdmf(run));
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints and snapshot files are no longer needed */
@@ -880,6 +882,9 @@ static int run_all_seeded(const struct stage_context *ctx, uint64_t hash, const 
 
 static int gather(const struct stage_context *ctx, uint64_t hash, long runs)
 {
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
+    SC_TRY(run_dir_retire_output(path)); /* before impact.xdmf of this case (app.h) */
     SC_TRY(write_first_run_xdmf(ctx->run_dir));
     SC_TRY(write_gathered(ctx, hash, runs));
     return remove_run_files(ctx->run_dir, runs);

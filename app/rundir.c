@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/atomic.h"
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
@@ -116,6 +117,14 @@ int run_dir_output_current(const char *path, uint64_t case_hash)
     H5Fclose(file);
     sc_error_clear();
     return ok;
+}
+
+int run_dir_retire_output(const char *path)
+{
+    if (unlink(path) != 0 && errno != ENOENT)
+        SC_FAIL(SC_EIO, "cannot remove %s (the results of another case) before writing the new ones: %s", path,
+                strerror(errno));
+    return atomic_sync_folder(path);
 }
 
 int run_dir_write_stages(const char *run_dir, const char *stages)

@@ -115,6 +115,13 @@ static int output_contents(void *owner, hid_t file)
     return dem_snapshots_write(&run->snapshots, file, 0);
 }
 
+static int retire_output(const struct spray_run *run)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/spray.h5", run->ctx->run_dir);
+    return run_dir_retire_output(path);
+}
+
 static int write_output(struct spray_run *run)
 {
     char path[H5IO_PATH_MAX];
@@ -334,7 +341,9 @@ static int run_stage(struct spray_run *run)
                  gas->shock_temperature_ratio);
     SC_TRY(time_loop(run));
     SC_TRY(dem_check_accounting(run->solver));
-    /* the index first: spray.h5 marks the stage done, so everything else must exist before it */
+    /* the index first: spray.h5 marks the stage done, so everything else must exist before it, and another case's
+     * spray.h5 must be gone before this case's index is published (app.h run_dir_retire_output) */
+    SC_TRY(retire_output(run));
     SC_TRY(write_xdmf(run));
     SC_TRY(deposit_summary(run));
     SC_TRY(write_output(run));

@@ -1037,6 +1037,15 @@ static int write_h5(const struct vcrit_search *v, const struct vcrit_result *res
     return stage_write_output(path, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash, v->c, output_contents, &o);
 }
 
+/* vcrit.h5 of another case goes before the CSVs of this one are published: were it kept and writing the new one
+ * failed, a later run of that case would find it up to date beside this case's CSVs. */
+static int retire_h5(const struct vcrit_search *v)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/vcrit.h5", v->run_dir);
+    return run_dir_retire_output(path);
+}
+
 static void log_table(const struct vcrit_search *v, const struct vcrit_result *results)
 {
     log_info("vcrit: %-12s %-8s %-10s %-8s %-10s %-5s", "diameter/um", "T/K", "v_crit", "PBCP/%", "v_rest", "runs");
@@ -1098,6 +1107,7 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
     if (v->runs.new_runs != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
                         "file removed or damaged while the stage ran?)");
+    SC_TRY(retire_h5(v));
     SC_TRY(write_csv(v, results));
     SC_TRY(write_cor_csv(v, results));
     SC_TRY(write_h5(v, results));

@@ -3,7 +3,8 @@
 #   1. a tiny calibration (8 and 10 um on a 2 um grid, 2 x 2 parameter pairs, 4 ns per run: seconds) writes
 #      calibrate.csv, calibrate_outcomes.csv (one row per run, a verdict word each), calibrate.h5 and the two
 #      figures, and keeps its record file; the grid refined to 3 x 3 into the same run directory makes only the
-#      10 runs the record does not hold;
+#      10 runs the record does not hold; after the 2 x 2 grid fails writing calibrate.h5 there (exit 3), the 3 x 3
+#      grid is fitted again rather than found up to date beside the 2 x 2 grid's CSVs;
 #   2. the fit, boundaries and intersection from known outcomes: an 11 x 11 grid is started, stopped by SIGTERM
 #      (exit 143) after its first run, and its record file replaced by synthetic outcomes (bonded below the lines
 #      x1 + 2 x2 = 1.35 for the first size and x1 - x2 = 0.25 for the second, in the grid scaled to [0, 1], five
@@ -97,6 +98,25 @@ if [ "$status" -eq 0 ] && grep -q '(10 runs in this process' "$T/finer.log" &&
 else
     fail calibrate_refined_grid_reuses_runs "exit $status: $(grep -E 'runs in this process|reused|error' "$T/finer.log" | tr '\n' ' ')"
 fi
+
+# a failed write leaves no stale output trusted: the 2 x 2 grid again in a copy of that run directory (its runs
+# recorded) fails writing calibrate.h5 (the temporary's name blocked by a folder: exit 3); the 3 x 3 grid then is not
+# "up to date" beside the 2 x 2 grid's CSVs but writes its own
+cp -r "$T/tiny" "$T/mixed"
+mkdir "$T/mixed/calibrate.h5.tmp"
+"$BIN" calibrate "$T/tiny.ini" -o "$T/mixed" >"$T/mixed1.log" 2>&1
+blocked=$?
+rmdir "$T/mixed/calibrate.h5.tmp"
+"$BIN" calibrate "$T/finer.ini" -o "$T/mixed" >"$T/mixed2.log" 2>&1
+again=$?
+why=""
+[ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"
+[ $again -eq 0 ] || why="$why the 3 x 3 grid again exited $again: $(tail -n 1 "$T/mixed2.log");"
+grep -q "calibrate.h5 is up to date" "$T/mixed2.log" && why="$why the 3 x 3 grid was up to date beside the 2 x 2 grid's files;"
+for f in calibrate.csv calibrate_outcomes.csv; do
+    cmp -s "$T/tiny/$f" "$T/mixed/$f" || why="$why $f is not the 3 x 3 grid's;"
+done
+if [ -z "$why" ]; then pass calibrate_failed_write_leaves_nothing_stale; else fail calibrate_failed_write_leaves_nothing_stale "$why"; fi
 
 # ---- 2. known outcomes through the record file: the fit, the boundaries, the intersection --------------------------
 write_case "$T/grid.ini" 11 "900,850"

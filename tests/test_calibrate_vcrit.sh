@@ -8,6 +8,8 @@
 #      case with that Gc written into [impact] gives v_crit whose mean residual (computed here) is within 15 m/s;
 #   2. with its outputs removed, the calibration runs again from the searches' outputs: the same calibrate.csv and
 #      no impact run;
+#   2b. after another case's calibration fails writing calibrate.h5 (exit 3) in the same run directory, the first
+#      case is calibrated again (from the searches' outputs) rather than found up to date beside the other's CSVs;
 #   3. a range whose ends give residuals of one sign gives no calibrated value and says so (exit 0);
 #   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key);
 #   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
@@ -145,6 +147,23 @@ if "$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/again.log" 2>&1 && cmp -s "$T/fi
 else
     fail calibrate_vcrit_replay "another calibrate.csv or a failure: $(tail -n 2 "$T/again.log")"
 fi
+
+# ---- 2b. a failed write leaves no stale output trusted: another case (fit_tolerance 1000: its first search, done
+# already, is the value) fails writing calibrate.h5 in the same run directory (the temporary's name blocked by a
+# folder: exit 3); the first case then is not "up to date" beside the other's calibrate.csv but writes its own ------
+sed 's/^fit_tolerance = .*/fit_tolerance = 1000/' "$T/cal.ini" >"$T/loose.ini"
+mkdir "$RUN/calibrate.h5.tmp"
+"$BIN" calibrate "$T/loose.ini" -o "$RUN" >"$T/loose.log" 2>&1
+blocked=$?
+rmdir "$RUN/calibrate.h5.tmp"
+"$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/unmixed.log" 2>&1
+again=$?
+why=""
+[ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/loose.log");"
+[ $again -eq 0 ] || why="$why the first case again exited $again: $(tail -n 1 "$T/unmixed.log");"
+grep -q "calibrate.h5 is up to date" "$T/unmixed.log" && why="$why the first case was up to date beside the other case's files;"
+cmp -s "$T/first.csv" "$RUN/calibrate.csv" || why="$why calibrate.csv is not the first case's: $(tr '\n' ' ' <"$RUN/calibrate.csv");"
+if [ -z "$why" ]; then pass calibrate_vcrit_failed_write_leaves_nothing_stale; else fail calibrate_vcrit_failed_write_leaves_nothing_stale "$why"; fi
 
 # ---- 3. no root in the range ---------------------------------------------------------------------------------------
 write_case "$T/high.ini" 1400 1500

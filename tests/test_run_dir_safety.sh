@@ -7,6 +7,8 @@
 #  - RUN_DIR/stages keeps unfinished work: a later single-stage command adds to it instead of replacing it, an
 #    empty stage list is refused;
 #  - a second process takes the run directory's lock before it reads any checkpoint there.
+#  - after another case fails writing spray.h5 (exit 3), the first case runs again rather than being "up to date"
+#    beside the other case's spray.xdmf.
 # Prints "PASS name" / "FAIL name: why".  Run from the repository root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -136,3 +138,23 @@ signal_stage couple "wall region" INT 130 "$bin" couple "$T/many_seeds.ini" -o "
 [ -e "$T/seeds/couple.h5" ] && why="${why:+$why; }couple.h5 written by an interrupted stage"
 grep -q 'couple: done' "$T/couple.out" && why="${why:+$why; }the interrupted stage's log says done"
 report couple_stops_at_sigint
+
+# ---- a failed write leaves no stale output trusted: another case's spray fails writing spray.h5 in a finished run
+# directory (the temporary's name blocked by a folder: exit 3) after publishing its spray.xdmf; the first case then
+# is not "up to date" beside the other case's index, but runs again and writes its own ----------------------------
+R=$T/mixed
+"$bin" spray "$base" -o "$R" >/dev/null 2>&1
+cp "$R/spray.xdmf" "$T/xdmf.before"
+sed 's/^seed = .*/seed = 8/' "$base" >"$T/other_seed.ini"
+mkdir "$R/spray.h5.tmp"
+"$bin" spray "$T/other_seed.ini" -o "$R" >"$T/mixed1.out" 2>&1
+blocked=$?
+rmdir "$R/spray.h5.tmp"
+"$bin" spray "$base" -o "$R" >"$T/mixed2.out" 2>&1
+again=$?
+why=""
+[ "$blocked" -eq 3 ] || why="the blocked write exited $blocked, not 3 ($(tail -n 1 "$T/mixed1.out"))"
+[ "$again" -eq 0 ] || why="${why:+$why; }the first case again exited $again ($(tail -n 1 "$T/mixed2.out"))"
+grep -q "spray.h5 is up to date" "$T/mixed2.out" && why="${why:+$why; }the first case was up to date beside the other case's spray.xdmf"
+cmp -s "$T/xdmf.before" "$R/spray.xdmf" || why="${why:+$why; }spray.xdmf is not the first case's"
+report failed_write_leaves_nothing_stale

@@ -8,7 +8,8 @@
 # v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
 # adds its sweep and gives the 50 % point of an independent logistic fit to the runs; with reference_diameter a
 # particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
-# accepted by `check` and searched.  Prints "PASS name" /
+# accepted by `check` and searched; after a search of another case fails writing vcrit.h5 (exit 3), the first case
+# is searched again rather than found up to date beside the other's vcrit.csv.  Prints "PASS name" /
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
@@ -160,6 +161,25 @@ else
     why="$why the search on another substrate failed: $(tail -n 2 "$T/other.log" | tr '\n' ' ');"
 fi
 if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "$why"; fi
+
+# ---- 4a. a failed write leaves no stale output trusted: a search of another case (10 um alone, its runs recorded)
+# in the same run directory fails writing vcrit.h5 (its temporary's name blocked by a folder: exit 3); the first
+# case then is not "up to date" beside the other case's vcrit.csv, but writes its own tables again -------------------
+RUN9=$T/mixed
+cp -r "$RUN" "$RUN9"
+mkdir "$RUN9/vcrit.h5.tmp"
+"$BIN" vcrit "$T/one.ini" -o "$RUN9" >"$T/mixed1.log" 2>&1
+blocked=$?
+rmdir "$RUN9/vcrit.h5.tmp"
+"$BIN" vcrit "$CASE" -o "$RUN9" >"$T/mixed2.log" 2>&1
+again=$?
+why=""
+[ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"
+[ $again -eq 0 ] || why="$why the first case's search again exited $again: $(tail -n 1 "$T/mixed2.log");"
+grep -q "vcrit.h5 is up to date" "$T/mixed2.log" && why="$why the first case was up to date beside the other case's files;"
+cmp -s "$RUN/vcrit.csv" "$RUN9/vcrit.csv" || why="$why vcrit.csv is not the first case's: $(tr '\n' ' ' <"$RUN9/vcrit.csv");"
+cmp -s "$RUN/vcrit_cor.csv" "$RUN9/vcrit_cor.csv" || why="$why vcrit_cor.csv is not the first case's;"
+if [ -z "$why" ]; then pass vcrit_failed_write_leaves_nothing_stale; else fail vcrit_failed_write_leaves_nothing_stale "$why"; fi
 
 # ---- 4b. an outcome that is not monotone in the speed is reported: a CoR run below v_crit (cor_below) recorded as
 # bonded, and a rebound above v_crit recorded by an earlier search, make the replayed search say "not monotone" in
