@@ -127,24 +127,21 @@ static int load(const struct stage_context *ctx, struct vcrit_fit *f)
     return SC_OK;
 }
 
-/* The case of the search at p: the case file with [impact] <name> = p, [vcrit] diameters = [calibrate]'s and the
- * command line's thread count. */
+/* The case of the search at p: the calibration's case with [impact] <name> = p and [vcrit] diameters =
+ * [calibrate]'s.  A copy of the case in memory, never the file read again: that may have been edited since and lacks
+ * the command line's overrides (--device gpu was dropped: every search ran on the CPU). */
 static int search_case(const struct vcrit_fit *f, double p, struct case_file **out)
 {
     const struct case_file *c = f->ctx->c;
-    struct case_file *run;
-    SC_TRY(case_load(case_file_path(c), spraycoat_registry, &run));
-    char value[64], threads[32];
+    struct case_file *run = case_clone(c);
+    char value[64];
     snprintf(value, sizeof value, "%.17g", p);
-    snprintf(threads, sizeof threads, "%ld", case_int(c, "run", "threads"));
     int status = case_set(run, "impact", f->name[0], value, "[calibrate] method = vcrit");
     snprintf(value, sizeof value, "%.17g", f->kept);
     if (status == SC_OK && f->fit_rate)
         status = case_set(run, "impact", f->name[1], value, "[calibrate] rate = fitted");
     if (status == SC_OK)
         status = case_set(run, "vcrit", "diameters", case_text(c, STAGE, "diameters"), "[calibrate] diameters");
-    if (status == SC_OK)
-        status = case_set(run, "run", "threads", threads, "command line --threads");
     if (status != SC_OK) {
         case_free(run);
         SC_TRY(status);

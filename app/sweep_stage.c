@@ -165,16 +165,13 @@ static int set_value(struct case_file *run, const struct sweep_axis *axis, int i
     return case_set(run, axis->section, axis->key, axis->values[index], origin);
 }
 
-/* The case of run (i, j): the sweep's case file with the two values set (and the command line's --threads). */
+/* The case of run (i, j): the sweep's case with the two values set.  A copy of the case in memory, never the file
+ * read again: that may have been edited since the sweep began (runs of two cases under one hash) and lacks the
+ * command line's overrides (--threads, --device). */
 static int run_case(const struct sweep *sw, int i, int j, struct case_file **out)
 {
-    struct case_file *run;
-    SC_TRY(case_load(case_file_path(sw->c), spraycoat_registry, &run));
-    char threads[32];
-    snprintf(threads, sizeof threads, "%ld", case_int(sw->c, "run", "threads"));
-    int status = case_set(run, "run", "threads", threads, "command line --threads");
-    if (status == SC_OK)
-        status = set_value(run, &sw->x, i, "x_values");
+    struct case_file *run = case_clone(sw->c);
+    int status = set_value(run, &sw->x, i, "x_values");
     if (status == SC_OK)
         status = set_value(run, &sw->y, j, "y_values");
     if (status != SC_OK) {

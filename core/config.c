@@ -1260,6 +1260,39 @@ void case_free(struct case_file *c)
     free(c);
 }
 
+static void *must_copy(const void *data, size_t size)
+{
+    void *copy = must_realloc(NULL, size ? size : 1);
+    if (size)
+        memcpy(copy, data, size);
+    return copy;
+}
+
+struct case_file *case_clone(const struct case_file *c)
+{
+    struct case_file *copy = must_realloc(NULL, sizeof *copy);
+    size_t keys = (size_t)c->registry.count;
+    *copy = (struct case_file){
+        .path = must_strdup(c->path),
+        .folder = must_strdup(c->folder),
+        .registry = {.keys = must_copy(c->registry.keys, keys * sizeof *c->registry.keys),
+                     .section_rank = must_copy(c->registry.section_rank, keys * sizeof *c->registry.section_rank),
+                     .count = c->registry.count},
+        .slots = must_copy(c->slots, c->slot_count * sizeof *c->slots),
+        .slot_count = c->slot_count,
+        .slot_capacity = c->slot_count,
+    };
+    /* the structs are copied whole; the text they own is copied here */
+    for (size_t i = 0; i < copy->slot_count; i++) {
+        struct slot *slot = &copy->slots[i];
+        slot->section = must_strdup(slot->section);
+        slot->text = slot->text ? must_strdup(slot->text) : NULL;
+        slot->origin = slot->origin ? must_strdup(slot->origin) : NULL;
+    }
+    sort_slots(copy);
+    return copy;
+}
+
 /* ---- overrides ------------------------------------------------------------------------------------------- */
 
 /* A value set from outside must survive case_write_resolved and a new load unchanged. */

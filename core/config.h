@@ -58,6 +58,10 @@ int case_load(const char *path, const struct cfg_key *const *registry, struct ca
 int case_load_reporting(const char *path, const struct cfg_key *const *registry, struct case_file **out,
                         char **every_error);
 void case_free(struct case_file *c);
+/* A copy of the case as it is now (the file's values, the defaults and every override, each with its source), that
+ * the caller frees: a case derived from another one in memory (a sweep's runs, a calibration's searches) rather than
+ * from its file read again, which may have changed since or lack the command line's overrides. */
+struct case_file *case_clone(const struct case_file *c);
 
 /* Override a value as if it were given in the file (e.g. --threads); `origin` is shown as its source
  * ("command line"; NULL means that) and replaces FILE:LINE in messages.  Validated exactly like a file value,

@@ -12,6 +12,8 @@
 #      case is calibrated again (from the searches' outputs) rather than found up to date beside the other's CSVs;
 #   3. a range whose ends give residuals of one sign gives no calibrated value and says so (exit 0);
 #   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key);
+#   4b. --device gpu without a GPU is refused (exit 2) as `spraycoat vcrit` refuses it: the searches take the
+#      command line's settings;
 #   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
 #      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign;
 #   6. a search in which a size is not bracketed (it bonds already at v_low) stops the calibration with a message
@@ -184,6 +186,20 @@ if [ "$status" -eq 2 ] && grep -q '\[vcrit\] diameters' "$T/twice.log" && [ ! -e
 else
     fail calibrate_vcrit_refuses_two_diameter_lists "exit $status: $(tail -n 1 "$T/twice.log")"
 fi
+# ---- 4b. the command line reaches the searches: --device gpu on a build or machine without a GPU is refused (exit
+# 2, nothing written) as `spraycoat vcrit` refuses it (the searches read the case file again and ran on the CPU) ---
+if command -v nvidia-smi >/dev/null 2>&1 && nvidia-smi -L >/dev/null 2>&1; then
+    echo "  a GPU is present: --device gpu may run here (calibrate_vcrit_device_reaches_searches not checked)"
+else
+    "$BIN" calibrate "$T/cal.ini" -o "$T/gpu" --device gpu >"$T/gpu.log" 2>&1
+    status=$?
+    if [ "$status" -eq 2 ] && grep -q '\[run\] device = gpu' "$T/gpu.log" && [ ! -e "$T/gpu" ]; then
+        pass calibrate_vcrit_device_reaches_searches
+    else
+        fail calibrate_vcrit_device_reaches_searches "exit $status, run directory $([ -e "$T/gpu" ] && echo made || echo absent): $(tail -n 1 "$T/gpu.log")"
+    fi
+fi
+
 # ---- 5. a tolerance finer than the residual's jumps: the bracket closes ----------------------------------------------
 # v_crit lies on the bisection's lattice (200 + 1000 k / 64 m/s), so the mean residual against 851 and 801 m/s is
 # -1 + 7.8125 j m/s and no search meets 0.5 m/s; the iteration ends when the bracket is narrower than 2 % of its

@@ -426,6 +426,36 @@ static void test_case_set(void)
     case_free(c);
 }
 
+/* A clone is the case as it is in memory, overrides and all, and lives on its own: the file edited after the load
+ * and changes to the clone reach neither (a sweep's runs and a calibration's searches are clones). */
+static void test_clone(void)
+{
+    int status;
+    char path[PATH_MAX];
+    struct case_file *c = load_text("clone.ini", "[alpha]\ncount = 2\n[material.steel]\ndensity = 7800\n", &status);
+    if (!c)
+        return;
+    CHECK(case_set(c, "alpha", "workers", "3", "--workers") == SC_OK, "override: %s", sc_error_message());
+    CHECK(case_set(c, "material.gold", "density", "19300", NULL) == SC_OK, "new material: %s", sc_error_message());
+    write_file(path, sizeof path, "clone.ini", "[alpha]\ncount = 5\n", -1); /* edited after the load */
+    struct case_file *copy = case_clone(c);
+    CHECK(case_hash(copy) == case_hash(c), "the clone's hash differs");
+    CHECK(case_int(copy, "alpha", "count") == 2, "the clone read the edited file: count %ld",
+          case_int(copy, "alpha", "count"));
+    CHECK(case_int(copy, "alpha", "workers") == 3 && case_is_given(copy, "alpha", "workers"), "override lost");
+    CHECK(case_line(copy, "alpha", "count") == 2, "the file's line lost");
+    CHECK_CLOSE(case_real(copy, "material.gold", "density"), 19300, 0, 0, "the new material lost");
+    CHECK_CLOSE(case_real(copy, "material.steel", "density"), 7800, 0, 0, "the file's material lost");
+    CHECK(strcmp(case_file_path(copy), case_file_path(c)) == 0, "path %s", case_file_path(copy));
+    CHECK(case_set(copy, "alpha", "count", "9", NULL) == SC_OK &&
+              case_set(copy, "material.lead", "density", "11340", NULL) == SC_OK,
+          "set on the clone: %s", sc_error_message());
+    CHECK(case_int(c, "alpha", "count") == 2 && !case_has(c, "material.lead", "density"), "the clone shares values");
+    case_free(copy);
+    CHECK(case_int(c, "alpha", "count") == 2 && case_int(c, "alpha", "workers") == 3, "freeing the clone");
+    case_free(c);
+}
+
 static void test_require_and_invalid(void)
 {
     int status;
@@ -608,9 +638,9 @@ static void test_markdown(void)
 static void remove_temp_folder(void)
 {
     static const char *const names[] = {
-        "case.ini",   "empty.ini", "comments.ini", "bad.ini", "ok.ini",        "garbage.ini", "nul.ini",
-        "latin1.ini", "noise.ini", "bom.ini",      "mat.ini", "set.ini",       "req.ini",     "h1.ini",
-        "h2.ini",     "h3.ini",    "h4.ini",       "h5.ini",  "particles.csv", "round.ini",   "print.ini"};
+        "case.ini",  "empty.ini", "comments.ini",  "bad.ini",   "ok.ini",    "garbage.ini", "nul.ini", "latin1.ini",
+        "noise.ini", "bom.ini",   "mat.ini",       "set.ini",   "req.ini",   "h1.ini",      "h2.ini",  "h3.ini",
+        "h4.ini",    "h5.ini",    "particles.csv", "round.ini", "print.ini", "clone.ini"};
     char path[PATH_MAX + 32];
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", temp_folder, names[i]);
@@ -738,6 +768,7 @@ int main(void)
     RUN(test_utf8_bom_and_crlf);
     RUN(test_material_sections);
     RUN(test_case_set);
+    RUN(test_clone);
     RUN(test_require_and_invalid);
     RUN(test_hash);
     RUN(test_write_resolved_round_trip);

@@ -6,7 +6,8 @@
 # nothing; after a run's spray.h5 is removed, only that run is made again and the map is the same; `resume`
 # continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
 # [sweep] keys and values are refused with exit status 2 before the run directory is made; a key that takes a
-# number or a word (contact.restitution: johnson) is swept with a NaN on the axis for the word.
+# number or a word (contact.restitution: johnson) is swept with a NaN on the axis for the word; the case file
+# edited while a sweep runs changes none of its runs (they are made from the case the sweep loaded).
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
 # sets it).  Needs h5dump.
 set -u
@@ -226,4 +227,23 @@ if [ $rest -eq 0 ] && [ -r "$T/rest/sweep.h5" ] && [ "$axis" = "0.29999999999999
     pass sweep_over_a_number_or_word_key
 else
     fail sweep_over_a_number_or_word_key "exit $rest, x_values '$axis': $(tail -n 2 "$T/log_rest")"
+fi
+
+# 8. the runs are made from the case the sweep loaded: the case file edited while the first run goes (here [jet] C3)
+# reaches no run, and the map is the unedited sweep's (each run read the file again: the later runs were another
+# case's, under the first case's hash, and a later sweep found them up to date)
+sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/edit.ini"
+"$BIN" sweep "$T/edit.ini" -o "$T/edit" >"$T/log_edit" 2>&1 &
+bg=$!
+wait_until "$bg" 30 exists "$T/edit/runs/x0_y0/checkpoints/spray_*.h5"
+sed -i 's/^C3 = 40$/C3 = 41/' "$T/edit.ini"
+wait "$bg"
+edited=$?
+bg=""
+values "$T/edit/sweep.h5" /de >"$T/map_de_edit" 2>/dev/null
+mixed=$(grep -l '^C3 = 41' "$T"/edit/runs/*/case.ini 2>/dev/null | tr '\n' ' ')
+if [ $edited -eq 0 ] && [ -z "$mixed" ] && cmp -s "$T/map_de" "$T/map_de_edit"; then
+    pass sweep_runs_ignore_an_edited_case_file
+else
+    fail sweep_runs_ignore_an_edited_case_file "exit $edited; runs of the edited file: '$mixed'; map $(tr '\n' ' ' <"$T/map_de_edit")"
 fi
