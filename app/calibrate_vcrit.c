@@ -332,10 +332,28 @@ static int evaluate_new(struct vcrit_fit *f, int first, double p, int *accepted)
     return isnan(residual_at(f, first, p)) ? evaluate_and_accept(f, p, accepted) : SC_OK;
 }
 
+/* The end of the fit that began with search `first`, once its searches are made: false position from two that
+ * bracket the root; where none do, refine's note on the two ends of one sign, or, when fit_evaluations ran out before
+ * both ends were searched, a note of its own. */
+static int refine_searched(struct vcrit_fit *f, int first)
+{
+    double x0, r0, x1, r1;
+    if (sign_change(f, first, &x0, &r0, &x1, &r1))
+        return refine(f, first, x0, r0, x1, r1);
+    double r_lo = residual_at(f, first, f->lo), r_hi = residual_at(f, first, f->hi);
+    if (!isnan(r_lo) && !isnan(r_hi))
+        return refine(f, first, f->lo, r_lo, f->hi, r_hi);
+    snprintf(f->note, sizeof f->note,
+             "no search of %d (fit_evaluations) met the tolerance %g m/s or bracketed the root in %s %g to %g (raise "
+             "fit_evaluations or fit_tolerance)",
+             f->count - first, f->tolerance, f->name[0], f->lo, f->hi);
+    return SC_OK;
+}
+
 /* The first parameter at the second's current value, starting from `guess` (the value fitted at a nearby value of
  * the second): then one secant step with f->slope toward the root, then, until two searches bracket it, the
- * range's end beyond the step and the other end.  Two searches where the guess is near, against three or more
- * from the ends. */
+ * range's end beyond the step and the other end, never more than fit_evaluations searches in all (the ends made it
+ * four with fit_evaluations = 3).  Two searches where the guess is near, against three or more from the ends. */
 static int fit_first_near(struct vcrit_fit *f, double guess)
 {
     int first = f->count, accepted;
@@ -354,13 +372,13 @@ static int fit_first_near(struct vcrit_fit *f, double guess)
     double beyond = step < guess ? f->lo : f->hi, ends[2] = {beyond, beyond == f->lo ? f->hi : f->lo};
     double x0, r0, x1, r1;
     for (int e = 0; e < 2 && !sign_change(f, first, &x0, &r0, &x1, &r1); e++) {
+        if (isnan(residual_at(f, first, ends[e])) && f->count - first >= f->max_evaluations)
+            break;
         SC_TRY(evaluate_new(f, first, ends[e], &accepted));
         if (accepted)
             return SC_OK;
     }
-    if (!sign_change(f, first, &x0, &r0, &x1, &r1)) /* both ends searched, one sign: refine says so */
-        return refine(f, first, f->lo, residual_at(f, first, f->lo), f->hi, residual_at(f, first, f->hi));
-    return refine(f, first, x0, r0, x1, r1);
+    return refine_searched(f, first);
 }
 
 /* The earlier fit with a value whose second parameter is nearest `rate` in its logarithm; -1 where none. */
