@@ -40,12 +40,17 @@ int app_case_section_given(const struct case_file *c, const char *section);
 /* What a stage works on, passed to every stage (no global state decides where a stage takes its input). */
 struct stage_context {
     const struct case_file *c;
-    const char *run_dir;   /* NULL for `spraycoat check`: validate the case only */
-    int pipeline;          /* 1 under `spraycoat run`: the render stage skips figures that are up to date */
-    int impact_from_seeds; /* 1: the impact stage takes its bodies from RUN_DIR/couple.h5 (the stages of
-                            * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the
-                            * case); 0: from [impact] (one particle or a bodies file) */
+    const char *run_dir;    /* NULL for `spraycoat check`: validate the case only */
+    int pipeline;           /* 1 under `spraycoat run`: the render stage skips figures that are up to date */
+    int impact_from_seeds;  /* 1: the impact stage takes its bodies from RUN_DIR/couple.h5 (the stages of
+                             * `spraycoat run`, or `spraycoat impact` in a run directory holding couple.h5 of the
+                             * case); 0: from [impact] (one particle or a bodies file) */
+    const char *resume_dir; /* the directory an interrupted stage tells the user to resume: the sweep's or the
+                             * calibration's own for one of its runs, which resumes them all; NULL: run_dir */
 };
+
+/* ctx->resume_dir, or ctx->run_dir where it is not set. */
+const char *stage_resume_dir(const struct stage_context *ctx);
 
 /* The hash that identifies a stage's results (root attribute case_hash of its output and checkpoints): the
  * case keys of the stage and of the stages before it, so that changing [impact] does not rerun the spray. */
@@ -156,6 +161,7 @@ struct vcrit_run_record {
 };
 struct vcrit_runs {
     const char *run_dir, *name; /* name: "vcrit", "calibrate" */
+    const char *resume_dir;     /* named when a run is interrupted (stage_resume_dir) */
     uint64_t case_hash;
     struct vcrit_run_record *done; /* every recorded run */
     size_t count, capacity;

@@ -753,7 +753,8 @@ int calibrate_stage_run(const struct stage_context *ctx)
     if (case_is(ctx->c, STAGE, "method", "vcrit"))
         return calibrate_vcrit_run(ctx, k.case_hash);
     SC_TRY(load_settings(ctx->c, &k));
-    k.runs = (struct vcrit_runs){.run_dir = ctx->run_dir, .name = STAGE, .case_hash = runs_hash(&k)};
+    k.runs = (struct vcrit_runs){
+        .run_dir = ctx->run_dir, .name = STAGE, .resume_dir = stage_resume_dir(ctx), .case_hash = runs_hash(&k)};
     int status;
     SC_CHECK(status, sc_calloc(&k.outcomes, (size_t)task_count(&k), sizeof *k.outcomes, "the calibration runs"), done);
     SC_CHECK(status, calibrate_all(&k), done);

@@ -193,7 +193,8 @@ static int evaluate(struct vcrit_fit *f, double p)
     snprintf(dir, sizeof dir, VCRIT_DIR_FORMAT, f->ctx->run_dir, k + 1);
     struct case_file *run;
     SC_TRY(search_case(f, p, &run));
-    const struct stage_context ctx = {.c = run, .run_dir = dir};
+    /* interrupted, the search names the calibration's directory: resuming that finishes the calibration */
+    const struct stage_context ctx = {.c = run, .run_dir = dir, .resume_dir = stage_resume_dir(f->ctx)};
     if (parallel_rank() == 0)
         log_info("calibrate: search %d, %s = %.6g %s (%s = %.6g %s), in %s", k + 1, f->name[0], p, f->unit[0],
                  f->name[1], f->kept, f->unit[1], dir);

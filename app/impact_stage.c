@@ -185,7 +185,7 @@ static void describe(void *owner, char *text, size_t size)
 
 static struct stage_ops stage_ops_of(struct impact_run *run, char *note, size_t size)
 {
-    snprintf(note, size, "checkpoint written, continue with `spraycoat resume %s`", run->run_dir);
+    snprintf(note, size, "checkpoint written, continue with `spraycoat resume %s`", stage_resume_dir(run->ctx));
     return (struct stage_ops){.label = run->label,
                               .stage = STAGE,
                               .format = MPM_FORMAT,

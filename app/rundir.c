@@ -119,6 +119,11 @@ int run_dir_output_current(const char *path, uint64_t case_hash)
     return ok;
 }
 
+const char *stage_resume_dir(const struct stage_context *ctx)
+{
+    return ctx->resume_dir ? ctx->resume_dir : ctx->run_dir;
+}
+
 int run_dir_retire_output(const char *path)
 {
     if (unlink(path) != 0 && errno != ENOENT)

@@ -80,7 +80,7 @@ static int checkpoint_read(void *owner, hid_t file)
 static int time_loop(struct spray_run *run)
 {
     char note[H5IO_PATH_MAX + 100];
-    snprintf(note, sizeof note, "checkpoint written, continue with `spraycoat resume %s`", run->ctx->run_dir);
+    snprintf(note, sizeof note, "checkpoint written, continue with `spraycoat resume %s`", stage_resume_dir(run->ctx));
     const struct stage_ops ops = {.label = STAGE,
                                   .stage = STAGE,
                                   .format = DEM_FORMAT,

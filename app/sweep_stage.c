@@ -239,7 +239,8 @@ static int spray_run(const struct sweep *sw, int64_t t)
     char where[256];
     describe_run(sw, i, j, where, sizeof where);
     log_info("sweep: run %lld of %d, %s: %s", (long long)t + 1, sw->x.count * sw->y.count, name, where);
-    const struct stage_context ctx = {.c = run, .run_dir = dir};
+    /* interrupted, the run names the sweep's directory: resuming that finishes every run and the map */
+    const struct stage_context ctx = {.c = run, .run_dir = dir, .resume_dir = sw->run_dir};
     int status;
     SC_CHECK(status, run_dir_prepare(dir, run), done);
     SC_CHECK(status, run_dir_write_stages(dir, "spray"), done);

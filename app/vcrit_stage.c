@@ -542,7 +542,7 @@ static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, st
     snprintf(note, sizeof note,
              "the %zu finished runs are recorded in %s/%s_runs.csv: continue with `spraycoat "
              "resume %s`",
-             r->count, r->run_dir, r->name, r->run_dir);
+             r->count, r->run_dir, r->name, r->resume_dir ? r->resume_dir : r->run_dir);
     const struct stage_ops ops = {.label = label,
                                   .stage = r->name,
                                   .run_dir = r->run_dir,
@@ -1167,7 +1167,8 @@ int vcrit_stage_run(const struct stage_context *ctx)
         return SC_OK;
     }
     SC_TRY(load_settings(c, &v));
-    v.runs = (struct vcrit_runs){.run_dir = run_dir, .name = STAGE, .case_hash = runs_hash(&v)};
+    v.runs = (struct vcrit_runs){
+        .run_dir = run_dir, .name = STAGE, .resume_dir = stage_resume_dir(ctx), .case_hash = runs_hash(&v)};
     struct run_settings settings;
     run_settings_load(c, &settings);
     if (settings.threads > 0)

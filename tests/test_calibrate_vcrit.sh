@@ -14,6 +14,7 @@
 #   4. the searches' diameters given in [vcrit] as well are refused (exit 2, naming the key);
 #   4b. --device gpu without a GPU is refused (exit 2) as `spraycoat vcrit` refuses it: the searches take the
 #      command line's settings;
+#   4c. stopped by SIGTERM in a search's run, it exits 143 and names the calibration's directory to resume;
 #   5. with a tolerance finer than the residual's steps the iteration ends when the bracket is narrower than
 #      fit_bracket of its middle: the value is that middle, between searches whose residuals change sign;
 #   6. a search in which a size is not bracketed (it bonds already at v_low) stops the calibration with a message
@@ -28,6 +29,7 @@
 #      rate in the range meets, no calibrated value and a note that the spread residual has one sign.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
+. tests/wait_lib.sh
 
 BIN=${SPRAYCOAT_BIN:-build/spraycoat}
 case $BIN in
@@ -41,7 +43,15 @@ if [ ! -x "$BIN" ] || ! command -v h5dump >/dev/null 2>&1; then
     exit 1
 fi
 T=$(mktemp -d) || exit 1
-trap 'rm -rf "$T"' EXIT
+bg=""
+cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+trap cleanup EXIT
 trap 'exit 1' HUP INT TERM
 
 TOL=15
@@ -198,6 +208,21 @@ else
     else
         fail calibrate_vcrit_device_reaches_searches "exit $status, run directory $([ -e "$T/gpu" ] && echo made || echo absent): $(tail -n 1 "$T/gpu.log")"
     fi
+fi
+
+# ---- 4c. a calibration stopped by SIGTERM in a search's run exits 143 and says to resume the calibration's directory
+# (resuming the search's own, vcrit_01, finished that search only) --------------------------------------------------
+"$BIN" calibrate "$T/cal.ini" -o "$T/stop" >"$T/stop.log" 2>&1 &
+bg=$!
+wait_until "$bg" 60 rows_at_least "$T/stop/vcrit_01/vcrit_runs.csv" 1
+kill -TERM "$bg" 2>/dev/null
+wait "$bg"
+status=$?
+bg=""
+if [ "$status" -eq 143 ] && grep -q "continue with \`spraycoat resume $T/stop\`" "$T/stop.log"; then
+    pass calibrate_vcrit_interrupted_names_its_directory
+else
+    fail calibrate_vcrit_interrupted_names_its_directory "exit $status (143 expected): $(grep -o 'continue with .*' "$T/stop.log")"
 fi
 
 # ---- 5. a tolerance finer than the residual's jumps: the bracket closes ----------------------------------------------

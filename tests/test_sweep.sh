@@ -196,7 +196,8 @@ x_key = jet.C1
 x_values = 250
 y_values = 1, 2" "\[sweep\] y_key"
 
-# 6. a sweep stopped by SIGTERM in a run (after a checkpoint) exits 143 and `resume` finishes it with the same map
+# 6. a sweep stopped by SIGTERM in a run (after a checkpoint) exits 143, says to resume the sweep's directory (the
+# run's own finished that run only), and `resume` of it finishes the sweep with the same map
 sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/term.ini"
 "$BIN" sweep "$T/term.ini" -o "$T/term" >"$T/log_term" 2>&1 &
 bg=$!
@@ -209,10 +210,11 @@ bg=""
 resumed=$?
 values "$T/term/sweep.h5" /de >"$T/map_de_term" 2>/dev/null
 if [ $term -eq 143 ] && [ $resumed -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_term" &&
-    grep -q "spray: resuming from .*runs/x[01]_y[01]/checkpoints/spray_" "$T/log_term_resume"; then
+    grep -q "spray: resuming from .*runs/x[01]_y[01]/checkpoints/spray_" "$T/log_term_resume" &&
+    grep -q "continue with \`spraycoat resume $T/term\`" "$T/log_term"; then
     pass sweep_interrupted_and_resumed
 else
-    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term")"
+    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term"); $(grep -o 'continue with .*' "$T/log_term")"
 fi
 
 # 7. a key that takes a number or a word other than auto ([contact] restitution: a number or johnson): every run
