@@ -377,23 +377,46 @@ static int add_record(struct vcrit_runs *r, const struct vcrit_run_record *x)
     return SC_OK;
 }
 
-/* Runs recorded in `path` for this case; a file of another case or format (or damaged) is ignored. */
-static int load_records_file(struct vcrit_runs *r, const char *path)
+/* After fgets gave NULL: SC_EIO when that was a read error, not the end of the file.  Taken for the end, an
+ * unreadable record lost its runs: the next save_records replaced it with the new runs only. */
+static int read_error(const struct vcrit_runs *r, const char *path, FILE *file)
 {
-    char line[512], title[128];
-    FILE *file = fopen(path, "r");
-    if (!file)
+    if (!ferror(file))
         return SC_OK;
+    int saved = errno ? errno : EIO;
+    SC_FAIL(SC_EIO, "%s: cannot read %s: %s", r->name, path, strerror(saved));
+}
+
+/* The number of fields of the records in `file` (10, or 9 in the older header) after its title and header; 0 for a
+ * file of another case or format (or damaged). */
+static int records_header(const struct vcrit_runs *r, const char *path, FILE *file, int *fields)
+{
+    char line[512] = "", title[128];
     records_title(r, title, sizeof title);
     int ok = fgets(line, sizeof line, file) && strcmp(line, title) == 0 && fgets(line, sizeof line, file) &&
              (strcmp(line, RECORDS_HEADER) == 0 || strcmp(line, RECORDS_HEADER_OLD) == 0);
-    int fields = strcmp(line, RECORDS_HEADER) == 0 ? 10 : 9;
-    if (!ok) {
-        fclose(file);
-        log_info("%s: %s belongs to another case or version; its runs are not used", r->name, path);
-        return SC_OK;
+    SC_TRY(read_error(r, path, file));
+    *fields = !ok ? 0 : strcmp(line, RECORDS_HEADER) == 0 ? 10 : 9;
+    return SC_OK;
+}
+
+/* Runs recorded in `path` for this case; a file of another case or format (or damaged) is ignored, one that cannot
+ * be read is an I/O error (only a missing one holds no runs). */
+static int load_records_file(struct vcrit_runs *r, const char *path)
+{
+    char line[512];
+    FILE *file = fopen(path, "r");
+    if (!file) {
+        if (errno == ENOENT) /* removed since the folder was listed */
+            return SC_OK;
+        SC_FAIL(SC_EIO, "%s: cannot read %s: %s", r->name, path, strerror(errno));
     }
-    int status = SC_OK;
+    int fields, status;
+    SC_CHECK(status, records_header(r, path, file, &fields), done);
+    if (fields == 0) {
+        log_info("%s: %s belongs to another case or version; its runs are not used", r->name, path);
+        goto done;
+    }
     while (fgets(line, sizeof line, file)) {
         struct vcrit_run_record x = {0};
         long long steps;
@@ -410,6 +433,7 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
         x.steps = steps;
         SC_CHECK(status, add_record(r, &x), done);
     }
+    SC_CHECK(status, read_error(r, path, file), done);
 done:
     fclose(file);
     return status;

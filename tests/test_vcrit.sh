@@ -8,7 +8,8 @@
 # v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
 # adds its sweep and gives the 50 % point of an independent logistic fit to the runs; with reference_diameter a
 # particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
-# accepted by `check` and searched; after a search of another case fails writing vcrit.h5 (exit 3), the first case
+# accepted by `check` and searched; a record of the runs that cannot be read stops the search before any run (exit
+# 3); after a search of another case fails writing vcrit.h5 (exit 3), the first case
 # is searched again rather than found up to date beside the other's vcrit.csv.  Prints "PASS name" /
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
@@ -361,4 +362,24 @@ if [ $checked -eq 0 ] && [ $searched -eq 0 ] && [ -r "$T/rigid/vcrit.h5" ] && gr
 else
     fail vcrit_rigid_substrate "check exit $checked, vcrit exit $searched: $(tail -n 1 "$T/rigid_check.log") $(tail -n 1 "$T/rigid.log")"
 fi
+
+# ---- 8. a record of the runs that cannot be read is an I/O error before any run (exit 3, naming it), never taken
+# for a file without runs (then the next save replaced it with the new runs only): a folder in its place (a read
+# error, EISDIR) and a link to itself (fopen fails, ELOOP) ----------------------------------------------------------
+unreadable() { # unreadable NAME MAKE_COMMAND EXPECTED_REASON
+    dir=$T/unreadable_$1
+    cp -r "$RUN" "$dir"
+    rm -f "$dir/vcrit.h5" "$dir/vcrit_runs.csv"
+    (cd "$dir" && eval "$2")
+    "$BIN" vcrit "$CASE" -o "$dir" >"$T/unreadable_$1.log" 2>&1
+    status=$?
+    if [ $status -eq 3 ] && grep -q "cannot read .*vcrit_runs.csv: $3" "$T/unreadable_$1.log" &&
+        ! grep -q ": done, " "$T/unreadable_$1.log"; then
+        pass "vcrit_unreadable_record_$1"
+    else
+        fail "vcrit_unreadable_record_$1" "exit $status: $(grep -c ': done, ' "$T/unreadable_$1.log") runs made; $(tail -n 1 "$T/unreadable_$1.log")"
+    fi
+}
+unreadable folder "mkdir vcrit_runs.csv" "Is a directory"
+unreadable link_loop "ln -s vcrit_runs.csv vcrit_runs.csv" "Too many levels of symbolic links"
 exit 0
