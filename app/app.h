@@ -63,9 +63,9 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 /* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
 /* Remove a stage's output `path` (the file whose case hash says "up to date"), durably (the folder fsynced), before
- * the stage publishes any other file of its new results: a failure between two files then leaves no output that
- * declares another case's files (vcrit.csv beside vcrit.h5) up to date, and the next run writes them all again.
- * Missing is fine; SC_EIO when it cannot be removed. */
+ * the stage publishes any other file of its new results (stage_write_outputs): a failure between two files then
+ * leaves no output that declares another case's files (vcrit.csv beside vcrit.h5) up to date, and the next run
+ * writes them all again.  Missing is fine; SC_EIO when it cannot be removed. */
 int run_dir_retire_output(const char *path);
 /* The input RUN_DIR/STAGE.h5 a later stage (`reader`: couple, impact, render) reads must have been made by this
  * case's `stage`: SC_EIO naming the file and the stage to rerun when it was made by another case, is not readable,
@@ -119,6 +119,14 @@ int stage_loop_run(const struct stage_ops *ops, struct stage_timing *timing);
 int stage_write_output(const char *path, const char *format, int64_t format_version, const char *stage,
                        uint64_t case_hash, const struct case_file *c, int (*contents)(void *owner, hid_t file),
                        void *owner);
+/* The same for a stage whose results are several files, the .h5 and `side_files` (its CSVs, its XDMF index; NULL:
+ * none), whose case hash only the .h5 carries: once the .h5 is complete under its temporary name, the earlier .h5
+ * at `path` is removed (run_dir_retire_output), then side_files(owner) writes the other files, then the .h5 is
+ * published.  An I/O fault writing the .h5 leaves the earlier results whole; no failure or crash leaves an .h5 that
+ * declares another case's side files up to date (docs/architecture.md "Atomic writes"). */
+int stage_write_outputs(const char *path, const char *format, int64_t format_version, const char *stage,
+                        uint64_t case_hash, const struct case_file *c, int (*contents)(void *owner, hid_t file),
+                        int (*side_files)(void *owner), void *owner);
 
 /* Check the spray stage's configuration (cross-key checks, input files) and, when run_dir is not NULL,
  * that its checkpoints there (if any) belong to this case, without writing anything. */

@@ -556,6 +556,11 @@ static int write_csvs(const struct calibrate *k)
     return atomic_publish(&out);
 }
 
+static int side_csvs(void *owner)
+{
+    return write_csvs(owner);
+}
+
 static int write_runs(const struct calibrate *k, hid_t file)
 {
     size_t n = (size_t)task_count(k);
@@ -694,11 +699,9 @@ static int fit_and_write(struct calibrate *k, double start)
     SC_TRY(fit_all(k));
     char path[4096];
     snprintf(path, sizeof path, "%s/calibrate.h5", k->run_dir);
-    /* another case's calibrate.h5 must not outlive the publication of this case's CSVs (app.h) */
-    SC_TRY(run_dir_retire_output(path));
-    SC_TRY(write_csvs(k));
-    SC_TRY(stage_write_output(path, CALIBRATE_FORMAT, CALIBRATE_FORMAT_VERSION, STAGE, k->case_hash, k->c,
-                              output_contents, k));
+    /* the CSVs as calibrate.h5's side files: never beside another case's calibrate.h5 (app.h) */
+    SC_TRY(stage_write_outputs(path, CALIBRATE_FORMAT, CALIBRATE_FORMAT_VERSION, STAGE, k->case_hash, k->c,
+                               output_contents, side_csvs, k));
     log_info("calibrate: wrote %s/calibrate.csv, calibrate_outcomes.csv and calibrate.h5 (%lld runs in this "
              "process, %.1f s)",
              k->run_dir, (long long)k->runs.new_runs, log_elapsed() - start);

@@ -517,6 +517,11 @@ static int write_csvs(const struct vcrit_fit *f)
     return atomic_publish(&out);
 }
 
+static int side_csvs(void *owner)
+{
+    return write_csvs(owner);
+}
+
 /* calibrate.h5 (docs/files.md): method "vcrit", the pair, the range and /vcrit_fit with every search. */
 static int output_contents(void *owner, hid_t file)
 {
@@ -591,10 +596,8 @@ int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash)
         return SC_OK;
     char path[4200];
     snprintf(path, sizeof path, "%s/calibrate.h5", ctx->run_dir);
-    /* another case's calibrate.h5 must not outlive the publication of this case's CSVs (app.h) */
-    SC_TRY(run_dir_retire_output(path));
-    SC_TRY(write_csvs(&f));
-    SC_TRY(stage_write_output(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, &f));
+    /* the CSVs as calibrate.h5's side files: never beside another case's calibrate.h5 (app.h) */
+    SC_TRY(stage_write_outputs(path, FORMAT, FORMAT_VERSION, STAGE, case_hash, ctx->c, output_contents, side_csvs, &f));
     if (isfinite(f.calibrated))
         log_info("calibrate: calibrated %s = %.6g %s (%s = %.6g %s %s) after %d searches, %.1f s%s%s", f.name[0],
                  f.calibrated, f.unit[0], f.name[1], f.kept, f.unit[1], f.fit_rate ? "fitted" : "kept", f.count,

@@ -365,10 +365,16 @@ static int output_contents(void *owner, hid_t file)
     return mpm_write_results(run->solver, file);
 }
 
+static int side_xdmf(void *owner)
+{
+    return write_xdmf(owner);
+}
+
+/* impact.h5 (or a run's) with its XDMF index as side file (app.h stage_write_outputs). */
 static int write_output(struct impact_run *run)
 {
-    SC_TRY(stage_write_output(run->output, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c,
-                              output_contents, run));
+    SC_TRY(stage_write_outputs(run->output, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c,
+                               output_contents, side_xdmf, run));
     log_info("%s: wrote %s", run->label, run->output);
     return SC_OK;
 }
@@ -484,10 +490,7 @@ static int run_stage(struct impact_run *run)
     run->start_step = counts.step;
     SC_TRY(snapshot_if_due(run));
     SC_TRY(stage_loop_run(&ops, &run->timing));
-    /* the index first: impact.h5 marks the stage done, so everything else must exist before it, and another case's
-     * impact.h5 must be gone before this case's index is published (app.h run_dir_retire_output) */
-    SC_TRY(run_dir_retire_output(run->output));
-    SC_TRY(write_xdmf(run));
+    /* impact.h5 marks the stage done: its index is written before it is published (write_output) */
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints and snapshot files are no longer needed */
     SC_TRY(h5_checkpoint_remove_all(run->run_dir, run->label));
@@ -793,16 +796,6 @@ done:
     return status;
 }
 
-static int write_gathered(const struct stage_context *ctx, uint64_t hash, long runs)
-{
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
-    struct gathering g = {.run_dir = ctx->run_dir, .runs = runs};
-    SC_TRY(stage_write_output(path, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, hash, ctx->c, gathered_contents, &g));
-    log_info("impact: wrote %s (%ld runs)", path, runs);
-    return SC_OK;
-}
-
 /* impact.xdmf of several runs: the first run's (every run has its impact_run_NNNN.xdmf). */
 static int write_first_run_xdmf(const char *run_dir)
 {
@@ -828,6 +821,24 @@ done:
     if (status != SC_OK && opened)
         atomic_abort(&out);
     return status;
+}
+
+static int gathered_xdmf(void *owner)
+{
+    const struct gathering *g = owner;
+    return write_first_run_xdmf(g->run_dir);
+}
+
+/* impact.h5 of several runs with impact.xdmf as its side file (app.h stage_write_outputs). */
+static int write_gathered(const struct stage_context *ctx, uint64_t hash, long runs)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
+    struct gathering g = {.run_dir = ctx->run_dir, .runs = runs};
+    SC_TRY(stage_write_outputs(path, MPM_FORMAT, MPM_FORMAT_VERSION, STAGE, hash, ctx->c, gathered_contents,
+                               gathered_xdmf, &g));
+    log_info("impact: wrote %s (%ld runs)", path, runs);
+    return SC_OK;
 }
 
 /* The run files are copied into impact.h5: remove them and their folder, and what an interruption between a
@@ -884,8 +895,6 @@ static int gather(const struct stage_context *ctx, uint64_t hash, long runs)
 {
     char path[H5IO_PATH_MAX];
     snprintf(path, sizeof path, "%s/impact.h5", ctx->run_dir);
-    SC_TRY(run_dir_retire_output(path)); /* before impact.xdmf of this case (app.h) */
-    SC_TRY(write_first_run_xdmf(ctx->run_dir));
     SC_TRY(write_gathered(ctx, hash, runs));
     return remove_run_files(ctx->run_dir, runs);
 }

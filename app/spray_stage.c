@@ -115,23 +115,6 @@ static int output_contents(void *owner, hid_t file)
     return dem_snapshots_write(&run->snapshots, file, 0);
 }
 
-static int retire_output(const struct spray_run *run)
-{
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/spray.h5", run->ctx->run_dir);
-    return run_dir_retire_output(path);
-}
-
-static int write_output(struct spray_run *run)
-{
-    char path[H5IO_PATH_MAX];
-    snprintf(path, sizeof path, "%s/spray.h5", run->ctx->run_dir);
-    SC_TRY(stage_write_output(path, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c, output_contents,
-                              run));
-    log_info("spray: wrote %s", path);
-    return SC_OK;
-}
-
 /* The fields of a particle grid in spray.h5 at `where`: v, d, id, state (and w, m, temperature for /particles). */
 static void xdmf_particle_fields(FILE *file, const char *indent, size_t n, const char *where, int final)
 {
@@ -250,6 +233,24 @@ static int deposit_summary(const struct spray_run *run)
     return status;
 }
 
+/* spray.h5's side files: the XDMF indexes of its particles and deposit (and the deposit's figures in the log). */
+static int side_files(void *owner)
+{
+    const struct spray_run *run = owner;
+    SC_TRY(write_xdmf(run));
+    return deposit_summary(run);
+}
+
+static int write_output(struct spray_run *run)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/spray.h5", run->ctx->run_dir);
+    SC_TRY(stage_write_outputs(path, DEM_FORMAT, DEM_FORMAT_VERSION, STAGE, run->case_hash, run->ctx->c,
+                               output_contents, side_files, run));
+    log_info("spray: wrote %s", path);
+    return SC_OK;
+}
+
 /* Where the time loop's wall time went, by phase of the step (dem_get_timing), and its rate. */
 static void log_timing(const struct spray_run *run)
 {
@@ -341,11 +342,8 @@ static int run_stage(struct spray_run *run)
                  gas->shock_temperature_ratio);
     SC_TRY(time_loop(run));
     SC_TRY(dem_check_accounting(run->solver));
-    /* the index first: spray.h5 marks the stage done, so everything else must exist before it, and another case's
-     * spray.h5 must be gone before this case's index is published (app.h run_dir_retire_output) */
-    SC_TRY(retire_output(run));
-    SC_TRY(write_xdmf(run));
-    SC_TRY(deposit_summary(run));
+    /* spray.h5 marks the stage done: its side files (the XDMF indexes) are written before it is published, and never
+     * beside another case's spray.h5 (app.h stage_write_outputs) */
     SC_TRY(write_output(run));
     /* the stage is complete: its checkpoints would only stop a changed case from running here */
     SC_TRY(h5_checkpoint_remove_all(run->ctx->run_dir, STAGE));

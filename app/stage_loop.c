@@ -136,6 +136,13 @@ int stage_write_output(const char *path, const char *format, int64_t format_vers
                        uint64_t case_hash, const struct case_file *c, int (*contents)(void *owner, hid_t file),
                        void *owner)
 {
+    return stage_write_outputs(path, format, format_version, stage, case_hash, c, contents, NULL, owner);
+}
+
+int stage_write_outputs(const char *path, const char *format, int64_t format_version, const char *stage,
+                        uint64_t case_hash, const struct case_file *c, int (*contents)(void *owner, hid_t file),
+                        int (*side_files)(void *owner), void *owner)
+{
     struct h5_out out;
     SC_TRY(h5_create_atomic(path, &out));
     char *case_text = NULL;
@@ -146,6 +153,10 @@ int stage_write_output(const char *path, const char *format, int64_t format_vers
         SC_CHECK(status, h5_attr_write_string(out.file, "case", case_text), done);
     }
     SC_CHECK(status, contents(owner, out.file), done);
+    if (side_files) {
+        SC_CHECK(status, run_dir_retire_output(path), done);
+        SC_CHECK(status, side_files(owner), done);
+    }
 done:
     free(case_text);
     if (status != SC_OK) {

@@ -1053,21 +1053,22 @@ static int output_contents(void *owner, hid_t file)
     return write_h5_contents(o->v, o->results, file);
 }
 
-static int write_h5(const struct vcrit_search *v, const struct vcrit_result *results)
+static int output_tables(void *owner)
+{
+    const struct vcrit_output *o = owner;
+    SC_TRY(write_csv(o->v, o->results));
+    return write_cor_csv(o->v, o->results);
+}
+
+/* vcrit.h5 with the CSVs as its side files (stage_write_outputs: another case's vcrit.h5 never stays beside this
+ * case's CSVs, and a fault writing vcrit.h5 leaves the earlier results whole). */
+static int write_outputs(const struct vcrit_search *v, const struct vcrit_result *results)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", v->run_dir);
     struct vcrit_output o = {v, results};
-    return stage_write_output(path, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash, v->c, output_contents, &o);
-}
-
-/* vcrit.h5 of another case goes before the CSVs of this one are published: were it kept and writing the new one
- * failed, a later run of that case would find it up to date beside this case's CSVs. */
-static int retire_h5(const struct vcrit_search *v)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/vcrit.h5", v->run_dir);
-    return run_dir_retire_output(path);
+    return stage_write_outputs(path, VCRIT_FORMAT, VCRIT_FORMAT_VERSION, STAGE, v->case_hash, v->c, output_contents,
+                               output_tables, &o);
 }
 
 static void log_table(const struct vcrit_search *v, const struct vcrit_result *results)
@@ -1131,10 +1132,7 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
     if (v->runs.new_runs != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
                         "file removed or damaged while the stage ran?)");
-    SC_TRY(retire_h5(v));
-    SC_TRY(write_csv(v, results));
-    SC_TRY(write_cor_csv(v, results));
-    SC_TRY(write_h5(v, results));
+    SC_TRY(write_outputs(v, results));
     log_info("vcrit: wrote %s/vcrit.csv, vcrit_cor.csv and vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
              (long long)v->runs.new_runs, log_elapsed() - start);
     log_table(v, results);

@@ -99,9 +99,9 @@ else
     fail calibrate_refined_grid_reuses_runs "exit $status: $(grep -E 'runs in this process|reused|error' "$T/finer.log" | tr '\n' ' ')"
 fi
 
-# a failed write leaves no stale output trusted: the 2 x 2 grid again in a copy of that run directory (its runs
-# recorded) fails writing calibrate.h5 (the temporary's name blocked by a folder: exit 3); the 3 x 3 grid then is not
-# "up to date" beside the 2 x 2 grid's CSVs but writes its own
+# a failed write damages nothing and leaves no stale output trusted: the 2 x 2 grid again in a copy of that run
+# directory (its runs recorded) fails writing calibrate.h5 (the temporary's name blocked by a folder: exit 3); the
+# 3 x 3 grid's results stay whole and up to date with their own CSVs (app.h stage_write_outputs)
 cp -r "$T/tiny" "$T/mixed"
 mkdir "$T/mixed/calibrate.h5.tmp"
 "$BIN" calibrate "$T/tiny.ini" -o "$T/mixed" >"$T/mixed1.log" 2>&1
@@ -112,7 +112,7 @@ again=$?
 why=""
 [ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"
 [ $again -eq 0 ] || why="$why the 3 x 3 grid again exited $again: $(tail -n 1 "$T/mixed2.log");"
-grep -q "calibrate.h5 is up to date" "$T/mixed2.log" && why="$why the 3 x 3 grid was up to date beside the 2 x 2 grid's files;"
+grep -q "calibrate.h5 is up to date" "$T/mixed2.log" || why="$why the 3 x 3 grid's results were damaged (not up to date);"
 for f in calibrate.csv calibrate_outcomes.csv; do
     cmp -s "$T/tiny/$f" "$T/mixed/$f" || why="$why $f is not the 3 x 3 grid's;"
 done

@@ -160,9 +160,9 @@ else
     fail calibrate_vcrit_replay "another calibrate.csv or a failure: $(tail -n 2 "$T/again.log")"
 fi
 
-# ---- 2b. a failed write leaves no stale output trusted: another case (fit_tolerance 1000: its first search, done
-# already, is the value) fails writing calibrate.h5 in the same run directory (the temporary's name blocked by a
-# folder: exit 3); the first case then is not "up to date" beside the other's calibrate.csv but writes its own ------
+# ---- 2b. a failed write damages nothing: another case (fit_tolerance 1000: its first search, done already, is the
+# value) fails writing calibrate.h5 in the same run directory (the temporary's name blocked by a folder: exit 3); the
+# first case's results stay whole, up to date with their own calibrate.csv (app.h stage_write_outputs) -------------
 sed 's/^fit_tolerance = .*/fit_tolerance = 1000/' "$T/cal.ini" >"$T/loose.ini"
 mkdir "$RUN/calibrate.h5.tmp"
 "$BIN" calibrate "$T/loose.ini" -o "$RUN" >"$T/loose.log" 2>&1
@@ -173,7 +173,7 @@ again=$?
 why=""
 [ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/loose.log");"
 [ $again -eq 0 ] || why="$why the first case again exited $again: $(tail -n 1 "$T/unmixed.log");"
-grep -q "calibrate.h5 is up to date" "$T/unmixed.log" && why="$why the first case was up to date beside the other case's files;"
+grep -q "calibrate.h5 is up to date" "$T/unmixed.log" || why="$why the first case's results were damaged (not up to date);"
 cmp -s "$T/first.csv" "$RUN/calibrate.csv" || why="$why calibrate.csv is not the first case's: $(tr '\n' ' ' <"$RUN/calibrate.csv");"
 if [ -z "$why" ]; then pass calibrate_vcrit_failed_write_leaves_nothing_stale; else fail calibrate_vcrit_failed_write_leaves_nothing_stale "$why"; fi
 

@@ -163,23 +163,31 @@ else
 fi
 if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "$why"; fi
 
-# ---- 4a. a failed write leaves no stale output trusted: a search of another case (10 um alone, its runs recorded)
-# in the same run directory fails writing vcrit.h5 (its temporary's name blocked by a folder: exit 3); the first
-# case then is not "up to date" beside the other case's vcrit.csv, but writes its own tables again -------------------
+# ---- 4a. a failed write damages nothing and leaves no stale output trusted (app.h stage_write_outputs): a search of
+# another case (10 um alone, its runs recorded) in the same run directory fails writing vcrit.h5 (its temporary's
+# name blocked by a folder: exit 3): the first case's results stay whole, up to date with their own CSVs; then the
+# same search fails writing vcrit_cor.csv, after vcrit.csv of the other case was published: the first case is no
+# longer up to date (its vcrit.h5 went before any file of the other case) and writes its own tables again ----------
 RUN9=$T/mixed
 cp -r "$RUN" "$RUN9"
-mkdir "$RUN9/vcrit.h5.tmp"
-"$BIN" vcrit "$T/one.ini" -o "$RUN9" >"$T/mixed1.log" 2>&1
-blocked=$?
-rmdir "$RUN9/vcrit.h5.tmp"
-"$BIN" vcrit "$CASE" -o "$RUN9" >"$T/mixed2.log" 2>&1
-again=$?
+stale_step() { # stale_step BLOCKED_FILE EXPECT_UP_TO_DATE(0|1) LABEL
+    mkdir "$RUN9/$1.tmp"
+    "$BIN" vcrit "$T/one.ini" -o "$RUN9" >"$T/mixed1.log" 2>&1
+    blocked=$?
+    rmdir "$RUN9/$1.tmp"
+    "$BIN" vcrit "$CASE" -o "$RUN9" >"$T/mixed2.log" 2>&1
+    again=$?
+    [ $blocked -eq 3 ] || why="$why $3: the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"
+    [ $again -eq 0 ] || why="$why $3: the first case's search again exited $again: $(tail -n 1 "$T/mixed2.log");"
+    up=0
+    grep -q "vcrit.h5 is up to date" "$T/mixed2.log" && up=1
+    [ $up -eq "$2" ] || why="$why $3: the first case was up to date: $up, expected $2;"
+    cmp -s "$RUN/vcrit.csv" "$RUN9/vcrit.csv" || why="$why $3: vcrit.csv is not the first case's: $(tr '\n' ' ' <"$RUN9/vcrit.csv");"
+    cmp -s "$RUN/vcrit_cor.csv" "$RUN9/vcrit_cor.csv" || why="$why $3: vcrit_cor.csv is not the first case's;"
+}
 why=""
-[ $blocked -eq 3 ] || why="$why the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"
-[ $again -eq 0 ] || why="$why the first case's search again exited $again: $(tail -n 1 "$T/mixed2.log");"
-grep -q "vcrit.h5 is up to date" "$T/mixed2.log" && why="$why the first case was up to date beside the other case's files;"
-cmp -s "$RUN/vcrit.csv" "$RUN9/vcrit.csv" || why="$why vcrit.csv is not the first case's: $(tr '\n' ' ' <"$RUN9/vcrit.csv");"
-cmp -s "$RUN/vcrit_cor.csv" "$RUN9/vcrit_cor.csv" || why="$why vcrit_cor.csv is not the first case's;"
+stale_step vcrit.h5 1 "vcrit.h5 blocked"
+stale_step vcrit_cor.csv 0 "vcrit_cor.csv blocked"
 if [ -z "$why" ]; then pass vcrit_failed_write_leaves_nothing_stale; else fail vcrit_failed_write_leaves_nothing_stale "$why"; fi
 
 # ---- 4b. an outcome that is not monotone in the speed is reported: a CoR run below v_crit (cor_below) recorded as
