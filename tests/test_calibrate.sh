@@ -34,17 +34,7 @@ if [ ! -x "$BIN" ]; then
     echo "FAIL calibrate (no $BIN; run from the repository root after make)"
     exit 1
 fi
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 write_case() { # write_case FILE COUNT VELOCITIES
     cat >"$1" <<EOF
@@ -103,10 +93,7 @@ fi
 # directory (its runs recorded) fails writing calibrate.h5 (the temporary's name blocked by a folder: exit 3); the
 # 3 x 3 grid's results stay whole and up to date with their own CSVs (app.h stage_write_outputs)
 cp -r "$T/tiny" "$T/mixed"
-mkdir "$T/mixed/calibrate.h5.tmp"
-"$BIN" calibrate "$T/tiny.ini" -o "$T/mixed" >"$T/mixed1.log" 2>&1
-blocked=$?
-rmdir "$T/mixed/calibrate.h5.tmp"
+blocked_write "$T/mixed" calibrate.h5 "$T/mixed1.log" "$BIN" calibrate "$T/tiny.ini" -o "$T/mixed"
 "$BIN" calibrate "$T/finer.ini" -o "$T/mixed" >"$T/mixed2.log" 2>&1
 again=$?
 why=""

@@ -42,17 +42,7 @@ if [ ! -x "$BIN" ] || ! command -v h5dump >/dev/null 2>&1; then
     echo "FAIL calibrate_vcrit (no $BIN or h5dump; run from the repository root after make)"
     exit 1
 fi
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 TOL=15
 impact_section() { # impact_section [EXTRA LINE]
@@ -164,10 +154,7 @@ fi
 # value) fails writing calibrate.h5 in the same run directory (the temporary's name blocked by a folder: exit 3); the
 # first case's results stay whole, up to date with their own calibrate.csv (app.h stage_write_outputs) -------------
 sed 's/^fit_tolerance = .*/fit_tolerance = 1000/' "$T/cal.ini" >"$T/loose.ini"
-mkdir "$RUN/calibrate.h5.tmp"
-"$BIN" calibrate "$T/loose.ini" -o "$RUN" >"$T/loose.log" 2>&1
-blocked=$?
-rmdir "$RUN/calibrate.h5.tmp"
+blocked_write "$RUN" calibrate.h5 "$T/loose.log" "$BIN" calibrate "$T/loose.ini" -o "$RUN"
 "$BIN" calibrate "$T/cal.ini" -o "$RUN" >"$T/unmixed.log" 2>&1
 again=$?
 why=""

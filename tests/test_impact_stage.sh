@@ -36,17 +36,7 @@ if [ ! -x "$BIN" ] || [ ! -r "$DEMO" ]; then
     exit 1
 fi
 
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 # the demo shortened to 10 ns, a checkpoint every 40 steps (about 9 in the run), a snapshot every 2.5 ns
 CASE=$T/impact_short.ini

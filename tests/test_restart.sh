@@ -45,17 +45,7 @@ if [ ! -x "$BIN" ] || [ ! -r "$DEMO" ]; then
     exit 1
 fi
 
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 # ---- the cases: demo.ini shortened to ~2 s, a checkpoint every 200 steps; a twin with another seed ---------------
 t_end=2e-3

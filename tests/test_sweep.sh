@@ -29,17 +29,7 @@ if [ ! -x "$BIN" ] || [ ! -r "$TABLE" ] || ! command -v h5dump >/dev/null 2>&1; 
     echo "FAIL sweep (no $BIN, $TABLE or h5dump; run from the repository root after make)"
     exit 1
 fi
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 # write_case FILE C1 RELEASE_MAX [SWEEP_LINES]: the demo's spray, shortened
 write_case() {

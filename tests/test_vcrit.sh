@@ -30,17 +30,7 @@ if [ ! -x "$BIN" ] || [ ! -r "$BASE" ]; then
     echo "FAIL vcrit (no $BIN or $BASE; run from the repository root after make)"
     exit 1
 fi
-T=$(mktemp -d) || exit 1
-bg=""
-cleanup() {
-    if [ -n "$bg" ]; then
-        kill -9 "$bg" 2>/dev/null
-        wait "$bg" 2>/dev/null
-    fi
-    rm -rf "$T"
-}
-trap cleanup EXIT
-trap 'exit 1' HUP INT TERM
+scratch_dir
 
 V_LOW=200
 V_HIGH=1200
@@ -171,10 +161,7 @@ if [ -z "$why" ]; then pass vcrit_record_reused; else fail vcrit_record_reused "
 RUN9=$T/mixed
 cp -r "$RUN" "$RUN9"
 stale_step() { # stale_step BLOCKED_FILE EXPECT_UP_TO_DATE(0|1) LABEL
-    mkdir "$RUN9/$1.tmp"
-    "$BIN" vcrit "$T/one.ini" -o "$RUN9" >"$T/mixed1.log" 2>&1
-    blocked=$?
-    rmdir "$RUN9/$1.tmp"
+    blocked_write "$RUN9" "$1" "$T/mixed1.log" "$BIN" vcrit "$T/one.ini" -o "$RUN9"
     "$BIN" vcrit "$CASE" -o "$RUN9" >"$T/mixed2.log" 2>&1
     again=$?
     [ $blocked -eq 3 ] || why="$why $3: the blocked write exited $blocked, not 3: $(tail -n 1 "$T/mixed1.log");"

@@ -1,5 +1,5 @@
-# Shell helpers of the tests that stop a run on purpose (sourced): wait until the run in the background has written
-# what the test needs (a checkpoint, recorded runs), then signal it.
+# Shell helpers of the tests (sourced): a scratch folder, a write made to fail, and for the tests that stop a run on
+# purpose, waiting until the run in the background has written what the test needs (a checkpoint, recorded runs).
 
 # wait_until PID SECONDS COMMAND...: runs COMMAND every 0.02 s until it succeeds (status 0), or the process PID has
 # ended or SECONDS have passed (status 1).
@@ -24,4 +24,33 @@ exists() {
 # rows_at_least FILE N: FILE has at least N lines that start with a digit (the records of a CSV file).
 rows_at_least() {
     [ "$(grep -c '^[0-9]' "$1" 2>/dev/null)" -ge "$2" ] 2>/dev/null
+}
+
+# scratch_dir: T, a new temporary folder, removed when the test exits, and bg, the PID of the run the test puts in the
+# background (empty until then), killed then; a signal ends the test with status 1.
+scratch_dir() {
+    T=$(mktemp -d) || exit 1
+    bg=""
+    trap scratch_cleanup EXIT
+    trap 'exit 1' HUP INT TERM
+}
+
+scratch_cleanup() {
+    if [ -n "$bg" ]; then
+        kill -9 "$bg" 2>/dev/null
+        wait "$bg" 2>/dev/null
+    fi
+    rm -rf "$T"
+}
+
+# blocked_write DIR FILE LOG COMMAND...: runs COMMAND (output into LOG) with the temporary DIR/FILE.tmp that the
+# atomic write of DIR/FILE takes blocked by a folder, so that writing FILE fails (an I/O fault: exit status 3);
+# blocked is COMMAND's exit status.
+blocked_write() {
+    block_dir=$1 block_file=$2 block_log=$3
+    shift 3
+    mkdir "$block_dir/$block_file.tmp"
+    "$@" >"$block_log" 2>&1
+    blocked=$?
+    rmdir "$block_dir/$block_file.tmp"
 }
