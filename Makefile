@@ -30,6 +30,12 @@ OPT      ?= -O2 -march=x86-64-v2
 VERSION  := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
 # the semantic version (README, "The commands", says how it grows): the file VERSION, one line MAJOR.MINOR.PATCH
 SEMVER   := $(shell cat VERSION 2>/dev/null || echo 0.0.0)
+# The sources whose code computes results (every layer but render/ and the tests): their digest is each output's
+# root attribute sources_id, and an output or checkpoint of other sources is not taken as up to date or resumed
+# (docs/architecture.md "Another build").  git describe alone misses uncommitted edits.
+RESULT_SRC := $(sort $(wildcard core/*.[ch] dem/*.[ch] mpm/*.[ch] mpm/cuda/*.cu mpm/cuda/*.h coupling/*.[ch] \
+                                app/*.[ch]))
+SOURCES_ID ?= $(shell cat $(RESULT_SRC) | sha256sum | cut -c1-16)
 
 # OSMesa's headers only: render/gl.c loads the library when it first renders (dlopen), so that llvmpipe is not
 # loaded into every process
@@ -68,6 +74,9 @@ MAIN_OBJ := $(BUILD)/app/main.o
 TEST_SRC := $(wildcard tests/test_*.c)
 TEST_BIN := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
 BIN      := $(BUILD)/spraycoat
+# spraycoat as if built from other sources (its sources_id alone differs): tests/test_build_identity.sh runs it
+# beside BIN
+OTHER_BIN := $(BUILD)/tests/spraycoat-other-sources
 # The builds that test, asan, bench, run and validate start use every core unless the caller gave -j (a plain
 # `make test` built one file at a time: 3 of its 10 minutes on 2 cores); evaluated in the recipe, where MAKEFLAGS
 # holds -j.
@@ -75,7 +84,7 @@ NPROC    := $(shell getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1)
 JOBS      = $(if $(filter -j%,$(MAKEFLAGS)),,-j$(NPROC))
 
 .PHONY: all test asan bench run validate install clean format format-check deps test-deps fuzz fuzz-build docs FORCE
-all: $(BIN) $(TEST_BIN) $(EMU_BIN)
+all: $(BIN) $(TEST_BIN) $(EMU_BIN) $(OTHER_BIN)
 
 deps:
 	@scripts/bootstrap --mpi
@@ -173,15 +182,23 @@ $(EMU_BIN): $(MAIN_OBJ) $(BUILD)/cuda-emu/step.o $(BUILD)/cuda-emu/emu.o $(BUILD
 # object is rebuilt when the compiler or the flags change (so that /code tells how each object was built).
 $(BUILD)/version.stamp: FORCE
 	@mkdir -p $(dir $@)
-	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
+	@echo '$(VERSION) $(SOURCES_ID)' | cmp -s - $@ || echo '$(VERSION) $(SOURCES_ID)' > $@
 $(BUILD)/flags.stamp: FORCE
 	@mkdir -p $(dir $@)
 	@printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' | cmp -s - $@ || \
 	    printf '%s\n' '$(subst ','\'',$(CC) | $(BUILD_FLAGS) | $(FILE_FLAGS))' > $@
 $(BUILD)/core/version.o: $(BUILD)/version.stamp VERSION
 $(BUILD)/core/version.o: CPPFLAGS += -DSPRAYCOAT_VERSION='"$(VERSION)"' -DSPRAYCOAT_SEMVER='"$(SEMVER)"' \
+    -DSPRAYCOAT_SOURCES_ID='"$(SOURCES_ID)"' \
     -DSPRAYCOAT_FLAGS='"$(call c_string,$(BUILD_FLAGS))"' -DSPRAYCOAT_FILE_FLAGS='"$(call c_string,$(FILE_FLAGS))"'
 FORCE:
+$(BUILD)/tests/version-other-sources.o: core/version.c $(BUILD)/version.stamp $(BUILD)/flags.stamp VERSION
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) -DSPRAYCOAT_VERSION='"$(VERSION)"' -DSPRAYCOAT_SEMVER='"$(SEMVER)"' \
+	    -DSPRAYCOAT_SOURCES_ID='"0ther0s0urces000"' -DSPRAYCOAT_FLAGS='"$(call c_string,$(BUILD_FLAGS))"' \
+	    -DSPRAYCOAT_FILE_FLAGS='"$(call c_string,$(FILE_FLAGS))"' $(CFLAGS) -c $< -o $@
+$(OTHER_BIN): $(MAIN_OBJ) $(BUILD)/tests/version-other-sources.o $(BUILD)/libspraycoat.a
+	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(BUILD)/libspraycoat.a: $(LIB_OBJ)
 	@rm -f $@

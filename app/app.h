@@ -60,8 +60,15 @@ int stage_has_section(const char *stage, const char *section);
 /* 1 when RUN_DIR/couple.h5 exists and was made by this case's couple stage. */
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
-/* 1 when `path` is a readable spraycoat HDF5 file whose root attribute case_hash is `case_hash`, else 0. */
+/* What a stage's output `path` holds: nothing, results that are up to date (this case's `case_hash` and this
+ * build's sources_id), or results to compute again: another case's (or a file that cannot be read as one), or
+ * this case's computed by another build of spraycoat (other sources: docs/architecture.md "Another build"). */
+enum output_state { OUTPUT_NONE, OUTPUT_CURRENT, OUTPUT_OTHER_CASE, OUTPUT_OTHER_BUILD };
+enum output_state run_dir_output_state(const char *path, uint64_t case_hash);
+/* 1 when run_dir_output_state is OUTPUT_CURRENT, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
+/* Log why `stage` computes its output `path` again (state OUTPUT_OTHER_CASE or OUTPUT_OTHER_BUILD; nothing else). */
+void run_dir_log_rerun(const char *stage, const char *path, enum output_state state);
 /* Remove a stage's output `path` (the file whose case hash says "up to date"), durably (the folder fsynced), before
  * the stage publishes any other file of its new results (stage_write_outputs): a failure between two files then
  * leaves no output that declares another case's files (vcrit.csv beside vcrit.h5) up to date, and the next run

@@ -627,10 +627,12 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
 {
     struct impact_run run = {.ctx = ctx, .run_dir = ctx->run_dir, .case_hash = hash, .settings = *settings};
     name_run(&run, index);
-    if (run_dir_output_current(run.output, hash)) {
+    enum output_state state = run_dir_output_state(run.output, hash);
+    if (state == OUTPUT_CURRENT) {
         log_info("%s: done already (%s)", run.label, run.output);
         return SC_OK;
     }
+    run_dir_log_rerun(run.label, run.output, state);
     SC_TRY(mpm_config_load(ctx->c, &run.cfg));
     size_t first = bodies->first[index], count = bodies->first[index + 1] - first;
     run.seed_first = first, run.seed_count = count;

@@ -11,8 +11,8 @@
 #include "core/h5io.h"
 #include "mpm/mpm.h"
 
-static const char *const root_attributes[] = {
-    "format", "format_version", "program_version", "stage", "case_hash", "created", NULL};
+static const char *const root_attributes[] = {"format", "format_version", "program_version", "sources_id",
+                                              "stage",  "case_hash",      "created",         NULL};
 static const char *const spray_stats[] = {"steps",
                                           "t",
                                           "injected",

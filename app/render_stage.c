@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/h5io.h"
 #include "core/log.h"
+#include "core/version.h"
 #include "app/app.h"
 #include "render/render.h"
 
@@ -40,13 +41,14 @@ static int case_rows(const struct case_file *c, struct render_case_row **rows, i
     return SC_OK;
 }
 
-/* What the figures depend on, as one line: the [render] values and the identity (case hash and creation time)
- * of every input file present.  A pipeline run skips the stage when RUN_DIR/figures/render.stamp holds it and
- * report.html exists; `spraycoat render` always draws. */
+/* What the figures depend on, as one line: the program (git describe), the [render] values and the identity (case
+ * hash and creation time) of every input file present.  A pipeline run skips the stage when
+ * RUN_DIR/figures/render.stamp holds it and report.html exists; `spraycoat render` always draws. */
 static void render_fingerprint(const struct case_file *c, const char *run_dir, char *out, size_t size)
 {
     static const char *const inputs[] = {"spray.h5", "impact.h5", "vcrit.h5"};
-    size_t used = 0;
+    /* the program too: render/ is not in sources_id, and a new drawing code draws the figures again */
+    size_t used = (size_t)snprintf(out, size, "program=%s;", spraycoat_version());
     for (int t = 0; spraycoat_registry[t]; t++)
         for (const struct cfg_key *k = spraycoat_registry[t]; k->key; k++)
             if (strcmp(k->section, "render") == 0 && case_has(c, "render", k->key) && used < size)

@@ -15,6 +15,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
+#include "core/version.h"
 #include "app/app.h"
 #include "dem/dem.h"
 #include "mpm/mpm.h"
@@ -102,21 +103,38 @@ int run_dir_prepare(const char *run_dir, const struct case_file *c)
     return SC_OK;
 }
 
-int run_dir_output_current(const char *path, uint64_t case_hash)
+enum output_state run_dir_output_state(const char *path, uint64_t case_hash)
 {
-    if (access(path, R_OK) != 0)
-        return 0;
+    if (access(path, F_OK) != 0)
+        return OUTPUT_NONE;
     hid_t file;
-    if (h5_open_read(path, &file) != SC_OK) {
+    if (access(path, R_OK) != 0 || h5_open_read(path, &file) != SC_OK) {
         sc_error_clear();
-        return 0;
+        return OUTPUT_OTHER_CASE;
     }
-    char stored[64] = "", wanted[64];
+    char stored[64] = "", wanted[64], sources[64];
     snprintf(wanted, sizeof wanted, "%016llx", (unsigned long long)case_hash);
-    int ok = h5_attr_read_string(file, "case_hash", stored, sizeof stored) == SC_OK && strcmp(stored, wanted) == 0;
+    int same_case =
+        h5_attr_read_string(file, "case_hash", stored, sizeof stored) == SC_OK && strcmp(stored, wanted) == 0;
+    int same_sources = h5_same_sources(file, sources, sizeof sources);
     H5Fclose(file);
     sc_error_clear();
-    return ok;
+    return !same_case ? OUTPUT_OTHER_CASE : same_sources ? OUTPUT_CURRENT : OUTPUT_OTHER_BUILD;
+}
+
+int run_dir_output_current(const char *path, uint64_t case_hash)
+{
+    return run_dir_output_state(path, case_hash) == OUTPUT_CURRENT;
+}
+
+void run_dir_log_rerun(const char *stage, const char *path, enum output_state state)
+{
+    if (state == OUTPUT_OTHER_CASE)
+        log_info("%s: %s was made from another case; running the stage again", stage, path);
+    if (state == OUTPUT_OTHER_BUILD)
+        log_info("%s: %s was made by another build of spraycoat (other sources, `spraycoat info %s`); running "
+                 "the stage again",
+                 stage, path, path);
 }
 
 const char *stage_resume_dir(const struct stage_context *ctx)
@@ -175,7 +193,8 @@ int app_case_section_given(const struct case_file *c, const char *section)
 int stage_begin(const char *stage, const char *output, uint64_t case_hash, const struct case_file *c,
                 struct run_settings *settings)
 {
-    if (run_dir_output_current(output, case_hash)) {
+    enum output_state state = run_dir_output_state(output, case_hash);
+    if (state == OUTPUT_CURRENT) {
         log_info("%s: %s is up to date with the case; nothing to do", stage, output);
         /* a process killed between writing the output and removing the stage's checkpoints left them behind */
         char run_dir[4096];
@@ -187,8 +206,7 @@ int stage_begin(const char *stage, const char *output, uint64_t case_hash, const
             log_warn("%s: %s", stage, sc_error_message());
         return 1;
     }
-    if (access(output, F_OK) == 0)
-        log_info("%s: %s was made from another case; running the stage again", stage, output);
+    run_dir_log_rerun(stage, output, state);
     run_settings_load(c, settings);
     if (settings->threads > 0)
         omp_set_num_threads(settings->threads);
@@ -215,7 +233,9 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
     char path[4096];
     snprintf(path, sizeof path, "%s/couple.h5", run_dir);
     struct stage_context ctx = {.c = c, .run_dir = run_dir};
-    return access(path, R_OK) == 0 && run_dir_output_current(path, stage_hash(&ctx, "couple"));
+    /* the seeds of another build are still this case's: run_dir_check_input warns about them */
+    enum output_state state = run_dir_output_state(path, stage_hash(&ctx, "couple"));
+    return state == OUTPUT_CURRENT || state == OUTPUT_OTHER_BUILD;
 }
 
 uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
@@ -279,8 +299,9 @@ int run_dir_check_input(const struct stage_context *ctx, const char *stage, cons
     }
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
-    char stored[64] = "";
+    char stored[64] = "", sources[64];
     int status = h5_attr_read_string(file, "case_hash", stored, sizeof stored);
+    int same_sources = h5_same_sources(file, sources, sizeof sources);
     H5Fclose(file);
     if (status != SC_OK) {
         char reason[1024];
@@ -295,5 +316,11 @@ int run_dir_check_input(const struct stage_context *ctx, const char *stage, cons
                 "%s stage (`spraycoat %s` or `spraycoat run`)",
                 reader, path, stored, stage, wanted, stage, stage);
     }
+    /* this case's results all the same, and a long stage's: warned, not refused (`spraycoat run` computes them
+     * again first) */
+    if (!same_sources)
+        log_warn("%s: %s was made by another build of spraycoat (sources %s, this build's %s): what follows from it "
+                 "mixes two programs' results; run the %s stage again to have this build's",
+                 reader, path, sources, spraycoat_sources_id(), stage);
     return SC_OK;
 }

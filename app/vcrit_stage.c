@@ -28,6 +28,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "core/atomic.h"
 #include "core/error.h"
 #include "core/interrupt.h"
 #include "core/h5io.h"
@@ -35,6 +36,7 @@
 #include "core/logistic.h"
 #include "core/parallel.h"
 #include "core/run_keys.h"
+#include "core/version.h"
 #include "app/app.h"
 #include "mpm/mpm.h"
 
@@ -336,7 +338,8 @@ static int is_records_file(const struct vcrit_runs *r, const char *name)
 
 static void records_title(const struct vcrit_runs *r, char *out, size_t size)
 {
-    snprintf(out, size, "# spraycoat %s runs of case %016llx\n", r->name, (unsigned long long)r->case_hash);
+    snprintf(out, size, "# spraycoat %s runs of case %016llx, sources %s\n", r->name, (unsigned long long)r->case_hash,
+             spraycoat_sources_id());
 }
 
 /* The header of the records; files written before the runs carried a temperature have the older one (their runs at
@@ -400,8 +403,33 @@ static int records_header(const struct vcrit_runs *r, const char *path, FILE *fi
     return SC_OK;
 }
 
-/* Runs recorded in `path` for this case; a file of another case or format (or damaged) is ignored, one that cannot
- * be read is an I/O error (only a missing one holds no runs). */
+/* A record of another case, build or format (or a damaged one) is not used; this rank's own record file, which
+ * its next save_records would replace, is first renamed to PATH.kept-N (the first N free): its runs may have taken
+ * hours.  Another rank's file is that rank's to keep. */
+static int keep_aside(const struct vcrit_runs *r, const char *path)
+{
+    char own[4096], kept[4500];
+    records_path(r, own, sizeof own);
+    if (strcmp(own, path) != 0) {
+        log_info("%s: %s belongs to another case, build or version; its runs are not used", r->name, path);
+        return SC_OK;
+    }
+    for (int n = 1; n < 1000; n++) {
+        snprintf(kept, sizeof kept, "%s.kept-%d", path, n);
+        if (access(kept, F_OK) == 0)
+            continue;
+        if (rename(path, kept) != 0)
+            SC_FAIL(SC_EIO, "%s: cannot keep %s (another case's runs) as %s: %s", r->name, path, kept, strerror(errno));
+        log_info("%s: %s belongs to another case, build or version; its runs are not used, and it is kept as %s",
+                 r->name, path, kept);
+        return atomic_sync_folder(path);
+    }
+    SC_FAIL(SC_EIO, "%s: cannot keep %s (another case's runs): %s.kept-1 to -999 exist; remove some", r->name, path,
+            path);
+}
+
+/* Runs recorded in `path` for this case; a file of another case or format (or damaged) is not used (keep_aside), one
+ * that cannot be read is an I/O error (only a missing one holds no runs). */
 static int load_records_file(struct vcrit_runs *r, const char *path)
 {
     char line[512];
@@ -414,8 +442,8 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
     int fields, status;
     SC_CHECK(status, records_header(r, path, file, &fields), done);
     if (fields == 0) {
-        log_info("%s: %s belongs to another case or version; its runs are not used", r->name, path);
-        goto done;
+        fclose(file);
+        return keep_aside(r, path);
     }
     while (fgets(line, sizeof line, file)) {
         struct vcrit_run_record x = {0};
@@ -1184,10 +1212,12 @@ int vcrit_stage_run(const struct stage_context *ctx)
     struct vcrit_search v = {.c = c, .run_dir = run_dir, .case_hash = stage_hash(ctx, STAGE)};
     char path[4096];
     snprintf(path, sizeof path, "%s/vcrit.h5", run_dir);
-    if (run_dir_output_current(path, v.case_hash)) {
+    enum output_state state = run_dir_output_state(path, v.case_hash);
+    if (state == OUTPUT_CURRENT) {
         log_info("vcrit: %s is up to date with the case; nothing to do", path);
         return SC_OK;
     }
+    run_dir_log_rerun(STAGE, path, state);
     SC_TRY(load_settings(c, &v));
     v.runs = (struct vcrit_runs){
         .run_dir = run_dir, .name = STAGE, .resume_dir = stage_resume_dir(ctx), .case_hash = runs_hash(&v)};

@@ -738,12 +738,23 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
     SC_TRY(h5_attr_write_string(file, "format", format));
     SC_TRY(h5_attr_write_int64(file, "format_version", format_version));
     SC_TRY(h5_attr_write_string(file, "program_version", spraycoat_version()));
+    SC_TRY(h5_attr_write_string(file, "sources_id", spraycoat_sources_id()));
     SC_TRY(h5_attr_write_string(file, "case_hash", hash_text));
     SC_TRY(h5_attr_write_string(file, "stage", stage));
     SC_TRY(h5_attr_write_string(file, "units", "SI"));
     SC_TRY(h5_attr_write_string(file, "created", created));
     SC_TRY(write_code_group(file));
     return SC_OK;
+}
+
+int h5_same_sources(hid_t file, char *stored, size_t size)
+{
+    if (h5_attr_read_string(file, "sources_id", stored, size) != SC_OK) {
+        sc_error_clear();
+        snprintf(stored, size, "none");
+        return 0;
+    }
+    return strcmp(stored, spraycoat_sources_id()) == 0;
 }
 
 /* ---------------------------------------------------------------------------------------------------------
@@ -1292,6 +1303,10 @@ static int inspect_checkpoint(const char *path, const char *run_dir, const struc
     char format[256], hash[64], want_hash[17];
     int64_t format_version;
     int status = read_checkpoint_identity(file, format, &format_version, hash);
+    char sources[64], program[256] = "unknown";
+    int same_sources = h5_same_sources(file, sources, sizeof sources);
+    if (h5_attr_read_string(file, "program_version", program, sizeof program) != SC_OK)
+        sc_error_clear();
     H5Fclose(file);
     SC_TRY(status);
     snprintf(want_hash, sizeof want_hash, "%016" PRIx64, want->case_hash);
@@ -1305,6 +1320,13 @@ static int inspect_checkpoint(const char *path, const char *run_dir, const struc
                 "checkpoint %s belongs to another case (hash %s, this case %s), refusing to resume; remove "
                 "%s/checkpoints or use another run directory",
                 path, hash, want_hash, run_dir);
+    /* a run continued by other code would mix two programs' results in one output that names only the last */
+    if (!same_sources)
+        SC_FAIL(SC_EINPUT,
+                "checkpoint %s was written by another build of spraycoat (sources %s, git %s; this build: sources "
+                "%s, git %s), refusing to resume: the run would mix the results of two programs; resume it with the "
+                "build that wrote it, or remove %s/checkpoints to run the stage again",
+                path, sources, program, spraycoat_sources_id(), spraycoat_version(), run_dir);
     return SC_OK;
 }
 

@@ -62,11 +62,15 @@ int h5_attr_read_string(hid_t loc, const char *name, char *value, size_t size);
 int h5_attr_read_double(hid_t loc, const char *name, double *value);
 int h5_attr_read_int64(hid_t loc, const char *name, int64_t *value);
 
-/* Root attributes every spraycoat file carries: format, format_version, program_version, case_hash
- * (hex text), stage, units = "SI", created (UTC ISO 8601; a timing attribute); and the group /code with the
- * build record as text attributes (core/version.h: compiler, flags, target, library versions). */
+/* Root attributes every spraycoat file carries: format, format_version, program_version, sources_id (the
+ * digest of the sources that compute results, core/version.h), case_hash (hex text), stage, units = "SI", created
+ * (UTC ISO 8601; a timing attribute); and the group /code with the build record as text attributes
+ * (core/version.h: compiler, flags, target, library versions). */
 int h5_write_root_attributes(hid_t file, const char *format, int64_t format_version, const char *stage,
                              uint64_t case_hash);
+/* 1 when the open file's root attribute sources_id is this build's, else 0 (a file of other sources, or one
+ * written before the attribute: its value then "none"); the stored value into stored[size]. */
+int h5_same_sources(hid_t file, char *stored, size_t size);
 
 /* Read every dataset in the file completely (Fletcher32 is verified on read).  SC_EIO if any fails. */
 int h5_verify_file(const char *path);
@@ -78,8 +82,8 @@ int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, st
  * (because the later ones were damaged), and must not be resumed into. */
 int h5_checkpoint_commit(struct h5_out *out, const char *run_dir, const char *stage, int keep);
 /* Newest valid checkpoint of `stage` into path[size] ("" if there is none).  A checkpoint that fails
- * h5_verify_file is skipped with a warning (the previous one is used).  One with another case hash or
- * format version is refused: SC_EINPUT with a message naming it. */
+ * h5_verify_file is skipped with a warning (the previous one is used).  One with another case hash, format
+ * version or sources_id (another build's) is refused: SC_EINPUT with a message naming it. */
 int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
                               uint64_t case_hash, char *path, size_t size);
 /* Remove every checkpoint of `stage` (after the stage finished). */

@@ -33,6 +33,11 @@
 #endif
 /* The semantic version MAJOR.MINOR.PATCH, from the file VERSION (README, "The commands", says when each part
  * grows). */
+/* The digest of the sources that compute results (the Makefile's RESULT_SRC): outputs and checkpoints of other
+ * sources are computed again, not taken as up to date or resumed. */
+#ifndef SPRAYCOAT_SOURCES_ID
+#define SPRAYCOAT_SOURCES_ID "unknown"
+#endif
 #ifndef SPRAYCOAT_SEMVER
 #define SPRAYCOAT_SEMVER "0.0.0 (not built by the Makefile)"
 #endif
@@ -49,6 +54,11 @@
 const char *spraycoat_version(void)
 {
     return SPRAYCOAT_VERSION;
+}
+
+const char *spraycoat_sources_id(void)
+{
+    return SPRAYCOAT_SOURCES_ID;
 }
 
 #if defined(__clang__)
@@ -158,7 +168,7 @@ static const char target[] =
 /* libinih's ini.h has no version macro. */
 #define INIH "linked (ini.h carries no version)"
 
-enum { ITEMS = 14 };
+enum { ITEMS = 15 };
 static struct spraycoat_build_item items[ITEMS + 1];
 static char hdf5_text[64], mpi_text[256];
 static pthread_once_t once = PTHREAD_ONCE_INIT;
@@ -201,6 +211,7 @@ static void fill_items(void)
     const struct spraycoat_build_item list[] = {
         {"version", SPRAYCOAT_SEMVER},
         {"program_version", SPRAYCOAT_VERSION},
+        {"sources_id", SPRAYCOAT_SOURCES_ID},
         {"compiler", COMPILER},
         {"flags", SPRAYCOAT_FLAGS},
         {"file_flags", SPRAYCOAT_FILE_FLAGS},

@@ -25,7 +25,7 @@ attr() { h5dump -a "/code/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): "\(.*\)"$/\1/
 check() {
     why=""
     [ -f "$2" ] || { fail "$1" "$2 was not written"; return; }
-    for name in version program_version compiler flags file_flags target isa openmp hdf5 sundials cairo osmesa inih mpi; do
+    for name in version program_version sources_id compiler flags file_flags target isa openmp hdf5 sundials cairo osmesa inih mpi; do
         [ -n "$(attr "$2" "$name")" ] || why="$why /code/$name missing or empty;"
     done
     case "$(attr "$2" flags)" in
