@@ -44,8 +44,10 @@ struct sweep_axis {
 
 struct sweep {
     const struct case_file *c;
+    const struct stage_context *ctx;
     const char *run_dir;
     struct sweep_axis x, y;
+    uint64_t hash; /* the map's: the case and the contents of the files it names, when the sweep began */
 };
 
 /* ---- the keys of [sweep] ---- */
@@ -227,9 +229,23 @@ static int fill_numbers(struct sweep *sw)
     return SC_OK;
 }
 
+/* SC_EINPUT when a file the case names (its contents are part of the hash: a table, waypoints) changed since the
+ * sweep began.  The runs copy the case in memory, not the files: each run's hash would then hold the contents it
+ * read, and the map, under the first contents' hash, runs of two cases (found up to date once the file is back). */
+static int files_unchanged(const struct sweep *sw)
+{
+    if (stage_hash(sw->ctx, STAGE) == sw->hash)
+        return SC_OK;
+    SC_FAIL(SC_EINPUT,
+            "sweep: a file the case names (a [deposition] table, the [path] waypoints, ...) changed while the sweep "
+            "ran: its runs before and after would be of two cases in one map; the runs done are kept, each with its "
+            "own case; run the sweep again to finish it with the files as they are now");
+}
+
 /* Run (or resume, or skip when done) the spray of run t = j nx + i in RUN_DIR/runs/xI_yJ. */
 static int spray_run(const struct sweep *sw, int64_t t)
 {
+    SC_TRY(files_unchanged(sw));
     int i = (int)(t % sw->x.count), j = (int)(t / sw->x.count);
     char dir[4200], name[64];
     run_name(i, j, name, sizeof name);
@@ -330,6 +346,7 @@ static void log_map(const struct sweep *sw, const struct sweep_map *map)
 
 static int write_map(struct sweep *sw, uint64_t hash)
 {
+    SC_TRY(files_unchanged(sw));
     SC_TRY(fill_numbers(sw));
     size_t n = (size_t)sw->x.count * (size_t)sw->y.count;
     struct sweep_map map = {.sw = sw};
@@ -368,6 +385,7 @@ int sweep_stage_run(const struct stage_context *ctx)
     struct sweep sw;
     SC_TRY(load_sweep(ctx, &sw));
     uint64_t hash = stage_hash(ctx, STAGE);
+    sw.ctx = ctx, sw.hash = hash;
     char path[4200];
     snprintf(path, sizeof path, "%s/sweep.h5", ctx->run_dir);
     struct run_settings settings;

@@ -7,7 +7,8 @@
 # continues a sweep, also one stopped by SIGTERM in a run (from that run's checkpoint, to the same map); bad
 # [sweep] keys and values are refused with exit status 2 before the run directory is made; a key that takes a
 # number or a word (contact.restitution: johnson) is swept with a NaN on the axis for the word; the case file
-# edited while a sweep runs changes none of its runs (they are made from the case the sweep loaded).
+# edited while a sweep runs changes none of its runs (they are made from the case the sweep loaded); a file the case
+# names (the v_crit table) edited while it runs stops it with exit 2, and put back the sweep finishes to the same map.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh
 # sets it).  Needs h5dump.
 set -u
@@ -223,19 +224,56 @@ fi
 
 # 8. the runs are made from the case the sweep loaded: the case file edited while the first run goes (here [jet] C3)
 # reaches no run, and the map is the unedited sweep's (each run read the file again: the later runs were another
-# case's, under the first case's hash, and a later sweep found them up to date)
+# case's, under the first case's hash, and a later sweep found them up to date).  The sweep is stopped (SIGSTOP)
+# while the file is edited, so that the edit always lands before the later runs start (the runs go one after the
+# other); the test fails rather than passes when it did not.
 sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/edit.ini"
 "$BIN" sweep "$T/edit.ini" -o "$T/edit" >"$T/log_edit" 2>&1 &
 bg=$!
 wait_until "$bg" 30 exists "$T/edit/runs/x0_y0/checkpoints/spray_*.h5"
+kill -STOP "$bg"
+started=$(ls "$T/edit/runs" 2>/dev/null | tr '\n' ' ')
 sed -i 's/^C3 = 40$/C3 = 41/' "$T/edit.ini"
+kill -CONT "$bg"
 wait "$bg"
 edited=$?
 bg=""
 values "$T/edit/sweep.h5" /de >"$T/map_de_edit" 2>/dev/null
 mixed=$(grep -l '^C3 = 41' "$T"/edit/runs/*/case.ini 2>/dev/null | tr '\n' ' ')
-if [ $edited -eq 0 ] && [ -z "$mixed" ] && cmp -s "$T/map_de" "$T/map_de_edit"; then
+if [ "$started" != "x0_y0 " ]; then
+    fail sweep_runs_ignore_an_edited_case_file "the runs '$started' had started when the case file was edited (only x0_y0 should have)"
+elif [ $edited -eq 0 ] && [ -z "$mixed" ] && cmp -s "$T/map_de" "$T/map_de_edit"; then
     pass sweep_runs_ignore_an_edited_case_file
 else
     fail sweep_runs_ignore_an_edited_case_file "exit $edited; runs of the edited file: '$mixed'; map $(tr '\n' ' ' <"$T/map_de_edit")"
+fi
+
+# 9. a file the case names (here the v_crit table) edited while the sweep runs stops it with exit 2 before the next
+# run rather than mixing two tables in one map (each run's hash holds the contents it read, the map's the first:
+# with the file put back, the map was up to date with a run of the edited table in it); put back, the sweep
+# finishes with the unedited sweep's map.  Stopped (SIGSTOP) while the file is edited, as in 8.
+cp "$TABLE" "$T/table.csv"
+sed -e 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' -e "s|^table = .*|table = $T/table.csv|" "$T/sweep.ini" >"$T/table.ini"
+"$BIN" sweep "$T/table.ini" -o "$T/table" >"$T/log_table" 2>&1 &
+bg=$!
+wait_until "$bg" 30 exists "$T/table/runs/x0_y0/checkpoints/spray_*.h5"
+kill -STOP "$bg"
+started=$(ls "$T/table/runs" 2>/dev/null | tr '\n' ' ')
+sed -i 's/^1e-05,803.125,/1e-05,603.125,/' "$T/table.csv"
+kill -CONT "$bg"
+wait "$bg"
+stopped=$?
+bg=""
+cmp -s "$TABLE" "$T/table.csv" && stopped="the table was not edited"
+cp "$TABLE" "$T/table.csv"
+"$BIN" sweep "$T/table.ini" -o "$T/table" >"$T/log_table_again" 2>&1
+again=$?
+values "$T/table/sweep.h5" /de >"$T/map_de_table" 2>/dev/null
+if [ "$started" != "x0_y0 " ]; then
+    fail sweep_stops_when_a_named_file_changes "the runs '$started' had started when the table was edited (only x0_y0 should have)"
+elif [ "$stopped" = 2 ] && grep -q 'changed while the sweep ran' "$T/log_table" && [ ! -e "$T/table/sweep.h5.tmp" ] &&
+    [ $again -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_table"; then
+    pass sweep_stops_when_a_named_file_changes
+else
+    fail sweep_stops_when_a_named_file_changes "exit $stopped with the table edited ($(grep -i error "$T/log_table" | head -n 1)); put back: exit $again, map $(tr '\n' ' ' <"$T/map_de_table")"
 fi
