@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/version.h"
 #include "mpm/mpm.h"
 
 static const char *const root_attributes[] = {"format", "format_version", "program_version", "sources_id",
@@ -526,6 +527,22 @@ static void print_render_state(const char *run_dir, const char *stages, FILE *ou
         fprintf(out, "stage render: %s\n", done ? "done (report.html, figures/)" : "not done");
 }
 
+/* " (made by another build ...)" after a stage's `done` when its output is of other sources (docs/architecture.md
+ * "Another build"): running the stage computes it again. */
+static void print_other_build(const char *path, FILE *out)
+{
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK) {
+        sc_error_clear();
+        return;
+    }
+    char sources[64];
+    if (!h5_same_sources(file, sources, sizeof sources))
+        fprintf(out, " (made by another build of spraycoat: sources %s, this build's %s; the stage computes it again)",
+                sources, spraycoat_sources_id());
+    H5Fclose(file);
+}
+
 int info_print(const char *target, FILE *out)
 {
     static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
@@ -558,6 +575,8 @@ int info_print(const char *target, FILE *out)
             continue;
         const char *unfinished = running ? "in progress or waiting" : checkpoints ? "interrupted" : "not done";
         fprintf(out, "stage %s: %s", stage, done ? "done" : unfinished);
+        if (done)
+            print_other_build(path, out);
         if (checkpoints)
             fprintf(out, "; %zu checkpoints, newest %s", checkpoints, newest);
         fputc('\n', out);

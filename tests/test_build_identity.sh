@@ -3,7 +3,7 @@
 # attribute sources_id, the digest of the sources that compute results; BUILD/tests/spraycoat-other-sources is the
 # same program with another sources_id (as if built from edited sources).  A stage's output made by the other build
 # is computed again, not found up to date (and then carries this build's sources_id; the same sources give the same
-# datasets); a checkpoint of the other build is refused (exit 2, the checkpoint kept) and resumed by the build that
+# datasets; `spraycoat info` says which outputs are another build's); a checkpoint of the other build is refused (exit 2, the checkpoint kept) and resumed by the build that
 # wrote it; a stage that reads an input of the other build warns; a vcrit record of the runs made by the other build
 # is not reused and is kept aside as vcrit_runs.csv.kept-1, not overwritten.
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets it).  Needs h5dump and h5diff.
@@ -61,6 +61,7 @@ RUN=$T/run
 "$OTHER" spray "$CASE" -o "$RUN" >"$T/other.log" 2>&1
 "$BIN" spray "$CASE" -o "$T/mine" >"$T/mine.log" 2>&1
 theirs_created=$(created "$RUN/spray.h5")
+"$BIN" info "$RUN" >"$T/info_theirs.txt" 2>&1
 "$BIN" spray "$CASE" -o "$RUN" >"$T/again.log" 2>&1
 status=$?
 why=""
@@ -70,6 +71,9 @@ grep -q 'made by another build of spraycoat' "$T/again.log" || why="$why the log
 grep -q 'up to date' "$T/again.log" && why="$why the other build's spray.h5 was taken as up to date;"
 [ "$(sources_id "$RUN/spray.h5")" = "$MINE" ] || why="$why spray.h5 has sources_id '$(sources_id "$RUN/spray.h5")' after the rerun;"
 [ "$(created "$RUN/spray.h5")" != "$theirs_created" ] || why="$why spray.h5 was not written again;"
+grep -q '^stage spray: done (made by another build of spraycoat' "$T/info_theirs.txt" || why="$why spraycoat info does not say spray.h5 is another build's: $(grep '^stage spray' "$T/info_theirs.txt");"
+"$BIN" info "$RUN" >"$T/info_mine.txt" 2>&1
+grep -q '^stage spray: done$' "$T/info_mine.txt" || why="$why after the rerun spraycoat info says $(grep '^stage spray' "$T/info_mine.txt");"
 # the same sources compute the same results: the impacts of both builds agree to the bit
 h5diff -d 0 "$RUN/spray.h5" "$T/mine/spray.h5" /impacts /impacts >/dev/null 2>&1 || why="$why /impacts differs from this build's own run;"
 if [ -z "$why" ]; then pass other_build_output_computed_again; else fail other_build_output_computed_again "$why"; fi
