@@ -32,7 +32,7 @@ core_prefixes() {
         root) echo "root_" ;;
         run_keys) echo "run_" ;;
         units) echo "units_" ;;
-        version) echo "spraycoat_version spraycoat_build_info" ;;
+        version) echo "spraycoat_version spraycoat_sources_id spraycoat_build_info" ;;
         *) echo "" ;;
     esac
 }
