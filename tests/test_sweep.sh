@@ -222,22 +222,32 @@ else
     fail sweep_over_a_number_or_word_key "exit $rest, x_values '$axis': $(tail -n 2 "$T/log_rest")"
 fi
 
+# edit_while_stopped NAME EDIT...: the sweep of $T/NAME.ini into $T/NAME (log $T/log_NAME) in the background, stopped
+# (SIGSTOP) once its first run wrote a checkpoint, EDIT run, then continued to its end; started: the runs begun when
+# EDIT ran, finished: the sweep's exit status.
+edit_while_stopped() {
+    name=$1
+    shift
+    "$BIN" sweep "$T/$name.ini" -o "$T/$name" >"$T/log_$name" 2>&1 &
+    bg=$!
+    wait_until "$bg" 30 exists "$T/$name/runs/x0_y0/checkpoints/spray_*.h5"
+    kill -STOP "$bg"
+    started=$(ls "$T/$name/runs" 2>/dev/null | tr '\n' ' ')
+    "$@"
+    kill -CONT "$bg"
+    wait "$bg"
+    finished=$?
+    bg=""
+}
+
 # 8. the runs are made from the case the sweep loaded: the case file edited while the first run goes (here [jet] C3)
 # reaches no run, and the map is the unedited sweep's (each run read the file again: the later runs were another
 # case's, under the first case's hash, and a later sweep found them up to date).  The sweep is stopped (SIGSTOP)
 # while the file is edited, so that the edit always lands before the later runs start (the runs go one after the
 # other); the test fails rather than passes when it did not.
 sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/edit.ini"
-"$BIN" sweep "$T/edit.ini" -o "$T/edit" >"$T/log_edit" 2>&1 &
-bg=$!
-wait_until "$bg" 30 exists "$T/edit/runs/x0_y0/checkpoints/spray_*.h5"
-kill -STOP "$bg"
-started=$(ls "$T/edit/runs" 2>/dev/null | tr '\n' ' ')
-sed -i 's/^C3 = 40$/C3 = 41/' "$T/edit.ini"
-kill -CONT "$bg"
-wait "$bg"
-edited=$?
-bg=""
+edit_while_stopped edit sed -i 's/^C3 = 40$/C3 = 41/' "$T/edit.ini"
+edited=$finished
 values "$T/edit/sweep.h5" /de >"$T/map_de_edit" 2>/dev/null
 mixed=$(grep -l '^C3 = 41' "$T"/edit/runs/*/case.ini 2>/dev/null | tr '\n' ' ')
 if [ "$started" != "x0_y0 " ]; then
@@ -254,16 +264,8 @@ fi
 # finishes with the unedited sweep's map.  Stopped (SIGSTOP) while the file is edited, as in 8.
 cp "$TABLE" "$T/table.csv"
 sed -e 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' -e "s|^table = .*|table = $T/table.csv|" "$T/sweep.ini" >"$T/table.ini"
-"$BIN" sweep "$T/table.ini" -o "$T/table" >"$T/log_table" 2>&1 &
-bg=$!
-wait_until "$bg" 30 exists "$T/table/runs/x0_y0/checkpoints/spray_*.h5"
-kill -STOP "$bg"
-started=$(ls "$T/table/runs" 2>/dev/null | tr '\n' ' ')
-sed -i 's/^1e-05,803.125,/1e-05,603.125,/' "$T/table.csv"
-kill -CONT "$bg"
-wait "$bg"
-stopped=$?
-bg=""
+edit_while_stopped table sed -i 's/^1e-05,803.125,/1e-05,603.125,/' "$T/table.csv"
+stopped=$finished
 cmp -s "$TABLE" "$T/table.csv" && stopped="the table was not edited"
 cp "$TABLE" "$T/table.csv"
 "$BIN" sweep "$T/table.ini" -o "$T/table" >"$T/log_table_again" 2>&1
