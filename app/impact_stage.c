@@ -404,7 +404,7 @@ static void log_summary(struct impact_run *run)
     if (!bonded)
         return;
     mpm_verdicts(run->solver, bonded);
-    const struct mpm_diagnostics *d = mpm_compute_diagnostics(run->solver);
+    const struct mpm_diagnostics *d = mpm_final_diagnostics(run->solver);
     for (int b = 0; b < nb; b++) {
         const struct mpm_body *body = &run->cfg.bodies[b];
         if (body->substrate)

@@ -553,7 +553,7 @@ static int record_outcome(struct mpm_solver *s, const struct mpm_config *cfg, st
     if (!verdicts)
         SC_FAIL_OOM((size_t)nb * sizeof *verdicts, "the verdicts of the bodies");
     mpm_verdicts(s, verdicts);
-    const struct mpm_diagnostics *diag = mpm_compute_diagnostics(s);
+    const struct mpm_diagnostics *diag = mpm_final_diagnostics(s);
     const struct mpm_body_diagnostics *particle = &diag->body[nb - 1];
     double normal_speed = -cfg->bodies[cfg->body_count - 1].velocity[2];
     int v = verdicts[nb - 1];

@@ -179,6 +179,30 @@ const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s)
     return &s->diagnostics;
 }
 
+const struct mpm_diagnostics *mpm_final_diagnostics(struct mpm_solver *s)
+{
+    mpm_compute_diagnostics(s); /* the masses and energies, which the series does not hold */
+    if (s->series_rows == 0)
+        return &s->diagnostics;
+    int nb = s->cfg.body_count;
+    const double *row = s->series + (s->series_rows - 1) * (SERIES_FIXED + (size_t)nb * SERIES_PER_BODY);
+    for (int b = 0; b < nb; b++) {
+        /* the columns in mpm_series_record's order */
+        const double *r = row + SERIES_FIXED + (size_t)b * SERIES_PER_BODY;
+        struct mpm_body_diagnostics *x = &s->diagnostics.body[b];
+        x->v_com[0] = r[0], x->v_com[1] = r[1], x->v_com[2] = r[2];
+        x->kinetic_energy = r[3], x->internal_energy = r[4], x->plastic_work = r[5];
+        x->mean_eps_p = r[6], x->plastic_energy_density = r[7], x->pbcp = r[8], x->v_rest = r[9];
+        x->mean_d_bond = r[10];
+        x->contacted_points = (int64_t)r[11], x->bonded_points = (int64_t)r[12];
+        x->interface_nodes = (int64_t)r[13], x->bonded_nodes = (int64_t)r[14];
+        x->bonded_interface = x->interface_nodes < 0   ? NAN
+                              : x->interface_nodes > 0 ? (double)x->bonded_nodes / (double)x->interface_nodes
+                                                       : 0.0;
+    }
+    return &s->diagnostics;
+}
+
 /* The grid's start-of-step velocity of body `layer`'s field at point q, sum_I N_Ip p_I / m_I. */
 static void grid_velocity_at(const struct mpm_solver *s, size_t q, double v[3])
 {

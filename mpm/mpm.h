@@ -212,6 +212,12 @@ struct mpm_diagnostics {
     double energy_stored; /* elastic energy held by the boundary springs (spring_bottom, spring_sides); in the total */
 };
 const struct mpm_diagnostics *mpm_compute_diagnostics(struct mpm_solver *s);
+/* The diagnostics the run's verdicts were judged on: each body's as its last series row holds them (at the run's end
+ * once it finished), the masses and energies computed now.  The same as mpm_compute_diagnostics at the end of a run,
+ * and also right after a resume from a checkpoint written at its end, where no step has rebuilt the grid that the
+ * interface counts need (mpm_compute_diagnostics would count no interface, and its other values are those of the
+ * points alone). */
+const struct mpm_diagnostics *mpm_final_diagnostics(struct mpm_solver *s);
 
 /* Verdict per body (Tang Section 5.2.1; mpm/verdict.c, docs/physics.md "Settled verdicts"): judged at every
  * series row on the means of v_rest and v_com over the window that ends there: bonded when PBCP >= pbcp_threshold and

@@ -210,7 +210,7 @@ static int write_summary(struct mpm_solver *s, hid_t group)
         SC_FAIL_OOM_AT(status, done, (size_t)nb * (8 * sizeof *values + 4 * sizeof *integers + sizeof *verdict),
                        "the impact summary");
     mpm_verdicts(s, verdict);
-    const struct mpm_diagnostics *d = &s->diagnostics;
+    const struct mpm_diagnostics *d = mpm_final_diagnostics(s);
     double *diameter = values, *v_impact = values + nb, *pbcp = values + 2 * nb, *v_rest = values + 3 * nb,
            *cor = values + 4 * nb, *t_settled = values + 5 * nb, *bonding_scale = values + 6 * nb,
            *bonded_interface = values + 7 * nb;

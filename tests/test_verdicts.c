@@ -2,10 +2,12 @@
  * window that ends there, and a verdict counts only once PBCP and those means have held it over the settling window; a
  * transient rebound is `unsettled`, never `rebounded`; a body without v_rest is never rebounded; the run ends once
  * every particle is settled.  The judging is tested on series rows written into a small solver (the shapes of the
- * issue's 14 um run at 750 m/s), the end of a run on an elastic sphere bouncing off a rigid wall. */
+ * issue's 14 um run at 750 m/s), the end of a run on an elastic sphere bouncing off a rigid wall; a run resumed from a
+ * checkpoint at its end writes the summary of the run that was never stopped. */
 #include <math.h>
 
 #include "check.h"
+#include "core/h5io.h"
 #include "impact_fixture.h"
 /* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
 #include "mpm/mpm_impl.h"
@@ -225,6 +227,69 @@ static void test_run_ends_when_settled(void)
     impact_fixture_close(&f);
 }
 
+/* The /summary of results written by `run` (its diagnostics written to `name` in `file`); the particle's (body 1)
+ * values in out: pbcp, v_rest, cor, bonded_interface, verdict. */
+static int summary_of(struct mpm_solver *run, hid_t file, const char *name, double out[5])
+{
+    hid_t group = H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (group < 0 || mpm_write_results(run, group) != SC_OK)
+        return -1;
+    static const char *const fields[] = {"summary/pbcp", "summary/v_rest", "summary/cor", "summary/bonded_interface"};
+    double two[2];
+    int64_t verdict[2];
+    for (int k = 0; k < 4; k++) {
+        if (h5_read_doubles(group, fields[k], two, 2) != SC_OK)
+            return -1;
+        out[k] = two[1];
+    }
+    if (h5_read_int64s(group, "summary/verdict", verdict, 2) != SC_OK)
+        return -1;
+    out[4] = (double)verdict[1];
+    H5Gclose(group);
+    return 0;
+}
+
+/* A run resumed from a checkpoint written at its last step (a signal during that step) takes no step and writes its
+ * results: its /summary must be the uninterrupted run's.  It held the values of t = 0 (PBCP 0, v_rest the impact
+ * speed) where they came from diagnostics that a checkpoint does not restore and no step had computed again.  An 8
+ * um particle at 1000 m/s that bonds within 10 ns (tests/test_vcrit.sh's set-up). */
+static void test_summary_after_resume_at_end(void)
+{
+    const char *ini = "[impact]\ngrid = 2e-6\nspacing = 1e-6\ndiameter = 8e-6\nvelocity = 1000\n"
+                      "substrate_diameter = 20e-6\nsubstrate_height = 6e-6\nt_end = 10e-9\nbonding = energy\n"
+                      "settle_window = 2e-9\nsettle_vcom = 1e4\nsettle_pbcp = 1\nvrest_filter = 1e4\n"
+                      "[material.aluminium]\n";
+    struct impact_fixture a, b;
+    char path[] = "/tmp/spraycoat_resume_end_XXXXXX";
+    int fd = mkstemp(path);
+    if (fd < 0 || impact_fixture_open(&a, ini, NULL) != SC_OK || impact_fixture_open(&b, ini, NULL) != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    close(fd);
+    CHECK(impact_fixture_run(&a) == SC_OK && mpm_finished(a.solver), "the run to its end");
+    hid_t file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    hid_t checkpoint = H5Gcreate2(file, "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    CHECK(mpm_checkpoint_write(a.solver, checkpoint) == SC_OK, "checkpoint at the end written");
+    CHECK(mpm_checkpoint_read(b.solver, checkpoint) == SC_OK && mpm_finished(b.solver), "read: finished, no step");
+    H5Gclose(checkpoint);
+    double ran[5] = {0}, resumed[5] = {0};
+    CHECK(summary_of(a.solver, file, "ran", ran) == 0 && summary_of(b.solver, file, "resumed", resumed) == 0,
+          "both summaries written and read");
+    printf("  the particle: PBCP %.4g / %.4g, v_rest %.4g / %.4g m/s, CoR %.4g / %.4g, bonded interface %.4g / %.4g, "
+           "verdict %g / %g (ran / resumed)\n",
+           ran[0], resumed[0], ran[1], resumed[1], ran[2], resumed[2], ran[3], resumed[3], ran[4], resumed[4]);
+    CHECK(ran[0] > 0.05 && ran[3] > 0.0 && ran[4] == MPM_VERDICT_BONDED, "the run bonds (the test needs a bond)");
+    static const char *const names[] = {"PBCP", "v_rest", "CoR", "bonded interface", "verdict"};
+    for (int k = 0; k < 5; k++)
+        CHECK(memcmp(&ran[k], &resumed[k], sizeof ran[k]) == 0, "%s: %.17g resumed, %.17g uninterrupted", names[k],
+              resumed[k], ran[k]);
+    H5Fclose(file);
+    unlink(path);
+    impact_fixture_close(&a);
+    impact_fixture_close(&b);
+}
+
 int main(void)
 {
     RUN(test_transient_rebound_is_unsettled);
@@ -233,5 +298,6 @@ int main(void)
     RUN(test_unsettled_cases);
     RUN(test_every_body_settles);
     RUN(test_run_ends_when_settled);
+    RUN(test_summary_after_resume_at_end);
     return check_finish();
 }
