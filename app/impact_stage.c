@@ -421,11 +421,13 @@ static void log_summary(struct impact_run *run)
             snprintf(interface, sizeof interface,
                      "bonded at %lld of the %lld nodes where it meets a body now (%.1f %%)", (long long)x->bonded_nodes,
                      (long long)x->interface_nodes, 100.0 * x->bonded_interface);
-        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, %s, v_rest %.3g m/s (window mean), "
+        const char *averaged =
+            isnan(mpm_verdict_vrest(run->solver, b)) ? "the last row's: no window judged" : "window mean";
+        log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, %s, v_rest %.3g m/s (%s), "
                  "v_com_z %.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),
                  verdict_words(run, bonded[b], v_rest, words, sizeof words), settled, 100.0 * x->pbcp, interface,
-                 v_rest, x->v_com[2]);
+                 v_rest, averaged, x->v_com[2]);
     }
     free(bonded);
     struct mpm_counts counts = mpm_get_counts(run->solver);
@@ -659,8 +661,16 @@ struct run_totals {
     double pbcp, v_rest, cor, bonded_interface;
 };
 
-/* One run's /summary rows of particles (the substrate left out) added to *total; the run's own means in out[4]. */
-static int add_run_summary(hid_t summary, struct run_totals *total, double out[4])
+/* The per-run columns of a pipeline's /summary: the share of the run's particles whose verdict settled as bonded
+ * (an unsettled one counts as not bonded: run_unsettled says how many), the means of their PBCP, v_rest and CoR, and
+ * the number of them still unsettled at the end. */
+enum { RUN_COLUMNS = 5 };
+static const char *const run_columns[RUN_COLUMNS] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor",
+                                                     "run_unsettled"};
+
+/* One run's /summary rows of particles (the substrate left out) added to *total; the run's own values in
+ * out[RUN_COLUMNS] (run_columns). */
+static int add_run_summary(hid_t summary, struct run_totals *total, double out[RUN_COLUMNS])
 {
     size_t n;
     SC_TRY(h5_dataset_size(summary, "bonded", &n));
@@ -694,6 +704,7 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[4
     out[1] = run.pbcp / bodies;
     out[2] = run.v_rest / bodies;
     out[3] = run.cor / bodies;
+    out[4] = (double)run.unsettled;
     total->bodies += run.bodies;
     total->bonded += run.bonded;
     total->unsettled += run.unsettled;
@@ -715,7 +726,7 @@ done:
 }
 
 /* Copy run file `index` (its snapshots, series, summary, stats) into /run_NNNN of the output. */
-static int gather_run(hid_t out, const char *run_dir, long index, struct run_totals *total, double means[4])
+static int gather_run(hid_t out, const char *run_dir, long index, struct run_totals *total, double means[RUN_COLUMNS])
 {
     struct impact_run names = {.run_dir = run_dir};
     name_run(&names, index);
@@ -737,7 +748,7 @@ done:
     return status;
 }
 
-/* /summary of the whole stage: per run (bonded fraction, mean PBCP, v_rest, CoR) and over all bodies. */
+/* /summary of the whole stage: per run (run_columns) and over all bodies. */
 static int write_overall_summary(hid_t out, long runs, const double *means, const struct run_totals *total)
 {
     hid_t g;
@@ -746,13 +757,12 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     int status = SC_OK;
     if (!column)
         SC_FAIL_OOM_AT(status, done, (size_t)runs * sizeof *column, "the summary of the runs");
-    static const char *const names[4] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor"};
-    static const char *const units[4] = {"-", "-", "m/s", "-"};
+    static const char *const units[RUN_COLUMNS] = {"-", "-", "m/s", "-", "-"};
     hsize_t dims[1] = {(hsize_t)runs};
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < RUN_COLUMNS; k++) {
         for (long r = 0; r < runs; r++)
-            column[r] = means[4 * r + k];
-        SC_CHECK(status, h5_write_doubles(g, names[k], 1, dims, column, units[k], 0), done);
+            column[r] = means[RUN_COLUMNS * r + k];
+        SC_CHECK(status, h5_write_doubles(g, run_columns[k], 1, dims, column, units[k], 0), done);
     }
     double bodies = total->bodies ? (double)total->bodies : 1.0;
     SC_CHECK(status, h5_attr_write_int64(g, "runs", runs), done);
@@ -785,13 +795,13 @@ static int gathered_contents(void *owner, hid_t file)
 {
     const struct gathering *g = owner;
     SC_TRY(h5_attr_write_int64(file, "runs", g->runs));
-    double *means = malloc((size_t)g->runs * 4 * sizeof *means);
+    double *means = malloc((size_t)g->runs * RUN_COLUMNS * sizeof *means);
     if (!means)
-        SC_FAIL_OOM((size_t)g->runs * 4 * sizeof *means, "the means of the runs");
+        SC_FAIL_OOM((size_t)g->runs * RUN_COLUMNS * sizeof *means, "the means of the runs");
     struct run_totals total = {.uncalibrated = -1};
     int status;
     for (long r = 0; r < g->runs; r++)
-        SC_CHECK(status, gather_run(file, g->run_dir, r, &total, means + 4 * r), done);
+        SC_CHECK(status, gather_run(file, g->run_dir, r, &total, means + RUN_COLUMNS * r), done);
     SC_CHECK(status, write_overall_summary(file, g->runs, means, &total), done);
 done:
     free(means);

@@ -346,18 +346,23 @@ static void print_impact_runs(hid_t file, FILE *out)
         print_attribute(summary, overall[k], out);
     size_t runs = 0;
     if (h5_dataset_size(summary, "run_bonded_fraction", &runs) == SC_OK && runs > 0) {
-        static const char *const names[] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor"};
-        double *column[4];
-        for (int k = 0; k < 4; k++)
+        /* run_unsettled: files before it hold none (NaN) */
+        static const char *const names[] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor",
+                                            "run_unsettled"};
+        double *column[5];
+        for (int k = 0; k < 5; k++)
             column[k] = read_column(summary, names[k], runs);
-        fprintf(out, "  %-6s %-16s %-9s %-12s %-8s\n", "run", "bonded fraction", "PBCP %", "v_rest (m/s)", "CoR");
+        sc_error_clear();
+        fprintf(out, "  %-6s %-16s %-10s %-9s %-12s %-8s\n", "run", "bonded fraction", "unsettled", "PBCP %",
+                "v_rest (m/s)", "CoR");
         for (size_t r = 0; r < runs; r++) {
-            double value[4];
-            for (int k = 0; k < 4; k++)
+            double value[5];
+            for (int k = 0; k < 5; k++)
                 value[k] = column[k] ? column[k][r] : NAN;
-            fprintf(out, "  %-6zu %-16.3g %-9.3g %-12.4g %-8.3g\n", r, value[0], 100.0 * value[1], value[2], value[3]);
+            fprintf(out, "  %-6zu %-16.3g %-10.3g %-9.3g %-12.4g %-8.3g\n", r, value[0], value[4], 100.0 * value[1],
+                    value[2], value[3]);
         }
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < 5; k++)
             free(column[k]);
     }
     H5Gclose(summary);

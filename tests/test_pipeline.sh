@@ -45,6 +45,19 @@ done
 [ "$(h5dump -a /summary/runs "$REF/impact.h5" 2>/dev/null | grep -c '(0): 4$')" -eq 1 ] || why="$why /summary runs != 4;"
 if [ -z "$why" ]; then pass pipeline_outputs; else fail pipeline_outputs "$why"; fi
 
+# each run's unsettled particles (/summary/run_unsettled) counted independently from its bodies' verdicts (2:
+# unsettled; the substrate is -1), and `spraycoat info` prints them in its table of the runs
+why=""
+values "$REF/impact.h5" /summary/run_unsettled >"$T/run_unsettled"
+for r in 0 1 2 3; do
+    counted=$(values "$REF/impact.h5" "/run_000$r/summary/verdict" | grep -cx '2')
+    stored=$(sed -n "$((r + 1))p" "$T/run_unsettled")
+    [ -n "$stored" ] && [ "$(printf '%.0f' "$stored")" = "$counted" ] || why="$why run $r: run_unsettled '$stored', its verdicts count $counted;"
+done
+"$BIN" info "$REF" >"$T/ref_info.txt" 2>&1
+grep -q '^  run    bonded fraction  unsettled ' "$T/ref_info.txt" || why="$why info prints no unsettled column;"
+if [ -z "$why" ]; then pass pipeline_run_unsettled; else fail pipeline_run_unsettled "$why"; fi
+
 # the spray stage's closing breakdown of its time loop: the phases partition it (none negative, sum 100 %)
 why=$(grep "spray: time loop" "$T/ref.log" | awk -F': ' '{ n = split($NF, parts, ", "); sum = 0;
     for (k = 1; k <= n; k++) { m = split(parts[k], f, " "); p = f[m - 1] + 0; sum += p;
