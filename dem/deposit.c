@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/log.h"
 #include "dem/dem_impl.h"
 
 /* The map's cells have at most this many per side: a finer map would be mostly empty cells. */
@@ -96,8 +97,8 @@ static int gaussian_moments(const double *y, const double *h, size_t n, double p
 }
 
 /* Levenberg-Marquardt (Marquardt 1963, the diagonal scaling of J^T J): a step that lowers the sum of squares is
- * taken and the damping lowered, else the damping raised; stop when the relative change of every parameter is below
- * 1e-10. */
+ * taken and the damping lowered, else the damping raised; stop when the change of every parameter is below 1e-10 of
+ * its scale (the amplitude's own, the width for the centre and the width). */
 int dem_gaussian_fit(const double *y, const double *h, size_t n, struct dem_gaussian *fit)
 {
     memset(fit, 0, sizeof *fit);
@@ -119,9 +120,12 @@ int dem_gaussian_fit(const double *y, const double *h, size_t n, struct dem_gaus
         trial[2] = fabs(trial[2]);
         double trial_sum = trial[2] > 0.0 ? gaussian_residuals(y, h, n, trial, NULL, NULL) : INFINITY;
         if (trial_sum <= sum) {
+            /* the centre's and the width's steps measured against the width: a track centred on y = 0 gives the
+             * centre no scale of its own, and a step relative to it never counted as small */
+            double scale[3] = {fabs(trial[0]), trial[2], trial[2]};
             converged = 1;
             for (int k = 0; k < 3; k++)
-                converged &= fabs(trial[k] - p[k]) <= 1e-10 * fmax(fabs(trial[k]), 1e-300);
+                converged &= fabs(trial[k] - p[k]) <= 1e-10 * fmax(scale[k], 1e-300);
             memcpy(p, trial, sizeof p);
             sum = gaussian_residuals(y, h, n, p, jtj, jtr);
             lambda = fmax(lambda / 10.0, 1e-12);
@@ -255,8 +259,11 @@ static int profile_fill(const struct dem_solver *s, struct dem_deposit *deposit)
     deposit->mean_thickness = rows ? sum / (double)rows : 0.0;
     if (path->pattern == DEM_PATH_LINE)
         deposit->has_fit = dem_gaussian_fit(deposit->profile_y, deposit->profile_height, n, &deposit->fit) == SC_OK;
-    if (path->pattern == DEM_PATH_LINE && !deposit->has_fit)
+    if (path->pattern == DEM_PATH_LINE && !deposit->has_fit) {
+        log_warn("spray: the track's profile has no Gaussian fit (%s): spray.h5 /deposit holds no fit_* attributes",
+                 sc_error_message());
         sc_error_clear();
+    }
     return SC_OK;
 }
 

@@ -718,6 +718,13 @@ static int load_path(const struct case_file *c, struct dem_config *cfg)
                             "0 m with %ld passes: the passes would lie on each other (use "
                             "pattern = line for that)",
                             path->passes);
+    /* the profile averages the middle half of the pass and the thickness is the coating's after every pass: a run
+     * that ends first reports those of a part of the path, which the numbers alone do not show */
+    if (path->pattern != DEM_PATH_NONE && dem_path_duration(path) > cfg->t_end)
+        log_warn(
+            "[path]: the nozzle takes %.4g s over its path, longer than [spray] t_end = %.4g s: the run ends before "
+            "the path does, and the deposit's thickness and track profile are those of the part sprayed",
+            dem_path_duration(path), cfg->t_end);
     return SC_OK;
 }
 

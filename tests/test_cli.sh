@@ -1,6 +1,7 @@
 #!/bin/sh
 # The command line as a user meets it (issue 23, CLI items): per-command help, `resume` ending with the summary
-# of `run`, `info` telling a running job (its run directory locked) from a stopped one.
+# of `run`, `info` telling a running job (its run directory locked) from a stopped one, one numbering of bodies,
+# `check` warning of a nozzle path longer than the run.
 # Prints "PASS name" / "FAIL name: why".  Run from the repository root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -57,3 +58,15 @@ grep -Eq '^ +1 +particle' "$T/impact.info" || why="${why:+$why; }info does not c
 substrate=$(h5dump -d /summary/substrate -y -w 0 "$R/impact.h5" 2>/dev/null | awk '/DATA/{on=1; next} on && /[0-9]/{split($0, v, ","); gsub(/ /, "", v[1]); print v[1]; exit}')
 [ "$substrate" = "1" ] || why="${why:+$why; }/summary row 0 is not the substrate ($substrate)"
 report bodies_numbered_as_in_hdf5
+
+# a nozzle path longer than the run: `check` warns that the thickness and profile are those of the part sprayed (the
+# run's numbers alone do not show it); the shipped case, whose run outlasts its path, gets no such warning
+why=""
+sed 's/^t_end = .*/t_end = 1e-3/' cases/traverse_demo.ini >"$T/short_path.ini"
+grep -q '^t_end = 1e-3$' "$T/short_path.ini" || why="cases/traverse_demo.ini has no t_end line to shorten"
+"$bin" check "$T/short_path.ini" >/dev/null 2>"$T/short_path.err" || why="${why:+$why; }check of the shortened case exited $?"
+grep -q 'warning: \[path\]: the nozzle takes 0.0026 s over its path, longer than \[spray\] t_end = 0.001 s' "$T/short_path.err" ||
+    why="${why:+$why; }no warning that the path outlasts the run: $(head -n 2 "$T/short_path.err")"
+"$bin" check cases/traverse_demo.ini >/dev/null 2>"$T/path.err"
+grep -q 'longer than \[spray\] t_end' "$T/path.err" && why="${why:+$why; }the shipped case, whose run outlasts its path, is warned about"
+report path_longer_than_the_run_warns
