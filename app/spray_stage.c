@@ -295,6 +295,16 @@ static void log_deposition_efficiency(const struct spray_run *run)
              de.mean_impact_speed, de.mean_impact_normal_speed);
     log_de_classes("size (um)", de.by_size, de.size_count, 1e6);
     log_de_classes("first-impact angle (degree)", de.by_angle, de.angle_count, 180.0 / M_PI);
+    /* the DE counts a particle still flying at the end as sprayed and not deposited (docs/physics.md "Deposition
+     * efficiency"): a lower bound that the headline alone does not show once many are in the air */
+    struct dem_metrics m = dem_compute_metrics(run->solver);
+    if (de.sprayed_count > 0 && (double)m.in_flight > 0.05 * (double)de.sprayed_count)
+        log_warn(
+            "spray: %lld of the %lld particles sprayed (%.1f %%) were still in flight at t_end: the DE counts them "
+            "as not deposited, so it is a lower bound; a longer [spray] t_end (or an injection that stops "
+            "earlier) lets them land",
+            (long long)m.in_flight, (long long)de.sprayed_count,
+            100.0 * (double)m.in_flight / (double)de.sprayed_count);
     dem_deposition_efficiency_free(&de);
 }
 

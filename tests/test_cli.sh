@@ -1,7 +1,7 @@
 #!/bin/sh
 # The command line as a user meets it (issue 23, CLI items): per-command help, `resume` ending with the summary
 # of `run`, `info` telling a running job (its run directory locked) from a stopped one, one numbering of bodies,
-# `check` warning of a nozzle path longer than the run.
+# `check` warning of a nozzle path longer than the run, the spray warning of particles in flight at its end.
 # Prints "PASS name" / "FAIL name: why".  Run from the repository root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -70,3 +70,17 @@ grep -q 'warning: \[path\]: the nozzle takes 0.0026 s over its path, longer than
 "$bin" check cases/traverse_demo.ini >/dev/null 2>"$T/path.err"
 grep -q 'longer than \[spray\] t_end' "$T/path.err" && why="${why:+$why; }the shipped case, whose run outlasts its path, is warned about"
 report path_longer_than_the_run_warns
+
+# particles still in flight at t_end: the spray warns that its DE counts them as not deposited (a lower bound), with
+# their number; a run long enough for every particle to land or leave does not
+why=""
+sed 's/^t_end = .*/t_end = 4e-3/' "$base" >"$T/in_flight.ini"
+sed 's/^t_end = .*/t_end = 2e-2/' "$base" >"$T/landed.ini"
+"$bin" spray "$T/in_flight.ini" -o "$T/in_flight" >/dev/null 2>"$T/in_flight.err" || why="the short spray exited $?"
+"$bin" spray "$T/landed.ini" -o "$T/landed" >/dev/null 2>"$T/landed.err" || why="${why:+$why; }the long spray exited $?"
+flying=$(sed -n 's/.*in flight \([0-9]*\)$/\1/p' "$T/in_flight.err")
+grep -q "warning: spray: $flying of the 200 particles sprayed .* were still in flight at t_end: the DE counts them" "$T/in_flight.err" &&
+    [ "${flying:-0}" -gt 10 ] || why="${why:+$why; }no warning of the ${flying:-?} particles in flight: $(grep -i 'warning' "$T/in_flight.err" | head -n 1)"
+grep -q 'in flight 0$' "$T/landed.err" || why="${why:+$why; }the long spray still has particles in flight"
+grep -q 'still in flight at t_end' "$T/landed.err" && why="${why:+$why; }the spray whose particles all landed or left is warned about"
+report in_flight_at_the_end_warns
