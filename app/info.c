@@ -637,13 +637,14 @@ void info_headline(const char *run_dir, FILE *out)
     hid_t summary;
     if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
         double fraction = NAN, pbcp = NAN, v_rest = NAN, interface = NAN;
-        int64_t bodies = 0, runs = 0, unsettled = -1, uncalibrated = -1;
+        int64_t bodies = 0, bonded = -1, runs = 0, unsettled = -1, uncalibrated = -1;
         if (h5_exists(file, "summary") && (summary = H5Gopen2(file, "summary", H5P_DEFAULT)) >= 0) {
             h5_attr_read_double(summary, "bonded_fraction", &fraction);
             h5_attr_read_double(summary, "mean_pbcp", &pbcp);
             h5_attr_read_double(summary, "mean_v_rest", &v_rest);
             h5_attr_read_double(summary, "mean_bonded_interface", &interface); /* format version 2 on */
             h5_attr_read_int64(summary, "bodies", &bodies);
+            h5_attr_read_int64(summary, "bonded", &bonded);
             h5_attr_read_int64(summary, "runs", &runs);
             h5_attr_read_int64(summary, "unsettled", &unsettled);
             if (H5Aexists(summary, "uncalibrated_bodies") > 0)
@@ -651,10 +652,12 @@ void info_headline(const char *run_dir, FILE *out)
             H5Gclose(summary);
         }
         if (runs > 0) {
-            fprintf(out, "impact: %.0f %% of %lld bodies bonded over %lld MPM runs", 100.0 * fraction,
-                    (long long)bodies, (long long)runs);
-            if (unsettled >= 0) /* a verdict still changing at t_end is neither bonded nor rebounded */
-                fprintf(out, ", %lld unsettled", (long long)unsettled);
+            /* counts, not a rounded share alone (1 of 200 is not "0 %"); an unsettled body, whose verdict still
+             * changed at the end, is neither bonded nor rebounded: the share is of all bodies, a lower bound */
+            fprintf(out, "impact: %lld of %lld bodies bonded (%.1f %%) over %lld MPM runs", (long long)bonded,
+                    (long long)bodies, 100.0 * fraction, (long long)runs);
+            if (unsettled >= 0)
+                fprintf(out, ", %lld unsettled (neither bonded nor rebounded)", (long long)unsettled);
             fprintf(out, "; mean PBCP %.1f %%", 100.0 * pbcp);
             if (!isnan(interface)) /* PBCP counts points that ever bonded; this, nodes bonded at the end */
                 fprintf(out, ", mean bonded interface %.1f %%", 100.0 * interface);

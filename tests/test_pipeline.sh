@@ -56,6 +56,14 @@ for r in 0 1 2 3; do
 done
 "$BIN" info "$REF" >"$T/ref_info.txt" 2>&1
 grep -q '^  run    bonded fraction  unsettled ' "$T/ref_info.txt" || why="$why info prints no unsettled column;"
+# the closing headline (of `run` and `resume`; this run had --stages) gives the counts of /summary (bonded, bodies,
+# unsettled), not a rounded share alone
+"$BIN" resume "$REF" >"$T/ref_resume.log" 2>&1 || why="$why resume of the finished run exited $?;"
+bonded=$(h5dump -a /summary/bonded "$REF/impact.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+bodies=$(h5dump -a /summary/bodies "$REF/impact.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+unsettled=$(h5dump -a /summary/unsettled "$REF/impact.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+grep -q "^impact: $bonded of $bodies bodies bonded (.* %) over 4 MPM runs, $unsettled unsettled (neither bonded nor rebounded)" "$T/ref_resume.log" ||
+    why="$why the headline does not give $bonded of $bodies bonded and $unsettled unsettled: $(grep '^impact:' "$T/ref_resume.log")"
 if [ -z "$why" ]; then pass pipeline_run_unsettled; else fail pipeline_run_unsettled "$why"; fi
 
 # the spray stage's closing breakdown of its time loop: the phases partition it (none negative, sum 100 %)
