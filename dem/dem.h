@@ -341,8 +341,10 @@ struct dem_gaussian {
     double rms;                                        /* root mean square residual (m) */
     int iterations;
 };
-/* Least-squares fit of the Gaussian to n >= 4 points (y_i, h_i) by Levenberg-Marquardt from the moments of h.
- * SC_OK, or SC_ESIM when the points hold no peak (all h <= 0) or the fit does not converge. */
+/* Least-squares fit of the Gaussian to n >= 4 points (y_i, h_i, y ascending) by Levenberg-Marquardt from the
+ * moments of h, then again over the points within 5 widths of that centre: the parameters and their standard errors
+ * do not depend on how many empty points lie beyond.  SC_OK, or SC_ESIM when the points hold no peak (all h <= 0) or
+ * the fit does not converge. */
 int dem_gaussian_fit(const double *y, const double *h, size_t n, struct dem_gaussian *fit);
 
 struct dem_deposit {

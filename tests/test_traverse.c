@@ -124,6 +124,27 @@ static void test_gaussian_fit(void)
     sc_error_clear();
     CHECK(fabs(fit.centre) < 1e-3 * width && fabs(fit.width - width) < 3 * fit.width_error,
           "centred on 0: centre %g, width %g +- %g (true %g)", fit.centre, fit.width, fit.width_error, width);
+    /* a track over 12 widths of map (noise where particles land, within 4 widths; no particle, no height beyond) and
+     * the same with 60 empty rows more on each side (a map widened by its band or a stray deposit): the same fit and
+     * standard errors; over every row the errors shrank as 1 / sqrt(n - 3) (by 1.8 here) */
+    enum { ROWS = 97, PAD = 60, WIDE = ROWS + 2 * PAD };
+    double y_wide[WIDE], h_wide[WIDE];
+    for (int i = 0; i < WIDE; i++) {
+        y_wide[i] = 1e-4 * (double)(i - WIDE / 2);
+        double u = y_wide[i] / width;
+        h_wide[i] = fabs(u) > 4.0 ? 0.0 : amplitude * exp(-0.5 * u * u) * (1.0 + 0.05 * sin(12.9898 * (double)i));
+    }
+    struct dem_gaussian narrow, wide;
+    CHECK(dem_gaussian_fit(y_wide + PAD, h_wide + PAD, ROWS, &narrow) == SC_OK &&
+              dem_gaussian_fit(y_wide, h_wide, WIDE, &wide) == SC_OK,
+          "padded: the fits failed");
+    printf("  errors of the centre: %.4g m over %d rows, %.4g m over %d\n", narrow.centre_error, ROWS,
+           wide.centre_error, WIDE);
+    CHECK_CLOSE(wide.centre, narrow.centre, 0, 1e-9 * width, "padded: the centre");
+    CHECK_CLOSE(wide.width, narrow.width, 1e-9, 0, "padded: the width");
+    CHECK_CLOSE(wide.amplitude_error, narrow.amplitude_error, 1e-6, 0, "padded: the amplitude's error");
+    CHECK_CLOSE(wide.centre_error, narrow.centre_error, 1e-6, 0, "padded: the centre's error");
+    CHECK_CLOSE(wide.width_error, narrow.width_error, 1e-6, 0, "padded: the width's error");
 }
 
 struct track {
