@@ -125,11 +125,13 @@ static int sum_unimpacted(const struct dem_solver *s, struct dem_deposition_effi
     return SC_OK;
 }
 
-/* The angle of an impact velocity to the target normal (the spray axis; the target faces -z). */
+/* The angle of an impact velocity to the line of the target normal (the spray axis; the target faces -z), 0 to 90
+ * degrees: a first contact with a deposited particle met from the side can move away from the target (v_z < 0), and
+ * render/spray_figures.c's histogram of the same impacts folds it the same way. */
 static double impact_angle(const double v[3])
 {
     double speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    return speed > 0 ? acos(fmin(1.0, fmax(-1.0, v[2] / speed))) : 0.0;
+    return speed > 0 ? acos(fmin(1.0, fabs(v[2]) / speed)) : 0.0;
 }
 
 static void split_by_angle(const struct dem_solver *s, struct dem_deposition_efficiency *de)
