@@ -332,8 +332,11 @@ static void log_summary(const struct spray_run *run)
         log_info("spray: no end-of-step corrections (clamps): no particle ended a step inside another or the target; "
                  "%lld stopped caught between bodies",
                  (long long)c.trapped);
-    log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m", m.volume_fraction,
-             m.mean_spread, m.scatter, m.max_thickness);
+    log_info("spray: volume fraction %.4g, mean spread %.4g m, scatter %.4g m, max thickness %.4g m%s",
+             m.volume_fraction, m.mean_spread, m.scatter, m.max_thickness,
+             run->cfg.path.pattern == DEM_PATH_NONE ? ""
+                                                    : " (the first three measured from the origin, where the nozzle's "
+                                                      "path starts, not from its moving axis)");
     log_deposition_efficiency(run);
     log_timing(run);
 }

@@ -166,7 +166,7 @@ static int profile_figure(const struct render_request *req, const struct deposit
     return status;
 }
 
-int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out)
+int render_nozzle_moves(hid_t file)
 {
     char pattern[16] = "none";
     if (h5_exists(file, "deposit")) {
@@ -176,7 +176,12 @@ int render_deposit_figures(const struct render_request *req, hid_t file, const c
         if (g >= 0)
             H5Gclose(g);
     }
-    if (strcmp(pattern, "none") == 0)
+    return strcmp(pattern, "none") != 0;
+}
+
+int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out)
+{
+    if (!render_nozzle_moves(file))
         return SC_OK; /* a fixed nozzle (spray_thickness has its radial profile), or a spray.h5 without /deposit */
     struct deposit_data d;
     memset(&d, 0, sizeof d);

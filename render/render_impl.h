@@ -113,6 +113,8 @@ int render_thickness_profile(const double *x, const double *d, const double *sta
 /* spray.h5 /deposit (open as `file`, named `path` in messages): the height map picture and, for a line or raster
  * path, the track's profile with its fit (render/deposit_figures.c); nothing for a fixed nozzle (pattern none). */
 int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out);
+/* 1 when the open spray.h5 is of a nozzle that moved ([path] pattern other than none: /deposit's attribute). */
+int render_nozzle_moves(hid_t file);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 

@@ -2,7 +2,8 @@
 # `spraycoat render` from the command line: a small spray run drawn twice gives the same PNG bytes; headless
 # Chromium opens report.html and every image in it loads; nothing to draw, a damaged spray.h5 and a bad [render]
 # range are errors with exit status 3, 3 and 2 and a message; `render --every N` draws the plume film, one frame
-# per Nth snapshot of spray.h5 and the last.  No display is needed (OSMesa, Cairo).  Needs h5ls.
+# per Nth snapshot of spray.h5 and the last; a moving nozzle gets the deposit figures, not the radial profile.  No
+# display is needed (OSMesa, Cairo).  Needs h5ls.
 # Prints "PASS name" / "FAIL name: why" (tests/run_tests.sh counts them).  Run from the repo root.
 set -u
 bin=${SPRAYCOAT_BIN:-build/spraycoat}
@@ -152,3 +153,21 @@ if [ "$status" -eq 3 ] && grep -q "spray.h5" "$tmp/err"; then
 else
     echo "FAIL render_damaged_input: exit status $status, stderr: $(head -c 300 "$tmp/err")"
 fi
+
+# ---- a moving nozzle (cases/traverse_demo.ini, under a second): the deposit's height map and track profile are drawn
+# and the radial thickness profile is not (it is measured from the axis, which moved); the metrics figure and the
+# spray's log say their spread and volume fraction are measured from the origin; the fixed nozzle above has the
+# radial profile and none of that ----
+why=""
+"$bin" run cases/traverse_demo.ini -o "$tmp/moving" >"$tmp/moving.log" 2>&1 || why="the traverse run exited $?"
+for f in deposit_height.png deposit_profile.png spray_metrics.png; do
+    [ -s "$tmp/moving/figures/$f" ] || why="${why:+$why; }no $f"
+done
+[ -e "$tmp/moving/figures/spray_thickness.png" ] && why="${why:+$why; }the radial thickness profile is drawn for a moving nozzle"
+grep -q 'Deposit metrics vs time (volume fraction, spread and scatter measured from the origin' "$tmp/moving/report.html" ||
+    why="${why:+$why; }the metrics figure does not say it is measured from the origin"
+grep -q 'scatter .* (the first three measured from the origin' "$tmp/moving.log" ||
+    why="${why:+$why; }the spray's log does not say its spread is measured from the origin"
+[ -s "$tmp/first/spray_thickness.png" ] || why="${why:+$why; }the fixed nozzle has no radial thickness profile"
+grep -q 'measured from the origin' "$tmp/run/report.html" && why="${why:+$why; }the fixed nozzle's report says measured from the origin"
+if [ -z "$why" ]; then echo "PASS render_moving_nozzle_figures"; else echo "FAIL render_moving_nozzle_figures: $why"; fi
