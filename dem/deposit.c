@@ -187,7 +187,8 @@ static void map_extent(const struct dem_solver *s, double lo[2], double hi[2])
     const struct dem_path *path = &s->cfg.path;
     double duration = dem_path_duration(path), xy[2];
     lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
-    /* the path's corners are its positions at the pass ends; 64 samples a pass find them for line and raster */
+    /* the positions at 64 samples a pass: the pass ends fall between two, so the map may stop up to 1/64 of a pass
+     * short of the swept band, where it would hold only empty cells (every deposited centre is added below) */
     long samples = 64 * (path->passes > 0 ? path->passes : 1) + 1;
     for (long k = 0; k <= samples; k++) {
         dem_path_position(path, duration * (double)k / (double)samples, xy);
