@@ -410,10 +410,11 @@ FM_INLINE int deviatoric_begin(const struct mpm_material *m, const struct mpm_ma
     double trial_squared = 1.5 * contract(w->s_new, w->s_new); /* Eq. A5: von_mises(s_new) is its root */
     if (m->strength == MPM_STRENGTH_ELASTIC)
         return 0;
-    /* sigma_y >= 2 G y_inf at any rate and strain below melt (tau >= tau_y >= y_inf, Eq. 2.7b): a trial stress
-     * below that is elastic without evaluating PTW (most points of a substrate, most steps); most of those are
-     * told by the square, without the square root's latency */
-    double bound = 2.0 * G * m->ptw_yinf;
+    /* sigma_y >= 2 G min(y_inf, s_inf) at any rate and strain below melt (tau >= tau_y >= y_inf where tau_s >
+     * tau_y, else tau = tau_s >= s_inf, Eq. 2.7; s_inf < y_inf is a valid material): a trial stress below that is
+     * elastic without evaluating PTW (most points of a substrate, most steps); most of those are told by the
+     * square, without the square root's latency */
+    double bound = 2.0 * G * fmin(m->ptw_yinf, m->ptw_sinf);
     if (G > 0.0 && trial_squared < BELOW_SQUARE * bound * bound) {
         w->yield = state->yield_stress;
         return 0;

@@ -92,8 +92,41 @@ static void test_one_lane_return_is_the_cpus(void)
     CHECK(mismatch == 0, "%d steps differ from mpm_stress_update_prepared", mismatch);
 }
 
+/* A PTW material whose saturation stress at melt is below its yield stress at melt (s_inf < y_inf: allowed, and
+ * then tau_s < tau_y can hold, with no hardening range and the flow stress 2 G tau_s, Eq. 2.7).  Sheared slowly
+ * at 298 K, the point must yield once its stress reaches PTW's flow stress: the elastic shortcut took every trial
+ * stress under 2 G y_inf as elastic, and the point stayed elastic up to 102 MPa where PTW flows at about 50-80 MPa. */
+static void test_yield_below_y_inf(void)
+{
+    struct mpm_material m = aluminium();
+    m.ptw_sinf = 0.001;
+    struct mpm_material_constants c;
+    struct mpm_bulk_viscosity q = {.quadratic = 1.5, .linear = 0.06, .length = 1e-6};
+    mpm_material_prepare(&m, &c);
+    struct mpm_point_state state;
+    mpm_point_state_init(&m, &state);
+    const double rate = 1e3, dt = 1e-7;
+    double elastic_max = 0.0, flow = NAN;
+    for (int k = 0; k < 2000 && state.eps_p == 0.0; k++) {
+        double shear = rate * dt, de[6] = {0.0, 0.0, 0.0, shear, 0.0, 0.0}, spin[3] = {0.0, 0.0, 0.0};
+        struct mpm_update_result r;
+        CHECK(mpm_stress_update_prepared(&m, &c, &q, de, spin, dt, log(dt), V0, V0, V0, &state, &r) == 0, "update");
+        if (state.eps_p == 0.0)
+            elastic_max = fmax(elastic_max, r.von_mises);
+    }
+    double G = mpm_mts_shear_modulus(&m, state.T), Tm = m.melt_T0;
+    flow = mpm_ptw_flow_stress(&m, 0.0, rate, state.T, Tm, m.density, G);
+    printf("  s_inf < y_inf: elastic up to %.4g MPa; PTW's flow stress at eps_p 0 and %g /s: %.4g MPa; 2 G y_inf %.4g "
+           "MPa\n",
+           elastic_max * 1e-6, rate, flow * 1e-6, 2.0 * G * m.ptw_yinf * 1e-6);
+    CHECK(state.eps_p > 0.0, "the point never yielded");
+    CHECK(elastic_max <= flow * (1.0 + 1e-6), "elastic up to %.6g Pa, above PTW's flow stress %.6g Pa", elastic_max,
+          flow);
+}
+
 int main(void)
 {
     RUN(test_one_lane_return_is_the_cpus);
+    RUN(test_yield_below_y_inf);
     return check_finish();
 }
