@@ -136,18 +136,19 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
 }
 
 /* The pairs that meet at one node this step (both flagged in g->contact: in contact, bonded or touching) added to
- * their bodies' interface counts, and those bonded by Eq. 4.7 (pair_bonded) to their bonded counts. */
+ * their bodies' interface counts, and those bonded by Eq. 4.7 (pair_bonded) to their bonded counts: the whole
+ * set-up's, each node counted for itself and its mirror images (mirror_node_copies). */
 static void count_interface_pairs(const struct contact_nodes *c, size_t node, int64_t *interface, int64_t *bonded)
 {
-    int a = 0, b = 0;
+    int a = 0, b = 0, copies = mirror_node_copies(c, node);
     double n[3];
     while (next_pair(c, node, &a, &b, n)) {
         size_t Ia = (size_t)a * c->nodes + node, Ib = (size_t)b * c->nodes + node;
         if (!c->contact[Ia] || !c->contact[Ib])
             continue;
         int held = pair_bonded(c, Ia, Ib);
-        interface[a]++, interface[b]++;
-        bonded[a] += held, bonded[b] += held;
+        interface[a] += copies, interface[b] += copies;
+        bonded[a] += copies * held, bonded[b] += copies * held;
     }
 }
 

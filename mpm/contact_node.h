@@ -665,6 +665,19 @@ SC_HD static inline void mirror_node(const struct contact_nodes *c, size_t node,
     }
 }
 
+/* [impact] symmetry: the nodes of the whole set-up that this node of the modelled part stands for: itself and its
+ * image across each mirror plane it is not on (1, 2 or 4).  Counts of nodes (the bonded interface) are weighted by
+ * it; counts of points need no weight (no point lies on a plane, each stands for `copies` points). */
+SC_HD static inline int mirror_node_copies(const struct contact_nodes *c, size_t node)
+{
+    long at[2] = {(long)(node % c->row), (long)(node % c->plane / c->row)};
+    int copies = 1;
+    for (int d = 0; d < 2; d++)
+        if (c->mirror[d] && at[d] != c->mirror_plane[d])
+            copies *= 2;
+    return copies;
+}
+
 /* Steps 3-6 at one node (in z plane k): the mirror planes, Eq. 3.28, the wall or the fixed bottom, contact and
  * bonds (resolve_node, on the start momenta too but with contact_scheme = thesis).  Returns whether a pair
  * interacted, *bonded whether one was bonded. */

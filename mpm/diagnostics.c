@@ -46,7 +46,8 @@ static void smooth_velocity(const struct mpm_solver *s, size_t q, double v[3])
 
 /* The whole body's from its modelled part's sums ([impact] symmetry, `copies` of it): the extensive sums times the
  * copies (no point lies on a mirror plane), means as they are, no centre-of-mass motion across a mirror plane;
- * interface and bonded: its interface nodes and those bonded (-1: not counted). */
+ * interface and bonded: its interface nodes and those bonded, already the whole set-up's (a node on a mirror plane
+ * has no image: mirror_node_copies), -1: not counted. */
 static void finish_body(const struct mpm_config *cfg, const struct point_sums *b, int64_t interface, int64_t bonded,
                         struct mpm_body_diagnostics *out)
 {
@@ -64,8 +65,8 @@ static void finish_body(const struct mpm_config *cfg, const struct point_sums *b
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;
     out->contacted_points = (int64_t)copies * b->contacted;
     out->bonded_points = (int64_t)copies * b->bonded;
-    out->interface_nodes = interface < 0 ? -1 : (int64_t)copies * interface;
-    out->bonded_nodes = bonded < 0 ? -1 : (int64_t)copies * bonded;
+    out->interface_nodes = interface < 0 ? -1 : interface;
+    out->bonded_nodes = bonded < 0 ? -1 : bonded;
     out->bonded_interface = interface < 0 ? NAN : interface > 0 ? (double)bonded / (double)interface : 0.0;
 }
 

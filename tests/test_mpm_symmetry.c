@@ -14,7 +14,7 @@
     "velocity = 810\nt_end = 3e-9\nspacing = 0.4667e-6\nbonding = strain\n[material.aluminium]\n"
 
 struct outcome {
-    int64_t points;
+    int64_t points, interface_nodes, bonded_nodes;
     double energy_total, kinetic, internal, plastic_work, v_com[3], pbcp, v_rest;
 };
 
@@ -37,10 +37,13 @@ static int run_case(const char *extra, struct outcome *out)
                                 .plastic_work = b->plastic_work,
                                 .v_com = {b->v_com[0], b->v_com[1], b->v_com[2]},
                                 .pbcp = b->pbcp,
-                                .v_rest = b->v_rest};
-        printf("  %-40s %7lld points: v_com (%.3g, %.3g, %.8g) m/s, KE %.8g J, W_p %.8g J, PBCP %.4g\n", extra,
-               (long long)out->points, out->v_com[0], out->v_com[1], out->v_com[2], out->kinetic, out->plastic_work,
-               out->pbcp);
+                                .v_rest = b->v_rest,
+                                .interface_nodes = b->interface_nodes,
+                                .bonded_nodes = b->bonded_nodes};
+        printf("  %-40s %7lld points: v_com (%.3g, %.3g, %.8g) m/s, KE %.8g J, W_p %.8g J, PBCP %.4g, interface "
+               "%lld nodes (%lld bonded)\n",
+               extra, (long long)out->points, out->v_com[0], out->v_com[1], out->v_com[2], out->kinetic,
+               out->plastic_work, out->pbcp, (long long)out->interface_nodes, (long long)out->bonded_nodes);
     }
     impact_fixture_close(&f);
     return status;
@@ -93,6 +96,16 @@ static void test_half_and_quarter_on_a_substrate(void)
     check_same(&nudged, &whole, 1e-5, "grid 1e-8 larger against whole");
     check_same(&half, &whole, 1e-6, "half against whole");
     check_same(&quarter, &whole, 1e-6, "quarter against whole");
+    /* the whole set-up's interface nodes: a node on a mirror plane stands for itself only (counting it as the
+     * part's copies made the quarter's 16 where the whole has 9) */
+    CHECK(whole.interface_nodes > 0, "the particle meets the substrate at %lld nodes",
+          (long long)whole.interface_nodes);
+    CHECK(half.interface_nodes == whole.interface_nodes && quarter.interface_nodes == whole.interface_nodes,
+          "interface nodes: half %lld, quarter %lld, whole %lld", (long long)half.interface_nodes,
+          (long long)quarter.interface_nodes, (long long)whole.interface_nodes);
+    CHECK(half.bonded_nodes == whole.bonded_nodes && quarter.bonded_nodes == whole.bonded_nodes,
+          "bonded interface nodes: half %lld, quarter %lld, whole %lld", (long long)half.bonded_nodes,
+          (long long)quarter.bonded_nodes, (long long)whole.bonded_nodes);
     CHECK(fabs(whole.v_com[0]) < 1e-9 && fabs(whole.v_com[1]) < 1e-9, "the whole impact is symmetric: v_com %g, %g",
           whole.v_com[0], whole.v_com[1]);
 }

@@ -438,8 +438,9 @@ __global__ static void interface_kernel(struct mpm_gpu g, int body)
             meets++;
             bonded += pair_bonded(c, Ia, Ib);
         }
-    g.node_contacts[node] = meets;
-    g.node_bonds[node] = bonded;
+    int copies = mirror_node_copies(c, node); /* the whole set-up's, as count_interface_pairs */
+    g.node_contacts[node] = copies * meets;
+    g.node_bonds[node] = copies * bonded;
 }
 
 /* ---- points ---- */
