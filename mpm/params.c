@@ -189,7 +189,8 @@ const struct cfg_key mpm_case_keys[] = {
     {MAT, "taylor_quinney", CFG_REAL, "-", "0.9", 0, 1, 0, NULL, "fraction of plastic work turned into heat"},
     {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL, "initial temperature"},
     {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.499, CFG_MIN_EXCLUSIVE, NULL,
-     "Poisson ratio for the wave speeds (K = 2 G0(1 + nu)/(3(1 - 2 nu))); default K = rho0 c0^2"},
+     "Poisson ratio for the wave speeds (K = 2 G(T_initial)(1 + nu)/(3(1 - 2 nu)), G of MTS, Eq. 2.6); default K = "
+     "rho0 c0^2"},
     {MAT, "bulk_modulus", CFG_REAL, "Pa", NULL, 0, 1e13, 1, NULL,
      "bulk modulus for the wave speeds (time step, absorbing boundaries); default rho0 c0^2"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
