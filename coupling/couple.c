@@ -152,8 +152,11 @@ static int build_window(const struct couple_config *cfg, const struct couple_can
     return SC_OK;
 }
 
-/* stratified: n_d diameter strata of (nearly) equal count; diameter stratum i holds the seeds k = i, i + n_d, ...
- * and is split by speed into one sub-stratum per seed. */
+/* stratified: n_d diameter strata; diameter stratum i holds the seeds k = i, i + n_d, ... and is split by speed
+ * into one sub-stratum per seed.  Each diameter stratum's share of the candidates is its share of the seeds (the
+ * first ones get one seed more when n_d does not divide N): every sub-stratum then holds at least n / N >= 1
+ * candidates (equal quantiles left the first, which has the most seeds, with fewer candidates than seeds for some n
+ * >= N, and a seed without candidates), and each seed stands for the same share of the impacts. */
 static int build_stratified(const struct couple_config *cfg, const struct couple_candidate *cand, size_t n,
                             size_t seeds, struct couple_strata *s)
 {
@@ -166,10 +169,11 @@ static int build_stratified(const struct couple_config *cfg, const struct couple
     sort_members(cand, by_diameter, n, 0);
     int status;
     SC_CHECK(status, strata_alloc(s, seeds, n, seeds), done);
-    size_t stratum = 0;
+    size_t stratum = 0, seeds_before = 0;
     for (size_t i = 0; i < n_d; i++) {
-        size_t first = i * n / n_d, last = (i + 1) * n / n_d; /* diameter quantile i */
-        size_t slots = (seeds - i + n_d - 1) / n_d;           /* seeds i, i + n_d, ... */
+        size_t slots = (seeds - i + n_d - 1) / n_d;                                         /* seeds i, i + n_d, ... */
+        size_t first = seeds_before * n / seeds, last = (seeds_before + slots) * n / seeds; /* diameter quantile i */
+        seeds_before += slots;
         sort_members(cand, by_diameter + first, last - first, 1);
         for (size_t j = 0; j < slots; j++, stratum++) {
             size_t lo = first + j * (last - first) / slots, hi = first + (j + 1) * (last - first) / slots;

@@ -90,6 +90,35 @@ static void test_random_is_reproducible(void)
     couple_strata_free(&c);
 }
 
+/* Stratified over as few candidates as seeds, or a few more, for N = 2..20 seeds (runs of one body): every seed's
+ * stratum holds candidates, and their sizes differ by at most one share (n / N rounded, +1).  With the diameter
+ * quantiles of equal count, N = n = 3 gave the first quantile (2 seeds) 1 candidate, and the stage stopped with
+ * "no further spray impact of its stratum" though the spray had enough. */
+static void test_stratified_never_empty(void)
+{
+    int empty = 0, uneven = 0;
+    for (long seeds = 2; seeds <= 20; seeds++)
+        for (size_t n = (size_t)seeds; n < (size_t)seeds + 8; n++) {
+            struct couple_config cfg = config(COUPLE_STRATIFIED, seeds, 1);
+            struct couple_strata s;
+            if (couple_strata_build(NULL, &cfg, candidates, n, &s) != SC_OK) {
+                CHECK(0, "N %ld, n %zu: %s", seeds, n, sc_error_message());
+                sc_error_clear();
+                continue;
+            }
+            for (size_t k = 0; k < s.count; k++) {
+                size_t size = s.offset[k + 1] - s.offset[k];
+                if (size == 0 && !empty++)
+                    printf("  N %ld, n %zu: stratum %zu is empty\n", seeds, n, k);
+                uneven += size > n / (size_t)seeds + 1;
+            }
+            CHECK(s.offset[s.count] == n, "N %ld, n %zu: the strata hold %zu candidates", seeds, n, s.offset[s.count]);
+            couple_strata_free(&s);
+        }
+    CHECK(empty == 0, "%d empty strata", empty);
+    CHECK(uneven == 0, "%d strata hold more than one share and one", uneven);
+}
+
 /* N = 12 seeds: n_d = 4 diameter quantiles of the candidates, three seeds each; each seed's stratum lies inside
  * its diameter quantile and inside one third of that quantile's speed range; the strata of one quantile do not
  * overlap and together hold the whole quantile. */
@@ -221,6 +250,7 @@ int main(void)
     RUN(test_random_is_a_permutation);
     RUN(test_random_is_reproducible);
     RUN(test_stratified_covers_every_quantile);
+    RUN(test_stratified_never_empty);
     RUN(test_window_in_arrival_order);
     RUN(test_too_few_candidates);
     RUN(test_place_window);
