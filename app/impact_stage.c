@@ -623,6 +623,39 @@ static int scale_to_particle(const struct case_file *c, struct mpm_config *cfg, 
     return SC_OK;
 }
 
+/* Every body of the seeds over the substrate: the couple stage spreads a run's bodies over [couple] patch_size,
+ * and a body placed beyond the substrate's edge meets nothing, flies on, and its run counts it as a body that did
+ * not bond.  (A rigid wall has no edge.) */
+static int seeds_over_substrate(const struct impact_run *run)
+{
+    const struct mpm_config *cfg = &run->cfg;
+    const struct mpm_body *substrate = NULL;
+    for (int b = 0; b < cfg->body_count; b++)
+        if (cfg->bodies[b].substrate)
+            substrate = &cfg->bodies[b];
+    if (!substrate)
+        return SC_OK;
+    int box = substrate->shape == MPM_BOX;
+    for (size_t k = 0; k < run->seed_count; k++) {
+        const struct mpm_body *body = &cfg->bodies[cfg->body_count - (int)run->seed_count + (int)k];
+        double dx = body->center[0] - substrate->center[0], dy = body->center[1] - substrate->center[1];
+        double from_axis = box ? fmax(fabs(dx), fabs(dy)) : hypot(dx, dy);
+        double beyond = from_axis + 0.5 * body->d - 0.5 * substrate->d;
+        if (beyond > 0.0)
+            SC_FAIL(SC_EINPUT,
+                    "%s: the body of %s/couple.h5 /seeds row %zu (d = %.4g um, its centre %.4g um from the "
+                    "substrate's axis) reaches %.3g um beyond the substrate (%s %.4g um across in this run: "
+                    "[impact] substrate_diameter, scaled with the run when [couple] reference_diameter is given): "
+                    "[couple] patch_size = %g m spreads a run's bodies wider than the substrate; allowed: "
+                    "substrate_diameter at least %s patch_size plus the largest particle's diameter (as scaled), or "
+                    "a smaller patch_size, or bodies_per_run = 1",
+                    run->label, run->run_dir, run->seed_first + k, body->d * 1e6, from_axis * 1e6, beyond * 1e6,
+                    box ? "a box" : "a cylinder", substrate->d * 1e6, case_real(run->ctx->c, "couple", "patch_size"),
+                    box ? "" : "sqrt(2) times");
+    }
+    return SC_OK;
+}
+
 /* Run `index` of the seeds, unless its file is already there (an earlier, interrupted process finished it). */
 static int run_seeded(const struct stage_context *ctx, uint64_t hash, const struct run_settings *settings,
                       const struct couple_bodies *bodies, long index)
@@ -646,6 +679,7 @@ static int run_seeded(const struct stage_context *ctx, uint64_t hash, const stru
              done);
     if (bodies->temperature)
         SC_CHECK(status, mpm_config_set_particle_temperatures(&run.cfg, (int)count, bodies->temperature + first), done);
+    SC_CHECK(status, seeds_over_substrate(&run), done);
     SC_CHECK(status, run_stage(&run), done);
 done:
     mpm_destroy(run.solver);

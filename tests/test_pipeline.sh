@@ -124,6 +124,19 @@ else
     fail pipeline_rerun_changed_stage_only "$(grep -E 'up to date|another case' "$T/rerun.log" | tr '\n' ' ')"
 fi
 
+# ---- 3a. bodies over the substrate: three runs of two bodies spread over the default 40 um patch, on the fixture's
+# 20 um substrate: the first run stops with exit 2 naming the seed row, patch_size and substrate_diameter (its body
+# beyond the edge met nothing and counted as "not bonded") ----
+sed -e 's/^runs = 4$/runs = 3/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2/' "$CASE0" >"$T/off.ini"
+"$BIN" run "$T/off.ini" --stages "$STAGES" -o "$T/off" >"$T/off.log" 2>&1
+off=$?
+if [ $off -eq 2 ] && grep -q 'couple.h5 /seeds row [0-9]* .* beyond the substrate .*patch_size' "$T/off.log" &&
+    [ ! -e "$T/off/impact.h5" ]; then
+    pass pipeline_bodies_over_the_substrate
+else
+    fail pipeline_bodies_over_the_substrate "exit $off: $(grep -i 'error\|beyond' "$T/off.log" | head -n 1)"
+fi
+
 # ---- 3b. [couple] reference_diameter: each run scaled to its particle, 10 cells across with 3 points per edge ------
 # (the resolution of the shipped strain calibration: no particle uncalibrated); the fixture's own runs, 2 points per
 # cell edge, are all uncalibrated

@@ -21,8 +21,9 @@ if ! command -v python3 >/dev/null 2>&1; then
     exit 1
 fi
 
-# tests/fixtures/pipeline_small.ini with two runs of two bodies and a shorter spray
-sed -e 's/^runs = 4$/runs = 2/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2/' \
+# tests/fixtures/pipeline_small.ini with two runs of two bodies (spread over a 6 um patch: the fixture's 20 um
+# substrate holds sqrt(2) 6 + 10 um) and a shorter spray
+sed -e 's/^runs = 4$/runs = 2/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2\npatch_size = 6e-6/' \
     -e 's/^t_end = 4e-9$/t_end = 3e-9/' tests/fixtures/pipeline_small.ini >"$T/case.ini"
 if ! "$bin" run "$T/case.ini" -o "$T/run" -q >"$T/out" 2>&1; then
     echo "FAIL report_pipeline: the pipeline failed: $(tail -c 400 "$T/out")"
