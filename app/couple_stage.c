@@ -278,7 +278,13 @@ static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_
     /* the jet's axis where the nozzle was at the hand-off: quasi-steady over the flight's ~0.1 ms */
     w->layer.gas.axis_x = h->axis[0];
     w->layer.gas.axis_y = h->axis[1];
-    SC_TRY(couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]));
+    if (couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]) != SC_OK) {
+        char reason[1024];
+        snprintf(reason, sizeof reason, "%s", sc_error_message());
+        SC_FAIL(SC_ESIM,
+                "couple: the flight of particle %lld (d = %.4g um; spray.h5 /impacts row %lld, /handoff row %zu): %s",
+                (long long)c->particle_id, c->d * 1e6, (long long)c->impact_row, w->handoff_of[k], reason);
+    }
     w->flight_candidate[i] = k;
     w->flight_count++;
     *row = i;
@@ -295,7 +301,7 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         if (taken[k] || w->handoff_of[k] == SIZE_MAX)
             continue;
         taken[k] = 1;
-        size_t row;
+        size_t row = 0;
         SC_TRY(fly(w, solver, k, &row));
         const struct couple_flight_result *f = &w->flights[row];
         if (!f->reached)

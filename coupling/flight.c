@@ -221,11 +221,16 @@ static int integrate_steps(struct couple_flight_solver *solver, double t_limit, 
     double *state = N_VGetArrayPointer(solver->state);
     double t = r->t;
     SC_TRY(record_sample(r, &capacity, t, state));
-    for (;;) {
+    /* CVodeSetMaxNumSteps bounds the steps of one CVode call, and each call here takes one: the flight's own count */
+    for (long steps = 1;; steps++) {
         int flag = CVode(solver->cvode, t_limit, solver->state, &t, CV_ONE_STEP);
         if (flag < 0)
-            SC_FAIL(SC_ESIM, "flight: CVODE failed at t = %.6g s, z = %.6g m (flag %d: %s)", t, state[2], flag,
-                    CVodeGetReturnFlagName(flag));
+            SC_FAIL(SC_ESIM, "flight: CVODE failed at step %ld, t = %.17g s, z = %.6g m (flag %d: %s)", steps, t,
+                    state[2], flag, CVodeGetReturnFlagName(flag));
+        if (steps > MAX_STEPS)
+            SC_FAIL(SC_ESIM,
+                    "flight: %d CVODE steps without reaching the wall or the time limit (t = %.17g s, z = %.6g m)",
+                    MAX_STEPS, t, state[2]);
         SC_TRY(record_sample(r, &capacity, t, state));
         int found[2] = {0, 0};
         if (flag == CV_ROOT_RETURN)
