@@ -535,7 +535,11 @@ static void find_contacts_of_new_path(struct dem_solver *s, uint32_t i, const st
     double lo[3], hi[3];
     path_box(s, i, lo, hi);
     struct secondary_query query = {s, i, out};
-    dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query);
+    /* a path whose box spans more cells than the search visits (not seen: a changed path moves at most a few times
+     * the fastest particle's step, and a cell is at least that): every particle, rather than none */
+    if (dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, consider_partner, &query) != 0)
+        for (size_t j = 0; j < s->p.count; j++)
+            consider_partner((uint32_t)j, &query);
     for (size_t k = 0; k < changed->count; k++)
         if (changed->items[k] != i && boxes_meet(lo, hi, changed->lo + 3 * k, changed->hi + 3 * k))
             push_pair_contact(s, i, changed->items[k], out);
