@@ -134,24 +134,7 @@ fi
 
 # ---- 4. a vcrit record of the other build: not reused, kept aside ------------------------------------------------
 VCASE=$T/vcrit.ini
-cat >"$VCASE" <<EOF
-; the tiny search of tests/test_vcrit.sh (far too coarse for physics), one diameter
-[run]
-threads = 1
-
-[impact]
-grid = 2e-6
-spacing = 1e-6
-substrate_diameter = 20e-6
-substrate_height = 6e-6
-t_end = 10e-9
-bonding = energy
-settle_window = 2e-9
-settle_vcom = 1e4
-settle_pbcp = 1
-vrest_filter = 1e4
-
-[material.aluminium]
+cat tests/fixtures/vcrit_tiny.ini - >"$VCASE" <<EOF
 
 [vcrit]
 diameters = 8e-6

@@ -34,28 +34,8 @@ scratch_dir
 
 V_LOW=200
 V_HIGH=1200
-write_case() { # write_case FILE V_HIGH
-    cat >"$1" <<EOF
-; tiny vcrit search for tests/test_vcrit.sh: far too coarse for physics, quick
-[run]
-threads = 1
-
-[impact]
-grid = 2e-6
-spacing = 1e-6
-substrate_diameter = 20e-6
-substrate_height = 6e-6
-t_end = 10e-9
-; the energy model's Gc 720 J/m2 bonds within 10 ns (the shipped strain calibration needs 50 ns)
-bonding = energy
-; verdicts settle within 10 ns (mpm/verdict.c; physics needs 50-60 ns): a short window, any v_com and PBCP
-; drift, and v_rest over all points (at 10 ns a fast particle has hardly a point under the 60 m/s filter)
-settle_window = 2e-9
-settle_vcom = 1e4
-settle_pbcp = 1
-vrest_filter = 1e4
-
-[material.aluminium]
+write_case() { # write_case FILE V_HIGH: tests/fixtures/vcrit_tiny.ini and a [vcrit] section
+    cat tests/fixtures/vcrit_tiny.ini - >"$1" <<EOF
 
 [vcrit]
 diameters = 10e-6,8e-6
