@@ -11,11 +11,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 OTHER=$(dirname "$BIN")/tests/spraycoat-other-sources
 DEMO=cases/mz2015_demo.ini
 

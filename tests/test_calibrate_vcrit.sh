@@ -31,11 +31,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 pass() { echo "PASS $1"; }
 fail() { echo "FAIL $1 ($2)"; }
 if [ ! -x "$BIN" ] || ! command -v h5dump >/dev/null 2>&1; then

@@ -15,11 +15,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 DEMO=cases/impact_demo.ini
 
 pass() { echo "PASS $1"; }

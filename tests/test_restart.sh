@@ -19,11 +19,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 DEMO=cases/mz2015_demo.ini
 
 failures=0

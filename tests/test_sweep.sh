@@ -14,11 +14,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 # the energy model's v_crit(d) (lower than the shipped table's), under which the short spray's runs deposit some
 # particles at every grid point, so the maps have something to show
 TABLE=$(pwd)/cases/vcrit_al_energy.csv

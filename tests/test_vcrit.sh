@@ -16,11 +16,7 @@
 set -u
 . tests/wait_lib.sh
 
-BIN=${SPRAYCOAT_BIN:-build/spraycoat}
-case $BIN in
-/*) ;;
-*/*) BIN=$(pwd)/$BIN ;;
-esac
+spraycoat_bin
 BASE=tests/bad_cases/valid_base.ini
 
 pass() { echo "PASS $1"; }

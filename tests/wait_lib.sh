@@ -54,3 +54,13 @@ blocked_write() {
     blocked=$?
     rmdir "$block_dir/$block_file.tmp"
 }
+
+# spraycoat_bin: BIN, the program under test ($SPRAYCOAT_BIN, default build/spraycoat), made absolute when it names a
+# path relative to the repository root (a test that changes folder still finds it; a bare name stays a PATH lookup).
+spraycoat_bin() {
+    BIN=${SPRAYCOAT_BIN:-build/spraycoat}
+    case $BIN in
+    /*) ;;
+    */*) BIN=$(pwd)/$BIN ;;
+    esac
+}
