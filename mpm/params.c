@@ -135,7 +135,8 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "stop_when_settled", CFG_CHOICE, "", "yes", 0, 0, 0, "yes|no",
      "end the impact run once every particle's verdict is settled (else at t_end)"},
     {"impact", "vrest_filter", CFG_REAL, "m/s", "60", 0, 1e5, 1, NULL,
-     "only points slower than this count in the restitution velocity (ejected material left out)"},
+     "only points slower than this count in the restitution velocity (ejected material left out); a body leaving "
+     "with no point that slow is judged on its centre of mass's speed"},
     {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL, "simulated time between snapshots"},
     {"impact", "series_every", CFG_REAL, "s", "0.5e-9", 0, 1, 1, NULL, "simulated time between series rows"},
     {"impact", "box_margin", CFG_REAL, "m", "5e-6", 0, 1, 0, NULL,

@@ -6,7 +6,8 @@
  * threshold, so a judgement on one row's v_rest flips with the phase of the ringing and never settles.  Each row is
  * therefore judged on the means of v_rest and v_com over the window W that ends at it (W: settle_window, or two wave
  * transits across the body, body_window): bonded when PBCP >= pbcp_threshold and the mean v_rest <= vrest_threshold.
- * A row has no judgement while some row of its window has no v_rest (no point slower than vrest_filter).  A verdict
+ * A row with no point slower than vrest_filter has no judgement while the body is landing; otherwise it counts its
+ * centre of mass's speed as its v_rest (row_vrest).  A verdict
  * is settled at a row when over the window ending there every row has a judgement, the same one, the mean v_com_z
  * is >= -settle_vcom (a body still landing is not judged), each component of the mean v_com moved by at most
  * settle_vcom and PBCP by at most settle_pbcp.  A steady motion thus settles two windows after it set in.  The run
@@ -60,8 +61,23 @@ struct judgement {
     int bonded;
 };
 
+/* A row's rest velocity: its v_rest, the mean z-velocity of the body's points slower than vrest_filter (Section
+ * 5.2.1's filter leaves out the material jetted away).  When no point is that slow and the body does not move towards
+ * the substrate (v_com_z >= -settle_vcom, the bound the settling applies), the whole of it leaves faster than the
+ * filter, none of it held: its rest velocity is then its centre of mass's speed (ours; without it a rebound at 64 m/s
+ * was never judged and stayed `unsettled`).  The speed, not v_com_z: a body sliding off along the substrate is not
+ * held.  NaN (no judgement) for a body with no slow point that is landing, or whose values are unknown (a failed
+ * device). */
+static double row_vrest(const double *c, double settle_vcom)
+{
+    const double *v = c + COLUMN_VCOM;
+    if (!isnan(c[COLUMN_VREST]) || !(v[2] >= -settle_vcom))
+        return c[COLUMN_VREST];
+    return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
 /* Body b's judgement at `row` (Section 5.2.1's PBCP and v_rest thresholds on the window means); 0 when the row
- * has none (the series is shorter than the window, or a row of the window has no v_rest). */
+ * has none (the series is shorter than the window, or a row of the window has no rest velocity, row_vrest). */
 static int judge(const struct mpm_solver *s, size_t row, int b, double window, struct judgement *out)
 {
     long first = window_start(s, row, window);
@@ -70,11 +86,12 @@ static int judge(const struct mpm_solver *s, size_t row, int b, double window, s
     double sum[4] = {0.0, 0.0, 0.0, 0.0};
     for (long j = first; j <= (long)row; j++) {
         const double *c = body_columns(s, (size_t)j, b);
-        if (isnan(c[COLUMN_VREST]))
+        double vrest = row_vrest(c, s->cfg.settle_vcom);
+        if (isnan(vrest))
             return 0;
         for (int k = 0; k < 3; k++)
             sum[k] += c[COLUMN_VCOM + k];
-        sum[3] += c[COLUMN_VREST];
+        sum[3] += vrest;
     }
     double rows = (double)((long)row - first + 1);
     for (int k = 0; k < 3; k++)

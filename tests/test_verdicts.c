@@ -1,6 +1,7 @@
 /* Settled verdicts (mpm/verdict.c; issue 22, item 3): each row is judged on the means of v_rest and v_com over the
  * window that ends there, and a verdict counts only once PBCP and those means have held it over the settling window; a
- * transient rebound is `unsettled`, never `rebounded`; a body without v_rest is never rebounded; the run ends once
+ * transient rebound is `unsettled`, never `rebounded`; a rebound faster than vrest_filter is judged on its speed; a
+ * body with unknown values is never judged; the run ends once
  * every particle is settled.  The judging is tested on series rows written into a small solver (the shapes of the
  * issue's 14 um run at 750 m/s), the end of a run on an elastic sphere bouncing off a rigid wall; a run resumed from a
  * checkpoint at its end writes the summary of the run that was never stopped. */
@@ -96,11 +97,32 @@ static void flies_off(double t, double *v, double *pbcp, double *v_rest)
     *v_rest = t < 5e-9 ? NAN : *v;
 }
 
-/* Leaving, but with no point slower than vrest_filter at the end (v_rest NaN). */
-static void fast_at_the_end(double t, double *v, double *pbcp, double *v_rest)
+/* Leaving at a steady 64 m/s from 20 ns, faster than vrest_filter (60 m/s): no point is slow enough for a v_rest
+ * (NaN) while it lands or leaves, and a leaving row's rest velocity is its centre of mass's speed.  Its window mean
+ * is 64 m/s from 30 ns and within 0.5 m/s of it from 29.5 ns (one row of the window at 54.9 m/s), so it settles one
+ * window later, at 39.5 ns. */
+static void leaves_fast(double t, double *v, double *pbcp, double *v_rest)
 {
-    flies_off(t, v, pbcp, v_rest);
-    *v_rest = t > 35e-9 ? NAN : *v_rest;
+    *v = t < 20e-9 ? -300.0 + 364.0 * t / 20e-9 : 64.0;
+    *pbcp = 0.01;
+    *v_rest = fabs(*v) < 60.0 ? *v : NAN;
+}
+
+/* Sliding off along the substrate at a steady 100 m/s (v_com_z -0.1 m/s, within settle_vcom; v_com_x 100 m/s, set
+ * by test_sliding_off), no point slower than vrest_filter: not held, whatever its PBCP. */
+static void slides_off(double t, double *v, double *pbcp, double *v_rest)
+{
+    (void)t;
+    *v = -0.1;
+    *pbcp = 0.3;
+    *v_rest = NAN;
+}
+
+/* A body whose values are unknown (the device failed: every column NaN). */
+static void unknown(double t, double *v, double *pbcp, double *v_rest)
+{
+    (void)t;
+    *v = *pbcp = *v_rest = NAN;
 }
 
 /* Still approaching at a steady 50 m/s (slower than vrest_filter, so v_rest has a value): in flight. */
@@ -129,11 +151,33 @@ static void still_bonding(double t, double *v, double *pbcp, double *v_rest)
 
 static void test_steady_rebound(void)
 {
+    const history shapes[2] = {flies_off, leaves_fast};
+    const double speed[2] = {20.0, 64.0};
+    for (int k = 0; k < 2; k++) {
+        struct impact_fixture f;
+        CHECK(judged(&f, 1, &shapes[k], 50e-9) == 0, "set-up");
+        CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED, "steady %g m/s: %s", speed[k],
+              mpm_verdict_name(verdict_of(&f, 0)));
+        CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), 39.5e-9, 0.0, 1e-13, "settled at (s)");
+        CHECK_CLOSE(mpm_verdict_vrest(f.solver, 0), speed[k], 0.0, 1e-12, "v_rest (m/s)");
+        impact_fixture_close(&f);
+    }
+}
+
+/* Judged on its speed, 100 m/s: rebounded, settled once the first window of judgements is full (20 ns). */
+static void test_sliding_off(void)
+{
     struct impact_fixture f;
-    history shapes[1] = {flies_off};
-    CHECK(judged(&f, 1, shapes, 50e-9) == 0, "set-up");
-    CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED, "steady 20 m/s: %s", mpm_verdict_name(verdict_of(&f, 0)));
-    CHECK_CLOSE(mpm_verdict_settled_at(f.solver, 0), 39.5e-9, 0.0, 1e-13, "settled at (s)");
+    history shapes[1] = {slides_off};
+    CHECK(judged(&f, 1, shapes, 40e-9) == 0, "set-up");
+    struct mpm_solver *s = f.solver;
+    for (size_t r = 0; r < s->series_rows; r++)
+        s->series[r * (SERIES_FIXED + SERIES_PER_BODY) + SERIES_FIXED] = 100.0; /* v_com x */
+    mpm_verdict_replay(s);
+    CHECK(verdict_of(&f, 0) == MPM_VERDICT_REBOUNDED, "sliding off at 100 m/s: %s",
+          mpm_verdict_name(verdict_of(&f, 0)));
+    CHECK_CLOSE(mpm_verdict_settled_at(s, 0), 20e-9, 0.0, 1e-13, "settled at (s)");
+    CHECK_CLOSE(mpm_verdict_vrest(s, 0), sqrt(100.0 * 100.0 + 0.1 * 0.1), 1e-14, 0.0, "v_rest (m/s)");
     impact_fixture_close(&f);
 }
 
@@ -179,8 +223,8 @@ static void test_ringing_settles(void)
 
 static void test_unsettled_cases(void)
 {
-    const history shapes[4] = {fast_at_the_end, flickers, still_bonding, approaching};
-    const char *what[4] = {"no v_rest at the end", "v_rest either side of the threshold", "PBCP growing",
+    const history shapes[4] = {unknown, flickers, still_bonding, approaching};
+    const char *what[4] = {"values unknown", "v_rest either side of the threshold", "PBCP growing",
                            "approaching at a steady speed"};
     for (int k = 0; k < 4; k++) {
         struct impact_fixture f;
@@ -294,6 +338,7 @@ int main(void)
 {
     RUN(test_transient_rebound_is_unsettled);
     RUN(test_steady_rebound);
+    RUN(test_sliding_off);
     RUN(test_ringing_settles);
     RUN(test_unsettled_cases);
     RUN(test_every_body_settles);
