@@ -691,16 +691,24 @@ done:
 
 struct run_totals {
     int64_t bodies, bonded, unsettled;
-    int64_t uncalibrated; /* bodies off their bonding calibration's resolution; -1: none judged */
-    double pbcp, v_rest, cor, bonded_interface;
+    int64_t uncalibrated;          /* bodies off their bonding calibration's resolution; -1: none judged */
+    double pbcp, bonded_interface; /* over every particle */
+    double v_rest, cor;            /* over the settled ones */
 };
 
 /* The per-run columns of a pipeline's /summary: the share of the run's particles whose verdict settled as bonded
- * (an unsettled one counts as not bonded: run_unsettled says how many), the means of their PBCP, v_rest and CoR, and
- * the number of them still unsettled at the end. */
+ * (an unsettled one counts as not bonded: run_unsettled says how many), the means of their PBCP (every particle's,
+ * an unsettled one's at the end), of v_rest and CoR (the settled particles': an unsettled one's is still changing,
+ * not yet a restitution; NaN when none settled), and the number of them still unsettled at the end. */
 enum { RUN_COLUMNS = 5 };
 static const char *const run_columns[RUN_COLUMNS] = {"run_bonded_fraction", "run_pbcp", "run_v_rest", "run_cor",
                                                      "run_unsettled"};
+
+/* A sum over the `settled` particles as their mean; NaN when none settled. */
+static double settled_mean(double sum, int64_t settled)
+{
+    return settled > 0 ? sum / (double)settled : NAN;
+}
 
 /* One run's /summary rows of particles (the substrate left out) added to *total; the run's own values in
  * out[RUN_COLUMNS] (run_columns). */
@@ -727,17 +735,20 @@ static int add_run_summary(hid_t summary, struct run_totals *total, double out[R
             continue;
         run.bodies++;
         run.bonded += bonded[i] == 1;
-        run.unsettled += verdict[i] == MPM_VERDICT_UNSETTLED;
         run.pbcp += columns[i];
+        run.bonded_interface += columns[3 * n + i];
+        if (verdict[i] == MPM_VERDICT_UNSETTLED) {
+            run.unsettled++;
+            continue;
+        }
         run.v_rest += columns[n + i];
         run.cor += columns[2 * n + i];
-        run.bonded_interface += columns[3 * n + i];
     }
     double bodies = run.bodies ? (double)run.bodies : 1.0;
     out[0] = (double)run.bonded / bodies;
     out[1] = run.pbcp / bodies;
-    out[2] = run.v_rest / bodies;
-    out[3] = run.cor / bodies;
+    out[2] = settled_mean(run.v_rest, run.bodies - run.unsettled);
+    out[3] = settled_mean(run.cor, run.bodies - run.unsettled);
     out[4] = (double)run.unsettled;
     total->bodies += run.bodies;
     total->bonded += run.bonded;
@@ -805,15 +816,16 @@ static int write_overall_summary(hid_t out, long runs, const double *means, cons
     SC_CHECK(status, h5_attr_write_double(g, "bonded_fraction", (double)total->bonded / bodies), done);
     SC_CHECK(status, h5_attr_write_int64(g, "unsettled", total->unsettled), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_pbcp", total->pbcp / bodies), done);
-    SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", total->v_rest / bodies), done);
-    SC_CHECK(status, h5_attr_write_double(g, "mean_cor", total->cor / bodies), done);
+    int64_t settled = total->bodies - total->unsettled;
+    SC_CHECK(status, h5_attr_write_double(g, "mean_v_rest", settled_mean(total->v_rest, settled)), done);
+    SC_CHECK(status, h5_attr_write_double(g, "mean_cor", settled_mean(total->cor, settled)), done);
     SC_CHECK(status, h5_attr_write_double(g, "mean_bonded_interface", total->bonded_interface / bodies), done);
     SC_CHECK(status, h5_attr_write_int64(g, "uncalibrated_bodies", total->uncalibrated), done);
     log_info("impact: %lld of %lld bodies bonded (%.1f %%), %lld unsettled, over %ld runs; mean PBCP %.2f %%, mean "
-             "bonded interface %.2f %%, mean v_rest %.3g m/s",
+             "bonded interface %.2f %%, mean v_rest %.3g m/s (of the %lld settled)",
              (long long)total->bonded, (long long)total->bodies, 100.0 * (double)total->bonded / bodies,
              (long long)total->unsettled, runs, 100.0 * total->pbcp / bodies, 100.0 * total->bonded_interface / bodies,
-             total->v_rest / bodies);
+             settled_mean(total->v_rest, settled), (long long)settled);
 done:
     free(column);
     H5Gclose(g);

@@ -353,6 +353,7 @@ static void print_impact_runs(hid_t file, FILE *out)
         for (int k = 0; k < 5; k++)
             column[k] = read_column(summary, names[k], runs);
         sc_error_clear();
+        /* v_rest and CoR: means over the run's settled particles (NaN when none settled) */
         fprintf(out, "  %-6s %-16s %-10s %-9s %-12s %-8s\n", "run", "bonded fraction", "unsettled", "PBCP %",
                 "v_rest (m/s)", "CoR");
         for (size_t r = 0; r < runs; r++) {
@@ -661,7 +662,10 @@ void info_headline(const char *run_dir, FILE *out)
             fprintf(out, "; mean PBCP %.1f %%", 100.0 * pbcp);
             if (!isnan(interface)) /* PBCP counts points that ever bonded; this, nodes bonded at the end */
                 fprintf(out, ", mean bonded interface %.1f %%", 100.0 * interface);
-            fprintf(out, ", mean v_rest %.3g m/s\n", v_rest);
+            if (unsettled > 0) /* impact_stage.c: v_rest's mean is over the settled bodies */
+                fprintf(out, ", mean v_rest %.3g m/s of the %lld settled\n", v_rest, (long long)(bodies - unsettled));
+            else
+                fprintf(out, ", mean v_rest %.3g m/s\n", v_rest);
             if (uncalibrated > 0) /* mpm_bonding_calibrated_resolution: the verdict means nothing there */
                 fprintf(out,
                         "        %lld of the %lld bodies ran at a resolution their bonding parameters were not "

@@ -63,6 +63,54 @@ else
     done
 fi
 
+# the means of v_rest and CoR are over the settled particles only (an unsettled one's are still changing), per run
+# (run_v_rest, run_cor: NaN for a run with none settled) and overall (mean_v_rest, mean_cor), recomputed here from
+# the runs' rows.  settle_vcom 1e4 and a 2 ns window let verdicts settle within 5 ns (a particle still in flight
+# among them: the check is of the arithmetic, not the physics); the run must mix settled and unsettled particles
+# with finite v_rest, or the check could not tell the two means apart.
+cp -r "$T/run" "$T/settled"
+sed -e 's/^\[impact\]$/[impact]\neps_c = 0.05\nsettle_window = 2e-9\nsettle_vcom = 1e4\nsettle_pbcp = 1/' \
+    -e 's/^t_end = 3e-9$/t_end = 5e-9/' "$T/case.ini" >"$T/settled.ini"
+if ! "$bin" run "$T/settled.ini" -o "$T/settled" --stages impact -q >"$T/settled_out" 2>&1; then
+    echo "FAIL impact_summary_settled_means: the impact stage failed: $(tail -c 300 "$T/settled_out")"
+else
+    r=0
+    for g in $groups; do
+        for field in substrate verdict v_rest cor; do
+            values "$T/settled/impact.h5" "$g/summary/$field" >"$T/col_$field"
+        done
+        paste "$T/col_substrate" "$T/col_verdict" "$T/col_v_rest" "$T/col_cor" | sed "s/^/$r\t/"
+        r=$((r + 1))
+    done >"$T/settled_rows"
+    values "$T/settled/impact.h5" /summary/run_v_rest >"$T/run_v_rest"
+    values "$T/settled/impact.h5" /summary/run_cor >"$T/run_cor"
+    for name in mean_v_rest mean_cor; do
+        h5dump -m '%.17g' -a "/summary/$name" "$T/settled/impact.h5" 2>/dev/null | sed -n 's/^ *(0): *//p' >"$T/$name"
+    done
+    # rows: run, substrate, verdict (2 unsettled), v_rest, cor; then the stored run means and overall means
+    why=$(awk -v runs="$r" -v vfile="$T/run_v_rest" -v cfile="$T/run_cor" -v mv="$(cat "$T/mean_v_rest")" \
+        -v mc="$(cat "$T/mean_cor")" '
+        function same(a, b) { return (a == "nan" && b == "nan") || (a != "nan" && b != "nan" && (a - b) ^ 2 <= 1e-24 * (1 + b * b)) }
+        function mean(s, n) { return n ? s / n : "nan" }
+        $2 == 0 { if ($3 == 2) { open_ += $4 != "nan" } else { sv[$1] += $4; sc[$1] += $5; n[$1]++; SV += $4; SC += $5; N++ } }
+        END {
+            for (k = 0; k < runs; k++) {
+                getline v < vfile; getline c < cfile
+                if (!same(v, mean(sv[k], n[k])) || !same(c, mean(sc[k], n[k])))
+                    printf "run %d: run_v_rest %s, run_cor %s, its settled rows give %s, %s; ", k, v, c, mean(sv[k], n[k]), mean(sc[k], n[k])
+            }
+            if (!same(mv, mean(SV, N)) || !same(mc, mean(SC, N)))
+                printf "mean_v_rest %s, mean_cor %s, the settled rows give %s, %s; ", mv, mc, mean(SV, N), mean(SC, N)
+            if (N == 0 || open_ == 0)
+                printf "%d settled and %d unsettled particles with a v_rest: not a mix; ", N, open_
+        }' "$T/settled_rows")
+    if [ -z "$why" ]; then
+        echo "PASS impact_summary_settled_means"
+    else
+        echo "FAIL impact_summary_settled_means: $why($(tr '\n\t' '; ' <"$T/settled_rows"))"
+    fi
+fi
+
 # particles off the resolution the shipped bonding parameters belong to (2 points per cell edge here, 3 there): the
 # stage counts them, the report and the run's closing summary say their verdicts are not calibrated (`spraycoat info`
 # lists the count); with the case's own
