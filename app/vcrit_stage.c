@@ -870,6 +870,12 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
 
 /* ---- outputs --------------------------------------------------------------------------------------------------- */
 
+/* A run's impact speed as its normal component, as the outputs give it (normal_components). */
+static double normal_speed(const struct vcrit_search *v, double speed)
+{
+    return v->angle == 0.0 ? speed : speed * cos(v->angle);
+}
+
 static int bracketed(const struct vcrit_result *r)
 {
     return isfinite(r->v_crit);
@@ -940,7 +946,7 @@ static int write_cor_csv(const struct vcrit_search *v, const struct vcrit_result
         char a[32], b[32], c[32], d[32], e[32], t[32];
         fprintf(out.stream, "%s,%s%s%s,%s,%s,%s,%s\n", exact(all[k].diameter, a, sizeof a),
                 v->over_temperature ? exact(all[k].temperature, t, sizeof t) : "", v->over_temperature ? "," : "",
-                exact(all[k].velocity, b, sizeof b), run_verdict_word(&all[k], v->vrest_threshold),
+                exact(normal_speed(v, all[k].velocity), b, sizeof b), run_verdict_word(&all[k], v->vrest_threshold),
                 exact(all[k].cor, c, sizeof c), exact(all[k].pbcp, d, sizeof d), exact(all[k].v_rest, e, sizeof e));
     }
     SC_CHECK(status, atomic_publish(&out), done);
@@ -963,7 +969,7 @@ static int write_runs_group(const struct vcrit_search *v, hid_t parent, int inde
         SC_FAIL_OOM_AT(status, done, (4 * n + 1) * sizeof *values + (3 * n + 1) * sizeof *integers,
                        "the runs of a vcrit search");
     for (size_t k = 0; k < n; k++) {
-        values[k] = r->records[k].velocity;
+        values[k] = normal_speed(v, r->records[k].velocity);
         values[n + k] = r->records[k].pbcp;
         values[2 * n + k] = r->records[k].v_rest;
         values[3 * n + k] = r->records[k].cor;
@@ -1056,6 +1062,8 @@ static int write_h5_contents(const struct vcrit_search *v, const struct vcrit_re
     SC_CHECK(status, h5_write_doubles(file, "pbcp", 1, dims, columns + 2 * m, "-", 0), done);
     SC_CHECK(status, h5_write_doubles(file, "v_rest", 1, dims, columns + 3 * m, "m/s", 0), done);
     SC_CHECK(status, h5_write_int64s(file, "runs", 1, dims, runs, "-", 0), done);
+    /* the runs' angle from the substrate normal: the speeds here are normal components (normal_components) */
+    SC_CHECK(status, h5_attr_write_double(file, "impact_angle", v->angle * 180.0 / M_PI), done);
     if (v->over_temperature)
         SC_CHECK(status, write_grid(v, results, file), done);
     SC_CHECK(status, h5_create_group(file, "search", &group), done);
@@ -1148,6 +1156,27 @@ static int search_shared(struct vcrit_search *v, struct vcrit_result *results)
     return status;
 }
 
+/* The outputs' speeds as normal components: the runs fly at [impact] angle from the substrate normal, and the spray's
+ * table rule compares the normal component of a particle's velocity with v_crit (docs/physics.md "v_crit over
+ * temperature"), so a threshold found in speed is written as speed times cos(angle), and so are the runs' speeds
+ * in vcrit_cor.csv and /search (normal_speed); at normal incidence they are the same.  The records of the runs
+ * (vcrit_runs.csv) keep their speeds, which the search replays. */
+static void normal_components(const struct vcrit_search *v, struct vcrit_result *results)
+{
+    if (v->angle == 0.0)
+        return;
+    double c = cos(v->angle);
+    log_info("vcrit: the runs fly at %g degrees from the substrate normal: the table's v_crit is the normal component "
+             "of the threshold speed (x cos %g degrees = %.4g), what the spray's table rule compares; so are the runs' "
+             "speeds in vcrit_cor.csv and vcrit.h5",
+             v->angle * 180.0 / M_PI, v->angle * 180.0 / M_PI, c);
+    for (int i = 0; i < pair_count(v); i++) {
+        struct vcrit_result *r = &results[i];
+        r->v_crit *= c, r->v_bisection *= c;
+        r->fit.x50 *= c, r->fit.se *= c, r->fit.width *= c;
+    }
+}
+
 /* Rank 0, once every pair is done: the bisections again from all ranks' records, then the outputs. */
 static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results, double start)
 {
@@ -1160,6 +1189,7 @@ static int replay_and_write(struct vcrit_search *v, struct vcrit_result *results
     if (v->runs.new_runs != runs)
         SC_FAIL(SC_EIO, "vcrit: a run of the search is missing from the records after all ranks finished (a records "
                         "file removed or damaged while the stage ran?)");
+    normal_components(v, results);
     SC_TRY(write_outputs(v, results));
     log_info("vcrit: wrote %s/vcrit.csv, vcrit_cor.csv and vcrit.h5 (%lld runs in this process, %.1f s)", v->run_dir,
              (long long)v->runs.new_runs, log_elapsed() - start);
