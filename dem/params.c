@@ -349,6 +349,66 @@ struct vcrit_rows {
     double *numbers;
 };
 
+/* A 2-D table of `spraycoat vcrit` holds a pair it could not bracket as a comment line "# d,T,nan,..." (vcrit.csv) or
+ * a NaN cell of /grid/v_crit (vcrit.h5), and leaves it out of the rows.  When every pair of a temperature (or a
+ * diameter) is left out the rows still fill a smaller grid, and the table would be read as if that temperature had
+ * never been asked for: its particles would get the v_crit of the nearest temperature searched.  So such a pair is
+ * refused, wherever it lies. */
+static int unbracketed_pair(const struct case_file *c, const char *path, long line, double d, double T)
+{
+    return case_invalid(c, "deposition", "table",
+                        "%s%s%.0ld: d = %g m, T = %g K has no v_crit (`spraycoat vcrit` did not bracket it: its "
+                        "vcrit.csv says why); a table v_crit(d, T) needs every pair: search it again with a wider "
+                        "v_low .. v_high, or leave that temperature or diameter out of the search",
+                        path, line > 0 ? ":" : "", line > 0 ? line : 0L, d, T);
+}
+
+/* The first "# d,T,nan" comment line of a 2-D CSV table (an unbracketed pair of `spraycoat vcrit`), refused. */
+static int csv_unbracketed_pairs(const struct case_file *c, const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) /* csv_read read it a moment ago: a reader failing now says so itself */
+        return SC_OK;
+    char text[512];
+    long line = 0;
+    int status = SC_OK;
+    while (status == SC_OK && fgets(text, sizeof text, f)) {
+        line++;
+        char *p = text, *end;
+        if (p[0] != '#')
+            continue;
+        double d = strtod(p + 1, &end), T = NAN;
+        if (end != p + 1 && *end == ',')
+            T = strtod(p = end + 1, &end);
+        if (end != p && *end == ',' && strncmp(end + 1, "nan", 3) == 0 && d > 0 && T > 0)
+            status = unbracketed_pair(c, path, line, d, T);
+    }
+    fclose(f);
+    return status;
+}
+
+/* The NaN cells of a 2-D vcrit.h5's /grid (its diameters x temperatures), refused; none without /grid. */
+static int h5_unbracketed_pairs(const struct case_file *c, const char *path, hid_t file)
+{
+    size_t nd = 0, nt = 0, n = 0;
+    if (!h5_exists(file, "grid") || h5_dataset_size(file, "grid/diameter", &nd) != SC_OK ||
+        h5_dataset_size(file, "grid/temperature", &nt) != SC_OK || h5_dataset_size(file, "grid/v_crit", &n) != SC_OK ||
+        n != nd * nt || n == 0)
+        return SC_OK; /* no grid, or not one: the rows are checked as they are */
+    double *values = malloc((n + nd + nt) * sizeof *values);
+    if (!values)
+        SC_FAIL_OOM((n + nd + nt) * sizeof *values, "the deposition table's grid");
+    int status = SC_OK;
+    if (h5_read_doubles(file, "grid/v_crit", values, n) == SC_OK &&
+        h5_read_doubles(file, "grid/diameter", values + n, nd) == SC_OK &&
+        h5_read_doubles(file, "grid/temperature", values + n + nd, nt) == SC_OK)
+        for (size_t k = 0; k < n && status == SC_OK; k++)
+            if (isnan(values[k]))
+                status = unbracketed_pair(c, path, 0, values[n + k / nt], values[n + nd + k % nt]);
+    free(values);
+    return status;
+}
+
 /* HDF5 (`spraycoat vcrit`'s vcrit.h5): datasets /diameter and /v_crit of equal length, and /temperature of that
  * length too when it is there (a table over diameter and temperature). */
 static int read_table_h5(const struct case_file *c, const char *path, struct vcrit_rows *rows)
@@ -381,6 +441,8 @@ static int read_table_h5(const struct case_file *c, const char *path, struct vcr
         for (size_t i = 0; i < n; i++)
             rows->numbers[(size_t)rows->width * i + (size_t)k] = column[i];
     }
+    if (rows->width == 3)
+        SC_CHECK(status, h5_unbracketed_pairs(c, path, file), refused);
 done:
     free(column);
     H5Fclose(file);
@@ -391,6 +453,10 @@ done:
                             path);
     SC_TRY(status);
     return SC_OK;
+refused: /* the message is the refusal's */
+    free(column);
+    H5Fclose(file);
+    return status;
 }
 
 static int read_table_csv(const struct case_file *c, const char *path, struct vcrit_rows *rows)
@@ -403,8 +469,9 @@ static int read_table_csv(const struct case_file *c, const char *path, struct vc
                                               {"temperature", CSV_NUMBER, 0, 1e5, 1, "K", NULL},
                                               {"v_crit", CSV_NUMBER, 0, 1e5, 1, "m/s", NULL}};
     rows->width = csv_header_has(path, "temperature") ? 3 : 2;
-    return read_csv_columns(c, "deposition", "table", path, rows->width == 3 ? three : two, rows->width,
-                            CSV_OTHER_COLUMNS, &rows->numbers, &rows->count);
+    SC_TRY(read_csv_columns(c, "deposition", "table", path, rows->width == 3 ? three : two, rows->width,
+                            CSV_OTHER_COLUMNS, &rows->numbers, &rows->count));
+    return rows->width == 3 ? csv_unbracketed_pairs(c, path) : SC_OK;
 }
 
 static int compare_doubles(const void *pa, const void *pb)
@@ -497,9 +564,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
     size_t len = strlen(path);
     struct vcrit_rows rows = {0};
     int h5 = len > 3 && strcmp(path + len - 3, ".h5") == 0;
-    SC_TRY(h5 ? read_table_h5(c, path, &rows) : read_table_csv(c, path, &rows));
+    int status = h5 ? read_table_h5(c, path, &rows) : read_table_csv(c, path, &rows);
     /* the HDF5 datasets are not range-checked by a CSV reader */
-    int status = SC_OK;
     for (size_t i = 0; i < rows.count && status == SC_OK; i++) {
         const double *row = rows.numbers + (size_t)rows.width * i;
         if (!(row[0] > 0) || !(row[rows.width - 1] > 0) || (rows.width == 3 && !(row[1] > 0)))

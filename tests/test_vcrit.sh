@@ -10,7 +10,8 @@
 # particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
 # accepted by `check` and searched; a record of the runs that cannot be read stops the search before any run (exit
 # 3); after a search of another case fails writing vcrit.h5 (exit 3), the first case
-# is searched again rather than found up to date beside the other's vcrit.csv.  Prints "PASS name" /
+# is searched again rather than found up to date beside the other's vcrit.csv; at an angle the table's v_crit is
+# the normal component; a 2-D table missing a whole temperature is refused.  Prints "PASS name" /
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
@@ -332,6 +333,66 @@ if [ $checked -eq 0 ] && [ $searched -eq 0 ] && [ -r "$T/rigid/vcrit.h5" ] && gr
     pass vcrit_rigid_substrate
 else
     fail vcrit_rigid_substrate "check exit $checked, vcrit exit $searched: $(tail -n 1 "$T/rigid_check.log") $(tail -n 1 "$T/rigid.log")"
+fi
+
+# ---- 7b. at an angle: the spray's table rule compares the normal component of a particle's velocity with v_crit,
+# so a search whose runs fly at 45 degrees from the normal writes v_crit as cos 45 times the lowest bonding speed of
+# its bisection (from vcrit_runs.csv, which keeps the speeds), and vcrit_cor.csv the runs' normal components; the
+# speed itself in the table needed a particle sqrt(2) times faster in the spray ----------------------------------
+cat tests/fixtures/vcrit_tiny.ini - >"$T/angle.ini" <<EOF
+
+[vcrit]
+diameters = 10e-6
+v_low = 200
+v_high = 1600
+tolerance = 200
+EOF
+sed -i 's/^bonding = energy$/bonding = energy\nangle = 45/' "$T/angle.ini"
+if "$BIN" vcrit "$T/angle.ini" -o "$T/angle" >"$T/angle.log" 2>&1; then
+    why=$(awk -F, 'BEGIN { c = cos(atan2(1, 1)) }
+        FILENAME ~ /vcrit_runs/ && /^[0-9]/ { speed[++n] = $2; if ($5 == 1 && (low == "" || $2 < low)) low = $2 }
+        FILENAME ~ /vcrit_cor/ && FNR > 1 { cor[++m] = $2 }
+        FILENAME ~ /vcrit.csv/ && FNR == 2 { table = $2 }
+        END {
+            if (low == "" || (table - c * low) ^ 2 > 1e-18 * table * table)
+                printf "v_crit %s, cos 45 x the lowest bonding speed %s = %.17g; ", table, low, c * low
+            for (i = 1; i <= n; i++) { found = 0
+                for (j = 1; j <= m; j++) found += (cor[j] - c * speed[i]) ^ 2 <= 1e-18 * speed[i] * speed[i]
+                if (found != 1) printf "run at %s m/s: not once at %.17g in vcrit_cor.csv; ", speed[i], c * speed[i] }
+            if (n < 3 || n != m) printf "%d runs, %d rows of vcrit_cor.csv; ", n, m
+        }' "$T/angle/vcrit_runs.csv" "$T/angle/vcrit_cor.csv" "$T/angle/vcrit.csv")
+    angle=$(h5dump -a /impact_angle "$T/angle/vcrit.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+    [ "$angle" = 45 ] || why="$why vcrit.h5 impact_angle '$angle';"
+    if [ -z "$why" ]; then pass vcrit_angle_normal_component; else fail vcrit_angle_normal_component "$why"; fi
+else
+    fail vcrit_angle_normal_component "exit $?: $(tail -n 1 "$T/angle.log")"
+fi
+
+# ---- 7c. a table v_crit(d, T) with a temperature none of whose pairs was bracketed (hot particles that bond
+# already at v_low): its rows alone fill the smaller grid of the other temperature, and the spray read it as if
+# 850 K had not been asked for (its particles took the 298 K v_crit).  Both formats are refused, naming the pair ----
+cat tests/fixtures/vcrit_tiny.ini - >"$T/hot.ini" <<EOF
+
+[vcrit]
+diameters = 8e-6,10e-6
+temperatures = 298,850
+v_low = 750
+v_high = 1200
+tolerance = 200
+EOF
+if "$BIN" vcrit "$T/hot.ini" -o "$T/hot" >"$T/hot.log" 2>&1 && [ "$(grep -c '^# .*,850,nan,.*not bracketed' "$T/hot/vcrit.csv")" -eq 2 ]; then
+    for file in vcrit.csv vcrit.h5; do
+        sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $T/hot/$file|" "$BASE" >"$T/hot_spray.ini"
+        "$BIN" check "$T/hot_spray.ini" >"$T/hot_check.log" 2>&1
+        status=$?
+        if [ $status -eq 2 ] && grep -q "table = .*$file.*: d = 8e-06 m, T = 850 K has no v_crit" "$T/hot_check.log"; then
+            pass "vcrit_table_unbracketed_temperature_${file#vcrit.}"
+        else
+            fail "vcrit_table_unbracketed_temperature_${file#vcrit.}" "check exit $status: $(tail -n 1 "$T/hot_check.log")"
+        fi
+    done
+else
+    fail vcrit_table_unbracketed_temperature "the search did not leave both 850 K pairs unbracketed: $(tail -n 1 "$T/hot.log")"
 fi
 
 # ---- 8. a record of the runs that cannot be read is an I/O error before any run (exit 3, naming it), never taken
