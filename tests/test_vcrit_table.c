@@ -146,11 +146,11 @@ static void test_incomplete_grid(void)
     CHECK(status == SC_EINPUT, "a pair given twice refused (status %d)", status);
 }
 
-/* One particle of 30 um at `speed` m/s, `angle_deg` from the target's normal, against the table of `table_csv`;
- * the outcome of its first impact (-1: none) and its normal speed there. */
-static int oblique_outcome(const char *table_csv, double speed, double angle_deg, double *vn)
+/* One particle of 30 um at `speed` m/s, `angle_deg` from the target's normal, against the table of `table_csv`,
+ * with the case lines `extra`; the outcome of its first impact (-1: none) and its normal speed there. */
+static int particle_outcome(const char *table_csv, const char *extra, double speed, double angle_deg, double *vn)
 {
-    char dir[64], path[256], ini[512], rows[160];
+    char dir[64], path[256], ini[640], rows[160];
     if (case_fixture_write(dir, "", "unused.csv", "", NULL, "") != 0)
         return -1;
     snprintf(path, sizeof path, "%s/table.csv", dir);
@@ -160,7 +160,8 @@ static int oblique_outcome(const char *table_csv, double speed, double angle_deg
     fputs(table_csv, file);
     fclose(file);
     snprintf(ini, sizeof ini,
-             "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n[deposition]\nrule = table\ntable = %s\n", path);
+             "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n[deposition]\nrule = table\ntable = %s\n%s", path,
+             extra);
     double a = angle_deg * M_PI / 180.0;
     snprintf(rows, sizeof rows, "0,0,0.299983,%.17g,0,%.17g,0,0,0,3e-5\n", speed * sin(a), speed * cos(a));
     struct fixture f;
@@ -179,6 +180,11 @@ static int oblique_outcome(const char *table_csv, double speed, double angle_deg
     return outcome;
 }
 
+static int oblique_outcome(const char *table_csv, double speed, double angle_deg, double *vn)
+{
+    return particle_outcome(table_csv, "", speed, angle_deg, vn);
+}
+
 /* v_crit 600 m/s at every diameter: 800 m/s at 60 degrees (normal 400 m/s) rebounds, though faster than v_crit;
  * 700 m/s at 30 degrees (normal 606 m/s) sticks; 590 m/s straight down rebounds. */
 static void test_oblique_normal_component(void)
@@ -195,14 +201,17 @@ static void test_oblique_normal_component(void)
 }
 
 /* A 2-D table through the solver: v_crit(30 um) is 500 m/s at 200 K and 700 m/s at 400 K, so 593.15 m/s at the
- * 293.15 K every particle has until the spray carries a temperature (dem/collide.c, merge point): 590 m/s
- * rebounds, 597 m/s sticks. */
+ * default powder temperature 293.15 K (590 m/s rebounds, 597 m/s sticks) and 650 m/s at 350 K. */
 static void test_solver_two_dimensional(void)
 {
     const char *table = "diameter,temperature,v_crit\n1e-5,200,500\n1e-5,400,700\n1e-4,200,500\n1e-4,400,700\n";
     double vn;
     CHECK(oblique_outcome(table, 590.0, 0.0, &vn) == DEM_REBOUND, "590 m/s below v_crit(293.15 K) = 593.15 m/s");
     CHECK(oblique_outcome(table, 597.0, 0.0, &vn) == DEM_STUCK, "597 m/s above v_crit(293.15 K) = 593.15 m/s");
+    /* the particle's own temperature, not the default: a powder at 350 K has v_crit 650 m/s */
+    const char *hot = "[powder]\ntemperature = 350\n";
+    CHECK(particle_outcome(table, hot, 640.0, 0.0, &vn) == DEM_REBOUND, "350 K: 640 m/s below v_crit = 650 m/s");
+    CHECK(particle_outcome(table, hot, 660.0, 0.0, &vn) == DEM_STUCK, "350 K: 660 m/s above v_crit = 650 m/s");
 }
 
 int main(void)
