@@ -476,6 +476,11 @@ int dem_nozzle_particle_exit(const struct dem_nozzle *n, double diameter, double
  * with the numbers in the message. */
 int dem_nozzle_solve(struct dem_nozzle *n, double d_small, double d_large);
 
+/* 1 when the solved nozzle's exit pressure is below 0.4 of the ambient: its flow may separate from the divergent wall
+ * before the exit (Summerfield et al. 1954), which the quasi-1-D attached flow does not capture; dem_nozzle_solve
+ * warns. */
+int dem_nozzle_may_separate(const struct dem_nozzle *n);
+
 /* The exit velocity and temperature of diameter d, interpolated in ln d in the table (held at its ends). */
 void dem_nozzle_lookup(const struct dem_nozzle *n, double diameter, double *velocity, double *temperature);
 
