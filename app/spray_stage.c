@@ -295,6 +295,12 @@ static void log_deposition_efficiency(const struct spray_run *run)
              de.mean_impact_speed, de.mean_impact_normal_speed);
     log_de_classes("size (um)", de.by_size, de.size_count, 1e6);
     log_de_classes("first-impact angle (degree)", de.by_angle, de.angle_count, 180.0 / M_PI);
+    if (de.table_impacts_outside > 0) /* dem_vcrit_lookup clamps: the edge's v_crit, never an extrapolation */
+        log_warn("spray: %lld of the %lld impacts judged by the v_crit table (%.1f %%) had a diameter or temperature "
+                 "beyond its grid and took the v_crit of its nearest edge: widen the search that made the table "
+                 "([vcrit] diameters, temperatures) to cover the powder",
+                 (long long)de.table_impacts_outside, (long long)de.table_impacts,
+                 100.0 * (double)de.table_impacts_outside / (double)de.table_impacts);
     /* the DE counts a particle still flying at the end as sprayed and not deposited (docs/physics.md "Deposition
      * efficiency"): a lower bound that the headline alone does not show once many are in the air */
     struct dem_metrics m = dem_compute_metrics(run->solver);

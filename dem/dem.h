@@ -315,6 +315,9 @@ struct dem_deposition_efficiency {
     double unimpacted_mass; /* kg sprayed without an impact */
     int64_t unimpacted_count;
     double mean_impact_speed, mean_impact_normal_speed; /* m/s: mean |v| and v_z of the first impacts */
+    /* rule = table: the impacts (/impacts) judged by the v_crit table, and those of them whose diameter or
+     * temperature lay beyond its grid, judged at its nearest edge (no extrapolation); 0 with another rule */
+    int64_t table_impacts, table_impacts_outside;
     size_t size_count, angle_count;
     struct dem_de_class *by_size, *by_angle;
 };

@@ -161,6 +161,29 @@ static void split_by_angle(const struct dem_solver *s, struct dem_deposition_eff
     de->mean_impact_normal_speed = impacted ? normal_sum / (double)impacted : 0.0;
 }
 
+/* Whether x lies beyond [lo, hi] (a value at an end, written and read back, counts as inside). */
+static int beyond(double x, double lo, double hi)
+{
+    return x < lo * (1.0 - 1e-12) || x > hi * (1.0 + 1e-12);
+}
+
+/* rule = table: how many impacts the table judged, and how many of them beyond its grid (dem_vcrit_lookup clamps
+ * them to its edge: a finer, coarser, colder or hotter particle than the search's gets the edge's v_crit). */
+static void count_table_reach(const struct dem_solver *s, struct dem_deposition_efficiency *de)
+{
+    const struct dem_config *cfg = &s->cfg;
+    if (cfg->rule != DEM_DEPOSIT_TABLE || cfg->table_count == 0)
+        return;
+    size_t nd = cfg->table_count, nt = cfg->table_temperature_count;
+    for (size_t r = 0; r < s->impact_count; r++) {
+        const struct dem_impact *row = &s->impacts[r];
+        de->table_impacts++;
+        de->table_impacts_outside +=
+            beyond(row->d, cfg->table_diameter[0], cfg->table_diameter[nd - 1]) ||
+            (nt > 0 && beyond(row->temperature, cfg->table_temperature[0], cfg->table_temperature[nt - 1]));
+    }
+}
+
 int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_efficiency *de)
 {
     memset(de, 0, sizeof *de);
@@ -182,6 +205,7 @@ int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_
     }
     de->de = de->sprayed_mass > 0 ? de->deposited_mass / de->sprayed_mass : 0.0;
     split_by_angle(s, de);
+    count_table_reach(s, de);
     int status = sum_unimpacted(s, de);
     if (status != SC_OK) {
         dem_deposition_efficiency_free(de);
@@ -255,6 +279,8 @@ int dem_deposition_efficiency_write(const struct dem_deposition_efficiency *de, 
     SC_CHECK(status, h5_attr_write_int64(g, "sprayed_count", de->sprayed_count), done);
     SC_CHECK(status, h5_attr_write_int64(g, "deposited_count", de->deposited_count), done);
     SC_CHECK(status, h5_attr_write_int64(g, "unimpacted_count", de->unimpacted_count), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "table_impacts", de->table_impacts), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "table_impacts_outside", de->table_impacts_outside), done);
     SC_CHECK(status, write_classes(g, "by_size", de->by_size, de->size_count, 1.0, "m"), done);
     SC_CHECK(status, write_classes(g, "by_angle", de->by_angle, de->angle_count, 180.0 / M_PI, "degree"), done);
 done:

@@ -148,8 +148,11 @@ static void test_incomplete_grid(void)
 
 /* One particle of 30 um at `speed` m/s, `angle_deg` from the target's normal, against the table of `table_csv`,
  * with the case lines `extra`; the outcome of its first impact (-1: none) and its normal speed there. */
+static int64_t last_table_impacts = -1, last_table_outside = -1; /* the last particle_outcome's DE counts */
+
 static int particle_outcome(const char *table_csv, const char *extra, double speed, double angle_deg, double *vn)
 {
+    last_table_impacts = last_table_outside = -1;
     char dir[64], path[256], ini[640], rows[160];
     if (case_fixture_write(dir, "", "unused.csv", "", NULL, "") != 0)
         return -1;
@@ -174,6 +177,11 @@ static int particle_outcome(const char *table_csv, const char *extra, double spe
     if (n) {
         outcome = (int)hit->outcome;
         *vn = hit->v_in[2];
+    }
+    struct dem_deposition_efficiency de;
+    if (dem_deposition_efficiency(f.solver, &de) == SC_OK) {
+        last_table_impacts = de.table_impacts, last_table_outside = de.table_impacts_outside;
+        dem_deposition_efficiency_free(&de);
     }
     fixture_close(&f);
     case_fixture_remove(dir);
@@ -214,6 +222,24 @@ static void test_solver_two_dimensional(void)
     CHECK(particle_outcome(table, hot, 660.0, 0.0, &vn) == DEM_STUCK, "350 K: 660 m/s above v_crit = 650 m/s");
 }
 
+/* Impacts beyond the table's grid are judged at its edge, and counted (/deposition_efficiency table_impacts_outside,
+ * a warning): the 30 um particle against tables over 10-20 um and over 30-40 um at 300-400 K (its 293.15 K below
+ * them), and one inside both. */
+static void test_outside_counted(void)
+{
+    double vn;
+    const char *tables[3] = {"diameter,v_crit\n1e-5,600\n2e-5,600\n",
+                             "diameter,temperature,v_crit\n3e-5,300,600\n3e-5,400,600\n4e-5,300,600\n4e-5,400,600\n",
+                             "diameter,v_crit\n1e-5,600\n1e-4,600\n"};
+    const int64_t outside[3] = {1, 1, 0};
+    for (int k = 0; k < 3; k++) {
+        CHECK(particle_outcome(tables[k], "", 700.0, 0.0, &vn) == DEM_STUCK, "table %d: 700 m/s sticks", k);
+        CHECK(last_table_impacts == 1 && last_table_outside == outside[k],
+              "table %d: %lld impacts judged, %lld outside; 1 and %lld expected", k, (long long)last_table_impacts,
+              (long long)last_table_outside, (long long)outside[k]);
+    }
+}
+
 int main(void)
 {
     RUN(test_bilinear_inside);
@@ -223,5 +249,6 @@ int main(void)
     RUN(test_incomplete_grid);
     RUN(test_oblique_normal_component);
     RUN(test_solver_two_dimensional);
+    RUN(test_outside_counted);
     return check_finish();
 }
