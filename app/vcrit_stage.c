@@ -789,6 +789,14 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
     SC_CHECK(status, logistic_threshold_fit(speeds, successes, m, result->v_bisection, v->sweep_step, &result->fit),
              done);
     result->v_crit = result->fit.x50;
+    double slowest_run = INFINITY, fastest_run = -INFINITY;
+    for (size_t k = 0; k < m; k++)
+        slowest_run = fmin(slowest_run, speeds[k]), fastest_run = fmax(fastest_run, speeds[k]);
+    /* a nearly flat fit (outcomes mixed over the whole range) puts its 50 % point beyond every speed run: an
+     * extrapolation, which a table must not take; the bisection's threshold stands, and the note says why */
+    int beyond_runs = isfinite(result->fit.x50) && (result->fit.x50 < slowest_run || result->fit.x50 > fastest_run);
+    if (beyond_runs) /* the fit's standard error is its 50 % point's, not the bisection's */
+        result->v_crit = result->v_bisection, result->fit.se = NAN;
     result->pbcp = result->v_rest = NAN;
     double slowest = INFINITY;
     for (int k = 0; k < result->runs; k++) {
@@ -804,6 +812,10 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
     if (!noted && !result->fit.rising)
         snprintf(result->note + used, sizeof result->note - used,
                  "%sno logistic threshold: the outcome does not rise with the speed", used ? "; " : "");
+    else if (!noted && beyond_runs)
+        snprintf(result->note + used, sizeof result->note - used,
+                 "%slogistic 50 %% point %.4g m/s beyond the speeds run (%g-%g m/s): v_crit is the bisection's",
+                 used ? "; " : "", result->fit.x50, slowest_run, fastest_run);
     else if (!noted && !result->fit.separable)
         snprintf(result->note + used, sizeof result->note - used,
                  "%snot monotone in speed: logistic 10-90 %% width %.3g m/s", used ? "; " : "", result->fit.width);

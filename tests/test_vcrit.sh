@@ -6,7 +6,8 @@
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
 # of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
 # v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
-# adds its sweep and gives the 50 % point of an independent logistic fit to the runs; with reference_diameter a
+# adds its sweep and gives the 50 % point of an independent logistic fit to the runs (the bisection's v_crit when that
+# point lies beyond every speed run); with reference_diameter a
 # particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
 # accepted by `check` and searched; a record of the runs that cannot be read stops the search before any run (exit
 # 3); after a search of another case fails writing vcrit.h5 (exit 3), the first case
@@ -285,6 +286,38 @@ else
     why="$why the search failed: $(tail -n 2 "$T/logistic1.log" | tr '\n' ' ');"
 fi
 if [ -z "$why" ]; then pass vcrit_logistic_fit; else fail vcrit_logistic_fit "$why"; fi
+
+# ---- 4e. method = logistic whose fit puts its 50 % point beyond every speed run (outcomes that barely rise: every
+# run bonded but v_low's): an extrapolation the table must not take.  The records of a search (a first search of
+# 2 bisection runs gives the file its header) are rewritten with outcomes for every speed the bisection and the
+# sweep will ask for, so the search replays them without a run; v_crit must be the bisection's, with the note -----
+RUN9=$T/beyond
+{ cat tests/fixtures/vcrit_tiny.ini; printf '\n[vcrit]\ndiameters = 10e-6\nv_low = 200\nv_high = 1200\ntolerance = 25\n'
+  printf 'method = logistic\nsweep_step = 25\nsweep_count = 3\n'; } >"$T/beyond.ini"
+why=""
+if { cat "$T/beyond.ini"; echo "max_runs = 2"; } >"$T/beyond2.ini" && "$BIN" vcrit "$T/beyond2.ini" -o "$RUN9" >"$T/beyond1.log" 2>&1; then
+    # the bisection from 200 (rebounded) and 1200 (bonded), every midpoint bonded: 700, 450, 325, 262.5, 231.25,
+    # 215.625 (then within 25 m/s of 200); the sweep 215.625 +- 25, 50, 75
+    { head -n 2 "$RUN9/vcrit_runs.csv"
+      for run in 200:0 1200:1 700:1 450:1 325:1 262.5:1 231.25:1 215.625:1 140.625:1 165.625:1 190.625:1 240.625:1 \
+          265.625:1 290.625:1; do
+          echo "1e-05,${run%:*},720,200000000000,${run#*:},0.3,0.1,0.0001,100,0"
+      done; } >"$T/beyond_runs.csv"
+    mv "$T/beyond_runs.csv" "$RUN9/vcrit_runs.csv"
+    rm -f "$RUN9/vcrit.h5"
+    if "$BIN" vcrit "$T/beyond.ini" -o "$RUN9" >"$T/beyond2.log" 2>&1; then
+        grep -q '(0 runs in this process' "$T/beyond2.log" || why="$why the crafted records were not all reused;"
+        got=$(awk -F, 'NR == 2 { print $2 "," $6 "," $8 }' "$RUN9/vcrit.csv")
+        [ "$got" = "215.625,nan,215.625" ] || why="$why v_crit, v_crit_se, v_bisection: $got, not 215.625,nan,215.625;"
+        grep -q 'logistic 50 % point .* beyond the speeds run (140.625-1200 m/s): v_crit is the bisection' "$T/beyond2.log" ||
+            why="$why no note of the 50 % point beyond the runs;"
+    else
+        why="$why the replay failed: $(tail -n 2 "$T/beyond2.log" | tr '\n' ' ');"
+    fi
+else
+    why="$why the first search failed: $(tail -n 2 "$T/beyond1.log" | tr '\n' ' ');"
+fi
+if [ -z "$why" ]; then pass vcrit_logistic_beyond_runs; else fail vcrit_logistic_beyond_runs "$why"; fi
 
 # ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
