@@ -790,8 +790,15 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
              done);
     result->v_crit = result->fit.x50;
     double slowest_run = INFINITY, fastest_run = -INFINITY;
-    for (size_t k = 0; k < m; k++)
+    size_t settled_successes = 0;
+    for (size_t k = 0; k < m; k++) {
         slowest_run = fmin(slowest_run, speeds[k]), fastest_run = fmax(fastest_run, speeds[k]);
+        settled_successes += (size_t)successes[k];
+    }
+    /* every failure (or success) unsettled, so left out: no fit; the bisection counted them as failures */
+    int one_sided = settled_successes == 0 || settled_successes == m;
+    if (one_sided)
+        result->v_crit = result->v_bisection;
     /* a nearly flat fit (outcomes mixed over the whole range) puts its 50 % point beyond every speed run: an
      * extrapolation, which a table must not take; the bisection's threshold stands, and the note says why */
     int beyond_runs = isfinite(result->fit.x50) && (result->fit.x50 < slowest_run || result->fit.x50 > fastest_run);
@@ -809,7 +816,11 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
     }
     size_t used = strlen(result->note);
     int noted = strstr(result->note, "logistic") != NULL; /* a replayed search noted it the first time */
-    if (!noted && !result->fit.rising)
+    if (!noted && one_sided)
+        snprintf(result->note + used, sizeof result->note - used,
+                 "%sno logistic fit: no settled run %s (the unsettled are left out): v_crit is the bisection's",
+                 used ? "; " : "", settled_successes == 0 ? "succeeded" : "failed");
+    else if (!noted && !result->fit.rising)
         snprintf(result->note + used, sizeof result->note - used,
                  "%sno logistic threshold: the outcome does not rise with the speed", used ? "; " : "");
     else if (!noted && beyond_runs)

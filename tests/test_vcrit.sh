@@ -319,6 +319,30 @@ else
 fi
 if [ -z "$why" ]; then pass vcrit_logistic_beyond_runs; else fail vcrit_logistic_beyond_runs "$why"; fi
 
+# the same set-up with every failure unsettled (verdict 2: left out of the fit, which then has no failure): the
+# bisection's v_crit (it counts them as failures), with a note that names the cause.  Bisection: 700 bonded, 450
+# unsettled, 575 bonded, 512.5 unsettled, 543.75 bonded, 528.125 unsettled; sweep 543.75 +- 25, 50, 75
+why=""
+if [ -s "$RUN9/vcrit_runs.csv" ]; then
+    { head -n 2 "$RUN9/vcrit_runs.csv"
+      for run in 200:2 1200:1 700:1 450:2 575:1 512.5:2 543.75:1 528.125:2 468.75:2 493.75:2 518.75:2 568.75:1 \
+          593.75:1 618.75:1; do
+          echo "1e-05,${run%:*},720,200000000000,${run#*:},0.3,0.1,0.0001,100,0"
+      done; } >"$T/one_sided_runs.csv"
+    mkdir -p "$T/one_sided" && mv "$T/one_sided_runs.csv" "$T/one_sided/vcrit_runs.csv"
+    if "$BIN" vcrit "$T/beyond.ini" -o "$T/one_sided" >"$T/one_sided.log" 2>&1; then
+        grep -q '(0 runs in this process' "$T/one_sided.log" || why="$why the crafted records were not all reused;"
+        got=$(awk -F, 'NR == 2 { print $1 "," $2 "," $8 }' "$T/one_sided/vcrit.csv")
+        [ "$got" = "1e-05,543.75,543.75" ] || why="$why diameter, v_crit, v_bisection: $got, not 1e-05,543.75,543.75;"
+        grep -q 'no logistic fit: no settled run failed' "$T/one_sided.log" || why="$why no note naming the cause;"
+    else
+        why="$why the search failed: $(tail -n 2 "$T/one_sided.log" | tr '\n' ' ');"
+    fi
+else
+    why="$why no records from the first search;"
+fi
+if [ -z "$why" ]; then pass vcrit_logistic_no_settled_failure; else fail vcrit_logistic_no_settled_failure "$why"; fi
+
 # ---- 5. no bracket: v_high too low to bond -----------------------------------------------------------------------
 write_case "$T/nobracket.ini" 300
 if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
