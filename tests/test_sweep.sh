@@ -110,6 +110,16 @@ else
         map_ok=0
         reason="the four runs give DEs $(tr '\n' ' ' <"$T/map_de"): the keys did not change the runs"
     fi
+    # each run's own case holds its grid point's values (run xI_yJ: x value I, y value J), so that a transposed
+    # grid (run xI_yJ made with point (J, I)'s values) fails above: the map against the runs is by name only
+    for run in x0_y0:250:0.7 x1_y0:350:0.7 x0_y1:250:900 x1_y1:350:900; do
+        set -- $(echo "$run" | tr ':' ' ')
+        grep -q "^C1 = $2\$" "$R/runs/$1/case.ini" 2>/dev/null &&
+            grep -q "^release_speed_max = $3" "$R/runs/$1/case.ini" 2>/dev/null || {
+            map_ok=0
+            reason="$reason runs/$1/case.ini: $(grep -E '^(C1|release_speed_max) =' "$R/runs/$1/case.ini" 2>/dev/null | tr '\n' ' '), expected C1 = $2 and release_speed_max = $3;"
+        }
+    done
 fi
 [ $map_ok = 1 ] && pass sweep_map_is_the_runs || fail sweep_map_is_the_runs "$reason"
 
