@@ -46,7 +46,7 @@ static int case_rows(const struct case_file *c, struct render_case_row **rows, i
  * RUN_DIR/figures/render.stamp holds it and report.html exists; `spraycoat render` always draws. */
 static void render_fingerprint(const struct case_file *c, const char *run_dir, char *out, size_t size)
 {
-    static const char *const inputs[] = {"spray.h5", "impact.h5", "vcrit.h5"};
+    static const char *const inputs[] = {"spray.h5", "impact.h5", "vcrit.h5", "calibrate.h5", "sweep.h5"};
     /* the program too: render/ is not in sources_id, and a new drawing code draws the figures again */
     size_t used = (size_t)snprintf(out, size, "program=%s;", spraycoat_version());
     for (int t = 0; spraycoat_registry[t]; t++)
@@ -103,7 +103,7 @@ int render_stage_run(const struct stage_context *ctx)
     const char *run_dir = ctx->run_dir;
     /* refuse, not warn: the report names this case's keys and hash above the figures, so figures of another
      * case's file would be wrong results under a right-looking label (exit 3, the same as couple and impact) */
-    static const char *const inputs[] = {"spray", "impact", "vcrit", "calibrate"};
+    static const char *const inputs[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
     for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; i++)
         SC_TRY(run_dir_check_input(ctx, inputs[i], "render", 0));
     char fingerprint[4096];

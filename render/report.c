@@ -56,7 +56,7 @@ static const char style[] =
 /* One row per output file: its root attributes. */
 static void provenance(FILE *f, const struct render_request *req)
 {
-    static const char *const files[] = {"spray.h5", "couple.h5", "impact.h5", "vcrit.h5"};
+    static const char *const files[] = {"spray.h5", "couple.h5", "impact.h5", "vcrit.h5", "calibrate.h5", "sweep.h5"};
     static const char *const attributes[] = {"format", "program_version", "case_hash", "created"};
     char now[64];
     time_t t = time(NULL);
@@ -68,7 +68,7 @@ static void provenance(FILE *f, const struct render_request *req)
     cell(f, "td", now);
     fprintf(f, "</tr></table>\n<table><tr><th>file</th><th>format</th><th>written by</th><th>case hash</th>"
                "<th>written (UTC)</th></tr>\n");
-    for (int i = 0; i < 4; i++) {
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         char path[4200], value[256];
         snprintf(path, sizeof path, "%s/%s", req->run_dir, files[i]);
         hid_t file;
