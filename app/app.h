@@ -224,6 +224,9 @@ int calibrate_vcrit_run(const struct stage_context *ctx, uint64_t case_hash);
  * maps of the deposition efficiency and the mean impact speed. */
 extern const struct cfg_key sweep_case_keys[];
 int sweep_stage_validate(const struct stage_context *ctx);
+/* The sweep's case hash from `base` (the case's spray keys and [sweep]): with a file key on an axis, every run's spray
+ * hash folded in, so that the contents of the swept files are part of it (stage_hash calls it). */
+uint64_t sweep_stage_hash(const struct case_file *c, uint64_t base);
 int sweep_stage_run(const struct stage_context *ctx);
 
 /* The couple stage ([couple]): sample spray.h5's impacts, fly them through the gas layer in front of the target

@@ -254,7 +254,9 @@ uint64_t stage_hash(const struct stage_context *ctx, const char *stage)
                                                                                 : calibrate_sections);
     if (strcmp(stage, "sweep") == 0) { /* the spray's keys and [sweep]: follows spray_sections as it grows */
         static const char *const sweep_only[] = {"sweep", NULL};
-        return case_hash_sections(c, spray_sections) * 1099511628211ULL ^ case_hash_sections(c, sweep_only);
+        /* with a file key swept, also the contents of the files its values name (sweep_stage.c) */
+        return sweep_stage_hash(c, case_hash_sections(c, spray_sections) * 1099511628211ULL ^
+                                       case_hash_sections(c, sweep_only));
     }
     return case_hash(c);
 }

@@ -28,7 +28,7 @@ const struct cfg_key sweep_case_keys[] = {
      "results"},
     {"sweep", "x_values", CFG_STRING, "", NULL, 0, 0, 0, NULL,
      "its values, comma-separated, each written as in the case file (a unit may follow: 300 m/s) and checked "
-     "like it"},
+     "like it; absolute file names for a file key"},
     {"sweep", "y_key", CFG_STRING, "", NULL, 0, 0, 0, NULL, "the second case key to vary (none: a single row)"},
     {"sweep", "y_values", CFG_STRING, "", NULL, 0, 0, 0, NULL, "its values, comma-separated, as x_values"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
@@ -37,9 +37,10 @@ const struct cfg_key sweep_case_keys[] = {
 struct sweep_axis {
     char section[64], key[64]; /* section "" : no key (one value) */
     int count;
-    char values[SWEEP_MAX_VALUES][64];
-    double numbers[SWEEP_MAX_VALUES]; /* the values in SI (NAN for a word) */
+    char values[SWEEP_MAX_VALUES][512]; /* long enough for absolute file names */
+    double numbers[SWEEP_MAX_VALUES];   /* the values in SI (NAN for a word) */
     const char *unit;
+    int file; /* the key names a file (CFG_PATH): its values are absolute paths, their contents hashed */
 };
 
 struct sweep {
@@ -81,6 +82,7 @@ static int parse_key(const struct case_file *c, const char *name, struct sweep_a
                             "sections (docs/architecture.md) that does",
                             axis->section, axis->key);
     axis->unit = k->unit;
+    axis->file = k->type == CFG_PATH;
     return SC_OK;
 }
 
@@ -106,6 +108,14 @@ static int parse_values(const struct case_file *c, const char *name, struct swee
     }
     if (axis->count == 0)
         return case_invalid(c, "sweep", name, "no value given");
+    /* RUN_DIR/case.ini keeps [sweep] as written, and a resumed sweep reads it from there: a relative file name
+     * would then be looked for in RUN_DIR */
+    for (int k = 0; axis->file && k < axis->count; k++)
+        if (axis->values[k][0] != '/')
+            return case_invalid(c, "sweep", name,
+                                "'%s' is a relative file name of [%s] %s; allowed: absolute paths (a resumed sweep "
+                                "reads its values from RUN_DIR/case.ini, in another folder)",
+                                axis->values[k], axis->section, axis->key);
     return SC_OK;
 }
 
@@ -182,6 +192,37 @@ static int run_case(const struct sweep *sw, int i, int j, struct case_file **out
     }
     *out = run;
     return SC_OK;
+}
+
+/* ---- the sweep's hash ---- */
+
+/* With a file key on an axis ([deposition] table, [path] waypoints) the [sweep] text names the files but the case
+ * hash holds only the base case's files: the map stayed up to date after a swept file changed.  The hash then takes
+ * in every run's spray hash, which holds the contents of the files its values name.  `base` is the hash of the case
+ * and [sweep]; it stands alone when no axis is a file or the axes cannot be read (the stage refuses them). */
+uint64_t sweep_stage_hash(const struct case_file *c, uint64_t base)
+{
+    struct stage_context ctx = {.c = c};
+    struct sweep sw;
+    if (load_sweep(&ctx, &sw) != SC_OK) {
+        sc_error_clear();
+        return base;
+    }
+    if (!sw.x.file && !sw.y.file)
+        return base;
+    uint64_t hash = base;
+    for (int j = 0; j < sw.y.count; j++)
+        for (int i = 0; i < sw.x.count; i++) {
+            struct case_file *run;
+            if (run_case(&sw, i, j, &run) != SC_OK) {
+                sc_error_clear();
+                continue;
+            }
+            const struct stage_context run_ctx = {.c = run};
+            hash = hash * 1099511628211ULL ^ stage_hash(&run_ctx, "spray");
+            case_free(run);
+        }
+    return hash;
 }
 
 /* The values in SI where the key is a number (the run's case converts them: "300 mm" is 0.3); NaN for a word,

@@ -285,3 +285,50 @@ elif [ "$stopped" = 2 ] && grep -q 'changed while the sweep ran' "$T/log_table" 
 else
     fail sweep_stops_when_a_named_file_changes "exit $stopped with the table edited ($(grep -i error "$T/log_table" | head -n 1)); put back: exit $again, map $(tr '\n' ' ' <"$T/map_de_table")"
 fi
+
+# 10. the figures follow sweep.h5: a pipeline of sweep,render run again with other x values draws the map again
+# (render's fingerprint left sweep.h5 out: "up to date", the old map's figure kept), and `render` of the first case
+# over the second's sweep.h5 is refused, exit 3, as for its other inputs (it drew the other case's map under this
+# case's keys)
+cp -r "$R" "$T/figs"
+why=""
+"$BIN" run "$T/sweep.ini" --stages sweep,render -o "$T/figs" >"$T/log10a" 2>&1 || why="$why first pipeline exit $?;"
+first=$(md5sum <"$T/figs/figures/sweep_de.png" 2>/dev/null)
+sed 's/^x_values = 250, 350$/x_values = 250, 300/' "$T/sweep.ini" >"$T/sweep_b.ini"
+"$BIN" run "$T/sweep_b.ini" --stages sweep,render -o "$T/figs" >"$T/log10b" 2>&1 || why="$why second pipeline exit $?;"
+grep -q 'render: the figures .* are up to date' "$T/log10b" && why="$why render found the figures up to date;"
+[ -n "$first" ] && [ "$first" != "$(md5sum <"$T/figs/figures/sweep_de.png" 2>/dev/null)" ] ||
+    why="$why sweep_de.png unchanged (or missing);"
+"$BIN" render "$T/sweep.ini" -o "$T/figs" >"$T/log10c" 2>&1
+code=$?
+[ $code -eq 3 ] && grep -q 'sweep.h5 was made by another case' "$T/log10c" ||
+    why="$why render of the first case over the second's sweep.h5: exit $code, $(tail -n 1 "$T/log10c");"
+if [ -z "$why" ]; then pass sweep_figures_follow_the_map; else fail sweep_figures_follow_the_map "$why"; fi
+
+# 11. a file key swept ([deposition] table over two files): the files' contents are part of the map's hash, so a
+# table edited after the sweep makes the map out of date and its run is made again, to the map of a fresh sweep
+# (the hash held only the [sweep] text: "up to date" with the old table's DE); a relative file name is refused,
+# exit 2 (a resumed sweep reads its values from RUN_DIR/case.ini, where it named another file)
+cp "$TABLE" "$T/t1.csv"
+cp "$TABLE" "$T/t2.csv"
+write_case "$T/tables.ini" 320 800 "[sweep]
+x_key = deposition.table
+x_values = $T/t1.csv, $T/t2.csv"
+why=""
+"$BIN" sweep "$T/tables.ini" -o "$T/tables" >"$T/log11a" 2>&1 || why="$why first sweep exit $?;"
+before=$(values "$T/tables/sweep.h5" /de | tr '\n' ' ')
+awk -F, -v OFS=, 'NR > 1 && !/^#/ { $2 = $2 - 200 } { print }' "$TABLE" >"$T/t2.csv"
+"$BIN" sweep "$T/tables.ini" -o "$T/tables" >"$T/log11b" 2>&1 || why="$why second sweep exit $?;"
+grep -q 'sweep.h5 is up to date' "$T/log11b" && why="$why the map was found up to date after t2.csv changed;"
+after=$(values "$T/tables/sweep.h5" /de | tr '\n' ' ')
+"$BIN" sweep "$T/tables.ini" -o "$T/tables_fresh" >"$T/log11c" 2>&1 || why="$why fresh sweep exit $?;"
+fresh=$(values "$T/tables_fresh/sweep.h5" /de | tr '\n' ' ')
+[ -n "$after" ] && [ "$after" = "$fresh" ] && [ "$after" != "$before" ] ||
+    why="$why DE before '$before', after the edit '$after', a fresh sweep '$fresh';"
+(cd "$T" && write_case relative.ini 320 800 "[sweep]
+x_key = deposition.table
+x_values = t1.csv, t2.csv" && "$BIN" sweep relative.ini -o relative >log11d 2>&1)
+code=$?
+[ $code -eq 2 ] && grep -q "relative file name of \[deposition\] table" "$T/log11d" && [ ! -e "$T/relative" ] ||
+    why="$why a relative file value: exit $code, $(tail -n 1 "$T/log11d");"
+if [ -z "$why" ]; then pass sweep_file_values_hashed; else fail sweep_file_values_hashed "$why"; fi
