@@ -79,6 +79,9 @@ int run_dir_retire_output(const char *path);
  * or (with required) is missing.  Exit status 3, not 2: the case file and command line are fine, what is wrong
  * is a file in the run directory. */
 int run_dir_check_input(const struct stage_context *ctx, const char *stage, const char *reader, int required);
+/* Whether the output `path` of `stage` was made by ctx's case (its case_hash, either impact hash): 1, 0, or -1 when
+ * it cannot be read. */
+int run_dir_made_by_case(const struct stage_context *ctx, const char *stage, const char *path);
 
 /* The start every stage shares: 1 (and a log line) when `output` is current for the case, so the stage has
  * nothing to do; otherwise say whether it is rerun over another case's output, load [run] into *settings and

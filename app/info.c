@@ -549,6 +549,19 @@ static void print_other_build(const char *path, FILE *out)
     H5Fclose(file);
 }
 
+/* A stage's output made by another case than RUN_DIR/case.ini's (a run of another case into the directory, stopped
+ * before it replaced it): "done" alone read as this case's result.  Nothing when case.ini cannot be loaded. */
+static void print_other_case(const struct case_file *c, const char *run_dir, const char *stage, const char *path,
+                             FILE *out)
+{
+    if (!c)
+        return;
+    const struct stage_context ctx = {.c = c, .run_dir = run_dir};
+    if (run_dir_made_by_case(&ctx, stage, path) == 0)
+        fprintf(out, " (of another case than %s/case.ini: not its result; running the stage computes it again)",
+                run_dir);
+}
+
 int info_print(const char *target, FILE *out)
 {
     static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
@@ -570,6 +583,9 @@ int info_print(const char *target, FILE *out)
     fprintf(out, "case: %s\n", path);
     SC_TRY(run_dir_read_stages(target, stages, sizeof stages));
     fprintf(out, "stages asked for: %s\n", stages);
+    struct case_file *c = NULL; /* case.ini, to tell the outputs of another case */
+    if (case_load(path, spraycoat_registry, &c) != SC_OK)
+        c = NULL, sc_error_clear();
     char *results[STAGES] = {NULL};
     for (int k = 0; k < STAGES; k++) {
         const char *stage = stage_names[k];
@@ -581,8 +597,10 @@ int info_print(const char *target, FILE *out)
             continue;
         const char *unfinished = running ? "in progress or waiting" : checkpoints ? "interrupted" : "not done";
         fprintf(out, "stage %s: %s", stage, done ? "done" : unfinished);
-        if (done)
+        if (done) {
             print_other_build(path, out);
+            print_other_case(c, target, stage, path, out);
+        }
         if (checkpoints)
             fprintf(out, "; %zu checkpoints, newest %s", checkpoints, newest);
         fputc('\n', out);
@@ -607,6 +625,7 @@ int info_print(const char *target, FILE *out)
 done:
     for (int k = 0; k < STAGES; k++)
         free(results[k]);
+    case_free(c);
     return status;
 }
 

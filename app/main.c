@@ -356,6 +356,42 @@ static int run_stage_on_ranks(const struct stage *stage, const struct stage_cont
     return parallel_share_status(status);
 }
 
+/* The outputs of earlier stages that a stage reads: render draws whichever are there; couple needs the spray's,
+ * impact the couple's seeds in a pipeline (ctx->impact_from_seeds). */
+static int stage_inputs(const struct stage_context *ctx, const char *stage, const char **inputs, int *required)
+{
+    static const char *const drawn[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
+    int n = 0;
+    if (strcmp(stage, "couple") == 0)
+        inputs[n] = "spray", required[n++] = 1;
+    else if (strcmp(stage, "impact") == 0 && ctx->impact_from_seeds)
+        inputs[n] = "couple", required[n++] = 1;
+    else if (strcmp(stage, "render") == 0)
+        for (size_t k = 0; k < sizeof drawn / sizeof drawn[0]; k++)
+            inputs[n] = drawn[k], required[n++] = 0;
+    return n;
+}
+
+/* The inputs of the chosen stages that no chosen stage before them makes are checked (this case's, present when
+ * needed) before the run directory is touched: the stage refused them only after case.ini and the record of the
+ * stages were written over those of the run whose outputs they are (a `render` of another case left the directory
+ * naming a case none of its results are of). */
+static int check_inputs(const struct stage_context *ctx, const struct stage *const *chosen, int count)
+{
+    for (int i = 0; i < count; i++) {
+        const char *inputs[8];
+        int required[8], n = stage_inputs(ctx, chosen[i]->name, inputs, required);
+        for (int k = 0; k < n; k++) {
+            int made_here = 0;
+            for (int j = 0; j < i; j++)
+                made_here |= strcmp(chosen[j]->name, inputs[k]) == 0;
+            if (!made_here)
+                SC_TRY(run_dir_check_input(ctx, inputs[k], chosen[i]->name, required[k]));
+        }
+    }
+    return SC_OK;
+}
+
 static const struct stage *find_stage(const char *name, size_t length)
 {
     for (size_t i = 0; i < sizeof stages / sizeof stages[0]; i++)
@@ -406,6 +442,7 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
     /* a case that fails validation must not touch the run directory (no case.ini over a good run's) */
     for (int i = 0; i < count; i++)
         SC_TRY(chosen[i]->validate(&ctx));
+    SC_TRY(parallel_share_status(parallel_rank() == 0 ? check_inputs(&ctx, chosen, count) : SC_OK));
     SC_TRY(parallel_share_status(parallel_rank() == 0 ? prepare_run_dir(c, run_dir, list, pipeline) : SC_OK));
     interrupt_install();
     for (int i = 0; i < count; i++) {

@@ -286,6 +286,20 @@ static int made_by_stage(const struct stage_context *ctx, const char *stage, con
     return strcmp(stored, wanted) == 0;
 }
 
+int run_dir_made_by_case(const struct stage_context *ctx, const char *stage, const char *path)
+{
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK) {
+        sc_error_clear();
+        return -1;
+    }
+    char stored[64] = "";
+    int status = h5_attr_read_string(file, "case_hash", stored, sizeof stored);
+    H5Fclose(file);
+    sc_error_clear();
+    return status != SC_OK ? -1 : made_by_stage(ctx, stage, stored);
+}
+
 int run_dir_check_input(const struct stage_context *ctx, const char *stage, const char *reader, int required)
 {
     const char *run_dir = ctx->run_dir;

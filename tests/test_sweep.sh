@@ -289,7 +289,7 @@ fi
 # 10. the figures follow sweep.h5: a pipeline of sweep,render run again with other x values draws the map again
 # (render's fingerprint left sweep.h5 out: "up to date", the old map's figure kept), and `render` of the first case
 # over the second's sweep.h5 is refused, exit 3, as for its other inputs (it drew the other case's map under this
-# case's keys)
+# case's keys), and `info` marks an output of another case
 cp -r "$R" "$T/figs"
 why=""
 "$BIN" run "$T/sweep.ini" --stages sweep,render -o "$T/figs" >"$T/log10a" 2>&1 || why="$why first pipeline exit $?;"
@@ -303,6 +303,15 @@ grep -q 'render: the figures .* are up to date' "$T/log10b" && why="$why render 
 code=$?
 [ $code -eq 3 ] && grep -q 'sweep.h5 was made by another case' "$T/log10c" ||
     why="$why render of the first case over the second's sweep.h5: exit $code, $(tail -n 1 "$T/log10c");"
+# refused, it leaves the run directory as it was: case.ini still the second case's (it was written over first)
+grep -q '^x_values = 250, 300$' "$T/figs/case.ini" || why="$why the refused render wrote its case.ini: $(grep '^x_values' "$T/figs/case.ini");"
+# and `info` of a run directory whose case.ini is the first case's (a run of it stopped before its sweep.h5) says
+# that the second's sweep.h5 is another case's, not "done" alone
+cp -r "$T/figs" "$T/figs_a" && cp "$R/case.ini" "$T/figs_a/case.ini"
+"$BIN" info "$T/figs_a" >"$T/info10" 2>&1
+grep -q '^stage sweep: done (of another case than' "$T/info10" || why="$why info: $(grep '^stage sweep' "$T/info10");"
+"$BIN" info "$T/figs" >"$T/info10b" 2>&1
+grep -q '^stage sweep: done$' "$T/info10b" || why="$why info of the second case's own directory: $(grep '^stage sweep' "$T/info10b");"
 if [ -z "$why" ]; then pass sweep_figures_follow_the_map; else fail sweep_figures_follow_the_map "$why"; fi
 
 # 11. a file key swept ([deposition] table over two files): the files' contents are part of the map's hash, so a
