@@ -289,10 +289,14 @@ static void log_deposition_efficiency(const struct spray_run *run)
         sc_error_clear();
         return;
     }
+    char impacts[128] = "no impact";
+    if (!isnan(de.mean_impact_speed))
+        snprintf(impacts, sizeof impacts, "first impacts at %.4g m/s (normal %.4g m/s) on average",
+                 de.mean_impact_speed, de.mean_impact_normal_speed);
     log_info("spray: deposition efficiency (mass) %.4f: %.4g of %.4g kg sprayed deposited (%lld of %lld particles); "
-             "first impacts at %.4g m/s (normal %.4g m/s) on average",
+             "%s",
              de.de, de.deposited_mass, de.sprayed_mass, (long long)de.deposited_count, (long long)de.sprayed_count,
-             de.mean_impact_speed, de.mean_impact_normal_speed);
+             impacts);
     log_de_classes("size (um)", de.by_size, de.size_count, 1e6);
     log_de_classes("first-impact angle (degree)", de.by_angle, de.angle_count, 180.0 / M_PI);
     if (de.table_impacts_outside > 0) /* dem_vcrit_lookup clamps: the edge's v_crit, never an extrapolation */

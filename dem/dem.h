@@ -314,7 +314,7 @@ struct dem_deposition_efficiency {
     int64_t sprayed_count, deposited_count;
     double unimpacted_mass; /* kg sprayed without an impact */
     int64_t unimpacted_count;
-    double mean_impact_speed, mean_impact_normal_speed; /* m/s: mean |v| and v_z of the first impacts */
+    double mean_impact_speed, mean_impact_normal_speed; /* m/s: mean |v| and v_z of the first impacts; NaN: none */
     /* rule = table: the impacts (/impacts) judged by the v_crit table, and those of them whose diameter or
      * temperature lay beyond its grid, judged at its nearest edge (no extrapolation); 0 with another rule */
     int64_t table_impacts, table_impacts_outside;

@@ -157,8 +157,9 @@ static void split_by_angle(const struct dem_solver *s, struct dem_deposition_eff
         speed_sum += sqrt(row->v_in[0] * row->v_in[0] + row->v_in[1] * row->v_in[1] + row->v_in[2] * row->v_in[2]);
         normal_sum += row->v_in[2];
     }
-    de->mean_impact_speed = impacted ? speed_sum / (double)impacted : 0.0;
-    de->mean_impact_normal_speed = impacted ? normal_sum / (double)impacted : 0.0;
+    /* NaN without an impact: no speed was measured (0 m/s read as a measurement in the sweep's map) */
+    de->mean_impact_speed = impacted ? speed_sum / (double)impacted : NAN;
+    de->mean_impact_normal_speed = impacted ? normal_sum / (double)impacted : NAN;
 }
 
 /* Whether x lies beyond [lo, hi] (a value at an end, written and read back, counts as inside). */

@@ -58,7 +58,10 @@ static void draw_cells(cairo_t *cr, const struct sweep_grid *g, double left, dou
             text_colour_on(cr, rgb);
             snprintf(text, sizeof text, "DE %.3f", de);
             render_text(cr, x + 0.5 * cw, y + 0.5 * ch - 0.1 * font, font, 0.5, 1, text);
-            snprintf(text, sizeof text, "%.0f m/s", g->speed.values[k]);
+            if (isfinite(g->speed.values[k]))
+                snprintf(text, sizeof text, "%.0f m/s", g->speed.values[k]);
+            else
+                snprintf(text, sizeof text, "no impact");
             render_text(cr, x + 0.5 * cw, y + 0.5 * ch + 0.1 * font, 0.85 * font, 0.5, 0, text);
         }
 }

@@ -231,6 +231,25 @@ static void test_weibull_masses_and_classes(void)
     fixture_close(&f);
 }
 
+/* A particle still far from the target after one step: no impact, so no mean impact speed (NaN, not 0 m/s: the
+ * sweep's map printed "0 m/s" in such a cell) */
+static void test_no_impact_no_speed(void)
+{
+    struct fixture f;
+    if (fixture_open(&f, "[spray]\ndt = 1e-8\nt_end = 1e-6\n[jet]\nmodel = none\n", "0,0,0.1,0,0,600,0,0,0,3e-5\n") !=
+        SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    fixture_steps(&f, 1);
+    struct dem_deposition_efficiency de;
+    CHECK(dem_deposition_efficiency(f.solver, &de) == SC_OK, "DE");
+    CHECK(isnan(de.mean_impact_speed) && isnan(de.mean_impact_normal_speed), "no impact: mean speeds %g, %g m/s",
+          de.mean_impact_speed, de.mean_impact_normal_speed);
+    dem_deposition_efficiency_free(&de);
+    fixture_close(&f);
+}
+
 int main(void)
 {
     h5_quiet();
@@ -243,6 +262,7 @@ int main(void)
     RUN(test_de_is_fraction_above_step);
     RUN(test_de_is_fraction_above_table_step);
     RUN(test_weibull_masses_and_classes);
+    RUN(test_no_impact_no_speed);
     remove(table_path);
     return check_finish();
 }
