@@ -1718,8 +1718,14 @@ static void append_resolved_section(const struct case_file *c, size_t first, siz
             continue;
         char *value = slot->spec->type == CFG_PATH ? absolute_path(c, slot->text) : must_strdup(slot->text);
         size_t line_length = strlen(slot->spec->key) + 3 + strlen(value);
-        bool mark = !canonical && slot->source == SOURCE_DEFAULT && line_length + 11 <= MAX_LINE_CHARS;
-        buffer_append(b, "%s = %s%s\n", slot->spec->key, value, mark ? "  ; default" : "");
+        /* a default is shown as a comment: read back (`resume` reads RUN_DIR/case.ini) it must stay a default, not
+         * become a given key (a given [jet] C1 overrode what [nozzle] derives; a given flip clashed with apic) */
+        if (!canonical && slot->source == SOURCE_DEFAULT) {
+            if (line_length + 12 <= MAX_LINE_CHARS)
+                buffer_append(b, "; %s = %s  (default)\n", slot->spec->key, value);
+        } else {
+            buffer_append(b, "%s = %s\n", slot->spec->key, value);
+        }
         free(value);
     }
 }
@@ -1739,7 +1745,7 @@ static char *resolved_text(const struct case_file *c, bool canonical)
     if (canonical) {
         buffer_append(&b, "; spraycoat case, resolved\n");
     } else {
-        buffer_append(&b, "; spraycoat case, resolved: every key that has a value; \"; default\" marks defaults.\n");
+        buffer_append(&b, "; spraycoat case, resolved: every key that has a value, the defaults as comments.\n");
         append_comment_path(&b, c->path);
     }
     buffer_append(&b, "; case hash: %016llx\n", (unsigned long long)case_hash(c));
