@@ -82,7 +82,8 @@ static const struct command_help command_helps[] = {
      "(CVODE) and writes the impact runs' seeds to RUN_DIR/couple.h5.\n"},
     {"impact", "spraycoat impact CASE.ini [-o RUN_DIR] [--threads N]",
      "The impact stage (MPM): the bodies of [impact] (or the couple stage's seeds when RUN_DIR holds couple.h5 of\n"
-     "the case); writes RUN_DIR/impact.h5 and impact.xdmf.\n"},
+     "the case; a case with [couple] over another case's couple.h5 is refused); writes RUN_DIR/impact.h5 and\n"
+     "impact.xdmf.\n"},
     {"vcrit", "spraycoat vcrit CASE.ini [-o RUN_DIR] [--threads N]",
      "Critical velocity against diameter by bisection of single-particle MPM impacts ([vcrit]); writes\n"
      "RUN_DIR/vcrit.csv and vcrit.h5.  Runs are shared among MPI ranks in the MPI build.\n"},
@@ -357,7 +358,8 @@ static int run_stage_on_ranks(const struct stage *stage, const struct stage_cont
 }
 
 /* The outputs of earlier stages that a stage reads: render draws whichever are there; couple needs the spray's,
- * impact the couple's seeds in a pipeline (ctx->impact_from_seeds). */
+ * impact the couple's seeds in a pipeline (ctx->impact_from_seeds), and a case with [couple] may not meet another
+ * case's seeds. */
 static int stage_inputs(const struct stage_context *ctx, const char *stage, const char **inputs, int *required)
 {
     static const char *const drawn[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
@@ -366,6 +368,10 @@ static int stage_inputs(const struct stage_context *ctx, const char *stage, cons
         inputs[n] = "spray", required[n++] = 1;
     else if (strcmp(stage, "impact") == 0 && ctx->impact_from_seeds)
         inputs[n] = "couple", required[n++] = 1;
+    else if (strcmp(stage, "impact") == 0 && app_case_section_given(ctx->c, "couple"))
+        /* a case of the pipeline over another case's seeds: refused, not run on [impact]'s own bodies in their
+         * place (it wrote a single particle's impact.h5 over the seeded runs') */
+        inputs[n] = "couple", required[n++] = 0;
     else if (strcmp(stage, "render") == 0)
         for (size_t k = 0; k < sizeof drawn / sizeof drawn[0]; k++)
             inputs[n] = drawn[k], required[n++] = 0;

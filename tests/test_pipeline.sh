@@ -243,3 +243,21 @@ if [ "$status" -eq 3 ] && grep -q 'spraycoat: .*\(File too large\|file size\|dis
 else
     fail pipeline_file_size_limit "exit status $status: $(grep 'spraycoat:' "$T/full.log" | tail -n 1)"
 fi
+
+# ---- 6. `spraycoat impact` of another case of the pipeline (another seed) over this run's couple.h5: refused, exit
+# 3, before the run directory is touched (it ran [impact]'s own single particle and wrote its impact.h5 over the
+# seeded runs'; and a refused command wrote its case.ini over the run's) ------------------------------------------
+cp -r "$REF" "$T/other_seeds"
+sed 's/^seed = .*/seed = 12/' "$CASE0" >"$T/seed12.ini"
+cp "$T/other_seeds/impact.h5" "$T/impact.before"
+cp "$T/other_seeds/case.ini" "$T/case.before"
+"$BIN" impact "$T/seed12.ini" -o "$T/other_seeds" >"$T/other_seeds.log" 2>&1
+status=$?
+if ! grep -q '^seed = 12$' "$T/seed12.ini"; then
+    fail pipeline_impact_refuses_other_seeds "$CASE0 has no seed line to change"
+elif [ "$status" -eq 3 ] && grep -q 'couple.h5 was made by another case' "$T/other_seeds.log" &&
+    cmp -s "$T/impact.before" "$T/other_seeds/impact.h5" && cmp -s "$T/case.before" "$T/other_seeds/case.ini"; then
+    pass pipeline_impact_refuses_other_seeds
+else
+    fail pipeline_impact_refuses_other_seeds "exit status $status: $(grep 'spraycoat:' "$T/other_seeds.log" | tail -n 1); impact.h5 $(cmp -s "$T/impact.before" "$T/other_seeds/impact.h5" && echo kept || echo changed), case.ini $(cmp -s "$T/case.before" "$T/other_seeds/case.ini" && echo kept || echo changed)"
+fi
