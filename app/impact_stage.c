@@ -590,7 +590,9 @@ static void name_run(struct impact_run *run, long index)
     snprintf(run->label, sizeof run->label, STAGE "_r%04ld", index);
     snprintf(run->snapshot_dir, sizeof run->snapshot_dir, "%s/" RUNS_DIR "/snapshots_%04ld", dir, index);
     snprintf(run->output, sizeof run->output, "%s/" RUNS_DIR "/run_%04ld.h5", dir, index);
-    snprintf(run->xdmf, sizeof run->xdmf, "%s/impact_run_%04ld.xdmf", dir, index);
+    /* staged beside the run's file, and moved to RUN_DIR/impact_run_NNNN.xdmf with impact.h5 (gathered_xdmf): one
+     * published at once pointed into an impact.h5 that a failed gathering never wrote */
+    snprintf(run->xdmf, sizeof run->xdmf, "%s/" RUNS_DIR "/run_%04ld.xdmf", dir, index);
     snprintf(run->snapshot_group, sizeof run->snapshot_group, "run_%04ld/snapshots", index);
 }
 
@@ -881,9 +883,24 @@ done:
     return status;
 }
 
+/* Each run's staged XDMF index to RUN_DIR/impact_run_NNNN.xdmf (rename: atomic), once the gathered impact.h5 it
+ * points into is complete; a run whose index was moved before (an interrupted gathering) keeps it. */
+static int publish_run_xdmf(const char *run_dir, long index)
+{
+    struct impact_run names = {.run_dir = run_dir};
+    name_run(&names, index);
+    char to[H5IO_PATH_MAX];
+    snprintf(to, sizeof to, "%s/impact_run_%04ld.xdmf", run_dir, index);
+    if (rename(names.xdmf, to) != 0 && !(errno == ENOENT && access(to, F_OK) == 0))
+        SC_FAIL(SC_EIO, "cannot move %s to %s: %s", names.xdmf, to, strerror(errno));
+    return SC_OK;
+}
+
 static int gathered_xdmf(void *owner)
 {
     const struct gathering *g = owner;
+    for (long r = 0; r < g->runs; r++)
+        SC_TRY(publish_run_xdmf(g->run_dir, r));
     return write_first_run_xdmf(g->run_dir);
 }
 
@@ -908,6 +925,8 @@ static int remove_run_files(const char *run_dir, long runs)
         name_run(&names, r);
         if (unlink(names.output) != 0 && errno != ENOENT)
             SC_FAIL(SC_EIO, "cannot remove %s: %s", names.output, strerror(errno));
+        if (unlink(names.xdmf) != 0 && errno != ENOENT) /* moved by gathered_xdmf; left by an older layout */
+            SC_FAIL(SC_EIO, "cannot remove %s: %s", names.xdmf, strerror(errno));
         SC_TRY(clear_snapshots(&names, 1));
         SC_TRY(h5_checkpoint_remove_all(run_dir, names.label));
     }

@@ -261,3 +261,22 @@ elif [ "$status" -eq 3 ] && grep -q 'couple.h5 was made by another case' "$T/oth
 else
     fail pipeline_impact_refuses_other_seeds "exit status $status: $(grep 'spraycoat:' "$T/other_seeds.log" | tail -n 1); impact.h5 $(cmp -s "$T/impact.before" "$T/other_seeds/impact.h5" && echo kept || echo changed), case.ini $(cmp -s "$T/case.before" "$T/other_seeds/case.ini" && echo kept || echo changed)"
 fi
+
+# ---- 7. a file-size limit while impact.h5 gathers the runs of a changed [impact]: exit 3, and the earlier run's
+# impact.h5 and its ParaView indices impact_run_NNNN.xdmf whole (each run published its index when it finished,
+# pointing into an impact.h5 never written); run again without the limit, the indices point into the new file ----
+cp -r "$REF" "$T/gather"
+sed 's/^t_end = 4e-9$/t_end = 6e-9/' "$CASE0" >"$T/t6.ini"
+md5sum "$T/gather"/impact.h5 "$T/gather"/impact_run_*.xdmf "$T/gather/impact.xdmf" >"$T/gather.sums"
+(ulimit -f 3000 && "$BIN" run "$T/t6.ini" --stages "$STAGES" -o "$T/gather" >"$T/gather.log" 2>&1)
+status=$?
+why=""
+grep -q '^t_end = 6e-9$' "$T/t6.ini" || why="$why $CASE0 has no [impact] t_end = 4e-9 to change;"
+[ "$status" -eq 3 ] || why="$why exit status $status under the limit: $(grep 'spraycoat:' "$T/gather.log" | tail -n 1);"
+md5sum -c "$T/gather.sums" >"$T/gather.check" 2>&1 || why="$why changed: $(grep -v ': OK$' "$T/gather.check" | tr '\n' ' ');"
+"$BIN" run "$T/t6.ini" --stages "$STAGES" -o "$T/gather" >"$T/gather2.log" 2>&1 || why="$why the run without the limit exited $?;"
+snapshots=$(h5ls "$T/gather/impact.h5/run_0002/snapshots" 2>/dev/null | wc -l)
+indexed=$(grep -o 'run_0002/snapshots/[0-9]*' "$T/gather/impact_run_0002.xdmf" 2>/dev/null | sort -u | wc -l)
+[ "$snapshots" -gt 0 ] && [ "$snapshots" -eq "$indexed" ] && [ ! -e "$T/gather/impact_runs" ] ||
+    why="$why after the run: impact_run_0002.xdmf indexes $indexed snapshots of the $snapshots in impact.h5, impact_runs $([ -e "$T/gather/impact_runs" ] && echo left || echo removed);"
+if [ -z "$why" ]; then pass pipeline_gather_failure_keeps_indices; else fail pipeline_gather_failure_keeps_indices "$why"; fi
