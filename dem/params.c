@@ -657,6 +657,32 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
         gas->gas_sutherland = n->properties.sutherland;
 }
 
+/* The injection disc of radius nozzle_radius (`key` names the key that gave it, for the messages): it holds the
+ * particles, reaches no farther than the domain, and can hold a batch of feed_count particles side by side.  Placed
+ * at random, discs cover at most 0.547 of a plane (the random sequential adsorption limit: Feder 1980, J. Theor.
+ * Biol. 87:237; Hinrichsen, Feder & Jossang 1986, J. Stat. Phys. 44:793), so a batch of more particles of the
+ * median diameter than that mostly cannot be placed: each then takes 1000 failed attempts (it took minutes in step
+ * 0, where no signal is looked at). */
+static int check_disc(const struct case_file *c, const struct dem_config *cfg, const char *section, const char *key)
+{
+    double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
+    if (d_smallest >= 2 * cfg->nozzle_radius)
+        return case_invalid(c, section, key, "the nozzle disc (radius %g m) is smaller than the particles",
+                            cfg->nozzle_radius);
+    if (cfg->domain_radius <= cfg->nozzle_radius)
+        return case_invalid(c, "spray", "domain_radius", "not larger than the nozzle disc's radius %g m",
+                            cfg->nozzle_radius);
+    double typical = cfg->sizes.median_diameter, usable = cfg->nozzle_radius - 0.5 * d_smallest;
+    double capacity = floor(0.547 * usable * usable / (0.25 * typical * typical));
+    if ((double)cfg->feed_count > capacity)
+        return case_invalid(c, "spray", "feed_count",
+                            "%lld particles of the median diameter %g m do not fit side by side in the nozzle disc of "
+                            "radius %g m; allowed: at most %.0f (random packing covers 0.547 of the disc), or a "
+                            "larger disc",
+                            (long long)cfg->feed_count, typical, cfg->nozzle_radius, capacity);
+    return SC_OK;
+}
+
 /* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc
  * is the nozzle's exit unless [spray] nozzle_radius is given. */
 static int nozzle_release(const struct case_file *c, struct dem_config *cfg)
@@ -667,13 +693,7 @@ static int nozzle_release(const struct case_file *c, struct dem_config *cfg)
     if (case_is_given(c, "spray", "nozzle_radius") || cfg->injection != DEM_INJECT_STREAM)
         return SC_OK;
     cfg->nozzle_radius = 0.5 * cfg->nozzle->exit_diameter;
-    double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
-    if (d_smallest >= 2 * cfg->nozzle_radius)
-        return case_invalid(c, "nozzle", "exit_diameter", "the nozzle exit is smaller than the particles");
-    if (cfg->domain_radius <= cfg->nozzle_radius)
-        return case_invalid(c, "spray", "domain_radius", "not larger than the nozzle's exit radius %g m",
-                            cfg->nozzle_radius);
-    return SC_OK;
+    return check_disc(c, cfg, "nozzle", "exit_diameter");
 }
 
 static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
@@ -806,12 +826,7 @@ static int load_all(const struct case_file *c, struct dem_config *cfg)
     load_contact_and_jet(c, cfg);
     SC_TRY(check_jet(c, &cfg->gas));
     if (cfg->injection == DEM_INJECT_STREAM) {
-        double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
-        if (d_smallest >= 2 * cfg->nozzle_radius)
-            return case_invalid(c, "spray", "nozzle_radius", "the nozzle disc is smaller than the particles");
-        if (cfg->domain_radius <= cfg->nozzle_radius)
-            return case_invalid(c, "spray", "domain_radius", "not larger than nozzle_radius = %g m",
-                                cfg->nozzle_radius);
+        SC_TRY(check_disc(c, cfg, "spray", "nozzle_radius"));
     } else {
         SC_TRY(load_particles_file(c, cfg));
     }

@@ -174,6 +174,38 @@ static void test_swept_detection_matches_brute_force(void)
     }
 }
 
+/* Stream injection into a crowded disc: a batch of 3000 particles of 20-60 um in a 1.5 mm disc (a third of the disc
+ * covered), placed by random sequential addition against a grid of cells (dem/inject.c): no two of them may overlap,
+ * whatever cells they fall in, and nearly all find a place.  A grid that missed a neighbouring cell placed
+ * overlapping particles here. */
+static void test_injection_places_without_overlap(void)
+{
+    struct fixture f;
+    if (fixture_open(&f,
+                     "[spray]\ndt = 1e-9\nt_end = 1e-6\ninjection = stream\nfeed_count = 3000\nfeed_every = 1000\n"
+                     "max_injected = 3000\nnozzle_radius = 0.0015\n[powder]\ndistribution = weibull\n"
+                     "median_diameter = 30e-6\nshape = 3.5\nd_min = 20e-6\nd_max = 60e-6\n[jet]\nmodel = none\n"
+                     "[deposition]\nrule = none\n",
+                     NULL) != SC_OK) {
+        CHECK(0, "fixture");
+        return;
+    }
+    struct dem_solver *s = f.solver;
+    dem_inject(s);
+    const struct dem_particles *p = &s->p;
+    int overlapping = 0;
+    for (size_t i = 0; i < p->count; i++)
+        for (size_t j = i + 1; j < p->count; j++) {
+            double dx = p->x[3 * j] - p->x[3 * i], dy = p->x[3 * j + 1] - p->x[3 * i + 1];
+            double contact = 0.5 * (p->d[i] + p->d[j]);
+            overlapping += dx * dx + dy * dy < contact * contact;
+        }
+    printf("  %zu of 3000 placed\n", p->count);
+    CHECK(p->count > 2900, "%zu of 3000 placed", p->count);
+    CHECK(overlapping == 0, "%d overlapping pairs", overlapping);
+    fixture_close(&f);
+}
+
 /* Number of particle-particle collisions in a dense cloud over 200 us, as a function of dt. */
 static int64_t collisions_in_cloud(double dt)
 {
@@ -614,6 +646,7 @@ int main(void)
     RUN(test_stokes_relaxation);
     RUN(test_stiff_particle_is_stable);
     RUN(test_swept_detection_matches_brute_force);
+    RUN(test_injection_places_without_overlap);
     RUN(test_collision_count_converges);
     RUN(test_threads_bit_identical);
     RUN(test_kept_drag_changes_nothing);
