@@ -84,3 +84,19 @@ grep -q "warning: spray: $flying of the 200 particles sprayed .* were still in f
 grep -q 'in flight 0$' "$T/landed.err" || why="${why:+$why; }the long spray still has particles in flight"
 grep -q 'still in flight at t_end' "$T/landed.err" && why="${why:+$why; }the spray whose particles all landed or left is warned about"
 report in_flight_at_the_end_warns
+
+# particles of a particles CSV that overlap at t = 0 never collide (a contact starts when surfaces meet): warned,
+# naming the first pair's rows and counting the pairs (rows 1-2, 2-3, 1-7 and 2-7 overlap, 4 is apart, rows 5 and 6
+# overlap though far apart in the file, and 1-2 are not next to each other along x: the search sorts by x); none for
+# a file without overlap
+why=""
+printf 'x,y,z,vx,vy,vz,wx,wy,wz,d\n0,0,0,0,0,100,0,0,0,40e-6\n20e-6,0,0,0,0,100,0,0,0,40e-6\n55e-6,0,0,0,0,100,0,0,0,40e-6\n1e-3,0,0,0,0,100,0,0,0,40e-6\n-1e-3,5e-4,0,0,0,100,0,0,0,40e-6\n-1e-3,5.3e-4,0,0,0,100,0,0,0,40e-6\n5e-6,30e-6,0,0,0,100,0,0,0,40e-6\n' >"$T/overlap.csv"
+printf 'x,y,z,vx,vy,vz,wx,wy,wz,d\n0,0,0,0,0,100,0,0,0,40e-6\n41e-6,0,0,0,0,100,0,0,0,40e-6\n' >"$T/apart.csv"
+for f in overlap apart; do
+    printf '[spray]\ninjection = file\nparticles = %s.csv\nt_end = 1e-5\ndt = 1e-6\n[jet]\nmodel = none\n' "$f" >"$T/$f.ini"
+    "$bin" check "$T/$f.ini" >/dev/null 2>"$T/$f.err" || why="${why:+$why; }check of $f exited $?"
+done
+grep -q 'warning: spray: 5 pairs of the particles in .*overlap.csv overlap at t = 0 (first: data rows 1 and 2)' "$T/overlap.err" ||
+    why="${why:+$why; }no warning of the 5 overlapping pairs: $(grep -i 'overlap' "$T/overlap.err" | head -n 1)"
+grep -qi 'overlap' "$T/apart.err" && why="${why:+$why; }a file without overlap is warned about"
+report overlapping_particles_warn
