@@ -541,6 +541,7 @@ int impact_stage_validate(const struct stage_context *ctx)
     const char *run_dir = ctx->run_dir;
     struct mpm_config cfg;
     SC_TRY(mpm_config_load(c, &cfg));
+    mpm_config_warn_unused_materials(c, &cfg);
     int status = SC_OK;
     if (ctx->impact_from_seeds && !case_is(c, "impact", "symmetry", "none")) {
         status = case_invalid(c, "impact", "symmetry",

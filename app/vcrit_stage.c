@@ -1241,7 +1241,12 @@ int vcrit_stage_validate(const struct stage_context *ctx)
 {
     /* recorded runs of another case are ignored, never refused */
     struct vcrit_search v = {.c = ctx->c};
-    return load_settings(ctx->c, &v);
+    SC_TRY(load_settings(ctx->c, &v));
+    struct mpm_config cfg; /* the single particle on its substrate: the materials in use */
+    SC_TRY(mpm_config_load(ctx->c, &cfg));
+    mpm_config_warn_unused_materials(ctx->c, &cfg);
+    mpm_config_free(&cfg);
+    return SC_OK;
 }
 
 /* What one run's outcome depends on besides its diameter, speed and temperature: [run], [impact], the materials and

@@ -1700,6 +1700,20 @@ static size_t section_group_end(const struct case_file *c, size_t first)
     return end;
 }
 
+size_t case_section_names(const struct case_file *c, const char *prefix, const char **names, size_t max)
+{
+    size_t count = 0, length = strlen(prefix);
+    for (size_t first = 0; first < c->slot_count; first = section_group_end(c, first)) {
+        const char *section = c->slots[first].section;
+        if (strncmp(section, prefix, length) != 0 || section[length] != '.')
+            continue;
+        if (count < max)
+            names[count] = section + length + 1;
+        count++;
+    }
+    return count;
+}
+
 static bool group_has_values(const struct case_file *c, size_t first, size_t end)
 {
     for (size_t i = first; i < end; i++)

@@ -92,6 +92,9 @@ int case_line(const struct case_file *c, const char *section, const char *key);
  * CASE_NAME_ALLOWED says, else 0. */
 #define CASE_NAME_ALLOWED "letters, digits, '_' or '-'"
 int case_valid_name(const char *name);
+/* The NAMEs of the [PREFIX.NAME] sections present (prefix "material"), at most `max` of them, in the case's order;
+ * their number (which may exceed max).  The names belong to the case. */
+size_t case_section_names(const struct case_file *c, const char *prefix, const char **names, size_t max);
 
 /* Errors in the standard form.  Both return SC_EINPUT. */
 int case_require(const struct case_file *c, const char *section, const char *key, const char *why);

@@ -128,6 +128,9 @@ extern const struct cfg_key mpm_case_keys[];
 
 /* Resolve [impact] and the materials it names.  SC_EINPUT with FILE:LINE: [section] key messages. */
 int mpm_config_load(const struct case_file *c, struct mpm_config *cfg);
+/* Warn of each [material.NAME] section of the case that no body of cfg uses (a misspelt name left the body on
+ * another material, silently); the number of such sections. */
+int mpm_config_warn_unused_materials(const struct case_file *c, const struct mpm_config *cfg);
 void mpm_config_free(struct mpm_config *cfg);
 /* Replace the bodies by one sphere of `diameter` moving at `speed` (m/s) at `angle` (rad from the normal)
  * towards the substrate, touching it (the single-particle set-up of [impact] and of vcrit). */

@@ -8,6 +8,7 @@
 
 #include "core/csv.h"
 #include "core/error.h"
+#include "core/log.h"
 #include "mpm/mpm.h"
 #include "mpm/gpu.h"
 #include "mpm/mpm_impl.h"
@@ -731,6 +732,33 @@ done:
     if (status != SC_OK)
         mpm_config_free(cfg);
     return status;
+}
+
+int mpm_config_warn_unused_materials(const struct case_file *c, const struct mpm_config *cfg)
+{
+    const char *names[64];
+    size_t count = case_section_names(c, "material", names, 64), unused = 0;
+    char used[256] = ""; /* for the message: the materials the bodies use */
+    for (int m = 0, length = 0; m < cfg->material_count && length < (int)sizeof used; m++) {
+        int bodies = 0;
+        for (int b = 0; b < cfg->body_count; b++)
+            bodies += cfg->bodies[b].material == m;
+        if (bodies)
+            length += snprintf(used + length, sizeof used - (size_t)length, "%s%s", length ? ", " : "",
+                               cfg->materials[m].name);
+    }
+    for (size_t k = 0; k < count && k < 64; k++) {
+        int in_use = 0;
+        for (int b = 0; b < cfg->body_count; b++)
+            in_use |= strcmp(cfg->materials[cfg->bodies[b].material].name, names[k]) == 0;
+        if (in_use)
+            continue;
+        unused++;
+        log_warn("impact: [material.%s] is used by no body (the bodies' materials: %s): a misspelt name leaves the "
+                 "bodies on another material",
+                 names[k], used[0] ? used : "none");
+    }
+    return (int)unused;
 }
 
 void mpm_config_free(struct mpm_config *cfg)

@@ -100,3 +100,15 @@ grep -q 'warning: spray: 5 pairs of the particles in .*overlap.csv overlap at t 
     why="${why:+$why; }no warning of the 5 overlapping pairs: $(grep -i 'overlap' "$T/overlap.err" | head -n 1)"
 grep -qi 'overlap' "$T/apart.err" && why="${why:+$why; }a file without overlap is warned about"
 report overlapping_particles_warn
+
+# a [material.NAME] section no body uses (a misspelt name: the bodies stay on the default material) is warned of,
+# naming it and the materials in use; the fixture's own sections are not
+why=""
+sed 's/^\[material.aluminium\]$/[material.aluminium]\n[material.aluminum]\ndensity = 2800/' tests/fixtures/pipeline_small.ini >"$T/misspelt.ini"
+grep -q '^\[material.aluminum\]$' "$T/misspelt.ini" || why="tests/fixtures/pipeline_small.ini has no [material.aluminium] line"
+"$bin" check "$T/misspelt.ini" >/dev/null 2>"$T/misspelt.err" || why="${why:+$why; }check exited $?"
+grep -q "warning: impact: \[material.aluminum\] is used by no body (the bodies' materials: aluminium)" "$T/misspelt.err" ||
+    why="${why:+$why; }no warning of the unused section: $(grep -i 'material' "$T/misspelt.err" | head -n 1)"
+"$bin" check tests/fixtures/pipeline_small.ini >/dev/null 2>"$T/fixture.err"
+grep -q 'used by no body' "$T/fixture.err" && why="${why:+$why; }the fixture's own material section is warned about"
+report unused_material_section_warns
