@@ -823,6 +823,16 @@ static int load_waypoints(const struct case_file *c, struct dem_path *path)
                 c, "path", "waypoints",
                 "%s: data row %zu: t = %g s not after the row before (%g s); allowed: t strictly ascending", file,
                 i + 1, path->waypoints[3 * i], path->waypoints[3 * (i - 1)]);
+    /* the jet is taken as quasi-steady about the moving nozzle: at most traverse_speed's limit between waypoints */
+    for (size_t i = 1; i < path->waypoint_count; i++) {
+        const double *a = path->waypoints + 3 * (i - 1), *b = path->waypoints + 3 * i;
+        double speed = hypot(b[1] - a[1], b[2] - a[2]) / (b[0] - a[0]);
+        if (speed > 100.0)
+            return case_invalid(c, "path", "waypoints",
+                                "%s: data rows %zu-%zu: the nozzle moves at %g m/s; allowed: at most 100 m/s, as "
+                                "traverse_speed (far below the gas speed: the jet is quasi-steady)",
+                                file, i, i + 1, speed);
+    }
     return SC_OK;
 }
 
