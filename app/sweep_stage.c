@@ -172,8 +172,9 @@ static int set_value(struct case_file *run, const struct sweep_axis *axis, int i
 {
     if (!axis->section[0])
         return SC_OK;
-    char origin[96];
-    snprintf(origin, sizeof origin, "[sweep] %s value %d", values_name, index + 1);
+    char origin[4200]; /* FILE:LINE, so that a bad value's message names where it was written */
+    snprintf(origin, sizeof origin, "%s:%d: [sweep] %s value %d", case_file_path(run),
+             case_line(run, "sweep", values_name), values_name, index + 1);
     return case_set(run, axis->section, axis->key, axis->values[index], origin);
 }
 

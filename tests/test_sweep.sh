@@ -184,7 +184,7 @@ x_key = impact.grid
 x_values = 1e-6, 2e-6" "\[sweep\] x_key.*does not change"
 bad bad_value "[sweep]
 x_key = jet.C1
-x_values = 250, fast" "x_values value 2.*\[jet\] C1"
+x_values = 250, fast" "bad.ini:[0-9][0-9]*: \[sweep\] x_values value 2.*\[jet\] C1"
 bad value_out_of_range "[sweep]
 x_key = spray.release_speed_max
 x_values = 700, 2e5" "x_values value 2.*\[spray\] release_speed_max"
