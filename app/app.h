@@ -206,9 +206,10 @@ int vcrit_runs_load(struct vcrit_runs *r);
  * records, or an MPM run to cfg->t_end through the stage loop, then recorded. */
 int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *run);
 void vcrit_runs_free(struct vcrit_runs *r);
-/* A comma-separated list of numbers, each > 0 and <= max, from [section] key into out[capacity]; *count may be 0. */
-int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, double *out,
-                          int capacity, int *count);
+/* A comma-separated list of numbers in `unit` (SI), each > 0 and <= max, from [section] key into out[capacity];
+ * *count may be 0.  A number may carry a unit ("10 um", "25 degC"), converted as a case key's value is. */
+int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, const char *unit,
+                          double *out, int capacity, int *count);
 
 /* `spraycoat calibrate` ([calibrate], app/calibrate_stage.c): the bonding calibration of Tang (2021) Sections
  * 4.1.2 and 5.1 over a (Gc, Gc_rate) grid.  Writes RUN_DIR/calibrate.csv, calibrate_runs... (while it runs),

@@ -150,9 +150,9 @@ static int parse_sizes(const struct case_file *c, struct calibrate *k)
 {
     double d[MAX_SIZES], v[MAX_SIZES], s[MAX_SIZES];
     int nd, nv, ns;
-    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, d, MAX_SIZES, &nd));
-    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, v, MAX_SIZES, &nv));
-    SC_TRY(vcrit_runs_parse_list(c, STAGE, "substrate_diameters", 1.0, s, MAX_SIZES, &ns));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, "m", d, MAX_SIZES, &nd));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, "m/s", v, MAX_SIZES, &nv));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "substrate_diameters", 1.0, "m", s, MAX_SIZES, &ns));
     if (nd == 0)
         return case_invalid(c, STAGE, "diameters", "no diameter given");
     if (nv != nd)

@@ -108,8 +108,8 @@ static int load(const struct stage_context *ctx, struct vcrit_fit *f)
     f->max_evaluations = (int)case_int(c, STAGE, "fit_evaluations");
     f->bracket_tolerance = case_real(c, STAGE, "fit_bracket");
     int targets;
-    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, f->diameter, MAX_SIZES, &f->size_count));
-    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, f->target, MAX_SIZES, &targets));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "diameters", 1.0, "m", f->diameter, MAX_SIZES, &f->size_count));
+    SC_TRY(vcrit_runs_parse_list(c, STAGE, "velocities", 1e5, "m/s", f->target, MAX_SIZES, &targets));
     if (f->size_count == 0)
         return case_invalid(c, STAGE, "diameters", "no diameter given");
     if (targets != f->size_count)

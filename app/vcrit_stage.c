@@ -30,6 +30,7 @@
 
 #include "core/atomic.h"
 #include "core/error.h"
+#include "core/units.h"
 #include "core/interrupt.h"
 #include "core/h5io.h"
 #include "core/log.h"
@@ -49,7 +50,8 @@
 
 const struct cfg_key vcrit_case_keys[] = {
     {"vcrit", "diameters", CFG_STRING, "m", "14e-6,30e-6", 0, 0, 0, NULL,
-     "comma-separated particle diameters at which v_crit is searched (each > 0 and <= 1 m, all different)"},
+     "comma-separated particle diameters at which v_crit is searched (each > 0 and <= 1 m, all different; a unit may "
+     "follow each: 10 um)"},
     {"vcrit", "v_low", CFG_REAL, "m/s", "500", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
      "lower end of the search: a particle at this speed must rebound"},
     {"vcrit", "v_high", CFG_REAL, "m/s", "1200", 0, 1e5, CFG_MIN_EXCLUSIVE, NULL,
@@ -80,7 +82,8 @@ const struct cfg_key vcrit_case_keys[] = {
      "method = logistic: sweep runs on each side of the bisection's v_crit (at most 2 x this many runs more per "
      "diameter)"},
     {"vcrit", "temperatures", CFG_STRING, "K", NULL, 0, 0, 0, NULL,
-     "comma-separated particle temperatures at impact (each > 0 and <= 1e5 K, all different): one search per "
+     "comma-separated particle temperatures at impact (each > 0 and <= 1e5 K, all different; 25 degC too): one search "
+     "per "
      "(diameter, temperature), the table v_crit(d, T); not given: the [impact] material's T_initial only, the "
      "table v_crit(d)"},
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
@@ -136,8 +139,8 @@ static int compare_doubles(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, double *out,
-                          int capacity, int *count)
+int vcrit_runs_parse_list(const struct case_file *c, const char *section, const char *key, double max, const char *unit,
+                          double *out, int capacity, int *count)
 {
     char text[4096];
     if (snprintf(text, sizeof text, "%s", case_text(c, section, key)) >= (int)sizeof text)
@@ -147,15 +150,21 @@ int vcrit_runs_parse_list(const struct case_file *c, const char *section, const 
     for (char *token = strtok_r(text, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
         while (*token == ' ' || *token == '\t')
             token++;
-        char *end;
+        char *end, why[256] = "";
         errno = 0;
         double x = strtod(token, &end);
+        int read = end != token && errno != ERANGE && isfinite(x);
         while (*end == ' ' || *end == '\t')
             end++;
-        if (end == token || *end != '\0' || errno == ERANGE || !isfinite(x) || !(x > 0) || x > max)
+        for (char *last = end + strlen(end); last > end && (last[-1] == ' ' || last[-1] == '\t');)
+            *--last = '\0';
+        if (read && *end && units_to_si(x, end, unit, &x, why, sizeof why) != UNITS_OK)
+            read = 0;
+        if (!read || !(x > 0) || x > max)
             return case_invalid(c, section, key,
-                                "'%s' is not allowed; allowed: comma-separated numbers, each > 0 and <= %g", token,
-                                max);
+                                "'%s' is not allowed%s%s; allowed: comma-separated numbers, each > 0 and <= %g %s (a "
+                                "unit may follow: 10 um)",
+                                token, why[0] ? ": " : "", why, max, unit);
         if (*count == capacity)
             return case_invalid(c, section, key, "more than %d values", capacity);
         out[(*count)++] = x;
@@ -165,7 +174,7 @@ int vcrit_runs_parse_list(const struct case_file *c, const char *section, const 
 
 static int parse_diameters(const struct case_file *c, struct vcrit_search *v)
 {
-    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "diameters", 1.0, v->diameters, MAX_DIAMETERS, &v->count));
+    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "diameters", 1.0, "m", v->diameters, MAX_DIAMETERS, &v->count));
     if (v->count == 0)
         return case_invalid(c, "vcrit", "diameters", "no diameter given");
     qsort(v->diameters, (size_t)v->count, sizeof v->diameters[0], compare_doubles);
@@ -182,7 +191,7 @@ static int parse_temperatures(const struct case_file *c, struct vcrit_search *v)
     v->temperatures[0] = 0.0;
     if (!v->over_temperature)
         return SC_OK;
-    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "temperatures", 1e5, v->temperatures, MAX_TEMPERATURES,
+    SC_TRY(vcrit_runs_parse_list(c, "vcrit", "temperatures", 1e5, "K", v->temperatures, MAX_TEMPERATURES,
                                  &v->temperature_count));
     if (v->temperature_count == 0)
         return case_invalid(c, "vcrit", "temperatures", "no temperature given");
@@ -218,7 +227,8 @@ static int load_settings(const struct case_file *c, struct vcrit_search *v)
     SC_TRY(parse_temperatures(c, v));
     v->cor_count = 0;
     if (case_has(c, "vcrit", "cor_below"))
-        SC_TRY(vcrit_runs_parse_list(c, "vcrit", "cor_below", 1e5, v->cor_offsets, MAX_COR_OFFSETS, &v->cor_count));
+        SC_TRY(
+            vcrit_runs_parse_list(c, "vcrit", "cor_below", 1e5, "m/s", v->cor_offsets, MAX_COR_OFFSETS, &v->cor_count));
     v->v_low = case_real(c, "vcrit", "v_low");
     v->v_high = case_real(c, "vcrit", "v_high");
     v->tolerance = case_real(c, "vcrit", "tolerance");

@@ -431,7 +431,7 @@ fi
 cat tests/fixtures/vcrit_tiny.ini - >"$T/hot.ini" <<EOF
 
 [vcrit]
-diameters = 8e-6,10e-6
+diameters = 8 um,10e-6
 temperatures = 298,850
 v_low = 750
 v_high = 1200
@@ -450,6 +450,16 @@ if "$BIN" vcrit "$T/hot.ini" -o "$T/hot" >"$T/hot.log" 2>&1 && [ "$(grep -c '^# 
     done
 else
     fail vcrit_table_unbracketed_temperature "the search did not leave both 850 K pairs unbracketed: $(tail -n 1 "$T/hot.log")"
+fi
+# (its diameters carry a unit, "8 um", as a case key's value may; one of another dimension is refused, exit 2,
+# naming the value and the unit expected)
+sed 's/^diameters = 8 um,10e-6$/diameters = 8 s,10e-6/' "$T/hot.ini" >"$T/hot_s.ini"
+"$BIN" check "$T/hot_s.ini" >"$T/hot_s.log" 2>&1
+status=$?
+if [ $status -eq 2 ] && grep -q "\[vcrit\] diameters = 8 s,10e-6: '8 s' is not allowed: .*\"s\".*\"m\"" "$T/hot_s.log"; then
+    pass vcrit_list_units
+else
+    fail vcrit_list_units "exit $status: $(tail -n 1 "$T/hot_s.log")"
 fi
 
 # ---- 8. a record of the runs that cannot be read is an I/O error before any run (exit 3, naming it), never taken
