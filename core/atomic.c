@@ -20,8 +20,13 @@ int atomic_prepare(const char *path, struct atomic_file *out)
                 sizeof out->path - 1, path);
     memcpy(out->path, path, length + 1);
     snprintf(out->tmp_path, sizeof out->tmp_path, "%s.tmp", path);
+    struct stat info;
     if (unlink(out->tmp_path) != 0 && errno != ENOENT) {
         int saved = errno;
+        /* a read-only file system refuses the unlink of a file that is not there (EROFS): no stale file, and
+         * creating the new one says what is wrong */
+        if (lstat(out->tmp_path, &info) != 0 && errno == ENOENT)
+            return SC_OK;
         out->tmp_path[0] = '\0';
         SC_FAIL(SC_EIO, "cannot remove the stale temporary file %s.tmp: %s", path, sc_strerror(saved));
     }

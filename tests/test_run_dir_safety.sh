@@ -156,3 +156,25 @@ why=""
 grep -q "spray.h5 is up to date" "$T/mixed2.out" || why="${why:+$why; }the first case's results were damaged (not up to date)"
 cmp -s "$T/xdmf.before" "$R/spray.xdmf" || why="${why:+$why; }spray.xdmf is not the first case's"
 report failed_write_leaves_nothing_stale
+
+# a run directory on a read-only file system: exit 3 with the reason of the write that failed (it said "cannot
+# remove the stale temporary file case.ini.tmp" of a file that was not there: a read-only file system refuses the
+# unlink of a missing file).  Needs a tmpfs mounted read-only; where mounting is not allowed the check is not run.
+mkdir -p "$T/ro"
+if mount -t tmpfs tmpfs "$T/ro" 2>/dev/null; then
+    mkdir -p "$T/ro/run"
+    if mount -o remount,ro "$T/ro" 2>/dev/null; then
+        "$bin" spray "$base" -o "$T/ro/run" >"$T/ro.out" 2>&1
+        status=$?
+        why=""
+        [ $status -eq 3 ] || why="exit $status, not 3"
+        grep -q 'spraycoat: cannot create .*/ro/run/case.ini.tmp: Read-only file system' "$T/ro.out" ||
+            why="${why:+$why; }the message: $(tail -n 1 "$T/ro.out")"
+        report read_only_run_dir_says_why
+    else
+        echo "  read-only file system: cannot remount read-only here; not run"
+    fi
+    umount "$T/ro" 2>/dev/null
+else
+    echo "  read-only file system: mounting a tmpfs is not allowed here; not run"
+fi
