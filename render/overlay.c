@@ -1,4 +1,5 @@
 /* Cairo over the OSMesa buffer: colour bar, caption, text and tick helpers, PNG output. */
+#include <errno.h>
 #include <cairo-svg.h>
 #include <math.h>
 #include <stdio.h>
@@ -264,11 +265,28 @@ int render_overlay_scene(struct render_image *image, const struct render_scene *
     return SC_OK;
 }
 
+/* The errno of the stream writer's last failed write (Cairo says only "error while writing to output stream"). */
+static _Thread_local int write_errno;
+
 /* Cairo's stream writer: the bytes go to the atomic file's stream. */
 static cairo_status_t write_to_stream(void *closure, const unsigned char *data, unsigned int length)
 {
     FILE *stream = closure;
-    return fwrite(data, 1, length, stream) == length ? CAIRO_STATUS_SUCCESS : CAIRO_STATUS_WRITE_ERROR;
+    if (fwrite(data, 1, length, stream) == length)
+        return CAIRO_STATUS_SUCCESS;
+    write_errno = errno;
+    return CAIRO_STATUS_WRITE_ERROR;
+}
+
+const char *render_cairo_error(int status)
+{
+    static _Thread_local char text[256];
+    if (status == CAIRO_STATUS_WRITE_ERROR && write_errno) /* a full disk, a file-size limit: say which */
+        snprintf(text, sizeof text, "%s (%s)", cairo_status_to_string((cairo_status_t)status),
+                 sc_strerror(write_errno));
+    else
+        snprintf(text, sizeof text, "%s", cairo_status_to_string((cairo_status_t)status));
+    return text;
 }
 
 int render_surface_write_png(cairo_surface_t *surface, const char *path)
@@ -282,10 +300,11 @@ int render_surface_write_png(cairo_surface_t *surface, const char *path)
                 path);
     struct atomic_file out;
     SC_TRY(atomic_open(path, &out));
+    write_errno = 0;
     cairo_status_t status = cairo_surface_write_to_png_stream(surface, write_to_stream, out.stream);
     if (status != CAIRO_STATUS_SUCCESS) {
         atomic_abort(&out);
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string(status));
+        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, render_cairo_error(status));
     }
     SC_TRY(atomic_publish(&out));
     return SC_OK;
@@ -294,6 +313,7 @@ int render_surface_write_png(cairo_surface_t *surface, const char *path)
 int render_svg_begin(const char *path, double width, double height, struct atomic_file *out, cairo_surface_t **surface)
 {
     SC_TRY(atomic_open(path, out));
+    write_errno = 0;
     *surface = cairo_svg_surface_create_for_stream(write_to_stream, out->stream, width, height);
     return SC_OK;
 }

@@ -249,7 +249,7 @@ static int finish(cairo_t *cr, cairo_surface_t *surface, const char *path)
         status = cairo_surface_status(surface);
     cairo_surface_destroy(surface);
     if (status != CAIRO_STATUS_SUCCESS)
-        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, cairo_status_to_string((cairo_status_t)status));
+        SC_FAIL(SC_EIO, "render: cannot write %s: %s", path, render_cairo_error(status));
     return SC_OK;
 }
 

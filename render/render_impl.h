@@ -125,6 +125,8 @@ int render_write_report(const struct render_request *req, const struct render_ou
  * whose bytes go to out's temporary file (atomic_publish it once the surface is finished, atomic_abort on
  * failure). */
 int render_surface_write_png(cairo_surface_t *surface, const char *path);
+/* Cairo's status as text, with the reason of a failed write (ENOSPC, EFBIG) when the stream writer saw one. */
+const char *render_cairo_error(int status);
 int render_svg_begin(const char *path, double width, double height, struct atomic_file *out, cairo_surface_t **surface);
 
 #endif

@@ -125,5 +125,7 @@ limited impact_checkpoint 800 impact "$T/impact.ini"
 limited impact_h5_1200 1200 impact "$T/impact.ini"
 limited impact_h5_1600 1600 impact "$T/impact.ini"
 limited impact_h5_2400 2400 impact "$T/impact.ini"
+# the render stage's figures (Cairo said only "error while writing to output stream", not why)
+limited render_figures 40 render "$T/spray.ini"
 
 [ "$failures" -eq 0 ]
