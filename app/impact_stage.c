@@ -535,6 +535,38 @@ static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
     return case_invalid(ctx->c, "impact", key, "%s", message);
 }
 
+/* A pipeline's runs of several bodies: the couple stage spreads their centres over a square of [couple] patch_size
+ * on the substrate's axis, and seeds_over_substrate refuses a body beyond the substrate's edge, but only after the
+ * spray and the couple stage have run.  The same rule from the case alone, with the powder's largest diameter
+ * ([powder] d_max; without one, the bodies' centres only).  Scaled runs ([couple] reference_diameter) are checked
+ * when they are seeded. */
+static int check_patch_fits(const struct case_file *c, const struct mpm_config *cfg)
+{
+    if (case_int(c, "couple", "bodies_per_run") < 2 || case_real(c, "couple", "reference_diameter") > 0)
+        return SC_OK;
+    const struct mpm_body *substrate = NULL;
+    for (int b = 0; b < cfg->body_count; b++)
+        if (cfg->bodies[b].substrate)
+            substrate = &cfg->bodies[b];
+    if (!substrate) /* a rigid wall has no edge */
+        return SC_OK;
+    int box = substrate->shape == MPM_BOX;
+    double patch = case_real(c, "couple", "patch_size");
+    double d_max = case_is(c, "powder", "distribution", "mono") ? case_real(c, "powder", "median_diameter")
+                                                                : case_real(c, "powder", "d_max");
+    double corner = 0.5 * patch * (box ? 1.0 : sqrt(2.0)), largest = d_max > 0 ? d_max : 0.0;
+    if (corner + 0.5 * largest > 0.5 * substrate->d)
+        return case_invalid(c, "couple", "patch_size",
+                            "spreads a run's %ld bodies wider than the substrate (%s %.4g um across, [impact] "
+                            "substrate_diameter), particles up to %.4g um ([powder] d_max); allowed: at most %.4g um "
+                            "(the substrate's width less the largest particle%s), or a wider substrate, or "
+                            "bodies_per_run = 1",
+                            case_int(c, "couple", "bodies_per_run"), box ? "a box" : "a cylinder", substrate->d * 1e6,
+                            largest * 1e6, (substrate->d - largest) / (box ? 1.0 : sqrt(2.0)) * 1e6,
+                            box ? "" : ", over sqrt(2)");
+    return SC_OK;
+}
+
 int impact_stage_validate(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
@@ -549,6 +581,8 @@ int impact_stage_validate(const struct stage_context *ctx)
                               "in a pipeline, half|quarter for `spraycoat impact`, `vcrit` and `calibrate`");
         goto done;
     }
+    if (ctx->impact_from_seeds)
+        SC_CHECK(status, check_patch_fits(c, &cfg), done);
     if (!ctx->impact_from_seeds) {
         SC_CHECK(status, check_sphere_overlap(c, &cfg), done);
         /* the whole set-up (every body seeded with its points, overlaps of any shapes, bodies that hold no point),

@@ -124,17 +124,24 @@ else
     fail pipeline_rerun_changed_stage_only "$(grep -E 'up to date|another case' "$T/rerun.log" | tr '\n' ' ')"
 fi
 
-# ---- 3a. bodies over the substrate: three runs of two bodies spread over the default 40 um patch, on the fixture's
-# 20 um substrate: the first run stops with exit 2 naming the seed row, patch_size and substrate_diameter (its body
-# beyond the edge met nothing and counted as "not bonded") ----
+# ---- 3a. bodies over the substrate (a body beyond the edge meets nothing and counts as "not bonded"): three runs of
+# two bodies spread over the default 40 um patch, on the fixture's 20 um substrate, with particles up to 10 um, are
+# refused before anything runs (exit 2 naming patch_size and the largest patch allowed; it was found only after the
+# spray and the couple stage had run); without a largest diameter ([powder] d_max = 0) a 14 um patch passes that
+# check, and the run whose body reaches beyond the edge stops with exit 2 naming the seed row ----
 sed -e 's/^runs = 4$/runs = 3/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2/' "$CASE0" >"$T/off.ini"
 "$BIN" run "$T/off.ini" --stages "$STAGES" -o "$T/off" >"$T/off.log" 2>&1
 off=$?
-if [ $off -eq 2 ] && grep -q 'couple.h5 /seeds row [0-9]* .* beyond the substrate .*patch_size' "$T/off.log" &&
-    [ ! -e "$T/off/impact.h5" ]; then
+sed -e 's/^runs = 4$/runs = 3/' -e 's/^bodies_per_run = 1$/bodies_per_run = 2\npatch_size = 14e-6/' \
+    -e 's/^d_max = 10e-6$/d_max = 0/' "$CASE0" >"$T/late.ini"
+"$BIN" run "$T/late.ini" --stages "$STAGES" -o "$T/late" >"$T/late.log" 2>&1
+late=$?
+if [ $off -eq 2 ] && grep -q "\[couple\] patch_size = 40e-6 (default): spreads a run's 2 bodies wider than the substrate.*at most 7.071 um" "$T/off.log" &&
+    [ ! -e "$T/off/spray.h5" ] && [ $late -eq 2 ] &&
+    grep -q 'couple.h5 /seeds row [0-9]* .* beyond the substrate .*patch_size' "$T/late.log" && [ ! -e "$T/late/impact.h5" ]; then
     pass pipeline_bodies_over_the_substrate
 else
-    fail pipeline_bodies_over_the_substrate "exit $off: $(grep -i 'error\|beyond' "$T/off.log" | head -n 1)"
+    fail pipeline_bodies_over_the_substrate "exit $off: $(grep -i 'spraycoat:' "$T/off.log" | head -n 1); without d_max exit $late: $(grep -i 'beyond' "$T/late.log" | head -n 1)"
 fi
 
 # ---- 3b. [couple] reference_diameter: each run scaled to its particle, 10 cells across with 3 points per edge ------
