@@ -317,7 +317,16 @@ static char *next_line(struct reader *r, FILE *file, char **buffer, size_t *capa
     }
     if (r->line == 1 && length >= 3 && memcmp(line, "\xef\xbb\xbf", 3) == 0)
         line += 3; /* a UTF-8 byte order mark */
-    line[strcspn(line, "\r\n")] = '\0';
+    size_t end = strcspn(line, "\r\n");
+    if (line[end] == '\r' && line[end + 1] != '\n' && line[end + 1] != '\0') {
+        /* lines ended by CR alone (classic Mac OS) read as one line: the header, and no data */
+        *status = fail(r, SC_EINPUT,
+                       "%s:%ld:%zu: a carriage return inside a line (lines ended by CR alone?); allowed: lines ended "
+                       "by LF or CRLF",
+                       r->path, r->line, end + 1);
+        return NULL;
+    }
+    line[end] = '\0';
     return line;
 }
 

@@ -112,3 +112,13 @@ grep -q "warning: impact: \[material.aluminum\] is used by no body (the bodies' 
 "$bin" check tests/fixtures/pipeline_small.ini >/dev/null 2>"$T/fixture.err"
 grep -q 'used by no body' "$T/fixture.err" && why="${why:+$why; }the fixture's own material section is warned about"
 report unused_material_section_warns
+
+# a CSV whose lines end with CR alone (classic Mac OS) is read as one line: refused saying so (it said "no data
+# rows (only a header)")
+why=""
+"$bin" check tests/bad_cases/particles_csv_cr.ini >/dev/null 2>"$T/cr.err"
+status=$?
+[ $status -eq 2 ] || why="exit $status"
+grep -q 'particles_cr.csv:1:26: a carriage return inside a line (lines ended by CR alone?)' "$T/cr.err" ||
+    why="${why:+$why; }the message: $(tail -n 1 "$T/cr.err")"
+report csv_cr_line_ends_named
