@@ -237,14 +237,44 @@ static int load_case(const char *path, const struct options *opt, struct case_fi
     return SC_OK;
 }
 
+/* With [nozzle] the jet's keys not given come from the nozzle's exit state (dem/params.c map_jet): case_print lists
+ * their defaults, which the run does not use; the values it uses follow. */
+static void print_nozzle_jet(const struct case_file *c, const struct dem_config *cfg)
+{
+    if (!cfg->nozzle)
+        return;
+    const struct dem_gas_field *g = &cfg->gas;
+    const struct {
+        const char *section, *key;
+        double value;
+        const char *unit;
+    } derived[] = {
+        {"jet", "C1", g->c1, "m^(4/3)/s"},
+        {"jet", "C3", g->c3, "m^(-1/3)"},
+        {"jet", "virtual_origin", g->virtual_origin, "m"},
+        {"jet", "core_length", g->core_length, "m"},
+        {"jet", "gas_density", g->density, "kg/m3"},
+        {"jet", "gas_viscosity", g->kinematic_viscosity, "m2/s"},
+        {"jet", "gas_temperature", g->gas_temperature, "K"},
+        {"jet", "gas_gamma", g->gas_gamma, "-"},
+        {"jet", "gas_constant", g->gas_constant, "J/(kg K)"},
+        {"spray", "nozzle_radius", cfg->nozzle_radius, "m"},
+    };
+    printf("with [nozzle], from its exit state (the defaults listed above are not used):\n");
+    for (size_t k = 0; k < sizeof derived / sizeof derived[0]; k++)
+        if (!case_is_given(c, derived[k].section, derived[k].key))
+            printf("  [%s] %-20s = %.6g %s\n", derived[k].section, derived[k].key, derived[k].value, derived[k].unit);
+    printf("  [spray] release speeds: each particle at the nozzle's exit speed of its diameter (spray.h5 /nozzle)\n");
+}
+
 static int command_check(const struct options *opt)
 {
     struct case_file *c;
     SC_TRY(load_case(opt->target, opt, &c));
     struct dem_config cfg;
-    int status;
+    int status, loaded = 0;
     SC_CHECK(status, dem_config_load(c, &cfg), done);
-    dem_config_free(&cfg);
+    loaded = 1;
     /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
      * name the materials of an impact it never runs) */
     const struct stage_context ctx = {.c = c};
@@ -260,8 +290,11 @@ static int command_check(const struct options *opt)
     if (app_case_section_given(c, "couple"))
         SC_CHECK(status, couple_stage_validate(&ctx), done);
     case_print(c, stdout);
+    print_nozzle_jet(c, &cfg);
     printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
 done:
+    if (loaded)
+        dem_config_free(&cfg);
     case_free(c);
     return status;
 }
