@@ -131,5 +131,5 @@ why=""
 grep -q '^with \[nozzle\], from its exit state' "$T/nozzle_check.out" || why="${why:+$why; }no values from the nozzle listed"
 c1=$(sed -n 's/^  \[jet\] C1 *= \([0-9.e+-]*\) .*/\1/p' "$T/nozzle_check.out")
 awk -v c="${c1:-0}" 'BEGIN { exit !(c > 569 && c < 581) }' || why="${why:+$why; }C1 from the nozzle '$c1', not about 575"
-"$bin" check tests/bad_cases/valid_base.ini 2>/dev/null | grep -q 'with \[nozzle\]' && why="${why:+$why; }a case without [nozzle] lists them"
+"$bin" check tests/bad_cases/valid_base.ini 2>/dev/null | grep -q '^with \[nozzle\], from' && why="${why:+$why; }a case without [nozzle] lists them"
 report check_lists_the_nozzle_jet
