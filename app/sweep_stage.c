@@ -81,6 +81,14 @@ static int parse_key(const struct case_file *c, const char *name, struct sweep_a
                             "[%s] %s does not change the spray's results; allowed: a key of the spray stage's "
                             "sections (docs/architecture.md) that does",
                             axis->section, axis->key);
+    /* with [nozzle] each particle leaves at the nozzle's exit speed of its diameter: the release speeds do nothing */
+    if (app_case_section_given(c, "nozzle") && strcmp(axis->section, "spray") == 0 &&
+        (strcmp(axis->key, "release_speed_min") == 0 || strcmp(axis->key, "release_speed_max") == 0))
+        return case_invalid(c, "sweep", name,
+                            "[spray] %s does not change the spray's results with [nozzle] (each particle leaves at "
+                            "the nozzle's exit speed of its diameter); allowed: a key that does, e.g. "
+                            "nozzle.stagnation_pressure",
+                            axis->key);
     axis->unit = k->unit;
     axis->file = k->type == CFG_PATH;
     return SC_OK;

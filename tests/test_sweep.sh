@@ -179,6 +179,11 @@ x_values = 1, 2" "\[sweep\] x_key.*not a case key"
 bad key_without_effect "[sweep]
 x_key = run.threads
 x_values = 1, 2" "\[sweep\] x_key.*does not change"
+bad release_speed_with_nozzle "[nozzle]
+gas = n2
+[sweep]
+x_key = spray.release_speed_max
+x_values = 500, 600" "\[sweep\] x_key.*release_speed_max does not change the spray's results with \[nozzle\]"
 bad key_of_another_stage "[sweep]
 x_key = impact.grid
 x_values = 1e-6, 2e-6" "\[sweep\] x_key.*does not change"
