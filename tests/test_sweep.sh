@@ -183,7 +183,7 @@ bad release_speed_with_nozzle "[nozzle]
 gas = n2
 [sweep]
 x_key = spray.release_speed_max
-x_values = 500, 600" "\[sweep\] x_key.*release_speed_max does not change the spray's results with \[nozzle\]"
+x_values = 700, 900" "\[sweep\] x_key.*release_speed_max does not change the spray's results with \[nozzle\]"
 bad key_of_another_stage "[sweep]
 x_key = impact.grid
 x_values = 1e-6, 2e-6" "\[sweep\] x_key.*does not change"
