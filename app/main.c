@@ -489,6 +489,13 @@ static int run_stages(struct case_file *c, const char *run_dir, const char *list
         if (parallel_rank() == 0)
             log_info("results in %s (%s); `spraycoat info %s` summarises them", run_dir, chosen[i]->output, run_dir);
     }
+    /* every stage done (every rank past the last stage's collective end): the checkpoints folder, emptied by the
+     * stages as they finished, goes too; one that still holds a file (another stage's, interrupted) stays */
+    if (parallel_rank() == 0) {
+        char folder[4200];
+        snprintf(folder, sizeof folder, "%s/checkpoints", run_dir);
+        rmdir(folder);
+    }
     return SC_OK;
 }
 

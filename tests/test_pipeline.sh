@@ -230,8 +230,9 @@ if [ "$status" -eq 0 ] && [ "$kills" -ge 4 ] && same_run_dir "$LONG_REF" "$KILLE
 else
     fail pipeline_restart_identical "$kills kills, last exit status $status; $missed $why ($(grep -i 'error\|spraycoat:' "$T/killed.log" | tail -n 2 | tr '\n' ' '))"
 fi
-if [ -e "$KILLED/impact_runs" ] || [ "$(ls "$KILLED/checkpoints" 2>/dev/null | wc -l)" -ne 0 ]; then
-    fail pipeline_restart_cleanup "left behind: $(ls -d "$KILLED/impact_runs" "$KILLED"/checkpoints/* 2>/dev/null | tr '\n' ' ')"
+# (the checkpoints folder itself too, emptied: README says the checkpoints are removed when the run completes)
+if [ -e "$KILLED/impact_runs" ] || [ -e "$KILLED/checkpoints" ]; then
+    fail pipeline_restart_cleanup "left behind: $(ls -d "$KILLED/impact_runs" "$KILLED/checkpoints" "$KILLED"/checkpoints/* 2>/dev/null | tr '\n' ' ')"
 else
     pass pipeline_restart_cleanup
 fi
