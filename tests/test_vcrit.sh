@@ -291,6 +291,16 @@ if [ -z "$why" ]; then pass vcrit_logistic_fit; else fail vcrit_logistic_fit "$w
 # run bonded but v_low's): an extrapolation the table must not take.  The records of a search (a first search of
 # 2 bisection runs gives the file its header) are rewritten with outcomes for every speed the bisection and the
 # sweep will ask for, so the search replays them without a run; v_crit must be the bisection's, with the note -----
+# crafted_records FROM OUT SPEED:VERDICT...: a record of 10 um runs at those speeds with those verdicts (0 rebounded,
+# 1 bonded, 2 unsettled) under the header lines of the records file FROM (its case hash and build)
+crafted_records() {
+    from=$1 out=$2
+    shift 2
+    { head -n 2 "$from"
+      for run in "$@"; do
+          echo "1e-05,${run%:*},720,200000000000,${run#*:},0.3,0.1,0.0001,100,0"
+      done; } >"$out"
+}
 RUN9=$T/beyond
 { cat tests/fixtures/vcrit_tiny.ini; printf '\n[vcrit]\ndiameters = 10e-6\nv_low = 200\nv_high = 1200\ntolerance = 25\n'
   printf 'method = logistic\nsweep_step = 25\nsweep_count = 3\n'; } >"$T/beyond.ini"
@@ -298,11 +308,8 @@ why=""
 if { cat "$T/beyond.ini"; echo "max_runs = 2"; } >"$T/beyond2.ini" && "$BIN" vcrit "$T/beyond2.ini" -o "$RUN9" >"$T/beyond1.log" 2>&1; then
     # the bisection from 200 (rebounded) and 1200 (bonded), every midpoint bonded: 700, 450, 325, 262.5, 231.25,
     # 215.625 (then within 25 m/s of 200); the sweep 215.625 +- 25, 50, 75
-    { head -n 2 "$RUN9/vcrit_runs.csv"
-      for run in 200:0 1200:1 700:1 450:1 325:1 262.5:1 231.25:1 215.625:1 140.625:1 165.625:1 190.625:1 240.625:1 \
-          265.625:1 290.625:1; do
-          echo "1e-05,${run%:*},720,200000000000,${run#*:},0.3,0.1,0.0001,100,0"
-      done; } >"$T/beyond_runs.csv"
+    crafted_records "$RUN9/vcrit_runs.csv" "$T/beyond_runs.csv" 200:0 1200:1 700:1 450:1 325:1 262.5:1 231.25:1 \
+        215.625:1 140.625:1 165.625:1 190.625:1 240.625:1 265.625:1 290.625:1
     mv "$T/beyond_runs.csv" "$RUN9/vcrit_runs.csv"
     rm -f "$RUN9/vcrit.h5"
     if "$BIN" vcrit "$T/beyond.ini" -o "$RUN9" >"$T/beyond2.log" 2>&1; then
@@ -324,11 +331,8 @@ if [ -z "$why" ]; then pass vcrit_logistic_beyond_runs; else fail vcrit_logistic
 # unsettled, 575 bonded, 512.5 unsettled, 543.75 bonded, 528.125 unsettled; sweep 543.75 +- 25, 50, 75
 why=""
 if [ -s "$RUN9/vcrit_runs.csv" ]; then
-    { head -n 2 "$RUN9/vcrit_runs.csv"
-      for run in 200:2 1200:1 700:1 450:2 575:1 512.5:2 543.75:1 528.125:2 468.75:2 493.75:2 518.75:2 568.75:1 \
-          593.75:1 618.75:1; do
-          echo "1e-05,${run%:*},720,200000000000,${run#*:},0.3,0.1,0.0001,100,0"
-      done; } >"$T/one_sided_runs.csv"
+    crafted_records "$RUN9/vcrit_runs.csv" "$T/one_sided_runs.csv" 200:2 1200:1 700:1 450:2 575:1 512.5:2 543.75:1 \
+        528.125:2 468.75:2 493.75:2 518.75:2 568.75:1 593.75:1 618.75:1
     mkdir -p "$T/one_sided" && mv "$T/one_sided_runs.csv" "$T/one_sided/vcrit_runs.csv"
     if "$BIN" vcrit "$T/beyond.ini" -o "$T/one_sided" >"$T/one_sided.log" 2>&1; then
         grep -q '(0 runs in this process' "$T/one_sided.log" || why="$why the crafted records were not all reused;"
