@@ -286,6 +286,19 @@ static int made_by_stage(const struct stage_context *ctx, const char *stage, con
     return strcmp(stored, wanted) == 0;
 }
 
+/* 1 the first time `path` is asked about in this process (of the few inputs a command reads), then 0. */
+static int first_warning_of(const char *path)
+{
+    static char warned[8][4096];
+    static int count;
+    for (int k = 0; k < count; k++)
+        if (strcmp(warned[k], path) == 0)
+            return 0;
+    if (count < 8)
+        snprintf(warned[count++], sizeof warned[0], "%s", path);
+    return 1;
+}
+
 int run_dir_made_by_case(const struct stage_context *ctx, const char *stage, const char *path)
 {
     hid_t file;
@@ -333,8 +346,8 @@ int run_dir_check_input(const struct stage_context *ctx, const char *stage, cons
                 reader, path, stored, stage, wanted, stage, stage);
     }
     /* this case's results all the same, and a long stage's: warned, not refused (`spraycoat run` computes them
-     * again first) */
-    if (!same_sources)
+     * again first); once per file, though the command checks its inputs before it starts and each stage again */
+    if (!same_sources && first_warning_of(path))
         log_warn("%s: %s was made by another build of spraycoat (sources %s, this build's %s): what follows from it "
                  "mixes two programs' results; run the %s stage again to have this build's",
                  reader, path, sources, spraycoat_sources_id(), stage);
