@@ -1,6 +1,7 @@
 #include "app/app.h"
 
 #include <dirent.h>
+#include <glob.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -524,6 +525,32 @@ static void print_runs_done(const char *run_dir, FILE *out)
         fprintf(out, "  runs 0 ... %d done (RUN_DIR/impact_runs/)\n", done - 1);
 }
 
+/* An unfinished sweep: its runs done (runs/xI_yJ/spray.h5) and those interrupted (runs/xI_yJ/checkpoints/): the
+ * sweep's own folder holds no checkpoint, so "not done" alone hid a sweep stopped half-way. */
+static void print_sweep_runs(const char *run_dir, FILE *out)
+{
+    char pattern[4200], path[4600];
+    glob_t runs = {0}, checkpoints = {0};
+    size_t done = 0, interrupted = 0;
+    snprintf(pattern, sizeof pattern, "%s/runs/x*_y*", run_dir);
+    if (glob(pattern, GLOB_ONLYDIR, NULL, &runs) == 0)
+        for (size_t k = 0; k < runs.gl_pathc; k++) {
+            snprintf(path, sizeof path, "%s/spray.h5", runs.gl_pathv[k]);
+            if (access(path, R_OK) == 0) {
+                done++;
+                continue;
+            }
+            snprintf(path, sizeof path, "%s/checkpoints/spray_*.h5", runs.gl_pathv[k]);
+            if (glob(path, 0, NULL, &checkpoints) == 0)
+                interrupted++;
+            globfree(&checkpoints);
+        }
+    globfree(&runs);
+    if (done || interrupted)
+        fprintf(out, "  %zu runs done, %zu interrupted (RUN_DIR/runs/; `spraycoat resume` finishes the sweep)\n", done,
+                interrupted);
+}
+
 static void print_render_state(const char *run_dir, const char *stages, FILE *out)
 {
     char path[4200];
@@ -565,7 +592,7 @@ static void print_other_case(const struct case_file *c, const char *run_dir, con
 int info_print(const char *target, FILE *out)
 {
     static const char *const stage_names[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
-    enum { STAGES = 6, VCRIT = 3, IMPACT = 2, CALIBRATE = 4 };
+    enum { STAGES = 6, VCRIT = 3, IMPACT = 2, CALIBRATE = 4, SWEEP = 5 };
     if (!target)
         SC_FAIL(SC_EINPUT, "info needs a run directory or an .h5 file (see spraycoat --help)");
     struct stat st;
@@ -610,6 +637,8 @@ int info_print(const char *target, FILE *out)
             SC_DIE_OOM(strlen(newest) + 1, "a file name");
         if (k == IMPACT && !done)
             print_runs_done(target, out);
+        if (k == SWEEP && !done)
+            print_sweep_runs(target, out);
         if ((k == VCRIT || k == CALIBRATE) && !done) {
             snprintf(path, sizeof path, "%s/%s_runs.csv", target, stage);
             int lines = count_lines(path);

@@ -199,7 +199,8 @@ x_values = 250
 y_values = 1, 2" "\[sweep\] y_key"
 
 # 6. a sweep stopped by SIGTERM in a run (after a checkpoint) exits 143, says to resume the sweep's directory (the
-# run's own finished that run only), and `resume` of it finishes the sweep with the same map
+# run's own finished that run only), `info` counts its runs done and interrupted, and `resume` of it finishes the
+# sweep with the same map
 sed 's/^seed = 7$/seed = 7\ncheckpoint_steps = 50/' "$T/sweep.ini" >"$T/term.ini"
 "$BIN" sweep "$T/term.ini" -o "$T/term" >"$T/log_term" 2>&1 &
 bg=$!
@@ -208,15 +209,19 @@ kill -TERM "$bg" 2>/dev/null
 wait "$bg"
 term=$?
 bg=""
+# `info` of the stopped sweep counts its runs (it said "not done" alone: the checkpoints are the runs')
+"$BIN" info "$T/term" >"$T/info_term" 2>&1
+done_runs=$(ls "$T"/term/runs/*/spray.h5 2>/dev/null | wc -l)
 "$BIN" resume "$T/term" >"$T/log_term_resume" 2>&1
 resumed=$?
 values "$T/term/sweep.h5" /de >"$T/map_de_term" 2>/dev/null
 if [ $term -eq 143 ] && [ $resumed -eq 0 ] && cmp -s "$T/map_de" "$T/map_de_term" &&
+    grep -q "^  $done_runs runs done, 1 interrupted (RUN_DIR/runs/" "$T/info_term" &&
     grep -q "spray: resuming from .*runs/x[01]_y[01]/checkpoints/spray_" "$T/log_term_resume" &&
     grep -q "continue with \`spraycoat resume $T/term\`" "$T/log_term"; then
     pass sweep_interrupted_and_resumed
 else
-    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term"); $(grep -o 'continue with .*' "$T/log_term")"
+    fail sweep_interrupted_and_resumed "sweep exit $term (143 expected), resume exit $resumed, map $(tr '\n' ' ' <"$T/map_de_term"); $(grep -o 'continue with .*' "$T/log_term"); info: $(grep 'runs done\|stage sweep' "$T/info_term" | tr '\n' ' ')"
 fi
 
 # 7. a key that takes a number or a word other than auto ([contact] restitution: a number or johnson): every run
