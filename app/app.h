@@ -254,6 +254,9 @@ void couple_stage_bodies_free(struct couple_bodies *bodies);
 /* The render stage ([render], render/): figures of whatever RUN_DIR holds (spray.h5, impact.h5, vcrit.h5) into
  * RUN_DIR/figures/ and RUN_DIR/report.html.  SC_EIO when RUN_DIR holds none of them or one is malformed. */
 int render_stage_validate(const struct stage_context *ctx);
+/* The stages whose outputs the render stage draws (whichever are there), NULL-terminated: it checks each is this
+ * case's, and so does a command before it touches the run directory (app/main.c). */
+extern const char *const render_stage_inputs[];
 int render_stage_run(const struct stage_context *ctx);
 
 /* `spraycoat info`: what a run directory or an HDF5 file of spraycoat holds. */

@@ -395,7 +395,6 @@ static int run_stage_on_ranks(const struct stage *stage, const struct stage_cont
  * case's seeds. */
 static int stage_inputs(const struct stage_context *ctx, const char *stage, const char **inputs, int *required)
 {
-    static const char *const drawn[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
     int n = 0;
     if (strcmp(stage, "couple") == 0)
         inputs[n] = "spray", required[n++] = 1;
@@ -406,8 +405,8 @@ static int stage_inputs(const struct stage_context *ctx, const char *stage, cons
          * place (it wrote a single particle's impact.h5 over the seeded runs') */
         inputs[n] = "couple", required[n++] = 0;
     else if (strcmp(stage, "render") == 0)
-        for (size_t k = 0; k < sizeof drawn / sizeof drawn[0]; k++)
-            inputs[n] = drawn[k], required[n++] = 0;
+        for (size_t k = 0; render_stage_inputs[k]; k++)
+            inputs[n] = render_stage_inputs[k], required[n++] = 0;
     return n;
 }
 

@@ -97,15 +97,16 @@ static int write_stamp(const char *run_dir, const char *fingerprint)
     return atomic_publish(&out);
 }
 
+const char *const render_stage_inputs[] = {"spray", "impact", "vcrit", "calibrate", "sweep", NULL};
+
 int render_stage_run(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
     const char *run_dir = ctx->run_dir;
     /* refuse, not warn: the report names this case's keys and hash above the figures, so figures of another
      * case's file would be wrong results under a right-looking label (exit 3, the same as couple and impact) */
-    static const char *const inputs[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
-    for (size_t i = 0; i < sizeof inputs / sizeof inputs[0]; i++)
-        SC_TRY(run_dir_check_input(ctx, inputs[i], "render", 0));
+    for (size_t i = 0; render_stage_inputs[i]; i++)
+        SC_TRY(run_dir_check_input(ctx, render_stage_inputs[i], "render", 0));
     char fingerprint[4096];
     render_fingerprint(c, run_dir, fingerprint, sizeof fingerprint);
     if (ctx->pipeline && figures_current(run_dir, fingerprint)) {
