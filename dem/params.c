@@ -547,6 +547,9 @@ static size_t index_of(const double *values, size_t n, double x)
     return i;
 }
 
+/* Below this a v_crit table's temperature is more likely degrees Celsius than a powder's kelvin. */
+#define TABLE_TEMPERATURE_DEGC_SUSPECT 200.0
+
 /* 2-D: the rows must fill the grid of their distinct diameters x distinct temperatures, every cell exactly once. */
 static int table_grid(const struct case_file *c, const char *path, const struct vcrit_rows *rows,
                       struct dem_config *cfg)
@@ -559,6 +562,11 @@ static int table_grid(const struct case_file *c, const char *path, const struct 
     size_t nd = distinct_values(rows, 0, cfg->table_diameter), nt = distinct_values(rows, 1, cfg->table_temperature);
     cfg->table_count = nd;
     cfg->table_temperature_count = nt;
+    /* the column is in kelvin; a table written in degC (25, 300, ...) would otherwise be read as cryogenic powder */
+    if (cfg->table_temperature[0] < TABLE_TEMPERATURE_DEGC_SUSPECT)
+        log_warn("[deposition] table = %s: its lowest temperature is %g K (the column is in kelvin; degrees "
+                 "Celsius?)",
+                 path, cfg->table_temperature[0]);
     if (nd * nt != n)
         return case_invalid(c, "deposition", "table",
                             "%s: %zu rows do not fill the grid of its %zu diameters x %zu temperatures (a table "

@@ -133,3 +133,18 @@ c1=$(sed -n 's/^  \[jet\] C1 *= \([0-9.e+-]*\) .*/\1/p' "$T/nozzle_check.out")
 awk -v c="${c1:-0}" 'BEGIN { exit !(c > 569 && c < 581) }' || why="${why:+$why; }C1 from the nozzle '$c1', not about 575"
 "$bin" check tests/bad_cases/valid_base.ini 2>/dev/null | grep -q '^with \[nozzle\], from' && why="${why:+$why; }a case without [nozzle] lists them"
 report check_lists_the_nozzle_jet
+
+# a v_crit(d, T) table's temperature column is in kelvin: one whose lowest value is 25 (degrees Celsius written as
+# kelvin, read as cryogenic powder) is warned of, naming the file and the value; one in kelvin is not
+why=""
+printf 'diameter,temperature,v_crit\n1e-5,25,800\n1e-5,300,700\n3e-5,25,750\n3e-5,300,650\n' >"$T/degc.csv"
+awk -F, 'NR > 1 { $2 = $2 + 273.15 } 1' OFS=, "$T/degc.csv" >"$T/kelvin.csv"
+for table in degc kelvin; do
+    sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $T/$table.csv|" "$base" >"$T/$table.ini"
+    grep -q "^table = $T/$table.csv" "$T/$table.ini" || why="${why:+$why; }no table line in $T/$table.ini"
+    "$bin" check "$T/$table.ini" >/dev/null 2>"$T/$table.err" || why="${why:+$why; }check of $table.csv exited $?"
+done
+grep -q "warning: \[deposition\] table = $T/degc.csv: its lowest temperature is 25 K (the column is in kelvin; degrees Celsius?)" "$T/degc.err" ||
+    why="${why:+$why; }no warning of the table in degC: $(tail -n 1 "$T/degc.err")"
+grep -q 'degrees Celsius' "$T/kelvin.err" && why="${why:+$why; }the table in kelvin is warned of"
+report vcrit_table_in_celsius_warns
