@@ -159,8 +159,10 @@ static int profile_figure(const struct render_request *req, const struct deposit
                                            d->has_fit ? 2 : 1,
                                            series};
     int status = render_plot_publish(req->run_dir, out, "deposit_profile", "spray",
-                                     "Track thickness profile across the track (mean over the middle half of the "
-                                     "pass) and its Gaussian fit",
+                                     d->has_fit ? "Track thickness profile across the track (mean over the middle "
+                                                  "half of the pass) and its Gaussian fit"
+                                                : "Coating thickness profile across the passes (mean over the middle "
+                                                  "half of the passes' length)",
                                      &plot);
     free(buffer);
     return status;

@@ -179,6 +179,9 @@ struct report_data {
     double t_spray, deposit_fraction, volume_fraction, spread, scatter, max_thickness;
     int profile_bins;
     double profile_r[20], profile_h[20], profile_width;
+    /* a moving nozzle: /deposit's mean thickness over the swept band and a line's Gaussian fit (NAN: none) */
+    int moves;
+    double mean_thickness, band_lo, band_hi, fit_amplitude, fit_amplitude_error, fit_width, fit_centre;
     /* couple.h5 */
     struct seed_row *seeds;
     size_t seed_count;
@@ -202,6 +205,33 @@ static double last(hid_t file, const char *name)
     return value;
 }
 
+static double deposit_attribute(hid_t deposit, const char *name)
+{
+    double value = NAN;
+    if (H5Aexists(deposit, name) > 0 && h5_attr_read_double(deposit, name, &value) != SC_OK)
+        sc_error_clear(), value = NAN;
+    return value;
+}
+
+/* The deposit of a moving nozzle (dem/deposit.c): the radial profile about the origin means nothing there. */
+static void read_deposit(hid_t file, struct report_data *r)
+{
+    hid_t g = H5Gopen2(file, "deposit", H5P_DEFAULT);
+    if (g < 0) {
+        sc_error_clear();
+        r->mean_thickness = r->fit_amplitude = NAN;
+        return;
+    }
+    r->mean_thickness = deposit_attribute(g, "mean_thickness");
+    r->band_lo = deposit_attribute(g, "band_lo");
+    r->band_hi = deposit_attribute(g, "band_hi");
+    r->fit_amplitude = deposit_attribute(g, "fit_amplitude");
+    r->fit_amplitude_error = deposit_attribute(g, "fit_amplitude_error");
+    r->fit_width = deposit_attribute(g, "fit_width");
+    r->fit_centre = deposit_attribute(g, "fit_centre");
+    H5Gclose(g);
+}
+
 static void read_spray(hid_t file, struct report_data *r)
 {
     r->spray = 1;
@@ -222,8 +252,11 @@ static void read_spray(hid_t file, struct report_data *r)
     r->de = last(file, "deposition_efficiency/de");
     r->de_sprayed_mass = last(file, "deposition_efficiency/sprayed_mass");
     r->de_deposited_mass = last(file, "deposition_efficiency/deposited_mass");
+    r->moves = render_nozzle_moves(file);
+    if (r->moves)
+        read_deposit(file, r);
     struct render_array x = {0}, d = {0}, state = {0};
-    if (render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
+    if (!r->moves && render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/d", &d) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/state", &state) == SC_OK && x.count == 3 * d.count &&
         state.count == d.count)
@@ -505,6 +538,25 @@ static struct tally tally(const struct report_data *r, double vrest_threshold)
     return t;
 }
 
+/* The coating of a moving nozzle: the mean thickness across the passes and, for a line, the track's Gaussian fit. */
+static void moving_thickness(FILE *f, const struct report_data *r)
+{
+    if (isfinite(r->mean_thickness))
+        fprintf(
+            f,
+            "; dense-equivalent thickness %s µm on average over the middle half of the passes' length and y = %s to "
+            "%s mm, the band the nozzle swept (<code>spray.h5 /deposit mean_thickness</code>)",
+            num(r->mean_thickness * 1e6, 3).s, num(r->band_lo * 1e3, 3).s, num(r->band_hi * 1e3, 3).s);
+    else
+        fprintf(f, "; no thickness profile across the path (<code>spray.h5 /deposit</code>)");
+    if (isfinite(r->fit_amplitude))
+        fprintf(f,
+                "; the track's Gaussian fit: amplitude %s &plusmn; %s µm, standard deviation %s mm, centre y = %s "
+                "mm (figure deposit_profile)",
+                num(r->fit_amplitude * 1e6, 3).s, num(r->fit_amplitude_error * 1e6, 2).s, num(r->fit_width * 1e3, 3).s,
+                num(r->fit_centre * 1e3, 3).s);
+}
+
 static void headline(FILE *f, const struct render_request *req, const struct report_data *r,
                      const struct render_output *out)
 {
@@ -560,7 +612,9 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                 "<li><b>Coating thickness: maximum %s µm</b> (height span of the deposited particles' centres, "
                 "<code>spray.h5 /metrics/max_thickness</code>)",
                 num(r->max_thickness * 1e6, 3).s);
-        if (r->profile_bins > 0) {
+        if (r->moves) {
+            moving_thickness(f, r);
+        } else if (r->profile_bins > 0) {
             double peak = 0;
             for (int b = 0; b < r->profile_bins; b++)
                 peak = fmax(peak, r->profile_h[b]);
@@ -742,9 +796,15 @@ static void spray_table(FILE *f, const struct report_data *r)
         {"mean distance of the deposited particles from the target centre", r->spread * 1e3, "mm", 3},
         {"scatter of that distance (standard deviation)", r->scatter * 1e3, "mm", 3},
         {"coating thickness, maximum (height span of the deposited centres)", r->max_thickness * 1e6, "µm", 3},
+        {r->moves
+             ? "coating thickness, dense-equivalent, mean over the band the nozzle swept (middle half of the passes)"
+             : NULL,
+         r->mean_thickness * 1e6, "µm", 3},
         {"simulated spray time", r->t_spray * 1e3, "ms", 3},
     };
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        if (!rows[i].label)
+            continue; /* a row that does not apply to this run */
         fprintf(f, "<tr>");
         cell(f, "td", rows[i].label);
         if (rows[i].digits == 0) /* a count */

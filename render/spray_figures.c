@@ -668,6 +668,17 @@ static int read_de_classes(hid_t file, const char *group, double scale, struct r
     return SC_OK;
 }
 
+/* A powder of one size has every class [d, d] (dem/efficiency.c), all of it in the first: one bar, 4 % of d wide
+ * about d, rather than bars of no width. */
+static void single_size_bar(struct render_series *bars, double *left)
+{
+    if (bars->bar_width > 0 || bars->count == 0)
+        return;
+    bars->count = 1;
+    bars->bar_width = 0.04 * left[0];
+    left[0] -= 0.5 * bars->bar_width;
+}
+
 /* The deposition efficiency by mass (dem/efficiency.c) by size class and by first-impact angle, side by side. */
 static int de_figure(const struct render_request *req, const char *path, struct render_output *out)
 {
@@ -687,6 +698,7 @@ static int de_figure(const struct render_request *req, const char *path, struct 
         bars[g] = (struct render_series){NULL,          RENDER_BARS,  de[g].count,
                                          lo[g].values,  de[g].values, hi[g].values[0] - lo[g].values[0],
                                          g == 0 ? 2 : 4};
+    single_size_bar(&bars[0], lo[0].values);
     struct render_plot plot = render_plot_start(req->cfg, 2);
     plot.panels[0] = (struct render_panel){
         "DE by particle size", "diameter d (µm)", "deposition efficiency (mass)", NAN, NAN, 0, 1, 1, 1, &bars[0]};

@@ -171,3 +171,28 @@ grep -q 'scatter .* (the first three measured from the origin' "$tmp/moving.log"
 [ -s "$tmp/first/spray_thickness.png" ] || why="${why:+$why; }the fixed nozzle has no radial thickness profile"
 grep -q 'measured from the origin' "$tmp/run/report.html" && why="${why:+$why; }the fixed nozzle's report says measured from the origin"
 if [ -z "$why" ]; then echo "PASS render_moving_nozzle_figures"; else echo "FAIL render_moving_nozzle_figures: $why"; fi
+
+# ---- the report of a moving nozzle states the coating's mean thickness across the passes (spray.h5 /deposit
+# mean_thickness: 9.82 um for the raster) and, for a line, the track's Gaussian fit; never the radial profile about
+# the origin (it said "6.47 um at the axis ... (profile below)" with no such figure); the raster's profile figure
+# does not claim a fit it lacks ----
+why=""
+attribute() { h5dump -a "/deposit/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+# the report's figure against the attribute's, to its 3 digits
+near() { awk -v shown="$1" -v value="$2" 'BEGIN { exit !(shown != "" && shown / (value * 1e6) > 0.995 && shown / (value * 1e6) < 1.005) }'; }
+mean=$(attribute "$tmp/moving/spray.h5" mean_thickness)
+shown=$(sed -n "s/.*dense-equivalent thickness \([0-9.]*\) µm on average over the middle half of the passes' length.*/\1/p" "$tmp/moving/report.html")
+near "$shown" "${mean:-0}" || why="the report's mean thickness '$shown' um, spray.h5's $mean m"
+grep -q 'at the axis (r' "$tmp/moving/report.html" && why="${why:+$why; }the radial profile is reported"
+grep -q 'and its Gaussian fit' "$tmp/moving/report.html" && why="${why:+$why; }the raster's profile caption claims a fit"
+sed -e 's/^pattern = raster$/pattern = line/' -e 's/^passes = 3$/passes = 1/' cases/traverse_demo.ini >"$tmp/line.ini"
+"$bin" run "$tmp/line.ini" -o "$tmp/line" >"$tmp/line.log" 2>&1 || why="${why:+$why; }the line run exited $?"
+amplitude=$(attribute "$tmp/line/spray.h5" fit_amplitude)
+shown=$(sed -n "s/.*the track's Gaussian fit: amplitude \([0-9.]*\) &plusmn;.*/\1/p" "$tmp/line/report.html")
+near "$shown" "${amplitude:-0}" || why="${why:+$why; }the report's fit amplitude '$shown' um, spray.h5's $amplitude m"
+grep -q 'Track thickness profile across the track (mean over the middle half of the pass) and its Gaussian fit' \
+    "$tmp/line/report.html" || why="${why:+$why; }the line's profile caption has no fit"
+# a powder of one size (the traverse case's): its DE-by-size bar is drawn (8 classes of zero width drew none)
+grep -q 'fill:rgb(0%,61.960784%,45.098039%)' "$tmp/moving/figures/spray_de.svg" ||
+    why="${why:+$why; }no DE-by-size bar for a powder of one size"
+if [ -z "$why" ]; then echo "PASS report_moving_nozzle_thickness"; else echo "FAIL report_moving_nozzle_thickness: $why"; fi
