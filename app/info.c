@@ -676,7 +676,9 @@ void info_headline(const char *run_dir, FILE *out)
     hid_t file;
     snprintf(path, sizeof path, "%s/spray.h5", run_dir);
     if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
-        fprintf(out, "spray:  deposit fraction %.3f (%.0f of %.0f particles deposited), max deposit thickness %.3g m\n",
+        fprintf(out,
+                "spray:  deposit fraction %.3f (%.0f of %.0f particles deposited), deposited centres span %.3g m in "
+                "height\n",
                 last_value(file, "metrics/deposit_fraction"), last_value(file, "metrics/deposited"),
                 last_value(file, "metrics/injected"), last_value(file, "metrics/max_thickness"));
         print_deposition_efficiency(file, 1, out);

@@ -175,8 +175,10 @@ struct seed_row {
 struct report_data {
     /* spray.h5 */
     int spray;
-    int64_t injected, deposited, escaped, in_flight;
+    int64_t injected, deposited, escaped, in_flight, resting;
     double t_spray, deposit_fraction, volume_fraction, spread, scatter, max_thickness;
+    double standoff, deposit_top; /* the target plane's z; the highest deposited particle's top above it (NAN: none) */
+    double target_gap_max, target_gap_mean; /* how far above the target those stuck on it rest (NAN: none) */
     int profile_bins;
     double profile_r[20], profile_h[20], profile_width;
     /* a moving nozzle: /deposit's mean thickness over the swept band and a line's Gaussian fit (NAN: none) */
@@ -232,6 +234,31 @@ static void read_deposit(hid_t file, struct report_data *r)
     H5Gclose(g);
 }
 
+/* The particles that stuck on the target rest where they met it within their drag skin (docs/physics.md "Contact
+ * detection"): their gaps to it, from /impacts (outcome stuck, partner -1: the target). */
+static void read_target_gaps(hid_t file, struct report_data *r)
+{
+    struct render_array x = {0}, d = {0}, outcome = {0}, partner = {0};
+    r->target_gap_max = r->target_gap_mean = NAN;
+    if (render_read_array(file, "spray.h5", "impacts/x", &x) == SC_OK &&
+        render_read_array(file, "spray.h5", "impacts/d", &d) == SC_OK &&
+        render_read_array(file, "spray.h5", "impacts/outcome", &outcome) == SC_OK &&
+        render_read_array(file, "spray.h5", "impacts/partner", &partner) == SC_OK && x.count == 3 * d.count &&
+        outcome.count == d.count && partner.count == d.count) {
+        double sum = 0.0, largest = -INFINITY;
+        size_t n = 0;
+        for (size_t k = 0; k < d.count; k++)
+            if (outcome.values[k] == 1 && partner.values[k] < 0) { /* DEM_STUCK on the target */
+                double gap = r->standoff - x.values[3 * k + 2] - 0.5 * d.values[k];
+                sum += gap, largest = fmax(largest, gap), n++;
+            }
+        if (n > 0)
+            r->target_gap_max = largest, r->target_gap_mean = sum / (double)n;
+    }
+    sc_error_clear();
+    render_array_free(&x), render_array_free(&d), render_array_free(&outcome), render_array_free(&partner);
+}
+
 static void read_spray(hid_t file, struct report_data *r)
 {
     r->spray = 1;
@@ -241,6 +268,7 @@ static void read_spray(hid_t file, struct report_data *r)
         h5_attr_read_int64(stats, "deposited", &r->deposited);
         h5_attr_read_int64(stats, "escaped", &r->escaped);
         h5_attr_read_int64(stats, "in_flight", &r->in_flight);
+        h5_attr_read_int64(stats, "resting", &r->resting);
         h5_attr_read_double(stats, "t", &r->t_spray);
         H5Gclose(stats);
     }
@@ -252,16 +280,24 @@ static void read_spray(hid_t file, struct report_data *r)
     r->de = last(file, "deposition_efficiency/de");
     r->de_sprayed_mass = last(file, "deposition_efficiency/sprayed_mass");
     r->de_deposited_mass = last(file, "deposition_efficiency/deposited_mass");
+    read_target_gaps(file, r);
     r->moves = render_nozzle_moves(file);
     if (r->moves)
         read_deposit(file, r);
     struct render_array x = {0}, d = {0}, state = {0};
-    if (!r->moves && render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
+    r->deposit_top = NAN;
+    if (render_read_array(file, "spray.h5", "particles/x", &x) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/d", &d) == SC_OK &&
         render_read_array(file, "spray.h5", "particles/state", &state) == SC_OK && x.count == 3 * d.count &&
-        state.count == d.count)
-        r->profile_bins = render_thickness_profile(x.values, d.values, state.values, d.count, 20, r->profile_r,
-                                                   r->profile_h, &r->profile_width);
+        state.count == d.count) {
+        for (size_t i = 0; i < d.count; i++)
+            if (state.values[i] == 1) /* deposited: its top, the target below it at z = standoff */
+                r->deposit_top = fmax(isnan(r->deposit_top) ? -INFINITY : r->deposit_top,
+                                      r->standoff - x.values[3 * i + 2] + 0.5 * d.values[i]);
+        if (!r->moves)
+            r->profile_bins = render_thickness_profile(x.values, d.values, state.values, d.count, 20, r->profile_r,
+                                                       r->profile_h, &r->profile_width);
+    }
     render_array_free(&x), render_array_free(&d), render_array_free(&state);
     /* the spray's verdict on each seeded particle: the outcome of its first contact (smallest t) */
     struct render_array t = {0}, id = {0}, outcome = {0};
@@ -432,6 +468,7 @@ static int open_output(const struct render_request *req, const char *name, hid_t
 static void report_read(const struct render_request *req, struct report_data *r)
 {
     memset(r, 0, sizeof *r);
+    r->standoff = case_real(req->c, "target", "standoff");
     hid_t file;
     if (open_output(req, "couple.h5", &file))
         read_couple(file, r), H5Fclose(file);
@@ -557,6 +594,37 @@ static void moving_thickness(FILE *f, const struct report_data *r)
                 num(r->fit_centre * 1e3, 3).s);
 }
 
+/* The coating: its top, and its thickness as a moving nozzle's mean or a fixed nozzle's radial profile. */
+static void coating_headline(FILE *f, const struct report_data *r)
+{
+    if (!isfinite(r->deposit_top)) {
+        fprintf(f, "<li><b>Coating thickness: nothing deposited</b>.</li>\n");
+        return;
+    }
+    fprintf(f,
+            "<li><b>Coating thickness: up to %s µm</b> (the top of the highest deposited particle above the "
+            "target; their centres span %s µm in height, <code>spray.h5 /metrics/max_thickness</code>)",
+            num(r->deposit_top * 1e6, 3).s, num(r->max_thickness * 1e6, 3).s);
+    if (isfinite(r->target_gap_max))
+        fprintf(f,
+                "; the particles stuck on the target rest %s µm above it on average, at most %s µm (where they met "
+                "it within their drag skin, docs/physics.md \"Contact detection\")",
+                num(r->target_gap_mean * 1e6, 3).s, num(r->target_gap_max * 1e6, 3).s);
+    if (r->moves) {
+        moving_thickness(f, r);
+    } else if (r->profile_bins > 0) {
+        double peak = 0;
+        for (int b = 0; b < r->profile_bins; b++)
+            peak = fmax(peak, r->profile_h[b]);
+        fprintf(f,
+                "; dense-equivalent thickness %s µm at the axis (r &lt; %s mm), at most %s µm, out to "
+                "r = %s mm (profile below)",
+                num(r->profile_h[0] * 1e6, 3).s, num(r->profile_width * 1e3, 3).s, num(peak * 1e6, 3).s,
+                num(r->profile_width * r->profile_bins * 1e3, 3).s);
+    }
+    fprintf(f, ".</li>\n");
+}
+
 static void headline(FILE *f, const struct render_request *req, const struct report_data *r,
                      const struct render_output *out)
 {
@@ -571,8 +639,9 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                 num(100 * r->deposit_fraction, 3).s, (long long)r->deposited, (long long)r->injected);
         escaped(f, case_text(c, "deposition", "rule"));
         fprintf(f,
-                "</code>); %lld still in flight or resting unbonded on the target at t = %s ms, %lld escaped.</li>\n",
-                (long long)r->in_flight, given(r->t_spray * 1e3).s, (long long)r->escaped);
+                "</code>); at t = %s ms %lld still in flight, %lld resting unbonded on the target, %lld "
+                "escaped.</li>\n",
+                given(r->t_spray * 1e3).s, (long long)r->in_flight, (long long)r->resting, (long long)r->escaped);
         if (isfinite(r->de))
             fprintf(f,
                     "<li><b>Deposition efficiency %s %%</b> by mass: %s µg deposited of %s µg sprayed (by size "
@@ -608,25 +677,7 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
         fprintf(f, "<li><b>Impact (MPM): no particle body found in impact.h5</b>.</li>\n");
     }
     if (r->spray) {
-        fprintf(f,
-                "<li><b>Coating thickness: maximum %s µm</b> (height span of the deposited particles' centres, "
-                "<code>spray.h5 /metrics/max_thickness</code>)",
-                num(r->max_thickness * 1e6, 3).s);
-        if (r->moves) {
-            moving_thickness(f, r);
-        } else if (r->profile_bins > 0) {
-            double peak = 0;
-            for (int b = 0; b < r->profile_bins; b++)
-                peak = fmax(peak, r->profile_h[b]);
-            fprintf(f,
-                    "; dense-equivalent thickness %s µm at the axis (r &lt; %s mm), at most %s µm, out to "
-                    "r = %s mm (profile below)",
-                    num(r->profile_h[0] * 1e6, 3).s, num(r->profile_width * 1e3, 3).s, num(peak * 1e6, 3).s,
-                    num(r->profile_width * r->profile_bins * 1e3, 3).s);
-        } else {
-            fprintf(f, "; nothing deposited");
-        }
-        fprintf(f, ".</li>\n");
+        coating_headline(f, r);
     }
     if (r->seed_count > 0) {
         double change = 0, lo = INFINITY, hi = -INFINITY, v_lo = INFINITY, v_hi = -INFINITY;
@@ -787,7 +838,8 @@ static void spray_table(FILE *f, const struct report_data *r)
     } rows[] = {
         {"particles injected", (double)r->injected, "-", 0},
         {"particles deposited", (double)r->deposited, "-", 0},
-        {"particles still in flight or resting unbonded at the end", (double)r->in_flight, "-", 0},
+        {"particles still in flight at the end", (double)r->in_flight, "-", 0},
+        {"particles resting unbonded on the target at the end", (double)r->resting, "-", 0},
         {"particles escaped (left the domain)", (double)r->escaped, "-", 0},
         {"deposit fraction (deposited / injected)", 100 * r->deposit_fraction, "%", 3},
         {"deposition efficiency (deposited / sprayed mass)", 100 * r->de, "%", 3},
@@ -795,7 +847,8 @@ static void spray_table(FILE *f, const struct report_data *r)
          100 * r->volume_fraction, "%", 3},
         {"mean distance of the deposited particles from the target centre", r->spread * 1e3, "mm", 3},
         {"scatter of that distance (standard deviation)", r->scatter * 1e3, "mm", 3},
-        {"coating thickness, maximum (height span of the deposited centres)", r->max_thickness * 1e6, "µm", 3},
+        {"coating: the highest deposited particle's top above the target", r->deposit_top * 1e6, "µm", 3},
+        {"coating: height span of the deposited particles' centres", r->max_thickness * 1e6, "µm", 3},
         {r->moves
              ? "coating thickness, dense-equivalent, mean over the band the nozzle swept (middle half of the passes)"
              : NULL,

@@ -18,6 +18,7 @@ struct spray_data {
     struct render_array hit_t, hit_d, hit_v, hit_outcome, hit_partner, hit_id;            /* /impacts */
     struct render_array t, deposit_fraction, volume_fraction, spread, scatter, thickness; /* /metrics */
     struct render_array id;
+    struct render_array escaped_d; /* /escapes/d: the particles that left the domain (empty if none) */
 };
 
 static void spray_data_free(struct spray_data *s)
@@ -38,7 +39,8 @@ static void spray_data_free(struct spray_data *s)
                                   &s->spread,
                                   &s->scatter,
                                   &s->thickness,
-                                  &s->id};
+                                  &s->id,
+                                  &s->escaped_d};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         render_array_free(all[i]);
 }
@@ -51,6 +53,8 @@ static int spray_data_read(hid_t f, struct spray_data *s)
     SC_TRY(render_read_array(f, p, "particles/v", &s->v));
     SC_TRY(render_read_array(f, p, "particles/state", &s->state));
     SC_TRY(render_read_array(f, p, "particles/id", &s->id));
+    if (h5_exists(f, "escapes/d"))
+        SC_TRY(render_read_array(f, p, "escapes/d", &s->escaped_d));
     SC_TRY(render_read_array(f, p, "impacts/t", &s->hit_t));
     SC_TRY(render_read_array(f, p, "impacts/d", &s->hit_d));
     SC_TRY(render_read_array(f, p, "impacts/v_in", &s->hit_v));
@@ -128,17 +132,19 @@ static int write_histogram(const struct render_request *req, struct render_outpu
     return SC_OK;
 }
 
-/* Diameters of the particles of the final state (um), with the expected counts of the case's Weibull law. */
+/* Diameters of every injected particle (um): those in the domain at the end and those that left it (the law is the
+ * injected powder's; the ones left alone are biased to the sizes that stay), with the expected counts of the case's
+ * Weibull law. */
 static int diameter_figure(const struct render_request *req, const struct spray_data *s, struct render_output *out)
 {
-    size_t n = s->d.count;
+    size_t kept = s->d.count, n = kept + s->escaped_d.count;
     double *um = malloc((n + 1) * sizeof *um);
     enum { CURVE = 200 };
     double cx[CURVE], cy[CURVE];
     if (!um)
         SC_FAIL_OOM((n + 1) * sizeof *um, "the particle diameters");
     for (size_t i = 0; i < n; i++)
-        um[i] = s->d.values[i] * 1e6;
+        um[i] = (i < kept ? s->d.values[i] : s->escaped_d.values[i - kept]) * 1e6;
     struct render_series curve = {NULL, RENDER_LINE, 0, cx, cy, 0, 1};
     int weibull = case_is(req->c, "powder", "distribution", "weibull");
     struct render_histogram h = {0};
@@ -157,8 +163,8 @@ static int diameter_figure(const struct render_request *req, const struct spray_
         curve.label = "Weibull law of [powder] x count x bin width";
     }
     SC_CHECK(status,
-             write_histogram(req, out, "spray_diameter", "Particle diameters (final state)", "diameter d (µm)", um, n,
-                             weibull ? &curve : NULL),
+             write_histogram(req, out, "spray_diameter", "Diameters of every injected particle (escaped included)",
+                             "diameter d (µm)", um, n, weibull ? &curve : NULL),
              done);
 done:
     render_histogram_free(&h);
@@ -567,11 +573,14 @@ done:
 
 static void plume_caption(const struct spray_snapshot *snap, char *out, size_t size)
 {
-    size_t flying = 0;
+    size_t flying = 0, deposited = 0;
     for (size_t i = 0; i < snap->d.count; i++)
-        flying += snap->state.values[i] == 0;
-    snprintf(out, size, "t = %.3f ms: %zu particles in flight, %zu deposited", snap->t * 1e3, flying,
-             snap->d.count - flying);
+        flying += snap->state.values[i] == 0, deposited += snap->state.values[i] == 1;
+    size_t resting = snap->d.count - flying - deposited;
+    int n =
+        snprintf(out, size, "t = %.3f ms: %zu particles in flight, %zu deposited", snap->t * 1e3, flying, deposited);
+    if (resting > 0 && n > 0 && (size_t)n < size)
+        snprintf(out + n, size - (size_t)n, ", %zu resting", resting);
 }
 
 /* The number of snapshots in spray.h5 (0 without /snapshots: a run with snapshot_every = 0). */

@@ -196,3 +196,36 @@ grep -q 'Track thickness profile across the track (mean over the middle half of 
 grep -q 'fill:rgb(0%,61.960784%,45.098039%)' "$tmp/moving/figures/spray_de.svg" ||
     why="${why:+$why; }no DE-by-size bar for a powder of one size"
 if [ -z "$why" ]; then echo "PASS report_moving_nozzle_thickness"; else echo "FAIL report_moving_nozzle_thickness: $why"; fi
+
+# ---- the report's spray numbers against spray.h5, recomputed here: the particles in flight and resting at the end
+# (/stats; it printed in_flight alone as "in flight or resting"), the coating's top (the highest deposited
+# particle's distance from the target plane at standoff 0.02 m, plus d/2), and the gaps at which particles stuck
+# on the target rest above it (/impacts rows stuck on the target); the diameter figure is of every injected
+# particle (escaped included) ----
+why=""
+printf '[contact]\nrest_speed = 200\n' | cat "$tmp/case.ini" - >"$tmp/numbers.ini" # rebounders slower than 200 m/s rest
+"$bin" run "$tmp/numbers.ini" -o "$tmp/numbers" -q >"$tmp/numbers.log" 2>&1 || why="the spray run exited $?"
+values() { h5dump -m %.17g -y -w 0 -d "$2" "$1" 2>/dev/null | sed -n '/DATA {/,/}/p' | sed '1d;$d' | tr ',' '\n' | awk 'NF { print $1 }'; }
+stat() { h5dump -a "/stats/$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+text=$(sed 's/<[^>]*>//g' "$tmp/numbers/report.html" | tr '\n' ' ')
+flying=$(stat "$tmp/numbers/spray.h5" in_flight) resting=$(stat "$tmp/numbers/spray.h5" resting)
+case "$text" in
+*" $flying still in flight, $resting resting unbonded on the target, "*) ;;
+*) why="the report does not say '$flying still in flight, $resting resting unbonded on the target'" ;;
+esac
+[ "${resting:-0}" -gt 0 ] || why="${why:+$why; }no resting particle in this run: the split is not tested"
+top=$(paste -d' ' <(values "$tmp/numbers/spray.h5" /particles/x | awk 'NR % 3 == 0') <(values "$tmp/numbers/spray.h5" /particles/d) \
+    <(values "$tmp/numbers/spray.h5" /particles/state) | awk '$3 == 1 { t = 0.02 - $1 + $2 / 2; if (t > m) m = t } END { print m * 1e6 }')
+shown=$(printf '%s' "$text" | sed -n 's/.*Coating thickness: up to \([0-9.]*\) µm (the top of the highest.*/\1/p')
+awk -v a="$shown" -v b="$top" 'BEGIN { exit !(a != "" && b > 0 && a / b > 0.995 && a / b < 1.005) }' ||
+    why="${why:+$why; }coating top '$shown' um in the report, $top um from /particles"
+gaps=$(paste -d' ' <(values "$tmp/numbers/spray.h5" /impacts/x | awk 'NR % 3 == 0') <(values "$tmp/numbers/spray.h5" /impacts/d) \
+    <(values "$tmp/numbers/spray.h5" /impacts/outcome) <(values "$tmp/numbers/spray.h5" /impacts/partner) |
+    awk '$3 == 1 && $4 < 0 { g = 0.02 - $1 - $2 / 2; s += g; n++; if (g > m) m = g } END { if (n) print s / n * 1e6, m * 1e6 }')
+shown=$(printf '%s' "$text" | sed -n 's/.*the particles stuck on the target rest \([0-9.]*\) µm above it on average, at most \([0-9.]*\) µm.*/\1 \2/p')
+awk -v a="$shown" -v b="$gaps" 'BEGIN { split(a, x, " "); split(b, y, " ");
+    exit !(y[2] > 0 && x[1] / y[1] > 0.99 && x[1] / y[1] < 1.01 && x[2] / y[2] > 0.99 && x[2] / y[2] < 1.01) }' ||
+    why="${why:+$why; }target gaps '$shown' um in the report, '$gaps' um from /impacts"
+grep -q 'Diameters of every injected particle (escaped included)' "$tmp/numbers/report.html" ||
+    why="${why:+$why; }the diameter figure is not of every injected particle"
+if [ -z "$why" ]; then echo "PASS report_spray_numbers"; else echo "FAIL report_spray_numbers: $why"; fi
