@@ -33,6 +33,9 @@ int run_dir_write_stages(const char *run_dir, const char *stages);
 /* The stages recorded in RUN_DIR/stages into out[size]; "spray" when the file is absent (run directories of
  * versions before the file existed held only spray runs).  SC_EIO when it exists but cannot be read. */
 int run_dir_read_stages(const char *run_dir, char *out, size_t size);
+/* The checkpoints of `stage` in RUN_DIR/checkpoints: their number and the newest one's path into newest[size]
+ * (newest[0] = '\0' when there is none). */
+size_t run_dir_stage_checkpoints(const char *run_dir, const char *stage, char *newest, size_t size);
 
 /* 1 when the case file or the command line gives any key of [section] (a registered section, not "material.*"). */
 int app_case_section_given(const struct case_file *c, const char *section);

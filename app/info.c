@@ -464,40 +464,6 @@ static int info_file(const char *path, FILE *out)
     return SC_OK;
 }
 
-static int compare_names(const void *a, const void *b)
-{
-    return strcmp(*(const char *const *)a, *(const char *const *)b);
-}
-
-/* The checkpoints of `stage` in RUN_DIR/checkpoints: their number and the newest one's path (newest[0] = '\0'
- * when there is none). */
-static size_t stage_checkpoints(const char *run_dir, const char *stage, char *newest, size_t size)
-{
-    char dir_path[4096];
-    snprintf(dir_path, sizeof dir_path, "%s/checkpoints", run_dir);
-    newest[0] = '\0';
-    DIR *dir = opendir(dir_path);
-    if (!dir)
-        return 0;
-    char *names[4096];
-    size_t count = 0, prefix = strlen(stage);
-    struct dirent *entry;
-    while ((entry = readdir(dir)) && count < 4096) {
-        size_t len = strlen(entry->d_name);
-        if (len > prefix + 4 && strncmp(entry->d_name, stage, prefix) == 0 && entry->d_name[prefix] == '_' &&
-            strcmp(entry->d_name + len - 3, ".h5") == 0)
-            if (!(names[count++] = strdup(entry->d_name)))
-                SC_DIE_OOM(len + 1, "a checkpoint's name");
-    }
-    closedir(dir);
-    qsort(names, count, sizeof *names, compare_names);
-    if (count)
-        snprintf(newest, size, "%s/%s", dir_path, names[count - 1]);
-    for (size_t i = 0; i < count; i++)
-        free(names[i]);
-    return count;
-}
-
 static int count_lines(const char *path)
 {
     FILE *file = fopen(path, "r");
@@ -618,7 +584,7 @@ int info_print(const char *target, FILE *out)
         const char *stage = stage_names[k];
         snprintf(path, sizeof path, "%s/%s.h5", target, stage);
         int done = access(path, R_OK) == 0;
-        size_t checkpoints = stage_checkpoints(target, stage, newest, sizeof newest);
+        size_t checkpoints = run_dir_stage_checkpoints(target, stage, newest, sizeof newest);
         int asked = strstr(stages, stage) != NULL;
         if (!done && !checkpoints && !asked)
             continue;

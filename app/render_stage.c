@@ -1,4 +1,5 @@
 /* The render stage: figures and report.html from whatever RUN_DIR holds (render/ draws them). */
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -117,6 +118,52 @@ int render_stage_run(const struct stage_context *ctx)
     return write_stamp(run_dir, fingerprint);
 }
 
+/* The report's notices on the run's state: each stage RUN_DIR/stages asks for whose output is missing (interrupted
+ * when it left checkpoints), and each drawn input made by another build (docs/architecture.md "Another build"). */
+enum { NOTICES_MAX = 16, NOTICE_LENGTH = 600 };
+
+static void add_notice(char (*notices)[NOTICE_LENGTH], int *count, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+static void add_notice(char (*notices)[NOTICE_LENGTH], int *count, const char *format, ...)
+{
+    if (*count >= NOTICES_MAX)
+        return;
+    va_list args;
+    va_start(args, format);
+    vsnprintf(notices[(*count)++], NOTICE_LENGTH, format, args);
+    va_end(args);
+}
+
+static void run_state_notices(const char *run_dir, char (*notices)[NOTICE_LENGTH], int *count)
+{
+    static const char *const stages[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
+    char asked[256], path[4200], newest[4400], sources[64];
+    if (run_dir_read_stages(run_dir, asked, sizeof asked) != SC_OK)
+        sc_error_clear(), asked[0] = '\0';
+    for (size_t k = 0; k < sizeof stages / sizeof stages[0]; k++) {
+        snprintf(path, sizeof path, "%s/%s.h5", run_dir, stages[k]);
+        int done = access(path, R_OK) == 0;
+        size_t checkpoints = run_dir_stage_checkpoints(run_dir, stages[k], newest, sizeof newest);
+        if (!done && strstr(asked, stages[k]))
+            add_notice(notices, count,
+                       "The %s stage asked for (RUN_DIR/stages: %s) has no result: %s. What this report shows "
+                       "does not include it.",
+                       stages[k], asked,
+                       checkpoints ? "it was interrupted (its checkpoints are kept: the same command resumes it)"
+                                   : "it has not run");
+        hid_t file;
+        if (done && h5_open_read(path, &file) == SC_OK) {
+            if (!h5_same_sources(file, sources, sizeof sources))
+                add_notice(notices, count,
+                           "%s.h5 was made by another build of spraycoat (sources %s, this build's %s): running its "
+                           "stage again computes it with this one.",
+                           stages[k], sources, spraycoat_sources_id());
+            H5Fclose(file);
+        }
+        sc_error_clear();
+    }
+}
+
 static int render_stage_draw(const struct case_file *c, const char *run_dir)
 {
     struct render_config cfg;
@@ -125,6 +172,12 @@ static int render_stage_draw(const struct case_file *c, const char *run_dir)
     struct render_case_row *rows;
     SC_TRY(case_rows(c, &rows, &req.row_count));
     req.rows = rows;
+    char notices[NOTICES_MAX][NOTICE_LENGTH];
+    const char *notice_lines[NOTICES_MAX];
+    run_state_notices(run_dir, notices, &req.notice_count);
+    for (int k = 0; k < req.notice_count; k++)
+        notice_lines[k] = notices[k];
+    req.notices = notice_lines;
     double start = log_elapsed();
     struct render_output out;
     int status;

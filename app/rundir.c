@@ -1,9 +1,11 @@
 /* The run directory, the registry of case keys, and signal handling shared by the stages. */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <omp.h>
 #include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -158,6 +160,38 @@ int run_dir_write_stages(const char *run_dir, const char *stages)
     SC_TRY(atomic_open(path, &out));
     fprintf(out.stream, "%s\n", stages);
     return atomic_publish(&out);
+}
+
+static int compare_checkpoint_names(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+size_t run_dir_stage_checkpoints(const char *run_dir, const char *stage, char *newest, size_t size)
+{
+    char dir_path[4096];
+    snprintf(dir_path, sizeof dir_path, "%s/checkpoints", run_dir);
+    newest[0] = '\0';
+    DIR *dir = opendir(dir_path);
+    if (!dir)
+        return 0;
+    char *names[4096];
+    size_t count = 0, prefix = strlen(stage);
+    struct dirent *entry;
+    while ((entry = readdir(dir)) && count < 4096) {
+        size_t len = strlen(entry->d_name);
+        if (len > prefix + 4 && strncmp(entry->d_name, stage, prefix) == 0 && entry->d_name[prefix] == '_' &&
+            strcmp(entry->d_name + len - 3, ".h5") == 0)
+            if (!(names[count++] = strdup(entry->d_name)))
+                SC_DIE_OOM(len + 1, "a checkpoint's name");
+    }
+    closedir(dir);
+    qsort(names, count, sizeof *names, compare_checkpoint_names);
+    if (count)
+        snprintf(newest, size, "%s/%s", dir_path, names[count - 1]);
+    for (size_t i = 0; i < count; i++)
+        free(names[i]);
+    return count;
 }
 
 int run_dir_read_stages(const char *run_dir, char *out, size_t size)

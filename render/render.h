@@ -191,6 +191,10 @@ struct render_request {
     const struct render_case_row *rows; /* case summary for the report */
     int row_count;
     uint64_t case_hash;
+    /* the run's state for the report's warnings, from the caller: stages asked for and not done, inputs of another
+     * build (each an HTML-free sentence) */
+    const char *const *notices;
+    int notice_count;
 };
 /* Draw every figure the outputs in run_dir allow, then RUN_DIR/report.html.  SC_EIO when run_dir holds none of
  * spray.h5, impact.h5, vcrit.h5, or when one is malformed (the message names it); SC_EINPUT for a bad request. */

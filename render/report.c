@@ -195,6 +195,7 @@ struct report_data {
     int64_t uncalibrated; /* particles off their bonding calibration's resolution (/summary attribute), -1 unknown */
     /* spray.h5 /deposition_efficiency (NAN: none) */
     double de, de_sprayed_mass, de_deposited_mass;
+    int64_t table_impacts, table_impacts_outside; /* /deposition_efficiency attributes (0: none, or no table) */
 };
 
 static double last(hid_t file, const char *name)
@@ -280,6 +281,16 @@ static void read_spray(hid_t file, struct report_data *r)
     r->de = last(file, "deposition_efficiency/de");
     r->de_sprayed_mass = last(file, "deposition_efficiency/sprayed_mass");
     r->de_deposited_mass = last(file, "deposition_efficiency/deposited_mass");
+    hid_t de = h5_exists(file, "deposition_efficiency") ? H5Gopen2(file, "deposition_efficiency", H5P_DEFAULT)
+                                                        : H5I_INVALID_HID;
+    if (de >= 0) {
+        if (H5Aexists(de, "table_impacts_outside") > 0 && H5Aexists(de, "table_impacts") > 0) {
+            h5_attr_read_int64(de, "table_impacts_outside", &r->table_impacts_outside);
+            h5_attr_read_int64(de, "table_impacts", &r->table_impacts);
+        }
+        H5Gclose(de);
+    }
+    sc_error_clear();
     read_target_gaps(file, r);
     r->moves = render_nozzle_moves(file);
     if (r->moves)
@@ -934,6 +945,45 @@ static void figures(FILE *f, const struct render_output *out)
                 out->frames);
 }
 
+/* What the run's result must be read with, below the headline: the run's state (the caller's notices) and the
+ * stages' own warnings that their outputs record (the spray's lower-bound DE and its table's clamped impacts). */
+static void warning_item(FILE *f, int *open, const char *text)
+{
+    if (!*open)
+        fprintf(f, "<section id=\"warnings\">\n<h2>Warnings</h2>\n<ul>\n"), *open = 1;
+    fprintf(f, "<li>");
+    escaped(f, text);
+    fprintf(f, "</li>\n");
+}
+
+static void warnings(FILE *f, const struct render_request *req, const struct report_data *r)
+{
+    int open = 0;
+    char text[600];
+    for (int k = 0; k < req->notice_count; k++)
+        warning_item(f, &open, req->notices[k]);
+    /* the spray stage's own test (app/spray_stage.c): over 5 % of the sprayed particles in flight at t_end */
+    if (r->spray && r->injected > 0 && (double)r->in_flight > 0.05 * (double)r->injected) {
+        snprintf(text, sizeof text,
+                 "%lld of the %lld particles sprayed (%.1f %%) were still in flight at t_end: the deposition "
+                 "efficiency counts them as not deposited, so it is a lower bound; a longer [spray] t_end lets them "
+                 "land.",
+                 (long long)r->in_flight, (long long)r->injected, 100.0 * (double)r->in_flight / (double)r->injected);
+        warning_item(f, &open, text);
+    }
+    if (r->table_impacts_outside > 0 && r->table_impacts > 0) {
+        snprintf(text, sizeof text,
+                 "%lld of the %lld impacts judged by the v_crit table (%.1f %%) had a diameter or temperature beyond "
+                 "its grid and took the v_crit of its nearest edge: widen the search that made the table ([vcrit] "
+                 "diameters, temperatures) to cover the powder.",
+                 (long long)r->table_impacts_outside, (long long)r->table_impacts,
+                 100.0 * (double)r->table_impacts_outside / (double)r->table_impacts);
+        warning_item(f, &open, text);
+    }
+    if (open)
+        fprintf(f, "</ul>\n</section>\n");
+}
+
 int render_write_report(const struct render_request *req, const struct render_output *out)
 {
     char path[ATOMIC_PATH_MAX];
@@ -949,6 +999,7 @@ int render_write_report(const struct render_request *req, const struct render_ou
     struct report_data data;
     report_read(req, &data);
     headline(f, req, &data, out);
+    warnings(f, req, &data);
     results(f, req, &data);
     report_free(&data);
     figures(f, out);

@@ -58,6 +58,10 @@ RUN=$T/run
 "$BIN" spray "$CASE" -o "$T/mine" >"$T/mine.log" 2>&1
 theirs_created=$(created "$RUN/spray.h5")
 "$BIN" info "$RUN" >"$T/info_theirs.txt" 2>&1
+# the report drawn by this build over the other's spray.h5 says so among its warnings
+cp -r "$RUN" "$T/theirs_report"
+"$BIN" render "$CASE" -o "$T/theirs_report" >"$T/theirs_report.log" 2>&1
+sed -n '/<section id="warnings">/,/<\/section>/p' "$T/theirs_report/report.html" >"$T/theirs_warnings.html"
 "$BIN" spray "$CASE" -o "$RUN" >"$T/again.log" 2>&1
 status=$?
 why=""
@@ -68,7 +72,11 @@ grep -q 'up to date' "$T/again.log" && why="$why the other build's spray.h5 was 
 [ "$(sources_id "$RUN/spray.h5")" = "$MINE" ] || why="$why spray.h5 has sources_id '$(sources_id "$RUN/spray.h5")' after the rerun;"
 [ "$(created "$RUN/spray.h5")" != "$theirs_created" ] || why="$why spray.h5 was not written again;"
 grep -q '^stage spray: done (made by another build of spraycoat' "$T/info_theirs.txt" || why="$why spraycoat info does not say spray.h5 is another build's: $(grep '^stage spray' "$T/info_theirs.txt");"
+grep -q "spray.h5 was made by another build of spraycoat (sources $THEIRS, this build's $MINE)" "$T/theirs_warnings.html" ||
+    why="$why the report's warnings do not say spray.h5 is another build's;"
 "$BIN" info "$RUN" >"$T/info_mine.txt" 2>&1
+"$BIN" render "$CASE" -o "$RUN" >"$T/mine_report.log" 2>&1
+grep -q 'another build' "$RUN/report.html" && why="$why the report of this build's own spray.h5 speaks of another build;"
 grep -q '^stage spray: done$' "$T/info_mine.txt" || why="$why after the rerun spraycoat info says $(grep '^stage spray' "$T/info_mine.txt");"
 # the same sources compute the same results: the impacts of both builds agree to the bit
 h5diff -d 0 "$RUN/spray.h5" "$T/mine/spray.h5" /impacts /impacts >/dev/null 2>&1 || why="$why /impacts differs from this build's own run;"

@@ -229,3 +229,45 @@ awk -v a="$shown" -v b="$gaps" 'BEGIN { split(a, x, " "); split(b, y, " ");
 grep -q 'Diameters of every injected particle (escaped included)' "$tmp/numbers/report.html" ||
     why="${why:+$why; }the diameter figure is not of every injected particle"
 if [ -z "$why" ]; then echo "PASS report_spray_numbers"; else echo "FAIL report_spray_numbers: $why"; fi
+
+# ---- the report's warnings: a spray stopped with many particles in the air says its DE is a lower bound (the spray
+# warned in its log alone), and a stage the run asked for and did not finish is named, interrupted when it left
+# checkpoints (the report showed the stages before it as if the run were complete); a finished run has none ----
+why=""
+sed 's/^t_end = 2e-3$/t_end = 3e-4/' "$tmp/case.ini" >"$tmp/early.ini"
+"$bin" run "$tmp/early.ini" -o "$tmp/early" -q >"$tmp/early.log" 2>&1 || why="the early spray exited $?"
+flying=$(h5dump -a /stats/in_flight "$tmp/early/spray.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+injected=$(h5dump -a /stats/injected "$tmp/early/spray.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+awk -v f="${flying:-0}" -v n="${injected:-0}" 'BEGIN { exit !(n > 0 && f > 0.05 * n) }' ||
+    why="${why:+$why; }the early spray has $flying of $injected in flight: not over 5 %"
+warned=$(sed -n '/<section id="warnings">/,/<\/section>/p' "$tmp/early/report.html")
+case "$warned" in
+*"$flying of the $injected particles sprayed"*"still in flight at t_end"*"lower bound"*) ;;
+*) why="${why:+$why; }no in-flight warning in the report: '$warned'" ;;
+esac
+grep -q 'id="warnings"' "$tmp/numbers/report.html" && why="${why:+$why; }the finished run's report has warnings"
+# the same run as if its impact stage had been asked for and interrupted (a checkpoint of it left), then drawn again
+printf 'run:spray,couple,impact,render\n' >"$tmp/early/stages"
+mkdir -p "$tmp/early/checkpoints" && : >"$tmp/early/checkpoints/impact_r0000_000100.h5"
+"$bin" render "$tmp/early.ini" -o "$tmp/early" -q >"$tmp/early_render.log" 2>&1 || why="${why:+$why; }render exited $?"
+warned=$(sed -n '/<section id="warnings">/,/<\/section>/p' "$tmp/early/report.html")
+case "$warned" in
+*"The couple stage asked for"*"has no result: it has not run"*) ;;
+*) why="${why:+$why; }the report does not say the couple stage has not run" ;;
+esac
+case "$warned" in
+*"The impact stage asked for"*"has no result: it was interrupted"*) ;;
+*) why="${why:+$why; }the report does not say the impact stage was interrupted" ;;
+esac
+case "$warned" in *"The spray stage"*) why="${why:+$why; }the finished spray stage is named as missing" ;; esac
+# a v_crit table narrower than the powder (10-20 um against 10-100 um): the impacts judged at its edge are counted
+# in the report's warnings as the spray counted them (/deposition_efficiency table_impacts_outside)
+printf 'diameter,v_crit\n10e-6,30\n20e-6,40\n' >"$tmp/narrow.csv"
+sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $tmp/narrow.csv|" "$tmp/case.ini" >"$tmp/narrow.ini"
+"$bin" run "$tmp/narrow.ini" -o "$tmp/narrow" -q >"$tmp/narrow.log" 2>&1 || why="${why:+$why; }the narrow-table run exited $?"
+outside=$(h5dump -a /deposition_efficiency/table_impacts_outside "$tmp/narrow/spray.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+judged=$(h5dump -a /deposition_efficiency/table_impacts "$tmp/narrow/spray.h5" 2>/dev/null | sed -n 's/^ *(0): *//p')
+[ "${outside:-0}" -gt 0 ] || why="${why:+$why; }no impact outside the narrow table"
+grep -q "$outside of the $judged impacts judged by the v_crit table" "$tmp/narrow/report.html" ||
+    why="${why:+$why; }the report does not count the $outside impacts outside the table"
+if [ -z "$why" ]; then echo "PASS report_warnings"; else echo "FAIL report_warnings: $why"; fi
