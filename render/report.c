@@ -605,6 +605,55 @@ static void moving_thickness(FILE *f, const struct report_data *r)
                 num(r->fit_centre * 1e3, 3).s);
 }
 
+/* vcrit.h5: how many searches bracketed a v_crit, and its range (the table and each search's note below). */
+static void vcrit_headline(FILE *f, const struct render_request *req)
+{
+    hid_t file;
+    if (!open_output(req, "vcrit.h5", &file))
+        return;
+    struct render_array v = {0};
+    int searches = 0;
+    while (searches < 1000) {
+        char name[32];
+        snprintf(name, sizeof name, "search/%03d", searches);
+        if (!h5_exists(file, name))
+            break;
+        searches++;
+    }
+    double lo = INFINITY, hi = -INFINITY;
+    if (render_read_array(file, "vcrit.h5", "v_crit", &v) == SC_OK)
+        for (size_t i = 0; i < v.count; i++)
+            lo = fmin(lo, v.values[i]), hi = fmax(hi, v.values[i]);
+    sc_error_clear();
+    fprintf(f, "<li><b>Critical velocity: %zu of %d searches bracketed a v_crit</b>", v.count, searches);
+    if (v.count > 0)
+        fprintf(f, ", from %s to %s m/s", num(lo, 4).s, num(hi, 4).s);
+    fprintf(f, " (the table and the searches' notes below).</li>\n");
+    render_array_free(&v);
+    H5Fclose(file);
+}
+
+/* sweep.h5: the range of the DE over the map (the table below, the map in figure sweep_de). */
+static void sweep_headline(FILE *f, const struct render_request *req)
+{
+    hid_t file;
+    if (!open_output(req, "sweep.h5", &file))
+        return;
+    struct render_array de = {0};
+    double lo = INFINITY, hi = -INFINITY;
+    if (render_read_array(file, "sweep.h5", "de", &de) == SC_OK)
+        for (size_t i = 0; i < de.count; i++)
+            lo = fmin(lo, de.values[i]), hi = fmax(hi, de.values[i]);
+    sc_error_clear();
+    if (de.count > 0)
+        fprintf(f,
+                "<li><b>Sweep: deposition efficiency %s to %s %%</b> over %zu runs (the table below, the map in "
+                "figure sweep_de).</li>\n",
+                num(100 * lo, 3).s, num(100 * hi, 3).s, de.count);
+    render_array_free(&de);
+    H5Fclose(file);
+}
+
 /* The coating: its top, and its thickness as a moving nozzle's mean or a fixed nozzle's radial profile. */
 static void coating_headline(FILE *f, const struct report_data *r)
 {
@@ -735,6 +784,8 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
                     (long long)r->uncalibrated, r->row_count);
         fprintf(f, ".</li>\n");
     }
+    vcrit_headline(f, req);
+    sweep_headline(f, req);
     fprintf(f, "</ul>\n");
     const struct render_figure *profile = render_output_find(out, "spray_thickness");
     if (profile) {
@@ -881,27 +932,98 @@ static void spray_table(FILE *f, const struct report_data *r)
     fprintf(f, "</table>\n");
 }
 
+/* The searches of vcrit.h5 (/search/NNN) whose result is not a plain "bracketed": what each says (a pair not
+ * bracketed, runs unsettled, a fit set aside), with its diameter and temperature. */
+static void vcrit_search_notes(FILE *f, hid_t file)
+{
+    int listed = 0;
+    for (int i = 0; i < 1000; i++) {
+        char name[32], result[512];
+        snprintf(name, sizeof name, "search/%03d", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        double d = NAN, T = NAN;
+        if (group >= 0 && h5_attr_read_string(group, "result", result, sizeof result) == SC_OK &&
+            strcmp(result, "bracketed") != 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK) {
+            if (!listed++)
+                fprintf(f, "<p>Searches with a note (<code>vcrit.h5 /search/NNN</code> attribute result):</p>\n<ul>\n");
+            fprintf(f, "<li>d = %s µm", num(d * 1e6, 3).s);
+            if (H5Aexists(group, "temperature") > 0 && h5_attr_read_double(group, "temperature", &T) == SC_OK)
+                fprintf(f, ", T = %s K", given(T).s);
+            fprintf(f, ": ");
+            escaped(f, result);
+            fprintf(f, "</li>\n");
+        }
+        if (group >= 0)
+            H5Gclose(group);
+    }
+    if (listed)
+        fprintf(f, "</ul>\n");
+    sc_error_clear();
+}
+
 static void vcrit_results(FILE *f, hid_t file)
 {
-    static const char *const names[] = {"diameter", "v_crit", "pbcp", "v_rest"};
-    struct render_array a[4];
-    int ok = 1;
-    for (int k = 0; k < 4; k++)
+    static const char *const names[] = {"diameter", "v_crit", "pbcp", "v_rest", "temperature"};
+    struct render_array a[5];
+    memset(a, 0, sizeof a);
+    int ok = 1, hot = h5_exists(file, "temperature"); /* a search over (d, T): a column of its temperatures */
+    for (int k = 0; k < 4 + hot; k++)
         ok = render_read_array(file, "vcrit.h5", names[k], &a[k]) == SC_OK && ok && a[k].count == a[0].count;
     sc_error_clear();
-    fprintf(f, "<h2>Critical velocity</h2>\n<table><tr><th>diameter (µm)</th><th>v_crit (m/s)</th>"
-               "<th>PBCP (%%)</th><th>v_rest (m/s)</th></tr>\n");
+    fprintf(f,
+            "<h2>Critical velocity</h2>\n<table><tr><th>diameter (µm)</th>%s<th>v_crit (m/s)</th>"
+            "<th>PBCP (%%)</th><th>v_rest (m/s)</th></tr>\n",
+            hot ? "<th>temperature (K)</th>" : "");
     for (size_t i = 0; ok && i < a[0].count; i++) {
         fprintf(f, "<tr>");
         number_cell_digits(f, a[0].values[i] * 1e6, 3);
+        if (hot)
+            number_cell_digits(f, a[4].values[i], 4);
         number_cell_digits(f, a[1].values[i], 4);
         number_cell_digits(f, 100 * a[2].values[i], 3);
         number_cell_digits(f, a[3].values[i], 3);
         fprintf(f, "</tr>\n");
     }
     fprintf(f, "</table>\n");
-    for (int k = 0; k < 4; k++)
+    vcrit_search_notes(f, file);
+    for (int k = 0; k < 5; k++)
         render_array_free(&a[k]);
+}
+
+/* sweep.h5 (app/sweep_stage.c): the map's cells, DE and mean impact speed of each run. */
+static void sweep_results(FILE *f, hid_t file)
+{
+    char keys[2][160] = {"", ""};
+    h5_attr_read_string(file, "x_key", keys[0], sizeof keys[0]);
+    h5_attr_read_string(file, "y_key", keys[1], sizeof keys[1]);
+    struct render_array x = {0}, y = {0}, de = {0}, speed = {0};
+    int ok = render_read_array(file, "sweep.h5", "x_values", &x) == SC_OK &&
+             render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
+             render_read_array(file, "sweep.h5", "mean_impact_speed", &speed) == SC_OK;
+    if (ok && h5_exists(file, "y_values"))
+        ok = render_read_array(file, "sweep.h5", "y_values", &y) == SC_OK;
+    sc_error_clear();
+    size_t nx = x.count, ny = y.count ? y.count : 1;
+    fprintf(f, "<h2>Sweep</h2>\n<table><tr><th>run</th><th>");
+    escaped(f, keys[0]);
+    fprintf(f, "</th><th>");
+    escaped(f, keys[1][0] ? keys[1] : "-");
+    fprintf(f, "</th><th>deposition efficiency (%%)</th><th>mean impact speed (m/s)</th></tr>\n");
+    for (size_t k = 0; ok && de.count == nx * ny && speed.count == de.count && k < de.count; k++) {
+        fprintf(f, "<tr><td>runs/x%zu_y%zu</td>", k % nx, k / nx);
+        number_cell_digits(f, x.values[k % nx], 4);
+        if (y.count)
+            number_cell_digits(f, y.values[k / nx], 4);
+        else
+            fprintf(f, "<td>-</td>");
+        number_cell_digits(f, 100 * de.values[k], 3);
+        number_cell_digits(f, speed.values[k], 4);
+        fprintf(f, "</tr>\n");
+    }
+    fprintf(f, "</table>\n");
+    render_array_free(&x), render_array_free(&y), render_array_free(&de), render_array_free(&speed);
 }
 
 static void results(FILE *f, const struct render_request *req, const struct report_data *r)
@@ -912,14 +1034,16 @@ static void results(FILE *f, const struct render_request *req, const struct repo
     hid_t file;
     if (open_output(req, "vcrit.h5", &file))
         vcrit_results(f, file), H5Fclose(file);
+    if (open_output(req, "sweep.h5", &file))
+        sweep_results(f, file), H5Fclose(file);
 }
 
 static void figures(FILE *f, const struct render_output *out)
 {
-    static const char *const groups[] = {"spray", "impact", "vcrit", "calibrate"};
-    static const char *const headings[] = {"Spray", "Impact", "Critical velocity", "Bonding calibration"};
+    static const char *const groups[] = {"spray", "impact", "vcrit", "calibrate", "sweep"};
+    static const char *const headings[] = {"Spray", "Impact", "Critical velocity", "Bonding calibration", "Sweep"};
     fprintf(f, "<h2>Figures</h2>\n");
-    for (int g = 0; g < 4; g++) {
+    for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) {
         int shown = 0;
         for (int i = 0; i < out->count; i++) {
             const struct render_figure *fig = &out->figures[i];

@@ -324,6 +324,23 @@ grep -q '^stage sweep: done (of another case than' "$T/info10" || why="$why info
 grep -q '^stage sweep: done$' "$T/info10b" || why="$why info of the second case's own directory: $(grep '^stage sweep' "$T/info10b");"
 if [ -z "$why" ]; then pass sweep_figures_follow_the_map; else fail sweep_figures_follow_the_map "$why"; fi
 
+# 10b. the report of the sweep shows its map (figure sweep_de: it was drawn and never linked) and a table of every
+# run's DE and mean impact speed, as sweep.h5 holds them (the page had an empty result and no figure)
+why=""
+grep -q '<img src="figures/sweep_de.png"' "$T/figs/report.html" || why="no sweep_de figure in the report;"
+rows=$(grep -c '<tr><td>runs/x[0-9]*_y[0-9]*</td>' "$T/figs/report.html")
+[ "$rows" -eq 4 ] || why="$why $rows run rows in the sweep table, not 4;"
+k=0
+for de in $(values "$T/figs/sweep.h5" /de | tr ' ' '\n' | awk 'NF'); do
+    shown=$(sed -n "s|.*<tr><td>runs/x$((k % 2))_y$((k / 2))</td><td>[^<]*</td><td>[^<]*</td><td>\([^<]*\)</td>.*|\1|p" "$T/figs/report.html")
+    awk -v a="$shown" -v b="$de" 'BEGIN { exit !(a != "" && (b == 0 ? a == 0 : a / (100 * b) > 0.995 && a / (100 * b) < 1.005)) }' ||
+        why="$why run $k: DE '$shown' % in the report, $de in sweep.h5;"
+    k=$((k + 1))
+done
+[ $k -eq 4 ] || why="$why $k DE values in sweep.h5;"
+grep -q '<b>Sweep: deposition efficiency' "$T/figs/report.html" || why="$why no sweep headline;"
+if [ -z "$why" ]; then pass sweep_report; else fail sweep_report "$why"; fi
+
 # 11. a file key swept ([deposition] table over two files): the files' contents are part of the map's hash, so a
 # table edited after the sweep makes the map out of date and its run is made again, to the map of a fresh sweep
 # (the hash held only the [sweep] text: "up to date" with the old table's DE); a relative file name is refused,

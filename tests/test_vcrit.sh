@@ -351,7 +351,10 @@ if [ -z "$why" ]; then pass vcrit_logistic_no_settled_failure; else fail vcrit_l
 write_case "$T/nobracket.ini" 300
 if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
     [ "$(grep -c '^# .*,nan,.*not bracketed: rebounds still at v_high' "$T/nob/vcrit.csv")" -eq 2 ] &&
-    "$BIN" info "$T/nob" 2>&1 | grep -q 'not bracketed'; then
+    "$BIN" info "$T/nob" 2>&1 | grep -q 'not bracketed' &&
+    "$BIN" render "$T/nobracket.ini" -o "$T/nob" >"$T/nob_render.log" 2>&1 &&
+    grep -q '<b>Critical velocity: 0 of 2 searches bracketed a v_crit</b>' "$T/nob/report.html" &&
+    [ "$(grep -c '<li>d = [0-9.]* µm: not bracketed: rebounds still at v_high' "$T/nob/report.html")" -eq 2 ]; then
     pass vcrit_not_bracketed
 else
     fail vcrit_not_bracketed "$(tr '\n' ' ' <"$T/nob/vcrit.csv" 2>/dev/null) $(tail -n 2 "$T/nob.log" | tr '\n' ' ')"
@@ -441,7 +444,19 @@ v_low = 750
 v_high = 1200
 tolerance = 200
 EOF
-if "$BIN" vcrit "$T/hot.ini" -o "$T/hot" >"$T/hot.log" 2>&1 && [ "$(grep -c '^# .*,850,nan,.*not bracketed' "$T/hot/vcrit.csv")" -eq 2 ]; then
+# the report's table has the temperature of each row, and names the pairs not bracketed (it showed two rows of the
+# same diameter with nothing to tell them apart, and left the others out without a word)
+why=""
+if "$BIN" vcrit "$T/hot.ini" -o "$T/hot" >"$T/hot.log" 2>&1 && "$BIN" render "$T/hot.ini" -o "$T/hot" >"$T/hot_render.log" 2>&1; then
+    grep -q '<th>temperature (K)</th>' "$T/hot/report.html" || why="no temperature column;"
+    [ "$(grep -c '<li>d = [0-9.]* µm, T = 850 K: not bracketed' "$T/hot/report.html")" -eq 2 ] ||
+        why="$why the pairs at 850 K not named as not bracketed;"
+    grep -q '<b>Critical velocity: 2 of 4 searches bracketed a v_crit</b>' "$T/hot/report.html" || why="$why no headline;"
+else
+    why="the search or its render failed: $(tail -n 2 "$T/hot.log" "$T/hot_render.log" | tr '\n' ' ')"
+fi
+if [ -z "$why" ]; then pass vcrit_report_temperatures; else fail vcrit_report_temperatures "$why"; fi
+if [ -s "$T/hot/vcrit.csv" ] && [ "$(grep -c '^# .*,850,nan,.*not bracketed' "$T/hot/vcrit.csv")" -eq 2 ]; then
     for file in vcrit.csv vcrit.h5; do
         sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $T/hot/$file|" "$BASE" >"$T/hot_spray.ini"
         "$BIN" check "$T/hot_spray.ini" >"$T/hot_check.log" 2>&1
