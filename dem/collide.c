@@ -329,21 +329,76 @@ static double squared_distance(const double a[3], const double b[3])
     return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
 }
 
-/* Where a particle of radius r that stuck at x_hit rests: where it met the obstacle, not overlapping it. */
-static void rest_position(struct dem_solver *s, int64_t partner, const double x_hit[3], const double n[3], double r,
-                          double obstacle_radius, double rest[3])
+/* The particles whose path changed in this step, in order of their first change, with the boxes of their
+ * paths (path_box) when they were last searched: boxes that do not meet hold no contact. */
+struct changed_list {
+    uint32_t *items;
+    double *lo, *hi; /* 3 per item */
+    size_t count, capacity, box_capacity;
+};
+
+/* Most grid cells one search visits (a wider box: every particle). */
+#define SECONDARY_MAX_CELLS 4096
+
+/* Does a particle of radius r at x overlap a particle at rest (deposited or resting) other than i and `partner`?
+ * A flying one is left to the contact search that follows i's change of path. */
+struct rest_overlap_query {
+    const struct dem_solver *s;
+    uint32_t self;
+    int64_t partner;
+    const double *x;
+    double r;
+    int overlaps;
+};
+
+static void rest_overlap_visit(uint32_t j, void *context)
 {
-    /* At x_hit, within the drag skins of touching (dem_contact_radius): moved to touching only out of an
-     * overlap, which is a correction, counted (docs/physics.md, "Contact detection"); moved in, it could
-     * overlap a neighbour. */
+    struct rest_overlap_query *q = context;
+    const struct dem_particles *p = &q->s->p;
+    if (j == q->self || (int64_t)j == q->partner || j >= p->count || p->state[j] == DEM_FLYING)
+        return;
+    double reach = q->r + 0.5 * p->d[j];
+    q->overlaps |= squared_distance(q->x, p->x + 3 * j) < reach * reach * (1.0 - 1e-12);
+}
+
+static int overlaps_at_rest(const struct dem_solver *s, const struct changed_list *changed, uint32_t i, int64_t partner,
+                            const double x[3], double r)
+{
+    struct rest_overlap_query query = {s, i, partner, x, r, 0};
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; k++)
+        lo[k] = x[k] - r, hi[k] = x[k] + r;
+    /* a particle at rest since an earlier step is in the grid with its sphere: if it overlaps the sphere, it shares
+     * a cell with the sphere's box (too wide a box: every particle); one that came to rest in this step, perhaps
+     * off the path the grid holds, is in the step's list of changed particles */
+    if (dem_broadphase_visit_box(&s->bins, lo, hi, SECONDARY_MAX_CELLS, rest_overlap_visit, &query) != 0)
+        for (size_t j = 0; j < s->p.count && !query.overlaps; j++)
+            rest_overlap_visit((uint32_t)j, &query);
+    for (size_t k = 0; k < changed->count && !query.overlaps; k++)
+        rest_overlap_visit(changed->items[k], &query);
+    return query.overlaps;
+}
+
+/* Where particle i of radius r that stuck (or came to rest) at x_hit stays: touching its obstacle, moved there
+ * along the normal.  It met the obstacle within the drag skins (dem_contact_radius), up to a third of a diameter
+ * away in the stagnation layer, or overlapping it; from within the skins it is moved in unless a particle at rest
+ * is in the way there (then it stays where it met the obstacle: a safety net, since one that close would have been
+ * met first, within the skins, save for the drag's bending of the path); out of an overlap always, a correction
+ * that is counted (docs/physics.md, "Contact detection"). */
+static void rest_position(struct dem_solver *s, const struct changed_list *changed, uint32_t i, int64_t partner,
+                          const double x_hit[3], const double n[3], double r, double obstacle_radius, double rest[3])
+{
     double reach = partner < 0 ? r : r + obstacle_radius;
     double depth =
         partner < 0 ? x_hit[2] - (s->cfg.standoff - r) : reach - sqrt(squared_distance(x_hit, s->p.x + 3 * partner));
+    double touching[3];
     for (int k = 0; k < 3; k++)
-        rest[k] = depth <= 0.0 ? x_hit[k] : partner < 0 ? x_hit[k] : s->p.x[3 * partner + k] - n[k] * reach;
-    if (partner < 0 && depth > 0.0)
-        rest[2] = s->cfg.standoff - r;
+        touching[k] = partner < 0 ? x_hit[k] : s->p.x[3 * partner + k] - n[k] * reach;
+    if (partner < 0)
+        touching[2] = s->cfg.standoff - r;
     s->stats.clamps += depth > 1e-9 * reach;
+    int moved_in = depth <= 0.0 && !overlaps_at_rest(s, changed, i, partner, touching, r);
+    memcpy(rest, depth > 0.0 || moved_in ? touching : x_hit, 3 * sizeof(double));
 }
 
 /* Eq. 33 under the adhesion rule: the adhesion force acts through the whole contact, so a particle that does
@@ -362,7 +417,7 @@ static void adhesion_slowed_rebound(struct sphere_state *sphere, const double n[
 }
 
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
-static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
+static void resolve_fixed(struct dem_solver *s, const struct changed_list *changed, uint32_t i, int64_t partner)
 {
     struct dem_particles *p = &s->p;
     const struct dem_config *cfg = &s->cfg;
@@ -393,7 +448,7 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
     store_sphere(s, i, &sphere);
     if (stuck || rests) {
         double rest[3];
-        rest_position(s, partner, x_hit, n, r, obstacle_radius, rest);
+        rest_position(s, changed, i, partner, x_hit, n, r, obstacle_radius, rest);
         memcpy(x_hit, rest, sizeof rest);
         freeze(s, i, x_hit, stuck ? DEM_DEPOSITED : DEM_RESTING);
     }
@@ -409,18 +464,18 @@ static void resolve_fixed(struct dem_solver *s, uint32_t i, int64_t partner)
         s->stats.contacts_deposit++;
 }
 
-static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
+static void resolve_pair(struct dem_solver *s, const struct changed_list *changed, uint32_t a, uint32_t b)
 {
     struct dem_particles *p = &s->p;
     int a_flying = p->state[a] == DEM_FLYING, b_flying = p->state[b] == DEM_FLYING;
     if (!a_flying && !b_flying)
         return;
     if (!b_flying) {
-        resolve_fixed(s, a, b);
+        resolve_fixed(s, changed, a, b);
         return;
     }
     if (!a_flying) { /* a was deposited earlier in this step */
-        resolve_fixed(s, b, a);
+        resolve_fixed(s, changed, b, a);
         return;
     }
     double at = contact_time(s, a, b);
@@ -456,7 +511,6 @@ static void resolve_pair(struct dem_solver *s, uint32_t a, uint32_t b)
  * not the same) and is dropped: the search after the change found the one that holds.  The step goes on
  * until no contact is left, so none is dropped; past DEM_MAX_CONTACT_EVENTS per moving particle (a particle
  * caught between bodies that never lets go) it stops with an error naming the particles and the step. */
-#define SECONDARY_MAX_CELLS 4096
 
 struct secondary_query {
     struct dem_solver *s;
@@ -502,14 +556,6 @@ static void path_box(const struct dem_solver *s, uint32_t i, double lo[3], doubl
         hi[c] = fmax(origin[c], end[c]) + radius;
     }
 }
-
-/* The particles whose path changed in this step, in order of their first change, with the boxes of their
- * paths (path_box) when they were last searched: boxes that do not meet hold no contact. */
-struct changed_list {
-    uint32_t *items;
-    double *lo, *hi; /* 3 per item */
-    size_t count, capacity, box_capacity;
-};
 
 static int boxes_meet(const double *lo_a, const double *hi_a, const double *lo_b, const double *hi_b)
 {
@@ -588,13 +634,13 @@ static int still_holds(const struct dem_solver *s, const struct dem_candidate *c
     return at >= 0.0 && fabs(at - c->s) <= 1e-9 * s->cfg.dt;
 }
 
-static void resolve_candidate(struct dem_solver *s, const struct dem_candidate *c)
+static void resolve_candidate(struct dem_solver *s, const struct changed_list *changed, const struct dem_candidate *c)
 {
     if (c->kind == CONTACT_TARGET) {
         if (s->p.state[c->a] == DEM_FLYING)
-            resolve_fixed(s, c->a, -1);
+            resolve_fixed(s, changed, c->a, -1);
     } else {
-        resolve_pair(s, c->a, c->b);
+        resolve_pair(s, changed, c->a, c->b);
     }
 }
 
@@ -741,7 +787,7 @@ static int resolve_contacts_in_order(struct dem_solver *s)
             status = contacts_did_not_end(s, &c, events);
             break;
         }
-        resolve_candidate(s, &c);
+        resolve_candidate(s, &changed, &c);
         search_changed(s, &c, c.a, &changed, &heap, &found);
         if (c.kind == CONTACT_PAIR)
             search_changed(s, &c, c.b, &changed, &heap, &found);

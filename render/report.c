@@ -235,7 +235,11 @@ static void read_deposit(hid_t file, struct report_data *r)
     H5Gclose(g);
 }
 
-/* The particles that stuck on the target rest where they met it within their drag skin (docs/physics.md "Contact
+/* A gap between the target and a particle stuck on it beyond round-off (m). */
+#define TARGET_GAP_SHOWN 1e-9
+
+/* The particles that stuck on the target rest touching it, unless one was held off by a particle in the way (or the
+ * file is of a version that left them where they met it within their drag skin) (docs/physics.md "Contact
  * detection"): their gaps to it, from /impacts (outcome stuck, partner -1: the target). */
 static void read_target_gaps(hid_t file, struct report_data *r)
 {
@@ -665,7 +669,7 @@ static void coating_headline(FILE *f, const struct report_data *r)
             "<li><b>Coating thickness: up to %s µm</b> (the top of the highest deposited particle above the "
             "target; their centres span %s µm in height, <code>spray.h5 /metrics/max_thickness</code>)",
             num(r->deposit_top * 1e6, 3).s, num(r->max_thickness * 1e6, 3).s);
-    if (isfinite(r->target_gap_max))
+    if (r->target_gap_max > TARGET_GAP_SHOWN) /* one held off the target by a particle in the way, or an older file */
         fprintf(f,
                 "; the particles stuck on the target rest %s µm above it on average, at most %s µm (where they met "
                 "it within their drag skin, docs/physics.md \"Contact detection\")",
