@@ -535,14 +535,18 @@ static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
     return case_invalid(ctx->c, "impact", key, "%s", message);
 }
 
-/* A pipeline's runs of several bodies: the couple stage spreads their centres over a square of [couple] patch_size
- * on the substrate's axis, and seeds_over_substrate refuses a body beyond the substrate's edge, but only after the
+/* A pipeline's runs that spread their bodies: the couple stage places a run's bodies over a square of [couple]
+ * patch_size on the substrate's axis (several bodies of random or stratified sampling, folded into the patch; any
+ * number with sample = window, each at its wall position less the window's centre: a lone body lands anywhere in the
+ * window, not on the axis), and seeds_over_substrate refuses a body beyond the substrate's edge, but only after the
  * spray and the couple stage have run.  The same rule from the case alone, with the powder's largest diameter
  * ([powder] d_max; without one, the bodies' centres only).  Scaled runs ([couple] reference_diameter) are checked
  * when they are seeded. */
 static int check_patch_fits(const struct case_file *c, const struct mpm_config *cfg)
 {
-    if (case_int(c, "couple", "bodies_per_run") < 2 || case_real(c, "couple", "reference_diameter") > 0)
+    int window = case_is(c, "couple", "sample", "window");
+    long per_run = case_int(c, "couple", "bodies_per_run");
+    if ((per_run < 2 && !window) || case_real(c, "couple", "reference_diameter") > 0)
         return SC_OK;
     const struct mpm_body *substrate = NULL;
     for (int b = 0; b < cfg->body_count; b++)
@@ -555,16 +559,21 @@ static int check_patch_fits(const struct case_file *c, const struct mpm_config *
     double d_max = case_is(c, "powder", "distribution", "mono") ? case_real(c, "powder", "median_diameter")
                                                                 : case_real(c, "powder", "d_max");
     double corner = 0.5 * patch * (box ? 1.0 : sqrt(2.0)), largest = d_max > 0 ? d_max : 0.0;
-    if (corner + 0.5 * largest > 0.5 * substrate->d)
-        return case_invalid(c, "couple", "patch_size",
-                            "spreads a run's %ld bodies wider than the substrate (%s %.4g um across, [impact] "
-                            "substrate_diameter), particles up to %.4g um ([powder] d_max); allowed: at most %.4g um "
-                            "(the substrate's width less the largest particle%s), or a wider substrate, or "
-                            "bodies_per_run = 1",
-                            case_int(c, "couple", "bodies_per_run"), box ? "a box" : "a cylinder", substrate->d * 1e6,
-                            largest * 1e6, (substrate->d - largest) / (box ? 1.0 : sqrt(2.0)) * 1e6,
-                            box ? "" : ", over sqrt(2)");
-    return SC_OK;
+    if (corner + 0.5 * largest <= 0.5 * substrate->d)
+        return SC_OK;
+    char spread[160];
+    if (window) /* bodies_per_run = 1 does not help: a lone body lands anywhere in the window */
+        snprintf(spread, sizeof spread, "is the window where a run's %s (sample = window), wider than the substrate",
+                 per_run > 1 ? "bodies land" : "body lands");
+    else
+        snprintf(spread, sizeof spread, "spreads a run's %ld bodies wider than the substrate", per_run);
+    return case_invalid(c, "couple", "patch_size",
+                        "%s (%s %.4g um across, [impact] substrate_diameter), particles up to %.4g um ([powder] "
+                        "d_max); allowed: at most %.4g um (the substrate's width less the largest particle%s), or a "
+                        "wider substrate%s",
+                        spread, box ? "a box" : "a cylinder", substrate->d * 1e6, largest * 1e6,
+                        (substrate->d - largest) / (box ? 1.0 : sqrt(2.0)) * 1e6, box ? "" : ", over sqrt(2)",
+                        window ? "" : ", or bodies_per_run = 1");
 }
 
 int impact_stage_validate(const struct stage_context *ctx)
@@ -581,7 +590,8 @@ int impact_stage_validate(const struct stage_context *ctx)
                               "in a pipeline, half|quarter for `spraycoat impact`, `vcrit` and `calibrate`");
         goto done;
     }
-    if (ctx->impact_from_seeds)
+    /* the pipeline's impact stage; `spraycoat check` (no run directory) checks a case with [couple] as one */
+    if (ctx->impact_from_seeds || (!run_dir && app_case_section_given(c, "couple")))
         SC_CHECK(status, check_patch_fits(c, &cfg), done);
     if (!ctx->impact_from_seeds) {
         SC_CHECK(status, check_sphere_overlap(c, &cfg), done);
@@ -673,6 +683,8 @@ static int seeds_over_substrate(const struct impact_run *run)
     if (!substrate)
         return SC_OK;
     int box = substrate->shape == MPM_BOX;
+    /* with sample = window a lone body lands anywhere in the window too: bodies_per_run = 1 is no remedy */
+    int window = case_is(run->ctx->c, "couple", "sample", "window");
     for (size_t k = 0; k < run->seed_count; k++) {
         const struct mpm_body *body = &cfg->bodies[cfg->body_count - (int)run->seed_count + (int)k];
         double dx = body->center[0] - substrate->center[0], dy = body->center[1] - substrate->center[1];
@@ -683,12 +695,12 @@ static int seeds_over_substrate(const struct impact_run *run)
                     "%s: the body of %s/couple.h5 /seeds row %zu (d = %.4g um, its centre %.4g um from the "
                     "substrate's axis) reaches %.3g um beyond the substrate (%s %.4g um across in this run: "
                     "[impact] substrate_diameter, scaled with the run when [couple] reference_diameter is given): "
-                    "[couple] patch_size = %g m spreads a run's bodies wider than the substrate; allowed: "
-                    "substrate_diameter at least %s patch_size plus the largest particle's diameter (as scaled), or "
-                    "a smaller patch_size, or bodies_per_run = 1",
+                    "[couple] patch_size = %g m %s wider than the substrate; allowed: substrate_diameter at least "
+                    "%s patch_size plus the largest particle's diameter (as scaled), or a smaller patch_size%s",
                     run->label, run->run_dir, run->seed_first + k, body->d * 1e6, from_axis * 1e6, beyond * 1e6,
                     box ? "a box" : "a cylinder", substrate->d * 1e6, case_real(run->ctx->c, "couple", "patch_size"),
-                    box ? "" : "sqrt(2) times");
+                    window ? "is the window where a run's bodies land (sample = window)," : "spreads a run's bodies",
+                    box ? "" : "sqrt(2) times", window ? "" : ", or bodies_per_run = 1");
     }
     return SC_OK;
 }

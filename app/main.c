@@ -275,11 +275,12 @@ static int command_check(const struct options *opt)
     int status, loaded = 0;
     SC_CHECK(status, dem_config_load(c, &cfg), done);
     loaded = 1;
-    /* the impact configuration is checked when the case sets any [impact] or [vcrit] key (a spray case need not
-     * name the materials of an impact it never runs) */
+    /* the impact configuration is checked when the case sets any [impact], [vcrit], [calibrate] or [couple] key (a
+     * spray case need not name the materials of an impact it never runs; the couple stage's seeds are the impact
+     * stage's bodies, and whether [impact]'s substrate holds them is checked there) */
     const struct stage_context ctx = {.c = c};
     if (app_case_section_given(c, "impact") || app_case_section_given(c, "vcrit") ||
-        app_case_section_given(c, "calibrate"))
+        app_case_section_given(c, "calibrate") || app_case_section_given(c, "couple"))
         SC_CHECK(status, impact_stage_validate(&ctx), done);
     if (app_case_section_given(c, "vcrit"))
         SC_CHECK(status, vcrit_stage_validate(&ctx), done);

@@ -23,8 +23,8 @@ const struct cfg_key couple_case_keys[] = {
      "CVODE absolute tolerance, relative to the hand-off distance (positions) and speed (velocities)"},
     {"couple", "patch_size", CFG_REAL, "m", "40e-6", 0, 0.1, CFG_MIN_EXCLUSIVE, NULL,
      "side of the square patch of the target that one impact run stands for (lateral offsets lie inside it); the "
-     "substrate must hold it: substrate_diameter >= sqrt(2) patch_size + the largest diameter (a box: patch_size + "
-     "it)"},
+     "substrate must hold it where a run's bodies spread over it (bodies_per_run >= 2, or sample = window): "
+     "substrate_diameter >= sqrt(2) patch_size + the largest diameter (a box: patch_size + it)"},
     {"couple", "window_x", CFG_REAL, "m", "0", -1, 1, 0, NULL, "sample = window: x of the window's centre"},
     {"couple", "window_y", CFG_REAL, "m", "0", -1, 1, 0, NULL, "sample = window: y of the window's centre"},
     {"couple", "max_gap", CFG_REAL, "m", "10e-6", 0, 1e-3, 0, NULL,

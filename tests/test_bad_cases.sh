@@ -203,6 +203,25 @@ else
     echo "FAIL bad_cases_impact_base_is_valid: check $cases/valid_impact_base.ini: $(first_error_line "$tmp/err")"
 fi
 
+# couple_window_patch_too_wide.ini: with sample = window a lone body lands anywhere in the window, so the message
+# offers what helps (a smaller patch_size, at most 7.071 um here, or a wider substrate), not bodies_per_run = 1,
+# which the case has; the largest patch it names passes.
+why=""
+"$bin" check "$cases/couple_window_patch_too_wide.ini" >"$tmp/out" 2>"$tmp/err"
+status=$?
+[ "$status" -eq 2 ] || why="$why; $(describe_status $status), expected 2"
+grep -q 'window .*allowed: at most 7\.071 um .*or a wider substrate' "$tmp/err" ||
+    why="$why; no 'allowed: at most 7.071 um ... or a wider substrate' in: $(first_error_line "$tmp/err")"
+grep -q 'bodies_per_run = 1' "$tmp/err" && why="$why; offers bodies_per_run = 1, which the case has"
+sed 's/^patch_size = 40e-6$/patch_size = 7.07e-6/' "$cases/couple_window_patch_too_wide.ini" >"$tmp/window_fits.ini"
+"$bin" check "$tmp/window_fits.ini" >"$tmp/out" 2>"$tmp/err" ||
+    why="$why; a 7.07 um window exited $?: $(first_error_line "$tmp/err")"
+if [ -z "$why" ]; then
+    echo "PASS bad_cases_window_patch_remedy"
+else
+    echo "FAIL bad_cases_window_patch_remedy:${why#;}"
+fi
+
 # An empty case file is refused (see empty_case.ini above); one section, even an empty one, is enough, and every
 # key has a default: check prints them.
 printf '[run]\n' >"$tmp/one_section.ini"
