@@ -90,7 +90,8 @@ done:
 #define READ_ID(group, rows, array, type, field)                                                                       \
     read_ids_into_records(group, #field, rows, array, sizeof(type), offsetof(type, field))
 
-static int read_impacts(hid_t file, struct spray_rows *rows)
+/* `path`: the file, for the messages. */
+static int read_impacts(hid_t file, const char *path, struct spray_rows *rows)
 {
     hid_t g = H5Gopen2(file, "impacts", H5P_DEFAULT);
     if (g < 0)
@@ -108,6 +109,14 @@ static int read_impacts(hid_t file, struct spray_rows *rows)
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, d, 1), done);
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, m, 1), done);
     SC_CHECK(status, READ_ID(g, n, r, struct dem_impact, partner), done);
+    /* the seeds' temperature is the impacts' (no fallback to a material's T_initial): a spray.h5 without it is of
+     * a spraycoat before spray format 4, and its spray stage must run again */
+    if (!h5_exists(g, "temperature"))
+        SC_FAIL_AT(status, done, SC_EIO,
+                   "couple: %s has no /impacts/temperature: it was written by an older version of spraycoat (spray "
+                   "format before version 4); run the spray stage again (`spraycoat spray` or `spraycoat run`) to "
+                   "have the particles' temperatures at impact",
+                   path);
     SC_CHECK(status, READ_FIELD(g, n, r, struct dem_impact, temperature, 1), done);
 done:
     H5Gclose(g);
@@ -145,7 +154,7 @@ static int read_spray(struct couple_work *w)
     hid_t file;
     SC_TRY(h5_open_read(path, &file));
     int status;
-    SC_CHECK(status, read_impacts(file, &w->spray), done);
+    SC_CHECK(status, read_impacts(file, path, &w->spray), done);
     SC_CHECK(status, read_handoffs(file, &w->spray), done);
 done:
     H5Fclose(file);

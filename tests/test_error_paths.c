@@ -1,5 +1,6 @@
 /* The one error path (core/error.h): a write that fails midway leaves no HDF5 object open but the file, every
- * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3). */
+ * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3); the couple stage
+ * refuses a spray.h5 of an older version without /impacts/temperature, saying so. */
 /* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "app/app.h"
 #include "core/error.h"
@@ -199,6 +200,68 @@ static void test_failed_seed_read_closes_couple_h5(void)
     case_fixture_remove(dir);
 }
 
+/* spray.h5 of this case with one row of /impacts, its temperature column only when `temperature`, and no /handoff. */
+static int write_spray_impacts(const char *path, const struct stage_context *ctx, int temperature)
+{
+    hid_t file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (file < 0)
+        SC_FAIL(SC_EIO, "cannot create %s", path);
+    hid_t g = H5I_INVALID_HID;
+    int status;
+    SC_CHECK(status, h5_write_root_attributes(file, DEM_FORMAT, 3, "spray", stage_hash(ctx, "spray")), done);
+    SC_CHECK(status, h5_create_group(file, "impacts", &g), done);
+    int64_t id[1] = {0};
+    double t[1] = {1e-4}, x[3] = {0, 0, 0.03}, v[3] = {0, 0, 700}, d[1] = {1e-5}, m[1] = {1.4e-12}, T[1] = {300};
+    hsize_t n[1] = {1}, n3[2] = {1, 3};
+    SC_CHECK(status, h5_write_doubles(g, "t", 1, n, t, "s", 0), done);
+    SC_CHECK(status, h5_write_int64s(g, "particle_id", 1, n, id, "", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "x", 2, n3, x, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "v_in", 2, n3, v, "m/s", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "d", 1, n, d, "m", 0), done);
+    SC_CHECK(status, h5_write_doubles(g, "m", 1, n, m, "kg", 0), done);
+    SC_CHECK(status, h5_write_int64s(g, "partner", 1, n, id, "", 0), done);
+    if (temperature)
+        SC_CHECK(status, h5_write_doubles(g, "temperature", 1, n, T, "K", 0), done);
+done:
+    if (g >= 0)
+        H5Gclose(g);
+    H5Fclose(file);
+    return status;
+}
+
+/* The couple stage on a spray.h5 of an older spraycoat (spray format 3: no /impacts/temperature, which the seeds'
+ * temperature is taken from, with no fallback): exit status 3 (SC_EIO) with a message that says so and that the
+ * spray stage must run again, not HDF5's "cannot open dataset"; with the column, the stage reads /impacts and stops
+ * at the next thing this file lacks, /handoff. */
+static void test_couple_refuses_spray_without_temperature(void)
+{
+    char dir[64];
+    CHECK(case_fixture_write(dir, "[run]\n", NULL, NULL, NULL, NULL) == 0, "cannot write the case");
+    struct case_file *c = NULL;
+    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    if (!c)
+        return;
+    const struct stage_context ctx = {.c = c, .run_dir = dir};
+    char path[128];
+    snprintf(path, sizeof path, "%s/spray.h5", dir);
+    CHECK(write_spray_impacts(path, &ctx, 0) == SC_OK, "cannot write %s: %s", path, sc_error_message());
+    sc_error_clear();
+    int status = couple_stage_run(&ctx);
+    const char *message = sc_error_message();
+    CHECK(status == SC_EIO, "couple_stage_run returned %d, expected SC_EIO: %s", status, message);
+    CHECK(strstr(message, "spray.h5 has no /impacts/temperature") && strstr(message, "older version of spraycoat") &&
+              strstr(message, "run the spray stage again"),
+          "message: %s", message);
+    CHECK(write_spray_impacts(path, &ctx, 1) == SC_OK, "cannot write %s: %s", path, sc_error_message());
+    sc_error_clear();
+    status = couple_stage_run(&ctx);
+    CHECK(status == SC_EIO && strstr(sc_error_message(), "no /handoff group"),
+          "with /impacts/temperature: status %d, %s", status, sc_error_message());
+    CHECK(H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) == 0, "HDF5 objects left open");
+    case_free(c);
+    case_fixture_remove(dir);
+}
+
 /* SC_CHECK: records a frame and jumps to the cleanup label; SC_OK falls through. */
 static int failing(void)
 {
@@ -239,5 +302,6 @@ int main(void)
     RUN(test_die_out_of_memory_exits_3);
     RUN(test_check_records_frame_and_cleans_up);
     RUN(test_failed_seed_read_closes_couple_h5);
+    RUN(test_couple_refuses_spray_without_temperature);
     return check_finish();
 }
