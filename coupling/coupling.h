@@ -17,9 +17,10 @@
  * drawn by one of three rules:
  *   random      uniform over the candidates, without replacement;
  *   stratified  by diameter quantiles, then by speed quantiles inside each diameter stratum: seed k belongs to
- *               diameter stratum k mod n_d (n_d = ceil(sqrt(N)) strata of equal count), and inside it to one of
- *               the speed sub-strata of equal count, one per seed of that stratum; the seed is drawn uniformly
- *               from its sub-stratum;
+ *               diameter stratum k mod n_d (n_d = ceil(sqrt(N)) strata, each holding its share of the seeds as
+ *               its share of the candidates: the first ones, with one seed more when n_d does not divide N, hold
+ *               more), and inside it to one of the speed sub-strata of equal count, one per seed of that stratum;
+ *               the seed is drawn uniformly from its sub-stratum;
  *   window      the candidates whose impact point lies in the square patch of side patch_size centred at
  *               (window_x, window_y) on the target, in order of arrival.
  * A drawn candidate whose flight to the wall does not reach the wall is replaced by the next one of its
@@ -91,10 +92,12 @@ void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds
  * the wall region z < wall_z - H, and in it the stagnation flow whose axial velocity falls to zero at the wall and
  * the radial wall jet it feeds: the spray stage decides stick or rebound with the velocity the particle has after
  * crossing the same field.  The gas is not disturbed by the particles (one-way coupling, as in the spray stage).
- * The particle: a rigid sphere of diameter d and density rho_p, m dv/dt = F_drag(v, u) with the drag law of [jet]
- * (Haider-Levenspiel Eq. 25 or Stokes); no gravity.  The flight ends when the sphere touches the wall (centre at
- * wall_z - d/2, found by CVODE's root finding) or at a time limit: a fine particle carried by the wall jet may
- * approach the wall only asymptotically. */
+ * The particle: a rigid sphere of diameter d and density rho_p, m dv/dt = F_drag(v, u) with the spray's drag
+ * (dem_gas_drag_force_at, on the gas dem_config_load made): [jet]'s density, viscosity and law (Haider-Levenspiel
+ * Eq. 25, Stokes or Henderson), but with [nozzle] the density and viscosity [jet] does not give are the nozzle
+ * exit's and drag = auto is Henderson's, and below a bow shock the layer's rho2 and nu2; no gravity.  The flight ends
+ * when the sphere touches the wall (centre at wall_z - d/2, found by CVODE's root finding) or at a time limit: a fine
+ * particle carried by the wall jet may approach the wall only asymptotically. */
 
 struct couple_flight_layer {
     struct dem_gas_field gas; /* the spray's gas, its wall placed (dem_gas_set_wall); model none: no gas, no drag */
