@@ -542,12 +542,26 @@ static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
  * spray and the couple stage have run.  The same rule from the case alone, with the powder's largest diameter
  * ([powder] d_max; without one, the bodies' centres only).  Scaled runs ([couple] reference_diameter) are checked
  * when they are seeded. */
+/* A lone body on the substrate's axis: the substrate at least as wide as the particles the runs may seed. */
+static int centred_fits(const struct case_file *c, double substrate_width, double particle, const char *which)
+{
+    if (particle <= substrate_width)
+        return SC_OK;
+    return case_invalid(
+        c, "impact", "substrate_diameter",
+        "%.4g um is narrower than %s, %.4g um, which the pipeline's impact runs may seed; allowed: "
+        "at least %.4g um, or [couple] reference_diameter to scale each run to its particle (`spraycoat "
+        "impact` runs [impact]'s own particle, without the spray)",
+        substrate_width * 1e6, which, particle * 1e6, particle * 1e6);
+}
+
 static int check_patch_fits(const struct case_file *c, const struct mpm_config *cfg)
 {
     int window = case_is(c, "couple", "sample", "window");
     long per_run = case_int(c, "couple", "bodies_per_run");
-    if ((per_run < 2 && !window) || case_real(c, "couple", "reference_diameter") > 0)
+    if (case_real(c, "couple", "reference_diameter") > 0)
         return SC_OK;
+    int centred = per_run < 2 && !window; /* a lone body lands on the axis */
     const struct mpm_body *substrate = NULL;
     for (int b = 0; b < cfg->body_count; b++)
         if (cfg->bodies[b].substrate)
@@ -559,6 +573,10 @@ static int check_patch_fits(const struct case_file *c, const struct mpm_config *
     double d_max = case_is(c, "powder", "distribution", "mono") ? case_real(c, "powder", "median_diameter")
                                                                 : case_real(c, "powder", "d_max");
     double corner = 0.5 * patch * (box ? 1.0 : sqrt(2.0)), largest = d_max > 0 ? d_max : 0.0;
+    if (centred) /* untruncated, half the powder is above its median: that much is sure to be seeded too wide */
+        return centred_fits(c, substrate->d, largest > 0 ? largest : case_real(c, "powder", "median_diameter"),
+                            largest > 0 ? "the powder's largest particle ([powder] d_max)"
+                                        : "the powder's median diameter ([powder] median_diameter; no d_max)");
     if (corner + 0.5 * largest <= 0.5 * substrate->d)
         return SC_OK;
     char spread[160];
@@ -690,6 +708,13 @@ static int seeds_over_substrate(const struct impact_run *run)
         double dx = body->center[0] - substrate->center[0], dy = body->center[1] - substrate->center[1];
         double from_axis = box ? fmax(fabs(dx), fabs(dy)) : hypot(dx, dy);
         double beyond = from_axis + 0.5 * body->d - 0.5 * substrate->d;
+        if (beyond > 0.0 && run->seed_count == 1 && !window) /* on the axis: the particle is wider */
+            SC_FAIL(SC_EINPUT,
+                    "%s: the body of %s/couple.h5 /seeds row %zu (d = %.4g um) is wider than the substrate (%s %.4g "
+                    "um across in this run: [impact] substrate_diameter); allowed: substrate_diameter at least the "
+                    "largest particle's diameter, or [couple] reference_diameter to scale each run to its particle",
+                    run->label, run->run_dir, run->seed_first + k, body->d * 1e6, box ? "a box" : "a cylinder",
+                    substrate->d * 1e6);
         if (beyond > 0.0)
             SC_FAIL(SC_EINPUT,
                     "%s: the body of %s/couple.h5 /seeds row %zu (d = %.4g um, its centre %.4g um from the "

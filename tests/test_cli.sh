@@ -148,3 +148,26 @@ grep -q "warning: \[deposition\] table = $T/degc.csv: its lowest temperature is 
     why="${why:+$why; }no warning of the table in degC: $(tail -n 1 "$T/degc.err")"
 grep -q 'degrees Celsius' "$T/kelvin.err" && why="${why:+$why; }the table in kelvin is warned of"
 report vcrit_table_in_celsius_warns
+
+# a pipeline whose runs hold one particle each, on the substrate's axis: a substrate narrower than the powder is
+# refused up front, naming [impact] substrate_diameter (`run cases/impact_demo.ini` sprayed 160 um default powder
+# for a minute, then blamed [couple] patch_size and offered bodies_per_run = 1, which it had); a seeded particle
+# wider than the substrate (an untruncated powder: known only once seeded) is refused naming the particle's size
+why=""
+"$bin" run cases/impact_demo.ini -o "$T/impact_demo_run" >/dev/null 2>"$T/impact_demo.err"
+status=$?
+[ $status -eq 2 ] || why="run of impact_demo.ini exited $status"
+grep -q "impact_demo.ini:19: \[impact\] substrate_diameter = 24e-6: 24 um is narrower than the powder's median diameter" "$T/impact_demo.err" &&
+    grep -q '`spraycoat impact` runs \[impact\]'"'"'s own particle' "$T/impact_demo.err" ||
+    why="${why:+$why; }the message: $(tail -n 1 "$T/impact_demo.err")"
+[ -e "$T/impact_demo_run" ] && why="${why:+$why; }the refused run made its run directory"
+sed -e 's/^substrate_diameter = 20e-6$/substrate_diameter = 8.5e-6/' -e 's/^d_max = 10e-6$/d_max = 0/' \
+    -e 's/^d_min = 6e-6$/d_min = 0/' tests/fixtures/pipeline_small.ini >"$T/wide.ini"
+[ "$(grep -c '^substrate_diameter = 8.5e-6$\|^d_max = 0$\|^d_min = 0$' "$T/wide.ini")" -eq 3 ] || why="${why:+$why; }wide.ini not made"
+"$bin" run "$T/wide.ini" -o "$T/wide" >/dev/null 2>"$T/wide.err"
+status=$?
+[ $status -eq 2 ] || why="${why:+$why; }run of wide.ini exited $status"
+grep -q 'is wider than the substrate (a cylinder 8.5 um across in this run' "$T/wide.err" ||
+    why="${why:+$why; }the seeded particle's message: $(tail -n 1 "$T/wide.err")"
+grep -q 'bodies_per_run = 1\|patch_size' "$T/wide.err" && why="${why:+$why; }it blames the patch or offers bodies_per_run = 1"
+report lone_particle_wider_than_substrate
