@@ -214,13 +214,18 @@ case "$text" in
 *) why="the report does not say '$flying still in flight, $resting resting unbonded on the target'" ;;
 esac
 [ "${resting:-0}" -gt 0 ] || why="${why:+$why; }no resting particle in this run: the split is not tested"
-top=$(paste -d' ' <(values "$tmp/numbers/spray.h5" /particles/x | awk 'NR % 3 == 0') <(values "$tmp/numbers/spray.h5" /particles/d) \
-    <(values "$tmp/numbers/spray.h5" /particles/state) | awk '$3 == 1 { t = 0.02 - $1 + $2 / 2; if (t > m) m = t } END { print m * 1e6 }')
+# columns side by side (paste of files: sh has no process substitution)
+column() { values "$tmp/numbers/spray.h5" "$1" >"$tmp/column_$2"; }
+column /particles/x px && awk 'NR % 3 == 0' "$tmp/column_px" >"$tmp/column_pz"
+column /particles/d pd && column /particles/state ps
+top=$(paste -d' ' "$tmp/column_pz" "$tmp/column_pd" "$tmp/column_ps" |
+    awk '$3 == 1 { t = 0.02 - $1 + $2 / 2; if (t > m) m = t } END { print m * 1e6 }')
 shown=$(printf '%s' "$text" | sed -n 's/.*Coating thickness: up to \([0-9.]*\) µm (the top of the highest.*/\1/p')
 awk -v a="$shown" -v b="$top" 'BEGIN { exit !(a != "" && b > 0 && a / b > 0.995 && a / b < 1.005) }' ||
     why="${why:+$why; }coating top '$shown' um in the report, $top um from /particles"
-gaps=$(paste -d' ' <(values "$tmp/numbers/spray.h5" /impacts/x | awk 'NR % 3 == 0') <(values "$tmp/numbers/spray.h5" /impacts/d) \
-    <(values "$tmp/numbers/spray.h5" /impacts/outcome) <(values "$tmp/numbers/spray.h5" /impacts/partner) |
+column /impacts/x ix && awk 'NR % 3 == 0' "$tmp/column_ix" >"$tmp/column_iz"
+column /impacts/d id && column /impacts/outcome io && column /impacts/partner ip
+gaps=$(paste -d' ' "$tmp/column_iz" "$tmp/column_id" "$tmp/column_io" "$tmp/column_ip" |
     awk '$3 == 1 && $4 < 0 { g = 0.02 - $1 - $2 / 2; s += g; n++; if (g > m) m = g } END { if (n) print s / n * 1e6, m * 1e6 }')
 # every particle stuck on the target rests on it (they rested where they met it within their drag skin, up to a
 # third of a diameter above it), and the report speaks of no gap
