@@ -52,6 +52,7 @@ static struct contact_nodes nodes_of(const struct mpm_solver *s)
                                   .bond_weight = g->bond_weight,
                                   .body_velocity = g->body_velocity,
                                   .contact = g->contact,
+                                  .pair_state = g->pair_state,
                                   .bond_contact = g->bond_contact,
                                   .nodes = g->nodes,
                                   .layers = g->layers,
@@ -135,7 +136,7 @@ void mpm_contact_nodal_update(struct mpm_solver *s)
     s->bonded_node_steps += bonds;
 }
 
-/* The pairs that meet at one node this step (both flagged in g->contact: in contact, bonded or touching) added to
+/* The pairs that meet at one node this step (in contact, bonded or touching: pair_state_recorded) added to
  * their bodies' interface counts, and those bonded by Eq. 4.7 (pair_bonded) to their bonded counts: the whole
  * set-up's, each node counted for itself and its mirror images (mirror_node_copies). */
 static void count_interface_pairs(const struct contact_nodes *c, size_t node, int64_t *interface, int64_t *bonded)
@@ -144,7 +145,7 @@ static void count_interface_pairs(const struct contact_nodes *c, size_t node, in
     double n[3];
     while (next_pair(c, node, &a, &b, n)) {
         size_t Ia = (size_t)a * c->nodes + node, Ib = (size_t)b * c->nodes + node;
-        if (!c->contact[Ia] || !c->contact[Ib])
+        if (pair_state_recorded(c, Ia, Ib) == PAIR_FREE)
             continue;
         int held = pair_bonded(c, Ia, Ib);
         interface[a] += copies, interface[b] += copies;

@@ -22,7 +22,10 @@ struct contact_nodes {
     const double *bond_sum;      /* sum of D_bond N over surface points (Eq. 4.6) */
     const double *bond_weight;   /* sum of N over surface points */
     const double *body_velocity; /* 3 per layer: each body's centre-of-mass velocity (bond_growth = approach) */
-    uint8_t *contact;            /* the pair state of each layer entry this step (enum pair_state) */
+    uint8_t *contact;            /* per layer entry: the state of its body's last pair at the node (enum pair_state;
+                                  * any but FREE: its surface points are in contact for the bonding model) */
+    uint64_t *pair_state;        /* per layer entry: 2 bits per partner body b (bits 2b, 2b + 1), the pair's state this
+                                  * step (enum pair_state), where layers <= PAIR_STATE_LAYERS (pair_states_kept) */
     uint8_t *bond_contact;       /* 1 where the entry's surface points count as in contact for the bonding model */
     size_t nodes;                /* nodes of a layer */
     int layers;                  /* bodies */
@@ -82,6 +85,49 @@ SC_HD static inline int contact_normal(const struct contact_nodes *c, size_t Ia,
  * approaching) is there for the bonding model only, whose surface points in contact (x_p in S, Section 4.1.1) are
  * those of nodes with any state but FREE and with c->bond_contact set (mark_bond_contact). */
 enum pair_state { PAIR_FREE, PAIR_CONTACT, PAIR_BONDED, PAIR_TOUCHING };
+
+/* The bodies whose pairs' states fit a layer entry's pair_state bits.  Beyond, a pair is judged by its bodies' flags
+ * (c->contact), which at a node of three or more bodies can carry another pair's state. */
+#define PAIR_STATE_LAYERS 32
+
+SC_HD static inline int pair_states_kept(const struct contact_nodes *c)
+{
+    return c->pair_state && c->layers <= PAIR_STATE_LAYERS;
+}
+
+SC_HD static inline enum pair_state pair_state_of(const struct contact_nodes *c, size_t Ia, size_t Ib)
+{
+    return (enum pair_state)((c->pair_state[Ia] >> (2 * (Ib / c->nodes))) & 3u);
+}
+
+/* The pair's state at its node, in both entries (Ia / nodes is a's layer). */
+SC_HD static inline void pair_state_set(const struct contact_nodes *c, size_t Ia, size_t Ib, enum pair_state state)
+{
+    if (!pair_states_kept(c))
+        return;
+    unsigned a = (unsigned)(Ia / c->nodes), b = (unsigned)(Ib / c->nodes);
+    c->pair_state[Ia] = (c->pair_state[Ia] & ~((uint64_t)3 << (2 * b))) | ((uint64_t)state << (2 * b));
+    c->pair_state[Ib] = (c->pair_state[Ib] & ~((uint64_t)3 << (2 * a))) | ((uint64_t)state << (2 * a));
+}
+
+/* The pair's state this step: its own where kept, else as its bodies' flags say (both flagged: the first one's). */
+SC_HD static inline enum pair_state pair_state_recorded(const struct contact_nodes *c, size_t Ia, size_t Ib)
+{
+    if (pair_states_kept(c))
+        return pair_state_of(c, Ia, Ib);
+    if (!c->contact[Ia] || !c->contact[Ib])
+        return PAIR_FREE;
+    if (c->contact[Ia] == PAIR_TOUCHING || c->contact[Ib] == PAIR_TOUCHING)
+        return PAIR_TOUCHING;
+    return c->contact[Ia] == PAIR_BONDED && c->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+}
+
+/* Record the pair's state: the pair's bits, and its bodies' flags. */
+SC_HD static inline void record_pair_state(const struct contact_nodes *c, size_t Ia, size_t Ib, enum pair_state state)
+{
+    c->contact[Ia] = c->contact[Ib] = (uint8_t)state;
+    pair_state_set(c, Ia, Ib, state);
+}
 
 SC_HD static inline int pair_bonded(const struct contact_nodes *c, size_t Ia, size_t Ib)
 {
@@ -233,6 +279,8 @@ SC_HD static inline void mark_touching(const struct contact_nodes *c, size_t Ia,
 {
     c->contact[Ia] = c->contact[Ia] ? c->contact[Ia] : (uint8_t)PAIR_TOUCHING;
     c->contact[Ib] = c->contact[Ib] ? c->contact[Ib] : (uint8_t)PAIR_TOUCHING;
+    if (pair_states_kept(c) && pair_state_of(c, Ia, Ib) == PAIR_FREE)
+        pair_state_set(c, Ia, Ib, PAIR_TOUCHING);
     mark_bond_contact(c, Ia, Ib, n, pressed);
 }
 
@@ -315,7 +363,7 @@ SC_HD static inline enum pair_state resolve_pair(const struct contact_nodes *c, 
         pair_impulse(c, Ia, Ib, start, n, state, J);
         apply_impulse(start, Ia, Ib, J);
     }
-    c->contact[Ia] = c->contact[Ib] = (uint8_t)state;
+    record_pair_state(c, Ia, Ib, state);
     mark_bond_contact(c, Ia, Ib, n, state == PAIR_CONTACT);
     return state;
 }
@@ -394,14 +442,31 @@ SC_HD static inline void add3(double *sum, const double *v)
         sum[d] += v[d];
 }
 
-/* Projected Gauss-Seidel's clamp: a pair in contact only pushes.  J is the next impulse on body a, `sum` what the
- * pair has given a so far; where sum + J would pull a towards b along n (from a into b), J takes back all of it. */
-SC_HD static inline void only_push(const double sum[3], const double n[3], double J[3])
+/* Projected Gauss-Seidel's clamp: a pair in contact only pushes, and with friction its tangential impulse stays
+ * within the Coulomb cone.  J is the next impulse on body a, `sum` what the pair has given a so far; where sum + J
+ * would pull a towards b along n (from a into b), J takes back all of it; where its tangential part exceeds friction
+ * times its normal part (each sweep's impulse is within the cone, but normal parts of the sweeps can cancel where
+ * tangential ones add up), the sum's tangential part is scaled to the cone. */
+SC_HD static inline void only_push(const struct contact_nodes *c, const double sum[3], const double n[3], double J[3])
 {
-    if (!((sum[0] + J[0]) * n[0] + (sum[1] + J[1]) * n[1] + (sum[2] + J[2]) * n[2] > 0.0))
+    double total[3], normal = 0.0;
+    for (int d = 0; d < 3; d++)
+        total[d] = sum[d] + J[d], normal += total[d] * n[d];
+    if (normal > 0.0) {
+        for (int d = 0; d < 3; d++)
+            J[d] = -sum[d];
+        return;
+    }
+    if (c->law != MPM_CONTACT_FRICTION) /* frictionless: normal impulses alone; stick: no limit */
+        return;
+    double tangential[3];
+    for (int d = 0; d < 3; d++)
+        tangential[d] = total[d] - normal * n[d];
+    double size = norm3(tangential), limit = c->friction * -normal;
+    if (!(size > limit))
         return;
     for (int d = 0; d < 3; d++)
-        J[d] = -sum[d];
+        J[d] = normal * n[d] + tangential[d] * (limit / size) - sum[d];
 }
 
 /* The start half of project_again: the first correction projected again on the start momenta (and the end
@@ -411,7 +476,7 @@ SC_HD static inline double correct_start_again(const struct contact_nodes *c, st
 {
     double J[3];
     pair_impulse(c, p->Ia, p->Ib, start, p->n, PAIR_CONTACT, J);
-    only_push(p->start_impulse, p->n, J);
+    only_push(c, p->start_impulse, p->n, J);
     apply_impulse(start, p->Ia, p->Ib, J);
     apply_impulse(end, p->Ia, p->Ib, J);
     add3(p->start_impulse, J);
@@ -433,12 +498,12 @@ SC_HD static inline double project_again(const struct contact_nodes *c, struct n
         p->state = decide_after_correction(c, p->Ia, p->Ib, start, end, p->n);
         if (p->state == PAIR_FREE)
             return moved;
-        c->contact[p->Ia] = c->contact[p->Ib] = (uint8_t)p->state;
+        record_pair_state(c, p->Ia, p->Ib, p->state);
         mark_bond_contact(c, p->Ia, p->Ib, p->n, p->state == PAIR_CONTACT);
     }
     pair_impulse(c, p->Ia, p->Ib, end, p->n, p->state, J);
     if (p->state == PAIR_CONTACT)
-        only_push(p->end_impulse, p->n, J);
+        only_push(c, p->end_impulse, p->n, J);
     apply_impulse(end, p->Ia, p->Ib, J);
     add3(p->end_impulse, J);
     *bonded |= p->state == PAIR_BONDED;
@@ -461,13 +526,15 @@ SC_HD static inline double node_momentum(const struct contact_nodes *c, size_t n
  * Gauss-Seidel of non-smooth contact dynamics does (Jean 1999): a pair not yet corrected or in contact is decided
  * afresh (resolve_pair); one that is, is projected again (project_again) with each correction's summed impulse held
  * to pushing.  The limit is the node's contact problem solved: every pair in contact moves with a common normal
- * velocity (all of it, stick) and pushes, whatever the order (docs/physics.md "Three or more bodies at a node").
- * MAX_SWEEPS ends a node whose decisions keep changing without a message (none did in the tests). */
-SC_HD static inline int resolve_bodies(const struct contact_nodes *c, size_t node, double *start, double *end,
-                                       int *bonded)
+ * velocity (all of it, stick) and pushes, its tangential impulse within the Coulomb cone with friction, whatever the
+ * order (docs/physics.md "Three or more bodies at a node").  The pairs and their summed impulses are left in
+ * pairs[*pair_count].  MAX_SWEEPS ends a node whose decisions keep changing without a message (none did in the tests).
+ */
+SC_HD static inline int resolve_bodies_pairs(const struct contact_nodes *c, size_t node, double *start, double *end,
+                                             int *bonded, struct node_pair *pairs, int *pair_count)
 {
-    struct node_pair pairs[MAX_NODE_PAIRS];
     int count = node_pairs(c, node, pairs), touched = 0;
+    *pair_count = count;
     if (count < 0)
         return sweep_pairs(c, node, start, end, bonded);
     for (int k = 0; k < MAX_SWEEPS; k++) {
@@ -494,6 +561,15 @@ SC_HD static inline int resolve_bodies(const struct contact_nodes *c, size_t nod
     return touched;
 }
 
+/* resolve_bodies_pairs, its pairs (their summed impulses: tests/test_mpm_contact.c) not kept. */
+SC_HD static inline int resolve_bodies(const struct contact_nodes *c, size_t node, double *start, double *end,
+                                       int *bonded)
+{
+    struct node_pair pairs[MAX_NODE_PAIRS];
+    int count;
+    return resolve_bodies_pairs(c, node, start, end, bonded, pairs, &count);
+}
+
 /* Contact and bond impulses at node `node`: one sweep over its pairs where two bodies meet (or with the schemes
  * kept for comparison), resolve_bodies where three or more do (contact_scheme = once).  Returns whether any pair
  * interacted; *bonded whether one was bonded. */
@@ -510,10 +586,11 @@ SC_HD static inline int resolve_node(const struct contact_nodes *c, size_t node,
  * there (PAIR_BONDED or PAIR_CONTACT), PAIR_FREE (no impulse) where either was not or only touched. */
 SC_HD static inline enum pair_state reprojected_state(const struct contact_nodes *c, size_t Ia, size_t Ib)
 {
-    if (!c->contact[Ia] || !c->contact[Ib] || c->contact[Ia] == PAIR_TOUCHING || c->contact[Ib] == PAIR_TOUCHING)
+    enum pair_state state = pair_state_recorded(c, Ia, Ib);
+    if (state == PAIR_FREE || state == PAIR_TOUCHING)
         return PAIR_FREE;
     if (c->scheme == MPM_CONTACT_ONCE)
-        return c->contact[Ia] == PAIR_BONDED && c->contact[Ib] == PAIR_BONDED ? PAIR_BONDED : PAIR_CONTACT;
+        return state;
     return pair_bonded(c, Ia, Ib) ? PAIR_BONDED : PAIR_CONTACT;
 }
 
@@ -541,11 +618,12 @@ SC_HD static inline void reproject_sweep(const struct contact_nodes *c, size_t n
     }
 }
 
-/* The re-projection where three or more bodies meet (contact_scheme = once).  The contact flags are the bodies',
- * not the pairs': two bodies that each touched a third are both flagged, in contact with each other or not.  So
- * only the flagged pairs whose surfaces meet (surfaces_meet) take part, and they are swept until the impulses
- * vanish with each pair's summed impulse held to pushing where it is in contact, as in the nodal update
- * (resolve_bodies): no order enters, and no pair that the update left apart is tied together. */
+/* The re-projection where three or more bodies meet (contact_scheme = once): each pair as the nodal update decided
+ * it (its pair_state bits), swept until the impulses vanish with each pair's summed impulse held to pushing where it
+ * is in contact, as in the nodal update (resolve_bodies): no order enters, and no pair that the update left apart is
+ * tied together.  Beyond PAIR_STATE_LAYERS bodies the flags are the bodies', not the pairs' (two bodies that each
+ * touched a third are both flagged, in contact with each other or not): only the flagged pairs whose surfaces meet
+ * (surfaces_meet) take part there. */
 SC_HD static inline void reproject_bodies(const struct contact_nodes *c, size_t node, double *mom)
 {
     struct node_pair pairs[MAX_NODE_PAIRS];
@@ -557,7 +635,8 @@ SC_HD static inline void reproject_bodies(const struct contact_nodes *c, size_t 
     for (int i = 0; i < count; i++) {
         struct node_pair p = pairs[i];
         p.state = reprojected_state(c, p.Ia, p.Ib);
-        if (p.state != PAIR_FREE && surfaces_meet(c, p.Ia, p.Ib, p.n))
+        /* as the update decided the pair; from its bodies' flags, only where its surfaces meet */
+        if (p.state != PAIR_FREE && (pair_states_kept(c) || surfaces_meet(c, p.Ia, p.Ib, p.n)))
             pairs[kept++] = p;
     }
     for (int k = 0; k < MAX_SWEEPS; k++) {
@@ -566,7 +645,7 @@ SC_HD static inline void reproject_bodies(const struct contact_nodes *c, size_t 
             struct node_pair *p = pairs + i;
             pair_impulse(c, p->Ia, p->Ib, mom, p->n, p->state, J);
             if (p->state == PAIR_CONTACT)
-                only_push(p->end_impulse, p->n, J);
+                only_push(c, p->end_impulse, p->n, J);
             apply_impulse(mom, p->Ia, p->Ib, J);
             add3(p->end_impulse, J);
             moved += norm3(J);

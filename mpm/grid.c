@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "core/error.h"
+#include "mpm/contact_node.h" /* PAIR_STATE_LAYERS */
 #include "mpm/mpm_impl.h"
 
 size_t mpm_grid_node(const struct mpm_grid *g, int i, int j, int k)
@@ -91,9 +92,13 @@ static int alloc_layers(struct mpm_grid *g)
     g->bond_contact = mpm_calloc_lines(n, sizeof *g->bond_contact);
     g->wall_held = mpm_calloc_lines(n, sizeof *g->wall_held);
     g->body_velocity = mpm_calloc_lines(3 * (size_t)g->layers, sizeof *g->body_velocity);
+    int pairs = g->layers >= 3 && g->layers <= PAIR_STATE_LAYERS; /* a node may hold more than one pair */
+    g->pair_state = pairs ? mpm_calloc_lines(n, sizeof *g->pair_state) : NULL;
     if (!g->body_velocity || !g->bond_contact || !g->mass || !g->momentum || !g->momentum_new || !g->force ||
-        !g->gradient || !g->moment || !g->velocity || !g->bond_sum || !g->bond_weight || !g->contact || !g->wall_held)
-        SC_FAIL_OOM(n * GRID_BYTES_PER_NODE_LAYER + 3 * sizeof *g->momentum, "the grid (nodes x bodies)");
+        !g->gradient || !g->moment || !g->velocity || !g->bond_sum || !g->bond_weight || !g->contact || !g->wall_held ||
+        (pairs && !g->pair_state))
+        SC_FAIL_OOM(n * (GRID_BYTES_PER_NODE_LAYER + (size_t)pairs * sizeof *g->pair_state) + 3 * sizeof *g->momentum,
+                    "the grid (nodes x bodies)");
     return SC_OK;
 }
 
@@ -232,6 +237,7 @@ void mpm_grid_free(struct mpm_grid *g)
     free(g->bond_sum);
     free(g->bond_weight);
     free(g->contact);
+    free(g->pair_state);
     free(g->bond_contact);
     free(g->wall_held);
     free(g->body_velocity);
@@ -860,6 +866,8 @@ void mpm_grid_transfer_all(struct mpm_solver *s)
         clear_box(g, held, g->bond_sum, sizeof *g->bond_sum);
         clear_box(g, held, g->bond_weight, sizeof *g->bond_weight);
         clear_box(g, held, g->contact, sizeof *g->contact);
+        if (g->pair_state)
+            clear_box(g, held, g->pair_state, sizeof *g->pair_state);
         clear_box(g, held, g->bond_contact, sizeof *g->bond_contact);
         clear_box(g, held, g->wall_held, sizeof *g->wall_held);
     }

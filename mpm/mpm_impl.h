@@ -97,6 +97,8 @@ struct mpm_grid {
     double *velocity;               /* per layer, 3 per node: momentum_new / mass after the re-projection */
     double *bond_sum, *bond_weight; /* per layer: sum of D N and of N over surface points (Eq. 4.6) */
     uint8_t *contact;               /* per layer: 1 where a contact or bond force acted this step */
+    uint64_t *pair_state;           /* per layer, with 3 to 32 bodies: each pair's state this step (contact_node.h
+                                     * pair_state; NULL otherwise: a node of two bodies has one pair, its flags') */
     uint8_t *bond_contact;          /* per layer: 1 where the node's surface points count for D_bond (contact.c) */
     uint8_t *wall_held;             /* per layer, substrate = rigid: 1 where the wall held the node this step */
     double *body_velocity;          /* 3 per layer: the body's centre-of-mass velocity this step (contact.c) */

@@ -495,6 +495,8 @@ static void nodal_velocities(struct mpm_solver *s)
             for (int d = 0; d < 3; d++)
                 g->velocity[3 * I + d] = heavy ? g->momentum_new[3 * I + d] / g->mass[I] : 0.0;
             g->contact[I] = heavy ? g->contact[I] : 0; /* the pair state of contact.c, kept where heavy */
+            if (g->pair_state)
+                g->pair_state[I] = heavy ? g->pair_state[I] : 0;
         }
     }
 }

@@ -8,6 +8,7 @@
 #include "check.h"
 #include "impact_fixture.h"
 /* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
+#include "mpm/contact_node.h"
 #include "mpm/mpm_impl.h"
 
 /* An elastic material: no yield, p = rho0 c0^2 mu exactly (s = gamma0 = 0): K = 1e9 Pa, G = 1e9 Pa. */
@@ -217,9 +218,8 @@ static void test_hertz_contact_time(void)
  * it, and the pair's decisions there see the hold: the boxes rebound as mirror images of each other (v_x opposite,
  * v_z equal, within 1 % of the impact speed), both upwards, and the energy (kinetic + internal) at the end is within
  * 2 % of the start (measured: -0.8 %, as a single box of their footprint; during the contact it dips by 3.5 %, the
- * kinetic energy of the held nodes).  On an elastic block instead of the wall (three bodies with mass at a node)
- * the pairs are resolved one after the other and the outcome depends on their order: the box listed first leaves at
- * 12.5 m/s, the other at 12.2 (docs/physics.md "Contact", "Three or more bodies at a node"). */
+ * kinetic energy of the held nodes).  On an elastic block instead of the wall three bodies have mass at a node:
+ * test_three_bodies_in_any_order (docs/physics.md "Contact", "Three or more bodies at a node"). */
 static void test_three_bodies_at_a_node(void)
 {
     struct impact_fixture f;
@@ -657,11 +657,6 @@ static void test_bonds_grow_only_during_impact(void)
     impact_fixture_close(&f);
 }
 
-static double norm3(const double v[3])
-{
-    return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-}
-
 /* One node's fields for test_contact_only_pushes: body l's mass m, velocity v[l], volume gradient grad[l] and nodal
  * centre of mass at[l] (in cells from the node). */
 static void set_node_body(struct mpm_grid *g, size_t node, int l, double m, const double v[3], const double grad[3],
@@ -677,6 +672,8 @@ static void set_node_body(struct mpm_grid *g, size_t node, int l, double m, cons
     }
     g->bond_sum[I] = g->bond_weight[I] = 0.0;
     g->contact[I] = g->bond_contact[I] = g->wall_held[I] = 0;
+    if (g->pair_state)
+        g->pair_state[I] = 0;
 }
 
 /* Contact only pushes where three bodies meet at a node (contact_scheme = once, frictionless; the clamp of the
@@ -746,6 +743,215 @@ static void test_contact_only_pushes(void)
     impact_fixture_close(&f);
 }
 
+/* A bond at a node of three bodies (contact_scheme = once, energy bonding), a white-box test of one node as
+ * test_contact_only_pushes: body A leaves body B upward at u, bonded (nodal D_bond 1 on both, their centres `gap`
+ * cells apart along their normal -z), and body C comes at A from the side at 4u (normal +x, 0.7 cells: in contact);
+ * B and C, 1.6 cells apart, never meet.  The nodal update holds A to B and stops C on A.  The MUSL re-projection of
+ * the start momenta must project each pair as the update decided it, whatever the order of the bodies' layers, and
+ * the interface counts must count the pairs that met: A two (B, C), B one, C one; bonded A one, B one.  With the
+ * state kept per body, a later pair's state overwrote an earlier one's: A-C's "contact" over A-B's "bond" let A
+ * leave B in the re-projection in one order and not in the other, and B and C each counted two interface nodes; and
+ * a bond between contact_gap (0.8) and bond_gap (0.9) cells apart was dropped from the re-projection. */
+static void bond_at_three_body_node(const int layer_of[3], double gap, double reprojected[3][3], int64_t counts[2][3])
+{
+    struct impact_fixture f;
+    const char *ini = "[impact]\nstop_when_settled = no\ncontact_scheme = once\ncontact = frictionless\n"
+                      "contact_approach = common\ncontact_gap = 0.8\nbond_gap = 0.9\nsubstrate = rigid\n"
+                      "material = elastic\ngrid = 1e-3\nspacing = 0.5e-3\nt_end = 1e-6\nbonding = energy\n"
+                      "box_margin = 3e-3\n" ELASTIC_MATERIAL;
+    const char *rows = "sphere,-0.006,0,0.01,0,0,0,0.004,0,elastic\nsphere,0,0,0.01,0,0,0,0.004,0,elastic\n"
+                       "sphere,0.006,0,0.01,0,0,0,0.004,0,elastic\n";
+    for (int k = 0; k < 3; k++)
+        for (int d = 0; d < 3; d++)
+            reprojected[k][d] = NAN;
+    if (impact_fixture_open(&f, ini, rows) != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    struct mpm_solver *s = f.solver;
+    struct mpm_grid *g = &s->grid;
+    int at[3] = {g->n[0] / 2, g->n[1] / 2, g->n[2] - 3};
+    size_t node = (size_t)at[0] + g->row * (size_t)at[1] + g->plane * (size_t)at[2];
+    double node_x[3], u = 10.0, m = 1e-6;
+    for (int d = 0; d < 3; d++)
+        node_x[d] = g->origin[d] + at[d] * g->h;
+    const double v[3][3] = {{0.0, 0.0, u}, {0.0, 0.0, 0.0}, {-4.0 * u, 0.0, 0.0}}; /* A, B, C */
+    const double grad[3][3] = {{0.0, 0.0, -1.0}, {0.0, 0.0, 0.5}, {-2.0, 0.0, 0.0}};
+    const double x_at[3][3] = {{0.0, 0.0, 0.2}, {-0.9, 0.0, 0.2 - gap}, {0.7, 0.0, 0.2}};
+    const double bond[3] = {1.0, 1.0, 0.0};
+    for (int k = 0; k < 3; k++) {
+        set_node_body(g, node, layer_of[k], m, v[k], grad[k], x_at[k], node_x);
+        size_t I = (size_t)layer_of[k] * g->nodes + node;
+        g->bond_sum[I] = bond[k], g->bond_weight[I] = 1.0;
+    }
+    for (int d = 0; d < 3; d++)
+        g->box.lo[d] = g->box.hi[d] = at[d];
+    mpm_contact_nodal_update(s);
+    double *mom = calloc(3 * g->nodes * (size_t)g->layers, sizeof *mom);
+    for (int k = 0; mom && k < 3; k++)
+        for (int d = 0; d < 3; d++)
+            mom[3 * ((size_t)layer_of[k] * g->nodes + node) + d] = m * v[k][d];
+    if (mom) {
+        mpm_contact_correct_momentum(s, mom, 0);
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++)
+                reprojected[k][d] = mom[3 * ((size_t)layer_of[k] * g->nodes + node) + d] / m;
+    }
+    free(mom);
+    int64_t interface[3], bonded[3];
+    mpm_contact_interface_nodes(s, interface, bonded);
+    for (int k = 0; k < 3; k++)
+        counts[0][k] = interface[layer_of[k]], counts[1][k] = bonded[layer_of[k]];
+    impact_fixture_close(&f);
+}
+
+static void test_bond_at_a_node_of_three(void)
+{
+    const int orders[2][3] = {{0, 1, 2}, {1, 2, 0}}; /* the layers of A, B, C */
+    const double gaps[2] = {0.5, 0.85};
+    const int64_t interface_expected[3] = {2, 1, 1}, bonded_expected[3] = {1, 1, 0};
+    for (int k = 0; k < 2; k++) {
+        double v[2][3][3];
+        int64_t counts[2][2][3];
+        for (int o = 0; o < 2; o++)
+            bond_at_three_body_node(orders[o], gaps[k], v[o], counts[o]);
+        printf("  A-B %.2f cells apart: re-projected A (%.4g, %.4g, %.4g), B (%.4g, %.4g, %.4g), C (%.4g, %.4g, %.4g) "
+               "m/s; layers permuted: A (%.4g, %.4g, %.4g); interface nodes %lld %lld %lld, bonded %lld %lld %lld\n",
+               gaps[k], v[0][0][0], v[0][0][1], v[0][0][2], v[0][1][0], v[0][1][1], v[0][1][2], v[0][2][0], v[0][2][1],
+               v[0][2][2], v[1][0][0], v[1][0][1], v[1][0][2], (long long)counts[0][0][0], (long long)counts[0][0][1],
+               (long long)counts[0][0][2], (long long)counts[0][1][0], (long long)counts[0][1][1],
+               (long long)counts[0][1][2]);
+        for (int o = 0; o < 2; o++) {
+            double apart = 0.0;
+            for (int d = 0; d < 3; d++)
+                apart = fmax(apart, fabs(v[o][0][d] - v[o][1][d]));
+            CHECK(apart <= 1e-9 * 10.0,
+                  "gap %.2f, order %d: the bonded A and B move apart in the re-projection (%g m/s)", gaps[k], o, apart);
+            for (int b = 0; b < 3; b++) {
+                CHECK(counts[o][0][b] == interface_expected[b],
+                      "gap %.2f, order %d: body %c has %lld interface nodes, "
+                      "not %lld",
+                      gaps[k], o, "ABC"[b], (long long)counts[o][0][b], (long long)interface_expected[b]);
+                CHECK(counts[o][1][b] == bonded_expected[b],
+                      "gap %.2f, order %d: body %c has %lld bonded nodes, not "
+                      "%lld",
+                      gaps[k], o, "ABC"[b], (long long)counts[o][1][b], (long long)bonded_expected[b]);
+            }
+        }
+        for (int b = 0; b < 3; b++)
+            for (int d = 0; d < 3; d++)
+                CHECK(fabs(v[0][b][d] - v[1][b][d]) <= 1e-9,
+                      "gap %.2f: body %c's re-projected v_%c depends on the "
+                      "layers' order: %g and %g m/s",
+                      gaps[k], "ABC"[b], "xyz"[d], v[0][b][d], v[1][b][d]);
+    }
+}
+
+/* With friction, every pair's summed impulse at a node of three bodies lies in the Coulomb cone (contact_node.h
+ * only_push): |J_t| <= mu |J_n| for each correction's impulse summed over the sweeps.  Each sweep's impulse is
+ * within the cone, but their normal parts can cancel while the tangential parts add up: of 288,684 pairs acting at
+ * 200,000 random nodes, 72,759 ended outside it (worst |J_t| / |J_n| 3597 at mu = 0.2).  Random nodes of three
+ * bodies (masses, gradients, centres, momenta), directly through resolve_bodies_pairs; also no gain of kinetic
+ * energy and momentum kept. */
+static double unit_random(uint64_t *state)
+{
+    *state = *state * 6364136223846793005ull + 1442695040888963407ull;
+    return 2.0 * (double)(*state >> 11) / 9007199254740992.0 - 1.0;
+}
+
+static void test_friction_cone_at_a_node_of_three(void)
+{
+    double mass[3], gradient[9], moment[9], bond_sum[3] = {0}, bond_weight[3] = {0}, body_velocity[9] = {0};
+    double start[9], end[9], force[9] = {0}, initial[9];
+    uint8_t contact[3], bond_contact[3], wall_held[3];
+    uint64_t pair_state[3];
+    const double mu = 0.2;
+    struct contact_nodes c = {.mass = mass,
+                              .gradient = gradient,
+                              .moment = moment,
+                              .bond_sum = bond_sum,
+                              .bond_weight = bond_weight,
+                              .body_velocity = body_velocity,
+                              .contact = contact,
+                              .pair_state = pair_state,
+                              .bond_contact = bond_contact,
+                              .nodes = 1,
+                              .layers = 3,
+                              .mass_cutoff = 1e-30,
+                              .h = 1.0,
+                              .bonding = MPM_BONDING_NONE,
+                              .law = MPM_CONTACT_FRICTION,
+                              .scheme = MPM_CONTACT_ONCE,
+                              .approach = MPM_APPROACH_COMMON,
+                              .growth = MPM_GROWTH_CONTACT,
+                              .friction = mu,
+                              .contact_gap = 0.8,
+                              .bond_gap = 0.9,
+                              .momentum = start,
+                              .force = force,
+                              .momentum_new = end,
+                              .wall_held = wall_held,
+                              .moments = 1,
+                              .row = 1,
+                              .plane = 1};
+    uint64_t seed = 1;
+    long nodes = 0, pairs_acting = 0, outside = 0;
+    double worst = 0.0, worst_excess = 0.0, gain = 0.0, drift = 0.0;
+    for (int t = 0; t < 20000; t++) {
+        for (int l = 0; l < 3; l++) {
+            mass[l] = 0.7 + 0.5 * unit_random(&seed);
+            for (int d = 0; d < 3; d++) {
+                gradient[3 * l + d] = unit_random(&seed);
+                moment[3 * l + d] = mass[l] * 0.4 * unit_random(&seed);
+                start[3 * l + d] = end[3 * l + d] = initial[3 * l + d] = mass[l] * unit_random(&seed);
+            }
+            contact[l] = bond_contact[l] = wall_held[l] = 0;
+            pair_state[l] = 0;
+        }
+        struct node_pair pairs[MAX_NODE_PAIRS];
+        int count, bonded = 0;
+        if (!resolve_bodies_pairs(&c, 0, start, end, &bonded, pairs, &count))
+            continue;
+        nodes++;
+        double before = 0.0, after = 0.0, dp[3] = {0.0, 0.0, 0.0};
+        for (int l = 0; l < 3; l++)
+            for (int d = 0; d < 3; d++) {
+                before += initial[3 * l + d] * initial[3 * l + d] / (2.0 * mass[l]);
+                after += end[3 * l + d] * end[3 * l + d] / (2.0 * mass[l]);
+                dp[d] += end[3 * l + d] - initial[3 * l + d];
+            }
+        gain = fmax(gain, (after - before) / before);
+        drift = fmax(drift, norm3(dp));
+        for (int i = 0; i < count; i++) {
+            const struct node_pair *p = pairs + i;
+            if (p->state == PAIR_FREE && !p->corrected)
+                continue;
+            pairs_acting++;
+            const double *sums[2] = {p->start_impulse, p->end_impulse};
+            for (int k = 0; k < 2; k++) {
+                double jn = sums[k][0] * p->n[0] + sums[k][1] * p->n[1] + sums[k][2] * p->n[2], jt[3];
+                for (int d = 0; d < 3; d++)
+                    jt[d] = sums[k][d] - jn * p->n[d];
+                /* beyond rounding: the momenta are of order 1, a pair's sums of order 1 or less */
+                double excess = norm3(jt) - mu * fabs(jn);
+                outside += excess > 1e-12;
+                worst_excess = fmax(worst_excess, excess);
+                worst = fmax(worst, norm3(jt) > 1e-12 ? norm3(jt) / (fabs(jn) + 1e-300) : 0.0);
+            }
+        }
+    }
+    printf("  %ld nodes of three bodies with contact, %ld pairs acting: %ld summed impulses outside the cone, largest "
+           "|J_t| / |J_n| %.6g (mu %g), |J_t| - mu |J_n| at most %.3g; largest kinetic energy gain %.3g, momentum "
+           "change %.3g\n",
+           nodes, pairs_acting, outside, worst, mu, worst_excess, gain, drift);
+    CHECK(nodes > 5000 && pairs_acting > nodes, "too few nodes with contact (%ld) or pairs acting (%ld)", nodes,
+          pairs_acting);
+    CHECK(outside == 0, "%ld summed impulses outside the Coulomb cone (worst |J_t| / |J_n| %g, mu %g)", outside, worst,
+          mu);
+    CHECK(gain <= 1e-12, "kinetic energy gained: %g of the start", gain);
+    CHECK(drift <= 1e-12, "momentum changed by %g", drift);
+}
+
 int main(void)
 {
     RUN(test_two_elastic_spheres);
@@ -755,6 +961,8 @@ int main(void)
     RUN(test_three_bodies_at_a_node);
     RUN(test_three_bodies_in_any_order);
     RUN(test_contact_only_pushes);
+    RUN(test_bond_at_a_node_of_three);
+    RUN(test_friction_cone_at_a_node_of_three);
     RUN(test_bonds_hold_while_separating);
     RUN(test_bonds_do_not_reach_across_a_gap);
     RUN(test_bonded_interface);

@@ -98,6 +98,7 @@ struct mpm_gpu {
     /* the grid, per layer entry (vectors 3 per entry) */
     double *gmass, *momentum, *momentum_new, *force, *gradient, *moment, *bond_sum, *bond_weight, *velocity;
     uint8_t *contact, *bond_contact, *wall_held;
+    uint64_t *pair_state; /* each pair's state, with 3 to PAIR_STATE_LAYERS bodies (contact_node.h); NULL otherwise */
     double *body_partial;  /* BODY_BLOCKS x 4 per body: partial sums of mass and momentum (body_partial_kernel) */
     double *body_velocity; /* 3 per body: its centre-of-mass velocity this step (contact.c body_velocities) */
     struct point_sums *sums_partial;   /* BODY_BLOCKS per body: the diagnostics' partial sums (diagnostics_kernel) */
@@ -263,6 +264,8 @@ __global__ static void gather_kernel(struct mpm_gpu g, int momentum_only)
     g.bond_weight[I] = bond_weight;
     g.contact[I] = 0;
     g.bond_contact[I] = 0;
+    if (g.pair_state)
+        g.pair_state[I] = 0;
 }
 
 /* ---- the nodal update and contact: contact_node.h, the CPU's functions, a thread per node ---- */
@@ -340,6 +343,8 @@ __global__ static void velocity_kernel(struct mpm_gpu g)
     for (int d = 0; d < 3; d++)
         g.velocity[3 * I + d] = h ? g.momentum_new[3 * I + d] / g.gmass[I] : 0.0;
     g.contact[I] = h ? g.contact[I] : 0;
+    if (g.pair_state)
+        g.pair_state[I] = h ? g.pair_state[I] : 0;
 }
 
 /* diagnostics.c smooth_velocity: the last step's re-projected nodal velocities of the point's body (velocity_kernel)
@@ -418,7 +423,7 @@ __global__ static void diagnostics_body_kernel(struct mpm_gpu g)
 }
 
 /* Body `body`'s interface nodes now (count_interface_pairs of contact.c, after a step): at each node, the other
- * bodies it meets (both heavy, a normal, both flagged in g.contact: in contact, bonded or touching), and of those
+ * bodies it meets (both heavy, a normal, the pair in contact, bonded or touching: pair_state_recorded), and of those
  * the pairs bonded by Eq. 4.7.  Summed over the nodes by a CUB reduction of integers: the CPU's counts exactly, given
  * the same grid state. */
 __global__ static void interface_kernel(struct mpm_gpu g, int body)
@@ -433,7 +438,8 @@ __global__ static void interface_kernel(struct mpm_gpu g, int body)
         for (int other = 0; other < g.s.bodies; other++) {
             size_t Ib = (size_t)other * g.nodes + node;
             double n[3];
-            if (other == body || !heavy_entry(c, Ib) || !g.contact[Ib] || contact_normal(c, Ia, Ib, n) != 0)
+            if (other == body || !heavy_entry(c, Ib) || pair_state_recorded(c, Ia, Ib) == PAIR_FREE ||
+                contact_normal(c, Ia, Ib, n) != 0)
                 continue;
             meets++;
             bonded += pair_bonded(c, Ia, Ib);
@@ -819,6 +825,9 @@ static int allocate(struct mpm_gpu *g)
     TRY(device_array(&g->bond_sum, cells) || device_array(&g->bond_weight, cells));
     TRY(device_array(&g->velocity, 3 * cells) || device_array(&g->contact, cells));
     TRY(device_array(&g->bond_contact, cells));
+    g->pair_state = NULL;
+    if (g->s.bodies >= 3 && g->s.bodies <= PAIR_STATE_LAYERS) /* as grid.c alloc_layers */
+        TRY(device_array(&g->pair_state, cells));
     TRY(device_array(&g->wall_held, cells) || device_array(&g->body_velocity, 3 * (size_t)g->s.bodies));
     TRY(device_array(&g->body_partial, 4 * BODY_BLOCKS * (size_t)g->s.bodies));
     CU(cudaMemset(g->wall_held, 0, cells));
@@ -891,7 +900,7 @@ static void set_contact_nodes(struct mpm_gpu *g)
     struct contact_nodes *c = &g->contact_grid;
     c->mass = g->gmass, c->gradient = g->gradient, c->moment = g->moment;
     c->bond_sum = g->bond_sum, c->bond_weight = g->bond_weight, c->body_velocity = g->body_velocity;
-    c->contact = g->contact, c->bond_contact = g->bond_contact;
+    c->contact = g->contact, c->bond_contact = g->bond_contact, c->pair_state = g->pair_state;
     c->nodes = g->nodes, c->layers = g->s.bodies;
     c->mass_cutoff = g->s.mass_cutoff, c->h = g->s.h;
     c->bonding = g->s.bonding, c->law = g->s.contact, c->scheme = g->s.contact_scheme;
@@ -997,6 +1006,7 @@ extern "C" void mpm_gpu_close(struct mpm_gpu *g)
                       g->point_count,
                       g->node_contacts,
                       g->node_bonds,
+                      g->pair_state,
                       g->result,
                       g->result_id,
                       g->result_int,
