@@ -561,7 +561,7 @@ static int check_patch_fits(const struct case_file *c, const struct mpm_config *
     long per_run = case_int(c, "couple", "bodies_per_run");
     if (case_real(c, "couple", "reference_diameter") > 0)
         return SC_OK;
-    int centred = per_run < 2 && !window; /* a lone body lands on the axis */
+
     const struct mpm_body *substrate = NULL;
     for (int b = 0; b < cfg->body_count; b++)
         if (cfg->bodies[b].substrate)
@@ -573,12 +573,13 @@ static int check_patch_fits(const struct case_file *c, const struct mpm_config *
     double d_max = case_is(c, "powder", "distribution", "mono") ? case_real(c, "powder", "median_diameter")
                                                                 : case_real(c, "powder", "d_max");
     double corner = 0.5 * patch * (box ? 1.0 : sqrt(2.0)), largest = d_max > 0 ? d_max : 0.0;
-    if (centred) /* untruncated, half the powder is above its median: that much is sure to be seeded too wide */
-        return centred_fits(c, substrate->d, largest > 0 ? largest : case_real(c, "powder", "median_diameter"),
-                            largest > 0 ? "the powder's largest particle ([powder] d_max)"
-                                        : "the powder's median diameter ([powder] median_diameter; no d_max)");
-    if (corner + 0.5 * largest <= 0.5 * substrate->d)
-        return SC_OK;
+    /* wherever it lands, a body wider than the substrate does not fit: the first body of a run of random or stratified
+     * sampling lands on the axis (untruncated, half the powder is above its median: that much is sure to be seeded) */
+    SC_TRY(centred_fits(c, substrate->d, largest > 0 ? largest : case_real(c, "powder", "median_diameter"),
+                        largest > 0 ? "the powder's largest particle ([powder] d_max)"
+                                    : "the powder's median diameter ([powder] median_diameter; no d_max)"));
+    if ((per_run < 2 && !window) || corner + 0.5 * largest <= 0.5 * substrate->d)
+        return SC_OK; /* a lone body of random or stratified sampling lands on the axis */
     char spread[160];
     if (window) /* bodies_per_run = 1 does not help: a lone body lands anywhere in the window */
         snprintf(spread, sizeof spread, "is the window where a run's %s (sample = window), wider than the substrate",
@@ -708,7 +709,7 @@ static int seeds_over_substrate(const struct impact_run *run)
         double dx = body->center[0] - substrate->center[0], dy = body->center[1] - substrate->center[1];
         double from_axis = box ? fmax(fabs(dx), fabs(dy)) : hypot(dx, dy);
         double beyond = from_axis + 0.5 * body->d - 0.5 * substrate->d;
-        if (beyond > 0.0 && run->seed_count == 1 && !window) /* on the axis: the particle is wider */
+        if (body->d > substrate->d) /* wherever it lands: the particle is wider */
             SC_FAIL(SC_EINPUT,
                     "%s: the body of %s/couple.h5 /seeds row %zu (d = %.4g um) is wider than the substrate (%s %.4g "
                     "um across in this run: [impact] substrate_diameter); allowed: substrate_diameter at least the "

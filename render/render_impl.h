@@ -115,6 +115,8 @@ int render_thickness_profile(const double *x, const double *d, const double *sta
 int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out);
 /* 1 when the open spray.h5 is of a nozzle that moved ([path] pattern other than none: /deposit's attribute). */
 int render_nozzle_moves(hid_t file);
+/* The k-th (from 0) of a comma-separated list of labels (sweep.h5 x_labels), or k + 1 beyond its end. */
+void render_nth_label(const char *list, size_t k, char *out, size_t size);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 

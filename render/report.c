@@ -629,7 +629,10 @@ static void vcrit_headline(FILE *f, const struct render_request *req)
         for (size_t i = 0; i < v.count; i++)
             lo = fmin(lo, v.values[i]), hi = fmax(hi, v.values[i]);
     sc_error_clear();
-    fprintf(f, "<li><b>Critical velocity: %zu of %d searches bracketed a v_crit</b>", v.count, searches);
+    if (searches > 0)
+        fprintf(f, "<li><b>Critical velocity: %zu of %d searches bracketed a v_crit</b>", v.count, searches);
+    else /* a vcrit.h5 without its searches (of an older version) */
+        fprintf(f, "<li><b>Critical velocity: %zu bracketed</b>", v.count);
     if (v.count > 0)
         fprintf(f, ", from %s to %s m/s", num(lo, 4).s, num(hi, 4).s);
     fprintf(f, " (the table and the searches' notes below).</li>\n");
@@ -651,9 +654,9 @@ static void sweep_headline(FILE *f, const struct render_request *req)
     sc_error_clear();
     if (de.count > 0)
         fprintf(f,
-                "<li><b>Sweep: deposition efficiency %s to %s %%</b> over %zu runs (the table below, the map in "
-                "figure sweep_de).</li>\n",
-                num(100 * lo, 3).s, num(100 * hi, 3).s, de.count);
+                "<li><b>Sweep: deposition efficiency %s %%</b> over %zu runs (the table below, the map in figure "
+                "sweep_de).</li>\n",
+                span(num(100 * lo, 3), num(100 * hi, 3)).s, de.count);
     render_array_free(&de);
     H5Fclose(file);
 }
@@ -996,38 +999,48 @@ static void vcrit_results(FILE *f, hid_t file)
         render_array_free(&a[k]);
 }
 
-/* sweep.h5 (app/sweep_stage.c): the map's cells, DE and mean impact speed of each run. */
+/* sweep.h5 (app/sweep_stage.c): the map's cells, DE and mean impact speed of each run, each cell by the values as the
+ * case gave them (x_labels, y_labels: a file key's names, a number's text). */
 static void sweep_results(FILE *f, hid_t file)
 {
-    char keys[2][160] = {"", ""};
+    char keys[2][160] = {"", ""}, labels[2][4096] = {"", ""}, label[256];
     h5_attr_read_string(file, "x_key", keys[0], sizeof keys[0]);
     h5_attr_read_string(file, "y_key", keys[1], sizeof keys[1]);
-    struct render_array x = {0}, y = {0}, de = {0}, speed = {0};
-    int ok = render_read_array(file, "sweep.h5", "x_values", &x) == SC_OK &&
-             render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
+    h5_attr_read_string(file, "x_labels", labels[0], sizeof labels[0]);
+    h5_attr_read_string(file, "y_labels", labels[1], sizeof labels[1]);
+    size_t nx = 0, ny = 0;
+    h5_dataset_size(file, "x_values", &nx);
+    if (h5_exists(file, "y_values"))
+        h5_dataset_size(file, "y_values", &ny);
+    struct render_array de = {0}, speed = {0};
+    int ok = render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
              render_read_array(file, "sweep.h5", "mean_impact_speed", &speed) == SC_OK;
-    if (ok && h5_exists(file, "y_values"))
-        ok = render_read_array(file, "sweep.h5", "y_values", &y) == SC_OK;
     sc_error_clear();
-    size_t nx = x.count, ny = y.count ? y.count : 1;
+    int two = keys[1][0] != '\0';
+    size_t cells = nx * (two && ny ? ny : 1);
     fprintf(f, "<h2>Sweep</h2>\n<table><tr><th>run</th><th>");
     escaped(f, keys[0]);
-    fprintf(f, "</th><th>");
-    escaped(f, keys[1][0] ? keys[1] : "-");
-    fprintf(f, "</th><th>deposition efficiency (%%)</th><th>mean impact speed (m/s)</th></tr>\n");
-    for (size_t k = 0; ok && de.count == nx * ny && speed.count == de.count && k < de.count; k++) {
+    fprintf(f, "</th>");
+    if (two) {
+        fprintf(f, "<th>");
+        escaped(f, keys[1]);
+        fprintf(f, "</th>");
+    }
+    fprintf(f, "<th>deposition efficiency (%%)</th><th>mean impact speed (m/s)</th></tr>\n");
+    for (size_t k = 0; ok && nx > 0 && de.count == cells && speed.count == cells && k < cells; k++) {
         fprintf(f, "<tr><td>runs/x%zu_y%zu</td>", k % nx, k / nx);
-        number_cell_digits(f, x.values[k % nx], 4);
-        if (y.count)
-            number_cell_digits(f, y.values[k / nx], 4);
-        else
-            fprintf(f, "<td>-</td>");
+        render_nth_label(labels[0], k % nx, label, sizeof label);
+        cell(f, "td", label);
+        if (two) {
+            render_nth_label(labels[1], k / nx, label, sizeof label);
+            cell(f, "td", label);
+        }
         number_cell_digits(f, 100 * de.values[k], 3);
         number_cell_digits(f, speed.values[k], 4);
         fprintf(f, "</tr>\n");
     }
     fprintf(f, "</table>\n");
-    render_array_free(&x), render_array_free(&y), render_array_free(&de), render_array_free(&speed);
+    render_array_free(&de), render_array_free(&speed);
 }
 
 static void results(FILE *f, const struct render_request *req, const struct report_data *r)

@@ -18,7 +18,7 @@ struct sweep_grid {
 };
 
 /* The k-th comma-separated label of list into out. */
-static void nth_label(const char *list, size_t k, char *out, size_t size)
+void render_nth_label(const char *list, size_t k, char *out, size_t size)
 {
     const char *p = list;
     for (size_t i = 0; i < k && p; i++) {
@@ -72,11 +72,11 @@ static void draw_axes(cairo_t *cr, const struct sweep_grid *g, double left, doub
     char label[128];
     cairo_set_source_rgb(cr, 0, 0, 0);
     for (size_t i = 0; i < g->nx; i++) {
-        nth_label(g->x_labels, i, label, sizeof label);
+        render_nth_label(g->x_labels, i, label, sizeof label);
         render_text(cr, left + ((double)i + 0.5) * cw, top + height + 6, font, 0.5, 0, label);
     }
     for (size_t j = 0; j < g->ny; j++) {
-        nth_label(g->y_labels, j, label, sizeof label);
+        render_nth_label(g->y_labels, j, label, sizeof label);
         render_text(cr, left - 8, top + ((double)(g->ny - 1 - j) + 0.5) * ch, font, 1, 0.5, label);
     }
     render_text(cr, left + 0.5 * width, top + height + 12 + 1.4 * font, font, 0.5, 0, g->x_key);

@@ -170,4 +170,11 @@ status=$?
 grep -q 'is wider than the substrate (a cylinder 8.5 um across in this run' "$T/wide.err" ||
     why="${why:+$why; }the seeded particle's message: $(tail -n 1 "$T/wide.err")"
 grep -q 'bodies_per_run = 1\|patch_size' "$T/wide.err" && why="${why:+$why; }it blames the patch or offers bodies_per_run = 1"
+# two bodies a run on a patch of 0.1 um: the first lands on the axis, and a particle wider than the substrate is
+# named as such there too (it blamed the patch and offered bodies_per_run = 1)
+sed -e 's/^bodies_per_run = 1$/bodies_per_run = 2/' -e 's/^\[couple\]$/[couple]\npatch_size = 1e-7/' "$T/wide.ini" >"$T/wide2.ini"
+grep -q '^bodies_per_run = 2$' "$T/wide2.ini" || why="${why:+$why; }wide2.ini not made"
+"$bin" run "$T/wide2.ini" -o "$T/wide2" >/dev/null 2>"$T/wide2.err"
+grep -q 'is wider than the substrate (a cylinder 8.5 um across in this run' "$T/wide2.err" ||
+    why="${why:+$why; }two bodies a run: $(tail -n 1 "$T/wide2.err")"
 report lone_particle_wider_than_substrate
