@@ -243,3 +243,16 @@ int logistic_threshold_fit(const double *x, const int *y, size_t m, double cente
     out->width = 2 * log(9.0) * scale / theta[1];
     return SC_OK;
 }
+
+void logistic_wilson_interval(size_t successes, size_t trials, double z, double *lo, double *hi)
+{
+    if (trials == 0) {
+        *lo = 0.0, *hi = 1.0;
+        return;
+    }
+    double n = (double)trials, p = (double)successes / n, z2 = z * z;
+    double centre = (p + z2 / (2.0 * n)) / (1.0 + z2 / n);
+    double half = z / (1.0 + z2 / n) * sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n));
+    *lo = fmax(0.0, centre - half);
+    *hi = fmin(1.0, centre + half);
+}

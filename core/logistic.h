@@ -50,4 +50,9 @@ struct logistic_threshold {
 int logistic_threshold_fit(const double *x, const int *y, size_t m, double center, double scale,
                            struct logistic_threshold *out);
 
+/* The Wilson score interval of a proportion (Wilson 1927; method 3 of Newcombe 1998): `successes` of `trials`
+ * independent outcomes, at z standard normal deviates (1.96: 95 %), into [*lo, *hi]; [0, 1] for no trials.  Unlike
+ * p +- z sqrt(p (1 - p) / n) it stays within [0, 1] and is not empty at 0 or n successes. */
+void logistic_wilson_interval(size_t successes, size_t trials, double z, double *lo, double *hi);
+
 #endif

@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/h5io.h"
+#include "core/logistic.h"
 #include "core/version.h"
 #include "render/render_impl.h"
 
@@ -717,9 +718,13 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     }
     struct tally t = tally(r, vrest_threshold);
     if (r->impact && r->row_count > 0) {
-        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>: %zu of %zu sampled particles bonded in %d run%s",
-                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s, t.bonded, r->row_count, r->runs,
-                r->runs == 1 ? "" : "s");
+        double lo, hi; /* a handful of particles: the fraction's sampling error is the first thing to read */
+        logistic_wilson_interval(t.bonded, r->row_count, 1.959964, &lo, &hi);
+        fprintf(f,
+                "<li><b>Impact (MPM): bonded fraction %s %%</b> (95 %% interval %s-%s %%, Wilson, for %zu "
+                "particle%s): %zu of %zu sampled particles bonded in %d run%s",
+                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s, num(100.0 * lo, 3).s, num(100.0 * hi, 3).s,
+                r->row_count, r->row_count == 1 ? "" : "s", t.bonded, r->row_count, r->runs, r->runs == 1 ? "" : "s");
         const char *sep = " (";
         if (t.rebounded)
             fprintf(f, "%s%zu rebounded", sep, t.rebounded), sep = ", ";

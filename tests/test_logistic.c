@@ -195,6 +195,26 @@ static void test_threshold_separable_and_none(void)
     CHECK(logistic_threshold_fit(x, y, 6, 800, 0, &t) != 0, "scale 0 accepted");
 }
 
+/* The Wilson score interval against Newcombe (1998), Table II, method 3 (95 %, to his four decimals): 81/263
+ * 0.2553-0.3662, 15/148 0.0624-0.1605, 0/20 0-0.1611, 1/29 0.0061-0.1718; no trials: [0, 1]. */
+static void test_wilson_interval_against_newcombe(void)
+{
+    const struct {
+        size_t k, n;
+        double lo, hi;
+    } table[] = {{81, 263, 0.2553, 0.3662}, {15, 148, 0.0624, 0.1605}, {0, 20, 0.0, 0.1611}, {1, 29, 0.0061, 0.1718}};
+    for (size_t i = 0; i < sizeof table / sizeof table[0]; i++) {
+        double lo, hi;
+        logistic_wilson_interval(table[i].k, table[i].n, 1.959964, &lo, &hi);
+        printf("  %zu/%zu: %.4f-%.4f (Newcombe %.4f-%.4f)\n", table[i].k, table[i].n, lo, hi, table[i].lo, table[i].hi);
+        CHECK_CLOSE(lo, table[i].lo, 0.0, 0.5e-4, "lower bound");
+        CHECK_CLOSE(hi, table[i].hi, 0.0, 0.5e-4, "upper bound");
+    }
+    double lo, hi;
+    logistic_wilson_interval(0, 0, 1.96, &lo, &hi);
+    CHECK(lo == 0.0 && hi == 1.0, "no trials: [%g, %g]", lo, hi);
+}
+
 int main(void)
 {
     RUN(test_small_data_set_against_statsmodels);
@@ -205,5 +225,6 @@ int main(void)
     RUN(test_threshold_closed_form);
     RUN(test_threshold_recovered);
     RUN(test_threshold_separable_and_none);
+    RUN(test_wilson_interval_against_newcombe);
     return check_finish();
 }

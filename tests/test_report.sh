@@ -231,6 +231,19 @@ else
     echo "FAIL report_states_result: ($bodies particle bodies in impact.h5) $(tail -c 600 "$T/parsed")"
 fi
 
+# the bonded fraction of a few sampled particles comes with its 95 % interval (Wilson), recomputed here from the
+# counts the headline gives (4 particles: a bonded fraction of 0 or 100 % alone read as a certainty)
+text=$(sed 's/<[^>]*>//g' "$page" | tr '\n' ' ')
+counts=$(printf '%s' "$text" | sed -n 's/.*bonded fraction [0-9.]* % (95 % interval \([0-9.]*\)-\([0-9.]*\) %, Wilson, for \([0-9]*\) particles\{0,1\}): \([0-9]*\) of \([0-9]*\) sampled.*/\1 \2 \3 \4 \5/p')
+if [ -n "$counts" ] && echo "$counts" | awk '{ n = $5; k = $4; z = 1.959964; p = k / n; z2 = z * z
+        c = (p + z2 / (2 * n)) / (1 + z2 / n); h = z / (1 + z2 / n) * sqrt(p * (1 - p) / n + z2 / (4 * n * n))
+        lo = 100 * (c - h < 0 ? 0 : c - h); hi = 100 * (c + h > 1 ? 1 : c + h)
+        exit !($3 == n && (lo == 0 ? $1 == 0 : ($1 / lo > 0.995 && $1 / lo < 1.005)) && $2 / hi > 0.995 && $2 / hi < 1.005) }'; then
+    echo "PASS report_bonded_fraction_interval"
+else
+    echo "FAIL report_bonded_fraction_interval: '$counts' (interval low, high, particles, bonded, of)"
+fi
+
 # ---- headless Chromium: every image of the page loads ----
 chromium_bin=$(command -v chromium || command -v chromium-browser || true)
 if [ -z "$chromium_bin" ]; then
