@@ -672,11 +672,15 @@ void info_headline(const char *run_dir, FILE *out)
         if (runs > 0) {
             /* counts, not a rounded share alone (1 of 200 is not "0 %"); an unsettled body, whose verdict still
              * changed at the end, is neither bonded nor rebounded: the share is of all bodies, a lower bound */
-            double lo = NAN, hi = NAN;
-            if (bonded >= 0 && bodies > 0)
+            fprintf(out, "impact: %lld of %lld bodies bonded (%.1f %%", (long long)bonded, (long long)bodies,
+                    100.0 * fraction);
+            snprintf(path, sizeof path, "%s/couple.h5", run_dir);
+            if (bonded >= 0 && bodies > 0 && access(path, R_OK) == 0) { /* sampled from the spray: its error */
+                double lo, hi;
                 logistic_wilson_interval((size_t)bonded, (size_t)bodies, 1.959964, &lo, &hi);
-            fprintf(out, "impact: %lld of %lld bodies bonded (%.1f %%; 95 %% interval %.3g-%.3g %%) over %lld MPM runs",
-                    (long long)bonded, (long long)bodies, 100.0 * fraction, 100.0 * lo, 100.0 * hi, (long long)runs);
+                fprintf(out, "; 95 %% interval %.3g-%.3g %%", 100.0 * lo, 100.0 * hi);
+            }
+            fprintf(out, ") over %lld MPM runs", (long long)runs);
             if (unsettled >= 0)
                 fprintf(out, ", %lld unsettled (neither bonded nor rebounded)", (long long)unsettled);
             fprintf(out, "; mean PBCP %.1f %%", 100.0 * pbcp);

@@ -718,13 +718,16 @@ static void headline(FILE *f, const struct render_request *req, const struct rep
     }
     struct tally t = tally(r, vrest_threshold);
     if (r->impact && r->row_count > 0) {
-        double lo, hi; /* a handful of particles: the fraction's sampling error is the first thing to read */
-        logistic_wilson_interval(t.bonded, r->row_count, 1.959964, &lo, &hi);
-        fprintf(f,
-                "<li><b>Impact (MPM): bonded fraction %s %%</b> (95 %% interval %s-%s %%, Wilson, for %zu "
-                "particle%s): %zu of %zu sampled particles bonded in %d run%s",
-                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s, num(100.0 * lo, 3).s, num(100.0 * hi, 3).s,
-                r->row_count, r->row_count == 1 ? "" : "s", t.bonded, r->row_count, r->runs, r->runs == 1 ? "" : "s");
+        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>",
+                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s);
+        if (r->seed_count > 0) { /* sampled from the spray: a handful's sampling error is the first thing to read */
+            double lo, hi;
+            logistic_wilson_interval(t.bonded, r->row_count, 1.959964, &lo, &hi);
+            fprintf(f, " (95 %% interval %s-%s %%, Wilson, for %zu particle%s)", num(100.0 * lo, 3).s,
+                    num(100.0 * hi, 3).s, r->row_count, r->row_count == 1 ? "" : "s");
+        }
+        fprintf(f, ": %zu of %zu %sparticles bonded in %d run%s", t.bonded, r->row_count,
+                r->seed_count > 0 ? "sampled " : "", r->runs, r->runs == 1 ? "" : "s");
         const char *sep = " (";
         if (t.rebounded)
             fprintf(f, "%s%zu rebounded", sep, t.rebounded), sep = ", ";
