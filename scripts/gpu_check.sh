@@ -502,42 +502,95 @@ if want 3 && [ "$on_device" = 0 ]; then
 elif want 3 && [ -z "$ncu" ]; then
     echo "SKIP profile: ncu (Nsight Compute) is not installed"
 elif want 3; then
-    # a step is about 34 launches (the sort's and the reductions' CUB kernels included): 40 from the 21st step on,
-    # without the reordering (its ~20 launches at steps 0 and 16 would shift the window), then the reordering's own
-    # kernels (the second reordering, at step 16: 12 permutations and the slots; the upload's slots and the first
-    # reordering's 13 launches skipped)
-    impact_case prof 0.7e-6 0.2e-6 0.5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6"
+    # The case's series_every = snapshot_every = t_end: no series row or snapshot launches a kernel before the
+    # last step, so that the launches before a step are whole steps.  0.5 ns is 53 steps (dt 9.5 ps, seen on the
+    # CPU).  The count: the upload's slot_kernel (1), then per step, with the points never reordered
+    # (SPRAYCOAT_GPU_REORDER_EVERY=0; the reordering's ~14 launches at steps 0 and 16 would shift the window), the
+    # case's 2 bodies and the defaults (contact_scheme = once, bond_growth = approach: the bodies' velocities), no
+    # conduction (mpm/cuda/step.cu mpm_gpu_step_points): bin_kernel, CUB's radix sort of the 64-bit keys (onesweep:
+    # a histogram, an exclusive sum and one pass per 8 of the key's bits, 3 for the 2^16 to 2^24 cells here),
+    # range_kernel (7); gather, body_partial, body_velocity, nodal, book (5); the absorbed work's sum (CUB's
+    # reduction: 2 kernels beyond one tile), g2p, the speed's max and the failed id's min (7); gather, correct,
+    # velocity, update, remove (5); reduce's 6 reductions (12): 36 a step.  The series row at t = 0 is recorded
+    # before the device is attached, and the first snapshot reads the host's points, which are up to date: no
+    # launch.  So step k + 1 begins at launch 1 + 36 k: skipping 1 + 36 x 20 = 721 starts the window at step 21,
+    # and 73 launches hold steps 21 and 22 and the bin_kernel of 23.  The table takes the first whole step in the
+    # window (from a bin_kernel to the launch before the next one), so that a miscount (another number of sort
+    # passes, a reduction in one tile) still gives a whole step, or says that the window held none.
+    impact_case prof 0.7e-6 0.2e-6 0.5e-9 "substrate_diameter = 30e-6" "substrate_height = 10e-6" \
+        "series_every = 0.5e-9"
     t=$(limit)
     if [ "$t" = 0 ]; then
         echo "SKIP profile: GPU_CHECK_BUDGET's $budget s are spent"
     else
         SPRAYCOAT_GPU_REORDER_EVERY=0
         export SPRAYCOAT_GPU_REORDER_EVERY
-        timed "$t" "$work/ncu_step.log" "$ncu" --target-processes all --clock-control none --launch-skip 680 \
-            --launch-count 40 --section SpeedOfLight --section Occupancy \
-            "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu
+        timed "$t" "$work/ncu_step.log" "$ncu" --target-processes all --clock-control none \
+            --print-kernel-base function --launch-skip 721 --launch-count 73 --section SpeedOfLight \
+            --section Occupancy "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu
         status=$?
         unset SPRAYCOAT_GPU_REORDER_EVERY
         [ "$status" = 0 ] || echo "ncu (one step) ended with exit status $status: $(tail -n 2 "$work/ncu_step.log" | tr '\n' ' ')"
     fi
+    # the reordering's own kernels: the second reordering, at step 16 (12 permutations and the slots; the upload's
+    # slot_kernel and the first reordering's 13 launches skipped: the filter counts only the launches it matches)
     rm -rf "$work/prof"
     t=$(limit)
     if [ "$t" != 0 ]; then
         timed "$t" "$work/ncu_reorder.log" "$ncu" --target-processes all --clock-control none \
-            --kernel-name regex:'permute|slot_kernel' --launch-skip 14 --launch-count 13 --section SpeedOfLight \
-            "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu
+            --print-kernel-base function --kernel-name regex:'permute|slot_kernel' --launch-skip 14 \
+            --launch-count 13 --section SpeedOfLight "$bin" impact "$work/prof.ini" -o "$work/prof" --device gpu
         status=$?
         [ "$status" = 0 ] || echo "ncu (the reordering) ended with exit status $status: $(tail -n 2 "$work/ncu_reorder.log" | tr '\n' ' ')"
     fi
     [ -n "${OUT:-}" ] && cp "$work"/ncu_*.log "$OUT/" 2> /dev/null
-    cat "$work"/ncu_*.log > "$work/ncu.log" 2> /dev/null
-    if ! grep -q "Compute (SM) Throughput" "$work/ncu.log"; then
+    # one row per profiled kernel: the name (the function's, as --print-kernel-base function prints it; a
+    # demangled "void ns::name<...>(...)" is cut to "name"), its duration, DRAM and SM throughput
+    ncu_rows() {
+        awk 'function flush() { if (name != "") printf "%s\t%s\t%s\t%s\n", name, t, dram, sm; name = "" }
+            /^  [^ =].* \([0-9]+, [0-9]+, [0-9]+\)x\([0-9]+, [0-9]+, [0-9]+\)/ {
+                flush(); s = $0; sub(/^ +/, "", s); sub(/ *\([0-9]+, [0-9]+, [0-9]+\)x\(.*/, "", s)
+                sub(/^void /, "", s); sub(/[(<].*/, "", s); n = split(s, part, "::"); name = part[n]
+                t = "-"; dram = "-"; sm = "-"; next }
+            name != "" && /^ +Duration/ { t = $NF " " $(NF - 1) }
+            name != "" && /^ +DRAM Throughput/ { dram = $NF }
+            name != "" && /^ +Compute \(SM\) Throughput/ { sm = $NF }
+            END { flush() }' "$1"
+    }
+    # ncu_table ROWS: the rows as a table, with the sum of the durations
+    ncu_table() {
+        echo "| kernel                                   |     duration | DRAM          | SM          |"
+        echo "| ---------------------------------------- | ------------ | ------------- | ----------- |"
+        # the duration's unit: us (or usecond, as older versions print it), ms, ns, s; 1,234.5: no separators
+        awk -F '\t' '{ split($2, d, " "); gsub(/,/, "", d[1])
+                       u = d[2] ~ /^m/ ? 1000 : d[2] ~ /^n/ ? 0.001 : d[2] ~ /^s/ ? 1e6 : 1
+                       total += d[1] * u
+                       printf "| %-40s | %12s | DRAM %6s %% | SM %6s %% |\n", substr($1, 1, 40), $2, $3, $4 }
+                     END { printf "| %-40s | %9.1f us |              |             |\n", NR " launches", total }' "$1"
+    }
+    ncu_rows "$work/ncu_step.log" > "$work/step.rows" 2> /dev/null
+    # the first whole step: from the first bin_kernel to the launch before the next
+    awk -F '\t' '$1 == "bin_kernel" { b++ } b == 1' "$work/step.rows" > "$work/step.one"
+    if [ ! -s "$work/step.rows" ]; then
         echo "SKIP profile: ncu profiled no kernel (on gVisor it cannot read the counters; $work/ncu_step.log:" \
-            "$(grep -m 1 -i 'error\|fail' "$work/ncu.log" 2> /dev/null | cut -c1-200))"
+            "$(grep -m 1 -i 'error\|fail' "$work/ncu_step.log" 2> /dev/null | cut -c1-200))"
+    elif [ "$(awk -F '\t' '$1 == "bin_kernel"' "$work/step.rows" | wc -l)" -ge 2 ]; then
+        echo "One step (the window's first whole step, $(wc -l < "$work/step.one") launches; the window held $(wc -l < "$work/step.rows")):"
+        echo
+        ncu_table "$work/step.one"
+    else
+        echo "The window held no whole step (fewer than two bin_kernel launches among $(wc -l < "$work/step.rows")):" \
+            "the launches per step differ from the count above; every profiled launch:"
+        echo
+        ncu_table "$work/step.rows"
     fi
-    awk '/^  [A-Za-z_].*\(/ { name = $1 } /Duration/ { t = $NF " " $(NF-1) } /DRAM Throughput/ { dram = $NF }
-         /Compute \(SM\) Throughput/ { sm = $NF; printf "| %-40s | %12s | DRAM %6s %% | SM %6s %% |\n", substr(name, 1, 40), t, dram, sm }' \
-        "$work/ncu.log"
+    ncu_rows "$work/ncu_reorder.log" > "$work/reorder.rows" 2> /dev/null
+    if [ -s "$work/reorder.rows" ]; then
+        echo
+        echo "One reordering (step 16):"
+        echo
+        ncu_table "$work/reorder.rows"
+    fi
 fi
 
 if [ -n "${OUT:-}" ]; then
