@@ -14,8 +14,8 @@
 # installed; the kernels' time, DRAM and SM throughput).
 # A run that fails or times out is a FAIL row, and the check goes on to the next; the exit status is 1 if any row
 # failed.  Each run is limited to GPU_CHECK_TIMEOUT seconds (default 240), and no run starts once GPU_CHECK_BUDGET
-# seconds (default 500, for a device call of 540) have passed: the runs left are SKIP rows, so that the summary is
-# printed before the call's own limit.  GPU_CHECK_DEVICE=cpu runs the "gpu" side on the CPU too (a dry run);
+# seconds (default 500, for a device call of 540) have passed: the runs left are FAIL rows saying so, and the
+# summary is printed before the call's own limit.  GPU_CHECK_DEVICE=cpu runs the "gpu" side on the CPU too (a dry run);
 # GPU_CHECK_QUICK=1 doubles every case's grid and spacing and cuts its time to a tenth (a dry run of the script's
 # plumbing on the emulation, build/cuda-emu: its numbers mean nothing).  With $OUT set, the runs' logs
 # ($OUT/gpu_check_logs.tgz) and the profiler's and the sanitizer's (ncu_step.log, ncu_reorder.log, sanitizer.log)
@@ -485,7 +485,7 @@ if want 2; then
     elif awk -v p="$m10_pups" 'BEGIN { exit !(p >= 3e8) }'; then
         echo "goal (issue 25): 3e8 FP64 PUPS at ~1e7 points: MET ($m10_pups)"
     else
-        echo "goal (issue 25): 3e8 FP64 PUPS at ~1e7 points: NOT MET ($m10_pups, $(awk -v p="$m10_pups" 'BEGIN { printf "%.0f %%", 100 * p / 3e8 }') of it)"
+        echo "goal (issue 25): 3e8 FP64 PUPS at ~1e7 points: NOT MET ($m10_pups, $(awk -v p="$m10_pups" 'BEGIN { printf "%.3g %%", 100 * p / 3e8 }') of it)"
     fi
 fi
 
