@@ -7,7 +7,8 @@
 
 #include "check.h"
 #include "impact_fixture.h"
-/* A white-box test: includes the module-private header mpm/mpm_impl.h (only tests may; tests/test_symbols.sh). */
+/* A white-box test: includes the module-private headers mpm/mpm_impl.h and mpm/contact_node.h (its pairs' summed
+ * impulses at a node of three bodies; only tests may: tests/test_symbols.sh). */
 #include "mpm/contact_node.h"
 #include "mpm/mpm_impl.h"
 
