@@ -353,8 +353,10 @@ static void merged_record(const struct case_file *c, const char *run_dir, const 
     int chosen[sizeof stages / sizeof stages[0]] = {0};
     char old[256], path[4200];
     struct case_file *old_case = NULL;
+    snprintf(path, sizeof path, "%s/stages", run_dir);
+    int recorded = access(path, F_OK) == 0; /* without a record (older versions), run_dir_read_stages says "spray" */
     snprintf(path, sizeof path, "%s/case.ini", run_dir);
-    if (access(path, R_OK) == 0 && run_dir_read_stages(run_dir, old, sizeof old) == SC_OK &&
+    if (recorded && access(path, R_OK) == 0 && run_dir_read_stages(run_dir, old, sizeof old) == SC_OK &&
         case_load(path, spraycoat_registry, &old_case) == SC_OK && case_hash(old_case) == case_hash(c))
         pipeline |= record_stages(old, chosen);
     case_free(old_case);
