@@ -693,126 +693,157 @@ static void coating_headline(FILE *f, const struct report_data *r)
     fprintf(f, ".</li>\n");
 }
 
+/* The spray's counts and its deposition efficiency. */
+static void spray_headline(FILE *f, const struct case_file *c, const struct report_data *r)
+{
+    if (!r->spray)
+        return;
+    fprintf(f,
+            "<li><b>Spray: deposit fraction %s %%</b>: %lld of %lld injected particles deposited on the "
+            "target (rule <code>[deposition] rule = ",
+            num(100 * r->deposit_fraction, 3).s, (long long)r->deposited, (long long)r->injected);
+    escaped(f, case_text(c, "deposition", "rule"));
+    fprintf(f,
+            "</code>); at t = %s ms %lld still in flight, %lld resting unbonded on the target, %lld "
+            "escaped.</li>\n",
+            given(r->t_spray * 1e3).s, (long long)r->in_flight, (long long)r->resting, (long long)r->escaped);
+    if (isfinite(r->de))
+        fprintf(f,
+                "<li><b>Deposition efficiency %s %%</b> by mass: %s µg deposited of %s µg sprayed (by size "
+                "class and first-impact angle in figure spray_de).</li>\n",
+                num(100 * r->de, 3).s, num(r->de_deposited_mass * 1e9, 3).s, num(r->de_sprayed_mass * 1e9, 3).s);
+}
+
+/* The MPM runs' bonded fraction (with its interval where the particles were sampled), the criterion, and how
+ * the spray's verdicts on the same particles compare. */
+static void impact_headline(FILE *f, const struct case_file *c, const struct report_data *r, const struct tally *t)
+{
+    if (!r->impact)
+        return;
+    if (r->row_count == 0) {
+        fprintf(f, "<li><b>Impact (MPM): no particle body found in impact.h5</b>.</li>\n");
+        return;
+    }
+    double pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
+    double vrest_threshold = case_real(c, "impact", "vrest_threshold");
+    fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>",
+            num(100.0 * (double)t->bonded / (double)r->row_count, 3).s);
+    if (r->seed_count > 0) { /* sampled from the spray: a handful's sampling error is the first thing to read */
+        double lo, hi;
+        logistic_wilson_interval(t->bonded, r->row_count, 1.959964, &lo, &hi);
+        fprintf(f, " (95 %% interval %s-%s %%, Wilson, for %zu particle%s)", num(100.0 * lo, 3).s, num(100.0 * hi, 3).s,
+                r->row_count, r->row_count == 1 ? "" : "s");
+    }
+    fprintf(f, ": %zu of %zu %sparticles bonded in %d run%s", t->bonded, r->row_count,
+            r->seed_count > 0 ? "sampled " : "", r->runs, r->runs == 1 ? "" : "s");
+    const char *sep = " (";
+    if (t->rebounded)
+        fprintf(f, "%s%zu rebounded", sep, t->rebounded), sep = ", ";
+    if (t->stuck)
+        fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t->stuck), sep = ", ";
+    if (t->unsettled)
+        fprintf(f, "%s%zu unsettled: the verdict still changing at the end", sep, t->unsettled), sep = ", ";
+    fprintf(f,
+            "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s once the verdict has settled "
+            "(<code>[impact] pbcp_threshold, vrest_threshold, settle_*</code>); a run ends when every verdict "
+            "in it has settled or at <code>[impact] t_end</code> (the longest lasted %s ns).</li>\n",
+            sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
+            given(r->t_impact * 1e9).s);
+    if (t->compared > 0)
+        fprintf(f,
+                "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
+                "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
+                t->disagree ? "disagree" : "agree", t->disagree ? t->disagree : t->compared, t->compared,
+                t->deposited_not_bonded, t->rebounded_bonded,
+                t->unsettled ? "; unsettled MPM runs are not compared" : "");
+}
+
+/* The couple stage's seeds: how the gas at the target changed their speed. */
+static void couple_headline(FILE *f, const struct case_file *c, const struct report_data *r)
+{
+    if (r->seed_count == 0)
+        return;
+    double change = 0, lo = INFINITY, hi = -INFINITY, v_lo = INFINITY, v_hi = -INFINITY;
+    for (size_t i = 0; i < r->seed_count; i++) {
+        double dv = r->seeds[i].v_wall - r->seeds[i].v_spray;
+        change += dv, lo = fmin(lo, dv), hi = fmax(hi, dv);
+        v_lo = fmin(v_lo, r->seeds[i].v_wall), v_hi = fmax(v_hi, r->seeds[i].v_wall);
+    }
+    fprintf(f, "<li><b>Couple stage: %zu particles</b> sampled from the spray's impacts (<code>[couple] sample = ",
+            r->seed_count);
+    escaped(f, case_text(c, "couple", "sample"));
+    fprintf(f,
+            "</code>) and flown from the hand-off plane through the spray's gas at the target (the jet's "
+            "wall region): speed at the wall %s m/s, changed by %s m/s on average (%s m/s) from the spray's "
+            "impact speed.</li>\n",
+            span(num(v_lo, 3), num(v_hi, 3)).s, num(change / (double)r->seed_count, 3).s,
+            span(num(lo, 3), num(hi, 3)).s);
+}
+
+/* The impact runs' resolution, against the one the bonding parameters were calibrated at. */
+static void resolution_headline(FILE *f, const struct case_file *c, const struct report_data *r, const struct tally *t)
+{
+    if (!r->impact)
+        return;
+    double spacing = case_real(c, "impact", "spacing");
+    double grid = case_real(c, "impact", "grid");
+    double reference = case_has(c, "couple", "reference_diameter") ? case_real(c, "couple", "reference_diameter") : 0.0;
+    fprintf(f,
+            "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
+            "(<code>[impact] grid, spacing</code>)",
+            given(grid * 1e6).s, given(spacing * 1e6).s);
+    if (reference > 0) /* each run scaled to its particle (impact_stage.c scale_to_particle) */
+        fprintf(f,
+                " for a particle of %s µm, scaled with each particle's diameter "
+                "(<code>[couple] reference_diameter</code>): %s grid cells and %s points across every particle",
+                given(reference * 1e6).s, num(reference / grid, 3).s, num(reference / spacing, 3).s);
+    else if (r->row_count > 0)
+        fprintf(f, ": %s grid cells and %s points across a particle's diameter",
+                span(num(t->d_min / grid, 2), num(t->d_max / grid, 2)).s,
+                span(num(t->d_min / spacing, 2), num(t->d_max / spacing, 2)).s);
+    if (r->points_max >= r->points_min)
+        fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
+    calibration_sentence(f, c);
+    if (r->uncalibrated > 0) /* mpm_bonding_calibrated_resolution */
+        fprintf(f,
+                "; <b>%lld of the %zu particles ran at another resolution: their verdicts below are not "
+                "calibrated</b>",
+                (long long)r->uncalibrated, r->row_count);
+    fprintf(f, ".</li>\n");
+}
+
+/* A fixed nozzle's radial thickness profile, under the headline. */
+static void profile_under_headline(FILE *f, const struct render_output *out)
+{
+    const struct render_figure *profile = render_output_find(out, "spray_thickness");
+    if (!profile)
+        return;
+    fprintf(f, "<figure><img src=\"figures/%s.png\" alt=\"", profile->name);
+    escaped(f, profile->title);
+    fprintf(f,
+            "\"><figcaption>Coating thickness vs radius from the spray axis: the volume of the deposited "
+            "particles whose centres lie in each annulus, divided by the annulus area, i.e. the thickness "
+            "of a fully dense layer (a coating of packing fraction &phi; is 1/&phi; thicker). "
+            "(<a href=\"figures/%s.svg\">SVG</a>)</figcaption></figure>\n",
+            profile->name);
+}
+
 static void headline(FILE *f, const struct render_request *req, const struct report_data *r,
                      const struct render_output *out)
 {
     const struct case_file *c = req->c;
-    double pbcp_threshold = case_real(c, "impact", "pbcp_threshold");
-    double vrest_threshold = case_real(c, "impact", "vrest_threshold");
+    struct tally t = tally(r, case_real(c, "impact", "vrest_threshold"));
     fprintf(f, "<section id=\"headline\">\n<h2>Result</h2>\n<ul>\n");
-    if (r->spray) {
-        fprintf(f,
-                "<li><b>Spray: deposit fraction %s %%</b>: %lld of %lld injected particles deposited on the "
-                "target (rule <code>[deposition] rule = ",
-                num(100 * r->deposit_fraction, 3).s, (long long)r->deposited, (long long)r->injected);
-        escaped(f, case_text(c, "deposition", "rule"));
-        fprintf(f,
-                "</code>); at t = %s ms %lld still in flight, %lld resting unbonded on the target, %lld "
-                "escaped.</li>\n",
-                given(r->t_spray * 1e3).s, (long long)r->in_flight, (long long)r->resting, (long long)r->escaped);
-        if (isfinite(r->de))
-            fprintf(f,
-                    "<li><b>Deposition efficiency %s %%</b> by mass: %s µg deposited of %s µg sprayed (by size "
-                    "class and first-impact angle in figure spray_de).</li>\n",
-                    num(100 * r->de, 3).s, num(r->de_deposited_mass * 1e9, 3).s, num(r->de_sprayed_mass * 1e9, 3).s);
-    }
-    struct tally t = tally(r, vrest_threshold);
-    if (r->impact && r->row_count > 0) {
-        fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>",
-                num(100.0 * (double)t.bonded / (double)r->row_count, 3).s);
-        if (r->seed_count > 0) { /* sampled from the spray: a handful's sampling error is the first thing to read */
-            double lo, hi;
-            logistic_wilson_interval(t.bonded, r->row_count, 1.959964, &lo, &hi);
-            fprintf(f, " (95 %% interval %s-%s %%, Wilson, for %zu particle%s)", num(100.0 * lo, 3).s,
-                    num(100.0 * hi, 3).s, r->row_count, r->row_count == 1 ? "" : "s");
-        }
-        fprintf(f, ": %zu of %zu %sparticles bonded in %d run%s", t.bonded, r->row_count,
-                r->seed_count > 0 ? "sampled " : "", r->runs, r->runs == 1 ? "" : "s");
-        const char *sep = " (";
-        if (t.rebounded)
-            fprintf(f, "%s%zu rebounded", sep, t.rebounded), sep = ", ";
-        if (t.stuck)
-            fprintf(f, "%s%zu not bonded with v_rest &le; the threshold but PBCP below it", sep, t.stuck), sep = ", ";
-        if (t.unsettled)
-            fprintf(f, "%s%zu unsettled: the verdict still changing at the end", sep, t.unsettled), sep = ", ";
-        fprintf(f,
-                "%s. Criterion: bonded when PBCP &ge; %s %% and v_rest &le; %s m/s once the verdict has settled "
-                "(<code>[impact] pbcp_threshold, vrest_threshold, settle_*</code>); a run ends when every verdict "
-                "in it has settled or at <code>[impact] t_end</code> (the longest lasted %s ns).</li>\n",
-                sep[0] == ',' ? ")" : "", given(100 * pbcp_threshold).s, given(vrest_threshold).s,
-                given(r->t_impact * 1e9).s);
-        if (t.compared > 0)
-            fprintf(f,
-                    "<li><b>Spray vs MPM: %s on %zu of %zu particles</b> (the spray deposited and the MPM run did "
-                    "not bond: %zu; the spray rebounded and the MPM run bonded: %zu)%s.</li>\n",
-                    t.disagree ? "disagree" : "agree", t.disagree ? t.disagree : t.compared, t.compared,
-                    t.deposited_not_bonded, t.rebounded_bonded,
-                    t.unsettled ? "; unsettled MPM runs are not compared" : "");
-    } else if (r->impact) {
-        fprintf(f, "<li><b>Impact (MPM): no particle body found in impact.h5</b>.</li>\n");
-    }
-    if (r->spray) {
+    spray_headline(f, c, r);
+    impact_headline(f, c, r, &t);
+    if (r->spray)
         coating_headline(f, r);
-    }
-    if (r->seed_count > 0) {
-        double change = 0, lo = INFINITY, hi = -INFINITY, v_lo = INFINITY, v_hi = -INFINITY;
-        for (size_t i = 0; i < r->seed_count; i++) {
-            double dv = r->seeds[i].v_wall - r->seeds[i].v_spray;
-            change += dv, lo = fmin(lo, dv), hi = fmax(hi, dv);
-            v_lo = fmin(v_lo, r->seeds[i].v_wall), v_hi = fmax(v_hi, r->seeds[i].v_wall);
-        }
-        fprintf(f, "<li><b>Couple stage: %zu particles</b> sampled from the spray's impacts (<code>[couple] sample = ",
-                r->seed_count);
-        escaped(f, case_text(c, "couple", "sample"));
-        fprintf(f,
-                "</code>) and flown from the hand-off plane through the spray's gas at the target (the jet's "
-                "wall region): speed at the wall %s m/s, changed by %s m/s on average (%s m/s) from the spray's "
-                "impact speed.</li>\n",
-                span(num(v_lo, 3), num(v_hi, 3)).s, num(change / (double)r->seed_count, 3).s,
-                span(num(lo, 3), num(hi, 3)).s);
-    }
-    if (r->impact) {
-        double spacing = case_real(c, "impact", "spacing");
-        double grid = case_real(c, "impact", "grid");
-        double reference =
-            case_has(c, "couple", "reference_diameter") ? case_real(c, "couple", "reference_diameter") : 0.0;
-        fprintf(f,
-                "<li><b>Resolution: grid cells of %s µm, material points %s µm apart</b> "
-                "(<code>[impact] grid, spacing</code>)",
-                given(grid * 1e6).s, given(spacing * 1e6).s);
-        if (reference > 0) /* each run scaled to its particle (impact_stage.c scale_to_particle) */
-            fprintf(f,
-                    " for a particle of %s µm, scaled with each particle's diameter "
-                    "(<code>[couple] reference_diameter</code>): %s grid cells and %s points across every particle",
-                    given(reference * 1e6).s, num(reference / grid, 3).s, num(reference / spacing, 3).s);
-        else if (r->row_count > 0)
-            fprintf(f, ": %s grid cells and %s points across a particle's diameter",
-                    span(num(t.d_min / grid, 2), num(t.d_max / grid, 2)).s,
-                    span(num(t.d_min / spacing, 2), num(t.d_max / spacing, 2)).s);
-        if (r->points_max >= r->points_min)
-            fprintf(f, "; %s material points per run", span(given(r->points_min), given(r->points_max)).s);
-        calibration_sentence(f, c);
-        if (r->uncalibrated > 0) /* mpm_bonding_calibrated_resolution */
-            fprintf(f,
-                    "; <b>%lld of the %zu particles ran at another resolution: their verdicts below are not "
-                    "calibrated</b>",
-                    (long long)r->uncalibrated, r->row_count);
-        fprintf(f, ".</li>\n");
-    }
+    couple_headline(f, c, r);
+    resolution_headline(f, c, r, &t);
     vcrit_headline(f, req);
     sweep_headline(f, req);
     fprintf(f, "</ul>\n");
-    const struct render_figure *profile = render_output_find(out, "spray_thickness");
-    if (profile) {
-        fprintf(f, "<figure><img src=\"figures/%s.png\" alt=\"", profile->name);
-        escaped(f, profile->title);
-        fprintf(f,
-                "\"><figcaption>Coating thickness vs radius from the spray axis: the volume of the deposited "
-                "particles whose centres lie in each annulus, divided by the annulus area, i.e. the thickness "
-                "of a fully dense layer (a coating of packing fraction &phi; is 1/&phi; thicker). "
-                "(<a href=\"figures/%s.svg\">SVG</a>)</figcaption></figure>\n",
-                profile->name);
-    }
+    profile_under_headline(f, out);
     fprintf(f, "</section>\n");
 }
 
