@@ -153,6 +153,15 @@ static int occurrences(const char *text, const char *needle)
     return count;
 }
 
+/* An empty case ("[run]") written to a fixture folder (its name into dir) and loaded; NULL (checked) on failure. */
+static struct case_file *empty_case_in(char dir[64])
+{
+    CHECK(case_fixture_write(dir, "[run]\n", NULL, NULL, NULL, NULL) == 0, "cannot write the case");
+    struct case_file *c = NULL;
+    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    return c;
+}
+
 /* An app-level failure (issue 24): couple.h5 of this case whose /seeds lacks the centres /seeds/x.  The impact
  * stage's read of the seeds fails; afterwards no HDF5 object of any file is open (the file and /seeds closed on
  * the failure path), nothing of the bodies is kept, and the traceback has the frame of couple_stage_read_bodies
@@ -160,9 +169,7 @@ static int occurrences(const char *text, const char *needle)
 static void test_failed_seed_read_closes_couple_h5(void)
 {
     char dir[64];
-    CHECK(case_fixture_write(dir, "[run]\n", NULL, NULL, NULL, NULL) == 0, "cannot write the case");
-    struct case_file *c = NULL;
-    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    struct case_file *c = empty_case_in(dir);
     if (!c)
         return;
     struct stage_context ctx = {.c = c, .run_dir = dir, .impact_from_seeds = 1};
@@ -236,9 +243,7 @@ done:
 static void test_couple_refuses_spray_without_temperature(void)
 {
     char dir[64];
-    CHECK(case_fixture_write(dir, "[run]\n", NULL, NULL, NULL, NULL) == 0, "cannot write the case");
-    struct case_file *c = NULL;
-    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    struct case_file *c = empty_case_in(dir);
     if (!c)
         return;
     const struct stage_context ctx = {.c = c, .run_dir = dir};
