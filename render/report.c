@@ -1009,7 +1009,7 @@ static void vcrit_search_notes(FILE *f, hid_t file)
     sc_error_clear();
 }
 
-static void vcrit_results(FILE *f, hid_t file)
+static void vcrit_results(FILE *f, const struct case_file *c, hid_t file)
 {
     static const char *const names[] = {"diameter", "v_crit", "pbcp", "v_rest", "temperature"};
     struct render_array a[5];
@@ -1033,6 +1033,15 @@ static void vcrit_results(FILE *f, hid_t file)
         fprintf(f, "</tr>\n");
     }
     fprintf(f, "</table>\n");
+    /* the digits beyond the search's resolution are not v_crit's (app/vcrit_stage.c) */
+    if (case_is(c, "vcrit", "method", "logistic"))
+        fprintf(f, "<p>v_crit: the speed of a logistic fit's 50 %% bonding probability (<code>[vcrit] method = "
+                   "logistic</code>; its standard error per row in vcrit.csv, v_crit_se).</p>\n");
+    else
+        fprintf(f,
+                "<p>v_crit: the upper end of a bracket at most %s m/s wide (<code>[vcrit] tolerance</code>, "
+                "bisection): the digits below that are not significant.</p>\n",
+                given(case_real(c, "vcrit", "tolerance")).s);
     vcrit_search_notes(f, file);
     for (int k = 0; k < 5; k++)
         render_array_free(&a[k]);
@@ -1089,7 +1098,7 @@ static void results(FILE *f, const struct render_request *req, const struct repo
     spray_table(f, r);
     hid_t file;
     if (open_output(req, "vcrit.h5", &file))
-        vcrit_results(f, file), H5Fclose(file);
+        vcrit_results(f, req->c, file), H5Fclose(file);
     if (open_output(req, "sweep.h5", &file))
         sweep_results(f, file), H5Fclose(file);
 }

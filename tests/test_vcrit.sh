@@ -452,6 +452,7 @@ if "$BIN" vcrit "$T/hot.ini" -o "$T/hot" >"$T/hot.log" 2>&1 && "$BIN" render "$T
     [ "$(grep -c '<li>d = [0-9.]* µm, T = 850 K: not bracketed' "$T/hot/report.html")" -eq 2 ] ||
         why="$why the pairs at 850 K not named as not bracketed;"
     grep -q '<b>Critical velocity: 2 of 4 searches bracketed a v_crit</b>' "$T/hot/report.html" || why="$why no headline;"
+    grep -q 'v_crit: the upper end of a bracket at most 200 m/s wide' "$T/hot/report.html" || why="$why no resolution of v_crit;"
 else
     why="the search or its render failed: $(tail -n 2 "$T/hot.log" "$T/hot_render.log" | tr '\n' ' ')"
 fi
