@@ -200,6 +200,50 @@ static void phi_step(const struct dem_config *cfg, double d, double m, double h,
     count_solve(count, iteration, converged);
 }
 
+/* k phi-steps of h/k from (x, v), the first from force_start, each next one from the force where the last
+ * ended (kept where its iteration converged, else computed); *end as the last one left it. */
+static void phi_substeps(const struct dem_config *cfg, double d, double m, double h, int64_t k,
+                         const double force_start[3], double x[3], double v[3], struct iteration_count *count,
+                         struct step_end *end)
+{
+    double force[3], slip, power;
+    memcpy(force, force_start, sizeof force);
+    for (int64_t j = 0; j < k; j++) {
+        if (j > 0 && end->force_known)
+            memcpy(force, end->force, sizeof force);
+        else if (j > 0)
+            drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
+        phi_step(cfg, d, m, h / (double)k, force, x, v, count, end);
+    }
+}
+
+/* The most sub-steps that a step whose fixed point did not converge is redone in (phi_redo_in_substeps). */
+#define REDO_MOST_SUBSTEPS 16
+
+/* A step of dt whose fixed-point iteration did not converge is redone from its start, problem's (x0, v0) with
+ * force_start, in 2, 4, 8 and at most REDO_MOST_SUBSTEPS phi-steps, until every one converges.  The drag is
+ * discontinuous across the bow shock's plane (the layer's density below it: docs/physics.md "The bow shock at
+ * the target"): when the step's end lies within about phi h^2 |dF| / m of the plane, an iterate that ends above it
+ * takes the drag of the free jet and sends the next below, which takes the layer's and sends the next above, and
+ * the iteration cycles between the two, with no fixed point to find.  The band shrinks as h^2 and the chance that
+ * a sub-step ends in it as h.  Returns whether the last try converged in every sub-step ((x, v) and *end are that
+ * try's); its sub-steps' iterations are counted, not their solves: the step is one solve. */
+static int phi_redo_in_substeps(const struct dem_config *cfg, double m, const struct phi_problem *problem,
+                                const double force_start[3], double x[3], double v[3], struct iteration_count *count,
+                                struct step_end *end)
+{
+    int converged = 0;
+    for (int64_t k = 2; k <= REDO_MOST_SUBSTEPS && !converged; k *= 2) {
+        struct iteration_count part = {0};
+        memcpy(x, problem->x0, sizeof problem->x0);
+        memcpy(v, problem->v0, sizeof problem->v0);
+        phi_substeps(cfg, problem->d, m, cfg->dt, k, force_start, x, v, &part, end);
+        count->iterations += part.iterations;
+        converged = part.unconverged == 0;
+    }
+    return converged;
+}
+
 /* Sub-steps for a particle of response time tau: dt/k <= tau/2. */
 static int64_t substeps_for(const struct dem_config *cfg, double tau)
 {
@@ -214,18 +258,8 @@ static int64_t substeps_for(const struct dem_config *cfg, double tau)
 static void integrate_subcycled(const struct dem_config *cfg, double d, double m, double tau,
                                 const double force_start[3], double x[3], double v[3], struct iteration_count *count)
 {
-    int64_t substeps = substeps_for(cfg, tau);
-    double h = cfg->dt / (double)substeps;
-    struct step_end end = {.force_known = 1};
-    memcpy(end.force, force_start, sizeof end.force);
-    for (int64_t k = 0; k < substeps; k++) {
-        double force[3], slip, power;
-        if (end.force_known)
-            memcpy(force, end.force, sizeof force);
-        else
-            drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
-        phi_step(cfg, d, m, h, force, x, v, count, &end);
-    }
+    struct step_end end;
+    phi_substeps(cfg, d, m, cfg->dt, substeps_for(cfg, tau), force_start, x, v, count, &end);
     count->subcycled++;
 }
 
@@ -260,13 +294,7 @@ static void integrate_rest_of_step(const struct dem_solver *s, struct dem_partic
         drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
         int64_t substeps = substeps_over(
             h, gas_eval_response_time_in(&cfg->gas, gas_eval_local(&cfg->gas, x), cfg->powder.density, d, slip, power));
-        for (int64_t k = 0; k < substeps; k++) {
-            if (k > 0 && end.force_known)
-                memcpy(force, end.force, sizeof force);
-            else if (k > 0)
-                drag_and_slip(&cfg->gas, d, x, v, force, &slip, &power);
-            phi_step(cfg, d, m, h / (double)substeps, force, x, v, count, &end);
-        }
+        phi_substeps(cfg, d, m, h, substeps, force, x, v, count, &end);
         count->subcycled += substeps > 1;
     }
     struct dem_drag *drag = &p->drag;
@@ -402,6 +430,8 @@ static void integrate_particle_reference(const struct dem_config *cfg, struct de
         int64_t iteration = 1;
         if (!converged)
             converged = phi_iterate_to_convergence(cfg, &problem, x, v, &iteration, &end);
+        if (!converged)
+            converged = phi_redo_in_substeps(cfg, m, &problem, force_start, x, v, count, &end);
         count_solve(count, iteration, converged);
     }
     /* 5. the end state and the drag kept for the next step */
@@ -841,6 +871,27 @@ static void block_finish_lanes(const struct dem_config *cfg, struct block *b, st
     }
 }
 
+/* The lanes of a step of dt whose iteration did not converge, redone in sub-steps as the reference does
+ * (phi_redo_in_substeps), from the block's start state. */
+static void block_redo_unconverged(const struct dem_config *cfg, struct block *b, struct iteration_count *count)
+{
+    for (int l = 0; l < (int)b->count; l++) {
+        if (!(b->tau[l] >= 2.0 * cfg->dt) || b->converged[l])
+            continue;
+        struct phi_problem problem = lane_problem(b, l);
+        struct step_end end = {.force_known = 0};
+        double x[3], v[3], force_start[3];
+        lane_get(b->force_start, l, force_start);
+        b->converged[l] = (uint8_t)phi_redo_in_substeps(cfg, b->m[l], &problem, force_start, x, v, count, &end);
+        lane_put(b->x, l, x);
+        lane_put(b->v, l, v);
+        b->force_known[l] = (uint8_t)end.force_known;
+        lane_put(b->end_force, l, end.force);
+        b->end_slip[l] = end.slip;
+        b->end_reynolds_power[l] = end.reynolds_power;
+    }
+}
+
 /* The iteration counts of the block's lanes that did not need sub-steps (those count their own solves), as
  * sums over the lanes. */
 static void block_count(const struct dem_config *cfg, const struct block *restrict b, struct iteration_count *count)
@@ -1017,6 +1068,7 @@ static int integrate_block(const struct dem_config *cfg, struct dem_particles *p
     while (active > BLOCK_MIN_ACTIVE)
         active = block_iterate(cfg, b);
     block_finish_lanes(cfg, b, count);
+    block_redo_unconverged(cfg, b, count);
     block_count(cfg, b, count);
     return block_store(p, b);
 }
