@@ -416,6 +416,32 @@ static void adhesion_slowed_rebound(struct sphere_state *sphere, const double n[
         sphere->v[k] += (slowed - normal) * n[k];
 }
 
+/* Particle i's velocity where it meets an immovable body.  Its path, straight at the velocity it started with,
+ * touches the body at `at`, at x_hit, with normal n (towards the body); the drag has slowed it since the path
+ * started, so it is still short of x_hit there.  It flies on under the drag (dem_fly_under_drag) from the path's
+ * start to `at`, then on by the distance left along n over its approach speed, twice more: the velocity where the
+ * drag's path meets the body.  With the path's velocity instead (the velocity at the start of the step), the impact
+ * missed the drag of the part of the step before it: 16 % too fast for a 3 um particle crossing the demo's bow
+ * shock layer at dt = 1 us, and the demo's deposition efficiency 0.0400 against 0.0298 at dt -> 0 (a review).
+ * The contact keeps its time and place (`at`, x_hit): only the velocity changes. */
+static void velocity_at_contact(const struct dem_solver *s, uint32_t i, double at, const double x_hit[3],
+                                const double n[3], double v[3])
+{
+    const struct dem_particles *p = &s->p;
+    double x[3], h = at - path_start_time(s, i);
+    memcpy(x, path_origin(s, i), sizeof x);
+    memcpy(v, p->v + 3 * i, 3 * sizeof *v);
+    for (int pass = 0; pass < 3 && h > 0.0; pass++) {
+        dem_fly_under_drag(&s->cfg, p->d[i], p->m[i], h, x, v);
+        double left = 0.0, approach = 0.0;
+        for (int k = 0; k < 3; k++) {
+            left += (x_hit[k] - x[k]) * n[k];
+            approach += v[k] * n[k];
+        }
+        h = approach > 0.0 && left > 0.0 ? fmin(left / approach, s->cfg.dt) : 0.0;
+    }
+}
+
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
 static void resolve_fixed(struct dem_solver *s, const struct changed_list *changed, uint32_t i, int64_t partner)
 {
@@ -429,7 +455,9 @@ static void resolve_fixed(struct dem_solver *s, const struct changed_list *chang
     obstacle_normal(p, partner, x_hit, n);
     double obstacle_radius = partner < 0 ? INFINITY : 0.5 * p->d[partner];
     const struct dem_material *obstacle = partner < 0 ? &cfg->target : &cfg->powder;
-    struct sphere_state sphere = sphere_of(p, i, &cfg->powder), before = sphere;
+    struct sphere_state sphere = sphere_of(p, i, &cfg->powder);
+    velocity_at_contact(s, i, at, x_hit, n, sphere.v);
+    struct sphere_state before = sphere;
     struct contact_outcome outcome;
     if (!dem_contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
         return;

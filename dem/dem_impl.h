@@ -295,6 +295,10 @@ static inline double dem_skin_from_force(const struct dem_config *cfg, const dou
  * velocity. */
 void dem_drag_skins(struct dem_solver *s);
 void dem_drag_skin_after_contact(struct dem_solver *s, uint32_t i, const double x[3]);
+/* (x, v) of a particle of diameter d and mass m advanced by h under the drag alone (the phi-scheme of the rest of
+ * a step, dem/integrate.c; nothing counted or kept): where its contact within the step meets it (dem/collide.c,
+ * velocity_at_contact). */
+void dem_fly_under_drag(const struct dem_config *cfg, double d, double m, double h, double x[3], double v[3]);
 
 /* dem/integrate.c: advance the free particles over one step with the phi-scheme; end the contacts of the
  * step's moving particles (dem_contacts_end_step) and list those at a boundary (s->at_boundary). */
