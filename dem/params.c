@@ -711,43 +711,45 @@ static void map_jet(const struct case_file *c, const struct dem_nozzle *n, struc
         gas->gas_sutherland = n->properties.sutherland;
 }
 
-/* The injection disc of radius nozzle_radius (`key` names the key that gave it, for the messages): it holds the
- * particles, reaches no farther than the domain, and can hold a batch of feed_count particles side by side.  Placed
- * at random, discs cover at most 0.547 of a plane (the random sequential adsorption limit: Feder 1980, J. Theor.
- * Biol. 87:237; Hinrichsen, Feder & Jossang 1986, J. Stat. Phys. 44:793), so a batch of more particles of the
- * median diameter than that mostly cannot be placed: each then takes 1000 failed attempts (it took minutes in step
- * 0, where no signal is looked at). */
-static int check_disc(const struct case_file *c, const struct dem_config *cfg, const char *section, const char *key)
+/* The injection disc of radius nozzle_radius, the one the spray uses: [spray] nozzle_radius, or with [nozzle] and
+ * nozzle_radius not given the exit's (from_exit; the messages name the key that gave it).  It holds the particles,
+ * reaches no farther than the domain, and can hold a batch of feed_count particles side by side.  Placed at random,
+ * discs cover at most 0.547 of a plane (the random sequential adsorption limit: Feder 1980, J. Theor. Biol. 87:237;
+ * Hinrichsen, Feder & Jossang 1986, J. Stat. Phys. 44:793), so a batch of more particles of the median diameter
+ * than that mostly cannot be placed: each then takes 1000 failed attempts (it took minutes in step 0, where no
+ * signal is looked at). */
+static int check_disc(const struct case_file *c, const struct dem_config *cfg, int from_exit)
 {
+    const char *section = from_exit ? "nozzle" : "spray", *key = from_exit ? "exit_diameter" : "nozzle_radius";
+    const char *source = from_exit ? "[nozzle] exit_diameter / 2" : "[spray] nozzle_radius";
     double d_smallest = cfg->sizes.monodisperse ? cfg->sizes.median_diameter : cfg->sizes.d_min;
     if (d_smallest >= 2 * cfg->nozzle_radius)
         return case_invalid(c, section, key, "the nozzle disc (radius %g m) is smaller than the particles",
                             cfg->nozzle_radius);
     if (cfg->domain_radius <= cfg->nozzle_radius)
-        return case_invalid(c, "spray", "domain_radius", "not larger than the nozzle disc's radius %g m",
-                            cfg->nozzle_radius);
+        return case_invalid(c, "spray", "domain_radius",
+                            "not larger than the nozzle disc's radius %g m (%s); allowed: above %g m",
+                            cfg->nozzle_radius, source, cfg->nozzle_radius);
     double typical = cfg->sizes.median_diameter, usable = cfg->nozzle_radius - 0.5 * d_smallest;
     double capacity = floor(0.547 * usable * usable / (0.25 * typical * typical));
     if ((double)cfg->feed_count > capacity)
         return case_invalid(c, "spray", "feed_count",
                             "%lld particles of the median diameter %g m do not fit side by side in the nozzle disc of "
-                            "radius %g m; allowed: at most %.0f (random packing covers 0.547 of the disc), or a "
+                            "radius %g m (%s); allowed: at most %.0f (random packing covers 0.547 of the disc), or a "
                             "larger disc",
-                            (long long)cfg->feed_count, typical, cfg->nozzle_radius, capacity);
+                            (long long)cfg->feed_count, typical, cfg->nozzle_radius, source, capacity);
     return SC_OK;
 }
 
 /* With [nozzle] the release speeds come from its table (release_speed_min/max are not used) and the injection disc
  * is the nozzle's exit unless [spray] nozzle_radius is given. */
-static int nozzle_release(const struct case_file *c, struct dem_config *cfg)
+static void nozzle_release(const struct case_file *c, struct dem_config *cfg)
 {
     if (case_is_given(c, "spray", "release_speed_min") || case_is_given(c, "spray", "release_speed_max"))
         log_warn("[spray] release_speed_min/max are not used with [nozzle]: each particle leaves at the nozzle's "
                  "exit speed of its diameter");
-    if (case_is_given(c, "spray", "nozzle_radius") || cfg->injection != DEM_INJECT_STREAM)
-        return SC_OK;
-    cfg->nozzle_radius = 0.5 * cfg->nozzle->exit_diameter;
-    return check_disc(c, cfg, "nozzle", "exit_diameter");
+    if (!case_is_given(c, "spray", "nozzle_radius") && cfg->injection == DEM_INJECT_STREAM)
+        cfg->nozzle_radius = 0.5 * cfg->nozzle->exit_diameter;
 }
 
 static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
@@ -807,7 +809,8 @@ static int load_nozzle(const struct case_file *c, struct dem_config *cfg)
     map_jet(c, n, &cfg->gas);
     dem_gas_set_wall(&cfg->gas, cfg->standoff);
     SC_TRY(check_jet(c, &cfg->gas));
-    return nozzle_release(c, cfg);
+    nozzle_release(c, cfg);
+    return SC_OK;
 }
 
 /* [path] waypoints: t ascending (strictly) from 0. */
@@ -889,13 +892,13 @@ static int load_all(const struct case_file *c, struct dem_config *cfg)
     SC_TRY(load_target(c, cfg));
     load_contact_and_jet(c, cfg);
     SC_TRY(check_jet(c, &cfg->gas));
-    if (cfg->injection == DEM_INJECT_STREAM) {
-        SC_TRY(check_disc(c, cfg, "spray", "nozzle_radius"));
-    } else {
+    if (cfg->injection == DEM_INJECT_FILE)
         SC_TRY(load_particles_file(c, cfg));
-    }
     SC_TRY(load_deposition(c, cfg));
     SC_TRY(load_nozzle(c, cfg));
+    /* the disc the spray injects over: with [nozzle] and no nozzle_radius the exit's (load_nozzle set it) */
+    if (cfg->injection == DEM_INJECT_STREAM)
+        SC_TRY(check_disc(c, cfg, cfg->nozzle && !case_is_given(c, "spray", "nozzle_radius")));
     SC_TRY(load_path(c, cfg));
     return SC_OK;
 }

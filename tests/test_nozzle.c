@@ -227,6 +227,48 @@ static void test_spray_release(void)
     fixture_close(&f);
 }
 
+/* nozzle_case with one line replaced (a line "key = value\n" of it; "" removes it). */
+static void nozzle_case_with(char *out, size_t size, const char *line, const char *replacement)
+{
+    const char *at = strstr(nozzle_case, line);
+    snprintf(out, size, "%.*s%s%s", (int)(at - nozzle_case), nozzle_case, replacement, at + strlen(line));
+}
+
+/* With [nozzle] and no nozzle_radius the spray injects over the exit (radius 3.15 mm), and the checks of the disc
+ * are those of that disc: a domain of 8 mm holds it (it was refused against the default 10 mm disc), one of 3 mm
+ * does not, and the message names the key, its value and the range allowed. */
+static void test_exit_disc(void)
+{
+    char ini[2048], inner[2048];
+    nozzle_case_with(ini, sizeof ini, "nozzle_radius = 0.00315\ndomain_radius = 0.02\n", "domain_radius = 0.008\n");
+    struct fixture f;
+    if (fixture_open(&f, ini, NULL) != SC_OK) {
+        CHECK(0, "the case with an 8 mm domain loads: %s", sc_error_message());
+    } else {
+        CHECK_CLOSE(f.cfg.nozzle_radius, 0.00315, 1e-15, 0, "the injection disc is the exit's");
+        fixture_close(&f);
+    }
+    nozzle_case_with(inner, sizeof inner, "nozzle_radius = 0.00315\ndomain_radius = 0.02\n", "domain_radius = 0.003\n");
+    char dir[64];
+    struct case_file *c = NULL;
+    struct dem_config cfg;
+    CHECK(case_fixture_write(dir, inner, NULL, NULL, NULL, NULL) == 0, "fixture written");
+    int status = case_fixture_load(dir, spraycoat_registry, &c);
+    CHECK(status == SC_OK, "case read: %s", sc_error_message());
+    if (status == SC_OK) {
+        status = dem_config_load(c, &cfg);
+        const char *message = sc_error_message();
+        CHECK(status == SC_EINPUT, "a 3 mm domain inside the 3.15 mm exit is refused (status %d)", status);
+        CHECK(strstr(message, "[spray] domain_radius = 0.003:") && strstr(message, "0.00315 m") &&
+                  strstr(message, "[nozzle] exit_diameter") && strstr(message, "allowed: above 0.00315 m"),
+              "the message names the key, the value, the exit and the range: %s", message);
+        if (status == SC_OK)
+            dem_config_free(&cfg);
+    }
+    case_free(c);
+    case_fixture_remove(dir);
+}
+
 /* The jet mapped from the exit state (dem/params.c map_jet): over its potential core it has the nozzle's width (the
  * free jet's axial speed half the axis's at the exit radius, the axis's the exit velocity), and the bow shock before
  * a target inside the core stands Lobb's 0.82 R_e rho1/rho2 ahead of it, R_e the exit radius. */
@@ -280,5 +322,6 @@ int main(void)
     RUN(test_shock_inside);
     RUN(test_spray_release);
     RUN(test_jet_from_exit);
+    RUN(test_exit_disc);
     return check_finish();
 }
