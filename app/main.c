@@ -258,6 +258,7 @@ static void print_nozzle_jet(const struct case_file *c, const struct dem_config 
         {"jet", "gas_temperature", g->gas_temperature, "K"},
         {"jet", "gas_gamma", g->gas_gamma, "-"},
         {"jet", "gas_constant", g->gas_constant, "J/(kg K)"},
+        {"jet", "gas_sutherland", g->gas_sutherland, "K"},
         {"spray", "nozzle_radius", cfg->nozzle_radius, "m"},
     };
     printf("with [nozzle], from its exit state (the defaults listed above are not used):\n");

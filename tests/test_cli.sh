@@ -125,12 +125,15 @@ report csv_cr_line_ends_named
 
 # `check` of a [nozzle] case lists the jet's keys with their defaults, which the run does not use: it then gives the
 # values the nozzle's exit state sets (C1 = u_e (x_core)^(1/3): 1046 m/s over the 166 mm of core and virtual
-# origin of the Al6061 case's nozzle, docs/nozzle.md, is 575 m^(4/3)/s)
+# origin of the Al6061 case's nozzle, docs/nozzle.md, is 575 m^(4/3)/s; the gas's Sutherland constant N2's 107 K)
 why=""
 "$bin" check cases/al6061_n2.ini >"$T/nozzle_check.out" 2>/dev/null || why="check exited $?"
 grep -q '^with \[nozzle\], from its exit state' "$T/nozzle_check.out" || why="${why:+$why; }no values from the nozzle listed"
 c1=$(sed -n 's/^  \[jet\] C1 *= \([0-9.e+-]*\) .*/\1/p' "$T/nozzle_check.out")
 awk -v c="${c1:-0}" 'BEGIN { exit !(c > 569 && c < 581) }' || why="${why:+$why; }C1 from the nozzle '$c1', not about 575"
+# the run takes N2's Sutherland constant, 107 K (dem/params.c map_jet), not the listed default of 111 K (air's)
+grep -q '^  \[jet\] gas_sutherland *= 107 K$' "$T/nozzle_check.out" ||
+    why="${why:+$why; }no '[jet] gas_sutherland = 107 K' from the nozzle's N2"
 "$bin" check tests/bad_cases/valid_base.ini 2>/dev/null | grep -q '^with \[nozzle\], from' && why="${why:+$why; }a case without [nozzle] lists them"
 report check_lists_the_nozzle_jet
 
