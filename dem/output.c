@@ -306,7 +306,9 @@ done:
     return status;
 }
 
-static int write_nozzle(hid_t file, const struct dem_nozzle *n)
+/* injection_radius: the disc the particles were injected over (the exit's unless [spray] nozzle_radius was given,
+ * dem/params.c nozzle_release): the case text records only the key's default, the figures draw this. */
+static int write_nozzle(hid_t file, const struct dem_nozzle *n, double injection_radius)
 {
     hid_t g;
     SC_TRY(h5_create_group(file, "nozzle", &g));
@@ -322,6 +324,8 @@ static int write_nozzle(hid_t file, const struct dem_nozzle *n)
     SC_CHECK(status, h5_attr_write_double(g, "exit_temperature", n->exit.temperature), done);
     SC_CHECK(status, h5_attr_write_double(g, "exit_density", n->exit.density), done);
     SC_CHECK(status, h5_attr_write_double(g, "exit_velocity", n->exit.velocity), done);
+    SC_CHECK(status, h5_attr_write_double(g, "exit_diameter", n->exit_diameter), done);
+    SC_CHECK(status, h5_attr_write_double(g, "injection_radius", injection_radius), done);
     SC_CHECK(status, write_nozzle_profile(g, n), done);
     SC_CHECK(status, write_nozzle_particles(g, n), done);
 done:
@@ -332,7 +336,7 @@ done:
 int dem_write_output(const struct dem_solver *s, hid_t file)
 {
     if (s->cfg.nozzle)
-        SC_TRY(write_nozzle(file, s->cfg.nozzle));
+        SC_TRY(write_nozzle(file, s->cfg.nozzle, s->cfg.nozzle_radius));
     SC_TRY(write_particles(file, s, 0));
     SC_TRY(write_impacts(file, s));
     SC_TRY(write_handoffs(file, s));

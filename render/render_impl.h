@@ -113,6 +113,11 @@ int render_thickness_profile(const double *x, const double *d, const double *sta
 /* spray.h5 /deposit (open as `file`, named `path` in messages): the height map picture and, for a line or raster
  * path, the track's profile with its fit (render/deposit_figures.c); nothing for a fixed nozzle (pattern none). */
 int render_deposit_figures(const struct render_request *req, hid_t file, const char *path, struct render_output *out);
+/* The radius of the disc the spray of the open spray.h5 (`path` in messages) injected over, the figures' nozzle
+ * exit: /nozzle's attribute injection_radius (with [nozzle] the exit's unless [spray] nozzle_radius was given: the
+ * case text then holds the key's default, not the disc), else the case's nozzle_radius (a run without [nozzle], or
+ * a spray.h5 written before the attribute). */
+int render_injection_radius(hid_t file, const char *path, const struct case_file *c, double *radius);
 /* 1 when the open spray.h5 is of a nozzle that moved ([path] pattern other than none: /deposit's attribute). */
 int render_nozzle_moves(hid_t file);
 /* The k-th (from 0) of a comma-separated list of labels (sweep.h5 x_labels), or k + 1 beyond its end. */

@@ -19,6 +19,7 @@ struct spray_data {
     struct render_array t, deposit_fraction, volume_fraction, spread, scatter, thickness; /* /metrics */
     struct render_array id;
     struct render_array escaped_d; /* /escapes/d: the particles that left the domain (empty if none) */
+    double injection_radius;       /* render_injection_radius */
 };
 
 static void spray_data_free(struct spray_data *s)
@@ -43,6 +44,20 @@ static void spray_data_free(struct spray_data *s)
                                   &s->escaped_d};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         render_array_free(all[i]);
+}
+
+int render_injection_radius(hid_t file, const char *path, const struct case_file *c, double *radius)
+{
+    *radius = case_real(c, "spray", "nozzle_radius");
+    if (!h5_exists(file, "nozzle"))
+        return SC_OK;
+    hid_t g = H5Gopen2(file, "nozzle", H5P_DEFAULT);
+    if (g < 0)
+        SC_FAIL(SC_EIO, "render: %s: cannot open /nozzle", path);
+    int status = H5Aexists(g, "injection_radius") > 0 ? h5_attr_read_double(g, "injection_radius", radius) : SC_OK;
+    H5Gclose(g);
+    SC_TRY(status);
+    return SC_OK;
 }
 
 static int spray_data_read(hid_t f, struct spray_data *s)
@@ -405,15 +420,15 @@ static int draw_scene(const struct render_request *req, struct render_renderer *
     return SC_OK;
 }
 
-/* The nozzle exit (radius R, at z = 0) and the target plane (z = standoff) of the case, for the guides. */
+/* The nozzle exit (radius R, at z = 0: the disc the spray injected over) and the target plane (z = standoff) of
+ * the case, for the guides. */
 struct spray_geometry {
     double nozzle_radius, standoff;
 };
 
-static struct spray_geometry spray_geometry(const struct render_request *req)
+static struct spray_geometry spray_geometry(const struct render_request *req, const struct spray_data *s)
 {
-    return (struct spray_geometry){case_real(req->c, "spray", "nozzle_radius"),
-                                   case_real(req->c, "target", "standoff")};
+    return (struct spray_geometry){s->injection_radius, case_real(req->c, "target", "standoff")};
 }
 
 /* The deposit seen from the nozzle: deposited particles as spheres of their diameter on axes in mm, with the
@@ -435,7 +450,7 @@ static int deposit_picture(const struct render_request *req, struct render_rende
         radius[k] = 0.5 * s->d.values[i];
         value[k++] = req->cfg->deposit_by_speed ? speed_by_id[(size_t)s->id.values[i]] : s->d.values[i] * 1e6;
     }
-    struct spray_geometry geo = spray_geometry(req);
+    struct spray_geometry geo = spray_geometry(req, s);
     enum { SEGMENTS = 96 };
     double circle[3 * SEGMENTS], extent = geo.nozzle_radius;
     for (int i = 0; i < SEGMENTS; i++) {
@@ -524,7 +539,7 @@ struct plume_view {
 
 static void plume_view_init(const struct render_request *req, const struct spray_data *s, struct plume_view *pv)
 {
-    pv->geo = spray_geometry(req);
+    pv->geo = spray_geometry(req, s);
     double width = pv->geo.nozzle_radius, length = pv->geo.standoff;
     for (size_t i = 0; i < s->d.count; i++)
         width = fmax(width, fabs(s->x.values[3 * i]) + 0.5 * s->d.values[i]);
@@ -742,6 +757,8 @@ int render_spray_figures(const struct render_request *req, struct render_rendere
     hid_t file;
     SC_TRY(render_open(s.path, &file));
     int status = spray_data_read(file, &s);
+    if (status == SC_OK)
+        status = render_injection_radius(file, s.path, req->c, &s.injection_radius);
     if (status == SC_OK)
         status = render_deposit_figures(req, file, s.path, out);
     int moves = render_nozzle_moves(file);

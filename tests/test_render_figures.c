@@ -16,6 +16,7 @@
 #include "core/h5io.h"
 #include "app/app.h"
 #include "render/render.h"
+#include "render/render_impl.h"
 
 static const char ini[] =
     "[run]\nseed = 3\n"
@@ -391,6 +392,63 @@ static void test_every_figure_of_a_run(void)
     case_fixture_remove(f.dir);
 }
 
+/* With [nozzle] and no nozzle_radius the spray injects over the exit (6.3 mm across): spray.h5 /nozzle records that
+ * disc (injection_radius) and the exit's diameter, and the figures take the disc from there, not from the case's
+ * nozzle_radius (its default, 10 mm, is all the case text holds). */
+static void test_nozzle_exit_drawn(void)
+{
+    static const char nozzle_ini[] =
+        "[run]\nseed = 3\n"
+        "[spray]\ndt = 2e-7\nt_end = 1e-4\nfeed_count = 8\nfeed_every = 50\nmax_injected = 16\nrelease_cone = 1\n"
+        "domain_radius = 0.02\nhandoff_height = 0.003\nmetrics_every = 50\n"
+        "[powder]\ndistribution = weibull\nmedian_diameter = 30e-6\nshape = 4\nd_min = 15e-6\nd_max = 45e-6\n"
+        "density = 2700\nspecific_heat = 896\n"
+        "[target]\nstandoff = 0.04\n"
+        "[nozzle]\nstagnation_pressure = 6.55e6\nstagnation_temperature = 698.15\nthroat_diameter = 2e-3\n"
+        "exit_diameter = 6.3e-3\ninlet_diameter = 6e-3\nconvergent_length = 0.03\ndivergent_length = 0.14\n"
+        "[jet]\nmodel = bickley\n"
+        "[deposition]\nrule = adhesion\n"
+        "[render]\nwidth = 320\nheight = 200\nplot_width = 400\nplot_height = 250\n";
+    struct fixture f;
+    memset(&f, 0, sizeof f);
+    if (case_fixture_write(f.dir, nozzle_ini, NULL, NULL, NULL, NULL) != 0 ||
+        case_fixture_load(f.dir, spraycoat_registry, &f.c) != SC_OK || render_config_load(f.c, &f.cfg) != SC_OK ||
+        run_dir_prepare(f.dir, f.c) != SC_OK) {
+        CHECK(0, "fixture: %s", sc_error_message());
+        case_free(f.c);
+        case_fixture_remove(f.dir);
+        return;
+    }
+    const struct stage_context ctx = {.c = f.c, .run_dir = f.dir};
+    CHECK(spray_stage_run(&ctx) == SC_OK, "spray: %s", sc_error_message());
+    char path[256];
+    snprintf(path, sizeof path, "%s/spray.h5", f.dir);
+    hid_t file, group;
+    double exit_diameter = NAN, radius = NAN;
+    if (h5_open_read(path, &file) == SC_OK) {
+        if ((group = H5Gopen2(file, "nozzle", H5P_DEFAULT)) >= 0) {
+            h5_attr_read_double(group, "exit_diameter", &exit_diameter);
+            H5Gclose(group);
+        }
+        CHECK(render_injection_radius(file, path, f.c, &radius) == SC_OK, "read: %s", sc_error_message());
+        H5Fclose(file);
+    }
+    sc_error_clear();
+    CHECK(exit_diameter == 6.3e-3, "/nozzle exit_diameter %g m, expected 6.3e-3", exit_diameter);
+    CHECK(radius == 0.5 * 6.3e-3,
+          "the figures' nozzle exit: radius %g m, expected the exit's 0.00315 m (the case's "
+          "nozzle_radius, its default, is %g m)",
+          radius, case_real(f.c, "spray", "nozzle_radius"));
+    struct render_request req = {.run_dir = f.dir, .cfg = &f.cfg, .c = f.c};
+    struct render_output out;
+    CHECK(render_run_dir(&req, &out) == SC_OK && render_output_find(&out, "spray_deposit") &&
+              render_output_find(&out, "spray_plume"),
+          "render: %s", sc_error_message());
+    render_output_free(&out);
+    case_free(f.c);
+    case_fixture_remove(f.dir);
+}
+
 static void test_nothing_to_draw(void)
 {
     struct fixture f;
@@ -410,5 +468,6 @@ int main(void)
     h5_quiet();
     RUN(test_every_figure_of_a_run);
     RUN(test_nothing_to_draw);
+    RUN(test_nozzle_exit_drawn);
     return check_finish();
 }
