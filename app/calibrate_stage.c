@@ -80,7 +80,8 @@ const struct cfg_key calibrate_case_keys[] = {
      "used"},
     {"calibrate", "ridge", CFG_REAL, "-", "1e-3", 0, 1e6, 0, NULL,
      "ridge term lambda of the logistic fit in the scaled parameters (0: plain maximum likelihood, which has no "
-     "finite solution when the outcomes are separable, as a deterministic grid's often are)"},
+     "finite solution when the outcomes are separable, as a deterministic grid's often are; then lambda places the "
+     "boundary in the gap between grid points, and the outputs say so)"},
     {"calibrate", "outcome", CFG_CHOICE, "", "bonded", 0, 0, 0, "bonded|adhered",
      "each run is classified by this outcome (y = 1) or not; " VCRIT_OUTCOME_DOC},
     {"calibrate", "method", CFG_CHOICE, "", "boundaries", 0, 0, 0, "boundaries|vcrit",
@@ -123,7 +124,7 @@ struct calibrate_size {
     int fitted;
     double *boundary; /* first then second parameter: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
     size_t boundary_count;
-    char note[200]; /* "" when fitted */
+    char note[200]; /* "" when fitted to outcomes that overlap; else why not (also when separable and fitted) */
 };
 
 struct calibrate {
@@ -433,8 +434,16 @@ static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_s
         return SC_OK;
     }
     size->fitted = 1;
-    if (size->fit.separable)
-        snprintf(size->note, sizeof size->note, "outcomes separable: the fit ran away (set ridge > 0)");
+    /* separable outcomes (every one on its side of Z = 0): the boundary is not fitted but placed in the gap the
+     * outcomes leave, by the ridge term, or where a fit without one stopped */
+    if (size->fit.separable && k->ridge > 0)
+        snprintf(size->note, sizeof size->note,
+                 "outcomes separable: the boundary lies anywhere in the gap between grid points; placed by ridge = %g",
+                 k->ridge);
+    else if (size->fit.separable)
+        snprintf(size->note, sizeof size->note,
+                 "outcomes separable: the boundary lies anywhere in the gap between grid points; placed where the "
+                 "fit without a ridge term stopped running away (set ridge > 0)");
     return sample_boundary(k, size);
 }
 
@@ -613,8 +622,11 @@ static int write_size(const struct calibrate *k, hid_t parent, int index)
     SC_CHECK(status, h5_attr_write_int64(group, "unsettled", s->counts[VCRIT_UNSETTLED]), done);
     SC_CHECK(status, h5_attr_write_string(group, "result", s->note[0] ? s->note : "fitted"), done);
     if (s->fitted) {
+        /* separable outcomes have no standard errors: the penalised Hessian's measure the ridge term, not the data */
+        const double none[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
         SC_CHECK(status, h5_write_doubles(group, "theta", 1, six, s->fit.theta, "-", 0), done);
-        SC_CHECK(status, h5_write_doubles(group, "theta_se", 1, six, s->fit.se, "-", 0), done);
+        SC_CHECK(status, h5_write_doubles(group, "theta_se", 1, six, s->fit.separable ? none : s->fit.se, "-", 0),
+                 done);
         SC_CHECK(status, h5_attr_write_double(group, "cost", s->fit.cost), done);
         char name0[40], name1[40];
         snprintf(name0, sizeof name0, "boundary_%s", k->axes->name[0]);

@@ -162,6 +162,20 @@ static int standard_errors(const double *X, const int *y, size_t m, int p, doubl
     return SC_OK;
 }
 
+/* 1 when the sign of Z = X theta (Tang Eq. 4.12) gives every outcome: Z > 0 for each success, Z < 0 for each
+ * failure (an outcome at Z = 0 is on neither side). */
+static int separates(const double *X, const int *y, size_t m, int p, const double *theta)
+{
+    for (size_t i = 0; i < m; i++) {
+        double z = 0;
+        for (int j = 0; j < p; j++)
+            z += X[i * (size_t)p + (size_t)j] * theta[j];
+        if (!(y[i] ? z > 0 : z < 0))
+            return 0;
+    }
+    return 1;
+}
+
 int logistic_fit(const double *X, const int *y, size_t m, int p, double lambda, struct logistic_fit *fit)
 {
     memset(fit, 0, sizeof *fit);
@@ -186,8 +200,10 @@ int logistic_fit(const double *X, const int *y, size_t m, int p, double lambda, 
         }
     }
     penalised_cost(X, y, m, p, lambda, fit->theta, &fit->cost);
-    /* separated data: the likelihood tends to 1 while theta runs away; the Newton steps never shrink */
-    fit->separable = !fit->converged && fit->cost < 1e-6;
+    /* separated data: without a ridge term the likelihood tends to 1 while theta runs away; with one the fit
+     * converges, but its boundary may lie anywhere in the gap the outcomes leave, placed by lambda: either way the
+     * fit's own Z shows it */
+    fit->separable = separates(X, y, m, p, fit->theta);
     return standard_errors(X, y, m, p, lambda, fit);
 }
 

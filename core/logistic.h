@@ -3,8 +3,10 @@
  * rebounded (0) outcomes by minimising the cost of Eq. 4.13, whose gradient is Eq. 4.14.
  *
  * Deterministic outcomes on a parameter grid are often separable: the maximum-likelihood coefficients are then
- * infinite (the cost keeps falling as |theta| grows) although the boundary Z = 0 is well defined.  An optional
- * ridge term (lambda/2) |theta_2..n|^2 added to m J keeps them finite; lambda = 0 is the plain maximum likelihood. */
+ * infinite (the cost keeps falling as |theta| grows) and the boundary Z = 0 may lie anywhere in the gap between
+ * the two outcomes.  An optional ridge term (lambda/2) |theta_2..n|^2 added to m J keeps them finite and picks one
+ * boundary in that gap; lambda = 0 is the plain maximum likelihood.  The fit says when the outcomes are separable,
+ * whatever lambda (logistic_fit.separable). */
 #ifndef SPRAYCOAT_CORE_LOGISTIC_H
 #define SPRAYCOAT_CORE_LOGISTIC_H
 
@@ -24,7 +26,9 @@ struct logistic_fit {
     double covariance[LOGISTIC_MAX_TERMS * LOGISTIC_MAX_TERMS]; /* the inverse Hessian (p x p, row-major) */
     double cost;                                                /* J of Eq. 4.13 at theta (without the ridge term) */
     int iterations, converged; /* converged: the Newton step fell below 1e-10 (relative) */
-    int separable;             /* 1 when, without a ridge term, |theta| grew without bound */
+    int separable; /* 1 when the sign of Z at theta gives every outcome (Z > 0 for y = 1, Z < 0 for y = 0): the
+                    * outcomes are separable; without a ridge term |theta| grew without bound, with one the boundary
+                    * Z = 0 is one of many in the gap the outcomes leave, placed there by lambda */
 };
 
 /* Fit y[i] in {0, 1} (i < m) against the rows X[i p .. i p + p - 1] (p <= LOGISTIC_MAX_TERMS, the first column
