@@ -779,6 +779,12 @@ static int sweep_runs(struct vcrit_search *v, struct vcrit_result *result)
     return SC_OK;
 }
 
+/* A run's impact speed as its normal component, as the outputs give it (normal_components). */
+static double normal_speed(const struct vcrit_search *v, double speed)
+{
+    return v->angle == 0.0 ? speed : speed * cos(v->angle);
+}
+
 /* method = logistic: v_crit is the speed of 50 % success of the first-order logistic fit to every settled run of the
  * search (core/logistic.h; unsettled runs are left out, note_unsettled counts them); PBCP and v_rest are those of
  * the slowest success at or above it. */
@@ -799,11 +805,15 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
     SC_CHECK(status, logistic_threshold_fit(speeds, successes, m, result->v_bisection, v->sweep_step, &result->fit),
              done);
     result->v_crit = result->fit.x50;
-    double slowest_run = INFINITY, fastest_run = -INFINITY;
+    double slowest_run = INFINITY, fastest_run = -INFINITY, fastest_failure = -INFINITY, slowest_success = INFINITY;
     size_t settled_successes = 0;
     for (size_t k = 0; k < m; k++) {
         slowest_run = fmin(slowest_run, speeds[k]), fastest_run = fmax(fastest_run, speeds[k]);
         settled_successes += (size_t)successes[k];
+        if (successes[k])
+            slowest_success = fmin(slowest_success, speeds[k]);
+        else
+            fastest_failure = fmax(fastest_failure, speeds[k]);
     }
     /* every failure (or success) unsettled, so left out: no fit; the bisection counted them as failures */
     int one_sided = settled_successes == 0 || settled_successes == m;
@@ -825,7 +835,8 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
         }
     }
     size_t used = strlen(result->note);
-    int noted = strstr(result->note, "logistic") != NULL; /* a replayed search noted it the first time */
+    /* a replayed search noted it the first time */
+    int noted = strstr(result->note, "logistic") != NULL || strstr(result->note, "outcomes separable") != NULL;
     if (!noted && one_sided)
         snprintf(result->note + used, sizeof result->note - used,
                  "%sno logistic fit: no settled run %s (the unsettled are left out): v_crit is the bisection's",
@@ -837,7 +848,11 @@ static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *resu
         snprintf(result->note + used, sizeof result->note - used,
                  "%slogistic 50 %% point %.4g m/s beyond the speeds run (%g-%g m/s): v_crit is the bisection's",
                  used ? "; " : "", result->fit.x50, slowest_run, fastest_run);
-    else if (!noted && !result->fit.separable)
+    else if (!noted && result->fit.separable) /* no fit (core/logistic.h); the gap's speeds as the outputs give them */
+        snprintf(result->note + used, sizeof result->note - used,
+                 "%soutcomes separable: v_crit is the middle of the gap %.6g-%.6g m/s (no fit, no standard error)",
+                 used ? "; " : "", normal_speed(v, fastest_failure), normal_speed(v, slowest_success));
+    else if (!noted)
         snprintf(result->note + used, sizeof result->note - used,
                  "%snot monotone in speed: logistic 10-90 %% width %.3g m/s", used ? "; " : "", result->fit.width);
 done:
@@ -903,12 +918,6 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
 
 /* ---- outputs --------------------------------------------------------------------------------------------------- */
 
-/* A run's impact speed as its normal component, as the outputs give it (normal_components). */
-static double normal_speed(const struct vcrit_search *v, double speed)
-{
-    return v->angle == 0.0 ? speed : speed * cos(v->angle);
-}
-
 static int bracketed(const struct vcrit_result *r)
 {
     return isfinite(r->v_crit);
@@ -940,6 +949,12 @@ static int write_csv(const struct vcrit_search *v, const struct vcrit_result *re
             fputc('\n', out.stream);
         else
             fprintf(out.stream, "  %s\n", r->note);
+        /* a v_crit that is no fit's 50 % point but the middle of the gap says so beneath its row (a comment line:
+         * the table readers skip it; an unbracketed row's line starts with its diameter instead) */
+        if (v->logistic && bracketed(r) && r->fit.separable)
+            fprintf(out.stream, "# d = %s m%s%s%s: %s\n", exact(r->diameter, a, sizeof a),
+                    v->over_temperature ? ", T = " : "", v->over_temperature ? exact(r->temperature, t, sizeof t) : "",
+                    v->over_temperature ? " K" : "", r->note);
     }
     return atomic_publish(&out);
 }

@@ -1009,6 +1009,93 @@ static void vcrit_search_notes(FILE *f, hid_t file)
     sc_error_clear();
 }
 
+/* What a bracketed search of method = logistic (/search/NNN) gives as v_crit: a fit's 50 % point (its standard error
+ * finite), the middle of the gap between separable outcomes, or the bisection's (the note says why); -1 when it
+ * has no v_crit. */
+enum { VCRIT_FITTED, VCRIT_SEPARABLE, VCRIT_BISECTION, VCRIT_KINDS };
+static int vcrit_search_kind(hid_t group)
+{
+    double v = NAN, se = NAN;
+    char result[512] = "";
+    if (h5_attr_read_double(group, "v_crit", &v) != SC_OK || !isfinite(v))
+        return -1;
+    if (H5Aexists(group, "v_crit_se") > 0 && h5_attr_read_double(group, "v_crit_se", &se) == SC_OK && isfinite(se))
+        return VCRIT_FITTED;
+    h5_attr_read_string(group, "result", result, sizeof result);
+    return strstr(result, "outcomes separable") ? VCRIT_SEPARABLE : VCRIT_BISECTION;
+}
+
+/* The searches of one kind, "d = 8 µm, 10 µm" (with T where the search has one), or "every row" when all are. */
+static void vcrit_rows_of_kind(FILE *f, hid_t file, int kind, const int counts[VCRIT_KINDS])
+{
+    if (counts[kind] == counts[VCRIT_FITTED] + counts[VCRIT_SEPARABLE] + counts[VCRIT_BISECTION]) {
+        fprintf(f, "every row");
+        return;
+    }
+    int listed = 0;
+    for (int i = 0; i < 1000; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "search/%03d", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        double d = NAN, T = NAN;
+        if (group >= 0 && vcrit_search_kind(group) == kind && h5_attr_read_double(group, "diameter", &d) == SC_OK) {
+            fprintf(f, "%s%s µm", listed++ ? ", " : "d = ", num(d * 1e6, 3).s);
+            if (H5Aexists(group, "temperature") > 0 && h5_attr_read_double(group, "temperature", &T) == SC_OK)
+                fprintf(f, " at %s K", given(T).s);
+        }
+        if (group >= 0)
+            H5Gclose(group);
+    }
+}
+
+/* method = logistic: what v_crit is, row by row (the searches of vcrit.h5): a fit's 50 % point, with its standard
+ * error in vcrit.csv, or the middle of the gap where the outcomes are separable (no fit, no standard error; it
+ * called every row a fit), or the bisection's where the fit was set aside. */
+static void vcrit_logistic_resolution(FILE *f, const struct case_file *c, hid_t file)
+{
+    int counts[VCRIT_KINDS] = {0};
+    for (int i = 0; i < 1000; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "search/%03d", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        int kind = group >= 0 ? vcrit_search_kind(group) : -1;
+        if (kind >= 0)
+            counts[kind]++;
+        if (group >= 0)
+            H5Gclose(group);
+    }
+    sc_error_clear();
+    fprintf(f, "<p>v_crit (<code>[vcrit] method = logistic</code>): ");
+    int parts = 0;
+    for (int kind = 0; kind < VCRIT_KINDS; kind++) {
+        if (!counts[kind])
+            continue;
+        fprintf(f, "%s", parts++ ? "; " : "");
+        if (kind == VCRIT_FITTED)
+            fprintf(f, "the speed of a logistic fit's 50 %% bonding probability, its standard error in vcrit.csv "
+                       "(v_crit_se)");
+        else if (kind == VCRIT_SEPARABLE)
+            fprintf(f,
+                    "the middle of the gap between the fastest run that failed and the slowest that succeeded, where "
+                    "the outcomes are separable (no fit, no standard error: the gap in the notes below)");
+        else
+            fprintf(f,
+                    "the bisection's, the upper end of a bracket at most %s m/s wide (<code>[vcrit] tolerance</code>), "
+                    "the fit set aside as the notes below say",
+                    given(case_real(c, "vcrit", "tolerance")).s);
+        fprintf(f, ", for ");
+        vcrit_rows_of_kind(f, file, kind, counts);
+    }
+    if (!parts)
+        fprintf(f, "no row");
+    fprintf(f, ".</p>\n");
+    sc_error_clear();
+}
+
 static void vcrit_results(FILE *f, const struct case_file *c, hid_t file)
 {
     static const char *const names[] = {"diameter", "v_crit", "pbcp", "v_rest", "temperature"};
@@ -1035,8 +1122,7 @@ static void vcrit_results(FILE *f, const struct case_file *c, hid_t file)
     fprintf(f, "</table>\n");
     /* the digits beyond the search's resolution are not v_crit's (app/vcrit_stage.c) */
     if (case_is(c, "vcrit", "method", "logistic"))
-        fprintf(f, "<p>v_crit: the speed of a logistic fit's 50 %% bonding probability (<code>[vcrit] method = "
-                   "logistic</code>; its standard error per row in vcrit.csv, v_crit_se).</p>\n");
+        vcrit_logistic_resolution(f, c, file);
     else
         fprintf(f,
                 "<p>v_crit: the upper end of a bracket at most %s m/s wide (<code>[vcrit] tolerance</code>, "

@@ -194,9 +194,10 @@ validate_calibrate() {
     fi
 }
 
-# Succeeds when the v_crit column of a vcrit.csv falls with the diameter (an unbracketed '#' line fails).
+# Succeeds when the v_crit column of a vcrit.csv falls with the diameter (an unbracketed '#' line fails; a row's
+# note beneath it, "# d = D m: ...", does not).
 vcrit_falls() {
-    awk -F, 'NR > 1 && /^#/ { bad = 1 } NR > 1 && !/^#/ { if (n && $2 >= last) bad = 1; last = $2; n++ }
+    awk -F, 'NR > 1 && /^#/ && !/^# d = / { bad = 1 } NR > 1 && !/^#/ { if (n && $2 >= last) bad = 1; last = $2; n++ }
         END { exit bad || n < 2 }' "$1"
 }
 

@@ -6,8 +6,9 @@
 # a search whose bracket fails reports 'not bracketed'; the record of the runs is kept and a later search over one
 # of the diameters reuses it (runs nothing), one on another substrate does not; a CoR run recorded as bonded below
 # v_crit is reported as "not monotone"; outcome = adhered counts a held particle as a success; method = logistic
-# adds its sweep and gives the 50 % point of an independent logistic fit to the runs (the bisection's v_crit when that
-# point lies beyond every speed run); with reference_diameter a
+# adds its sweep and gives the 50 % point of an independent logistic fit to the runs (the middle of the gap where the
+# outcomes are separable, which vcrit.csv, vcrit.h5 and the report say; the bisection's v_crit when that point lies
+# beyond every speed run); with reference_diameter a
 # particle twice the size on a scaled set-up makes the same runs (rate-free material); a rigid substrate is
 # accepted by `check` and searched; a record of the runs that cannot be read stops the search before any run (exit
 # 3); after a search of another case fails writing vcrit.h5 (exit 3), the first case
@@ -254,9 +255,54 @@ compare() {
     awk -v g="$got" -v w="${want% *}" 'BEGIN { exit !(g != "" && (g - w) ^ 2 <= (1e-6 * w) ^ 2) }' ||
         echo "d = $1: v_crit $got, refit $want;"
 }
+# separable RUN: what vcrit.csv, vcrit.h5 and report.html of RUN (rendered) say wrongly of the rows whose outcomes are
+# separable (v_crit_se nan): such a row has the comment line "# d = D m: outcomes separable: v_crit is the middle of
+# the gap A-B m/s (no fit, no standard error)" beneath it, with (A + B) / 2 its v_crit, its /search/NNN result says
+# the same, and the report's sentence on v_crit names it among the separable rows (or says "every row"); a fitted
+# row has none of these and is named among the fits.  (Each separable row was a "logistic 50 % point" in the report,
+# "bracketed" in vcrit.h5, and vcrit.csv said nothing.)
+separable() {
+    i=0
+    while h5dump -a "/search/$(printf %03d $i)/result" "$1/vcrit.h5" >"$T/search.txt" 2>/dev/null; do
+        printf '%s\t%s\n' "$(h5dump -a "/search/$(printf %03d $i)/diameter" "$1/vcrit.h5" | sed -n 's/.*(0): //p')" \
+            "$(sed -n 's/.*(0): "\(.*\)"$/\1/p' "$T/search.txt")"
+        i=$((i + 1))
+    done >"$T/results.txt"
+    python3 - "$1/vcrit.csv" "$T/results.txt" "$1/report.html" <<'PY'
+import math, re, sys
+lines = open(sys.argv[1]).read().splitlines()
+col = {name: k for k, name in enumerate(lines[0].split(","))}
+rows = [l.split(",") for l in lines[1:] if not l.startswith("#")]
+notes = {float(m.group(1)): m.group(2) for m in (re.match(r"# d = (\S+) m: (.*)", l) for l in lines) if m}
+results = {float(d): r for d, r in (l.split("\t", 1) for l in open(sys.argv[2]).read().splitlines())}
+sentence = [l for l in open(sys.argv[3]) if l.startswith("<p>v_crit")]
+parts = re.sub(r"<[^>]*>", "", sentence[0]).strip().rstrip(".").split("; ") if sentence else []
+gap = re.compile(r"outcomes separable: v_crit is the middle of the gap (\S+)-(\S+) m/s \(no fit, no standard error\)")
+for row in rows:
+    d, v = float(row[col["diameter"]]), float(row[col["v_crit"]])
+    x = d * 1e6
+    label = "%.*f" % (max(0, 2 - math.floor(math.log10(x))), x)
+    fitted = row[col["v_crit_se"]] != "nan"
+    note, result = notes.get(d), results.get(d, "no /search")
+    if fitted and (note or "separable" in result):
+        print("d = %g: fitted (v_crit_se %s), but noted '%s', result '%s';" % (d, row[col["v_crit_se"]], note, result))
+    m = gap.search(note or "")
+    if not fitted and not (m and abs(0.5 * (float(m.group(1)) + float(m.group(2))) - v) <= 1e-9 * v):
+        print("d = %g: v_crit %g, v_crit_se nan, note beneath its row '%s';" % (d, v, note))
+    if not fitted and not gap.search(result):
+        print("d = %g: v_crit_se nan, /search result '%s';" % (d, result))
+    kind = "logistic fit's 50 % bonding probability" if fitted else "the outcomes are separable"
+    part = [p for p in parts if kind in p]
+    if not (part and (part[0].endswith("for every row") or re.search(r"for d = (.*, )?%s µm" % re.escape(label), part[0]))):
+        print("d = %g (%s): the report says '%s';" % (d, "fitted" if fitted else "separable", "; ".join(parts)))
+PY
+}
 why=""
 if "$BIN" vcrit "$T/logistic.ini" -o "$RUN8" >"$T/logistic1.log" 2>&1; then
     head -n 1 "$RUN8/vcrit.csv" | grep -q ',v_crit_se,width,v_bisection$' || why="$why header $(head -n 1 "$RUN8/vcrit.csv");"
+    "$BIN" render "$T/logistic.ini" -o "$RUN8" >"$T/logistic1_render.log" 2>&1 || why="$why render failed;"
+    why="$why$(separable "$RUN8")"
+    [ "$(grep -c '^[0-9].*,nan,nan,' "$RUN8/vcrit.csv")" -ge 1 ] || why="$why no separable row to check;"
     grep -q "runs recorded in $RUN8 are reused" "$T/logistic1.log" || why="$why the bisection's runs were not reused;"
     for d in 8e-06 1e-05; do
         vb=$(awk -F, -v d="$d" 'NR > 1 && $1 + 0 == d + 0 { print $8 }' "$RUN8/vcrit.csv")
@@ -279,6 +325,10 @@ if "$BIN" vcrit "$T/logistic.ini" -o "$RUN8" >"$T/logistic1.log" 2>&1; then
         [ "$(refit "$RUN8/vcrit_cor.csv" 8e-06 | cut -d' ' -f2)" = overlapping ] ||
             why="$why the rewritten outcomes do not overlap: $(refit "$RUN8/vcrit_cor.csv" 8e-06);"
         grep -q 'not monotone in speed: logistic 10-90 % width' "$T/logistic2.log" || why="$why no width in the log;"
+        # 8 um now fitted, 10 um still separable: the report tells them apart
+        "$BIN" render "$T/logistic.ini" -o "$RUN8" >"$T/logistic2_render.log" 2>&1 || why="$why render failed;"
+        why="$why$(separable "$RUN8")"
+        [ "$(grep -c '^[0-9].*,nan,nan,' "$RUN8/vcrit.csv")" -eq 1 ] || why="$why not one row separable, one fitted;"
     else
         why="$why the replay failed: $(tail -n 2 "$T/logistic2.log" | tr '\n' ' ');"
     fi

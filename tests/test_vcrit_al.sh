@@ -9,7 +9,8 @@
 # The same checks for the energy model's table, cases/vcrit_al_energy.csv and _cor.csv (bisection), and for the
 # 15-cell calibration's, cases/vcrit_al_15cells.csv (with the case's grid and eps_c checked against its fit).
 # And v_crit(d, T), cases/vcrit_al_temperature.csv: every pair bracketed (whether it falls with T: scripts/validate.sh).
-# Also checks the checkers: a table that rises with d, or with T, is refused.
+# Also checks the checkers: a table that rises with d, or with T, is refused; a row's note line ("# d = D m: ...",
+# beneath a separable row) is not taken for an unbracketed row.
 set -u
 cd "$(dirname "$0")/.." || exit 1
 table=cases/vcrit_al.csv
@@ -25,6 +26,7 @@ header=diameter,v_crit,pbcp,v_rest,runs
 check_table() {
     awk -F, -v v_low="$v_low" -v v_high="$v_high" -v header="$header" '
         NR == 1 { if ($0 != header) { print "header \"" $0 "\""; bad = 1 }; next }
+        /^# d = / { next }
         /^#/ { print "unbracketed: " $0; bad = 1; next }
         NF != split(header, names, ",") { print "line " NR ": " NF " fields"; bad = 1; next }
         {
@@ -45,6 +47,14 @@ if check_table "$rising" | grep -q 'does not fall'; then
     echo "PASS vcrit_al_checker_refuses_rising"
 else
     echo "FAIL vcrit_al_checker_refuses_rising (a table rising from 22 to 30 um passed)"
+fi
+# a row's note beneath it (method = logistic, outcomes separable: "# d = D m: ...") is no unbracketed row
+printf 'diameter,v_crit,pbcp,v_rest,runs\n1.4e-05,800,0.1,0,8\n# d = 1.4e-05 m: outcomes separable: v_crit is the middle of the gap 797.5-802.5 m/s (no fit, no standard error)\n2.2e-05,790,0.1,0,8\n3e-05,780,0.1,0,8\n4.5e-05,770,0.1,0,8\n' >"$rising"
+why=$(check_table "$rising" | tr '\n' ';')
+if [ -z "$why" ]; then
+    echo "PASS vcrit_al_checker_accepts_row_notes"
+else
+    echo "FAIL vcrit_al_checker_accepts_row_notes ($why)"
 fi
 
 
@@ -152,6 +162,7 @@ check_temperature_table() {
         BEGIN { nd = split(ds, want_d, ","); nt = split(ts, want_t, ",") }
         NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i
                   if (!col["diameter"] || !col["temperature"] || !col["v_crit"]) { print "header \"" $0 "\""; exit } ; next }
+        /^# d = / { next }
         /^#/ { print "unbracketed: " $0; next }
         {
             d = $col["diameter"] + 0; t = $col["temperature"] + 0; v = $col["v_crit"] + 0
