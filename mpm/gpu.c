@@ -182,7 +182,7 @@ int mpm_gpu_step(struct mpm_solver *s)
         SC_FAIL(SC_ESIM,
                 "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
                 "non-finite state or a non-positive volume (time step %.3g s)",
-                (long long)s->step + 1, s->t, out.failed_id, s->points.body[out.failed_id] + 1, s->dt);
+                (long long)s->step + 1, s->t, out.failed_id, s->points.body[out.failed_id], s->dt);
     s->energy_absorbed -= out.absorbed_work;
     s->contact_node_steps += out.contact_nodes;
     s->bonded_node_steps += out.bonded_nodes;
@@ -193,7 +193,7 @@ int mpm_gpu_step(struct mpm_solver *s)
     if (out.nonfinite_id >= 0)
         SC_FAIL(SC_ESIM,
                 "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is not finite",
-                (long long)s->step, s->t, out.nonfinite_id, s->points.body[out.nonfinite_id] + 1);
+                (long long)s->step, s->t, out.nonfinite_id, s->points.body[out.nonfinite_id]);
     s->removed_points += out.removed;
     s->removed_mass += out.removed_mass;
     s->energy_removed += out.removed_energy;

@@ -795,7 +795,7 @@ static int update_points(struct mpm_solver *s)
         SC_FAIL(SC_ESIM,
                 "impact: step %lld (t = %.6g s): material point %ld of body %d: the stress update gave a "
                 "non-finite state or a non-positive volume (time step %.3g s)",
-                (long long)s->step + 1, s->t, bad, p->body[p->slot[bad]] + 1, s->dt);
+                (long long)s->step + 1, s->t, bad, p->body[p->slot[bad]], s->dt);
     return SC_OK;
 }
 
@@ -809,7 +809,7 @@ static int remove_escaped(struct mpm_solver *s)
         SC_FAIL(SC_ESIM,
                 "impact: step %lld (t = %.6g s): material point %ld of body %d: position or velocity is "
                 "not finite",
-                (long long)s->step, s->t, s->nonfinite_id, p->body[p->slot[s->nonfinite_id]] + 1);
+                (long long)s->step, s->t, s->nonfinite_id, p->body[p->slot[s->nonfinite_id]]);
     for (size_t i = 0; leaving > 0 && i < p->count; i++) {
         size_t q = p->slot[i]; /* by id: energy_removed sums in the same order for any storage order */
         if (!(p->flags[q] & POINT_ACTIVE) || grid_contains(&s->grid, p->x + 3 * q))

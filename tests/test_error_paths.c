@@ -1,12 +1,14 @@
 /* The one error path (core/error.h): a write that fails midway leaves no HDF5 object open but the file, every
  * failure carries its traceback frames, and out of memory is one error with status SC_EIO (exit 3); the couple stage
- * refuses a spray.h5 of an older version without /impacts/temperature, saying so. */
+ * refuses a spray.h5 of an older version without /impacts/temperature, saying so; a blow-up names the body as
+ * impact.h5 numbers it. */
 /* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh). */
 #include "app/app.h"
 #include "core/error.h"
 #include "core/h5io.h"
 #include "dem/dem.h"
 #include "dem/dem_impl.h"
+#include "mpm/mpm.h"
 #include "tests/case_fixture.h"
 #include "tests/check.h"
 
@@ -297,6 +299,38 @@ static void test_check_records_frame_and_cleans_up(void)
     CHECK(first && strstr(first + 1, "test_error_paths.c"), "expected two frames (SC_FAIL, SC_CHECK):\n%s", trace);
 }
 
+/* A blow-up names the material point's body as impact.h5 and the log number them, from 0 with the substrate body 0
+ * (README): the demo's particle (body 1) at 30 km/s with cfl = 1 fails its stress update within 40 steps, and the
+ * message said "body 2" (the body index plus one). */
+static void test_blow_up_names_the_body_from_0(void)
+{
+    char dir[64];
+    CHECK(case_fixture_write(dir,
+                             "[run]\nthreads = 1\n[impact]\ndiameter = 10e-6\nvelocity = 30000\ngrid = 2e-6\n"
+                             "spacing = 1e-6\nsubstrate = cylinder\nsubstrate_diameter = 24e-6\n"
+                             "substrate_height = 8e-6\nt_end = 5e-9\ncfl = 1\n[material.aluminium]\n",
+                             NULL, NULL, NULL, NULL) == 0,
+          "cannot write the case");
+    struct case_file *c = NULL;
+    CHECK(case_fixture_load(dir, spraycoat_registry, &c) == SC_OK, "cannot load the case: %s", sc_error_message());
+    struct mpm_config cfg;
+    CHECK(c && mpm_config_load(c, &cfg) == SC_OK, "cannot read [impact]: %s", sc_error_message());
+    struct mpm_solver *s = NULL;
+    CHECK(mpm_create(&cfg, &s) == SC_OK, "cannot set up the impact: %s", sc_error_message());
+    CHECK(mpm_body_count(s) == 2, "%d bodies, expected the substrate and the particle", mpm_body_count(s));
+    sc_error_clear();
+    int status = SC_OK;
+    for (int step = 0; step < 1000 && status == SC_OK && !mpm_finished(s); step++)
+        status = mpm_step(s);
+    const char *message = sc_error_message();
+    CHECK(status == SC_ESIM, "the impact at 30 km/s with cfl = 1 returned %d, expected SC_ESIM: %s", status, message);
+    CHECK(strstr(message, "of body 1:") != NULL, "expected the particle, body 1, in: %s", message);
+    mpm_destroy(s);
+    mpm_config_free(&cfg);
+    case_free(c);
+    case_fixture_remove(dir);
+}
+
 int main(void)
 {
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
@@ -308,5 +342,6 @@ int main(void)
     RUN(test_check_records_frame_and_cleans_up);
     RUN(test_failed_seed_read_closes_couple_h5);
     RUN(test_couple_refuses_spray_without_temperature);
+    RUN(test_blow_up_names_the_body_from_0);
     return check_finish();
 }
