@@ -25,7 +25,9 @@ struct h5_out {
 void h5_quiet(void);
 
 /* Create path.tmp exclusively (core/atomic.h: a stale file or a planted link of that name is removed first, and
- * H5F_ACC_EXCL never follows a link).  SC_EIO with a strerror-style message on failure. */
+ * H5F_ACC_EXCL never follows a link), in the HDF5 1.8 file format, whose metadata carries checksums
+ * (docs/files.md "File format"; checkpoints are in the 1.10 format).  SC_EIO with a strerror-style message on
+ * failure. */
 int h5_create_atomic(const char *path, struct h5_out *out);
 /* Flush and close, fsync, rename to the final name, fsync the folder.  SC_EIO on failure (tmp removed). */
 int h5_commit(struct h5_out *out);
@@ -72,10 +74,12 @@ int h5_write_root_attributes(hid_t file, const char *format, int64_t format_vers
  * written before the attribute: its value then "none"); the stored value into stored[size]. */
 int h5_same_sources(hid_t file, char *stored, size_t size);
 
-/* Read every dataset in the file completely (Fletcher32 is verified on read).  SC_EIO if any fails. */
+/* Read every attribute and every dataset in the file completely (Fletcher32 and the metadata checksums are
+ * verified on read).  SC_EIO if any fails, naming the dataset or attribute. */
 int h5_verify_file(const char *path);
 
-/* Checkpoints: RUN_DIR/checkpoints/STAGE_NNNNNNNN.h5 (NNNNNNNN = step). */
+/* Checkpoints: RUN_DIR/checkpoints/STAGE_NNNNNNNN.h5 (NNNNNNNN = step), in the HDF5 1.10 file format (its chunk
+ * indexes carry checksums as well). */
 int h5_checkpoint_begin(const char *run_dir, const char *stage, int64_t step, struct h5_out *out);
 /* Commit and delete all but the newest `keep` checkpoints of this stage (keep <= 0: keep all).  Checkpoints of
  * later steps than this one are deleted as well: they belong to a history abandoned by resuming from an older
