@@ -132,6 +132,31 @@ static void describe_object(hid_t loc, const char *name, char what[H5IO_WHAT_MAX
         snprintf(what, H5IO_WHAT_MAX, "%s", name);
 }
 
+static int attr_read_any_text(hid_t attr, char **text, char reason[H5IO_REASON_MAX]);
+
+/* After a read of loc's file failed for `reason`: when a checksum failed, " (FILE is damaged: remove it and run the
+ * STAGE stage again)", STAGE the file's root attribute `stage`, so that the message says what to do; else "". */
+static void damage_advice(hid_t loc, const char *reason, char advice[H5IO_WHAT_MAX])
+{
+    advice[0] = '\0';
+    if (strstr(reason, "checksum") == NULL)
+        return;
+    char file[H5IO_PATH_MAX], ignored[H5IO_REASON_MAX];
+    if (H5Fget_name(loc, file, sizeof file) < 0)
+        snprintf(file, sizeof file, "the file");
+    hid_t root = H5Oopen(loc, "/", H5P_DEFAULT);
+    hid_t attr = root >= 0 && H5Aexists(root, "stage") > 0 ? H5Aopen(root, "stage", H5P_DEFAULT) : H5I_INVALID_HID;
+    char *stage = NULL;
+    if (attr < 0 || attr_read_any_text(attr, &stage, ignored) != 0 || strlen(stage) > 32 ||
+        strspn(stage, "abcdefghijklmnopqrstuvwxyz") != strlen(stage) || stage[0] == '\0')
+        snprintf(advice, H5IO_WHAT_MAX, " (%s is damaged: remove it and make it again)", file);
+    else
+        snprintf(advice, H5IO_WHAT_MAX, " (%s is damaged: remove it and run the %s stage again)", file, stage);
+    free(stage);
+    h5io_close(attr);
+    h5io_close(root);
+}
+
 /* snprintf that reports truncation: paths that do not fit are an error, never silently shortened (buf is
  * emptied, so a shortened name can never be used, e.g. unlinked by h5_abort). */
 static int format_path(char *buf, size_t size, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -476,9 +501,12 @@ static int read_open_dataset(hid_t dataset, const struct read_spec *spec, const 
     if (stored_count != spec->count)
         SC_FAIL(SC_EIO, "dataset %s has %zu elements, expected %zu", what, stored_count, spec->count);
     SC_TRY(check_stored_type(dataset, spec, what));
-    char reason[H5IO_REASON_MAX];
-    if (spec->count > 0 && H5Dread(dataset, spec->memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, spec->data) < 0)
-        SC_FAIL(SC_EIO, "cannot read dataset %s: %s", what, hdf5_reason(reason));
+    char reason[H5IO_REASON_MAX], advice[H5IO_WHAT_MAX];
+    if (spec->count > 0 && H5Dread(dataset, spec->memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, spec->data) < 0) {
+        hdf5_reason(reason);
+        damage_advice(dataset, reason, advice);
+        SC_FAIL(SC_EIO, "cannot read dataset %s: %s%s", what, reason, advice);
+    }
     return SC_OK;
 }
 
@@ -897,6 +925,12 @@ static int copy_dataset(hid_t from, hid_t to_loc, const char *name)
         return status;
     if (buffer == NULL && bytes > 0) /* a size element_buffer could compute, but not allocate */
         SC_FAIL_OOM(bytes, "a copied dataset");
+    if (!read) { /* the source's fault: name it, not the destination (a temporary file deleted on the way out) */
+        char advice[H5IO_WHAT_MAX];
+        describe_object(from, "", what);
+        damage_advice(from, reason, advice);
+        SC_FAIL(SC_EIO, "cannot read dataset %s to copy it: %s%s", what, reason, advice);
+    }
     if (!written) {
         describe_object(to_loc, name, what);
         SC_FAIL(SC_EIO, "cannot copy dataset %s: %s", what, reason);
