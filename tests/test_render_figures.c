@@ -16,6 +16,8 @@
 #include "core/h5io.h"
 #include "app/app.h"
 #include "render/render.h"
+/* A white-box test: includes the module-private header render/render_impl.h (render_injection_radius, the nozzle
+ * disc the spray figures draw; only tests may: tests/test_symbols.sh). */
 #include "render/render_impl.h"
 
 static const char ini[] =
