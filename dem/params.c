@@ -71,7 +71,7 @@ const struct cfg_key dem_case_keys[] = {
     {"contact", "friction_regularization", CFG_REAL, "m/s", "1e-4", 0, 1e3, 1, NULL,
      "slip speed epsilon of the regularised Coulomb law, Eq. 11"},
     {"contact", "rest_speed", CFG_REAL, "m/s", "1", 0, 1e3, 0, NULL,
-     "a particle that meets the target or a fixed particle slower than this along the normal and does not stick "
+     "a particle that meets the target or a fixed particle slower than this (its whole speed) and does not stick "
      "comes to rest there (resting: no longer moved or re-collided; 0: never; jet model none: never)"},
     /* [jet] */
     {"jet", "model", CFG_CHOICE, "", "bickley", 0, 0, 0, "bickley|uniform|none",
