@@ -284,9 +284,9 @@ static double time_to_shock_plane(const struct dem_gas_field *gas, double z0, do
  * order in dt (a 3 um Al particle at 400 m/s reached the target 4 % faster than CVODE's flight at dt = 1 us; 0.4 %
  * without the shock; tests/test_wall_jet.c).  The first part lasts until the plane under the start's drag
  * (time_to_shock_plane) less 1e-3 of it, and shorter again while its end is past the plane (whose drag it would
- * then take for the whole part) or its iteration cycles about it; the second part in sub-steps of at most half the
- * response time tau_beyond on the plane's far side (the layer's is several times shorter than the free jet's, from
- * which the step's was taken). Returns whether both parts converged. */
+ * then take for the whole part) or its iteration cycles about it; the second part from the far side's drag, in
+ * sub-steps of at most half the response time tau_beyond on the plane's far side (the layer's is several times
+ * shorter than the free jet's, from which the step's was taken).  Returns whether both parts converged. */
 static int phi_redo_at_shock(const struct dem_config *cfg, double m, const struct phi_problem *problem,
                              const double force_start[3], double tau_beyond, double x[3], double v[3],
                              struct iteration_count *count, struct step_end *end)
@@ -310,10 +310,11 @@ static int phi_redo_at_shock(const struct dem_config *cfg, double m, const struc
         /* past the plane, or cycling about it: end the first part further short of it */
         h *= crossed ? (1.0 - 1e-3) * fraction : 0.99;
     }
-    if (end->force_known)
-        memcpy(force, end->force, sizeof force);
-    else
-        drag_and_slip(gas, problem->d, x, v, force, &slip, &power);
+    /* the second part starts with the drag of the far side (the first part's end is just short of the plane:
+     * its own drag, the near side's, would be blended into the second part's first sub-step) */
+    double plane = gas->wall_z - gas->stagnation_height;
+    double far_side[3] = {x[0], x[1], problem->x0[2] > plane ? plane : nextafter(plane, INFINITY)};
+    drag_and_slip(gas, problem->d, far_side, v, force, &slip, &power);
     phi_substeps(cfg, problem->d, m, cfg->dt - h, substeps_over(cfg->dt - h, tau_beyond), force, x, v, &part, end);
     count->iterations += part.iterations;
     return part.unconverged == 0;
