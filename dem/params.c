@@ -609,6 +609,81 @@ static int table_line(const struct case_file *c, const char *path, const struct 
     return SC_OK;
 }
 
+/* The diameters of a table v_crit(d) without a v_crit: `spraycoat vcrit` writes a diameter it could not bracket
+ * as a comment line "# d,nan,..." of vcrit.csv, and in vcrit.h5 only under /search/NNN (v_crit NaN), not in the
+ * table.  The count, the first such diameter and its reason (vcrit.csv's text after the fields, vcrit.h5's
+ * `result`). */
+struct table_gaps {
+    size_t count;
+    double first;
+    char reason[160];
+};
+
+static void csv_table_gaps(const char *path, struct table_gaps *gaps)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return;
+    char text[512];
+    while (fgets(text, sizeof text, f)) {
+        char *end;
+        double d = text[0] == '#' ? strtod(text + 1, &end) : NAN;
+        if (!(d > 0) || strncmp(end, ",nan", 4) != 0)
+            continue;
+        if (gaps->count++ == 0) {
+            const char *why = strstr(end, "  ");
+            gaps->first = d;
+            snprintf(gaps->reason, sizeof gaps->reason, "%s", why ? why + 2 : "not bracketed");
+            gaps->reason[strcspn(gaps->reason, "\r\n")] = '\0';
+        }
+    }
+    fclose(f);
+}
+
+static void h5_table_gaps(const char *path, struct table_gaps *gaps)
+{
+    hid_t file;
+    if (h5_open_read(path, &file) != SC_OK)
+        return;
+    for (size_t i = 0;; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "search/%03zu", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        double d = NAN, v = NAN;
+        char result[160] = "not bracketed";
+        if (group >= 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK &&
+            h5_attr_read_double(group, "v_crit", &v) == SC_OK && isnan(v) && d > 0 && gaps->count++ == 0) {
+            h5_attr_read_string(group, "result", result, sizeof result);
+            gaps->first = d;
+            snprintf(gaps->reason, sizeof gaps->reason, "%s", result);
+        }
+        if (group >= 0)
+            H5Gclose(group);
+    }
+    H5Fclose(file);
+    sc_error_clear();
+}
+
+/* A table v_crit(d) with diameters that have no v_crit is usable, but a particle of such a size takes a v_crit
+ * interpolated between the table's neighbouring diameters (or its nearest one beyond its ends), which the search
+ * found to be wrong there (bonded already at v_low, or never up to v_high): said once, not refused (a table
+ * v_crit(d, T) with a gap is refused, table_grid). */
+static void warn_table_gaps(const char *path, int h5)
+{
+    struct table_gaps gaps = {0};
+    if (h5)
+        h5_table_gaps(path, &gaps);
+    else
+        csv_table_gaps(path, &gaps);
+    if (gaps.count > 0)
+        log_warn("[deposition] table = %s: %zu diameter%s without a v_crit (first d = %g m: %s): particles of such "
+                 "sizes take a v_crit interpolated between the table's neighbouring diameters, or its nearest one "
+                 "beyond its ends; search them again with a wider [vcrit] v_low .. v_high",
+                 path, gaps.count, gaps.count == 1 ? "" : "s", gaps.first, gaps.reason);
+}
+
 static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
 {
     char path[4096];
@@ -628,6 +703,8 @@ static int load_vcrit_table(const struct case_file *c, struct dem_config *cfg)
     }
     if (status == SC_OK)
         status = rows.width == 3 ? table_grid(c, path, &rows, cfg) : table_line(c, path, &rows, cfg);
+    if (status == SC_OK && rows.width == 2)
+        warn_table_gaps(path, h5);
     free(rows.numbers);
     return status;
 }

@@ -13,7 +13,8 @@
 # accepted by `check` and searched; a record of the runs that cannot be read stops the search before any run (exit
 # 3); after a search of another case fails writing vcrit.h5 (exit 3), the first case
 # is searched again rather than found up to date beside the other's vcrit.csv; at an angle the table's v_crit is
-# the normal component; a 2-D table missing a whole temperature is refused.  Prints "PASS name" /
+# the normal component; a 2-D table missing a whole temperature is refused; a 1-D table with a diameter that was not
+# bracketed is read with a warning naming it.  Prints "PASS name" /
 # "FAIL name (reason)".
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).
 set -u
@@ -409,6 +410,24 @@ if "$BIN" vcrit "$T/nobracket.ini" -o "$T/nob" >"$T/nob.log" 2>&1 &&
 else
     fail vcrit_not_bracketed "$(tr '\n' ' ' <"$T/nob/vcrit.csv" 2>/dev/null) $(tail -n 2 "$T/nob.log" | tr '\n' ' ')"
 fi
+# ---- 5b. a table with a diameter that was not bracketed: the spray reads the rest and says what it does for that
+# size (it interpolates or clamps the others' v_crit, silently before): 5 um does not bond up to 850 m/s here, 8 um does
+write_case "$T/gap.ini" 850
+sed -i 's/^diameters = .*/diameters = 5e-6,8e-6/' "$T/gap.ini"
+why=""
+if "$BIN" vcrit "$T/gap.ini" -o "$T/gap" >"$T/gap.log" 2>&1 &&
+    grep -q '^# 5e-06,nan,.*not bracketed' "$T/gap/vcrit.csv" && grep -q '^8e-06,' "$T/gap/vcrit.csv"; then
+    for file in vcrit.csv vcrit.h5; do
+        sed -e 's/^rule = adhesion$/rule = table/' -e "s|^alpha_adh = .*|table = $T/gap/$file|" "$BASE" >"$T/gap_spray.ini"
+        "$BIN" check "$T/gap_spray.ini" >"$T/gap_check.log" 2>&1 || why="$why check of $file failed;"
+        grep -q "table = $T/gap/$file: 1 diameter without a v_crit (first d = 5e-06 m: not bracketed: rebounds still at v_high" \
+            "$T/gap_check.log" || why="$why $file: no warning of the diameter without a v_crit;"
+    done
+else
+    why="the search did not give one bracketed and one unbracketed diameter: $(tr '\n' ' ' <"$T/gap/vcrit.csv" 2>/dev/null)"
+fi
+if [ -z "$why" ]; then pass vcrit_table_gap_warned; else fail vcrit_table_gap_warned "$why"; fi
+
 # ---- 6. reference_diameter: every run is [impact] scaled to its diameter.  With PTW's rate dependence removed and
 # a rate-free strain bonding law, a particle twice the size on a grid twice as coarse is the same impact (geometric
 # similarity, tests/test_similarity.c): the two diameters' searches must make the same runs with the same outcomes
