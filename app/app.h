@@ -64,13 +64,16 @@ int stage_has_section(const char *stage, const char *section);
 int run_dir_has_seeds(const struct case_file *c, const char *run_dir);
 
 /* What a stage's output `path` holds: nothing, results that are up to date (this case's `case_hash` and this
- * build's sources_id), or results to compute again: another case's (or a file that cannot be read as one), or
- * this case's computed by another build of spraycoat (other sources: docs/architecture.md "Another build"). */
-enum output_state { OUTPUT_NONE, OUTPUT_CURRENT, OUTPUT_OTHER_CASE, OUTPUT_OTHER_BUILD };
+ * build's sources_id, and the whole file reads back: h5_verify_file, one read of it), or results to compute
+ * again: another case's (or a file that cannot be read as one), this case's computed by another build of spraycoat
+ * (other sources: docs/architecture.md "Another build"), or this case's and this build's but damaged (a dataset or
+ * attribute fails its checksum; run_dir_log_rerun says which). */
+enum output_state { OUTPUT_NONE, OUTPUT_CURRENT, OUTPUT_OTHER_CASE, OUTPUT_OTHER_BUILD, OUTPUT_DAMAGED };
 enum output_state run_dir_output_state(const char *path, uint64_t case_hash);
 /* 1 when run_dir_output_state is OUTPUT_CURRENT, else 0. */
 int run_dir_output_current(const char *path, uint64_t case_hash);
-/* Log why `stage` computes its output `path` again (state OUTPUT_OTHER_CASE or OUTPUT_OTHER_BUILD; nothing else). */
+/* Log why `stage` computes its output `path` again (state OUTPUT_OTHER_CASE or OUTPUT_OTHER_BUILD; OUTPUT_DAMAGED
+ * as a warning naming what failed to read; nothing else). */
 void run_dir_log_rerun(const char *stage, const char *path, enum output_state state);
 /* Remove a stage's output `path` (the file whose case hash says "up to date"), durably (the folder fsynced), before
  * the stage publishes any other file of its new results (stage_write_outputs): a failure between two files then

@@ -105,6 +105,8 @@ int run_dir_prepare(const char *run_dir, const struct case_file *c)
     return SC_OK;
 }
 
+static char damage_reason[1024]; /* why run_dir_output_state last found an output OUTPUT_DAMAGED */
+
 enum output_state run_dir_output_state(const char *path, uint64_t case_hash)
 {
     if (access(path, F_OK) != 0)
@@ -121,7 +123,19 @@ enum output_state run_dir_output_state(const char *path, uint64_t case_hash)
     int same_sources = h5_same_sources(file, sources, sizeof sources);
     H5Fclose(file);
     sc_error_clear();
-    return !same_case ? OUTPUT_OTHER_CASE : same_sources ? OUTPUT_CURRENT : OUTPUT_OTHER_BUILD;
+    if (!same_case)
+        return OUTPUT_OTHER_CASE;
+    if (!same_sources)
+        return OUTPUT_OTHER_BUILD; /* computed again anyway: not worth reading whole */
+    /* results about to be taken as done are read whole first (every dataset and attribute, their checksums
+     * verified): a damaged one counted as done, and every later stage (or the gathering of the impact runs) then
+     * stopped on it, on every resume */
+    if (h5_verify_file(path) != SC_OK) {
+        snprintf(damage_reason, sizeof damage_reason, "%s", sc_error_message());
+        sc_error_clear();
+        return OUTPUT_DAMAGED;
+    }
+    return OUTPUT_CURRENT;
 }
 
 int run_dir_output_current(const char *path, uint64_t case_hash)
@@ -137,6 +151,8 @@ void run_dir_log_rerun(const char *stage, const char *path, enum output_state st
         log_info("%s: %s was made by another build of spraycoat (other sources, `spraycoat info %s`); running "
                  "the stage again",
                  stage, path, path);
+    if (state == OUTPUT_DAMAGED)
+        log_warn("%s: %s is damaged (%s); computing it again", stage, path, damage_reason);
 }
 
 const char *stage_resume_dir(const struct stage_context *ctx)
@@ -267,9 +283,10 @@ int run_dir_has_seeds(const struct case_file *c, const char *run_dir)
     char path[4096];
     snprintf(path, sizeof path, "%s/couple.h5", run_dir);
     struct stage_context ctx = {.c = c, .run_dir = run_dir};
-    /* the seeds of another build are still this case's: run_dir_check_input warns about them */
+    /* the seeds of another build are still this case's: run_dir_check_input warns about them; damaged seeds are
+     * this case's too: reading them stops the impact stage, naming the file (not a run on [impact]'s own body) */
     enum output_state state = run_dir_output_state(path, stage_hash(&ctx, "couple"));
-    return state == OUTPUT_CURRENT || state == OUTPUT_OTHER_BUILD;
+    return state == OUTPUT_CURRENT || state == OUTPUT_OTHER_BUILD || state == OUTPUT_DAMAGED;
 }
 
 uint64_t stage_hash(const struct stage_context *ctx, const char *stage)

@@ -4,7 +4,8 @@
 # docs/files.md): a run that is SIGKILLed at any moment, or stopped by SIGTERM/SIGINT, and then resumed ends with
 # the same spray.h5 as a run that was never stopped (its /snapshots too: each once, none missing); results do not depend on the thread count; a damaged
 # newest checkpoint (in its data or in an attribute) falls back to the previous one with a warning; a checkpoint of
-# another case is refused.
+# another case is refused; a damaged finished output (a pipeline's spray.h5, a finished impact run's file) is
+# computed again on resume, with a warning, to the uninterrupted run's results.
 #
 # Run from the repository root with $SPRAYCOAT_BIN (tests/run_tests.sh sets both).  Needs h5ls, h5diff and
 # h5dump (Debian hdf5-tools), python3 and a sleep that takes fractions of a second (GNU coreutils).
@@ -523,6 +524,83 @@ elif ! same_results "$T/nozzle" "$T/nozzle_again"; then
     fail "$test" "the spray of RUN_DIR/case.ini differs from the case's: $why"
 else
     pass "$test"
+fi
+
+# ---- 8. a damaged finished output is computed again on resume -------------------------------------------------
+# (a review: a resume took a finished output of the case as done from its case hash alone: a spray.h5 with one
+# data byte flipped was "up to date; nothing to do", the couple stage then stopped on its checksum (exit 3), and
+# every resume did the same; a finished impact run's impact_runs/run_0000.h5 so damaged was "done already" on every
+# resume, and the gathering of impact.h5 stopped on it.)  Now such a file is read whole before it counts as done:
+# a warning naming it, the stage (or the run) computed again, and spray.h5, couple.h5 and impact.h5 those of an
+# uninterrupted run, bit for bit (tests/pipeline_lib.sh same_h5), as docs/architecture.md promises after a resume.
+. tests/pipeline_lib.sh
+PIPE=tests/fixtures/pipeline_small.ini
+PIPE_STAGES=spray,couple,impact
+
+# flip_data_byte FILE DATASET: flips one byte of the stored values of DATASET (32 of its bytes found once in FILE:
+# no filter changes the bytes of spraycoat's datasets, whose Fletcher32 checksum follows them); 1 when not found.
+flip_data_byte() {
+    h5dump -d "$2" -b LE -o "$T/raw.bin" "$1" >/dev/null 2>&1 || return 1
+    offset=$(python3 -c '
+import sys
+raw = open(sys.argv[1], "rb").read()[8:40]
+data = open(sys.argv[2], "rb").read()
+at = data.find(raw) if len(raw) == 32 else -1
+print(at + 12 if at >= 0 and data.find(raw, at + 1) < 0 else -1)' "$T/raw.bin" "$1")
+    [ "${offset:--1}" -ge 0 ] || return 1
+    python3 -c '
+import sys
+with open(sys.argv[1], "r+b") as f:
+    f.seek(int(sys.argv[2]))
+    b = f.read(1)
+    f.seek(int(sys.argv[2]))
+    f.write(bytes([b[0] ^ 0xFF]))' "$1" "$offset"
+}
+
+# damaged_resume TEST DIR FILE: resumes DIR, whose FILE is damaged; pass when it ends with status 0, a warning
+# naming FILE as damaged, and the results of the uninterrupted run $PREF.
+damaged_resume() {
+    "$BIN" resume "$2" >"$T/$1.resume.log" 2>&1
+    status=$?
+    if [ "$status" -ne 0 ]; then
+        fail "$1" "resume exited with status $status: $(grep 'up to date\|done already' "$T/$1.resume.log" | tail -n 1) $(tail -n 1 "$T/$1.resume.log")"
+    elif ! grep 'warning' "$T/$1.resume.log" | grep "$3" | grep -q 'damaged'; then
+        fail "$1" "no warning naming the damaged $3: $(grep -m 2 "$(basename "$3")" "$T/$1.resume.log" | tr '\n' ' ')"
+    elif ! same_run_dir "$PREF" "$2" spray couple impact; then
+        fail "$1" "not the uninterrupted run's results: $why"
+    else
+        note "$(grep -m 1 'damaged' "$T/$1.resume.log" | sed 's/^\[[^]]*\] //')"
+        pass "$1"
+    fi
+}
+
+PREF=$T/pipe_ref
+if ! "$BIN" run "$PIPE" --stages "$PIPE_STAGES" -o "$PREF" >"$T/pipe_ref.log" 2>&1; then
+    fail restart_damaged_output "the uninterrupted pipeline run failed: $(tail -n 1 "$T/pipe_ref.log")"
+else
+    # spray.h5 of a pipeline stopped right after its spray stage (the directory as the spray stage left it)
+    test=restart_damaged_output_spray
+    dir=$T/pipe_spray
+    mkdir "$dir" && cp "$PREF/case.ini" "$PREF/stages" "$PREF/spray.h5" "$PREF/spray.xdmf" "$dir/"
+    if ! flip_data_byte "$dir/spray.h5" /impacts/v_in || h5dump -d /impacts/v_in "$dir/spray.h5" >/dev/null 2>&1; then
+        fail "$test" "could not damage /impacts/v_in of $dir/spray.h5 (its bytes not found once, or still readable)"
+    else
+        damaged_resume "$test" "$dir" "$dir/spray.h5"
+    fi
+
+    # a finished impact run: the pipeline stopped by a failed write of run 1's file (exit 3) after run 0's
+    test=restart_damaged_output_impact_run
+    dir=$T/pipe_run
+    mkdir -p "$dir/impact_runs"
+    blocked_write "$dir/impact_runs" run_0001.h5 "$T/$test.first.log" "$BIN" run "$PIPE" --stages "$PIPE_STAGES" -o "$dir"
+    run0=$dir/impact_runs/run_0000.h5
+    if [ "$blocked" -ne 3 ] || [ ! -f "$run0" ] || [ -e "$dir/impact.h5" ]; then
+        fail "$test" "the blocked run (status $blocked) did not stop after run 0's file: $(tail -n 1 "$T/$test.first.log")"
+    elif ! flip_data_byte "$run0" /series/ke || h5dump -d /series/ke "$run0" >/dev/null 2>&1; then
+        fail "$test" "could not damage /series/ke of $run0 (its bytes not found once, or still readable)"
+    else
+        damaged_resume "$test" "$dir" "$run0"
+    fi
 fi
 
 note "total $(($(date +%s) - start)) s"
