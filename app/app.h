@@ -263,6 +263,11 @@ int render_stage_validate(const struct stage_context *ctx);
 /* The stages whose outputs the render stage draws (whichever are there), NULL-terminated: it checks each is this
  * case's, and so does a command before it touches the run directory (app/main.c). */
 extern const char *const render_stage_inputs[];
+/* 1 when RUN_DIR/STAGE.h5 is there but is not this case's, and this case has no such stage (none of the stage's
+ * sections given: [couple] for couple; [impact] or [couple] for impact; [spray], [vcrit], [calibrate], [sweep]):
+ * a run of another case into the directory left it.  The render stage then neither refuses nor draws it (the
+ * advice to run the stage again could not be followed) and leaves it out of the report, saying so. */
+int render_stage_ignores(const struct stage_context *ctx, const char *stage);
 int render_stage_run(const struct stage_context *ctx);
 
 /* `spraycoat info`: what a run directory or an HDF5 file of spraycoat holds. */

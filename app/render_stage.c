@@ -19,7 +19,8 @@ int render_stage_validate(const struct stage_context *ctx)
     return render_config_load(ctx->c, &cfg);
 }
 
-static int render_stage_draw(const struct case_file *c, const char *run_dir);
+static int render_stage_draw(const struct case_file *c, const char *run_dir, const char *const *ignored,
+                             int ignored_count);
 
 /* The report's case summary: every key the case file or the command line gives (not the defaults). */
 static int case_rows(const struct case_file *c, struct render_case_row **rows, int *count)
@@ -100,21 +101,81 @@ static int write_stamp(const char *run_dir, const char *fingerprint)
 
 const char *const render_stage_inputs[] = {"spray", "impact", "vcrit", "calibrate", "sweep", NULL};
 
+/* The sections that give a case the stage: a case without any of them has no such stage (`spraycoat run` does not
+ * run it, and its own command refuses the case or computes nothing of it). */
+static const char *stage_sections(const char *stage)
+{
+    static const char *const table[][2] = {{"spray", "spray"}, {"couple", "couple"},       {"impact", "impact,couple"},
+                                           {"vcrit", "vcrit"}, {"calibrate", "calibrate"}, {"sweep", "sweep"}};
+    for (size_t k = 0; k < sizeof table / sizeof table[0]; k++)
+        if (strcmp(table[k][0], stage) == 0)
+            return table[k][1];
+    return NULL;
+}
+
+static int case_has_stage(const struct case_file *c, const char *stage)
+{
+    const char *sections = stage_sections(stage);
+    if (!sections)
+        return 1;
+    char section[32];
+    for (const char *p = sections; *p;) {
+        size_t length = strcspn(p, ",");
+        snprintf(section, sizeof section, "%.*s", (int)length, p);
+        if (app_case_section_given(c, section))
+            return 1;
+        p += length + (p[length] == ',');
+    }
+    return 0;
+}
+
+int render_stage_ignores(const struct stage_context *ctx, const char *stage)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s.h5", ctx->run_dir, stage);
+    if (access(path, F_OK) != 0 || case_has_stage(ctx->c, stage))
+        return 0;
+    return run_dir_made_by_case(ctx, stage, path) != 1; /* another case's, or not readable as this case's */
+}
+
 int render_stage_run(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
     const char *run_dir = ctx->run_dir;
+    /* an output of a stage this case does not have, made by another case (a run of that case into the same
+     * directory left it), is not this case's result: left out of the figures and the report, with a line that
+     * says so; the advice to run that stage again could not be followed (the case has none) */
+    static const char *const readable[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
+    static char ignored_names[sizeof readable / sizeof readable[0]][32];
+    const char *ignored[sizeof readable / sizeof readable[0]];
+    int ignored_count = 0;
+    for (size_t i = 0; i < sizeof readable / sizeof readable[0]; i++)
+        if (render_stage_ignores(ctx, readable[i])) {
+            snprintf(ignored_names[ignored_count], sizeof ignored_names[0], "%s.h5", readable[i]);
+            ignored[ignored_count] = ignored_names[ignored_count];
+            ignored_count++;
+            log_info("render: %s/%s.h5 is not this case's (another case made it, and this case has no %s stage: "
+                     "no [%s]): left out of the figures and report.html",
+                     run_dir, readable[i], readable[i],
+                     strcmp(readable[i], "impact") == 0 ? "impact] or [couple" : readable[i]);
+        }
     /* refuse, not warn: the report names this case's keys and hash above the figures, so figures of another
      * case's file would be wrong results under a right-looking label (exit 3, the same as couple and impact) */
     for (size_t i = 0; render_stage_inputs[i]; i++)
-        SC_TRY(run_dir_check_input(ctx, render_stage_inputs[i], "render", 0));
+        if (!render_stage_ignores(ctx, render_stage_inputs[i]))
+            SC_TRY(run_dir_check_input(ctx, render_stage_inputs[i], "render", 0));
     char fingerprint[4096];
     render_fingerprint(c, run_dir, fingerprint, sizeof fingerprint);
+    /* and what is left out: a report of another case that drew the file is not this one's, up to date */
+    for (int k = 0; k < ignored_count; k++) {
+        size_t used = strlen(fingerprint);
+        snprintf(fingerprint + used, sizeof fingerprint - used, "left out:%s;", ignored[k]);
+    }
     if (ctx->pipeline && figures_current(run_dir, fingerprint)) {
         log_info("render: the figures and %s/report.html are up to date; nothing to do", run_dir);
         return SC_OK;
     }
-    SC_TRY(render_stage_draw(c, run_dir));
+    SC_TRY(render_stage_draw(c, run_dir, ignored, ignored_count));
     return write_stamp(run_dir, fingerprint);
 }
 
@@ -134,7 +195,16 @@ static void add_notice(char (*notices)[NOTICE_LENGTH], int *count, const char *f
     va_end(args);
 }
 
-static void run_state_notices(const char *run_dir, char (*notices)[NOTICE_LENGTH], int *count)
+static int is_ignored(const char *name, const char *const *ignored, int ignored_count)
+{
+    for (int k = 0; k < ignored_count; k++)
+        if (strcmp(ignored[k], name) == 0)
+            return 1;
+    return 0;
+}
+
+static void run_state_notices(const char *run_dir, const char *const *ignored, int ignored_count,
+                              char (*notices)[NOTICE_LENGTH], int *count)
 {
     static const char *const stages[] = {"spray", "couple", "impact", "vcrit", "calibrate", "sweep"};
     char asked[256], path[4200], newest[4400], sources[64];
@@ -151,6 +221,15 @@ static void run_state_notices(const char *run_dir, char (*notices)[NOTICE_LENGTH
                        stages[k], asked,
                        checkpoints ? "it was interrupted (its checkpoints are kept: the same command resumes it)"
                                    : "it has not run");
+        char name[64];
+        snprintf(name, sizeof name, "%s.h5", stages[k]);
+        if (done && is_ignored(name, ignored, ignored_count)) {
+            add_notice(notices, count,
+                       "%s in the run directory is another case's result (this case has no %s stage): it is left "
+                       "out of this report. Give each case a run directory of its own.",
+                       name, stages[k]);
+            continue;
+        }
         hid_t file;
         if (done && h5_open_read(path, &file) == SC_OK) {
             if (!h5_same_sources(file, sources, sizeof sources))
@@ -164,17 +243,23 @@ static void run_state_notices(const char *run_dir, char (*notices)[NOTICE_LENGTH
     }
 }
 
-static int render_stage_draw(const struct case_file *c, const char *run_dir)
+static int render_stage_draw(const struct case_file *c, const char *run_dir, const char *const *ignored,
+                             int ignored_count)
 {
     struct render_config cfg;
     SC_TRY(render_config_load(c, &cfg));
-    struct render_request req = {.run_dir = run_dir, .cfg = &cfg, .c = c, .case_hash = case_hash(c)};
+    struct render_request req = {.run_dir = run_dir,
+                                 .cfg = &cfg,
+                                 .c = c,
+                                 .case_hash = case_hash(c),
+                                 .ignored = ignored,
+                                 .ignored_count = ignored_count};
     struct render_case_row *rows;
     SC_TRY(case_rows(c, &rows, &req.row_count));
     req.rows = rows;
     char notices[NOTICES_MAX][NOTICE_LENGTH];
     const char *notice_lines[NOTICES_MAX];
-    run_state_notices(run_dir, notices, &req.notice_count);
+    run_state_notices(run_dir, ignored, ignored_count, notices, &req.notice_count);
     for (int k = 0; k < req.notice_count; k++)
         notice_lines[k] = notices[k];
     req.notices = notice_lines;

@@ -195,6 +195,10 @@ struct render_request {
      * build (each an HTML-free sentence) */
     const char *const *notices;
     int notice_count;
+    /* files of run_dir ("impact.h5") neither drawn nor read for the report: another case's outputs of stages this
+     * case does not have (app/render_stage.c), left in the directory by a run of that case */
+    const char *const *ignored;
+    int ignored_count;
 };
 /* Draw every figure the outputs in run_dir allow, then RUN_DIR/report.html.  SC_EIO when run_dir holds none of
  * spray.h5, impact.h5, vcrit.h5, or when one is malformed (the message names it); SC_EINPUT for a bad request. */

@@ -59,6 +59,9 @@ void render_palette(int i, double rgb[3]);
 
 /* ---- reading the run's files ---- */
 
+/* 1 when RUN_DIR/name ("spray.h5") is there and not one of the request's ignored files, else 0. */
+int render_input_present(const struct render_request *req, const char *name);
+
 /* A 1-D or 2-D double dataset read whole: values (count) and its first dimension (rows) and width (count/rows).
  * SC_EIO naming file and dataset when absent or unreadable. */
 struct render_array {

@@ -73,7 +73,7 @@ static void provenance(FILE *f, const struct render_request *req)
         char path[4200], value[256];
         snprintf(path, sizeof path, "%s/%s", req->run_dir, files[i]);
         hid_t file;
-        if (access(path, R_OK) != 0 || h5_open_read(path, &file) != SC_OK) {
+        if (!render_input_present(req, files[i]) || access(path, R_OK) != 0 || h5_open_read(path, &file) != SC_OK) {
             sc_error_clear();
             continue;
         }
@@ -474,7 +474,7 @@ static int open_output(const struct render_request *req, const char *name, hid_t
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/%s", req->run_dir, name);
-    if (access(path, R_OK) != 0 || h5_open_read(path, file) != SC_OK) {
+    if (!render_input_present(req, name) || access(path, R_OK) != 0 || h5_open_read(path, file) != SC_OK) {
         sc_error_clear();
         return 0;
     }

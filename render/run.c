@@ -119,10 +119,13 @@ int render_film_folder(const char *path)
     return SC_OK;
 }
 
-static int exists(const char *run_dir, const char *name)
+int render_input_present(const struct render_request *req, const char *name)
 {
+    for (int k = 0; k < req->ignored_count; k++)
+        if (strcmp(req->ignored[k], name) == 0)
+            return 0;
     char path[4200];
-    snprintf(path, sizeof path, "%s/%s", run_dir, name);
+    snprintf(path, sizeof path, "%s/%s", req->run_dir, name);
     return access(path, F_OK) == 0;
 }
 
@@ -130,15 +133,15 @@ static int draw_all(const struct render_request *req, struct render_output *out)
 {
     struct render_renderer *renderer = NULL;
     int status = SC_OK;
-    if (exists(req->run_dir, "spray.h5"))
+    if (render_input_present(req, "spray.h5"))
         SC_CHECK(status, render_spray_figures(req, &renderer, out), done);
-    if (exists(req->run_dir, "impact.h5"))
+    if (render_input_present(req, "impact.h5"))
         SC_CHECK(status, render_impact_figures(req, &renderer, out), done);
-    if (exists(req->run_dir, "vcrit.h5"))
+    if (render_input_present(req, "vcrit.h5"))
         SC_CHECK(status, render_vcrit_figures(req, out), done);
-    if (exists(req->run_dir, "calibrate.h5"))
+    if (render_input_present(req, "calibrate.h5"))
         SC_CHECK(status, render_calibrate_figures(req, out), done);
-    if (exists(req->run_dir, "sweep.h5"))
+    if (render_input_present(req, "sweep.h5"))
         SC_CHECK(status, render_sweep_figures(req, out), done);
 done:
     render_renderer_destroy(renderer);
@@ -148,8 +151,9 @@ done:
 int render_run_dir(const struct render_request *req, struct render_output *out)
 {
     memset(out, 0, sizeof *out);
-    if (!exists(req->run_dir, "spray.h5") && !exists(req->run_dir, "impact.h5") && !exists(req->run_dir, "vcrit.h5") &&
-        !exists(req->run_dir, "calibrate.h5") && !exists(req->run_dir, "sweep.h5"))
+    if (!render_input_present(req, "spray.h5") && !render_input_present(req, "impact.h5") &&
+        !render_input_present(req, "vcrit.h5") && !render_input_present(req, "calibrate.h5") &&
+        !render_input_present(req, "sweep.h5"))
         SC_FAIL(SC_EIO,
                 "render: %s holds no output to draw (spray.h5, impact.h5, vcrit.h5, calibrate.h5 or sweep.h5); run "
                 "a stage first",

@@ -3,7 +3,8 @@
 # one flipped bit in spray.h5 or couple.h5 stops the stage that reads it with exit status 3 and a message naming
 # the file and the checksum (it flowed into couple.h5 with exit 0 before); and an input made by another case
 # (another seed) is refused by couple and by render with exit status 3, naming the file and the stage to rerun
-# (render drew it without a word before).
+# (render drew it without a word before); but another case's outputs of stages the case does not have (a spray-only
+# case run into a pipeline's directory) are left out of the figures and the report, not refused.
 #
 # A diameter couple.h5 should not hold (NaN, or too small for the grid) is blamed on couple.h5 and its row, not on
 # the [impact] diameter of the case (issue 24, item 12).
@@ -117,6 +118,37 @@ expect couple_other_case $? 'spray.h5' 'made by another case' 'rerun the spray s
 "$BIN" render "$T/other.ini" -o "$T/other" >/dev/null 2>"$T/err"
 expect render_other_case $? 'spray.h5' 'made by another case' 'rerun the spray stage'
 [ -e "$T/other/report.html" ] && fail render_other_case_no_report "report.html was written"
+
+# ---- a spray-only case run into the directory of a pipeline (a review: `spraycoat run` of it exited 3, render
+# refusing the pipeline's impact.h5 as another case's with the advice "rerun the impact stage", which a case without
+# [impact] cannot follow; `run` again refused the same).  The outputs of stages the case does not have, made by
+# another case, are left out: exit 0, a log line naming each, and a report that neither draws nor lists them ----
+test=render_ignores_other_case_stages
+sed '/^\[couple\]$/,$d' "$CASE" >"$T/spray_only.ini"
+if grep -q '^\[spray\]$' "$T/spray_only.ini" && ! grep -q '^\[impact\]\|^\[couple\]\|^\[material' "$T/spray_only.ini"; then
+    cp -R "$T/ref" "$T/mixed"
+    # the pipeline's own report too: the spray-only case's spray.h5 is the same (its keys are), so a fingerprint
+    # blind to what is left out found that report, which shows the impact runs, up to date
+    if ! "$BIN" run "$CASE" --stages impact,render -o "$T/mixed" >"$T/mixed_impact.log" 2>&1; then
+        fail "$test" "the pipeline's impact stage failed: $(tail -n 1 "$T/mixed_impact.log")"
+    else
+        "$BIN" run "$T/spray_only.ini" -o "$T/mixed" >"$T/mixed.log" 2>&1
+        status=$?
+        report=$T/mixed/report.html
+        why=""
+        [ "$status" -eq 0 ] || why="$why exit status $status: $(tail -n 1 "$T/mixed.log");"
+        for f in couple.h5 impact.h5; do
+            grep -q "render: .*/$f is not this case's.*left out" "$T/mixed.log" || why="$why no log line leaving out $f;"
+            grep -q "<td>$f</td>" "$report" 2>/dev/null && why="$why the report's provenance lists $f;"
+        done
+        grep -q 'Impact results\|impact_run_0000_pbcp.png' "$report" 2>/dev/null && why="$why the report shows the other case's impact runs;"
+        grep -q "impact.h5 in the run directory is another case's result" "$report" 2>/dev/null || why="$why the report does not say impact.h5 is left out;"
+        grep -q 'spray_diameter.png' "$report" 2>/dev/null || why="$why no spray figure in the report;"
+        if [ -z "$why" ]; then pass "$test"; else fail "$test" "$why"; fi
+    fi
+else
+    fail "$test" "$CASE no longer ends with [couple], [impact] and the material, which this test cuts off"
+fi
 
 # ---- a seed diameter couple.h5 should not hold: the message names couple.h5 and the row, not [impact] diameter ----
 # set_seed_d DIR ROW VALUE: /seeds/d[ROW] (and the same values in /flight/d) of DIR/couple.h5 becomes VALUE, the
