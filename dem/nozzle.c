@@ -19,7 +19,11 @@
 
 /* gamma and R = R_u / M (R_u = 8.314462618 J/(mol K), CODATA 2018; molar masses IUPAC); Sutherland constants of
  * N2 and air from White, Viscous Fluid Flow (3rd ed.), Table 1-2; of helium mu(273.15 K) = 18.7 uPa s (NIST
- * Chemistry WebBook) with S = 79.4 K; Prandtl numbers at room temperature (Incropera, Table A.4). */
+ * Chemistry WebBook) with S = 79.4 K, the value of the usual tables of Sutherland constants (attributed to Crane
+ * Co., Flow of Fluids, Technical Paper 410; the original not checked here); Prandtl numbers at room temperature
+ * (Incropera, Table A.4).  tests/test_nozzle.c holds the viscosities at 300 K within 1 % of the reference
+ * correlations'.  Sutherland's law underestimates helium's viscosity far below room temperature (about 20 % at a helium
+ * nozzle's 74 K exit, a review with a T^0.68 fit; 0.2 % on the exit speed). */
 static const struct dem_nozzle_gas_properties gases[] = {
     [DEM_NOZZLE_N2] = {"n2", 1.4, 296.80, 1.663e-5, 273.0, 107.0, 0.72},
     [DEM_NOZZLE_HE] = {"he", 5.0 / 3.0, 2077.3, 1.870e-5, 273.15, 79.4, 0.68},

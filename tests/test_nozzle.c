@@ -63,6 +63,48 @@ static void test_exit_state(void)
           n.table_velocity[0]);
 }
 
+/* The three gases' constants against their sources, derived here rather than retyped: R = R_u / M (R_u =
+ * 8.314462618 J/(mol K), CODATA 2018; M of N2 28.0134, He 4.002602 (IUPAC) and dry air 28.9647 g/mol (ISO 2533)),
+ * gamma 7/5 for the diatomic gases and 5/3 for the monatomic one, and the viscosity at 300 K within 1 % of the
+ * reference correlations' (NIST Chemistry WebBook, Lemmon & Jacobsen 2004 for N2 17.89 and air 18.54 uPa s, Arp,
+ * McCarty & Friend 1998 for He 19.94 uPa s).  A gas's constants swapped with another's, or a wrong molar mass, fail. */
+static void test_gas_constants(void)
+{
+    static const struct {
+        enum dem_nozzle_gas gas;
+        const char *name;
+        double molar_mass, gamma, mu_300;
+    } gases[] = {{DEM_NOZZLE_N2, "n2", 28.0134e-3, 1.4, 17.89e-6},
+                 {DEM_NOZZLE_HE, "he", 4.002602e-3, 5.0 / 3.0, 19.94e-6},
+                 {DEM_NOZZLE_AIR, "air", 28.9647e-3, 1.4, 18.54e-6}};
+    for (size_t k = 0; k < sizeof gases / sizeof gases[0]; k++) {
+        const struct dem_nozzle_gas_properties *g = dem_nozzle_gas_properties(gases[k].gas);
+        char what[64];
+        CHECK(strcmp(g->name, gases[k].name) == 0, "gas %zu is %s (%s)", k, gases[k].name, g->name);
+        snprintf(what, sizeof what, "%s: R = R_u / M", gases[k].name);
+        CHECK_CLOSE(g->gas_constant, 8.314462618 / gases[k].molar_mass, 2e-5, 0, what);
+        snprintf(what, sizeof what, "%s: gamma", gases[k].name);
+        CHECK_CLOSE(g->gamma, gases[k].gamma, 1e-15, 0, what);
+        snprintf(what, sizeof what, "%s: viscosity at 300 K", gases[k].name);
+        CHECK_CLOSE(dem_nozzle_viscosity(g, 300.0), gases[k].mu_300, 0.01, 0, what);
+    }
+}
+
+/* Helium's exit state in closed form: at gamma = 5/3 and M = 3, A/A* = (1/3) [0.75 (1 + 9/3)]^2 = 3 and T0/T = 4, so
+ * a nozzle of exit diameter sqrt(3) times its throat's leaves at u = 3 sqrt(gamma R T0 / 4) and p = p0 4^-2.5. */
+static void test_exit_state_helium(void)
+{
+    struct dem_nozzle n = test_nozzle(2e-3 * sqrt(3.0));
+    n.gas = DEM_NOZZLE_HE;
+    n.properties = *dem_nozzle_gas_properties(DEM_NOZZLE_HE);
+    CHECK(dem_nozzle_solve(&n, 10e-6, 50e-6) == SC_OK, "solve: %s", sc_error_message());
+    double r = 8.314462618 / 4.002602e-3, t_exit = 698.15 / 4.0;
+    CHECK_CLOSE(n.exit.mach, 3.0, 1e-6, 0, "exit Mach");
+    CHECK_CLOSE(n.exit.temperature, t_exit, 1e-6, 0, "exit temperature (K)");
+    CHECK_CLOSE(n.exit.velocity, 3.0 * sqrt(5.0 / 3.0 * r * t_exit), 2e-5, 0, "exit velocity (m/s)");
+    CHECK_CLOSE(n.exit.pressure, 6.55e6 * pow(4.0, -2.5), 1e-6, 0, "exit pressure (Pa)");
+}
+
 /* Stokes: Re -> 0 at M -> 0 gives C_D Re / 24 -> 1 (the pressure term adds 4.5 Re / 24); the free-molecular
  * sphere with diffuse reflection (Schaaf & Chambre 1958) at S = M sqrt(g/2) = 4.18 and Tw = T: C_D = 2 + 2/S^2 -
  * 1/(2 S^4) + 2 sqrt(pi)/(3 S) = 2.395 (the exponential and erf corrections below 1e-7), which Henderson's fit meets
@@ -315,6 +357,8 @@ int main(void)
 {
     RUN(test_area_mach);
     RUN(test_exit_state);
+    RUN(test_gas_constants);
+    RUN(test_exit_state_helium);
     RUN(test_drag_limits);
     RUN(test_henderson_values);
     RUN(test_throat_rates);
