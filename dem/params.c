@@ -46,7 +46,9 @@ const struct cfg_key dem_case_keys[] = {
      "0: none"},
     /* [powder] */
     {"powder", "distribution", CFG_CHOICE, "", "weibull", 0, 0, 0, "weibull|mono", "size distribution, Eq. 36"},
-    {"powder", "median_diameter", CFG_REAL, "m", "160e-6", 0, 1, 1, NULL, "D_median, Eq. 37"},
+    {"powder", "median_diameter", CFG_REAL, "m", "160e-6", 0, 1, 1, NULL,
+     "D_median, Eq. 37: the median by number of the untruncated law (half the particles are smaller); a powder "
+     "sheet's d50 is usually by volume, which is larger (1.26 D_median at shape 3.5)"},
     {"powder", "shape", CFG_REAL, "-", "5", 0, 100, 1, NULL, "Weibull shape n, Eq. 36"},
     {"powder", "d_min", CFG_REAL, "m", "0", 0, 1, 0, NULL, "smallest diameter (truncation; 0 = none)"},
     {"powder", "d_max", CFG_REAL, "m", "0", 0, 1, 0, NULL, "largest diameter (truncation; 0 = none)"},
