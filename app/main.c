@@ -556,6 +556,11 @@ static int command_resume(const struct options *opt)
 {
     if (!opt->target)
         SC_FAIL(SC_EINPUT, "resume needs a run directory (see spraycoat --help)");
+    if (opt->run_dir) /* it was ignored: the results went on into RUN_DIR, not where -o said */
+        SC_FAIL(SC_EINPUT,
+                "resume continues %s where it is; -o goes with run and the stage commands (to run its case into "
+                "another directory: spraycoat run %s/case.ini -o %s)",
+                opt->target, opt->target, opt->run_dir);
     char case_path[4096], list[256];
     snprintf(case_path, sizeof case_path, "%s/case.ini", opt->target);
     if (access(case_path, R_OK) != 0)
@@ -737,6 +742,10 @@ int main(int argc, char **argv)
             return status;
         }
         if (strcmp(argv[i], "--version") == 0) {
+            if (argc > 2) { /* `spraycoat run x.ini --version` ran nothing and said so only by its output */
+                fprintf(stderr, "spraycoat: --version takes no other argument (see spraycoat --help)\n");
+                return SC_EINPUT;
+            }
             print_version();
             return 0;
         }

@@ -87,6 +87,10 @@ run1 cli_couple_without_spray 3 "spray.h5 is missing" "$bin" couple "$base" -o "
 run1 cli_impact_of_run_without_couple 3 "couple.h5 is missing" "$bin" run cases/demo.ini --stages impact -o "$tmp/run_impact"
 run1 cli_info_without_target 2 "info" "$bin" info
 run1 cli_resume_without_dir 2 "run directory" "$bin" resume
+# resume continues the run directory where it is: an -o would be ignored (the results went on into RUN_DIR)
+mkdir -p "$tmp/resume_o" && cp "$base" "$tmp/resume_o/case.ini"
+run1 cli_resume_with_o 2 "resume continues $tmp/resume_o where it is; -o goes with run" "$bin" resume "$tmp/resume_o" -o "$tmp/elsewhere"
+run1 cli_version_extra 2 "--version takes no other argument" "$bin" --version extra
 expect cli_empty_run_dir 2 "run directory" "$bin" spray "$base" -o ""
 report cli_empty_run_dir
 run1 cli_help 0 "usage" "$bin" --help
