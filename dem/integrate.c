@@ -399,6 +399,9 @@ static void integrate_rest_of_step(const struct dem_solver *s, struct dem_partic
     memcpy(v, p->v + 3 * i, sizeof v);
     struct step_end end;
     fly_under_drag(cfg, p->d[i], p->m[i], cfg->dt - s->path_time[i], x, v, count, &end);
+    /* a hand-off crossing in this step takes the end velocity (dem/solver.c record_handoff): the one before the
+     * contact, kept in v_start until now, is not one to interpolate from */
+    memcpy(p->v_start + 3 * i, v, sizeof v);
     struct dem_drag *drag = &p->drag;
     for (int c = 0; c < 3; c++) {
         p->x[3 * i + c] = x[c];
@@ -1128,9 +1131,9 @@ FM_INLINE void block_verify_reach(const struct dem_solver *s, const struct block
 }
 
 /* The end of the step for the block's particles, which fly: their contacts are over, and those at a boundary
- * go to hits[0, return value), in order, with their start positions (x_start: the step's end reads them only
- * there, for hand-off crossings).  dem_at_boundary's tests on the block's copies of the same values (x0 is
- * the start position), as bit operations on all lanes at once; *bad is set if a spin is not finite. */
+ * go to hits[0, return value), in order, with their start positions and velocities (x_start, v_start: the step's
+ * end reads them only there, for hand-off crossings).  dem_at_boundary's tests on the block's copies of the same values
+ * (x0 is the start position), as bit operations on all lanes at once; *bad is set if a spin is not finite. */
 static size_t block_finish(struct dem_solver *s, const struct block *restrict b, uint32_t *hits, int *bad)
 {
     const struct dem_config *cfg = &s->cfg;
@@ -1157,6 +1160,7 @@ static size_t block_finish(struct dem_solver *s, const struct block *restrict b,
     for (int l = 0; l < (int)b->count; l++) {
         if (at_boundary[l]) {
             lane_get(b->x0, l, s->p.x_start + 3 * b->index[l]);
+            lane_get(b->v0, l, s->p.v_start + 3 * b->index[l]);
             hits[n++] = b->index[l];
         }
     }

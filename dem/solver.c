@@ -60,21 +60,28 @@ int64_t dem_total_steps(const struct dem_solver *s)
 }
 
 /* The crossing of the hand-off plane by particle i during this step, on the straight line from its start
- * position to its end position: for a free particle over the whole step, for a particle that stuck in this
- * step up to the time it stuck (then it carries its velocity and spin from the start of the step). */
+ * position to its end position: for a free particle over the whole step, its velocity interpolated as well between
+ * the start's and the end's (the end's alone, as before, differed from the velocity at the crossing by the drag's
+ * deceleration over the rest of the step: the couple stage's flight starts from it); for a particle that stuck in
+ * this step up to the time it stuck (then it carries its velocity and spin from the start of the step).  Without
+ * gas the velocity is constant.  A particle whose velocity a contact changed in this step takes the end's
+ * (integrate_rest_of_step leaves its v_start at its end velocity: the velocity before the contact is not one to
+ * interpolate from). */
 static void record_handoff(struct dem_solver *s, size_t i, double plane)
 {
     struct dem_particles *p = &s->p;
     const double *x0 = p->x_start + 3 * i, *x1 = p->x + 3 * i;
     int flying = p->state[i] == DEM_FLYING;
+    int interpolated = flying && s->cfg.gas.model != DEM_JET_NONE;
     double fraction = (plane - x0[2]) / (x1[2] - x0[2]);
     double duration = flying ? s->cfg.dt : s->path_time[i];
     struct dem_handoff *row = dem_grow((void **)&s->handoffs, &s->handoff_count, &s->handoff_capacity, sizeof *row);
     row->t = (double)s->step * s->cfg.dt + fraction * duration;
     row->particle_id = p->id[i];
     for (int c = 0; c < 3; c++) {
+        const double *v0 = p->v_start + 3 * i, *v1 = p->v + 3 * i;
         row->x[c] = x0[c] + fraction * (x1[c] - x0[c]);
-        row->v[c] = flying ? p->v[3 * i + c] : p->v_start[3 * i + c];
+        row->v[c] = interpolated ? v0[c] + fraction * (v1[c] - v0[c]) : flying ? v1[c] : v0[c];
         row->w[c] = flying ? p->w[3 * i + c] : p->w_start[3 * i + c];
     }
     row->d = p->d[i];
