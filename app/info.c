@@ -427,16 +427,17 @@ static int info_file(const char *path, FILE *out)
         print_attribute(file, root_attributes[k], out);
     char stage[64] = "";
     h5_attr_read_string(file, "stage", stage, sizeof stage);
-    if (strcmp(stage, "impact") == 0 && h5_exists(file, "series")) {
+    /* an impact checkpoint holds /series too (mpm/output.c): it is told from impact.h5 by its root attribute step */
+    if (strcmp(stage, "impact") == 0 && H5Aexists(file, "step") > 0) {
+        fprintf(out, "impact checkpoint:\n");
+        for (int k = 0; impact_checkpoint[k]; k++)
+            print_attribute(file, impact_checkpoint[k], out);
+    } else if (strcmp(stage, "impact") == 0 && h5_exists(file, "series")) {
         print_impact_results(file, out);
     } else if (strcmp(stage, "impact") == 0 && h5_exists(file, "run_0000")) {
         print_impact_runs(file, out);
     } else if (strcmp(stage, "couple") == 0) {
         print_couple_results(file, out);
-    } else if (strcmp(stage, "impact") == 0) {
-        fprintf(out, "impact checkpoint:\n");
-        for (int k = 0; impact_checkpoint[k]; k++)
-            print_attribute(file, impact_checkpoint[k], out);
     } else if (strcmp(stage, "vcrit") == 0) {
         print_vcrit_results(file, out);
     } else if (strcmp(stage, "calibrate") == 0) {

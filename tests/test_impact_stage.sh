@@ -46,21 +46,22 @@ fi
 
 datasets() { h5ls -r "$1" 2>/dev/null | awk '$2 == "Dataset" { print $1 }' | LC_ALL=C sort; }
 
-# same_results DIR_A DIR_B: 0 when the two impact.h5 hold identical groups; else 1 with the reason in $why
+# same_results DIR_A DIR_B: 0 when the two impact.h5 hold identical groups; else 1 with the reason in $differs
+# (not $why, which the callers collect their other findings in: setting it here emptied those of section 5)
 same_results() {
-    why=""
+    differs=""
     for f in "$1/impact.h5" "$2/impact.h5"; do
-        [ -f "$f" ] || { why="$f does not exist"; return 1; }
+        [ -f "$f" ] || { differs="$f does not exist"; return 1; }
     done
     datasets "$1/impact.h5" >"$T/names_a"
     datasets "$2/impact.h5" >"$T/names_b"
     if ! cmp -s "$T/names_a" "$T/names_b"; then
-        why="the dataset names differ: $(diff "$T/names_a" "$T/names_b" | grep '^[<>]' | head -n 4 | tr '\n' ' ')"
+        differs="the dataset names differ: $(diff "$T/names_a" "$T/names_b" | grep '^[<>]' | head -n 4 | tr '\n' ' ')"
         return 1
     fi
     for group in /snapshots /series /summary /stats; do
         if ! h5diff -d 0 "$1/impact.h5" "$2/impact.h5" "$group" "$group" >"$T/h5diff.out" 2>&1; then
-            why="$group differs: $(grep -v '^$' "$T/h5diff.out" | head -n 6 | tr '\n' ' ')"
+            differs="$group differs: $(grep -v '^$' "$T/h5diff.out" | head -n 6 | tr '\n' ' ')"
             return 1
         fi
     done
@@ -129,7 +130,7 @@ if [ -z "$why" ]; then pass impact_stage_xdmf; else fail impact_stage_xdmf "$why
 if "$BIN" impact "$CASE" -o "$T/two" --threads 2 >"$T/two.log" 2>&1 && same_results "$REF" "$T/two"; then
     pass impact_stage_threads_1_vs_2
 else
-    fail impact_stage_threads_1_vs_2 "${why:-spraycoat impact --threads 2 failed: $(tail -n 2 "$T/two.log" | tr '\n' ' ')}"
+    fail impact_stage_threads_1_vs_2 "${differs:-spraycoat impact --threads 2 failed: $(tail -n 2 "$T/two.log" | tr '\n' ' ')}"
 fi
 
 # ---- 4. a second run of the same case in the same folder does nothing -----------------------------------------
@@ -163,7 +164,7 @@ if wait_for_checkpoints "$RUN" 2; then
     elif ! grep -q 'resuming from' "$T/resume.log"; then
         why="$why resume did not start from a checkpoint;"
     elif ! same_results "$REF" "$RUN"; then
-        why="$why after resume: $why"
+        why="$why after resume: $differs;"
     fi
     [ "$(root_attribute "$RUN/impact.h5" case_hash)" = "$(root_attribute "$REF/impact.h5" case_hash)" ] ||
         why="$why case_hash differs;"
@@ -236,7 +237,7 @@ if wait_for_checkpoints "$RUN" 3; then
     if ! "$BIN" resume "$RUN" >"$T/resume2.log" 2>&1; then
         why="resume failed: $(tail -n 2 "$T/resume2.log" | tr '\n' ' ')"
     elif ! same_results "$REF" "$RUN"; then
-        why="after resume: $why"
+        why="after resume: $differs"
     fi
     if [ -z "$why" ]; then pass impact_stage_sigkill_resume; else fail impact_stage_sigkill_resume "$why"; fi
 else
@@ -260,10 +261,11 @@ bg=""
 # what a kill inside a write leaves: a half-written snapshot of a later index and a half-written impact.h5
 printf 'half' >"$RUN/impact_snapshots/000001.h5.tmp" 2>/dev/null
 printf 'half' >"$RUN/impact.h5.tmp"
+differs=""
 if "$BIN" resume "$RUN" >"$T/resume3.log" 2>&1 && same_results "$REF" "$RUN"; then
     pass impact_stage_early_kill_resume
 else
-    fail impact_stage_early_kill_resume "${why:-resume failed: $(tail -n 2 "$T/resume3.log" | tr '\n' ' ')}"
+    fail impact_stage_early_kill_resume "${differs:-resume failed: $(tail -n 2 "$T/resume3.log" | tr '\n' ' ')}"
 fi
 
 # ---- 9. conduction = on: its exchanges are decided by the time alone, so a SIGTERM and resume end identically --
@@ -284,7 +286,7 @@ if [ -z "$why" ] && wait_for_checkpoints "$RUN" 2; then
     if ! "$BIN" resume "$RUN" >"$T/cresume.log" 2>&1 || ! grep -q 'resuming from' "$T/cresume.log"; then
         why="resume did not finish from a checkpoint: $(tail -n 2 "$T/cresume.log" | tr '\n' ' ')"
     elif ! same_results "$T/cref" "$RUN"; then
-        why="after resume: $why"
+        why="after resume: $differs"
     fi
 else
     wait "$bg" 2>/dev/null
