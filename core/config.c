@@ -1852,8 +1852,10 @@ static const char markdown_header[] =
     "`dt = 50 ns`, `release_speed_max = 60 m/s`, fractions in `%`: SI prefixes, products, quotients and integer\n"
     "powers (`g/cm3`, `J/(kg K)`, `mm/s`).  A unit of another dimension (`standoff = 30 s`) or one UDUNITS-2 does\n"
     "not know is an error that names the unit given and the unit expected; the range is checked after the\n"
-    "conversion.  Integer keys (counts) and the keys whose unit has a fractional power (`m^(4/3)/s`) take bare\n"
-    "numbers.  `spraycoat check CASE` shows a value given with a unit next to its SI value (`30 mm = 0.03 m`).\n\n";
+    "conversion.  An angle counts as a dimension (UDUNITS-2 calls it dimensionless): a key in `degree` takes\n"
+    "`rad`, `degree`, `arc_minute` or `arc_second`, not `%` or `sr`, and a dimensionless key (`-`) no angle.\n"
+    "Integer keys (counts) and the keys whose unit has a fractional power (`m^(4/3)/s`) take bare numbers.\n"
+    "`spraycoat check CASE` shows a value given with a unit next to its SI value (`30 mm = 0.03 m`).\n\n";
 
 void case_registry_markdown(const struct cfg_key *const *registry, FILE *out)
 {

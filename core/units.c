@@ -73,12 +73,92 @@ static double convert(const cv_converter *forward, const cv_converter *back, dou
     return cv_convert_double(forward, value);
 }
 
+/* The power of the radian in a unit: 1 for rad, degree, arc_minute, mrad and rad/s, 2 for sr, 0 for 1, % and m/s.
+ * UDUNITS-2 counts the radian as dimensionless (ut_are_convertible("degree", "%") is true), but keeps it in a unit
+ * as a basic unit of its own, which a visitor finds. */
+struct radian_power {
+    const ut_unit *radian;
+    int power;
+};
+
+static ut_status visit_basic(const ut_unit *unit, void *arg)
+{
+    struct radian_power *r = arg;
+    r->power = ut_compare(unit, r->radian) == 0;
+    return UT_SUCCESS;
+}
+
+static ut_status visit_product(const ut_unit *unit, int count, const ut_unit *const *basic, const int *powers,
+                               void *arg)
+{
+    (void)unit;
+    struct radian_power *r = arg;
+    r->power = 0;
+    for (int k = 0; k < count; k++)
+        if (ut_compare(basic[k], r->radian) == 0)
+            r->power += powers[k];
+    return UT_SUCCESS;
+}
+
+static ut_status visit_galilean(const ut_unit *unit, double scale, const ut_unit *underlying, double offset, void *arg);
+
+static ut_status visit_timestamp(const ut_unit *unit, const ut_unit *time_unit, double origin, void *arg)
+{
+    (void)unit, (void)time_unit, (void)origin;
+    ((struct radian_power *)arg)->power = 0;
+    return UT_SUCCESS;
+}
+
+static ut_status visit_logarithmic(const ut_unit *unit, double base, const ut_unit *reference, void *arg)
+{
+    (void)unit, (void)base, (void)reference;
+    ((struct radian_power *)arg)->power = 0;
+    return UT_SUCCESS;
+}
+
+static ut_visitor radian_visitor = {visit_basic, visit_product, visit_galilean, visit_timestamp, visit_logarithmic};
+
+static ut_status visit_galilean(const ut_unit *unit, double scale, const ut_unit *underlying, double offset, void *arg)
+{
+    (void)unit, (void)scale, (void)offset;
+    return ut_accept_visitor(underlying, &radian_visitor, arg);
+}
+
+static int radian_power(const ut_unit *unit)
+{
+    struct radian_power r = {ut_get_unit_by_symbol(ut_get_system(unit), "rad"), 0};
+    if (r.radian)
+        ut_accept_visitor(unit, &radian_visitor, &r);
+    ut_free((ut_unit *)r.radian);
+    return r.power;
+}
+
 static enum units_status convert_units(ut_unit *from, ut_unit *to, double value, double *si, const char *given,
                                        const char *expected, char *why, size_t size)
 {
     if (!ut_are_convertible(from, to)) {
         snprintf(why, size, "the unit \"%s\" is not convertible to the key's unit \"%s\" (another dimension)", given,
                  expected);
+        return UNITS_MISMATCH;
+    }
+    /* an angle is not a number: "10 %" for an angle, "2 degree" for a fraction, "0.5 sr" for a plane angle */
+    int given_power = radian_power(from), key_power = radian_power(to);
+    if (given_power != key_power) {
+        if (key_power == 1 && given_power == 0)
+            snprintf(why, size,
+                     "the unit \"%s\" is not an angle; the key's unit \"%s\" is (rad, degree, arc_minute, "
+                     "arc_second; not sr, %%)",
+                     given, expected);
+        else if (key_power == 0 && strcmp(expected, "1") == 0)
+            snprintf(why, size,
+                     "the unit \"%s\" is an angle; the key is dimensionless (a bare number, %%, ppm; not rad, "
+                     "degree, sr)",
+                     given);
+        else
+            snprintf(why, size,
+                     "the unit \"%s\" is not convertible to the key's unit \"%s\" (an angle is a dimension of its "
+                     "own here: rad, degree; sr is rad^2)",
+                     given, expected);
         return UNITS_MISMATCH;
     }
     cv_converter *forward = ut_get_converter(from, to), *back = ut_get_converter(to, from);

@@ -1,7 +1,8 @@
 #!/bin/sh
 # Units in case files through `spraycoat check` (docs/keys.md's header): values with units are converted to SI
 # (the check lists "30 mm = 0.03 m"), give the same case hash as the bare SI numbers, and a unit of another
-# dimension or an unknown unit exits 2 naming file, line, key, the unit given and the unit expected; a case file
+# dimension or an unknown unit exits 2 naming file, line, key, the unit given and the unit expected (an angle counts
+# as a dimension: "10 %" is no angle, "1 rad" no friction coefficient); a case file
 # with three errors has all three reported, each with its line, before exit status 2.
 # Prints "PASS name" / "FAIL name: why".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
@@ -56,6 +57,36 @@ refused() {
 refused cli_units_wrong_dimension "30 s" 'unit "s"' 'unit "m"'
 refused cli_units_unknown "30 furlongz" 'unknown unit "furlongz"' 'unit is "m"'
 refused cli_units_out_of_range "3 km" "out of range (3000 m)" "allowed: > 0 and <= 100 m"
+
+# angles: UDUNITS-2 counts rad, degree and sr as dimensionless, so that "10 %" converted to 5.73 degree and
+# "2 degree" to 0.0349; an angle key takes angle units only, a dimensionless key none.
+# unit_refused NAME SECTION KEY VALUE TEXT...: the demo with KEY = VALUE as the first line of [SECTION] exits 2 and
+# stderr holds FILE:LINE, the key and every TEXT
+unit_refused() {
+    name=$1 section=$2 key=$3
+    sed "s/^\[$section\]\$/[$section]\n$key = $4/" "$tmp/demo.ini" >"$tmp/$name.ini"
+    shift 4
+    line=$(grep -n "^$key = " "$tmp/$name.ini" | cut -d: -f1)
+    "$bin" check "$tmp/$name.ini" >"$tmp/$name.out" 2>"$tmp/$name.err"
+    status=$?
+    why=""
+    [ "$status" -eq 2 ] || why="exit status $status, expected 2;"
+    for text in "$tmp/$name.ini:$line: [$section] $key" "$@"; do
+        grep -qF -- "$text" "$tmp/$name.err" || why="$why stderr lacks \"$text\";"
+    done
+    if [ -z "$why" ]; then pass "$name"; else fail "$name" "$why $(head -c 300 "$tmp/$name.err")"; fi
+}
+unit_refused cli_units_angle_percent impact angle "10 %" 'unit "%" is not an angle' 'rad, degree'
+unit_refused cli_units_angle_steradian impact angle "0.5 sr" 'unit "sr"' 'unit "degree"'
+unit_refused cli_units_fraction_degree impact pbcp_threshold "2 degree" 'unit "degree" is an angle' 'dimensionless'
+unit_refused cli_units_friction_radian powder friction "1 rad" 'unit "rad" is an angle' 'dimensionless'
+sed 's/^\[impact\]$/[impact]\nangle = 0.5 rad\npbcp_threshold = 5 %/' "$tmp/demo.ini" >"$tmp/angles.ini"
+"$bin" check "$tmp/angles.ini" >"$tmp/angles.out" 2>&1
+why=""
+for shown in "angle *= 0.5 rad = 28.647889756541" "pbcp_threshold *= 5 % = 0.05 "; do
+    grep -q "$shown" "$tmp/angles.out" || why="$why check does not list \"$shown\";"
+done
+if [ -z "$why" ]; then pass cli_units_angles_kept; else fail cli_units_angles_kept "$why $(head -c 300 "$tmp/angles.out")"; fi
 
 # three errors: a value out of range, an unknown key, a unit of another dimension; all three, with their lines
 with_value dt 0 "$tmp/three.ini"
