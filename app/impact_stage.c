@@ -449,10 +449,53 @@ static void log_summary(struct impact_run *run)
              run->label, d->energy_initial, d->energy_total, d->energy_absorbed, d->energy_removed);
 }
 
+/* x rounded up to 3 significant digits (a bound shown with %.3g that still holds). */
+static double round_up_3(double x)
+{
+    if (!(x > 0.0) || !isfinite(x))
+        return x;
+    double unit = pow(10.0, floor(log10(x)) - 2.0);
+    return ceil(x / unit * (1.0 - 1e-12)) * unit;
+}
+
+/* A grid beyond the machine's memory (or beyond MPM_GRID_MAX_NODES nodes) is the fault of [impact] grid, whatever the
+ * bodies: it names grid with the finest cell that fits.  `whose` leads the message (the seeds of a run) or is "". */
+static int check_grid_fits(const struct case_file *c, const struct mpm_config *cfg, const char *whose)
+{
+    struct mpm_grid_need need;
+    mpm_grid_need(cfg, mpm_machine_memory(), &need);
+    if (need.fits)
+        return SC_OK;
+    if (need.nodes > MPM_GRID_MAX_NODES)
+        return case_invalid(c, "impact", "grid",
+                            "%sthe grid would have %zu nodes, over the %zu a grid may have; allowed: at least %.3g m "
+                            "on this machine (the bodies, box_margin and substrate as they are)",
+                            whose, need.nodes, MPM_GRID_MAX_NODES, round_up_3(need.finest));
+    double layer = need.bytes / cfg->body_count;
+    if (!*whose && case_has(c, "impact", "bodies") && layer <= need.memory) /* the file's bodies are too many */
+        return case_invalid(c, "impact", "bodies",
+                            "the run would need %.3g GB for the grid of its %d bodies (a layer of %.3g GB each) on "
+                            "a machine of %.3g GB; allowed: at most %.0f bodies in a run with grid = %g m, or a grid "
+                            "of at least %.3g m",
+                            need.bytes / 1e9, cfg->body_count, layer / 1e9, need.memory / 1e9,
+                            floor(need.memory / layer), cfg->grid, round_up_3(need.finest));
+    return case_invalid(c, "impact", "grid",
+                        "%sthe run would need %.3g GB for its grid (%d bodies, a layer of %.3g GB each) on a machine "
+                        "of %.3g GB; allowed: at least %.3g m on this machine (or fewer bodies per run, a smaller "
+                        "box_margin)",
+                        whose, need.bytes / 1e9, cfg->body_count, need.bytes / cfg->body_count / 1e9, need.memory / 1e9,
+                        round_up_3(need.finest));
+}
+
 /* mpm_create refuses set-ups it cannot make (overlapping bodies, a body holding no point): name the case key, or
  * for a run of the seeds the rows of couple.h5 the bodies came from (no key of the case gave them). */
 static int create_solver(struct impact_run *run)
 {
+    char whose[H5IO_PATH_MAX + 200] = "";
+    if (run->seed_count >= 1)
+        snprintf(whose, sizeof whose, "%s: the bodies of %s/couple.h5 /seeds rows %zu to %zu: ", run->label,
+                 run->run_dir, run->seed_first, run->seed_first + run->seed_count - 1);
+    SC_TRY(check_grid_fits(run->ctx->c, &run->cfg, whose));
     int status = mpm_create(&run->cfg, &run->solver);
     if (status != SC_EINPUT)
         return status;
@@ -526,6 +569,7 @@ static void name_run(struct impact_run *run, long index);
 
 static int check_set_up(const struct stage_context *ctx, struct mpm_config *cfg)
 {
+    SC_TRY(check_grid_fits(ctx->c, cfg, ""));
     int status = mpm_check_set_up(cfg);
     if (status != SC_EINPUT)
         return status;

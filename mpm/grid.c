@@ -165,7 +165,8 @@ static double least_offset_above(double h, double bound)
 /* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
  * DCell so that z = 0 (the substrate's top) is a node plane. */
 /* The grid box: the bounding box lo..hi widened by box_margin and two cells, in whole cells. */
-static int grid_box(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
+/* The grid around the box lo..hi: cells of cfg->grid, 2 cells and box_margin beyond it on each side. */
+static void grid_layout(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
@@ -176,6 +177,13 @@ static int grid_box(const struct mpm_config *cfg, const double lo[3], const doub
         g->origin[d] = g->h * (floor((lo[d] - cfg->box_margin) / g->h) - 2.0);
         g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
         g->nodes *= (size_t)g->n[d];
+    }
+}
+
+static int grid_box(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
+{
+    grid_layout(cfg, lo, hi, g);
+    for (int d = 0; d < 3; d++) {
         /* 1 < d / h < n - 2: d / h > 1, and not d / h > the double below n - 2 */
         g->inside_from[d] = least_offset_above(g->h, 1.0);
         g->inside_to[d] = least_offset_above(g->h, nextafter((double)g->n[d] - 2.0, -INFINITY));
@@ -184,7 +192,7 @@ static int grid_box(const struct mpm_config *cfg, const double lo[3], const doub
     g->plane = g->row * (size_t)g->n[1];
     for (int d = 0; d < 2; d++) /* origin is a whole number of cells: the plane 0 is a node plane */
         g->mirror_plane[d] = lround(-g->origin[d] / g->h);
-    if (g->nodes > (size_t)1 << 31)
+    if (g->nodes > MPM_GRID_MAX_NODES)
         SC_FAIL(SC_EINPUT,
                 "impact: the grid would have %zu nodes (%d x %d x %d); use a coarser grid or a smaller "
                 "box_margin",
@@ -192,13 +200,45 @@ static int grid_box(const struct mpm_config *cfg, const double lo[3], const doub
     return SC_OK;
 }
 
-int mpm_grid_bytes(const struct mpm_config *cfg, const double lo[3], const double hi[3], double *bytes)
+/* The grid of cfg with cells of h around the bodies' box: it fits when within the node limit and memory (memory 0:
+ * unknown, not checked); its bytes in *bytes. */
+static int grid_fits(const struct mpm_config *cfg, double h, const double lo[3], const double hi[3], double memory,
+                     double *bytes)
 {
+    struct mpm_config trial = *cfg;
+    trial.grid = h;
     struct mpm_grid g;
-    SC_TRY(grid_box(cfg, lo, hi, &g));
+    grid_layout(&trial, lo, hi, &g);
     *bytes = (double)g.nodes * (double)g.layers * (double)GRID_BYTES_PER_NODE_LAYER;
-    return SC_OK;
+    return g.nodes <= MPM_GRID_MAX_NODES && (memory <= 0.0 || *bytes <= memory);
 }
+
+void mpm_grid_need(const struct mpm_config *cfg, double memory, struct mpm_grid_need *need)
+{
+    double lo[3], hi[3];
+    mpm_bodies_bounds(cfg, lo, hi);
+    struct mpm_grid g;
+    grid_layout(cfg, lo, hi, &g);
+    need->nodes = g.nodes;
+    need->memory = memory;
+    need->fits = grid_fits(cfg, cfg->grid, lo, hi, memory, &need->bytes);
+    need->finest = cfg->grid;
+    if (need->fits)
+        return;
+    /* the finest cell that fits: bisection on the cell size between one that does not and one that does */
+    double coarse = cfg->grid, fine = cfg->grid, bytes;
+    for (int k = 0; k < 200 && !grid_fits(cfg, coarse, lo, hi, memory, &bytes); k++)
+        fine = coarse, coarse *= 2.0;
+    for (int k = 0; k < 60; k++) {
+        double middle = 0.5 * (fine + coarse);
+        if (grid_fits(cfg, middle, lo, hi, memory, &bytes))
+            coarse = middle;
+        else
+            fine = middle;
+    }
+    need->finest = coarse;
+}
+
 int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *p, struct mpm_grid *g)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};

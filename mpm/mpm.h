@@ -173,6 +173,20 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out);
  * bodies of any shape, a body that holds no point) and the grid's memory against the machine's.  SC_EINPUT
  * naming the bodies or the grid. */
 int mpm_check_set_up(const struct mpm_config *cfg);
+
+/* The most nodes a grid may have (the node index of a stencil is an int in places). */
+#define MPM_GRID_MAX_NODES ((size_t)1 << 31)
+/* What the grid of a set-up needs, from the bodies' box (no point seeded), against `memory` bytes (0: unknown, not
+ * checked): its nodes and bytes (nodes x bodies' layers), and when it does not fit (more than MPM_GRID_MAX_NODES
+ * nodes, or more bytes than the memory) the finest cell size, in m, that would, the other keys as they are. */
+struct mpm_grid_need {
+    size_t nodes;
+    double bytes, memory, finest;
+    int fits;
+};
+void mpm_grid_need(const struct mpm_config *cfg, double memory, struct mpm_grid_need *need);
+/* The machine's memory in bytes (0 when unknown), which a grid must fit in. */
+double mpm_machine_memory(void);
 void mpm_destroy(struct mpm_solver *s);
 
 /* Advance one step.  SC_ESIM naming step, point, body and quantity when the state is not finite. */

@@ -204,8 +204,6 @@ void mpm_points_order_reset(struct mpm_points *p);
 
 /* grid.c */
 int mpm_grid_create(const struct mpm_config *cfg, const struct mpm_points *points, struct mpm_grid *grid);
-/* The bytes a grid around the box lo..hi would take (nodes x bodies' layers), without allocating it. */
-int mpm_grid_bytes(const struct mpm_config *cfg, const double lo[3], const double hi[3], double *bytes);
 /* The box that holds every body of cfg (and so every point seeded in them), a point spacing wider. */
 void mpm_bodies_bounds(const struct mpm_config *cfg, double lo[3], double hi[3]);
 void mpm_grid_free(struct mpm_grid *grid);

@@ -215,18 +215,25 @@ int mpm_create(const struct mpm_config *cfg, struct mpm_solver **out)
     return SC_OK;
 }
 
+double mpm_machine_memory(void)
+{
+    double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    return memory > 0.0 ? memory : 0.0;
+}
+
 int mpm_check_set_up(const struct mpm_config *cfg)
 {
     /* the grid's memory first, from the bodies' box (no point seeded yet: a run too large fails at once) */
-    double lo[3], hi[3], grid_bytes = 0.0;
-    mpm_bodies_bounds(cfg, lo, hi);
-    SC_TRY(mpm_grid_bytes(cfg, lo, hi, &grid_bytes));
-    double memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
-    if (memory > 0.0 && grid_bytes > memory)
+    struct mpm_grid_need need;
+    mpm_grid_need(cfg, mpm_machine_memory(), &need);
+    if (need.nodes > MPM_GRID_MAX_NODES)
+        SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes, over %zu; use a grid of at least %.3g m", need.nodes,
+                MPM_GRID_MAX_NODES, need.finest);
+    if (!need.fits)
         SC_FAIL(SC_EINPUT,
                 "impact: the run would need %.3g GB for its grid (a layer of %.3g GB for each of the %d "
                 "bodies) on a machine of %.3g GB; use fewer bodies per run, a coarser grid or a smaller box_margin",
-                grid_bytes / 1e9, grid_bytes / cfg->body_count / 1e9, cfg->body_count, memory / 1e9);
+                need.bytes / 1e9, need.bytes / cfg->body_count / 1e9, cfg->body_count, need.memory / 1e9);
     /* then every body seeded with its points: overlapping bodies of any shape, a body that holds no point */
     struct mpm_points points;
     SC_TRY(mpm_points_create(cfg, &points));
