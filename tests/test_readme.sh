@@ -43,3 +43,29 @@ for key in $("$bin" keys | sed -n 's/^| `\([a-zA-Z0-9_]*\)` |.*/\1/p'); do
     fi
 done
 if [ "$missing" -eq 0 ]; then echo "PASS keys_documented"; else echo "FAIL keys_documented"; fi
+
+# README steps 2 and 3 say what the program does: one empty section is a valid case, an empty file is refused
+# (exit 2); a case with [impact] keys needs a [material.NAME] section for the default Al too, an empty
+# [material.aluminium] being enough (the README said an empty file is a valid case, and [material.NAME] only for
+# other materials than the default Al)
+tmp=$(mktemp -d) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+why=""
+printf '[run]\n' >"$tmp/run.ini"
+: >"$tmp/empty.ini"
+printf '[impact]\nvelocity = 700\n' >"$tmp/impact.ini"
+printf '[impact]\nvelocity = 700\n\n[material.aluminium]\n' >"$tmp/impact_al.ini"
+"$bin" check "$tmp/run.ini" >/dev/null 2>&1 || why="$why a case of [run] alone is refused;"
+"$bin" check "$tmp/empty.ini" >/dev/null 2>&1
+[ $? -eq 2 ] || why="$why an empty file is not refused with exit status 2;"
+"$bin" check "$tmp/impact.ini" >/dev/null 2>"$tmp/impact.err"
+[ $? -eq 2 ] && grep -qF '[material.aluminium]' "$tmp/impact.err" ||
+    why="$why [impact] without [material.aluminium] is not refused naming it;"
+"$bin" check "$tmp/impact_al.ini" >/dev/null 2>&1 || why="$why [impact] with an empty [material.aluminium] is refused;"
+tr '\n' ' ' <README.md | tr -s ' ' >"$tmp/readme.txt"
+for said in 'one empty section (`[run]`) is a valid case' 'an empty file is refused' \
+    'a `[material.NAME]` section for each material they name, the default Al'"'"'s too'; do
+    grep -qF -- "$said" "$tmp/readme.txt" || why="$why README does not say \"$said\";"
+done
+grep -q 'empty file is a valid' "$tmp/readme.txt" && why="$why README calls an empty file a valid case;"
+if [ -z "$why" ]; then echo "PASS readme_case_minimum"; else echo "FAIL readme_case_minimum ($why)"; fi
