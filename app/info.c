@@ -638,6 +638,71 @@ static double last_value(hid_t file, const char *name)
     return value;
 }
 
+/* A single run's impact.h5 (no /summary runs attribute): how many particles bonded and each particle's verdict,
+ * settled or not by the end (the substrate left out), at most 20 of them. */
+static void print_impact_bodies_headline(hid_t file, FILE *out)
+{
+    size_t n;
+    if (h5_dataset_size(file, "summary/verdict", &n) != SC_OK || n == 0)
+        return;
+    static const char *const names[] = {"summary/diameter",  "summary/v_impact",        "summary/verdict",
+                                        "summary/pbcp",      "summary/v_rest",          "summary/substrate",
+                                        "summary/t_settled", "summary/bonded_interface"};
+    double *column[8];
+    for (int k = 0; k < 8; k++)
+        column[k] = read_column(file, names[k], n);
+    double pbcp_threshold = NAN, vrest_threshold = NAN;
+    summary_thresholds(file, &pbcp_threshold, &vrest_threshold);
+    size_t particles = 0, bonded = 0, shown = 0;
+    for (size_t b = 0; column[2] && b < n; b++)
+        if (!(column[5] && column[5][b] == 1.0)) {
+            particles++;
+            bonded += (int)column[2][b] == MPM_VERDICT_BONDED;
+        }
+    fprintf(out, "impact: %zu of %zu particles bonded (one MPM run)\n", bonded, particles);
+    for (size_t b = 0; column[2] && b < n; b++) {
+        double value[8];
+        for (int k = 0; k < 8; k++)
+            value[k] = column[k] ? column[k][b] : NAN;
+        if (value[5] == 1.0)
+            continue;
+        if (shown++ == 20) {
+            fprintf(out, "  ... %zu more particles (`spraycoat info RUN_DIR`)\n", particles - 20);
+            break;
+        }
+        int verdict = (int)value[2];
+        const char *name = mpm_verdict_held(verdict, value[4], vrest_threshold) ? "held" : mpm_verdict_name(verdict);
+        char settled[64];
+        if (isnan(value[6]))
+            snprintf(settled, sizeof settled, "not settled by the end of the run");
+        else
+            snprintf(settled, sizeof settled, "settled at %.3g ns", value[6] * 1e9);
+        fprintf(out, "  body %zu (d %.3g um at %.4g m/s): %s (%s); PBCP %.1f %%", b, value[0] * 1e6, value[1], name,
+                settled, 100.0 * value[3]);
+        if (!isnan(value[7]))
+            fprintf(out, ", bonded interface %.1f %%", 100.0 * value[7]);
+        fprintf(out, ", v_rest %.3g m/s\n", value[4]);
+    }
+    for (int k = 0; k < 8; k++)
+        free(column[k]);
+}
+
+/* The results table of a vcrit, calibrate or sweep run directory (`spraycoat info`'s), when its file is there. */
+static void print_search_headline(const char *run_dir, FILE *out)
+{
+    static const char *const stages[] = {"vcrit", "calibrate", "sweep"};
+    static void (*const print[])(hid_t, FILE *) = {print_vcrit_results, print_calibrate_results, print_sweep_results};
+    for (int k = 0; k < 3; k++) {
+        char path[4200];
+        hid_t file;
+        snprintf(path, sizeof path, "%s/%s.h5", run_dir, stages[k]);
+        if (access(path, R_OK) == 0 && h5_open_read(path, &file) == SC_OK) {
+            print[k](file, out);
+            H5Fclose(file);
+        }
+    }
+}
+
 void info_headline(const char *run_dir, FILE *out)
 {
     char path[4200];
@@ -696,9 +761,12 @@ void info_headline(const char *run_dir, FILE *out)
                         "        %lld of the %lld bodies ran at a resolution their bonding parameters were not "
                         "calibrated at: their verdicts are not calibrated (docs/physics.md \"Bonding calibration\")\n",
                         (long long)uncalibrated, (long long)bodies);
+        } else {
+            print_impact_bodies_headline(file, out);
         }
         H5Fclose(file);
     }
+    print_search_headline(run_dir, out);
     snprintf(path, sizeof path, "%s/report.html", run_dir);
     if (access(path, R_OK) == 0)
         fprintf(out, "report: %s (figures in %s/figures)\n", path, run_dir);

@@ -163,6 +163,8 @@ if wait_for_checkpoints "$RUN" 2; then
         why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
     elif ! grep -q 'resuming from' "$T/resume.log"; then
         why="$why resume did not start from a checkpoint;"
+    elif ! grep -Eq '^  body 1 \(d .*\): (bonded|rebounded|held|unsettled) \((settled at|not settled)' "$T/resume.log"; then
+        why="$why resume's closing summary gives no verdict of the particle: $(grep -A 2 '^results in' "$T/resume.log" | tr '\n' ' ');"
     elif ! same_results "$REF" "$RUN"; then
         why="$why after resume: $differs;"
     fi

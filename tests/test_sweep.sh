@@ -150,12 +150,12 @@ else
     fail sweep_restart "second sweep exit $again, $(grep -c 'spray: wrote' "$T/log2") runs made; after removing one: exit $redo, $made runs made, map $(tr '\n' ' ' <"$T/map_de3")"
 fi
 
-# 4. resume continues a sweep (stages: sweep,render), here with nothing left to do
+# 4. resume continues a sweep (stages: sweep,render), here with nothing left to do, and ends with the map as `run` does
 rm -f "$R/sweep.h5"
 "$BIN" resume "$R" >"$T/log4" 2>&1
 resumed=$?
 if [ $resumed -eq 0 ] && grep -q "stages sweep" "$T/log4" && [ -r "$R/sweep.h5" ] &&
-    ! grep -q "spray: wrote" "$T/log4"; then
+    ! grep -q "spray: wrote" "$T/log4" && grep -q "^sweep over" "$T/log4"; then
     pass sweep_resume
 else
     fail sweep_resume "exit $resumed: $(tail -n 2 "$T/log4")"

@@ -107,6 +107,7 @@ else
     recorded=$(grep -c '^[0-9]' "$RUN2/vcrit_runs.csv" 2>/dev/null)
     "$BIN" resume "$RUN2" >"$T/resume.log" 2>&1 || why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
     grep -q "${recorded:-x} runs recorded" "$T/resume.log" || why="$why resume did not reuse the $recorded recorded runs;"
+    grep -q '^critical velocity' "$T/resume.log" || why="$why resume's closing summary has no v_crit table;"
 fi
 cmp -s "$RUN/vcrit.csv" "$RUN2/vcrit.csv" || why="$why vcrit.csv differs from the uninterrupted search's;"
 h5diff -d 0 "$RUN/vcrit.h5" "$RUN2/vcrit.h5" /search /search >/dev/null 2>&1 || why="$why vcrit.h5:/search differs;"
