@@ -466,9 +466,9 @@ static int check_grid_fits(const struct case_file *c, const struct mpm_config *c
     mpm_grid_need(cfg, mpm_machine_memory(), &need);
     if (need.fits)
         return SC_OK;
-    if (need.nodes > MPM_GRID_MAX_NODES)
+    if (need.nodes > (double)MPM_GRID_MAX_NODES)
         return case_invalid(c, "impact", "grid",
-                            "%sthe grid would have %zu nodes, over the %zu a grid may have; allowed: at least %.3g m "
+                            "%sthe grid would have %.3g nodes, over the %zu a grid may have; allowed: at least %.3g m "
                             "on this machine (the bodies, box_margin and substrate as they are)",
                             whose, need.nodes, MPM_GRID_MAX_NODES, round_up_3(need.finest));
     double layer = need.bytes / cfg->body_count;

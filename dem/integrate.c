@@ -267,15 +267,24 @@ static int64_t substeps_over(double h, double tau)
 }
 
 /* The time from (z0, vz) to the bow shock's plane under a constant acceleration az (the drag at the start, on
- * the start's side), the root of z0 + vz t + az t^2 / 2 = plane in the stable form; infinite if it is not reached. */
+ * the start's side): the smallest positive root of z0 + vz t + az t^2 / 2 = plane, both roots in the stable form
+ * (a particle moving away from the plane that the gas turns back has a negative root too); infinite if none. */
 static double time_to_shock_plane(const struct dem_gas_field *gas, double z0, double vz, double az)
 {
     double gap = gas->wall_z - gas->stagnation_height - z0;
     double discriminant = vz * vz + 2.0 * az * gap;
     if (!(discriminant >= 0.0))
         return INFINITY;
-    double denominator = vz + copysign(sqrt(discriminant), vz);
-    return denominator != 0.0 ? 2.0 * gap / denominator : INFINITY;
+    double q = vz + copysign(sqrt(discriminant), vz), roots[2] = {INFINITY, INFINITY};
+    if (q != 0.0)
+        roots[0] = 2.0 * gap / q;
+    if (az != 0.0)
+        roots[1] = -q / az;
+    double first = INFINITY;
+    for (int k = 0; k < 2; k++)
+        if (roots[k] > 0.0 && roots[k] < first)
+            first = roots[k];
+    return first;
 }
 
 /* A step of dt that crossed the bow shock's plane, redone from its start as two phi-steps that meet just short of
@@ -284,9 +293,10 @@ static double time_to_shock_plane(const struct dem_gas_field *gas, double z0, do
  * order in dt (a 3 um Al particle at 400 m/s reached the target 4 % faster than CVODE's flight at dt = 1 us; 0.4 %
  * without the shock; tests/test_wall_jet.c).  The first part lasts until the plane under the start's drag
  * (time_to_shock_plane) less 1e-3 of it, and shorter again while its end is past the plane (whose drag it would
- * then take for the whole part) or its iteration cycles about it; the second part from the far side's drag, in
- * sub-steps of at most half the response time tau_beyond on the plane's far side (the layer's is several times
- * shorter than the free jet's, from which the step's was taken).  Returns whether both parts converged. */
+ * then take for the whole part) or its iteration cycles about it (four tries, else the step is left to
+ * phi_redo_in_substeps); the second part from the far side's drag, in sub-steps of at most half the response time
+ * tau_beyond on the plane's far side (the layer's is several times shorter than the free jet's, from which the
+ * step's was taken).  Returns whether both parts converged. */
 static int phi_redo_at_shock(const struct dem_config *cfg, double m, const struct phi_problem *problem,
                              const double force_start[3], double tau_beyond, double x[3], double v[3],
                              struct iteration_count *count, struct step_end *end)
@@ -296,7 +306,8 @@ static int phi_redo_at_shock(const struct dem_config *cfg, double m, const struc
     double force[3], slip, power;
     double h = (1.0 - 1e-3) * time_to_shock_plane(gas, problem->x0[2], problem->v0[2], force_start[2] / m);
     h = fmin(h, cfg->dt);
-    for (int attempt = 0; attempt < 4; attempt++) {
+    int short_of_plane = 0;
+    for (int attempt = 0; attempt < 4 && !short_of_plane; attempt++) {
         struct iteration_count first = {0};
         memcpy(x, problem->x0, sizeof problem->x0);
         memcpy(v, problem->v0, sizeof problem->v0);
@@ -304,12 +315,12 @@ static int phi_redo_at_shock(const struct dem_config *cfg, double m, const struc
         count->iterations += first.iterations;
         double fraction = shock_crossing_fraction(gas, problem->x0[2], x[2]);
         int crossed = fraction > 0.0 && fraction < 1.0;
-        part.unconverged = first.unconverged;
-        if (!crossed && !first.unconverged)
-            break;
-        /* past the plane, or cycling about it: end the first part further short of it */
-        h *= crossed ? (1.0 - 1e-3) * fraction : 0.99;
+        short_of_plane = !crossed && !first.unconverged;
+        if (!short_of_plane) /* past the plane, or cycling about it: end the first part further short of it */
+            h *= crossed ? (1.0 - 1e-3) * fraction : 0.99;
     }
+    if (!short_of_plane) /* not found in four tries: the step is redone in sub-steps (phi_step_checked) */
+        return 0;
     /* the second part starts with the drag of the far side (the first part's end is just short of the plane:
      * its own drag, the near side's, would be blended into the second part's first sub-step) */
     double plane = gas->wall_z - gas->stagnation_height;

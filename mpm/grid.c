@@ -4,6 +4,7 @@
  * same node and every node receives its contributions in the same order for any number of threads. */
 #include <limits.h>
 #include <math.h>
+#include <stdint.h>
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
@@ -162,22 +163,25 @@ static double least_offset_above(double h, double bound)
     return d;
 }
 
-/* The box: the points' bounding box plus box_margin, plus two guard cells, with node planes on multiples of
- * DCell so that z = 0 (the substrate's top) is a node plane. */
-/* The grid box: the bounding box lo..hi widened by box_margin and two cells, in whole cells. */
-/* The grid around the box lo..hi: cells of cfg->grid, 2 cells and box_margin beyond it on each side. */
-static void grid_layout(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
+/* The grid around the box lo..hi: cells of cfg->grid, box_margin and two guard cells beyond it on each side, node
+ * planes on multiples of DCell so that z = 0 (the substrate's top) is a node plane.  A grid too fine to count in an
+ * int per axis (a cell of 1e-12 m) gets nodes = SIZE_MAX, refused by the caller's size check (the count overflowed
+ * and wrapped, a review: 1e-12 m reported 5.8e17 nodes).  Returns the number of nodes as a double, unbounded. */
+static double grid_layout(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
 {
     memset(g, 0, sizeof *g);
     g->h = cfg->grid;
     g->inv_h = 1.0 / g->h;
     g->layers = cfg->body_count;
-    g->nodes = 1;
+    double nodes = 1.0;
     for (int d = 0; d < 3; d++) {
         g->origin[d] = g->h * (floor((lo[d] - cfg->box_margin) / g->h) - 2.0);
-        g->n[d] = (int)ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3;
-        g->nodes *= (size_t)g->n[d];
+        double count = ceil((hi[d] + cfg->box_margin - g->origin[d]) / g->h) + 3.0;
+        g->n[d] = count < (double)INT_MAX ? (int)count : INT_MAX;
+        nodes *= count;
     }
+    g->nodes = nodes < 0x1p63 ? (size_t)nodes : SIZE_MAX;
+    return nodes;
 }
 
 static int grid_box(const struct mpm_config *cfg, const double lo[3], const double hi[3], struct mpm_grid *g)
@@ -218,8 +222,7 @@ void mpm_grid_need(const struct mpm_config *cfg, double memory, struct mpm_grid_
     double lo[3], hi[3];
     mpm_bodies_bounds(cfg, lo, hi);
     struct mpm_grid g;
-    grid_layout(cfg, lo, hi, &g);
-    need->nodes = g.nodes;
+    need->nodes = grid_layout(cfg, lo, hi, &g);
     need->memory = memory;
     need->fits = grid_fits(cfg, cfg->grid, lo, hi, memory, &need->bytes);
     need->finest = cfg->grid;

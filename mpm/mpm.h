@@ -180,7 +180,7 @@ int mpm_check_set_up(const struct mpm_config *cfg);
  * checked): its nodes and bytes (nodes x bodies' layers), and when it does not fit (more than MPM_GRID_MAX_NODES
  * nodes, or more bytes than the memory) the finest cell size, in m, that would, the other keys as they are. */
 struct mpm_grid_need {
-    size_t nodes;
+    double nodes; /* the grid's node count (a double: a grid too fine overflows any integer) */
     double bytes, memory, finest;
     int fits;
 };

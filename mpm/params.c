@@ -1,10 +1,12 @@
 /* The impact stage's case keys ([impact], [material.NAME]) and their resolution into struct mpm_config. */
 #include <errno.h>
 #include <limits.h>
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "core/csv.h"
 #include "core/error.h"
@@ -744,7 +746,9 @@ static void warn_all_defaults(const struct case_file *c, const char *name)
     for (const struct cfg_key *k = mpm_case_keys; k->section; k++)
         if (strcmp(k->section, MAT) == 0 && case_is_given(c, section, k->key))
             return;
-    if (strncmp(name, "al", 2) != 0)
+    int aluminium = strncasecmp(name, "aluminium", 9) == 0 || strncasecmp(name, "aluminum", 8) == 0 ||
+                    (strncasecmp(name, "al", 2) == 0 && isdigit((unsigned char)name[2])); /* al6061, AL1100 */
+    if (!aluminium) /* alumina and alloy625 are not */
         log_warn("impact: [material.%s] gives no key, so every property is Tang's aluminium default: give the "
                  "material's own (docs/keys.md, [material.NAME])",
                  name);

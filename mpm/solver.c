@@ -226,9 +226,9 @@ int mpm_check_set_up(const struct mpm_config *cfg)
     /* the grid's memory first, from the bodies' box (no point seeded yet: a run too large fails at once) */
     struct mpm_grid_need need;
     mpm_grid_need(cfg, mpm_machine_memory(), &need);
-    if (need.nodes > MPM_GRID_MAX_NODES)
-        SC_FAIL(SC_EINPUT, "impact: the grid would have %zu nodes, over %zu; use a grid of at least %.3g m", need.nodes,
-                MPM_GRID_MAX_NODES, need.finest);
+    if (need.nodes > (double)MPM_GRID_MAX_NODES)
+        SC_FAIL(SC_EINPUT, "impact: the grid would have %.3g nodes, over %zu; use a grid of at least %.3g m",
+                need.nodes, MPM_GRID_MAX_NODES, need.finest);
     if (!need.fits)
         SC_FAIL(SC_EINPUT,
                 "impact: the run would need %.3g GB for its grid (a layer of %.3g GB for each of the %d "

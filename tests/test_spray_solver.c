@@ -557,32 +557,30 @@ static long drag_state_differ(const struct drag_state *a, const struct drag_stat
     return -1;
 }
 
-static void test_block_engine_matches_reference(void)
+/* What one comparison covered: integrations with sub-steps, runs with more than two iterations, particles that
+ * crossed the bow shock's plane (a step split there, dem/integrate.c phi_redo_at_shock), unconverged solves. */
+struct engine_coverage {
+    int64_t subcycled, iterated, crossed, unconverged;
+};
+
+/* The block engine against the reference from the state after `steps` steps of the case (ini, rows): every
+ * particle's x, v and kept drag the same bits, the same iteration counts, over all particles and every other one,
+ * with the start drag reused and not. */
+static void engine_matches_reference(const char *name, const char *ini, const char *rows, int steps,
+                                     struct engine_coverage *cover)
 {
-    enum { PARTICLES = 150, STEPS = 20 };
-    static char rows[PARTICLES * 160];
-    size_t used = 0;
-    uint64_t state = 0x9e3779b97f4a7c15u;
-#define UNIFORM() ((double)((state = state * 6364136223846793005u + 1442695040888963407u) >> 11) * 0x1p-53)
-    for (int k = 0; k < PARTICLES; k++) {
-        double x = 0.01 * (UNIFORM() - 0.5), y = 0.01 * (UNIFORM() - 0.5), z = 0.005 + 0.1 * UNIFORM();
-        double vx = 10.0 * (UNIFORM() - 0.5), vy = 10.0 * (UNIFORM() - 0.5), vz = 150.0 * UNIFORM();
-        double d = 2e-7 * pow(500.0, UNIFORM()); /* 0.2 to 100 um, log-uniform */
-        used += (size_t)snprintf(rows + used, sizeof rows - used, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,0,0,0,%.17g\n",
-                                 x, y, z, vx, vy, vz, d);
-    }
-    const char *ini = "[spray]\ndt = 1e-6\nt_end = 1\ndomain_radius = 0.2\n[target]\nstandoff = 0.3\n"
-                      "[deposition]\nrule = none\n";
     struct fixture f;
     int status = fixture_open(&f, ini, rows);
     if (status == SC_OK)
-        status = fixture_steps(&f, STEPS);
-    CHECK(status == SC_OK, "fixture and %d steps", STEPS);
+        status = fixture_steps(&f, steps);
+    CHECK(status == SC_OK, "%s: fixture and %d steps", name, steps);
     if (status != SC_OK) {
         fixture_close(&f);
         return;
     }
     struct dem_particles *p = &f.solver->p;
+    const struct dem_gas_field *gas = &f.solver->cfg.gas;
+    const double plane = gas->shock_standoff > 0.0 ? gas->wall_z - gas->stagnation_height : NAN;
     const size_t n = p->count;
     for (size_t i = 0; i < n; i++) {
         if (i % 3 == 0)
@@ -599,7 +597,6 @@ static void test_block_engine_matches_reference(void)
     }
     struct drag_state start, engine, reference;
     drag_state_copy(&start, p, 1);
-    int64_t subcycled = 0, iterated = 0;
     for (int reuse = 0; reuse < 2; reuse++) {
         for (int which = 0; which < 2; which++) {
             const uint32_t *list = which ? every_other : all;
@@ -615,29 +612,79 @@ static void test_block_engine_matches_reference(void)
             drag_state_copy(&reference, p, 1);
             const char *what = "";
             long first = drag_state_differ(&engine, &reference, list, count, &what);
-            CHECK(first < 0, "reuse_drag %d, %s: particle %ld: %s differs between the block engine and the reference",
+            CHECK(first < 0,
+                  "%s: reuse_drag %d, %s: particle %ld: %s differs between the block engine and the reference", name,
                   reuse, which ? "every other particle" : "all particles", first, what);
             CHECK(memcmp(counts_engine, counts_reference, sizeof counts_engine) == 0 && bad_engine == bad_reference,
-                  "reuse_drag %d, %s: iteration counts differ: engine %lld %lld %lld %lld %lld, reference %lld %lld "
-                  "%lld %lld %lld",
-                  reuse, which ? "every other particle" : "all particles", (long long)counts_engine[0],
+                  "%s: reuse_drag %d, %s: iteration counts differ: engine %lld %lld %lld %lld %lld, reference %lld "
+                  "%lld %lld %lld %lld",
+                  name, reuse, which ? "every other particle" : "all particles", (long long)counts_engine[0],
                   (long long)counts_engine[1], (long long)counts_engine[2], (long long)counts_engine[3],
                   (long long)counts_engine[4], (long long)counts_reference[0], (long long)counts_reference[1],
                   (long long)counts_reference[2], (long long)counts_reference[3], (long long)counts_reference[4]);
-            subcycled += counts_reference[4];
-            iterated += counts_reference[3] > 2;
+            cover->subcycled += counts_reference[4];
+            cover->iterated += counts_reference[3] > 2;
+            cover->unconverged += counts_reference[2];
+            for (size_t k = 0; k < count; k++)
+                cover->crossed += (start.x[3 * list[k] + 2] > plane) != (reference.x[3 * list[k] + 2] > plane);
             drag_state_free(&engine);
             drag_state_free(&reference);
         }
     }
-    CHECK(n > 100 && subcycled > 0 && iterated > 0,
-          "the set-up covers the cases (%zu particles, %lld sub-cycled, %lld runs with more than 2 iterations)", n,
-          (long long)subcycled, (long long)iterated);
     drag_state_free(&start);
     free(all);
     free(every_other);
     fixture_close(&f);
+}
+
+/* Random particles (state: an LCG) as rows: x, y within +-half_width of the axis, z in [z0, z0 + depth), vz in
+ * [vz0, vz0 + vz_span), diameters log-uniform in [d_lo, d_hi]. */
+static void random_rows(char *rows, size_t size, int count, double half_width, double z0, double depth, double vz0,
+                        double vz_span, double d_lo, double d_hi)
+{
+    size_t used = 0;
+    uint64_t state = 0x9e3779b97f4a7c15u;
+#define UNIFORM() ((double)((state = state * 6364136223846793005u + 1442695040888963407u) >> 11) * 0x1p-53)
+    for (int k = 0; k < count; k++) {
+        double x = 2.0 * half_width * (UNIFORM() - 0.5), y = 2.0 * half_width * (UNIFORM() - 0.5);
+        double z = z0 + depth * UNIFORM();
+        double vx = 10.0 * (UNIFORM() - 0.5), vy = 10.0 * (UNIFORM() - 0.5), vz = vz0 + vz_span * UNIFORM();
+        double d = d_lo * pow(d_hi / d_lo, UNIFORM());
+        used += (size_t)snprintf(rows + used, size - used, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,0,0,0,%.17g\n", x, y, z,
+                                 vx, vy, vz, d);
+    }
 #undef UNIFORM
+}
+
+/* Three set-ups: a slow cloud in the paper's jet (every regime of the drag, sub-cycled fine particles); the demo's
+ * jet with its bow shock, particles within 0.7 mm of the shock's plane moving both ways (steps split at the plane);
+ * the same with fixed_point_max_iter = 3 (unconverged steps redone in sub-steps, dem/integrate.c
+ * phi_redo_in_substeps).  A review found the shock's paths unexercised by the first alone. */
+static void test_block_engine_matches_reference(void)
+{
+    static char rows[150 * 160];
+    struct engine_coverage cloud = {0}, shock = {0}, few = {0};
+    random_rows(rows, sizeof rows, 150, 0.005, 0.005, 0.1, 0.0, 150.0, 2e-7, 1e-4);
+    engine_matches_reference("cloud",
+                             "[spray]\ndt = 1e-6\nt_end = 1\ndomain_radius = 0.2\n[target]\nstandoff = 0.3\n"
+                             "[deposition]\nrule = none\n",
+                             rows, 20, &cloud);
+    CHECK(cloud.subcycled > 0 && cloud.iterated > 0, "cloud: covers sub-steps (%lld) and long iterations (%lld)",
+          (long long)cloud.subcycled, (long long)cloud.iterated);
+    const char *shock_case =
+        "[spray]\ndt = 1e-6\nt_end = 1e-4\ndomain_radius = 0.02\n[powder]\ndensity = 2700\n"
+        "[target]\nstandoff = 0.03\n[jet]\nmodel = bickley\nC1 = 320\nC3 = 40\n"
+        "virtual_origin = 0.05\ncore_length = 0.002\nbow_shock = auto\n[deposition]\nrule = none\n";
+    char few_case[1024];
+    snprintf(few_case, sizeof few_case, "%s[spray]\nfixed_point_max_iter = 3\n", shock_case);
+    /* the plane stands 1.15 mm before the target at z = 0.03 (docs/physics.md "The bow shock at the target") */
+    random_rows(rows, sizeof rows, 150, 0.0005, 0.0281, 0.0014, -300.0, 1000.0, 3e-6, 3e-5);
+    engine_matches_reference("shock", shock_case, rows, 0, &shock);
+    CHECK(shock.crossed > 20, "shock: particles crossed the plane (%lld)", (long long)shock.crossed);
+    engine_matches_reference("shock, max_iter 3", few_case, rows, 0, &few);
+    printf("  crossings of the shock's plane compared: %lld, and %lld with max_iter 3 (%lld unconverged)\n",
+           (long long)shock.crossed, (long long)few.crossed, (long long)few.unconverged);
+    CHECK(few.crossed > 20, "shock, max_iter 3: particles crossed the plane (%lld)", (long long)few.crossed);
 }
 
 int main(void)
