@@ -630,11 +630,15 @@ static int check_patch_fits(const struct case_file *c, const struct mpm_config *
                  per_run > 1 ? "bodies land" : "body lands");
     else
         snprintf(spread, sizeof spread, "spreads a run's %ld bodies wider than the substrate", per_run);
+    char sizes[96];
+    if (largest > 0) /* without d_max the particles' size is unbounded: the patch's corner alone is checked */
+        snprintf(sizes, sizeof sizes, "particles up to %.4g um ([powder] d_max)", largest * 1e6);
+    else
+        snprintf(sizes, sizeof sizes, "the particles' size unbounded ([powder] d_max = 0)");
     return case_invalid(c, "couple", "patch_size",
-                        "%s (%s %.4g um across, [impact] substrate_diameter), particles up to %.4g um ([powder] "
-                        "d_max); allowed: at most %.4g um (the substrate's width less the largest particle%s), or a "
-                        "wider substrate%s",
-                        spread, box ? "a box" : "a cylinder", substrate->d * 1e6, largest * 1e6,
+                        "%s (%s %.4g um across, [impact] substrate_diameter), %s; allowed: at most %.4g um (the "
+                        "substrate's width less the largest particle%s), or a wider substrate%s",
+                        spread, box ? "a box" : "a cylinder", substrate->d * 1e6, sizes,
                         (substrate->d - largest) / (box ? 1.0 : sqrt(2.0)) * 1e6, box ? "" : ", over sqrt(2)",
                         window ? "" : ", or bodies_per_run = 1");
 }
