@@ -949,6 +949,17 @@ static void block_load(const struct dem_particles *p, int reuse_drag, int64_t st
         block_gather(p, b, 0);
 }
 
+/* Lane l's end of step from a scalar function: (x, v) and what *end says of the force there. */
+static void lane_put_end(struct block *b, int l, const double x[3], const double v[3], const struct step_end *end)
+{
+    lane_put(b->x, l, x);
+    lane_put(b->v, l, v);
+    b->force_known[l] = (uint8_t)end->force_known;
+    lane_put(b->end_force, l, end->force);
+    b->end_slip[l] = end->slip;
+    b->end_reynolds_power[l] = end->reynolds_power;
+}
+
 /* The lanes that the vectorised passes left unfinished, one by one, from the block's state: those still
  * iterating, and those that need sub-steps (from the start of the step again).  Their results go back to
  * the block, so that every lane is stored alike. */
@@ -977,12 +988,7 @@ static void block_finish_lanes(const struct dem_config *cfg, struct block *b, st
             lane_get(b->v, l, v);
             b->converged[l] = (uint8_t)phi_iterate_to_convergence(cfg, &problem, x, v, &b->iterations[l], &end);
         }
-        lane_put(b->x, l, x);
-        lane_put(b->v, l, v);
-        b->force_known[l] = (uint8_t)end.force_known;
-        lane_put(b->end_force, l, end.force);
-        b->end_slip[l] = end.slip;
-        b->end_reynolds_power[l] = end.reynolds_power;
+        lane_put_end(b, l, x, v, &end);
     }
 }
 
@@ -1004,12 +1010,7 @@ static void block_redo_unconverged(const struct dem_config *cfg, struct block *b
         lane_get(b->v, l, v);
         b->converged[l] =
             (uint8_t)phi_step_checked(cfg, b->m[l], &problem, force_start, b->converged[l], x, v, count, &end);
-        lane_put(b->x, l, x);
-        lane_put(b->v, l, v);
-        b->force_known[l] = (uint8_t)end.force_known;
-        lane_put(b->end_force, l, end.force);
-        b->end_slip[l] = end.slip;
-        b->end_reynolds_power[l] = end.reynolds_power;
+        lane_put_end(b, l, x, v, &end);
     }
 }
 
