@@ -39,20 +39,28 @@ else
     fail cli_units_same_hash "hash with units \"$(hash_of "$tmp/b.out")\", bare \"$(hash_of "$tmp/demo.out")\""
 fi
 
+# check_refused NAME SECTION KEY TEXT...: `check` of $tmp/NAME.ini exits 2 and stderr holds FILE:LINE of KEY's line,
+# [SECTION] KEY and every TEXT
+check_refused() {
+    name=$1 section=$2 key=$3
+    shift 3
+    line=$(grep -n "^$key = " "$tmp/$name.ini" | cut -d: -f1)
+    "$bin" check "$tmp/$name.ini" >"$tmp/$name.out" 2>"$tmp/$name.err"
+    status=$?
+    why=""
+    [ "$status" -eq 2 ] || why="exit status $status, expected 2;"
+    for text in "$tmp/$name.ini:$line: [$section] $key" "$@"; do
+        grep -qF -- "$text" "$tmp/$name.err" || why="$why stderr lacks \"$text\";"
+    done
+    if [ -z "$why" ]; then pass "$name"; else fail "$name" "$why $(head -c 300 "$tmp/$name.err")"; fi
+}
+
 # refused NAME VALUE TEXT...: standoff = VALUE exits 2 and stderr holds FILE:LINE, the key and every TEXT
 refused() {
     name=$1
     with_value standoff "$2" "$tmp/$name.ini"
     shift 2
-    line=$(grep -n '^standoff = ' "$tmp/$name.ini" | cut -d: -f1)
-    "$bin" check "$tmp/$name.ini" >"$tmp/$name.out" 2>"$tmp/$name.err"
-    status=$?
-    why=""
-    [ "$status" -eq 2 ] || why="exit status $status, expected 2;"
-    for text in "$tmp/$name.ini:$line: [target] standoff" "$@"; do
-        grep -qF -- "$text" "$tmp/$name.err" || why="$why stderr lacks \"$text\";"
-    done
-    if [ -z "$why" ]; then pass "$name"; else fail "$name" "$why $(head -c 300 "$tmp/$name.err")"; fi
+    check_refused "$name" target standoff "$@"
 }
 refused cli_units_wrong_dimension "30 s" 'unit "s"' 'unit "m"'
 refused cli_units_unknown "30 furlongz" 'unknown unit "furlongz"' 'unit is "m"'
@@ -66,15 +74,7 @@ unit_refused() {
     name=$1 section=$2 key=$3
     sed "s/^\[$section\]\$/[$section]\n$key = $4/" "$tmp/demo.ini" >"$tmp/$name.ini"
     shift 4
-    line=$(grep -n "^$key = " "$tmp/$name.ini" | cut -d: -f1)
-    "$bin" check "$tmp/$name.ini" >"$tmp/$name.out" 2>"$tmp/$name.err"
-    status=$?
-    why=""
-    [ "$status" -eq 2 ] || why="exit status $status, expected 2;"
-    for text in "$tmp/$name.ini:$line: [$section] $key" "$@"; do
-        grep -qF -- "$text" "$tmp/$name.err" || why="$why stderr lacks \"$text\";"
-    done
-    if [ -z "$why" ]; then pass "$name"; else fail "$name" "$why $(head -c 300 "$tmp/$name.err")"; fi
+    check_refused "$name" "$section" "$key" "$@"
 }
 unit_refused cli_units_angle_percent impact angle "10 %" 'unit "%" is not an angle' 'rad, degree'
 unit_refused cli_units_angle_steradian impact angle "0.5 sr" 'unit "sr"' 'unit "degree"'
