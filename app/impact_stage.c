@@ -672,16 +672,14 @@ done:
         return status;
     /* refuse checkpoints of another case before anything in the run directory is written: the single run's, or
      * those of the runs of the seeds (as many as [couple] asks for) */
-    char path[H5IO_PATH_MAX];
     uint64_t hash = stage_hash(ctx, STAGE);
     if (!ctx->impact_from_seeds)
-        return h5_checkpoint_find_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path);
+        return h5_checkpoint_check_newest(run_dir, STAGE, MPM_FORMAT, MPM_FORMAT_VERSION, hash);
     long runs = case_int(c, "couple", "runs");
     for (long r = 0; r < runs; r++) {
         struct impact_run names = {.run_dir = run_dir};
         name_run(&names, r);
-        SC_TRY(
-            h5_checkpoint_find_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash, path, sizeof path));
+        SC_TRY(h5_checkpoint_check_newest(run_dir, names.label, MPM_FORMAT, MPM_FORMAT_VERSION, hash));
     }
     return SC_OK;
 }

@@ -409,9 +409,7 @@ int spray_stage_validate(const struct stage_context *ctx)
     if (!ctx->run_dir)
         return SC_OK;
     /* refuse checkpoints of another case before anything in the run directory is written */
-    char path[H5IO_PATH_MAX];
-    return h5_checkpoint_find_newest(ctx->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(ctx, STAGE), path,
-                                     sizeof path);
+    return h5_checkpoint_check_newest(ctx->run_dir, STAGE, DEM_FORMAT, DEM_FORMAT_VERSION, stage_hash(ctx, STAGE));
 }
 
 int spray_stage_run(const struct stage_context *ctx)

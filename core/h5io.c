@@ -1426,9 +1426,9 @@ static int inspect_checkpoint(const char *path, const char *run_dir, const struc
     return SC_OK;
 }
 
-/* Walk the list newest first; the first good checkpoint wins, damaged ones are skipped with a warning. */
+/* Walk the list newest first; the first good checkpoint wins, damaged ones are skipped (with a warning when `warn`). */
 static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *list,
-                             const struct checkpoint_identity *want, char *path, size_t size)
+                             const struct checkpoint_identity *want, int warn, char *path, size_t size)
 {
     for (size_t i = 0; i < list->count; i++) {
         char candidate[H5IO_PATH_MAX];
@@ -1442,15 +1442,16 @@ static int choose_checkpoint(const char *run_dir, const struct checkpoint_list *
             return format_path(path, size, "%s", candidate);
         if (status != SC_EIO)
             return status;
-        log_warn("checkpoint %s is damaged (%s); %s", candidate, sc_error_message(),
-                 i + 1 < list->count ? "falling back to the previous one" : "no older checkpoint is left");
+        if (warn)
+            log_warn("checkpoint %s is damaged (%s); %s", candidate, sc_error_message(),
+                     i + 1 < list->count ? "falling back to the previous one" : "no older checkpoint is left");
         sc_error_clear();
     }
     return SC_OK;
 }
 
-int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
-                              uint64_t case_hash, char *path, size_t size)
+static int find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+                       uint64_t case_hash, int warn, char *path, size_t size)
 {
     if (size > 0)
         path[0] = '\0';
@@ -1458,9 +1459,22 @@ int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char
     struct checkpoint_list list;
     SC_TRY(list_checkpoints(run_dir, stage, CHECKPOINT_SUFFIX, &list));
     const struct checkpoint_identity want = {format, format_version, case_hash};
-    int status = choose_checkpoint(run_dir, &list, &want, path, size);
+    int status = choose_checkpoint(run_dir, &list, &want, warn, path, size);
     free(list.items);
     return status;
+}
+
+int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+                              uint64_t case_hash, char *path, size_t size)
+{
+    return find_newest(run_dir, stage, format, format_version, case_hash, 1, path, size);
+}
+
+int h5_checkpoint_check_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+                               uint64_t case_hash)
+{
+    char path[H5IO_PATH_MAX];
+    return find_newest(run_dir, stage, format, format_version, case_hash, 0, path, sizeof path);
 }
 
 int h5_checkpoint_remove_all(const char *run_dir, const char *stage)

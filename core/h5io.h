@@ -90,6 +90,10 @@ int h5_checkpoint_commit(struct h5_out *out, const char *run_dir, const char *st
  * version or sources_id (another build's) is refused: SC_EINPUT with a message naming it. */
 int h5_checkpoint_find_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
                               uint64_t case_hash, char *path, size_t size);
+/* h5_checkpoint_find_newest without the warnings, for a stage's validation before it runs: it refuses another case's
+ * or build's checkpoint early, and the stage's resume, which reads the checkpoint, warns of the damaged ones (once). */
+int h5_checkpoint_check_newest(const char *run_dir, const char *stage, const char *format, int64_t format_version,
+                               uint64_t case_hash);
 /* Remove every checkpoint of `stage` (after the stage finished). */
 int h5_checkpoint_remove_all(const char *run_dir, const char *stage);
 

@@ -436,6 +436,9 @@ if signal_run "$test" TERM 143 "$dir"; then
         fail "$test" "no warning naming the damaged $newest: $(head -n 3 "$T/$test.resume.log" | tr '\n' ' ')"
     elif ! grep -q "resuming from $previous " "$T/$test.resume.log"; then
         fail "$test" "did not fall back to $previous: $(grep -m 1 'resuming\|damaged' "$T/$test.resume.log")"
+    elif [ "$(grep -c "checkpoint $newest is damaged" "$T/$test.resume.log")" -ne 1 ]; then
+        # (a review: the stage's validation and its resume both warned)
+        fail "$test" "the damaged $newest is warned of $(grep -c "checkpoint $newest is damaged" "$T/$test.resume.log") times, not once"
     elif ! same_results "$T/ref" "$dir"; then
         fail "$test" "$why"
     else
