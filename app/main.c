@@ -268,6 +268,27 @@ static void print_nozzle_jet(const struct case_file *c, const struct dem_config 
     printf("  [spray] release speeds: each particle at the nozzle's exit speed of its diameter (spray.h5 /nozzle)\n");
 }
 
+/* `spraycoat run` checks [impact] as the pipeline's impact stage, over the couple stage's seeds (a substrate that
+ * holds the powder's particles, no mirror planes), which a case made for `spraycoat impact`, `vcrit` or `calibrate`
+ * need not meet: check said OK and run refused it (a review).  A case with [couple] was checked as a pipeline
+ * already.  The stage's warnings were printed by the check before; this one prints its refusal only. */
+static void note_pipeline_refusal(const struct case_file *c)
+{
+    if (!app_case_section_given(c, "impact") || app_case_section_given(c, "couple"))
+        return;
+    const struct stage_context pipeline = {.c = c, .pipeline = 1, .impact_from_seeds = 1};
+    enum log_level level = log_get_level();
+    log_set_level(LOG_QUIET);
+    int status = impact_stage_validate(&pipeline);
+    log_set_level(level);
+    if (status == SC_OK)
+        return;
+    printf("note: `spraycoat run` (the pipeline, whose impact runs take the spray's particles) refuses this case: %s\n"
+           "note: `spraycoat impact`, `vcrit` and `calibrate` run [impact] as it is\n",
+           sc_error_message());
+    sc_error_clear();
+}
+
 static int command_check(const struct options *opt)
 {
     struct case_file *c;
@@ -294,6 +315,7 @@ static int command_check(const struct options *opt)
     case_print(c, stdout);
     print_nozzle_jet(c, &cfg);
     printf("case hash %016llx: OK\n", (unsigned long long)case_hash(c));
+    note_pipeline_refusal(c);
 done:
     if (loaded)
         dem_config_free(&cfg);

@@ -195,3 +195,16 @@ grep -q "\[material.copper\] gives no key, so every property is Tang's aluminium
 "$bin" check cases/impact_demo.ini >"$T/alu.out" 2>&1 || why="${why:+$why; }check of impact_demo.ini failed"
 grep -q 'gives no key' "$T/alu.out" && why="${why:+$why; }an empty [material.aluminium] warned of"
 report empty_material_section_is_aluminium
+
+# ---- a case made for `spraycoat impact` passes `check` but `spraycoat run` refuses it (its substrate cannot hold the
+# powder's particles): check says so, with run's own message (a review: check said OK and nothing else)
+why=""
+"$bin" check cases/impact_demo.ini >"$T/impact_check.out" 2>&1 || why="check of impact_demo.ini exited $?"
+"$bin" run cases/impact_demo.ini -o "$T/impact_run" >"$T/impact_run.out" 2>&1 && why="${why:+$why; }run of impact_demo.ini was not refused"
+refusal=$(sed -n 's/^spraycoat: //p' "$T/impact_run.out" | head -n 1)
+[ -n "$refusal" ] || why="${why:+$why; }run printed no refusal"
+grep -qF "note: \`spraycoat run\` (the pipeline, whose impact runs take the spray's particles) refuses this case: $refusal" \
+    "$T/impact_check.out" || why="${why:+$why; }check does not give run's refusal ($refusal)"
+"$bin" check cases/demo.ini >"$T/demo_check.out" 2>&1 || why="${why:+$why; }check of demo.ini exited $?"
+grep -q 'refuses this case' "$T/demo_check.out" && why="${why:+$why; }check of the pipeline case demo.ini notes a refusal"
+report check_notes_pipeline_refusal
