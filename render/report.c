@@ -185,6 +185,7 @@ struct report_data {
     /* a moving nozzle: /deposit's mean thickness over the swept band and a line's Gaussian fit (NAN: none) */
     int moves;
     double mean_thickness, band_lo, band_hi, fit_amplitude, fit_amplitude_error, fit_width, fit_centre;
+    double packing; /* [path] packing of the height map (dem/deposit.c divides by it); NaN in files without it */
     /* couple.h5 */
     struct seed_row *seeds;
     size_t seed_count;
@@ -227,6 +228,7 @@ static void read_deposit(hid_t file, struct report_data *r)
         return;
     }
     r->mean_thickness = deposit_attribute(g, "mean_thickness");
+    r->packing = deposit_attribute(g, "packing");
     r->band_lo = deposit_attribute(g, "band_lo");
     r->band_hi = deposit_attribute(g, "band_hi");
     r->fit_amplitude = deposit_attribute(g, "fit_amplitude");
@@ -591,15 +593,28 @@ static struct tally tally(const struct report_data *r, double vrest_threshold)
     return t;
 }
 
+/* What the height map's thickness is: the volume over the area at [path] packing = 1 (or in a file without the
+ * attribute), 1/packing times that otherwise (dem/deposit.c); "dense-equivalent" was written whatever the packing (a
+ * review: 25.9 um at packing 0.5, whose dense-equivalent is 12.9). */
+static const char *thickness_kind(const struct report_data *r, char *out, size_t size)
+{
+    if (!isfinite(r->packing) || r->packing == 1.0)
+        snprintf(out, size, "dense-equivalent thickness");
+    else
+        snprintf(out, size, "thickness at packing %.3g (the dense-equivalent over %.3g)", r->packing, r->packing);
+    return out;
+}
+
 /* The coating of a moving nozzle: the mean thickness across the passes and, for a line, the track's Gaussian fit. */
 static void moving_thickness(FILE *f, const struct report_data *r)
 {
+    char kind[160];
     if (isfinite(r->mean_thickness))
-        fprintf(
-            f,
-            "; dense-equivalent thickness %s µm on average over the middle half of the passes' length and y = %s to "
-            "%s mm, the band the nozzle swept (<code>spray.h5 /deposit mean_thickness</code>)",
-            num(r->mean_thickness * 1e6, 3).s, num(r->band_lo * 1e3, 3).s, num(r->band_hi * 1e3, 3).s);
+        fprintf(f,
+                "; %s %s µm on average over the middle half of the passes' length and y = %s to %s mm, the band the "
+                "nozzle swept (<code>spray.h5 /deposit mean_thickness</code>)",
+                thickness_kind(r, kind, sizeof kind), num(r->mean_thickness * 1e6, 3).s, num(r->band_lo * 1e3, 3).s,
+                num(r->band_hi * 1e3, 3).s);
     else
         fprintf(f, "; no thickness profile across the path (<code>spray.h5 /deposit</code>)");
     if (isfinite(r->fit_amplitude))
@@ -950,6 +965,10 @@ static void spray_table(FILE *f, const struct report_data *r)
     if (!r->spray)
         return;
     fprintf(f, "<h2>Spray</h2>\n<table><tr><th>quantity</th><th>value</th><th>unit</th></tr>\n");
+    char kind[160], thickness_label[320];
+    snprintf(thickness_label, sizeof thickness_label,
+             "coating %s, mean over the band the nozzle swept (middle half of the passes)",
+             thickness_kind(r, kind, sizeof kind));
     const struct {
         const char *label;
         double value;
@@ -969,10 +988,7 @@ static void spray_table(FILE *f, const struct report_data *r)
         {"scatter of that distance (standard deviation)", r->scatter * 1e3, "mm", 3},
         {"coating: the highest deposited particle's top above the target", r->deposit_top * 1e6, "µm", 3},
         {"coating: height span of the deposited particles' centres", r->max_thickness * 1e6, "µm", 3},
-        {r->moves
-             ? "coating thickness, dense-equivalent, mean over the band the nozzle swept (middle half of the passes)"
-             : NULL,
-         r->mean_thickness * 1e6, "µm", 3},
+        {r->moves ? thickness_label : NULL, r->mean_thickness * 1e6, "µm", 3},
         {"simulated spray time", r->t_spray * 1e3, "ms", 3},
     };
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {

@@ -192,6 +192,15 @@ shown=$(sed -n "s/.*the track's Gaussian fit: amplitude \([0-9.]*\) &plusmn;.*/\
 near "$shown" "${amplitude:-0}" || why="${why:+$why; }the report's fit amplitude '$shown' um, spray.h5's $amplitude m"
 grep -q 'Track thickness profile across the track (mean over the middle half of the pass) and its Gaussian fit' \
     "$tmp/line/report.html" || why="${why:+$why; }the line's profile caption has no fit"
+# at packing 0.5 the map's thickness is twice the dense-equivalent: the report says which it is (a review: it called
+# 25.9 um "dense-equivalent" at packing 0.5, whose dense-equivalent is 12.9 um)
+sed -e 's/^\[path\]$/[path]\npacking = 0.5/' "$tmp/line.ini" >"$tmp/porous.ini"
+"$bin" run "$tmp/porous.ini" -o "$tmp/porous" >"$tmp/porous.log" 2>&1 || why="${why:+$why; }the porous run exited $?"
+mean=$(attribute "$tmp/porous/spray.h5" mean_thickness)
+shown=$(sed -n "s/.*thickness at packing 0.5 (the dense-equivalent over 0.5) \([0-9.]*\) µm on average.*/\1/p" "$tmp/porous/report.html")
+near "$shown" "${mean:-0}" || why="${why:+$why; }at packing 0.5 the report's thickness '$shown' um, spray.h5's $mean m"
+grep -q 'dense-equivalent thickness' "$tmp/porous/report.html" &&
+    why="${why:+$why; }at packing 0.5 the report calls the thickness dense-equivalent"
 # a powder of one size (the traverse case's): its DE-by-size bar is drawn (8 classes of zero width drew none)
 grep -q 'fill:rgb(0%,61.960784%,45.098039%)' "$tmp/moving/figures/spray_de.svg" ||
     why="${why:+$why; }no DE-by-size bar for a powder of one size"
