@@ -137,6 +137,25 @@ grep -q '^  \[jet\] gas_sutherland *= 107 K$' "$T/nozzle_check.out" ||
 "$bin" check tests/bad_cases/valid_base.ini 2>/dev/null | grep -q '^with \[nozzle\], from' && why="${why:+$why; }a case without [nozzle] lists them"
 report check_lists_the_nozzle_jet
 
+# a feed that outlasts the nozzle's path releases particles from the nozzle parked at its end, and one that stops first
+# leaves the end of the path bare: both warned of with the times (a review: cases/al6061_n2.ini fed 72 of its 400
+# particles after its 20 ms pass; it now feeds 320 over the pass).  traverse_demo.ini: 4 particles a step of 2 us,
+# path 2.6 ms (3 passes of 8 mm and 2 step-overs of 1 mm at 10 m/s), t_end 2.8 ms: max_injected 8000 feeds all
+# 1400 steps, 5600 particles, 5204 of them by the path's end (steps 0-1300): 396 parked; 2000 run out at step 499.
+why=""
+sed 's/^max_injected = 5200$/max_injected = 8000/' cases/traverse_demo.ini >"$T/feed_long.ini"
+sed 's/^max_injected = 5200$/max_injected = 2000/' cases/traverse_demo.ini >"$T/feed_short.ini"
+"$bin" check "$T/feed_long.ini" >"$T/feed_long.out" 2>&1 || why="check of feed_long.ini exited $?"
+grep -q 'the powder is fed until t = 0.002798 s .* after the nozzle.s path ends at 0.0026 s: 396 particles leave the nozzle parked' \
+    "$T/feed_long.out" || why="${why:+$why; }no warning of 396 particles fed after the path: $(grep warning "$T/feed_long.out")"
+"$bin" check "$T/feed_short.ini" >"$T/feed_short.out" 2>&1 || why="${why:+$why; }check of feed_short.ini exited $?"
+grep -q 'the powder runs out at t = 0.000998 s (max_injected = 2000), before the nozzle.s path ends at 0.0026 s' \
+    "$T/feed_short.out" || why="${why:+$why; }no warning of the feed running out: $(grep warning "$T/feed_short.out")"
+for f in cases/traverse_demo.ini cases/al6061_n2.ini; do
+    "$bin" check "$f" 2>&1 | grep -q 'the powder is fed until\|the powder runs out' && why="${why:+$why; }$f warned of"
+done
+report feed_against_path_warned
+
 # a v_crit(d, T) table's temperature column is in kelvin: one whose lowest value is 25 (degrees Celsius written as
 # kelvin, read as cryogenic powder) is warned of, naming the file and the value; one in kelvin is not
 why=""
