@@ -329,9 +329,11 @@ static void log_summary(const struct spray_run *run)
     log_info("spray: deposits made on a first impact %lld (share %.4f); target contacts per injected particle %.3g",
              (long long)m.first_impact_deposits, m.first_impact_share,
              m.injected ? (double)c.contacts_target / (double)m.injected : 0.0);
-    log_info("spray: contacts: particle-particle %lld, target %lld, deposit %lld; fixed-point iterations "
-             "%.2f per solve (max %lld, unconverged %lld), sub-cycled particle-steps %lld",
+    log_info("spray: contacts: particle-particle %lld, target %lld, deposit %lld, turned away by the drag before "
+             "they met %lld; fixed-point iterations %.2f per solve (max %lld, unconverged %lld), sub-cycled "
+             "particle-steps %lld",
              (long long)c.contacts_pair, (long long)c.contacts_target, (long long)c.contacts_deposit,
+             (long long)c.contacts_turned_away,
              c.fixed_point_solves ? (double)c.fixed_point_iterations / (double)c.fixed_point_solves : 0.0,
              (long long)c.max_iterations, (long long)c.fixed_point_unconverged, (long long)c.subcycled_particle_steps);
     if (c.clamps) /* the contact search missed a contact (docs/physics.md, "Contact detection") */

@@ -416,30 +416,76 @@ static void adhesion_slowed_rebound(struct sphere_state *sphere, const double n[
         sphere->v[k] += (slowed - normal) * n[k];
 }
 
-/* Particle i's velocity where it meets an immovable body.  Its path, straight at the velocity it started with,
- * touches the body at `at`, at x_hit, with normal n (towards the body); the drag has slowed it since the path
- * started, so it is still short of x_hit there.  It flies on under the drag (dem_fly_under_drag) from the path's
- * start to `at`, then on by the distance left along n over its approach speed, twice more: the velocity where the
- * drag's path meets the body.  With the path's velocity instead (the velocity at the start of the step), the impact
- * missed the drag of the part of the step before it: 16 % too fast for a 3 um particle crossing the demo's bow
- * shock layer at dt = 1 us, and the demo's deposition efficiency 0.0400 against 0.0298 at dt -> 0 (a review).
- * The contact keeps its time and place (`at`, x_hit): only the velocity changes. */
-static void velocity_at_contact(const struct dem_solver *s, uint32_t i, double at, const double x_hit[3],
-                                const double n[3], double v[3])
+/* Particle i's state at time `at` of the step: flown under the drag (dem_fly_under_drag) from its path's start,
+ * where it had the path's velocity, to `at`.  Its path, straight at that velocity, is where the contacts were
+ * found; the drag has slowed (or turned) it since, so at `at` it is short of the path's place and slower. */
+static void fly_path_to(const struct dem_solver *s, uint32_t i, double at, double x[3], double v[3])
 {
     const struct dem_particles *p = &s->p;
-    double x[3], h = at - path_start_time(s, i);
-    memcpy(x, path_origin(s, i), sizeof x);
+    double h = at - path_start_time(s, i);
+    memcpy(x, path_origin(s, i), 3 * sizeof *x);
     memcpy(v, p->v + 3 * i, 3 * sizeof *v);
-    for (int pass = 0; pass < 3 && h > 0.0; pass++) {
+    if (h > 0.0)
         dem_fly_under_drag(&s->cfg, p->d[i], p->m[i], h, x, v);
+}
+
+/* A particle's state on the drag's path: at time t of the step (t may lie beyond the step's end), at x with
+ * velocity v. */
+struct drag_state {
+    double t, x[3], v[3];
+};
+
+/* Particle i's velocity where it meets an immovable body.  Its path touches the body at `at`, at x_hit, with
+ * normal n (towards the body); flown under the drag to `at` (fly_path_to), it is still short of x_hit there, and
+ * flies on by the distance left along n over its approach speed, twice more: `meet`, the drag's path where it
+ * meets the body, whose velocity the impact takes.  With the path's velocity instead (the velocity at the start of
+ * the step), the impact missed the drag of the part of the step before it: 16 % too fast for a 3 um particle
+ * crossing the demo's bow shock layer at dt = 1 us, and the demo's deposition efficiency 0.0400 against 0.0298 at
+ * dt -> 0 (a review).  The contact keeps its time and place (`at`, x_hit): only the velocity changes.  `within`:
+ * the last of these states within the step, where a particle that the drag turned away before it met the body
+ * goes on (turned_away). */
+static void velocity_at_contact(const struct dem_solver *s, uint32_t i, double at, const double x_hit[3],
+                                const double n[3], struct drag_state *meet, struct drag_state *within)
+{
+    const struct dem_particles *p = &s->p;
+    meet->t = at;
+    fly_path_to(s, i, at, meet->x, meet->v);
+    *within = *meet;
+    for (int pass = 1; pass < 3 && at > path_start_time(s, i); pass++) {
         double left = 0.0, approach = 0.0;
         for (int k = 0; k < 3; k++) {
-            left += (x_hit[k] - x[k]) * n[k];
-            approach += v[k] * n[k];
+            left += (x_hit[k] - meet->x[k]) * n[k];
+            approach += meet->v[k] * n[k];
         }
-        h = approach > 0.0 && left > 0.0 ? fmin(left / approach, s->cfg.dt) : 0.0;
+        double h = approach > 0.0 && left > 0.0 ? fmin(left / approach, s->cfg.dt) : 0.0;
+        if (!(h > 0.0))
+            break;
+        dem_fly_under_drag(&s->cfg, p->d[i], p->m[i], h, meet->x, meet->v);
+        meet->t += h;
+        if (meet->t <= s->cfg.dt)
+            *within = *meet;
     }
+}
+
+/* Particle i moves on from x at time `at` of the step with velocity v and spin w: its path restarts there. */
+static void restart_at(struct dem_solver *s, uint32_t i, double at, const double x[3], const double v[3],
+                       const double w[3])
+{
+    struct sphere_state sphere = sphere_of(&s->p, i, &s->cfg.powder);
+    memcpy(sphere.v, v, sizeof sphere.v);
+    memcpy(sphere.w, w, sizeof sphere.w);
+    store_sphere(s, i, &sphere);
+    path_restart(s, i, at, x);
+}
+
+/* A contact found on the straight paths that the drag turned away before the bodies met: no impulse, no impact
+ * row.  Particle i goes on from the drag's state `from` (spin kept), the path along which the integration of the
+ * rest of the step (dem/integrate.c integrate_rest_of_step) flies it and the rest of its contacts are searched;
+ * left on its straight path, it would be searched along a path that runs on into the body.  The caller counts
+ * the contact (contacts_turned_away; docs/physics.md "The spray's resolution"). */
+static void turned_away(struct dem_solver *s, uint32_t i, const struct drag_state *from)
+{
+    restart_at(s, i, from->t, from->x, from->v, s->p.w + 3 * i);
 }
 
 /* Flying particle i meets an immovable body: the target (partner < 0) or deposited particle `partner`. */
@@ -456,11 +502,20 @@ static void resolve_fixed(struct dem_solver *s, const struct changed_list *chang
     double obstacle_radius = partner < 0 ? INFINITY : 0.5 * p->d[partner];
     const struct dem_material *obstacle = partner < 0 ? &cfg->target : &cfg->powder;
     struct sphere_state sphere = sphere_of(p, i, &cfg->powder);
-    velocity_at_contact(s, i, at, x_hit, n, sphere.v);
+    struct drag_state meet, within;
+    velocity_at_contact(s, i, at, x_hit, n, &meet, &within);
+    memcpy(sphere.v, meet.v, sizeof sphere.v);
     struct sphere_state before = sphere;
     struct contact_outcome outcome;
-    if (!dem_contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome))
+    if (!dem_contact_fixed(&cfg->contact, &sphere, obstacle, obstacle_radius, n, &outcome)) {
+        /* separating: turned away by the drag (its centre no longer approaches), or by its spin alone, which
+         * a contact found on a path approaching the body leaves as it was */
+        if (meet.v[0] * n[0] + meet.v[1] * n[1] + meet.v[2] * n[2] <= 0.0) {
+            turned_away(s, i, &within);
+            s->stats.contacts_turned_away++;
+        }
         return;
+    }
     double r = 0.5 * p->d[i];
     double r_eff = partner < 0 ? r : r * obstacle_radius / (r + obstacle_radius);
     double yield = fmin(cfg->powder.yield_stress, obstacle->yield_stress);
@@ -520,10 +575,31 @@ static void resolve_pair(struct dem_solver *s, const struct changed_list *change
         sqrt((xb[0] - xa[0]) * (xb[0] - xa[0]) + (xb[1] - xa[1]) * (xb[1] - xa[1]) + (xb[2] - xa[2]) * (xb[2] - xa[2]));
     for (int k = 0; k < 3; k++)
         n[k] = (xb[k] - xa[k]) / dist;
+    /* Each at its velocity on the drag's path at `at` (fly_path_to), as an impact on an immovable body takes
+     * the drag's (velocity_at_contact), not the start of the step's: the time only, without the passes beyond
+     * `at` to where the drag's paths meet.  Both lag their straight paths, and what is left between them closes
+     * at their relative speed, which can be near zero (one overtaking the other): the passes would divide a
+     * difference of lags by a difference of speeds.  The part they leave out, the drag from `at` to the meeting,
+     * is of second order in the step (of (h/tau)^2 / 2 against h/tau for the part before `at`), and no
+     * deposition rule reads a pair's speeds. */
     struct sphere_state sa = sphere_of(p, a, &s->cfg.powder), sb = sphere_of(p, b, &s->cfg.powder);
+    struct drag_state fa = {.t = at}, fb = {.t = at};
+    fly_path_to(s, a, at, fa.x, fa.v);
+    fly_path_to(s, b, at, fb.x, fb.v);
+    memcpy(sa.v, fa.v, sizeof sa.v);
+    memcpy(sb.v, fb.v, sizeof sb.v);
     struct contact_outcome outcome;
-    if (!dem_contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome))
+    if (!dem_contact_pair(&s->cfg.contact, &sa, &sb, n, &outcome)) {
+        double closing = 0.0; /* turned away by the drag, as in resolve_fixed, or separating by spin alone */
+        for (int k = 0; k < 3; k++)
+            closing += (fa.v[k] - fb.v[k]) * n[k];
+        if (closing <= 0.0) {
+            turned_away(s, a, &fa);
+            turned_away(s, b, &fb);
+            s->stats.contacts_turned_away++;
+        }
         return;
+    }
     store_sphere(s, a, &sa);
     store_sphere(s, b, &sb);
     path_restart(s, a, at, xa);
@@ -679,13 +755,9 @@ static void resolve_candidate(struct dem_solver *s, const struct changed_list *c
 /* Particle i moves on from where it is at time `at` with velocity v and no spin. */
 static void restart_with_velocity(struct dem_solver *s, uint32_t i, double at, const double v[3])
 {
-    double x[3];
+    double x[3], w[3] = {0.0, 0.0, 0.0};
     path_position(s, i, at, x);
-    struct sphere_state sphere = sphere_of(&s->p, i, &s->cfg.powder);
-    memcpy(sphere.v, v, sizeof sphere.v);
-    memset(sphere.w, 0, sizeof sphere.w);
-    store_sphere(s, i, &sphere);
-    path_restart(s, i, at, x);
+    restart_at(s, i, at, x, v, w);
 }
 
 /* Do flying particles i and j touch at time `at` (within their contact radii)? */

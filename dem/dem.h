@@ -241,6 +241,8 @@ struct dem_counts {
     int64_t resting;               /* particles lying on the target (or a deposit) without having stuck */
     int64_t first_impact_deposits; /* deposits made on the particle's first contact (contact_index 0) */
     int64_t contacts_pair, contacts_target, contacts_deposit;
+    int64_t contacts_turned_away; /* contacts found on the straight paths of the step that the drag turned away
+                                   * before the bodies met: no impulse, the path restarted from the drag's state */
     int64_t fixed_point_iterations, fixed_point_solves, fixed_point_unconverged, max_iterations;
     int64_t subcycled_particle_steps;
     int64_t particle_steps; /* flying particles advanced, summed over steps */

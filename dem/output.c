@@ -257,6 +257,7 @@ static int write_stats(hid_t file, const struct dem_solver *s)
     SC_CHECK(status, h5_attr_write_int64(g, "contacts_pair", c.contacts_pair), done);
     SC_CHECK(status, h5_attr_write_int64(g, "contacts_target", c.contacts_target), done);
     SC_CHECK(status, h5_attr_write_int64(g, "contacts_deposit", c.contacts_deposit), done);
+    SC_CHECK(status, h5_attr_write_int64(g, "contacts_turned_away", c.contacts_turned_away), done);
     SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_iterations", c.fixed_point_iterations), done);
     SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_solves", c.fixed_point_solves), done);
     SC_CHECK(status, h5_attr_write_int64(g, "fixed_point_unconverged", c.fixed_point_unconverged), done);
