@@ -354,7 +354,9 @@ done:
 
 static int write_axis(hid_t file, const char *prefix, const struct sweep_axis *axis)
 {
-    char name[32], key[160], labels[SWEEP_MAX_VALUES * 66] = "";
+    /* every value whole: each up to sizeof values[0] - 1 characters and a comma (a smaller buffer let the running
+     * offset pass its end: a review) */
+    char name[32], key[160], labels[SWEEP_MAX_VALUES * sizeof axis->values[0]] = "";
     hsize_t dims[1] = {(hsize_t)axis->count};
     snprintf(name, sizeof name, "%s_values", prefix);
     SC_TRY(h5_write_doubles(file, name, 1, dims, axis->numbers, axis->unit ? axis->unit : "", 0));
