@@ -308,7 +308,7 @@ static void log_deposition_efficiency(const struct spray_run *run)
     /* the DE counts a particle still flying at the end as sprayed and not deposited (docs/physics.md "Deposition
      * efficiency"): a lower bound that the headline alone does not show once many are in the air */
     struct dem_metrics m = dem_compute_metrics(run->solver);
-    if (de.sprayed_count > 0 && (double)m.in_flight > 0.05 * (double)de.sprayed_count)
+    if (de.sprayed_count > 0 && (double)m.in_flight > DEM_DE_LOWER_BOUND_IN_FLIGHT * (double)de.sprayed_count)
         log_warn(
             "spray: %lld of the %lld particles sprayed (%.1f %%) were still in flight at t_end: the DE counts them "
             "as not deposited, so it is a lower bound; a longer [spray] t_end (or an injection that stops "

@@ -323,6 +323,10 @@ struct dem_deposition_efficiency {
     size_t size_count, angle_count;
     struct dem_de_class *by_size, *by_angle;
 };
+/* The DE counts a particle still in flight at the end as sprayed and not deposited: a lower bound, which the spray
+ * stage warns of and the sweep's map marks once more than this share of the particles sprayed (by number) is still
+ * in flight (docs/physics.md "Deposition efficiency"). */
+#define DEM_DE_LOWER_BOUND_IN_FLIGHT 0.05
 /* SC_EIO (out of memory) or SC_OK; free with dem_deposition_efficiency_free. */
 int dem_deposition_efficiency(const struct dem_solver *s, struct dem_deposition_efficiency *de);
 void dem_deposition_efficiency_free(struct dem_deposition_efficiency *de);

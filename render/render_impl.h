@@ -125,6 +125,9 @@ int render_injection_radius(hid_t file, const char *path, const struct case_file
 int render_nozzle_moves(hid_t file);
 /* The k-th (from 0) of a comma-separated list of labels (sweep.h5 x_labels), or k + 1 beyond its end. */
 void render_nth_label(const char *list, size_t k, char *out, size_t size);
+/* Of an open sweep.h5's `count` cells, those whose DE is a lower bound (in_flight_share above the file's
+ * de_lower_bound_share) as *marks (count bytes, 1 or 0; free() it) and their number; none in a file without them. */
+int render_sweep_lower_bounds(hid_t file, const char *path, size_t count, unsigned char **marks, size_t *marked);
 /* Lazily create the renderer of the request's size. */
 int render_renderer_get(const struct render_config *cfg, struct render_renderer **renderer);
 

@@ -676,15 +676,23 @@ static void sweep_headline(FILE *f, const struct render_request *req)
         return;
     struct render_array de = {0};
     double lo = INFINITY, hi = -INFINITY;
-    if (render_read_array(file, "sweep.h5", "de", &de) == SC_OK)
+    unsigned char *lower_bound = NULL;
+    size_t marked = 0;
+    if (render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
+        render_sweep_lower_bounds(file, "sweep.h5", de.count, &lower_bound, &marked) == SC_OK)
         for (size_t i = 0; i < de.count; i++)
             lo = fmin(lo, de.values[i]), hi = fmax(hi, de.values[i]);
     sc_error_clear();
+    char bounds[160] = "";
+    if (marked > 0)
+        snprintf(bounds, sizeof bounds, "; %zu of them lower bounds, with particles still in flight at the end",
+                 marked);
     if (de.count > 0)
         fprintf(f,
-                "<li><b>Sweep: deposition efficiency %s %%</b> over %zu runs (the table below, the map in figure "
+                "<li><b>Sweep: deposition efficiency %s %%</b> over %zu runs%s (the table below, the map in figure "
                 "sweep_de).</li>\n",
-                span(num(100 * lo, 3), num(100 * hi, 3)).s, de.count);
+                span(num(100 * lo, 3), num(100 * hi, 3)).s, de.count, bounds);
+    free(lower_bound);
     render_array_free(&de);
     H5Fclose(file);
 }
@@ -1163,12 +1171,16 @@ static void sweep_results(FILE *f, hid_t file)
     h5_dataset_size(file, "x_values", &nx);
     if (h5_exists(file, "y_values"))
         h5_dataset_size(file, "y_values", &ny);
-    struct render_array de = {0}, speed = {0};
+    struct render_array de = {0}, speed = {0}, share = {0};
     int ok = render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
              render_read_array(file, "sweep.h5", "mean_impact_speed", &speed) == SC_OK;
-    sc_error_clear();
     int two = keys[1][0] != '\0';
-    size_t cells = nx * (two && ny ? ny : 1);
+    size_t cells = nx * (two && ny ? ny : 1), marked = 0;
+    unsigned char *lower_bound = NULL;
+    ok = ok && render_sweep_lower_bounds(file, "sweep.h5", de.count, &lower_bound, &marked) == SC_OK;
+    int has_share = ok && h5_exists(file, "in_flight_share") &&
+                    render_read_array(file, "sweep.h5", "in_flight_share", &share) == SC_OK && share.count == cells;
+    sc_error_clear();
     fprintf(f, "<h2>Sweep</h2>\n<table><tr><th>run</th><th>");
     escaped(f, keys[0]);
     fprintf(f, "</th>");
@@ -1177,7 +1189,8 @@ static void sweep_results(FILE *f, hid_t file)
         escaped(f, keys[1]);
         fprintf(f, "</th>");
     }
-    fprintf(f, "<th>deposition efficiency (%%)</th><th>mean impact speed (m/s)</th></tr>\n");
+    fprintf(f, "<th>deposition efficiency (%%)</th><th>mean impact speed (m/s)</th>%s</tr>\n",
+            has_share ? "<th>still in flight at the end (% of the sprayed)</th>" : "");
     for (size_t k = 0; ok && nx > 0 && de.count == cells && speed.count == cells && k < cells; k++) {
         fprintf(f, "<tr><td>runs/x%zu_y%zu</td>", k % nx, k / nx);
         render_nth_label(labels[0], k % nx, label, sizeof label);
@@ -1186,12 +1199,25 @@ static void sweep_results(FILE *f, hid_t file)
             render_nth_label(labels[1], k / nx, label, sizeof label);
             cell(f, "td", label);
         }
-        number_cell_digits(f, 100 * de.values[k], 3);
+        char value[64];
+        snprintf(value, sizeof value, "%s%s", lower_bound[k] ? "\u2265 " : "", num(100 * de.values[k], 3).s);
+        cell(f, "td", value);
         number_cell_digits(f, speed.values[k], 4);
+        if (has_share)
+            number_cell_digits(f, 100 * share.values[k], 3);
         fprintf(f, "</tr>\n");
     }
     fprintf(f, "</table>\n");
-    render_array_free(&de), render_array_free(&speed);
+    double bound = NAN;
+    if (marked > 0 && h5_attr_read_double(file, "de_lower_bound_share", &bound) == SC_OK)
+        fprintf(f,
+                "<p>&ge;: a lower bound. In %zu of the runs more than %s %% of the particles sprayed were still in "
+                "flight at the end; the deposition efficiency counts them as not deposited. A longer [spray] t_end "
+                "lets them land.</p>\n",
+                marked, num(100 * bound, 2).s);
+    sc_error_clear();
+    free(lower_bound);
+    render_array_free(&de), render_array_free(&speed), render_array_free(&share);
 }
 
 static void results(FILE *f, const struct render_request *req, const struct report_data *r)

@@ -14,6 +14,10 @@
 struct sweep_grid {
     size_t nx, ny;
     struct render_array de, speed;
+    /* per cell 1 where the DE is a lower bound: more of the run's particles than sweep.h5's de_lower_bound_share
+     * still in flight at its end (none marked in a sweep.h5 without in_flight_share) */
+    unsigned char *lower_bound;
+    size_t lower_bounds;
     char x_key[160], y_key[160], x_labels[4096], y_labels[4096];
 };
 
@@ -30,6 +34,28 @@ void render_nth_label(const char *list, size_t k, char *out, size_t size)
         return;
     }
     snprintf(out, size, "%.*s", (int)strcspn(p, ","), p);
+}
+
+int render_sweep_lower_bounds(hid_t file, const char *path, size_t count, unsigned char **marks, size_t *marked)
+{
+    *marked = 0;
+    SC_TRY(sc_calloc(marks, count, 1, "the sweep's lower bounds"));
+    if (!h5_exists(file, "in_flight_share")) /* a sweep.h5 of before the map said so */
+        return SC_OK;
+    struct render_array share = {0};
+    double bound = NAN;
+    int status;
+    SC_CHECK(status, render_read_array(file, path, "in_flight_share", &share), done);
+    SC_CHECK(status, h5_attr_read_double(file, "de_lower_bound_share", &bound), done);
+    if (share.count != count)
+        SC_FAIL_AT(status, done, SC_EIO, "render: %s: /in_flight_share is not the shape of /de", path);
+    for (size_t k = 0; k < count; k++) {
+        (*marks)[k] = share.values[k] > bound;
+        *marked += (*marks)[k];
+    }
+done:
+    render_array_free(&share);
+    return status;
 }
 
 /* Dark text on light cells, light text on dark ones (relative luminance, ITU-R BT.709). */
@@ -56,7 +82,7 @@ static void draw_cells(cairo_t *cr, const struct sweep_grid *g, double left, dou
             cairo_fill(cr);
             char text[64];
             text_colour_on(cr, rgb);
-            snprintf(text, sizeof text, "DE %.3f", de);
+            snprintf(text, sizeof text, "DE %s%.3f", g->lower_bound[k] ? "\u2265 " : "", de);
             render_text(cr, x + 0.5 * cw, y + 0.5 * ch - 0.1 * font, font, 0.5, 1, text);
             if (isfinite(g->speed.values[k]))
                 snprintf(text, sizeof text, "%.0f m/s", g->speed.values[k]);
@@ -86,7 +112,9 @@ static void draw_axes(cairo_t *cr, const struct sweep_grid *g, double left, doub
     render_text(cr, 0, 0, font, 0.5, 0, g->y_key[0] ? g->y_key : "(one row)");
     cairo_restore(cr);
     render_text(cr, left + 0.5 * width, 12, 1.2 * font, 0.5, 0,
-                "Deposition efficiency (mass) and mean impact speed over the sweep");
+                g->lower_bounds ? "Deposition efficiency (mass; \u2265: a lower bound, particles still in flight) and "
+                                  "mean impact speed"
+                                : "Deposition efficiency (mass) and mean impact speed over the sweep");
 }
 
 static void draw_colour_bar(cairo_t *cr, double x, double top, double height, double lo, double hi)
@@ -147,7 +175,7 @@ static int read_grid(hid_t file, const char *path, struct sweep_grid *g)
     SC_TRY(h5_attr_read_string(file, "y_key", g->y_key, sizeof g->y_key));
     SC_TRY(h5_attr_read_string(file, "x_labels", g->x_labels, sizeof g->x_labels));
     SC_TRY(h5_attr_read_string(file, "y_labels", g->y_labels, sizeof g->y_labels));
-    return SC_OK;
+    return render_sweep_lower_bounds(file, path, g->de.count, &g->lower_bound, &g->lower_bounds);
 }
 
 int render_sweep_figures(const struct render_request *req, struct render_output *out)
@@ -169,6 +197,7 @@ int render_sweep_figures(const struct render_request *req, struct render_output 
     if (status == SC_OK)
         log_info("render: sweep figure from %s", path);
     render_array_free(&g.de), render_array_free(&g.speed);
+    free(g.lower_bound);
     SC_TRY(status);
     return SC_OK;
 }

@@ -330,14 +330,35 @@ why=""
 grep -q '<img src="figures/sweep_de.png"' "$T/figs/report.html" || why="no sweep_de figure in the report;"
 rows=$(grep -c '<tr><td>runs/x[0-9]*_y[0-9]*</td>' "$T/figs/report.html")
 [ "$rows" -eq 4 ] || why="$why $rows run rows in the sweep table, not 4;"
+# A run whose particles are still in flight at its end (over 5 % of those sprayed: the spray's warning) has a DE
+# that is a lower bound: sweep.h5 /in_flight_share holds each run's share, recomputed here from its spray.h5
+# (/metrics/in_flight's last over /deposition_efficiency sprayed_count), and the report marks those DE with ">="
+# (a review: the map did not say so; these short runs leave 22-50 % in flight)
+attr() { h5dump -a "$2" "$1" 2>/dev/null | sed -n 's/^ *(0): *//p'; }
+shares=$(values "$T/figs/sweep.h5" /in_flight_share | tr ' ' '\n' | awk 'NF' | tr '\n' ' ')
 k=0
 for de in $(values "$T/figs/sweep.h5" /de | tr ' ' '\n' | awk 'NF'); do
-    shown=$(sed -n "s|.*<tr><td>runs/x$((k % 2))_y$((k / 2))</td><td>[^<]*</td><td>[^<]*</td><td>\([^<]*\)</td>.*|\1|p" "$T/figs/report.html")
+    row=$(sed -n "s|.*<tr><td>runs/x$((k % 2))_y$((k / 2))</td><td>[^<]*</td><td>[^<]*</td><td>\([^<]*\)</td>.*|\1|p" "$T/figs/report.html")
+    shown=${row#≥ }
     awk -v a="$shown" -v b="$de" 'BEGIN { exit !(a != "" && (b == 0 ? a == 0 : a / (100 * b) > 0.995 && a / (100 * b) < 1.005)) }' ||
         why="$why run $k: DE '$shown' % in the report, $de in sweep.h5;"
+    spray=$T/figs/runs/x$((k % 2))_y$((k / 2))/spray.h5
+    in_flight=$(values "$spray" /metrics/in_flight | tr ' ' '\n' | awk 'NF' | tail -n 1)
+    sprayed=$(attr "$spray" /deposition_efficiency/sprayed_count)
+    share=$(echo "$shares" | awk -v k=$((k + 1)) '{ print $k }')
+    awk -v s="$share" -v f="${in_flight:-x}" -v n="${sprayed:-0}" 'BEGIN { exit !(n > 0 && s == f / n) }' ||
+        why="$why run $k: in_flight_share '$share', its spray.h5 $in_flight in flight of $sprayed;"
+    marked=no
+    [ "$row" != "$shown" ] && marked=yes
+    expected=$(awk -v s="$share" 'BEGIN { print (s > 0.05 ? "yes" : "no") }')
+    [ "$marked" = "$expected" ] || why="$why run $k: share $share, marked a lower bound: $marked;"
     k=$((k + 1))
 done
 [ $k -eq 4 ] || why="$why $k DE values in sweep.h5;"
+grep -q '<b>Sweep: deposition efficiency.* 4 of them lower bounds, with particles still in flight' "$T/figs/report.html" ||
+    why="$why the headline does not say the DE are lower bounds;"
+grep -q 'warning: sweep: the DE of 4 of the 4 runs is a lower bound' "$T/log10b" ||
+    why="$why the sweep's log does not warn of the lower bounds;"
 grep -q '<b>Sweep: deposition efficiency' "$T/figs/report.html" || why="$why no sweep headline;"
 if [ -z "$why" ]; then pass sweep_report; else fail sweep_report "$why"; fi
 
