@@ -2,7 +2,8 @@
  * the jet's axis moving with the nozzle, the Gaussian fit against a known Gaussian, and small spray runs (mono 50 um,
  * no gas, every particle sticking: critical_velocity 1 m/s below the release speeds) along a line 10 mm long:
  * the map's mass against the deposited particles', the track's profile centred on the path, and two passes giving
- * twice the thickness of one within the run's counting error.  docs/physics.md "A traversing nozzle". */
+ * twice the thickness of one within the run's counting error; a nozzle on waypoints (an L) injecting about its
+ * position at every release.  docs/physics.md "A traversing nozzle". */
 #include <math.h>
 
 #include "check.h"
@@ -157,14 +158,36 @@ struct track {
     int64_t deposited, injected;
     size_t in_band;       /* deposited particles whose centres lie in the middle half of the pass and in the band */
     size_t in_band_first; /* those of them fed during the first 1 ms pass (the first ONE_PASS_FED ids) */
+    double off_path;      /* the farthest deposited centre from the waypoints' nozzle at its release (run_path) */
     size_t handoffs, handoff_axis_wrong; /* hand-off rows, and those whose axis is not the path's at their time */
     double handoff_axis_x_max;
 };
 
+/* Waypoints t, x, y (rows of 3), and the nozzle's position at t from them, linear between them and held after the
+ * last: written here apart from dem/path.c, to check the spray's injection against. */
+struct waypoint_table {
+    const double *rows;
+    size_t count;
+};
+
+static void nozzle_at(const struct waypoint_table *w, double t, double xy[2])
+{
+    size_t k = 1;
+    while (k < w->count - 1 && w->rows[3 * k] < t)
+        k++;
+    const double *a = w->rows + 3 * (k - 1), *b = w->rows + 3 * k;
+    double f = fmin(1.0, fmax(0.0, (t - a[0]) / (b[0] - a[0])));
+    xy[0] = a[1] + f * (b[1] - a[1]);
+    xy[1] = a[2] + f * (b[2] - a[2]);
+}
+
 /* One spray run (mono 50 um, no gas, all sticking, 4 particles a step of 2 us from a 1 mm nozzle) along `path` (the
  * [path] section's lines), injecting for `duration` and then letting the last ones land for 0.4 ms.  in_band counts
- * the deposited centres with x in [x_lo, x_hi] and y in the deposit's band. */
-static struct track run_path(const char *path, double duration, int seed, double packing, double x_lo, double x_hi)
+ * the deposited centres with x in [x_lo, x_hi] and y in the deposit's band; with `waypoints`, off_path is the
+ * farthest a deposited centre lies from the nozzle at its release (particle id / 4 steps: each falls straight down
+ * from the disc about it). */
+static struct track run_path(const char *path, double duration, int seed, double packing, double x_lo, double x_hi,
+                             const struct waypoint_table *waypoints)
 {
     long steps = (long)(duration / 2e-6 + 0.5);
     char ini[2048];
@@ -202,6 +225,11 @@ static struct track run_path(const char *path, double duration, int seed, double
                 p.x[0] >= x_lo && p.x[0] <= x_hi && p.x[1] >= t.deposit.band_lo && p.x[1] <= t.deposit.band_hi;
             t.in_band += (size_t)in_band;
             t.in_band_first += (size_t)(in_band && p.id < ONE_PASS_FED);
+            if (waypoints) {
+                double xy[2];
+                nozzle_at(waypoints, (double)(p.id / 4) * 2e-6, xy);
+                t.off_path = fmax(t.off_path, hypot(p.x[0] - xy[0], p.x[1] - xy[1]));
+            }
         }
     } else {
         printf("  spray run failed: %s\n", sc_error_message());
@@ -218,7 +246,7 @@ static struct track run_track(int passes, int seed, double packing)
              "pattern = line\ntraverse_speed = 10\nstart_x = 0\nstart_y = %g\npass_length = 0.01\n"
              "passes = %d\n",
              START_Y, passes);
-    return run_path(path, passes * 1e-3, seed, packing, 2.5e-3, 7.5e-3);
+    return run_path(path, passes * 1e-3, seed, packing, 2.5e-3, 7.5e-3, NULL);
 }
 
 /* The map's mass, sum of height * cell area * packing * density, is the deposited particles' mass. */
@@ -306,7 +334,7 @@ static void test_raster_thickness(void)
              "passes = %d\n",
              speed, pass, step_over, passes);
     double duration = (passes * pass + (passes - 1) * step_over) / speed;
-    struct track t = run_path(path, duration, 4, 1.0, 0.25 * pass, 0.75 * pass);
+    struct track t = run_path(path, duration, 4, 1.0, 0.25 * pass, 0.75 * pass, NULL);
     const struct dem_deposit *d = &t.deposit;
     double y_lo = radius, y_hi = (passes - 1) * step_over - radius, sum = 0.0;
     size_t rows = 0;
@@ -325,6 +353,40 @@ static void test_raster_thickness(void)
     dem_deposit_free(&t.deposit);
 }
 
+/* A nozzle on waypoints (pattern = file) in a spray run: an L, 5 mm along +x in 0.5 ms, then 5 mm along +y in 0.5
+ * ms.  Each particle falls straight down (no gas, no release cone) from the 1 mm disc about the nozzle at its
+ * release, so every deposited centre lies within the disc's radius of the waypoints' nozzle at that time, computed
+ * here apart from dem/path.c (nozzle_at); and the deposit spans the L: its map reaches x = 5 mm and y = 5 mm. */
+static void test_waypoints_spray(void)
+{
+    static const double rows[] = {0.0, 0.0, 0.0, 0.5e-3, 5e-3, 0.0, 1.0e-3, 5e-3, 5e-3};
+    const struct waypoint_table table = {rows, 3};
+    char dir[] = "/tmp/spraycoat-waypoints-XXXXXX", csv[96], path[256];
+    CHECK(mkdtemp(dir) != NULL, "cannot make a folder for the waypoints");
+    snprintf(csv, sizeof csv, "%s/path.csv", dir);
+    FILE *file = fopen(csv, "w");
+    CHECK(file != NULL, "cannot write %s", csv);
+    fprintf(file, "t,x,y\n");
+    for (size_t k = 0; k < table.count; k++)
+        fprintf(file, "%.17g,%.17g,%.17g\n", rows[3 * k], rows[3 * k + 1], rows[3 * k + 2]);
+    fclose(file);
+    snprintf(path, sizeof path, "pattern = file\nwaypoints = %s\n", csv);
+    struct track t = run_path(path, 1e-3, 5, 1.0, 0.0, 0.0, &table);
+    const struct dem_deposit *d = &t.deposit;
+    double x_far = d->x0 + (double)(d->nx - 1) * d->cell, y_far = d->y0 + (double)(d->ny - 1) * d->cell;
+    printf("  %lld of %lld deposited, the farthest %.4g um from the nozzle at its release; map to x = %.4g, y = %.4g "
+           "mm\n",
+           (long long)t.deposited, (long long)t.injected, t.off_path * 1e6, x_far * 1e3, y_far * 1e3);
+    CHECK(t.ok && t.deposited == t.injected && t.injected == 2000, "run: %lld of %lld deposited",
+          (long long)t.deposited, (long long)t.injected);
+    CHECK(t.off_path <= 1e-3 + 1e-9, "a deposit %g m from the nozzle at its release, beyond the 1 mm disc", t.off_path);
+    CHECK(x_far > 5e-3 && y_far > 5e-3 && d->x0 < 0.0 && d->y0 < 0.0, "the map spans x %g to %g, y %g to %g m", d->x0,
+          x_far, d->y0, y_far);
+    dem_deposit_free(&t.deposit);
+    remove(csv);
+    rmdir(dir);
+}
+
 int main(void)
 {
     RUN(test_line_and_raster_positions);
@@ -335,5 +397,6 @@ int main(void)
     RUN(test_profile_symmetric);
     RUN(test_two_passes);
     RUN(test_raster_thickness);
+    RUN(test_waypoints_spray);
     return check_finish();
 }
