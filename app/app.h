@@ -175,13 +175,17 @@ int vcrit_stage_run(const struct stage_context *ctx);
  * Every finished run goes into RUN_DIR/NAME_runs.csv (rank 0; NAME_runs_rankK.csv on rank K), rewritten atomically;
  * a run already recorded for the case (same diameter, speed, Gc, Gc_rate and temperature) is taken from there, not
  * repeated. */
-enum vcrit_verdict { VCRIT_REBOUNDED = 0, VCRIT_BONDED = 1, VCRIT_UNSETTLED = 2 };
+/* VCRIT_FAILED: the run failed as a simulation (SC_ESIM: NaN or blow-up); it is recorded like a finished run,
+ * since the same set-up fails the same way again, so that one such run ends only its own search, never the stage. */
+enum vcrit_verdict { VCRIT_REBOUNDED = 0, VCRIT_BONDED = 1, VCRIT_UNSETTLED = 2, VCRIT_FAILED = 3 };
+#define VCRIT_ERROR_MAX 200 /* room for a failed run's message in its record (one line of NAME_runs.csv) */
 struct vcrit_run_record {
     double diameter, velocity, Gc, Gc_rate; /* m, m/s, J/m2, J/m2/s: what identifies the run */
     int verdict;                            /* enum vcrit_verdict, from mpm_verdicts */
-    double pbcp, v_rest, cor;               /* cor: rebound over impact speed, both along the substrate normal */
-    int64_t steps;
-    double temperature; /* K, the particle's at the start (identifies the run too); 0: its material's T_initial */
+    double pbcp, v_rest, cor; /* cor: rebound over impact speed, both along the substrate normal; NaN when failed */
+    int64_t steps;            /* the steps done (when failed: before the step that failed) */
+    double temperature;       /* K, the particle's at the start (identifies the run too); 0: its material's T_initial */
+    char error[VCRIT_ERROR_MAX]; /* VCRIT_FAILED: the error's message (it names the step and body); else "" */
 };
 struct vcrit_runs {
     const char *run_dir, *name; /* name: "vcrit", "calibrate" */
@@ -192,7 +196,7 @@ struct vcrit_runs {
     int64_t new_runs; /* runs this process made */
 };
 struct mpm_config;
-/* "bonded", "rebounded", "unsettled". */
+/* "bonded", "rebounded", "unsettled", "failed". */
 const char *vcrit_verdict_name(int verdict);
 /* What a search counts as the particle's success ([vcrit] outcome, [calibrate] outcome): bonded (the verdict, PBCP
  * and v_rest: Tang Section 5.2.1), or adhered (bonded, or held: at rest on the substrate once settled, so the
@@ -204,12 +208,15 @@ enum vcrit_outcome { VCRIT_OUTCOME_BONDED = 0, VCRIT_OUTCOME_ADHERED = 1 };
     "adhered (bonded, or held: at rest on the substrate, v_rest <= vrest_threshold, with fewer bonds; what a "         \
     "single-particle impact experiment sees, docs/physics.md \"Held but not bonded\")"
 enum vcrit_outcome vcrit_runs_outcome_of(const struct case_file *c, const char *section);
-/* 1 when the run is a success under `outcome`, 0 when not, -1 when its verdict is unsettled. */
+/* 1 when the run is a success under `outcome`, 0 when not, -1 when it has no settled verdict (unsettled or
+ * failed: neither counts either way). */
 int vcrit_runs_succeeds(const struct vcrit_run_record *run, enum vcrit_outcome outcome, double vrest_threshold);
 /* The records of every rank's file for this case (others ignored). */
 int vcrit_runs_load(struct vcrit_runs *r);
 /* The outcome of *run (diameter, velocity, Gc, Gc_rate set; cfg the impact set-up of exactly that run): from the
- * records, or an MPM run to cfg->t_end through the stage loop, then recorded. */
+ * records, or an MPM run to cfg->t_end through the stage loop, then recorded.  A run that fails as a simulation
+ * (SC_ESIM) is recorded with verdict VCRIT_FAILED and its message, with a warning, and SC_OK is returned: the
+ * caller decides what the failure means; any other error (I/O, input, an interruption) is returned. */
 int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *run);
 void vcrit_runs_free(struct vcrit_runs *r);
 /* A comma-separated list of numbers in `unit` (SI), each > 0 and <= max, from [section] key into out[capacity];

@@ -5,7 +5,8 @@
  * [calibrate] at its experimental critical velocity (Tang: 14 um at 810 m/s, 30 um at 770 m/s, measured by
  * Hassani-Gangaraj et al. 2018, the thesis's [9]; substrates 30 and 50 um across).  Each run is classified by the
  * impact stage's verdict (mpm_verdicts): bonded (1) or rebounded (0), or with [calibrate] outcome = adhered bonded or
- * held (1) or left (0); a verdict that has not settled is neither, left out of the fit and counted.  Per size, a
+ * held (1) or left (0); a verdict that has not settled is neither, left out of the fit and counted, and so is a run
+ * that failed as a simulation (NaN or blow-up: recorded as failed, never repeated, it stops no other run).  Per size, a
  * second-order logistic regression of the outcomes on the scaled parameters (Eqs. 4.10-4.14, core/logistic.h) gives the
  * bonding boundary h = 0.5 (Z = 0); the intersection of the first two sizes' boundaries is the calibrated pair: the
  * parameters at which both sizes just bond at their critical velocity. With reference_diameter each size's run is
@@ -119,7 +120,7 @@ static const struct bonding_axes strain_axes = {"strain", {"eps_c", "eps_rate_c"
 
 struct calibrate_size {
     double diameter, velocity, substrate;
-    int counts[3];           /* as the fit counted the runs (enum vcrit_verdict): not, the outcome, unsettled */
+    int counts[4];           /* as the fit counted the runs (enum vcrit_verdict): not, the outcome, unsettled, failed */
     struct logistic_fit fit; /* valid when fitted */
     int fitted;
     double *boundary; /* first then second parameter: BRANCHES x (BOUNDARY_SAMPLES + 1), a NaN gap after each */
@@ -407,25 +408,34 @@ static int sample_boundary(const struct calibrate *k, struct calibrate_size *siz
     return SC_OK;
 }
 
-/* The outcomes of one size as rows of Eq. 4.12 (unsettled ones left out) and the fit. */
+/* How the fit counts run r (enum vcrit_verdict): the outcome (VCRIT_BONDED), not (VCRIT_REBOUNDED), unsettled, or
+ * failed as a simulation; the last two are left out of the fit and counted apart. */
+static int counted_as(const struct calibrate *k, const struct vcrit_run_record *r)
+{
+    if (r->verdict == VCRIT_FAILED)
+        return VCRIT_FAILED;
+    int success = vcrit_runs_succeeds(r, k->outcome, k->vrest_threshold);
+    return success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED;
+}
+
+/* The outcomes of one size as rows of Eq. 4.12 (unsettled and failed ones left out) and the fit. */
 static int fit_outcomes(const struct calibrate *k, int index, struct calibrate_size *size, double *X, int *y)
 {
     int per_size = k->gc_count * k->rate_count, m = 0;
     for (int t = index * per_size; t < (index + 1) * per_size; t++) {
         const struct vcrit_run_record *r = &k->outcomes[t];
-        int success = vcrit_runs_succeeds(r, k->outcome, k->vrest_threshold);
-        int verdict = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED; /* counted as */
+        int verdict = counted_as(k, r);
         size->counts[verdict]++;
-        if (verdict == VCRIT_UNSETTLED)
+        if (verdict == VCRIT_UNSETTLED || verdict == VCRIT_FAILED)
             continue;
         logistic_quadratic_terms(scaled(r->Gc, k->gc_min, k->gc_max), rate_scaled(k, r->Gc_rate), X + 6 * m);
         y[m++] = verdict == VCRIT_BONDED;
     }
     if (size->counts[VCRIT_BONDED] == 0 || size->counts[VCRIT_REBOUNDED] == 0) {
         int adhered = k->outcome == VCRIT_OUTCOME_ADHERED;
-        snprintf(size->note, sizeof size->note, "no boundary in the grid: %d %s, %d %s, %d unsettled",
+        snprintf(size->note, sizeof size->note, "no boundary in the grid: %d %s, %d %s, %d unsettled, %d failed",
                  size->counts[VCRIT_BONDED], adhered ? "adhered" : "bonded", size->counts[VCRIT_REBOUNDED],
-                 adhered ? "left" : "rebounded", size->counts[VCRIT_UNSETTLED]);
+                 adhered ? "left" : "rebounded", size->counts[VCRIT_UNSETTLED], size->counts[VCRIT_FAILED]);
         return SC_OK;
     }
     if (logistic_fit(X, y, (size_t)m, 6, k->ridge, &size->fit) != SC_OK) {
@@ -559,9 +569,15 @@ static int write_csvs(const struct calibrate *k)
         fprintf(out.stream, "%.17g,%.17g,%d\n", k->crossings[2 * i], k->crossings[2 * i + 1], i == 0);
     if (k->crossing_count == 0)
         fprintf(out.stream, "# no intersection of the first two sizes' bonding boundaries in the grid\n");
-    for (int i = 0; i < k->size_count; i++)
+    for (int i = 0; i < k->size_count; i++) {
         if (k->sizes[i].note[0])
             fprintf(out.stream, "# d = %g m: %s\n", k->sizes[i].diameter, k->sizes[i].note);
+        if (k->sizes[i].counts[VCRIT_FAILED])
+            fprintf(out.stream,
+                    "# d = %g m: %d runs failed as simulations (NaN or blow-up), left out of the fit "
+                    "(calibrate_outcomes.csv)\n",
+                    k->sizes[i].diameter, k->sizes[i].counts[VCRIT_FAILED]);
+    }
     return atomic_publish(&out);
 }
 
@@ -586,8 +602,7 @@ static int write_runs(const struct calibrate *k, hid_t file)
         for (int j = 0; j < 7; j++)
             values[(size_t)j * n + t] = row[j];
         verdicts[t] = r->verdict;
-        int success = vcrit_runs_succeeds(r, k->outcome, k->vrest_threshold);
-        verdicts[n + t] = success < 0 ? VCRIT_UNSETTLED : success ? VCRIT_BONDED : VCRIT_REBOUNDED;
+        verdicts[n + t] = counted_as(k, r);
     }
     const char *const names[] = {"diameter", "velocity", k->axes->name[0], k->axes->name[1], "pbcp", "v_rest", "cor"};
     const char *const units[] = {"m", "m/s", k->axes->unit[0], k->axes->unit[1], "-", "m/s", "-"};
@@ -620,6 +635,7 @@ static int write_size(const struct calibrate *k, hid_t parent, int index)
     SC_CHECK(status, h5_attr_write_int64(group, "bonded", s->counts[VCRIT_BONDED]), done);
     SC_CHECK(status, h5_attr_write_int64(group, "rebounded", s->counts[VCRIT_REBOUNDED]), done);
     SC_CHECK(status, h5_attr_write_int64(group, "unsettled", s->counts[VCRIT_UNSETTLED]), done);
+    SC_CHECK(status, h5_attr_write_int64(group, "failed", s->counts[VCRIT_FAILED]), done);
     SC_CHECK(status, h5_attr_write_string(group, "result", s->note[0] ? s->note : "fitted"), done);
     if (s->fitted) {
         /* separable outcomes have no standard errors: the penalised Hessian's measure the ridge term, not the data */
@@ -686,9 +702,14 @@ static void log_results(const struct calibrate *k)
     for (int i = 0; i < k->size_count; i++) {
         const struct calibrate_size *s = &k->sizes[i];
         int adhered = k->outcome == VCRIT_OUTCOME_ADHERED;
-        log_info("calibrate: d = %.4g um at %g m/s: %d %s, %d %s, %d unsettled%s%s", s->diameter * 1e6, s->velocity,
-                 s->counts[VCRIT_BONDED], adhered ? "adhered" : "bonded", s->counts[VCRIT_REBOUNDED],
-                 adhered ? "left" : "rebounded", s->counts[VCRIT_UNSETTLED], s->note[0] ? "; " : "", s->note);
+        log_info("calibrate: d = %.4g um at %g m/s: %d %s, %d %s, %d unsettled, %d failed%s%s", s->diameter * 1e6,
+                 s->velocity, s->counts[VCRIT_BONDED], adhered ? "adhered" : "bonded", s->counts[VCRIT_REBOUNDED],
+                 adhered ? "left" : "rebounded", s->counts[VCRIT_UNSETTLED], s->counts[VCRIT_FAILED],
+                 s->note[0] ? "; " : "", s->note);
+        if (s->counts[VCRIT_FAILED]) /* also on a resume, which takes them from the records without a word */
+            log_warn("calibrate: d = %.4g um: %d runs failed as simulations (NaN or blow-up), left out of the fit "
+                     "(calibrate_outcomes.csv: verdict failed)",
+                     s->diameter * 1e6, s->counts[VCRIT_FAILED]);
     }
     if (k->crossing_count)
         log_info("calibrate: calibrated %s = %.6g %s, %s = %.6g %s (%d intersection%s)", k->axes->name[0],

@@ -150,7 +150,29 @@ static int search_case(const struct vcrit_fit *f, double p, struct case_file **o
     return SC_OK;
 }
 
-/* v_crit of every size from DIR/vcrit.h5, matched by diameter. */
+/* The result of vcrit.h5's search of diameter d (/search/NNN attribute result, vcrit_stage.c): "" where none is
+ * found. */
+static void search_note(hid_t file, double d, char *note, size_t size)
+{
+    note[0] = '\0';
+    for (int i = 0; i < 1000; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "search/%03d", i);
+        if (!h5_exists(file, name))
+            break;
+        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+        double at = NAN;
+        if (group >= 0 && h5_attr_read_double(group, "diameter", &at) == SC_OK && fabs(at - d) <= 1e-12 * d)
+            h5_attr_read_string(group, "result", note, size);
+        if (group >= 0)
+            H5Gclose(group);
+    }
+    sc_error_clear(); /* a search without its note is only a shorter message */
+}
+
+/* v_crit of every size from DIR/vcrit.h5, matched by diameter.  A size without one stops the calibration (SC_ESIM):
+ * its search was not bracketed, or a run of it failed as a simulation (NaN or blow-up), which the message tells
+ * apart, since the remedies differ. */
 static int read_search(const struct vcrit_fit *f, const char *dir, double p, double *v)
 {
     char path[4300];
@@ -172,6 +194,15 @@ static int read_search(const struct vcrit_fit *f, const char *dir, double p, dou
         for (size_t j = 0; j < n; j++)
             if (fabs(d[j] - f->diameter[i]) <= 1e-12 * f->diameter[i])
                 v[i] = vc[j];
+        char note[512];
+        if (!isfinite(v[i]))
+            search_note(file, f->diameter[i], note, sizeof note);
+        if (!isfinite(v[i]) && strstr(note, "no v_crit"))
+            SC_FAIL_AT(status, done, SC_ESIM,
+                       "calibrate: at %s = %.6g the critical velocity of d = %g m was not found: %s (%s/vcrit.csv): "
+                       "make [impact] hold at these speeds (a smaller cfl, a finer grid) or narrow [vcrit] v_low to "
+                       "v_high",
+                       f->name[0], p, f->diameter[i], note, dir);
         if (!isfinite(v[i]))
             SC_FAIL_AT(status, done, SC_ESIM,
                        "calibrate: at %s = %.6g the critical velocity of d = %g m was not found in [vcrit] v_low to "

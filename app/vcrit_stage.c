@@ -95,7 +95,7 @@ struct vcrit_result {
     struct logistic_threshold fit;                      /* method = logistic: the fit (fit.x50 = v_crit) */
     int runs;
     struct vcrit_run_record *records; /* the runs of this diameter in the order of the search, then the CoR runs */
-    char note[200];                   /* "" when bracketed and converged */
+    char note[256];                   /* "" when bracketed and converged */
 };
 
 struct vcrit_search {
@@ -298,7 +298,8 @@ static const char *exact(double value, char *out, size_t size)
 
 const char *vcrit_verdict_name(int verdict)
 {
-    return verdict == VCRIT_BONDED ? "bonded" : verdict == VCRIT_REBOUNDED ? "rebounded" : "unsettled";
+    static const char *const names[] = {"rebounded", "bonded", "unsettled", "failed"};
+    return verdict >= VCRIT_REBOUNDED && verdict <= VCRIT_FAILED ? names[verdict] : "unsettled";
 }
 
 /* The verdict of a finished run in words: "held" for a rebounded particle at rest on the substrate (v_rest below
@@ -352,10 +353,12 @@ static void records_title(const struct vcrit_runs *r, char *out, size_t size)
              spraycoat_sources_id());
 }
 
-/* The header of the records; files written before the runs carried a temperature have the older one (their runs at
- * the material's T_initial, temperature 0). */
-#define RECORDS_HEADER     "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature\n"
-#define RECORDS_HEADER_OLD "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
+/* The header of the records; files written before the runs carried a temperature have the oldest one (their runs
+ * at the material's T_initial, temperature 0), those before failed runs were recorded one without `error`.  The
+ * error, a failed run's message, is the last field: the rest of the line, commas and all. */
+#define RECORDS_HEADER        "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature,error\n"
+#define RECORDS_HEADER_NO_ERR "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature\n"
+#define RECORDS_HEADER_OLD    "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
 
 static int save_records(const struct vcrit_runs *r)
 {
@@ -368,10 +371,10 @@ static int save_records(const struct vcrit_runs *r)
     for (size_t i = 0; i < r->count; i++) {
         const struct vcrit_run_record *x = &r->done[i];
         char a[32], b[32], c[32], d[32], e[32], f[32], g[32], h[32];
-        fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld,%s\n", exact(x->diameter, a, sizeof a),
+        fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld,%s,%s\n", exact(x->diameter, a, sizeof a),
                 exact(x->velocity, b, sizeof b), exact(x->Gc, c, sizeof c), exact(x->Gc_rate, d, sizeof d), x->verdict,
                 exact(x->pbcp, e, sizeof e), exact(x->v_rest, f, sizeof f), exact(x->cor, g, sizeof g),
-                (long long)x->steps, exact(x->temperature, h, sizeof h));
+                (long long)x->steps, exact(x->temperature, h, sizeof h), x->error);
     }
     return atomic_publish(&out);
 }
@@ -400,17 +403,47 @@ static int read_error(const struct vcrit_runs *r, const char *path, FILE *file)
     SC_FAIL(SC_EIO, "%s: cannot read %s: %s", r->name, path, strerror(saved));
 }
 
-/* The number of fields of the records in `file` (10, or 9 in the older header) after its title and header; 0 for a
- * file of another case or format (or damaged). */
+/* The number of fields of the records in `file` (11, or 10 or 9 in the older headers) after its title and header;
+ * 0 for a file of another case or format (or damaged). */
 static int records_header(const struct vcrit_runs *r, const char *path, FILE *file, int *fields)
 {
     char line[512] = "", title[128];
     records_title(r, title, sizeof title);
-    int ok = fgets(line, sizeof line, file) && strcmp(line, title) == 0 && fgets(line, sizeof line, file) &&
-             (strcmp(line, RECORDS_HEADER) == 0 || strcmp(line, RECORDS_HEADER_OLD) == 0);
+    int ok = fgets(line, sizeof line, file) && strcmp(line, title) == 0 && fgets(line, sizeof line, file);
     SC_TRY(read_error(r, path, file));
-    *fields = !ok ? 0 : strcmp(line, RECORDS_HEADER) == 0 ? 10 : 9;
+    *fields = !ok                                        ? 0
+              : strcmp(line, RECORDS_HEADER) == 0        ? 11
+              : strcmp(line, RECORDS_HEADER_NO_ERR) == 0 ? 10
+              : strcmp(line, RECORDS_HEADER_OLD) == 0    ? 9
+                                                         : 0;
     return SC_OK;
+}
+
+/* One record of a file with `fields` fields; 0 when the line is not one.  The error field (11) is the rest of the
+ * line; a line without it (written by hand, as the tests' crafted records are) has none. */
+static int parse_record(const char *line, int fields, struct vcrit_run_record *x)
+{
+    long long steps;
+    int end = -1,
+        read = fields == 9
+                   ? sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld%n", &x->diameter, &x->velocity, &x->Gc,
+                            &x->Gc_rate, &x->verdict, &x->pbcp, &x->v_rest, &x->cor, &steps, &end)
+                   : sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld,%lf%n", &x->diameter, &x->velocity, &x->Gc,
+                            &x->Gc_rate, &x->verdict, &x->pbcp, &x->v_rest, &x->cor, &steps, &x->temperature, &end);
+    if (read != (fields == 9 ? 9 : 10) || end < 0)
+        return 0;
+    x->steps = steps;
+    const char *rest = line + end;
+    if (fields == 11 && *rest == ',') {
+        rest++;
+        size_t n = strcspn(rest, "\r\n");
+        if (n >= sizeof x->error)
+            return 0;
+        memcpy(x->error, rest, n);
+        x->error[n] = '\0';
+        rest += n;
+    }
+    return rest[strspn(rest, " \t\r\n")] == '\0';
 }
 
 /* A record of another case, build or format (or a damaged one) is not used; this rank's own record file, which
@@ -442,7 +475,7 @@ static int keep_aside(const struct vcrit_runs *r, const char *path)
  * that cannot be read is an I/O error (only a missing one holds no runs). */
 static int load_records_file(struct vcrit_runs *r, const char *path)
 {
-    char line[512];
+    char line[1024]; /* a record: ten numbers and a failed run's message (VCRIT_ERROR_MAX) */
     FILE *file = fopen(path, "r");
     if (!file) {
         if (errno == ENOENT) /* removed since the folder was listed */
@@ -457,18 +490,10 @@ static int load_records_file(struct vcrit_runs *r, const char *path)
     }
     while (fgets(line, sizeof line, file)) {
         struct vcrit_run_record x = {0};
-        long long steps;
-        char rest;
-        int read = fields == 10
-                       ? sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld,%lf %c", &x.diameter, &x.velocity, &x.Gc,
-                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &x.temperature, &rest)
-                       : sscanf(line, "%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lld %c", &x.diameter, &x.velocity, &x.Gc,
-                                &x.Gc_rate, &x.verdict, &x.pbcp, &x.v_rest, &x.cor, &steps, &rest);
-        if (read != fields) {
+        if (!parse_record(line, fields, &x)) {
             log_warn("%s: %s: unreadable line '%.60s'; the runs from there on will be done again", r->name, path, line);
             break;
         }
-        x.steps = steps;
         SC_CHECK(status, add_record(r, &x), done);
     }
     SC_CHECK(status, read_error(r, path, file), done);
@@ -591,6 +616,22 @@ static const char *bonding_text(const struct mpm_config *cfg, char *text, size_t
     return text;
 }
 
+/* The run failed as a simulation (SC_ESIM, the error's message names step and body): a finished run with verdict
+ * failed, its message and the steps it made kept in the record.  The same set-up fails the same way again (the run
+ * is deterministic), so a resume takes it from the record instead of failing once more.  The error is cleared: it
+ * has been taken. */
+static void record_failure(struct mpm_solver *s, struct vcrit_run_record *out)
+{
+    out->verdict = VCRIT_FAILED;
+    out->pbcp = out->v_rest = out->cor = NAN;
+    out->steps = mpm_get_counts(s).step;
+    snprintf(out->error, sizeof out->error, "%s", sc_error_message());
+    for (char *c = out->error; *c; c++) /* one line of NAME_runs.csv */
+        if (*c == '\n' || *c == '\r')
+            *c = ' ';
+    sc_error_clear();
+}
+
 static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, struct vcrit_run_record *out)
 {
     struct vcrit_run run = {NULL};
@@ -617,8 +658,13 @@ static int simulate(const struct vcrit_runs *r, const struct mpm_config *cfg, st
                                   .interrupted_note = note};
     struct stage_timing timing;
     SC_CHECK(status, mpm_create(cfg, &run.solver), done);
-    SC_CHECK(status, stage_loop_run(&ops, &timing), done);
-    SC_CHECK(status, record_outcome(run.solver, cfg, out), done);
+    status = stage_loop_run(&ops, &timing);
+    if (status == SC_ESIM) { /* a NaN or blow-up: a finished run of its own kind, the caller's to judge */
+        record_failure(run.solver, out);
+        status = SC_OK;
+        goto done;
+    }
+    SC_CHECK(status, status == SC_OK ? record_outcome(run.solver, cfg, out) : status, done);
 done:
     mpm_destroy(run.solver);
     return status;
@@ -640,10 +686,17 @@ int vcrit_runs_outcome(struct vcrit_runs *r, const struct mpm_config *cfg, struc
     if (run->temperature > 0.0)
         snprintf(T, sizeof T, ", T = %.6g K,", run->temperature);
     char model[80];
-    log_info("%s: d = %.4g um%s at %.6g m/s (%s): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld steps, %.1f s)",
-             r->name, run->diameter * 1e6, T, run->velocity, bonding_text(cfg, model, sizeof model),
-             run_verdict_word(run, cfg->vrest_threshold), 100 * run->pbcp, run->v_rest, run->cor, (long long)run->steps,
-             log_elapsed() - start);
+    if (run->verdict == VCRIT_FAILED)
+        log_warn("%s: d = %.4g um%s at %.6g m/s (%s): failed after %lld steps: %s; recorded as failed (a resume "
+                 "does not repeat it)",
+                 r->name, run->diameter * 1e6, T, run->velocity, bonding_text(cfg, model, sizeof model),
+                 (long long)run->steps, run->error);
+    else
+        log_info("%s: d = %.4g um%s at %.6g m/s (%s): %s (PBCP %.2f %%, v_rest %.3g m/s, CoR %.3g; %lld steps, "
+                 "%.1f s)",
+                 r->name, run->diameter * 1e6, T, run->velocity, bonding_text(cfg, model, sizeof model),
+                 run_verdict_word(run, cfg->vrest_threshold), 100 * run->pbcp, run->v_rest, run->cor,
+                 (long long)run->steps, log_elapsed() - start);
     return SC_OK;
 }
 
@@ -682,8 +735,9 @@ static void note_unsettled(struct vcrit_result *result)
     int unsettled = 0;
     for (int k = 0; k < result->runs; k++)
         unsettled += result->records[k].verdict == VCRIT_UNSETTLED;
-    /* a search replayed from its records (after the runs, or under MPI) notes its unsettled runs once */
-    if (unsettled == 0 || strstr(result->note, "counted as not bonded"))
+    /* a search replayed from its records (after the runs, or under MPI) notes its unsettled runs once; a search that
+     * ended with a failed run has no v_crit to doubt, and its note is the failure's alone (note_failed) */
+    if (unsettled == 0 || strstr(result->note, "counted as not bonded") || strstr(result->note, "no v_crit"))
         return;
     size_t used = strlen(result->note);
     snprintf(result->note + used, sizeof result->note - used, "%s%d unsettled run%s counted as not bonded",
@@ -691,6 +745,29 @@ static void note_unsettled(struct vcrit_result *result)
     char name[96];
     log_warn("vcrit: %s: %d of %d runs unsettled at t_end, counted as not bonded (a longer t_end may lower v_crit)",
              pair_name(result, name, sizeof name), unsettled, result->runs);
+}
+
+/* 1 when the search's last run failed as a simulation: it ends the search (note_failed). */
+static int last_failed(const struct vcrit_result *result)
+{
+    return result->runs > 0 && result->records[result->runs - 1].verdict == VCRIT_FAILED;
+}
+
+/* A run that failed as a simulation (NaN or blow-up, recorded with verdict failed) ends its pair's search without a
+ * v_crit: the set-up does not hold at that speed, so neither the bracket nor a fit around it can be trusted.  The
+ * other pairs go on, and the row is a '#' line of vcrit.csv as an unbracketed one is.  The note is the failure's
+ * alone, the same however often the search is replayed (also where an earlier pass noted unsettled runs); the
+ * warning is given once. */
+static void note_failed(struct vcrit_result *result)
+{
+    const struct vcrit_run_record *r = &result->records[result->runs - 1];
+    result->v_crit = result->v_bisection = result->pbcp = result->v_rest = NAN;
+    result->fit = (struct logistic_threshold){.x50 = NAN, .se = NAN, .width = NAN};
+    int noted = strstr(result->note, "no v_crit") != NULL;
+    snprintf(result->note, sizeof result->note, "run at %.6g m/s failed (%.180s): no v_crit", r->velocity, r->error);
+    char name[96];
+    if (!noted)
+        log_warn("vcrit: %s: %s; the other searches go on", pair_name(result, name, sizeof name), result->note);
 }
 
 /* The bisection treats a verdict that has not settled as not bonded: v_crit is the lowest speed seen to bond (or,
@@ -759,7 +836,7 @@ static int speed_known(const struct vcrit_result *result, double speed)
 /* Runs below v_crit for the coefficient of restitution against impact speed ([vcrit] cor_below). */
 static int cor_runs(struct vcrit_search *v, struct vcrit_result *result)
 {
-    for (int k = 0; k < v->cor_count; k++) {
+    for (int k = 0; k < v->cor_count && !last_failed(result); k++) {
         double speed = result->v_crit - v->cor_offsets[k];
         if (speed > 0 && !speed_known(result, speed))
             SC_TRY(outcome(v, result, speed));
@@ -771,7 +848,7 @@ static int cor_runs(struct vcrit_search *v, struct vcrit_result *result)
  * bisection already ran is not repeated). */
 static int sweep_runs(struct vcrit_search *v, struct vcrit_result *result)
 {
-    for (int k = -v->sweep_count; k <= v->sweep_count; k++) {
+    for (int k = -v->sweep_count; k <= v->sweep_count && !last_failed(result); k++) {
         double speed = result->v_bisection + k * v->sweep_step;
         if (k != 0 && speed > 0 && !speed_known(result, speed))
             SC_TRY(outcome(v, result, speed));
@@ -786,7 +863,8 @@ static double normal_speed(const struct vcrit_search *v, double speed)
 }
 
 /* method = logistic: v_crit is the speed of 50 % success of the first-order logistic fit to every settled run of the
- * search (core/logistic.h; unsettled runs are left out, note_unsettled counts them); PBCP and v_rest are those of
+ * search (core/logistic.h; unsettled runs are left out, note_unsettled counts them; a failed run ended the search
+ * before the fit, note_failed); PBCP and v_rest are those of
  * the slowest success at or above it. */
 static int fit_threshold(const struct vcrit_search *v, struct vcrit_result *result)
 {
@@ -861,26 +939,23 @@ done:
     return status;
 }
 
-/* The bisection of one (diameter, temperature) pair. */
-static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
+/* The bracket [v_low, v_high] and its bisection for one pair: v_crit the upper end, or NaN when the bracket does not
+ * hold (the note says why) or a run failed (the last record; search_pair notes it). */
+static int bisect(struct vcrit_search *v, struct vcrit_result *result)
 {
-    result->v_crit = result->v_bisection = result->pbcp = result->v_rest = NAN;
-    result->fit = (struct logistic_threshold){.x50 = NAN, .se = NAN, .width = NAN};
-    size_t capacity = (size_t)(v->max_runs + v->cor_count + (v->logistic ? 2 * v->sweep_count : 0));
-    result->records = calloc(capacity, sizeof *result->records);
-    if (!result->records)
-        SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
     SC_TRY(outcome(v, result, v->v_low));
+    if (last_failed(result))
+        return SC_OK;
     if (counts_as_success(v, &result->records[0])) {
         snprintf(result->note, sizeof result->note, "not bracketed: bonds already at v_low = %g m/s", v->v_low);
-        note_unsettled(result);
         return SC_OK;
     }
     SC_TRY(outcome(v, result, v->v_high));
+    if (last_failed(result))
+        return SC_OK;
     if (!counts_as_success(v, &result->records[1])) {
         snprintf(result->note, sizeof result->note, "not bracketed: %s still at v_high = %g m/s",
                  result->records[1].verdict == VCRIT_UNSETTLED ? "unsettled" : "rebounds", v->v_high);
-        note_unsettled(result);
         return SC_OK;
     }
     double low = v->v_low, high = v->v_high;
@@ -888,6 +963,8 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
     while (high - low > v->tolerance && result->runs < v->max_runs) {
         SC_TRY(outcome(v, result, 0.5 * (low + high)));
         const struct vcrit_run_record *r = &result->records[result->runs - 1];
+        if (last_failed(result))
+            return SC_OK;
         if (counts_as_success(v, r)) {
             high = r->velocity;
             best = *r;
@@ -904,14 +981,31 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
         log_warn("vcrit: %s: %s (the bracket is wider than tolerance = %g m/s)", pair_name(result, name, sizeof name),
                  result->note, v->tolerance);
     }
-    if (v->logistic) {
+    return SC_OK;
+}
+
+/* The search of one (diameter, temperature) pair: the bisection, with method = logistic its sweep and fit, then
+ * the CoR runs; a run that fails as a simulation ends it (note_failed). */
+static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
+{
+    result->v_crit = result->v_bisection = result->pbcp = result->v_rest = NAN;
+    result->fit = (struct logistic_threshold){.x50 = NAN, .se = NAN, .width = NAN};
+    size_t capacity = (size_t)(v->max_runs + v->cor_count + (v->logistic ? 2 * v->sweep_count : 0));
+    result->records = calloc(capacity, sizeof *result->records);
+    if (!result->records)
+        SC_FAIL_OOM(capacity * sizeof *result->records, "the runs of a vcrit search");
+    SC_TRY(bisect(v, result));
+    if (v->logistic && isfinite(result->v_crit)) {
         SC_TRY(sweep_runs(v, result));
-        SC_TRY(fit_threshold(v, result));
+        if (!last_failed(result))
+            SC_TRY(fit_threshold(v, result));
     }
     note_unsettled(result);
-    if (isfinite(result->v_crit))
+    if (isfinite(result->v_crit) && !last_failed(result))
         SC_TRY(cor_runs(v, result));
-    if (!v->logistic)
+    if (last_failed(result))
+        note_failed(result);
+    else if (!v->logistic)
         note_not_monotone(v, result);
     return SC_OK;
 }

@@ -33,8 +33,9 @@ static const struct calibrate_axes model_axes[] = {
 };
 
 struct calibrate_data {
-    struct render_array d, gc, rate, verdict; /* /runs; verdict as the fit counted it (1 success, 0 not, 2 unsettled) */
-    int adhered;                              /* [calibrate] outcome = adhered: held runs counted as successes */
+    struct render_array d, gc, rate,
+        verdict; /* /runs; as the fit counted it (1 success, 0 not, 2 unsettled, 3 failed) */
+    int adhered; /* [calibrate] outcome = adhered: held runs counted as successes */
     struct render_array boundary_gc[MAX_SIZES], boundary_rate[MAX_SIZES];
     struct render_array cross_gc, cross_rate;
     double diameter[MAX_SIZES], velocity[MAX_SIZES];
@@ -145,36 +146,42 @@ static size_t select_runs(const struct calibrate_data *c, int i, int v, double *
     return n;
 }
 
-/* Fig. 4.4 a, b: per size the bonded, rebounded and unsettled runs and the fitted boundary. */
+/* Fig. 4.4 a, b: per size the bonded, rebounded, unsettled and failed runs (as /runs/counted counts them: 0, 1, 2,
+ * 3; enum vcrit_verdict) and the fitted boundary. */
+#define COUNTED_KINDS 4
 static int sizes_plot(const struct render_request *req, const struct calibrate_data *c, struct render_output *out)
 {
-    static const char *const bonded_labels[] = {"rebounded", "bonded", "unsettled"};
-    static const char *const adhered_labels[] = {"left", "adhered (bonded or held)", "unsettled"};
+    static const char *const bonded_labels[] = {"rebounded", "bonded", "unsettled", "failed (NaN or blow-up)"};
+    static const char *const adhered_labels[] = {"left", "adhered (bonded or held)", "unsettled",
+                                                 "failed (NaN or blow-up)"};
     const char *const *labels = c->adhered ? adhered_labels : bonded_labels;
-    static const enum render_series_kind kinds[] = {RENDER_OPEN_MARKERS, RENDER_MARKERS, RENDER_OPEN_MARKERS};
-    static const int colours[] = {6, 2, 4};
-    size_t m = c->d.count, bytes = (6 * m * (size_t)c->sizes + 1) * sizeof(double);
-    double *blocks = malloc(bytes); /* per panel and verdict: x (m values), then y three blocks later */
+    static const enum render_series_kind kinds[] = {RENDER_OPEN_MARKERS, RENDER_MARKERS, RENDER_OPEN_MARKERS,
+                                                    RENDER_OPEN_MARKERS};
+    static const int colours[] = {6, 2, 4, 5};
+    size_t m = c->d.count, bytes = (2 * COUNTED_KINDS * m * (size_t)c->sizes + 1) * sizeof(double);
+    double *blocks = malloc(bytes); /* per panel and verdict: x (m values), then y COUNTED_KINDS blocks later */
     if (!blocks)
         SC_FAIL_OOM(bytes, "the calibration figure");
-    struct render_series series[MAX_SIZES][4];
+    struct render_series series[MAX_SIZES][COUNTED_KINDS + 1];
     char titles[MAX_SIZES][96];
     struct render_plot plot = render_plot_start(req->cfg, c->sizes);
     for (int i = 0; i < c->sizes; i++) {
-        for (int v = 0; v < 3; v++) {
-            double *x = blocks + ((size_t)i * 6 + (size_t)v) * m, *y = x + 3 * m;
-            series[i][v] = (struct render_series){labels[v], kinds[v], select_runs(c, i, v, x, y), x, y, 0, colours[v]};
+        for (int v = 0; v < COUNTED_KINDS; v++) {
+            double *x = blocks + ((size_t)i * 2 * COUNTED_KINDS + (size_t)v) * m, *y = x + COUNTED_KINDS * m;
+            size_t n = select_runs(c, i, v, x, y);
+            /* a kind no run has stays out of the legend (files before failed runs were counted have none) */
+            series[i][v] = (struct render_series){n || v < 3 ? labels[v] : NULL, kinds[v], n, x, y, 0, colours[v]};
         }
-        series[i][3] = (struct render_series){"boundary h = 0.5",
-                                              RENDER_LINE,
-                                              c->boundary_gc[i].count,
-                                              c->boundary_gc[i].values,
-                                              c->boundary_rate[i].values,
-                                              0,
-                                              0};
+        series[i][COUNTED_KINDS] = (struct render_series){"boundary h = 0.5",
+                                                          RENDER_LINE,
+                                                          c->boundary_gc[i].count,
+                                                          c->boundary_gc[i].values,
+                                                          c->boundary_rate[i].values,
+                                                          0,
+                                                          0};
         snprintf(titles[i], sizeof titles[i], "%.3g µm at %.4g m/s", c->diameter[i] * 1e6, c->velocity[i]);
-        plot.panels[i] =
-            (struct render_panel){titles[i], c->axes->label[0], c->rate_label, NAN, NAN, NAN, NAN, 0, 4, series[i]};
+        plot.panels[i] = (struct render_panel){titles[i], c->axes->label[0], c->rate_label, NAN, NAN, NAN, NAN,
+                                               0,         COUNTED_KINDS + 1, series[i]};
     }
     int status = render_plot_publish(req->run_dir, out, "calibrate_sizes", "calibrate",
                                      "Calibration outcomes and bonding boundaries", &plot);

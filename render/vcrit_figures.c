@@ -23,7 +23,7 @@ struct search_runs {
     size_t count, capacity;
     double *d, *v, *cor;    /* um, m/s, - (NaN when the file has no cor) */
     double *T;              /* K, the search's temperature (0: the material's T_initial, a table without them) */
-    int *verdict;           /* 1 bonded, 0 rebounded, 2 unsettled (enum vcrit_verdict's values in vcrit.h5), 3 held */
+    int *verdict;           /* RUN_*: vcrit.h5's verdicts, with held told apart from rebounded */
     double vrest_threshold; /* [impact] vrest_threshold: a rebounded run slower than it is held */
     /* error bars of logistic fits: per search, (d, v_crit - se), (d, v_crit + se), (NaN, NaN): a line with gaps */
     size_t bar_count, bar_capacity;
@@ -34,6 +34,8 @@ struct search_runs {
 #define RUN_BONDED    1
 #define RUN_UNSETTLED 2
 #define RUN_HELD      3 /* rebounded by the verdict but at rest: too few bonded points (mpm_verdict_held) */
+#define RUN_FAILED    4 /* failed as a simulation (NaN or blow-up): enum vcrit_verdict's 3 in vcrit.h5 */
+#define FILE_FAILED   3 /* VCRIT_FAILED (app/app.h), the value vcrit.h5 gives a failed run */
 
 /* *array resized to capacity doubles; 0 (the array as it was) when memory ran out. */
 static int grow(double **array, size_t capacity)
@@ -107,7 +109,9 @@ static herr_t read_search_group(hid_t parent, const char *name, const H5L_info_t
         SC_CHECK(status, render_read_array(g, "vcrit.h5", "v_rest", &v_rest), done);
     for (size_t i = 0; i < v.count && i < verdict.count; i++) {
         int run = (int)verdict.values[i];
-        if (run == RUN_REBOUNDED && i < v_rest.count && v_rest.values[i] <= runs->vrest_threshold)
+        if (run == FILE_FAILED)
+            run = RUN_FAILED;
+        else if (run == RUN_REBOUNDED && i < v_rest.count && v_rest.values[i] <= runs->vrest_threshold)
             run = RUN_HELD;
         SC_CHECK(status, add_run(runs, d * 1e6, T, v.values[i], run, i < cor.count ? cor.values[i] : NAN), done);
     }
@@ -199,21 +203,23 @@ static void split_curves(const struct render_array *d, const struct render_array
  * the runs' markers are green, black, pink and orange. */
 static const int curve_colour[MAX_CURVES] = {0, 0, 1, 1, 7, 7, 3, 3};
 
-/* The runs as four marker series by verdict (an unsettled run is neither bonded nor rebounded: a series of its
- * own); `xy` holds 2 runs->count doubles per series.  A verdict no run has is left out of the legend. */
-static void run_series(const struct search_runs *runs, int many, double *xy, struct render_series series[4])
+/* The runs as RUN_SERIES marker series by verdict (an unsettled or failed run is neither bonded nor rebounded: a
+ * series of its own); `xy` holds 2 runs->count doubles per series.  A verdict no run has is left out of the legend. */
+#define RUN_SERIES 5
+static void run_series(const struct search_runs *runs, int many, double *xy, struct render_series series[RUN_SERIES])
 {
-    static const int verdict[4] = {RUN_BONDED, -1, RUN_UNSETTLED, RUN_HELD};
-    static const char *const label[4] = {"runs: bonded", "runs: rebounded", "runs: unsettled",
-                                         "runs: held (at rest, too little bonded)"};
-    static const int colour[4] = {2, 6, 3, 4};
+    static const int verdict[RUN_SERIES] = {RUN_BONDED, -1, RUN_UNSETTLED, RUN_HELD, RUN_FAILED};
+    static const char *const label[RUN_SERIES] = {"runs: bonded", "runs: rebounded", "runs: unsettled",
+                                                  "runs: held (at rest, too little bonded)",
+                                                  "runs: failed (NaN or blow-up)"};
+    static const int colour[RUN_SERIES] = {2, 6, 3, 4, 5};
     size_t m = runs->count;
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < RUN_SERIES; k++) {
         double *x = xy + 2 * (size_t)k * m, *y = x + m;
         size_t n = 0;
         for (size_t i = 0; i < m; i++) {
             int v = runs->verdict[i];
-            int rebounded = v != RUN_BONDED && v != RUN_UNSETTLED && v != RUN_HELD;
+            int rebounded = v != RUN_BONDED && v != RUN_UNSETTLED && v != RUN_HELD && v != RUN_FAILED;
             if (k == 1 ? rebounded : v == verdict[k])
                 x[n] = runs->d[i], y[n++] = runs->v[i];
         }
@@ -235,16 +241,16 @@ static int vcrit_plot(const struct render_request *req, const struct render_arra
                       const struct render_array *t, const struct search_runs *runs, struct render_output *out)
 {
     size_t n = d->count, m = runs->count;
-    double *buffer = malloc((2 * n + 8 * m + 1) * sizeof *buffer);
+    double *buffer = malloc((2 * n + 2 * RUN_SERIES * m + 1) * sizeof *buffer);
     if (!buffer)
-        SC_FAIL_OOM((2 * n + 8 * m + 1) * sizeof *buffer, "the critical-velocity figure");
+        SC_FAIL_OOM((2 * n + 2 * RUN_SERIES * m + 1) * sizeof *buffer, "the critical-velocity figure");
     struct vcrit_curves curves;
     split_curves(d, v, t, buffer, &curves);
     int many = curves.count > 1;
     /* the runs first, so that the curves, their error bars and the published points are drawn over them */
-    struct render_series series[7 + 2 * MAX_CURVES];
+    struct render_series series[RUN_SERIES + 3 + 2 * MAX_CURVES];
     run_series(runs, many, buffer + 2 * n, series);
-    int count = 4;
+    int count = RUN_SERIES;
     for (int k = 0; k < curves.count; k++) {
         int colour = many ? curve_colour[k] : 0;
         series[count++] = (struct render_series){
