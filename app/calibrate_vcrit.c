@@ -13,7 +13,9 @@
  * mean residual is within fit_tolerance, or the bracket is narrower than fit_bracket of its middle (the residual
  * jumps across zero there: its middle is the value), or fit_evaluations searches are spent.  Every search is
  * restartable and shared among MPI ranks as `spraycoat vcrit` is; after an interruption the iteration replays from
- * their outputs. Writes RUN_DIR/calibrate_vcrit.csv (each search's v_crit), calibrate.csv and calibrate.h5
+ * their outputs. A search with a size without v_crit (not bracketed, or a run of it failed as a simulation)
+ * stops the calibration with SC_ESIM, its message telling the two apart (read_search). Writes
+ * RUN_DIR/calibrate_vcrit.csv (each search's v_crit), calibrate.csv and calibrate.h5
  * (docs/files.md). */
 #include <math.h>
 #include <stdio.h>

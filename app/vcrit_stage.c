@@ -9,7 +9,9 @@
  * Eq. 4.12 in one variable, core/logistic.h) to every settled run of the search, an estimate that does not assume
  * the outcome monotone in the speed, which near v_crit it is not (docs/validation.md).  Each run goes to [impact] t_end
  * (or until its verdict settled) and is judged by mpm_verdicts (PBCP and restitution velocity thresholds of [impact]);
- * an unsettled run counts as not bonded (note_unsettled). Every finished run is recorded in RUN_DIR/vcrit_runs.csv
+ * an unsettled run counts as not bonded (note_unsettled); a run that fails as a simulation (NaN or blow-up) is
+ * recorded as failed and ends its own search without a v_crit, the other searches going on (note_failed). Every
+ * finished run is recorded in RUN_DIR/vcrit_runs.csv
  * (rewritten atomically, kept with the outputs); a restarted search reuses the recorded runs of the same impact set-up
  * (runs_hash) instead of running them again, so an interruption loses at most the run that was going on, and a search
  * extended to more diameters or a finer tolerance runs only what is new.  The outputs are RUN_DIR/vcrit.csv,
