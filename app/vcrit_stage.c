@@ -1002,7 +1002,8 @@ static int search_pair(struct vcrit_search *v, struct vcrit_result *result)
         if (!last_failed(result))
             SC_TRY(fit_threshold(v, result));
     }
-    note_unsettled(result);
+    if (!last_failed(result))
+        note_unsettled(result);
     if (isfinite(result->v_crit) && !last_failed(result))
         SC_TRY(cor_runs(v, result));
     if (last_failed(result))

@@ -15,6 +15,9 @@
 #      and a resume makes no run;
 #   4. calibrate method = vcrit whose first search has the failed size stops as an unbracketed size does (exit 1),
 #      with a message naming the failure, and the search's vcrit.csv holds the '#' row.
+#   5. with an MPI build (SPRAYCOAT_MPI_BIN, as tests/test_mpi.sh), `mpirun -np 2` of the vcrit case: the pairs
+#      shared out, rank 0 replays the failed pair from the other rank's records: the same vcrit.csv and vcrit_cor.csv
+#      as one process.
 # Before this, each of these ended the stage at the failed run with exit status 1 and no outputs.
 # Prints "PASS name" / "FAIL name (reason)".  Run from the repository root with $SPRAYCOAT_BIN.
 set -u
@@ -108,3 +111,19 @@ grep -q '^spraycoat: calibrate: at Gc = 720 the critical velocity of d = 1e-05 m
     "$T/fit.log" || why="$why the message does not name the failure: $(grep '^spraycoat:' "$T/fit.log");"
 grep -q '^# 1e-05,nan,.*no v_crit$' "$T/fit/vcrit_01/vcrit.csv" 2>/dev/null || why="$why the search's vcrit.csv has no '#' row;"
 if [ -z "$why" ]; then pass calibrate_vcrit_failed_search; else fail calibrate_vcrit_failed_search "$why"; fi
+
+# ---- 5. two processes: rank 0 replays the other rank's failed pair from its records ----------------------------------
+MPI_BIN=${SPRAYCOAT_MPI_BIN:-}
+if [ -n "$MPI_BIN" ] && [ -x "$MPI_BIN" ] && command -v mpirun >/dev/null 2>&1; then
+    export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+    mpirun -np 2 --oversubscribe "$MPI_BIN" vcrit "$T/both.ini" -o "$T/two" >"$T/two.log" 2>&1
+    status=$?
+    why=""
+    [ "$status" -eq 0 ] || why="$why mpirun exited $status: $(grep '^spraycoat:' "$T/two.log" | head -n 1);"
+    for f in vcrit.csv vcrit_cor.csv; do
+        cmp -s "$T/first/$f" "$T/two/$f" || why="$why $f differs from one process's;"
+    done
+    if [ -z "$why" ]; then pass vcrit_failed_mpi_replay; else fail vcrit_failed_mpi_replay "$why"; fi
+else
+    echo "  note: no MPI build (SPRAYCOAT_MPI_BIN): vcrit_failed_mpi_replay not run"
+fi
