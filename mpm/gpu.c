@@ -1,6 +1,9 @@
 /* The host's side of the GPU step (mpm/gpu.h, docs/gpu.md): the device state made from the solver, the step's
  * clocks and accounting, and the host's copy of the points brought up to date when the host reads it.  The
- * device's side is mpm/cuda/step.cu (make CUDA=1), or mpm/gpu_stub.c. */
+ * device's side is mpm/cuda/step.cu (make CUDA=1), or mpm/gpu_stub.c.  A fault of the device or its runtime (a copy,
+ * a launch, a sum that fails) is SC_EIO, exit status 3 as for a full disk or no memory: the machine failed, not the
+ * simulation, and a rerun may pass (`vcrit` and `calibrate` record a run that fails as a simulation, SC_ESIM, as
+ * failed and never run it again); a non-finite state the step found stays SC_ESIM. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -117,7 +120,7 @@ int mpm_gpu_reload(struct mpm_solver *s)
     SC_TRY(check_id_order(s));
     struct mpm_gpu_points p = host_points(s);
     if (mpm_gpu_upload(s->gpu, &p) != 0)
-        SC_FAIL(SC_ESIM, "impact: copying the points to the GPU: %s", mpm_gpu_message());
+        SC_FAIL(SC_EIO, "impact: copying the points to the GPU: %s", mpm_gpu_message());
     return SC_OK;
 }
 
@@ -127,7 +130,7 @@ int mpm_gpu_sync(const struct mpm_solver *s)
         return SC_OK;
     struct mpm_gpu_points p = host_points(s); /* the arrays, not the solver, are written */
     if (mpm_gpu_download(s->gpu, &p) != 0)
-        SC_FAIL(SC_ESIM, "impact: copying the points from the GPU: %s", mpm_gpu_message());
+        SC_FAIL(SC_EIO, "impact: copying the points from the GPU: %s", mpm_gpu_message());
     return SC_OK;
 }
 
@@ -145,7 +148,7 @@ void mpm_gpu_count_interface(const struct mpm_solver *s, int64_t *interface, int
 int mpm_gpu_body_sums(const struct mpm_solver *s, struct point_sums *sums)
 {
     if (mpm_gpu_point_sums(s->gpu, s->cfg.vrest_filter, sums) != 0)
-        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): summing the diagnostics on the GPU: %s", (long long)s->step,
+        SC_FAIL(SC_EIO, "impact: step %lld (t = %.6g s): summing the diagnostics on the GPU: %s", (long long)s->step,
                 s->t, mpm_gpu_message());
     return SC_OK;
 }
@@ -176,7 +179,7 @@ int mpm_gpu_step(struct mpm_solver *s)
     struct mpm_gpu_step_out out;
     gpu_time_step(s);
     if (mpm_gpu_step_points(s->gpu, s->dt, &out) != 0)
-        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): the GPU step failed: %s", (long long)s->step + 1, s->t,
+        SC_FAIL(SC_EIO, "impact: step %lld (t = %.6g s): the GPU step failed: %s", (long long)s->step + 1, s->t,
                 mpm_gpu_message());
     if (out.failed_id >= 0)
         SC_FAIL(SC_ESIM,
@@ -201,7 +204,7 @@ int mpm_gpu_step(struct mpm_solver *s)
     s->vmax2_known = 1;
     int exchanges = mpm_conduction_exchanges(s, t_before, s->t); /* as mpm_step: after the removal */
     if (exchanges > 0 && mpm_gpu_conduct(s->gpu, mpm_conduction_interval(s), exchanges) != 0)
-        SC_FAIL(SC_ESIM, "impact: step %lld (t = %.6g s): the GPU's heat conduction failed: %s", (long long)s->step,
+        SC_FAIL(SC_EIO, "impact: step %lld (t = %.6g s): the GPU's heat conduction failed: %s", (long long)s->step,
                 s->t, mpm_gpu_message());
     return SC_OK; /* the host's points are brought up to date by those who read them (mpm_gpu_sync) */
 }
