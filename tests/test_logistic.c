@@ -221,6 +221,13 @@ static void test_wilson_interval_against_newcombe(void)
     double lo, hi;
     logistic_wilson_interval(0, 0, 1.96, &lo, &hi);
     CHECK(lo == 0.0 && hi == 1.0, "no trials: [%g, %g]", lo, hi);
+    /* none and all of a few (the demo's 3 runs): the bound at the end is that end exactly (0 of 3 gave 5.55e-17) */
+    for (size_t n = 1; n <= 8; n++) {
+        logistic_wilson_interval(0, n, 1.959964, &lo, &hi);
+        CHECK(lo == 0.0, "0 of %zu: lower bound %g, not 0", n, lo);
+        logistic_wilson_interval(n, n, 1.959964, &lo, &hi);
+        CHECK(hi == 1.0, "%zu of %zu: upper bound 1 - %g, not 1", n, n, 1.0 - hi);
+    }
 }
 
 int main(void)
