@@ -301,7 +301,19 @@ static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_
     return SC_OK;
 }
 
-/* Slot `slot` takes the next candidate of its stratum that has a hand-off, is not taken and reaches the wall. */
+/* Whether a flight with sample = window ends inside the window: the window takes its candidates by where the spray
+ * met the obstacle, the bodies are placed where the flights meet the wall, and for a first contact with a deposit
+ * (above the target plane) the flight goes on to the plane, drifting sideways a few um: a body placed outside the
+ * patch, past what the substrate was checked to hold (a review: -77.5 um in a 150 um window). */
+static int inside_window(const struct couple_config *cfg, const double x_wall[3])
+{
+    double half = 0.5 * cfg->patch_size;
+    return cfg->sample != COUPLE_WINDOW ||
+           (fabs(x_wall[0] - cfg->window_x) <= half && fabs(x_wall[1] - cfg->window_y) <= half);
+}
+
+/* Slot `slot` takes the next candidate of its stratum that has a hand-off, is not taken and reaches the wall (with
+ * sample = window, inside the window). */
 static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver, const struct couple_strata *strata,
                      size_t *cursor, char *taken, size_t slot)
 {
@@ -314,7 +326,7 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         size_t row = 0;
         SC_TRY(fly(w, solver, k, &row));
         const struct couple_flight_result *f = &w->flights[row];
-        if (!f->reached)
+        if (!f->reached || !inside_window(&w->cfg, f->x))
             continue;
         struct couple_seed *seed = &w->seeds[slot];
         seed->candidate = k;

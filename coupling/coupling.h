@@ -30,7 +30,9 @@
  * order of arrival at the wall; lateral offsets are the wall positions relative to the patch centre (window) or to
  * the run's first arrival folded periodically into the patch (random, stratified: the draws come from anywhere on
  * the target, so only their spacing within the patch is kept); the first arrival touches the substrate and a later
- * one starts |v_z| (t - t_first) higher, at most max_gap, lifted further where it would overlap an earlier body. */
+ * one starts |v_z| (t - t_first) c higher, c <= 1 the one factor for the run that puts the highest start at max_gap
+ * (1 where all are lower: the arrival order and the ratios of the intervals kept), lifted further where it would
+ * overlap an earlier body. */
 
 enum couple_sample { COUPLE_RANDOM, COUPLE_STRATIFIED, COUPLE_WINDOW };
 

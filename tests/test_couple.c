@@ -208,7 +208,8 @@ static struct couple_seed seed_at(double t, double x, double y, double vz, doubl
 }
 
 /* Window placement: offsets from the window's centre, bodies in arrival order, the first touching, a later
- * one |v_z| (t - t_first) higher (bounded by max_gap), velocities mirrored into the impact frame. */
+ * one |v_z| (t - t_first) c higher (c the run's one compression that puts the highest start at max_gap),
+ * velocities mirrored into the impact frame. */
 static void test_place_window(void)
 {
     struct couple_config cfg = config(COUPLE_WINDOW, 1, 3);
@@ -223,10 +224,31 @@ static void test_place_window(void)
     CHECK_CLOSE(seeds[0].center[0], -15e-6, 1e-9, 1e-15, "offset x kept");
     CHECK_CLOSE(seeds[0].center[1], 5e-6, 1e-9, 1e-15, "offset y kept");
     CHECK_CLOSE(seeds[0].center[2], 7e-6, 1e-12, 0.0, "the first arrival touches the substrate");
-    CHECK_CLOSE(seeds[1].center[2], 5e-6 + 700.0 * 2e-9, 1e-12, 0.0, "height from the arrival-time difference");
-    CHECK_CLOSE(seeds[2].center[2], 4e-6 + cfg.max_gap, 1e-12, 0.0, "height bounded by max_gap");
+    double c = cfg.max_gap / (600.0 * 1e-6); /* the last arrival's 600 um compressed to max_gap */
+    CHECK_CLOSE(seeds[1].center[2], 5e-6 + 700.0 * 2e-9 * c, 1e-12, 0.0, "height from the compressed time difference");
+    CHECK_CLOSE(seeds[2].center[2], 4e-6 + cfg.max_gap, 1e-12, 0.0, "the highest start at max_gap");
     CHECK(seeds[1].velocity[2] == -700.0 && seeds[1].velocity[0] == 3.0, "velocity towards the substrate");
     CHECK(seeds[0].body == 0 && seeds[2].body == 2, "bodies numbered in arrival order");
+}
+
+/* The order of arrival survives the bound on the heights: arrivals at 0, 1 and 2 us at 700, 550 and 750 m/s start
+ * 0, 550 and 1500 um up before the bound; bounded each at max_gap (10 um), the third (750 m/s) met the substrate at
+ * 13.3 ns, before the second (550 m/s) at 18.2 ns.  With the run's one compression they arrive in the spray's order,
+ * at times proportional to the spray's intervals (1 : 2), the last starting at max_gap. */
+static void test_place_keeps_arrival_order(void)
+{
+    struct couple_config cfg = config(COUPLE_WINDOW, 1, 3);
+    struct couple_seed seeds[3] = {seed_at(0.0, 0.0, 0.0, 700.0, 10e-6), seed_at(1e-6, 20e-6, 0.0, 550.0, 10e-6),
+                                   seed_at(2e-6, -20e-6, 0.0, 750.0, 10e-6)};
+    couple_place_run(&cfg, seeds, 3);
+    double arrival[3];
+    for (int k = 0; k < 3; k++)
+        arrival[k] = (seeds[k].center[2] - 0.5 * seeds[k].d) / -seeds[k].velocity[2];
+    printf("  arrivals in the run at %.4g, %.4g, %.4g ns\n", 1e9 * arrival[0], 1e9 * arrival[1], 1e9 * arrival[2]);
+    CHECK(arrival[0] == 0.0 && arrival[0] < arrival[1] && arrival[1] < arrival[2], "arrivals %g, %g, %g s", arrival[0],
+          arrival[1], arrival[2]);
+    CHECK_CLOSE(arrival[2] / arrival[1], 2.0, 1e-12, 0.0, "the intervals' ratio kept");
+    CHECK_CLOSE(seeds[2].center[2] - 0.5 * seeds[2].d, cfg.max_gap, 1e-12, 0.0, "the highest start at max_gap");
 }
 
 /* Random placement: offsets relative to the first arrival folded into the patch; overlapping bodies lifted. */
@@ -254,6 +276,7 @@ int main(void)
     RUN(test_window_in_arrival_order);
     RUN(test_too_few_candidates);
     RUN(test_place_window);
+    RUN(test_place_keeps_arrival_order);
     RUN(test_place_fold_and_clear);
     return check_finish();
 }

@@ -112,6 +112,29 @@ else
     fail pipeline_window_offsets "exit status $? ($(tail -n 2 "$T/window.log" | tr '\n' ' '))"
 fi
 
+# ---- 2b. window sampling over a deposit: every body inside the window.  The window takes its candidates by where
+# the spray met the obstacle; a first contact with a deposit lies above the target plane, and its flight goes on to
+# the plane, drifting sideways: a body landed at x = -77.5 um in a 150 um window (a review).  A flight that ends
+# outside the window is passed over.  The demo's spray through a 0.3 mm nozzle, every particle sticking
+# (critical_velocity 100 m/s), 1500 particles: the deposit grows under the window ----
+sed -e 's/^nozzle_radius = 0.003/nozzle_radius = 3e-4/' -e 's/^max_injected = 2000/max_injected = 1500/' \
+    -e 's/^rule = table/rule = critical_velocity\ncritical_velocity = 100/' -e '/^table = vcrit_al.csv/d' \
+    -e 's/^sample = stratified/sample = window\npatch_size = 150e-6\nwindow_x = 16.31e-6/' -e 's/^runs = 3/runs = 10/' \
+    -e 's/^bodies_per_run = 1/bodies_per_run = 3/' -e '/^reference_diameter = 20e-6/d' \
+    -e 's/^substrate_diameter = 40e-6/substrate_diameter = 260e-6/' cases/demo.ini >"$T/deposit_window.ini"
+if "$BIN" run "$T/deposit_window.ini" --stages spray,couple -o "$T/deposit_window" >"$T/deposit_window.log" 2>&1; then
+    far=$(values "$T/deposit_window/couple.h5" /seeds/x |
+        awk 'NR % 3 != 0 { a = $1 < 0 ? -$1 : $1; if (a > m) m = a } END { printf "%.6g", m }')
+    seeds=$(values "$T/deposit_window/couple.h5" /seeds/x | awk 'END { print NR / 3 }')
+    if [ "$seeds" -eq 30 ] && awk -v m="$far" 'BEGIN { exit !(m <= 75e-6) }'; then
+        pass pipeline_window_over_deposit
+    else
+        fail pipeline_window_over_deposit "$seeds seeds, the farthest offset $far m from the window's centre (half-width 75 um)"
+    fi
+else
+    fail pipeline_window_over_deposit "exit status $? ($(tail -n 2 "$T/deposit_window.log" | tr '\n' ' '))"
+fi
+
 # ---- 3. per-stage hashes: a changed [impact] key reruns the impact stage only ---------------------------------
 cp -r "$REF" "$T/rerun"
 sed 's/^t_end = 4e-9/t_end = 3e-9/' "$CASE0" >"$T/rerun.ini"
