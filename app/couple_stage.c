@@ -337,7 +337,6 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         seed->d = w->candidates[k].d;
         seed->m = w->candidates[k].m;
         seed->temperature = w->candidates[k].temperature;
-        seed->run = (int64_t)(slot / (size_t)w->cfg.bodies_per_run);
         return SC_OK;
     }
     return case_invalid(w->c, "couple", "runs",
@@ -379,6 +378,7 @@ static int make_seeds(struct couple_work *w)
                        "from its start on `spraycoat resume %s`",
                        slot + 1, seeds, w->run_dir);
     }
+    couple_assign_runs(&w->cfg, w->seeds, seeds);
     for (size_t r = 0; r < (size_t)w->cfg.runs; r++)
         couple_place_run(&w->cfg, w->seeds + r * (size_t)w->cfg.bodies_per_run, (size_t)w->cfg.bodies_per_run);
 done:

@@ -244,7 +244,24 @@ void couple_strata_free(struct couple_strata *strata)
     memset(strata, 0, sizeof *strata);
 }
 
-/* ---- placement --------------------------------------------------------------------------------------------- */
+/* ---- runs and placement ------------------------------------------------------------------------------------ */
+
+void couple_assign_runs(const struct couple_config *cfg, struct couple_seed *seeds, size_t count)
+{
+    if (cfg->sample == COUPLE_STRATIFIED && cfg->bodies_per_run > 1)
+        for (size_t i = count; i > 1; i--) { /* Fisher-Yates, as shuffle */
+            double u[2];
+            rng_uniform2(cfg->seed, RNG_STREAM_COUPLE_RUNS, 0, (uint32_t)(i - 1), 0, u);
+            size_t j = (size_t)(u[0] * (double)i);
+            if (j >= i)
+                j = i - 1;
+            struct couple_seed swap = seeds[i - 1];
+            seeds[i - 1] = seeds[j];
+            seeds[j] = swap;
+        }
+    for (size_t k = 0; k < count; k++)
+        seeds[k].run = (int64_t)(k / (size_t)cfg->bodies_per_run);
+}
 
 static int compare_arrival(const void *pa, const void *pb)
 {

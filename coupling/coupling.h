@@ -82,6 +82,12 @@ struct couple_seed {
     double temperature;            /* K, the particle's (its candidate's): the body starts at it */
 };
 
+/* The `count` seeds (slot order) into their runs, bodies_per_run a run in array order (seed k in run k /
+ * bodies_per_run).  stratified with several bodies a run: shuffled first (seeded by [run] seed), so that a run
+ * holds draws of every speed quantile alike; in slot order run r held the r-th speed quantile of every diameter
+ * quantile (a review: 3 x 3 put the slowest third of each size in run 0). */
+void couple_assign_runs(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
+
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 

@@ -231,6 +231,39 @@ static void test_place_window(void)
     CHECK(seeds[0].body == 0 && seeds[2].body == 2, "bodies numbered in arrival order");
 }
 
+/* Stratified, 3 runs of 3 bodies: the 9 slots are 3 diameter quantiles x 3 speed quantiles (slot k: diameter k % 3,
+ * speed k / 3).  In slot order run r held speed quantile r of every size, the slowest third all in run 0 (a
+ * review); shuffled among the runs, each run holds on average one slot of the slowest speed quantile, over 200
+ * seeds within 0.2 (4 standard errors: 3 of 9 drawn with 3 slow has variance 0.5).  Other rules keep slot order. */
+static void test_runs_mix_speed_quantiles(void)
+{
+    double slowest[3] = {0.0, 0.0, 0.0};
+    const int trials = 200;
+    for (int t = 0; t < trials; t++) {
+        struct couple_config cfg = config(COUPLE_STRATIFIED, 3, 3);
+        cfg.seed = (uint32_t)(1000 + t);
+        struct couple_seed seeds[9];
+        for (size_t k = 0; k < 9; k++)
+            seeds[k] = (struct couple_seed){.candidate = k};
+        couple_assign_runs(&cfg, seeds, 9);
+        for (size_t k = 0; k < 9; k++) {
+            CHECK(seeds[k].run == (int64_t)(k / 3), "seed %zu in run %lld", k, (long long)seeds[k].run);
+            slowest[k / 3] += seeds[k].candidate / 3 == 0 ? 1.0 / trials : 0.0;
+        }
+    }
+    printf("  slots of the slowest speed quantile per run, mean over %d seeds: %.3f %.3f %.3f\n", trials, slowest[0],
+           slowest[1], slowest[2]);
+    for (int r = 0; r < 3; r++)
+        CHECK(fabs(slowest[r] - 1.0) < 0.2, "run %d holds %.3f of the slowest slots on average, not 1", r, slowest[r]);
+    struct couple_config random = config(COUPLE_RANDOM, 3, 3);
+    struct couple_seed seeds[9];
+    for (size_t k = 0; k < 9; k++)
+        seeds[k] = (struct couple_seed){.candidate = k};
+    couple_assign_runs(&random, seeds, 9);
+    for (size_t k = 0; k < 9; k++)
+        CHECK(seeds[k].candidate == k && seeds[k].run == (int64_t)(k / 3), "random: slot %zu moved", k);
+}
+
 /* The order of arrival survives the bound on the heights: arrivals at 0, 1 and 2 us at 700, 550 and 750 m/s start
  * 0, 550 and 1500 um up before the bound; bounded each at max_gap (10 um), the third (750 m/s) met the substrate at
  * 13.3 ns, before the second (550 m/s) at 18.2 ns.  With the run's one compression they arrive in the spray's order,
@@ -275,6 +308,7 @@ int main(void)
     RUN(test_stratified_never_empty);
     RUN(test_window_in_arrival_order);
     RUN(test_too_few_candidates);
+    RUN(test_runs_mix_speed_quantiles);
     RUN(test_place_window);
     RUN(test_place_keeps_arrival_order);
     RUN(test_place_fold_and_clear);
