@@ -234,6 +234,27 @@ static void print_impact_results(hid_t file, FILE *out)
         free(column[k]);
 }
 
+/* calibrate.h5 /size/NNN (method = boundaries): each size's diameter, speed, counts and result ("fitted", "outcomes
+ * separable: ..." or why there is no fit), which the calibrated pair alone does not show (a review). */
+static void print_calibrate_sizes(hid_t file, FILE *out)
+{
+    static const char *const names[] = {"diameter", "velocity", "bonded", "rebounded", "unsettled", "failed", "result"};
+    for (int i = 0;; i++) {
+        char path[32];
+        snprintf(path, sizeof path, "size/%03d", i);
+        if (!h5_exists(file, path))
+            break;
+        hid_t size = H5Gopen2(file, path, H5P_DEFAULT);
+        if (size < 0)
+            break;
+        fprintf(out, "%s:\n", path);
+        for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
+            print_attribute(size, names[k], out);
+        H5Gclose(size);
+    }
+    sc_error_clear();
+}
+
 /* calibrate.h5: the calibrated pair (NaN where the boundaries do not intersect in the grid) and the grid. */
 static void print_calibrate_results(hid_t file, FILE *out)
 {
@@ -256,6 +277,7 @@ static void print_calibrate_results(hid_t file, FILE *out)
     print_attribute(file, "rate", out); /* method = vcrit: the second parameter kept or fitted too */
     print_attribute(file, "fit_spread_tolerance", out);
     print_attribute(file, "result", out);
+    print_calibrate_sizes(file, out);
 }
 
 /* vcrit.h5 of a search over temperature ([vcrit] temperatures): the temperature of each of the n rows above. */

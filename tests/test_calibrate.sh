@@ -178,14 +178,20 @@ echo "$best" | awk -F, '{ x1 = ($1 - 100) / 1000; x2 = ($2 - 1e11) / 1e11
 h5dump -a /outcome "$RUN_ADHERED/calibrate.h5" 2>/dev/null | grep -q '"adhered"' || why="$why calibrate.h5 does not say adhered;"
 if [ -z "$why" ]; then pass calibrate_outcome_adhered; else fail calibrate_outcome_adhered "$why"; fi
 
-# `spraycoat info` lists the calibrate stage as done and prints the calibrated pair of calibrate.h5
+# `spraycoat info` lists the calibrate stage as done and prints the calibrated pair of calibrate.h5, and each size's
+# result as /size/NNN holds it (fitted, separable with its gap, or why there is no fit: a review, info showed the
+# pair alone)
 "$BIN" info "$RUN" >"$T/info.log" 2>&1
 gc=$(awk '$1 == "Gc" { print $2 }' "$T/info.log")
-if grep -q '^stage calibrate: done' "$T/info.log" && awk -v g="$gc" 'BEGIN { exit !(g > 650 && g < 780) }'; then
-    pass calibrate_info
-else
-    fail calibrate_info "info printed: $(grep -E 'calibrate|Gc' "$T/info.log" | tr '\n' ' ')"
-fi
+why=""
+grep -q '^stage calibrate: done' "$T/info.log" && awk -v g="$gc" 'BEGIN { exit !(g > 650 && g < 780) }' ||
+    why="info printed: $(grep -E 'calibrate|Gc' "$T/info.log" | tr '\n' ' ');"
+for size in 000 001; do
+    result=$(h5dump -a "/size/$size/result" "$RUN/calibrate.h5" 2>/dev/null | sed -n 's/^ *(0): "\(.*\)"$/\1/p')
+    shown=$(sed -n "/^size\/$size:\$/,/^[^ ]/s/^  result  *//p" "$T/info.log")
+    [ -n "$result" ] && [ "$shown" = "$result" ] || why="$why size $size: info '$shown', calibrate.h5 '$result';"
+done
+if [ -z "$why" ]; then pass calibrate_info; else fail calibrate_info "$why"; fi
 
 # ---- 4. the strain model with reference_diameter and rate_axis = log: its parameters name the outputs and the runs,
 # each size's set-up is [impact] scaled to it, the rates are spaced evenly in their logarithm --------------------------------------------------------------------------------------
