@@ -17,9 +17,11 @@
 #include "app/app.h"
 #include "dem/dem.h"
 
-#define STAGE                 "couple"
-#define COUPLE_FORMAT         "spraycoat-couple"
-#define COUPLE_FORMAT_VERSION 1
+#define STAGE         "couple"
+#define COUPLE_FORMAT "spraycoat-couple"
+/* 2: the flights end at the height of the spray's first contact (/flight/stop_z), a deposit's above the target
+ * plane; version 1 flew every one on to the plane.  The impact stage reads /seeds of either alike. */
+#define COUPLE_FORMAT_VERSION 2
 
 /* malloc(0) may return NULL: every array gets at least one element. */
 static size_t at_least_one(size_t n)
@@ -220,6 +222,7 @@ static int find_candidates(struct couple_work *w)
         struct couple_candidate *c = &w->candidates[w->candidate_count++];
         c->impact_row = (int64_t)order[i];
         c->particle_id = row->particle_id;
+        c->partner = row->partner;
         c->t = row->t;
         memcpy(c->x, row->x, sizeof c->x);
         memcpy(c->v, row->v_in, sizeof c->v);
@@ -277,7 +280,7 @@ static int setup_layer(struct couple_work *w, const struct dem_config *spray)
     return SC_OK;
 }
 
-/* Fly candidate k from its hand-off crossing; returns its flight row in *row. */
+/* Fly candidate k from its hand-off crossing to its first contact's height; returns its flight row in *row. */
 static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_t k, size_t *row)
 {
     const struct dem_handoff *h = &w->spray.handoffs[w->handoff_of[k]];
@@ -288,7 +291,8 @@ static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_
      * demo), in which the nozzle moves under 1 um at 0.2 m/s */
     w->layer.gas.axis_x = h->axis[0];
     w->layer.gas.axis_y = h->axis[1];
-    if (couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v, &w->flights[i]) != SC_OK) {
+    if (couple_flight_integrate(solver, &w->layer, c->d, density, h->t, h->x, h->v,
+                                couple_candidate_stop_z(&w->layer, c), &w->flights[i]) != SC_OK) {
         char reason[1024];
         snprintf(reason, sizeof reason, "%s", sc_error_message());
         SC_FAIL(SC_ESIM,
@@ -302,9 +306,12 @@ static int fly(struct couple_work *w, struct couple_flight_solver *solver, size_
 }
 
 /* Whether a flight with sample = window ends inside the window: the window takes its candidates by where the spray
- * met the obstacle, the bodies are placed where the flights meet the wall, and for a first contact with a deposit
- * (above the target plane) the flight goes on to the plane, drifting sideways a few um: a body placed outside the
- * patch, past what the substrate was checked to hold (a review: -77.5 um in a 150 um window). */
+ * met the obstacle, the bodies are placed where the flights end.  A flight that flew on past a deposit to the target
+ * plane drifted sideways a few um, and a body was placed outside the patch, past what the substrate was checked to
+ * hold (a review: -77.5 um in a 150 um window).  Flights now end at the contact's height (couple_candidate_stop_z),
+ * but the spray's x is where the particle rests, moved in along the contact's normal from where its contact was
+ * found within the drag skin (dem/collide.c rest_position): 1-8 um aside at dt = 1 us in that case, enough at the
+ * window's edge. */
 static int inside_window(const struct couple_config *cfg, const double x_wall[3])
 {
     double half = 0.5 * cfg->patch_size;
@@ -514,6 +521,7 @@ static int write_flight_columns(hid_t g, const struct couple_work *w)
     COLUMN_VEC("x0", f[i].sample_x, "m")
     COLUMN_VEC("v0", f[i].sample_v, "m/s")
     COLUMN_REAL("t_end", f[i].t, "s")
+    COLUMN_REAL("stop_z", couple_candidate_stop_z(&w->layer, &c[k[i]]), "m")
     COLUMN_VEC("x_end", f[i].x, "m")
     COLUMN_VEC("v_end", f[i].v, "m/s")
     COLUMN_INT("reached", f[i].reached)

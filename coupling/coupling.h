@@ -23,11 +23,12 @@
  *               the seed is drawn uniformly from its sub-stratum;
  *   window      the candidates whose impact point lies in the square patch of side patch_size centred at
  *               (window_x, window_y) on the target, in order of arrival.
- * A drawn candidate whose flight to the wall does not reach the wall is replaced by the next one of its
- * stratum.  Seed k belongs to run k / bodies_per_run.
+ * A drawn candidate whose flight does not reach its first contact (couple_candidate_stop_z) is replaced by the
+ * next one of its stratum.  Seed k belongs to run k / bodies_per_run.
  *
  * Placement in the impact frame (substrate top z = 0, bodies above it moving towards -z): within a run, bodies in
- * order of arrival at the wall; lateral offsets are the wall positions relative to the patch centre (window) or to
+ * order of arrival at their contacts (the wall, or a deposit above it: the flat substrate stands for either);
+ * lateral offsets are the contact positions relative to the patch centre (window) or to
  * the run's first arrival folded periodically into the patch (random, stratified: the draws come from anywhere on
  * the target, so only their spacing within the patch is kept); the first arrival touches the substrate and a later
  * one starts |v_z| (t - t_first) c higher, c <= 1 the one factor for the run that puts the highest start at max_gap
@@ -49,10 +50,12 @@ extern const struct cfg_key couple_case_keys[];
 
 int couple_config_load(const struct case_file *c, struct couple_config *cfg);
 
-/* A candidate: the spray's impact (spray frame) and, once flown, its arrival at the wall. */
+/* A candidate: the spray's impact (spray frame) and, once flown, its arrival at that contact. */
 struct couple_candidate {
     int64_t impact_row, particle_id;
-    double t, x[3], v[3], d, m; /* the spray's first contact */
+    int64_t partner;            /* the first contact's obstacle: -1 the target, else the deposited (or resting)
+                                   particle's id (spray.h5 /impacts/partner) */
+    double t, x[3], v[3], d, m; /* the spray's first contact: x its centre there (spray.h5 /impacts/x) */
     double temperature;         /* K, the particle's at that contact (spray.h5 /impacts/temperature) */
 };
 
@@ -72,7 +75,8 @@ int couple_strata_build(const struct case_file *c, const struct couple_config *c
                         const struct couple_candidate *candidates, size_t n, struct couple_strata *strata);
 void couple_strata_free(struct couple_strata *strata);
 
-/* One seed's arrival at the wall (spray frame) and, after placement, its body in the impact frame. */
+/* One seed's arrival at its first contact (spray frame; "wall" in the names: the target plane, or a deposit above
+ * it) and, after placement, its body in the impact frame. */
 struct couple_seed {
     size_t candidate; /* index into the candidate array */
     size_t flight;    /* row of its flight in couple.h5 /flight */
@@ -91,9 +95,9 @@ void couple_assign_runs(const struct couple_config *cfg, struct couple_seed *see
 /* Order the `count` seeds of one run by arrival and place them (the header's rules). */
 void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds, size_t count);
 
-/* coupling: the last flight of a sprayed particle, from the hand-off plane to the wall, through the gas in front of
- * the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS CVODE (BDF,
- * Newton iteration with a dense direct linear solver).
+/* coupling: the last flight of a sprayed particle, from the hand-off plane to its first contact, through the gas in
+ * front of the target that the spray paper leaves out (Mukherjee & Zohdi, Section 6), integrated with SUNDIALS CVODE
+ * (BDF, Newton iteration with a dense direct linear solver).
  *
  * The gas is the spray's (dem_gas_velocity, docs/physics.md "The jet at the wall"): in the spray frame (+z towards
  * the target, the wall is the plane z = gas.wall_z, the spray axis is x = y = 0) the free jet of Eqs. 26-27 above
@@ -104,8 +108,10 @@ void couple_place_run(const struct couple_config *cfg, struct couple_seed *seeds
  * (dem_gas_drag_force_at, on the gas dem_config_load made): [jet]'s density, viscosity and law (Haider-Levenspiel
  * Eq. 25, Stokes or Henderson), but with [nozzle] the density and viscosity [jet] does not give are the nozzle
  * exit's and drag = auto is Henderson's, and below a bow shock the layer's rho2 and nu2; no gravity.  The flight ends
- * when the sphere touches the wall (centre at wall_z - d/2, found by CVODE's root finding) or at a time limit: a fine
- * particle carried by the wall jet may approach the wall only asymptotically. */
+ * when the sphere's centre reaches a stop height (found by CVODE's root finding) or at a time limit: a fine particle
+ * carried by the wall jet may approach the wall only asymptotically.  The stop height is the spray's first contact's:
+ * the wall's, wall_z - d/2, where that contact was with the target; the centre's height at the contact where it was
+ * with a deposit, which lies above the target plane (couple_candidate_stop_z). */
 
 struct couple_flight_layer {
     struct dem_gas_field gas; /* the spray's gas, its wall placed (dem_gas_set_wall); model none: no gas, no drag */
@@ -115,8 +121,8 @@ struct couple_flight_layer {
 };
 
 struct couple_flight_result {
-    int reached;          /* 1: the sphere touched the wall; 0: stopped at the time limit */
-    double t, x[3], v[3]; /* at the wall (or at the time limit) */
+    int reached;          /* 1: the centre reached the stop height; 0: stopped at the time limit */
+    double t, x[3], v[3]; /* at the stop height (or at the time limit) */
     long steps, rhs_evals, jac_evals, error_test_failures, nonlinear_iterations, nonlinear_failures;
     size_t samples;                         /* the trajectory at every internal CVODE step, the start included */
     double *sample_t, *sample_x, *sample_v; /* samples, 3 * samples, 3 * samples */
@@ -127,11 +133,21 @@ struct couple_flight_solver;
 int couple_flight_solver_create(struct couple_flight_solver **out);
 void couple_flight_solver_destroy(struct couple_flight_solver *solver);
 
-/* Integrate one particle (diameter d, density rho_p) from (t0, x0, v0) to the wall.  The result's sample arrays
- * are owned by *result (couple_flight_result_free).  SC_ESIM when CVODE fails (the message names its flag). */
+/* The centre's height when a sphere of this diameter touches the wall: wall_z - d/2. */
+double couple_flight_wall_contact_z(const struct couple_flight_layer *layer, double diameter);
+
+/* The height at which the candidate's flight stops: where the spray's first contact was.  With the target, the
+ * wall's contact height; with a deposit, the centre's height at that contact, x[2] (the centre where the particle
+ * stuck or came to rest, touching its obstacle; a rebounder's where the contact was found: spray.h5 /impacts). */
+double couple_candidate_stop_z(const struct couple_flight_layer *layer, const struct couple_candidate *candidate);
+
+/* Integrate one particle (diameter d, density rho_p) from (t0, x0, v0) until its centre reaches the height stop_z
+ * (z grows towards the wall: stop_z > x0[2]; one that starts past it ends at the time limit, not reached, and one
+ * that starts on it has no time to fly: SC_ESIM).  The result's sample arrays are owned by *result
+ * (couple_flight_result_free).  SC_ESIM when CVODE fails (the message names its flag). */
 int couple_flight_integrate(struct couple_flight_solver *solver, const struct couple_flight_layer *layer,
                             double diameter, double density, double t0, const double x0[3], const double v0[3],
-                            struct couple_flight_result *result);
+                            double stop_z, struct couple_flight_result *result);
 void couple_flight_result_free(struct couple_flight_result *result);
 
 #endif

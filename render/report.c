@@ -809,8 +809,8 @@ static void couple_headline(FILE *f, const struct case_file *c, const struct rep
     escaped(f, case_text(c, "couple", "sample"));
     fprintf(f,
             "</code>) and flown from the hand-off plane through the spray's gas at the target (the jet's "
-            "wall region): speed at the wall %s m/s, changed by %s m/s on average (%s m/s) from the spray's "
-            "impact speed.</li>\n",
+            "wall region) to their first contact, the wall or a deposit: speed there %s m/s, changed by %s m/s on "
+            "average (%s m/s) from the spray's impact speed.</li>\n",
             span(num(v_lo, 3), num(v_hi, 3)).s, num(change / (double)r->seed_count, 3).s,
             span(num(lo, 3), num(hi, 3)).s);
 }
@@ -941,10 +941,11 @@ static void couple_table(FILE *f, const struct report_data *r)
 {
     if (r->seed_count == 0)
         return;
-    fprintf(f, "<h2>Couple stage</h2>\n<p>Each MPM body's particle: its speed at the spray's impact and at the wall "
-               "after the gas layer, and the spray's outcome of its first contact.</p>\n<table><tr><th>run</th>"
+    fprintf(f, "<h2>Couple stage</h2>\n<p>Each MPM body's particle: its speed at the spray's impact and at the same "
+               "contact after the couple stage's flight (the wall, or a deposit above it), and the spray's outcome of "
+               "its first contact.</p>\n<table><tr><th>run</th>"
                "<th>body</th><th>spray particle id</th><th>diameter (µm)</th>"
-               "<th>spray impact speed (m/s)</th><th>speed at the wall (m/s)</th><th>change (m/s)</th>"
+               "<th>spray impact speed (m/s)</th><th>speed at the contact (m/s)</th><th>change (m/s)</th>"
                "<th>spray said</th></tr>\n");
     for (size_t i = 0; i < r->seed_count; i++) {
         const struct seed_row *s = &r->seeds[i];

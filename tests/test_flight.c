@@ -37,7 +37,9 @@ static void visit_stokes_row(const struct csv_row *row)
     struct couple_flight_layer layer = stokes_layer(x + 0.5 * d);
     struct couple_flight_result r;
     const double x0[3] = {0, 0, 0}, v0[3] = {0, 0, 0};
-    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, couple_flight_wall_contact_z(&layer, d), &r) ==
+              SC_OK,
+          "flight: %s", sc_error_message());
     CHECK(r.reached, "the particle reaches x = %g m", x);
     CHECK_CLOSE(r.t, t, 1e-6, 0.0, "time to cover x");
     CHECK_CLOSE(r.v[2], v, 1e-6, 0.0, "speed at x");
@@ -105,15 +107,16 @@ static double rk4_step_to_plane(const struct couple_flight_layer *layer, double 
     return hi;
 }
 
-/* RK4 until the gap closes.  A step that would cross the top of the wall region (where the field's derivatives
- * jump) or the contact plane is replaced by the step that ends on it, so that no step straddles the kink. */
-static void rk4_to_wall(const struct couple_flight_layer *layer, double d, double mass, const double y0[6], double h,
-                        double *t_wall, double v_wall[3])
+/* RK4 until the centre reaches the height stop_z.  A step that would cross the top of the wall region (where the
+ * field's derivatives jump) or the stop plane is replaced by the step that ends on it, so that no step straddles the
+ * kink. */
+static void rk4_to_height(const struct couple_flight_layer *layer, double d, double mass, const double y0[6], double h,
+                          double stop_z, double *t_wall, double v_wall[3])
 {
     double y[6], t = 0.0;
     memcpy(y, y0, sizeof y);
-    double contact_z = layer->gas.wall_z - 0.5 * d, edge_z = layer->gas.wall_z - layer->gas.stagnation_height;
-    int edge_ahead = layer->gas.stagnation_height > 0.5 * d && y[2] < edge_z;
+    double contact_z = stop_z, edge_z = layer->gas.wall_z - layer->gas.stagnation_height;
+    int edge_ahead = layer->gas.stagnation_height > 0.5 * d && y[2] < edge_z && edge_z < stop_z;
     for (;;) {
         double previous[6];
         memcpy(previous, y, sizeof y);
@@ -160,9 +163,11 @@ static void test_nonstiff_against_rk4(void)
     struct couple_flight_result r;
     CHECK(layer.gas.stagnation_height > 5e-3 && layer.gas.stagnation_height < 8e-3, "wall region %g m",
           layer.gas.stagnation_height);
-    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, couple_flight_wall_contact_z(&layer, d), &r) ==
+              SC_OK,
+          "flight: %s", sc_error_message());
     double y0[6] = {x0[0], x0[1], x0[2], v0[0], v0[1], v0[2]}, t_ref = 0.0, v_ref[3] = {0};
-    rk4_to_wall(&layer, d, mass, y0, 2e-10, &t_ref, v_ref);
+    rk4_to_height(&layer, d, mass, y0, 2e-10, couple_flight_wall_contact_z(&layer, d), &t_ref, v_ref);
     CHECK(r.reached, "the 20 um particle reaches the wall");
     CHECK_CLOSE(r.t, t_ref, 1e-7, 0.0, "arrival time against RK4");
     for (int k = 0; k < 3; k++)
@@ -171,14 +176,51 @@ static void test_nonstiff_against_rk4(void)
     free_jet.gas.stagnation_factor = 0.0;
     dem_gas_set_wall(&free_jet.gas, layer.gas.wall_z);
     struct couple_flight_result unslowed;
-    CHECK(couple_flight_integrate(solver, &free_jet, d, rho, 0.0, x0, v0, &unslowed) == SC_OK, "flight: %s",
-          sc_error_message());
+    CHECK(couple_flight_integrate(solver, &free_jet, d, rho, 0.0, x0, v0, couple_flight_wall_contact_z(&free_jet, d),
+                                  &unslowed) == SC_OK,
+          "flight: %s", sc_error_message());
     CHECK(r.v[2] < unslowed.v[2] - 5.0, "the stagnation flow slows the particle (%g m/s, %g m/s in the free jet)",
           r.v[2], unslowed.v[2]);
     couple_flight_result_free(&unslowed);
     CHECK(r.v[0] > v0[0], "the wall jet pushes it outwards (v_x %g > %g m/s)", r.v[0], v0[0]);
     CHECK(r.steps > 0 && r.rhs_evals >= r.steps && r.samples == (size_t)r.steps + 1,
           "counters: %ld steps, %ld rhs, %zu samples", r.steps, r.rhs_evals, r.samples);
+    couple_flight_result_free(&r);
+}
+
+/* A first contact with a deposit 60 um above the target plane (the couple stage's candidates, couple_candidate_stop_z):
+ * the flight stops where the centre reaches that contact's height, with the velocity RK4 gives at that height, not
+ * flown on to the target plane (it flew on: 0.1-0.2 us later, v_z ~1 m/s lower, a review). */
+static void test_stop_at_deposit_height(void)
+{
+    struct couple_flight_layer layer = cold_spray_layer();
+    const double d = 20e-6, rho = 2700.0, mass = rho * M_PI * d * d * d / 6.0;
+    const double x0[3] = {1e-3, -0.5e-3, 0.022}, v0[3] = {5.0, -2.0, 600.0};
+    struct couple_candidate deposit = {.partner = 7, .d = d, .x = {1.2e-3, -0.6e-3, 0.0}};
+    deposit.x[2] = couple_flight_wall_contact_z(&layer, d) - 60e-6;
+    struct couple_candidate target = deposit;
+    target.partner = -1;
+    double stop_z = couple_candidate_stop_z(&layer, &deposit);
+    CHECK(stop_z == deposit.x[2], "a deposit's contact: the flight stops at its centre height (%.17g m)", stop_z);
+    CHECK(couple_candidate_stop_z(&layer, &target) == layer.gas.wall_z - 0.5 * d,
+          "the target's contact: the flight stops at the wall, wall_z - d/2");
+    struct couple_flight_result r;
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, stop_z, &r) == SC_OK, "flight: %s",
+          sc_error_message());
+    double y0[6] = {x0[0], x0[1], x0[2], v0[0], v0[1], v0[2]}, t_ref = 0.0, v_ref[3] = {0}, t_wall = 0.0, v_wall[3];
+    rk4_to_height(&layer, d, mass, y0, 2e-10, stop_z, &t_ref, v_ref);
+    rk4_to_height(&layer, d, mass, y0, 2e-10, couple_flight_wall_contact_z(&layer, d), &t_wall, v_wall);
+    CHECK(r.reached, "the particle reaches the deposit's height");
+    CHECK_CLOSE(r.x[2], stop_z, 0.0, 1e-12, "the flight ends at the deposit's height (m)");
+    CHECK_CLOSE(r.t, t_ref, 1e-7, 0.0, "arrival time at that height against RK4");
+    for (int k = 0; k < 3; k++)
+        CHECK_CLOSE(r.v[k], v_ref[k], 1e-6, 1e-6, "velocity at that height against RK4");
+    printf("  60 um above the wall: v_z %.6g m/s (RK4 %.6g); at the wall %.6g m/s, %.3g us later\n", r.v[2], v_ref[2],
+           v_wall[2], 1e6 * (t_wall - t_ref));
+    /* the test can tell the two: the 60 um to the target plane take ~0.1 us and change v_z by more than its bound */
+    CHECK(t_wall - t_ref > 5e-8 && fabs(v_wall[2] - v_ref[2]) > 1e-4 * fabs(v_ref[2]),
+          "the target plane is distinguishable: %g s later, v_z %.6g against %.6g m/s", t_wall - t_ref, v_wall[2],
+          v_ref[2]);
     couple_flight_result_free(&r);
 }
 
@@ -194,7 +236,9 @@ static void test_stiff_particle(void)
     const double d = 0.1e-6, rho = 2700.0, s0 = 1e-3, speed0 = 300.0, mass = rho * M_PI * d * d * d / 6.0;
     const double x0[3] = {0.0, 0.0, layer.gas.wall_z - s0}, v0[3] = {0.0, 0.0, speed0};
     struct couple_flight_result r;
-    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, &r) == SC_OK, "flight: %s", sc_error_message());
+    CHECK(couple_flight_integrate(solver, &layer, d, rho, 0.0, x0, v0, couple_flight_wall_contact_z(&layer, d), &r) ==
+              SC_OK,
+          "flight: %s", sc_error_message());
     CHECK(r.reached, "the fine particle reaches the wall");
     CHECK(r.steps < 1000, "BDF steps stay few for a stiff particle: %ld", r.steps);
     double contact_z = layer.gas.wall_z - 0.5 * d;
@@ -204,7 +248,7 @@ static void test_stiff_particle(void)
     CHECK(!passed, "no trajectory sample beyond the wall");
     double mu = layer.gas.density * layer.gas.kinematic_viscosity, tau = rho * d * d / (18.0 * mu);
     double y0[6] = {x0[0], x0[1], x0[2], v0[0], v0[1], v0[2]}, t_ref = 0.0, v_ref[3] = {0};
-    rk4_to_wall(&layer, d, mass, y0, tau / 25.0, &t_ref, v_ref);
+    rk4_to_height(&layer, d, mass, y0, tau / 25.0, couple_flight_wall_contact_z(&layer, d), &t_ref, v_ref);
     CHECK(t_ref / tau > 100.0, "a stiff case: flight / tau = %g", t_ref / tau);
     CHECK_CLOSE(r.t, t_ref, 1e-5, 0.0, "arrival time against RK4");
     CHECK_CLOSE(r.v[2], v_ref[2], 1e-4, 0.0, "arrival speed against RK4");
@@ -221,6 +265,7 @@ int main(void)
     RUN(test_stokes_relaxation_table);
     RUN(test_nonstiff_against_rk4);
     RUN(test_stiff_particle);
+    RUN(test_stop_at_deposit_height);
     couple_flight_solver_destroy(solver);
     return check_finish();
 }

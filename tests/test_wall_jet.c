@@ -222,7 +222,8 @@ static double first_impacts_against_flight(const char *dt, const char *bow_shock
                 if (handoffs[j].particle_id == hit->particle_id)
                     h = &handoffs[j];
             struct couple_flight_result r;
-            if (!h || couple_flight_integrate(solver, &layer, h->d, 2700.0, h->t, h->x, h->v, &r) != SC_OK) {
+            if (!h || couple_flight_integrate(solver, &layer, h->d, 2700.0, h->t, h->x, h->v,
+                                              couple_flight_wall_contact_z(&layer, h->d), &r) != SC_OK) {
                 CHECK(0, "particle %lld: hand-off row and flight", (long long)hit->particle_id);
                 continue;
             }
