@@ -421,8 +421,10 @@ static void log_summary(struct impact_run *run)
             snprintf(interface, sizeof interface,
                      "bonded at %lld of the %lld nodes where it meets a body now (%.1f %%)", (long long)x->bonded_nodes,
                      (long long)x->interface_nodes, 100.0 * x->bonded_interface);
-        const char *averaged =
-            isnan(mpm_verdict_vrest(run->solver, b)) ? "the last row's: no window judged" : "window mean";
+        const char *averaged = isnan(x->v_com[2]) && bonded[b] == MPM_VERDICT_REBOUNDED
+                                   ? "as it left the grid box" /* mpm/verdict.c judge_gone */
+                               : isnan(mpm_verdict_vrest(run->solver, b)) ? "the last row's: no window judged"
+                                                                          : "window mean";
         log_info("%s: body %d (d = %.4g um, %.4g m/s): %s (%s), PBCP %.2f %%, %s, v_rest %.3g m/s (%s), "
                  "v_com_z %.3g m/s",
                  run->label, b, body->d * 1e6, sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]),

@@ -58,8 +58,10 @@ static void finish_body(const struct mpm_config *cfg, const struct point_sums *b
     out->plastic_work = copies * b->plastic_work;
     out->mean_eps_p = b->mass > 0 ? b->eps_p_mass / b->mass : 0.0;
     out->plastic_energy_density = b->volume0 > 0 ? b->plastic_work / b->volume0 : 0.0;
+    /* a body whose every point left the grid box (removed) has no centre of mass: NaN, which the verdict reads as the
+     * body gone (mpm/verdict.c); 0 made it a body at rest, judged "held" (a review) */
     for (int d = 0; d < 3; d++)
-        out->v_com[d] = b->mass > 0 && !(d < 2 && cfg->mirror[d]) ? b->momentum[d] / b->mass : 0.0;
+        out->v_com[d] = !(b->mass > 0) ? NAN : !(d < 2 && cfg->mirror[d]) ? b->momentum[d] / b->mass : 0.0;
     out->pbcp = b->contacted > 0 ? (double)b->bonded / (double)b->contacted : 0.0;
     out->v_rest = b->slow > 0 ? b->slow_vz / (double)b->slow : NAN;
     out->mean_d_bond = b->surface > 0 ? b->d_bond_surface / (double)b->surface : 0.0;

@@ -21,7 +21,7 @@
 #include "mpm/mpm_impl.h"
 
 /* The series columns of a body (SERIES_PER_BODY in mpm_impl.h, mpm_series_record in diagnostics.c) */
-enum { COLUMN_VCOM = 0, COLUMN_PBCP = 8, COLUMN_VREST = 9 };
+enum { COLUMN_VCOM = 0, COLUMN_KE = 3, COLUMN_PBCP = 8, COLUMN_VREST = 9 };
 
 static const double *series_row(const struct mpm_solver *s, size_t row)
 {
@@ -124,9 +124,40 @@ static int settled_over(const struct mpm_solver *s, long first, size_t row, int 
     return vcom_range <= cfg->settle_vcom && hi[3] - lo[3] <= cfg->settle_pbcp;
 }
 
+/* A row of a body whose every point has left the grid box: no centre of mass (NaN, mpm/diagnostics.c), no kinetic
+ * energy and no PBCP (0, counted over no point); a row of unknown values (a failed device) has NaN in them and is
+ * never judged. */
+static int gone(const double *c)
+{
+    return isnan(c[COLUMN_VCOM + 2]) && c[COLUMN_KE] == 0.0 && c[COLUMN_PBCP] == 0.0;
+}
+
+/* Body b has left the grid box by series row `row`: it rebounded, settled (nothing of it is left to change), at the
+ * time it left unless it had settled before.  Its v_rest and v_com_z stay those of its last judged row, or, never
+ * judged, those of the last row it was seen in (its speed as its v_rest, row_vrest's rule for a body leaving faster
+ * than the filter): a body that leaves is not at rest.  Before, its empty rows read v_com = 0 and v_rest = 0: it
+ * settled as "held, at rest" (a review: an elastic particle at 300 m/s that flew out of the box). */
+static int judge_gone(struct mpm_solver *s, size_t row, int b)
+{
+    s->bonded_now[b] = 0;
+    if (isnan(s->settled_at[b]))
+        s->settled_at[b] = series_row(s, row)[0];
+    for (long j = (long)row - 1; isnan(s->judged_vrest[b]) && j >= 0; j--) {
+        const double *c = body_columns(s, (size_t)j, b);
+        if (gone(c))
+            continue;
+        const double *v = c + COLUMN_VCOM;
+        s->judged_vrest[b] = isnan(c[COLUMN_VREST]) ? sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) : c[COLUMN_VREST];
+        s->judged_vcom_z[b] = v[2];
+    }
+    return 1;
+}
+
 /* Body b's judgement and whether it is settled after series row `row` was recorded. */
 static int judge_body(struct mpm_solver *s, size_t row, int b)
 {
+    if (gone(body_columns(s, row, b)))
+        return judge_gone(s, row, b);
     double window = body_window(s, b);
     struct judgement now;
     int judged = judge(s, row, b, window, &now);

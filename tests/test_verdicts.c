@@ -271,6 +271,36 @@ static void test_run_ends_when_settled(void)
     impact_fixture_close(&f);
 }
 
+/* A particle that flies out of the grid box (an elastic sphere at 100 m/s off the rigid wall, 2 um of box margin,
+ * the run going on to t_end): its every point removed, it has rebounded, settled, with the v_rest and v_com_z it
+ * left with, not at rest.  Its empty rows read v_com = 0 and v_rest = 0: it settled as "held, at rest" with a CoR
+ * of 0 (a review). */
+static void test_body_that_left_the_box(void)
+{
+    struct impact_fixture f;
+    const char *ini = "[impact]\nsubstrate = rigid\nmaterial = elastic\ngrid = 2e-6\nspacing = 1e-6\n"
+                      "t_end = 400e-9\ncfl = 0.2\nbonding = none\nbox_margin = 2e-6\nstop_when_settled = no\n"
+                      "[material.elastic]\nstrength = elastic\ndensity = 1000\neos_c0 = 1000\neos_s = 0\n"
+                      "eos_gamma0 = 0\nG0 = 1e9\nD = 0\nmelt_T0 = 1e5\n";
+    if (impact_fixture_open(&f, ini, "sphere,0,0,4.5e-6,0,0,-100,8e-6,0,elastic\n") != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    CHECK(impact_fixture_run(&f) == SC_OK, "run");
+    struct mpm_counts c = mpm_get_counts(f.solver);
+    double v_rest = mpm_verdict_vrest(f.solver, 0), v_com_z = mpm_verdict_vcom_z(f.solver, 0);
+    int verdict = verdict_of(&f, 0); /* the rigid wall is no body: the particle is body 0 */
+    printf("  %lld of %lld points removed by %.4g ns; %s, settled at %.4g ns, v_rest %.4g m/s, v_com_z %.4g m/s\n",
+           (long long)c.removed_points, (long long)c.points, 1e9 * c.t, mpm_verdict_name(verdict),
+           1e9 * mpm_verdict_settled_at(f.solver, 0), v_rest, v_com_z);
+    CHECK(c.removed_points > 0 && isnan(mpm_compute_diagnostics(f.solver)->body[0].v_com[2]),
+          "the particle did not leave the box: %lld points removed", (long long)c.removed_points);
+    CHECK(verdict == MPM_VERDICT_REBOUNDED, "verdict %s, not rebounded", mpm_verdict_name(verdict));
+    CHECK(!mpm_verdict_held(verdict, v_rest, f.cfg.vrest_threshold) && v_rest > 10.0 && v_com_z > 10.0,
+          "left the box at v_rest %g, v_com_z %g m/s: judged at rest", v_rest, v_com_z);
+    impact_fixture_close(&f);
+}
+
 /* The /summary of results written by `run` (its diagnostics written to `name` in `file`); the particle's (body 1)
  * values in out: pbcp, v_rest, cor, bonded_interface, verdict. */
 static int summary_of(struct mpm_solver *run, hid_t file, const char *name, double out[5])
@@ -343,6 +373,7 @@ int main(void)
     RUN(test_unsettled_cases);
     RUN(test_every_body_settles);
     RUN(test_run_ends_when_settled);
+    RUN(test_body_that_left_the_box);
     RUN(test_summary_after_resume_at_end);
     return check_finish();
 }
