@@ -909,7 +909,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
                "<th>PBCP (%%)</th><th>bonded interface (%%)</th><th>v_rest (m/s)</th><th>CoR v_rest/v_impact</th>"
                "</tr>\n");
     char low_pbcp[96];
-    snprintf(low_pbcp, sizeof low_pbcp, "not bonded (PBCP < %s %%)", given(100 * pbcp_threshold).s);
+    snprintf(low_pbcp, sizeof low_pbcp, "not bonded: at rest, PBCP < %s %%", given(100 * pbcp_threshold).s);
     const char *const words[] = {"bonded", "rebounded", low_pbcp, "unsettled"};
     for (size_t i = 0; i < r->row_count; i++) {
         const struct body_row *row = &r->rows[i];
