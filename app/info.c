@@ -760,14 +760,18 @@ void info_headline(const char *run_dir, FILE *out)
         }
         if (runs > 0) {
             /* counts, not a rounded share alone (1 of 200 is not "0 %"); an unsettled body, whose verdict still
-             * changed at the end, is neither bonded nor rebounded: the share is of all bodies, a lower bound */
+             * changed at the end, is neither bonded nor rebounded: the share is of all bodies, a lower bound, and
+             * the interval takes the unsettled either way (it counted them as not bonded: 0 of 4 with all 4
+             * unsettled read 0-49 %, a review) */
             fprintf(out, "impact: %lld of %lld bodies bonded (%.1f %%", (long long)bonded, (long long)bodies,
                     100.0 * fraction);
             snprintf(path, sizeof path, "%s/couple.h5", run_dir);
             if (bonded >= 0 && bodies > 0 && access(path, R_OK) == 0) { /* sampled from the spray: its error */
                 double lo, hi;
-                logistic_wilson_interval((size_t)bonded, (size_t)bodies, 1.959964, &lo, &hi);
-                fprintf(out, "; 95 %% interval %.3g-%.3g %%", 100.0 * lo, 100.0 * hi);
+                size_t unknown = unsettled > 0 ? (size_t)unsettled : 0;
+                logistic_wilson_bounds((size_t)bonded, unknown, (size_t)bodies, 1.959964, &lo, &hi);
+                fprintf(out, "; %s95 %% interval %.3g-%.3g %%", unknown ? "the unsettled counted either way, " : "",
+                        100.0 * lo, 100.0 * hi);
             }
             fprintf(out, ") over %lld MPM runs", (long long)runs);
             if (unsettled >= 0)

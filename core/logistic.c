@@ -274,3 +274,10 @@ void logistic_wilson_interval(size_t successes, size_t trials, double z, double 
     *lo = successes == 0 ? 0.0 : fmax(0.0, centre - half);
     *hi = successes == trials ? 1.0 : fmin(1.0, centre + half);
 }
+
+void logistic_wilson_bounds(size_t successes, size_t unknown, size_t trials, double z, double *lo, double *hi)
+{
+    double ignored;
+    logistic_wilson_interval(successes, trials, z, lo, &ignored);
+    logistic_wilson_interval(successes + unknown, trials, z, &ignored, hi);
+}

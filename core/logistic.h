@@ -58,5 +58,9 @@ int logistic_threshold_fit(const double *x, const int *y, size_t m, double cente
  * independent outcomes, at z standard normal deviates (1.96: 95 %), into [*lo, *hi]; [0, 1] for no trials.  Unlike
  * p +- z sqrt(p (1 - p) / n) it stays within [0, 1] and is not empty at 0 or n successes. */
 void logistic_wilson_interval(size_t successes, size_t trials, double z, double *lo, double *hi);
+/* The same where `unknown` of the trials have no outcome yet (unsettled verdicts): from the lower end with them all
+ * failures to the upper end with them all successes, so that the interval covers both the sampling error and
+ * whichever way they go; the Wilson interval when unknown is 0. */
+void logistic_wilson_bounds(size_t successes, size_t unknown, size_t trials, double z, double *lo, double *hi);
 
 #endif

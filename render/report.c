@@ -764,10 +764,11 @@ static void impact_headline(FILE *f, const struct case_file *c, const struct rep
     fprintf(f, "<li><b>Impact (MPM): bonded fraction %s %%</b>",
             num(100.0 * (double)t->bonded / (double)r->row_count, 3).s);
     if (r->seed_count > 0) { /* sampled from the spray: a handful's sampling error is the first thing to read */
-        double lo, hi;
-        logistic_wilson_interval(t->bonded, r->row_count, 1.959964, &lo, &hi);
-        fprintf(f, " (95 %% interval %s-%s %%, Wilson, for %zu particle%s)", num(100.0 * lo, 3).s, num(100.0 * hi, 3).s,
-                r->row_count, r->row_count == 1 ? "" : "s");
+        double lo, hi;       /* the unsettled either way (app/info.c's headline likewise) */
+        logistic_wilson_bounds(t->bonded, t->unsettled, r->row_count, 1.959964, &lo, &hi);
+        fprintf(f, " (95 %% interval %s-%s %%, Wilson, for %zu particle%s%s)", num(100.0 * lo, 3).s,
+                num(100.0 * hi, 3).s, r->row_count, r->row_count == 1 ? "" : "s",
+                t->unsettled ? ", the unsettled counted as bonded and as not bonded" : "");
     }
     fprintf(f, ": %zu of %zu %sparticles bonded in %d run%s", t->bonded, r->row_count,
             r->seed_count > 0 ? "sampled " : "", r->runs, r->runs == 1 ? "" : "s");

@@ -221,6 +221,18 @@ static void test_wilson_interval_against_newcombe(void)
     double lo, hi;
     logistic_wilson_interval(0, 0, 1.96, &lo, &hi);
     CHECK(lo == 0.0 && hi == 1.0, "no trials: [%g, %g]", lo, hi);
+    /* unknown outcomes (unsettled verdicts) taken either way: 0 of 4 with 4 unknown is [0, 1]; 1 of 4 with 2
+     * unknown spans Wilson's 1 of 4 below and 3 of 4 above (Newcombe's method 3 by hand: 0.0456 and 0.9544); none
+     * unknown is the Wilson interval */
+    logistic_wilson_bounds(0, 4, 4, 1.959964, &lo, &hi);
+    CHECK(lo == 0.0 && hi == 1.0, "0 of 4, 4 unknown: [%g, %g]", lo, hi);
+    logistic_wilson_bounds(1, 2, 4, 1.959964, &lo, &hi);
+    CHECK_CLOSE(lo, 0.0456, 0.0, 0.5e-4, "1 of 4, 2 unknown: lower bound");
+    CHECK_CLOSE(hi, 0.9544, 0.0, 0.5e-4, "1 of 4, 2 unknown: upper bound");
+    double wlo, whi;
+    logistic_wilson_bounds(81, 0, 263, 1.959964, &lo, &hi);
+    logistic_wilson_interval(81, 263, 1.959964, &wlo, &whi);
+    CHECK(lo == wlo && hi == whi, "none unknown: [%g, %g], Wilson [%g, %g]", lo, hi, wlo, whi);
     /* none and all of a few (the demo's 3 runs): the bound at the end is that end exactly (0 of 3 gave 5.55e-17) */
     for (size_t n = 1; n <= 8; n++) {
         logistic_wilson_interval(0, n, 1.959964, &lo, &hi);
