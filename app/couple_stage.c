@@ -346,6 +346,13 @@ static int fill_slot(struct couple_work *w, struct couple_flight_solver *solver,
         seed->temperature = w->candidates[k].temperature;
         return SC_OK;
     }
+    if (w->cfg.sample == COUPLE_WINDOW) /* inside_window passes over flights ending outside: the window may be why */
+        return case_invalid(
+            w->c, "couple", "runs",
+            "seed %zu: no further spray impact in the window reaches the wall inside it with a hand-off "
+            "crossing (%zu flown so far); allowed: fewer runs or bodies_per_run, a larger patch_size, "
+            "a window (window_x, window_y) where more particles arrive, or a spray with more impacts",
+            slot + 1, w->flight_count);
     return case_invalid(w->c, "couple", "runs",
                         "seed %zu: no further spray impact of its %s reaches the wall with a "
                         "hand-off crossing (%zu flown so far); allowed: fewer runs or bodies_per_run, or a spray with "

@@ -598,7 +598,7 @@ static struct tally tally(const struct report_data *r, double vrest_threshold)
  * review: 25.9 um at packing 0.5, whose dense-equivalent is 12.9). */
 static const char *thickness_kind(const struct report_data *r, char *out, size_t size)
 {
-    if (!isfinite(r->packing) || r->packing == 1.0)
+    if (!(r->packing > 0.0) || r->packing == 1.0) /* NaN, or 0: a file without /deposit or the attribute */
         snprintf(out, size, "dense-equivalent thickness");
     else
         snprintf(out, size, "thickness at packing %.3g (the dense-equivalent over %.3g)", r->packing, r->packing);
@@ -678,16 +678,16 @@ static void sweep_headline(FILE *f, const struct render_request *req)
     double lo = INFINITY, hi = -INFINITY;
     unsigned char *lower_bound = NULL;
     size_t marked = 0;
-    if (render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
-        render_sweep_lower_bounds(file, "sweep.h5", de.count, &lower_bound, &marked) == SC_OK)
-        for (size_t i = 0; i < de.count; i++)
-            lo = fmin(lo, de.values[i]), hi = fmax(hi, de.values[i]);
+    int ok = render_read_array(file, "sweep.h5", "de", &de) == SC_OK &&
+             render_sweep_lower_bounds(file, "sweep.h5", de.count, &lower_bound, &marked) == SC_OK;
+    for (size_t i = 0; ok && i < de.count; i++)
+        lo = fmin(lo, de.values[i]), hi = fmax(hi, de.values[i]);
     sc_error_clear();
     char bounds[160] = "";
     if (marked > 0)
         snprintf(bounds, sizeof bounds, "; %zu of them lower bounds, with particles still in flight at the end",
                  marked);
-    if (de.count > 0)
+    if (ok && de.count > 0) /* (a damaged sweep.h5 left the span at +-inf) */
         fprintf(f,
                 "<li><b>Sweep: deposition efficiency %s %%</b> over %zu runs%s (the table below, the map in figure "
                 "sweep_de).</li>\n",
