@@ -362,6 +362,22 @@ grep -q 'warning: sweep: the DE of 4 of the 4 runs is a lower bound' "$T/log10b"
 grep -q '<b>Sweep: deposition efficiency' "$T/figs/report.html" || why="$why no sweep headline;"
 if [ -z "$why" ]; then pass sweep_report; else fail sweep_report "$why"; fi
 
+# 10c. the lower bound marked only where particles are still in flight: the same spray to 0.3 ms (31.5 % in flight)
+# and to 3 ms (none): the first run's DE marked ">=" in the report, the second's not, and the log counts 1 of 2 (the
+# runs above all leave over 22 % in flight, where marking every cell would pass)
+write_case "$T/bound.ini" 320 800 "[sweep]
+x_key = spray.t_end
+x_values = 0.3e-3, 3e-3"
+why=""
+"$BIN" run "$T/bound.ini" --stages sweep,render -o "$T/bound" >"$T/log10c" 2>&1 || why="exit $?;"
+shares=$(values "$T/bound/sweep.h5" /in_flight_share | tr '\n' ' ')
+echo "$shares" | awk '{ exit !(NF == 2 && $1 > 0.05 && $2 <= 0.05) }' || why="$why in_flight_share '$shares', expected one above 5 % and one not;"
+text=$(sed 's/<[^>]*>//g' "$T/bound/report.html" | tr '\n' ' ')
+printf '%s' "$text" | grep -q 'runs/x0_y00.3e-3≥ ' || why="$why the 0.3 ms run's DE is not marked;"
+printf '%s' "$text" | grep -q 'runs/x1_y03e-3≥' && why="$why the 3 ms run's DE is marked;"
+grep -q 'warning: sweep: the DE of 1 of the 2 runs is a lower bound' "$T/log10c" || why="$why the log does not count 1 of 2;"
+if [ -z "$why" ]; then pass sweep_lower_bound_marked_where_in_flight; else fail sweep_lower_bound_marked_where_in_flight "$why"; fi
+
 # 11. a file key swept ([deposition] table over two files): the files' contents are part of the map's hash, so a
 # table edited after the sweep makes the map out of date and its run is made again, to the map of a fresh sweep
 # (the hash held only the [sweep] text: "up to date" with the old table's DE); a relative file name is refused,
