@@ -157,12 +157,8 @@ static int search_case(const struct vcrit_fit *f, double p, struct case_file **o
 static void search_note(hid_t file, double d, char *note, size_t size)
 {
     note[0] = '\0';
-    for (int i = 0; i < 1000; i++) {
-        char name[32];
-        snprintf(name, sizeof name, "search/%03d", i);
-        if (!h5_exists(file, name))
-            break;
-        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+    hid_t group;
+    for (size_t i = 0; i < 1000 && h5_numbered_group(file, "search", i, &group); i++) {
         double at = NAN;
         if (group >= 0 && h5_attr_read_double(group, "diameter", &at) == SC_OK && fabs(at - d) <= 1e-12 * d)
             h5_attr_read_string(group, "result", note, size);

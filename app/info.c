@@ -239,15 +239,11 @@ static void print_impact_results(hid_t file, FILE *out)
 static void print_calibrate_sizes(hid_t file, FILE *out)
 {
     static const char *const names[] = {"diameter", "velocity", "bonded", "rebounded", "unsettled", "failed", "result"};
-    for (int i = 0;; i++) {
-        char path[32];
-        snprintf(path, sizeof path, "size/%03d", i);
-        if (!h5_exists(file, path))
-            break;
-        hid_t size = H5Gopen2(file, path, H5P_DEFAULT);
+    hid_t size;
+    for (size_t i = 0; h5_numbered_group(file, "size", i, &size); i++) {
         if (size < 0)
             break;
-        fprintf(out, "%s:\n", path);
+        fprintf(out, "size/%03zu:\n", i);
         for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
             print_attribute(size, names[k], out);
         H5Gclose(size);
@@ -329,12 +325,9 @@ static void print_vcrit_results(hid_t file, FILE *out)
             free(column[k]);
         print_vcrit_temperatures(file, n, out);
     }
-    for (int i = 0; i < 1000; i++) {
-        char name[32], result[256];
-        snprintf(name, sizeof name, "search/%03d", i);
-        if (!h5_exists(file, name))
-            break;
-        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+    hid_t group;
+    for (size_t i = 0; i < 1000 && h5_numbered_group(file, "search", i, &group); i++) {
+        char result[256];
         double d = NAN;
         if (group >= 0 && h5_attr_read_string(group, "result", result, sizeof result) == SC_OK &&
             strcmp(result, "bracketed") != 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK) {

@@ -552,6 +552,16 @@ int h5_dataset_size(hid_t loc, const char *name, size_t *count)
 
 /* H5Lexists fails (rather than saying no) when an intermediate group is missing, so test each prefix of the
  * path in turn; the last test also follows the link, so a dangling soft link does not count. */
+int h5_numbered_group(hid_t loc, const char *prefix, size_t index, hid_t *group)
+{
+    char name[H5IO_PATH_MAX];
+    snprintf(name, sizeof name, "%s/%03zu", prefix, index);
+    if (!h5_exists(loc, name))
+        return 0;
+    *group = H5Gopen2(loc, name, H5P_DEFAULT);
+    return 1;
+}
+
 int h5_exists(hid_t loc, const char *path)
 {
     char prefix[H5IO_PATH_MAX];

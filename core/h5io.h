@@ -51,6 +51,10 @@ int h5_read_bytes(hid_t loc, const char *name, void *data, size_t size);
 /* Number of elements (product of dims) of a dataset; SC_EIO if absent. */
 int h5_dataset_size(hid_t loc, const char *name, size_t *count);
 int h5_exists(hid_t loc, const char *path);
+/* Group PREFIX/NNN (NNN = index, three digits at least: /search/000, /size/001) of loc: 0 when there is none (the
+ * groups are numbered from 0 without gaps, so a loop ends there), else 1 with the group opened into *group
+ * (negative when it cannot be opened; close it with H5Gclose otherwise). */
+int h5_numbered_group(hid_t loc, const char *prefix, size_t index, hid_t *group);
 /* Copy the group or dataset from_loc/from_name (attributes, members, values, chunks and filters) to
  * to_loc/to_name, making missing groups on the way; what H5Ocopy does, but a failed write (full disk, file-size
  * limit) is SC_EIO with the reason, where H5Ocopy of HDF5 1.10 crashes.  H5Oopen of "/" copies a whole file. */

@@ -648,12 +648,8 @@ static void h5_table_gaps(const char *path, struct table_gaps *gaps)
     hid_t file;
     if (h5_open_read(path, &file) != SC_OK)
         return;
-    for (size_t i = 0;; i++) {
-        char name[32];
-        snprintf(name, sizeof name, "search/%03zu", i);
-        if (!h5_exists(file, name))
-            break;
-        hid_t group = H5Gopen2(file, name, H5P_DEFAULT);
+    hid_t group;
+    for (size_t i = 0; h5_numbered_group(file, "search", i, &group); i++) {
         double d = NAN, v = NAN;
         char result[160] = "not bracketed";
         if (group >= 0 && h5_attr_read_double(group, "diameter", &d) == SC_OK &&

@@ -61,13 +61,11 @@ static void data_free(struct calibrate_data *c)
 
 static int read_size(hid_t file, const char *path, int i, struct calibrate_data *c)
 {
-    char name[32];
-    snprintf(name, sizeof name, "size/%03d", i);
-    if (!h5_exists(file, name))
+    hid_t g;
+    if (!h5_numbered_group(file, "size", (size_t)i, &g))
         return SC_OK;
-    hid_t g = H5Gopen2(file, name, H5P_DEFAULT);
     if (g < 0)
-        SC_FAIL(SC_EIO, "render: %s: cannot open /%s", path, name);
+        SC_FAIL(SC_EIO, "render: %s: cannot open /size/%03d", path, i);
     int status;
     SC_CHECK(status, h5_attr_read_double(g, "diameter", &c->diameter[i]), done);
     SC_CHECK(status, h5_attr_read_double(g, "velocity", &c->velocity[i]), done);

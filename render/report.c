@@ -625,18 +625,6 @@ static void moving_thickness(FILE *f, const struct report_data *r)
                 num(r->fit_centre * 1e3, 3).s);
 }
 
-/* vcrit.h5's search i opened into *group (negative if it cannot be opened); 0 when there is no search i: the
- * searches are numbered from 0 without gaps. */
-static int open_search(hid_t file, int i, hid_t *group)
-{
-    char name[32];
-    snprintf(name, sizeof name, "search/%03d", i);
-    if (!h5_exists(file, name))
-        return 0;
-    *group = H5Gopen2(file, name, H5P_DEFAULT);
-    return 1;
-}
-
 /* vcrit.h5: how many searches bracketed a v_crit, and its range (the table and each search's note below). */
 static void vcrit_headline(FILE *f, const struct render_request *req)
 {
@@ -1022,7 +1010,7 @@ static void vcrit_search_notes(FILE *f, hid_t file)
 {
     int listed = 0;
     hid_t group;
-    for (int i = 0; i < 1000 && open_search(file, i, &group); i++) {
+    for (int i = 0; i < 1000 && h5_numbered_group(file, "search", (size_t)i, &group); i++) {
         char result[512];
         double d = NAN, T = NAN;
         if (group >= 0 && h5_attr_read_string(group, "result", result, sizeof result) == SC_OK &&
@@ -1069,7 +1057,7 @@ static void vcrit_rows_of_kind(FILE *f, hid_t file, int kind, const int counts[V
     }
     int listed = 0;
     hid_t group;
-    for (int i = 0; i < 1000 && open_search(file, i, &group); i++) {
+    for (int i = 0; i < 1000 && h5_numbered_group(file, "search", (size_t)i, &group); i++) {
         double d = NAN, T = NAN;
         if (group >= 0 && vcrit_search_kind(group) == kind && h5_attr_read_double(group, "diameter", &d) == SC_OK) {
             fprintf(f, "%s%s µm", listed++ ? ", " : "d = ", num(d * 1e6, 3).s);
@@ -1088,7 +1076,7 @@ static void vcrit_logistic_resolution(FILE *f, const struct case_file *c, hid_t 
 {
     int counts[VCRIT_KINDS] = {0};
     hid_t group;
-    for (int i = 0; i < 1000 && open_search(file, i, &group); i++) {
+    for (int i = 0; i < 1000 && h5_numbered_group(file, "search", (size_t)i, &group); i++) {
         int kind = group >= 0 ? vcrit_search_kind(group) : -1;
         if (kind >= 0)
             counts[kind]++;
