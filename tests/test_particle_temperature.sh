@@ -1,8 +1,10 @@
 #!/bin/sh
 # The particle temperature from the spray to the impact, and v_crit over temperature (issue 26 item 3; docs/physics.md
 # "Particle temperature at impact"):
-#   - the spray writes the particles' temperature ([powder] temperature = 345 K here) to spray.h5 /impacts/temperature
-#     and the couple stage carries it into couple.h5 /seeds/temperature (the small pipeline);
+#   - the spray writes the particles' temperature to spray.h5 /impacts/temperature and the couple stage carries each
+#     impact's own into couple.h5 /seeds/temperature (the small pipeline with cases/al6061_n2.ini's [nozzle]: the
+#     particles leave the nozzle at temperatures that differ by diameter, so that a seed given another impact's
+#     temperature, or one temperature for all, is seen);
 #   - the impact stage starts every point of a seeded particle at its seed's temperature and the substrate at its
 #     T_initial (impact.h5 /run_NNNN/snapshots/000000/T at t = 0);
 #   - `spraycoat vcrit` with [vcrit] temperatures over two temperatures (one 8 um diameter, 10 ns runs): vcrit.csv with
@@ -39,21 +41,28 @@ trap 'rm -rf "$T"' EXIT
 trap 'exit 1' HUP INT TERM
 . tests/pipeline_lib.sh
 
-# the spray's particles at 345 K ([powder] temperature; the impact material's T_initial is 298 K)
-sed '/^\[powder\]/a temperature = 345' "$CASE" >"$T/case.ini"
+# the small pipeline's particles heated in cases/al6061_n2.ini's nozzle (N2 at 698 K): their temperatures differ by
+# diameter; the jet's constants from the nozzle's exit state (the release speeds too)
+sed -e '/^release_speed_m/d' -e '/^\[jet\]/,/^$/{/^C1\|^C3\|^virtual_origin\|^core_length/d}' "$CASE" >"$T/case.ini"
+sed -n '/^\[nozzle\]/,/^$/p' cases/al6061_n2.ini >>"$T/case.ini"
 if ! "$BIN" run "$T/case.ini" --stages spray,couple,impact -o "$T/run" >"$T/run.log" 2>&1; then
     echo "FAIL particle_temperature (spray, couple and impact failed: $(tail -n 3 "$T/run.log" | tr '\n' ' '))"
     exit 1
 fi
 
-# ---- 1. [powder] temperature -> spray.h5 /impacts/temperature -> couple.h5 /seeds/temperature ---------------------
+# ---- 1. spray.h5 /impacts/temperature -> couple.h5 /seeds/temperature, each seed its own impact row's ------------
 values "$T/run/spray.h5" /impacts/temperature >"$T/impact_t"
 values "$T/run/couple.h5" /seeds/temperature >"$T/seed_t"
-bad=$(cat "$T/impact_t" "$T/seed_t" | awk '$1 != 345 { n++ } END { if (n) print n " values not 345 K" }')
-if [ -z "$bad" ] && [ -s "$T/impact_t" ] && [ "$(wc -l <"$T/seed_t" | tr -d ' ')" -eq 4 ]; then
+values "$T/run/couple.h5" /seeds/impact_row >"$T/seed_row"
+why=$(awk 'FILENAME == ARGV[1] { t[FNR - 1] = $1; next } FILENAME == ARGV[2] { row[FNR] = $1; next }
+    { n++; if (!(row[FNR] in t) || $1 != t[row[FNR]]) printf " seed %d: %s K, its impact row %s has %s K;", FNR - 1, $1,
+        row[FNR], t[row[FNR]]; if (!(($1 "") in seen)) distinct++; seen[$1 ""] = 1 }
+    END { if (n != 4) printf " %d seeds, 4 runs;", n; if (distinct < 3) printf " %d distinct temperatures: the check cannot tell seeds apart;", distinct }' \
+    "$T/impact_t" "$T/seed_row" "$T/seed_t")
+if [ -z "$why" ] && [ -s "$T/impact_t" ]; then
     pass couple_carries_temperature
 else
-    fail couple_carries_temperature "${bad:-$(wc -l <"$T/seed_t") seeds, $(wc -l <"$T/impact_t") impacts}"
+    fail couple_carries_temperature "${why:- no /impacts/temperature}"
 fi
 
 # ---- 2. the impact stage starts the particle's points at its seed's temperature ---------------------------------
@@ -70,13 +79,14 @@ done
 if [ -z "$why" ]; then pass impact_starts_at_seed_temperature; else fail impact_starts_at_seed_temperature "$why"; fi
 
 # ---- 2b. ...and its bonding model's critical strain scaled by the melt-heat factor (bonding_preheat = melt_heat,
-# the default): q / (2 - q), q = sqrt((933 - 345) / (933 - 298)) = 0.96228, so 0.92731 for the particle (its mean
-# with the substrate's is q), exactly 1 for the substrate at 298 K
+# the default): q / (2 - q) for the particle, q = sqrt((933 - T) / (933 - 298)) at its seed's temperature T (0.92731
+# at 345 K; its mean with the substrate's is q), exactly 1 for the substrate at 298 K
 why=""
 for r in 0 1 2 3; do
+    seed_t=$(sed -n "$((r + 1))p" "$T/seed_t")
     values "$T/run/impact.h5" "/run_000$r/summary/bonding_scale" >"$T/scale"
-    why="$why$(awk -v r="$r" 'NR == 1 && $1 != 1 { printf " run %d: substrate %s;", r, $1 }
-        NR == 2 { q = sqrt(588 / 635); d = $1 - q / (2 - q); if (d > 1e-12 || d < -1e-12) printf " run %d: particle %s;", r, $1 }
+    why="$why$(awk -v r="$r" -v t="$seed_t" 'NR == 1 && $1 != 1 { printf " run %d: substrate %s;", r, $1 }
+        NR == 2 { q = sqrt((933 - t) / 635); d = $1 - q / (2 - q); if (d > 1e-12 || d < -1e-12) printf " run %d: particle %s;", r, $1 }
         END { if (NR != 2) printf " run %d: %d bodies;", r, NR }' "$T/scale")"
 done
 if [ -z "$why" ]; then pass impact_bonding_scale; else fail impact_bonding_scale "$why"; fi
