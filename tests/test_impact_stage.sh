@@ -70,6 +70,26 @@ same_results() {
 
 root_attribute() { h5dump -a "/$2" "$1" 2>&1 | grep '(0)'; }
 
+# verdict_words RUN_DIR: an extended regular expression of the particle's (body 1's) verdict and settling as the
+# logs and info print them, from impact.h5 /summary/verdict and t_settled: the printed words must be the stored ones
+# (0 rebounded, or held when at rest; 1 bonded; 2 unsettled; t_settled NaN: not settled)
+verdict_words() {
+    verdict=$(h5dump -y -w 0 -d /summary/verdict "$1/impact.h5" 2>/dev/null | sed -n '/DATA {/,/}/p' | sed '1d;$d' |
+        tr ',' '\n' | awk 'NF { n++ } n == 2 { print $1; exit }')
+    t_settled=$(h5dump -y -w 0 -d /summary/t_settled "$1/impact.h5" 2>/dev/null | sed -n '/DATA {/,/}/p' | sed '1d;$d' |
+        tr ',' '\n' | awk 'NF { n++ } n == 2 { print $1; exit }')
+    case $verdict in
+    0) words='(rebounded|held)' ;;
+    1) words='bonded' ;;
+    2) words='unsettled' ;;
+    *) words="no verdict '$verdict' in $1/impact.h5" ;;
+    esac
+    case $t_settled in
+    nan | NaN | -nan) echo "$words \\(not settled" ;;
+    *) echo "$words \\(settled at" ;;
+    esac
+}
+
 checkpoint_count() { ls "$1"/checkpoints/impact_*.h5 2>/dev/null | wc -l | tr -d ' '; }
 
 # Poll until RUN_DIR $1 holds at least $2 impact checkpoints (1 when the program ended first or 60 s passed).
@@ -163,8 +183,8 @@ if wait_for_checkpoints "$RUN" 2; then
         why="$why resume failed: $(tail -n 2 "$T/resume.log" | tr '\n' ' ');"
     elif ! grep -q 'resuming from' "$T/resume.log"; then
         why="$why resume did not start from a checkpoint;"
-    elif ! grep -Eq '^  body 1 \(d .*\): (bonded|rebounded|held|unsettled) \((settled at|not settled)' "$T/resume.log"; then
-        why="$why resume's closing summary gives no verdict of the particle: $(grep -A 2 '^results in' "$T/resume.log" | tr '\n' ' ');"
+    elif ! grep -Eq "^  body 1 \\(d .*\\): $(verdict_words "$RUN")" "$T/resume.log"; then
+        why="$why resume's closing summary does not give the particle's stored verdict ($(verdict_words "$RUN")): $(grep -A 2 '^results in' "$T/resume.log" | tr '\n' ' ');"
     elif ! same_results "$REF" "$RUN"; then
         why="$why after resume: $differs;"
     fi
@@ -180,7 +200,7 @@ fi
 
 # ---- 6. info on a finished run shows the per-body summary --------------------------------------------------------
 if "$BIN" info "$RUN" >"$T/info.log" 2>&1 && grep -q 'stage impact: done' "$T/info.log" &&
-    grep -q 'summary (per body)' "$T/info.log" && grep -Eq 'particle .*(bonded|rebounded|held|unsettled)' "$T/info.log" &&
+    grep -q 'summary (per body)' "$T/info.log" && grep -Eq "^  1 +particle .* $(verdict_words "$RUN" | sed 's/ .*//') " "$T/info.log" &&
     "$BIN" info "$RUN/impact.h5" >"$T/info2.log" 2>&1 && grep -q 'summary (per body)' "$T/info2.log"; then
     pass impact_stage_info
 else
