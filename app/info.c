@@ -388,6 +388,23 @@ static void print_impact_runs(hid_t file, FILE *out)
     fprintf(out, "  per-body results: /run_NNNN/summary in impact.h5\n");
 }
 
+/* couple.h5 /flight: how closely the spray's impact velocities agree with the flights' (a file of an older
+ * spraycoat has no such attributes: nothing is printed). */
+static void print_flight_agreement(hid_t file, FILE *out)
+{
+    hid_t flight = h5_exists(file, "flight") ? H5Gopen2(file, "flight", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (flight < 0)
+        return;
+    double mean = NAN, max = NAN;
+    if (H5Aexists(flight, "spray_velocity_difference_max") > 0 &&
+        h5_attr_read_double(flight, "spray_velocity_difference_mean", &mean) == SC_OK &&
+        h5_attr_read_double(flight, "spray_velocity_difference_max", &max) == SC_OK)
+        fprintf(out,
+                "  the spray's impact velocities against the flights': |dv|/|v| %.3g %% on average, at most %.3g %%\n",
+                100.0 * mean, 100.0 * max);
+    H5Gclose(flight);
+}
+
 /* couple.h5: the seeds (one line each) and the CVODE work of the flights. */
 static void print_couple_results(hid_t file, FILE *out)
 {
@@ -402,8 +419,9 @@ static void print_couple_results(hid_t file, FILE *out)
     double total_steps = 0.0;
     for (size_t i = 0; steps && i < flights; i++)
         total_steps += steps[i];
-    fprintf(out, "seeds: %zu (flights: %zu, %.0f CVODE steps)\n  %-5s %-12s %-12s %-12s %-24s\n", n, flights,
-            total_steps, "run", "d (m)", "v spray", "v wall", "centre (m, impact frame)");
+    fprintf(out, "seeds: %zu (flights: %zu, %.0f CVODE steps)\n", n, flights, total_steps);
+    print_flight_agreement(file, out);
+    fprintf(out, "  %-5s %-12s %-12s %-12s %-24s\n", "run", "d (m)", "v spray", "v wall", "centre (m, impact frame)");
     for (size_t i = 0; d && t && v && vs && x && run && i < n && i < 50; i++) {
         double speed = sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
         double spray = sqrt(vs[3 * i] * vs[3 * i] + vs[3 * i + 1] * vs[3 * i + 1] + vs[3 * i + 2] * vs[3 * i + 2]);

@@ -49,3 +49,12 @@ same_run_dir() {
     done
     return 0
 }
+
+# nozzle_case OUT [DT]: tests/fixtures/pipeline_small.ini with cases/al6061_n2.ini's [nozzle] (N2 at 6.55 MPa, 698 K:
+# exit Mach 3.9, a bow shock at the target) instead of its hand-set release speeds and jet constants, so that the
+# particles' speeds and temperatures differ by diameter; the spray's dt DT when given.  Run from the repository root.
+nozzle_case() {
+    sed -e '/^release_speed_m/d' -e '/^\[jet\]/,/^$/{/^C1\|^C3\|^virtual_origin\|^core_length/d}' \
+        -e "s/^dt = .*/dt = ${2:-1e-6}/" tests/fixtures/pipeline_small.ini >"$1"
+    sed -n '/^\[nozzle\]/,/^$/p' cases/al6061_n2.ini >>"$1"
+}
