@@ -277,10 +277,13 @@ static double fold(double x, double size)
     return x - size * floor(x / size + 0.5);
 }
 
-/* Lift body k until it clears every earlier body of the run (bodies may touch, not overlap). */
+/* Lift body k until it clears every earlier body of the run (bodies may touch, not overlap).  A lift only raises
+ * k, and puts it above j's centre, where raising it further moves it away from j: each earlier body lifts it at
+ * most once, so k + 1 passes always end with no overlap (a fixed 64 could in principle stop short silently; in
+ * order of arrival the earlier bodies lie below one another and one pass suffices). */
 static void clear_earlier_bodies(struct couple_seed *seeds, size_t k)
 {
-    for (int pass = 0; pass < 64; pass++) {
+    for (size_t pass = 0; pass <= k; pass++) {
         int moved = 0;
         for (size_t j = 0; j < k; j++) {
             double dx = seeds[k].center[0] - seeds[j].center[0], dy = seeds[k].center[1] - seeds[j].center[1];
