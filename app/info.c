@@ -212,7 +212,7 @@ static void print_impact_results(hid_t file, FILE *out)
     summary_thresholds(file, &pbcp_threshold, &vrest_threshold);
     fprintf(out, "summary (per body):\n  %-5s %-10s %-12s %-12s %-10s %-9s %-18s %-12s %-8s\n", "body", "kind", "d (m)",
             "v_impact", "verdict", "PBCP %", "bonded interface %", "v_rest (m/s)", "CoR");
-    int held = 0;
+    int held = 0, unsettled = 0;
     for (size_t b = 0; b < n; b++) {
         double value[8];
         for (int k = 0; k < 8; k++)
@@ -221,6 +221,7 @@ static void print_impact_results(hid_t file, FILE *out)
         const char *verdict = substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]);
         if (!substrate && mpm_verdict_held((int)value[2], value[4], vrest_threshold))
             verdict = "held", held = 1;
+        unsettled |= !substrate && (int)value[2] == MPM_VERDICT_UNSETTLED;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-18.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], 100.0 * value[7],
                 value[4], value[5]);
@@ -230,6 +231,9 @@ static void print_impact_results(hid_t file, FILE *out)
                 "  held: not bonded, at rest (v_rest <= %g m/s) but PBCP under %g %% (docs/physics.md, \"Held but "
                 "not bonded\")\n",
                 vrest_threshold, 100.0 * pbcp_threshold);
+    if (unsettled)
+        fprintf(out, "  unsettled: no verdict by the end of the run; its PBCP, v_rest and CoR are the last values, not "
+                     "a result (docs/physics.md, \"Settled verdicts\")\n");
     for (int k = 0; k < 8; k++)
         free(column[k]);
 }

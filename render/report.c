@@ -49,7 +49,8 @@ static void cell(FILE *f, const char *tag, const char *text)
 static const char style[] =
     "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;text-align:left}"
-    "th{background:#f2f2f2}tr.differs td{background:#fff3cd}#headline li{margin:0.3em 0}"
+    "th{background:#f2f2f2}tr.differs td{background:#fff3cd}tr.unsettled td{font-style:italic;color:#666}#headline "
+    "li{margin:0.3em 0}"
     "#headline figure{width:60%}summary{cursor:pointer;font-weight:bold;margin:1em "
     "0}figure{display:inline-block;width:47%;margin:0.5em;vertical-align:top}"
     "figure img{width:100%;border:1px solid #ddd}figcaption{font-size:90%}";
@@ -884,7 +885,8 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
             "(v_rest &gt; %s m/s), not bonded (v_rest &le; %s m/s but PBCP too low), unsettled (the verdict still "
             "changing at the "
             "run's end, or no v_rest: landing with no point slow enough to measure it; a particle leaving with none "
-            "is judged on its centre of mass's speed). <i>Spray said</i>: the outcome of the "
+            "is judged on its centre of mass's speed; its row in grey italics: its PBCP, v_rest and CoR are the "
+            "last values, not a result). <i>Spray said</i>: the outcome of the "
             "particle's first contact in the spray "
             "stage; highlighted rows: the spray and the MPM run disagree. PBCP (Tang Eq. 5.1) counts the "
             "particle's surface points whose D_bond ever reached 1; <i>bonded interface</i> is the share of the "
@@ -906,7 +908,7 @@ static void impact_table(FILE *f, const struct render_request *req, const struct
         const char *said = spray_said(r, row);
         int differs = row->seed >= 0 && v != UNSETTLED && strcmp(said, "-") != 0 &&
                       (strcmp(said, "deposited") == 0) != (v == BONDED);
-        fprintf(f, "<tr class=\"body%s\">", differs ? " differs" : "");
+        fprintf(f, "<tr class=\"body%s%s\">", differs ? " differs" : "", v == UNSETTLED ? " unsettled" : "");
         if (row->run < 0)
             cell(f, "td", "-");
         else

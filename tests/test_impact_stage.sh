@@ -203,6 +203,16 @@ if "$BIN" info "$RUN" >"$T/info.log" 2>&1 && grep -q 'stage impact: done' "$T/in
     grep -q 'summary (per body)' "$T/info.log" && grep -Eq "^  1 +particle .* $(verdict_words "$RUN" | sed 's/ .*//') " "$T/info.log" &&
     "$BIN" info "$RUN/impact.h5" >"$T/info2.log" 2>&1 && grep -q 'summary (per body)' "$T/info2.log"; then
     pass impact_stage_info
+    # an unsettled particle's numbers are marked as the last values, not a result
+    case $(verdict_words "$RUN") in
+    unsettled*)
+        if grep -q '^  unsettled: no verdict by the end of the run; its PBCP, v_rest and CoR are the last values' "$T/info.log"; then
+            pass impact_stage_info_unsettled_marked
+        else
+            fail impact_stage_info_unsettled_marked "no note under the table: $(grep -A 4 'summary (per body)' "$T/info.log" | tr '\n' ' ')"
+        fi
+        ;;
+    esac
 else
     fail impact_stage_info "$(head -c 400 "$T/info.log" | tr '\n' ' ')"
 fi

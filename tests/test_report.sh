@@ -139,6 +139,7 @@ class Page(HTMLParser):
         self.in_headline = 0
         self.in_results = 0
         self.cells, self.row, self.in_cell = [], None, 0
+        self.row_classes = []
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
@@ -156,6 +157,7 @@ class Page(HTMLParser):
             self.rows += 1
             self.row = []
             self.cells.append(self.row)
+            self.row_classes.append((a.get("class") or "").split())
         if self.row is not None and tag == "td":
             self.in_cell = 1
             self.row.append("")
@@ -217,6 +219,10 @@ for row in p.cells:
         fails.append("a body without v_rest is called rebounded: %s" % row)
     elif row[1].strip() == "0":
         fails.append("the substrate (body 0) has a row: %s" % row)
+# an unsettled particle's numbers are the last values, not a result: its row, and only its, is marked so
+for row, classes in zip(p.cells, p.row_classes):
+    if len(row) == 11 and (row[5].strip() == "unsettled") != ("unsettled" in classes):
+        fails.append("a row's verdict is '%s' but its classes are %s" % (row[5].strip(), classes))
 base = os.path.dirname(page)
 missing = [s for s in p.imgs if not os.path.isfile(os.path.join(base, s))]
 if not p.imgs:
