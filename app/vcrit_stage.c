@@ -357,10 +357,52 @@ static void records_title(const struct vcrit_runs *r, char *out, size_t size)
 
 /* The header of the records; files written before the runs carried a temperature have the oldest one (their runs
  * at the material's T_initial, temperature 0), those before failed runs were recorded one without `error`.  The
- * error, a failed run's message, is the last field: the rest of the line, commas and all. */
+ * error, a failed run's message, is the last field, quoted as RFC 4180 has it ("...", a quote doubled) so that a
+ * CSV reader sees one field however many commas it holds; files written before have it unquoted, the rest of the
+ * line. */
 #define RECORDS_HEADER        "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature,error\n"
 #define RECORDS_HEADER_NO_ERR "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps,temperature\n"
 #define RECORDS_HEADER_OLD    "diameter,velocity,Gc,Gc_rate,verdict,pbcp,v_rest,cor,steps\n"
+
+/* `text` as one quoted CSV field (RFC 4180), "" for an empty text; `out` holds at least 2 * VCRIT_ERROR_MAX + 3. */
+static const char *quoted_field(const char *text, char *out)
+{
+    char *o = out;
+    if (*text) {
+        *o++ = '"';
+        for (const char *c = text; *c; c++) {
+            if (*c == '"')
+                *o++ = '"';
+            *o++ = *c;
+        }
+        *o++ = '"';
+    }
+    *o = '\0';
+    return out;
+}
+
+/* The error field at `rest` (after its comma) into x->error: quoted (RFC 4180) or, as written before, the rest of
+ * the line; returns where the field ends, NULL when it does not fit or a quote is not closed. */
+static const char *unquoted_field(const char *rest, struct vcrit_run_record *x)
+{
+    size_t n = 0;
+    if (*rest != '"') {
+        n = strcspn(rest, "\r\n");
+        if (n >= sizeof x->error)
+            return NULL;
+        memcpy(x->error, rest, n);
+        x->error[n] = '\0';
+        return rest + n;
+    }
+    for (rest++; *rest && n + 1 < sizeof x->error; rest++) {
+        if (*rest == '"' && rest[1] != '"')
+            break;
+        rest += *rest == '"'; /* a doubled quote is one */
+        x->error[n++] = *rest;
+    }
+    x->error[n] = '\0';
+    return *rest == '"' ? rest + 1 : NULL;
+}
 
 static int save_records(const struct vcrit_runs *r)
 {
@@ -372,11 +414,11 @@ static int save_records(const struct vcrit_runs *r)
     fprintf(out.stream, "%s%s", title, RECORDS_HEADER);
     for (size_t i = 0; i < r->count; i++) {
         const struct vcrit_run_record *x = &r->done[i];
-        char a[32], b[32], c[32], d[32], e[32], f[32], g[32], h[32];
+        char a[32], b[32], c[32], d[32], e[32], f[32], g[32], h[32], error[2 * VCRIT_ERROR_MAX + 3];
         fprintf(out.stream, "%s,%s,%s,%s,%d,%s,%s,%s,%lld,%s,%s\n", exact(x->diameter, a, sizeof a),
                 exact(x->velocity, b, sizeof b), exact(x->Gc, c, sizeof c), exact(x->Gc_rate, d, sizeof d), x->verdict,
                 exact(x->pbcp, e, sizeof e), exact(x->v_rest, f, sizeof f), exact(x->cor, g, sizeof g),
-                (long long)x->steps, exact(x->temperature, h, sizeof h), x->error);
+                (long long)x->steps, exact(x->temperature, h, sizeof h), quoted_field(x->error, error));
     }
     return atomic_publish(&out);
 }
@@ -421,8 +463,9 @@ static int records_header(const struct vcrit_runs *r, const char *path, FILE *fi
     return SC_OK;
 }
 
-/* One record of a file with `fields` fields; 0 when the line is not one.  The error field (11) is the rest of the
- * line; a line without it (written by hand, as the tests' crafted records are) has none. */
+/* One record of a file with `fields` fields; 0 when the line is not one.  The error field (11) is quoted, or the
+ * rest of the line (unquoted_field); a line without it (written by hand, as the tests' crafted records are) has
+ * none. */
 static int parse_record(const char *line, int fields, struct vcrit_run_record *x)
 {
     long long steps;
@@ -436,15 +479,8 @@ static int parse_record(const char *line, int fields, struct vcrit_run_record *x
         return 0;
     x->steps = steps;
     const char *rest = line + end;
-    if (fields == 11 && *rest == ',') {
-        rest++;
-        size_t n = strcspn(rest, "\r\n");
-        if (n >= sizeof x->error)
-            return 0;
-        memcpy(x->error, rest, n);
-        x->error[n] = '\0';
-        rest += n;
-    }
+    if (fields == 11 && *rest == ',' && !(rest = unquoted_field(rest + 1, x)))
+        return 0;
     return rest[strspn(rest, " \t\r\n")] == '\0';
 }
 
@@ -477,7 +513,7 @@ static int keep_aside(const struct vcrit_runs *r, const char *path)
  * that cannot be read is an I/O error (only a missing one holds no runs). */
 static int load_records_file(struct vcrit_runs *r, const char *path)
 {
-    char line[1024]; /* a record: ten numbers and a failed run's message (VCRIT_ERROR_MAX) */
+    char line[1024]; /* a record: ten numbers and a failed run's message (VCRIT_ERROR_MAX, its quotes doubled) */
     FILE *file = fopen(path, "r");
     if (!file) {
         if (errno == ENOENT) /* removed since the folder was listed */

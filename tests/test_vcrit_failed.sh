@@ -54,8 +54,14 @@ both=$(grep '^8e-06,' "$RUN/vcrit.csv" 2>/dev/null | cut -d, -f2)
 [ -n "$both" ] && [ "$both" = "$alone" ] || why="$why 8 um v_crit '$both' beside the failed pair, '$alone' alone;"
 grep -q '^# 1e-05,nan,nan,nan,2  run at 12000 m/s failed (impact: step [0-9]* .* of body 1: .*): no v_crit$' \
     "$RUN/vcrit.csv" 2>/dev/null || why="$why no '#' row with the failure's note: $(grep '^#' "$RUN/vcrit.csv" 2>/dev/null);"
-grep -q '^1e-05,12000,720,200000000000,3,nan,nan,nan,[0-9]*,0,impact: step ' "$RUN/vcrit_runs.csv" 2>/dev/null ||
-    why="$why vcrit_runs.csv holds no failed record;"
+grep -q '^1e-05,12000,720,200000000000,3,nan,nan,nan,[0-9]*,0,"impact: step .*"$' "$RUN/vcrit_runs.csv" 2>/dev/null ||
+    why="$why vcrit_runs.csv holds no failed record (its error quoted);"
+# a CSV reader (Python's, RFC 4180) sees the error as the one last field (after the title line)
+csv_fields=$(python3 -c 'import csv, sys
+rows = list(csv.reader(open(sys.argv[1], newline="")))[1:]
+print(" ".join(sorted(set(str(len(r)) for r in rows))), sum(1 for r in rows[1:] if r[4] == "3" and r[10].startswith("impact: step ")))' \
+    "$RUN/vcrit_runs.csv" 2>&1)
+[ "$csv_fields" = "11 1" ] || why="$why vcrit_runs.csv read as CSV: field counts and failed rows '$csv_fields', expected '11 1';"
 grep -q '^1e-05,12000,failed,nan,nan,nan$' "$RUN/vcrit_cor.csv" 2>/dev/null || why="$why vcrit_cor.csv does not call it failed;"
 grep -q 'warning: vcrit: d = 10 um at 12000 m/s .*failed after [0-9]* steps: impact: step ' "$T/both.log" ||
     why="$why no warning naming the pair, the speed and the error;"
@@ -77,6 +83,20 @@ for f in vcrit.csv vcrit_cor.csv; do
     cmp -s "$T/first/$f" "$RUN/$f" || why="$why $f differs after the resume;"
 done
 h5diff -d 0 "$T/first/vcrit.h5" "$RUN/vcrit.h5" /search /search >/dev/null 2>&1 || why="$why vcrit.h5:/search differs;"
+# a record file written before the error was quoted (the rest of the line) is replayed alike
+sed 's/,"\(impact: step .*\)"$/,\1/' "$RUN/vcrit_runs.csv" >"$T/unquoted.csv" && cp "$T/unquoted.csv" "$RUN/vcrit_runs.csv"
+grep -q ',0,impact: step ' "$RUN/vcrit_runs.csv" || why="$why the unquoted record was not made;"
+rm -f "$RUN/vcrit.csv" "$RUN/vcrit_cor.csv" "$RUN/vcrit.h5"
+"$BIN" resume "$RUN" >"$T/resume2.log" 2>&1 || why="$why the resume of the unquoted records exited $?;"
+grep -q '(0 runs in this process' "$T/resume2.log" || why="$why the unquoted records' runs were made again;"
+cmp -s "$T/first/vcrit.csv" "$RUN/vcrit.csv" || why="$why vcrit.csv differs after the resume of the unquoted records;"
+# a quoted message with commas and doubled quotes (RFC 4180) is read back whole
+sed 's/,0,impact: step .*$/,0,"impact: step 58, a ""crafted"" message, with commas"/' "$T/unquoted.csv" >"$RUN/vcrit_runs.csv"
+rm -f "$RUN/vcrit.csv" "$RUN/vcrit_cor.csv" "$RUN/vcrit.h5"
+"$BIN" resume "$RUN" >"$T/resume3.log" 2>&1 || why="$why the resume of the crafted record exited $?;"
+grep -q '(0 runs in this process' "$T/resume3.log" || why="$why the crafted record's runs were made again;"
+grep -q '^# 1e-05,nan,nan,nan,2  run at 12000 m/s failed (impact: step 58, a "crafted" message, with commas): no v_crit$' \
+    "$RUN/vcrit.csv" || why="$why the crafted message was not read back whole: $(grep '^#' "$RUN/vcrit.csv" 2>/dev/null);"
 if [ -z "$why" ]; then pass vcrit_failed_resume_reuses; else fail vcrit_failed_resume_reuses "$why"; fi
 
 # ---- 3. calibrate over a grid: failed runs left out of the fit and counted -----------------------------------------
