@@ -259,8 +259,21 @@ static int validate_run(const struct sweep *sw, int i, int j)
     const struct stage_context ctx = {.c = run, .run_dir = sw->run_dir ? dir : NULL};
     int status = spray_stage_validate(&ctx);
     case_free(run);
-    SC_TRY(status);
-    return SC_OK;
+    if (status == SC_OK)
+        return SC_OK;
+    /* a check across keys names the key it found wrong, where the file has it: say which run's values made it so
+     * (a reviewer's target.standoff = 0.001 was reported as [spray] handoff_height alone) */
+    char message[2048], values[1100];
+    snprintf(message, sizeof message, "%s", sc_error_message());
+    sc_error_clear();
+    values[0] = '\0';
+    const struct sweep_axis *axes[2] = {&sw->x, &sw->y};
+    const int at[2] = {i, j};
+    for (int a = 0; a < 2; a++)
+        if (axes[a]->section[0])
+            snprintf(values + strlen(values), sizeof values - strlen(values), "%s[%s] %s = %s", values[0] ? ", " : "",
+                     axes[a]->section, axes[a]->key, axes[a]->values[at[a]]);
+    SC_FAIL(status, "%s (sweep run %s: %s)", message, name, values);
 }
 
 /* The axes' values in SI, from the cases of the runs of the first row and column. */

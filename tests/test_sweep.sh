@@ -193,6 +193,9 @@ x_values = 250, fast" "bad.ini:[0-9][0-9]*: \[sweep\] x_values value 2.*\[jet\] 
 bad value_out_of_range "[sweep]
 x_key = spray.release_speed_max
 x_values = 700, 2e5" "x_values value 2.*\[spray\] release_speed_max"
+bad cross_key_check_names_the_run "[sweep]
+x_key = target.standoff
+x_values = 0.03, 0.001" "\[spray\] handoff_height.*not below the standoff.*(sweep run runs/x1_y0: \[target\] standoff = 0.001)"
 bad values_without_key "[sweep]
 x_key = jet.C1
 x_values = 250
