@@ -148,10 +148,18 @@ int vcrit_runs_parse_list(const struct case_file *c, const char *section, const 
     if (snprintf(text, sizeof text, "%s", case_text(c, section, key)) >= (int)sizeof text)
         return case_invalid(c, section, key, "too long");
     *count = 0;
-    char *save = NULL;
-    for (char *token = strtok_r(text, ",", &save); token; token = strtok_r(NULL, ",", &save)) {
+    /* every item between commas (strtok skipped empty ones: "14e-6,,22e-6" read as two diameters, a typo unseen) */
+    for (char *token = text, *next; token; token = next) {
+        next = strchr(token, ',');
+        if (next)
+            *next++ = '\0';
         while (*token == ' ' || *token == '\t')
             token++;
+        if (*token == '\0' && (next || *count > 0 || token != text))
+            return case_invalid(c, section, key,
+                                "an empty item (two commas, or one at an end); allowed: comma-separated numbers");
+        if (*token == '\0')
+            break; /* an empty list: the caller says what is missing */
         char *end, why[256] = "";
         errno = 0;
         double x = strtod(token, &end);
