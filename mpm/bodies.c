@@ -383,8 +383,12 @@ int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
         size_t capacity = 0;
         SC_CHECK(status, seed_body(cfg, b, &seeds[b], &counts[b], &capacity), done);
         if (counts[b] == 0)
-            SC_FAIL_AT(status, done, SC_EINPUT, "impact: body %d holds no material point at spacing %g m", b,
-                       cfg->spacing);
+            SC_FAIL_AT(
+                status, done, SC_EINPUT,
+                "impact: body %d (d = %g m%s) holds no material point at [impact] spacing = %g m; allowed: "
+                "bodies at least one spacing across (a particle's diameter, a box's side and height, in [impact] "
+                "or a row of [impact] bodies; with [couple] reference_diameter the spacing scales with it)",
+                b, cfg->bodies[b].d, cfg->bodies[b].shape == MPM_SPHERE ? "" : ", a cylinder or box", cfg->spacing);
         total += counts[b];
     }
     SC_CHECK(status, check_overlaps(cfg, seeds, counts), done);
