@@ -51,10 +51,11 @@
 enum value_source { SOURCE_UNSET, SOURCE_DEFAULT, SOURCE_FILE, SOURCE_OVERRIDE };
 
 struct parsed_value {
-    double real;   /* CFG_REAL, and CFG_INT as a double */
-    long integer;  /* CFG_INT */
-    bool is_word;  /* CFG_REAL given as one of its words */
-    bool has_unit; /* CFG_REAL written with a unit ("30 mm"): `real` is the value converted to the key's unit */
+    double real;      /* CFG_REAL, and CFG_INT as a double */
+    long integer;     /* CFG_INT */
+    bool is_word;     /* CFG_REAL given as one of its words */
+    bool has_unit;    /* CFG_REAL written with a unit ("30 mm"): `real` is the value converted to the key's unit */
+    bool unit_factor; /* refused: the unit holds a numeric factor ("800 m/s 2"), which UDUNITS-2 multiplies by */
 };
 
 struct slot {
@@ -605,8 +606,11 @@ static bool parse_real(const struct cfg_key *spec, const char *text, struct pars
         const char *unit = end;
         while (is_blank(*unit))
             unit++;
-        if (units_to_si(value, unit, spec->unit, &value, why, size) != UNITS_OK)
+        enum units_status converted = units_to_si(value, unit, spec->unit, &value, why, size);
+        if (converted != UNITS_OK) {
+            out->unit_factor = converted == UNITS_FACTOR;
             return false;
+        }
         out->has_unit = true;
         if (!isfinite(value)) {
             snprintf(why, size, "not a finite number in %s", spec->unit);
@@ -959,7 +963,14 @@ static bool check_value(const struct cfg_key *spec, const char *section, const c
     if (parse_value(spec, text, value, why, sizeof why))
         return true;
     describe_allowed(spec, allowed, sizeof allowed);
-    format_message(message, size, "%s: [%s] %s = %s: %s; allowed: %s", where, section, spec->key, text, why, allowed);
+    if (value->unit_factor) /* what the value may be written as, then its range */
+        format_message(message, size,
+                       "%s: [%s] %s = %s: %s; allowed: a value and a unit without a numeric factor (a power is "
+                       "written on its unit: m2, s-1, m^2, 1/s), %s",
+                       where, section, spec->key, text, why, allowed);
+    else
+        format_message(message, size, "%s: [%s] %s = %s: %s; allowed: %s", where, section, spec->key, text, why,
+                       allowed);
     return false;
 }
 
@@ -1850,9 +1861,11 @@ static const char markdown_header[] =
     "its own, which [UDUNITS-2](https://docs.unidata.ucar.edu/udunits/current/) converts to that unit:\n"
     "`standoff = 30 mm`, `median_diameter = 20 um` (or `20 µm`), `T_initial = 25 degC`, `yield_stress = 250 MPa`,\n"
     "`dt = 50 ns`, `release_speed_max = 60 m/s`, fractions in `%`: SI prefixes, products, quotients and integer\n"
-    "powers (`g/cm3`, `J/(kg K)`, `mm/s`).  A unit of another dimension (`standoff = 30 s`) or one UDUNITS-2 does\n"
-    "not know is an error that names the unit given and the unit expected; the range is checked after the\n"
-    "conversion.  An angle counts as a dimension (UDUNITS-2 calls it dimensionless): a key in `degree` takes\n"
+    "powers (`g/cm3`, `J/(kg K)`, `mm/s`; a power is written on its unit: `m2`, `s-1`, `m^2`).  A number in the\n"
+    "unit is an error, not a factor (`800 m/s 2`, `30 mm (2)`).  A unit of another dimension (`standoff = 30 s`) or\n"
+    "one UDUNITS-2 does not know is an error that names the unit given and the unit expected; the range is checked\n"
+    "after the conversion.  An angle counts as a dimension (UDUNITS-2 calls it dimensionless): a key in `degree` "
+    "takes\n"
     "`rad`, `degree`, `arc_minute` or `arc_second`, not `%` or `sr`, and a dimensionless key (`-`) no angle.\n"
     "Integer keys (counts) and the keys whose unit has a fractional power (`m^(4/3)/s`) take bare numbers.\n"
     "`spraycoat check CASE` shows a value given with a unit next to its SI value (`30 mm = 0.03 m`).\n\n";

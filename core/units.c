@@ -2,13 +2,16 @@
  *
  * UDUNITS-2 knows the SI prefixes and derived units, non-SI units in use (degC, degF, bar, psi, inch, min, h, %)
  * and parses products, quotients and integer powers ("kg/m3", "J/(kg K)", "m2/s", "µm" in UTF-8), so that no
- * table of units lives here.  Its parser has no fractional powers: a key whose unit is "m^(4/3)/s" takes bare SI
+ * table of units lives here; a number in the unit that is no power ("m/s 2"), which it would take as a factor, is
+ * refused.  Its parser has no fractional powers: a key whose unit is "m^(4/3)/s" takes bare SI
  * numbers only (UNITS_KEY_NO_UNIT). */
 #include "core/units.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <udunits2.h>
 
@@ -174,6 +177,60 @@ static enum units_status convert_units(ut_unit *from, ut_unit *to, double value,
     return status;
 }
 
+/* A byte of a unit's symbol or name: an ASCII letter, '_' (inch_H2O_39F), or a byte of a UTF-8 character (µm, °C),
+ * but for the multiplication dot U+00B7 (0xc2 0xb7), which UDUNITS-2 reads as '.', a product. */
+static int symbol_byte(const char *text, size_t i)
+{
+    unsigned char c = (unsigned char)text[i];
+    if (c == 0xc2 && (unsigned char)text[i + 1] == 0xb7)
+        return 0;
+    if (c == 0xb7 && i > 0 && (unsigned char)text[i - 1] == 0xc2)
+        return 0;
+    return isalpha(c) || c == '_' || c >= 0x80;
+}
+
+/* The first number in `unit` that is not a power of the symbol before it, NULL if none.  UDUNITS-2 reads a number
+ * anywhere else as a factor of the product: "m/s 2" is 2 m/s, "mm (2)", "mm.2" and "mm·2" 2 mm, "mm 1e3" 1 m, so
+ * that "800 m/s 2" was taken as 1600 m/s.  A power is attached to its symbol or to a closing parenthesis, signed or
+ * not, after '^' or '**' or directly: m2, s-1, m^2, m**2; and the 1 of "1/s" (a numerator of 1 at the start
+ * or after '(') is no factor. */
+static const char *numeric_factor(const char *unit, size_t *length)
+{
+    for (size_t i = 0; unit[i]; i++) {
+        if (!isdigit((unsigned char)unit[i]))
+            continue;
+        size_t end = i;
+        while (isdigit((unsigned char)unit[end]))
+            end++;
+        size_t before = i;
+        if (before > 0 && (unit[before - 1] == '-' || unit[before - 1] == '+'))
+            before--;
+        if (before > 0 && unit[before - 1] == '^')
+            before--;
+        else if (before > 1 && unit[before - 1] == '*' && unit[before - 2] == '*')
+            before -= 2;
+        int power = before > 0 && (symbol_byte(unit, before - 1) || unit[before - 1] == ')');
+        size_t after = end;
+        while (unit[after] == ' ' || unit[after] == '\t')
+            after++;
+        size_t lead = i;
+        while (lead > 0 && (unit[lead - 1] == ' ' || unit[lead - 1] == '\t'))
+            lead--;
+        int numerator_one =
+            end == i + 1 && unit[i] == '1' && unit[after] == '/' && (lead == 0 || unit[lead - 1] == '(');
+        if (!power && !numerator_one) {
+            /* the whole number as written: digits, a decimal point, an exponent (1e3, 2.5, .5) */
+            size_t start = i > 0 && unit[i - 1] == '.' && (i < 2 || !symbol_byte(unit, i - 2)) ? i - 1 : i;
+            char *stop;
+            strtod(unit + start, &stop);
+            *length = stop > unit + end ? (size_t)(stop - unit - start) : end - start;
+            return unit + start;
+        }
+        i = end - 1;
+    }
+    return NULL;
+}
+
 enum units_status units_to_si(double value, const char *given, const char *key_unit, double *si, char *why, size_t size)
 {
     ut_system *system = units_system();
@@ -190,6 +247,16 @@ enum units_status units_to_si(double value, const char *given, const char *key_u
         snprintf(why, size, "this key takes a bare number in %s (no unit: UDUNITS-2 cannot express its unit)",
                  key_unit);
         return UNITS_KEY_NO_UNIT;
+    }
+    size_t length = 0;
+    const char *factor = numeric_factor(given, &length);
+    if (factor) {
+        snprintf(why, size,
+                 "the unit \"%s\" holds a number, %.*s, that UDUNITS-2 would multiply the value by (a unit with a "
+                 "numeric factor)",
+                 given, (int)length, factor);
+        ut_free(to);
+        return UNITS_FACTOR;
     }
     ut_unit *from = parse_unit(system, given);
     enum units_status status;

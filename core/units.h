@@ -13,6 +13,7 @@ enum units_status {
     UNITS_MISMATCH,    /* the given unit is not convertible to the key's (another dimension) */
     UNITS_KEY_NO_UNIT, /* the key's own unit is beyond UDUNITS-2 (fractional powers, "unit of field") */
     UNITS_NO_DATABASE, /* the XML database cannot be read */
+    UNITS_FACTOR,      /* the given unit holds a numeric factor ("m/s 2", "mm (2)"): refused, not multiplied */
 };
 
 /* `value` in the unit `given` expressed in the key's unit `key_unit` (a registry unit string; "" and "-" are

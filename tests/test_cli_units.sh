@@ -88,6 +88,35 @@ for shown in "angle *= 0.5 rad = 28.647889756541" "pbcp_threshold *= 5 % = 0.05 
 done
 if [ -z "$why" ]; then pass cli_units_angles_kept; else fail cli_units_angles_kept "$why $(head -c 300 "$tmp/angles.out")"; fi
 
+# a number in the unit is refused, not multiplied in: UDUNITS-2 reads "800 m/s 2" as 1600 m/s and "30 mm (2)" as
+# 0.06 m, which check listed as accepted
+factor_refused() { # NAME SECTION KEY VALUE: the demo's KEY = VALUE refused, naming the unit and what is allowed
+    sed "s|^$3 = .*|$3 = $4|" "$tmp/demo.ini" >"$tmp/$1.ini"
+    check_refused "$1" "$2" "$3" "= $4: the unit \"" "numeric factor" \
+        "allowed: a value and a unit without a numeric factor"
+}
+factor_refused cli_units_factor_after_quotient spray release_speed_max "800 m/s 2"
+factor_refused cli_units_factor_after_prefix target standoff "30 mm 2"
+factor_refused cli_units_factor_parenthesised target standoff "30 mm (2)"
+# the documented forms stay: prefixes, degC, powers attached to their unit (m2, m3, s-1, m^2, m**2)
+sed -e 's/^\[powder\]$/[powder]\nsurface_energy = 46 mJ\/m2/' -e 's/^density = 2700$/density = 2.7 g\/cm3/' \
+    -e 's/^\[jet\]$/[jet]\ngas_viscosity = 25 mm2\/s/' -e 's/^median_diameter = .*/median_diameter = 20 um/' \
+    -e 's/^release_speed_max = .*/release_speed_max = 800 m.s-1/' -e 's/^release_speed_min = .*/release_speed_min = 600 m s^-1/' \
+    -e 's/^\[impact\]$/[impact]\nGc_rate = 2e11 J m**-2 s-1\neps_rate_c = 1e5 Hz/' \
+    -e 's/^\[material.aluminium\]$/[material.aluminium]\nT_initial = 25 degC\ndensity = 2700 kg\/m^3/' \
+    "$tmp/demo.ini" >"$tmp/forms.ini"
+"$bin" check "$tmp/forms.ini" >"$tmp/forms.out" 2>"$tmp/forms.err"
+status=$?
+why=""
+[ "$status" -eq 0 ] || why="exit status $status: $(head -c 300 "$tmp/forms.err");"
+for shown in "surface_energy *= 46 mJ/m2 = 0.046 J/m2" "density *= 2.7 g/cm3 = 2700 kg/m3" \
+    "gas_viscosity *= 25 mm2/s = 2.5e-05 m2/s" "release_speed_max *= 800 m.s-1 = 800 m/s" \
+    "release_speed_min *= 600 m s^-1 = 600 m/s" "Gc_rate *= 2e11 J m\*\*-2 s-1 = 2e+11 J/m2/s" \
+    "eps_rate_c *= 1e5 Hz = 100000 1/s" "density *= 2700 kg/m^3 = 2700 kg/m3"; do
+    grep -q "$shown" "$tmp/forms.out" || why="$why check does not list \"$shown\";"
+done
+if [ -z "$why" ]; then pass cli_units_documented_forms_kept; else fail cli_units_documented_forms_kept "$why"; fi
+
 # three errors: a value out of range, an unknown key, a unit of another dimension; all three, with their lines
 with_value dt 0 "$tmp/three.ini"
 sed -i -e 's/^standoff = .*/standoff = 30 s/' -e 's/^median_diameter = .*/median_diamter = 20e-6/' "$tmp/three.ini"

@@ -137,6 +137,38 @@ static void test_refused(void)
                    (const char *const[]){"not a number", "inline comments start with ';'", NULL});
 }
 
+/* A number in the unit is refused, not taken as a factor: UDUNITS-2 reads "800 m/s 2" as 1600 m/s, "30 mm (2)",
+ * "30 mm.2" and "30 mm·2" as 0.06 m, "30 mm 1e3" as 30 m.  Powers attached to a unit, and the 1 of 1/s, stay. */
+static void test_numeric_factor_refused(void)
+{
+    expect_refused("speed = 800 m/s 2", (const char *const[]){"units.ini:2:", "[u] speed = 800 m/s 2", "\"m/s 2\"",
+                                                              "numeric factor", "allowed: ", "0 .. 10000 m/s", NULL});
+    const char *const factor[] = {"units.ini:2:", "[u] length", "numeric factor", "allowed: ", NULL};
+    expect_refused("length = 30 mm 2", factor);
+    expect_refused("length = 30 mm (2)", factor);
+    expect_refused("length = 30 mm.2", factor);
+    expect_refused("length = 30 mm·2", factor);
+    expect_refused("length = 30 mm 1e3", factor);
+    expect_refused("length = 30 mm .5", factor);
+    expect_refused("length = 30 2 mm", (const char *const[]){"not a number", NULL});
+    expect_refused("speed = 800 m 2/s", (const char *const[]){"[u] speed", "numeric factor", NULL});
+    /* the forms of docs/keys.md: powers on their unit, signed, after ^ or **, and 1/s */
+    expect_value("density = 2.7 g/cm3", "density", 2700, 1e-15);
+    expect_value("density = 2700 kg/m3", "density", 2700, 0);
+    expect_value("density = 2700 kg m-3", "density", 2700, 0);
+    expect_value("density = 2700 kg/m^3", "density", 2700, 0);
+    expect_value("density = 2700 kg/m**3", "density", 2700, 0);
+    expect_value("density = 2700 kg.m^-3", "density", 2700, 0);
+    expect_value("speed = 800 m.s-1", "speed", 800, 0);
+    expect_value("speed = 800 m s^-1", "speed", 800, 0);
+    expect_value("speed = 800 m·s-1", "speed", 800, 0);
+    expect_value("speed = 800 m*s**-1", "speed", 800, 0);
+    expect_value("speed = 0.8 mm/us", "speed", 800, 1e-15);
+    expect_value("diameter = 20 µm", "diameter", 20e-6, 0);
+    expect_value("speed = 800 m (1/s)", "speed", 800, 0);
+    expect_value("temperature = 25 degC", "temperature", 298.15, 1e-15);
+}
+
 /* `check` lists a value given with a unit as given and in SI. */
 static void test_print_both_values(void)
 {
@@ -185,6 +217,7 @@ int main(void)
     RUN(test_conversions);
     RUN(test_bare_number_unchanged);
     RUN(test_refused);
+    RUN(test_numeric_factor_refused);
     RUN(test_print_both_values);
     RUN(test_registry_units_parse);
     char path[PATH_MAX];
