@@ -782,11 +782,36 @@ done:
     return status;
 }
 
+/* [couple] reference_diameter: [impact] describes a particle of that diameter, and the run of a particle of
+ * diameter d is [impact] scaled by d / reference_diameter, its point spacing too, so that every particle is
+ * reference_diameter / spacing spacings across whatever its size, the smallest ([powder] d_min) included.  Below two
+ * spacings it may hold no material point, the rule of [vcrit] diameters: the impact stage found that out only after
+ * the spray and the couple stage had run (a review: reference_diameter = 1e-9 m, "body 1 holds no material point at
+ * spacing 0.0104699 m"). */
+static int check_reference_diameter(const struct case_file *c, const struct couple_config *cfg)
+{
+    double reference = cfg->reference_diameter, spacing = case_real(c, "impact", "spacing");
+    if (!(reference > 0) || reference >= 2.0 * spacing)
+        return SC_OK;
+    int mono = case_is(c, "powder", "distribution", "mono");
+    double smallest = case_real(c, "powder", mono ? "median_diameter" : "d_min");
+    char example[256] = "";
+    if (smallest > 0)
+        snprintf(example, sizeof example, ": the smallest particle ([powder] %s = %g m) is seeded at spacing %g m",
+                 mono ? "median_diameter" : "d_min", smallest, spacing * smallest / reference);
+    return case_invalid(c, "couple", "reference_diameter",
+                        "%g m is less than two point spacings ([impact] spacing = %g m): each run is [impact] scaled "
+                        "by d / reference_diameter, and a particle of any diameter d is %.3g spacings across%s, too "
+                        "few to hold material points; allowed: 0, or at least %g m (two [impact] spacings)",
+                        reference, spacing, reference / spacing, example, 2.0 * spacing);
+}
+
 int couple_stage_validate(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
     struct couple_config cfg;
     SC_TRY(couple_config_load(c, &cfg));
+    SC_TRY(check_reference_diameter(c, &cfg));
     struct dem_config spray;
     SC_TRY(dem_config_load(c, &spray));
     int status = SC_OK;
