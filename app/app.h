@@ -250,6 +250,11 @@ int sweep_stage_run(const struct stage_context *ctx);
  * (CVODE) and write the MPM seeds to RUN_DIR/couple.h5.  Skips the work when couple.h5 is current.  SC_EIO when
  * spray.h5 is missing or from another case. */
 int couple_stage_validate(const struct stage_context *ctx);
+/* What the stage refuses from spray.h5's contents (runs * bodies_per_run more than the particles that reached the
+ * target, or than those that reach the wall; a window holding too few), found as the stage finds it, seeding without
+ * writing: called before the run directory is written when spray.h5 is already there, so that a case refused for
+ * the spray's results leaves an earlier run's case.ini and stages as they were.  SC_OK when couple.h5 is current. */
+int couple_stage_check_inputs(const struct stage_context *ctx);
 int couple_stage_run(const struct stage_context *ctx);
 extern const struct cfg_key couple_case_keys[];
 /* The seeds of RUN_DIR/couple.h5 as bodies of the impact runs (the couple stage's output, read by the impact

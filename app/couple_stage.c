@@ -806,6 +806,29 @@ static int check_reference_diameter(const struct case_file *c, const struct coup
                         reference, spacing, reference / spacing, example, 2.0 * spacing);
 }
 
+/* Every seed is a particle of the spray, one each: runs * bodies_per_run cannot exceed the particles the spray injects
+ * at most ([spray] max_injected, or the rows of the particles file).  How many of them reach the target is known from
+ * spray.h5 only (couple_stage_check_inputs); this much from the case, at check time (a review: runs = 100000 over a
+ * spray of 2000 was refused only by the stage, after case.ini and the record of the stages had been replaced). */
+static int check_seeds_injectable(const struct case_file *c, const struct couple_config *cfg,
+                                  const struct dem_config *spray)
+{
+    int from_file = spray->injection == DEM_INJECT_FILE;
+    double seeds = (double)cfg->runs * (double)cfg->bodies_per_run;
+    double most = from_file ? (double)spray->file_particle_count : (double)spray->max_injected;
+    if (seeds <= most)
+        return SC_OK;
+    char source[4608];
+    if (from_file)
+        snprintf(source, sizeof source, "the %.0f particles of %s ([spray] particles)", most, spray->particles_path);
+    else
+        snprintf(source, sizeof source, "at most %.0f particles ([spray] max_injected)", most);
+    return case_invalid(c, "couple", case_is_given(c, "couple", "runs") ? "runs" : "bodies_per_run",
+                        "%ld runs of %ld bodies need %.0f spray impacts, one particle each, and the spray injects %s; "
+                        "allowed: runs * bodies_per_run <= %.0f",
+                        cfg->runs, cfg->bodies_per_run, seeds, source, most);
+}
+
 int couple_stage_validate(const struct stage_context *ctx)
 {
     const struct case_file *c = ctx->c;
@@ -819,11 +842,15 @@ int couple_stage_validate(const struct stage_context *ctx)
         status = case_invalid(c, "spray", "handoff_height",
                               "the couple stage starts its flights at the hand-off "
                               "plane; allowed: handoff_height > 0");
+    if (status == SC_OK)
+        status = check_seeds_injectable(c, &cfg, &spray);
     dem_config_free(&spray);
     return status;
 }
 
-static int couple(struct couple_work *w)
+/* spray.h5 to the seeds: every refusal that needs the spray's results (too few particles reached the target, in the
+ * window, or reach the wall with a hand-off crossing) is made here. */
+static int seed(struct couple_work *w)
 {
     struct dem_config spray;
     SC_TRY(dem_config_load(w->c, &spray));
@@ -834,7 +861,28 @@ static int couple(struct couple_work *w)
     SC_TRY(read_spray(w));
     SC_TRY(find_candidates(w));
     SC_TRY(match_handoffs(w));
-    SC_TRY(make_seeds(w));
+    return make_seeds(w);
+}
+
+int couple_stage_check_inputs(const struct stage_context *ctx)
+{
+    char path[H5IO_PATH_MAX];
+    snprintf(path, sizeof path, "%s/couple.h5", ctx->run_dir);
+    if (run_dir_output_current(path, stage_hash(ctx, STAGE)))
+        return SC_OK; /* the stage will not run */
+    struct couple_work w = {.ctx = ctx, .c = ctx->c, .run_dir = ctx->run_dir};
+    SC_TRY(couple_config_load(ctx->c, &w.cfg));
+    enum log_level level = log_get_level(); /* the stage tells what it does when it runs */
+    log_set_level(LOG_QUIET);
+    int status = seed(&w);
+    log_set_level(level);
+    couple_work_free(&w);
+    return status;
+}
+
+static int couple(struct couple_work *w)
+{
+    SC_TRY(seed(w));
     w->agreement = flight_agreement(w);
     SC_TRY(write_output(w));
     log_summary(w);

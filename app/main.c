@@ -341,15 +341,18 @@ struct stage {
     int (*run)(const struct stage_context *ctx);
     const char *output;
     int distributed; /* under MPI every rank runs it */
+    /* NULL, or what the stage refuses from the contents of its inputs, checked before the run directory is written
+     * unless a chosen stage before it writes them anew (check_inputs below) */
+    int (*check_inputs)(const struct stage_context *ctx);
 };
 static const struct stage stages[] = {
-    {"spray", spray_stage_validate, spray_stage_run, "spray.h5", 0},
-    {"couple", couple_stage_validate, couple_stage_run, "couple.h5", 0},
-    {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf", 1},
-    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit_cor.csv, vcrit.h5", 1},
-    {"calibrate", calibrate_stage_validate, calibrate_stage_run, "calibrate.csv, calibrate.h5", 1},
-    {"sweep", sweep_stage_validate, sweep_stage_run, "runs/, sweep.h5", 1},
-    {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0},
+    {"spray", spray_stage_validate, spray_stage_run, "spray.h5", 0, NULL},
+    {"couple", couple_stage_validate, couple_stage_run, "couple.h5", 0, couple_stage_check_inputs},
+    {"impact", impact_stage_validate, impact_stage_run, "impact.h5, impact.xdmf", 1, NULL},
+    {"vcrit", vcrit_stage_validate, vcrit_stage_run, "vcrit.csv, vcrit_cor.csv, vcrit.h5", 1, NULL},
+    {"calibrate", calibrate_stage_validate, calibrate_stage_run, "calibrate.csv, calibrate.h5", 1, NULL},
+    {"sweep", sweep_stage_validate, sweep_stage_run, "runs/, sweep.h5", 1, NULL},
+    {"render", render_stage_validate, render_stage_run, "figures/, report.html", 0, NULL},
 };
 
 /* The stages a record names (RUN_DIR/stages: "run:" for a pipeline, then comma-separated names) as flags by
@@ -436,25 +439,46 @@ static int stage_inputs(const struct stage_context *ctx, const char *stage, cons
     return n;
 }
 
+/* Whether chosen stage `input`, before stage i, will write its output anew: chosen, and its output not already this
+ * case's (the stage skips it then: `spraycoat run` over a finished spray reads the spray.h5 that is there). */
+static int made_anew(const struct stage_context *ctx, const struct stage *const *chosen, int i, const char *input)
+{
+    for (int j = 0; j < i; j++)
+        if (strcmp(chosen[j]->name, input) == 0) {
+            char path[4200];
+            snprintf(path, sizeof path, "%s/%s.h5", ctx->run_dir, input);
+            return !run_dir_output_current(path, stage_hash(ctx, input));
+        }
+    return 0;
+}
+
 /* The inputs of the chosen stages that no chosen stage before them makes are checked (this case's, present when
  * needed) before the run directory is touched: the stage refused them only after case.ini and the record of the
  * stages were written over those of the run whose outputs they are (a `render` of another case left the directory
- * naming a case none of its results are of). */
+ * naming a case none of its results are of).  So are their contents, where a stage refuses some (check_inputs of
+ * stages[]), unless a chosen stage before it writes them anew: `spraycoat couple` with more runs than spray.h5 has
+ * particles at the target replaced case.ini and stages, then refused the case, and `resume` of the run failed on it
+ * ever after.  Inputs written anew by this command come with this case's case.ini: a refusal of their contents then
+ * leaves a directory of one case. */
 static int check_inputs(const struct stage_context *ctx, const struct stage *const *chosen, int count)
 {
     for (int i = 0; i < count; i++) {
         const char *inputs[8];
-        int required[8], n = stage_inputs(ctx, chosen[i]->name, inputs, required);
+        int required[8], n = stage_inputs(ctx, chosen[i]->name, inputs, required), anew = 0;
         for (int k = 0; k < n; k++) {
             int made_here = 0;
             for (int j = 0; j < i; j++)
                 made_here |= strcmp(chosen[j]->name, inputs[k]) == 0;
+            if (chosen[i]->check_inputs)
+                anew |= made_anew(ctx, chosen, i, inputs[k]);
             /* another case's output of a stage this case does not have: the render stage leaves it out */
             if (strcmp(chosen[i]->name, "render") == 0 && render_stage_ignores(ctx, inputs[k]))
                 continue;
             if (!made_here)
                 SC_TRY(run_dir_check_input(ctx, inputs[k], chosen[i]->name, required[k]));
         }
+        if (chosen[i]->check_inputs && !anew)
+            SC_TRY(chosen[i]->check_inputs(ctx));
     }
     return SC_OK;
 }
