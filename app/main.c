@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/error.h"
@@ -190,6 +191,12 @@ static int parse_arguments(int argc, char **argv, struct options *opt)
     if (opt->run_dir && strlen(opt->run_dir) > RUN_DIR_MAX)
         SC_FAIL(SC_EINPUT, "-o RUN_DIR: the path has %zu characters; allowed: at most %d", strlen(opt->run_dir),
                 RUN_DIR_MAX);
+    /* a run directory that cannot be made is an I/O error (exit 3, as one under a regular file), said as such: a
+     * file there was found only when the stage listed RUN_DIR/checkpoints ("Not a directory") */
+    struct stat info;
+    if (opt->run_dir && stat(opt->run_dir, &info) == 0 && !S_ISDIR(info.st_mode))
+        SC_FAIL(SC_EIO, "-o %s: the run directory exists but is not a directory (nothing was written to it)",
+                opt->run_dir);
     return SC_OK;
 }
 

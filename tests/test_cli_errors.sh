@@ -122,7 +122,7 @@ printf 'not a folder\n' >"$tmp/afile"
 expect io_run_dir_under_file 3 "$tmp/afile" "$bin" spray "$base" -o "$tmp/afile/run"
 [ "$(cat "$tmp/afile")" = "not a folder" ] || why="$why; $tmp/afile was changed"
 report io_run_dir_under_file
-expect io_run_dir_is_file 3 "$tmp/afile" "$bin" spray "$base" -o "$tmp/afile"
+expect io_run_dir_is_file 3 "$tmp/afile: the run directory exists but is not a directory" "$bin" spray "$base" -o "$tmp/afile"
 [ "$(cat "$tmp/afile")" = "not a folder" ] || why="$why; $tmp/afile was changed"
 report io_run_dir_is_file
 mkdir "$tmp/empty_dir"
