@@ -424,6 +424,11 @@ void mpm_verdict_free(struct mpm_solver *s);
 void mpm_verdict_record(struct mpm_solver *s);
 void mpm_verdict_replay(struct mpm_solver *s);
 
+/* solver.c: the time after t at which a clock of period `every` (series_every, snapshot_every) is next due: the first
+ * multiple of every beyond t, or, for an every too small to step past t in doubles, the next double (exposed for
+ * the tests: it cannot spin, whatever every > 0). */
+double mpm_clock_next(double t, double every);
+
 /* diagnostics.c */
 int mpm_series_record(struct mpm_solver *s);
 /* Work of the absorbing boundaries this step, on the start momenta (after mpm_contact_nodal_update). */

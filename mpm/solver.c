@@ -831,6 +831,23 @@ static int remove_escaped(struct mpm_solver *s)
     return SC_OK;
 }
 
+/* The first multiple of `every` after t (with t's tolerance of 1e-12), computed directly: a loop adding `every` to
+ * the last due time took t / every turns, and none ended once `every` fell below half an ulp of that time (the
+ * sum no longer grew).  [impact] keeps every >= t_end / MPM_MAX_CLOCK_TICKS (params.c); this holds for any
+ * every > 0: at worst the next step is due. */
+double mpm_clock_next(double t, double every)
+{
+    double limit = t * (1.0 + 1e-12);
+    double next = every * (floor(limit / every) + 1.0);
+    if (!(next > limit)) /* the quotient or the product rounded down */
+        next += every;
+    /* every below limit's rounding (next no later than limit, or later by its rounding only), or limit / every
+     * beyond the doubles (next infinite): the next step is due */
+    if (!(next > limit && next - limit <= 2.0 * every))
+        next = nextafter(limit, INFINITY);
+    return next;
+}
+
 static int advance_clocks(struct mpm_solver *s)
 {
     const struct mpm_config *cfg = &s->cfg;
@@ -839,13 +856,13 @@ static int advance_clocks(struct mpm_solver *s)
         SC_TRY(mpm_series_record(s));
         mpm_verdict_record(s);
         last = mpm_finished(s); /* the verdicts may have settled on this row */
-        while (s->next_series <= s->t * (1.0 + 1e-12))
-            s->next_series += cfg->series_every;
+        if (s->next_series <= s->t * (1.0 + 1e-12))
+            s->next_series = mpm_clock_next(s->t, cfg->series_every);
     }
     if (s->t >= s->next_snapshot * (1.0 - 1e-12) || last) {
         s->snapshot_pending = 1;
-        while (s->next_snapshot <= s->t * (1.0 + 1e-12))
-            s->next_snapshot += cfg->snapshot_every;
+        if (s->next_snapshot <= s->t * (1.0 + 1e-12))
+            s->next_snapshot = mpm_clock_next(s->t, cfg->snapshot_every);
     }
     return SC_OK;
 }

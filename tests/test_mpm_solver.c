@@ -1,7 +1,9 @@
 /* The MPM impact solver against analytical results and conservation laws (issue: impact stage, tests). */
 #include <math.h>
 #include <omp.h>
+#include <signal.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "impact_fixture.h"
@@ -539,6 +541,64 @@ static void test_bonding_models(void)
     impact_fixture_close(&f);
 }
 
+/* The clocks of the series rows and snapshots cannot spin: mpm_clock_next gives the first multiple of the interval
+ * after t, or the next double for an interval below t's rounding; and a solver whose intervals are far below
+ * [impact]'s bound (t_end / MPM_MAX_CLOCK_TICKS, which the case keys enforce: set here behind their back) records
+ * one row and marks a snapshot each step.  The loop that added the interval to the last due time ran t / every
+ * turns a step, for ever at every = 1e-30 s (seconds a step at 1e-20): the alarm turns such a hang into a FAIL. */
+static void clock_hung(int signal)
+{
+    (void)signal;
+    static const char message[] = "  the impact clocks spun for 60 s\nFAIL test_clock_cannot_spin\n";
+    if (write(STDOUT_FILENO, message, sizeof message - 1) < 0)
+        _exit(1);
+    _exit(1);
+}
+
+static void test_clock_cannot_spin(void)
+{
+    CHECK(mpm_clock_next(0.0, 0.5e-9) == 0.5e-9, "next at t = 0: %g", mpm_clock_next(0.0, 0.5e-9));
+    CHECK_CLOSE(mpm_clock_next(1.0e-9, 0.5e-9), 1.5e-9, 1e-15, 0.0, "next after a due time (s)");
+    CHECK_CLOSE(mpm_clock_next(1.2e-9, 0.5e-9), 1.5e-9, 1e-15, 0.0, "next between due times (s)");
+    const double t[] = {1e-11, 3.7e-9, 6e-8, 1e-3}, every[] = {1e-30, 1e-20, 1e-300, 5e-324, 1e-13};
+    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)
+        for (size_t k = 0; k < sizeof every / sizeof every[0]; k++) {
+            double next = mpm_clock_next(t[i], every[k]);
+            double limit = t[i] * (1.0 + 1e-12);
+            CHECK(next > limit && (next - limit <= 2.0 * every[k] || next == nextafter(limit, INFINITY)),
+                  "t = %g s, every = %g s: next %.17g s is not just past t", t[i], every[k], next);
+        }
+
+    struct impact_fixture f;
+    const char *ini = "[impact]\nstop_when_settled = no\ngrid = 2e-6\nspacing = 1e-6\ndiameter = 6e-6\n"
+                      "substrate_diameter = 12e-6\nsubstrate_height = 4e-6\nt_end = 4e-9\n[material.aluminium]\n";
+    if (impact_fixture_open(&f, ini, NULL) != SC_OK) {
+        CHECK(0, "set-up");
+        return;
+    }
+    struct mpm_solver *s = f.solver;
+    s->cfg.series_every = 1e-30;
+    s->cfg.snapshot_every = 1e-20;
+    s->next_series = s->cfg.series_every;
+    s->next_snapshot = s->cfg.snapshot_every;
+    signal(SIGALRM, clock_hung);
+    alarm(60);
+    for (int step = 1; step <= 3; step++) {
+        size_t rows = s->series_rows;
+        s->snapshot_pending = 0;
+        CHECK(mpm_step(s) == SC_OK, "step %d", step);
+        CHECK(s->series_rows == rows + 1, "step %d: %zu series rows, expected %zu", step, s->series_rows, rows + 1);
+        CHECK(s->snapshot_pending, "step %d: no snapshot due", step);
+        CHECK(s->next_series > s->t && s->next_snapshot > s->t,
+              "step %d: next row %g s, snapshot %g s, not after "
+              "t = %g s",
+              step, s->next_series, s->next_snapshot, s->t);
+    }
+    alarm(0);
+    signal(SIGALRM, SIG_DFL);
+    impact_fixture_close(&f);
+}
+
 int main(void)
 {
     RUN(test_wave_speed);
@@ -554,5 +614,6 @@ int main(void)
     RUN(test_threads_identical_ugimp);
     RUN(test_threads_identical_once);
     RUN(test_bonding_models);
+    RUN(test_clock_cannot_spin);
     return check_finish();
 }
