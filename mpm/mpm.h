@@ -23,6 +23,12 @@
 #define MPM_FORMAT         "spraycoat-impact"
 #define MPM_FORMAT_VERSION 2
 
+/* [impact] series_every and snapshot_every are at least t_end / MPM_MAX_CLOCK_TICKS: a run records at most about a
+ * million series rows or snapshots, and each interval stays far above the rounding of a time near t_end (1e-16 of
+ * it), where adding the interval to the time it was last due no longer moves it (mpm_config_scale_lengths scales
+ * all three alike: a scaled run keeps the bound). */
+#define MPM_MAX_CLOCK_TICKS 1e6
+
 enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
 enum mpm_substrate { MPM_SUBSTRATE_CYLINDER, MPM_SUBSTRATE_BOX, MPM_SUBSTRATE_RIGID };
 enum mpm_shape_function { MPM_LINEAR, MPM_UGIMP };
@@ -93,7 +99,7 @@ struct mpm_config {
     double pbcp_threshold, vrest_threshold, vrest_filter;
     double settle_window, settle_vcom, settle_pbcp; /* settled verdicts (verdict.c) */
     int stop_when_settled;                          /* end the run once every verdict settled */
-    double snapshot_every, series_every;
+    double snapshot_every, series_every;            /* each at least t_end / MPM_MAX_CLOCK_TICKS */
     struct mpm_bulk_viscosity viscosity;
     int absorbing;           /* viscous absorbing boundaries on the substrate's bottom and sides */
     int fixed_bottom;        /* nodes at and below the substrate's bottom face cannot move vertically */

@@ -140,8 +140,10 @@ const struct cfg_key mpm_case_keys[] = {
     {"impact", "vrest_filter", CFG_REAL, "m/s", "60", 0, 1e5, 1, NULL,
      "only points slower than this count in the restitution velocity (ejected material left out); a body leaving "
      "with no point that slow is judged on its centre of mass's speed"},
-    {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL, "simulated time between snapshots"},
-    {"impact", "series_every", CFG_REAL, "s", "0.5e-9", 0, 1, 1, NULL, "simulated time between series rows"},
+    {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL,
+     "simulated time between snapshots; at least t_end / 1e6"},
+    {"impact", "series_every", CFG_REAL, "s", "0.5e-9", 0, 1, 1, NULL,
+     "simulated time between series rows; at least t_end / 1e6"},
     {"impact", "box_margin", CFG_REAL, "m", "5e-6", 0, 1, 0, NULL,
      "grid box = bounding box of the bodies + this on every side; points leaving it are removed"},
     {"impact", "bulk_viscosity_linear", CFG_REAL, "-", "0.06", 0, 10, 0, NULL,
@@ -448,6 +450,22 @@ int mpm_bonding_calibrated_resolution(const struct mpm_config *cfg, int b)
     return fabs(cfg->grid - CALIBRATED_ENERGY_GRID) <= 0.01 * CALIBRATED_ENERGY_GRID;
 }
 
+/* series_every and snapshot_every against t_end (MPM_MAX_CLOCK_TICKS): an interval of 1e-30 s passed "> 0" and the
+ * run stalled at its first step, adding it to a time it could no longer move. */
+#define TEXT_OF(x)             #x
+#define CLOCK_TICKS_TEXT_OF(x) TEXT_OF(x)
+#define CLOCK_TICKS_TEXT       CLOCK_TICKS_TEXT_OF(MPM_MAX_CLOCK_TICKS)
+static int check_clock(const struct case_file *c, const char *key, const char *what, double every, double t_end)
+{
+    double least = t_end / MPM_MAX_CLOCK_TICKS;
+    if (every >= least * (1.0 - 1e-9))
+        return SC_OK;
+    return case_invalid(c, "impact", key,
+                        "%.3g %s over t_end = %g s, more than " CLOCK_TICKS_TEXT
+                        "; allowed: at least %g s (t_end / " CLOCK_TICKS_TEXT "), at most 1 s",
+                        t_end / every, what, t_end, least);
+}
+
 static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
 {
     cfg->grid = case_real(c, "impact", "grid");
@@ -493,6 +511,8 @@ static int load_numerics(const struct case_file *c, struct mpm_config *cfg)
     cfg->viscosity.quadratic = case_real(c, "impact", "bulk_viscosity_quadratic");
     cfg->viscosity.length = cfg->grid;
     cfg->absorbing = case_is(c, "impact", "absorbing", "yes");
+    SC_TRY(check_clock(c, "series_every", "series rows", cfg->series_every, cfg->t_end));
+    SC_TRY(check_clock(c, "snapshot_every", "snapshots", cfg->snapshot_every, cfg->t_end));
     if (cfg->settle_window < 4.0 * cfg->series_every * (1.0 - 1e-9))
         return case_invalid(c, "impact", "settle_window",
                             "shorter than 4 series_every (%g s): the window must hold several series rows; allowed: "
