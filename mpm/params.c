@@ -322,11 +322,17 @@ static int load_substrate(const struct case_file *c, struct mpm_config *cfg)
                             "dashpot (substrate_sides), or [run] device = cpu");
     cfg->substrate_bottom = -body.h;
     SC_TRY(material_index(c, "substrate_material", case_text(c, "impact", "substrate_material"), cfg, &body.material));
-    if (body.d < 2.0 * cfg->spacing || body.h < 2.0 * cfg->spacing)
+    /* the key that is too small, the diameter (box side) first */
+    if (body.d < 2.0 * cfg->spacing)
+        return case_invalid(c, "impact", "substrate_diameter",
+                            "the substrate's %s must be at least two point spacings; allowed: at least %g m (twice "
+                            "spacing = %g m), at most 1 m",
+                            body.shape == MPM_BOX ? "side" : "diameter", 2.0 * cfg->spacing, cfg->spacing);
+    if (body.h < 2.0 * cfg->spacing)
         return case_invalid(c, "impact", "substrate_height",
-                            "the substrate must be at least two point spacings "
-                            "(%g m) across",
-                            2.0 * cfg->spacing);
+                            "the substrate's height must be at least two point spacings; allowed: at least %g m (twice "
+                            "spacing = %g m), at most 1 m",
+                            2.0 * cfg->spacing, cfg->spacing);
     return add_body(cfg, &body);
 }
 
