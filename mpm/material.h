@@ -44,6 +44,8 @@ struct mpm_material {
 /* ---- ptw.c ---- */
 /* MTS shear modulus at temperature T (Eq. 2.6), never below 0. */
 double mpm_mts_shear_modulus(const struct mpm_material *m, double T);
+/* The temperature (K) below which that shear modulus is positive: T0 / ln(1 + D/G0) (infinite for D = 0). */
+double mpm_mts_positive_below(const struct mpm_material *m);
 /* xi_dot of Eq. 2.8 (1/s) at density rho and shear modulus G. */
 double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G);
 /* PTW von Mises flow stress (Pa), Eqs. 2.4-2.7, at plastic strain eps_p, plastic strain rate rate (1/s, floored

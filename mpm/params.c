@@ -202,6 +202,52 @@ const struct cfg_key mpm_case_keys[] = {
     {NULL, NULL, 0, NULL, NULL, 0, 0, 0, NULL, NULL},
 };
 
+/* The MTS shear modulus G(T) = G0 - D/(exp(T0/T) - 1) (Eq. 2.6) is not positive at T_initial: this said so naming
+ * D (default), without a line or a range, for T_initial = 2000 degC.  Named now: T_initial where the case gives it
+ * or gives none of D, T0, G0, with the temperature below which G stays positive for the section's constants (and
+ * the bound of each constant the case gives); else the constant the case gives (D, T0, then G0), with its bound at
+ * this T_initial.  The melt temperature is only told: a body may start molten (no strength), as before. */
+/* A bound moved inwards by 1e-5 of itself, so that printed with %.6g (rounding by at most 5e-6) every value it lets
+ * through holds: "below 1905.48 K" would let 1905.48 K through, where G(T) is already negative (the bound is
+ * 1905.4788 K). */
+static double printable_bound(double x, int above)
+{
+    return above ? x * (1.0 + 1e-5) : x * (1.0 - 1e-5);
+}
+
+static int too_hot_for_shear_modulus(const struct case_file *c, const char *section, const struct mpm_material *m)
+{
+    static const char *const constants[] = {"D", "T0", "G0"};
+    double T = m->T_initial, e = expm1(m->T0 / T), Tm = mpm_scg_melt_temperature(m, m->density);
+    /* each constant's bound at T: D below G0 (exp(T0/T) - 1), T0 above T ln(1 + D/G0), G0 above D / (exp(T0/T) - 1) */
+    const double bound[] = {printable_bound(m->G0 * e, 0), printable_bound(T * log1p(m->D / m->G0), 1),
+                            printable_bound(m->D / e, 1)};
+    double T_max = printable_bound(mpm_mts_positive_below(m), 0);
+    const char *const side[] = {"below", "above", "above"}, *const unit[] = {"Pa", "K", "Pa"};
+    char other[256] = "", melt[96] = "";
+    const char *given = NULL;
+    for (int k = 0; k < 3; k++)
+        if (case_is_given(c, section, constants[k])) {
+            size_t used = strlen(other);
+            snprintf(other + used, sizeof other - used, "%s%s %s %.6g %s",
+                     used ? " or " : "; or at this T_initial: ", constants[k], side[k], bound[k], unit[k]);
+            if (!given)
+                given = constants[k];
+        }
+    if (T >= Tm)
+        snprintf(melt, sizeof melt, " (the SCG melt temperature at rho0 is %.6g K)", Tm);
+    if (case_is_given(c, section, "T_initial") || !given)
+        return case_invalid(c, section, "T_initial",
+                            "the MTS shear modulus G0 - D/(exp(T0/T)-1) is not positive at %g K%s; allowed: above 0 K "
+                            "and below %.6g K (G > 0 there for G0 = %g Pa, D = %g Pa, T0 = %g K)%s",
+                            T, melt, T_max, m->G0, m->D, m->T0, other);
+    int k = given[0] == 'D' ? 0 : given[0] == 'T' ? 1 : 2;
+    return case_invalid(c, section, given,
+                        "the MTS shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial = %g K (G0 = %g Pa, "
+                        "D = %g Pa, T0 = %g K); allowed: %s %.6g %s at this T_initial, or T_initial below %.6g K",
+                        T, m->G0, m->D, m->T0, side[k], bound[k], unit[k], T_max);
+}
+
 static int load_material(const struct case_file *c, const char *key, const char *name, struct mpm_material *m)
 {
     char section[96];
@@ -257,10 +303,7 @@ static int load_material(const struct case_file *c, const char *key, const char 
         m->bulk_modulus = 2.0 * mpm_mts_shear_modulus(m, m->T_initial) * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
     }
     if (!(mpm_mts_shear_modulus(m, m->T_initial) > 0.0))
-        return case_invalid(c, section, "D",
-                            "the shear modulus G0 - D/(exp(T0/T)-1) is not positive at T_initial "
-                            "= %g K",
-                            m->T_initial);
+        return too_hot_for_shear_modulus(c, section, m);
     if (m->ptw_sinf > m->ptw_s0)
         return case_invalid(c, section, "ptw_sinf", "above ptw_s0 = %g", m->ptw_s0);
     if (m->ptw_yinf > m->ptw_y0)
@@ -593,8 +636,8 @@ static int parse_body_row(const struct case_file *c, const char *path, const str
     if (!(mpm_mts_shear_modulus(&cfg->materials[body->material], T) > 0.0))
         return case_invalid(c, "impact", "bodies",
                             "%s:%ld: temperature = %g K: the shear modulus G0 - D/(exp(T0/T)-1) of the body's "
-                            "material is not positive there; allowed: a lower temperature",
-                            path, line, T);
+                            "material is not positive there; allowed: above 0 K and below %.6g K",
+                            path, line, T, printable_bound(mpm_mts_positive_below(&cfg->materials[body->material]), 0));
     body->temperature = T;
     return SC_OK;
 }

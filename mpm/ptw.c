@@ -30,6 +30,14 @@ double mpm_mts_shear_modulus(const struct mpm_material *m, double T)
     return G > 0.0 ? G : 0.0;
 }
 
+/* G0 - D / (exp(T0/T) - 1) > 0  <=>  exp(T0/T) > 1 + D/G0  <=>  T < T0 / ln(1 + D/G0); with D = 0 at every T. */
+double mpm_mts_positive_below(const struct mpm_material *m)
+{
+    if (!(m->D > 0.0))
+        return INFINITY;
+    return m->T0 / log1p(m->D / m->G0);
+}
+
 /* Tang Eq. 2.8 in SI: xi_dot = 1/2 (4 pi rho / (3 M))^(1/3) sqrt(G / rho), M the atomic mass in kg. */
 double mpm_ptw_xi_dot(const struct mpm_material *m, double rho, double G)
 {

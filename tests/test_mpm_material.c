@@ -162,6 +162,14 @@ static void test_mts_shear_modulus(void)
     CHECK(mpm_mts_shear_modulus(&m, 0.0) == 28.8e9, "G(0 K) = G0");
     CHECK(mpm_mts_shear_modulus(&m, 1e7) == 0.0, "G clamped at 0 when hot");
     CHECK(mpm_mts_shear_modulus(&m, 500.0) < mpm_mts_shear_modulus(&m, 298.0), "G falls with T");
+    /* the temperature the case check names for a too hot T_initial: 215 K / ln(1 + 3.44/28.8) = 1905.479 K */
+    double T_max = mpm_mts_positive_below(&m);
+    CHECK_CLOSE(T_max, 1905.4788459842, 1e-12, 0.0, "G > 0 below T0 / ln(1 + D/G0) (K)");
+    CHECK(mpm_mts_shear_modulus(&m, T_max * (1.0 - 1e-9)) > 0.0 &&
+              mpm_mts_shear_modulus(&m, T_max * (1.0 + 1e-9)) == 0.0,
+          "G changes sign at that temperature");
+    m.D = 0.0;
+    CHECK(isinf(mpm_mts_positive_below(&m)), "with D = 0, G = G0 at every temperature");
 }
 
 /* A point's state at rest: every field set (a body's points all copy one such state, so a field left unset
