@@ -193,7 +193,8 @@ const struct cfg_key mpm_case_keys[] = {
     {MAT, "conductivity", CFG_REAL, "W/(m K)", "167", 0, 1e4, 0, NULL,
      "thermal conductivity k for [impact] conduction = on (Al 6061-T6 at room temperature, ASM Handbook Vol. 2)"},
     {MAT, "taylor_quinney", CFG_REAL, "-", "0.9", 0, 1, 0, NULL, "fraction of plastic work turned into heat"},
-    {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL, "initial temperature"},
+    {MAT, "T_initial", CFG_REAL, "K", "298", 0, 1e5, 1, NULL,
+     "initial temperature; below T0 / ln(1 + D/G0), where the MTS shear modulus reaches 0 (1905 K for the defaults)"},
     {MAT, "poisson", CFG_REAL, "-", NULL, 0, 0.499, CFG_MIN_EXCLUSIVE, NULL,
      "Poisson ratio for the wave speeds (K = 2 G(T_initial)(1 + nu)/(3(1 - 2 nu)), G of MTS, Eq. 2.6); default K = "
      "rho0 c0^2"},
