@@ -8,6 +8,8 @@
 
 #include "check.h"
 #include "coupling/coupling.h"
+/* A white-box test: includes the module-private header dem/dem_impl.h (only tests may; tests/test_symbols.sh), for
+ * dem_fly_under_drag. */
 #include "dem/dem_impl.h"
 #include "spray_fixture.h"
 
