@@ -399,13 +399,17 @@ static void print_flight_agreement(hid_t file, FILE *out)
     hid_t flight = h5_exists(file, "flight") ? H5Gopen2(file, "flight", H5P_DEFAULT) : H5I_INVALID_HID;
     if (flight < 0)
         return;
-    double mean = NAN, max = NAN;
-    if (H5Aexists(flight, "spray_velocity_difference_max") > 0 &&
+    double mean = NAN, median = NAN, max = NAN;
+    int64_t outliers = 0;
+    if (H5Aexists(flight, "spray_velocity_difference_median") > 0 &&
         h5_attr_read_double(flight, "spray_velocity_difference_mean", &mean) == SC_OK &&
-        h5_attr_read_double(flight, "spray_velocity_difference_max", &max) == SC_OK)
+        h5_attr_read_double(flight, "spray_velocity_difference_median", &median) == SC_OK &&
+        h5_attr_read_double(flight, "spray_velocity_difference_max", &max) == SC_OK &&
+        h5_attr_read_int64(flight, "spray_velocity_outliers", &outliers) == SC_OK)
         fprintf(out,
-                "  the spray's impact velocities against the flights': |dv|/|v| %.3g %% on average, at most %.3g %%\n",
-                100.0 * mean, 100.0 * max);
+                "  the spray's impact velocities against the flights': |dv|/|v| %.3g %% on average, %.3g %% at the "
+                "median, at most %.3g %% (%lld over 10 %%)\n",
+                100.0 * mean, 100.0 * median, 100.0 * max, (long long)outliers);
     H5Gclose(flight);
 }
 
