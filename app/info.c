@@ -221,7 +221,7 @@ static void print_impact_results(hid_t file, FILE *out)
         const char *verdict = substrate || isnan(value[2]) ? "-" : mpm_verdict_name((int)value[2]);
         if (!substrate && mpm_verdict_held((int)value[2], value[4], vrest_threshold))
             verdict = "held", held = 1;
-        unsettled |= !substrate && (int)value[2] == MPM_VERDICT_UNSETTLED;
+        unsettled |= !substrate && !isnan(value[2]) && (int)value[2] == MPM_VERDICT_UNSETTLED;
         fprintf(out, "  %-5zu %-10s %-12.4g %-12.4g %-10s %-9.3g %-18.3g %-12.4g %-8.3g\n", b,
                 substrate ? "substrate" : "particle", value[0], value[1], verdict, 100.0 * value[3], 100.0 * value[7],
                 value[4], value[5]);

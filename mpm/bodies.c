@@ -386,7 +386,7 @@ int mpm_points_create(const struct mpm_config *cfg, struct mpm_points *points)
             SC_FAIL_AT(
                 status, done, SC_EINPUT,
                 "impact: body %d (d = %g m%s) holds no material point at [impact] spacing = %g m; allowed: "
-                "bodies at least one spacing across (a particle's diameter, a box's side and height, in [impact] "
+                "bodies at least two spacings across (a particle's diameter, a box's side and height, in [impact] "
                 "or a row of [impact] bodies; with [couple] reference_diameter the spacing scales with it)",
                 b, cfg->bodies[b].d, cfg->bodies[b].shape == MPM_SPHERE ? "" : ", a cylinder or box", cfg->spacing);
         total += counts[b];
