@@ -23,11 +23,13 @@
 #define MPM_FORMAT         "spraycoat-impact"
 #define MPM_FORMAT_VERSION 2
 
-/* [impact] series_every and snapshot_every are at least t_end / MPM_MAX_CLOCK_TICKS: a run records at most about a
- * million series rows or snapshots, and each interval stays far above the rounding of a time near t_end (1e-16 of
- * it), where adding the interval to the time it was last due no longer moves it (mpm_config_scale_lengths scales
- * all three alike: a scaled run keeps the bound). */
-#define MPM_MAX_CLOCK_TICKS 1e6
+/* [impact] series_every and snapshot_every are at least t_end / MPM_MAX_CLOCK_TICKS: each interval stays far above
+ * the rounding of a time near t_end (1e-16 of it), where adding the interval to the time it was last due no longer
+ * moves it (an interval of 1e-30 s stalled the run at its first step); mpm_config_scale_lengths scales all three
+ * alike, so a scaled run keeps the bound.  Not a bound on the output: a run records at most one row and one snapshot
+ * a step whatever the interval (mpm_clock_next), and a millimetre-scale set-up runs for milliseconds with the
+ * default 0.5 ns between rows (t_end / 1e6 refused the tests' elastic set-ups). */
+#define MPM_MAX_CLOCK_TICKS 1e12
 
 enum mpm_shape { MPM_SPHERE, MPM_CYLINDER, MPM_BOX };
 enum mpm_substrate { MPM_SUBSTRATE_CYLINDER, MPM_SUBSTRATE_BOX, MPM_SUBSTRATE_RIGID };

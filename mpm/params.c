@@ -141,9 +141,9 @@ const struct cfg_key mpm_case_keys[] = {
      "only points slower than this count in the restitution velocity (ejected material left out); a body leaving "
      "with no point that slow is judged on its centre of mass's speed"},
     {"impact", "snapshot_every", CFG_REAL, "s", "10e-9", 0, 1, 1, NULL,
-     "simulated time between snapshots; at least t_end / 1e6"},
+     "simulated time between snapshots; at least t_end / 1e12"},
     {"impact", "series_every", CFG_REAL, "s", "0.5e-9", 0, 1, 1, NULL,
-     "simulated time between series rows; at least t_end / 1e6"},
+     "simulated time between series rows; at least t_end / 1e12"},
     {"impact", "box_margin", CFG_REAL, "m", "5e-6", 0, 1, 0, NULL,
      "grid box = bounding box of the bodies + this on every side; points leaving it are removed"},
     {"impact", "bulk_viscosity_linear", CFG_REAL, "-", "0.06", 0, 10, 0, NULL,
