@@ -302,6 +302,13 @@ static int load_settings(const struct case_file *c, struct calibrate *k)
         if (k->sizes[i].diameter < 2.0 * spacing)
             return case_invalid(c, STAGE, "diameters", "%g m is less than two point spacings ([impact] spacing = %g m)",
                                 k->sizes[i].diameter, spacing);
+        /* the substrate too (without reference_diameter, the case's own): it passed check and the run failed with
+         * "body 0 holds no material point", naming no key (a review) */
+        if (k->sizes[i].substrate < 2.0 * spacing)
+            return case_invalid(c, STAGE, k->reference > 0 ? "reference_diameter" : "substrate_diameters",
+                                "the substrate of the %g m particle is %g m across, less than two point spacings "
+                                "([impact] spacing = %g m); allowed: at least %g m",
+                                k->sizes[i].diameter, k->sizes[i].substrate, spacing, 2.0 * spacing);
     }
     return SC_OK;
 }
